@@ -1,0 +1,18 @@
+//! Dense linear-algebra kernels for Lifted.
+#![deny(missing_docs)]
+
+pub mod check;
+pub mod convert;
+pub mod eig;
+pub mod error;
+pub mod matfun;
+pub mod schur;
+pub mod solve;
+
+pub use check::{check_cols, check_finite, check_rows, check_square};
+pub use convert::{as_faer, as_faer_mut, to_dmatrix};
+pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
+pub use error::{Error, Result};
+pub use matfun::{expm, logm, rootm, sqrtm};
+pub use schur::{RealSchur, real_schur};
+pub use solve::{det, inv, rcond, solve};
