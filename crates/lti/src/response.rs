@@ -1,0 +1,168 @@
+//! Time responses: simulation, step, impulse, Markov and covariance parameters.
+//!
+//! Time series are `DMatrix<f64>` with **one row per sample and one column
+//! per channel** (MATLAB/CSV layout).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{check_ts, Error, Result};
+use crate::ss::StateSpace;
+use crate::la;
+use crate::C2dOptions;
+
+/// Result of [`StateSpace::lsim`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimResult {
+    /// Outputs, N×p (row k = y(k)).
+    pub y: DMatrix<f64>,
+    /// States, N×n (row k = x(k), before the update).
+    pub x: DMatrix<f64>,
+}
+
+impl StateSpace {
+    /// Simulates N samples of the input `u` (N×m, row k = u(k)) from the
+    /// initial state `x0` (zeros when None).
+    ///
+    /// Discrete models run at their own period (`dt` must be None or equal
+    /// `ts`). Continuous models need `dt`: the input is held constant over
+    /// each step (ZOH) and the response is exact at the samples. O(N(n² + nm + pn)).
+    ///
+    /// Errors: shape of `u`/`x0`, non-finite data, missing or wrong `dt`.
+    pub fn lsim(&self, u: &DMatrix<f64>, x0: Option<&DVector<f64>>, dt: Option<f64>) -> Result<SimResult> {
+        la::check_cols("u", u, self.n_inputs())?;
+        la::check_finite("u", u)?;
+        let n = self.order();
+        let x0 = match x0 {
+            Some(v) => {
+                if v.len() != n {
+                    return Err(Error::DimensionMismatch { what: "x0", expected: format!("{n} entries"), got: format!("{}", v.len()) });
+                }
+                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
+                la::check_finite("x0", &vm)?;
+                v.clone()
+            }
+            None => DVector::zeros(n),
+        };
+        let sys = match (self.ts(), dt) {
+            (Some(_), None) => std::borrow::Cow::Borrowed(self),
+            (Some(t), Some(d)) => {
+                if !crate::error::same_domain(Some(t), Some(d)) {
+                    return Err(Error::DomainMismatch { what: "lsim dt", left: Some(t), right: Some(d) });
+                }
+                std::borrow::Cow::Borrowed(self)
+            }
+            (None, None) => return Err(Error::InvalidArgument { what: "dt", reason: "continuous simulation needs a step dt".into() }),
+            (None, Some(d)) => {
+                check_ts(Some(d))?;
+                std::borrow::Cow::Owned(self.c2d(d, &C2dOptions::default())?)
+            }
+        };
+        Ok(simulate_discrete(&sys, u, x0))
+    }
+
+    /// Step responses: one N×p matrix per input (unit step on that input,
+    /// zero initial state). Continuous models are sampled every `dt`.
+    pub fn step(&self, n_samples: usize, dt: Option<f64>) -> Result<Vec<DMatrix<f64>>> {
+        let m = self.n_inputs();
+        (0..m)
+            .map(|j| {
+                let mut u = DMatrix::zeros(n_samples, m);
+                u.column_mut(j).fill(1.0);
+                Ok(self.lsim(&u, None, dt)?.y)
+            })
+            .collect()
+    }
+
+    /// Impulse responses, one N×p matrix per input. Discrete: response to a
+    /// unit pulse u(0) = 1 (the Markov parameters). Continuous: the impulse
+    /// response C e^{A t_k} B sampled at t_k = k·dt (the D δ(t) term omitted).
+    pub fn impulse(&self, n_samples: usize, dt: Option<f64>) -> Result<Vec<DMatrix<f64>>> {
+        let m = self.n_inputs();
+        match self.ts() {
+            Some(_) => (0..m)
+                .map(|j| {
+                    let mut u = DMatrix::zeros(n_samples, m);
+                    if n_samples > 0 {
+                        u[(0, j)] = 1.0;
+                    }
+                    Ok(self.lsim(&u, None, dt)?.y)
+                })
+                .collect(),
+            None => {
+                let Some(dt) = dt else {
+                    return Err(Error::InvalidArgument { what: "dt", reason: "continuous impulse response needs a step dt".into() });
+                };
+                check_ts(Some(dt))?;
+                let phi = la::expm(&(self.a() * dt))?;
+                let mut out = vec![DMatrix::zeros(n_samples, self.n_outputs()); m];
+                let mut x = self.b().clone();
+                for k in 0..n_samples {
+                    let y = self.c() * &x;
+                    for (j, o) in out.iter_mut().enumerate() {
+                        o.row_mut(k).copy_from(&y.column(j).transpose());
+                    }
+                    x = &phi * x;
+                }
+                Ok(out)
+            }
+        }
+    }
+
+    /// Markov parameters H₀ = D, Hᵢ = C Aⁱ⁻¹ B, i = 1…k (k+1 matrices, p×m),
+    /// Zhu (2000) eq. (III-3). Discrete models only. O(k n² m).
+    pub fn markov_parameters(&self, k: usize) -> Result<Vec<DMatrix<f64>>> {
+        if !self.is_discrete() {
+            return Err(Error::NotDiscrete { what: "markov_parameters" });
+        }
+        let mut out = Vec::with_capacity(k + 1);
+        out.push(self.d().clone());
+        let mut ab = self.b().clone();
+        for _ in 0..k {
+            out.push(self.c() * &ab);
+            ab = self.a() * ab;
+        }
+        Ok(out)
+    }
+
+    /// Covariance parameters R₀…R_k of the output under white input noise of
+    /// covariance `w` (m×m), Zhu (2000) eqs. (III-2), (III-3) (with the
+    /// seed's D ↦ B, H ↦ D): X = A X Aᵀ + B W Bᵀ (discrete Lyapunov),
+    /// Rᵢ = C Aⁱ X Cᵀ + Hᵢ W Dᵀ. Rᵢ = E[y(k+i) y(k)ᵀ]. Stable discrete
+    /// models only. O(n³ + k n² p).
+    pub fn covariance_parameters(&self, w: &DMatrix<f64>, k: usize) -> Result<Vec<DMatrix<f64>>> {
+        if !self.is_discrete() {
+            return Err(Error::NotDiscrete { what: "covariance_parameters" });
+        }
+        let m = self.n_inputs();
+        la::check_rows("W", w, m)?;
+        la::check_cols("W", w, m)?;
+        la::check_finite("W", w)?;
+        self.require_stable("covariance_parameters")?;
+        let x = la::dlyap(self.a(), &(self.b() * w * self.b().transpose()))?;
+        let h = self.markov_parameters(k)?;
+        let mut out = Vec::with_capacity(k + 1);
+        let mut ax = x.clone();
+        for hi in h.iter().take(k + 1) {
+            out.push(self.c() * &ax * self.c().transpose() + hi * w * self.d().transpose());
+            ax = self.a() * ax;
+        }
+        Ok(out)
+    }
+}
+
+fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> SimResult {
+    let nsamp = u.nrows();
+    let n = sys.order();
+    let mut y = DMatrix::zeros(nsamp, sys.n_outputs());
+    let mut xs = DMatrix::zeros(nsamp, n);
+    let mut x = x0;
+    let ut = u.transpose();
+    for k in 0..nsamp {
+        let uk = ut.column(k);
+        xs.row_mut(k).copy_from(&x.transpose());
+        let yk = sys.c() * &x + sys.d() * uk;
+        y.row_mut(k).copy_from(&yk.transpose());
+        x = sys.a() * &x + sys.b() * uk;
+    }
+    SimResult { y, x: xs }
+}
