@@ -496,4 +496,165 @@ mod tests {
             Err(Error::InvalidArgument { what: "p", .. })
         ));
     }
+
+    fn random_well_placed(n: usize, seed: u64) -> DMatrix<f64> {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        // I·shift + noise keeps the spectrum in the right half plane; the
+        // nonnormal part makes the Schur form non-trivial.
+        let shift = 1.0 + n as f64 * 0.3;
+        DMatrix::from_fn(n, n, |i, j| {
+            rng.random::<f64>() * 2.0 - 1.0 + if i == j { shift } else { 0.0 }
+        })
+    }
+
+    #[test]
+    fn exp_inverts_log_on_random_matrices() {
+        for (n, seed) in [(1, 1), (2, 2), (4, 3), (8, 4), (20, 5)] {
+            let a = random_well_placed(n, seed);
+            let l = logm(&a).unwrap();
+            let back = expm(&l).unwrap();
+            let tol = 1e-12 * a.norm() * n as f64;
+            assert!((&back - &a).norm() <= tol, "n={n}: {}", (&back - &a).norm());
+        }
+    }
+
+    #[test]
+    fn log_of_general_matrix_with_complex_spectrum() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
+        // exp of a random matrix with eigenvalue imaginary parts well inside
+        // (−π, π): logm must return that matrix (principal branch).
+        for n in [2, 5, 10] {
+            let x = DMatrix::from_fn(n, n, |_, _| {
+                (rng.random::<f64>() * 2.0 - 1.0) * 0.8 / (n as f64).sqrt()
+            });
+            let a = expm(&x).unwrap();
+            let l = logm(&a).unwrap();
+            assert!(
+                (&l - &x).norm() <= 1e-12 * n as f64,
+                "n={n}: {}",
+                (&l - &x).norm()
+            );
+        }
+    }
+
+    #[test]
+    fn log_of_rotation() {
+        // log(R(θ)) = [0 −θ; θ 0] for |θ| < π.
+        for theta in [0.1f64, 1.0, 2.5, 3.1] {
+            let a = DMatrix::from_row_slice(
+                2,
+                2,
+                &[theta.cos(), -theta.sin(), theta.sin(), theta.cos()],
+            );
+            let l = logm(&a).unwrap();
+            let want = DMatrix::from_row_slice(2, 2, &[0.0, -theta, theta, 0.0]);
+            assert_relative_eq!(l, want, epsilon = 1e-13);
+            // Principal square root is the rotation by θ/2.
+            let h = theta / 2.0;
+            let r = sqrtm(&a).unwrap();
+            let want = DMatrix::from_row_slice(2, 2, &[h.cos(), -h.sin(), h.sin(), h.cos()]);
+            assert_relative_eq!(r, want, epsilon = 1e-13);
+        }
+        // θ = π (eigenvalues −1): no principal branch.
+        let pi = std::f64::consts::PI;
+        let a = DMatrix::from_row_slice(2, 2, &[pi.cos(), -pi.sin(), pi.sin(), pi.cos()]);
+        assert!(matches!(logm(&a), Err(Error::NoPrincipalBranch { .. })));
+        assert!(matches!(rootm(&a, 3), Err(Error::NoPrincipalBranch { .. })));
+    }
+
+    #[test]
+    fn roots_satisfy_power_identity() {
+        for (n, seed) in [(1, 11), (3, 12), (6, 13), (15, 14)] {
+            let a = random_well_placed(n, seed);
+            for p in [2u32, 3, 5, 7] {
+                let r = rootm(&a, p).unwrap();
+                let mut pw = DMatrix::identity(n, n);
+                for _ in 0..p {
+                    pw = &pw * &r;
+                }
+                let tol = 1e-12 * a.norm() * n as f64;
+                assert!(
+                    (&pw - &a).norm() <= tol,
+                    "n={n} p={p}: {}",
+                    (&pw - &a).norm()
+                );
+                // Principal: eigenvalues of the root have |arg| < π/p.
+                let lim = std::f64::consts::PI / p as f64;
+                for l in crate::schur::real_schur(&r).unwrap().eigenvalues() {
+                    assert!(l.arg().abs() < lim);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn root_of_jordan_block() {
+        // [λ 1; 0 λ]^{1/p} = [μ, μ/(pλ); 0, μ] with μ = λ^{1/p}.
+        let lam = 3.0f64;
+        let a = DMatrix::from_row_slice(2, 2, &[lam, 1.0, 0.0, lam]);
+        for p in [2u32, 3, 4] {
+            let mu = lam.powf(1.0 / p as f64);
+            let want = DMatrix::from_row_slice(2, 2, &[mu, mu / (p as f64 * lam), 0.0, mu]);
+            assert_relative_eq!(rootm(&a, p).unwrap(), want, epsilon = 1e-14);
+        }
+    }
+
+    #[test]
+    fn empty_and_first_root() {
+        assert_eq!(logm(&DMatrix::zeros(0, 0)).unwrap().shape(), (0, 0));
+        assert_eq!(expm(&DMatrix::zeros(0, 0)).unwrap().shape(), (0, 0));
+        let a = random_well_placed(3, 3);
+        assert_eq!(rootm(&a, 1).unwrap(), a);
+        assert_relative_eq!(
+            expm(&DMatrix::zeros(3, 3)).unwrap(),
+            DMatrix::identity(3, 3)
+        );
+    }
+
+    #[test]
+    fn expm_of_large_norm_matrix() {
+        // exp(diag(30, −30)) exercises s > 0 squarings.
+        let a = DMatrix::from_row_slice(2, 2, &[30.0, 1.0, 0.0, -30.0]);
+        let e = expm(&a).unwrap();
+        // Closed form: off-diagonal (e^30 − e^−30)/60.
+        let want = DMatrix::from_row_slice(
+            2,
+            2,
+            &[
+                30f64.exp(),
+                (30f64.exp() - (-30f64).exp()) / 60.0,
+                0.0,
+                (-30f64).exp(),
+            ],
+        );
+        assert_relative_eq!(e, want, max_relative = 1e-13);
+        assert!(matches!(
+            expm(&DMatrix::from_element(1, 1, 1000.0)),
+            Err(Error::InvalidArgument { .. })
+        ));
+    }
+
+    #[test]
+    fn log_recovers_zoh_augmented_matrix() {
+        // d2c use: logm(expm([A B; 0 0]·T)) = [A B; 0 0]·T, with the
+        // repeated eigenvalue 1 of the input block and slow/fast poles.
+        let m = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                -0.01, 1.0, 0.0, 0.0, -2.0, -0.3, 1.0, 0.5, 0.0, 0.0, -5.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+            ],
+        );
+        for t in [1e-3, 0.1, 0.5] {
+            let x = &m * t;
+            let l = logm(&expm(&x).unwrap()).unwrap();
+            assert!(
+                (&l - &x).norm() <= 1e-12 * x.norm().max(1.0),
+                "T={t}: {}",
+                (&l - &x).norm()
+            );
+        }
+    }
 }
