@@ -1,0 +1,81 @@
+//! Linear least squares min ‖A X − B‖_F.
+//!
+//! For m ≥ n the QR of A (faer, O(mn²)) is computed and the singular values
+//! of its n×n R factor (O(n³)) decide the rank with the default rule of
+//! [`crate::RankTolerance`]. With full column rank X = R⁻¹ Qᵀ B (faer
+//! `solve_lstsq`); otherwise — and always for m < n — the minimum-norm
+//! solution X = A⁺ B from the thin SVD (O(mn·min(m,n))).
+
+use faer::linalg::solvers::SolveLstsq;
+use nalgebra::DMatrix;
+
+use crate::Result;
+use crate::check::{check_finite, check_rows};
+use crate::convert::{as_faer, to_dmatrix};
+use crate::rank::{RankTolerance, pinv};
+use crate::svd::singular_values;
+
+/// Least-squares solution X (n×k) of A X ≈ B for A m×n, B m×k; the
+/// minimum-norm one when A is rank deficient. O(mn² + mnk).
+///
+/// Errors: [`crate::Error::DimensionMismatch`] when B does not have m rows,
+/// [`crate::Error::NonFinite`], [`crate::Error::NoConvergence`].
+pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    check_finite("a", a)?;
+    let (m, n) = a.shape();
+    check_rows("b", b, m)?;
+    check_finite("b", b)?;
+    if n == 0 {
+        return Ok(DMatrix::zeros(0, b.ncols()));
+    }
+    if m >= n {
+        let qr = as_faer(a).qr();
+        let r = to_dmatrix(qr.thin_R());
+        let s = singular_values(&r)?;
+        let tol = RankTolerance::Default.threshold(m, n, s[0])?;
+        if s[n - 1] > tol && s[0] > 0.0 {
+            return Ok(to_dmatrix(qr.solve_lstsq(as_faer(b)).as_ref()));
+        }
+    }
+    Ok(pinv(a, RankTolerance::Default)? * b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn line_fit() {
+        // y = 2 + 3t exactly.
+        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { i as f64 });
+        let b = DMatrix::from_fn(5, 1, |i, _| 2.0 + 3.0 * i as f64);
+        let x = lstsq(&a, &b).unwrap();
+        assert_relative_eq!(
+            x,
+            DMatrix::from_row_slice(2, 1, &[2.0, 3.0]),
+            epsilon = 1e-13
+        );
+    }
+
+    #[test]
+    fn minimum_norm_for_rank_deficient() {
+        // Two identical columns: the minimum-norm solution splits equally.
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
+        let b = DMatrix::from_row_slice(3, 1, &[2.0, 4.0, 6.0]);
+        let x = lstsq(&a, &b).unwrap();
+        assert_relative_eq!(
+            x,
+            DMatrix::from_row_slice(2, 1, &[1.0, 1.0]),
+            epsilon = 1e-13
+        );
+        // Underdetermined: x = Aᵀ(AAᵀ)⁻¹b.
+        let a = DMatrix::from_row_slice(1, 2, &[3.0, 4.0]);
+        let x = lstsq(&a, &DMatrix::from_element(1, 1, 25.0)).unwrap();
+        assert_relative_eq!(
+            x,
+            DMatrix::from_row_slice(2, 1, &[3.0, 4.0]),
+            epsilon = 1e-13
+        );
+    }
+}

@@ -1,0 +1,225 @@
+//! QR factorisations through faer, including the R-only low-memory path
+//! and a streaming accumulator for tall data.
+//!
+//! * [`qr_r`] / [`qr_r_owned`]: Householder QR without pivoting, in place
+//!   with a `MemBuffer` scratch of O(b·n) (faer `qr_in_place`, block size
+//!   b from `recommended_block_size`); only R (min(m,n)×n) is kept.
+//!   ≈ 2mn² − ⅔n³ flops. This is the LQ of the subspace methods: for a
+//!   wide data matrix H, `qr_r(&H.transpose())` gives Lᵀ.
+//! * [`qr_thin`], [`qr_full`]: Q and R (faer `qr`), O(mn²) more for Q.
+//! * [`RAccumulator`]: R of a tall matrix fed in row blocks,
+//!   R ← qr_r([R; block]); memory O(n² + b·n), total O(m n²).
+//!
+//! R is unique only up to the signs of its rows (for full column rank).
+
+use faer::Mat;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::qr::no_pivoting::factor::{
+    qr_in_place, qr_in_place_scratch, recommended_block_size,
+};
+use nalgebra::DMatrix;
+
+use crate::Result;
+use crate::check::{check_cols, check_finite};
+use crate::convert::{as_faer, as_faer_mut, to_dmatrix};
+
+/// A QR factorisation A = Q R.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Qr {
+    /// Orthonormal columns: m×k (thin, k = min(m, n)) or m×m (full).
+    pub q: DMatrix<f64>,
+    /// Upper triangular (trapezoidal) factor: k×n (thin) or m×n (full).
+    pub r: DMatrix<f64>,
+}
+
+/// Factors `work` in place; returns the upper triangle (min(m,n)×n).
+fn r_in_place(mut work: DMatrix<f64>) -> DMatrix<f64> {
+    let (m, n) = work.shape();
+    let k = m.min(n);
+    if k == 0 {
+        return DMatrix::zeros(0, n);
+    }
+    let par = faer::get_global_parallelism();
+    let bs = recommended_block_size::<f64>(m, n);
+    let mut coeff = Mat::<f64>::zeros(bs, k);
+    let params = Default::default();
+    let mut mem = MemBuffer::new(qr_in_place_scratch::<f64>(m, n, bs, par, params));
+    qr_in_place(
+        as_faer_mut(&mut work),
+        coeff.as_mut(),
+        par,
+        MemStack::new(&mut mem),
+        params,
+    );
+    DMatrix::from_fn(k, n, |i, j| if i <= j { work[(i, j)] } else { 0.0 })
+}
+
+/// R factor of A = Q R (min(m,n)×n upper triangular) without forming Q,
+/// in place on a copy of `a` with O(b·n) scratch (≈ 2mn² − ⅔n³ flops).
+///
+/// Errors: [`crate::Error::NonFinite`].
+pub fn qr_r(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    check_finite("a", a)?;
+    Ok(r_in_place(a.clone()))
+}
+
+/// As [`qr_r`], but factors the caller's matrix in place instead of a copy
+/// (no extra m×n allocation: the path for very tall data).
+pub fn qr_r_owned(a: DMatrix<f64>) -> Result<DMatrix<f64>> {
+    check_finite("a", &a)?;
+    Ok(r_in_place(a))
+}
+
+/// Thin QR: Q (m×k orthonormal columns), R (k×n), k = min(m, n)
+/// (faer `qr` + `compute_thin_Q`, O(mn·k)).
+///
+/// Errors: [`crate::Error::NonFinite`].
+pub fn qr_thin(a: &DMatrix<f64>) -> Result<Qr> {
+    check_finite("a", a)?;
+    let (m, n) = a.shape();
+    if m.min(n) == 0 {
+        return Ok(Qr {
+            q: DMatrix::zeros(m, 0),
+            r: DMatrix::zeros(0, n),
+        });
+    }
+    let f = as_faer(a).qr();
+    Ok(Qr {
+        q: to_dmatrix(f.compute_thin_Q().as_ref()),
+        r: to_dmatrix(f.thin_R()),
+    })
+}
+
+/// Full QR: Q (m×m orthogonal), R (m×n) (faer `qr` + `compute_Q`, O(m²n)).
+///
+/// Errors: [`crate::Error::NonFinite`].
+pub fn qr_full(a: &DMatrix<f64>) -> Result<Qr> {
+    check_finite("a", a)?;
+    let (m, n) = a.shape();
+    if m.min(n) == 0 {
+        return Ok(Qr {
+            q: DMatrix::identity(m, m),
+            r: DMatrix::zeros(m, n),
+        });
+    }
+    let f = as_faer(a).qr();
+    let thin = f.thin_R();
+    let r = DMatrix::from_fn(m, n, |i, j| {
+        if i < thin.nrows() && i <= j {
+            thin[(i, j)]
+        } else {
+            0.0
+        }
+    });
+    Ok(Qr {
+        q: to_dmatrix(f.compute_Q().as_ref()),
+        r,
+    })
+}
+
+/// Streaming R-only QR of a tall matrix fed in row blocks.
+///
+/// After pushing blocks A₁, A₂, …, [`RAccumulator::r`] equals (up to row
+/// signs) `qr_r` of the stacked matrix [A₁; A₂; …], because
+/// [A₁; A₂] = diag(Q₁, I)[R₁; A₂]. Memory O(n² + b·n) for blocks of b
+/// rows; each push costs O((n + b)·n²).
+///
+/// ```
+/// # fn main() -> lifted_linalg::Result<()> {
+/// use lifted_linalg::{RAccumulator, qr_r};
+/// use nalgebra::DMatrix;
+/// let a = DMatrix::from_fn(50, 3, |i, j| ((i * 7 + j * 3) % 11) as f64);
+/// let mut acc = RAccumulator::new(3);
+/// acc.push_rows(&a.rows(0, 20).into_owned())?;
+/// acc.push_rows(&a.rows(20, 30).into_owned())?;
+/// let (r1, r2) = (acc.r(), qr_r(&a)?);
+/// for i in 0..3 {
+///     for j in 0..3 {
+///         assert!((r1[(i, j)].abs() - r2[(i, j)].abs()).abs() < 1e-10);
+///     }
+/// }
+/// # Ok(())
+/// # }
+/// ```
+#[derive(Debug, Clone)]
+pub struct RAccumulator {
+    ncols: usize,
+    r: DMatrix<f64>,
+    rows_seen: usize,
+}
+
+impl RAccumulator {
+    /// An empty accumulator for matrices with `ncols` columns.
+    pub fn new(ncols: usize) -> Self {
+        RAccumulator {
+            ncols,
+            r: DMatrix::zeros(0, ncols),
+            rows_seen: 0,
+        }
+    }
+
+    /// Folds a block of rows into R.
+    ///
+    /// Errors: [`crate::Error::DimensionMismatch`] if the block does not
+    /// have `ncols` columns, [`crate::Error::NonFinite`].
+    pub fn push_rows(&mut self, block: &DMatrix<f64>) -> Result<()> {
+        check_cols("block", block, self.ncols)?;
+        check_finite("block", block)?;
+        if block.nrows() == 0 {
+            return Ok(());
+        }
+        let (k, n) = (self.r.nrows(), self.ncols);
+        let mut stacked = DMatrix::zeros(k + block.nrows(), n);
+        stacked.rows_mut(0, k).copy_from(&self.r);
+        stacked.rows_mut(k, block.nrows()).copy_from(block);
+        self.r = r_in_place(stacked);
+        self.rows_seen += block.nrows();
+        Ok(())
+    }
+
+    /// The current R, min(rows_seen, ncols)×ncols upper triangular.
+    pub fn r(&self) -> DMatrix<f64> {
+        self.r.clone()
+    }
+
+    /// Number of rows pushed so far.
+    pub fn rows_seen(&self) -> usize {
+        self.rows_seen
+    }
+
+    /// Number of columns.
+    pub fn ncols(&self) -> usize {
+        self.ncols
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn small_qr_identities() {
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let t = qr_thin(&a).unwrap();
+        assert_eq!((t.q.shape(), t.r.shape()), ((3, 2), (2, 2)));
+        assert_relative_eq!(&t.q * &t.r, a, epsilon = 1e-14);
+        let f = qr_full(&a).unwrap();
+        assert_eq!((f.q.shape(), f.r.shape()), ((3, 3), (3, 2)));
+        assert_relative_eq!(&f.q * &f.r, a, epsilon = 1e-14);
+        let r = qr_r(&a).unwrap();
+        assert_relative_eq!(r.transpose() * &r, a.transpose() * &a, epsilon = 1e-13);
+        assert_eq!(r[(1, 0)], 0.0);
+    }
+
+    #[test]
+    fn accumulator_rejects_wrong_width() {
+        let mut acc = RAccumulator::new(3);
+        assert!(acc.push_rows(&DMatrix::zeros(2, 4)).is_err());
+        assert_eq!(acc.rows_seen(), 0);
+        assert_eq!(acc.r().shape(), (0, 3));
+        acc.push_rows(&DMatrix::zeros(0, 3)).unwrap();
+        acc.push_rows(&DMatrix::from_element(2, 3, 1.0)).unwrap();
+        assert_eq!((acc.rows_seen(), acc.r().shape()), (2, (2, 3)));
+    }
+}

@@ -1,0 +1,126 @@
+//! Thin singular value decomposition through faer.
+//!
+//! A = U diag(s) Vᵀ with U (m×k), V (n×k), k = min(m, n), s descending.
+//! faer's bidiagonalisation + divide and conquer costs O(mn·min(m,n))
+//! (≈ 4mn² + 8n³ for m ≥ n with vectors); [`singular_values`] skips the
+//! vectors. The signs of paired singular vectors are arbitrary and vectors
+//! of repeated singular values are determined only up to rotation
+//! (Pitfall 1): compare subspaces or products, not raw columns.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::check::check_finite;
+use crate::convert::{as_faer, to_dmatrix};
+use crate::{Error, Result};
+
+/// Thin SVD A = U diag(s) Vᵀ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Svd {
+    /// Left singular vectors, m×k orthonormal columns.
+    pub u: DMatrix<f64>,
+    /// Singular values, length k = min(m, n), nonincreasing, ≥ 0.
+    pub s: DVector<f64>,
+    /// Right singular vectors, n×k orthonormal columns.
+    pub v: DMatrix<f64>,
+}
+
+impl Svd {
+    /// Reassembles U diag(s) Vᵀ (O(mnk)).
+    pub fn reconstruct(&self) -> DMatrix<f64> {
+        let mut us = self.u.clone();
+        for (j, mut col) in us.column_iter_mut().enumerate() {
+            col *= self.s[j];
+        }
+        us * self.v.transpose()
+    }
+}
+
+fn svd_err(what: &'static str) -> Error {
+    Error::NoConvergence {
+        what,
+        iterations: 0,
+    }
+}
+
+/// Thin SVD of an m×n matrix (faer `thin_svd`, O(mn·min(m,n))).
+///
+/// Errors: [`Error::NonFinite`], [`Error::NoConvergence`].
+pub fn svd(a: &DMatrix<f64>) -> Result<Svd> {
+    check_finite("a", a)?;
+    let (m, n) = a.shape();
+    let k = m.min(n);
+    if k == 0 {
+        return Ok(Svd {
+            u: DMatrix::zeros(m, 0),
+            s: DVector::zeros(0),
+            v: DMatrix::zeros(n, 0),
+        });
+    }
+    let f = as_faer(a)
+        .thin_svd()
+        .map_err(|_| svd_err("faer thin_svd"))?;
+    let s = f.S().column_vector();
+    Ok(Svd {
+        u: to_dmatrix(f.U()),
+        s: DVector::from_fn(k, |i, _| s[i]),
+        v: to_dmatrix(f.V()),
+    })
+}
+
+/// Full SVD: U (m×m), s (min(m,n)), V (n×n); used for null spaces.
+pub(crate) fn svd_full(a: &DMatrix<f64>) -> Result<Svd> {
+    let (m, n) = a.shape();
+    let k = m.min(n);
+    if k == 0 {
+        return Ok(Svd {
+            u: DMatrix::identity(m, m),
+            s: DVector::zeros(0),
+            v: DMatrix::identity(n, n),
+        });
+    }
+    let f = as_faer(a).svd().map_err(|_| svd_err("faer svd"))?;
+    let s = f.S().column_vector();
+    Ok(Svd {
+        u: to_dmatrix(f.U()),
+        s: DVector::from_fn(k, |i, _| s[i]),
+        v: to_dmatrix(f.V()),
+    })
+}
+
+/// Singular values only, nonincreasing (faer `singular_values`,
+/// O(mn·min(m,n)) without the vector updates).
+///
+/// Errors: [`Error::NonFinite`], [`Error::NoConvergence`].
+pub fn singular_values(a: &DMatrix<f64>) -> Result<DVector<f64>> {
+    check_finite("a", a)?;
+    if a.nrows().min(a.ncols()) == 0 {
+        return Ok(DVector::zeros(0));
+    }
+    let mut s = as_faer(a)
+        .singular_values()
+        .map_err(|_| svd_err("faer singular_values"))?;
+    s.sort_by(|x, y| y.total_cmp(x));
+    Ok(DVector::from_vec(s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn diagonal_svd() {
+        let a = DMatrix::from_row_slice(3, 2, &[0.0, 3.0, 4.0, 0.0, 0.0, 0.0]);
+        let f = svd(&a).unwrap();
+        assert_relative_eq!(f.s, DVector::from_vec(vec![4.0, 3.0]), epsilon = 1e-15);
+        assert_relative_eq!(f.reconstruct(), a, epsilon = 1e-14);
+        assert_relative_eq!(singular_values(&a).unwrap(), f.s, epsilon = 1e-15);
+    }
+
+    #[test]
+    fn empty_shapes() {
+        let f = svd(&DMatrix::zeros(4, 0)).unwrap();
+        assert_eq!((f.u.shape(), f.s.len(), f.v.shape()), ((4, 0), 0, (0, 0)));
+        assert_eq!(singular_values(&DMatrix::zeros(0, 3)).unwrap().len(), 0);
+    }
+}
