@@ -11,14 +11,18 @@ fn mseq_bits(c: &mut Criterion) {
     let mut g = c.benchmark_group("mseq_order20_bits");
     g.throughput(Throughput::Elements(BITS as u64));
     let reg = MSequence::new(20).expect("order 20 is supported");
-    g.bench_with_input(BenchmarkId::new("fibonacci_bit_serial", BITS), &reg, |b, reg| {
-        let mut out = vec![0u8; BITS];
-        b.iter(|| {
-            let mut r = reg.clone();
-            r.fill_bits(&mut out);
-            black_box(&out);
-        });
-    });
+    g.bench_with_input(
+        BenchmarkId::new("fibonacci_bit_serial", BITS),
+        &reg,
+        |b, reg| {
+            let mut out = vec![0u8; BITS];
+            b.iter(|| {
+                let mut r = reg.clone();
+                r.fill_bits(&mut out);
+                black_box(&out);
+            });
+        },
+    );
     g.bench_with_input(BenchmarkId::new("word_parallel", BITS), &reg, |b, reg| {
         let mut out = vec![0u64; BITS / 64];
         b.iter(|| {

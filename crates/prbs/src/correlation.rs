@@ -91,7 +91,11 @@ pub fn periodic_cross_correlation_with(
         CorrelationMethod::Direct => false,
         CorrelationMethod::Fft => true,
     };
-    let mut r = if use_fft { fft_sums(x, y) } else { direct_sums(x, y) };
+    let mut r = if use_fft {
+        fft_sums(x, y)
+    } else {
+        direct_sums(x, y)
+    };
     for v in &mut r {
         *v *= scale;
     }
@@ -137,8 +141,9 @@ mod unit {
         let x = [1.0, 2.0, 3.0];
         let y = [1.0, 0.0, 0.0];
         // R(τ) = x(τ) y(0).
-        let r = periodic_cross_correlation_with(&x, &y, Normalization::Sum, CorrelationMethod::Direct)
-            .unwrap();
+        let r =
+            periodic_cross_correlation_with(&x, &y, Normalization::Sum, CorrelationMethod::Direct)
+                .unwrap();
         assert_eq!(r, vec![1.0, 2.0, 3.0]);
         let f = periodic_cross_correlation_with(&x, &y, Normalization::Sum, CorrelationMethod::Fft)
             .unwrap();

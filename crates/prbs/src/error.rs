@@ -56,7 +56,9 @@ pub enum Error {
     #[error("the channel set is empty")]
     EmptyChannelSet,
     /// Too many channels for the mutually shifted scheme.
-    #[error("{channels} channels cannot be shifted apart within a half period of {half_period} samples")]
+    #[error(
+        "{channels} channels cannot be shifted apart within a half period of {half_period} samples"
+    )]
     TooManyChannels {
         /// Number of channels requested.
         channels: usize,

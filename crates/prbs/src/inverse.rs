@@ -42,7 +42,10 @@ impl Default for InversePrbsOptions {
 ///
 /// Period `2m` at the generation rate (`u(k+m) = −u(k)`, zero mean, eq. II-5) and
 /// `2 n_r m` at the fast rate (eq. II-8).
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Serialised as its [`InversePrbsOptions`] and validated again when loaded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "InversePrbsOptions", into = "InversePrbsOptions")]
 pub struct InversePrbs {
     register: MSequence,
     amplitude: f64,
@@ -199,6 +202,20 @@ impl InversePrbs {
     }
 }
 
+impl TryFrom<InversePrbsOptions> for InversePrbs {
+    type Error = Error;
+
+    fn try_from(options: InversePrbsOptions) -> Result<Self> {
+        Self::new(&options)
+    }
+}
+
+impl From<InversePrbs> for InversePrbsOptions {
+    fn from(prbs: InversePrbs) -> Self {
+        prbs.options()
+    }
+}
+
 /// `(−1)^{k+1}·a·(2b−1)`: `+a` iff `b == k mod 2`.
 #[inline]
 fn sign_value(bit: u8, k: u64, a: f64) -> f64 {
@@ -238,7 +255,7 @@ fn slow_autocorrelation_m(m: u64, a: f64, tau: i64) -> f64 {
         a2
     } else if t == m {
         -a2
-    } else if t % 2 == 0 {
+    } else if t.is_multiple_of(2) {
         -a2 / m as f64
     } else {
         a2 / m as f64
@@ -258,7 +275,7 @@ fn held_autocorrelation_m(m: u64, nr: u64, a: f64, tau: i64) -> f64 {
         ((nrf - tb) + tb / mf) * a2
     } else if q == m - 1 {
         (-tb - (nrf - tb) / mf) * a2
-    } else if q % 2 == 0 {
+    } else if q.is_multiple_of(2) {
         -(nrf - 2.0 * tb) / mf * a2
     } else {
         (nrf - 2.0 * tb) / mf * a2

@@ -87,3 +87,8 @@ pub use random::{
 pub use vectorized::{
     VectorizedExcitation, VectorizedOptions, lifted_covariance, vectorized_excitation,
 };
+
+/// The README example, compiled and run as a doc test.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

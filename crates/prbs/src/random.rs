@@ -49,7 +49,12 @@ pub fn random_binary(len: usize, options: &RandomBinaryOptions) -> Result<Vec<f6
     check_amplitude(options.amplitude)?;
     check_factor("hold n_r", options.hold)?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    Ok(binary_from_rng(&mut rng, len, options.amplitude, options.hold))
+    Ok(binary_from_rng(
+        &mut rng,
+        len,
+        options.amplitude,
+        options.hold,
+    ))
 }
 
 /// `len` samples of `±a` held `hold` samples, drawn from `rng`.
@@ -160,7 +165,9 @@ pub fn multisine(len: usize, options: &MultisineOptions) -> Result<Vec<f64>> {
     check_amplitude(options.amplitude)?;
     let p = options.period;
     let first = options.first_harmonic;
-    let last = options.last_harmonic.unwrap_or(p.div_ceil(2).saturating_sub(1));
+    let last = options
+        .last_harmonic
+        .unwrap_or(p.div_ceil(2).saturating_sub(1));
     if first == 0 || last < first || 2 * last >= p {
         return Err(Error::InvalidHarmonics {
             first,

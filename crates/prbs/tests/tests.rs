@@ -248,8 +248,8 @@ mod inverse {
                     let m = p.m();
                     let w = p.one_period();
                     assert_eq!(w.len() as u64, 2 * nr as u64 * m);
-                    let r =
-                        periodic_autocorrelation(&w, Normalization::Divisor(2.0 * m as f64)).unwrap();
+                    let r = periodic_autocorrelation(&w, Normalization::Divisor(2.0 * m as f64))
+                        .unwrap();
                     for (tau, &v) in r.iter().enumerate() {
                         let t = tau as i64;
                         let closed = p.autocorrelation(t);
@@ -297,7 +297,9 @@ mod inverse {
         assert!(attained_at.iter().all(|t| t % 3 == 0));
         // n = 10, n_r = 3: the bound is 3/1023 = 0.00293 (Zhu 2000 text).
         let p = prbs(10, 1.0, 3);
-        let bound = (3..3 * 1022).map(|t| p.autocorrelation(t).abs()).fold(0.0, f64::max);
+        let bound = (3..3 * 1022)
+            .map(|t| p.autocorrelation(t).abs())
+            .fold(0.0, f64::max);
         assert_abs_diff_eq!(bound, 3.0 / 1023.0, epsilon = 1e-15);
     }
 
@@ -326,6 +328,11 @@ mod inverse {
         assert_eq!(back, o);
         let d: InversePrbsOptions = serde_json::from_str("{}").unwrap();
         assert_eq!(d, InversePrbsOptions::default());
+        let p = InversePrbs::new(&o).unwrap();
+        let back: InversePrbs = serde_json::from_str(&serde_json::to_string(&p).unwrap()).unwrap();
+        assert_eq!(back, p);
+        // Loading validates: order 1 is rejected.
+        assert!(serde_json::from_str::<InversePrbs>(r#"{"order":1}"#).is_err());
     }
 }
 
@@ -398,15 +405,16 @@ mod random {
 
 mod correlation {
     use lifted_prbs::{
-        CorrelationMethod, Normalization, periodic_autocorrelation, periodic_cross_correlation,
-        periodic_cross_correlation_with, random_binary, RandomBinaryOptions,
+        CorrelationMethod, Normalization, RandomBinaryOptions, periodic_autocorrelation,
+        periodic_cross_correlation, periodic_cross_correlation_with, random_binary,
     };
     use proptest::prelude::*;
 
     /// One harness for both algorithms (and Auto) against the same answer.
     fn check_all(x: &[f64], y: &[f64]) {
-        let d = periodic_cross_correlation_with(x, y, Normalization::Sum, CorrelationMethod::Direct)
-            .unwrap();
+        let d =
+            periodic_cross_correlation_with(x, y, Normalization::Sum, CorrelationMethod::Direct)
+                .unwrap();
         let scale = x.iter().map(|v| v.abs()).sum::<f64>() * y.iter().map(|v| v.abs()).sum::<f64>();
         for method in [CorrelationMethod::Fft, CorrelationMethod::Auto] {
             let f = periodic_cross_correlation_with(x, y, Normalization::Sum, method).unwrap();
@@ -420,7 +428,14 @@ mod correlation {
     #[test]
     fn direct_and_fft_agree() {
         for n in [1, 2, 3, 17, 127, 128, 129, 1000] {
-            let x = random_binary(n, &RandomBinaryOptions { seed: 1, ..Default::default() }).unwrap();
+            let x = random_binary(
+                n,
+                &RandomBinaryOptions {
+                    seed: 1,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let y: Vec<f64> = (0..n).map(|k| (k as f64 * 0.37).sin()).collect();
             check_all(&x, &y);
         }
@@ -539,8 +554,18 @@ mod plan {
         for k in 0..u.nrows() - n {
             assert_eq!(u[(k, 1)], u[(k + n, 1)]);
         }
-        assert_eq!(u, ExperimentPlan::new(&opts(ChannelScheme::Independent { seed: 3 })).unwrap().signal());
-        assert_ne!(u, ExperimentPlan::new(&opts(ChannelScheme::Independent { seed: 4 })).unwrap().signal());
+        assert_eq!(
+            u,
+            ExperimentPlan::new(&opts(ChannelScheme::Independent { seed: 3 }))
+                .unwrap()
+                .signal()
+        );
+        assert_ne!(
+            u,
+            ExperimentPlan::new(&opts(ChannelScheme::Independent { seed: 4 }))
+                .unwrap()
+                .signal()
+        );
     }
 
     #[test]
@@ -602,6 +627,26 @@ mod vectorized {
                     assert_eq!(v.fast[n * k + i], v.lifted[(k, i)]);
                 }
             }
+            let again = vectorized_excitation(
+                5000,
+                &VectorizedOptions {
+                    factor: n,
+                    amplitude: 1.0,
+                    seed: 11,
+                },
+            )
+            .unwrap();
+            assert_eq!(again, v);
+            let other = vectorized_excitation(
+                5000,
+                &VectorizedOptions {
+                    factor: n,
+                    amplitude: 1.0,
+                    seed: 12,
+                },
+            )
+            .unwrap();
+            assert_ne!(other, v);
             let c = lifted_covariance(&v.fast, n).unwrap();
             let r = sv_ratio(&c);
             assert!(r > 0.8, "vectorized n {n}: {r}");
@@ -677,13 +722,20 @@ mod errors {
         for order in [0, 1, 33, 64] {
             assert_eq!(
                 MSequence::new(order).unwrap_err(),
-                Error::OrderOutOfRange { order, min: 2, max: 32 }
+                Error::OrderOutOfRange {
+                    order,
+                    min: 2,
+                    max: 32
+                }
             );
             assert!(matches!(
                 InversePrbs::new(&opts(order, 1.0, 1)),
                 Err(Error::OrderOutOfRange { .. })
             ));
-            assert!(matches!(table_taps(order), Err(Error::OrderOutOfRange { .. })));
+            assert!(matches!(
+                table_taps(order),
+                Err(Error::OrderOutOfRange { .. })
+            ));
             assert!(matches!(period(order), Err(Error::OrderOutOfRange { .. })));
             assert!(matches!(
                 held_autocorrelation(order, 1, 1.0, 0),
@@ -704,15 +756,31 @@ mod errors {
                 Err(Error::InvalidAmplitude { .. })
             ));
             assert!(matches!(
-                random_binary(10, &RandomBinaryOptions { amplitude: a, ..Default::default() }),
+                random_binary(
+                    10,
+                    &RandomBinaryOptions {
+                        amplitude: a,
+                        ..Default::default()
+                    }
+                ),
                 Err(Error::InvalidAmplitude { .. })
             ));
             assert!(matches!(
-                multisine(10, &MultisineOptions { amplitude: a, period: 8, ..Default::default() }),
+                multisine(
+                    10,
+                    &MultisineOptions {
+                        amplitude: a,
+                        period: 8,
+                        ..Default::default()
+                    }
+                ),
                 Err(Error::InvalidAmplitude { .. })
             ));
             assert!(matches!(
-                ExperimentPlan::new(&PlanOptions { amplitudes: vec![1.0, a], ..Default::default() }),
+                ExperimentPlan::new(&PlanOptions {
+                    amplitudes: vec![1.0, a],
+                    ..Default::default()
+                }),
                 Err(Error::InvalidAmplitude { .. })
             ));
         }
@@ -722,54 +790,105 @@ mod errors {
     fn zero_hold() {
         assert_eq!(
             InversePrbs::new(&opts(5, 1.0, 0)).unwrap_err(),
-            Error::ZeroFactor { what: "hold n_r", value: 0 }
+            Error::ZeroFactor {
+                what: "hold n_r",
+                value: 0
+            }
         );
-        assert!(matches!(held_autocorrelation(5, 0, 1.0, 0), Err(Error::ZeroFactor { .. })));
         assert!(matches!(
-            random_binary(10, &RandomBinaryOptions { hold: 0, ..Default::default() }),
+            held_autocorrelation(5, 0, 1.0, 0),
             Err(Error::ZeroFactor { .. })
         ));
         assert!(matches!(
-            generalized_binary_noise(10, &GbnOptions { hold: 0, ..Default::default() }),
+            random_binary(
+                10,
+                &RandomBinaryOptions {
+                    hold: 0,
+                    ..Default::default()
+                }
+            ),
+            Err(Error::ZeroFactor { .. })
+        ));
+        assert!(matches!(
+            generalized_binary_noise(
+                10,
+                &GbnOptions {
+                    hold: 0,
+                    ..Default::default()
+                }
+            ),
             Err(Error::ZeroFactor { .. })
         ));
     }
 
     #[test]
     fn bad_taps() {
-        assert!(matches!(MSequence::with_taps(5, &[3]), Err(Error::InvalidTaps { .. })));
-        assert!(matches!(MSequence::with_taps(5, &[0, 5]), Err(Error::InvalidTaps { .. })));
-        assert!(matches!(MSequence::with_taps(5, &[6, 5]), Err(Error::InvalidTaps { .. })));
-        assert!(matches!(MSequence::with_taps(5, &[3, 3, 5]), Err(Error::InvalidTaps { .. })));
+        assert!(matches!(
+            MSequence::with_taps(5, &[3]),
+            Err(Error::InvalidTaps { .. })
+        ));
+        assert!(matches!(
+            MSequence::with_taps(5, &[0, 5]),
+            Err(Error::InvalidTaps { .. })
+        ));
+        assert!(matches!(
+            MSequence::with_taps(5, &[6, 5]),
+            Err(Error::InvalidTaps { .. })
+        ));
+        assert!(matches!(
+            MSequence::with_taps(5, &[3, 3, 5]),
+            Err(Error::InvalidTaps { .. })
+        ));
         let e = InversePrbs::new(&InversePrbsOptions {
             order: 4,
             taps: Some(vec![2, 4]),
             ..Default::default()
         })
         .unwrap_err();
-        assert_eq!(e, Error::NotMaximal { order: 4, taps: vec![2, 4] });
+        assert_eq!(
+            e,
+            Error::NotMaximal {
+                order: 4,
+                taps: vec![2, 4]
+            }
+        );
     }
 
     #[test]
     fn empty_channel_set() {
-        let e = ExperimentPlan::new(&PlanOptions { amplitudes: vec![], ..Default::default() });
+        let e = ExperimentPlan::new(&PlanOptions {
+            amplitudes: vec![],
+            ..Default::default()
+        });
         assert_eq!(e.unwrap_err(), Error::EmptyChannelSet);
     }
 
     #[test]
     fn too_many_shifted_channels() {
         let e = ExperimentPlan::new(&PlanOptions {
-            prbs: InversePrbsOptions { order: 2, ..Default::default() },
+            prbs: InversePrbsOptions {
+                order: 2,
+                ..Default::default()
+            },
             amplitudes: vec![1.0; 4],
             scheme: ChannelScheme::Shifted,
             ..Default::default()
         });
-        assert_eq!(e.unwrap_err(), Error::TooManyChannels { channels: 4, half_period: 3 });
+        assert_eq!(
+            e.unwrap_err(),
+            Error::TooManyChannels {
+                channels: 4,
+                half_period: 3
+            }
+        );
     }
 
     #[test]
     fn zero_record_periods() {
-        let e = ExperimentPlan::new(&PlanOptions { record_periods: 0, ..Default::default() });
+        let e = ExperimentPlan::new(&PlanOptions {
+            record_periods: 0,
+            ..Default::default()
+        });
         assert!(matches!(e, Err(Error::ZeroLength { .. })));
     }
 
@@ -778,21 +897,39 @@ mod errors {
         for p in [0.0, -0.1, 1.5, f64::NAN] {
             let e = generalized_binary_noise(
                 10,
-                &GbnOptions { switch_probability: p, ..Default::default() },
+                &GbnOptions {
+                    switch_probability: p,
+                    ..Default::default()
+                },
             );
             assert!(matches!(e, Err(Error::InvalidProbability { .. })), "{p}");
         }
-        assert!(generalized_binary_noise(10, &GbnOptions { switch_probability: 1.0, ..Default::default() }).is_ok());
+        assert!(
+            generalized_binary_noise(
+                10,
+                &GbnOptions {
+                    switch_probability: 1.0,
+                    ..Default::default()
+                }
+            )
+            .is_ok()
+        );
     }
 
     #[test]
     fn zero_length_signals() {
-        assert!(matches!(random_binary(0, &Default::default()), Err(Error::ZeroLength { .. })));
+        assert!(matches!(
+            random_binary(0, &Default::default()),
+            Err(Error::ZeroLength { .. })
+        ));
         assert!(matches!(
             generalized_binary_noise(0, &Default::default()),
             Err(Error::ZeroLength { .. })
         ));
-        assert!(matches!(multisine(0, &Default::default()), Err(Error::ZeroLength { .. })));
+        assert!(matches!(
+            multisine(0, &Default::default()),
+            Err(Error::ZeroLength { .. })
+        ));
         assert!(matches!(
             vectorized_excitation(0, &Default::default()),
             Err(Error::ZeroLength { .. })
@@ -801,12 +938,25 @@ mod errors {
 
     #[test]
     fn bad_harmonics() {
-        for (first, last, period) in [(0, Some(3), 16), (4, Some(3), 16), (1, Some(8), 16), (1, None, 2)] {
+        for (first, last, period) in [
+            (0, Some(3), 16),
+            (4, Some(3), 16),
+            (1, Some(8), 16),
+            (1, None, 2),
+        ] {
             let e = multisine(
                 10,
-                &MultisineOptions { amplitude: 1.0, period, first_harmonic: first, last_harmonic: last },
+                &MultisineOptions {
+                    amplitude: 1.0,
+                    period,
+                    first_harmonic: first,
+                    last_harmonic: last,
+                },
             );
-            assert!(matches!(e, Err(Error::InvalidHarmonics { .. })), "{first} {last:?} {period}");
+            assert!(
+                matches!(e, Err(Error::InvalidHarmonics { .. })),
+                "{first} {last:?} {period}"
+            );
         }
     }
 
@@ -823,7 +973,10 @@ mod errors {
         );
         assert_eq!(
             periodic_cross_correlation(&x, &[1.0, f64::NAN], Normalization::Sum).unwrap_err(),
-            Error::NonFinite { what: "y", index: 1 }
+            Error::NonFinite {
+                what: "y",
+                index: 1
+            }
         );
         for c in [0.0, -2.0, f64::INFINITY] {
             assert!(matches!(
@@ -835,8 +988,14 @@ mod errors {
 
     #[test]
     fn lifted_covariance_inputs() {
-        assert!(matches!(lifted_covariance(&[1.0; 4], 0), Err(Error::ZeroFactor { .. })));
-        assert!(matches!(lifted_covariance(&[], 2), Err(Error::EmptySignal { .. })));
+        assert!(matches!(
+            lifted_covariance(&[1.0; 4], 0),
+            Err(Error::ZeroFactor { .. })
+        ));
+        assert!(matches!(
+            lifted_covariance(&[], 2),
+            Err(Error::EmptySignal { .. })
+        ));
         assert_eq!(
             lifted_covariance(&[1.0; 5], 2).unwrap_err(),
             Error::NotMultiple { len: 5, factor: 2 }
@@ -846,7 +1005,13 @@ mod errors {
             Err(Error::NonFinite { .. })
         ));
         assert!(matches!(
-            vectorized_excitation(10, &VectorizedOptions { factor: 0, ..Default::default() }),
+            vectorized_excitation(
+                10,
+                &VectorizedOptions {
+                    factor: 0,
+                    ..Default::default()
+                }
+            ),
             Err(Error::ZeroFactor { .. })
         ));
     }
@@ -855,21 +1020,45 @@ mod errors {
     fn bad_design_requests() {
         let base = DesignRequest::default();
         let cases = [
-            DesignRequest { output_period: 0.0, ..base.clone() },
-            DesignRequest { output_period: f64::NAN, ..base.clone() },
-            DesignRequest { actuator_rate_hz: -30.0, ..base.clone() },
-            DesignRequest { actuator_margin: 0.0, ..base.clone() },
-            DesignRequest { slowest_mode_hz: f64::INFINITY, ..base.clone() },
+            DesignRequest {
+                output_period: 0.0,
+                ..base.clone()
+            },
+            DesignRequest {
+                output_period: f64::NAN,
+                ..base.clone()
+            },
+            DesignRequest {
+                actuator_rate_hz: -30.0,
+                ..base.clone()
+            },
+            DesignRequest {
+                actuator_margin: 0.0,
+                ..base.clone()
+            },
+            DesignRequest {
+                slowest_mode_hz: f64::INFINITY,
+                ..base.clone()
+            },
         ];
         for c in cases {
-            assert!(matches!(design(&c), Err(Error::InvalidParameter { .. })), "{c:?}");
+            assert!(
+                matches!(design(&c), Err(Error::InvalidParameter { .. })),
+                "{c:?}"
+            );
         }
         assert!(matches!(
-            design(&DesignRequest { amplitude: -2.0, ..base.clone() }),
+            design(&DesignRequest {
+                amplitude: -2.0,
+                ..base.clone()
+            }),
             Err(Error::InvalidAmplitude { .. })
         ));
         assert!(matches!(
-            design(&DesignRequest { min_order: 40, ..base }),
+            design(&DesignRequest {
+                min_order: 40,
+                ..base
+            }),
             Err(Error::OrderOutOfRange { .. })
         ));
     }
