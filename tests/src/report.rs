@@ -1,0 +1,199 @@
+//! The report type every reproduction returns.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// One acceptance check: a measured value and the condition it must meet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Check {
+    /// What is checked, e.g. "slow pole within 3% of 0.348 rad/s".
+    pub name: String,
+    /// The value obtained by the simulation.
+    pub value: f64,
+    /// The published or reference value it is compared with, if any.
+    pub reference: Option<f64>,
+    /// Human-readable condition, e.g. "|value - 0.348| / 0.348 < 0.03".
+    pub condition: String,
+    /// Whether the condition holds.
+    pub passed: bool,
+    /// Provenance of the bound, or why a published number is not reached.
+    pub note: Option<String>,
+}
+
+impl Check {
+    /// A check that `value` lies within `rel_tol` (relative) of `reference`.
+    pub fn relative(name: impl Into<String>, value: f64, reference: f64, rel_tol: f64) -> Self {
+        let err = (value - reference).abs() / reference.abs().max(f64::MIN_POSITIVE);
+        Check {
+            name: name.into(),
+            value,
+            reference: Some(reference),
+            condition: format!("relative error {err:.3e} <= {rel_tol:.3e}"),
+            passed: err.is_finite() && err <= rel_tol,
+            note: None,
+        }
+    }
+
+    /// A check that `value` lies within `abs_tol` of `reference`.
+    pub fn absolute(name: impl Into<String>, value: f64, reference: f64, abs_tol: f64) -> Self {
+        let err = (value - reference).abs();
+        Check {
+            name: name.into(),
+            value,
+            reference: Some(reference),
+            condition: format!("|value - {reference}| = {err:.3e} <= {abs_tol:.3e}"),
+            passed: err.is_finite() && err <= abs_tol,
+            note: None,
+        }
+    }
+
+    /// A check that `value < bound`.
+    pub fn below(name: impl Into<String>, value: f64, bound: f64) -> Self {
+        Check {
+            name: name.into(),
+            value,
+            reference: None,
+            condition: format!("{value:.6e} < {bound:.6e}"),
+            passed: value < bound,
+            note: None,
+        }
+    }
+
+    /// A check that `value > bound`.
+    pub fn above(name: impl Into<String>, value: f64, bound: f64) -> Self {
+        Check {
+            name: name.into(),
+            value,
+            reference: None,
+            condition: format!("{value:.6e} > {bound:.6e}"),
+            passed: value > bound,
+            note: None,
+        }
+    }
+
+    /// A check that `lo < value < hi`.
+    pub fn within(name: impl Into<String>, value: f64, lo: f64, hi: f64) -> Self {
+        Check {
+            name: name.into(),
+            value,
+            reference: None,
+            condition: format!("{lo} < {value:.6e} < {hi}"),
+            passed: lo < value && value < hi,
+            note: None,
+        }
+    }
+
+    /// A boolean condition (the value is recorded as 1.0 or 0.0).
+    pub fn holds(name: impl Into<String>, condition: impl Into<String>, passed: bool) -> Self {
+        Check {
+            name: name.into(),
+            value: if passed { 1.0 } else { 0.0 },
+            reference: None,
+            condition: condition.into(),
+            passed,
+            note: None,
+        }
+    }
+
+    /// Attaches a provenance note (the source of the bound, or a deviation).
+    pub fn with_note(mut self, note: impl Into<String>) -> Self {
+        self.note = Some(note.into());
+        self
+    }
+}
+
+/// The outcome of one reproduced experiment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Reproduction {
+    /// Spec section, e.g. "A1.5".
+    pub section: String,
+    /// Short title, e.g. "Zhu 2000 Tables II/III: diesel engine stand-in".
+    pub title: String,
+    /// The acceptance checks, in the order of the spec.
+    pub checks: Vec<Check>,
+    /// Free-form numbers worth printing (name, value) that are not checks.
+    pub figures: Vec<(String, f64)>,
+}
+
+impl Reproduction {
+    /// An empty report for a section.
+    pub fn new(section: impl Into<String>, title: impl Into<String>) -> Self {
+        Reproduction {
+            section: section.into(),
+            title: title.into(),
+            checks: Vec::new(),
+            figures: Vec::new(),
+        }
+    }
+
+    /// Adds a check.
+    pub fn check(&mut self, check: Check) -> &mut Self {
+        self.checks.push(check);
+        self
+    }
+
+    /// Records a figure that is reported but not checked.
+    pub fn figure(&mut self, name: impl Into<String>, value: f64) -> &mut Self {
+        self.figures.push((name.into(), value));
+        self
+    }
+
+    /// True when every check passed (and there is at least one).
+    pub fn all_passed(&self) -> bool {
+        !self.checks.is_empty() && self.checks.iter().all(|c| c.passed)
+    }
+
+    /// The checks that failed.
+    pub fn failures(&self) -> Vec<&Check> {
+        self.checks.iter().filter(|c| !c.passed).collect()
+    }
+}
+
+impl fmt::Display for Reproduction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "{} — {}", self.section, self.title)?;
+        for c in &self.checks {
+            let mark = if c.passed { "pass" } else { "FAIL" };
+            write!(f, "  [{mark}] {}: {} ({})", c.name, c.value, c.condition)?;
+            if let Some(r) = c.reference {
+                write!(f, " [reference {r}]")?;
+            }
+            if let Some(n) = &c.note {
+                write!(f, " — {n}")?;
+            }
+            writeln!(f)?;
+        }
+        for (name, value) in &self.figures {
+            writeln!(f, "  {name} = {value}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_check_passes_and_fails() {
+        assert!(Check::relative("x", 1.02, 1.0, 0.03).passed);
+        assert!(!Check::relative("x", 1.04, 1.0, 0.03).passed);
+        assert!(!Check::relative("x", f64::NAN, 1.0, 0.03).passed);
+    }
+
+    #[test]
+    fn empty_report_does_not_pass() {
+        let r = Reproduction::new("A0", "nothing");
+        assert!(!r.all_passed());
+    }
+
+    #[test]
+    fn report_lists_failures() {
+        let mut r = Reproduction::new("A0", "demo");
+        r.check(Check::below("a", 1.0, 2.0));
+        r.check(Check::above("b", 1.0, 2.0));
+        assert!(!r.all_passed());
+        assert_eq!(r.failures().len(), 1);
+        assert!(r.to_string().contains("FAIL"));
+    }
+}
