@@ -88,6 +88,15 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// A Riccati equation has no stabilizing solution (or it could not be
+    /// computed to the required accuracy).
+    #[error("{what} has no stabilizing solution: {reason}")]
+    NoStabilizingSolution {
+        /// Which equation.
+        what: &'static str,
+        /// Why (e.g. the closed-loop spectral radius or the residual).
+        reason: String,
+    },
     /// An iterative algorithm failed to converge.
     #[error("{what} did not converge after {iterations} iterations")]
     NoConvergence {
