@@ -97,6 +97,27 @@ pub enum Error {
         /// Why (e.g. the closed-loop spectral radius or the residual).
         reason: String,
     },
+    /// Too few observations for the requested computation.
+    #[error("{what}: {got} observations, at least {needed} needed")]
+    NotEnoughData {
+        /// Which computation or argument.
+        what: &'static str,
+        /// Observations supplied.
+        got: usize,
+        /// Minimum required.
+        needed: usize,
+    },
+    /// A data matrix is (numerically) rank deficient where full rank is
+    /// required.
+    #[error("{what} is rank deficient: numerical rank {rank}, {needed} needed")]
+    RankDeficient {
+        /// Name of the offending argument.
+        what: &'static str,
+        /// Numerical rank found.
+        rank: usize,
+        /// Rank required.
+        needed: usize,
+    },
     /// An iterative algorithm failed to converge.
     #[error("{what} did not converge after {iterations} iterations")]
     NoConvergence {

@@ -1,6 +1,7 @@
 //! Dense linear-algebra kernels for Lifted.
 #![deny(missing_docs)]
 
+pub mod cca;
 pub mod check;
 pub mod convert;
 pub mod eig;
@@ -15,6 +16,7 @@ pub mod schur;
 pub mod solve;
 pub mod svd;
 
+pub use cca::{Cca, cca, center_rows};
 pub use check::{check_cols, check_finite, check_rows, check_square};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
