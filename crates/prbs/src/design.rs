@@ -160,3 +160,20 @@ pub fn design(request: &DesignRequest) -> Result<DesignProposal> {
         explanation,
     })
 }
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+
+    #[test]
+    fn hold_rounds_up_to_respect_the_actuator() {
+        // T_p >= 3/40 = 0.075 s with T = 0.01 s: n_r = 8 (7 would be too fast).
+        let p = design(&DesignRequest {
+            actuator_rate_hz: 40.0,
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(p.hold, 8);
+        assert!(p.generation_period >= 0.075);
+    }
+}

@@ -76,8 +76,7 @@ pub use inverse::{
     inverse_prbs_autocorrelation,
 };
 pub use mseq::{
-    MAX_ORDER, MIN_ORDER, MSequence, MSequenceSpec, WordGenerator, characteristic_polynomial,
-    is_primitive, period, table_taps, x_pow_mod,
+    MAX_ORDER, MIN_ORDER, MSequence, MSequenceSpec, WordGenerator, is_primitive, period, table_taps,
 };
 pub use plan::{ChannelScheme, ExperimentPlan, PlanOptions, Segment};
 pub use random::{

@@ -85,8 +85,8 @@ pub(crate) fn check_order(order: u32) -> Result<()> {
 }
 
 /// Characteristic polynomial `C(x) = xⁿ + Σ_{i∈S, i<n} x^{n−i} + 1` as a bit mask
-/// (bit `j` is the coefficient of `x^j`).
-pub fn characteristic_polynomial(order: u32, taps: &[u32]) -> u64 {
+/// (bit `j` is the coefficient of `x^j`). Taps must already be validated.
+pub(crate) fn characteristic_polynomial(order: u32, taps: &[u32]) -> u64 {
     let mut p = 1u64 << order;
     for &i in taps {
         p ^= 1u64 << (order - i);
@@ -118,8 +118,9 @@ fn mulmod(a: u64, b: u64, p: u64) -> u64 {
     acc
 }
 
-/// `x^e mod p` over GF(2) by square-and-multiply. O(deg p · log e).
-pub fn x_pow_mod(e: u64, p: u64) -> u64 {
+/// `x^e mod p` over GF(2) by square-and-multiply, `2 ≤ deg p ≤ 32`.
+/// O(deg p · log e) word operations.
+pub(crate) fn x_pow_mod(e: u64, p: u64) -> u64 {
     let mut result = 1u64;
     let mut base = 2u64; // x, of degree 1 < deg p
     let mut e = e;
@@ -252,7 +253,8 @@ impl MSequence {
         (1u64 << self.order) - 1
     }
 
-    /// Characteristic polynomial (see [`characteristic_polynomial`]).
+    /// Characteristic polynomial `C(x) = xⁿ + Σ_{i∈S, i<n} x^{n−i} + 1` as a bit mask
+    /// (bit `j` is the coefficient of `x^j`).
     pub fn polynomial(&self) -> u64 {
         characteristic_polynomial(self.order, &self.taps)
     }
@@ -453,6 +455,9 @@ mod unit {
         // x^4 + x^3 + x^2 + x + 1: irreducible but of order 5, not 15.
         assert!(!is_primitive(0b11111));
         assert!(is_primitive(0b10011));
+        for junk in [0, 1, 2, u64::MAX, 1 << 40 | 1] {
+            assert!(!is_primitive(junk));
+        }
     }
 
     #[test]

@@ -21,8 +21,9 @@ pub enum ChannelScheme {
     #[default]
     OneAtATime,
     /// All channels at once with the same inverse PRBS, channel `l` delayed by
-    /// `l · d` generation samples, `d = ⌊m / channels⌋`. The shifts stay below `m`,
-    /// so the cross-correlations are `±a_i a_j/m` (eq. II-6), never `±a²`.
+    /// `l · d` generation samples, `d = ⌊m / channels⌋`. The mutual shifts stay in
+    /// `1 … m−1`, so the zero-lag cross-correlations (normalised by `1/(2m)`) are
+    /// `±n_r a_i a_j/m` (eqs. II-6, II-10), never `±n_r a_i a_j`.
     Shifted,
     /// All channels at once, each with an independent random binary sequence of
     /// period `2m` (generation rate), held `n_r`, from its own `ChaCha8Rng` stream
@@ -245,5 +246,20 @@ impl ExperimentPlan {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+
+    #[test]
+    fn default_plan_layout() {
+        let plan = ExperimentPlan::new(&PlanOptions::default()).unwrap();
+        // Order 8, n_r = 1: one channel, settle 1 + record 1 periods of 510 samples.
+        assert_eq!(plan.period(), 510);
+        assert_eq!(plan.len(), 1020);
+        assert_eq!(plan.segments()[0].record_start, 510);
+        assert_eq!(plan.signal().shape(), (1020, 1));
     }
 }

@@ -97,3 +97,15 @@ pub fn lifted_covariance(fast: &[f64], factor: usize) -> Result<DMatrix<f64>> {
     }
     Ok(cov / slow as f64)
 }
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+
+    #[test]
+    fn covariance_of_constant_rows() {
+        let c = lifted_covariance(&[1.0, 1.0, -2.0, -2.0], 2).unwrap();
+        // Rows (1,1) and (−2,−2): φ = ((1+4)/2)·ones.
+        assert_eq!(c, DMatrix::from_element(2, 2, 2.5));
+    }
+}
