@@ -121,6 +121,16 @@ pub enum Error {
         /// Which quantity.
         what: &'static str,
     },
+    /// A requested signal would not fit in memory.
+    #[error(
+        "the signal would have {samples} entries, more than the limit of {max}; generate it in blocks with `InversePrbs::iter` or `generate`"
+    )]
+    TooLong {
+        /// Entries requested (samples × channels).
+        samples: u128,
+        /// The limit, [`crate::MAX_SIGNAL_ENTRIES`].
+        max: u128,
+    },
     /// The design request cannot be met by any supported order.
     #[error(
         "no PRBS order up to {max_order} reaches a fundamental of {slowest_mode_hz} Hz with T_p = {generation_period} s"

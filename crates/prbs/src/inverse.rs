@@ -183,7 +183,8 @@ impl InversePrbs {
 
     /// One fast-rate period (`2 n_r m` samples).
     ///
-    /// Requires the period to fit in memory (order ≤ 32 and `n_r` small).
+    /// Allocates the whole period: for large orders (order 32 is 8.6e9 · n_r samples)
+    /// use [`InversePrbs::iter`] or [`InversePrbs::generate`] in blocks instead.
     pub fn one_period(&self) -> Vec<f64> {
         self.generate(self.period() as usize)
     }

@@ -71,6 +71,10 @@ pub use correlation::{
 };
 pub use design::{DesignProposal, DesignRequest, design};
 pub use error::{Error, Result};
+
+/// Largest signal matrix (samples × channels) that the in-memory generators build:
+/// 2^28 entries (2 GiB of `f64`). Longer excitations are generated in blocks.
+pub const MAX_SIGNAL_ENTRIES: u128 = 1 << 28;
 pub use inverse::{
     InversePrbs, InversePrbsIter, InversePrbsOptions, held_autocorrelation,
     inverse_prbs_autocorrelation,

@@ -109,7 +109,8 @@ impl ExperimentPlan {
     /// # Errors
     /// [`Error::EmptyChannelSet`], [`Error::InvalidAmplitude`] (any `a_l`),
     /// [`Error::ZeroLength`] (`record_periods = 0`), [`Error::TooManyChannels`]
-    /// (shifted scheme with more channels than `m`), and the errors of
+    /// (shifted scheme with more channels than `m`), [`Error::TooLong`] (the signal
+    /// matrix would exceed [`crate::MAX_SIGNAL_ENTRIES`] entries), and the errors of
     /// [`InversePrbs::new`].
     pub fn new(options: &PlanOptions) -> Result<Self> {
         if options.amplitudes.is_empty() {
@@ -132,6 +133,20 @@ impl ExperimentPlan {
             return Err(Error::TooManyChannels {
                 channels,
                 half_period: prbs.m() as usize,
+            });
+        }
+        let total = u128::from(prbs.period())
+            * (options.settle_periods as u128 + options.record_periods as u128)
+            * if options.scheme == ChannelScheme::OneAtATime {
+                channels as u128
+            } else {
+                1
+            }
+            * channels as u128;
+        if total > crate::MAX_SIGNAL_ENTRIES {
+            return Err(Error::TooLong {
+                samples: total,
+                max: crate::MAX_SIGNAL_ENTRIES,
             });
         }
         let period = prbs.period() as usize;

@@ -883,6 +883,21 @@ mod errors {
     }
 
     #[test]
+    fn plan_too_long_for_memory() {
+        // Order 32 held 10 samples: 8.6e10 samples per period, far beyond the limit.
+        let e = ExperimentPlan::new(&PlanOptions {
+            prbs: InversePrbsOptions {
+                order: 32,
+                hold: 10,
+                ..Default::default()
+            },
+            amplitudes: vec![1.0, 1.0],
+            ..Default::default()
+        });
+        assert!(matches!(e, Err(Error::TooLong { .. })), "{e:?}");
+    }
+
+    #[test]
     fn zero_record_periods() {
         let e = ExperimentPlan::new(&PlanOptions {
             record_periods: 0,
