@@ -3,9 +3,9 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use crate::error::{check_scalar, Error, Result};
-use crate::ss::StateSpace;
+use crate::error::{Error, Result, check_scalar};
 use crate::la;
+use crate::ss::StateSpace;
 
 impl StateSpace {
     /// Poles: eigenvalues of A (O(n³)).
@@ -25,7 +25,10 @@ impl StateSpace {
     pub(crate) fn unstable_pole(&self, margin: f64) -> Result<Option<Complex64>> {
         check_scalar("margin", margin)?;
         if margin < 0.0 {
-            return Err(Error::InvalidArgument { what: "margin", reason: format!("must be >= 0, got {margin}") });
+            return Err(Error::InvalidArgument {
+                what: "margin",
+                reason: format!("must be >= 0, got {margin}"),
+            });
         }
         let poles = self.poles()?;
         Ok(poles.into_iter().find(|p| match self.ts() {
@@ -85,9 +88,15 @@ impl StateSpace {
         let tol = 1e-10 * scale;
         reduce(&mut a, &mut b, &mut c, &mut d, tol)?;
         // dual
-        let (mut at, mut bt, mut ct, mut dt) = (a.transpose(), c.transpose(), b.transpose(), d.transpose());
+        let (mut at, mut bt, mut ct, mut dt) =
+            (a.transpose(), c.transpose(), b.transpose(), d.transpose());
         reduce(&mut at, &mut bt, &mut ct, &mut dt, tol)?;
-        let (a, b, c, d) = (at.transpose(), ct.transpose(), bt.transpose(), dt.transpose());
+        let (a, b, c, d) = (
+            at.transpose(),
+            ct.transpose(),
+            bt.transpose(),
+            dt.transpose(),
+        );
         if a.nrows() == 0 {
             return Ok(vec![]);
         }
@@ -105,7 +114,13 @@ impl StateSpace {
 
 /// One `reduce` pass of Emami-Naeini–Van Dooren: on return D has full row
 /// rank and the finite zeros are unchanged.
-fn reduce(a: &mut DMatrix<f64>, b: &mut DMatrix<f64>, c: &mut DMatrix<f64>, d: &mut DMatrix<f64>, tol: f64) -> Result<()> {
+fn reduce(
+    a: &mut DMatrix<f64>,
+    b: &mut DMatrix<f64>,
+    c: &mut DMatrix<f64>,
+    d: &mut DMatrix<f64>,
+    tol: f64,
+) -> Result<()> {
     loop {
         let n = a.nrows();
         let p = c.nrows();
@@ -144,8 +159,10 @@ fn reduce(a: &mut DMatrix<f64>, b: &mut DMatrix<f64>, c: &mut DMatrix<f64>, d: &
         let vr = v_thin.columns(0, mu).into_owned();
         let qf = la::qr_full_q(&vr)?; // first mu columns span range(C2ᵀ)
         let mut v = DMatrix::<f64>::zeros(n, n);
-        v.view_mut((0, 0), (n, n - mu)).copy_from(&qf.columns(mu, n - mu));
-        v.view_mut((0, n - mu), (n, mu)).copy_from(&qf.columns(0, mu));
+        v.view_mut((0, 0), (n, n - mu))
+            .copy_from(&qf.columns(mu, n - mu));
+        v.view_mut((0, n - mu), (n, mu))
+            .copy_from(&qf.columns(0, mu));
         let at = v.transpose() * &*a * &v;
         let bt = v.transpose() * &*b;
         let c1t = &c1 * &v;
@@ -160,5 +177,52 @@ fn reduce(a: &mut DMatrix<f64>, b: &mut DMatrix<f64>, c: &mut DMatrix<f64>, d: &
         *c = crate::connect::vcat(&a21, &c11);
         *d = crate::connect::vcat(&b2, &d1);
         debug_assert_eq!(d.ncols(), m);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stability_margins() {
+        let c = StateSpace::new(
+            DMatrix::from_element(1, 1, -0.5),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        assert!(c.is_stable(0.0).unwrap());
+        assert!(c.is_stable(0.4).unwrap());
+        assert!(!c.is_stable(0.6).unwrap());
+        let d = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.95),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        assert!(d.is_stable(0.01).unwrap());
+        assert!(!d.is_stable(0.1).unwrap());
+        assert!((d.dc_gain().unwrap()[(0, 0)] - 20.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn zeros_of_biproper_siso() {
+        // (s + 3)/(s + 1): A = −1, B = 1, C = 2, D = 1, zero at −3
+        let s = StateSpace::new(
+            DMatrix::from_element(1, 1, -1.0),
+            DMatrix::identity(1, 1),
+            DMatrix::from_element(1, 1, 2.0),
+            DMatrix::identity(1, 1),
+            None,
+        )
+        .unwrap();
+        let z = s.zeros().unwrap();
+        assert_eq!(z.len(), 1);
+        assert!((z[0].re + 3.0).abs() < 1e-12);
     }
 }

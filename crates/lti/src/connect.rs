@@ -3,10 +3,10 @@
 
 use nalgebra::DMatrix;
 
-use crate::error::{check_domain, Error, Result};
+use crate::error::{Error, Result, check_domain};
+use crate::la;
 use crate::ss::StateSpace;
 use crate::tf::FeedbackSign;
-use crate::la;
 
 pub(crate) fn blkdiag(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     let mut m = DMatrix::zeros(a.nrows() + b.nrows(), a.ncols() + b.ncols());
@@ -30,7 +30,11 @@ pub(crate) fn hcat(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 fn dims(what: &'static str, expected: usize, got: usize) -> Error {
-    Error::DimensionMismatch { what, expected: format!("{expected}"), got: format!("{got}") }
+    Error::DimensionMismatch {
+        what,
+        expected: format!("{expected}"),
+        got: format!("{got}"),
+    }
 }
 
 /// Series connection u → g1 → g2 → y (transfer function G₂G₁).
@@ -40,11 +44,16 @@ fn dims(what: &'static str, expected: usize, got: usize) -> Error {
 pub fn series(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
     check_domain("series", g1.ts(), g2.ts())?;
     if g1.n_outputs() != g2.n_inputs() {
-        return Err(dims("series: outputs of g1 vs inputs of g2", g1.n_outputs(), g2.n_inputs()));
+        return Err(dims(
+            "series: outputs of g1 vs inputs of g2",
+            g1.n_outputs(),
+            g2.n_inputs(),
+        ));
     }
     let n1 = g1.order();
     let mut a = blkdiag(g1.a(), g2.a());
-    a.view_mut((n1, 0), (g2.order(), n1)).copy_from(&(g2.b() * g1.c()));
+    a.view_mut((n1, 0), (g2.order(), n1))
+        .copy_from(&(g2.b() * g1.c()));
     let b = vcat(g1.b(), &(g2.b() * g1.d()));
     let c = hcat(&(g2.d() * g1.c()), g2.c());
     let d = g2.d() * g1.d();
@@ -91,10 +100,18 @@ pub fn feedback(g: &StateSpace, k: &StateSpace, sign: FeedbackSign) -> Result<St
     check_domain("feedback", g.ts(), k.ts())?;
     let (p, m) = (g.n_outputs(), g.n_inputs());
     if k.n_inputs() != p {
-        return Err(dims("feedback: inputs of K vs outputs of G", p, k.n_inputs()));
+        return Err(dims(
+            "feedback: inputs of K vs outputs of G",
+            p,
+            k.n_inputs(),
+        ));
     }
     if k.n_outputs() != m {
-        return Err(dims("feedback: outputs of K vs inputs of G", m, k.n_outputs()));
+        return Err(dims(
+            "feedback: outputs of K vs inputs of G",
+            m,
+            k.n_outputs(),
+        ));
     }
     let s = sign.value();
     let (n1, n2) = (g.order(), k.order());
@@ -122,11 +139,23 @@ impl StateSpace {
     /// Errors: [`Error::NotInvertible`] when D is not square or singular.
     pub fn inverse(&self) -> Result<StateSpace> {
         if self.n_inputs() != self.n_outputs() {
-            return Err(Error::NotInvertible { what: "system", reason: "D is not square".into() });
+            return Err(Error::NotInvertible {
+                what: "system",
+                reason: "D is not square".into(),
+            });
         }
-        let di = la::inv(self.d()).map_err(|e| Error::NotInvertible { what: "system", reason: format!("D is singular ({e})") })?;
+        let di = la::inv(self.d()).map_err(|e| Error::NotInvertible {
+            what: "system",
+            reason: format!("D is singular ({e})"),
+        })?;
         let a = self.a() - self.b() * &di * self.c();
-        Ok(StateSpace::from_parts(a, self.b() * &di, -(&di * self.c()), di, self.ts()))
+        Ok(StateSpace::from_parts(
+            a,
+            self.b() * &di,
+            -(&di * self.c()),
+            di,
+            self.ts(),
+        ))
     }
 
     /// u → self → other (see [`series`]).
@@ -147,3 +176,26 @@ impl StateSpace {
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parallel_and_append_shapes() {
+        let g = StateSpace::new(
+            DMatrix::from_element(1, 1, -1.0),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            None,
+        )
+        .unwrap();
+        let p = parallel(&g, &g).unwrap();
+        assert_eq!(p.d()[(0, 0)], 2.0);
+        let a = append(&g, &g).unwrap();
+        assert_eq!((a.order(), a.n_inputs(), a.n_outputs()), (2, 2, 2));
+        assert!(series(&a, &g).is_err());
+        let inv = g.inverse().unwrap();
+        assert_eq!(inv.a()[(0, 0)], -2.0);
+    }
+}

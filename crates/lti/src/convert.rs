@@ -14,7 +14,7 @@ use nalgebra::DMatrix;
 use crate::poly::Poly;
 use crate::ss::StateSpace;
 use crate::tf::{SisoTf, TransferFunction};
-use crate::{la, MinrealOptions, Result};
+use crate::{MinrealOptions, Result, la};
 
 /// Controllable canonical realisation of a proper SISO entry.
 fn siso_realisation(e: &SisoTf, row: usize, col: usize, ts: Option<f64>) -> Result<StateSpace> {
@@ -126,7 +126,12 @@ pub(crate) fn siso_tf_of(s: &StateSpace) -> Result<SisoTf> {
     let d = s.d()[(0, 0)];
     let bc = s.b() * s.c();
     let p1 = charpoly(&(s.a() - &bc))?;
-    let scale = p1.coeffs().iter().chain(den.coeffs()).fold(0.0f64, |a, c| a.max(c.abs())).max(d.abs());
+    let scale = p1
+        .coeffs()
+        .iter()
+        .chain(den.coeffs())
+        .fold(0.0f64, |a, c| a.max(c.abs()))
+        .max(d.abs());
     let diff = &p1 - &den;
     let num = &diff + &den.scale(d);
     // trim rounding residue in leading coefficients
@@ -137,4 +142,29 @@ pub(crate) fn siso_tf_of(s: &StateSpace) -> Result<SisoTf> {
         Some(k) => Poly::from_vec(co[k..].to_vec()),
     };
     SisoTf::new(num, den)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_form_and_back() {
+        // (2s² + 3s + 1)/(s² + 0.5s + 0.25): D = 2
+        let g = TransferFunction::from_coeffs(&[2.0, 3.0, 1.0], &[1.0, 0.5, 0.25], None).unwrap();
+        let s = g.to_ss().unwrap();
+        assert_eq!(s.d()[(0, 0)], 2.0);
+        assert_eq!(s.a()[(0, 1)], -0.25);
+        let back = s.to_tf(&MinrealOptions::default()).unwrap();
+        assert!(back.num(0, 0).max_abs_diff(g.num(0, 0)) < 1e-14);
+        assert!(back.den(0, 0).max_abs_diff(g.den(0, 0)) < 1e-14);
+        // a common factor is removed by the per-entry minimal realisation
+        let c = TransferFunction::from_coeffs(&[1.0, 1.0], &[1.0, 3.0, 2.0], None).unwrap();
+        let t = c
+            .to_ss()
+            .unwrap()
+            .to_tf(&MinrealOptions::default())
+            .unwrap();
+        assert_eq!(t.den(0, 0).degree(), 1);
+    }
 }

@@ -3,9 +3,9 @@
 use nalgebra::DMatrix;
 
 use crate::connect::{hcat, vcat};
-use crate::error::{check_scalar, check_ts, Error, Result};
-use crate::ss::{delay_bank, StateSpace};
+use crate::error::{Error, Result, check_scalar, check_ts};
 use crate::la;
+use crate::ss::{StateSpace, delay_bank};
 
 /// Discretisation method.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -63,8 +63,16 @@ impl StateSpace {
         check_ts(Some(ts))?;
         let mut out = match opts.method {
             C2dMethod::Zoh => self.c2d_zoh(ts, opts.input_delays.as_deref())?,
-            C2dMethod::Foh | C2dMethod::Tustin { .. } if opts.input_delays.as_ref().is_some_and(|d| d.iter().any(|&x| x != 0.0)) => {
-                return Err(Error::InvalidArgument { what: "input_delays", reason: "input delays are supported with ZOH only".into() });
+            C2dMethod::Foh | C2dMethod::Tustin { .. }
+                if opts
+                    .input_delays
+                    .as_ref()
+                    .is_some_and(|d| d.iter().any(|&x| x != 0.0)) =>
+            {
+                return Err(Error::InvalidArgument {
+                    what: "input_delays",
+                    reason: "input delays are supported with ZOH only".into(),
+                });
             }
             C2dMethod::Foh => self.c2d_foh(ts)?,
             C2dMethod::Tustin { prewarp } => self.c2d_tustin(ts, prewarp)?,
@@ -83,12 +91,19 @@ impl StateSpace {
         let zero_delay = vec![0.0; m];
         let delays = delays.unwrap_or(&zero_delay);
         if delays.len() != m {
-            return Err(Error::DimensionMismatch { what: "input_delays", expected: format!("{m} entries"), got: format!("{}", delays.len()) });
+            return Err(Error::DimensionMismatch {
+                what: "input_delays",
+                expected: format!("{m} entries"),
+                got: format!("{}", delays.len()),
+            });
         }
         for &tau in delays {
             check_scalar("input delay", tau)?;
             if tau < 0.0 {
-                return Err(Error::InvalidArgument { what: "input_delays", reason: format!("delays must be >= 0, got {tau}") });
+                return Err(Error::InvalidArgument {
+                    what: "input_delays",
+                    reason: format!("delays must be >= 0, got {tau}"),
+                });
             }
         }
         let (phi, gam) = zoh_blocks(self.a(), self.b(), ts)?;
@@ -117,7 +132,8 @@ impl StateSpace {
         let mut c = DMatrix::<f64>::zeros(self.n_outputs(), n + nf);
         let mut d = self.d().clone();
         a.view_mut((0, 0), (n, n)).copy_from(&phi);
-        c.view_mut((0, 0), (self.n_outputs(), n)).copy_from(self.c());
+        c.view_mut((0, 0), (self.n_outputs(), n))
+            .copy_from(self.c());
         for j in 0..m {
             if frac[j] == 0.0 {
                 b.view_mut((0, j), (n, 1)).copy_from(&gam.column(j));
@@ -150,14 +166,21 @@ impl StateSpace {
         let mut em = DMatrix::<f64>::zeros(n + 2 * m, n + 2 * m);
         em.view_mut((0, 0), (n, n)).copy_from(&(self.a() * ts));
         em.view_mut((0, n), (n, m)).copy_from(&(self.b() * ts));
-        em.view_mut((n, n + m), (m, m)).copy_from(&DMatrix::<f64>::identity(m, m));
+        em.view_mut((n, n + m), (m, m))
+            .copy_from(&DMatrix::<f64>::identity(m, m));
         let ms = la::expm(&em)?;
         let phi = ms.view((0, 0), (n, n)).into_owned();
         let g1 = ms.view((0, n), (n, m)).into_owned();
         let g2 = ms.view((0, n + m), (n, m)).into_owned();
         let bd = &g1 - &g2 + &phi * &g2;
         let dd = self.d() + self.c() * &g2;
-        Ok(StateSpace::from_parts(phi, bd, self.c().clone(), dd, Some(ts)))
+        Ok(StateSpace::from_parts(
+            phi,
+            bd,
+            self.c().clone(),
+            dd,
+            Some(ts),
+        ))
     }
 
     fn c2d_tustin(&self, ts: f64, prewarp: Option<f64>) -> Result<StateSpace> {
@@ -167,7 +190,10 @@ impl StateSpace {
             Some(w) => {
                 check_scalar("prewarp", w)?;
                 if !(w > 0.0 && w * ts < std::f64::consts::PI) {
-                    return Err(Error::InvalidArgument { what: "prewarp", reason: format!("must lie in (0, pi/T), got {w}") });
+                    return Err(Error::InvalidArgument {
+                        what: "prewarp",
+                        reason: format!("must lie in (0, pi/T), got {w}"),
+                    });
                 }
                 2.0 / w * (w * ts / 2.0).tan()
             }
@@ -200,9 +226,9 @@ impl StateSpace {
         let bot = hcat(&DMatrix::zeros(m, n), &DMatrix::identity(m, m));
         let big = vcat(&top, &bot);
         let l = la::logm(&big).map_err(|e| match e {
-            crate::Error::Linalg(lifted_linalg::Error::NoPrincipalBranch { eigenvalue, .. }) => {
-                Error::NoContinuousEquivalent { eigenvalue }
-            }
+            crate::Error::Linalg(lifted_linalg::Error::NoPrincipalBranch {
+                eigenvalue, ..
+            }) => Error::NoContinuousEquivalent { eigenvalue },
             other => other,
         })? / ts;
         let a = l.view((0, 0), (n, n)).into_owned();
@@ -223,5 +249,42 @@ fn zoh_blocks(a: &DMatrix<f64>, b: &DMatrix<f64>, t: f64) -> Result<(DMatrix<f64
     let (n, m) = (a.nrows(), b.ncols());
     let em = vcat(&hcat(&(a * t), &(b * t)), &DMatrix::zeros(m, n + m));
     let e = la::expm(&em)?;
-    Ok((e.view((0, 0), (n, n)).into_owned(), e.view((0, n), (n, m)).into_owned()))
+    Ok((
+        e.view((0, 0), (n, n)).into_owned(),
+        e.view((0, n), (n, m)).into_owned(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integrator_zoh_and_foh() {
+        // 1/s: ZOH → T/(z − 1); FOH → (T/2)(z + 1)/(z − 1)
+        let s = StateSpace::new(
+            DMatrix::zeros(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let z = s.c2d(0.5, &C2dOptions::default()).unwrap();
+        assert!((z.a()[(0, 0)] - 1.0).abs() < 1e-15 && (z.b()[(0, 0)] - 0.5).abs() < 1e-15);
+        let f = s
+            .c2d(
+                0.5,
+                &C2dOptions {
+                    method: C2dMethod::Foh,
+                    input_delays: None,
+                },
+            )
+            .unwrap();
+        let g = f.eval_complex(Complex64::new(0.0, 1.0)).unwrap()[(0, 0)];
+        let want = 0.25 * Complex64::new(1.0, 1.0) / Complex64::new(-1.0, 1.0);
+        assert!((g - want).norm() < 1e-14);
+    }
+
+    use num_complex::Complex64;
 }

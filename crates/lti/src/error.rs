@@ -62,7 +62,9 @@ pub enum Error {
         what: &'static str,
     },
     /// A transfer function has more zeros than poles where a proper one is needed.
-    #[error("transfer function entry ({row}, {col}) is improper: numerator degree {num_degree} > denominator degree {den_degree}")]
+    #[error(
+        "transfer function entry ({row}, {col}) is improper: numerator degree {num_degree} > denominator degree {den_degree}"
+    )]
     ImproperTransferFunction {
         /// Output index of the entry.
         row: usize,
@@ -102,7 +104,9 @@ pub enum Error {
     /// `d2c`: the discrete system has an eigenvalue of [A B; 0 I] on the closed
     /// negative real axis (e.g. a pole at 0 or at z < 0), so no principal
     /// logarithm and no continuous ZOH equivalent exists.
-    #[error("no continuous-time ZOH equivalent: eigenvalue {eigenvalue} of [A B; 0 I] lies on the closed negative real axis")]
+    #[error(
+        "no continuous-time ZOH equivalent: eigenvalue {eigenvalue} of [A B; 0 I] lies on the closed negative real axis"
+    )]
     NoContinuousEquivalent {
         /// The offending eigenvalue.
         eigenvalue: Complex64,
@@ -174,6 +178,10 @@ pub(crate) fn check_domain(what: &'static str, a: Option<f64>, b: Option<f64>) -
     if same_domain(a, b) {
         Ok(())
     } else {
-        Err(Error::DomainMismatch { what, left: a, right: b })
+        Err(Error::DomainMismatch {
+            what,
+            left: a,
+            right: b,
+        })
     }
 }

@@ -3,9 +3,9 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use crate::error::{check_scalar, Error, Result};
-use crate::ss::StateSpace;
+use crate::error::{Error, Result, check_scalar};
 use crate::la;
+use crate::ss::StateSpace;
 
 /// Bode data of a p×m system at the frequencies `omega` (rad/s).
 #[derive(Debug, Clone, PartialEq)]
@@ -31,7 +31,10 @@ pub struct HinfOptions {
 
 impl Default for HinfOptions {
     fn default() -> Self {
-        Self { rel_tol: 1e-8, max_iter: 100 }
+        Self {
+            rel_tol: 1e-8,
+            max_iter: 100,
+        }
     }
 }
 
@@ -65,9 +68,15 @@ impl StateSpace {
         });
         let b = self.b().map(|x| Complex64::new(x, 0.0));
         let lu = m.lu();
-        let x = lu.solve(&b).ok_or_else(|| Error::Infinite { what: "frequency response", reason: format!("{s} is a pole") })?;
+        let x = lu.solve(&b).ok_or_else(|| Error::Infinite {
+            what: "frequency response",
+            reason: format!("{s} is a pole"),
+        })?;
         if x.iter().any(|v| !v.re.is_finite() || !v.im.is_finite()) {
-            return Err(Error::Infinite { what: "frequency response", reason: format!("{s} is a pole") });
+            return Err(Error::Infinite {
+                what: "frequency response",
+                reason: format!("{s} is a pole"),
+            });
         }
         Ok(self.c().map(|x| Complex64::new(x, 0.0)) * x + d)
     }
@@ -75,10 +84,13 @@ impl StateSpace {
     /// Frequency response at `omega` (rad/s): G(jω) for continuous models,
     /// G(e^{jωT}) for discrete ones. O(len·n³).
     pub fn freqresp(&self, omega: &[f64]) -> Result<Vec<DMatrix<Complex64>>> {
-        omega.iter().map(|&w| {
-            check_scalar("omega", w)?;
-            self.eval_complex(self.point(w))
-        }).collect()
+        omega
+            .iter()
+            .map(|&w| {
+                check_scalar("omega", w)?;
+                self.eval_complex(self.point(w))
+            })
+            .collect()
     }
 
     fn point(&self, w: f64) -> Complex64 {
@@ -93,7 +105,10 @@ impl StateSpace {
         let g = self.freqresp(omega)?;
         let (p, m) = (self.n_outputs(), self.n_inputs());
         let magnitude: Vec<DMatrix<f64>> = g.iter().map(|gk| gk.map(|z| z.norm())).collect();
-        let mut phase_deg: Vec<DMatrix<f64>> = g.iter().map(|gk| gk.map(|z| z.arg().to_degrees())).collect();
+        let mut phase_deg: Vec<DMatrix<f64>> = g
+            .iter()
+            .map(|gk| gk.map(|z| z.arg().to_degrees()))
+            .collect();
         for i in 0..p {
             for j in 0..m {
                 for k in 1..phase_deg.len() {
@@ -103,7 +118,11 @@ impl StateSpace {
                 }
             }
         }
-        Ok(Bode { omega: omega.to_vec(), magnitude, phase_deg })
+        Ok(Bode {
+            omega: omega.to_vec(),
+            magnitude,
+            phase_deg,
+        })
     }
 
     /// H2 norm. Continuous: √trace(C P Cᵀ), A P + P Aᵀ + B Bᵀ = 0 (requires
@@ -112,7 +131,10 @@ impl StateSpace {
     /// ([`Error::Unstable`]). O(n³).
     pub fn h2_norm(&self) -> Result<f64> {
         if !self.is_discrete() && self.d().iter().any(|&x| x != 0.0) {
-            return Err(Error::Infinite { what: "H2 norm", reason: "continuous system with D != 0".into() });
+            return Err(Error::Infinite {
+                what: "H2 norm",
+                reason: "continuous system with D != 0".into(),
+            });
         }
         let p = self.controllability_gramian()?;
         let mut v = (self.c() * p * self.c().transpose()).trace();
@@ -144,7 +166,10 @@ impl StateSpace {
     pub fn hinf_norm(&self, opts: &HinfOptions) -> Result<HinfNorm> {
         check_scalar("rel_tol", opts.rel_tol)?;
         if opts.rel_tol <= 0.0 {
-            return Err(Error::InvalidArgument { what: "rel_tol", reason: "must be positive".into() });
+            return Err(Error::InvalidArgument {
+                what: "rel_tol",
+                reason: "must be positive".into(),
+            });
         }
         self.require_stable("hinf_norm")?;
         match self.ts() {
@@ -153,7 +178,12 @@ impl StateSpace {
                 let n = self.order();
                 let i = DMatrix::<f64>::identity(n, n);
                 let poles = self.poles()?;
-                let dist = |s: f64| poles.iter().map(|p| (p * s + 1.0).norm()).fold(f64::INFINITY, f64::min);
+                let dist = |s: f64| {
+                    poles
+                        .iter()
+                        .map(|p| (p * s + 1.0).norm())
+                        .fold(f64::INFINITY, f64::min)
+                };
                 let sigma = if dist(1.0) >= dist(-1.0) { 1.0 } else { -1.0 };
                 let a = self.a() * sigma;
                 let b = self.b() * sigma;
@@ -163,12 +193,24 @@ impl StateSpace {
                 let cc = self.c() * &api * std::f64::consts::SQRT_2;
                 let dc = self.d() - self.c() * &api * &b;
                 let r = hinf_continuous(&ac, &bc, &cc, &dc, opts)?;
-                let phi = if r.peak_frequency.is_infinite() { std::f64::consts::PI } else { 2.0 * r.peak_frequency.atan() };
-                let mut theta = if sigma > 0.0 { phi } else { phi + std::f64::consts::PI };
+                let phi = if r.peak_frequency.is_infinite() {
+                    std::f64::consts::PI
+                } else {
+                    2.0 * r.peak_frequency.atan()
+                };
+                let mut theta = if sigma > 0.0 {
+                    phi
+                } else {
+                    phi + std::f64::consts::PI
+                };
                 if theta > std::f64::consts::PI {
                     theta = 2.0 * std::f64::consts::PI - theta;
                 }
-                Ok(HinfNorm { norm: r.norm, peak_frequency: theta.abs() / t, iterations: r.iterations })
+                Ok(HinfNorm {
+                    norm: r.norm,
+                    peak_frequency: theta.abs() / t,
+                    iterations: r.iterations,
+                })
             }
         }
     }
@@ -178,10 +220,19 @@ fn sigma_max(g: &DMatrix<Complex64>) -> f64 {
     if g.is_empty() {
         return 0.0;
     }
-    g.clone().singular_values().iter().fold(0.0, |a: f64, &b| a.max(b))
+    g.clone()
+        .singular_values()
+        .iter()
+        .fold(0.0, |a: f64, &b| a.max(b))
 }
 
-fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMatrix<f64>, opts: &HinfOptions) -> Result<HinfNorm> {
+fn hinf_continuous(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    d: &DMatrix<f64>,
+    opts: &HinfOptions,
+) -> Result<HinfNorm> {
     let sys = StateSpace::from_parts(a.clone(), b.clone(), c.clone(), d.clone(), None);
     let n = a.nrows();
     let (p, m) = d.shape();
@@ -189,7 +240,11 @@ fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMa
     let mut gamma_lb = sd;
     let mut peak = f64::INFINITY;
     if n == 0 || p == 0 || m == 0 {
-        return Ok(HinfNorm { norm: sd, peak_frequency: if sd > 0.0 { f64::INFINITY } else { 0.0 }, iterations: 0 });
+        return Ok(HinfNorm {
+            norm: sd,
+            peak_frequency: if sd > 0.0 { f64::INFINITY } else { 0.0 },
+            iterations: 0,
+        });
     }
     let mut cands = vec![0.0];
     for pl in la::eigenvalues(a)? {
@@ -205,7 +260,11 @@ fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMa
         }
     }
     if gamma_lb == 0.0 {
-        return Ok(HinfNorm { norm: 0.0, peak_frequency: 0.0, iterations: 0 });
+        return Ok(HinfNorm {
+            norm: 0.0,
+            peak_frequency: 0.0,
+            iterations: 0,
+        });
     }
     for it in 1..=opts.max_iter {
         let gamma = (1.0 + 2.0 * opts.rel_tol) * gamma_lb;
@@ -215,10 +274,14 @@ fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMa
         let ri = la::inv(&r)?;
         let si = la::inv(&s)?;
         let mut h = DMatrix::<f64>::zeros(2 * n, 2 * n);
-        h.view_mut((0, 0), (n, n)).copy_from(&(a - b * &ri * d.transpose() * c));
-        h.view_mut((0, n), (n, n)).copy_from(&(b * &ri * b.transpose() * (-gamma)));
-        h.view_mut((n, 0), (n, n)).copy_from(&(c.transpose() * &si * c * gamma));
-        h.view_mut((n, n), (n, n)).copy_from(&(-a.transpose() + c.transpose() * d * &ri * b.transpose()));
+        h.view_mut((0, 0), (n, n))
+            .copy_from(&(a - b * &ri * d.transpose() * c));
+        h.view_mut((0, n), (n, n))
+            .copy_from(&(b * &ri * b.transpose() * (-gamma)));
+        h.view_mut((n, 0), (n, n))
+            .copy_from(&(c.transpose() * &si * c * gamma));
+        h.view_mut((n, n), (n, n))
+            .copy_from(&(-a.transpose() + c.transpose() * d * &ri * b.transpose()));
         let hn = h.norm().max(1.0);
         let mut ws: Vec<f64> = la::eigenvalues(&h)?
             .into_iter()
@@ -226,7 +289,11 @@ fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMa
             .map(|l| l.im)
             .collect();
         if ws.is_empty() {
-            return Ok(HinfNorm { norm: gamma_lb, peak_frequency: peak, iterations: it });
+            return Ok(HinfNorm {
+                norm: gamma_lb,
+                peak_frequency: peak,
+                iterations: it,
+            });
         }
         ws.sort_by(f64::total_cmp);
         // a single crossing: pair it with 0 (the symmetric −ω)
@@ -245,10 +312,44 @@ fn hinf_continuous(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>, d: &DMa
         }
         if best <= gamma {
             // no progress: the crossings were rounding artefacts at the peak
-            return Ok(HinfNorm { norm: gamma_lb.max(best), peak_frequency: if best > gamma_lb { best_w } else { peak }, iterations: it });
+            return Ok(HinfNorm {
+                norm: gamma_lb.max(best),
+                peak_frequency: if best > gamma_lb { best_w } else { peak },
+                iterations: it,
+            });
         }
         gamma_lb = best;
         peak = best_w;
     }
-    Err(Error::NoConvergence { what: "hinf_norm", iterations: opts.max_iter })
+    Err(Error::NoConvergence {
+        what: "hinf_norm",
+        iterations: opts.max_iter,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_order_response_and_norms() {
+        // 1/(s + 2): |G(j2)| = 1/(2√2), ‖G‖∞ = 0.5 at ω = 0, ‖G‖₂ = 1/2
+        let s = StateSpace::new(
+            DMatrix::from_element(1, 1, -2.0),
+            DMatrix::identity(1, 1),
+            DMatrix::identity(1, 1),
+            DMatrix::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let g = s.freqresp(&[2.0]).unwrap();
+        assert!((g[0][(0, 0)].norm() - 1.0 / (2.0 * 2f64.sqrt())).abs() < 1e-15);
+        let h = s.hinf_norm(&HinfOptions::default()).unwrap();
+        assert!((h.norm - 0.5).abs() < 1e-12 && h.peak_frequency == 0.0);
+        assert!((s.h2_norm().unwrap() - 0.5).abs() < 1e-14);
+        assert!(matches!(
+            s.eval_complex(Complex64::new(-2.0, 0.0)),
+            Err(Error::Infinite { .. })
+        ));
+    }
 }

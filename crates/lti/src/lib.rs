@@ -85,7 +85,7 @@ pub use connect::{append, feedback, parallel, series};
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};
 pub use freq::{Bode, HinfNorm, HinfOptions};
-pub use poly::{cancel_common_roots, Poly};
+pub use poly::{Poly, cancel_common_roots};
 pub use reduce::MinrealOptions;
 pub use response::SimResult;
 pub use ss::StateSpace;

@@ -62,7 +62,9 @@ impl Poly {
 
     /// The monomial `s` (or `z`).
     pub fn s() -> Self {
-        Self { coeffs: vec![1.0, 0.0] }
+        Self {
+            coeffs: vec![1.0, 0.0],
+        }
     }
 
     /// Monic polynomial with the given roots, Π(x − rᵢ). Complex roots must
@@ -121,7 +123,11 @@ impl Poly {
 
     /// Divides by the leading coefficient (the zero polynomial is returned unchanged).
     pub fn monic(&self) -> Self {
-        if self.is_zero() { self.clone() } else { self.scale(1.0 / self.leading()) }
+        if self.is_zero() {
+            self.clone()
+        } else {
+            self.scale(1.0 / self.leading())
+        }
     }
 
     /// Evaluates at a real point (Horner, O(n)).
@@ -191,7 +197,9 @@ impl Poly {
     /// Errors: [`Error::ZeroDenominator`] when `d` is zero.
     pub fn div_rem(&self, d: &Poly) -> Result<(Poly, Poly)> {
         if d.is_zero() {
-            return Err(Error::ZeroDenominator { what: "polynomial division" });
+            return Err(Error::ZeroDenominator {
+                what: "polynomial division",
+            });
         }
         if self.degree() < d.degree() {
             return Ok((Poly::zero(), self.clone()));
@@ -348,13 +356,23 @@ impl Neg for &Poly {
 /// with |zᵢ − pⱼ| ≤ tol·max(1, |pⱼ|) are cancelled in pairs (closest pairs
 /// first). The gain num.leading/den.leading is kept; the returned denominator
 /// is monic. Complex roots are cancelled together with their conjugates so
-/// the results stay real. O(n³) (root finding) + O(n_z·n_p) matching.
+/// the results stay real (closest pairs are cancelled first, so a
+/// complex pair and its conjugate cancel together). O(n³) (root finding) + O(n_z·n_p) matching.
 ///
 /// This is the SISO `minreal` of a transfer function. Errors: the zero
 /// denominator ([`Error::ZeroDenominator`]).
 pub fn cancel_common_roots(num: &Poly, den: &Poly, tol: f64) -> Result<(Poly, Poly)> {
+    crate::error::check_scalar("tol", tol)?;
+    if tol < 0.0 {
+        return Err(Error::InvalidArgument {
+            what: "tol",
+            reason: format!("must be >= 0, got {tol}"),
+        });
+    }
     if den.is_zero() {
-        return Err(Error::ZeroDenominator { what: "cancel_common_roots" });
+        return Err(Error::ZeroDenominator {
+            what: "cancel_common_roots",
+        });
     }
     if num.is_zero() {
         return Ok((Poly::zero(), Poly::one()));
@@ -375,26 +393,11 @@ pub fn cancel_common_roots(num: &Poly, den: &Poly, tol: f64) -> Result<(Poly, Po
             }
         }
         let Some((i, j, _)) = best else { break };
-        let z = zs.remove(i);
-        let p = ps.remove(j);
+        // Closest pairs first: a cancelled complex pair's conjugates are
+        // the next closest pair, so conjugate symmetry is kept.
+        zs.remove(i);
+        ps.remove(j);
         cancelled = true;
-        // keep conjugate symmetry: cancel the conjugates too
-        if z.im.abs() > 0.0 || p.im.abs() > 0.0 {
-            let zc = zs
-                .iter()
-                .enumerate()
-                .min_by(|a, b| (a.1 - z.conj()).norm().total_cmp(&(b.1 - z.conj()).norm()))
-                .map(|(k, _)| k);
-            let pc = ps
-                .iter()
-                .enumerate()
-                .min_by(|a, b| (a.1 - p.conj()).norm().total_cmp(&(b.1 - p.conj()).norm()))
-                .map(|(k, _)| k);
-            if let (Some(a), Some(b)) = (zc, pc) {
-                zs.remove(a);
-                ps.remove(b);
-            }
-        }
     }
     if !cancelled {
         return Ok((num.scale(1.0 / den.leading()), den.monic()));

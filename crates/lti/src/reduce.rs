@@ -3,8 +3,8 @@
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
-use crate::ss::StateSpace;
 use crate::la;
+use crate::ss::StateSpace;
 
 /// Options of [`StateSpace::minreal`] and [`crate::TransferFunction::minreal`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,7 +19,9 @@ pub struct MinrealOptions {
 
 impl Default for MinrealOptions {
     fn default() -> Self {
-        Self { tol: f64::EPSILON.sqrt() }
+        Self {
+            tol: f64::EPSILON.sqrt(),
+        }
     }
 }
 
@@ -29,7 +31,11 @@ impl Default for MinrealOptions {
 /// QᵀB = [B₁; 0], and the (2,1) block below the first nc states vanishes.
 /// Rank decisions by SVD with absolute threshold `tol_abs`. O(n⁴) worst case
 /// (n SVDs of at most n×n blocks), O(n³) typically.
-fn controllable_staircase(a: &DMatrix<f64>, b: &DMatrix<f64>, tol_abs: f64) -> Result<(DMatrix<f64>, usize)> {
+fn controllable_staircase(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    tol_abs: f64,
+) -> Result<(DMatrix<f64>, usize)> {
     let n = a.nrows();
     let mut q = DMatrix::<f64>::identity(n, n);
     let mut at = a.clone();
@@ -93,7 +99,11 @@ impl StateSpace {
             return Ok(self.clone());
         }
         let scale = crate::connect::vcat(self.a(), self.c()).norm().max(1.0);
-        let (q, no) = controllable_staircase(&self.a().transpose(), &self.c().transpose(), opts.tol * scale)?;
+        let (q, no) = controllable_staircase(
+            &self.a().transpose(),
+            &self.c().transpose(),
+            opts.tol * scale,
+        )?;
         let qo = q.columns(0, no).into_owned();
         Ok(StateSpace::from_parts(
             qo.transpose() * self.a() * &qo,
@@ -110,7 +120,10 @@ impl StateSpace {
     /// O(n³)–O(n⁴).
     pub fn minreal(&self, opts: &MinrealOptions) -> Result<StateSpace> {
         if !(opts.tol.is_finite() && opts.tol >= 0.0) {
-            return Err(Error::InvalidArgument { what: "MinrealOptions::tol", reason: format!("must be finite and non-negative, got {}", opts.tol) });
+            return Err(Error::InvalidArgument {
+                what: "MinrealOptions::tol",
+                reason: format!("must be finite and non-negative, got {}", opts.tol),
+            });
         }
         let mut r = self.controllable_part(opts)?.observable_part(opts)?;
         if let Some(n) = self.input_names() {
@@ -127,7 +140,11 @@ impl StateSpace {
     pub fn controllability_gramian(&self) -> Result<DMatrix<f64>> {
         self.require_stable("controllability_gramian")?;
         let q = self.b() * self.b().transpose();
-        if self.is_discrete() { la::dlyap(self.a(), &q) } else { la::lyap(self.a(), &q) }
+        if self.is_discrete() {
+            la::dlyap(self.a(), &q)
+        } else {
+            la::lyap(self.a(), &q)
+        }
     }
 
     /// Observability Gramian Q: Aᵀ Q + Q A + CᵀC = 0 (continuous) or
@@ -136,7 +153,11 @@ impl StateSpace {
         self.require_stable("observability_gramian")?;
         let q = self.c().transpose() * self.c();
         let at = self.a().transpose();
-        if self.is_discrete() { la::dlyap(&at, &q) } else { la::lyap(&at, &q) }
+        if self.is_discrete() {
+            la::dlyap(&at, &q)
+        } else {
+            la::lyap(&at, &q)
+        }
     }
 
     /// Balanced truncation to `order` states by the square-root method:
@@ -155,17 +176,29 @@ impl StateSpace {
         let lp = sym_factor(&p)?;
         let lq = sym_factor(&q)?;
         let (u, s, v) = la::svd(&(lq.transpose() * &lp))?;
-        let nonzero = s.iter().filter(|&&x| x > f64::EPSILON * s.first().copied().unwrap_or(0.0)).count();
+        let nonzero = s
+            .iter()
+            .filter(|&&x| x > f64::EPSILON * s.first().copied().unwrap_or(0.0))
+            .count();
         if order > nonzero {
             return Err(Error::InvalidArgument {
                 what: "order",
                 reason: format!("{order} exceeds the {nonzero} nonzero Hankel singular values"),
             });
         }
-        let sinv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(order, s.iter().take(order).map(|x| 1.0 / x.sqrt())));
+        let sinv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            order,
+            s.iter().take(order).map(|x| 1.0 / x.sqrt()),
+        ));
         let tr = &lp * v.columns(0, order) * &sinv;
         let tl = &sinv * u.columns(0, order).transpose() * lq.transpose();
-        let red = StateSpace::from_parts(&tl * self.a() * &tr, &tl * self.b(), self.c() * &tr, self.d().clone(), self.ts());
+        let red = StateSpace::from_parts(
+            &tl * self.a() * &tr,
+            &tl * self.b(),
+            self.c() * &tr,
+            self.d().clone(),
+            self.ts(),
+        );
         Ok((red, s))
     }
 }
@@ -180,4 +213,26 @@ fn sym_factor(m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         l.column_mut(j).scale_mut(s);
     }
     Ok(l)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn staircase_detects_uncontrollable_mode() {
+        let s = StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[-1.0, 0.0, 0.0, -2.0]),
+            DMatrix::from_row_slice(2, 1, &[1.0, 0.0]),
+            DMatrix::from_row_slice(1, 2, &[1.0, 1.0]),
+            DMatrix::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let r = s.minreal(&MinrealOptions::default()).unwrap();
+        assert_eq!(r.order(), 1);
+        assert!((r.a()[(0, 0)] + 1.0).abs() < 1e-14);
+        let o = s.observable_part(&MinrealOptions::default()).unwrap();
+        assert_eq!(o.order(), 2);
+    }
 }

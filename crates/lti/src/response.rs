@@ -5,10 +5,10 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::{check_ts, Error, Result};
-use crate::ss::StateSpace;
-use crate::la;
 use crate::C2dOptions;
+use crate::error::{Error, Result, check_ts};
+use crate::la;
+use crate::ss::StateSpace;
 
 /// Result of [`StateSpace::lsim`].
 #[derive(Debug, Clone, PartialEq)]
@@ -28,14 +28,23 @@ impl StateSpace {
     /// each step (ZOH) and the response is exact at the samples. O(N(n² + nm + pn)).
     ///
     /// Errors: shape of `u`/`x0`, non-finite data, missing or wrong `dt`.
-    pub fn lsim(&self, u: &DMatrix<f64>, x0: Option<&DVector<f64>>, dt: Option<f64>) -> Result<SimResult> {
+    pub fn lsim(
+        &self,
+        u: &DMatrix<f64>,
+        x0: Option<&DVector<f64>>,
+        dt: Option<f64>,
+    ) -> Result<SimResult> {
         la::check_cols("u", u, self.n_inputs())?;
         la::check_finite("u", u)?;
         let n = self.order();
         let x0 = match x0 {
             Some(v) => {
                 if v.len() != n {
-                    return Err(Error::DimensionMismatch { what: "x0", expected: format!("{n} entries"), got: format!("{}", v.len()) });
+                    return Err(Error::DimensionMismatch {
+                        what: "x0",
+                        expected: format!("{n} entries"),
+                        got: format!("{}", v.len()),
+                    });
                 }
                 let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
                 la::check_finite("x0", &vm)?;
@@ -47,11 +56,20 @@ impl StateSpace {
             (Some(_), None) => std::borrow::Cow::Borrowed(self),
             (Some(t), Some(d)) => {
                 if !crate::error::same_domain(Some(t), Some(d)) {
-                    return Err(Error::DomainMismatch { what: "lsim dt", left: Some(t), right: Some(d) });
+                    return Err(Error::DomainMismatch {
+                        what: "lsim dt",
+                        left: Some(t),
+                        right: Some(d),
+                    });
                 }
                 std::borrow::Cow::Borrowed(self)
             }
-            (None, None) => return Err(Error::InvalidArgument { what: "dt", reason: "continuous simulation needs a step dt".into() }),
+            (None, None) => {
+                return Err(Error::InvalidArgument {
+                    what: "dt",
+                    reason: "continuous simulation needs a step dt".into(),
+                });
+            }
             (None, Some(d)) => {
                 check_ts(Some(d))?;
                 std::borrow::Cow::Owned(self.c2d(d, &C2dOptions::default())?)
@@ -90,7 +108,10 @@ impl StateSpace {
                 .collect(),
             None => {
                 let Some(dt) = dt else {
-                    return Err(Error::InvalidArgument { what: "dt", reason: "continuous impulse response needs a step dt".into() });
+                    return Err(Error::InvalidArgument {
+                        what: "dt",
+                        reason: "continuous impulse response needs a step dt".into(),
+                    });
                 };
                 check_ts(Some(dt))?;
                 let phi = la::expm(&(self.a() * dt))?;
@@ -112,7 +133,9 @@ impl StateSpace {
     /// Zhu (2000) eq. (III-3). Discrete models only. O(k n² m).
     pub fn markov_parameters(&self, k: usize) -> Result<Vec<DMatrix<f64>>> {
         if !self.is_discrete() {
-            return Err(Error::NotDiscrete { what: "markov_parameters" });
+            return Err(Error::NotDiscrete {
+                what: "markov_parameters",
+            });
         }
         let mut out = Vec::with_capacity(k + 1);
         out.push(self.d().clone());
@@ -131,7 +154,9 @@ impl StateSpace {
     /// models only. O(n³ + k n² p).
     pub fn covariance_parameters(&self, w: &DMatrix<f64>, k: usize) -> Result<Vec<DMatrix<f64>>> {
         if !self.is_discrete() {
-            return Err(Error::NotDiscrete { what: "covariance_parameters" });
+            return Err(Error::NotDiscrete {
+                what: "covariance_parameters",
+            });
         }
         let m = self.n_inputs();
         la::check_rows("W", w, m)?;
@@ -165,4 +190,32 @@ fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> Si
         x = sys.a() * &x + sys.b() * uk;
     }
     SimResult { y, x: xs }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_is_one_row_per_sample() {
+        let s = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_row_slice(1, 2, &[1.0, 2.0]),
+            DMatrix::from_row_slice(2, 1, &[1.0, -1.0]),
+            DMatrix::zeros(2, 2),
+            Some(1.0),
+        )
+        .unwrap();
+        let u = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+        let r = s.lsim(&u, None, None).unwrap();
+        assert_eq!(r.y.shape(), (3, 2));
+        // x1 = 1, x2 = 0.5 + 2 = 2.5
+        assert_eq!(r.y[(1, 0)], 1.0);
+        assert_eq!(r.y[(2, 1)], -2.5);
+        let st = s.step(4, None).unwrap();
+        assert_eq!(st.len(), 2);
+        assert_eq!(st[1].shape(), (4, 2));
+        let h = s.markov_parameters(2).unwrap();
+        assert_eq!(h[2][(0, 1)], 1.0);
+    }
 }

@@ -3,7 +3,7 @@
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{check_ts, Error, Result};
+use crate::error::{Error, Result, check_ts};
 use crate::la;
 
 /// A linear time-invariant state-space model
@@ -51,13 +51,27 @@ impl StateSpace {
             la::check_finite(what, m)?;
         }
         check_ts(ts)?;
-        Ok(Self { a, b, c, d, ts, input_names: None, output_names: None })
+        Ok(Self {
+            a,
+            b,
+            c,
+            d,
+            ts,
+            input_names: None,
+            output_names: None,
+        })
     }
 
     /// A static gain y = D u (no states).
     pub fn gain(d: DMatrix<f64>, ts: Option<f64>) -> Result<Self> {
         let (p, m) = d.shape();
-        Self::new(DMatrix::zeros(0, 0), DMatrix::zeros(0, m), DMatrix::zeros(p, 0), d, ts)
+        Self::new(
+            DMatrix::zeros(0, 0),
+            DMatrix::zeros(0, m),
+            DMatrix::zeros(p, 0),
+            d,
+            ts,
+        )
     }
 
     /// Builds without validation (internal: inputs are produced by this crate).
@@ -72,7 +86,15 @@ impl StateSpace {
         debug_assert_eq!(b.nrows(), a.nrows());
         debug_assert_eq!(c.ncols(), a.nrows());
         debug_assert_eq!(d.shape(), (c.nrows(), b.ncols()));
-        Self { a, b, c, d, ts, input_names: None, output_names: None }
+        Self {
+            a,
+            b,
+            c,
+            d,
+            ts,
+            input_names: None,
+            output_names: None,
+        }
     }
 
     /// Attaches input names (one per input).
@@ -155,7 +177,13 @@ impl StateSpace {
         la::check_finite("T", t)?;
         let ti = la::inv(t)?;
         let _ = n;
-        let mut out = Self::from_parts(&ti * &self.a * t, &ti * &self.b, &self.c * t, self.d.clone(), self.ts);
+        let mut out = Self::from_parts(
+            &ti * &self.a * t,
+            &ti * &self.b,
+            &self.c * t,
+            self.d.clone(),
+            self.ts,
+        );
         out.input_names.clone_from(&self.input_names);
         out.output_names.clone_from(&self.output_names);
         Ok(out)
@@ -163,12 +191,16 @@ impl StateSpace {
 
     /// Serialises to JSON (see the type docs for the layout).
     pub fn to_json(&self) -> Result<String> {
-        serde_json::to_string(self).map_err(|e| Error::Json { reason: e.to_string() })
+        serde_json::to_string(self).map_err(|e| Error::Json {
+            reason: e.to_string(),
+        })
     }
 
     /// Parses and validates a JSON model.
     pub fn from_json(s: &str) -> Result<Self> {
-        serde_json::from_str(s).map_err(|e| Error::Json { reason: e.to_string() })
+        serde_json::from_str(s).map_err(|e| Error::Json {
+            reason: e.to_string(),
+        })
     }
 
     /// Discrete models only: delays input j by `input_delays[j]` samples and
@@ -180,7 +212,9 @@ impl StateSpace {
     /// Errors: [`Error::NotDiscrete`], wrong slice lengths.
     pub fn with_io_delays(&self, input_delays: &[usize], output_delays: &[usize]) -> Result<Self> {
         if !self.is_discrete() {
-            return Err(Error::NotDiscrete { what: "with_io_delays" });
+            return Err(Error::NotDiscrete {
+                what: "with_io_delays",
+            });
         }
         let m = self.n_inputs();
         let p = self.n_outputs();
@@ -252,7 +286,9 @@ struct SsRepr {
 }
 
 fn rows_of(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
 }
 
 fn from_rows(what: &'static str, rows: &[Vec<f64>], ncols_if_empty: usize) -> Result<DMatrix<f64>> {
@@ -288,7 +324,11 @@ impl TryFrom<SsRepr> for StateSpace {
         let a = from_rows("a", &r.a, r.a.len())?;
         let n = a.nrows();
         // With no states, B is 0×m and C is p×0: recover m and p from D.
-        let m = if n > 0 { r.b.first().map_or(0, Vec::len) } else { r.d.first().map_or(0, Vec::len) };
+        let m = if n > 0 {
+            r.b.first().map_or(0, Vec::len)
+        } else {
+            r.d.first().map_or(0, Vec::len)
+        };
         let b = from_rows("b", &r.b, m)?;
         let c = from_rows("c", &r.c, n)?;
         let d = from_rows("d", &r.d, b.ncols())?;
@@ -306,9 +346,80 @@ impl TryFrom<SsRepr> for StateSpace {
 impl std::fmt::Display for StateSpace {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.ts {
-            None => writeln!(f, "continuous-time state space, n = {}, m = {}, p = {}", self.order(), self.n_inputs(), self.n_outputs())?,
-            Some(t) => writeln!(f, "discrete-time state space (T = {t}), n = {}, m = {}, p = {}", self.order(), self.n_inputs(), self.n_outputs())?,
+            None => writeln!(
+                f,
+                "continuous-time state space, n = {}, m = {}, p = {}",
+                self.order(),
+                self.n_inputs(),
+                self.n_outputs()
+            )?,
+            Some(t) => writeln!(
+                f,
+                "discrete-time state space (T = {t}), n = {}, m = {}, p = {}",
+                self.order(),
+                self.n_inputs(),
+                self.n_outputs()
+            )?,
         }
-        write!(f, "A = {}B = {}C = {}D = {}", self.a, self.b, self.c, self.d)
+        write!(
+            f,
+            "A = {}B = {}C = {}D = {}",
+            self.a, self.b, self.c, self.d
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sys() -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.5, 1.0, 0.0, 0.25]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 1.0]),
+            DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn accessors_and_similarity() {
+        let s = sys();
+        assert_eq!((s.order(), s.n_inputs(), s.n_outputs()), (2, 1, 1));
+        assert!(s.is_discrete());
+        let t = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 0.0, 1.0]);
+        let z = s.similarity_transform(&t).unwrap();
+        let h1 = s.markov_parameters(4).unwrap();
+        let h2 = z.markov_parameters(4).unwrap();
+        for (a, b) in h1.iter().zip(&h2) {
+            assert!((a - b).norm() < 1e-14);
+        }
+        assert!(s.similarity_transform(&DMatrix::zeros(2, 2)).is_err());
+    }
+
+    #[test]
+    fn names_must_match_channels() {
+        assert!(
+            sys()
+                .with_input_names(vec!["a".into(), "b".into()])
+                .is_err()
+        );
+        let s = sys().with_output_names(vec!["y".into()]).unwrap();
+        assert_eq!(s.output_names().unwrap()[0], "y");
+    }
+
+    #[test]
+    fn delay_bank_is_a_shift_register() {
+        let d = delay_bank(&[0, 2], Some(1.0));
+        assert_eq!(d.order(), 2);
+        assert_eq!(d.d()[(0, 0)], 1.0);
+        assert!(sys().with_io_delays(&[1, 1], &[]).is_err());
+        let c = StateSpace::gain(DMatrix::identity(1, 1), None).unwrap();
+        assert!(matches!(
+            c.with_io_delays(&[1], &[]),
+            Err(Error::NotDiscrete { .. })
+        ));
     }
 }

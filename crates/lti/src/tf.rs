@@ -5,9 +5,9 @@ use std::fmt;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use crate::error::{check_domain, check_ts, Error, Result};
-use crate::poly::{cancel_common_roots, Poly};
 use crate::MinrealOptions;
+use crate::error::{Error, Result, check_domain, check_ts};
+use crate::poly::{Poly, cancel_common_roots};
 
 /// Sign of the feedback path in [`crate::feedback`] and
 /// [`TransferFunction::feedback`]: `Negative` (the default) gives
@@ -39,10 +39,17 @@ pub struct SisoTf {
 }
 
 impl SisoTf {
-    /// num/den; errors with [`Error::ZeroDenominator`] when den is zero.
+    /// num/den; errors with [`Error::ZeroDenominator`] when den is zero and
+    /// [`Error::NonFiniteScalar`] for non-finite coefficients (e.g. after
+    /// scaling a polynomial by NaN).
     pub fn new(num: Poly, den: Poly) -> Result<Self> {
+        for &c in num.coeffs().iter().chain(den.coeffs()) {
+            crate::error::check_scalar("transfer function coefficient", c)?;
+        }
         if den.is_zero() {
-            return Err(Error::ZeroDenominator { what: "transfer function" });
+            return Err(Error::ZeroDenominator {
+                what: "transfer function",
+            });
         }
         Ok(Self { num, den })
     }
@@ -69,19 +76,34 @@ impl SisoTf {
     /// Scales numerator and denominator so the denominator is monic.
     pub fn normalized(&self) -> Self {
         let l = self.den.leading();
-        Self { num: self.num.scale(1.0 / l), den: self.den.scale(1.0 / l) }
+        Self {
+            num: self.num.scale(1.0 / l),
+            den: self.den.scale(1.0 / l),
+        }
     }
     fn add(&self, o: &Self) -> Self {
         if self.den == o.den {
-            return Self { num: &self.num + &o.num, den: self.den.clone() };
+            return Self {
+                num: &self.num + &o.num,
+                den: self.den.clone(),
+            };
         }
-        Self { num: &(&self.num * &o.den) + &(&o.num * &self.den), den: &self.den * &o.den }
+        Self {
+            num: &(&self.num * &o.den) + &(&o.num * &self.den),
+            den: &self.den * &o.den,
+        }
     }
     fn mul(&self, o: &Self) -> Self {
-        Self { num: &self.num * &o.num, den: &self.den * &o.den }
+        Self {
+            num: &self.num * &o.num,
+            den: &self.den * &o.den,
+        }
     }
     fn neg(&self) -> Self {
-        Self { num: -&self.num, den: self.den.clone() }
+        Self {
+            num: -&self.num,
+            den: self.den.clone(),
+        }
     }
     /// Common-root cancellation (see [`crate::poly::cancel_common_roots`]).
     pub fn minreal(&self, tol: f64) -> Result<Self> {
@@ -106,7 +128,12 @@ impl TransferFunction {
     /// Errors: NaN coefficients, zero denominator, invalid `ts`.
     pub fn siso(num: Poly, den: Poly, ts: Option<f64>) -> Result<Self> {
         check_ts(ts)?;
-        Ok(Self { rows: 1, cols: 1, entries: vec![SisoTf::new(num, den)?], ts })
+        Ok(Self {
+            rows: 1,
+            cols: 1,
+            entries: vec![SisoTf::new(num, den)?],
+            ts,
+        })
     }
 
     /// SISO from coefficient slices (descending powers).
@@ -127,20 +154,42 @@ impl TransferFunction {
                 got: "rows of different lengths".into(),
             });
         }
-        Ok(Self { rows: p, cols: m, entries: rows.into_iter().flatten().collect(), ts })
+        Ok(Self {
+            rows: p,
+            cols: m,
+            entries: rows.into_iter().flatten().collect(),
+            ts,
+        })
     }
 
     /// A static gain matrix.
     pub fn gain(k: &DMatrix<f64>, ts: Option<f64>) -> Result<Self> {
         crate::la::check_finite("gain", k)?;
         let rows = (0..k.nrows())
-            .map(|i| (0..k.ncols()).map(|j| SisoTf { num: Poly::constant(k[(i, j)]), den: Poly::one() }).collect())
+            .map(|i| {
+                (0..k.ncols())
+                    .map(|j| SisoTf {
+                        num: Poly::constant(k[(i, j)]),
+                        den: Poly::one(),
+                    })
+                    .collect()
+            })
             .collect();
         Self::from_entries(rows, ts)
     }
 
-    pub(crate) fn from_parts(rows: usize, cols: usize, entries: Vec<SisoTf>, ts: Option<f64>) -> Self {
-        Self { rows, cols, entries, ts }
+    pub(crate) fn from_parts(
+        rows: usize,
+        cols: usize,
+        entries: Vec<SisoTf>,
+        ts: Option<f64>,
+    ) -> Self {
+        Self {
+            rows,
+            cols,
+            entries,
+            ts,
+        }
     }
 
     /// Number of outputs p.
@@ -158,7 +207,10 @@ impl TransferFunction {
     /// Entry (output i, input j). Panics if out of range (indices are not user data).
     #[track_caller]
     pub fn entry(&self, i: usize, j: usize) -> &SisoTf {
-        assert!(i < self.rows && j < self.cols, "transfer function index out of range");
+        assert!(
+            i < self.rows && j < self.cols,
+            "transfer function index out of range"
+        );
         &self.entries[i * self.cols + j]
     }
     /// Numerator of entry (i, j).
@@ -196,12 +248,21 @@ impl TransferFunction {
 
     /// Every entry with a monic denominator.
     pub fn normalized(&self) -> Self {
-        Self { entries: self.entries.iter().map(SisoTf::normalized).collect(), ..self.clone() }
+        Self {
+            entries: self.entries.iter().map(SisoTf::normalized).collect(),
+            ..self.clone()
+        }
     }
 
-    /// Value G(s) (or G(z)) at a complex point, p×m.
-    pub fn eval(&self, s: Complex64) -> DMatrix<Complex64> {
-        DMatrix::from_fn(self.rows, self.cols, |i, j| self.entry(i, j).eval(s))
+    /// Value G(s) (or G(z)) at a complex point, p×m (infinite entries at poles).
+    ///
+    /// Errors: non-finite `s`.
+    pub fn eval(&self, s: Complex64) -> Result<DMatrix<Complex64>> {
+        crate::error::check_scalar("s (real part)", s.re)?;
+        crate::error::check_scalar("s (imaginary part)", s.im)?;
+        Ok(DMatrix::from_fn(self.rows, self.cols, |i, j| {
+            self.entry(i, j).eval(s)
+        }))
     }
 
     fn same_shape(&self, o: &Self, what: &'static str) -> Result<()> {
@@ -221,7 +282,12 @@ impl TransferFunction {
     pub fn add(&self, o: &Self) -> Result<Self> {
         self.same_shape(o, "add")?;
         Ok(Self {
-            entries: self.entries.iter().zip(&o.entries).map(|(a, b)| a.add(b)).collect(),
+            entries: self
+                .entries
+                .iter()
+                .zip(&o.entries)
+                .map(|(a, b)| a.add(b))
+                .collect(),
             ..self.clone()
         })
     }
@@ -233,7 +299,10 @@ impl TransferFunction {
 
     /// Negation.
     pub fn neg(&self) -> Self {
-        Self { entries: self.entries.iter().map(SisoTf::neg).collect(), ..self.clone() }
+        Self {
+            entries: self.entries.iter().map(SisoTf::neg).collect(),
+            ..self.clone()
+        }
     }
 
     /// Matrix product self·o (o acts first: the series connection u → o → self).
@@ -249,7 +318,10 @@ impl TransferFunction {
         let mut entries = Vec::with_capacity(self.rows * o.cols);
         for i in 0..self.rows {
             for j in 0..o.cols {
-                let mut acc = SisoTf { num: Poly::zero(), den: Poly::one() };
+                let mut acc = SisoTf {
+                    num: Poly::zero(),
+                    den: Poly::one(),
+                };
                 for k in 0..self.cols {
                     let t = self.entry(i, k).mul(o.entry(k, j));
                     acc = if k == 0 { t } else { acc.add(&t) };
@@ -257,21 +329,39 @@ impl TransferFunction {
                 entries.push(acc);
             }
         }
-        Ok(Self { rows: self.rows, cols: o.cols, entries, ts: self.ts })
+        Ok(Self {
+            rows: self.rows,
+            cols: o.cols,
+            entries,
+            ts: self.ts,
+        })
     }
 
     /// SISO reciprocal 1/G. Errors: not SISO, or G ≡ 0.
     pub fn inv(&self) -> Result<Self> {
         let e = self.siso_entry("inv")?;
         if e.num.is_zero() {
-            return Err(Error::NotInvertible { what: "transfer function", reason: "it is identically zero".into() });
+            return Err(Error::NotInvertible {
+                what: "transfer function",
+                reason: "it is identically zero".into(),
+            });
         }
-        Ok(Self { entries: vec![SisoTf { num: e.den.clone(), den: e.num.clone() }], ..self.clone() })
+        Ok(Self {
+            entries: vec![SisoTf {
+                num: e.den.clone(),
+                den: e.num.clone(),
+            }],
+            ..self.clone()
+        })
     }
 
     fn siso_entry(&self, what: &'static str) -> Result<&SisoTf> {
         if !self.is_siso() {
-            return Err(Error::DimensionMismatch { what, expected: "a SISO transfer function".into(), got: format!("{}x{}", self.rows, self.cols) });
+            return Err(Error::DimensionMismatch {
+                what,
+                expected: "a SISO transfer function".into(),
+                got: format!("{}x{}", self.rows, self.cols),
+            });
         }
         Ok(&self.entries[0])
     }
@@ -291,7 +381,10 @@ impl TransferFunction {
             if den.is_zero() {
                 return Err(Error::AlgebraicLoop);
             }
-            return Ok(Self { entries: vec![SisoTf { num, den }], ..self.clone() });
+            return Ok(Self {
+                entries: vec![SisoTf { num, den }],
+                ..self.clone()
+            });
         }
         let g = self.to_ss()?;
         let kk = k.to_ss()?;
@@ -302,8 +395,15 @@ impl TransferFunction {
     /// relative tolerance `opts.tol` (see [`cancel_common_roots`]); denominators
     /// come back monic.
     pub fn minreal(&self, opts: &MinrealOptions) -> Result<Self> {
-        let entries = self.entries.iter().map(|e| e.minreal(opts.tol)).collect::<Result<Vec<_>>>()?;
-        Ok(Self { entries, ..self.clone() })
+        let entries = self
+            .entries
+            .iter()
+            .map(|e| e.minreal(opts.tol))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self {
+            entries,
+            ..self.clone()
+        })
     }
 
     /// SISO poles (roots of the denominator). For MIMO use `to_ss()?.poles()`.
@@ -314,7 +414,11 @@ impl TransferFunction {
     /// SISO zeros (roots of the numerator).
     pub fn zeros(&self) -> Result<Vec<Complex64>> {
         let e = self.siso_entry("zeros")?;
-        if e.num.is_zero() { Ok(vec![]) } else { e.num.roots() }
+        if e.num.is_zero() {
+            Ok(vec![])
+        } else {
+            e.num.roots()
+        }
     }
 
     /// DC gain G(0) (continuous) or G(1) (discrete).
@@ -329,7 +433,10 @@ impl TransferFunction {
                 let d = e.den.eval(x);
                 let n = e.num.eval(x);
                 if d == 0.0 && n != 0.0 {
-                    return Err(Error::Infinite { what: "DC gain", reason: format!("entry ({i}, {j}) has a pole at {x}") });
+                    return Err(Error::Infinite {
+                        what: "DC gain",
+                        reason: format!("entry ({i}, {j}) has a pole at {x}"),
+                    });
                 }
                 g[(i, j)] = if d == 0.0 { 0.0 } else { n / d };
             }
@@ -347,12 +454,74 @@ impl fmt::Display for TransferFunction {
                 if !self.is_siso() {
                     write!(f, "[{i},{j}]: ")?;
                 }
-                writeln!(f, "({}) / ({})", e.num.display_with(var), e.den.display_with(var))?;
+                writeln!(
+                    f,
+                    "({}) / ({})",
+                    e.num.display_with(var),
+                    e.den.display_with(var)
+                )?;
             }
         }
         match self.ts {
             Some(t) => write!(f, "(discrete, T = {t})"),
             None => write!(f, "(continuous)"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tf(n: &[f64], d: &[f64]) -> TransferFunction {
+        TransferFunction::from_coeffs(n, d, None).unwrap()
+    }
+
+    #[test]
+    fn algebra_is_exact() {
+        let g = tf(&[1.0], &[1.0, 1.0]);
+        let h = tf(&[2.0], &[1.0, 2.0]);
+        let s = g.add(&h).unwrap();
+        assert_eq!(s.num(0, 0).coeffs(), &[3.0, 4.0]);
+        assert_eq!(s.den(0, 0).coeffs(), &[1.0, 3.0, 2.0]);
+        let p = g.mul(&h).unwrap();
+        assert_eq!(p.num(0, 0).coeffs(), &[2.0]);
+        let f = g
+            .feedback(&tf(&[3.0], &[1.0]), FeedbackSign::Negative)
+            .unwrap();
+        assert_eq!(f.den(0, 0).coeffs(), &[1.0, 4.0]);
+        let f = g
+            .feedback(&tf(&[3.0], &[1.0]), FeedbackSign::Positive)
+            .unwrap();
+        assert_eq!(f.den(0, 0).coeffs(), &[1.0, -2.0]);
+        assert!(g.sub(&g).unwrap().num(0, 0).is_zero());
+    }
+
+    #[test]
+    fn properness_and_dc_gain() {
+        let g = tf(&[1.0, 0.0, 0.0], &[1.0, 1.0]);
+        assert!(matches!(
+            g.check_proper(),
+            Err(Error::ImproperTransferFunction { .. })
+        ));
+        let i = tf(&[1.0], &[1.0, 0.0]);
+        assert!(matches!(i.dc_gain(), Err(Error::Infinite { .. })));
+        assert_eq!(tf(&[2.0], &[1.0, 4.0]).dc_gain().unwrap()[(0, 0)], 0.5);
+        assert!(tf(&[0.0], &[1.0]).inv().is_err());
+    }
+
+    #[test]
+    fn mimo_shapes_are_checked() {
+        let e = SisoTf::from_coeffs(&[1.0], &[1.0, 1.0]).unwrap();
+        let m = TransferFunction::from_entries(vec![vec![e.clone(), e.clone()]], None).unwrap();
+        assert_eq!((m.n_outputs(), m.n_inputs()), (1, 2));
+        assert!(m.add(&tf(&[1.0], &[1.0])).is_err());
+        assert!(m.mul(&m).is_err());
+        assert!(
+            TransferFunction::from_entries(vec![vec![e.clone()], vec![e.clone(), e]], None)
+                .is_err()
+        );
+        let k = TransferFunction::gain(&DMatrix::from_row_slice(1, 2, &[1.0, 2.0]), None).unwrap();
+        assert_eq!(k.num(0, 1).coeffs(), &[2.0]);
     }
 }

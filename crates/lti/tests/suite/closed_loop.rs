@@ -32,10 +32,26 @@ fn check_table(g: &TransferFunction, cases: &[Case]) {
         // Recovery formulas on the true H1, H2, then cancellation of common factors.
         let opts = MinrealOptions { tol: 1e-6 };
         let i_minus_h1 = one().sub(&h1).unwrap();
-        let g10 = i_minus_h1.inv().unwrap().mul(&h2).unwrap().minreal(&opts).unwrap();
-        let g11 = h1.mul(&i_minus_h1.inv().unwrap()).unwrap().mul(&c.k.inv().unwrap()).unwrap().minreal(&opts).unwrap();
+        let g10 = i_minus_h1
+            .inv()
+            .unwrap()
+            .mul(&h2)
+            .unwrap()
+            .minreal(&opts)
+            .unwrap();
+        let g11 = h1
+            .mul(&i_minus_h1.inv().unwrap())
+            .unwrap()
+            .mul(&c.k.inv().unwrap())
+            .unwrap()
+            .minreal(&opts)
+            .unwrap();
         let kh2 = c.k.mul(&h2).unwrap();
-        let g12 = h2.mul(&one().sub(&kh2).unwrap().inv().unwrap()).unwrap().minreal(&opts).unwrap();
+        let g12 = h2
+            .mul(&one().sub(&kh2).unwrap().inv().unwrap())
+            .unwrap()
+            .minreal(&opts)
+            .unwrap();
         for (name, gr) in [("(10)", &g10), ("(11)", &g11), ("(12)", &g12)] {
             assert_eq!(gr.den(0, 0).degree(), g.den(0, 0).degree(), "{name}: {gr}");
             // residual of the root matching of multiple roots ~ 1e-8
@@ -48,7 +64,11 @@ fn check_table(g: &TransferFunction, cases: &[Case]) {
 fn table2_first_order_plant() {
     let g = tf(&[1.0], &[0.3, 1.0], None);
     let cases = [
-        Case { k: tf(&[0.2], &[1.0], None), h1: tf(&[0.2], &[0.3, 1.2], None), h2: tf(&[1.0], &[0.3, 1.2], None) },
+        Case {
+            k: tf(&[0.2], &[1.0], None),
+            h1: tf(&[0.2], &[0.3, 1.2], None),
+            h2: tf(&[1.0], &[0.3, 1.2], None),
+        },
         Case {
             k: tf(&[1.0, 0.5], &[1.0, 1.0], None),
             h1: tf(&[1.0, 0.5], &[0.3, 2.3, 1.5], None),
@@ -67,7 +87,11 @@ fn table2_first_order_plant() {
 fn table3_second_order_plant() {
     let g = tf(&[1.0], &[1.0, 1.0, 1.0], None);
     let cases = [
-        Case { k: tf(&[0.2], &[1.0], None), h1: tf(&[0.2], &[1.0, 1.0, 1.2], None), h2: tf(&[1.0], &[1.0, 1.0, 1.2], None) },
+        Case {
+            k: tf(&[0.2], &[1.0], None),
+            h1: tf(&[0.2], &[1.0, 1.0, 1.2], None),
+            h2: tf(&[1.0], &[1.0, 1.0, 1.2], None),
+        },
         Case {
             k: tf(&[1.0, 0.5], &[1.0, 1.0], None),
             h1: tf(&[1.0, 0.5], &[1.0, 2.0, 3.0, 1.5], None),
@@ -89,11 +113,30 @@ fn table3_second_order_plant() {
 fn tf_feedback_agrees_with_state_space() {
     let g = tf(&[1.0], &[1.0, 1.0, 1.0], None);
     let k = tf(&[0.5, 0.2], &[1.0, 0.0], None);
-    let h = g.feedback(&k, FeedbackSign::Negative).unwrap().to_ss().unwrap();
-    let hs = g.to_ss().unwrap().feedback(&k.to_ss().unwrap(), FeedbackSign::Negative).unwrap();
-    let pts: Vec<_> = [0.1, 0.7, 3.0].iter().map(|&w| num_complex::Complex64::new(0.0, w)).collect();
+    let h = g
+        .feedback(&k, FeedbackSign::Negative)
+        .unwrap()
+        .to_ss()
+        .unwrap();
+    let hs = g
+        .to_ss()
+        .unwrap()
+        .feedback(&k.to_ss().unwrap(), FeedbackSign::Negative)
+        .unwrap();
+    let pts: Vec<_> = [0.1, 0.7, 3.0]
+        .iter()
+        .map(|&w| num_complex::Complex64::new(0.0, w))
+        .collect();
     assert!(freq_diff(&h, &hs, &pts) < 1e-13);
-    let hp = g.feedback(&k, FeedbackSign::Positive).unwrap().to_ss().unwrap();
-    let hsp = g.to_ss().unwrap().feedback(&k.to_ss().unwrap(), FeedbackSign::Positive).unwrap();
+    let hp = g
+        .feedback(&k, FeedbackSign::Positive)
+        .unwrap()
+        .to_ss()
+        .unwrap();
+    let hsp = g
+        .to_ss()
+        .unwrap()
+        .feedback(&k.to_ss().unwrap(), FeedbackSign::Positive)
+        .unwrap();
     assert!(freq_diff(&hp, &hsp, &pts) < 1e-13);
 }

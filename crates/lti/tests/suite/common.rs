@@ -21,7 +21,9 @@ pub fn mat(r: usize, c: usize, v: &[f64]) -> DMatrix<f64> {
 pub fn tf_diff(a: &TransferFunction, b: &TransferFunction) -> f64 {
     let a = a.normalized();
     let b = b.normalized();
-    a.num(0, 0).max_abs_diff(b.num(0, 0)).max(a.den(0, 0).max_abs_diff(b.den(0, 0)))
+    a.num(0, 0)
+        .max_abs_diff(b.num(0, 0))
+        .max(a.den(0, 0).max_abs_diff(b.den(0, 0)))
 }
 
 /// Max |G1 − G2| over a set of complex points, relative to max |G1|.

@@ -11,11 +11,18 @@ const T: f64 = 0.0113;
 fn engine(k: f64, c2: f64, c1: f64, p1: f64, p2: f64) -> StateSpace {
     let num = poly(&[c2, c1, 1.0]).scale(k);
     let den = &poly(&[1.0 / p1, 1.0]) * &poly(&[1.0 / p2, 1.0]);
-    TransferFunction::siso(num, den, None).unwrap().to_ss().unwrap()
+    TransferFunction::siso(num, den, None)
+        .unwrap()
+        .to_ss()
+        .unwrap()
 }
 
 fn zoh_tf(g: &StateSpace) -> TransferFunction {
-    g.c2d(T, &C2dOptions::default()).unwrap().to_tf(&MinrealOptions::default()).unwrap().normalized()
+    g.c2d(T, &C2dOptions::default())
+        .unwrap()
+        .to_tf(&MinrealOptions::default())
+        .unwrap()
+        .normalized()
 }
 
 #[test]
@@ -26,7 +33,11 @@ fn table3_1150_rpm() {
     // printed: (0.0198z² − 0.1949z + 0.1562)/(z² − 1.834z + 0.835); bound 3e-3 (A1.5)
     let printed_den = [1.0, -1.834, 0.835];
     for (k, want) in printed_den.iter().enumerate() {
-        assert!((den.coeffs()[k] - want).abs() <= 3e-3, "den[{k}] = {}", den.coeffs()[k]);
+        assert!(
+            (den.coeffs()[k] - want).abs() <= 3e-3,
+            "den[{k}] = {}",
+            den.coeffs()[k]
+        );
     }
     assert!((num.coeffs()[0] - 0.0198).abs() <= 3e-3);
     assert!((num.coeffs()[2] - 0.1562).abs() <= 3e-3);
@@ -41,7 +52,10 @@ fn table3_1150_rpm() {
     }
     let mut poles: Vec<f64> = gd.poles().unwrap().iter().map(|p| p.re).collect();
     poles.sort_by(f64::total_cmp);
-    assert!((poles[1] - 0.996075).abs() < 1e-6 && (poles[0] - 0.835735).abs() < 1e-6, "{poles:?}");
+    assert!(
+        (poles[1] - 0.996075).abs() < 1e-6 && (poles[0] - 0.835735).abs() < 1e-6,
+        "{poles:?}"
+    );
     // DC gain 114 (from state space, not from rounded coefficients: pitfall 8)
     let dc = g.c2d(T, &C2dOptions::default()).unwrap().dc_gain().unwrap()[(0, 0)];
     assert!((dc - 114.0).abs() < 1e-9);
@@ -68,7 +82,10 @@ fn table3_1500_rpm() {
     }
     let mut poles: Vec<f64> = gd.poles().unwrap().iter().map(|p| p.re).collect();
     poles.sort_by(f64::total_cmp);
-    assert!((poles[1] - 0.995681).abs() < 1e-6 && (poles[0] - 0.737466).abs() < 1e-6, "{poles:?}");
+    assert!(
+        (poles[1] - 0.995681).abs() < 1e-6 && (poles[0] - 0.737466).abs() < 1e-6,
+        "{poles:?}"
+    );
     let dc = g.c2d(T, &C2dOptions::default()).unwrap().dc_gain().unwrap()[(0, 0)];
     assert!((dc - 85.6).abs() < 1e-9);
 }

@@ -1,6 +1,6 @@
 //! H∞ and H2 norms against closed forms.
 
-use lifted_lti::{append, HinfOptions, StateSpace};
+use lifted_lti::{HinfOptions, StateSpace, append};
 
 use crate::common::*;
 
@@ -12,15 +12,25 @@ fn rel(a: f64, b: f64) -> f64 {
 #[test]
 fn hinf_lightly_damped_second_order() {
     for &(zeta, wn) in &[(0.05, 3.0), (0.01, 0.5), (0.3, 10.0)] {
-        let g = tf(&[wn * wn], &[1.0, 2.0 * zeta * wn, wn * wn], None).to_ss().unwrap();
+        let g = tf(&[wn * wn], &[1.0, 2.0 * zeta * wn, wn * wn], None)
+            .to_ss()
+            .unwrap();
         let opts = HinfOptions::default();
         let h = g.hinf_norm(&opts).unwrap();
         let peak = 1.0 / (2.0 * zeta * (1.0 - zeta * zeta).sqrt());
         // the result is a lower bound within (1 + 2 rel_tol)
-        assert!(rel(h.norm, peak) <= 2.0 * opts.rel_tol + 1e-12, "ζ={zeta}: {} vs {peak}", h.norm);
+        assert!(
+            rel(h.norm, peak) <= 2.0 * opts.rel_tol + 1e-12,
+            "ζ={zeta}: {} vs {peak}",
+            h.norm
+        );
         let wpk = wn * (1.0 - 2.0 * zeta * zeta).sqrt();
         // σ is flat at the peak: frequency error ~ sqrt(rel_tol)
-        assert!(rel(h.peak_frequency, wpk) < 1e-3, "{} vs {wpk}", h.peak_frequency);
+        assert!(
+            rel(h.peak_frequency, wpk) < 1e-3,
+            "{} vs {wpk}",
+            h.peak_frequency
+        );
     }
 }
 
@@ -43,10 +53,19 @@ fn hinf_discrete_first_order() {
 /// Discrete second-order resonance, compared with a dense grid.
 #[test]
 fn hinf_discrete_resonance_vs_grid() {
-    let g = tf(&[0.1, 0.05], &[1.0, -1.6, 0.95], Some(0.01)).to_ss().unwrap();
+    let g = tf(&[0.1, 0.05], &[1.0, -1.6, 0.95], Some(0.01))
+        .to_ss()
+        .unwrap();
     let h = g.hinf_norm(&HinfOptions::default()).unwrap();
-    let grid: Vec<f64> = (0..=200_000).map(|k| k as f64 * std::f64::consts::PI / 0.01 / 200_000.0).collect();
-    let best = g.freqresp(&grid).unwrap().iter().map(|m| m[(0, 0)].norm()).fold(0.0, f64::max);
+    let grid: Vec<f64> = (0..=200_000)
+        .map(|k| k as f64 * std::f64::consts::PI / 0.01 / 200_000.0)
+        .collect();
+    let best = g
+        .freqresp(&grid)
+        .unwrap()
+        .iter()
+        .map(|m| m[(0, 0)].norm())
+        .fold(0.0, f64::max);
     assert!(h.norm >= best * (1.0 - 1e-9), "{} < grid {best}", h.norm);
     assert!(rel(h.norm, best) < 1e-5);
 }
@@ -63,7 +82,10 @@ fn hinf_mimo_diagonal_and_feedthrough() {
     let h2 = g2.hinf_norm(&HinfOptions::default()).unwrap();
     assert!(rel(h2.norm, 2.0) < 3e-8);
     assert!(h2.peak_frequency.is_infinite());
-    let tight = HinfOptions { rel_tol: 1e-4, ..HinfOptions::default() };
+    let tight = HinfOptions {
+        rel_tol: 1e-4,
+        ..HinfOptions::default()
+    };
     assert!(rel(g1.hinf_norm(&tight).unwrap().norm, peak) < 2e-4 + 1e-12);
 }
 
@@ -80,7 +102,9 @@ fn h2_closed_forms() {
     assert!(rel(gdd.h2_norm().unwrap(), (0.25f64 + 1.0 / 0.75).sqrt()) < 1e-12);
     // ωₙ²/(s²+2ζωₙs+ωₙ²): ‖G‖₂² = ωₙ/(4ζ)
     let (z, wn) = (0.2, 2.0);
-    let g2 = tf(&[wn * wn], &[1.0, 2.0 * z * wn, wn * wn], None).to_ss().unwrap();
+    let g2 = tf(&[wn * wn], &[1.0, 2.0 * z * wn, wn * wn], None)
+        .to_ss()
+        .unwrap();
     assert!(rel(g2.h2_norm().unwrap(), (wn / (4.0 * z)).sqrt()) < 1e-12);
     // MIMO: squares add
     let m = append(&g, &g2).unwrap();
@@ -91,8 +115,24 @@ fn h2_closed_forms() {
 #[test]
 fn norms_reject_unstable_and_infinite() {
     let g = tf(&[1.0], &[1.0, -1.0], None).to_ss().unwrap();
-    assert!(matches!(g.hinf_norm(&HinfOptions::default()), Err(lifted_lti::Error::Unstable { .. })));
-    assert!(matches!(g.h2_norm(), Err(lifted_lti::Error::Unstable { .. })));
-    let biproper = StateSpace::new(mat(1, 1, &[-1.0]), mat(1, 1, &[1.0]), mat(1, 1, &[1.0]), mat(1, 1, &[1.0]), None).unwrap();
-    assert!(matches!(biproper.h2_norm(), Err(lifted_lti::Error::Infinite { .. })));
+    assert!(matches!(
+        g.hinf_norm(&HinfOptions::default()),
+        Err(lifted_lti::Error::Unstable { .. })
+    ));
+    assert!(matches!(
+        g.h2_norm(),
+        Err(lifted_lti::Error::Unstable { .. })
+    ));
+    let biproper = StateSpace::new(
+        mat(1, 1, &[-1.0]),
+        mat(1, 1, &[1.0]),
+        mat(1, 1, &[1.0]),
+        mat(1, 1, &[1.0]),
+        None,
+    )
+    .unwrap();
+    assert!(matches!(
+        biproper.h2_norm(),
+        Err(lifted_lti::Error::Infinite { .. })
+    ));
 }

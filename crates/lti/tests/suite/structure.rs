@@ -1,7 +1,7 @@
 //! Structural results: thesis §4.3 example, zeros, minreal, responses, serde.
 
 use approx::assert_abs_diff_eq;
-use lifted_lti::{series, C2dOptions, MinrealOptions, StateSpace, TransferFunction};
+use lifted_lti::{C2dOptions, MinrealOptions, StateSpace, TransferFunction, series};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
@@ -45,21 +45,39 @@ fn siso_and_mimo_zeros() {
     // (s+2)(s−1)/((s+1)(s+3)(s+4)): zeros −2, 1
     let num = &poly(&[1.0, 2.0]) * &poly(&[1.0, -1.0]);
     let den = &(&poly(&[1.0, 1.0]) * &poly(&[1.0, 3.0])) * &poly(&[1.0, 4.0]);
-    let g = TransferFunction::siso(num, den, None).unwrap().to_ss().unwrap();
+    let g = TransferFunction::siso(num, den, None)
+        .unwrap()
+        .to_ss()
+        .unwrap();
     let z = sorted_re(g.zeros().unwrap());
     assert_eq!(z.len(), 2);
-    assert!((z[0] - Complex64::new(-2.0, 0.0)).norm() < 1e-10 && (z[1] - Complex64::new(1.0, 0.0)).norm() < 1e-10, "{z:?}");
+    assert!(
+        (z[0] - Complex64::new(-2.0, 0.0)).norm() < 1e-10
+            && (z[1] - Complex64::new(1.0, 0.0)).norm() < 1e-10,
+        "{z:?}"
+    );
     // tall 2×1 system with a common zero at −2 only
     let g1 = tf(&[1.0, 2.0], &[1.0, 4.0, 3.0], None);
     let g2 = tf(&[1.0, 2.0], &[1.0, 8.0, 16.0], None);
-    let col = TransferFunction::from_entries(vec![vec![g1.entry(0, 0).clone()], vec![g2.entry(0, 0).clone()]], None).unwrap();
+    let col = TransferFunction::from_entries(
+        vec![vec![g1.entry(0, 0).clone()], vec![g2.entry(0, 0).clone()]],
+        None,
+    )
+    .unwrap();
     let s = col.to_ss().unwrap();
     assert_eq!(s.order(), 4);
     let z = s.zeros().unwrap();
     assert_eq!(z.len(), 1, "{z:?}");
     assert!((z[0] - Complex64::new(-2.0, 0.0)).norm() < 1e-8, "{z:?}");
     // wide 1×2 (the dual) has the same zero
-    let wide = StateSpace::new(s.a().transpose(), s.c().transpose(), s.b().transpose(), s.d().transpose(), None).unwrap();
+    let wide = StateSpace::new(
+        s.a().transpose(),
+        s.c().transpose(),
+        s.b().transpose(),
+        s.d().transpose(),
+        None,
+    )
+    .unwrap();
     let zw = wide.zeros().unwrap();
     assert_eq!(zw.len(), 1);
     assert!((zw[0] - Complex64::new(-2.0, 0.0)).norm() < 1e-8);
@@ -102,25 +120,36 @@ fn minreal_removes_uncontrollable_and_unobservable() {
     let big = StateSpace::new(a, b, c, g.d().clone(), None).unwrap();
     let r = big.minreal(&MinrealOptions::default()).unwrap();
     assert_eq!(r.order(), 2);
-    let pts: Vec<_> = [0.1, 1.0, 10.0].iter().map(|&w| Complex64::new(0.0, w)).collect();
+    let pts: Vec<_> = [0.1, 1.0, 10.0]
+        .iter()
+        .map(|&w| Complex64::new(0.0, w))
+        .collect();
     assert!(freq_diff(&g, &r, &pts) < 1e-12);
 }
 
 #[test]
 fn balanced_truncation_error_bound() {
     // weakly coupled fast mode: 1/(s+1) + 0.001/(s+50)
-    let g = tf(&[1.001, 50.001], &[1.0, 51.0, 50.0], None).to_ss().unwrap();
+    let g = tf(&[1.001, 50.001], &[1.0, 51.0, 50.0], None)
+        .to_ss()
+        .unwrap();
     let (r, hsv) = g.balanced_truncation(1).unwrap();
     assert_eq!(r.order(), 1);
     assert!(hsv[0] > hsv[1]);
-    let err = g.parallel(&StateSpace::new(r.a().clone(), r.b().clone(), -r.c(), -r.d(), None).unwrap()).unwrap();
+    let err = g
+        .parallel(&StateSpace::new(r.a().clone(), r.b().clone(), -r.c(), -r.d(), None).unwrap())
+        .unwrap();
     let e = err.hinf_norm(&Default::default()).unwrap().norm;
     assert!(e <= 2.0 * hsv[1] * (1.0 + 1e-6), "{e} > 2·{}", hsv[1]);
     // Hankel singular values are similarity invariants. Tolerance: the Gramian
     // factors come from eigendecompositions, so the small value carries an
     // absolute error ~ ε·cond(T)·‖P‖/√λ_min(P) (6.6e-11 observed here).
     let t = mat(2, 2, &[2.0, 1.0, 0.5, 3.0]);
-    let (_, hsv2) = g.similarity_transform(&t).unwrap().balanced_truncation(2).unwrap();
+    let (_, hsv2) = g
+        .similarity_transform(&t)
+        .unwrap()
+        .balanced_truncation(2)
+        .unwrap();
     for (a, b) in hsv.iter().zip(&hsv2) {
         assert!((a - b).abs() < 1e-9 * hsv[0], "{hsv:?} vs {hsv2:?}");
     }
@@ -185,12 +214,18 @@ fn io_delays_shift_markov_parameters() {
 
 #[test]
 fn json_round_trip_with_names() {
-    let g = StateSpace::new(mat(2, 2, &[0.5, 0.1, 0.0, 0.3]), mat(2, 1, &[1.0, 2.0]), mat(1, 2, &[1.0, 0.0]), mat(1, 1, &[0.0]), Some(0.01))
-        .unwrap()
-        .with_input_names(vec!["fuel".into()])
-        .unwrap()
-        .with_output_names(vec!["speed".into()])
-        .unwrap();
+    let g = StateSpace::new(
+        mat(2, 2, &[0.5, 0.1, 0.0, 0.3]),
+        mat(2, 1, &[1.0, 2.0]),
+        mat(1, 2, &[1.0, 0.0]),
+        mat(1, 1, &[0.0]),
+        Some(0.01),
+    )
+    .unwrap()
+    .with_input_names(vec!["fuel".into()])
+    .unwrap()
+    .with_output_names(vec!["speed".into()])
+    .unwrap();
     let js = g.to_json().unwrap();
     assert!(js.contains("\"a\":[[0.5,0.1],[0.0,0.3]]"), "{js}");
     assert!(js.contains("\"ts\":0.01"));
@@ -206,18 +241,27 @@ fn json_round_trip_with_names() {
     let back = StateSpace::from_json(&k.to_json().unwrap()).unwrap();
     assert_eq!(back, k);
     // a bad document is rejected with a named error
-    assert!(matches!(StateSpace::from_json(r#"{"a":[[1,2]],"b":[[1]],"c":[[1]],"d":[[0]],"ts":null}"#), Err(lifted_lti::Error::Json { .. })));
+    assert!(matches!(
+        StateSpace::from_json(r#"{"a":[[1,2]],"b":[[1]],"c":[[1]],"d":[[0]],"ts":null}"#),
+        Err(lifted_lti::Error::Json { .. })
+    ));
 }
 
 #[test]
 fn bode_phase_is_unwrapped() {
     let g = tf(&[1.0], &[1.0, 3.0, 3.0, 1.0], None).to_ss().unwrap(); // 1/(s+1)^3
-    let w: Vec<f64> = (0..200).map(|k| 10f64.powf(-2.0 + 4.0 * k as f64 / 199.0)).collect();
+    let w: Vec<f64> = (0..200)
+        .map(|k| 10f64.powf(-2.0 + 4.0 * k as f64 / 199.0))
+        .collect();
     let b = g.bode(&w).unwrap();
     for (k, wk) in w.iter().enumerate() {
         let want = -3.0 * wk.atan().to_degrees();
         assert_abs_diff_eq!(b.phase_deg[k][(0, 0)], want, epsilon = 1e-9);
-        assert_abs_diff_eq!(b.magnitude[k][(0, 0)], (1.0 + wk * wk).powf(-1.5), epsilon = 1e-12);
+        assert_abs_diff_eq!(
+            b.magnitude[k][(0, 0)],
+            (1.0 + wk * wk).powf(-1.5),
+            epsilon = 1e-12
+        );
     }
 }
 
@@ -231,7 +275,14 @@ fn series_parallel_feedback_mimo() {
         None,
     )
     .unwrap();
-    let k = StateSpace::new(mat(1, 1, &[-3.0]), mat(1, 2, &[1.0, 1.0]), mat(2, 1, &[0.5, -0.5]), mat(2, 2, &[1.0, 0.2, 0.0, 0.5]), None).unwrap();
+    let k = StateSpace::new(
+        mat(1, 1, &[-3.0]),
+        mat(1, 2, &[1.0, 1.0]),
+        mat(2, 1, &[0.5, -0.5]),
+        mat(2, 2, &[1.0, 0.2, 0.0, 0.5]),
+        None,
+    )
+    .unwrap();
     let cl = g.feedback(&k, lifted_lti::FeedbackSign::Negative).unwrap();
     for &w in &[0.0, 0.3, 2.0] {
         let s = Complex64::new(0.0, w);
@@ -252,7 +303,10 @@ fn series_parallel_feedback_mimo() {
 fn mimo_tf_round_trip() {
     let e = |n: &[f64], d: &[f64]| tf(n, d, None).entry(0, 0).clone();
     let g = TransferFunction::from_entries(
-        vec![vec![e(&[1.0], &[1.0, 1.0]), e(&[2.0], &[1.0, 2.0])], vec![e(&[1.0, 0.0], &[1.0, 1.0]), e(&[0.5], &[1.0, 3.0, 2.0])]],
+        vec![
+            vec![e(&[1.0], &[1.0, 1.0]), e(&[2.0], &[1.0, 2.0])],
+            vec![e(&[1.0, 0.0], &[1.0, 1.0]), e(&[0.5], &[1.0, 3.0, 2.0])],
+        ],
         None,
     )
     .unwrap();
@@ -263,7 +317,8 @@ fn mimo_tf_round_trip() {
     for i in 0..2 {
         for j in 0..2 {
             let a = TransferFunction::siso(g.num(i, j).clone(), g.den(i, j).clone(), None).unwrap();
-            let b = TransferFunction::siso(back.num(i, j).clone(), back.den(i, j).clone(), None).unwrap();
+            let b = TransferFunction::siso(back.num(i, j).clone(), back.den(i, j).clone(), None)
+                .unwrap();
             assert!(tf_diff(&a, &b) < 1e-10, "({i},{j}): {b}");
         }
     }
