@@ -1,4 +1,65 @@
 //! Dense linear-algebra kernels for Lifted.
+//!
+//! Every kernel takes and returns `nalgebra::DMatrix<f64>` (the public matrix
+//! type of the workspace) and computes with faer through zero-copy views
+//! ([`as_faer`]) wherever faer has the decomposition. Every function checks
+//! shapes and finiteness first and returns [`Result`]: a NaN/∞ gives
+//! [`Error::NonFinite`] naming the argument, a wrong shape
+//! [`Error::NotSquare`] or [`Error::DimensionMismatch`].
+//!
+//! # Map
+//!
+//! | module | kernels | algorithm | cost |
+//! |---|---|---|---|
+//! | [`convert`], [`check`] | [`as_faer`], [`as_faer_mut`], [`to_dmatrix`]; [`check_finite`], [`check_square`], [`check_rows`], [`check_cols`] | zero-copy column-major views; input validation | O(1) / O(mn) |
+//! | [`solve`] | [`solve()`], [`inv`], [`det`], [`rcond`] | faer partial-pivot LU; Hager–Higham 1-norm rcond estimate, [`Error::Singular`] below ε | ⅔n³ |
+//! | [`matfun`] | [`expm`], [`logm`], [`rootm`], [`sqrtm`] | Padé-13 scaling and squaring (Higham 2005); complex Schur + inverse scaling and squaring; Smith's Schur p-th root recurrence | O(n³), O(p·n³) |
+//! | [`schur`] | [`real_schur`], [`RealSchur::eigenvalues`], [`RealSchur::reorder`] | nalgebra Francis QR (faer's is private), standardised 2×2 blocks; Bai–Demmel block swaps | O(10n³) |
+//! | [`eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
+//! | [`svd`] | [`svd()`], [`singular_values`] | faer thin SVD, s descending | O(mn·min(m,n)) |
+//! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR; R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
+//! | [`rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
+//! | [`lstsq`] | [`lstsq()`] | QR if full column rank, else minimum-norm SVD solution | O(mn²) |
+//! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
+//! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
+//! | [`cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
+//!
+//! Numerical notes from the reproduction spec (Part C, Pitfalls 1–2): SVD
+//! and eigen bases are unique only up to sign/rotation, so tests compare
+//! subspaces and products; the principal logarithm and roots fail with
+//! [`Error::NoPrincipalBranch`] when an eigenvalue is on or near the closed
+//! negative real axis, and a complex intermediate is returned as real only
+//! after its imaginary residue is checked (< 1e-9·‖A‖).
+//!
+//! # Example
+//!
+//! ```
+//! use lifted_linalg::{expm, logm, rootm, svd, lstsq, Error};
+//! use nalgebra::DMatrix;
+//!
+//! fn main() -> Result<(), Error> {
+//!     // d2c-style round trip: principal logarithm of a matrix exponential.
+//!     let a = DMatrix::from_row_slice(2, 2, &[-0.5, 1.0, 0.0, -2.0]);
+//!     let ad = expm(&a)?;
+//!     assert!((logm(&ad)? - &a).norm() < 1e-12);
+//!
+//!     // Principal cube root: r³ = ad.
+//!     let r = rootm(&ad, 3)?;
+//!     assert!((&r * &r * &r - &ad).norm() < 1e-12);
+//!
+//!     // Thin SVD and least squares on a tall matrix.
+//!     let h = DMatrix::from_fn(100, 3, |i, j| ((i + 1) as f64).powi(j as i32) / 100f64.powi(j as i32));
+//!     let f = svd(&h)?;
+//!     assert!(f.s[0] >= f.s[1] && f.s[1] >= f.s[2]);
+//!     let y = &h * DMatrix::from_row_slice(3, 1, &[1.0, -2.0, 0.5]);
+//!     let x = lstsq(&h, &y)?;
+//!     assert!((x[(1, 0)] + 2.0).abs() < 1e-9);
+//!
+//!     // Invalid input is an error, not a panic.
+//!     assert!(matches!(logm(&DMatrix::from_row_slice(1, 1, &[-1.0])), Err(Error::NoPrincipalBranch { .. })));
+//!     Ok(())
+//! }
+//! ```
 #![deny(missing_docs)]
 
 pub mod cca;
