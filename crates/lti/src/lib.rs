@@ -71,9 +71,11 @@
 mod analysis;
 mod connect;
 mod convert;
+pub mod data;
 mod discretize;
 pub mod error;
 mod freq;
+pub mod identify;
 mod la;
 pub mod poly;
 mod reduce;
@@ -82,9 +84,11 @@ mod ss;
 mod tf;
 
 pub use connect::{append, feedback, parallel, series};
+pub use data::{DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel};
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};
 pub use freq::{Bode, HinfNorm, HinfOptions};
+pub use identify::{Identified, Identifier};
 pub use poly::{Poly, cancel_common_roots};
 pub use reduce::MinrealOptions;
 pub use response::SimResult;
