@@ -10,7 +10,10 @@ pub struct Check {
     pub name: String,
     /// The value obtained by the simulation.
     pub value: f64,
-    /// The published or reference value it is compared with, if any.
+    /// The value the paper prints, if it prints one.
+    pub paper: Option<f64>,
+    /// The value it is compared with (the paper's, or the spec's reference
+    /// implementation's where the paper has none or is wrong), if any.
     pub reference: Option<f64>,
     /// Human-readable condition, e.g. "|value - 0.348| / 0.348 < 0.03".
     pub condition: String,
@@ -27,6 +30,7 @@ impl Check {
         Check {
             name: name.into(),
             value,
+            paper: None,
             reference: Some(reference),
             condition: format!("relative error {err:.3e} <= {rel_tol:.3e}"),
             passed: err.is_finite() && err <= rel_tol,
@@ -40,6 +44,7 @@ impl Check {
         Check {
             name: name.into(),
             value,
+            paper: None,
             reference: Some(reference),
             condition: format!("|value - {reference}| = {err:.3e} <= {abs_tol:.3e}"),
             passed: err.is_finite() && err <= abs_tol,
@@ -52,6 +57,7 @@ impl Check {
         Check {
             name: name.into(),
             value,
+            paper: None,
             reference: None,
             condition: format!("{value:.6e} < {bound:.6e}"),
             passed: value < bound,
@@ -64,6 +70,7 @@ impl Check {
         Check {
             name: name.into(),
             value,
+            paper: None,
             reference: None,
             condition: format!("{value:.6e} > {bound:.6e}"),
             passed: value > bound,
@@ -76,6 +83,7 @@ impl Check {
         Check {
             name: name.into(),
             value,
+            paper: None,
             reference: None,
             condition: format!("{lo} < {value:.6e} < {hi}"),
             passed: lo < value && value < hi,
@@ -88,11 +96,18 @@ impl Check {
         Check {
             name: name.into(),
             value: if passed { 1.0 } else { 0.0 },
+            paper: None,
             reference: None,
             condition: condition.into(),
             passed,
             note: None,
         }
+    }
+
+    /// Records the value printed in the paper (shown next to ours in reports).
+    pub fn with_paper(mut self, paper: f64) -> Self {
+        self.paper = Some(paper);
+        self
     }
 
     /// Attaches a provenance note (the source of the bound, or a deviation).
@@ -155,6 +170,9 @@ impl fmt::Display for Reproduction {
         for c in &self.checks {
             let mark = if c.passed { "pass" } else { "FAIL" };
             write!(f, "  [{mark}] {}: {} ({})", c.name, c.value, c.condition)?;
+            if let Some(p) = c.paper {
+                write!(f, " [paper {p}]")?;
+            }
             if let Some(r) = c.reference {
                 write!(f, " [reference {r}]")?;
             }
