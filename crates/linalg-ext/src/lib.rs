@@ -12,17 +12,17 @@
 //! | module | kernels | algorithm | cost |
 //! |---|---|---|---|
 //! | [`convert`], [`check`] | [`as_faer`], [`as_faer_mut`], [`to_dmatrix`]; [`check_finite`], [`check_square`], [`check_rows`], [`check_cols`] | zero-copy column-major views; input validation | O(1) / O(mn) |
-//! | [`solve`] | [`solve()`], [`inv`], [`det`], [`rcond`] | faer partial-pivot LU; Hager–Higham 1-norm rcond estimate, [`Error::Singular`] below ε | ⅔n³ |
+//! | [`mod@solve`] | [`solve()`], [`inv`], [`det`], [`rcond`] | faer partial-pivot LU; Hager–Higham 1-norm rcond estimate, [`Error::Singular`] below ε | ⅔n³ |
 //! | [`matfun`] | [`expm`], [`logm`], [`rootm`], [`sqrtm`] | Padé-13 scaling and squaring (Higham 2005); complex Schur + inverse scaling and squaring; Smith's Schur p-th root recurrence | O(n³), O(p·n³) |
 //! | [`schur`] | [`real_schur`], [`RealSchur::eigenvalues`], [`RealSchur::reorder`] | nalgebra Francis QR (faer's is private), standardised 2×2 blocks; Bai–Demmel block swaps | O(10n³) |
-//! | [`eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
-//! | [`svd`] | [`svd()`], [`singular_values`] | faer thin SVD, s descending | O(mn·min(m,n)) |
+//! | [`mod@eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
+//! | [`mod@svd`] | [`svd()`], [`singular_values`] | faer thin SVD, s descending | O(mn·min(m,n)) |
 //! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR; R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
-//! | [`rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
-//! | [`lstsq`] | [`lstsq()`] | QR if full column rank, else minimum-norm SVD solution | O(mn²) |
+//! | [`mod@rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
+//! | [`mod@lstsq`] | [`lstsq()`] | QR if full column rank, else minimum-norm SVD solution | O(mn²) |
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
-//! | [`cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
+//! | [`mod@cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
 //!
 //! Numerical notes from the reproduction spec (Part C, Pitfalls 1–2): SVD
 //! and eigen bases are unique only up to sign/rotation, so tests compare
@@ -91,3 +91,8 @@ pub use riccati::{DareSolution, dare};
 pub use schur::{RealSchur, real_schur};
 pub use solve::{det, inv, rcond, solve};
 pub use svd::{Svd, singular_values, svd};
+
+/// Compiles the README example as a doc test.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -49,7 +49,7 @@ fn real_part(x: CMat, what: &'static str, scale: f64) -> Result<DMatrix<f64>> {
     let re = x.map(|z| z.re);
     let im = x.map(|z| z.im).norm();
     let tol = 1e-8 * (re.norm() + scale);
-    if !(im <= tol) || re.iter().any(|v| !v.is_finite()) {
+    if im.is_nan() || im > tol || re.iter().any(|v| !v.is_finite()) {
         return Err(Error::Backend {
             what,
             reason: format!(

@@ -70,7 +70,7 @@ pub fn expm(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     }
     const THETA: [(usize, f64); 4] = [
         (3, 1.495585217958292e-2),
-        (5, 2.539398330063230e-1),
+        (5, 2.539_398_330_063_23e-1),
         (7, 9.504178996162932e-1),
         (9, 2.097847961257068e0),
     ];
@@ -213,7 +213,7 @@ fn back_transform(p: &Prepared, f: &CMat, scale: f64, what: &'static str) -> Res
     let imag = full.map(|z| z.im).norm();
     let real = full.map(|z| z.re);
     let tol = IMAG_RESIDUE_TOL * p.anorm.max(real.norm());
-    if !(imag <= tol) {
+    if imag.is_nan() || imag > tol {
         return Err(Error::Backend {
             what,
             reason: format!(

@@ -199,10 +199,10 @@ pub fn dare(
     let closed = a - b * &k;
     let poles = eigenvalues(&closed)?;
     let rho = poles.iter().map(|p| p.norm()).fold(0.0, f64::max);
-    if !(rho < 1.0) {
+    if rho.is_nan() || rho >= 1.0 {
         return Err(diverged(&format!("spectral radius of A − BK is {rho}")));
     }
-    if !(resid <= RESIDUAL_TOL) {
+    if resid.is_nan() || resid > RESIDUAL_TOL {
         return Err(diverged(&format!(
             "relative residual {resid:e} exceeds {RESIDUAL_TOL:e}"
         )));

@@ -316,7 +316,7 @@ impl RealSchur {
         self.q.columns_mut(k, m).copy_from(&(qcols * &g));
         // The block now below the diagonal must be negligible.
         let resid = self.t.view((k + n2, k), (n1, n2)).norm();
-        if !(resid <= 100.0 * f64::EPSILON * tnorm) {
+        if resid.is_nan() || resid > 100.0 * f64::EPSILON * tnorm {
             return Err(Error::Backend {
                 what: "Schur reorder",
                 reason: format!("swap at {k} rejected, residual {resid:e}"),
