@@ -1,0 +1,547 @@
+//! Steps 1–2 (data preparation, correlations, Markov parameters) and the complete
+//! identification on plain matrices: one record per input channel.
+
+use lifted_lti::{Identified, StateSpace};
+use lifted_prbs::{CorrelationMethod, Normalization, periodic_cross_correlation_with};
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::cover::{CoverData, CoverKind, CoverSettings, realize};
+use crate::error::{Error, Result};
+use crate::options::{MarkovEstimator, QMarkovOptions, RecordMode};
+
+/// One experiment: input channel `l` excited alone by its held inverse PRBS.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelRecord {
+    /// The held PRBS `w_l(k)` applied to input channel `l`, one value per output
+    /// sample (length N).
+    pub input: Vec<f64>,
+    /// The outputs `y^l(k)`, N × n_y (one row per sample).
+    pub output: DMatrix<f64>,
+}
+
+/// Diagnostics returned with every model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnostics {
+    /// All eigenvalues of `D_q` in descending order: the diagonal of `Λ`, `Λ̃`
+    /// (eq. III-25), i.e. the order-selection plot of Zhu 2000 Fig. 6 (plot on a
+    /// log scale).
+    pub eigenvalues: Vec<f64>,
+    /// The order `r` used.
+    pub order: usize,
+    /// The largest-gap order suggestion (`argmax ln(λ_i/λ_{i+1})`).
+    pub suggested_order: usize,
+    /// Numerical rank of `D_q`.
+    pub rank_dq: usize,
+    /// Numerical rank of `P` (< r: the `V_b U V_dᵀ` term of eq. III-29 was added).
+    pub rank_p: usize,
+    /// Lemma III-1 outcome: exact cover, or least-squares cover when `D_q` is
+    /// not positive semidefinite (not q-identifiable).
+    pub cover: CoverKind,
+    /// Smallest eigenvalue of `D_q`.
+    pub min_eigenvalue: f64,
+    /// Number of eigenvalues below `−eigen_tol·λ₁`.
+    pub negative_eigenvalues: usize,
+    /// Markov parameters estimated from the data, `H_0 … H_{q−1}`.
+    pub markov_data: Vec<DMatrix<f64>>,
+    /// Markov parameters of the identified model, `Ĥ_0 … Ĥ_{q−1}`.
+    pub markov_model: Vec<DMatrix<f64>>,
+    /// `‖Ĥ − H‖_F / ‖H‖_F` over the q Markov parameters.
+    pub markov_error: f64,
+    /// Output covariances of the data, `R_yy(0) … R_yy(q−1)` (eq. III-22).
+    pub covariance_data: Vec<DMatrix<f64>>,
+    /// The same correlations of the model's periodic steady-state response to the
+    /// recorded inputs.
+    pub covariance_model: Vec<DMatrix<f64>>,
+    /// `‖R̂ − R‖_F / ‖R‖_F` over the q covariance parameters.
+    pub covariance_error: f64,
+    /// Response fit `100 (1 − ‖ŷ − y‖/‖y − ȳ‖)` on the identification record, one
+    /// row per experiment, one column per output (NaN when the model has no
+    /// periodic steady state).
+    pub fit: DMatrix<f64>,
+    /// Antisymmetry residual `‖y(k) + y(k+n_r m)‖/‖y‖` of each used period.
+    pub steady_state_residual: Vec<f64>,
+    /// First sample of the used period in each record.
+    pub record_start: Vec<usize>,
+    /// PRBS magnitude used for each channel.
+    pub amplitudes: Vec<f64>,
+    /// All poles of Â inside the unit circle.
+    pub stable: bool,
+    /// Largest pole modulus of Â.
+    pub spectral_radius: f64,
+}
+
+/// One experiment after validation: the used period and what was read from it.
+struct Prepared {
+    input: Vec<f64>,
+    output: DMatrix<f64>,
+    amplitude: f64,
+    phase: usize,
+    start: usize,
+    residual: f64,
+}
+
+/// Circular correlation `(1/c) Σ_k x(k+τ) y(k)` for every lag, by `lifted-prbs`.
+fn corr(x: &[f64], y: &[f64], c: f64, method: CorrelationMethod) -> Result<Vec<f64>> {
+    Ok(periodic_cross_correlation_with(
+        x,
+        y,
+        Normalization::Divisor(c),
+        method,
+    )?)
+}
+
+fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
+    let n = m.nrows();
+    &m.as_slice()[j * n..(j + 1) * n]
+}
+
+fn check_finite_record(experiment: usize, r: &ChannelRecord) -> Result<()> {
+    if let Some(sample) = r.input.iter().position(|v| !v.is_finite()) {
+        return Err(Error::NonFinite {
+            experiment,
+            what: "input",
+            sample,
+            channel: experiment,
+        });
+    }
+    let n = r.output.nrows();
+    if let Some(k) = r.output.as_slice().iter().position(|v| !v.is_finite()) {
+        return Err(Error::NonFinite {
+            experiment,
+            what: "output",
+            sample: k % n,
+            channel: k / n,
+        });
+    }
+    Ok(())
+}
+
+/// Antisymmetry residual `‖y(k) + y(k+N/2)‖ / ‖y‖` over one period.
+fn antisymmetry_residual(y: &DMatrix<f64>) -> f64 {
+    let n = y.nrows();
+    let half = n / 2;
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for j in 0..y.ncols() {
+        let c = column(y, j);
+        for k in 0..half {
+            let s = c[k] + c[k + half];
+            num += s * s;
+        }
+        den += c.iter().map(|v| v * v).sum::<f64>();
+    }
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+}
+
+fn prepare(
+    experiment: usize,
+    rec: &ChannelRecord,
+    opts: &QMarkovOptions,
+    period: usize,
+) -> Result<Prepared> {
+    let len = rec.input.len();
+    if rec.output.nrows() != len {
+        return Err(Error::DimensionMismatch {
+            what: "record",
+            expected: format!("{len} output rows (one per input sample)"),
+            got: format!("{}", rec.output.nrows()),
+        });
+    }
+    check_finite_record(experiment, rec)?;
+    let start = match opts.record {
+        RecordMode::OnePeriod => {
+            if len != period {
+                if len < period {
+                    return Err(Error::RecordTooShort { experiment, len, period });
+                }
+                return Err(Error::WrongPeriodLength {
+                    experiment,
+                    expected: period,
+                    got: len,
+                });
+            }
+            0
+        }
+        RecordMode::LastPeriod => {
+            if len < period {
+                return Err(Error::RecordTooShort { experiment, len, period });
+            }
+            len - period
+        }
+    };
+    let input: Vec<f64> = rec.input[start..].to_vec();
+    let mut output = rec.output.rows(start, period).into_owned();
+    let amplitude = match &opts.amplitudes {
+        Some(a) => a[experiment],
+        None => input[0].abs(),
+    };
+    if !(amplitude.is_finite() && amplitude > 0.0) {
+        return Err(Error::InvalidAmplitude {
+            channel: experiment,
+            value: amplitude,
+        });
+    }
+    let tol = 1e-9 * amplitude;
+    if let Some(k) = input.iter().position(|v| (v.abs() - amplitude).abs() > tol) {
+        return Err(Error::NotPrbs {
+            experiment,
+            reason: format!(
+                "sample {k} is {} but the PRBS takes the values ±{amplitude}",
+                input[k]
+            ),
+        });
+    }
+    let half = period / 2;
+    if let Some(sample) = (0..half).find(|&k| (input[k] + input[k + half]).abs() > tol) {
+        return Err(Error::PeriodMismatch {
+            experiment,
+            half_period: half,
+            sample,
+        });
+    }
+    // Hold phase: every change of the input happens at a generation instant.
+    let nr = opts.hold;
+    let mut phase = None;
+    for k in 0..period {
+        let prev = input[(k + period - 1) % period];
+        if (input[k] - prev).abs() > tol {
+            let ph = k % nr;
+            match phase {
+                None => phase = Some(ph),
+                Some(p) if p != ph => {
+                    return Err(Error::NotPrbs {
+                        experiment,
+                        reason: format!(
+                            "the input changes at samples {k} and at phase {p} modulo n_r = {nr}: not held n_r samples"
+                        ),
+                    });
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    let phase = phase.unwrap_or(0);
+    if opts.remove_mean {
+        for mut col in output.column_iter_mut() {
+            let mean = col.mean();
+            col.add_scalar_mut(-mean);
+        }
+    }
+    let residual = antisymmetry_residual(&output);
+    if residual > opts.steady_state_tol {
+        return Err(Error::NotSteadyState {
+            experiment,
+            residual,
+            tol: opts.steady_state_tol,
+        });
+    }
+    Ok(Prepared {
+        input,
+        output,
+        amplitude,
+        phase,
+        start,
+        residual,
+    })
+}
+
+/// `R_yy(τ)` summed over the experiments (eq. III-22), τ < q, normalised by 1/(2m).
+/// Uses `n_y(n_y+1)/2` circular correlations per experiment (`R_ji(τ) = R_ij(−τ)`).
+fn output_covariances(
+    outputs: &[&DMatrix<f64>],
+    q: usize,
+    m: usize,
+    method: CorrelationMethod,
+) -> Result<Vec<DMatrix<f64>>> {
+    let ny = outputs[0].ncols();
+    let mut ryy = vec![DMatrix::zeros(ny, ny); q];
+    for y in outputs {
+        let n = y.nrows();
+        for i in 0..ny {
+            for j in i..ny {
+                let full = corr(column(y, i), column(y, j), 2.0 * m as f64, method)?;
+                for (tau, r) in ryy.iter_mut().enumerate() {
+                    r[(i, j)] += full[tau];
+                    if i != j {
+                        r[(j, i)] += full[(n - tau) % n];
+                    }
+                }
+            }
+        }
+    }
+    Ok(ryy)
+}
+
+/// Markov parameters of one channel (column l of every `H_τ`).
+fn channel_markov(
+    p: &Prepared,
+    opts: &QMarkovOptions,
+    m: usize,
+) -> Result<Vec<DVector<f64>>> {
+    let q = opts.q;
+    let nr = opts.hold;
+    let ny = p.output.ncols();
+    let a2 = p.amplitude * p.amplitude;
+    let mut h = vec![DVector::zeros(ny); q];
+    match opts.markov {
+        MarkovEstimator::HoldDeconvolution => {
+            // The input at its generation instants only (an impulse train).
+            let v: Vec<f64> = p
+                .input
+                .iter()
+                .enumerate()
+                .map(|(k, &x)| if k % nr == p.phase { x } else { 0.0 })
+                .collect();
+            for i in 0..ny {
+                let g = corr(column(&p.output, i), &v, 2.0 * m as f64 * a2, opts.correlation)?;
+                // h(τ) = g(τ) − g(τ−1) + h(τ−n_r), negative arguments zero.
+                let mut hi = vec![0.0; q];
+                for tau in 0..q {
+                    let mut val = g[tau];
+                    if tau >= 1 {
+                        val -= g[tau - 1];
+                    }
+                    if tau >= nr {
+                        val += hi[tau - nr];
+                    }
+                    hi[tau] = val;
+                }
+                for tau in 0..q {
+                    h[tau][i] = hi[tau];
+                }
+            }
+        }
+        MarkovEstimator::PrintedIII23 => {
+            let w0 = lifted_prbs::held_autocorrelation(opts.prbs_order, nr, p.amplitude, 0)?;
+            for i in 0..ny {
+                let r = corr(column(&p.output, i), &p.input, 2.0 * m as f64, opts.correlation)?;
+                for tau in 0..q {
+                    h[tau][i] = r[tau] / w0;
+                }
+            }
+        }
+    }
+    Ok(h)
+}
+
+/// Periodic steady-state response of a discrete model to one period of `u`
+/// (N × n_w): `x₀ = (I − A^N)⁻¹ x_N` with `x_N` the state after one period from
+/// rest. `None` when `I − A^N` is singular or the numbers overflow.
+fn periodic_response(model: &StateSpace, u: &DMatrix<f64>) -> Result<Option<DMatrix<f64>>> {
+    let n = model.order();
+    let first = model.lsim(u, None, None)?;
+    let last = u.nrows() - 1;
+    let xn = model.a() * first.x.row(last).transpose() + model.b() * u.row(last).transpose();
+    // A^N by repeated squaring.
+    let mut pow = DMatrix::<f64>::identity(n, n);
+    let mut base = model.a().clone();
+    let mut e = u.nrows();
+    while e > 0 {
+        if e & 1 == 1 {
+            pow = &pow * &base;
+        }
+        base = &base * &base;
+        e >>= 1;
+    }
+    let lhs = DMatrix::<f64>::identity(n, n) - pow;
+    if !lhs.iter().all(|v| v.is_finite()) {
+        return Ok(None);
+    }
+    let Ok(x0) = lifted_linalg::solve(&lhs, &DMatrix::from_column_slice(n, 1, xn.as_slice()))
+    else {
+        return Ok(None);
+    };
+    let x0 = DVector::from_column_slice(x0.as_slice());
+    Ok(Some(model.lsim(u, Some(&x0), None)?.y))
+}
+
+fn rel_error(model: &[DMatrix<f64>], data: &[DMatrix<f64>]) -> f64 {
+    let num: f64 = model.iter().zip(data).map(|(a, b)| (a - b).norm_squared()).sum();
+    let den: f64 = data.iter().map(|b| b.norm_squared()).sum();
+    (num / den).sqrt()
+}
+
+/// The weighted multirate q-Markov Cover of Zhu 2000 §III.C from one steady-state
+/// record per input channel (spec A1.4). `ts` is the output period `T` (the model's
+/// sample time). Returns the cover as a discrete [`StateSpace`] at `ts` and its
+/// [`Diagnostics`].
+///
+/// Steps: validate and cut each record (one period `N = 2 n_r m`; the input must be
+/// the held inverse PRBS `±a_l`, antisymmetric with half period `n_r m`; the output
+/// must pass the antisymmetry test, erratum Z-12); `R_yy(τ)` (III-22) and the Markov
+/// parameters (hold-deconvolution, erratum Z-8, or III-23 as printed); `W(τ)` from
+/// the closed form of `lifted-prbs` (corrected II-10, 1/(2m), errata Z-2, Z-6, Z-7);
+/// then [`realize`]; finally stability (Z-9), Markov and covariance matching and the
+/// response fit.
+///
+/// # Complexity
+/// Correlations: per experiment `n_y(n_y+1)/2 + n_y` circular correlations of length
+/// N through `lifted-prbs` — O(N log N) each by FFT (direct O(N²) only below
+/// [`lifted_prbs::FFT_THRESHOLD`] samples, where N² ≤ 128 N); only the first q lags
+/// are used. Cover: O((q n_y)³). Diagnostics: two simulations of N samples per
+/// experiment, O(N r (r + n_w + n_y)), plus the same correlations again.
+///
+/// # Errors
+/// Named errors for every rejected input: [`Error::NoExperiments`],
+/// [`Error::ChannelCount`], [`Error::DimensionMismatch`], [`Error::NonFinite`],
+/// [`Error::RecordTooShort`], [`Error::WrongPeriodLength`], [`Error::PeriodMismatch`],
+/// [`Error::NotPrbs`], [`Error::NotSteadyState`], [`Error::InvalidAmplitude`],
+/// [`Error::LagsOutOfRange`], [`Error::OrderExceedsRank`], [`Error::InvalidOption`],
+/// [`Error::InvalidWeighting`], [`Error::UnstableCover`].
+pub fn identify_records(
+    records: &[ChannelRecord],
+    ts: f64,
+    opts: &QMarkovOptions,
+) -> Result<Identified<Diagnostics>> {
+    let (m, period) = opts.validate()?;
+    if records.is_empty() {
+        return Err(Error::NoExperiments);
+    }
+    let nw = records.len();
+    if let Some(a) = &opts.amplitudes {
+        if a.len() != nw {
+            return Err(Error::ChannelCount {
+                what: "amplitudes",
+                expected: nw,
+                got: a.len(),
+            });
+        }
+    }
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(Error::InvalidOption {
+            what: "ts",
+            reason: format!("the output period must be positive and finite, got {ts}"),
+        });
+    }
+    let ny = records[0].output.ncols();
+    if ny == 0 {
+        return Err(Error::DimensionMismatch {
+            what: "outputs",
+            expected: "at least one output channel".into(),
+            got: "0".into(),
+        });
+    }
+    for (l, r) in records.iter().enumerate() {
+        if r.output.ncols() != ny {
+            return Err(Error::DimensionMismatch {
+                what: "outputs",
+                expected: format!("{ny} output channels in every experiment"),
+                got: format!("{} in experiment {l}", r.output.ncols()),
+            });
+        }
+    }
+    let prepared: Vec<Prepared> = records
+        .iter()
+        .enumerate()
+        .map(|(l, r)| prepare(l, r, opts, period))
+        .collect::<Result<_>>()?;
+
+    // Step 2: correlations and Markov parameters.
+    let outputs: Vec<&DMatrix<f64>> = prepared.iter().map(|p| &p.output).collect();
+    let ryy = output_covariances(&outputs, opts.q, m, opts.correlation)?;
+    let mut markov = vec![DMatrix::zeros(ny, nw); opts.q];
+    for (l, p) in prepared.iter().enumerate() {
+        let h = channel_markov(p, opts, m)?;
+        for (tau, hl) in h.into_iter().enumerate() {
+            markov[tau].set_column(l, &hl);
+        }
+    }
+    // W(τ) = diag_l R_w(τ) for τ < n_r (closed form, corrected II-10), 0 beyond.
+    let mut weighting = vec![DVector::zeros(nw); opts.q];
+    for (tau, w) in weighting.iter_mut().enumerate().take(opts.hold.min(opts.q)) {
+        for (l, p) in prepared.iter().enumerate() {
+            w[l] = lifted_prbs::held_autocorrelation(
+                opts.prbs_order,
+                opts.hold,
+                p.amplitude,
+                tau as i64,
+            )?;
+        }
+    }
+    let data = CoverData {
+        ryy,
+        markov,
+        weighting,
+    };
+    let settings = CoverSettings {
+        order: opts.order,
+        max_auto_order: opts.max_auto_order,
+        output_weighting: opts.output_weighting.clone(),
+        weighting: opts.weighting,
+        eigen_tol: opts.eigen_tol,
+        rank_tol: opts.rank_tol,
+        rotation: opts.rotation.clone(),
+    };
+    let real = realize(&data, &settings)?;
+    let model = StateSpace::new(
+        real.a.clone(),
+        real.b.clone(),
+        real.c.clone(),
+        real.d.clone(),
+        Some(ts),
+    )?;
+
+    // Stability (erratum Z-9).
+    let spectral_radius = model
+        .poles()?
+        .iter()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max);
+    let stable = spectral_radius < 1.0;
+    if !stable && opts.require_stable {
+        return Err(Error::UnstableCover { spectral_radius });
+    }
+
+    // Diagnostics: Markov and covariance parameters matched, response fit.
+    let markov_model = model.markov_parameters(opts.q - 1)?;
+    let markov_error = rel_error(&markov_model, &data.markov);
+    let mut fit = DMatrix::from_element(nw, ny, f64::NAN);
+    let mut simulated = Vec::with_capacity(nw);
+    for (l, p) in prepared.iter().enumerate() {
+        let mut u = DMatrix::zeros(period, nw);
+        u.set_column(l, &DVector::from_column_slice(&p.input));
+        if let Some(yh) = periodic_response(&model, &u)? {
+            for i in 0..ny {
+                let y = column(&p.output, i);
+                let mean = y.iter().sum::<f64>() / y.len() as f64;
+                let e: f64 = column(&yh, i).iter().zip(y).map(|(a, b)| (a - b).powi(2)).sum();
+                let v: f64 = y.iter().map(|b| (b - mean).powi(2)).sum();
+                fit[(l, i)] = 100.0 * (1.0 - (e / v).sqrt());
+            }
+            simulated.push(yh);
+        }
+    }
+    let (covariance_model, covariance_error) = if simulated.len() == nw {
+        let refs: Vec<&DMatrix<f64>> = simulated.iter().collect();
+        let cm = output_covariances(&refs, opts.q, m, opts.correlation)?;
+        let err = rel_error(&cm, &data.ryy);
+        (cm, err)
+    } else {
+        (Vec::new(), f64::NAN)
+    };
+
+    let diagnostics = Diagnostics {
+        eigenvalues: real.eigenvalues,
+        order: real.order,
+        suggested_order: real.suggested_order,
+        rank_dq: real.rank_dq,
+        rank_p: real.rank_p,
+        cover: real.cover,
+        min_eigenvalue: real.min_eigenvalue,
+        negative_eigenvalues: real.negative_eigenvalues,
+        markov_data: data.markov,
+        markov_model,
+        markov_error,
+        covariance_data: data.ryy,
+        covariance_model,
+        covariance_error,
+        fit,
+        steady_state_residual: prepared.iter().map(|p| p.residual).collect(),
+        record_start: prepared.iter().map(|p| p.start).collect(),
+        amplitudes: prepared.iter().map(|p| p.amplitude).collect(),
+        stable,
+        spectral_radius,
+    };
+    Ok(Identified { model, diagnostics })
+}

@@ -1,0 +1,3 @@
+//! Integration tests of lifted-qmarkov (one binary, modules by area).
+
+mod suite;
