@@ -1,0 +1,510 @@
+//! The unified subspace engine: N4SID, MOESP and CVA as one weighted SVD
+//! (thesis §2.5, Van Overschee & De Moor's unifying theorem).
+
+use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, range_basis, svd, sym_eig};
+use lifted_lti::StateSpace;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result, check_data};
+use crate::hankel::{HankelLayout, compress};
+use crate::regress::{Feedthrough, InitialState, Record, estimate_bd};
+
+/// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Method {
+    /// W₁ = I, W₂ = I.
+    #[default]
+    N4sid,
+    /// W₁ = I, W₂ = Π_{U_f⊥}.
+    Moesp,
+    /// W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2}, W₂ = Π_{U_f⊥}; the singular
+    /// values are the canonical correlations between future outputs and past
+    /// data (both with the future inputs removed).
+    Cva,
+}
+
+impl Method {
+    /// Short name ("N4SID", "MOESP", "CVA").
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::N4sid => "N4SID",
+            Method::Moesp => "MOESP",
+            Method::Cva => "CVA",
+        }
+    }
+}
+
+/// How the model order is chosen from the singular values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum OrderSelection {
+    /// Use this order.
+    Fixed(usize),
+    /// The largest gap log(σ_n/σ_{n+1}) for 1 ≤ n ≤ `max` (capped at the
+    /// largest admissible order).
+    Gap {
+        /// Largest order considered.
+        max: usize,
+    },
+}
+
+impl Default for OrderSelection {
+    fn default() -> Self {
+        OrderSelection::Gap { max: 10 }
+    }
+}
+
+/// Options of [`identify`]. `Default` gives the values documented per field.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubspaceOptions {
+    /// Weighting (thesis §2.5). Default [`Method::N4sid`].
+    pub method: Method,
+    /// Order choice. Default `Gap { max: 10 }`.
+    pub order: OrderSelection,
+    /// Past horizon p (block rows of U_p, Y_p; "i" of thesis §2.3). Default 10.
+    pub past: usize,
+    /// Future horizon f (block rows of U_f, Y_f). Default 10.
+    pub future: usize,
+    /// Which entries of D are estimated. Default [`Feedthrough::Free`].
+    pub feedthrough: Feedthrough,
+    /// Initial state per record in the (B, D) regression. Default
+    /// [`InitialState::Estimate`].
+    pub initial_state: InitialState,
+    /// Estimate the noise covariances (Q, R, S) from the state-sequence
+    /// residuals (thesis §2.3) and the Kalman gain from the DARE. Default true.
+    pub noise_model: bool,
+    /// If the shift-invariance estimate of A is unstable, re-estimate it with
+    /// the zero-padded shift [Γ] A = [Γ↑; 0] (guaranteed stable). Default false.
+    pub enforce_stability: bool,
+    /// Sample period of the returned model (seconds). Default 1.0.
+    pub ts: f64,
+    /// Time instants per block of the streamed Hankel compression. Default 2048.
+    pub chunk_rows: usize,
+}
+
+impl Default for SubspaceOptions {
+    fn default() -> Self {
+        SubspaceOptions {
+            method: Method::N4sid,
+            order: OrderSelection::default(),
+            past: 10,
+            future: 10,
+            feedthrough: Feedthrough::Free,
+            initial_state: InitialState::Estimate,
+            noise_model: true,
+            enforce_stability: false,
+            ts: 1.0,
+            chunk_rows: 2048,
+        }
+    }
+}
+
+/// Noise covariances of x(k+1) = Ax + Bu + w, y = Cx + Du + v.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseCovariances {
+    /// E[w wᵀ] (n×n).
+    pub q: DMatrix<f64>,
+    /// E[v vᵀ] (n_y×n_y).
+    pub r: DMatrix<f64>,
+    /// E[w vᵀ] (n×n_y).
+    pub s: DMatrix<f64>,
+}
+
+/// Order-selection data and other diagnostics of an identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostics {
+    /// Method used.
+    pub method: Method,
+    /// All singular values of the weighted projection W₁ Φ W₂ (descending).
+    pub singular_values: Vec<f64>,
+    /// Order used.
+    pub order: usize,
+    /// Order suggested by the gap rule (whatever was used).
+    pub suggested_order: usize,
+    /// Past and future horizons.
+    pub horizons: (usize, usize),
+    /// Hankel columns J (all records).
+    pub columns: usize,
+    /// True if A was re-estimated to make it stable.
+    pub stabilized: bool,
+    /// Why no Kalman gain was returned, if requested but not available.
+    pub noise_model_error: Option<String>,
+    /// Approximate flop count of the Hankel compression, 2Jk²(1 + k/b).
+    pub compression_flops: f64,
+}
+
+/// An identified model with its noise model and diagnostics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubspaceModel {
+    /// The deterministic model (A, B, C, D) with sample period `ts`.
+    pub model: StateSpace,
+    /// Kalman (predictor) gain K, x(k+1) = Ax + Bu + K e (n×n_y).
+    pub kalman_gain: Option<DMatrix<f64>>,
+    /// Innovation-form noise covariances (Q, R, S).
+    pub noise: Option<NoiseCovariances>,
+    /// Estimated initial state per record.
+    pub x0: Vec<DVector<f64>>,
+    /// Singular values, orders and other diagnostics.
+    pub diagnostics: Diagnostics,
+}
+
+/// Gap rule: argmax_{1≤n≤max} log(σ_n/σ_{n+1}).
+pub fn gap_order(singular_values: &[f64], max: usize) -> usize {
+    let max = max.min(singular_values.len().saturating_sub(1)).max(1);
+    // Values below ε·len·σ₁ are numerically zero: floor them there so that
+    // rounding noise beyond the true order does not create spurious gaps.
+    let s0 = singular_values.first().cloned().unwrap_or(0.0);
+    let floor = (s0 * f64::EPSILON * singular_values.len() as f64).max(f64::MIN_POSITIVE);
+    let mut best = (1, f64::NEG_INFINITY);
+    for n in 1..=max {
+        if n >= singular_values.len() {
+            break;
+        }
+        let hi = singular_values[n - 1].max(floor);
+        let lo = singular_values[n].max(floor);
+        let g = (hi / lo).ln();
+        if g > best.1 {
+            best = (n, g);
+        }
+    }
+    best.0
+}
+
+/// Removes the row space of `u` from the rows of `m`: m Π_{u⊥}.
+pub(crate) fn perp(m: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    if u.nrows() == 0 {
+        return Ok(m.clone());
+    }
+    let q = range_basis(&u.transpose(), RankTolerance::Default)?;
+    Ok(m - (m * &q) * q.transpose())
+}
+
+/// Oblique projection F /_U P = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺ P.
+fn oblique(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let fp = perp(f, u)?;
+    let pp = perp(p, u)?;
+    let g = &pp * pp.transpose();
+    Ok(fp * pp.transpose() * pinv(&g, RankTolerance::Relative(1e-12))? * p)
+}
+
+fn rows(m: &DMatrix<f64>, r: std::ops::Range<usize>) -> DMatrix<f64> {
+    m.rows(r.start, r.len()).into_owned()
+}
+
+fn vstack(parts: &[&DMatrix<f64>]) -> DMatrix<f64> {
+    let nr: usize = parts.iter().map(|p| p.nrows()).sum();
+    let nc = parts.first().map_or(0, |p| p.ncols());
+    let mut out = DMatrix::zeros(nr, nc);
+    let mut r = 0;
+    for p in parts {
+        out.rows_mut(r, p.nrows()).copy_from(p);
+        r += p.nrows();
+    }
+    out
+}
+
+/// Spectral radius of a square matrix.
+pub(crate) fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
+    Ok(lifted_linalg::eigenvalues(a)?
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max))
+}
+
+/// (A, C) from an extended observability matrix with `ny` rows per block by
+/// shift invariance over all block rows (erratum L-3: A = Γ↑⁺ Γ↓), and the
+/// stabilised variant A = Γ⁺ [Γ↓; 0] when requested and needed.
+pub(crate) fn ac_from_gamma(
+    gamma: &DMatrix<f64>,
+    ny: usize,
+    enforce_stability: bool,
+) -> Result<(DMatrix<f64>, DMatrix<f64>, bool)> {
+    let (rows_g, n) = gamma.shape();
+    let up = gamma.rows(0, rows_g - ny).into_owned();
+    let dn = gamma.rows(ny, rows_g - ny).into_owned();
+    let mut a = lstsq(&up, &dn)?;
+    let c = gamma.rows(0, ny).into_owned();
+    let mut stabilized = false;
+    if enforce_stability && spectral_radius(&a)? >= 1.0 {
+        let mut padded = DMatrix::zeros(rows_g, n);
+        padded.rows_mut(0, rows_g - ny).copy_from(&dn);
+        a = lstsq(gamma, &padded)?;
+        stabilized = true;
+    }
+    Ok((a, c, stabilized))
+}
+
+/// One data record (experiment) for [`identify`]: u (N×n_u), y (N×n_y).
+#[derive(Debug, Clone, Copy)]
+pub struct Experiment<'a> {
+    /// Inputs, one row per sample.
+    pub u: &'a DMatrix<f64>,
+    /// Outputs, one row per sample.
+    pub y: &'a DMatrix<f64>,
+}
+
+/// Validates the records; returns (n_u, n_y, total samples).
+fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    if nu == 0 || ny == 0 {
+        return Err(Error::DimensionMismatch {
+            what: "u, y",
+            expected: "at least one input and one output".into(),
+            got: format!("{nu} inputs, {ny} outputs"),
+        });
+    }
+    let mut total = 0;
+    for e in experiments {
+        if e.u.ncols() != nu || e.y.ncols() != ny || e.u.nrows() != e.y.nrows() {
+            return Err(Error::DimensionMismatch {
+                what: "experiment (u, y)",
+                expected: format!("N×{nu} and N×{ny}"),
+                got: format!(
+                    "{}x{} and {}x{}",
+                    e.u.nrows(),
+                    e.u.ncols(),
+                    e.y.nrows(),
+                    e.y.ncols()
+                ),
+            });
+        }
+        check_data("u", e.u)?;
+        check_data("y", e.y)?;
+        total += e.u.nrows();
+    }
+    Ok((nu, ny, total))
+}
+
+/// Numerical rank of a lower-triangular Gram factor block.
+pub(crate) fn numerical_rank(m: &DMatrix<f64>, rel: f64) -> Result<usize> {
+    let s = lifted_linalg::singular_values(m)?;
+    let smax = s.iter().cloned().fold(0.0, f64::max);
+    Ok(s.iter().filter(|&&v| smax > 0.0 && v > rel * smax).count())
+}
+
+/// Identifies a state-space model from one or more records with N4SID,
+/// MOESP or CVA (thesis ch. 2, unified by the weights of §2.5).
+///
+/// Steps: (1) streamed R-only QR of the block-Hankel data
+/// [U_f; U_p; Y_p; Y_f] (module `hankel`; ≈ 2Jk²(1 + k/b) flops, O(k²)
+/// memory, k = (p+f)(n_u+n_y)); (2) oblique projection Φ = Y_f /_{U_f} W_p
+/// and SVD of W₁ Φ W₂ on the k×k factor (O(k³)); (3) Γ = W₁⁻¹U₁S₁^{1/2},
+/// C = first block row, A = Γ↑⁺Γ↓ (all block rows, erratum L-3);
+/// (4) (B, D, x₀) by streamed output-error least squares with the
+/// feedthrough mask ([`estimate_bd`], O(N n_y (n_u n³ + p²)));
+/// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
+/// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
+///
+/// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
+/// [`Error::NonFinite`], [`Error::InvalidHorizon`],
+/// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`],
+/// [`Error::NotExciting`], [`Error::Unstable`] is never returned here
+/// (use `enforce_stability`).
+pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
+    let (nu, ny, total) = validate(experiments)?;
+    let (p, f) = (opts.past, opts.future);
+    if p == 0 {
+        return Err(Error::InvalidHorizon {
+            what: "past",
+            value: p,
+            reason: "must be at least 1".into(),
+        });
+    }
+    if f < 2 {
+        return Err(Error::InvalidHorizon {
+            what: "future",
+            value: f,
+            reason: "must be at least 2 (shift invariance needs two block rows)".into(),
+        });
+    }
+    if !(opts.ts.is_finite() && opts.ts > 0.0) {
+        return Err(Error::InvalidOption {
+            what: "ts",
+            reason: format!("sample period must be positive and finite, got {}", opts.ts),
+        });
+    }
+    let layout = HankelLayout {
+        past: p,
+        future: f,
+        nu,
+        ny,
+    };
+    let k = layout.nrows();
+    let max_order = (f - 1) * ny;
+    if let OrderSelection::Fixed(n) = opts.order
+        && (n == 0 || n > max_order)
+    {
+        return Err(Error::OrderTooLarge {
+            order: n,
+            max: max_order,
+        });
+    }
+    let columns: usize = experiments
+        .iter()
+        .map(|e| layout.columns(e.u.nrows()))
+        .sum();
+    if columns < k {
+        // J ≥ k columns are needed for a full-rank k×k factor.
+        let min_samples = k + (p + f - 1) * experiments.len();
+        return Err(Error::HorizonTooLong {
+            past: p,
+            future: f,
+            n_samples: total,
+            min_samples,
+        });
+    }
+    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+        experiments.iter().map(|e| (e.u, e.y)).collect();
+    let (l, columns) = compress(&recs, &layout, opts.chunk_rows)?;
+    let b = opts.chunk_rows.max(1) as f64;
+    let compression_flops = 2.0 * columns as f64 * (k * k) as f64 * (1.0 + k as f64 / b);
+
+    // Persistent excitation: the input rows [U_f; U_p] must have full rank.
+    let nu_rows = (p + f) * nu;
+    let luu = l.view((0, 0), (nu_rows, nu_rows)).into_owned();
+    let rank_u = numerical_rank(&luu, 1e-10)?;
+    if rank_u < nu_rows {
+        return Err(Error::NotExciting {
+            what: "u",
+            rank: rank_u,
+            needed: nu_rows,
+        });
+    }
+
+    let uf = rows(&l, layout.uf());
+    let wp = vstack(&[&rows(&l, layout.up()), &rows(&l, layout.yp())]);
+    let yf = rows(&l, layout.yf());
+    let phi = oblique(&yf, &uf, &wp)?;
+    let (w1_inv, weighted) = match opts.method {
+        Method::N4sid => (None, phi.clone()),
+        Method::Moesp => (None, perp(&phi, &uf)?),
+        Method::Cva => {
+            let yfp = perp(&yf, &uf)?;
+            let e = sym_eig(&(&yfp * yfp.transpose()), SortOrder::Descending)?;
+            let lmax = e.values.iter().cloned().fold(0.0, f64::max);
+            let floor = (lmax * 1e-14).max(f64::MIN_POSITIVE);
+            let mut w1 = DMatrix::zeros(e.values.len(), e.values.len());
+            let mut w1i = w1.clone();
+            for (i, &lam) in e.values.iter().enumerate() {
+                let v = e.vectors.column(i);
+                let lam = lam.max(floor);
+                w1 += v * v.transpose() / lam.sqrt();
+                w1i += v * v.transpose() * lam.sqrt();
+            }
+            (Some(w1i), w1 * perp(&phi, &uf)?)
+        }
+    };
+    let dec = svd(&weighted)?;
+    let singular_values: Vec<f64> = dec.s.iter().cloned().collect();
+    let suggested_order = gap_order(
+        &singular_values,
+        match opts.order {
+            OrderSelection::Gap { max } => max.min(max_order),
+            OrderSelection::Fixed(_) => max_order.min(10),
+        },
+    );
+    let n = match opts.order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { .. } => suggested_order,
+    };
+    if n > dec.s.len() {
+        return Err(Error::OrderTooLarge {
+            order: n,
+            max: dec.s.len(),
+        });
+    }
+    let mut gamma = dec.u.columns(0, n).into_owned();
+    for j in 0..n {
+        let sc = dec.s[j].sqrt();
+        gamma.column_mut(j).scale_mut(sc);
+    }
+    if let Some(w1i) = &w1_inv {
+        gamma = w1i * gamma;
+    }
+    let (a, c, stabilized) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
+
+    let records: Vec<Record<'_>> = experiments
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: None,
+        })
+        .collect();
+    let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+
+    let mut noise = None;
+    let mut kalman_gain = None;
+    let mut noise_model_error = None;
+    if opts.noise_model {
+        match noise_model(&l, &layout, &gamma, &phi, &a, &bd.b, &c, &bd.d) {
+            Ok((cov, kg)) => {
+                noise = Some(cov);
+                kalman_gain = kg.as_ref().ok().cloned();
+                if let Err(e) = kg {
+                    noise_model_error = Some(e);
+                }
+            }
+            Err(e) => noise_model_error = Some(e.to_string()),
+        }
+    }
+    let model = StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?;
+    Ok(SubspaceModel {
+        model,
+        kalman_gain,
+        noise,
+        x0: bd.x0,
+        diagnostics: Diagnostics {
+            method: opts.method,
+            singular_values,
+            order: n,
+            suggested_order,
+            horizons: (p, f),
+            columns,
+            stabilized,
+            noise_model_error,
+            compression_flops,
+        },
+    })
+}
+
+type NoiseResult = (NoiseCovariances, std::result::Result<DMatrix<f64>, String>);
+
+/// Q, R, S from the state sequences (thesis §2.3) and the Kalman gain from
+/// the filter DARE X = AXAᵀ − (AXCᵀ + S)(CXCᵀ + R)⁻¹(·)ᵀ + Q.
+#[allow(clippy::too_many_arguments)]
+fn noise_model(
+    l: &DMatrix<f64>,
+    lay: &HankelLayout,
+    gamma: &DMatrix<f64>,
+    phi: &DMatrix<f64>,
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    d: &DMatrix<f64>,
+) -> Result<NoiseResult> {
+    let (nu, ny) = (lay.nu, lay.ny);
+    let ufr = lay.uf();
+    let yfr = lay.yf();
+    let u_i = rows(l, ufr.start..ufr.start + nu);
+    let y_i = rows(l, yfr.start..yfr.start + ny);
+    let uf_minus = rows(l, ufr.start + nu..ufr.end);
+    let yf_minus = rows(l, yfr.start + ny..yfr.end);
+    let wp_plus = vstack(&[&rows(l, lay.up()), &u_i, &rows(l, lay.yp()), &y_i]);
+    let phi_plus = oblique(&yf_minus, &uf_minus, &wp_plus)?;
+    let g_minus = gamma.rows(0, gamma.nrows() - ny).into_owned();
+    let x_i = pinv(gamma, RankTolerance::Default)? * phi;
+    let x_ip1 = pinv(&g_minus, RankTolerance::Default)? * phi_plus;
+    let w = x_ip1 - a * &x_i - b * &u_i;
+    let v = y_i - c * &x_i - d * &u_i;
+    let cov = NoiseCovariances {
+        q: &w * w.transpose(),
+        r: &v * v.transpose(),
+        s: &w * v.transpose(),
+    };
+    let kg = dare(&a.transpose(), &c.transpose(), &cov.q, &cov.r, Some(&cov.s))
+        .map(|sol| sol.k.transpose())
+        .map_err(|e| e.to_string());
+    Ok((cov, kg))
+}

@@ -1,0 +1,138 @@
+//! The error type of `lifted-subspace`.
+
+/// Errors returned by the identification routines of this crate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An error from `lifted-linalg` (singular matrix, failed decomposition, …).
+    #[error(transparent)]
+    Linalg(#[from] lifted_linalg::Error),
+    /// An error from `lifted-lti` (building the identified model).
+    #[error(transparent)]
+    Lti(#[from] lifted_lti::Error),
+    /// A data matrix contains NaN or an infinity where finite data are required.
+    #[error("{what} contains a non-finite value at sample {row}, channel {col}")]
+    NonFinite {
+        /// Which argument (e.g. "u", "y").
+        what: &'static str,
+        /// Sample (row) of the first non-finite entry.
+        row: usize,
+        /// Channel (column) of the first non-finite entry.
+        col: usize,
+    },
+    /// Arguments have incompatible dimensions.
+    #[error("dimension mismatch for {what}: expected {expected}, got {got}")]
+    DimensionMismatch {
+        /// What was being matched.
+        what: &'static str,
+        /// Expected dimension, human readable.
+        expected: String,
+        /// Actual dimension, human readable.
+        got: String,
+    },
+    /// No experiment (data record) was given.
+    #[error("no data: at least one experiment is needed")]
+    NoData,
+    /// The block-Hankel horizons are too long for the number of samples.
+    #[error(
+        "horizons past {past} + future {future} too long for {n_samples} samples: at least {min_samples} samples needed"
+    )]
+    HorizonTooLong {
+        /// Past horizon (block rows).
+        past: usize,
+        /// Future horizon (block rows).
+        future: usize,
+        /// Samples available (all experiments).
+        n_samples: usize,
+        /// Samples needed.
+        min_samples: usize,
+    },
+    /// A horizon is zero or otherwise invalid.
+    #[error("invalid horizon {what} = {value}: {reason}")]
+    InvalidHorizon {
+        /// Which horizon.
+        what: &'static str,
+        /// The rejected value.
+        value: usize,
+        /// Why.
+        reason: String,
+    },
+    /// The requested model order is zero or not below the number of rows of
+    /// the extended observability matrix.
+    #[error("model order {order} invalid: it must lie in 1..={max}")]
+    OrderTooLarge {
+        /// Requested order.
+        order: usize,
+        /// Largest admissible order (future horizon × outputs − 1, or the
+        /// rank the data support).
+        max: usize,
+    },
+    /// The input is not persistently exciting (its block-Hankel matrix is
+    /// rank deficient), e.g. a constant input.
+    #[error("{what} is not persistently exciting: numerical rank {rank}, {needed} needed")]
+    NotExciting {
+        /// Which signal ("u" or the instrument).
+        what: &'static str,
+        /// Numerical rank of its block-Hankel matrix.
+        rank: usize,
+        /// Rank needed.
+        needed: usize,
+    },
+    /// The instrument has too few block rows: R₂₂ of the IV QR would have
+    /// fewer columns than the model order (erratum L-16: α_p·dim f must
+    /// exceed α·dim u + n).
+    #[error(
+        "instrument too short: {instrument_rows} instrument rows, more than {needed} needed (erratum L-16)"
+    )]
+    InstrumentTooShort {
+        /// Rows of the instrument block-Hankel matrix (α_p · dim f).
+        instrument_rows: usize,
+        /// α · dim u + n.
+        needed: usize,
+    },
+    /// A matrix that must have full column rank is rank deficient, e.g. Γ_R
+    /// of the one-step multirate formula (7.27) when (C₂, A) is not
+    /// observable (erratum L-18).
+    #[error("{what} is rank deficient: numerical rank {rank}, {needed} needed")]
+    RankDeficient {
+        /// Which matrix.
+        what: &'static str,
+        /// Numerical rank found.
+        rank: usize,
+        /// Rank needed.
+        needed: usize,
+    },
+    /// The identified model is unstable although a stable model was required.
+    #[error("identified A is unstable: spectral radius {spectral_radius}")]
+    Unstable {
+        /// Spectral radius of the estimated A.
+        spectral_radius: f64,
+    },
+    /// An option has an invalid value.
+    #[error("invalid option {what}: {reason}")]
+    InvalidOption {
+        /// Which option.
+        what: &'static str,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Rejects NaN/inf in a data matrix with [`Error::NonFinite`].
+pub(crate) fn check_data(what: &'static str, m: &nalgebra::DMatrix<f64>) -> Result<()> {
+    for c in 0..m.ncols() {
+        for r in 0..m.nrows() {
+            if !m[(r, c)].is_finite() {
+                return Err(Error::NonFinite {
+                    what,
+                    row: r,
+                    col: c,
+                });
+            }
+        }
+    }
+    Ok(())
+}

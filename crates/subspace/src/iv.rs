@@ -1,0 +1,539 @@
+//! Instrumental-variable subspace identification (thesis ch. 7):
+//! open loop with the input as instrument (§7.3), closed loop with the
+//! external excitation as instrument (§7.4), and the one-step multirate
+//! fast model of §7.5 (eq. 7.27).
+
+use lifted_linalg::{lstsq, qr_r, svd};
+use lifted_lti::StateSpace;
+use nalgebra::{DMatrix, DVector};
+
+use crate::engine::{OrderSelection, ac_from_gamma, gap_order, numerical_rank, spectral_radius};
+use crate::error::{Error, Result, check_data};
+use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
+
+/// One record for [`iv_identify`].
+#[derive(Debug, Clone, Copy)]
+pub struct IvExperiment<'a> {
+    /// Plant input u (N×n_u), one row per sample.
+    pub u: &'a DMatrix<f64>,
+    /// Plant output y (N×n_y).
+    pub y: &'a DMatrix<f64>,
+    /// Instrument (N×n_u): the external excitation f of a closed loop (at
+    /// the plant input or at the set-point; erratum L-17), independent of
+    /// the noise. `None` uses u itself (open loop, §7.3).
+    pub instrument: Option<&'a DMatrix<f64>>,
+}
+
+/// Options of [`iv_identify`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct IvOptions {
+    /// Order choice. Default `Gap { max: 10 }`.
+    pub order: OrderSelection,
+    /// α: block rows of the future U_f, Y_f (eq. 7.5; α > n). Default 8.
+    pub alpha: usize,
+    /// α_p: block rows of the past instrument; must exceed α + n/n_u
+    /// (erratum L-16). `None` uses 2α, the reference implementation's choice.
+    pub alpha_p: Option<usize>,
+    /// Which entries of D are estimated. Default [`Feedthrough::Free`].
+    pub feedthrough: Feedthrough,
+    /// Initial state in the (B, D) regression. Default [`InitialState::Estimate`].
+    pub initial_state: InitialState,
+    /// Re-estimate an unstable A with the zero-padded shift. Default false.
+    pub enforce_stability: bool,
+    /// Return [`Error::Unstable`] instead of an unstable model. Default false.
+    pub require_stable: bool,
+    /// Sample period of the returned model. Default 1.0.
+    pub ts: f64,
+}
+
+impl Default for IvOptions {
+    fn default() -> Self {
+        IvOptions {
+            order: OrderSelection::default(),
+            alpha: 8,
+            alpha_p: None,
+            feedthrough: Feedthrough::Free,
+            initial_state: InitialState::Estimate,
+            enforce_stability: false,
+            require_stable: false,
+            ts: 1.0,
+        }
+    }
+}
+
+/// Diagnostics of an IV identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IvDiagnostics {
+    /// Singular values of R₂₂ (eq. 7.22), descending.
+    pub singular_values: Vec<f64>,
+    /// Order used.
+    pub order: usize,
+    /// Order of the gap rule.
+    pub suggested_order: usize,
+    /// (α, α_p).
+    pub horizons: (usize, usize),
+    /// Columns J of the Hankel matrices (all records).
+    pub columns: usize,
+    /// True if A was re-estimated to make it stable.
+    pub stabilized: bool,
+    /// Singular values of Γ_R (multirate one-step formula only).
+    pub gamma_r_singular_values: Vec<f64>,
+}
+
+/// An IV-identified model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IvModel {
+    /// The deterministic model (A, B, C, D).
+    pub model: StateSpace,
+    /// Estimated initial state per record.
+    pub x0: Vec<DVector<f64>>,
+    /// Singular values and orders.
+    pub diagnostics: IvDiagnostics,
+}
+
+struct GammaEstimate {
+    gamma: DMatrix<f64>,
+    s: Vec<f64>,
+    n: usize,
+    suggested: usize,
+    columns: usize,
+}
+
+/// Γ from the LQ of [U_f Zᵀ; Y_f Zᵀ]/J and the SVD of R₂₂ (eqs. 7.20–7.23),
+/// with past instruments Z (α_p block rows) and β = α_p.
+/// Cost O(J·α(n_u+n_y)·α_p n_z) for the correlations, memory O(α²).
+fn iv_gamma(
+    recs: &[(&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>)],
+    alpha: usize,
+    alpha_p: usize,
+    order: OrderSelection,
+) -> Result<GammaEstimate> {
+    let (u0, y0, z0) = recs[0];
+    let (nu, ny, nz) = (u0.ncols(), y0.ncols(), z0.ncols());
+    let rows_h = alpha * (nu + ny);
+    let rows_z = alpha_p * nz;
+    let mut m = DMatrix::zeros(rows_h, rows_z);
+    let mut zz = DMatrix::zeros(rows_z, rows_z);
+    let mut columns = 0;
+    const B: usize = 512;
+    for (u, y, z) in recs {
+        let nn = u.nrows();
+        let j = (nn + 1).saturating_sub(alpha + alpha_p);
+        let mut start = 0;
+        while start < j {
+            let len = B.min(j - start);
+            let mut h = DMatrix::zeros(rows_h, len);
+            let mut zc = DMatrix::zeros(rows_z, len);
+            for c in 0..len {
+                let t = start + c;
+                for lag in 0..alpha_p {
+                    for q in 0..nz {
+                        zc[(lag * nz + q, c)] = z[(t + lag, q)];
+                    }
+                }
+                let tf = t + alpha_p;
+                for lag in 0..alpha {
+                    for q in 0..nu {
+                        h[(lag * nu + q, c)] = u[(tf + lag, q)];
+                    }
+                    for q in 0..ny {
+                        h[(alpha * nu + lag * ny + q, c)] = y[(tf + lag, q)];
+                    }
+                }
+            }
+            let zt = zc.transpose();
+            m += &h * &zt;
+            zz += &zc * &zt;
+            start += len;
+        }
+        columns += j;
+    }
+    let total: usize = recs.iter().map(|r| r.0.nrows()).sum();
+    if columns < rows_z.max(rows_h) {
+        return Err(Error::HorizonTooLong {
+            past: alpha_p,
+            future: alpha,
+            n_samples: total,
+            min_samples: rows_z.max(rows_h) + (alpha + alpha_p - 1) * recs.len(),
+        });
+    }
+    m /= columns as f64;
+    let rank_z = numerical_rank(&zz, 1e-10)?;
+    if rank_z < rows_z {
+        return Err(Error::NotExciting {
+            what: "instrument",
+            rank: rank_z,
+            needed: rows_z,
+        });
+    }
+    let r = qr_r(&m.transpose())?;
+    let l = r.transpose();
+    let cols_l = l.ncols();
+    let un = alpha * nu;
+    if cols_l <= un {
+        return Err(Error::InstrumentTooShort {
+            instrument_rows: rows_z,
+            needed: un + 1,
+        });
+    }
+    let r22 = l.view((un, un), (alpha * ny, cols_l - un)).into_owned();
+    let dec = svd(&r22)?;
+    let s: Vec<f64> = dec.s.iter().cloned().collect();
+    let max_order = ((alpha - 1) * ny).min(s.len());
+    let suggested = gap_order(
+        &s,
+        match order {
+            OrderSelection::Gap { max } => max.min(max_order),
+            OrderSelection::Fixed(_) => max_order.min(10),
+        },
+    );
+    let n = match order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { .. } => suggested,
+    };
+    if n == 0 || n > (alpha - 1) * ny {
+        return Err(Error::OrderTooLarge {
+            order: n,
+            max: (alpha - 1) * ny,
+        });
+    }
+    if n > s.len() {
+        return Err(Error::InstrumentTooShort {
+            instrument_rows: rows_z,
+            needed: un + n,
+        });
+    }
+    let mut gamma = dec.u.columns(0, n).into_owned();
+    for c in 0..n {
+        let sc = s[c].sqrt();
+        gamma.column_mut(c).scale_mut(sc);
+    }
+    Ok(GammaEstimate {
+        gamma,
+        s,
+        n,
+        suggested,
+        columns,
+    })
+}
+
+fn check_horizons(alpha: usize, alpha_p: usize) -> Result<()> {
+    if alpha < 2 {
+        return Err(Error::InvalidHorizon {
+            what: "alpha",
+            value: alpha,
+            reason: "must be at least 2".into(),
+        });
+    }
+    if alpha_p <= alpha {
+        return Err(Error::InvalidHorizon {
+            what: "alpha_p",
+            value: alpha_p,
+            reason: format!("must exceed alpha = {alpha} (erratum L-16)"),
+        });
+    }
+    Ok(())
+}
+
+fn check_ts(ts: f64) -> Result<()> {
+    if ts.is_finite() && ts > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidOption {
+            what: "ts",
+            reason: format!("sample period must be positive and finite, got {ts}"),
+        })
+    }
+}
+
+/// Instrumental-variable subspace identification (thesis §7.3–7.4).
+///
+/// Instruments: α_p block rows of past instrument samples z(k … k+α_p−1)
+/// (the input itself in open loop, the excitation f in closed loop);
+/// future U_f, Y_f start at β = α_p. Γ from the SVD of R₂₂ of the LQ of
+/// [U_f Zᵀ; Y_f Zᵀ]/J (eq. 7.22), A and C by shift invariance, then (B, D,
+/// x₀) by least squares (open loop) or by IV regression with instruments
+/// filtered from f (closed loop). Box-Jenkins noise is allowed: nothing is
+/// assumed about the noise model beyond its independence of the instrument.
+///
+/// Cost O(J α(n_u+n_y) α_p n_z + (α_p n_z)³ + N n_y(n_u n³ + p²)); memory
+/// independent of N.
+///
+/// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
+/// [`Error::NonFinite`], [`Error::InvalidHorizon`] (α_p ≤ α, L-16),
+/// [`Error::HorizonTooLong`], [`Error::NotExciting`] (instrument),
+/// [`Error::InstrumentTooShort`], [`Error::OrderTooLarge`],
+/// [`Error::Unstable`] with `require_stable`.
+pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result<IvModel> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    check_ts(opts.ts)?;
+    let alpha = opts.alpha;
+    let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
+    check_horizons(alpha, alpha_p)?;
+    for e in experiments {
+        if e.u.ncols() != nu
+            || e.y.ncols() != ny
+            || e.y.nrows() != e.u.nrows()
+            || nu == 0
+            || ny == 0
+        {
+            return Err(Error::DimensionMismatch {
+                what: "experiment (u, y)",
+                expected: format!("N×{nu} and N×{ny}, at least one input and output"),
+                got: format!(
+                    "{}x{} and {}x{}",
+                    e.u.nrows(),
+                    e.u.ncols(),
+                    e.y.nrows(),
+                    e.y.ncols()
+                ),
+            });
+        }
+        check_data("u", e.u)?;
+        check_data("y", e.y)?;
+        if let Some(f) = e.instrument {
+            if f.shape() != e.u.shape() {
+                return Err(Error::DimensionMismatch {
+                    what: "instrument",
+                    expected: format!("{}x{}", e.u.nrows(), nu),
+                    got: format!("{}x{}", f.nrows(), f.ncols()),
+                });
+            }
+            check_data("instrument", f)?;
+        }
+    }
+    if let OrderSelection::Fixed(n) = opts.order
+        && (n == 0 || n > (alpha - 1) * ny)
+    {
+        return Err(Error::OrderTooLarge {
+            order: n,
+            max: (alpha - 1) * ny,
+        });
+    }
+    let recs: Vec<_> = experiments
+        .iter()
+        .map(|e| (e.u, e.y, e.instrument.unwrap_or(e.u)))
+        .collect();
+    let ge = iv_gamma(&recs, alpha, alpha_p, opts.order)?;
+    let (a, c, stabilized) = ac_from_gamma(&ge.gamma, ny, opts.enforce_stability)?;
+    if opts.require_stable {
+        let rho = spectral_radius(&a)?;
+        if rho >= 1.0 {
+            return Err(Error::Unstable {
+                spectral_radius: rho,
+            });
+        }
+    }
+    let records: Vec<Record<'_>> = experiments
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: e.instrument,
+        })
+        .collect();
+    let closed_loop = experiments.iter().any(|e| e.instrument.is_some());
+    let bd = if closed_loop {
+        estimate_bd_iv(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+    } else {
+        estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+    };
+    Ok(IvModel {
+        model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
+        x0: bd.x0,
+        diagnostics: IvDiagnostics {
+            singular_values: ge.s,
+            order: ge.n,
+            suggested_order: ge.suggested,
+            horizons: (alpha, alpha_p),
+            columns: ge.columns,
+            stabilized,
+            gamma_r_singular_values: Vec::new(),
+        },
+    })
+}
+
+/// Options of [`iv_multirate_fast`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct MultirateIvOptions {
+    /// Order of the fast model. Default `Gap { max: 10 }`.
+    pub order: OrderSelection,
+    /// α in lifted block rows. Default 6.
+    pub alpha: usize,
+    /// α_p in lifted block rows; `None` uses 2α (erratum L-16).
+    pub alpha_p: Option<usize>,
+    /// Which entries of the fast D are estimated. Default [`Feedthrough::Free`].
+    pub feedthrough: Feedthrough,
+    /// Initial state in the (B, D) regression. Default [`InitialState::Estimate`].
+    pub initial_state: InitialState,
+    /// Relative singular-value threshold below which Γ_R is declared rank
+    /// deficient (eq. 7.27, erratum L-18). Default 1e-6.
+    pub rank_tol: f64,
+    /// Return [`Error::Unstable`] instead of an unstable fast model. Default false.
+    pub require_stable: bool,
+    /// Fast sample period T of the returned model. Default 1.0.
+    pub ts: f64,
+}
+
+impl Default for MultirateIvOptions {
+    fn default() -> Self {
+        MultirateIvOptions {
+            order: OrderSelection::default(),
+            alpha: 6,
+            alpha_p: None,
+            feedthrough: Feedthrough::Free,
+            initial_state: InitialState::Estimate,
+            rank_tol: 1e-6,
+            require_stable: false,
+            ts: 1.0,
+        }
+    }
+}
+
+/// The one-step multirate IV method of thesis §7.5: all inputs are updated
+/// every T, output o is sampled every `periods[o]`·T (each period divides
+/// n = max period; at least one output has period 1). The data are lifted
+/// by n with time-interleaved ordering (§7.5: u̲ = [u(kn); u(kn+1); …],
+/// y̲ = outputs sampled at kn, then at kn+1, …), the lifted Γ̲ is estimated
+/// with the IV method, and the fast A_d follows directly from the rows of
+/// the fast-sampled outputs, C₂A_d^t for t = 0 … nα−1, by
+/// A_d = Γ_R⁺Γ_L (eq. 7.27). C_d is the first lifted block row; (B_d, D_d,
+/// x₀) come from an IV regression at the fast rate on the sampled instants.
+///
+/// `u` (N×n_u, fast), `y` (N×n_y, NaN or any value at unsampled instants —
+/// they are ignored), `f` (N×n_u) the instrument, interleaved like u (§7.5:
+/// [u₁; f] when u₁ is open loop and f excites the loop of u₂).
+///
+/// Errors: as [`iv_identify`]; [`Error::RankDeficient`] when Γ_R has rank
+/// below the order, i.e. (C₂, A_d) is not observable from the fast outputs
+/// (erratum L-18: use the two-step route of the multirate crate then);
+/// [`Error::InvalidOption`] for bad periods.
+pub fn iv_multirate_fast(
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    f: &DMatrix<f64>,
+    periods: &[usize],
+    opts: &MultirateIvOptions,
+) -> Result<IvModel> {
+    let (nn, nu, ny) = (u.nrows(), u.ncols(), y.ncols());
+    check_ts(opts.ts)?;
+    if periods.len() != ny || y.nrows() != nn || f.shape() != u.shape() || nu == 0 {
+        return Err(Error::DimensionMismatch {
+            what: "multirate data",
+            expected: format!(
+                "y N×{} with one period per output, f {nn}x{nu}",
+                periods.len()
+            ),
+            got: format!("y {}x{}, f {}x{}", y.nrows(), ny, f.nrows(), f.ncols()),
+        });
+    }
+    let n_lift = periods.iter().cloned().max().unwrap_or(0);
+    if periods.contains(&0) || periods.iter().any(|&p| n_lift % p != 0) || !periods.contains(&1) {
+        return Err(Error::InvalidOption {
+            what: "periods",
+            reason: format!(
+                "need positive periods dividing the largest one and at least one fast output, got {periods:?}"
+            ),
+        });
+    }
+    check_data("u", u)?;
+    check_data("f", f)?;
+    let mut y_fast = y.clone();
+    for o in 0..ny {
+        for t in 0..nn {
+            if t % periods[o] == 0 {
+                if !y[(t, o)].is_finite() {
+                    return Err(Error::NonFinite {
+                        what: "y",
+                        row: t,
+                        col: o,
+                    });
+                }
+            } else {
+                y_fast[(t, o)] = f64::NAN;
+            }
+        }
+    }
+    // Lifting (time-interleaved).
+    let kk = nn / n_lift;
+    let sampled_at = |r: usize| (0..ny).filter(move |&o| r % periods[o] == 0);
+    let nyl: usize = (0..n_lift).map(|r| sampled_at(r).count()).sum();
+    let ul = DMatrix::from_fn(kk, n_lift * nu, |k, c| u[(k * n_lift + c / nu, c % nu)]);
+    let fl = DMatrix::from_fn(kk, n_lift * nu, |k, c| f[(k * n_lift + c / nu, c % nu)]);
+    let mut yl = DMatrix::zeros(kk, nyl);
+    for k in 0..kk {
+        let mut c = 0;
+        for r in 0..n_lift {
+            for o in sampled_at(r) {
+                yl[(k, c)] = y[(k * n_lift + r, o)];
+                c += 1;
+            }
+        }
+    }
+    let alpha = opts.alpha;
+    let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
+    check_horizons(alpha, alpha_p)?;
+    let ge = iv_gamma(&[(&ul, &yl, &fl)], alpha, alpha_p, opts.order)?;
+    let nx = ge.n;
+    // Rows of the fast outputs: C_F A^t, t = b n + r.
+    let fast: Vec<usize> = (0..ny).filter(|&o| periods[o] == 1).collect();
+    let nf = fast.len();
+    let mut offset = vec![0; n_lift];
+    for r in 1..n_lift {
+        offset[r] = offset[r - 1] + sampled_at(r - 1).count();
+    }
+    let steps = n_lift * alpha;
+    let mut gfast = DMatrix::zeros(steps * nf, nx);
+    for t in 0..steps {
+        let (b, r) = (t / n_lift, t % n_lift);
+        for (i, &o) in fast.iter().enumerate() {
+            let pos = sampled_at(r).position(|q| q == o).unwrap_or(0);
+            let src = b * nyl + offset[r] + pos;
+            gfast.row_mut(t * nf + i).copy_from(&ge.gamma.row(src));
+        }
+    }
+    let g_r = gfast.rows(0, (steps - 1) * nf).into_owned();
+    let g_l = gfast.rows(nf, (steps - 1) * nf).into_owned();
+    let sv: Vec<f64> = lifted_linalg::singular_values(&g_r)?
+        .iter()
+        .cloned()
+        .collect();
+    let rank = numerical_rank(&g_r, opts.rank_tol)?;
+    if rank < nx {
+        return Err(Error::RankDeficient {
+            what: "Γ_R of eq. 7.27 ((C₂, A) not observable; erratum L-18)",
+            rank,
+            needed: nx,
+        });
+    }
+    let a = lstsq(&g_r, &g_l)?;
+    let c = ge.gamma.rows(0, ny).into_owned();
+    if opts.require_stable {
+        let rho = spectral_radius(&a)?;
+        if rho >= 1.0 {
+            return Err(Error::Unstable {
+                spectral_radius: rho,
+            });
+        }
+    }
+    let rec = [Record {
+        u,
+        y: &y_fast,
+        instrument: Some(f),
+    }];
+    let bd = estimate_bd_iv(&a, &c, &rec, &opts.feedthrough, opts.initial_state)?;
+    Ok(IvModel {
+        model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
+        x0: bd.x0,
+        diagnostics: IvDiagnostics {
+            singular_values: ge.s,
+            order: nx,
+            suggested_order: ge.suggested,
+            horizons: (alpha, alpha_p),
+            columns: ge.columns,
+            stabilized: false,
+            gamma_r_singular_values: sv,
+        },
+    })
+}

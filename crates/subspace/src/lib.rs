@@ -1,0 +1,87 @@
+//! Subspace identification for Lifted.
+//!
+//! # Map of the crate
+//!
+//! | item | what |
+//! |---|---|
+//! | [`identify`] ([`SubspaceOptions`], [`Method`]) | N4SID, MOESP and CVA through the weights of the unifying theorem (thesis §2.5) |
+//! | [`SubspaceModel`], [`Diagnostics`] | model, Kalman gain, (Q, R, S), singular values, suggested order |
+//! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped |
+//! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
+//! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
+//! | [`iv_multirate_fast`] ([`MultirateIvOptions`]) | the one-step fast model of §7.5 (eq. 7.27) |
+//!
+//! # Method
+//!
+//! With past/future block-Hankel matrices U_p, U_f, Y_p, Y_f (thesis §2.3)
+//! and W_p = [U_p; Y_p], all three methods compute the oblique projection
+//! Φ = (Y_f/U_f⊥)(W_p/U_f⊥)ᵀ[(W_p/U_f⊥)(W_p/U_f⊥)ᵀ]⁻¹ W_p and the SVD
+//! W₁ Φ W₂ = U₁S₁V₁ᵀ + …; the extended observability matrix is
+//! Γ = W₁⁻¹U₁S₁^{1/2} (§2.5). N4SID: W₁ = W₂ = I. MOESP: W₁ = I,
+//! W₂ = Π_{U_f⊥} (erratum L-4). CVA: W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2},
+//! W₂ = Π_{U_f⊥} (erratum L-1 for the Σ^{−1/2}). C is the first block row of
+//! Γ and A = Γ↑⁺Γ↓ uses all block rows (erratum L-3, eq. 2.20 with the
+//! missing transpose). (B, D) and the initial state come from a streamed
+//! least-squares regression on the data with per-output regressor selection
+//! so that a causality mask on D holds exactly (§4.5, Pitfall 5).
+//!
+//! The Hankel matrix is never stored: its transpose is built in chunks and
+//! folded into an R-only QR (O(k²) memory for k = (p+f)(n_u+n_y) Hankel
+//! rows; ≈ 2Jk² flops for J columns); the projections then act on the k×k
+//! factor. Several records (experiments) are merged by stacking their
+//! Hankel columns.
+//!
+//! The instrumental-variable method of ch. 7 correlates future inputs and
+//! outputs with α_p > α block rows of past instruments (erratum L-16), takes
+//! the LQ factorisation of [U_f Zᵀ; Y_f Zᵀ]/J and the SVD of R₂₂ for Γ, and
+//! estimates (B, D) by IV regression with instruments filtered from f
+//! (the excitation, independent of the noise), which removes the
+//! closed-loop bias of the plain methods.
+//!
+//! # Example
+//!
+//! ```
+//! use lifted_lti::StateSpace;
+//! use lifted_subspace::{Experiment, OrderSelection, SubspaceOptions, identify};
+//! use nalgebra::DMatrix;
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // y(k+1) = 0.9 y(k) + 0.5 u(k), noise free
+//! let g = StateSpace::new(
+//!     DMatrix::from_element(1, 1, 0.9),
+//!     DMatrix::from_element(1, 1, 0.5),
+//!     DMatrix::from_element(1, 1, 1.0),
+//!     DMatrix::zeros(1, 1),
+//!     Some(1.0),
+//! )?;
+//! let u = DMatrix::from_fn(400, 1, |k, _| if (k * 7919 + k / 3) % 5 < 2 { 1.0 } else { -1.0 });
+//! let y = g.lsim(&u, None, None)?.y;
+//! let opts = SubspaceOptions { order: OrderSelection::Fixed(1), past: 5, future: 5, ..Default::default() };
+//! let fit = identify(&[Experiment { u: &u, y: &y }], &opts)?;
+//! let pole = fit.model.poles()?[0];
+//! assert!((pole.re - 0.9).abs() < 1e-8);
+//! assert!((fit.model.dc_gain()?[(0, 0)] - 5.0).abs() < 1e-6);
+//! # Ok(())
+//! # }
+//! ```
+#![deny(missing_docs)]
+
+mod engine;
+pub mod error;
+mod hankel;
+mod iv;
+mod regress;
+
+pub use engine::{
+    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, SubspaceModel,
+    SubspaceOptions, gap_order, identify,
+};
+pub use error::{Error, Result};
+pub use iv::{
+    IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
+    iv_multirate_fast,
+};
+pub use regress::{
+    BdFit, Feedthrough, InitialState, Record, StateFit, estimate_bd, estimate_bd_iv,
+    structured_state_lstsq,
+};

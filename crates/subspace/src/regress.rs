@@ -1,0 +1,667 @@
+//! Estimation of (B, D, x₀) for given (A, C): least squares (open loop) or
+//! instrumental variables (closed loop), with a causality mask on D, and the
+//! structured state-space least squares of thesis §4.5 (eqs. 4.17–4.19).
+//!
+//! The output is linear in θ = (vec B, allowed entries of D, x₀ per record):
+//! y(t) = C Aᵗ x₀ + Σ_{τ<t} C A^{t−1−τ} B u(τ) + D u(t) + noise.
+//! The regressors C Z_j(t), Z_j(t+1) = A Z_j(t) + u_j(t) I, are generated
+//! by a recursion (n³ flops per input and sample) and streamed in row
+//! blocks: least squares through an R-only QR of [Φ | y]
+//! ([`lifted_linalg::RAccumulator`]), instrumental variables through the
+//! p×p normal matrix Σ ζ φᵀ with instruments ζ built by the same filters from
+//! the instrument signal (spec A3.9: "f-filtered instruments"). Memory is
+//! O(p²) for p parameters, independent of the record length. Per-output
+//! regressor selection keeps masked entries of D at exactly zero (Pitfall 5:
+//! never zero entries after an unconstrained fit). Outputs that are NaN
+//! (unsampled instants of multirate records) are skipped.
+
+use lifted_linalg::{RAccumulator, lstsq};
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result, check_data};
+
+/// Which entries of the feedthrough D are estimated.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Feedthrough {
+    /// All entries free.
+    #[default]
+    Free,
+    /// D ≡ 0 (strictly proper model).
+    Zero,
+    /// Entry (i, j) is estimated iff `mask[(i, j)]`; the others are zero
+    /// (causal lifted D̄ of thesis eq. 4.17, spec A3.5).
+    Mask(DMatrix<bool>),
+}
+
+impl Feedthrough {
+    /// The n_y×n_u mask of free entries.
+    pub fn mask(&self, ny: usize, nu: usize) -> Result<DMatrix<bool>> {
+        match self {
+            Feedthrough::Free => Ok(DMatrix::from_element(ny, nu, true)),
+            Feedthrough::Zero => Ok(DMatrix::from_element(ny, nu, false)),
+            Feedthrough::Mask(m) => {
+                if m.shape() != (ny, nu) {
+                    return Err(Error::DimensionMismatch {
+                        what: "feedthrough mask",
+                        expected: format!("{ny}x{nu}"),
+                        got: format!("{}x{}", m.nrows(), m.ncols()),
+                    });
+                }
+                Ok(m.clone())
+            }
+        }
+    }
+}
+
+/// How the initial state of each record is treated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InitialState {
+    /// x₀ = 0 (zero-initial-state simulation).
+    Zero,
+    /// x₀ estimated jointly with B and D, one per record.
+    #[default]
+    Estimate,
+}
+
+/// Result of [`estimate_bd`] / [`estimate_bd_iv`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct BdFit {
+    /// Input matrix B (n×n_u).
+    pub b: DMatrix<f64>,
+    /// Feedthrough D (n_y×n_u), zero outside the mask.
+    pub d: DMatrix<f64>,
+    /// Initial state per record (zeros when not estimated).
+    pub x0: Vec<DVector<f64>>,
+}
+
+/// One record for [`estimate_bd`]: input u (N×n_u), output y (N×n_y, NaN
+/// allowed at unsampled instants), optional instrument (N×n_u, IV only).
+#[derive(Debug, Clone, Copy)]
+pub struct Record<'a> {
+    /// Input, one row per sample.
+    pub u: &'a DMatrix<f64>,
+    /// Output, one row per sample; NaN marks an unsampled instant.
+    pub y: &'a DMatrix<f64>,
+    /// Instrument signal of the same shape as `u` (closed loop); `None`
+    /// uses `u` itself.
+    pub instrument: Option<&'a DMatrix<f64>>,
+}
+
+/// Parameter bookkeeping for θ = (vec B, D entries, x₀ per record).
+struct Params {
+    n: usize,
+    nu: usize,
+    ny: usize,
+    d_index: DMatrix<Option<usize>>,
+    x0_offset: Option<usize>,
+    total: usize,
+}
+
+impl Params {
+    fn new(
+        n: usize,
+        nu: usize,
+        ny: usize,
+        mask: &DMatrix<bool>,
+        x0: InitialState,
+        records: usize,
+    ) -> Self {
+        let mut idx = n * nu;
+        let mut d_index = DMatrix::from_element(ny, nu, None);
+        for o in 0..ny {
+            for j in 0..nu {
+                if mask[(o, j)] {
+                    d_index[(o, j)] = Some(idx);
+                    idx += 1;
+                }
+            }
+        }
+        let x0_offset = match x0 {
+            InitialState::Estimate => {
+                let off = idx;
+                idx += n * records;
+                Some(off)
+            }
+            InitialState::Zero => None,
+        };
+        Params {
+            n,
+            nu,
+            ny,
+            d_index,
+            x0_offset,
+            total: idx,
+        }
+    }
+
+    fn unpack(&self, theta: &DMatrix<f64>, records: usize) -> BdFit {
+        let (n, nu, ny) = (self.n, self.nu, self.ny);
+        let b = DMatrix::from_fn(n, nu, |s, j| theta[(j * n + s, 0)]);
+        let d = DMatrix::from_fn(ny, nu, |o, j| {
+            self.d_index[(o, j)].map_or(0.0, |i| theta[(i, 0)])
+        });
+        let x0 = (0..records)
+            .map(|e| match self.x0_offset {
+                Some(off) => DVector::from_fn(n, |s, _| theta[(off + e * n + s, 0)]),
+                None => DVector::zeros(n),
+            })
+            .collect();
+        BdFit { b, d, x0 }
+    }
+}
+
+/// Generates regressor rows (one per sampled output entry) of one record.
+struct RowGen<'a> {
+    a: &'a DMatrix<f64>,
+    c: &'a DMatrix<f64>,
+    p: &'a Params,
+    record: usize,
+    /// Z_j stacked: nu blocks of n×n, column-major per block.
+    z: Vec<f64>,
+    ztmp: Vec<f64>,
+    /// C Aᵗ (ny×n), row-major.
+    cat: Vec<f64>,
+    cattmp: Vec<f64>,
+}
+
+impl<'a> RowGen<'a> {
+    fn new(a: &'a DMatrix<f64>, c: &'a DMatrix<f64>, p: &'a Params, record: usize) -> Self {
+        let (n, nu, ny) = (p.n, p.nu, p.ny);
+        let mut cat = vec![0.0; ny * n];
+        for o in 0..ny {
+            for s in 0..n {
+                cat[o * n + s] = c[(o, s)];
+            }
+        }
+        RowGen {
+            a,
+            c,
+            p,
+            record,
+            z: vec![0.0; nu * n * n],
+            ztmp: vec![0.0; nu * n * n],
+            cat,
+            cattmp: vec![0.0; ny * n],
+        }
+    }
+
+    /// Writes the regressor row for output `o` at the current time into `row`.
+    fn row(&self, o: usize, sig: &DMatrix<f64>, t: usize, row: &mut [f64]) {
+        let (n, nu) = (self.p.n, self.p.nu);
+        row.iter_mut().for_each(|v| *v = 0.0);
+        for j in 0..nu {
+            let zj = &self.z[j * n * n..(j + 1) * n * n];
+            for s in 0..n {
+                // (C Z_j)[o, s] = Σ_r C[o, r] Z_j[r, s]
+                let mut acc = 0.0;
+                for r in 0..n {
+                    acc += self.c[(o, r)] * zj[s * n + r];
+                }
+                row[j * n + s] = acc;
+            }
+            if let Some(i) = self.p.d_index[(o, j)] {
+                row[i] = sig[(t, j)];
+            }
+        }
+        if let Some(off) = self.p.x0_offset {
+            let base = off + self.record * n;
+            row[base..base + n].copy_from_slice(&self.cat[o * n..(o + 1) * n]);
+        }
+    }
+
+    /// Advances Z_j and C Aᵗ by one sample with input sig(t).
+    fn step(&mut self, sig: &DMatrix<f64>, t: usize) {
+        let (n, nu, ny) = (self.p.n, self.p.nu, self.p.ny);
+        let a = self.a;
+        for j in 0..nu {
+            let zj = &self.z[j * n * n..(j + 1) * n * n];
+            let out = &mut self.ztmp[j * n * n..(j + 1) * n * n];
+            for s in 0..n {
+                for r in 0..n {
+                    let mut acc = 0.0;
+                    for q in 0..n {
+                        acc += a[(r, q)] * zj[s * n + q];
+                    }
+                    out[s * n + r] = acc;
+                }
+                out[s * n + s] += sig[(t, j)];
+            }
+        }
+        std::mem::swap(&mut self.z, &mut self.ztmp);
+        if self.p.x0_offset.is_some() {
+            for o in 0..ny {
+                for s in 0..n {
+                    let mut acc = 0.0;
+                    for q in 0..n {
+                        acc += self.cat[o * n + q] * a[(q, s)];
+                    }
+                    self.cattmp[o * n + s] = acc;
+                }
+            }
+            std::mem::swap(&mut self.cat, &mut self.cattmp);
+        }
+    }
+}
+
+fn validate(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    iv: bool,
+) -> Result<(usize, usize, usize)> {
+    let n = lifted_linalg::check_square("a", a)?;
+    lifted_linalg::check_cols("c", c, n)?;
+    lifted_linalg::check_finite("a", a)?;
+    lifted_linalg::check_finite("c", c)?;
+    let ny = c.nrows();
+    let first = records.first().ok_or(Error::NoData)?;
+    let nu = first.u.ncols();
+    for r in records {
+        if r.u.ncols() != nu || r.y.ncols() != ny || r.y.nrows() != r.u.nrows() {
+            return Err(Error::DimensionMismatch {
+                what: "record (u, y)",
+                expected: format!("N×{nu} and N×{ny}"),
+                got: format!(
+                    "{}x{} and {}x{}",
+                    r.u.nrows(),
+                    r.u.ncols(),
+                    r.y.nrows(),
+                    r.y.ncols()
+                ),
+            });
+        }
+        check_data("u", r.u)?;
+        for col in 0..ny {
+            for row in 0..r.y.nrows() {
+                if r.y[(row, col)].is_infinite() {
+                    return Err(Error::NonFinite {
+                        what: "y",
+                        row,
+                        col,
+                    });
+                }
+            }
+        }
+        if iv {
+            if let Some(f) = r.instrument {
+                if f.shape() != r.u.shape() {
+                    return Err(Error::DimensionMismatch {
+                        what: "instrument",
+                        expected: format!("{}x{}", r.u.nrows(), nu),
+                        got: format!("{}x{}", f.nrows(), f.ncols()),
+                    });
+                }
+                check_data("instrument", f)?;
+            }
+        }
+    }
+    Ok((n, nu, ny))
+}
+
+/// Rows per streamed block.
+const BLOCK: usize = 1024;
+
+/// Streams (φ, ζ, y) blocks of all records to `sink`.
+fn stream(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    p: &Params,
+    records: &[Record<'_>],
+    iv: bool,
+    sink: &mut dyn FnMut(&DMatrix<f64>, Option<&DMatrix<f64>>) -> Result<()>,
+) -> Result<usize> {
+    let np = p.total;
+    let mut phi = DMatrix::zeros(BLOCK, np + 1);
+    let mut zeta = DMatrix::zeros(if iv { BLOCK } else { 0 }, np);
+    let mut row = vec![0.0; np];
+    let mut used = 0;
+    let mut rows_total = 0;
+    for (e, rec) in records.iter().enumerate() {
+        let zsig = rec.instrument.unwrap_or(rec.u);
+        let mut g = RowGen::new(a, c, p, e);
+        let mut gz = RowGen::new(a, c, p, e);
+        for t in 0..rec.u.nrows() {
+            for o in 0..p.ny {
+                let yv = rec.y[(t, o)];
+                if yv.is_nan() {
+                    continue;
+                }
+                g.row(o, rec.u, t, &mut row);
+                for (k, v) in row.iter().enumerate() {
+                    phi[(used, k)] = *v;
+                }
+                phi[(used, np)] = yv;
+                if iv {
+                    gz.row(o, zsig, t, &mut row);
+                    for (k, v) in row.iter().enumerate() {
+                        zeta[(used, k)] = *v;
+                    }
+                }
+                used += 1;
+                if used == BLOCK {
+                    sink(&phi, iv.then_some(&zeta))?;
+                    rows_total += used;
+                    used = 0;
+                }
+            }
+            g.step(rec.u, t);
+            if iv {
+                gz.step(zsig, t);
+            }
+        }
+    }
+    if used > 0 {
+        let ph = phi.rows(0, used).into_owned();
+        let zz = zeta.rows(0, if iv { used } else { 0 }).into_owned();
+        sink(&ph, iv.then_some(&zz))?;
+        rows_total += used;
+    }
+    Ok(rows_total)
+}
+
+/// Least-squares estimate of (B, D, x₀) for given (A, C) (output-error
+/// regression, open loop). y may contain NaN at unsampled instants.
+///
+/// Cost O(N_y·(n_u n³ + p²)) for N_y sampled output entries and p
+/// parameters; memory O(p²).
+///
+/// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
+/// [`Error::NonFinite`], [`Error::RankDeficient`] when the regressors do
+/// not determine θ (non-exciting input).
+pub fn estimate_bd(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+) -> Result<BdFit> {
+    let (n, nu, ny) = validate(a, c, records, false)?;
+    let mask = feedthrough.mask(ny, nu)?;
+    let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let mut acc = RAccumulator::new(p.total + 1);
+    let rows = stream(a, c, &p, records, false, &mut |phi, _| {
+        Ok(acc.push_rows(phi)?)
+    })?;
+    if rows < p.total {
+        return Err(Error::RankDeficient {
+            what: "B/D regressor",
+            rank: rows,
+            needed: p.total,
+        });
+    }
+    let r = acc.r();
+    let r11 = r.view((0, 0), (p.total, p.total)).into_owned();
+    let r12 = r.view((0, p.total), (p.total, 1)).into_owned();
+    check_regressor_rank(&r11)?;
+    let theta = lstsq(&r11, &r12)?;
+    Ok(p.unpack(&theta, records.len()))
+}
+
+/// Instrumental-variable estimate of (B, D, x₀) for given (A, C): the
+/// regressors are filtered from u, the instruments by the same filters from
+/// each record's instrument signal (thesis §7.4; the excitation f of a
+/// closed loop), θ = (Σ ζφᵀ)⁺ Σ ζy. y may contain NaN at unsampled instants.
+///
+/// Cost O(N_y·(2n_u n³ + p²)); memory O(p²).
+///
+/// Errors: as [`estimate_bd`].
+pub fn estimate_bd_iv(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+) -> Result<BdFit> {
+    let (n, nu, ny) = validate(a, c, records, true)?;
+    let mask = feedthrough.mask(ny, nu)?;
+    let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let np = p.total;
+    let mut g = DMatrix::zeros(np, np);
+    let mut gy = DMatrix::zeros(np, 1);
+    let rows = stream(a, c, &p, records, true, &mut |phi, zeta| {
+        if let Some(z) = zeta {
+            let zt = z.transpose();
+            g += &zt * phi.columns(0, np);
+            gy += &zt * phi.columns(np, 1);
+        }
+        Ok(())
+    })?;
+    if rows < np {
+        return Err(Error::RankDeficient {
+            what: "B/D instrument matrix",
+            rank: rows,
+            needed: np,
+        });
+    }
+    check_regressor_rank(&g)?;
+    let theta = lstsq(&g, &gy)?;
+    Ok(p.unpack(&theta, records.len()))
+}
+
+fn check_regressor_rank(m: &DMatrix<f64>) -> Result<()> {
+    let s = lifted_linalg::singular_values(m)?;
+    let smax = s.iter().cloned().fold(0.0, f64::max);
+    let rank = s.iter().filter(|&&v| v > 1e-12 * smax && v > 0.0).count();
+    if rank < m.ncols() {
+        return Err(Error::RankDeficient {
+            what: "B/D regressor",
+            rank,
+            needed: m.ncols(),
+        });
+    }
+    Ok(())
+}
+
+/// Result of [`structured_state_lstsq`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateFit {
+    /// A (n×n).
+    pub a: DMatrix<f64>,
+    /// B (n×n_u).
+    pub b: DMatrix<f64>,
+    /// C (n_y×n).
+    pub c: DMatrix<f64>,
+    /// D (n_y×n_u), exactly zero outside the mask.
+    pub d: DMatrix<f64>,
+    /// Covariance of the state-equation residuals (n×n), 1/N scaling.
+    pub q: DMatrix<f64>,
+    /// Covariance of the output-equation residuals (n_y×n_y).
+    pub r: DMatrix<f64>,
+    /// Cross covariance (n×n_y).
+    pub s: DMatrix<f64>,
+}
+
+/// Least-squares state-space fit with a structured D (thesis §4.5,
+/// eqs. 4.17–4.19 and the normal equations after 4.20): given states x(k)
+/// (N+1 rows), inputs u(k) and outputs y(k) (N rows each),
+/// [A B] = argmin Σ‖x(k+1) − A x(k) − B u(k)‖², and per output row i
+/// [Cᵢ Dᵢ] from only the regressors [x(k); u_j(k) for mask(i, j)] — the
+/// masked entries of D are structurally zero (Pitfall 5).
+///
+/// Cost O(N(n + n_u)²(1 + n_y)); memory O(N(n + n_u)).
+///
+/// Errors: [`Error::DimensionMismatch`], [`Error::NonFinite`],
+/// [`Error::RankDeficient`] when a regressor set is rank deficient.
+pub fn structured_state_lstsq(
+    x: &DMatrix<f64>,
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    d_mask: &DMatrix<bool>,
+) -> Result<StateFit> {
+    let nn = u.nrows();
+    if x.nrows() != nn + 1 || y.nrows() != nn {
+        return Err(Error::DimensionMismatch {
+            what: "states/inputs/outputs",
+            expected: format!("x {} rows, y {nn} rows", nn + 1),
+            got: format!("x {} rows, y {} rows", x.nrows(), y.nrows()),
+        });
+    }
+    let (n, nu, ny) = (x.ncols(), u.ncols(), y.ncols());
+    if d_mask.shape() != (ny, nu) {
+        return Err(Error::DimensionMismatch {
+            what: "d_mask",
+            expected: format!("{ny}x{nu}"),
+            got: format!("{}x{}", d_mask.nrows(), d_mask.ncols()),
+        });
+    }
+    check_data("x", x)?;
+    check_data("u", u)?;
+    check_data("y", y)?;
+    if nn < n + nu {
+        return Err(Error::RankDeficient {
+            what: "state regressor [x; u]",
+            rank: nn,
+            needed: n + nu,
+        });
+    }
+    let xk = x.rows(0, nn).into_owned();
+    let xk1 = x.rows(1, nn).into_owned();
+    let mut z = DMatrix::zeros(nn, n + nu);
+    z.columns_mut(0, n).copy_from(&xk);
+    z.columns_mut(n, nu).copy_from(u);
+    check_regressor_rank(&z)?;
+    let ab = lstsq(&z, &xk1)?.transpose();
+    let a = ab.columns(0, n).into_owned();
+    let b = ab.columns(n, nu).into_owned();
+    let mut c = DMatrix::zeros(ny, n);
+    let mut d = DMatrix::zeros(ny, nu);
+    for i in 0..ny {
+        let cols: Vec<usize> = (0..nu).filter(|&j| d_mask[(i, j)]).collect();
+        let mut zi = DMatrix::zeros(nn, n + cols.len());
+        zi.columns_mut(0, n).copy_from(&xk);
+        for (t, &j) in cols.iter().enumerate() {
+            zi.column_mut(n + t).copy_from(&u.column(j));
+        }
+        let th = lstsq(
+            &zi,
+            &DMatrix::from_column_slice(nn, 1, y.column(i).as_slice()),
+        )?;
+        for s in 0..n {
+            c[(i, s)] = th[(s, 0)];
+        }
+        for (t, &j) in cols.iter().enumerate() {
+            d[(i, j)] = th[(n + t, 0)];
+        }
+    }
+    let w = &xk1.transpose() - &a * xk.transpose() - &b * u.transpose();
+    let v = &y.transpose() - &c * xk.transpose() - &d * u.transpose();
+    let scale = 1.0 / nn as f64;
+    Ok(StateFit {
+        q: &w * w.transpose() * scale,
+        r: &v * v.transpose() * scale,
+        s: &w * v.transpose() * scale,
+        a,
+        b,
+        c,
+        d,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sim(
+        a: &DMatrix<f64>,
+        b: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        d: &DMatrix<f64>,
+        u: &DMatrix<f64>,
+        x0: &DVector<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let nn = u.nrows();
+        let mut x = x0.clone();
+        let mut xs = DMatrix::zeros(nn + 1, a.nrows());
+        let mut y = DMatrix::zeros(nn, c.nrows());
+        for t in 0..nn {
+            xs.row_mut(t).copy_from(&x.transpose());
+            let ut = u.row(t).transpose();
+            y.row_mut(t).copy_from(&(c * &x + d * &ut).transpose());
+            x = a * &x + b * &ut;
+        }
+        xs.row_mut(nn).copy_from(&x.transpose());
+        (xs, y)
+    }
+
+    fn example() -> (
+        DMatrix<f64>,
+        DMatrix<f64>,
+        DMatrix<f64>,
+        DMatrix<f64>,
+        DMatrix<f64>,
+    ) {
+        let a = DMatrix::from_row_slice(2, 2, &[0.7, 0.2, -0.1, 0.5]);
+        let b = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.3, -0.5]);
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0]);
+        let d = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.4, 0.0]);
+        let u = DMatrix::from_fn(300, 2, |i, j| {
+            (((i * 37 + j * 11) * 7919) % 101) as f64 / 50.0 - 1.0
+        });
+        (a, b, c, d, u)
+    }
+
+    #[test]
+    fn bd_exact_with_mask_and_x0() {
+        let (a, b, c, d, u) = example();
+        let x0 = DVector::from_vec(vec![0.5, -1.0]);
+        let (_, y) = sim(&a, &b, &c, &d, &u, &x0);
+        let mask = DMatrix::from_row_slice(2, 2, &[false, false, true, false]);
+        let rec = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        let fit = estimate_bd(
+            &a,
+            &c,
+            &rec,
+            &Feedthrough::Mask(mask.clone()),
+            InitialState::Estimate,
+        )
+        .unwrap();
+        assert!((&fit.b - &b).norm() < 1e-9);
+        assert!((&fit.d - &d).norm() < 1e-9);
+        assert!((&fit.x0[0] - &x0).norm() < 1e-9);
+        let fit = estimate_bd_iv(
+            &a,
+            &c,
+            &rec,
+            &Feedthrough::Mask(mask),
+            InitialState::Estimate,
+        )
+        .unwrap();
+        assert!((&fit.b - &b).norm() < 1e-8);
+        // NaN outputs are skipped
+        let mut y2 = y.clone();
+        for t in (0..300).step_by(3) {
+            y2[(t, 0)] = f64::NAN;
+        }
+        let rec = [Record {
+            u: &u,
+            y: &y2,
+            instrument: None,
+        }];
+        let fit = estimate_bd(&a, &c, &rec, &Feedthrough::Free, InitialState::Estimate).unwrap();
+        assert!((&fit.b - &b).norm() < 1e-9);
+        assert!((&fit.d - &d).norm() < 1e-9);
+    }
+
+    #[test]
+    fn structured_lstsq_keeps_masked_zero() {
+        let (a, b, c, d, u) = example();
+        let (xs, mut y) = sim(&a, &b, &c, &d, &u, &DVector::zeros(2));
+        // add a bias to make an unconstrained D(0,1) non-zero
+        for t in 0..y.nrows() {
+            y[(t, 0)] += 0.01 * u[(t, 1)];
+        }
+        let mask = DMatrix::from_row_slice(2, 2, &[false, false, true, false]);
+        let fit = structured_state_lstsq(&xs, &u, &y, &mask).unwrap();
+        assert_eq!(fit.d[(0, 1)], 0.0);
+        assert_eq!(fit.d[(0, 0)], 0.0);
+        assert!((fit.d[(1, 0)] - 0.4).abs() < 1e-9);
+        assert!((&fit.a - &a).norm() < 1e-9);
+        // the unconstrained fit would have picked up the 0.01
+        let full = structured_state_lstsq(&xs, &u, &y, &DMatrix::from_element(2, 2, true)).unwrap();
+        assert!((full.d[(0, 1)] - 0.01).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,539 @@
+//! Integration tests of lifted-subspace: exact recovery, agreement of the
+//! methods, noise models, IV methods and rejected inputs.
+
+mod common {
+    use lifted_lti::StateSpace;
+    use nalgebra::{DMatrix, DVector};
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::StandardNormal;
+
+    /// A stable system with the given real poles and complex pairs (r, θ),
+    /// hidden behind a random similarity; B, C, D Gaussian.
+    pub fn random_system(
+        seed: u64,
+        real: &[f64],
+        pairs: &[(f64, f64)],
+        nu: usize,
+        ny: usize,
+        with_d: bool,
+    ) -> StateSpace {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = real.len() + 2 * pairs.len();
+        let mut a = DMatrix::zeros(n, n);
+        for (i, &p) in real.iter().enumerate() {
+            a[(i, i)] = p;
+        }
+        for (k, &(r, th)) in pairs.iter().enumerate() {
+            let i = real.len() + 2 * k;
+            a[(i, i)] = r * th.cos();
+            a[(i, i + 1)] = -r * th.sin();
+            a[(i + 1, i)] = r * th.sin();
+            a[(i + 1, i + 1)] = r * th.cos();
+        }
+        let mut gauss = |r: usize, c: usize| {
+            DMatrix::from_fn(r, c, |_, _| rng.sample::<f64, _>(StandardNormal))
+        };
+        let t = gauss(n, n) + DMatrix::identity(n, n) * 3.0;
+        let ti = t.clone().try_inverse().unwrap();
+        let b = gauss(n, nu);
+        let c = gauss(ny, n);
+        let d = if with_d {
+            gauss(ny, nu)
+        } else {
+            DMatrix::zeros(ny, nu)
+        };
+        StateSpace::new(&t * a * &ti, &t * b, c * ti, d, Some(1.0)).unwrap()
+    }
+
+    pub fn rbs(seed: u64, n: usize, m: usize) -> DMatrix<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        DMatrix::from_fn(n, m, |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 })
+    }
+
+    pub fn white(seed: u64, n: usize, m: usize, sd: f64) -> DMatrix<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        DMatrix::from_fn(n, m, |_, _| sd * rng.sample::<f64, _>(StandardNormal))
+    }
+
+    /// Max relative frequency-response difference over a grid.
+    pub fn freq_error(a: &StateSpace, b: &StateSpace) -> f64 {
+        let w: Vec<f64> = (0..64).map(|k| 0.001 + k as f64 * 3.1 / 63.0).collect();
+        let ga = a.freqresp(&w).unwrap();
+        let gb = b.freqresp(&w).unwrap();
+        let mut err: f64 = 0.0;
+        for (x, y) in ga.iter().zip(gb.iter()) {
+            let scale = y.iter().map(|v| v.norm()).fold(0.0, f64::max).max(1e-12);
+            for (p, q) in x.iter().zip(y.iter()) {
+                err = err.max((p - q).norm() / scale);
+            }
+        }
+        err
+    }
+
+    pub fn sim(g: &StateSpace, u: &DMatrix<f64>, x0: Option<&DVector<f64>>) -> DMatrix<f64> {
+        g.lsim(u, x0, None).unwrap().y
+    }
+}
+
+mod exact {
+    use super::common::*;
+    use lifted_subspace::*;
+    use nalgebra::DVector;
+
+    #[test]
+    fn sixth_order_three_inputs_two_outputs_all_methods() {
+        let g = random_system(7, &[0.9, -0.5, 0.3], &[(0.8, 0.6)], 3, 2, true);
+        assert_eq!(g.order(), 5);
+        let g = random_system(7, &[0.9, -0.5], &[(0.8, 0.6), (0.6, 1.9)], 3, 2, true);
+        assert_eq!(g.order(), 6);
+        let u = rbs(1, 2000, 3);
+        let x0 = DVector::from_vec(vec![1.0, -2.0, 0.5, 0.0, 1.0, 3.0]);
+        let y = sim(&g, &u, Some(&x0));
+        for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+            let opts = SubspaceOptions {
+                method,
+                past: 8,
+                future: 8,
+                order: OrderSelection::Gap { max: 12 },
+                ..Default::default()
+            };
+            let fit = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
+            assert_eq!(
+                fit.diagnostics.order, 6,
+                "{method:?} gap rule {:?}",
+                fit.diagnostics.singular_values
+            );
+            let err = freq_error(&fit.model, &g);
+            assert!(err < 1e-8, "{method:?}: frequency response error {err:e}");
+            // the estimated initial state reproduces the record exactly
+            let yhat = sim(&fit.model, &u, Some(&fit.x0[0]));
+            assert!((yhat - &y).norm() / y.norm() < 1e-8);
+        }
+    }
+
+    #[test]
+    fn two_records_are_merged() {
+        let g = random_system(3, &[0.8, 0.4], &[(0.7, 0.9)], 2, 2, false);
+        let (u1, u2) = (rbs(5, 300, 2), rbs(6, 250, 2));
+        let y1 = sim(&g, &u1, None);
+        let y2 = sim(&g, &u2, Some(&DVector::from_vec(vec![1.0, 1.0, -1.0, 0.5])));
+        let opts = SubspaceOptions {
+            order: OrderSelection::Fixed(4),
+            past: 6,
+            future: 6,
+            feedthrough: Feedthrough::Zero,
+            ..Default::default()
+        };
+        let fit = identify(
+            &[Experiment { u: &u1, y: &y1 }, Experiment { u: &u2, y: &y2 }],
+            &opts,
+        )
+        .unwrap();
+        assert!(freq_error(&fit.model, &g) < 1e-8);
+        assert_eq!(fit.x0.len(), 2);
+        assert!(fit.x0[0].norm() < 1e-8);
+        assert!(fit.model.d().norm() == 0.0);
+    }
+
+    #[test]
+    fn streaming_chunk_size_does_not_change_the_result() {
+        let g = random_system(4, &[0.95, 0.5], &[], 1, 1, false);
+        let u = rbs(9, 1500, 1);
+        let y = sim(&g, &u, None) + white(10, 1500, 1, 0.05);
+        let fit = |chunk| {
+            let opts = SubspaceOptions {
+                order: OrderSelection::Fixed(2),
+                chunk_rows: chunk,
+                ..Default::default()
+            };
+            identify(&[Experiment { u: &u, y: &y }], &opts).unwrap()
+        };
+        let (a, b) = (fit(37), fit(100_000));
+        for (x, y) in a
+            .diagnostics
+            .singular_values
+            .iter()
+            .zip(&b.diagnostics.singular_values)
+        {
+            assert!((x - y).abs() < 1e-10 * (1.0 + y.abs()));
+        }
+        assert!(freq_error(&a.model, &b.model) < 1e-8);
+    }
+}
+
+mod noise {
+    use super::common::*;
+    use lifted_lti::StateSpace;
+    use lifted_subspace::*;
+    use nalgebra::DMatrix;
+
+    /// Innovation model x+ = Ax + Bu + Ke, y = Cx + e: the identified
+    /// Kalman predictor must approach the true one.
+    #[test]
+    fn kalman_gain_of_an_innovation_model() {
+        let a = DMatrix::from_row_slice(2, 2, &[0.8, 0.2, 0.0, 0.5]);
+        let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.5]);
+        let k = DMatrix::from_row_slice(2, 1, &[0.4, 0.3]);
+        let c = DMatrix::from_row_slice(1, 2, &[1.0, 0.0]);
+        let n = 20000;
+        let u = rbs(1, n, 1);
+        let e = white(2, n, 1, 0.3);
+        let mut bk = DMatrix::zeros(2, 2);
+        bk.columns_mut(0, 1).copy_from(&b);
+        bk.columns_mut(1, 1).copy_from(&k);
+        let mut dk = DMatrix::zeros(1, 2);
+        dk[(0, 1)] = 1.0;
+        let g = StateSpace::new(a.clone(), bk, c.clone(), dk, Some(1.0)).unwrap();
+        let mut ue = DMatrix::zeros(n, 2);
+        ue.columns_mut(0, 1).copy_from(&u);
+        ue.columns_mut(1, 1).copy_from(&e);
+        let y = sim(&g, &ue, None);
+        let opts = SubspaceOptions {
+            order: OrderSelection::Fixed(2),
+            feedthrough: Feedthrough::Zero,
+            ..Default::default()
+        };
+        let fit = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
+        let kg = fit.kalman_gain.clone().expect("Kalman gain");
+        // Compare the noise transfer C(zI − A)⁻¹K (similarity invariant)
+        // through its first Markov parameters.
+        let true_noise = StateSpace::new(a, k, c, DMatrix::zeros(1, 1), Some(1.0)).unwrap();
+        let est_noise = StateSpace::new(
+            fit.model.a().clone(),
+            kg,
+            fit.model.c().clone(),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        let mt = true_noise.markov_parameters(4).unwrap();
+        let me = est_noise.markov_parameters(4).unwrap();
+        for i in 1..=4 {
+            assert!(
+                (mt[i][(0, 0)] - me[i][(0, 0)]).abs() < 0.05,
+                "noise Markov {i}: {} vs {}",
+                mt[i],
+                me[i]
+            );
+        }
+        let r = fit.noise.unwrap().r[(0, 0)];
+        assert!((r - 0.09).abs() < 0.01, "innovation variance {r}");
+        assert!(
+            freq_error(
+                &fit.model,
+                &StateSpace::new(
+                    g.a().clone(),
+                    b,
+                    g.c().clone(),
+                    DMatrix::zeros(1, 1),
+                    Some(1.0)
+                )
+                .unwrap()
+            ) < 0.05
+        );
+    }
+
+    #[test]
+    fn stability_enforcement_gives_a_stable_model() {
+        // A marginal integrator-like plant with heavy noise and short data.
+        let g = random_system(11, &[0.999, 0.2], &[], 1, 1, false);
+        let u = rbs(3, 200, 1);
+        let y = sim(&g, &u, None) + white(4, 200, 1, 5.0);
+        let opts = SubspaceOptions {
+            order: OrderSelection::Fixed(2),
+            past: 5,
+            future: 5,
+            enforce_stability: true,
+            ..Default::default()
+        };
+        let fit = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
+        assert!(fit.model.is_stable(0.0).unwrap());
+    }
+}
+
+mod iv {
+    use super::common::*;
+    use lifted_subspace::*;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn open_loop_iv_is_exact_without_noise() {
+        let g = random_system(21, &[0.9, 0.6], &[(0.7, 0.5)], 2, 2, true);
+        let u = rbs(2, 3000, 2);
+        let y = sim(&g, &u, None);
+        let opts = IvOptions {
+            order: OrderSelection::Fixed(4),
+            alpha: 5,
+            ..Default::default()
+        };
+        let fit = iv_identify(
+            &[IvExperiment {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &opts,
+        )
+        .unwrap();
+        assert!(freq_error(&fit.model, &g) < 1e-8);
+    }
+
+    #[test]
+    fn multirate_one_step_recovers_an_observable_fast_model() {
+        // y1 sampled every 3, y2 every sample; (C2, A) observable.
+        let g = random_system(31, &[0.9, 0.7, 0.4], &[], 2, 2, false);
+        let n = 3000;
+        let u = rbs(5, n, 2);
+        let mut y = sim(&g, &u, None);
+        for t in 0..n {
+            if t % 3 != 0 {
+                y[(t, 0)] = f64::NAN;
+            }
+        }
+        let opts = MultirateIvOptions {
+            order: OrderSelection::Fixed(3),
+            alpha: 4,
+            feedthrough: Feedthrough::Zero,
+            ..Default::default()
+        };
+        let fit = iv_multirate_fast(&u, &y, &u, &[3, 1], &opts).unwrap();
+        assert!(
+            freq_error(&fit.model, &g) < 1e-7,
+            "{}",
+            freq_error(&fit.model, &g)
+        );
+    }
+
+    #[test]
+    fn multirate_one_step_reports_unobservable_fast_outputs() {
+        // The 0.9868 mode is seen only by y1 (the stirred tank of §7.8.2):
+        // Γ_R is rank deficient (erratum L-18).
+        let a = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![0.9868, 0.913, 0.9048]));
+        let b = DMatrix::from_row_slice(3, 2, &[0.1416, 0.0, -0.0379, 0.0, 0.0, 0.0595]);
+        let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 1.0]);
+        let g = lifted_lti::StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).unwrap();
+        let n = 5000;
+        let u = rbs(8, n, 2);
+        let y = sim(&g, &u, None);
+        let opts = MultirateIvOptions {
+            order: OrderSelection::Fixed(3),
+            alpha: 4,
+            ..Default::default()
+        };
+        let err = iv_multirate_fast(&u, &y, &u, &[5, 1], &opts).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::RankDeficient {
+                    rank: 2,
+                    needed: 3,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+}
+
+mod bad_input {
+    use super::common::*;
+    use lifted_subspace::*;
+    use nalgebra::DMatrix;
+
+    fn data() -> (DMatrix<f64>, DMatrix<f64>) {
+        let g = random_system(1, &[0.8, 0.3], &[], 1, 1, false);
+        let u = rbs(1, 500, 1);
+        let y = sim(&g, &u, None);
+        (u, y)
+    }
+
+    #[test]
+    fn horizon_too_long() {
+        let (u, y) = data();
+        let (u, y) = (u.rows(0, 40).into_owned(), y.rows(0, 40).into_owned());
+        let err =
+            identify(&[Experiment { u: &u, y: &y }], &SubspaceOptions::default()).unwrap_err();
+        assert!(
+            matches!(err, Error::HorizonTooLong { n_samples: 40, .. }),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn order_too_large() {
+        let (u, y) = data();
+        let opts = SubspaceOptions {
+            order: OrderSelection::Fixed(10),
+            ..Default::default()
+        };
+        let err = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap_err();
+        assert!(
+            matches!(err, Error::OrderTooLarge { order: 10, max: 9 }),
+            "{err}"
+        );
+        let opts = IvOptions {
+            order: OrderSelection::Fixed(8),
+            ..Default::default()
+        };
+        let err = iv_identify(
+            &[IvExperiment {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &opts,
+        )
+        .unwrap_err();
+        assert!(matches!(err, Error::OrderTooLarge { .. }), "{err}");
+    }
+
+    #[test]
+    fn constant_input_is_not_exciting() {
+        let (_, y) = data();
+        let u = DMatrix::from_element(500, 1, 1.0);
+        let err =
+            identify(&[Experiment { u: &u, y: &y }], &SubspaceOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::NotExciting {
+                    what: "u",
+                    rank: 1,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let err = iv_identify(
+            &[IvExperiment {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &IvOptions::default(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::NotExciting {
+                    what: "instrument",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn nan_is_rejected() {
+        let (u, mut y) = data();
+        y[(17, 0)] = f64::NAN;
+        let err =
+            identify(&[Experiment { u: &u, y: &y }], &SubspaceOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::NonFinite {
+                    what: "y",
+                    row: 17,
+                    col: 0
+                }
+            ),
+            "{err}"
+        );
+        let mut u2 = u.clone();
+        u2[(3, 0)] = f64::INFINITY;
+        let err = iv_identify(
+            &[IvExperiment {
+                u: &u2,
+                y: &y,
+                instrument: None,
+            }],
+            &IvOptions::default(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::NonFinite {
+                    what: "u",
+                    row: 3,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn mismatched_records_and_short_instrument() {
+        let (u, y) = data();
+        let y2 = DMatrix::zeros(400, 1);
+        let err =
+            identify(&[Experiment { u: &u, y: &y2 }], &SubspaceOptions::default()).unwrap_err();
+        assert!(matches!(err, Error::DimensionMismatch { .. }), "{err}");
+        assert!(matches!(
+            identify(&[], &SubspaceOptions::default()),
+            Err(Error::NoData)
+        ));
+        let opts = IvOptions {
+            alpha: 8,
+            alpha_p: Some(8),
+            ..Default::default()
+        };
+        let err = iv_identify(
+            &[IvExperiment {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &opts,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidHorizon {
+                    what: "alpha_p",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let opts = IvOptions {
+            alpha: 8,
+            alpha_p: Some(9),
+            order: OrderSelection::Fixed(3),
+            ..Default::default()
+        };
+        let err = iv_identify(
+            &[IvExperiment {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &opts,
+        )
+        .unwrap_err();
+        assert!(matches!(err, Error::InstrumentTooShort { .. }), "{err}");
+        let mask = Feedthrough::Mask(DMatrix::from_element(2, 2, true));
+        let opts = SubspaceOptions {
+            feedthrough: mask,
+            order: OrderSelection::Fixed(2),
+            ..Default::default()
+        };
+        let err = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::DimensionMismatch {
+                    what: "feedthrough mask",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+}
