@@ -38,10 +38,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     let w = [0.01, 0.1, 0.348, 1.0, 10.0, 50.0];
     let bc = gs.bode(&w)?;
     let bd = gd.bode(&w)?;
-    for k in 0..w.len() {
+    for (k, wk) in w.iter().enumerate() {
         println!(
             "  {:>9.3}  {:>10.4} {:>10.2}  {:>10.4} {:>10.2}",
-            w[k],
+            wk,
             bc.magnitude[k][(0, 0)],
             bc.phase_deg[k][(0, 0)],
             bd.magnitude[k][(0, 0)],

@@ -134,8 +134,8 @@ impl StateSpace {
         a.view_mut((0, 0), (n, n)).copy_from(&phi);
         c.view_mut((0, 0), (self.n_outputs(), n))
             .copy_from(self.c());
-        for j in 0..m {
-            if frac[j] == 0.0 {
+        for (j, &f) in frac.iter().enumerate() {
+            if f == 0.0 {
                 b.view_mut((0, j), (n, 1)).copy_from(&gam.column(j));
             }
         }
