@@ -1,0 +1,423 @@
+//! The simulator: loop structure, sampling, noise, runs.
+
+use lifted_lti::{Dataset, InputChannel, OutputChannel, StateSpace};
+use nalgebra::DMatrix;
+
+use crate::engine::{Block, Engine, FeedbackKind, Record, RunInput, Structure};
+use crate::error::{Error, Result};
+use crate::model::{check_discrete_at, Controller, Plant, WholeLoop};
+use crate::noise::{snr_scale, NoiseGen, NoiseSpec};
+
+/// What the controller sees of the outputs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Feedback {
+    /// Every output at every fast sample (default).
+    #[default]
+    Fast,
+    /// Each output as last sampled (zero-order hold of the slow measurement).
+    HoldLast,
+    /// Inferential switch (thesis §9.3, Fig. 9.4; spec A3.11): output j is
+    /// fed back as measured when its channel samples, and as the prediction
+    /// ŷ = P̂u of an **uncorrected** parallel model in between:
+    /// v(k) = y(k) if k ≡ offset (mod period), else ŷ(k). P̂ is a discrete
+    /// n_y × n_u model at the base period.
+    Inferential(StateSpace),
+}
+
+/// Simulation options.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOptions {
+    /// A run fails with [`Error::Diverged`] as soon as |y| or |u| exceeds
+    /// this value or becomes non-finite (unstable loops are reported, never
+    /// returned as NaNs). Default 1e12.
+    pub divergence_limit: f64,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions { divergence_limit: 1e12 }
+    }
+}
+
+/// Exogenous signals, one row per fast sample.
+///
+/// r₁ (N × n_y) is the reference (setpoint) and r₂ (N × n_u) the excitation
+/// added at the plant input: u = r₂ + K(r₁ − v) (spec A2.2). In open loop
+/// u = r₂. Missing signals are zero.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Excitation {
+    /// Reference r₁, N × n_y.
+    pub r1: Option<DMatrix<f64>>,
+    /// Plant-input excitation r₂, N × n_u.
+    pub r2: Option<DMatrix<f64>>,
+}
+
+impl Excitation {
+    /// Excitation at the plant input only (open-loop input u = r₂).
+    pub fn input(r2: DMatrix<f64>) -> Self {
+        Excitation { r1: None, r2: Some(r2) }
+    }
+
+    /// Excitation at the reference only.
+    pub fn reference(r1: DMatrix<f64>) -> Self {
+        Excitation { r1: Some(r1), r2: None }
+    }
+
+    /// Both.
+    pub fn both(r1: DMatrix<f64>, r2: DMatrix<f64>) -> Self {
+        Excitation { r1: Some(r1), r2: Some(r2) }
+    }
+
+    /// Number of samples (0 if both are missing).
+    pub fn len(&self) -> usize {
+        self.r1.as_ref().or(self.r2.as_ref()).map_or(0, DMatrix::nrows)
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Everything a run produces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOutput {
+    /// The multirate data set: plant input u and the measured outputs at
+    /// their sampling instants (NaN elsewhere), with the channel layout.
+    pub data: Dataset,
+    /// Plant input at every fast sample, N × n_u.
+    pub u: DMatrix<f64>,
+    /// Measured output (plant output + noise) at every fast sample, N × n_y.
+    pub y: DMatrix<f64>,
+    /// Plant output without the added noise term, N × n_y (in closed loop it
+    /// still contains the noise's effect through the feedback).
+    pub y_clean: DMatrix<f64>,
+    /// The added output noise (after scaling), N × n_y.
+    pub noise: DMatrix<f64>,
+    /// Per-output scale applied to the generated noise (1 with an absolute level).
+    pub noise_scale: Vec<f64>,
+    /// Reference r₁ as used, N × n_y.
+    pub r1: DMatrix<f64>,
+    /// Input excitation r₂ as used, N × n_u.
+    pub r2: DMatrix<f64>,
+    /// Simulator state after the last sample.
+    pub final_state: Vec<f64>,
+}
+
+/// A configured experiment: plant (+ controller, feedback) or a whole
+/// closed-loop model, noise, input holds and output sampling.
+#[derive(Debug, Clone)]
+pub struct Simulator {
+    pub(crate) ts: f64,
+    pub(crate) ny: usize,
+    pub(crate) nu: usize,
+    kind: Kind,
+    feedback: Feedback,
+    noise: Option<NoiseSpec>,
+    inputs: Vec<InputChannel>,
+    outputs: Vec<OutputChannel>,
+    options: SimOptions,
+}
+
+#[derive(Debug, Clone)]
+enum Kind {
+    Plant { plant: Plant, controller: Option<Controller> },
+    Whole(WholeLoop),
+}
+
+impl Simulator {
+    /// Open loop: u = r₂ (held per input channel), y = Gu + v.
+    pub fn open_loop(plant: Plant) -> Self {
+        let (ny, nu) = (plant.model().n_outputs(), plant.model().n_inputs());
+        Self::build(plant.ts(), ny, nu, Kind::Plant { plant, controller: None })
+    }
+
+    /// Plant with a discrete controller at the base period:
+    /// u = r₂ + K(r₁ − v), y = Gu + v (negative feedback, spec A2.2).
+    /// Errors: controller dimensions (n_u × n_y), sample period.
+    pub fn closed_loop(plant: Plant, controller: Controller) -> Result<Self> {
+        let (ny, nu) = (plant.model().n_outputs(), plant.model().n_inputs());
+        let k = controller.model();
+        if k.n_inputs() != ny {
+            return Err(Error::DimensionMismatch { what: "controller inputs (= plant outputs)", expected: ny, got: k.n_inputs() });
+        }
+        if k.n_outputs() != nu {
+            return Err(Error::DimensionMismatch { what: "controller outputs (= plant inputs)", expected: nu, got: k.n_outputs() });
+        }
+        check_discrete_at("controller", k, plant.ts())?;
+        Ok(Self::build(plant.ts(), ny, nu, Kind::Plant { plant, controller: Some(controller) }))
+    }
+
+    /// A closed loop discretised as a whole ([`WholeLoop`]); noise is added
+    /// to the measured output (it does not circulate in the loop), holds
+    /// must be 1.
+    pub fn whole_loop(cl: WholeLoop) -> Self {
+        let ts = cl.model().ts().unwrap_or(f64::NAN);
+        let (ny, nu) = (cl.n_outputs(), cl.n_inputs());
+        Self::build(ts, ny, nu, Kind::Whole(cl))
+    }
+
+    fn build(ts: f64, ny: usize, nu: usize, kind: Kind) -> Self {
+        Simulator {
+            ts,
+            ny,
+            nu,
+            kind,
+            feedback: Feedback::Fast,
+            noise: None,
+            inputs: (0..nu).map(|i| InputChannel::new(format!("u{}", i + 1), 1)).collect(),
+            outputs: (0..ny).map(|j| OutputChannel::new(format!("y{}", j + 1), 1, 0)).collect(),
+            options: SimOptions::default(),
+        }
+    }
+
+    /// Adds output noise (validated now).
+    pub fn with_noise(mut self, noise: NoiseSpec) -> Result<Self> {
+        NoiseGen::new(&noise, self.ny, self.ts)?;
+        self.noise = Some(noise);
+        Ok(self)
+    }
+
+    /// Sets the feedback mode (closed loop only; P̂ must be n_y × n_u and
+    /// discrete at the base period).
+    pub fn with_feedback(mut self, feedback: Feedback) -> Result<Self> {
+        if let Feedback::Inferential(p) = &feedback {
+            if p.n_outputs() != self.ny || p.n_inputs() != self.nu {
+                return Err(Error::DimensionMismatch { what: "inferential model size (n_y·n_u)", expected: self.ny * self.nu, got: p.n_outputs() * p.n_inputs() });
+            }
+            check_discrete_at("inferential model", p, self.ts)?;
+        }
+        if feedback != Feedback::Fast && !matches!(self.kind, Kind::Plant { controller: Some(_), .. }) {
+            return Err(Error::Unsupported { what: "a feedback mode needs a plant with a controller" });
+        }
+        self.feedback = feedback;
+        Ok(self)
+    }
+
+    /// Sets the input channels (names, units, holds m_i ≥ 1 and hold phases).
+    pub fn with_inputs(mut self, inputs: Vec<InputChannel>) -> Result<Self> {
+        if inputs.len() != self.nu {
+            return Err(Error::DimensionMismatch { what: "input channels", expected: self.nu, got: inputs.len() });
+        }
+        for (channel, c) in inputs.iter().enumerate() {
+            if c.hold == 0 {
+                return Err(Error::ZeroHold { channel });
+            }
+            if c.offset >= c.hold {
+                return Err(lifted_lti::DataError::OffsetOutOfRange { what: "input", channel, offset: c.offset, period: c.hold }.into());
+            }
+            if c.hold > 1 && matches!(self.kind, Kind::Whole(_)) {
+                return Err(Error::Unsupported { what: "input holds with a whole closed-loop model" });
+            }
+        }
+        self.inputs = inputs;
+        Ok(self)
+    }
+
+    /// Sets the holds m_i (phase 0), keeping the names.
+    pub fn with_holds(self, holds: &[usize]) -> Result<Self> {
+        if holds.len() != self.nu {
+            return Err(Error::DimensionMismatch { what: "holds", expected: self.nu, got: holds.len() });
+        }
+        let inputs = self.inputs.iter().zip(holds).map(|(c, &h)| InputChannel { hold: h, offset: 0, ..c.clone() }).collect();
+        self.with_inputs(inputs)
+    }
+
+    /// Sets the output channels (names, units, period J_i ≥ 1, offset < J_i).
+    pub fn with_outputs(mut self, outputs: Vec<OutputChannel>) -> Result<Self> {
+        if outputs.len() != self.ny {
+            return Err(Error::DimensionMismatch { what: "output channels", expected: self.ny, got: outputs.len() });
+        }
+        for (channel, c) in outputs.iter().enumerate() {
+            if c.period == 0 {
+                return Err(Error::ZeroPeriod { channel });
+            }
+            if c.offset >= c.period {
+                return Err(Error::OffsetOutOfRange { channel, offset: c.offset, period: c.period });
+            }
+        }
+        self.outputs = outputs;
+        Ok(self)
+    }
+
+    /// Sets (period, offset) per output, keeping the names.
+    pub fn with_sampling(self, sampling: &[(usize, usize)]) -> Result<Self> {
+        if sampling.len() != self.ny {
+            return Err(Error::DimensionMismatch { what: "output sampling", expected: self.ny, got: sampling.len() });
+        }
+        let outputs = self.outputs.iter().zip(sampling).map(|(c, &(p, o))| OutputChannel { period: p, offset: o, ..c.clone() }).collect();
+        self.with_outputs(outputs)
+    }
+
+    /// Sets the options.
+    pub fn with_options(mut self, options: SimOptions) -> Result<Self> {
+        if !(options.divergence_limit > 0.0) {
+            return Err(Error::NonFinite { what: "divergence_limit", value: options.divergence_limit });
+        }
+        self.options = options;
+        Ok(self)
+    }
+
+    /// Base period T.
+    pub fn ts(&self) -> f64 {
+        self.ts
+    }
+
+    /// Number of plant inputs n_u.
+    pub fn n_inputs(&self) -> usize {
+        self.nu
+    }
+
+    /// Number of plant outputs n_y.
+    pub fn n_outputs(&self) -> usize {
+        self.ny
+    }
+
+    /// Input channels.
+    pub fn inputs(&self) -> &[InputChannel] {
+        &self.inputs
+    }
+
+    /// Output channels.
+    pub fn outputs(&self) -> &[OutputChannel] {
+        &self.outputs
+    }
+
+    /// Period of the sampling/hold pattern (lcm of holds and output periods).
+    pub fn frame_period(&self) -> usize {
+        self.inputs.iter().map(|c| c.hold).chain(self.outputs.iter().map(|c| c.period)).fold(1, crate::engine::lcm)
+    }
+
+    /// The loop as one discrete LTI model [r₁; r₂] → [y; u] at the base
+    /// period (noise-free), for the single-rate cases: fast feedback and
+    /// unit holds. Open loop: [y; u] from [r₁; r₂] with r₁ unused.
+    pub fn lti_model(&self) -> Result<StateSpace> {
+        if self.inputs.iter().any(|c| c.hold != 1) || self.feedback != Feedback::Fast {
+            return Err(Error::Unsupported { what: "lti_model of a multirate (periodically time-varying) loop" });
+        }
+        match &self.kind {
+            Kind::Whole(w) => Ok(w.model().clone()),
+            Kind::Plant { plant, controller } => {
+                let k = match controller {
+                    Some(c) => c.model().clone(),
+                    None => StateSpace::gain(DMatrix::zeros(self.nu, self.ny), Some(self.ts))?,
+                };
+                crate::model::closed_loop(plant.model(), &k)
+            }
+        }
+    }
+
+    pub(crate) fn engine(&self) -> Result<Engine> {
+        let holds: Vec<(usize, usize)> = self.inputs.iter().map(|c| (c.hold, c.offset)).collect();
+        let sampling: Vec<(usize, usize)> = self.outputs.iter().map(|c| (c.period, c.offset)).collect();
+        let limit = self.options.divergence_limit;
+        match &self.kind {
+            Kind::Whole(w) => Engine::new(Structure::Whole { cl: Block::new(w.model()) }, self.ny, self.nu, &holds, &sampling, None, limit),
+            Kind::Plant { plant, controller } => {
+                let g = Block::new(plant.model());
+                let k = controller.as_ref().map(|c| Block::new(c.model()));
+                let dk = k.as_ref().map(|b| b.d.clone());
+                let (phat, fb) = match &self.feedback {
+                    Feedback::Fast => (None, FeedbackKind::Fast),
+                    Feedback::HoldLast => (None, FeedbackKind::HoldLast),
+                    Feedback::Inferential(p) => (Some(Block::new(p)), FeedbackKind::Inferential),
+                };
+                Engine::new(Structure::Loop { g, k, phat, feedback: fb }, self.ny, self.nu, &holds, &sampling, dk.as_deref(), limit)
+            }
+        }
+    }
+
+    pub(crate) fn check_excitation(&self, exc: &Excitation) -> Result<usize> {
+        let n = exc.len();
+        if n == 0 {
+            return Err(Error::EmptyExcitation);
+        }
+        if let Some(r1) = &exc.r1 {
+            if r1.ncols() != self.ny {
+                return Err(Error::DimensionMismatch { what: "columns of r1 (= outputs)", expected: self.ny, got: r1.ncols() });
+            }
+            if r1.nrows() != n {
+                return Err(Error::DimensionMismatch { what: "rows of r1 (= rows of r2)", expected: n, got: r1.nrows() });
+            }
+            if let Some(v) = r1.iter().find(|v| !v.is_finite()) {
+                return Err(Error::NonFinite { what: "r1", value: *v });
+            }
+        }
+        if let Some(r2) = &exc.r2 {
+            if r2.ncols() != self.nu {
+                return Err(Error::DimensionMismatch { what: "columns of r2 (= inputs)", expected: self.nu, got: r2.ncols() });
+            }
+            if r2.nrows() != n {
+                return Err(Error::DimensionMismatch { what: "rows of r2 (= rows of r1)", expected: n, got: r2.nrows() });
+            }
+            if let Some(v) = r2.iter().find(|v| !v.is_finite()) {
+                return Err(Error::NonFinite { what: "r2", value: *v });
+            }
+        }
+        if exc.r1.is_some() && matches!(self.kind, Kind::Plant { controller: None, .. }) && exc.r1.as_ref().is_some_and(|r| r.iter().any(|&v| v != 0.0)) {
+            return Err(Error::Unsupported { what: "a reference r1 in open loop (use r2 for the input)" });
+        }
+        Ok(n)
+    }
+
+    /// Simulates the excitation from zero initial state.
+    ///
+    /// With an SNR level, the loop is run twice (linearity): first noise-free
+    /// to get the noise-free output y₀, then with the noise scaled per output
+    /// channel so that var(y₀)/var(v) (or the std ratio) equals the request
+    /// on this record. O(N(n² + nm)) per run, no allocation in the loop.
+    ///
+    /// Errors: excitation shape/finiteness, [`Error::Diverged`],
+    /// [`Error::ZeroSignalVariance`], and the data-set checks.
+    pub fn simulate(&self, exc: &Excitation) -> Result<SimOutput> {
+        let engine = self.engine()?;
+        let z0 = vec![0.0; engine.nz];
+        self.run_from(&engine, &z0, exc)
+    }
+
+    /// Simulates from a given simulator state (e.g. a periodic steady state).
+    pub(crate) fn run_from(&self, engine: &Engine, z0: &[f64], exc: &Excitation) -> Result<SimOutput> {
+        let n = self.check_excitation(exc)?;
+        let noise = match &self.noise {
+            Some(spec) => {
+                let noise_gen = NoiseGen::new(spec, self.ny, self.ts)?;
+                Some((noise_gen.generate(n, self.ny), noise_gen.snr.clone()))
+            }
+            None => None,
+        };
+        let mut rec = Record { u: DMatrix::zeros(n, self.nu), y: DMatrix::zeros(n, self.ny), y_clean: DMatrix::zeros(n, self.ny) };
+        let mut scale = vec![1.0; self.ny];
+        let final_state = match &noise {
+            None => {
+                scale = vec![0.0; self.ny];
+                engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: None, len: n }, Some(&mut rec))?
+            }
+            Some((raw, snr)) => {
+                if let Some((ratio, def)) = snr {
+                    engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: None, len: n }, Some(&mut rec))?;
+                    scale = snr_scale(&rec.y_clean, raw, ratio, *def)?;
+                }
+                engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: Some((raw, &scale)), len: n }, Some(&mut rec))?
+            }
+        };
+        let noise_m = match &noise {
+            Some((raw, _)) => DMatrix::from_fn(n, self.ny, |k, j| scale[j] * raw[(k, j)]),
+            None => DMatrix::zeros(n, self.ny),
+        };
+        if noise.is_none() {
+            scale = vec![1.0; self.ny];
+        }
+        let data = Dataset::from_fast(self.ts, rec.u.clone(), rec.y.clone(), self.inputs.clone(), self.outputs.clone())?;
+        Ok(SimOutput {
+            data,
+            u: rec.u,
+            y: rec.y,
+            y_clean: rec.y_clean,
+            noise: noise_m,
+            noise_scale: scale,
+            r1: exc.r1.clone().unwrap_or_else(|| DMatrix::zeros(n, self.ny)),
+            r2: exc.r2.clone().unwrap_or_else(|| DMatrix::zeros(n, self.nu)),
+            final_state,
+        })
+    }
+}
