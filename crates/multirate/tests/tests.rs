@@ -1,1 +1,2 @@
+//! Integration tests of `lifted-multirate`.
 mod suite;
