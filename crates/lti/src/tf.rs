@@ -370,6 +370,23 @@ impl TransferFunction {
     /// [`FeedbackSign`]). SISO: exact polynomial arithmetic,
     /// nG·dK / (dG·dK ± nG·nK), no cancellation. MIMO: through state space
     /// ([`crate::feedback`]) and back (both must be proper).
+    ///
+    /// ```
+    /// use lifted_lti::{C2dOptions, FeedbackSign, HinfOptions, MinrealOptions, TransferFunction};
+    /// # fn main() -> Result<(), lifted_lti::Error> {
+    /// // Ren & Zhu (2009) Table 2: G = 1/(0.3s+1), K = 0.2 → H₂ = 1/(0.3s+1.2)
+    /// let g = TransferFunction::from_coeffs(&[1.0], &[0.3, 1.0], None)?;
+    /// let k = TransferFunction::from_coeffs(&[0.2], &[1.0], None)?;
+    /// let h2 = g.feedback(&k, FeedbackSign::Negative)?;
+    /// assert_eq!(h2.den(0, 0).coeffs(), &[0.3, 1.2]);
+    /// // ZOH at 5 ms and back (inverse ZOH) recovers the same model
+    /// let sd = h2.to_ss()?.c2d(0.005, &C2dOptions::default())?;
+    /// let back = sd.d2c()?.to_tf(&MinrealOptions::default())?.normalized();
+    /// assert!((back.den(0, 0).coeffs()[1] - 4.0).abs() < 1e-9);
+    /// assert!((sd.hinf_norm(&HinfOptions::default())?.norm - 1.0 / 1.2).abs() < 1e-8);
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn feedback(&self, k: &Self, sign: FeedbackSign) -> Result<Self> {
         check_domain("feedback", self.ts, k.ts)?;
         if self.is_siso() && k.is_siso() {

@@ -125,3 +125,79 @@ proptest! {
         prop_assert!(freq_diff(&g, &back, &jw_points()) < 1e-9);
     }
 }
+
+/// σ_min/σ_max of the Rosenbrock matrix [A − zI, B; C, D] at z.
+fn rosenbrock_rank_gap(g: &StateSpace, z: Complex64) -> (f64, Vec<f64>) {
+    let (n, m, p) = (g.order(), g.n_inputs(), g.n_outputs());
+    let mut r = DMatrix::<Complex64>::zeros(n + p, n + m);
+    for i in 0..n {
+        for j in 0..n {
+            r[(i, j)] = Complex64::new(g.a()[(i, j)], 0.0)
+                - if i == j { z } else { Complex64::new(0.0, 0.0) };
+        }
+        for j in 0..m {
+            r[(i, n + j)] = Complex64::new(g.b()[(i, j)], 0.0);
+        }
+    }
+    for i in 0..p {
+        for j in 0..n {
+            r[(n + i, j)] = Complex64::new(g.c()[(i, j)], 0.0);
+        }
+        for j in 0..m {
+            r[(n + i, n + j)] = Complex64::new(g.d()[(i, j)], 0.0);
+        }
+    }
+    let mut s: Vec<f64> = r.singular_values().iter().copied().collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    (s[0], s)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    /// Square random systems: D = 0 (generic CB invertible) has n − m finite
+    /// zeros, invertible D has n; at every zero the (n+m)-square Rosenbrock
+    /// matrix is singular. Tall/wide random systems have no zeros.
+    #[test]
+    fn transmission_zeros_are_rank_drops(seed in any::<u64>(), n in 2usize..6, m in 1usize..3, with_d in any::<bool>()) {
+        prop_assume!(m < n);
+        let mut g = random_stable(seed, n, m, m);
+        if !with_d {
+            g = StateSpace::new(g.a().clone(), g.b().clone(), g.c().clone(), DMatrix::zeros(m, m), None).unwrap();
+        }
+        let z = g.zeros().unwrap();
+        let expected = if with_d { n } else { n - m };
+        prop_assert_eq!(z.len(), expected, "{:?}", z);
+        for &zi in &z {
+            let (smax, s) = rosenbrock_rank_gap(&g, zi);
+            // zeros of a random system can be ill-conditioned: relative 1e-7
+            prop_assert!(s[s.len() - 1] <= 1e-7 * smax * (1.0 + zi.norm()), "{zi}: {s:?}");
+        }
+        let tall = random_stable(seed ^ 0x5555, n, m, m + 1);
+        prop_assert!(tall.zeros().unwrap().is_empty());
+        let wide = random_stable(seed ^ 0xaaaa, n, m + 1, m);
+        prop_assert!(wide.zeros().unwrap().is_empty());
+    }
+
+    /// H∞ of random stable MIMO models: not below a frequency grid, and
+    /// σ_max at the returned peak frequency equals the returned norm.
+    #[test]
+    fn hinf_is_consistent_with_frequency_response(seed in any::<u64>(), n in 1usize..6, m in 1usize..3, p in 1usize..3, discrete in any::<bool>()) {
+        let mut g = random_stable(seed, n, m, p);
+        if discrete {
+            g = g.c2d(0.3, &C2dOptions::default()).unwrap();
+        }
+        let h = g.hinf_norm(&Default::default()).unwrap();
+        let wmax = if discrete { std::f64::consts::PI / 0.3 } else { 100.0 };
+        let grid: Vec<f64> = (0..=2000).map(|k| wmax * k as f64 / 2000.0).collect();
+        let smax = |gm: &DMatrix<Complex64>| gm.clone().singular_values().iter().fold(0.0f64, |a, &b| a.max(b));
+        let best = g.freqresp(&grid).unwrap().iter().map(smax).fold(0.0, f64::max);
+        prop_assert!(h.norm >= best * (1.0 - 1e-9), "{} < {best}", h.norm);
+        let at_peak = if h.peak_frequency.is_infinite() {
+            g.d().clone().svd(false, false).singular_values.iter().fold(0.0f64, |a, &b| a.max(b))
+        } else {
+            smax(&g.freqresp(&[h.peak_frequency]).unwrap()[0])
+        };
+        prop_assert!((at_peak - h.norm).abs() <= 1e-9 * h.norm, "{at_peak} vs {}", h.norm);
+    }
+}
