@@ -529,4 +529,25 @@ mod tests {
         a[(0, 1)] = f64::NAN;
         assert!(matches!(real_schur(&a), Err(Error::NonFinite { .. })));
     }
+
+    #[test]
+    fn hard_cases_converge() {
+        // Cyclic permutation (stalls Francis QR without exceptional shifts),
+        // a nilpotent Jordan block, the companion matrix of (z − 0.5)⁴ and
+        // the zero matrix.
+        let n = 5;
+        let perm = DMatrix::from_fn(n, n, |i, j| if (i + 1) % n == j { 1.0 } else { 0.0 });
+        let jordan = DMatrix::from_fn(4, 4, |i, j| if j == i + 1 { 1.0 } else { 0.0 });
+        let companion = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                2.0, -1.5, 0.5, -0.0625, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ],
+        );
+        for a in [perm, jordan, companion, DMatrix::zeros(3, 3)] {
+            let rs = real_schur(&a).unwrap();
+            check_form(&a, &rs);
+        }
+    }
 }

@@ -69,3 +69,16 @@ fn negative_and_zero_eigenvalues_have_no_principal_branch() {
         }
     }
 }
+
+#[test]
+fn log_and_root_of_orthogonal_permutation() {
+    // Cyclic 3×3 permutation: eigenvalues 1, e^{±2πi/3} (on the unit
+    // circle, off ℝ⁻). Its principal log is real and skew-symmetric.
+    let p = DMatrix::from_fn(3, 3, |i, j| if (i + 1) % 3 == j { 1.0 } else { 0.0 });
+    let l = logm(&p).unwrap();
+    assert!((&l + l.transpose()).norm() <= 1e-13);
+    assert!((expm(&l).unwrap() - &p).norm() <= 1e-13);
+    let r = rootm(&p, 4).unwrap();
+    let r4 = &r * &r * &r * &r;
+    assert!((r4 - &p).norm() <= 1e-13);
+}
