@@ -140,3 +140,38 @@ fn tf_feedback_agrees_with_state_space() {
         .unwrap();
     assert!(freq_diff(&hp, &hsp, &pts) < 1e-13);
 }
+
+/// Spec A2.2, last acceptance item: (12) applied to the printed eq. (16)
+/// (which is Ĥ₂, erratum RZ-15) with K_PI = (0.2s+5)/s reproduces the printed
+/// (17), G = (4.07e-6 s³ + 3.335s² + 1.3e-4 s)/(s³ + 3.336s² − 0.015s − 0.000648),
+/// to ±½ unit of the printed last digit.
+#[test]
+fn eq16_to_eq17_compensator_recovery() {
+    let h2 = tf(&[4.071e-6, 3.335, 1.296e-4], &[1.0, 4.003, 16.66], None);
+    let k = tf(&[0.2, 5.0], &[1.0, 0.0], None);
+    let kh2 = k.mul(&h2).unwrap();
+    let g = h2
+        .mul(&one().sub(&kh2).unwrap().inv().unwrap())
+        .unwrap()
+        .minreal(&MinrealOptions { tol: 1e-6 })
+        .unwrap()
+        .normalized();
+    let (num, den) = (g.num(0, 0), g.den(0, 0));
+    assert_eq!((num.degree(), den.degree()), (3, 3), "{g}");
+    let want_num = [(4.07e-6, 5e-9), (3.335, 5e-4), (1.3e-4, 5e-6), (0.0, 1e-12)];
+    let want_den = [(1.0, 0.0), (3.336, 5e-4), (-0.015, 5e-4), (-0.000648, 5e-7)];
+    for (k, (w, tol)) in want_num.iter().enumerate() {
+        assert!(
+            (num.coeff_of_power(3 - k) - w).abs() <= *tol,
+            "num s^{}: {g}",
+            3 - k
+        );
+    }
+    for (k, (w, tol)) in want_den.iter().enumerate() {
+        assert!(
+            (den.coeff_of_power(3 - k) - w).abs() <= tol + 1e-15,
+            "den s^{}: {g}",
+            3 - k
+        );
+    }
+}
