@@ -15,6 +15,8 @@
 //! its `note` and records the value obtained: tolerances are never loosened silently.
 #![deny(missing_docs)]
 
+pub mod a3_dual_rate;
+pub mod a3_mpc;
 pub mod report;
 
 pub use report::{Check, Reproduction};

@@ -1,2 +1,41 @@
 //! Integration tests: every reproduction of `shared/spec/reproductions.md` must pass.
 //! One module per spec section (added as the experiments land).
+
+mod a3_mpc {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a310_dmc_gpc_inferential() {
+        assert_rep(lifted_tests::a3_mpc::run().expect("A3.10 runs"));
+    }
+    #[test]
+    fn a310_stirred_tank_stand_in() {
+        assert_rep(lifted_tests::a3_mpc::run_tank().expect("A3.10 tank runs"));
+    }
+}
+
+mod a3_dual_rate {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a311_example_96() {
+        assert_rep(lifted_tests::a3_dual_rate::run().expect("A3.11 runs"));
+    }
+    #[test]
+    fn a311_random_triples_and_prop5() {
+        assert_rep(lifted_tests::a3_dual_rate::run_random().expect("A3.11 random runs"));
+    }
+}
+
+mod a3_delay_example {
+    #[test]
+    fn a36_delay_example() {
+        let rep = lifted_tests::a3_delay_example::run().expect("A3.6 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
