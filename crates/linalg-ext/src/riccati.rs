@@ -139,6 +139,7 @@ pub fn dare(
     let eye = DMatrix::<f64>::identity(n, n);
     let (mut ak, mut gk, mut hk) = (a_s, g, q_s);
     let mut iterations = 0;
+    let mut prev_change = f64::INFINITY;
     let diverged = |what: &str| Error::NoStabilizingSolution {
         what: "dare",
         reason: what.to_string(),
@@ -165,15 +166,24 @@ pub fn dare(
         if hk.iter().any(|v| !v.is_finite()) {
             return Err(diverged("the doubling iteration diverged"));
         }
-        if change <= 1e-14 * size.max(1e-300) || (change == 0.0) {
+        // Converged, or stagnating at rounding level (the residual check
+        // and the Newton polish below decide on the accuracy).
+        if change <= 1e-14 * size
+            || change == 0.0
+            || (change <= 1e-9 * size && change >= prev_change)
+        {
             break;
         }
         if iterations >= MAX_ITER {
+            if change <= 1e-8 * size {
+                break;
+            }
             return Err(Error::NoConvergence {
                 what: "dare doubling iteration",
                 iterations,
             });
         }
+        prev_change = change;
     }
     let mut x = hk;
     let (mut resid, mut k) = residual_and_gain(a, b, &q, &r, s, &x)?;
