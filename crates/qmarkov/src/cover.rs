@@ -131,7 +131,8 @@ fn block_toeplitz_lower(h: &[DMatrix<f64>], ny: usize, nw: usize) -> DMatrix<f64
     let mut out = DMatrix::zeros(q * ny, q * nw);
     for i in 0..q {
         for j in 0..=i {
-            out.view_mut((i * ny, j * nw), (ny, nw)).copy_from(&h[i - j]);
+            out.view_mut((i * ny, j * nw), (ny, nw))
+                .copy_from(&h[i - j]);
         }
     }
     out
@@ -158,7 +159,10 @@ fn block_toeplitz_lower(h: &[DMatrix<f64>], ny: usize, nw: usize) -> DMatrix<f64
 pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization> {
     let q = data.ryy.len();
     if q < 2 {
-        return Err(Error::LagsOutOfRange { q, max_exclusive: usize::MAX });
+        return Err(Error::LagsOutOfRange {
+            q,
+            max_exclusive: usize::MAX,
+        });
     }
     if data.markov.len() != q || data.weighting.len() != q {
         return Err(Error::DimensionMismatch {
@@ -237,7 +241,9 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
         for i in 0..q {
             for j in 0..q {
                 let blk = &qw * core.view((i * ny, j * ny), (ny, ny)) * qw.transpose();
-                weighted.view_mut((i * ny, j * ny), (ny, ny)).copy_from(&blk);
+                weighted
+                    .view_mut((i * ny, j * ny), (ny, ny))
+                    .copy_from(&blk);
             }
         }
         core = weighted;
@@ -247,7 +253,7 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
     let eig = sym_eig(&core, SortOrder::Descending)?;
     let lambda: Vec<f64> = eig.values.iter().copied().collect();
     let l1 = lambda[0];
-    if !(l1 > 0.0) {
+    if l1.is_nan() || l1 <= 0.0 {
         return Err(Error::NoPositiveEigenvalue { largest: l1 });
     }
     let zero = settings.eigen_tol * l1;
@@ -269,7 +275,10 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
         });
     }
     if r > rank_dq {
-        return Err(Error::OrderExceedsRank { order: r, rank: rank_dq });
+        return Err(Error::OrderExceedsRank {
+            order: r,
+            rank: rank_dq,
+        });
     }
     // P_q = V_r Λ_r^{1/2}: only eigenvalues > eigen_tol·λ₁ > 0 reach the square root.
     let mut pq = eig.vectors.columns(0, r).into_owned();
@@ -310,7 +319,7 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
                         });
                     }
                     let dev = (u.transpose() * u - DMatrix::<f64>::identity(k, k)).amax();
-                    if !(dev < 1e-8) {
+                    if dev.is_nan() || dev >= 1e-8 {
                         return Err(Error::InvalidOption {
                             what: "rotation",
                             reason: format!("U is not orthogonal (max |UᵀU − I| = {dev:.3e})"),
@@ -358,8 +367,13 @@ mod tests {
 
     #[test]
     fn lower_toeplitz_layout() {
-        let h: Vec<DMatrix<f64>> = (0..3).map(|i| DMatrix::from_element(1, 1, i as f64 + 1.0)).collect();
+        let h: Vec<DMatrix<f64>> = (0..3)
+            .map(|i| DMatrix::from_element(1, 1, i as f64 + 1.0))
+            .collect();
         let t = block_toeplitz_lower(&h, 1, 1);
-        assert_eq!(t, DMatrix::from_row_slice(3, 3, &[1., 0., 0., 2., 1., 0., 3., 2., 1.]));
+        assert_eq!(
+            t,
+            DMatrix::from_row_slice(3, 3, &[1., 0., 0., 2., 1., 0., 3., 2., 1.])
+        );
     }
 }

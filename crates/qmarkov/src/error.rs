@@ -59,7 +59,9 @@ pub enum Error {
         channel: usize,
     },
     /// The record is shorter than one excitation period `2 n_r m`.
-    #[error("experiment {experiment}: record of {len} samples is shorter than one period of {period}")]
+    #[error(
+        "experiment {experiment}: record of {len} samples is shorter than one period of {period}"
+    )]
     RecordTooShort {
         /// Index of the experiment.
         experiment: usize,
@@ -102,7 +104,9 @@ pub enum Error {
         reason: String,
     },
     /// Experiment `experiment` must excite only its own input channel.
-    #[error("experiment {experiment} also excites input channel {channel}; q-Markov needs one channel per experiment")]
+    #[error(
+        "experiment {experiment} also excites input channel {channel}; q-Markov needs one channel per experiment"
+    )]
     CrossExcitation {
         /// Index of the experiment.
         experiment: usize,

@@ -153,7 +153,11 @@ fn prepare(
         RecordMode::OnePeriod => {
             if len != period {
                 if len < period {
-                    return Err(Error::RecordTooShort { experiment, len, period });
+                    return Err(Error::RecordTooShort {
+                        experiment,
+                        len,
+                        period,
+                    });
                 }
                 return Err(Error::WrongPeriodLength {
                     experiment,
@@ -165,7 +169,11 @@ fn prepare(
         }
         RecordMode::LastPeriod => {
             if len < period {
-                return Err(Error::RecordTooShort { experiment, len, period });
+                return Err(Error::RecordTooShort {
+                    experiment,
+                    len,
+                    period,
+                });
             }
             len - period
         }
@@ -274,11 +282,7 @@ fn output_covariances(
 }
 
 /// Markov parameters of one channel (column l of every `H_τ`).
-fn channel_markov(
-    p: &Prepared,
-    opts: &QMarkovOptions,
-    m: usize,
-) -> Result<Vec<DVector<f64>>> {
+fn channel_markov(p: &Prepared, opts: &QMarkovOptions, m: usize) -> Result<Vec<DVector<f64>>> {
     let q = opts.q;
     let nr = opts.hold;
     let ny = p.output.ncols();
@@ -294,7 +298,12 @@ fn channel_markov(
                 .map(|(k, &x)| if k % nr == p.phase { x } else { 0.0 })
                 .collect();
             for i in 0..ny {
-                let g = corr(column(&p.output, i), &v, 2.0 * m as f64 * a2, opts.correlation)?;
+                let g = corr(
+                    column(&p.output, i),
+                    &v,
+                    2.0 * m as f64 * a2,
+                    opts.correlation,
+                )?;
                 // h(τ) = g(τ) − g(τ−1) + h(τ−n_r), negative arguments zero.
                 let mut hi = vec![0.0; q];
                 for tau in 0..q {
@@ -307,17 +316,22 @@ fn channel_markov(
                     }
                     hi[tau] = val;
                 }
-                for tau in 0..q {
-                    h[tau][i] = hi[tau];
+                for (ht, v) in h.iter_mut().zip(&hi) {
+                    ht[i] = *v;
                 }
             }
         }
         MarkovEstimator::PrintedIII23 => {
             let w0 = lifted_prbs::held_autocorrelation(opts.prbs_order, nr, p.amplitude, 0)?;
             for i in 0..ny {
-                let r = corr(column(&p.output, i), &p.input, 2.0 * m as f64, opts.correlation)?;
-                for tau in 0..q {
-                    h[tau][i] = r[tau] / w0;
+                let r = corr(
+                    column(&p.output, i),
+                    &p.input,
+                    2.0 * m as f64,
+                    opts.correlation,
+                )?;
+                for (ht, v) in h.iter_mut().zip(&r) {
+                    ht[i] = v / w0;
                 }
             }
         }
@@ -357,7 +371,11 @@ fn periodic_response(model: &StateSpace, u: &DMatrix<f64>) -> Result<Option<DMat
 }
 
 fn rel_error(model: &[DMatrix<f64>], data: &[DMatrix<f64>]) -> f64 {
-    let num: f64 = model.iter().zip(data).map(|(a, b)| (a - b).norm_squared()).sum();
+    let num: f64 = model
+        .iter()
+        .zip(data)
+        .map(|(a, b)| (a - b).norm_squared())
+        .sum();
     let den: f64 = data.iter().map(|b| b.norm_squared()).sum();
     (num / den).sqrt()
 }
@@ -399,14 +417,14 @@ pub fn identify_records(
         return Err(Error::NoExperiments);
     }
     let nw = records.len();
-    if let Some(a) = &opts.amplitudes {
-        if a.len() != nw {
-            return Err(Error::ChannelCount {
-                what: "amplitudes",
-                expected: nw,
-                got: a.len(),
-            });
-        }
+    if let Some(a) = &opts.amplitudes
+        && a.len() != nw
+    {
+        return Err(Error::ChannelCount {
+            what: "amplitudes",
+            expected: nw,
+            got: a.len(),
+        });
     }
     if !(ts.is_finite() && ts > 0.0) {
         return Err(Error::InvalidOption {
@@ -483,11 +501,7 @@ pub fn identify_records(
     )?;
 
     // Stability (erratum Z-9).
-    let spectral_radius = model
-        .poles()?
-        .iter()
-        .map(|p| p.norm())
-        .fold(0.0, f64::max);
+    let spectral_radius = model.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max);
     let stable = spectral_radius < 1.0;
     if !stable && opts.require_stable {
         return Err(Error::UnstableCover { spectral_radius });
@@ -505,7 +519,11 @@ pub fn identify_records(
             for i in 0..ny {
                 let y = column(&p.output, i);
                 let mean = y.iter().sum::<f64>() / y.len() as f64;
-                let e: f64 = column(&yh, i).iter().zip(y).map(|(a, b)| (a - b).powi(2)).sum();
+                let e: f64 = column(&yh, i)
+                    .iter()
+                    .zip(y)
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum();
                 let v: f64 = y.iter().map(|b| (b - mean).powi(2)).sum();
                 fit[(l, i)] = 100.0 * (1.0 - (e / v).sqrt());
             }

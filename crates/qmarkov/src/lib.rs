@@ -92,8 +92,8 @@ mod identify;
 mod options;
 
 pub use cover::{CoverData, CoverKind, CoverSettings, Realization, largest_gap_order, realize};
-pub use error::{Error, Result};
 pub use dataset::QMarkov;
+pub use error::{Error, Result};
 pub use identify::{ChannelRecord, Diagnostics, identify_records};
 pub use options::{MarkovEstimator, QMarkovOptions, RecordMode, WeightingStructure};
 

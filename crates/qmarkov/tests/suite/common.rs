@@ -32,7 +32,15 @@ pub fn records(g: &StateSpace, w: &[f64]) -> Vec<ChannelRecord> {
         .collect()
 }
 
-pub fn ss(a: &[f64], b: &[f64], c: &[f64], d: &[f64], n: usize, ni: usize, no: usize) -> StateSpace {
+pub fn ss(
+    a: &[f64],
+    b: &[f64],
+    c: &[f64],
+    d: &[f64],
+    n: usize,
+    ni: usize,
+    no: usize,
+) -> StateSpace {
     StateSpace::new(
         DMatrix::from_row_slice(n, n, a),
         DMatrix::from_row_slice(n, ni, b),
@@ -45,7 +53,12 @@ pub fn ss(a: &[f64], b: &[f64], c: &[f64], d: &[f64], n: usize, ni: usize, no: u
 
 /// Sorted pole moduli / real parts for comparison.
 pub fn sorted_poles(g: &StateSpace) -> Vec<(f64, f64)> {
-    let mut p: Vec<(f64, f64)> = g.poles().unwrap().iter().map(|z| (z.re, z.im.abs())).collect();
+    let mut p: Vec<(f64, f64)> = g
+        .poles()
+        .unwrap()
+        .iter()
+        .map(|z| (z.re, z.im.abs()))
+        .collect();
     p.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
     p
 }
@@ -55,5 +68,9 @@ pub fn markov_error(g: &StateSpace, h: &StateSpace, q: usize) -> f64 {
     let a = g.markov_parameters(q - 1).unwrap();
     let b = h.markov_parameters(q - 1).unwrap();
     let scale = a.iter().map(|m| m.norm()).fold(0.0, f64::max);
-    a.iter().zip(&b).map(|(x, y)| (x - y).norm()).fold(0.0, f64::max) / scale
+    a.iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max)
+        / scale
 }

@@ -8,19 +8,38 @@ use nalgebra::{DMatrix, DVector};
 
 fn exact_data(g: &lifted_lti::StateSpace, q: usize) -> CoverData {
     let nw = g.n_inputs();
-    let ryy = g.covariance_parameters(&DMatrix::identity(nw, nw), q - 1).unwrap();
+    let ryy = g
+        .covariance_parameters(&DMatrix::identity(nw, nw), q - 1)
+        .unwrap();
     let markov = g.markov_parameters(q - 1).unwrap();
     let mut weighting = vec![DVector::zeros(nw); q];
     weighting[0] = DVector::from_element(nw, 1.0);
-    CoverData { ryy, markov, weighting }
+    CoverData {
+        ryy,
+        markov,
+        weighting,
+    }
 }
 
 fn settings(order: usize) -> CoverSettings {
-    CoverSettings { order: Some(order), max_auto_order: 10, eigen_tol: 1e-10, rank_tol: 1e-10, ..Default::default() }
+    CoverSettings {
+        order: Some(order),
+        max_auto_order: 10,
+        eigen_tol: 1e-10,
+        rank_tol: 1e-10,
+        ..Default::default()
+    }
 }
 
 fn to_ss(r: &lifted_qmarkov::Realization) -> lifted_lti::StateSpace {
-    lifted_lti::StateSpace::new(r.a.clone(), r.b.clone(), r.c.clone(), r.d.clone(), Some(0.1)).unwrap()
+    lifted_lti::StateSpace::new(
+        r.a.clone(),
+        r.b.clone(),
+        r.c.clone(),
+        r.d.clone(),
+        Some(0.1),
+    )
+    .unwrap()
 }
 
 fn mimo() -> lifted_lti::StateSpace {
@@ -51,7 +70,9 @@ fn exact_data_recover_the_system() {
     }
     // The cover has identity state covariance (Lemma III-2, erratum Z-11 with W = I):
     // its covariance parameters match the data too.
-    let rh = h.covariance_parameters(&DMatrix::identity(2, 2), 7).unwrap();
+    let rh = h
+        .covariance_parameters(&DMatrix::identity(2, 2), 7)
+        .unwrap();
     for (a, b) in rh.iter().zip(&data.ryy) {
         assert!((a - b).norm() < 1e-9);
     }
@@ -62,7 +83,14 @@ fn weighted_cover_is_the_same_system() {
     let g = mimo();
     let data = exact_data(&g, 8);
     let q = DMatrix::from_row_slice(2, 2, &[2.0, 0.3, 0.3, 0.5]);
-    let r = realize(&data, &CoverSettings { output_weighting: Some(q), ..settings(3) }).unwrap();
+    let r = realize(
+        &data,
+        &CoverSettings {
+            output_weighting: Some(q),
+            ..settings(3)
+        },
+    )
+    .unwrap();
     assert!(markov_error(&g, &to_ss(&r), 40) < 1e-9);
 }
 
@@ -71,11 +99,22 @@ fn rank_deficient_p_any_orthogonal_u() {
     // SISO second order, q = 2, r = 2: P = P_0 is 1×2 of rank 1, so the
     // V_b U V_dᵀ term of (III-29)/(III-30) is added. Every orthogonal U gives a cover
     // matching H_0, H_1 and R_0, R_1.
-    let g = ss(&[1.5, -0.56, 1.0, 0.0], &[1.0, 0.0], &[0.3, 0.1], &[0.2], 2, 1, 1);
+    let g = ss(
+        &[1.5, -0.56, 1.0, 0.0],
+        &[1.0, 0.0],
+        &[0.3, 0.1],
+        &[0.2],
+        2,
+        1,
+        1,
+    );
     let data = exact_data(&g, 2);
     let mut markov1 = Vec::new();
     for u in [1.0, -1.0] {
-        let s = CoverSettings { rotation: Some(DMatrix::from_element(1, 1, u)), ..settings(2) };
+        let s = CoverSettings {
+            rotation: Some(DMatrix::from_element(1, 1, u)),
+            ..settings(2)
+        };
         let r = realize(&data, &s).unwrap();
         assert_eq!(r.rank_p, 1);
         let h = to_ss(&r);
@@ -87,8 +126,17 @@ fn rank_deficient_p_any_orthogonal_u() {
     // Different U, different covers.
     assert!((&markov1[0] - &markov1[1]).norm() > 1e-6);
     // A non-orthogonal U is rejected.
-    let bad = CoverSettings { rotation: Some(DMatrix::from_element(1, 1, 2.0)), ..settings(2) };
-    assert!(matches!(realize(&data, &bad), Err(Error::InvalidOption { what: "rotation", .. })));
+    let bad = CoverSettings {
+        rotation: Some(DMatrix::from_element(1, 1, 2.0)),
+        ..settings(2)
+    };
+    assert!(matches!(
+        realize(&data, &bad),
+        Err(Error::InvalidOption {
+            what: "rotation",
+            ..
+        })
+    ));
 }
 
 #[test]
@@ -121,9 +169,21 @@ fn bad_weighting_is_rejected() {
         DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]), // indefinite
         DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0]), // not symmetric
     ] {
-        let s = CoverSettings { output_weighting: Some(q), ..settings(3) };
-        assert!(matches!(realize(&data, &s), Err(Error::InvalidWeighting { .. })));
+        let s = CoverSettings {
+            output_weighting: Some(q),
+            ..settings(3)
+        };
+        assert!(matches!(
+            realize(&data, &s),
+            Err(Error::InvalidWeighting { .. })
+        ));
     }
-    let s = CoverSettings { output_weighting: Some(DMatrix::identity(3, 3)), ..settings(3) };
-    assert!(matches!(realize(&data, &s), Err(Error::DimensionMismatch { .. })));
+    let s = CoverSettings {
+        output_weighting: Some(DMatrix::identity(3, 3)),
+        ..settings(3)
+    };
+    assert!(matches!(
+        realize(&data, &s),
+        Err(Error::DimensionMismatch { .. })
+    ));
 }
