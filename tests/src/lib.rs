@@ -17,6 +17,8 @@
 
 pub mod a3_dual_rate;
 pub mod a3_mpc;
+pub mod a1_engine;
+pub mod a2_openloop;
 pub mod report;
 
 pub use report::{Check, Reproduction};

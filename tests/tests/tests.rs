@@ -1,6 +1,24 @@
 //! Integration tests: every reproduction of `shared/spec/reproductions.md` must pass.
 //! One module per spec section (added as the experiments land).
 
+mod a1_engine {
+    #[test]
+    fn a15_engine_stand_in() {
+        let rep = lifted_tests::a1_engine::run().expect("A1.5 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
+
+mod a2_openloop {
+    #[test]
+    fn a24_open_loop_eq14() {
+        let rep = lifted_tests::a2_openloop::run().expect("A2.4 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
+
 mod a3_mpc {
     fn assert_rep(rep: lifted_tests::Reproduction) {
         println!("{rep}");
