@@ -14,7 +14,11 @@ pub trait Controller {
     /// One update: `measured[q]` is `Some(y_q(t))` when output q is sampled
     /// at this instant and `None` between its slow samples; `reference` is
     /// the set-point r(t) (held over the horizon). Returns u(t).
-    fn update(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<DVector<f64>>;
+    fn update(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<DVector<f64>>;
 }
 
 pub(crate) fn check_update_args(
@@ -37,7 +41,9 @@ pub(crate) fn check_update_args(
         });
     }
     if measured.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(Error::NonFinite { what: "measured outputs" });
+        return Err(Error::NonFinite {
+            what: "measured outputs",
+        });
     }
     crate::error::check_finite_slice("reference", reference.as_slice())
 }
@@ -85,8 +91,12 @@ impl<C: Controller> Controller for SlowRate<C> {
     fn n_outputs(&self) -> usize {
         self.inner.n_outputs()
     }
-    fn update(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<DVector<f64>> {
-        if self.t % self.period == 0 {
+    fn update(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<DVector<f64>> {
+        if self.t.is_multiple_of(self.period) {
             self.held = self.inner.update(measured, reference)?;
         }
         self.t += 1;

@@ -123,7 +123,11 @@ impl Dmc {
         Ok(self.free_unchecked(y, past.iter()))
     }
 
-    fn free_unchecked<'a>(&self, y: &DVector<f64>, past: impl Iterator<Item = &'a DVector<f64>> + Clone) -> DVector<f64> {
+    fn free_unchecked<'a>(
+        &self,
+        y: &DVector<f64>,
+        past: impl Iterator<Item = &'a DVector<f64>> + Clone,
+    ) -> DVector<f64> {
         let (p, hp, n) = (self.p(), self.law.prediction_horizon(), self.truncation);
         let mut f = DVector::zeros(hp * p);
         for j in 1..=hp {
@@ -140,7 +144,12 @@ impl Dmc {
     /// Prediction Ŷ = F̂ + 𝒜ΔU (8.8) for given future moves (length m·n_u).
     ///
     /// Errors: as [`Dmc::free_response`].
-    pub fn predict(&self, y: &DVector<f64>, past: &[DVector<f64>], future: &DVector<f64>) -> Result<DVector<f64>> {
+    pub fn predict(
+        &self,
+        y: &DVector<f64>,
+        past: &[DVector<f64>],
+        future: &DVector<f64>,
+    ) -> Result<DVector<f64>> {
         let f = self.free_response(y, past)?;
         let a = self.law.dynamic_matrix();
         if future.len() != a.ncols() {
@@ -158,7 +167,12 @@ impl Dmc {
     /// (`since[i] = Δu(nk+i)`, l = since.len()), erratum L-19.
     ///
     /// Errors: dimension mismatch, non-finite data.
-    pub fn intersample_estimate(&self, y_nk: &DVector<f64>, past: &[DVector<f64>], since: &[DVector<f64>]) -> Result<DVector<f64>> {
+    pub fn intersample_estimate(
+        &self,
+        y_nk: &DVector<f64>,
+        past: &[DVector<f64>],
+        since: &[DVector<f64>],
+    ) -> Result<DVector<f64>> {
         if y_nk.len() != self.p() {
             return Err(Error::DimensionMismatch {
                 what: "output",
@@ -189,7 +203,9 @@ impl Dmc {
             let mut acc = self.last[q].unwrap_or(0.0);
             // moves before the last sample of channel q: history[l + i - 1]
             for i in 1..=self.truncation {
-                let Some(du) = self.history.get(l + i - 1) else { break };
+                let Some(du) = self.history.get(l + i - 1) else {
+                    break;
+                };
                 acc += ((self.coefficient(i + l) - self.coefficient(i)).row(q) * du)[0];
             }
             for i in 1..=l {
@@ -202,7 +218,12 @@ impl Dmc {
         v
     }
 
-    fn step(&mut self, measured: &[Option<f64>], reference: &DVector<f64>, force_qp: bool) -> Result<(DVector<f64>, Moves)> {
+    fn step(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)> {
         check_update_args(self.p(), measured, reference)?;
         for (q, y) in measured.iter().enumerate() {
             match y {
@@ -213,7 +234,9 @@ impl Dmc {
                 None if self.last[q].is_none() => {
                     return Err(Error::InvalidArgument {
                         what: "measured outputs",
-                        reason: format!("output {q} has never been sampled; the first update needs every output"),
+                        reason: format!(
+                            "output {q} has never been sampled; the first update needs every output"
+                        ),
                     });
                 }
                 None => self.since[q] += 1,
@@ -241,7 +264,11 @@ impl Dmc {
     /// One update returning u(t) and the full move plan.
     ///
     /// Errors: as [`Controller::update`].
-    pub fn update_with_plan(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<(DVector<f64>, Moves)> {
+    pub fn update_with_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
         self.step(measured, reference, false)
     }
 
@@ -249,7 +276,11 @@ impl Dmc {
     /// QP path equals the closed form when no limit is active).
     ///
     /// Errors: as [`Controller::update`], [`Error::Infeasible`].
-    pub fn update_qp(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<(DVector<f64>, Moves)> {
+    pub fn update_qp(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
         self.step(measured, reference, true)
     }
 }
@@ -261,7 +292,11 @@ impl Controller for Dmc {
     fn n_outputs(&self) -> usize {
         self.p()
     }
-    fn update(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<DVector<f64>> {
+    fn update(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<DVector<f64>> {
         Ok(self.step(measured, reference, false)?.0)
     }
 }

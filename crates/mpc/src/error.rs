@@ -5,7 +5,9 @@
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// Horizons must satisfy 1 ≤ control ≤ prediction.
-    #[error("invalid horizons: prediction {prediction}, control {control} (need 1 <= control <= prediction)")]
+    #[error(
+        "invalid horizons: prediction {prediction}, control {control} (need 1 <= control <= prediction)"
+    )]
     InvalidHorizon {
         /// Prediction horizon h.
         prediction: usize,

@@ -97,7 +97,12 @@ impl StateSpaceMpc {
     /// Prediction (8.14) from x_d(t), the output value y(t) and future moves.
     ///
     /// Errors: dimension mismatch, non-finite data.
-    pub fn predict(&self, x_d: &DVector<f64>, y: &DVector<f64>, future: &DVector<f64>) -> Result<DVector<f64>> {
+    pub fn predict(
+        &self,
+        x_d: &DVector<f64>,
+        y: &DVector<f64>,
+        future: &DVector<f64>,
+    ) -> Result<DVector<f64>> {
         let p = self.ci.nrows();
         for (what, v, n) in [
             ("state x_d", x_d, self.x.len()),
@@ -119,7 +124,12 @@ impl StateSpaceMpc {
         Ok(&self.gamma * x_d + self.law.dynamic_matrix() * future + ys)
     }
 
-    fn step(&mut self, measured: &[Option<f64>], reference: &DVector<f64>, force_qp: bool) -> Result<(DVector<f64>, Moves)> {
+    fn step(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)> {
         let p = self.ci.nrows();
         check_update_args(p, measured, reference)?;
         let yd = &self.ci * &self.x;
@@ -132,7 +142,9 @@ impl StateSpaceMpc {
                 None if !self.measured_once[q] => {
                     return Err(Error::InvalidArgument {
                         what: "measured outputs",
-                        reason: format!("output {q} has never been sampled; the first update needs every output"),
+                        reason: format!(
+                            "output {q} has never been sampled; the first update needs every output"
+                        ),
                     });
                 }
                 None => {}
@@ -157,14 +169,22 @@ impl StateSpaceMpc {
     /// One update returning u(t) and the full move plan.
     ///
     /// Errors: as [`Controller::update`].
-    pub fn update_with_plan(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<(DVector<f64>, Moves)> {
+    pub fn update_with_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
         self.step(measured, reference, false)
     }
 
     /// One update forced through the QP.
     ///
     /// Errors: as [`Controller::update`], [`Error::Infeasible`].
-    pub fn update_qp(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<(DVector<f64>, Moves)> {
+    pub fn update_qp(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
         self.step(measured, reference, true)
     }
 }
@@ -176,7 +196,11 @@ impl Controller for StateSpaceMpc {
     fn n_outputs(&self) -> usize {
         self.ci.nrows()
     }
-    fn update(&mut self, measured: &[Option<f64>], reference: &DVector<f64>) -> Result<DVector<f64>> {
+    fn update(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<DVector<f64>> {
         Ok(self.step(measured, reference, false)?.0)
     }
 }

@@ -39,7 +39,12 @@ impl DualRateLoop {
     /// same size p×m; K must be m×p with the same sample time.
     ///
     /// Errors: [`Error::InvalidModel`], [`Error::DimensionMismatch`], `n = 0`.
-    pub fn new(plant: &StateSpace, model: &StateSpace, controller: &StateSpace, n: usize) -> Result<Self> {
+    pub fn new(
+        plant: &StateSpace,
+        model: &StateSpace,
+        controller: &StateSpace,
+        n: usize,
+    ) -> Result<Self> {
         let (p, m) = check_model("plant", plant)?;
         let (pm, mm) = check_model("model", model)?;
         if (pm, mm) != (p, m) {
@@ -85,7 +90,11 @@ impl DualRateLoop {
     /// or without the slow sample.
     pub fn step_matrices(&self, measured: bool) -> PeriodicStep {
         let (p, m) = (self.plant.n_outputs(), self.plant.n_inputs());
-        let (np, nh, nk) = (self.plant.order(), self.model.order(), self.controller.order());
+        let (np, nh, nk) = (
+            self.plant.order(),
+            self.model.order(),
+            self.controller.order(),
+        );
         let nx = np + nh + nk;
         // e = r − v = Ex ξ + Ew w
         let mut ex = DMatrix::zeros(p, nx);
@@ -93,7 +102,8 @@ impl DualRateLoop {
         ew.columns_mut(0, p).fill_with_identity();
         if measured {
             ex.columns_mut(0, np).copy_from(&(-self.plant.c()));
-            ew.columns_mut(p, p).copy_from(&(-DMatrix::<f64>::identity(p, p)));
+            ew.columns_mut(p, p)
+                .copy_from(&(-DMatrix::<f64>::identity(p, p)));
         } else {
             ex.columns_mut(np, nh).copy_from(&(-self.model.c()));
         }
@@ -105,7 +115,8 @@ impl DualRateLoop {
         let mut a = DMatrix::zeros(nx, nx);
         a.view_mut((0, 0), (np, np)).copy_from(self.plant.a());
         a.view_mut((np, np), (nh, nh)).copy_from(self.model.a());
-        a.view_mut((np + nh, np + nh), (nk, nk)).copy_from(self.controller.a());
+        a.view_mut((np + nh, np + nh), (nk, nk))
+            .copy_from(self.controller.a());
         let mut bu = DMatrix::zeros(nx, m);
         bu.rows_mut(0, np).copy_from(self.plant.b());
         bu.rows_mut(np, nh).copy_from(self.model.b());
@@ -123,7 +134,12 @@ impl DualRateLoop {
         c.rows_mut(p + m, p).copy_from(&(-&ex));
         let rv = DMatrix::<f64>::identity(p, 2 * p);
         d.rows_mut(p + m, p).copy_from(&(rv - &ew));
-        PeriodicStep { a: a_cl, b: b_cl, c, d }
+        PeriodicStep {
+            a: a_cl,
+            b: b_cl,
+            c,
+            d,
+        }
     }
 
     /// The n phases (phase 0 uses the slow sample).

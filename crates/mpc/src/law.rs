@@ -49,7 +49,11 @@ fn weight(what: &'static str, w: &Option<DMatrix<f64>>, dim: usize) -> Result<DM
         return Err(Error::DimensionMismatch {
             what,
             expected: dim,
-            got: if w.nrows() != dim { w.nrows() } else { w.ncols() },
+            got: if w.nrows() != dim {
+                w.nrows()
+            } else {
+                w.ncols()
+            },
         });
     }
     if w.iter().any(|x| !x.is_finite()) {
@@ -181,7 +185,12 @@ impl MoveLaw {
         &self.constraints
     }
 
-    fn check_args(&self, free: &DVector<f64>, reference: &DVector<f64>, u_prev: &DVector<f64>) -> Result<()> {
+    fn check_args(
+        &self,
+        free: &DVector<f64>,
+        reference: &DVector<f64>,
+        u_prev: &DVector<f64>,
+    ) -> Result<()> {
         for (what, v, n) in [
             ("free response", free, self.hp * self.p),
             ("reference trajectory", reference, self.hp * self.p),
@@ -209,7 +218,12 @@ impl MoveLaw {
     ///
     /// Errors: size/finiteness of the arguments, [`Error::Infeasible`],
     /// [`Error::Solver`].
-    pub fn moves(&self, free: &DVector<f64>, reference: &DVector<f64>, u_prev: &DVector<f64>) -> Result<Moves> {
+    pub fn moves(
+        &self,
+        free: &DVector<f64>,
+        reference: &DVector<f64>,
+        u_prev: &DVector<f64>,
+    ) -> Result<Moves> {
         self.check_args(free, reference, u_prev)?;
         let du = self.unconstrained(free, reference);
         if self.constraints.is_empty() || self.satisfies(&du, free, u_prev, 1e-12) {
@@ -222,7 +236,13 @@ impl MoveLaw {
     }
 
     /// True when ΔU respects every limit (with slack `tol`).
-    pub fn satisfies(&self, du: &DVector<f64>, free: &DVector<f64>, u_prev: &DVector<f64>, tol: f64) -> bool {
+    pub fn satisfies(
+        &self,
+        du: &DVector<f64>,
+        free: &DVector<f64>,
+        u_prev: &DVector<f64>,
+        tol: f64,
+    ) -> bool {
         let (a, b) = self.inequalities(free, u_prev);
         if a.nrows() == 0 {
             return true;
@@ -232,7 +252,11 @@ impl MoveLaw {
     }
 
     /// Inequalities G ΔU ≤ g of the constraints.
-    fn inequalities(&self, free: &DVector<f64>, u_prev: &DVector<f64>) -> (DMatrix<f64>, DVector<f64>) {
+    fn inequalities(
+        &self,
+        free: &DVector<f64>,
+        u_prev: &DVector<f64>,
+    ) -> (DMatrix<f64>, DVector<f64>) {
         let (hp, hc, p, m) = (self.hp, self.hc, self.p, self.m);
         let nv = hc * m;
         let c = &self.constraints;
@@ -289,7 +313,12 @@ impl MoveLaw {
     ///
     /// Errors: [`Error::Infeasible`] on a primal-infeasibility certificate,
     /// [`Error::Solver`] on any other non-solved status.
-    pub fn solve_qp(&self, free: &DVector<f64>, reference: &DVector<f64>, u_prev: &DVector<f64>) -> Result<Moves> {
+    pub fn solve_qp(
+        &self,
+        free: &DVector<f64>,
+        reference: &DVector<f64>,
+        u_prev: &DVector<f64>,
+    ) -> Result<Moves> {
         self.check_args(free, reference, u_prev)?;
         let nv = self.hc * self.m;
         let (g, h) = self.inequalities(free, u_prev);
@@ -305,7 +334,10 @@ impl MoveLaw {
             }
         }
         let pmat = CscMatrix::new_from_triplets(nv, nv, pi, pj, pv);
-        let q: Vec<f64> = (-(&self.at_q * (reference - free))).iter().copied().collect();
+        let q: Vec<f64> = (-(&self.at_q * (reference - free)))
+            .iter()
+            .copied()
+            .collect();
         let (mut ai, mut aj, mut av) = (Vec::new(), Vec::new(), Vec::new());
         for i in 0..g.nrows() {
             for j in 0..nv {
@@ -331,9 +363,11 @@ impl MoveLaw {
             tol_feas: 1e-10,
             ..DefaultSettings::default()
         };
-        let mut solver = DefaultSolver::new(&pmat, &q, &amat, &b, &cones, settings)
-            .map_err(|e| Error::Solver {
-                reason: e.to_string(),
+        let mut solver =
+            DefaultSolver::new(&pmat, &q, &amat, &b, &cones, settings).map_err(|e| {
+                Error::Solver {
+                    reason: e.to_string(),
+                }
             })?;
         solver.solve();
         match solver.solution.status {
@@ -380,7 +414,10 @@ fn check_constraints(c: &Constraints, p: usize, m: usize) -> Result<()> {
         {
             return Err(Error::InvalidConstraint {
                 what,
-                reason: format!("lower limit {} exceeds upper limit {} in channel {i}", lo[i], hi[i]),
+                reason: format!(
+                    "lower limit {} exceeds upper limit {} in channel {i}",
+                    lo[i], hi[i]
+                ),
             });
         }
         Ok(())

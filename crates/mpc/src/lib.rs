@@ -62,7 +62,7 @@ pub use lifting::{PeriodicStep, lift, lift_periodic, sigma_max};
 pub use model::{hold_model, integrated_model, step_coefficients};
 pub use options::{Constraints, MpcOptions};
 pub use robust::{
-    Beta, LiftedPieces, RobustnessOptions, Uncertainty, alias_gain, beta_dr, beta_dr_lifted, beta_sr,
-    lifted_response, robustness_map,
+    Beta, LiftedPieces, RobustnessOptions, Uncertainty, alias_gain, beta_dr, beta_dr_lifted,
+    beta_sr, lifted_response, robustness_map,
 };
 pub use simulate::{LoopResult, LoopSetup, Performance, performance, simulate};

@@ -39,7 +39,11 @@ pub fn lift_periodic(steps: &[PeriodicStep], ts: f64) -> Result<StateSpace> {
     };
     let (nx, nw, nz) = (first.a.nrows(), first.b.ncols(), first.c.nrows());
     for s in steps {
-        if s.a.shape() != (nx, nx) || s.b.shape() != (nx, nw) || s.c.shape() != (nz, nx) || s.d.shape() != (nz, nw) {
+        if s.a.shape() != (nx, nx)
+            || s.b.shape() != (nx, nw)
+            || s.c.shape() != (nz, nx)
+            || s.d.shape() != (nz, nw)
+        {
             return Err(Error::DimensionMismatch {
                 what: "periodic phase matrices",
                 expected: nx,
@@ -50,7 +54,10 @@ pub fn lift_periodic(steps: &[PeriodicStep], ts: f64) -> Result<StateSpace> {
     // phi[i] = A_{i-1}⋯A_0 (phi[0] = I)
     let mut phi = vec![DMatrix::identity(nx, nx)];
     for s in steps {
-        let next = &s.a * phi.last().map_or_else(|| DMatrix::identity(nx, nx), Clone::clone);
+        let next = &s.a
+            * phi
+                .last()
+                .map_or_else(|| DMatrix::identity(nx, nx), Clone::clone);
         phi.push(next);
     }
     let abar = phi[n].clone();
@@ -69,10 +76,18 @@ pub fn lift_periodic(steps: &[PeriodicStep], ts: f64) -> Result<StateSpace> {
                 tr = &steps[i].a * tr;
             }
         }
-        dbar.view_mut((j * nz, j * nw), (nz, nw)).copy_from(&steps[j].d);
-        cbar.rows_mut(j * nz, nz).copy_from(&(&steps[j].c * &phi[j]));
+        dbar.view_mut((j * nz, j * nw), (nz, nw))
+            .copy_from(&steps[j].d);
+        cbar.rows_mut(j * nz, nz)
+            .copy_from(&(&steps[j].c * &phi[j]));
     }
-    Ok(StateSpace::new(abar, bbar, cbar, dbar, Some(ts * n as f64))?)
+    Ok(StateSpace::new(
+        abar,
+        bbar,
+        cbar,
+        dbar,
+        Some(ts * n as f64),
+    )?)
 }
 
 /// Lifts a discrete LTI system by n (𝐏 = L_n P L_n⁻¹, §9.2).

@@ -89,5 +89,11 @@ pub fn hold_model(sys: &StateSpace, n: usize) -> Result<StateSpace> {
         bn += &an * sys.b();
         an = sys.a() * an;
     }
-    Ok(StateSpace::new(an, bn, sys.c().clone(), sys.d().clone(), Some(ts * n as f64))?)
+    Ok(StateSpace::new(
+        an,
+        bn,
+        sys.c().clone(),
+        sys.d().clone(),
+        Some(ts * n as f64),
+    )?)
 }

@@ -85,7 +85,12 @@ fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
 ///
 /// Errors: non-SISO or continuous pieces, [`Error::Unstable`] when K does
 /// not stabilise P̂ or W₁ is unstable (Prop. 6 assumes nominal stability).
-pub fn robustness_map(model: &StateSpace, controller: &StateSpace, weight: &StateSpace, uncertainty: Uncertainty) -> Result<StateSpace> {
+pub fn robustness_map(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+) -> Result<StateSpace> {
     check_siso("model P̂", model)?;
     check_siso("controller K", controller)?;
     check_siso("weight W1", weight)?;
@@ -115,7 +120,12 @@ pub fn robustness_map(model: &StateSpace, controller: &StateSpace, weight: &Stat
 /// β_sr = ‖T‖∞ (Hamiltonian bisection of `lifted-lti`); `theta` in rad/sample.
 ///
 /// Errors: as [`robustness_map`].
-pub fn beta_sr(model: &StateSpace, controller: &StateSpace, weight: &StateSpace, uncertainty: Uncertainty) -> Result<Beta> {
+pub fn beta_sr(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+) -> Result<Beta> {
     let t = robustness_map(model, controller, weight, uncertainty)?;
     let h = t.hinf_norm(&HinfOptions {
         rel_tol: 1e-12,
@@ -184,12 +194,17 @@ fn maximise(mut f: impl FnMut(f64) -> Result<f64>, opts: &RobustnessOptions) -> 
         }
         for (v, th) in [(f1, x1), (f2, x2)] {
             if v > best.value {
-                best = Beta { value: v, theta: th };
+                best = Beta {
+                    value: v,
+                    theta: th,
+                };
             }
         }
     }
     if !best.value.is_finite() {
-        return Err(Error::NonFinite { what: "robustness measure" });
+        return Err(Error::NonFinite {
+            what: "robustness measure",
+        });
     }
     Ok(best)
 }
@@ -198,7 +213,14 @@ fn maximise(mut f: impl FnMut(f64) -> Result<f64>, opts: &RobustnessOptions) -> 
 /// max_θ √((1/n)Σ_{l<n}|T(e^{j(θ+2πl)/n})|²). O(grid · n · order³).
 ///
 /// Errors: as [`robustness_map`], `n = 0`, bad options.
-pub fn beta_dr(model: &StateSpace, controller: &StateSpace, weight: &StateSpace, uncertainty: Uncertainty, n: usize, opts: &RobustnessOptions) -> Result<Beta> {
+pub fn beta_dr(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+    n: usize,
+    opts: &RobustnessOptions,
+) -> Result<Beta> {
     check_opts(n, opts)?;
     let t = robustness_map(model, controller, weight, uncertainty)?;
     maximise(|th| alias_gain(&t, n, th), opts)
@@ -238,7 +260,13 @@ impl LiftedPieces {
     /// Lifts the three SISO pieces by n.
     ///
     /// Errors: as [`robustness_map`], lifting errors.
-    pub fn new(model: &StateSpace, controller: &StateSpace, weight: &StateSpace, uncertainty: Uncertainty, n: usize) -> Result<Self> {
+    pub fn new(
+        model: &StateSpace,
+        controller: &StateSpace,
+        weight: &StateSpace,
+        uncertainty: Uncertainty,
+        n: usize,
+    ) -> Result<Self> {
         robustness_map(model, controller, weight, uncertainty)?;
         Ok(Self {
             w: lift(weight, n)?,
@@ -268,10 +296,13 @@ impl LiftedPieces {
                 rhs.column_mut(c).fill(Complex64::new(0.0, 0.0));
             }
         }
-        let sol = (i + &k * &p).lu().solve(&rhs).ok_or(Error::InvalidArgument {
-            what: "theta",
-            reason: format!("I + K P is singular at theta = {theta}"),
-        })?;
+        let sol = (i + &k * &p)
+            .lu()
+            .solve(&rhs)
+            .ok_or(Error::InvalidArgument {
+                what: "theta",
+                reason: format!("I + K P is singular at theta = {theta}"),
+            })?;
         Ok(match self.uncertainty {
             Uncertainty::Additive => w * sol,
             Uncertainty::Multiplicative => w * p * sol,
@@ -283,7 +314,14 @@ impl LiftedPieces {
 /// spaces, maximised like [`beta_dr`]. O(grid · n³ + n²·order³).
 ///
 /// Errors: as [`LiftedPieces::response`].
-pub fn beta_dr_lifted(model: &StateSpace, controller: &StateSpace, weight: &StateSpace, uncertainty: Uncertainty, n: usize, opts: &RobustnessOptions) -> Result<Beta> {
+pub fn beta_dr_lifted(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+    n: usize,
+    opts: &RobustnessOptions,
+) -> Result<Beta> {
     check_opts(n, opts)?;
     let pieces = LiftedPieces::new(model, controller, weight, uncertainty, n)?;
     maximise(|th| sigma_max(&pieces.response(th, true)?), opts)

@@ -67,7 +67,11 @@ pub struct LoopResult {
 ///
 /// Errors: plant not discrete/strictly proper, sizes of the set-up, the
 /// controller's errors.
-pub fn simulate(plant: &StateSpace, controller: &mut dyn Controller, setup: &LoopSetup) -> Result<LoopResult> {
+pub fn simulate(
+    plant: &StateSpace,
+    controller: &mut dyn Controller,
+    setup: &LoopSetup,
+) -> Result<LoopResult> {
     let (p, m) = check_model("plant", plant)?;
     if controller.n_outputs() != p || controller.n_inputs() != m {
         return Err(Error::DimensionMismatch {
@@ -108,12 +112,14 @@ pub fn simulate(plant: &StateSpace, controller: &mut dyn Controller, setup: &Loo
             yt += d.row(t).transpose();
         }
         let meas: Vec<Option<f64>> = (0..p)
-            .map(|q| (t % setup.periods[q] == 0).then_some(yt[q]))
+            .map(|q| t.is_multiple_of(setup.periods[q]).then_some(yt[q]))
             .collect();
         let r = setup.reference.row(t).transpose();
         let ut = controller.update(&meas, &r)?;
         if ut.len() != m || ut.iter().any(|v| !v.is_finite()) {
-            return Err(Error::NonFinite { what: "controller output" });
+            return Err(Error::NonFinite {
+                what: "controller output",
+            });
         }
         y.row_mut(t).copy_from(&yt.transpose());
         u.row_mut(t).copy_from(&ut.transpose());
@@ -128,7 +134,12 @@ pub fn simulate(plant: &StateSpace, controller: &mut dyn Controller, setup: &Loo
 /// segment is y(0).
 ///
 /// Errors: shape mismatch, non-finite data, `band ≤ 0`.
-pub fn performance(y: &DMatrix<f64>, u: &DMatrix<f64>, r: &DMatrix<f64>, band: f64) -> Result<Performance> {
+pub fn performance(
+    y: &DMatrix<f64>,
+    u: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+    band: f64,
+) -> Result<Performance> {
     if y.shape() != r.shape() || u.nrows() != y.nrows() {
         return Err(Error::DimensionMismatch {
             what: "record rows",
