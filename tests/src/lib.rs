@@ -19,6 +19,11 @@ pub mod a3_dual_rate;
 pub mod a3_mpc;
 pub mod a1_engine;
 pub mod a2_openloop;
+pub mod a3_delay_example;
+pub mod a3_lifting;
+pub mod a3_mimo;
+pub mod a3_multirate_iv;
+pub mod a3_polynomial;
 pub mod report;
 
 pub use report::{Check, Reproduction};

@@ -57,3 +57,69 @@ mod a3_delay_example {
         assert!(rep.all_passed(), "{rep}");
     }
 }
+
+mod a3_lifting {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a32_lifting_prop1() {
+        assert_rep(lifted_tests::a3_lifting::run_a32().expect("A3.2 runs"));
+    }
+    #[test]
+    fn a33_observability() {
+        assert_rep(lifted_tests::a3_lifting::run_a33().expect("A3.3 runs"));
+    }
+    #[test]
+    fn a34_delay() {
+        assert_rep(lifted_tests::a3_lifting::run_a34().expect("A3.4 runs"));
+    }
+    #[test]
+    fn a35_extraction() {
+        assert_rep(lifted_tests::a3_lifting::run_a35().expect("A3.5 runs"));
+    }
+}
+
+mod a3_polynomial {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a38_polyphase() {
+        assert_rep(lifted_tests::a3_polynomial::run_polyphase().expect("A3.8 polyphase runs"));
+    }
+    #[test]
+    fn a38_vectorized() {
+        assert_rep(lifted_tests::a3_polynomial::run_vectorized().expect("A3.8 vectorized runs"));
+    }
+    #[test]
+    fn a38_ccr() {
+        assert_rep(lifted_tests::a3_polynomial::run_ccr().expect("A3.8 CCR runs"));
+    }
+}
+
+mod a3_mimo {
+    #[test]
+    fn a37_mimo_531() {
+        let rep = lifted_tests::a3_mimo::run_531().expect("A3.7 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a37_mimo_532_standin() {
+        let rep = lifted_tests::a3_mimo::run_532().expect("A3.7 stand-in runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
+
+mod a3_multirate_iv {
+    #[test]
+    fn a39_multirate_stirred_tank() {
+        let rep = lifted_tests::a3_multirate_iv::run().expect("A3.9 multirate runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
