@@ -358,6 +358,9 @@ pub fn identify_lifted_iv(
         alpha: opts.alpha,
         alpha_p: opts.alpha_p,
         feedthrough: Feedthrough::Mask(mask),
+        // checked before the (B̄, D̄) regression, whose regressors explode
+        // for an unstable Ā
+        require_stable: opts.require_stable,
         ts: ld.ts,
         ..Default::default()
     };
@@ -368,7 +371,14 @@ pub fn identify_lifted_iv(
             instrument: Some(&fl),
         }],
         &iopts,
-    )?;
+    )
+    .map_err(|e| match e {
+        lifted_subspace::Error::Unstable { spectral_radius } => Error::Unstable {
+            what: "identified lifted model",
+            spectral_radius,
+        },
+        other => other.into(),
+    })?;
     check_stable(&fit.model, "identified lifted model", opts.require_stable)?;
     let fm = extract_fast(&fit.model, &lifting, &opts.extraction)?;
     check_stable(&fm.model, "extracted fast model", opts.require_stable)?;
