@@ -370,6 +370,17 @@ fn periodic_response(model: &StateSpace, u: &DMatrix<f64>) -> Result<Option<DMat
     Ok(Some(model.lsim(u, Some(&x0), None)?.y))
 }
 
+/// Spectral radius of Â and whether it is below 1; [`Error::UnstableCover`] when it
+/// is not and `require` is set (erratum Z-9).
+fn check_stability(model: &StateSpace, require: bool) -> Result<(bool, f64)> {
+    let spectral_radius = model.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let stable = spectral_radius < 1.0;
+    if !stable && require {
+        return Err(Error::UnstableCover { spectral_radius });
+    }
+    Ok((stable, spectral_radius))
+}
+
 fn rel_error(model: &[DMatrix<f64>], data: &[DMatrix<f64>]) -> f64 {
     let num: f64 = model
         .iter()
@@ -501,11 +512,7 @@ pub fn identify_records(
     )?;
 
     // Stability (erratum Z-9).
-    let spectral_radius = model.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max);
-    let stable = spectral_radius < 1.0;
-    if !stable && opts.require_stable {
-        return Err(Error::UnstableCover { spectral_radius });
-    }
+    let (stable, spectral_radius) = check_stability(&model, opts.require_stable)?;
 
     // Diagnostics: Markov and covariance parameters matched, response fit.
     let markov_model = model.markov_parameters(opts.q - 1)?;
@@ -562,4 +569,92 @@ pub fn identify_records(
         spectral_radius,
     };
     Ok(Identified { model, diagnostics })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn first_order(a: f64) -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_element(1, 1, a),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn unstable_cover_is_reported() {
+        let g = first_order(1.02);
+        assert!(matches!(
+            check_stability(&g, true),
+            Err(Error::UnstableCover { spectral_radius }) if (spectral_radius - 1.02).abs() < 1e-12
+        ));
+        let (stable, rho) = check_stability(&g, false).unwrap();
+        assert!(!stable && (rho - 1.02).abs() < 1e-12);
+        assert_eq!(
+            check_stability(&first_order(0.5), true).unwrap(),
+            (true, 0.5)
+        );
+    }
+
+    #[test]
+    fn periodic_response_is_periodic() {
+        let g = first_order(0.9);
+        let u = DMatrix::from_fn(40, 1, |k, _| if k < 20 { 1.0 } else { -1.0 });
+        let y = periodic_response(&g, &u).unwrap().unwrap();
+        // Antisymmetric input, antisymmetric steady state.
+        for k in 0..20 {
+            assert!((y[(k, 0)] + y[(k + 20, 0)]).abs() < 1e-12);
+        }
+        assert!(antisymmetry_residual(&y) < 1e-12);
+    }
+
+    #[test]
+    fn hold_deconvolution_recovers_fir() {
+        // y = h * w exactly periodic for an FIR h: the deconvolution is exact up to
+        // the O(1/m) off-peak autocorrelation of the PRBS.
+        let prbs = lifted_prbs::InversePrbs::new(&lifted_prbs::InversePrbsOptions {
+            order: 10,
+            amplitude: 1.5,
+            hold: 3,
+            taps: None,
+        })
+        .unwrap();
+        let w = prbs.one_period();
+        let n = w.len();
+        let h = [0.3, 0.5, -0.2, 0.1];
+        let y = DMatrix::from_fn(n, 1, |k, _| {
+            h.iter()
+                .enumerate()
+                .map(|(j, hj)| hj * w[(k + n - j) % n])
+                .sum()
+        });
+        let p = Prepared {
+            input: w,
+            output: y,
+            amplitude: 1.5,
+            phase: 0,
+            start: 0,
+            residual: 0.0,
+        };
+        let opts = QMarkovOptions {
+            q: 8,
+            hold: 3,
+            prbs_order: 10,
+            ..Default::default()
+        };
+        let est = channel_markov(&p, &opts, 1023).unwrap();
+        for (tau, e) in est.iter().enumerate() {
+            let truth = h.get(tau).copied().unwrap_or(0.0);
+            assert!(
+                (e[0] - truth).abs() < 5e-3,
+                "tau {tau}: {} vs {truth}",
+                e[0]
+            );
+        }
+    }
 }
