@@ -105,7 +105,7 @@ pub fn identify_engine(
     let exc = Excitation::input(DMatrix::from_column_slice(w.len(), 1, &w));
     let ss = sim.periodic_steady_state(&exc, &SteadyStateOptions::default())?;
     let rec = ChannelRecord {
-        input: ss.output.u.column(0).iter().copied().collect(),
+        input: ss.output.data.u().column(0).iter().copied().collect(),
         output: ss.output.y.clone(),
     };
     let id = identify_records(&[rec], T, opts)?;

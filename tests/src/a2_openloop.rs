@@ -42,7 +42,7 @@ pub fn identify_open_loop(plant: RenZhuPlant, n: u32, q: usize, r: usize) -> Box
         &w,
     )))?;
     let rec = ChannelRecord {
-        input: out.u.column(0).iter().copied().collect(),
+        input: out.data.u().column(0).iter().copied().collect(),
         output: out.y.clone(),
     };
     let opts = QMarkovOptions {
