@@ -434,3 +434,54 @@ fn check_constraints(c: &Constraints, p: usize, m: usize) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::dmatrix;
+
+    fn steps() -> Vec<DMatrix<f64>> {
+        (0..=6).map(|i| dmatrix![i as f64]).collect()
+    }
+
+    #[test]
+    fn dynamic_matrix_is_lower_toeplitz() {
+        let a = dynamic_matrix(&steps(), 4, 2).unwrap();
+        assert_eq!(a, dmatrix![1.0, 0.0; 2.0, 1.0; 3.0, 2.0; 4.0, 3.0]);
+        assert!(matches!(
+            dynamic_matrix(&steps(), 7, 2),
+            Err(Error::DimensionMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn gain_solves_normal_equations() {
+        let law = MoveLaw::new(
+            &steps(),
+            &MpcOptions {
+                prediction_horizon: 4,
+                control_horizon: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let a = law.dynamic_matrix();
+        let lhs = (a.transpose() * a + DMatrix::identity(2, 2)) * law.gain();
+        assert!((lhs - a.transpose()).amax() < 1e-12);
+    }
+
+    #[test]
+    fn asymmetric_weight_rejected() {
+        let o = MpcOptions {
+            output_weight: Some(dmatrix![1.0, 2.0; 0.0, 1.0]),
+            ..Default::default()
+        };
+        let s: Vec<DMatrix<f64>> = (0..=12)
+            .map(|i| DMatrix::from_element(2, 1, i as f64))
+            .collect();
+        assert!(matches!(
+            MoveLaw::new(&s, &o),
+            Err(Error::InvalidArgument { .. })
+        ));
+    }
+}

@@ -66,3 +66,8 @@ pub use robust::{
     beta_sr, lifted_response, robustness_map,
 };
 pub use simulate::{LoopResult, LoopSetup, Performance, performance, simulate};
+
+/// The README example, compiled and run as a doc test.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -135,3 +135,47 @@ pub fn sigma_max(m: &DMatrix<Complex64>) -> Result<f64> {
     let s = lifted_linalg::singular_values(&e)?;
     Ok(s.iter().copied().fold(0.0, f64::max))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::dmatrix;
+
+    #[test]
+    fn sigma_max_of_complex_matrix() {
+        // [[1, i], [0, 1]]: singular values (√5 ± 1)/2
+        let m = DMatrix::from_row_slice(
+            2,
+            2,
+            &[
+                Complex64::new(1.0, 0.0),
+                Complex64::new(0.0, 1.0),
+                Complex64::new(0.0, 0.0),
+                Complex64::new(1.0, 0.0),
+            ],
+        );
+        assert!((sigma_max(&m).unwrap() - (5f64.sqrt() + 1.0) / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn lifted_markov_structure() {
+        // y(k) = 0.5 y(k−1) + u(k−1): lifted D̄ by 3 has CB, CAB below the diagonal
+        let s = StateSpace::new(
+            dmatrix![0.5],
+            dmatrix![1.0],
+            dmatrix![1.0],
+            dmatrix![0.0],
+            Some(1.0),
+        )
+        .unwrap();
+        let l = lift(&s, 3).unwrap();
+        assert_eq!(
+            l.d(),
+            &dmatrix![0.0, 0.0, 0.0; 1.0, 0.0, 0.0; 0.5, 1.0, 0.0]
+        );
+        assert_eq!(l.a(), &dmatrix![0.125]);
+        assert_eq!(l.c(), &dmatrix![1.0; 0.5; 0.25]);
+        assert_eq!(l.b(), &dmatrix![0.25, 0.5, 1.0]);
+        assert!(matches!(lift(&s, 0), Err(Error::InvalidArgument { .. })));
+    }
+}

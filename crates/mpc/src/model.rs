@@ -97,3 +97,28 @@ pub fn hold_model(sys: &StateSpace, n: usize) -> Result<StateSpace> {
         Some(ts * n as f64),
     )?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::dmatrix;
+
+    #[test]
+    fn step_coefficients_of_first_order() {
+        let s = StateSpace::new(
+            dmatrix![0.5],
+            dmatrix![1.0],
+            dmatrix![1.0],
+            dmatrix![0.0],
+            Some(1.0),
+        )
+        .unwrap();
+        let a = step_coefficients(&s, 3).unwrap();
+        let v: Vec<f64> = a.iter().map(|m| m[(0, 0)]).collect();
+        assert_eq!(v, vec![0.0, 1.0, 1.5, 1.75]);
+        let h = hold_model(&s, 2).unwrap();
+        assert_eq!(h.a(), &dmatrix![0.25]);
+        assert_eq!(h.b(), &dmatrix![1.5]);
+        assert_eq!(h.ts(), Some(2.0));
+    }
+}

@@ -73,11 +73,18 @@ pub fn simulate(
     setup: &LoopSetup,
 ) -> Result<LoopResult> {
     let (p, m) = check_model("plant", plant)?;
-    if controller.n_outputs() != p || controller.n_inputs() != m {
+    if controller.n_outputs() != p {
         return Err(Error::DimensionMismatch {
-            what: "controller outputs/inputs vs plant",
-            expected: p * 1000 + m,
-            got: controller.n_outputs() * 1000 + controller.n_inputs(),
+            what: "controller outputs vs plant outputs",
+            expected: p,
+            got: controller.n_outputs(),
+        });
+    }
+    if controller.n_inputs() != m {
+        return Err(Error::DimensionMismatch {
+            what: "controller inputs vs plant inputs",
+            expected: m,
+            got: controller.n_inputs(),
         });
     }
     let steps = setup.reference.nrows();
