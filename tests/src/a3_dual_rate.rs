@@ -9,8 +9,7 @@
 
 use lifted_lti::{FeedbackSign, HinfOptions, StateSpace, TransferFunction, feedback};
 use lifted_mpc::{
-    DualRateLoop, RobustnessOptions, Uncertainty, beta_dr, beta_dr_lifted, beta_sr, lift,
-    sigma_max,
+    DualRateLoop, RobustnessOptions, Uncertainty, beta_dr, beta_dr_lifted, beta_sr, lift, sigma_max,
 };
 use lifted_sim::Excitation;
 use lifted_sim::plants::chapter9_dual_rate;
@@ -29,15 +28,24 @@ fn tf(num: &[f64], den: &[f64]) -> BoxResult<StateSpace> {
 
 fn w1() -> BoxResult<StateSpace> {
     // (0.15z⁴ − 0.138z³ − 0.13z + 0.117)/(z³(z − 0.9)(z − 0.92))
-    tf(&[0.15, -0.138, 0.0, -0.13, 0.117], &[1.0, -1.82, 0.828, 0.0, 0.0, 0.0])
+    tf(
+        &[0.15, -0.138, 0.0, -0.13, 0.117],
+        &[1.0, -1.82, 0.828, 0.0, 0.0, 0.0],
+    )
 }
 
 /// A3.11 §9.6 example: stability, step response, β values.
 pub fn run() -> BoxResult<Reproduction> {
-    let mut rep = Reproduction::new("A3.11", "Li 2001 Ch. 9: dual-rate inferential control, §9.6 example");
+    let mut rep = Reproduction::new(
+        "A3.11",
+        "Li 2001 Ch. 9: dual-rate inferential control, §9.6 example",
+    );
     let fx = chapter9_dual_rate()?;
     let p = fx.plant.clone();
-    let phat = fx.parallel_model.clone().ok_or("fixture has no parallel model")?;
+    let phat = fx
+        .parallel_model
+        .clone()
+        .ok_or("fixture has no parallel model")?;
     let k = fx.controller.clone().ok_or("fixture has no controller")?;
     let w = w1()?;
 
@@ -45,8 +53,18 @@ pub fn run() -> BoxResult<Reproduction> {
     let nominal = feedback(&k, &phat, FeedbackSign::Negative)?;
     let mut poles: Vec<f64> = nominal.poles()?.iter().map(|z| z.re).collect();
     poles.sort_by(|a, b| b.total_cmp(a));
-    rep.check(Check::absolute("nominal closed-loop pole 1", poles[0], 0.838, 1e-3));
-    rep.check(Check::absolute("nominal closed-loop pole 2", poles[1], 0.537, 1e-3));
+    rep.check(Check::absolute(
+        "nominal closed-loop pole 1",
+        poles[0],
+        0.838,
+        1e-3,
+    ));
+    rep.check(Check::absolute(
+        "nominal closed-loop pole 2",
+        poles[1],
+        0.537,
+        1e-3,
+    ));
 
     // fast single-rate loop with the true plant
     let sr = DualRateLoop::new(&p, &phat, &k, 1)?;
@@ -56,9 +74,23 @@ pub fn run() -> BoxResult<Reproduction> {
     // dual-rate n = 4
     let dr = DualRateLoop::new(&p, &phat, &k, 4)?;
     let rho4 = dr.spectral_radius()?;
-    rep.check(Check::below("dual-rate n = 4: monodromy spectral radius", rho4, 0.75).with_paper(0.705));
-    rep.check(Check::absolute("dual-rate n = 4: spectral radius vs RI", rho4, 0.705, 1e-3));
-    for (n, refv) in [(2, 0.83), (3, 0.76), (5, 0.65), (6, 0.59), (8, 0.50), (10, 0.42)] {
+    rep.check(
+        Check::below("dual-rate n = 4: monodromy spectral radius", rho4, 0.75).with_paper(0.705),
+    );
+    rep.check(Check::absolute(
+        "dual-rate n = 4: spectral radius vs RI",
+        rho4,
+        0.705,
+        1e-3,
+    ));
+    for (n, refv) in [
+        (2, 0.83),
+        (3, 0.76),
+        (5, 0.65),
+        (6, 0.59),
+        (8, 0.50),
+        (10, 0.42),
+    ] {
         let rho = DualRateLoop::new(&p, &phat, &k, n)?.spectral_radius()?;
         rep.check(
             Check::absolute(format!("spectral radius n = {n}"), rho, refv, 6e-3)
@@ -74,30 +106,63 @@ pub fn run() -> BoxResult<Reproduction> {
         .enumerate()
         .fold((0, f64::MIN), |a, (i, &v)| if v > a.1 { (i, v) } else { a });
     rep.check(Check::absolute("n = 4 step peak", ymax, 1.193, 1e-3));
-    rep.check(Check::holds("n = 4 step peak at k = 8", format!("k = {kmax}"), kmax == 8));
+    rep.check(Check::holds(
+        "n = 4 step peak at k = 8",
+        format!("k = {kmax}"),
+        kmax == 8,
+    ));
     let tail: Vec<f64> = (0..4).map(|i| step.y[(steps - 4 + i, 0)]).collect();
     for (i, refv) in [1.0537, 1.0668, 1.0738, 1.0775].iter().enumerate() {
         rep.check(
-            Check::absolute(format!("periodic steady state, phase {i}"), tail[i], *refv, 1e-3)
-                .with_note("the uncorrected Ch. 9 scheme is not offset-free under mismatch (A3.10(e), L-21)"),
+            Check::absolute(
+                format!("periodic steady state, phase {i}"),
+                tail[i],
+                *refv,
+                1e-3,
+            )
+            .with_note(
+                "the uncorrected Ch. 9 scheme is not offset-free under mismatch (A3.10(e), L-21)",
+            ),
         );
     }
     // cross-check against lifted-sim's inferential feedback (independent code)
-    let sim = fx.simulator()?.simulate(&Excitation::reference(DMatrix::from_element(steps, 1, 1.0)))?;
+    let sim = fx
+        .simulator()?
+        .simulate(&Excitation::reference(DMatrix::from_element(steps, 1, 1.0)))?;
     rep.check(
-        Check::below("step response vs lifted-sim inferential switch", (&sim.y_clean - &step.y).amax(), 1e-9)
-            .with_note("lifted-sim Feedback::Inferential, y sampled every 4"),
+        Check::below(
+            "step response vs lifted-sim inferential switch",
+            (&sim.y_clean - &step.y).amax(),
+            1e-9,
+        )
+        .with_note("lifted-sim Feedback::Inferential, y sampled every 4"),
     );
 
     // robustness measures
     let o = RobustnessOptions::default();
     let bsr = beta_sr(&phat, &k, &w, Uncertainty::Additive)?;
     rep.check(Check::absolute("beta_sr", bsr.value, 1.2582, 1e-3).with_paper(1.2582));
-    rep.check(Check::absolute("beta_sr attained at omega", bsr.theta, 0.734, 2e-3));
-    for (n, refv) in [(2, 0.9220), (3, 0.9975), (4, 0.9071), (5, 0.8488), (8, 0.7826)] {
+    rep.check(Check::absolute(
+        "beta_sr attained at omega",
+        bsr.theta,
+        0.734,
+        2e-3,
+    ));
+    for (n, refv) in [
+        (2, 0.9220),
+        (3, 0.9975),
+        (4, 0.9071),
+        (5, 0.8488),
+        (8, 0.7826),
+    ] {
         let b = beta_dr(&phat, &k, &w, Uncertainty::Additive, n, &o)?;
         let bl = beta_dr_lifted(&phat, &k, &w, Uncertainty::Additive, n, &o)?;
-        rep.check(Check::absolute(format!("beta_dr n = {n} (closed form)"), b.value, refv, 1e-3));
+        rep.check(Check::absolute(
+            format!("beta_dr n = {n} (closed form)"),
+            b.value,
+            refv,
+            1e-3,
+        ));
         rep.check(Check::below(
             format!("beta_dr n = {n}: |closed form − lifted SVD|"),
             (b.value - bl.value).abs(),
@@ -125,13 +190,19 @@ fn random_stable(rng: &mut ChaCha8Rng) -> BoxResult<StateSpace> {
         tf(&[g], &[1.0, -p1])
     } else {
         let p2 = rng.random::<f64>() * 1.8 - 0.9;
-        tf(&[g, g * (rng.random::<f64>() - 0.5)], &[1.0, -(p1 + p2), p1 * p2])
+        tf(
+            &[g, g * (rng.random::<f64>() - 0.5)],
+            &[1.0, -(p1 + p2), p1 * p2],
+        )
     }
 }
 
 /// Cor. 1 on 100 random stable triples, and the Prop. 5 identities.
 pub fn run_random() -> BoxResult<Reproduction> {
-    let mut rep = Reproduction::new("A3.11", "Cor. 1 on random triples; Prop. 5 lifted identities");
+    let mut rep = Reproduction::new(
+        "A3.11",
+        "Cor. 1 on random triples; Prop. 5 lifted identities",
+    );
     let mut rng = ChaCha8Rng::seed_from_u64(911);
     let o = RobustnessOptions {
         grid: 600,
@@ -157,13 +228,28 @@ pub fn run_random() -> BoxResult<Reproduction> {
         worst_cf = worst_cf.max((dr.value - bf.value).abs() / sr.value.max(1.0));
         done += 1;
     }
-    rep.check(Check::holds("100 admissible random triples", format!("{done} of {attempts} draws"), done == 100));
-    rep.check(Check::below("max (beta_dr − beta_sr) over triples", worst_gap, 1e-9));
-    rep.check(Check::below("max |closed form − lifted SVD| (relative to max(1, beta_sr))", worst_cf, 1e-6));
+    rep.check(Check::holds(
+        "100 admissible random triples",
+        format!("{done} of {attempts} draws"),
+        done == 100,
+    ));
+    rep.check(Check::below(
+        "max (beta_dr − beta_sr) over triples",
+        worst_gap,
+        1e-9,
+    ));
+    rep.check(Check::below(
+        "max |closed form − lifted SVD| (relative to max(1, beta_sr))",
+        worst_cf,
+        1e-6,
+    ));
 
     // Prop. 5 with P̂ = P: lifted G_dr of the loop equals I − P̲Q̲R₁
     let fx = chapter9_dual_rate()?;
-    let phat = fx.parallel_model.clone().ok_or("fixture has no parallel model")?;
+    let phat = fx
+        .parallel_model
+        .clone()
+        .ok_or("fixture has no parallel model")?;
     let k = fx.controller.clone().ok_or("fixture has no controller")?;
     let n = 4;
     let dl = DualRateLoop::new(&phat, &phat, &k, n)?;
@@ -180,21 +266,40 @@ pub fn run_random() -> BoxResult<Reproduction> {
         let pq = pl.eval_complex(z)? * ql.eval_complex(z)?;
         let expect = DMatrix::from_fn(n, n, |a, b| {
             let id = if a == b { 1.0 } else { 0.0 };
-            Complex64::new(id, 0.0) - if b == 0 { pq[(a, 0)] } else { Complex64::new(0.0, 0.0) }
+            Complex64::new(id, 0.0)
+                - if b == 0 {
+                    pq[(a, 0)]
+                } else {
+                    Complex64::new(0.0, 0.0)
+                }
         });
         worst_id = worst_id.max(sigma_max(&(gdr - expect))?);
     }
     rep.check(
-        Check::below("Prop. 5: lifted G_dr (time-domain periodic loop) vs I − P̲Q̲R₁, 64 θ", worst_id, 1e-10)
-            .with_note("G_dr from the lifted periodic closed loop; P̲, Q̲ from lifted state spaces"),
+        Check::below(
+            "Prop. 5: lifted G_dr (time-domain periodic loop) vs I − P̲Q̲R₁, 64 θ",
+            worst_id,
+            1e-10,
+        )
+        .with_note("G_dr from the lifted periodic closed loop; P̲, Q̲ from lifted state spaces"),
     );
     let hq = q.hinf_norm(&HinfOptions::default())?.norm;
     let hql = ql.hinf_norm(&HinfOptions::default())?.norm;
-    rep.check(Check::below("lifting preserves the H∞ norm: |‖Q̲‖ − ‖Q‖| / ‖Q‖", (hq - hql).abs() / hq, 1e-6));
+    rep.check(Check::below(
+        "lifting preserves the H∞ norm: |‖Q̲‖ − ‖Q‖| / ‖Q‖",
+        (hq - hql).abs() / hq,
+        1e-6,
+    ));
     // no mismatch: dual-rate and single-rate step responses coincide
     let r = DMatrix::from_element(200, 1, 1.0);
     let y4 = dl.simulate(&r, None)?.y;
-    let y1 = DualRateLoop::new(&phat, &phat, &k, 1)?.simulate(&r, None)?.y;
-    rep.check(Check::below("P̂ = P: max |y_dual − y_single|", (&y4 - &y1).amax(), 1e-12));
+    let y1 = DualRateLoop::new(&phat, &phat, &k, 1)?
+        .simulate(&r, None)?
+        .y;
+    rep.check(Check::below(
+        "P̂ = P: max |y_dual − y_single|",
+        (&y4 - &y1).amax(),
+        1e-12,
+    ));
     Ok(rep)
 }
