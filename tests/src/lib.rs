@@ -24,6 +24,7 @@ pub mod a3_lifting;
 pub mod a3_mimo;
 pub mod a3_multirate_iv;
 pub mod a3_polynomial;
+pub mod registry;
 pub mod report;
 
 pub use report::{Check, Reproduction};

@@ -128,6 +128,10 @@ pub struct Reproduction {
     pub checks: Vec<Check>,
     /// Free-form numbers worth printing (name, value) that are not checks.
     pub figures: Vec<(String, f64)>,
+    /// Curves the paper plots (name, values against the sample index), drawn
+    /// by `lifted reproduce` in its HTML page. Empty by default.
+    #[serde(default)]
+    pub series: Vec<(String, Vec<f64>)>,
 }
 
 impl Reproduction {
@@ -138,6 +142,7 @@ impl Reproduction {
             title: title.into(),
             checks: Vec::new(),
             figures: Vec::new(),
+            series: Vec::new(),
         }
     }
 
@@ -150,6 +155,12 @@ impl Reproduction {
     /// Records a figure that is reported but not checked.
     pub fn figure(&mut self, name: impl Into<String>, value: f64) -> &mut Self {
         self.figures.push((name.into(), value));
+        self
+    }
+
+    /// Records a curve for the HTML report (values against the sample index).
+    pub fn add_series(&mut self, name: impl Into<String>, values: Vec<f64>) -> &mut Self {
+        self.series.push((name.into(), values));
         self
     }
 

@@ -1,0 +1,413 @@
+//! Command-line arguments (clap derive).
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Identify and control multirate sampled-data systems: excitation design,
+/// identification (q-Markov Cover, subspace, multirate), validation, reports
+/// and paper reproductions.
+#[derive(Debug, Parser)]
+#[command(name = "lifted", version, propagate_version = true)]
+pub struct Cli {
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Generate an inverse PRBS (Zhu 2000 eq. II-4), held n_r samples, and write it as CSV.
+    Prbs(PrbsArgs),
+    /// Generate a seeded random binary sequence (±a, held n_r samples).
+    Rbs(RbsArgs),
+    /// Generate generalized binary noise (switching probability p).
+    Gbn(GbnArgs),
+    /// Generate a Schroeder-phased multisine.
+    Multisine(MultisineArgs),
+    /// Propose (n, n_r, a) from the plant's time scales and the actuator rate (Zhu 2000 §III.D, Table II).
+    Design(DesignArgs),
+    /// Simulate a model on an input CSV (optional slow output sampling and noise) and write a data CSV.
+    Simulate(SimulateArgs),
+    /// Identify a discrete state-space model from CSV data and write a model file.
+    Identify(IdentifyArgs),
+    /// Validate a model on data: fit %, residual whiteness, input-residual cross-correlation.
+    Validate(ValidateArgs),
+    /// Convert a model: transfer function, state space, continuous (d2c) or discrete (c2d).
+    Convert(ConvertArgs),
+    /// Bode magnitude and phase of a model, as CSV or SVG.
+    Bode(BodeArgs),
+    /// Step response of a model, as CSV or SVG.
+    Step(StepArgs),
+    /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
+    Report(ReportArgs),
+    /// Run the reproductions of the papers' experiments and report every acceptance check.
+    Reproduce(ReproduceArgs),
+}
+
+/// Output file and signal name shared by the generators.
+#[derive(Debug, Args)]
+pub struct SignalOut {
+    /// Output CSV file (columns `t,<name>`).
+    #[arg(long)]
+    pub out: String,
+    /// Column name of the signal.
+    #[arg(long, default_value = "u1")]
+    pub name: String,
+    /// Sample period T written in the time column (seconds).
+    #[arg(long, default_value_t = 1.0)]
+    pub ts: f64,
+}
+
+/// `lifted prbs`.
+#[derive(Debug, Args)]
+pub struct PrbsArgs {
+    /// m-sequence order n (period m = 2^n − 1), 2..=32.
+    #[arg(long)]
+    pub order: u32,
+    /// Magnitude a (the signal is ±a).
+    #[arg(long)]
+    pub amplitude: f64,
+    /// Hold n_r: each PRBS value lasts n_r samples (eq. II-7).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// Number of periods (an inverse PRBS period is 2 n_r m samples, a plain one n_r m).
+    #[arg(long, default_value_t = 1)]
+    pub periods: usize,
+    /// Inverse PRBS (period 2m, u(k+m) = −u(k), Zhu 2000 eq. II-4); default is the plain ±a m-sequence.
+    #[arg(long)]
+    pub inverse: bool,
+    /// Start phase of the sequence (advances the register); the PRBS itself is deterministic.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output file, name, period.
+    #[command(flatten)]
+    pub out: SignalOut,
+}
+
+/// `lifted rbs`.
+#[derive(Debug, Args)]
+pub struct RbsArgs {
+    /// Number of samples.
+    #[arg(long)]
+    pub len: usize,
+    /// Magnitude a.
+    #[arg(long, default_value_t = 1.0)]
+    pub amplitude: f64,
+    /// Hold n_r (samples per value).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// Seed of the ChaCha8 generator.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output file, name, period.
+    #[command(flatten)]
+    pub out: SignalOut,
+}
+
+/// `lifted gbn`.
+#[derive(Debug, Args)]
+pub struct GbnArgs {
+    /// Number of samples.
+    #[arg(long)]
+    pub len: usize,
+    /// Magnitude a.
+    #[arg(long, default_value_t = 1.0)]
+    pub amplitude: f64,
+    /// Switching probability per (held) step, in (0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub switch_probability: f64,
+    /// Hold n_r (samples per step).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// Seed of the ChaCha8 generator.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output file, name, period.
+    #[command(flatten)]
+    pub out: SignalOut,
+}
+
+/// `lifted multisine`.
+#[derive(Debug, Args)]
+pub struct MultisineArgs {
+    /// Number of samples.
+    #[arg(long)]
+    pub len: usize,
+    /// RMS value.
+    #[arg(long, default_value_t = 1.0)]
+    pub amplitude: f64,
+    /// Period P in samples.
+    #[arg(long, default_value_t = 1024)]
+    pub period: usize,
+    /// First excited harmonic.
+    #[arg(long, default_value_t = 1)]
+    pub first_harmonic: usize,
+    /// Last excited harmonic (default ⌈P/2⌉ − 1).
+    #[arg(long)]
+    pub last_harmonic: Option<usize>,
+    /// Output file, name, period.
+    #[command(flatten)]
+    pub out: SignalOut,
+}
+
+/// `lifted design`.
+#[derive(Debug, Args)]
+pub struct DesignArgs {
+    /// Output sample period T in seconds (Table II: 0.01).
+    #[arg(long, default_value_t = 0.01)]
+    pub ts: f64,
+    /// Fastest rate (Hz) at which the actuator executes a new command (Table II: 30).
+    #[arg(long, default_value_t = 30.0)]
+    pub actuator_rate: f64,
+    /// Actuator margin: T_p ≥ margin / rate (Table II: 3).
+    #[arg(long, default_value_t = 3.0)]
+    pub actuator_margin: f64,
+    /// Slowest mode to excite, Hz (Table II: 0.025).
+    #[arg(long, default_value_t = 0.025)]
+    pub slowest_mode: f64,
+    /// PRBS magnitude allowed by the process.
+    #[arg(long, default_value_t = 1.0)]
+    pub amplitude: f64,
+    /// Smallest PRBS order to propose.
+    #[arg(long, default_value_t = 2)]
+    pub min_order: u32,
+    /// Also write the proposal as JSON.
+    #[arg(long)]
+    pub json: Option<String>,
+}
+
+/// `lifted simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Model file (JSON); a continuous model is discretised by ZOH at --ts.
+    #[arg(long)]
+    pub model: String,
+    /// Input CSV (header row; the input columns are read by name).
+    #[arg(long)]
+    pub input: String,
+    /// Input column names, comma separated (default: the model's input names, else u1,u2,…).
+    #[arg(long)]
+    pub inputs: Option<String>,
+    /// Base period T (default: the model's, else the input file's time column).
+    #[arg(long)]
+    pub ts: Option<f64>,
+    /// Slow output sampling, NAME=PERIOD (base periods), repeatable or comma separated.
+    #[arg(long = "output-period")]
+    pub output_period: Vec<String>,
+    /// White output noise at this signal-to-noise ratio (variance ratio); none by default.
+    #[arg(long)]
+    pub snr: Option<f64>,
+    /// Noise seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output data CSV.
+    #[arg(long)]
+    pub out: String,
+}
+
+/// Identification methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Weighted multirate q-Markov Cover (Zhu 2000): one inverse-PRBS data file per input.
+    Qmarkov,
+    /// N4SID (subspace, W1 = W2 = I).
+    N4sid,
+    /// MOESP (subspace).
+    Moesp,
+    /// CVA (subspace, canonical correlations).
+    Cva,
+    /// Instrumental-variable subspace (thesis ch. 7), open or closed loop.
+    Iv,
+}
+
+impl MethodArg {
+    /// Lower-case name written in the model file.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodArg::Qmarkov => "qmarkov",
+            MethodArg::N4sid => "n4sid",
+            MethodArg::Moesp => "moesp",
+            MethodArg::Cva => "cva",
+            MethodArg::Iv => "iv",
+        }
+    }
+}
+
+/// Columns and layout of a data file.
+#[derive(Debug, Args, Clone)]
+pub struct DataArgs {
+    /// Input column names, comma separated (default for validate/report: the model's input names).
+    #[arg(long)]
+    pub inputs: Option<String>,
+    /// Output column names, comma separated (default for validate/report: the model's output names).
+    #[arg(long)]
+    pub outputs: Option<String>,
+    /// Base period T in seconds (default: from the time column `t`).
+    #[arg(long)]
+    pub ts: Option<f64>,
+    /// Declared output sampling period, NAME=PERIOD in base periods (repeatable); otherwise inferred from the empty cells.
+    #[arg(long = "output-period")]
+    pub output_period: Vec<String>,
+}
+
+/// `lifted identify`.
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// Identification method.
+    #[arg(long, value_enum)]
+    pub method: MethodArg,
+    /// Data CSV; repeat for several experiments (q-Markov: one file per input channel, in input order).
+    #[arg(long, required = true)]
+    pub data: Vec<String>,
+    /// Columns and layout.
+    #[command(flatten)]
+    pub columns: DataArgs,
+    /// Model order n, or `auto` (largest gap of the singular values / Λ diagonal).
+    #[arg(long, default_value = "auto")]
+    pub order: String,
+    /// Largest order considered by `auto`.
+    #[arg(long, default_value_t = 10)]
+    pub max_order: usize,
+    /// Horizon i: past = future block rows (subspace, default 10), α (IV, default 8).
+    #[arg(long)]
+    pub horizon: Option<usize>,
+    /// q-Markov: number q of Markov/covariance parameters matched (default 60, capped below n_r m).
+    #[arg(long)]
+    pub q: Option<usize>,
+    /// Input hold n_r in base periods (q-Markov: the PRBS hold; multirate: the input hold).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// q-Markov: PRBS order n of the excitation.
+    #[arg(long)]
+    pub prbs_order: Option<u32>,
+    /// q-Markov: PRBS magnitude a (default: read from the data).
+    #[arg(long)]
+    pub amplitude: Option<f64>,
+    /// IV: instrument column names (one per input; the external excitation in closed loop).
+    #[arg(long)]
+    pub instrument: Option<String>,
+    /// Output model file (JSON).
+    #[arg(long)]
+    pub out: String,
+}
+
+/// `lifted validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: String,
+    /// Validation data CSV.
+    #[arg(long)]
+    pub data: String,
+    /// Columns and layout.
+    #[command(flatten)]
+    pub columns: DataArgs,
+    /// Lags of the correlation tests.
+    #[arg(long, default_value_t = 20)]
+    pub lags: usize,
+    /// Exit with code 1 if the fit of any output is below this percentage.
+    #[arg(long)]
+    pub min_fit: Option<f64>,
+}
+
+/// Conversion targets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ConvertTo {
+    /// Transfer-function matrix (printed).
+    Tf,
+    /// State space (printed; written with --out).
+    Ss,
+    /// Continuous model by inverse ZOH (d2c).
+    Continuous,
+    /// Discrete model by ZOH at --ts (c2d).
+    Discrete,
+}
+
+/// `lifted convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: String,
+    /// Target form.
+    #[arg(long, value_enum)]
+    pub to: ConvertTo,
+    /// Sample period for `--to discrete`.
+    #[arg(long)]
+    pub ts: Option<f64>,
+    /// Write the converted model here (model file; for tf, a text file); default: print.
+    #[arg(long)]
+    pub out: Option<String>,
+}
+
+/// `lifted bode`.
+#[derive(Debug, Args)]
+pub struct BodeArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: String,
+    /// Output file: `.csv` or `.svg`.
+    #[arg(long)]
+    pub out: String,
+    /// Lowest frequency, rad/s (default: a decade below the slowest pole).
+    #[arg(long)]
+    pub wmin: Option<f64>,
+    /// Highest frequency, rad/s (default: Nyquist for discrete models).
+    #[arg(long)]
+    pub wmax: Option<f64>,
+    /// Number of log-spaced frequencies.
+    #[arg(long, default_value_t = 200)]
+    pub points: usize,
+}
+
+/// `lifted step`.
+#[derive(Debug, Args)]
+pub struct StepArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: String,
+    /// Output file: `.csv` or `.svg`.
+    #[arg(long)]
+    pub out: String,
+    /// Number of samples (default: about five time constants of the slowest pole).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Time step for continuous models (default: the slowest time constant / 50).
+    #[arg(long)]
+    pub dt: Option<f64>,
+}
+
+/// `lifted report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: String,
+    /// Data CSV (identification or validation record).
+    #[arg(long)]
+    pub data: String,
+    /// Columns and layout.
+    #[command(flatten)]
+    pub columns: DataArgs,
+    /// Lags of the correlation tests.
+    #[arg(long, default_value_t = 20)]
+    pub lags: usize,
+    /// Output HTML file.
+    #[arg(long)]
+    pub out: String,
+}
+
+/// `lifted reproduce`.
+#[derive(Debug, Args)]
+pub struct ReproduceArgs {
+    /// Run only the experiment with this id (e.g. A3.2) or name.
+    #[arg(long)]
+    pub only: Option<String>,
+    /// Directory for reproductions.json and index.html.
+    #[arg(long, default_value = "reproductions")]
+    pub out: String,
+    /// List the registered experiments and exit.
+    #[arg(long)]
+    pub list: bool,
+}

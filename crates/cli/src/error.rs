@@ -1,0 +1,47 @@
+//! The top-level error of the `lifted` command and its exit codes.
+
+use std::fmt::Display;
+
+/// Everything that ends a command early. `main` prints the message on one
+/// line and exits with [`CliError::exit_code`].
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// Bad usage or bad input data (missing file, bad CSV, impossible
+    /// options, an identification that cannot run on the data): exit code 2.
+    #[error("{0}")]
+    Input(String),
+    /// The command ran but a check failed (`validate --min-fit`, a failed
+    /// reproduction): exit code 1.
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl CliError {
+    /// 2 for usage/input errors, 1 for failed checks.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Input(_) => 2,
+            CliError::Failed(_) => 1,
+        }
+    }
+}
+
+/// Result alias of the command.
+pub type CliResult<T> = Result<T, CliError>;
+
+/// An input error with a message.
+pub fn input(msg: impl Display) -> CliError {
+    CliError::Input(msg.to_string())
+}
+
+/// Adds context ("what was being done") to any displayable error.
+pub trait Context<T> {
+    /// Maps the error to [`CliError::Input`] with "`what`: `error`".
+    fn ctx(self, what: impl Display) -> CliResult<T>;
+}
+
+impl<T, E: Display> Context<T> for Result<T, E> {
+    fn ctx(self, what: impl Display) -> CliResult<T> {
+        self.map_err(|e| CliError::Input(format!("{what}: {e}")))
+    }
+}

@@ -1,0 +1,322 @@
+//! `lifted identify`: CSV → model file.
+
+use lifted_lti::{Dataset, Identifier, ModelFile, StateSpace};
+use lifted_multirate::{
+    ExtractOptions, LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions,
+    identify_lifted_iv, identify_multirate,
+};
+use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
+use lifted_subspace::{
+    Experiment, IvExperiment, IvOptions, Method, OrderSelection, SubspaceOptions, identify,
+    iv_identify,
+};
+use nalgebra::DMatrix;
+use serde_json::json;
+
+use crate::args::{DataArgs, IdentifyArgs, MethodArg};
+use crate::error::{CliResult, Context, input};
+use crate::table::{DataSpec, Loaded, load, names, parse_periods};
+
+/// The order argument: a number or `auto`.
+fn parse_order(s: &str, max: usize) -> CliResult<OrderSelection> {
+    if s.eq_ignore_ascii_case("auto") {
+        if max == 0 {
+            return Err(input("--max-order must be at least 1"));
+        }
+        return Ok(OrderSelection::Gap { max });
+    }
+    match s.trim().parse::<usize>() {
+        Ok(n) if n > 0 => Ok(OrderSelection::Fixed(n)),
+        _ => Err(input(format!(
+            "--order '{s}': expected a positive integer or 'auto'"
+        ))),
+    }
+}
+
+/// Builds the data specification from the column arguments; `defaults`
+/// gives the channel names when `--inputs`/`--outputs` are absent.
+pub fn data_spec(
+    cols: &DataArgs,
+    defaults: Option<(Vec<String>, Vec<String>)>,
+    hold: usize,
+    extra: Vec<String>,
+) -> CliResult<DataSpec> {
+    let (du, dy) = match defaults {
+        Some((u, y)) => (Some(u), Some(y)),
+        None => (None, None),
+    };
+    let inputs = match (&cols.inputs, du) {
+        (Some(s), _) => names(s),
+        (None, Some(u)) => u,
+        (None, None) => return Err(input("--inputs NAME[,NAME…] is required")),
+    };
+    let outputs = match (&cols.outputs, dy) {
+        (Some(s), _) => names(s),
+        (None, Some(y)) => y,
+        (None, None) => return Err(input("--outputs NAME[,NAME…] is required")),
+    };
+    if inputs.is_empty() || outputs.is_empty() {
+        return Err(input("at least one input and one output column are needed"));
+    }
+    Ok(DataSpec {
+        inputs,
+        outputs,
+        extra,
+        ts: cols.ts,
+        hold,
+        periods: parse_periods(&cols.output_period)?,
+    })
+}
+
+fn method_of(m: MethodArg) -> Method {
+    match m {
+        MethodArg::Moesp => Method::Moesp,
+        MethodArg::Cva => Method::Cva,
+        _ => Method::N4sid,
+    }
+}
+
+fn order_json(kind: &str, values: &[f64], order: usize, suggested: usize) -> serde_json::Value {
+    json!({"kind": kind, "values": values, "order": order, "suggested_order": suggested})
+}
+
+/// Runs the identification and returns the model file (not yet written).
+pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
+    let order = parse_order(&a.order, a.max_order)?;
+    let extra = a.instrument.as_deref().map(names).unwrap_or_default();
+    if !extra.is_empty() && a.method != MethodArg::Iv {
+        return Err(input("--instrument is only used with --method iv"));
+    }
+    let spec = data_spec(&a.columns, None, a.hold, extra.clone())?;
+    if !extra.is_empty() && extra.len() != spec.inputs.len() {
+        return Err(input(format!(
+            "--instrument: {} columns for {} inputs (one instrument per input)",
+            extra.len(),
+            spec.inputs.len()
+        )));
+    }
+    let loaded: Vec<Loaded> = a
+        .data
+        .iter()
+        .map(|p| load(p, &spec))
+        .collect::<CliResult<_>>()?;
+    let sets: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
+    let ts = sets[0].ts();
+    let multirate = sets.iter().any(|d| !d.is_single_rate());
+    let (model, diagnostics) = match a.method {
+        MethodArg::Qmarkov => qmarkov(a, &sets, order)?,
+        MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva if multirate => {
+            let data = single(&sets, "multirate identification")?;
+            let opts = ProcedureOptions {
+                identification: LiftedIdOptions {
+                    method: method_of(a.method),
+                    order,
+                    past: a.horizon.unwrap_or(10),
+                    future: a.horizon.unwrap_or(10),
+                    ..Default::default()
+                },
+                extraction: ExtractOptions::default(),
+                ..Default::default()
+            };
+            let fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
+            let n = fit.fast.order();
+            let sv = &fit.lifted.singular_values;
+            let suggested = lifted_subspace::gap_order(sv, a.max_order);
+            let d = json!({
+                "route": "multirate: lifting, causal lifted subspace identification, fast-model extraction",
+                "lifting_period": fit.lifting.period(),
+                "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
+            });
+            (fit.fast, d)
+        }
+        MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva => {
+            let opts = SubspaceOptions {
+                method: method_of(a.method),
+                order,
+                past: a.horizon.unwrap_or(10),
+                future: a.horizon.unwrap_or(10),
+                ts,
+                ..Default::default()
+            };
+            let exps: Vec<Experiment<'_>> = sets
+                .iter()
+                .map(|d| Experiment { u: d.u(), y: d.y() })
+                .collect();
+            let fit = identify(&exps, &opts)
+                .ctx(format!("{} identification", method_of(a.method).name()))?;
+            let dg = &fit.diagnostics;
+            let d = json!({
+                "route": "single-rate subspace identification",
+                "horizons": [dg.horizons.0, dg.horizons.1],
+                "hankel_columns": dg.columns,
+                "kalman_gain": fit.kalman_gain.as_ref().map(rows),
+                "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
+            });
+            (fit.model, d)
+        }
+        MethodArg::Iv => {
+            let instruments: Vec<Option<&DMatrix<f64>>> = loaded
+                .iter()
+                .map(|l| {
+                    if extra.is_empty() {
+                        None
+                    } else {
+                        Some(&l.extra)
+                    }
+                })
+                .collect();
+            if multirate {
+                let data = single(&sets, "multirate IV identification")?;
+                let f = instruments[0].cloned().unwrap_or_else(|| data.u().clone());
+                let opts = LiftedIvOptions {
+                    order,
+                    alpha: a.horizon.unwrap_or(6),
+                    ..Default::default()
+                };
+                let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &opts)
+                    .ctx("multirate IV identification")?;
+                let n = fit.fast.order();
+                let suggested = lifted_subspace::gap_order(&fit.singular_values, a.max_order);
+                let d = json!({
+                    "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
+                    "instrument": extra,
+                    "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
+                });
+                (fit.fast, d)
+            } else {
+                let opts = IvOptions {
+                    order,
+                    alpha: a.horizon.unwrap_or(8),
+                    ts,
+                    ..Default::default()
+                };
+                let exps: Vec<IvExperiment<'_>> = sets
+                    .iter()
+                    .zip(&instruments)
+                    .map(|(d, f)| IvExperiment {
+                        u: d.u(),
+                        y: d.y(),
+                        instrument: *f,
+                    })
+                    .collect();
+                let fit = iv_identify(&exps, &opts).ctx("IV identification")?;
+                let dg = &fit.diagnostics;
+                let d = json!({
+                    "route": "single-rate instrumental-variable subspace identification",
+                    "instrument": if extra.is_empty() { json!("inputs") } else { json!(extra) },
+                    "horizons": [dg.horizons.0, dg.horizons.1],
+                    "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),
+                });
+                (fit.model, d)
+            }
+        }
+    };
+    let model = model
+        .with_input_names(spec.inputs.clone())
+        .and_then(|m| m.with_output_names(spec.outputs.clone()))
+        .ctx("identify")?;
+    let mut diagnostics = diagnostics;
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert("data".into(), json!(a.data));
+        obj.insert(
+            "samples".into(),
+            json!(sets.iter().map(Dataset::len).sum::<usize>()),
+        );
+        obj.insert("base_period".into(), json!(ts));
+        obj.insert(
+            "output_periods".into(),
+            json!(
+                sets[0]
+                    .outputs()
+                    .iter()
+                    .map(|c| c.period)
+                    .collect::<Vec<_>>()
+            ),
+        );
+    }
+    Ok(ModelFile::new(model)
+        .with_method(a.method.name())
+        .with_diagnostics(diagnostics))
+}
+
+fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
+
+fn single<'a>(sets: &'a [Dataset], what: &str) -> CliResult<&'a Dataset> {
+    match sets {
+        [one] => Ok(one),
+        _ => Err(input(format!(
+            "{what} takes one data file (got {}); concatenate the records",
+            sets.len()
+        ))),
+    }
+}
+
+fn qmarkov(
+    a: &IdentifyArgs,
+    sets: &[Dataset],
+    order: OrderSelection,
+) -> CliResult<(StateSpace, serde_json::Value)> {
+    let prbs_order = a.prbs_order.unwrap_or(QMarkovOptions::default().prbs_order);
+    let m = lifted_prbs::period(prbs_order).ctx("--prbs-order")? as usize;
+    let hold = a.hold.max(1);
+    let period = 2 * hold * m;
+    let len = sets[0].len();
+    let record = if len == period {
+        RecordMode::OnePeriod
+    } else {
+        RecordMode::LastPeriod
+    };
+    let q = a.q.unwrap_or(60.min(hold * m - 1));
+    let (order, max_auto_order) = match order {
+        OrderSelection::Fixed(n) => (Some(n), a.max_order),
+        OrderSelection::Gap { max } => (None, max),
+    };
+    let opts = QMarkovOptions {
+        q,
+        order,
+        max_auto_order,
+        hold,
+        prbs_order,
+        amplitudes: a.amplitude.map(|x| vec![x; sets[0].n_inputs()]),
+        record,
+        ..Default::default()
+    };
+    let id = QMarkov::new(opts)
+        .identify(sets)
+        .ctx("q-Markov Cover identification")?;
+    let dg = &id.diagnostics;
+    let d = json!({
+        "route": "weighted multirate q-Markov Cover (Zhu 2000)",
+        "q": q,
+        "hold": hold,
+        "prbs_order": prbs_order,
+        "cover": format!("{:?}", dg.cover),
+        "markov_error": dg.markov_error,
+        "covariance_error": dg.covariance_error,
+        "stable": dg.stable,
+        "spectral_radius": dg.spectral_radius,
+        "order_selection": order_json("eigenvalues of D_q (Λ diagonal)", &dg.eigenvalues, dg.order, dg.suggested_order),
+    });
+    Ok((id.model, d))
+}
+
+/// `lifted identify`.
+pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
+    let file = run_identification(a)?;
+    file.write(&a.out).map_err(|e| input(e.to_string()))?;
+    let m = &file.model;
+    println!(
+        "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
+        a.method.name(),
+        m.order(),
+        m.n_inputs(),
+        m.n_outputs(),
+        m.ts().unwrap_or(f64::NAN),
+        a.out
+    );
+    Ok(())
+}

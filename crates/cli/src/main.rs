@@ -1,0 +1,101 @@
+//! `lifted`: the command-line front end of the Lifted toolkit.
+//!
+//! Every command validates its input and ends with a one-line message on
+//! error: exit code 2 for usage or input errors (missing file, bad CSV,
+//! impossible options, an identification that cannot run on the data),
+//! 1 for failed checks (`validate --min-fit`, a failed reproduction), 0
+//! otherwise. See the crate README for the commands, the model-file schema
+//! and a five-minute walk-through.
+#![deny(missing_docs)]
+
+mod args;
+mod error;
+mod identify;
+mod model;
+mod plot;
+mod report;
+mod reproduce;
+mod signals;
+mod table;
+mod validate;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+use clap::error::ErrorKind;
+
+use crate::args::{Cli, Command};
+use crate::error::CliResult;
+
+fn run(cli: Cli) -> CliResult<()> {
+    match cli.command {
+        Command::Prbs(a) => signals::prbs(&a),
+        Command::Rbs(a) => signals::rbs(&a),
+        Command::Gbn(a) => signals::gbn(&a),
+        Command::Multisine(a) => signals::multisine_cmd(&a),
+        Command::Design(a) => signals::design_cmd(&a),
+        Command::Simulate(a) => model::simulate(&a),
+        Command::Identify(a) => identify::identify_cmd(&a),
+        Command::Validate(a) => validate::validate_cmd(&a),
+        Command::Convert(a) => model::convert(&a),
+        Command::Bode(a) => model::bode(&a),
+        Command::Step(a) => model::step(&a),
+        Command::Report(a) => report::report_cmd(&a),
+        Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
+    }
+}
+
+/// Clap's error on one line: the message and its hints, without the
+/// usage block.
+fn one_line(e: &clap::Error) -> String {
+    e.render()
+        .to_string()
+        .lines()
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn main() -> ExitCode {
+    // A bug below must not print a Rust backtrace: one line, exit code 2.
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        eprintln!("lifted: internal error: {msg}");
+    }));
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => match e.kind() {
+            ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+                let _ = e.print();
+                return ExitCode::from(2);
+            }
+            _ => {
+                eprintln!(
+                    "lifted: {} (see --help)",
+                    one_line(&e).trim_start_matches("error: ")
+                );
+                return ExitCode::from(2);
+            }
+        },
+    };
+    match std::panic::catch_unwind(|| run(cli)) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(e)) => {
+            eprintln!("lifted: {e}");
+            ExitCode::from(e.exit_code())
+        }
+        Err(_) => ExitCode::from(2),
+    }
+}

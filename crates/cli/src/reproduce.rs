@@ -1,0 +1,296 @@
+//! `lifted reproduce`: run the registered reproductions, print the table,
+//! write `reproductions.json` and `index.html`.
+
+use std::io::IsTerminal;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use lifted_tests::registry::{Experiment, experiments, find};
+use serde::Serialize;
+
+use crate::args::ReproduceArgs;
+use crate::error::{CliError, CliResult, Context, input};
+use crate::plot::{Plot, Series};
+use crate::report::{esc, figure, html_table, page};
+
+/// One row of `reproductions.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Spec section.
+    pub id: String,
+    /// Experiment title.
+    pub experiment: String,
+    /// The checked quantity.
+    pub quantity: String,
+    /// The paper's printed value.
+    pub paper: Option<f64>,
+    /// The reference value compared with.
+    pub reference: Option<f64>,
+    /// Our value (`null` when the run failed).
+    pub ours: Option<f64>,
+    /// The condition (tolerance).
+    pub tolerance: String,
+    /// Whether it holds.
+    pub pass: bool,
+    /// Provenance note or deviation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// Curves of one experiment for the HTML page: (id, title, series).
+type Curves = (String, String, Vec<(String, Vec<f64>)>);
+
+fn run_one(e: &Experiment) -> (Vec<Row>, f64, Option<Curves>) {
+    let start = Instant::now();
+    let outcome = std::panic::catch_unwind(e.run);
+    let secs = start.elapsed().as_secs_f64();
+    let mut curves = None;
+    let rows = match outcome {
+        Ok(Ok(rep)) => {
+            if !rep.series.is_empty() {
+                curves = Some((rep.section.clone(), rep.title.clone(), rep.series.clone()));
+            }
+            let mut rows: Vec<Row> = rep
+                .checks
+                .iter()
+                .map(|c| Row {
+                    id: rep.section.clone(),
+                    experiment: rep.title.clone(),
+                    quantity: c.name.clone(),
+                    paper: c.paper,
+                    reference: c.reference,
+                    ours: Some(c.value).filter(|v| v.is_finite()),
+                    tolerance: c.condition.clone(),
+                    pass: c.passed,
+                    note: c.note.clone(),
+                })
+                .collect();
+            if rows.is_empty() {
+                rows.push(failure_row(e, "the experiment recorded no check".into()));
+            }
+            rows
+        }
+        Ok(Err(err)) => vec![failure_row(e, format!("run failed: {err}"))],
+        Err(_) => vec![failure_row(e, "run panicked".into())],
+    };
+    (rows, secs, curves)
+}
+
+fn failure_row(e: &Experiment, msg: String) -> Row {
+    Row {
+        id: e.id.to_string(),
+        experiment: e.title.to_string(),
+        quantity: "run".into(),
+        paper: None,
+        reference: None,
+        ours: None,
+        tolerance: msg,
+        pass: false,
+        note: None,
+    }
+}
+
+fn num(v: Option<f64>) -> String {
+    v.map_or("–".into(), |x| format!("{x:.6}"))
+}
+
+/// `lifted reproduce`.
+pub fn reproduce_cmd(a: &ReproduceArgs) -> CliResult<()> {
+    let selected = match &a.only {
+        Some(key) => {
+            let f = find(key);
+            if f.is_empty() {
+                let known: Vec<String> = experiments()
+                    .iter()
+                    .map(|e| format!("{} ({})", e.id, e.name))
+                    .collect();
+                return Err(input(format!(
+                    "--only {key}: no such experiment; registered: {}",
+                    known.join(", ")
+                )));
+            }
+            f
+        }
+        None => experiments(),
+    };
+    if a.list {
+        for e in &selected {
+            println!("{:<6} {:<22} {}", e.id, e.name, e.title);
+        }
+        return Ok(());
+    }
+    std::fs::create_dir_all(&a.out).ctx(format!("cannot create {}", a.out))?;
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(selected.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}") {
+            b.set_style(style);
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    // Panics inside an experiment are caught and reported as a failed row;
+    // silence the default hook's message while they run.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let mut rows = Vec::new();
+    let mut timings = Vec::new();
+    let mut plots = Vec::new();
+    for e in &selected {
+        bar.set_message(format!("{} {}", e.id, e.name));
+        let (r, secs, curves) = run_one(e);
+        rows.extend(r);
+        plots.extend(curves);
+        timings.push((e.id, secs));
+        bar.inc(1);
+    }
+    std::panic::set_hook(hook);
+    bar.finish_and_clear();
+
+    let header = [
+        "id",
+        "experiment",
+        "quantity",
+        "paper",
+        "ours",
+        "tolerance",
+        "pass",
+    ];
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.id.clone(),
+                r.experiment.clone(),
+                r.quantity.clone(),
+                num(r.paper.or(r.reference)),
+                num(r.ours),
+                r.tolerance.clone(),
+                if r.pass { "pass" } else { "FAIL" }.to_string(),
+            ]
+        })
+        .collect();
+    print_table(&header, &table);
+    let json = serde_json::to_string_pretty(&rows).ctx("reproductions.json")?;
+    let json_path = format!("{}/reproductions.json", a.out);
+    std::fs::write(&json_path, json + "\n").ctx(format!("cannot write {json_path}"))?;
+    let html_path = format!("{}/index.html", a.out);
+    std::fs::write(&html_path, html(&rows, &timings, &plots)?)
+        .ctx(format!("cannot write {html_path}"))?;
+    let failed = rows.iter().filter(|r| !r.pass).count();
+    println!(
+        "{} checks, {} passed, {} failed; wrote {json_path} and {html_path}",
+        rows.len(),
+        rows.len() - failed,
+        failed
+    );
+    if failed > 0 {
+        return Err(CliError::Failed(format!(
+            "{failed} reproduction check(s) failed"
+        )));
+    }
+    Ok(())
+}
+
+fn print_table(header: &[&str], rows: &[Vec<String>]) {
+    const MAX: usize = 48;
+    let clip = |s: &str| -> String {
+        if s.chars().count() > MAX {
+            let mut t: String = s.chars().take(MAX - 1).collect();
+            t.push('…');
+            t
+        } else {
+            s.to_string()
+        }
+    };
+    let widths: Vec<usize> = (0..header.len())
+        .map(|j| {
+            rows.iter()
+                .map(|r| clip(&r[j]).chars().count())
+                .chain(std::iter::once(header[j].len()))
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |cells: Vec<String>| {
+        cells
+            .iter()
+            .zip(&widths)
+            .map(|(c, w)| format!("{c:<w$}"))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    println!("{}", line(header.iter().map(|h| h.to_string()).collect()));
+    for r in rows {
+        println!("{}", line(r.iter().map(|c| clip(c)).collect()));
+    }
+}
+
+fn html(rows: &[Row], timings: &[(&str, f64)], plots: &[Curves]) -> CliResult<String> {
+    let failed = rows.iter().filter(|r| !r.pass).count();
+    let mut body = format!(
+        "<h1>Lifted reproductions</h1>\n<p>{} checks, {} passed, {} failed.</p>\n",
+        rows.len(),
+        rows.len() - failed,
+        failed
+    );
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.id.clone(),
+                r.experiment.clone(),
+                r.quantity.clone(),
+                num(r.paper),
+                num(r.reference),
+                num(r.ours),
+                r.tolerance.clone(),
+                if r.pass { "pass" } else { "FAIL" }.to_string(),
+                r.note.clone().unwrap_or_default(),
+            ]
+        })
+        .collect();
+    body += &html_table(
+        &[
+            "id",
+            "experiment",
+            "quantity",
+            "paper",
+            "reference",
+            "ours",
+            "tolerance",
+            "pass",
+            "note",
+        ],
+        &table,
+        Some(7),
+    );
+    body += "<h2>Run times</h2>\n<ul>\n";
+    for (id, s) in timings {
+        body += &format!("<li>{}: {s:.2} s</li>\n", esc(id));
+    }
+    body += "</ul>\n";
+    if !plots.is_empty() {
+        body += "<h2>Plots</h2>\n";
+    }
+    for (id, title, series) in plots {
+        let plot = Plot {
+            title: format!("{id}: {title}"),
+            x_label: "sample".into(),
+            y_label: String::new(),
+            series: series
+                .iter()
+                .map(|(name, v)| {
+                    Series::line(
+                        name.clone(),
+                        (0..v.len()).map(|k| k as f64).collect(),
+                        v.clone(),
+                    )
+                })
+                .collect(),
+            ..Default::default()
+        };
+        body += &figure(&format!("plot-{id}"), title, &plot, 900, 360)?;
+    }
+    Ok(page("Lifted reproductions", &body))
+}

@@ -1,0 +1,797 @@
+//! End-to-end tests: run the `lifted` binary on CSV files simulated with
+//! lifted-sim in a temporary directory.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use lifted_lti::{InputChannel, ModelFile, OutputChannel, StateSpace};
+use lifted_prbs::{InversePrbs, InversePrbsOptions, RandomBinaryOptions, random_binary};
+use lifted_sim::{Excitation, NoiseSpec, Plant, Simulator};
+use nalgebra::DMatrix;
+
+/// A fresh directory under the system temp dir.
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lifted-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn p(dir: &Path, f: &str) -> String {
+    dir.join(f).display().to_string()
+}
+
+fn lifted(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_lifted"))
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("panicked")
+            && !err.contains("RUST_BACKTRACE")
+            && !err.contains("internal error"),
+        "panic in {args:?}: {err}"
+    );
+    out
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = lifted(args);
+    assert!(
+        out.status.success(),
+        "{args:?} failed ({:?}): {}{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+/// Runs a command that must fail with `code`; returns its one-line message.
+fn fails(args: &[&str], code: i32) -> String {
+    let out = lifted(args);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "{args:?}: not one line: {err}"
+    );
+    err
+}
+
+/// y(k) from x(k+1) = A x + B u with poles 0.75 ± 0.37i (|z| = 0.837), T = 0.1 s.
+fn plant() -> StateSpace {
+    StateSpace::new(
+        DMatrix::from_row_slice(2, 2, &[1.5, -0.7, 1.0, 0.0]),
+        DMatrix::from_row_slice(2, 1, &[1.0, 0.0]),
+        DMatrix::from_row_slice(1, 2, &[0.5, 0.3]),
+        DMatrix::zeros(1, 1),
+        Some(0.1),
+    )
+    .unwrap()
+}
+
+fn pole_modulus(m: &StateSpace) -> Vec<f64> {
+    let mut r: Vec<f64> = m.poles().unwrap().iter().map(|z| z.norm()).collect();
+    r.sort_by(f64::total_cmp);
+    r
+}
+
+/// Simulates the plant on `u` (output sampled every `period`) and writes the CSV.
+fn simulate(path: &str, u: Vec<f64>, period: usize, snr: f64, seed: u64) {
+    let n = u.len();
+    let sim = Simulator::open_loop(Plant::discrete(&plant(), &[], &[]).unwrap())
+        .with_inputs(vec![InputChannel::new("u1", 1)])
+        .unwrap()
+        .with_outputs(vec![OutputChannel::new("y1", period, 0)])
+        .unwrap()
+        .with_noise(NoiseSpec::white_snr(snr, seed))
+        .unwrap();
+    let out = sim
+        .simulate(&Excitation::input(DMatrix::from_column_slice(n, 1, &u)))
+        .unwrap();
+    let f = std::fs::File::create(path).unwrap();
+    out.data.to_csv_writer(f).unwrap();
+}
+
+fn rbs(n: usize, seed: u64) -> Vec<f64> {
+    random_binary(
+        n,
+        &RandomBinaryOptions {
+            amplitude: 1.0,
+            hold: 1,
+            seed,
+        },
+    )
+    .unwrap()
+}
+
+fn single_rate_data(dir: &Path) -> (String, String) {
+    let id = p(dir, "id.csv");
+    let val = p(dir, "val.csv");
+    simulate(&id, rbs(2000, 1), 1, 1000.0, 11);
+    simulate(&val, rbs(1000, 2), 1, 1000.0, 12);
+    (id, val)
+}
+
+/// Checks that the identified model's poles are within `tol` of the plant's.
+fn check_model(path: &str, tol: f64) -> ModelFile {
+    let f = ModelFile::read(path).unwrap();
+    assert_eq!(f.kind, "state_space");
+    assert_eq!(f.model.order(), 2, "{path}: order");
+    let got = pole_modulus(&f.model);
+    let want = pole_modulus(&plant());
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < tol, "{path}: poles {got:?} vs {want:?}");
+    }
+    // first 20 Markov parameters (the impulse response) within `tol` relative
+    let mh = f.model.markov_parameters(20).unwrap();
+    let mp = plant().markov_parameters(20).unwrap();
+    let err: f64 = mh
+        .iter()
+        .zip(&mp)
+        .map(|(a, b)| (a - b).norm_squared())
+        .sum::<f64>()
+        .sqrt();
+    let scale: f64 = mp.iter().map(|b| b.norm_squared()).sum::<f64>().sqrt();
+    assert!(
+        err / scale < 5.0 * tol,
+        "{path}: Markov parameters off by {}",
+        err / scale
+    );
+    f
+}
+
+mod generate {
+    use super::*;
+
+    #[test]
+    fn inverse_prbs_csv_has_the_period_and_antisymmetry() {
+        let d = tmp("prbs");
+        let out = p(&d, "u.csv");
+        ok(&[
+            "prbs",
+            "--inverse",
+            "--order",
+            "5",
+            "--amplitude",
+            "2",
+            "--hold",
+            "3",
+            "--out",
+            &out,
+        ]);
+        let text = std::fs::read_to_string(&out).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("t,u1"));
+        let u: Vec<f64> = lines
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(u.len(), 2 * 3 * 31);
+        assert!(u.iter().all(|v| v.abs() == 2.0));
+        for k in 0..93 {
+            assert_eq!(u[k + 93], -u[k]);
+        }
+        // the same as the library's
+        let lib = InversePrbs::new(&InversePrbsOptions {
+            order: 5,
+            amplitude: 2.0,
+            hold: 3,
+            taps: None,
+        })
+        .unwrap()
+        .one_period();
+        assert_eq!(u, lib);
+    }
+
+    #[test]
+    fn plain_prbs_rbs_gbn_multisine() {
+        let d = tmp("signals");
+        ok(&[
+            "prbs",
+            "--order",
+            "4",
+            "--amplitude",
+            "1",
+            "--periods",
+            "2",
+            "--out",
+            &p(&d, "p.csv"),
+        ]);
+        assert_eq!(
+            std::fs::read_to_string(p(&d, "p.csv"))
+                .unwrap()
+                .lines()
+                .count(),
+            1 + 30
+        );
+        ok(&[
+            "rbs",
+            "--len",
+            "100",
+            "--seed",
+            "3",
+            "--out",
+            &p(&d, "r.csv"),
+        ]);
+        ok(&[
+            "gbn",
+            "--len",
+            "100",
+            "--switch-probability",
+            "0.1",
+            "--out",
+            &p(&d, "g.csv"),
+        ]);
+        ok(&[
+            "multisine",
+            "--len",
+            "64",
+            "--period",
+            "32",
+            "--out",
+            &p(&d, "m.csv"),
+        ]);
+        for f in ["r.csv", "g.csv"] {
+            assert_eq!(
+                std::fs::read_to_string(p(&d, f)).unwrap().lines().count(),
+                101
+            );
+        }
+        fails(
+            &[
+                "prbs",
+                "--order",
+                "1",
+                "--amplitude",
+                "1",
+                "--out",
+                &p(&d, "x.csv"),
+            ],
+            2,
+        );
+    }
+
+    #[test]
+    fn design_reproduces_table_ii() {
+        // Zhu 2000 Table II: T = 0.01 s, 30 Hz actuator, margin 3, 0.025 Hz: n = 8, n_r = 10.
+        let s = ok(&["design"]);
+        assert!(s.contains("order n            8"), "{s}");
+        assert!(s.contains("hold n_r           10"), "{s}");
+    }
+}
+
+mod identification {
+    use super::*;
+
+    #[test]
+    fn subspace_methods_and_iv_identify_the_plant() {
+        let d = tmp("subspace");
+        let (id, _) = single_rate_data(&d);
+        for method in ["n4sid", "moesp", "cva", "iv"] {
+            let out = p(&d, &format!("{method}.json"));
+            ok(&[
+                "identify",
+                "--method",
+                method,
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order",
+                "2",
+                "--horizon",
+                "8",
+                "--out",
+                &out,
+            ]);
+            let f = check_model(&out, 0.02);
+            assert_eq!(f.method.as_deref(), Some(method));
+            assert!((f.model.ts().unwrap() - 0.1).abs() < 1e-12);
+            assert!(
+                f.diagnostics["order_selection"]["values"]
+                    .as_array()
+                    .is_some_and(|v| v.len() >= 2)
+            );
+        }
+        // automatic order: the gap rule finds 2 on nearly noise-free data
+        let out = p(&d, "auto.json");
+        ok(&[
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        check_model(&out, 0.02);
+    }
+
+    #[test]
+    fn qmarkov_from_inverse_prbs() {
+        let d = tmp("qmarkov");
+        let prbs = InversePrbs::new(&InversePrbsOptions {
+            order: 6,
+            amplitude: 1.0,
+            hold: 1,
+            taps: None,
+        })
+        .unwrap();
+        let u = prbs.generate(5 * prbs.period() as usize);
+        let data = p(&d, "prbs.csv");
+        simulate(&data, u, 1, 1e4, 3);
+        let out = p(&d, "qm.json");
+        ok(&[
+            "identify",
+            "--method",
+            "qmarkov",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--prbs-order",
+            "6",
+            "--q",
+            "20",
+            "--order",
+            "2",
+            "--out",
+            &out,
+        ]);
+        check_model(&out, 0.03);
+    }
+
+    #[test]
+    fn multirate_output_gives_the_fast_model() {
+        let d = tmp("multirate");
+        let data = p(&d, "mr.csv");
+        simulate(&data, rbs(3000, 5), 3, 1000.0, 4);
+        let text = std::fs::read_to_string(&data).unwrap();
+        assert!(
+            text.lines().nth(2).unwrap().ends_with(','),
+            "slow output cells are empty"
+        );
+        let out = p(&d, "mr.json");
+        ok(&[
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--output-period",
+            "y1=3",
+            "--order",
+            "2",
+            "--horizon",
+            "5",
+            "--out",
+            &out,
+        ]);
+        let f = check_model(&out, 0.03);
+        assert!(
+            (f.model.ts().unwrap() - 0.1).abs() < 1e-12,
+            "fast model at the base period"
+        );
+        assert_eq!(f.diagnostics["output_periods"][0], 3);
+    }
+}
+
+mod use_models {
+    use super::*;
+
+    #[test]
+    fn validate_report_convert_bode_step() {
+        let d = tmp("use");
+        let (id, val) = single_rate_data(&d);
+        let model = p(&d, "m.json");
+        ok(&[
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--out",
+            &model,
+        ]);
+
+        let table = ok(&[
+            "validate",
+            "--model",
+            &model,
+            "--data",
+            &val,
+            "--min-fit",
+            "90",
+        ]);
+        let row = table.lines().find(|l| l.starts_with("y1")).unwrap();
+        let fit: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
+        assert!(fit > 95.0, "{table}");
+        let msg = fails(
+            &[
+                "validate",
+                "--model",
+                &model,
+                "--data",
+                &val,
+                "--min-fit",
+                "99.99",
+            ],
+            1,
+        );
+        assert!(msg.contains("fit below"), "{msg}");
+
+        let html_path = p(&d, "report.html");
+        ok(&[
+            "report", "--model", &model, "--data", &val, "--out", &html_path,
+        ]);
+        let html = std::fs::read_to_string(&html_path).unwrap();
+        assert!(html.starts_with("<!DOCTYPE html>"));
+        for tag in ["html", "head", "body", "table", "figure", "svg"] {
+            let open = html.matches(&format!("<{tag}")).count();
+            let close = html.matches(&format!("</{tag}>")).count();
+            assert!(
+                open > 0 && open == close,
+                "<{tag}>: {open} open, {close} closed"
+            );
+        }
+        for id in [
+            "excitation",
+            "fit-y1",
+            "order-selection",
+            "step",
+            "bode-magnitude",
+            "bode-phase",
+            "pole-zero",
+        ] {
+            let at = html
+                .find(&format!("<figure id=\"{id}\">"))
+                .unwrap_or_else(|| panic!("figure {id}"));
+            assert!(
+                html[at..]
+                    .trim_start_matches(&format!("<figure id=\"{id}\">"))
+                    .trim_start()
+                    .starts_with("<svg"),
+                "{id}"
+            );
+        }
+        assert!(html.contains("<td>y1</td>"));
+        assert!(!html.contains("<script"), "self-contained, no scripts");
+
+        let tf = ok(&["convert", "--model", &model, "--to", "tf"]);
+        assert!(tf.contains('z'), "{tf}");
+        let cont = p(&d, "c.json");
+        ok(&[
+            "convert",
+            "--model",
+            &model,
+            "--to",
+            "continuous",
+            "--out",
+            &cont,
+        ]);
+        let c = ModelFile::read(&cont).unwrap();
+        assert_eq!(c.model.ts(), None);
+        let disc = p(&d, "d.json");
+        ok(&[
+            "convert", "--model", &cont, "--to", "discrete", "--ts", "0.1", "--out", &disc,
+        ]);
+        let back = ModelFile::read(&disc).unwrap().model;
+        let m0 = ModelFile::read(&model).unwrap().model;
+        assert!((back.dc_gain().unwrap()[(0, 0)] - m0.dc_gain().unwrap()[(0, 0)]).abs() < 1e-8);
+        fails(&["convert", "--model", &cont, "--to", "discrete"], 2);
+
+        ok(&[
+            "bode",
+            "--model",
+            &model,
+            "--out",
+            &p(&d, "b.csv"),
+            "--points",
+            "50",
+        ]);
+        assert_eq!(
+            std::fs::read_to_string(p(&d, "b.csv"))
+                .unwrap()
+                .lines()
+                .count(),
+            51
+        );
+        ok(&["bode", "--model", &model, "--out", &p(&d, "b.svg")]);
+        assert!(
+            std::fs::read_to_string(p(&d, "b.svg"))
+                .unwrap()
+                .starts_with("<svg")
+        );
+        ok(&[
+            "step",
+            "--model",
+            &model,
+            "--out",
+            &p(&d, "s.csv"),
+            "--samples",
+            "40",
+        ]);
+        let s = std::fs::read_to_string(p(&d, "s.csv")).unwrap();
+        assert_eq!(s.lines().count(), 41);
+        ok(&["step", "--model", &model, "--out", &p(&d, "s.svg")]);
+        fails(&["step", "--model", &model, "--out", &p(&d, "s.png")], 2);
+    }
+
+    #[test]
+    fn simulate_command_writes_a_multirate_csv() {
+        let d = tmp("simulate");
+        let model = p(&d, "plant.json");
+        ModelFile::new(plant()).write(&model).unwrap();
+        let u = p(&d, "u.csv");
+        ok(&["rbs", "--len", "300", "--ts", "0.1", "--out", &u]);
+        let data = p(&d, "data.csv");
+        ok(&[
+            "simulate",
+            "--model",
+            &model,
+            "--input",
+            &u,
+            "--output-period",
+            "y1=3",
+            "--snr",
+            "100",
+            "--out",
+            &data,
+        ]);
+        let text = std::fs::read_to_string(&data).unwrap();
+        assert_eq!(text.lines().next(), Some("t,u1,y1"));
+        assert_eq!(text.lines().count(), 301);
+    }
+}
+
+mod reproduce {
+    use super::*;
+
+    #[test]
+    fn only_one_experiment() {
+        let d = tmp("reproduce");
+        let dir = p(&d, "out");
+        let out = lifted(&["reproduce", "--only", "A3.3", "--out", &dir]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("A3.3"), "{stdout}");
+        let rows: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(format!("{dir}/reproductions.json")).unwrap(),
+        )
+        .unwrap();
+        let rows = rows.as_array().unwrap();
+        assert!(!rows.is_empty());
+        let all_pass = rows.iter().all(|r| r["pass"] == true);
+        for r in rows {
+            assert_eq!(r["id"], "A3.3");
+            for key in [
+                "experiment",
+                "quantity",
+                "paper",
+                "reference",
+                "ours",
+                "tolerance",
+                "pass",
+            ] {
+                assert!(r.get(key).is_some(), "{key} missing in {r}");
+            }
+        }
+        assert_eq!(out.status.code(), Some(if all_pass { 0 } else { 1 }));
+        let html = std::fs::read_to_string(format!("{dir}/index.html")).unwrap();
+        assert!(html.contains("<table>") && html.contains("A3.3"));
+        fails(
+            &["reproduce", "--only", "no-such-experiment", "--out", &dir],
+            2,
+        );
+    }
+}
+
+mod bad_input {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> String {
+        let f = p(dir, name);
+        std::fs::write(&f, text).unwrap();
+        f
+    }
+
+    fn identify(data: &str, extra: &[&str]) -> String {
+        let out = format!("{data}.json");
+        let mut args = vec![
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ];
+        args.extend_from_slice(extra);
+        fails(&args, 2)
+    }
+
+    #[test]
+    fn each_bad_input_is_one_line_with_exit_code_2() {
+        let d = tmp("bad");
+        let missing = p(&d, "missing.csv");
+        let e = identify(&missing, &[]);
+        assert!(e.contains("missing.csv"), "{e}");
+
+        let f = write(&d, "nocol.csv", "t,u1,y2\n0,1,2\n0.1,1,2\n");
+        let e = identify(&f, &[]);
+        assert!(e.contains("nocol.csv") && e.contains("'y1'"), "{e}");
+
+        let f = write(&d, "text.csv", "t,u1,y1\n0,1,2\n0.1,abc,2\n");
+        let e = identify(&f, &[]);
+        assert!(
+            e.contains("text.csv")
+                && e.contains("line 3")
+                && e.contains("'u1'")
+                && e.contains("abc"),
+            "{e}"
+        );
+
+        let f = write(&d, "nan.csv", "t,u1,y1\n0,1,2\n0.1,1,NaN\n");
+        let e = identify(&f, &[]);
+        assert!(
+            e.contains("nan.csv")
+                && e.contains("line 3")
+                && e.contains("'y1'")
+                && e.contains("not finite"),
+            "{e}"
+        );
+        let f = write(&d, "inf.csv", "t,u1,y1\n0,inf,2\n0.1,1,1\n");
+        let e = identify(&f, &[]);
+        assert!(e.contains("line 2") && e.contains("'u1'"), "{e}");
+
+        let f = write(&d, "ragged.csv", "t,u1,y1\n0,1,2\n0.1,1\n");
+        let e = identify(&f, &[]);
+        assert!(
+            e.contains("ragged.csv") && e.contains("line 3") && e.contains("ragged"),
+            "{e}"
+        );
+
+        let f = write(&d, "empty.csv", "");
+        let e = identify(&f, &[]);
+        assert!(e.contains("empty.csv") && e.contains("empty"), "{e}");
+        let f = write(&d, "header_only.csv", "t,u1,y1\n");
+        let e = identify(&f, &[]);
+        assert!(e.contains("no data rows"), "{e}");
+
+        // 10 rows, output sampled every 3: 3 does not divide 10
+        let mut text = String::from("t,u1,y1\n");
+        for k in 0..10 {
+            let y = if k % 3 == 0 { "1.5" } else { "" };
+            text += &format!("{},{},{y}\n", k as f64 * 0.1, (k % 2) as f64);
+        }
+        let f = write(&d, "period.csv", &text);
+        let e = identify(&f, &["--output-period", "y1=3"]);
+        assert!(
+            e.contains("period.csv") && e.contains("does not divide"),
+            "{e}"
+        );
+
+        // order above what the horizon allows
+        let (id, _) = single_rate_data(&d);
+        let e = identify(&id, &["--order", "50", "--horizon", "4"]);
+        assert!(e.contains("order"), "{e}");
+
+        // unknown method (a usage error)
+        let e = fails(
+            &[
+                "identify",
+                "--method",
+                "magic",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--out",
+                "x.json",
+            ],
+            2,
+        );
+        assert!(e.contains("magic") && e.contains("n4sid"), "{e}");
+
+        // bad model file
+        let m = write(
+            &d,
+            "bad.json",
+            "{\"kind\": \"state_space\", \"ts\": 0.1, \"a\": [[1, 2]]}",
+        );
+        let e = fails(&["step", "--model", &m, "--out", &p(&d, "s.csv")], 2);
+        assert!(e.contains("bad.json"), "{e}");
+    }
+
+    #[test]
+    fn help_on_every_command() {
+        for cmd in [
+            "prbs",
+            "rbs",
+            "gbn",
+            "multisine",
+            "design",
+            "simulate",
+            "identify",
+            "validate",
+            "convert",
+            "bode",
+            "step",
+            "report",
+            "reproduce",
+        ] {
+            let s = ok(&[cmd, "--help"]);
+            assert!(s.contains("Usage: lifted"), "{cmd}: {s}");
+        }
+        assert!(ok(&["--help"]).contains("reproduce"));
+        assert_eq!(lifted(&[]).status.code(), Some(2));
+    }
+}
+
+/// The 1e6-row measurement of the README (run by hand:
+/// `cargo test --release -p lifted-cli -- --ignored --nocapture million`).
+#[test]
+#[ignore]
+fn million_rows_n4sid() {
+    let d = tmp("million");
+    let data = p(&d, "big.csv");
+    simulate(&data, rbs(1_000_000, 9), 1, 100.0, 8);
+    let size = std::fs::metadata(&data).unwrap().len();
+    let out = p(&d, "big.json");
+    let start = std::time::Instant::now();
+    let o = Command::new("/usr/bin/time")
+        .args(["-v", env!("CARGO_BIN_EXE_lifted")])
+        .args([
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--out",
+            &out,
+        ])
+        .output()
+        .unwrap();
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    let rss = err
+        .lines()
+        .find(|l| l.contains("Maximum resident set size"))
+        .unwrap_or("")
+        .to_string();
+    println!("file {:.1} MB, {secs:.2} s, {rss}", size as f64 / 1e6);
+    assert!(o.status.success(), "{err}");
+    check_model(&out, 0.01);
+}
