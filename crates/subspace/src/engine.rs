@@ -35,6 +35,21 @@ impl Method {
     }
 }
 
+/// How (A, C) are obtained from the subspace.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum SystemEstimate {
+    /// A, C from the extended observability matrix by shift invariance over
+    /// all block rows (MOESP, thesis eqs. 2.19–2.20, erratum L-3).
+    ShiftInvariance,
+    /// A, C from the least-squares fit [X_{i+1}; Y_{i|i}] = [A B; C D][X_i; U_{i|i}]
+    /// of the state sequences X_i = Γ⁺Φ_i, X_{i+1} = Γ₋⁺Φ_{i+1} (N4SID and
+    /// CVA, thesis §2.2–2.3), with the feedthrough mask per output row. With
+    /// coloured (Box–Jenkins) noise this keeps the deterministic dynamics
+    /// when the truncated subspace also carries noise modes.
+    #[default]
+    StateSequence,
+}
+
 /// How the model order is chosen from the singular values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum OrderSelection {
@@ -67,6 +82,8 @@ pub struct SubspaceOptions {
     pub future: usize,
     /// Which entries of D are estimated. Default [`Feedthrough::Free`].
     pub feedthrough: Feedthrough,
+    /// Route from the subspace to (A, C). Default [`SystemEstimate::StateSequence`].
+    pub system: SystemEstimate,
     /// Initial state per record in the (B, D) regression. Default
     /// [`InitialState::Estimate`].
     pub initial_state: InitialState,
@@ -90,6 +107,7 @@ impl Default for SubspaceOptions {
             past: 10,
             future: 10,
             feedthrough: Feedthrough::Free,
+            system: SystemEstimate::StateSequence,
             initial_state: InitialState::Estimate,
             noise_model: true,
             enforce_stability: false,
@@ -179,12 +197,18 @@ pub(crate) fn perp(m: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(m - (m * &q) * q.transpose())
 }
 
-/// Oblique projection F /_U P = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺ P.
-fn oblique(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+/// The map M of the oblique projection F /_U P = M P,
+/// M = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺.
+fn oblique_map(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     let fp = perp(f, u)?;
     let pp = perp(p, u)?;
     let g = &pp * pp.transpose();
-    Ok(fp * pp.transpose() * pinv(&g, RankTolerance::Relative(1e-12))? * p)
+    Ok(fp * pp.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?)
+}
+
+/// Oblique projection F /_U P = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺ P.
+fn oblique(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    Ok(oblique_map(f, u, p)? * p)
 }
 
 fn rows(m: &DMatrix<f64>, r: std::ops::Range<usize>) -> DMatrix<f64> {
@@ -422,7 +446,19 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     if let Some(w1i) = &w1_inv {
         gamma = w1i * gamma;
     }
-    let (a, c, stabilized) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
+    let (a, c, stabilized) = match opts.system {
+        SystemEstimate::ShiftInvariance => ac_from_gamma(&gamma, ny, opts.enforce_stability)?,
+        SystemEstimate::StateSequence => {
+            let mask = opts.feedthrough.mask(ny, nu)?;
+            let (a, c) = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
+            if opts.enforce_stability && spectral_radius(&a)? >= 1.0 {
+                let (a, _, st) = ac_from_gamma(&gamma, ny, true)?;
+                (a, c, st)
+            } else {
+                (a, c, false)
+            }
+        }
+    };
 
     let records: Vec<Record<'_>> = experiments
         .iter()
@@ -469,6 +505,69 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     })
 }
 
+/// The state sequence X(t) = Γ⁺Φ(t) = Γ⁺M W_p(t) (Φ = M W_p, the oblique
+/// projection is a fixed linear map M of the past data) at times t and t+1,
+/// and the rows u(t), y(t) (thesis §2.2–2.3). W_p(t+1) = [u(t−p+1…t);
+/// y(t−p+1…t)] consists of Hankel rows, so both sequences live in the row
+/// space of the compressed factor and are consecutive in time.
+fn state_sequences(
+    l: &DMatrix<f64>,
+    lay: &HankelLayout,
+    gamma: &DMatrix<f64>,
+    _phi: &DMatrix<f64>,
+) -> Result<[DMatrix<f64>; 4]> {
+    let (nu, ny) = (lay.nu, lay.ny);
+    let ufr = lay.uf();
+    let yfr = lay.yf();
+    let upr = lay.up();
+    let ypr = lay.yp();
+    let u_i = rows(l, ufr.start..ufr.start + nu);
+    let y_i = rows(l, yfr.start..yfr.start + ny);
+    let uf = rows(l, ufr.clone());
+    let yf = rows(l, yfr.clone());
+    let wp = vstack(&[&rows(l, upr.clone()), &rows(l, ypr.clone())]);
+    let wp_next = vstack(&[
+        &rows(l, upr.start + nu..upr.end),
+        &u_i,
+        &rows(l, ypr.start + ny..ypr.end),
+        &y_i,
+    ]);
+    let m = oblique_map(&yf, &uf, &wp)?;
+    let k = pinv(gamma, RankTolerance::Default)? * m;
+    Ok([&k * wp, &k * wp_next, u_i, y_i])
+}
+
+/// A and C from the state-sequence regression (thesis §2.3) with the
+/// feedthrough mask applied per output row (§4.5).
+fn ac_from_states(
+    l: &DMatrix<f64>,
+    lay: &HankelLayout,
+    gamma: &DMatrix<f64>,
+    phi: &DMatrix<f64>,
+    mask: &DMatrix<bool>,
+) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
+    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, phi)?;
+    let n = x_i.nrows();
+    let z = vstack(&[&x_i, &u_i]);
+    let ab = lstsq(&z.transpose(), &x_ip1.transpose())?.transpose();
+    let a = ab.columns(0, n).into_owned();
+    let mut c = DMatrix::zeros(lay.ny, n);
+    for o in 0..lay.ny {
+        let allowed: Vec<usize> = (0..lay.nu).filter(|&j| mask[(o, j)]).collect();
+        let mut zo = DMatrix::zeros(n + allowed.len(), x_i.ncols());
+        zo.rows_mut(0, n).copy_from(&x_i);
+        for (t, &j) in allowed.iter().enumerate() {
+            zo.row_mut(n + t).copy_from(&u_i.row(j));
+        }
+        let yo = DMatrix::from_fn(y_i.ncols(), 1, |k, _| y_i[(o, k)]);
+        let th = lstsq(&zo.transpose(), &yo)?;
+        for s in 0..n {
+            c[(o, s)] = th[(s, 0)];
+        }
+    }
+    Ok((a, c))
+}
+
 type NoiseResult = (NoiseCovariances, std::result::Result<DMatrix<f64>, String>);
 
 /// Q, R, S from the state sequences (thesis §2.3) and the Kalman gain from
@@ -484,18 +583,7 @@ fn noise_model(
     c: &DMatrix<f64>,
     d: &DMatrix<f64>,
 ) -> Result<NoiseResult> {
-    let (nu, ny) = (lay.nu, lay.ny);
-    let ufr = lay.uf();
-    let yfr = lay.yf();
-    let u_i = rows(l, ufr.start..ufr.start + nu);
-    let y_i = rows(l, yfr.start..yfr.start + ny);
-    let uf_minus = rows(l, ufr.start + nu..ufr.end);
-    let yf_minus = rows(l, yfr.start + ny..yfr.end);
-    let wp_plus = vstack(&[&rows(l, lay.up()), &u_i, &rows(l, lay.yp()), &y_i]);
-    let phi_plus = oblique(&yf_minus, &uf_minus, &wp_plus)?;
-    let g_minus = gamma.rows(0, gamma.nrows() - ny).into_owned();
-    let x_i = pinv(gamma, RankTolerance::Default)? * phi;
-    let x_ip1 = pinv(&g_minus, RankTolerance::Default)? * phi_plus;
+    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, phi)?;
     let w = x_ip1 - a * &x_i - b * &u_i;
     let v = y_i - c * &x_i - d * &u_i;
     let cov = NoiseCovariances {

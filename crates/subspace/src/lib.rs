@@ -74,7 +74,7 @@ mod regress;
 
 pub use engine::{
     Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, SubspaceModel,
-    SubspaceOptions, gap_order, identify,
+    SubspaceOptions, SystemEstimate, gap_order, identify,
 };
 pub use error::{Error, Result};
 pub use iv::{
