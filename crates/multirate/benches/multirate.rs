@@ -10,9 +10,14 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn plant() -> StateSpace {
-    let a = DMatrix::from_row_slice(4, 4, &[
-        0.9868, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.9131, 0.0, 0.0, 0.0, 0.0, 0.9048,
-    ]);
+    let a = DMatrix::from_row_slice(
+        4,
+        4,
+        &[
+            0.9868, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.9131, 0.0, 0.0, 0.0, 0.0,
+            0.9048,
+        ],
+    );
     let b = DMatrix::from_row_slice(4, 2, &[0.1416, 0.0, 0.0, -0.03, -0.0379, 0.0, 0.0, 0.0595]);
     let c = DMatrix::from_row_slice(2, 4, &[1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0]);
     StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("valid plant")
@@ -34,9 +39,11 @@ fn bench(c: &mut Criterion) {
     let lifting = MultirateLifting::mimo(2, &[5, 1], Ordering::TimeMajor).expect("lifting");
     let ds = lifting.dataset(1.0, u, y).expect("data set");
     let mut g = c.benchmark_group("lifting");
-    g.bench_with_input(BenchmarkId::new("lift_dataset_2x2_J5", len), &ds, |b, ds| {
-        b.iter(|| lifting.lift_dataset(ds, false).expect("lift"))
-    });
+    g.bench_with_input(
+        BenchmarkId::new("lift_dataset_2x2_J5", len),
+        &ds,
+        |b, ds| b.iter(|| lifting.lift_dataset(ds, false).expect("lift")),
+    );
     g.finish();
     let ld = lifting.lift_dataset(&ds, false).expect("lift");
     let mut g = c.benchmark_group("lifted_identification");
@@ -47,9 +54,11 @@ fn bench(c: &mut Criterion) {
         future: 6,
         ..Default::default()
     };
-    g.bench_with_input(BenchmarkId::new("n4sid_causal_2x2_J5", len), &ld, |b, ld| {
-        b.iter(|| identify_lifted(ld, &opts).expect("identify"))
-    });
+    g.bench_with_input(
+        BenchmarkId::new("n4sid_causal_2x2_J5", len),
+        &ld,
+        |b, ld| b.iter(|| identify_lifted(ld, &opts).expect("identify")),
+    );
     g.finish();
 }
 

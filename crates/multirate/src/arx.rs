@@ -155,7 +155,11 @@ pub fn lifted_arx(
     let residual_variance = resid.norm_squared() / rows as f64;
     let a: Vec<f64> = (0..opts.na).map(|i| theta[(i, 0)]).collect();
     let b: Vec<Vec<f64>> = (0..nu)
-        .map(|j| (0..opts.nb).map(|i| theta[(opts.na + j * opts.nb + i, 0)]).collect())
+        .map(|j| {
+            (0..opts.nb)
+                .map(|i| theta[(opts.na + j * opts.nb + i, 0)])
+                .collect()
+        })
         .collect();
     // positive powers: multiply num and den by z^L, L = maxlag
     let l = maxlag;

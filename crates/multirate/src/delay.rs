@@ -125,14 +125,14 @@ pub fn delay_matrix_exact(lifted: &StateSpace, lags: usize, tol: f64) -> Result<
     let mut l = DMatrix::zeros(ny, nu);
     for i in 0..ny {
         for j in 0..nu {
-            l[(i, j)] = h
-                .iter()
-                .position(|p| p[(i, j)].abs() > tol)
-                .ok_or(Error::NoDelayDetected {
-                    input: j,
-                    output: i,
-                    lags,
-                })?;
+            l[(i, j)] =
+                h.iter()
+                    .position(|p| p[(i, j)].abs() > tol)
+                    .ok_or(Error::NoDelayDetected {
+                        input: j,
+                        output: i,
+                        lags,
+                    })?;
         }
     }
     Ok(l)

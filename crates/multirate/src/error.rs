@@ -19,7 +19,9 @@ pub enum Error {
     /// Hold m and sampling n are not co-prime (thesis §4.2 assumes they are;
     /// absorb the common factor into the base period T, see
     /// [`crate::SisoRates::normalized`]).
-    #[error("hold m = {m} and sampling n = {n} are not co-prime (gcd {gcd}); use SisoRates::normalized")]
+    #[error(
+        "hold m = {m} and sampling n = {n} are not co-prime (gcd {gcd}); use SisoRates::normalized"
+    )]
     NotCoprime {
         /// Hold (base periods).
         m: usize,
@@ -106,7 +108,9 @@ pub enum Error {
     /// Ā has an eigenvalue on or near the closed negative real axis (or
     /// zero), so its principal q-th root does not exist and the fast model is
     /// ambiguous (thesis Prop. 3, spec pitfalls 2–3).
-    #[error("no principal {root}-th root of the lifted A: eigenvalue {eigenvalue} on or near the negative real axis (aliasing, |n m T η| < π cannot hold)")]
+    #[error(
+        "no principal {root}-th root of the lifted A: eigenvalue {eigenvalue} on or near the negative real axis (aliasing, |n m T η| < π cannot hold)"
+    )]
     NoPrincipalRoot {
         /// Root order q.
         root: usize,
@@ -115,7 +119,9 @@ pub enum Error {
     },
     /// The lifted model is not consistent with any fast model for the chosen
     /// extraction (e.g. an aliased principal root: B̄_{q−2} ≠ A_h B̄_{q−1}).
-    #[error("extracted fast model inconsistent with the lifted model: relative residual {residual:.3e} > {tol:.3e} ({what})")]
+    #[error(
+        "extracted fast model inconsistent with the lifted model: relative residual {residual:.3e} > {tol:.3e} ({what})"
+    )]
     Inconsistent {
         /// Which relation failed.
         what: &'static str,
@@ -133,7 +139,9 @@ pub enum Error {
         upper: i64,
     },
     /// No significant lifted impulse-response coefficient within the lags.
-    #[error("no significant impulse response from lifted input {input} to lifted output {output} within {lags} lags")]
+    #[error(
+        "no significant impulse response from lifted input {input} to lifted output {output} within {lags} lags"
+    )]
     NoDelayDetected {
         /// Lifted input index.
         input: usize,

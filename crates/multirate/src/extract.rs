@@ -144,11 +144,21 @@ struct Layout {
 }
 
 fn layout(lifted: &StateSpace, lifting: &MultirateLifting) -> Result<Layout> {
-    if lifted.n_inputs() != lifting.lifted_inputs() || lifted.n_outputs() != lifting.lifted_outputs() {
+    if lifted.n_inputs() != lifting.lifted_inputs()
+        || lifted.n_outputs() != lifting.lifted_outputs()
+    {
         return Err(Error::DimensionMismatch {
             what: "lifted model vs lifting",
-            expected: format!("{} lifted inputs, {} lifted outputs", lifting.lifted_inputs(), lifting.lifted_outputs()),
-            got: format!("{} inputs, {} outputs", lifted.n_inputs(), lifted.n_outputs()),
+            expected: format!(
+                "{} lifted inputs, {} lifted outputs",
+                lifting.lifted_inputs(),
+                lifting.lifted_outputs()
+            ),
+            got: format!(
+                "{} inputs, {} outputs",
+                lifted.n_inputs(),
+                lifted.n_outputs()
+            ),
         });
     }
     let h = lifting.holds()[0];
@@ -183,7 +193,12 @@ fn layout(lifted: &StateSpace, lifting: &MultirateLifting) -> Result<Layout> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(Layout { q, nu, bcols, crows })
+    Ok(Layout {
+        q,
+        nu,
+        bcols,
+        crows,
+    })
 }
 
 /// B̄ block of slot s (n × n_u).
@@ -376,7 +391,10 @@ fn eigen_approach(
             .fold((0, -1.0), |acc, x| if x.1 > acc.1 { x } else { acc });
         if best <= tol * amax.max(f64::MIN_POSITIVE) {
             return Err(Error::EigenApproach {
-                reason: format!("mode {} is not excited by the last lifted input slot", e.values[i]),
+                reason: format!(
+                    "mode {} is not excited by the last lifted input slot",
+                    e.values[i]
+                ),
             });
         }
         lam.push(b[(i, c)] / a[(i, c)]);
@@ -387,7 +405,9 @@ fn eigen_approach(
     let imag = ac.iter().map(|x| x.im.abs()).fold(0.0, f64::max);
     if imag > 1e-9 * scale {
         return Err(Error::EigenApproach {
-            reason: format!("the eigenvalue ratios are not conjugate-symmetric (imaginary residue {imag:.2e})"),
+            reason: format!(
+                "the eigenvalue ratios are not conjugate-symmetric (imaginary residue {imag:.2e})"
+            ),
         });
     }
     Ok(ac.map(|x| x.re))

@@ -219,7 +219,9 @@ impl MultirateModel {
             });
         }
         let d = (self.delay / h) as usize;
-        Ok(self.fast.with_io_delays(&vec![d; self.fast.n_inputs()], &[])?)
+        Ok(self
+            .fast
+            .with_io_delays(&vec![d; self.fast.n_inputs()], &[])?)
     }
 }
 

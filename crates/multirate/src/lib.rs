@@ -81,8 +81,8 @@ pub use arx::{
     InputScore, LiftedArx, LiftedArxOptions, Screening, causal_delays, lifted_arx, screen_inputs,
 };
 pub use delay::{
-    DelayInterval, ImpulseEstimate, delay_bounds, delay_interval, delay_matrix,
-    delay_matrix_exact, lifted_impulse_response, shift_dataset, shift_split,
+    DelayInterval, ImpulseEstimate, delay_bounds, delay_interval, delay_matrix, delay_matrix_exact,
+    lifted_impulse_response, shift_dataset, shift_split,
 };
 pub use error::{Error, Result};
 pub use extract::{

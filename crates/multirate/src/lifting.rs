@@ -261,7 +261,7 @@ impl MultirateLifting {
         period: usize,
     ) -> Result<Self> {
         let base = Self::new(holds, out_periods, out_offsets, ordering)?;
-        if period == 0 || period % base.period != 0 {
+        if period == 0 || !period.is_multiple_of(base.period) {
             return Err(Error::InvalidRates {
                 what: "lifting period",
                 reason: format!("{period} is not a positive multiple of {}", base.period),
@@ -404,7 +404,7 @@ impl MultirateLifting {
                 needed: self.period,
             });
         }
-        if len % self.period != 0 {
+        if !len.is_multiple_of(self.period) {
             return Err(Error::LengthNotMultiple {
                 len,
                 period: self.period,

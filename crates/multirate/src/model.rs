@@ -39,7 +39,11 @@ pub fn lift_model(fast: &StateSpace, lifting: &MultirateLifting) -> Result<State
     if fast.n_inputs() != lifting.n_inputs() || fast.n_outputs() != lifting.n_outputs() {
         return Err(Error::DimensionMismatch {
             what: "fast model channels",
-            expected: format!("{} inputs, {} outputs", lifting.n_inputs(), lifting.n_outputs()),
+            expected: format!(
+                "{} inputs, {} outputs",
+                lifting.n_inputs(),
+                lifting.n_outputs()
+            ),
             got: format!("{} inputs, {} outputs", fast.n_inputs(), fast.n_outputs()),
         });
     }
@@ -175,7 +179,10 @@ pub fn condition_one(a: &DMatrix<f64>, frame: usize, tol: f64) -> Result<bool> {
     let ev = lifted_linalg::eigenvalues(a)?;
     for (i, l) in ev.iter().enumerate() {
         for k in 1..frame {
-            let rot = l * Complex64::from_polar(1.0, 2.0 * std::f64::consts::PI * k as f64 / frame as f64);
+            let rot = l * Complex64::from_polar(
+                1.0,
+                2.0 * std::f64::consts::PI * k as f64 / frame as f64,
+            );
             for (jj, mu) in ev.iter().enumerate() {
                 // the eigenvalue itself counts when it is zero (rot = l) or a
                 // different eigenvalue matches
@@ -206,7 +213,11 @@ mod tests {
     #[test]
     fn m_equal_one_is_eq_4_7() {
         let g = fast();
-        let l = lift_model(&g, &MultirateLifting::siso(SisoRates::new(1, 3).unwrap()).unwrap()).unwrap();
+        let l = lift_model(
+            &g,
+            &MultirateLifting::siso(SisoRates::new(1, 3).unwrap()).unwrap(),
+        )
+        .unwrap();
         let a = g.a();
         assert!((l.a() - a * a * a).norm() < 1e-14);
         assert!((l.b().column(0) - a * a * g.b()).norm() < 1e-14);

@@ -192,7 +192,8 @@ fn times_z_power(p: &Poly, k: usize) -> Result<Poly> {
 
 fn same_den(a: &Poly, b: &Poly, tol: f64) -> bool {
     let (a, b) = (a.monic(), b.monic());
-    a.degree() == b.degree() && a.max_abs_diff(&b) <= tol * a.coeffs().iter().fold(1.0f64, |m, v| m.max(v.abs()))
+    a.degree() == b.degree()
+        && a.max_abs_diff(&b) <= tol * a.coeffs().iter().fold(1.0f64, |m, v| m.max(v.abs()))
 }
 
 /// Sum Σ_k num_k/den with the k-th term multiplied by z^{shift_k}; all
@@ -242,10 +243,16 @@ pub fn recombine_lifted_tf(parts: &[SisoTf], tol: f64) -> Result<SisoTf> {
         if j >= 1 && !p.num().is_zero() && p.num().degree() >= p.den().degree() {
             return Err(Error::Unsupported {
                 what: "recombination (6.4)",
-                reason: format!("lifted subsystem P_{j} must be strictly proper (causality, eq. 6.3)"),
+                reason: format!(
+                    "lifted subsystem P_{j} must be strictly proper (causality, eq. 6.3)"
+                ),
             });
         }
-        terms.push((substitute_power(p.num(), n)?, substitute_power(p.den(), n)?, j));
+        terms.push((
+            substitute_power(p.num(), n)?,
+            substitute_power(p.den(), n)?,
+            j,
+        ));
     }
     let (num, den) = sum_terms(&terms)?;
     let (num, den) = cancel_common_roots(&num, &den, tol)?;
@@ -274,7 +281,9 @@ mod tests {
 
     #[test]
     fn sequences_recombine() {
-        let h: Vec<f64> = (0..30).map(|k| if k < 2 { 0.0 } else { 0.8f64.powi(k - 2) }).collect();
+        let h: Vec<f64> = (0..30)
+            .map(|k| if k < 2 { 0.0 } else { 0.8f64.powi(k - 2) })
+            .collect();
         let pj = lifted_impulse(&h, 3).unwrap();
         let back = recombine_lifted_impulse(&pj).unwrap();
         for (a, b) in back.iter().zip(&h) {
@@ -288,6 +297,9 @@ mod tests {
     #[test]
     fn substitution() {
         let p = Poly::new(vec![1.0, -0.5]).unwrap();
-        assert_eq!(substitute_power(&p, 3).unwrap().coeffs(), &[1.0, 0.0, 0.0, -0.5]);
+        assert_eq!(
+            substitute_power(&p, 3).unwrap().coeffs(),
+            &[1.0, 0.0, 0.0, -0.5]
+        );
     }
 }

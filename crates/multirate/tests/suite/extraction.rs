@@ -18,8 +18,14 @@ fn harness(fast: &StateSpace, lifting: &MultirateLifting) {
         sum += &am;
         am = fast.a() * am;
     }
-    let expected =
-        StateSpace::new(am, sum * fast.b(), fast.c().clone(), fast.d().clone(), Some(m as f64)).unwrap();
+    let expected = StateSpace::new(
+        am,
+        sum * fast.b(),
+        fast.c().clone(),
+        fast.d().clone(),
+        Some(m as f64),
+    )
+    .unwrap();
     let lifted = lift_model(fast, lifting).unwrap();
     let mut methods = vec![
         ExtractionMethod::Controllability,
@@ -32,7 +38,11 @@ fn harness(fast: &StateSpace, lifting: &MultirateLifting) {
     let hk = expected.markov_parameters(15).unwrap();
     for method in methods {
         for input_matrix in [InputMatrix::LastColumn, InputMatrix::LeastSquares] {
-            let opts = ExtractOptions { method, input_matrix, ..Default::default() };
+            let opts = ExtractOptions {
+                method,
+                input_matrix,
+                ..Default::default()
+            };
             let fm = extract_fast(&lifted, lifting, &opts)
                 .unwrap_or_else(|e| panic!("{method:?}/{input_matrix:?}: {e}"));
             assert_eq!(fm.model.ts(), Some(m as f64));
@@ -58,14 +68,23 @@ fn model(nu: usize, ny: usize) -> StateSpace {
 #[test]
 fn siso_rational_ratios() {
     for (m, n) in [(1, 2), (1, 3), (2, 3), (3, 4), (2, 5)] {
-        harness(&model(1, 1), &MultirateLifting::siso(SisoRates::new(m, n).unwrap()).unwrap());
+        harness(
+            &model(1, 1),
+            &MultirateLifting::siso(SisoRates::new(m, n).unwrap()).unwrap(),
+        );
     }
 }
 
 #[test]
 fn mimo_integer_ratios_both_orderings() {
     for ord in [Ordering::ChannelMajor, Ordering::TimeMajor] {
-        harness(&model(2, 2), &MultirateLifting::mimo(2, &[5, 1], ord).unwrap());
-        harness(&model(2, 2), &MultirateLifting::mimo(2, &[2, 3], ord).unwrap());
+        harness(
+            &model(2, 2),
+            &MultirateLifting::mimo(2, &[5, 1], ord).unwrap(),
+        );
+        harness(
+            &model(2, 2),
+            &MultirateLifting::mimo(2, &[2, 3], ord).unwrap(),
+        );
     }
 }
