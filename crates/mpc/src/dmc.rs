@@ -245,15 +245,7 @@ impl Dmc {
         let v = self.feedback();
         let f = self.free_unchecked(&v, self.history.iter());
         self.estimate = v;
-        let hp = self.law.prediction_horizon();
-        let rbar = DVector::from_fn(hp * self.p(), |i, _| reference[i % self.p()]);
-        let moves = if force_qp {
-            self.law.solve_qp(&f, &rbar, &self.u_prev)?
-        } else {
-            self.law.moves(&f, &rbar, &self.u_prev)?
-        };
-        let m = self.m();
-        let du = moves.du.rows(0, m).into_owned();
+        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
         self.u_prev += &du;
         self.history.push_front(du);
         let keep = self.truncation + 1 + self.since.iter().copied().max().unwrap_or(0) + 1;

@@ -90,6 +90,9 @@ pub enum Error {
     /// Error from `lifted-lti`.
     #[error(transparent)]
     Lti(#[from] lifted_lti::Error),
+    /// Error from `lifted-multirate` (lifting).
+    #[error(transparent)]
+    Multirate(#[from] lifted_multirate::Error),
 }
 
 /// Result alias of this crate.
@@ -101,4 +104,21 @@ pub(crate) fn check_finite_slice(what: &'static str, v: &[f64]) -> Result<()> {
     } else {
         Err(Error::NonFinite { what })
     }
+}
+
+/// Checks the length and finiteness of each (name, vector, expected length).
+pub(crate) fn check_vectors(
+    items: &[(&'static str, &nalgebra::DVector<f64>, usize)],
+) -> Result<()> {
+    for &(what, v, n) in items {
+        if v.len() != n {
+            return Err(Error::DimensionMismatch {
+                what,
+                expected: n,
+                got: v.len(),
+            });
+        }
+        check_finite_slice(what, v.as_slice())?;
+    }
+    Ok(())
 }

@@ -104,20 +104,11 @@ impl StateSpaceMpc {
         future: &DVector<f64>,
     ) -> Result<DVector<f64>> {
         let p = self.ci.nrows();
-        for (what, v, n) in [
+        crate::error::check_vectors(&[
             ("state x_d", x_d, self.x.len()),
             ("output", y, p),
             ("future moves", future, self.law.dynamic_matrix().ncols()),
-        ] {
-            if v.len() != n {
-                return Err(Error::DimensionMismatch {
-                    what,
-                    expected: n,
-                    got: v.len(),
-                });
-            }
-            crate::error::check_finite_slice(what, v.as_slice())?;
-        }
+        ])?;
         let bias = y - &self.ci * x_d;
         let hp = self.law.prediction_horizon();
         let ys = DVector::from_fn(hp * p, |i, _| bias[i % p]);
@@ -153,14 +144,7 @@ impl StateSpaceMpc {
         self.estimate = &yd + &self.bias;
         let hp = self.law.prediction_horizon();
         let f = &self.gamma * &self.x + DVector::from_fn(hp * p, |i, _| self.bias[i % p]);
-        let rbar = DVector::from_fn(hp * p, |i, _| reference[i % p]);
-        let moves = if force_qp {
-            self.law.solve_qp(&f, &rbar, &self.u_prev)?
-        } else {
-            self.law.moves(&f, &rbar, &self.u_prev)?
-        };
-        let m = self.bi.ncols();
-        let du = moves.du.rows(0, m).into_owned();
+        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
         self.u_prev += &du;
         self.x = &self.ai * &self.x + &self.bi * &du;
         Ok((self.u_prev.clone(), moves))

@@ -191,21 +191,31 @@ impl MoveLaw {
         reference: &DVector<f64>,
         u_prev: &DVector<f64>,
     ) -> Result<()> {
-        for (what, v, n) in [
+        crate::error::check_vectors(&[
             ("free response", free, self.hp * self.p),
             ("reference trajectory", reference, self.hp * self.p),
             ("previous input", u_prev, self.m),
-        ] {
-            if v.len() != n {
-                return Err(Error::DimensionMismatch {
-                    what,
-                    expected: n,
-                    got: v.len(),
-                });
-            }
-            crate::error::check_finite_slice(what, v.as_slice())?;
-        }
-        Ok(())
+        ])
+    }
+
+    /// One receding-horizon step: the set-point `reference` (length p) held
+    /// over the horizon, moves from [`MoveLaw::moves`] (or always the QP
+    /// when `force_qp`); returns the plan and the first move Δu(t).
+    pub(crate) fn plan(
+        &self,
+        free: &DVector<f64>,
+        reference: &DVector<f64>,
+        u_prev: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)> {
+        let p = self.p;
+        let rbar = DVector::from_fn(self.hp * p, |i, _| reference[i % p]);
+        let moves = if force_qp {
+            self.solve_qp(free, &rbar, u_prev)?
+        } else {
+            self.moves(free, &rbar, u_prev)?
+        };
+        Ok((moves.du.rows(0, self.m).into_owned(), moves))
     }
 
     /// Unconstrained moves ΔU = K_c (r̄ − F̂).

@@ -5,6 +5,7 @@
 //! k = 0 … n−1 of one period, each sample carrying all channels.
 
 use lifted_lti::StateSpace;
+use lifted_multirate::{MultirateLifting, Ordering, lift_model};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
@@ -90,27 +91,21 @@ pub fn lift_periodic(steps: &[PeriodicStep], ts: f64) -> Result<StateSpace> {
     )?)
 }
 
-/// Lifts a discrete LTI system by n (𝐏 = L_n P L_n⁻¹, §9.2).
+/// Lifts a discrete LTI system by n (𝐏 = L_n P L_n⁻¹, §9.2), time-major
+/// ordering, through `lifted-multirate` (`lift_model` with a uniform
+/// lifting; the general D̄ entry of Prop. 1 handles D ≠ 0).
 ///
 /// Errors: continuous model, `n = 0`.
 pub fn lift(sys: &StateSpace, n: usize) -> Result<StateSpace> {
-    let ts = sys.ts().ok_or_else(|| Error::InvalidModel {
-        what: "system to lift",
-        reason: "must be discrete-time".into(),
-    })?;
+    crate::model::discrete_ts("system to lift", sys)?;
     if n == 0 {
         return Err(Error::InvalidArgument {
             what: "lifting factor n",
             reason: "must be at least 1".into(),
         });
     }
-    let step = PeriodicStep {
-        a: sys.a().clone(),
-        b: sys.b().clone(),
-        c: sys.c().clone(),
-        d: sys.d().clone(),
-    };
-    lift_periodic(&vec![step; n], ts)
+    let l = MultirateLifting::uniform(n, sys.n_inputs(), sys.n_outputs(), Ordering::TimeMajor)?;
+    Ok(lift_model(sys, &l)?)
 }
 
 /// Largest singular value of a complex matrix, via the real embedding

@@ -10,12 +10,7 @@ use crate::error::{Error, Result};
 /// Checks that `sys` is a discrete, strictly proper (D = 0) model with at
 /// least one input and output; returns (p, m).
 pub(crate) fn check_model(what: &'static str, sys: &StateSpace) -> Result<(usize, usize)> {
-    if !sys.is_discrete() {
-        return Err(Error::InvalidModel {
-            what,
-            reason: "must be discrete-time".into(),
-        });
-    }
+    discrete_ts(what, sys)?;
     if sys.n_inputs() == 0 || sys.n_outputs() == 0 {
         return Err(Error::InvalidModel {
             what,
@@ -29,6 +24,14 @@ pub(crate) fn check_model(what: &'static str, sys: &StateSpace) -> Result<(usize
         });
     }
     Ok((sys.n_outputs(), sys.n_inputs()))
+}
+
+/// The sample time of a discrete model, [`Error::InvalidModel`] otherwise.
+pub(crate) fn discrete_ts(what: &'static str, sys: &StateSpace) -> Result<f64> {
+    sys.ts().ok_or_else(|| Error::InvalidModel {
+        what,
+        reason: "must be discrete-time".into(),
+    })
 }
 
 /// Step-response coefficients S_0 = 0, S_i = Σ_{k<i} C Aᵏ B (i = 1 … count)
@@ -78,10 +81,7 @@ pub fn hold_model(sys: &StateSpace, n: usize) -> Result<StateSpace> {
             reason: "must be at least 1".into(),
         });
     }
-    let ts = sys.ts().ok_or_else(|| Error::InvalidModel {
-        what: "model",
-        reason: "must be discrete-time".into(),
-    })?;
+    let ts = discrete_ts("model", sys)?;
     let order = sys.order();
     let mut an = DMatrix::identity(order, order);
     let mut bn = DMatrix::zeros(order, sys.n_inputs());
