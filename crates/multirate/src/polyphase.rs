@@ -76,7 +76,7 @@ pub fn polyphase_components(fast: &StateSpace, n: usize) -> Result<Vec<StateSpac
     Ok(out)
 }
 
-/// Polyphase components of an impulse response: P̃_i[k] = h[nk + i],
+/// Polyphase components of an impulse response: P̃_i(k) = h(nk + i),
 /// K = ⌊len/n⌋ samples each.
 pub fn polyphase_impulse(h: &[f64], n: usize) -> Result<Vec<Vec<f64>>> {
     check_factor(n)?;
@@ -87,7 +87,7 @@ pub fn polyphase_impulse(h: &[f64], n: usize) -> Result<Vec<Vec<f64>>> {
 }
 
 /// Impulse responses of the lifted subsystems P_j (u(nk + j) → y(nk)):
-/// P_j[k] = h[nk − j] (0 for negative index), K = ⌊len/n⌋ samples each.
+/// P_j(k) = h(nk − j) (0 for negative index), K = ⌊len/n⌋ samples each.
 pub fn lifted_impulse(h: &[f64], n: usize) -> Result<Vec<Vec<f64>>> {
     check_factor(n)?;
     let k = h.len() / n;
@@ -101,7 +101,7 @@ pub fn lifted_impulse(h: &[f64], n: usize) -> Result<Vec<Vec<f64>>> {
 }
 
 /// Recombination (6.4) on impulse responses: the coefficients of
-/// Σ_j z^{j} P_j(zⁿ), i.e. h[nk − j] = P_j[k]; returns n·K − (n−1)
+/// Σ_j z^{j} P_j(zⁿ), i.e. h(nk − j) = P_j(k); returns n·K − (n−1)
 /// coefficients (the last lifted sample only determines h[n(K−1)]).
 pub fn recombine_lifted_impulse(parts: &[Vec<f64>]) -> Result<Vec<f64>> {
     let n = parts.len();
@@ -126,7 +126,7 @@ pub fn recombine_lifted_impulse(parts: &[Vec<f64>]) -> Result<Vec<f64>> {
 }
 
 /// Recombination (6.5) on impulse responses: Σ_i z^{−i} P̃_i(zⁿ), i.e.
-/// h[nk + i] = P̃_i[k]; returns n·K coefficients.
+/// h(nk + i) = P̃_i(k); returns n·K coefficients.
 pub fn recombine_polyphase_impulse(parts: &[Vec<f64>]) -> Result<Vec<f64>> {
     let n = parts.len();
     check_factor(n)?;
