@@ -18,6 +18,7 @@
 pub mod a3_dual_rate;
 pub mod a3_mpc;
 pub mod a1_engine;
+pub mod a2_closedloop;
 pub mod a2_openloop;
 pub mod a3_delay_example;
 pub mod a3_lifting;

@@ -10,6 +10,40 @@ mod a1_engine {
     }
 }
 
+mod a2_closedloop {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a22_closed_loop_algebra() {
+        assert_rep(lifted_tests::a2_closedloop::run_a22().expect("A2.2 runs"));
+    }
+    #[test]
+    fn a23_setup() {
+        assert_rep(lifted_tests::a2_closedloop::run_a23().expect("A2.3 runs"));
+    }
+    #[test]
+    fn a25_a26_tables_5_and_6() {
+        use lifted_sim::plants::RenZhuPlant;
+        let t5 = lifted_tests::a2_closedloop::compute_table(RenZhuPlant::G1).expect("Table 5 runs");
+        let t6 = lifted_tests::a2_closedloop::compute_table(RenZhuPlant::G2).expect("Table 6 runs");
+        println!(
+            "{}",
+            lifted_tests::a2_closedloop::tables(&t5, &t6).expect("tables print")
+        );
+        let r5 = lifted_tests::a2_closedloop::run_a25_from(&t5).expect("A2.5 runs");
+        let r6 = lifted_tests::a2_closedloop::run_a26_from(&t6).expect("A2.6 runs");
+        println!("{r5}");
+        println!("{r6}");
+        assert!(r5.all_passed() && r6.all_passed(), "{r5}\n{r6}");
+    }
+    #[test]
+    fn a27_prbs_order() {
+        assert_rep(lifted_tests::a2_closedloop::run_a27().expect("A2.7 runs"));
+    }
+}
+
 mod a2_openloop {
     #[test]
     fn a24_open_loop_eq14() {
