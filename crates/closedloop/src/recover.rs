@@ -344,14 +344,27 @@ fn nonzero(p: Poly, what: &'static str, reason: &str) -> Result<Poly> {
     }
 }
 
+/// Relative tolerance under which two denominators count as the same shared
+/// D in [`general_tf`] (rounding of the characteristic polynomials of one
+/// joint model computed column by column).
+pub const SHARED_DEN_TOL: f64 = 1e-10;
+
 /// Eq. (10) in exact SISO polynomial arithmetic (approach (b), no
 /// cancellation). With Ĥ₁ = N₁/D₁, Ĥ₂ = N₂/D₂: G = N₂/(D − N₁) when
-/// D₁ = D₂ = D (one joint identified model), else N₂D₁/(D₂(D₁ − N₁)).
+/// D₁ = D₂ = D (one joint identified model; equal to [`SHARED_DEN_TOL`]
+/// relative), else N₂D₁/(D₂(D₁ − N₁)).
 ///
 /// Errors: [`Error::SingularReturnDifference`] when Ĥ₁ ≡ 1.
 pub fn general_tf(h1: &SisoTf, h2: &SisoTf) -> Result<SisoTf> {
     let ret = nonzero(h1.den() - h1.num(), "I - H1", "H1 is identically 1")?;
-    if h1.den() == h2.den() {
+    let scale = h1
+        .den()
+        .coeffs()
+        .iter()
+        .fold(0.0f64, |a, c| a.max(c.abs()));
+    let shared = h1.den().degree() == h2.den().degree()
+        && h1.den().max_abs_diff(h2.den()) <= SHARED_DEN_TOL * scale;
+    if shared {
         Ok(SisoTf::new(h2.num().clone(), ret)?)
     } else {
         Ok(SisoTf::new(h2.num() * h1.den(), h2.den() * &ret)?)
