@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, check_data};
 use crate::hankel::{HankelLayout, compress};
-use crate::regress::{Feedthrough, InitialState, Record, estimate_bd};
+use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -446,20 +446,6 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     if let Some(w1i) = &w1_inv {
         gamma = w1i * gamma;
     }
-    let (a, c, stabilized) = match opts.system {
-        SystemEstimate::ShiftInvariance => ac_from_gamma(&gamma, ny, opts.enforce_stability)?,
-        SystemEstimate::StateSequence => {
-            let mask = opts.feedthrough.mask(ny, nu)?;
-            let (a, c) = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
-            if opts.enforce_stability && spectral_radius(&a)? >= 1.0 {
-                let (a, _, st) = ac_from_gamma(&gamma, ny, true)?;
-                (a, c, st)
-            } else {
-                (a, c, false)
-            }
-        }
-    };
-
     let records: Vec<Record<'_>> = experiments
         .iter()
         .map(|e| Record {
@@ -468,7 +454,33 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
             instrument: None,
         })
         .collect();
-    let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+    let (a, c, bd, stabilized) = match opts.system {
+        SystemEstimate::ShiftInvariance => {
+            let (a, c, st) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
+            let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+            (a, c, bd, st)
+        }
+        SystemEstimate::StateSequence => {
+            let mask = opts.feedthrough.mask(ny, nu)?;
+            let ls = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
+            if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
+                let (a, c, st) = ac_from_gamma(&gamma, ny, true)?;
+                let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+                (a, c, bd, st)
+            } else {
+                let x0 = match opts.initial_state {
+                    InitialState::Estimate => estimate_x0(&ls.a, &ls.b, &ls.c, &ls.d, &records)?,
+                    InitialState::Zero => vec![DVector::zeros(ls.a.nrows()); records.len()],
+                };
+                let bd = BdFit {
+                    b: ls.b,
+                    d: ls.d,
+                    x0,
+                };
+                (ls.a, ls.c, bd, false)
+            }
+        }
+    };
 
     let mut noise = None;
     let mut kalman_gain = None;
@@ -545,13 +557,15 @@ fn ac_from_states(
     gamma: &DMatrix<f64>,
     phi: &DMatrix<f64>,
     mask: &DMatrix<bool>,
-) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
+) -> Result<StateLs> {
     let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, phi)?;
     let n = x_i.nrows();
     let z = vstack(&[&x_i, &u_i]);
     let ab = lstsq(&z.transpose(), &x_ip1.transpose())?.transpose();
     let a = ab.columns(0, n).into_owned();
+    let b = ab.columns(n, lay.nu).into_owned();
     let mut c = DMatrix::zeros(lay.ny, n);
+    let mut d = DMatrix::zeros(lay.ny, lay.nu);
     for o in 0..lay.ny {
         let allowed: Vec<usize> = (0..lay.nu).filter(|&j| mask[(o, j)]).collect();
         let mut zo = DMatrix::zeros(n + allowed.len(), x_i.ncols());
@@ -564,8 +578,19 @@ fn ac_from_states(
         for s in 0..n {
             c[(o, s)] = th[(s, 0)];
         }
+        for (t, &j) in allowed.iter().enumerate() {
+            d[(o, j)] = th[(n + t, 0)];
+        }
     }
-    Ok((a, c))
+    Ok(StateLs { a, b, c, d })
+}
+
+/// (A, B, C, D) of the state-sequence regression.
+struct StateLs {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    d: DMatrix<f64>,
 }
 
 type NoiseResult = (NoiseCovariances, std::result::Result<DMatrix<f64>, String>);

@@ -438,6 +438,63 @@ pub fn estimate_bd_iv(
     Ok(p.unpack(&theta, records.len()))
 }
 
+/// Least-squares initial state of each record for a fixed model
+/// (A, B, C, D): x₀ = argmin Σ‖y(t) − ŷ₀(t) − C Aᵗ x₀‖² with ŷ₀ the
+/// zero-state response; rows streamed, O(N n_y n²) flops, O(n²) memory
+/// beyond the zero-state simulation.
+pub(crate) fn estimate_x0(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    d: &DMatrix<f64>,
+    records: &[Record<'_>],
+) -> Result<Vec<DVector<f64>>> {
+    let n = a.nrows();
+    let ny = c.nrows();
+    let mut out = Vec::with_capacity(records.len());
+    for rec in records {
+        let mut acc = RAccumulator::new(n + 1);
+        let mut block = DMatrix::zeros(BLOCK, n + 1);
+        let mut used = 0;
+        let mut x = DVector::zeros(n);
+        let mut cat = c.clone();
+        for t in 0..rec.u.nrows() {
+            let ut = rec.u.row(t).transpose();
+            let yh = c * &x + d * &ut;
+            for o in 0..ny {
+                let yv = rec.y[(t, o)];
+                if yv.is_nan() {
+                    continue;
+                }
+                for s in 0..n {
+                    block[(used, s)] = cat[(o, s)];
+                }
+                block[(used, n)] = yv - yh[o];
+                used += 1;
+                if used == BLOCK {
+                    acc.push_rows(&block)?;
+                    used = 0;
+                }
+            }
+            x = a * x + b * ut;
+            cat = &cat * a;
+        }
+        if used > 0 {
+            acc.push_rows(&block.rows(0, used).into_owned())?;
+        }
+        let r = acc.r();
+        if r.nrows() < n + 1 {
+            out.push(DVector::zeros(n));
+            continue;
+        }
+        let r11 = r.view((0, 0), (n, n)).into_owned();
+        let r12 = r.view((0, n), (n, 1)).into_owned();
+        let th = lstsq(&r11, &r12)?;
+        out.push(DVector::from_fn(n, |s, _| th[(s, 0)]));
+    }
+    Ok(out)
+}
+
 fn check_regressor_rank(m: &DMatrix<f64>) -> Result<()> {
     let s = lifted_linalg::singular_values(m)?;
     let smax = s.iter().cloned().fold(0.0, f64::max);
