@@ -173,35 +173,13 @@ impl MultirateLifting {
             .iter()
             .chain(out_periods.iter())
             .fold(1usize, |a, &b| lcm(a, b));
-        let mut inputs = Vec::new();
-        for (c, &h) in holds.iter().enumerate() {
-            for s in 0..period / h {
-                inputs.push(Slot {
-                    channel: c,
-                    time: s * h,
-                    index: s,
-                });
-            }
-        }
-        let mut outputs = Vec::new();
-        for (o, (&p, &off)) in out_periods.iter().zip(out_offsets).enumerate() {
-            for r in 0..period / p {
-                outputs.push(Slot {
-                    channel: o,
-                    time: off + r * p,
-                    index: r,
-                });
-            }
-        }
-        Ok(MultirateLifting {
-            period,
-            holds: holds.to_vec(),
-            out_periods: out_periods.to_vec(),
-            out_offsets: out_offsets.to_vec(),
+        Ok(Self::build(
+            holds,
+            out_periods,
+            out_offsets,
             ordering,
-            inputs: order_slots(inputs, ordering),
-            outputs: order_slots(outputs, ordering),
-        })
+            period,
+        ))
     }
 
     /// SISO hold mT, sampling nT (thesis §4.2, eq. 4.1): frame mn, n lifted
@@ -270,6 +248,23 @@ impl MultirateLifting {
         if period == base.period {
             return Ok(base);
         }
+        Ok(Self::build(
+            holds,
+            out_periods,
+            out_offsets,
+            ordering,
+            period,
+        ))
+    }
+
+    /// The slots of a validated pattern for frame `period`.
+    fn build(
+        holds: &[usize],
+        out_periods: &[usize],
+        out_offsets: &[usize],
+        ordering: Ordering,
+        period: usize,
+    ) -> Self {
         let mut inputs = Vec::new();
         for (c, &h) in holds.iter().enumerate() {
             for s in 0..period / h {
@@ -290,12 +285,15 @@ impl MultirateLifting {
                 });
             }
         }
-        Ok(MultirateLifting {
+        MultirateLifting {
             period,
+            holds: holds.to_vec(),
+            out_periods: out_periods.to_vec(),
+            out_offsets: out_offsets.to_vec(),
+            ordering,
             inputs: order_slots(inputs, ordering),
             outputs: order_slots(outputs, ordering),
-            ..base
-        })
+        }
     }
 
     /// The lifting of a [`Dataset`]'s sampling pattern. Input hold phases
