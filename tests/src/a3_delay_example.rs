@@ -9,8 +9,8 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_multirate::{
-    DelayHandling, LiftedIdOptions, MultirateLifting, ProcedureOptions, SisoRates,
-    estimate_delay, identify_multirate,
+    DelayHandling, LiftedIdOptions, MultirateLifting, ProcedureOptions, SisoRates, estimate_delay,
+    identify_multirate,
 };
 use lifted_subspace::OrderSelection;
 use nalgebra::DMatrix;
@@ -27,7 +27,12 @@ const N: usize = 3;
 
 /// Simulates the multirate experiment for a lifted input `ul` (K×n):
 /// returns the data set (fast grid, output every 3 with var-SNR `snr`).
-fn experiment(plant: &StateSpace, ul: &DMatrix<f64>, snr: f64, rng: &mut ChaCha8Rng) -> BoxResult<Dataset> {
+fn experiment(
+    plant: &StateSpace,
+    ul: &DMatrix<f64>,
+    snr: f64,
+    rng: &mut ChaCha8Rng,
+) -> BoxResult<Dataset> {
     let lifting = MultirateLifting::siso(SisoRates::new(M, N)?)?;
     let u = lifting.unlift_inputs(ul)?;
     let y = plant.lsim(&u, None, None)?.y;
@@ -111,14 +116,29 @@ fn trial(seed: u64) -> BoxResult<Trial> {
 
 /// A3.6 over 10 seeds.
 pub fn run() -> BoxResult<Reproduction> {
-    let mut rep = Reproduction::new("A3.6", "§4.8 example: delay, shift, lifted N4SID, matrix root");
+    let mut rep = Reproduction::new(
+        "A3.6",
+        "§4.8 example: delay, shift, lifted N4SID, matrix root",
+    );
     let trials: Vec<Trial> = (0..10).map(trial).collect::<BoxResult<_>>()?;
     let hits = trials.iter().filter(|t| t.interval == (5, 6)).count();
-    rep.check(Check::above("seeds with delay interval [5, 6) (of 10)", hits as f64, 8.5).with_note("spec A3.6: ≥ 9/10 (RI: every seed, 3σ threshold)"));
-    let worst_pole = trials.iter().map(|t| (t.pole - 0.904837).abs()).fold(0.0, f64::max);
-    let worst_dc = trials.iter().map(|t| (t.dc - 1.0).abs()).fold(0.0, f64::max);
+    rep.check(
+        Check::above("seeds with delay interval [5, 6) (of 10)", hits as f64, 8.5)
+            .with_note("spec A3.6: ≥ 9/10 (RI: every seed, 3σ threshold)"),
+    );
+    let worst_pole = trials
+        .iter()
+        .map(|t| (t.pole - 0.904837).abs())
+        .fold(0.0, f64::max);
+    let worst_dc = trials
+        .iter()
+        .map(|t| (t.dc - 1.0).abs())
+        .fold(0.0, f64::max);
     let worst_step = trials.iter().map(|t| t.e_step).fold(0.0, f64::max);
-    rep.check(Check::below("worst |fast pole − 0.9048| (matrix root)", worst_pole, 0.03).with_note("spec A3.6 every seed; RI pole 0.889–0.904"));
+    rep.check(
+        Check::below("worst |fast pole − 0.9048| (matrix root)", worst_pole, 0.03)
+            .with_note("spec A3.6 every seed; RI pole 0.889–0.904"),
+    );
     rep.check(Check::below("worst |DC − 1|", worst_dc, 0.10).with_note("RI DC 0.945–1.035"));
     rep.check(Check::below("worst e_step (60 s)", worst_step, 0.08).with_note("RI ≤ 4.4%"));
     rep.check(Check::holds(
@@ -126,8 +146,17 @@ pub fn run() -> BoxResult<Reproduction> {
         "compare at output instants instead",
         trials.iter().all(|t| t.delay_reinsert_refused),
     ));
-    rep.figure("median pole", median(&trials.iter().map(|t| t.pole).collect::<Vec<_>>()));
-    rep.figure("median DC", median(&trials.iter().map(|t| t.dc).collect::<Vec<_>>()));
-    rep.figure("median e_step", median(&trials.iter().map(|t| t.e_step).collect::<Vec<_>>()));
+    rep.figure(
+        "median pole",
+        median(&trials.iter().map(|t| t.pole).collect::<Vec<_>>()),
+    );
+    rep.figure(
+        "median DC",
+        median(&trials.iter().map(|t| t.dc).collect::<Vec<_>>()),
+    );
+    rep.figure(
+        "median e_step",
+        median(&trials.iter().map(|t| t.e_step).collect::<Vec<_>>()),
+    );
     Ok(rep)
 }

@@ -8,8 +8,8 @@
 
 use lifted_lti::{C2dOptions, MinrealOptions, StateSpace, TransferFunction};
 use lifted_multirate::{
-    DelayInterval, Error as MrError, ExtractOptions, ExtractionMethod, MultirateLifting,
-    SisoRates, delay_interval, delay_matrix_exact, extract_fast, lift_model, observability,
+    DelayInterval, Error as MrError, ExtractOptions, ExtractionMethod, MultirateLifting, SisoRates,
+    delay_interval, delay_matrix_exact, extract_fast, lift_model, observability,
 };
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -55,9 +55,13 @@ pub(crate) fn random_fast_model(
         let base = 0.1 + 0.85 * (i as f64 + 0.2 + 0.6 * uniform(rng)) / real.max(1) as f64;
         a0[(k + i, k + i)] = base;
     }
-    let t = DMatrix::from_fn(order, order, |i, j| {
-        if i == j { 1.0 } else { 0.3 * randn(rng) }
-    });
+    let t = DMatrix::from_fn(
+        order,
+        order,
+        |i, j| {
+            if i == j { 1.0 } else { 0.3 * randn(rng) }
+        },
+    );
     let tinv = t.clone().try_inverse().ok_or("singular similarity")?;
     let a = &t * a0 * tinv;
     let b = DMatrix::from_fn(order, n_in, |_, _| randn(rng));
@@ -78,7 +82,11 @@ pub(crate) fn uniform(rng: &mut ChaCha8Rng) -> f64 {
 
 /// e_step per (output, input) channel: max |ŷ − y| / max |y| over `horizon`
 /// samples (spec §0). Both models must have the same sample period.
-pub(crate) fn step_errors(est: &StateSpace, truth: &StateSpace, horizon: usize) -> BoxResult<DMatrix<f64>> {
+pub(crate) fn step_errors(
+    est: &StateSpace,
+    truth: &StateSpace,
+    horizon: usize,
+) -> BoxResult<DMatrix<f64>> {
     let se = est.step(horizon, None)?;
     let st = truth.step(horizon, None)?;
     let (p, m) = (truth.n_outputs(), truth.n_inputs());
@@ -106,7 +114,10 @@ pub(crate) fn pole_distance(a: &[Complex64], b: &[Complex64]) -> f64 {
             .iter()
             .enumerate()
             .map(|(i, q)| (i, (p - q).norm()))
-            .fold((0, f64::INFINITY), |acc, x| if x.1 < acc.1 { x } else { acc });
+            .fold(
+                (0, f64::INFINITY),
+                |acc, x| if x.1 < acc.1 { x } else { acc },
+            );
         worst = worst.max(d);
         rest.remove(idx);
     }
@@ -118,7 +129,11 @@ pub(crate) fn pole_distance(a: &[Complex64], b: &[Complex64]) -> f64 {
 pub(crate) fn markov_distance(est: &StateSpace, truth: &StateSpace, k: usize) -> BoxResult<f64> {
     let he = est.markov_parameters(k)?;
     let ht = truth.markov_parameters(k)?;
-    let scale = ht.iter().map(|h| h.amax()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let scale = ht
+        .iter()
+        .map(|h| h.amax())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
     let diff = he
         .iter()
         .zip(&ht)
@@ -147,7 +162,11 @@ pub(crate) fn median(x: &[f64]) -> f64 {
     if n == 0 {
         return f64::NAN;
     }
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// ZOH model at T = 1 of e^{−d s}/(τ s + 1).
@@ -236,7 +255,10 @@ pub fn run_a32() -> BoxResult<Reproduction> {
             .with_note("spec A3.2 second bullet"),
     );
     let mut worst_mimo: f64 = 0.0;
-    for ord in [lifted_multirate::Ordering::ChannelMajor, lifted_multirate::Ordering::TimeMajor] {
+    for ord in [
+        lifted_multirate::Ordering::ChannelMajor,
+        lifted_multirate::Ordering::TimeMajor,
+    ] {
         let g = random_fast_model(&mut rng, 4, 2, 2, 0.5, true)?;
         let l = MultirateLifting::mimo(2, &[5, 1], ord)?;
         let lm = lift_model(&g, &l)?;
@@ -246,8 +268,12 @@ pub fn run_a32() -> BoxResult<Reproduction> {
         }
     }
     rep.check(
-        Check::below("MIMO Prop. 4 (outputs every 5 and 1, both orderings) vs brute force", worst_mimo, 1e-12)
-            .with_note("erratum L-13 subscripts; ordering recorded in the lifting (pitfall 12)"),
+        Check::below(
+            "MIMO Prop. 4 (outputs every 5 and 1, both orderings) vs brute force",
+            worst_mimo,
+            1e-12,
+        )
+        .with_note("erratum L-13 subscripts; ordering recorded in the lifting (pitfall 12)"),
     );
     // L_n preserves the norm and inverts exactly
     let mut worst_norm: f64 = 0.0;
@@ -260,7 +286,10 @@ pub fn run_a32() -> BoxResult<Reproduction> {
         worst_inv = worst_inv.max((back - &x).amax());
     }
     rep.check(Check::below("‖L_n u‖ = ‖u‖ (relative)", worst_norm, 1e-15));
-    rep.check(Check::below("L_n⁻¹ L_n = I (max entry error)", worst_inv, 1e-300).with_note("exact: lifting is a permutation"));
+    rep.check(
+        Check::below("L_n⁻¹ L_n = I (max entry error)", worst_inv, 1e-300)
+            .with_note("exact: lifting is a permutation"),
+    );
     Ok(rep)
 }
 
@@ -275,18 +304,41 @@ pub fn run_a33() -> BoxResult<Reproduction> {
     let tf = g.to_tf(&MinrealOptions::default())?;
     let den = tf.den(0, 0).monic();
     let num = tf.num(0, 0).scale(1.0 / tf.den(0, 0).leading());
-    let den_ok = den.degree() == 3 && (den.coeffs()[1] + 0.9).abs() < 1e-12 && den.coeffs()[3].abs() < 1e-12 && den.coeffs()[2].abs() < 1e-12;
+    let den_ok = den.degree() == 3
+        && (den.coeffs()[1] + 0.9).abs() < 1e-12
+        && den.coeffs()[3].abs() < 1e-12
+        && den.coeffs()[2].abs() < 1e-12;
     let num_ok = num.degree() == 0 && (num.coeffs()[0] - 0.1).abs() < 1e-12;
-    rep.check(Check::holds("TF of (A,B,C,D) is 0.1/(z³ − 0.9z²) (L-6)", format!("num {num}, den {den}"), den_ok && num_ok));
+    rep.check(Check::holds(
+        "TF of (A,B,C,D) is 0.1/(z³ − 0.9z²) (L-6)",
+        format!("num {num}, den {den}"),
+        den_ok && num_ok,
+    ));
     let lifting = MultirateLifting::siso(SisoRates::new(1, 3)?)?;
     let lm = lift_model(&g, &lifting)?;
     let abar = DMatrix::from_row_slice(3, 3, &[0.729, 0.0, 0.0, 0.81, 0.0, 0.0, 0.9, 0.0, 0.0]);
     let bbar = DMatrix::from_row_slice(3, 3, &[0.81, 0.9, 1.0, 0.9, 1.0, 0.0, 1.0, 0.0, 0.0]);
-    rep.check(Check::below("lifted Ā equals (4.9)", (lm.a() - abar).amax(), 1e-15));
-    rep.check(Check::below("lifted B̄ equals (4.9)", (lm.b() - bbar).amax(), 1e-15));
-    rep.check(Check::below("lifted C̄ = [0 0 0.1], D̄ = 0 (L-6)", (lm.c() - g.c()).amax() + lm.d().amax(), 1e-15));
+    rep.check(Check::below(
+        "lifted Ā equals (4.9)",
+        (lm.a() - abar).amax(),
+        1e-15,
+    ));
+    rep.check(Check::below(
+        "lifted B̄ equals (4.9)",
+        (lm.b() - bbar).amax(),
+        1e-15,
+    ));
+    rep.check(Check::below(
+        "lifted C̄ = [0 0 0.1], D̄ = 0 (L-6)",
+        (lm.c() - g.c()).amax() + lm.d().amax(),
+        1e-15,
+    ));
     let obs = observability(&lm, 1e-10)?;
-    rep.check(Check::holds("observability rank of the lifted model = 2 < 3", format!("rank {} of order {}", obs.rank, obs.order), obs.rank == 2));
+    rep.check(Check::holds(
+        "observability rank of the lifted model = 2 < 3",
+        format!("rank {} of order {}", obs.rank, obs.order),
+        obs.rank == 2,
+    ));
     let minimal = lm.minreal(&MinrealOptions::default())?;
     let spec_min = StateSpace::new(
         DMatrix::from_row_slice(2, 2, &[0.729, 0.0, 0.9, 0.0]),
@@ -295,24 +347,59 @@ pub fn run_a33() -> BoxResult<Reproduction> {
         DMatrix::zeros(1, 3),
         Some(3.0),
     )?;
-    let md = markov_distance(&minimal, &spec_min, 20)? * spec_min.markov_parameters(20)?.iter().map(|h| h.amax()).fold(0.0, f64::max);
-    rep.check(Check::holds("Kalman decomposition has order 2", format!("order {}", minimal.order()), minimal.order() == 2));
-    rep.check(Check::below("minimal realisation = (4.10) up to similarity (lifted Markov parameters)", md, 1e-12));
+    let md = markov_distance(&minimal, &spec_min, 20)?
+        * spec_min
+            .markov_parameters(20)?
+            .iter()
+            .map(|h| h.amax())
+            .fold(0.0, f64::max);
+    rep.check(Check::holds(
+        "Kalman decomposition has order 2",
+        format!("order {}", minimal.order()),
+        minimal.order() == 2,
+    ));
+    rep.check(Check::below(
+        "minimal realisation = (4.10) up to similarity (lifted Markov parameters)",
+        md,
+        1e-12,
+    ));
     // extraction from (4.10) fails
     let truth = g.clone();
-    let ctrb = extract_fast(&spec_min, &lifting, &ExtractOptions {
-        method: ExtractionMethod::Controllability,
-        ..Default::default()
-    });
-    let rank_def = matches!(ctrb, Err(MrError::RankDeficient { rank: 1, needed: 2, .. }));
-    rep.check(Check::holds("controllability approach reports rank-deficient Φ_c = [B̄₂ B̄₁] (rank 1)", format!("{ctrb:?}").chars().take(160).collect::<String>(), rank_def));
-    let pinv_model = extract_fast(&spec_min, &lifting, &ExtractOptions {
-        method: ExtractionMethod::Controllability,
-        allow_rank_deficient: true,
-        ..Default::default()
-    })?;
+    let ctrb = extract_fast(
+        &spec_min,
+        &lifting,
+        &ExtractOptions {
+            method: ExtractionMethod::Controllability,
+            ..Default::default()
+        },
+    );
+    let rank_def = matches!(
+        ctrb,
+        Err(MrError::RankDeficient {
+            rank: 1,
+            needed: 2,
+            ..
+        })
+    );
+    rep.check(Check::holds(
+        "controllability approach reports rank-deficient Φ_c = [B̄₂ B̄₁] (rank 1)",
+        format!("{ctrb:?}").chars().take(160).collect::<String>(),
+        rank_def,
+    ));
+    let pinv_model = extract_fast(
+        &spec_min,
+        &lifting,
+        &ExtractOptions {
+            method: ExtractionMethod::Controllability,
+            allow_rank_deficient: true,
+            ..Default::default()
+        },
+    )?;
     let e_ctrb = step_errors(&pinv_model.model, &truth, 30)?[(0, 0)];
-    rep.check(Check::above("controllability (pseudo-inverse) e_step", e_ctrb, 0.05).with_note("spec A3.3: RI e_step = 0.50 (Fig. 4.3)"));
+    rep.check(
+        Check::above("controllability (pseudo-inverse) e_step", e_ctrb, 0.05)
+            .with_note("spec A3.3: RI e_step = 0.50 (Fig. 4.3)"),
+    );
     let root = extract_fast(&spec_min, &lifting, &ExtractOptions::default());
     let root_fails = match &root {
         Err(MrError::NoPrincipalRoot { .. }) => true,
@@ -334,16 +421,26 @@ pub fn run_a33() -> BoxResult<Reproduction> {
             let lo = observability(&lm, 1e-10)?;
             let expect_obs = dc <= 1.0;
             ok &= fo.is_observable() && (lo.is_observable() == expect_obs);
-            detail.push_str(&format!("(m={m},n={n},d={dc}): order {} rank {}; ", lo.order, lo.rank));
+            detail.push_str(&format!(
+                "(m={m},n={n},d={dc}): order {} rank {}; ",
+                lo.order, lo.rank
+            ));
         }
     }
-    rep.check(Check::holds("Prop. 2: lifted observability full for d_c ∈ {0.5, 1}, lost for {1.5, 2.7}", detail, ok));
+    rep.check(Check::holds(
+        "Prop. 2: lifted observability full for d_c ∈ {0.5, 1}, lost for {1.5, 2.7}",
+        detail,
+        ok,
+    ));
     Ok(rep)
 }
 
 /// A3.4: the §4.4 example and the half-open delay interval (L-8).
 pub fn run_a34() -> BoxResult<Reproduction> {
-    let mut rep = Reproduction::new("A3.4", "§4.4 example: time-delay estimation (m=2, n=3, d_c=8.5)");
+    let mut rep = Reproduction::new(
+        "A3.4",
+        "§4.4 example: time-delay estimation (m=2, n=3, d_c=8.5)",
+    );
     let exact = |m: usize, n: usize, dc: f64| -> BoxResult<(DMatrix<usize>, DelayInterval)> {
         let rates = SisoRates::new(m, n)?;
         let fast = first_order_delay(20.0, dc)?;
@@ -355,12 +452,23 @@ pub fn run_a34() -> BoxResult<Reproduction> {
     };
     let (l, iv) = exact(2, 3, 8.5)?;
     let expected = DMatrix::from_row_slice(2, 3, &[2usize, 2, 3, 1, 2, 2]);
-    rep.check(Check::holds("delay matrix l = [[2,2,3],[1,2,2]]", format!("{l}"), l == expected));
-    rep.check(Check::holds("interval 8 ≤ d_c < 9 (half-open, L-8)", format!("[{}, {})", iv.lower, iv.upper), (iv.lower, iv.upper) == (8, 9)));
+    rep.check(Check::holds(
+        "delay matrix l = [[2,2,3],[1,2,2]]",
+        format!("{l}"),
+        l == expected,
+    ));
+    rep.check(Check::holds(
+        "interval 8 ≤ d_c < 9 (half-open, L-8)",
+        format!("[{}, {})", iv.lower, iv.upper),
+        (iv.lower, iv.upper) == (8, 9),
+    ));
     for &(m, n, dc, lo) in &[(2usize, 3usize, 5.0, 5i64), (1, 3, 2.0, 2), (3, 4, 7.0, 7)] {
         let (_, iv) = exact(m, n, dc)?;
         rep.check(Check::holds(
-            format!("integer delay (m={m}, n={n}, d_c={dc}) → [{lo}, {})", lo + 1),
+            format!(
+                "integer delay (m={m}, n={n}, d_c={dc}) → [{lo}, {})",
+                lo + 1
+            ),
             format!("[{}, {})", iv.lower, iv.upper),
             (iv.lower, iv.upper) == (lo, lo + 1),
         ));
@@ -393,11 +501,18 @@ pub fn run_a34() -> BoxResult<Reproduction> {
 /// A3.5: the extraction harness (one expected answer, every method) and the
 /// aliasing negative test.
 pub fn run_a35() -> BoxResult<Reproduction> {
-    let mut rep = Reproduction::new("A3.5", "§4.5–4.6: causal lifted D and fast-model extraction");
+    let mut rep = Reproduction::new(
+        "A3.5",
+        "§4.5–4.6: causal lifted D and fast-model extraction",
+    );
     let lifting = MultirateLifting::siso(SisoRates::new(2, 3)?)?;
     let mask = lifting.causal_mask(true);
     let expected = DMatrix::from_row_slice(2, 3, &[false, false, false, true, true, false]);
-    rep.check(Check::holds("causal D̄ mask for (2,3) = [[0,0,0],[D10,D11,0]]", format!("{mask}"), mask == expected));
+    rep.check(Check::holds(
+        "causal D̄ mask for (2,3) = [[0,0,0],[D10,D11,0]]",
+        format!("{mask}"),
+        mask == expected,
+    ));
     let mut rng = ChaCha8Rng::seed_from_u64(35);
     let mut worst_pole: f64 = 0.0;
     let mut worst_markov: f64 = 0.0;
@@ -407,16 +522,34 @@ pub fn run_a35() -> BoxResult<Reproduction> {
         let lifting = MultirateLifting::siso(rates)?;
         for order in [1usize, 2, 3] {
             // |arg| of the hold-rate poles below π/n: base-T argument below π/(mn)
-            let g = random_fast_model(&mut rng, order, 1, 1, 0.9 * std::f64::consts::PI / (m * n) as f64, true)?;
+            let g = random_fast_model(
+                &mut rng,
+                order,
+                1,
+                1,
+                0.9 * std::f64::consts::PI / (m * n) as f64,
+                true,
+            )?;
             let expected = hold_rate_model(&g, m)?;
             let lm = lift_model(&g, &lifting)?;
-            let mut methods = vec![ExtractionMethod::Controllability, ExtractionMethod::Eigenvalue, ExtractionMethod::MatrixRoot];
+            let mut methods = vec![
+                ExtractionMethod::Controllability,
+                ExtractionMethod::Eigenvalue,
+                ExtractionMethod::MatrixRoot,
+            ];
             if m == 1 {
                 methods.push(ExtractionMethod::Polyphase);
             }
             for method in methods {
-                let fm = extract_fast(&lm, &lifting, &ExtractOptions { method, ..Default::default() })
-                    .map_err(|e| format!("{method:?} on (m={m}, n={n}, order {order}): {e}"))?;
+                let fm = extract_fast(
+                    &lm,
+                    &lifting,
+                    &ExtractOptions {
+                        method,
+                        ..Default::default()
+                    },
+                )
+                .map_err(|e| format!("{method:?} on (m={m}, n={n}, order {order}): {e}"))?;
                 worst_pole = worst_pole.max(pole_distance(&fm.model.poles()?, &expected.poles()?));
                 worst_markov = worst_markov.max(markov_distance(&fm.model, &expected, 20)?);
                 cases += 1;
@@ -425,23 +558,80 @@ pub fn run_a35() -> BoxResult<Reproduction> {
     }
     rep.figure("extraction cases", cases as f64);
     rep.check(Check::below("all extraction paths: worst pole error", worst_pole, 1e-9).with_note("spec A3.5: poles to 1e-9; controllability, eigenvalue, matrix root (+ polyphase for m = 1)"));
-    rep.check(Check::below("all extraction paths: worst Markov-parameter error (relative)", worst_markov, 1e-9));
+    rep.check(Check::below(
+        "all extraction paths: worst Markov-parameter error (relative)",
+        worst_markov,
+        1e-9,
+    ));
     // negative test: a pole with |arg| > π/n at the hold rate
     let n = 3usize;
     let th = 1.3 * std::f64::consts::PI / n as f64;
     let r: f64 = 0.85;
-    let a = DMatrix::from_row_slice(3, 3, &[r * th.cos(), r * th.sin(), 0.0, -r * th.sin(), r * th.cos(), 0.0, 0.0, 0.0, 0.5]);
-    let g = StateSpace::new(a, DMatrix::from_row_slice(3, 1, &[1.0, 0.3, 1.0]), DMatrix::from_row_slice(1, 3, &[1.0, 0.5, -0.7]), DMatrix::zeros(1, 1), Some(1.0))?;
+    let a = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            r * th.cos(),
+            r * th.sin(),
+            0.0,
+            -r * th.sin(),
+            r * th.cos(),
+            0.0,
+            0.0,
+            0.0,
+            0.5,
+        ],
+    );
+    let g = StateSpace::new(
+        a,
+        DMatrix::from_row_slice(3, 1, &[1.0, 0.3, 1.0]),
+        DMatrix::from_row_slice(1, 3, &[1.0, 0.5, -0.7]),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )?;
     let lifting = MultirateLifting::siso(SisoRates::new(1, n)?)?;
     let lm = lift_model(&g, &lifting)?;
     let root = extract_fast(&lm, &lifting, &ExtractOptions::default())?;
     let root_err = pole_distance(&root.model.poles()?, &g.poles()?);
-    rep.check(Check::above("matrix root on an aliased pole (|arg| = 1.3π/n): pole error", root_err, 0.1).with_note("the principal root returns the aliased pole (Prop. 3)"));
-    rep.check(Check::above("…and the B̄-consistency residual reports it", root.diagnostics.input_residual, 1e-3));
-    let strict = extract_fast(&lm, &lifting, &ExtractOptions { max_inconsistency: Some(1e-6), ..Default::default() });
-    rep.check(Check::holds("matrix root with max_inconsistency returns an error", format!("{:?}", strict.as_ref().err()), matches!(strict, Err(MrError::Inconsistent { .. }))));
-    let ctrb = extract_fast(&lm, &lifting, &ExtractOptions { method: ExtractionMethod::Controllability, ..Default::default() })?;
-    rep.check(Check::below("controllability approach still recovers the poles", pole_distance(&ctrb.model.poles()?, &g.poles()?), 1e-9));
+    rep.check(
+        Check::above(
+            "matrix root on an aliased pole (|arg| = 1.3π/n): pole error",
+            root_err,
+            0.1,
+        )
+        .with_note("the principal root returns the aliased pole (Prop. 3)"),
+    );
+    rep.check(Check::above(
+        "…and the B̄-consistency residual reports it",
+        root.diagnostics.input_residual,
+        1e-3,
+    ));
+    let strict = extract_fast(
+        &lm,
+        &lifting,
+        &ExtractOptions {
+            max_inconsistency: Some(1e-6),
+            ..Default::default()
+        },
+    );
+    rep.check(Check::holds(
+        "matrix root with max_inconsistency returns an error",
+        format!("{:?}", strict.as_ref().err()),
+        matches!(strict, Err(MrError::Inconsistent { .. })),
+    ));
+    let ctrb = extract_fast(
+        &lm,
+        &lifting,
+        &ExtractOptions {
+            method: ExtractionMethod::Controllability,
+            ..Default::default()
+        },
+    )?;
+    rep.check(Check::below(
+        "controllability approach still recovers the poles",
+        pole_distance(&ctrb.model.poles()?, &g.poles()?),
+        1e-9,
+    ));
     Ok(rep)
 }
 
@@ -455,5 +645,11 @@ pub(crate) fn hold_rate_model(g: &StateSpace, m: usize) -> BoxResult<StateSpace>
         am = g.a() * am;
     }
     let ts = g.ts().unwrap_or(1.0) * m as f64;
-    Ok(StateSpace::new(am, sum * g.b(), g.c().clone(), g.d().clone(), Some(ts))?)
+    Ok(StateSpace::new(
+        am,
+        sum * g.b(),
+        g.c().clone(),
+        g.d().clone(),
+        Some(ts),
+    )?)
 }

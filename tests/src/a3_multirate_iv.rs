@@ -32,7 +32,10 @@ fn plant() -> BoxResult<StateSpace> {
     let e = |k: f64, p: f64| lifted_lti::SisoTf::from_coeffs(&[k], &[1.0, -p]);
     let zero = lifted_lti::SisoTf::from_coeffs(&[0.0], &[1.0])?;
     Ok(TransferFunction::from_entries(
-        vec![vec![e(0.1416, 0.9868)?, zero], vec![e(-0.0379, 0.913)?, e(0.0595, 0.9048)?]],
+        vec![
+            vec![e(0.1416, 0.9868)?, zero],
+            vec![e(-0.0379, 0.913)?, e(0.0595, 0.9048)?],
+        ],
         Some(1.0),
     )?
     .to_ss()?)
@@ -87,7 +90,8 @@ fn simulate(len: usize, snr: Option<f64>, rng: &mut ChaCha8Rng) -> Record {
         }
         Some(snr) => {
             let (_, _, yd) = run(1.0, 1.0);
-            let col = |m: &DMatrix<f64>, c: usize| m.column(c).iter().cloned().collect::<Vec<f64>>();
+            let col =
+                |m: &DMatrix<f64>, c: usize| m.column(c).iter().cloned().collect::<Vec<f64>>();
             let v1: Vec<f64> = v.iter().map(|x| x.0).collect();
             let v2: Vec<f64> = v.iter().map(|x| x.1).collect();
             let s1 = std_dev(&col(&yd, 0)) / std_dev(&v1) / snr;
@@ -122,13 +126,37 @@ pub fn run() -> BoxResult<Reproduction> {
     let g = two_step(&rec)?;
     let e = step_errors(&g, &truth, 300)?;
     let worst_nf = e[(0, 0)].max(e[(1, 0)]).max(e[(1, 1)]);
-    rep.check(Check::below("noise free: worst e_step(300) over G11, G21, G22", worst_nf, 0.01).with_note("spec A3.9: < 0.01 (RI ≤ 0.004)"));
+    rep.check(
+        Check::below(
+            "noise free: worst e_step(300) over G11, G21, G22",
+            worst_nf,
+            0.01,
+        )
+        .with_note("spec A3.9: < 0.01 (RI ≤ 0.004)"),
+    );
     // one-step route must report the rank deficiency of Γ_R (L-18)
     let lifting = MultirateLifting::mimo(2, &[5, 1], Ordering::TimeMajor)?;
     let ds = lifting.dataset(1.0, rec.u.clone(), rec.y.clone())?;
-    let one = identify_one_step_iv(&ds, &rec.f, &MultirateIvOptions { order: OrderSelection::Fixed(3), alpha: 6, ..Default::default() });
-    let rank_def = matches!(one, Err(MrError::Subspace(lifted_subspace::Error::RankDeficient { .. })));
-    rep.check(Check::holds("one-step (7.27) reports a rank-deficient Γ_R", format!("{:?}", one.as_ref().err()), rank_def));
+    let one = identify_one_step_iv(
+        &ds,
+        &rec.f,
+        &MultirateIvOptions {
+            order: OrderSelection::Fixed(3),
+            alpha: 6,
+            ..Default::default()
+        },
+    );
+    let rank_def = matches!(
+        one,
+        Err(MrError::Subspace(
+            lifted_subspace::Error::RankDeficient { .. }
+        ))
+    );
+    rep.check(Check::holds(
+        "one-step (7.27) reports a rank-deficient Γ_R",
+        format!("{:?}", one.as_ref().err()),
+        rank_def,
+    ));
     // std-SNR 5, 8 seeds
     let mut errs = Vec::new();
     let mut unstable = 0;
@@ -142,11 +170,33 @@ pub fn run() -> BoxResult<Reproduction> {
             Err(e) => other.push(format!("seed {seed}: {e}")),
         }
     }
-    rep.check(Check::holds("no failure other than a reported instability", other.join("; "), other.is_empty()));
-    rep.check(Check::above("stable seeds (of 8); unstable ones are returned as Error::Unstable", (8 - unstable - other.len()) as f64, 6.5).with_note("spec A3.9: at least 7 of 8 (RI: one seed had lifted pole 1.047)"));
+    rep.check(Check::holds(
+        "no failure other than a reported instability",
+        other.join("; "),
+        other.is_empty(),
+    ));
+    rep.check(
+        Check::above(
+            "stable seeds (of 8); unstable ones are returned as Error::Unstable",
+            (8 - unstable - other.len()) as f64,
+            6.5,
+        )
+        .with_note("spec A3.9: at least 7 of 8 (RI: one seed had lifted pole 1.047)"),
+    );
     let med = |i: usize, j: usize| median(&errs.iter().map(|e| e[(i, j)]).collect::<Vec<_>>());
-    for (name, i, j, bound, ri) in [("G11", 0, 0, 0.15, "0.08"), ("G21", 1, 0, 0.25, "0.14"), ("G22", 1, 1, 0.08, "0.03")] {
-        rep.check(Check::below(format!("std-SNR 5: median e_step(300) {name}"), med(i, j), bound).with_note(format!("spec A3.9; RI median {ri}")));
+    for (name, i, j, bound, ri) in [
+        ("G11", 0, 0, 0.15, "0.08"),
+        ("G21", 1, 0, 0.25, "0.14"),
+        ("G22", 1, 1, 0.08, "0.03"),
+    ] {
+        rep.check(
+            Check::below(
+                format!("std-SNR 5: median e_step(300) {name}"),
+                med(i, j),
+                bound,
+            )
+            .with_note(format!("spec A3.9; RI median {ri}")),
+        );
     }
     Ok(rep)
 }

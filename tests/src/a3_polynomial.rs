@@ -6,12 +6,11 @@
 use lifted_lti::{MinrealOptions, StateSpace, TransferFunction};
 use lifted_multirate::{
     LiftedArxOptions, MultirateLifting, Ordering, lift_model, lift_single_rate, lifted_arx,
-    polyphase_components, pseudo_circulant_impulse, recombine_lifted_impulse,
-    recombine_lifted_tf, recombine_polyphase_impulse, screen_inputs,
+    polyphase_components, pseudo_circulant_impulse, recombine_lifted_impulse, recombine_lifted_tf,
+    recombine_polyphase_impulse, screen_inputs,
 };
 use lifted_prbs::{
-    RandomBinaryOptions, VectorizedOptions, lifted_covariance, random_binary,
-    vectorized_excitation,
+    RandomBinaryOptions, VectorizedOptions, lifted_covariance, random_binary, vectorized_excitation,
 };
 use nalgebra::DMatrix;
 use rand::SeedableRng;
@@ -23,11 +22,17 @@ use crate::{Check, Reproduction};
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
 fn impulse(g: &StateSpace, len: usize) -> BoxResult<Vec<f64>> {
-    Ok(g.markov_parameters(len - 1)?.iter().map(|h| h[(0, 0)]).collect())
+    Ok(g.markov_parameters(len - 1)?
+        .iter()
+        .map(|h| h[(0, 0)])
+        .collect())
 }
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// A3.8 §6.2/§9.2: polyphase recombinations (exact), the negative test, the
@@ -35,7 +40,8 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
 pub fn run_polyphase() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A3.8a", "Ch. 6 polyphase identities and lifted ARX");
     let mut rng = ChaCha8Rng::seed_from_u64(38);
-    let (mut e64, mut e65, mut wrong, mut epc): (f64, f64, f64, f64) = (0.0, 0.0, f64::INFINITY, 0.0);
+    let (mut e64, mut e65, mut wrong, mut epc): (f64, f64, f64, f64) =
+        (0.0, 0.0, f64::INFINITY, 0.0);
     for n in [2usize, 3, 5] {
         for delay in 0..=4usize {
             let g0 = random_fast_model(&mut rng, 3, 1, 1, 1.0, delay == 0)?;
@@ -46,7 +52,9 @@ pub fn run_polyphase() -> BoxResult<Reproduction> {
             let l = MultirateLifting::mimo(1, &[n], Ordering::ChannelMajor)?;
             let lm = lift_model(&g, &l)?;
             let mk = lm.markov_parameters(kk - 1)?;
-            let pj: Vec<Vec<f64>> = (0..n).map(|j| mk.iter().map(|m| m[(0, j)]).collect()).collect();
+            let pj: Vec<Vec<f64>> = (0..n)
+                .map(|j| mk.iter().map(|m| m[(0, j)]).collect())
+                .collect();
             let phi = recombine_lifted_impulse(&pj)?;
             e64 = e64.max(max_diff(&phi, &h));
             // polyphase components from their own realisations
@@ -59,7 +67,10 @@ pub fn run_polyphase() -> BoxResult<Reproduction> {
             e65 = e65.max(max_diff(&phi2, &h));
             // L-15: P_0 = P̃_0, P_j = z^{-1} P̃_{n-j}
             for j in 1..n {
-                let shifted: Vec<f64> = std::iter::once(0.0).chain(pt[n - j].iter().cloned()).take(kk).collect();
+                let shifted: Vec<f64> = std::iter::once(0.0)
+                    .chain(pt[n - j].iter().cloned())
+                    .take(kk)
+                    .collect();
                 e64 = e64.max(max_diff(&pj[j], &shifted));
             }
             // negative test: P_i in place of P̃_i in (6.5)
@@ -77,10 +88,29 @@ pub fn run_polyphase() -> BoxResult<Reproduction> {
             }
         }
     }
-    rep.check(Check::below("(6.4) Σ z^j P_j(zⁿ) reproduces the impulse response, delays 0–4, n ∈ {2,3,5}", e64, 1e-12).with_note("also checks P_j = z⁻¹P̃_{n−j} (L-15)"));
-    rep.check(Check::below("(6.5) Σ z^{−i} P̃_i(zⁿ) reproduces the impulse response", e65, 1e-12));
-    rep.check(Check::above("negative test: (6.5) with P_i in place of P̃_i fails (smallest error)", wrong, 1e-3));
-    rep.check(Check::below("§9.2 pseudo-circulant lifted form equals the single-rate lift", epc, 1e-12));
+    rep.check(
+        Check::below(
+            "(6.4) Σ z^j P_j(zⁿ) reproduces the impulse response, delays 0–4, n ∈ {2,3,5}",
+            e64,
+            1e-12,
+        )
+        .with_note("also checks P_j = z⁻¹P̃_{n−j} (L-15)"),
+    );
+    rep.check(Check::below(
+        "(6.5) Σ z^{−i} P̃_i(zⁿ) reproduces the impulse response",
+        e65,
+        1e-12,
+    ));
+    rep.check(Check::above(
+        "negative test: (6.5) with P_i in place of P̃_i fails (smallest error)",
+        wrong,
+        1e-3,
+    ));
+    rep.check(Check::below(
+        "§9.2 pseudo-circulant lifted form equals the single-rate lift",
+        epc,
+        1e-12,
+    ));
 
     // lifted ARX on noise-free data + recombination (6.4) + minreal
     let mut worst: f64 = 0.0;
@@ -89,21 +119,54 @@ pub fn run_polyphase() -> BoxResult<Reproduction> {
         let mut rng = ChaCha8Rng::seed_from_u64(380 + seed);
         let g = random_fast_model(&mut rng, 2, 1, 1, 0.8, false)?;
         let slow = 400;
-        let ex = vectorized_excitation(slow, &VectorizedOptions { factor: n, amplitude: 1.0, seed })?;
+        let ex = vectorized_excitation(
+            slow,
+            &VectorizedOptions {
+                factor: n,
+                amplitude: 1.0,
+                seed,
+            },
+        )?;
         let u = DMatrix::from_column_slice(slow * n, 1, &ex.fast);
         let y = g.lsim(&u, None, None)?.y;
         let ys = DMatrix::from_fn(slow, 1, |k, _| y[(k * n, 0)]);
         let l = MultirateLifting::mimo(1, &[n], Ordering::ChannelMajor)?;
-        let arx = lifted_arx(&ys, &ex.lifted, Some(&l), &LiftedArxOptions { na: 2, nb: 2, ..Default::default() })?;
+        let arx = lifted_arx(
+            &ys,
+            &ex.lifted,
+            Some(&l),
+            &LiftedArxOptions {
+                na: 2,
+                nb: 2,
+                ..Default::default()
+            },
+        )?;
         let phi = recombine_lifted_tf(&arx.parts, 1e-8)?;
         let tf = g.to_tf(&MinrealOptions::default())?;
-        let (tn, td) = (tf.num(0, 0).scale(1.0 / tf.den(0, 0).leading()), tf.den(0, 0).monic());
-        let (pn, pd) = (phi.num().scale(1.0 / phi.den().leading()), phi.den().monic());
+        let (tn, td) = (
+            tf.num(0, 0).scale(1.0 / tf.den(0, 0).leading()),
+            tf.den(0, 0).monic(),
+        );
+        let (pn, pd) = (
+            phi.num().scale(1.0 / phi.den().leading()),
+            phi.den().monic(),
+        );
         order_ok &= pd.degree() == 2;
         worst = worst.max(pd.max_abs_diff(&td)).max(pn.max_abs_diff(&tn));
     }
-    rep.check(Check::holds("recombined ARX model has the fast order 2 after minreal", "denominator degree 2", order_ok));
-    rep.check(Check::below("lifted ARX (noise free) + (6.4) + minreal(1e-8): fast TF coefficient error", worst, 1e-8).with_note("spec A3.8; vectorized excitation, na = nb = 2, causal delays"));
+    rep.check(Check::holds(
+        "recombined ARX model has the fast order 2 after minreal",
+        "denominator degree 2",
+        order_ok,
+    ));
+    rep.check(
+        Check::below(
+            "lifted ARX (noise free) + (6.4) + minreal(1e-8): fast TF coefficient error",
+            worst,
+            1e-8,
+        )
+        .with_note("spec A3.8; vectorized excitation, na = nb = 2, causal delays"),
+    );
     Ok(rep)
 }
 
@@ -112,12 +175,34 @@ pub fn run_vectorized() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A3.8b", "§6.3 vectorized excitation");
     let n = 5;
     let slow = 5000;
-    let held = random_binary(slow * n, &RandomBinaryOptions { hold: n, seed: 63, ..Default::default() })?;
+    let held = random_binary(
+        slow * n,
+        &RandomBinaryOptions {
+            hold: n,
+            seed: 63,
+            ..Default::default()
+        },
+    )?;
     let s = lifted_linalg::singular_values(&lifted_covariance(&held, n)?)?;
-    rep.check(Check::below("slow-held input: σ_n/σ₁ of the lifted covariance", s[n - 1] / s[0], 1e-12));
-    let v = vectorized_excitation(slow, &VectorizedOptions { factor: n, amplitude: 1.0, seed: 63 })?;
+    rep.check(Check::below(
+        "slow-held input: σ_n/σ₁ of the lifted covariance",
+        s[n - 1] / s[0],
+        1e-12,
+    ));
+    let v = vectorized_excitation(
+        slow,
+        &VectorizedOptions {
+            factor: n,
+            amplitude: 1.0,
+            seed: 63,
+        },
+    )?;
     let s = lifted_linalg::singular_values(&lifted_covariance(&v.fast, n)?)?;
-    rep.check(Check::above("vectorized input: σ_n/σ₁ (N = 5000)", s[n - 1] / s[0], 0.8));
+    rep.check(Check::above(
+        "vectorized input: σ_n/σ₁ (N = 5000)",
+        s[n - 1] / s[0],
+        0.8,
+    ));
     Ok(rep)
 }
 
@@ -136,7 +221,14 @@ fn ccr_trial(seed: u64) -> BoxResult<CcrTrial> {
     let u = DMatrix::from_fn(len, 8, |_, _| 0.0);
     let mut u = u;
     for j in 0..8 {
-        let col = random_binary(len, &RandomBinaryOptions { hold: 2, seed: 1000 * seed + j as u64, ..Default::default() })?;
+        let col = random_binary(
+            len,
+            &RandomBinaryOptions {
+                hold: 2,
+                seed: 1000 * seed + j as u64,
+                ..Default::default()
+            },
+        )?;
         for t in 0..len {
             u[(t, j)] = col[t];
         }
@@ -165,11 +257,21 @@ fn ccr_trial(seed: u64) -> BoxResult<CcrTrial> {
     let l = MultirateLifting::new(&[1; 4], &[n], &[0], Ordering::ChannelMajor)?;
     let ul = DMatrix::from_fn(k, 4 * n, |r, c| u[(n * r + c % n, top[c / n])]);
     let ys = DMatrix::from_fn(k, 1, |r, _| ym[n * r]);
-    let arx = lifted_arx(&ys, &ul, Some(&l), &LiftedArxOptions { na: 1, nb: 1, ..Default::default() })?;
+    let arx = lifted_arx(
+        &ys,
+        &ul,
+        Some(&l),
+        &LiftedArxOptions {
+            na: 1,
+            nb: 1,
+            ..Default::default()
+        },
+    )?;
     let mut yhat = vec![0.0; len];
     for (i, &inp) in top.iter().enumerate() {
         let phi = recombine_lifted_tf(&arx.parts[i * n..(i + 1) * n], 1e-6)?;
-        let gi = TransferFunction::siso(phi.num().clone(), phi.den().clone(), Some(1.0))?.to_ss()?;
+        let gi =
+            TransferFunction::siso(phi.num().clone(), phi.den().clone(), Some(1.0))?.to_ss()?;
         let yi = gi.lsim(&u.columns(inp, 1).into_owned(), None, None)?.y;
         for t in 0..len {
             yhat[t] += yi[(t, 0)];
@@ -194,7 +296,14 @@ pub fn run_ccr() -> BoxResult<Reproduction> {
         hits += usize::from(t.top4);
         ratios.push(t.pe_ratio);
     }
-    rep.check(Check::above("seeds with the 4 active inputs ranked top-4 (of 20)", hits as f64, 18.5).with_note("spec A3.8: ≥ 19/20 (RI 20/20)"));
+    rep.check(
+        Check::above(
+            "seeds with the 4 active inputs ranked top-4 (of 20)",
+            hits as f64,
+            18.5,
+        )
+        .with_note("spec A3.8: ≥ 19/20 (RI 20/20)"),
+    );
     let med = crate::a3_lifting::median(&ratios);
     rep.check(Check::below("median prediction-error variance / noise variance (ARX + (6.4) on the selected inputs)", med, 1.5).with_note("spec A3.8: not calibrated; value recorded as obtained"));
     Ok(rep)
