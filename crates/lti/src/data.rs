@@ -824,13 +824,13 @@ impl Dataset {
             }
         };
         let split = |label: &str| -> (String, Option<String>) {
-            if let Some(stripped) = label.strip_suffix(']') {
-                if let Some(pos) = stripped.rfind(" [") {
-                    return (
-                        stripped[..pos].to_string(),
-                        Some(stripped[pos + 2..].to_string()),
-                    );
-                }
+            if let Some(stripped) = label.strip_suffix(']')
+                && let Some(pos) = stripped.rfind(" [")
+            {
+                return (
+                    stripped[..pos].to_string(),
+                    Some(stripped[pos + 2..].to_string()),
+                );
             }
             (label.to_string(), None)
         };

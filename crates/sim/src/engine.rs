@@ -5,7 +5,9 @@ use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
 
-/// A discrete (A, B, C, D) stored row-major in flat vectors for the inner loop.
+/// A discrete (A, B, C, D) stored row-major in flat vectors for the inner
+/// loop. Each row product is a dot product with four independent partial
+/// sums, and rows are independent, so the CPU overlaps them.
 #[derive(Debug, Clone)]
 pub(crate) struct Block {
     pub n: usize,
@@ -14,7 +16,7 @@ pub(crate) struct Block {
     a: Vec<f64>,
     b: Vec<f64>,
     c: Vec<f64>,
-    pub d: Vec<f64>,
+    d: Vec<f64>,
     pub has_d: bool,
 }
 
@@ -27,6 +29,26 @@ fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
         }
     }
     v
+}
+
+/// Dot product with four partial sums (no dependent chain longer than ⌈n/4⌉).
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        s[0] += x[0] * y[0];
+        s[1] += x[1] * y[1];
+        s[2] += x[2] * y[2];
+        s[3] += x[3] * y[3];
+    }
+    for (k, (x, y)) in ra.iter().zip(rb).enumerate() {
+        s[k] += x * y;
+    }
+    (s[0] + s[2]) + (s[1] + s[3])
 }
 
 impl Block {
@@ -44,13 +66,22 @@ impl Block {
         }
     }
 
+    /// D entry (i, j).
+    #[inline(always)]
+    pub fn d_at(&self, i: usize, j: usize) -> f64 {
+        self.d[i * self.m + j]
+    }
+
     /// y = C x.
     #[inline(always)]
     pub fn cx(&self, x: &[f64], y: &mut [f64]) {
         let n = self.n;
-        for (i, yi) in y.iter_mut().enumerate().take(self.p) {
-            let row = &self.c[i * n..(i + 1) * n];
-            *yi = row.iter().zip(x).map(|(c, x)| c * x).sum();
+        if n == 0 {
+            y[..self.p].fill(0.0);
+            return;
+        }
+        for (yi, row) in y[..self.p].iter_mut().zip(self.c.chunks_exact(n)) {
+            *yi = dot(row, x);
         }
     }
 
@@ -60,28 +91,36 @@ impl Block {
         if !self.has_d {
             return;
         }
-        let m = self.m;
-        for (i, yi) in y.iter_mut().enumerate().take(self.p) {
-            let row = &self.d[i * m..(i + 1) * m];
-            *yi += row.iter().zip(u).map(|(d, u)| d * u).sum::<f64>();
+        for (yi, row) in y[..self.p].iter_mut().zip(self.d.chunks_exact(self.m)) {
+            *yi += dot(row, u);
         }
     }
 
     /// (D u)_i.
     #[inline(always)]
     pub fn du_row(&self, i: usize, u: &[f64]) -> f64 {
-        let m = self.m;
-        self.d[i * m..(i + 1) * m].iter().zip(u).map(|(d, u)| d * u).sum()
+        dot(&self.d[i * self.m..(i + 1) * self.m], u)
     }
 
     /// xn = A x + B u.
     #[inline(always)]
     pub fn update(&self, x: &[f64], u: &[f64], xn: &mut [f64]) {
         let (n, m) = (self.n, self.m);
-        for (i, xi) in xn.iter_mut().enumerate().take(n) {
-            let ar = &self.a[i * n..(i + 1) * n];
-            let br = &self.b[i * m..(i + 1) * m];
-            *xi = ar.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() + br.iter().zip(u).map(|(b, u)| b * u).sum::<f64>();
+        if n == 0 {
+            return;
+        }
+        if m == 0 {
+            for (xi, ar) in xn[..n].iter_mut().zip(self.a.chunks_exact(n)) {
+                *xi = dot(ar, x);
+            }
+            return;
+        }
+        for ((xi, ar), br) in xn[..n]
+            .iter_mut()
+            .zip(self.a.chunks_exact(n))
+            .zip(self.b.chunks_exact(m))
+        {
+            *xi = dot(ar, x) + dot(br, u);
         }
     }
 }
@@ -94,11 +133,19 @@ pub(crate) enum FeedbackKind {
     Inferential,
 }
 
-/// The loop structure compiled to blocks.
+/// The loop structure compiled to blocks (built once per run; size is irrelevant).
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub(crate) enum Structure {
-    Loop { g: Block, k: Option<Block>, phat: Option<Block>, feedback: FeedbackKind },
-    Whole { cl: Block },
+    Loop {
+        g: Block,
+        k: Option<Block>,
+        phat: Option<Block>,
+        feedback: FeedbackKind,
+    },
+    Whole {
+        cl: Block,
+    },
 }
 
 /// A compiled simulator: structure, sampling pattern, per-phase solves.
@@ -139,17 +186,19 @@ pub(crate) struct Record {
 }
 
 impl Engine {
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         structure: Structure,
         ny: usize,
         nu: usize,
         holds: &[(usize, usize)],
         sampling: &[(usize, usize)],
-        d_k: Option<&[f64]>,
         limit: f64,
     ) -> Result<Self> {
-        let frame = holds.iter().map(|h| h.0).chain(sampling.iter().map(|s| s.0)).fold(1, lcm);
+        let frame = holds
+            .iter()
+            .map(|h| h.0)
+            .chain(sampling.iter().map(|s| s.0))
+            .fold(1, lcm);
         let mut start_mask = vec![false; frame * nu];
         let mut sample_mask = vec![false; frame * ny];
         for ph in 0..frame {
@@ -173,7 +222,13 @@ impl Engine {
             Structure::Whole { cl } => (cl.n, cl.n, cl.n, cl.n),
         };
         let mut solve = vec![None; frame];
-        if let (Structure::Loop { g, k: Some(_), phat, feedback }, Some(dk)) = (&structure, d_k) {
+        if let Structure::Loop {
+            g,
+            k: Some(kb),
+            phat,
+            feedback,
+        } = &structure
+        {
             for (ph, slot) in solve.iter_mut().enumerate() {
                 // F = I + S_h D_K D_v
                 let mut f = DMatrix::<f64>::identity(nu, nu);
@@ -187,23 +242,23 @@ impl Engine {
                         for j in 0..ny {
                             let sampled = sample_mask[ph * ny + j];
                             let dv = match feedback {
-                                FeedbackKind::Fast => g.d[j * nu + c],
+                                FeedbackKind::Fast => g.d_at(j, c),
                                 FeedbackKind::HoldLast => {
                                     if sampled {
-                                        g.d[j * nu + c]
+                                        g.d_at(j, c)
                                     } else {
                                         0.0
                                     }
                                 }
                                 FeedbackKind::Inferential => {
                                     if sampled {
-                                        g.d[j * nu + c]
+                                        g.d_at(j, c)
                                     } else {
-                                        phat.as_ref().map_or(0.0, |p| p.d[j * nu + c])
+                                        phat.as_ref().map_or(0.0, |p| p.d_at(j, c))
                                     }
                                 }
                             };
-                            s += dk[i * ny + j] * dv;
+                            s += kb.d_at(i, j) * dv;
                         }
                         if s != 0.0 {
                             nonzero = true;
@@ -212,18 +267,37 @@ impl Engine {
                     }
                 }
                 if nonzero {
-                    let finv = lifted_linalg::inv(&f).map_err(|_| Error::AlgebraicLoop { phase: ph })?;
+                    let finv =
+                        lifted_linalg::inv(&f).map_err(|_| Error::AlgebraicLoop { phase: ph })?;
                     *slot = Some(row_major(&finv));
                 }
             }
         }
-        Ok(Engine { structure, ny, nu, frame, start_mask, sample_mask, solve, limit, nz, off_k, off_p, off_u })
+        Ok(Engine {
+            structure,
+            ny,
+            nu,
+            frame,
+            start_mask,
+            sample_mask,
+            solve,
+            limit,
+            nz,
+            off_k,
+            off_p,
+            off_u,
+        })
     }
 
     /// Runs `inp.len` steps from state `z0` (length nz), returning the final
     /// state; records the signals when `rec` is given (its matrices must be
     /// len × channels). O(len · (n² + nm)) with no allocation in the loop.
-    pub fn run(&self, z0: &[f64], inp: &RunInput<'_>, mut rec: Option<&mut Record>) -> Result<Vec<f64>> {
+    pub fn run(
+        &self,
+        z0: &[f64],
+        inp: &RunInput<'_>,
+        mut rec: Option<&mut Record>,
+    ) -> Result<Vec<f64>> {
         let (ny, nu, len) = (self.ny, self.nu, inp.len);
         let mut z = z0.to_vec();
         let mut zn = vec![0.0; self.nz];
@@ -243,6 +317,7 @@ impl Engine {
         let r2s = inp.r2.map(|m| m.as_slice());
         let noise = inp.noise.map(|(m, s)| (m.as_slice(), s));
         let limit = self.limit;
+        let mut ph = 0usize;
         for k in 0..len {
             if let Some(s) = r1s {
                 for (j, r) in r1.iter_mut().enumerate() {
@@ -259,9 +334,13 @@ impl Engine {
                     *e = scale[j] * s[j * len + k];
                 }
             }
-            let ph = k % self.frame;
             match &self.structure {
-                Structure::Loop { g, k: kb, phat, feedback } => {
+                Structure::Loop {
+                    g,
+                    k: kb,
+                    phat,
+                    feedback,
+                } => {
                     let (xg, rest) = z.split_at(g.n);
                     let (xk, rest) = rest.split_at(self.off_p - self.off_k);
                     let (xp, rest) = rest.split_at(self.off_u - self.off_p);
@@ -306,7 +385,11 @@ impl Engine {
                     match &self.solve[ph] {
                         Some(minv) => {
                             for (i, ui) in u.iter_mut().enumerate() {
-                                *ui = minv[i * nu..(i + 1) * nu].iter().zip(&a).map(|(m, a)| m * a).sum();
+                                *ui = minv[i * nu..(i + 1) * nu]
+                                    .iter()
+                                    .zip(&a)
+                                    .map(|(m, a)| m * a)
+                                    .sum();
                             }
                         }
                         None => u.copy_from_slice(&a),
@@ -328,7 +411,10 @@ impl Engine {
                                 if smask[j] {
                                     ym
                                 } else {
-                                    yp[j] + phat.as_ref().map_or(0.0, |p| if p.has_d { p.du_row(j, &u) } else { 0.0 })
+                                    yp[j]
+                                        + phat.as_ref().map_or(0.0, |p| {
+                                            if p.has_d { p.du_row(j, &u) } else { 0.0 }
+                                        })
                                 }
                             }
                         };
@@ -348,7 +434,11 @@ impl Engine {
                     un.copy_from_slice(&u);
                     vn.copy_from_slice(&v);
                     if let Some(rec) = rec.as_deref_mut() {
-                        let (us, ys, ycs) = (rec.u.as_mut_slice(), rec.y.as_mut_slice(), rec.y_clean.as_mut_slice());
+                        let (us, ys, ycs) = (
+                            rec.u.as_mut_slice(),
+                            rec.y.as_mut_slice(),
+                            rec.y_clean.as_mut_slice(),
+                        );
                         for i in 0..nu {
                             us[i * len + k] = u[i];
                         }
@@ -366,7 +456,11 @@ impl Engine {
                     cl.add_du(&rin, &mut out);
                     cl.update(&z, &rin, &mut zn);
                     if let Some(rec) = rec.as_deref_mut() {
-                        let (us, ys, ycs) = (rec.u.as_mut_slice(), rec.y.as_mut_slice(), rec.y_clean.as_mut_slice());
+                        let (us, ys, ycs) = (
+                            rec.u.as_mut_slice(),
+                            rec.y.as_mut_slice(),
+                            rec.y_clean.as_mut_slice(),
+                        );
                         for i in 0..nu {
                             us[i * len + k] = out[ny + i];
                         }
@@ -379,6 +473,10 @@ impl Engine {
                 }
             }
             std::mem::swap(&mut z, &mut zn);
+            ph += 1;
+            if ph == self.frame {
+                ph = 0;
+            }
         }
         Ok(z)
     }
@@ -387,13 +485,23 @@ impl Engine {
 #[inline(always)]
 fn check(k: usize, y: &[f64], u: &[f64], limit: f64) -> Result<()> {
     for &v in y {
-        if !(v.abs() <= limit) {
-            return Err(Error::Diverged { sample: k, signal: "y", value: v, limit });
+        if v.is_nan() || v.abs() > limit {
+            return Err(Error::Diverged {
+                sample: k,
+                signal: "y",
+                value: v,
+                limit,
+            });
         }
     }
     for &v in u {
-        if !(v.abs() <= limit) {
-            return Err(Error::Diverged { sample: k, signal: "u", value: v, limit });
+        if v.is_nan() || v.abs() > limit {
+            return Err(Error::Diverged {
+                sample: k,
+                signal: "u",
+                value: v,
+                limit,
+            });
         }
     }
     Ok(())
@@ -404,5 +512,51 @@ pub(crate) fn gcd(a: usize, b: usize) -> usize {
 }
 
 pub(crate) fn lcm(a: usize, b: usize) -> usize {
-    if a == 0 || b == 0 { a.max(b) } else { a / gcd(a, b) * b }
+    if a == 0 || b == 0 {
+        a.max(b)
+    } else {
+        a / gcd(a, b) * b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_products_match_nalgebra() {
+        let a = DMatrix::from_fn(3, 3, |i, j| (i * 3 + j) as f64 * 0.1 - 0.4);
+        let b = DMatrix::from_fn(3, 2, |i, j| (i + 2 * j) as f64 - 1.0);
+        let c = DMatrix::from_fn(2, 3, |i, j| (i as f64 - j as f64) * 0.3);
+        let d = DMatrix::from_fn(2, 2, |i, j| if i == j { 0.5 } else { 0.0 });
+        let ss = StateSpace::new(a.clone(), b.clone(), c.clone(), d.clone(), Some(1.0)).unwrap();
+        let blk = Block::new(&ss);
+        let x = [0.3, -1.0, 2.0];
+        let u = [1.5, -0.5];
+        let (xv, uv) = (
+            nalgebra::DVector::from_column_slice(&x),
+            nalgebra::DVector::from_column_slice(&u),
+        );
+        let mut y = [0.0; 2];
+        blk.cx(&x, &mut y);
+        blk.add_du(&u, &mut y);
+        let yr = &c * &xv + &d * &uv;
+        let mut xn = [0.0; 3];
+        blk.update(&x, &u, &mut xn);
+        let xr = &a * &xv + &b * &uv;
+        for i in 0..2 {
+            assert!((y[i] - yr[i]).abs() < 1e-14);
+            assert!((blk.du_row(i, &u) - (&d * &uv)[i]).abs() < 1e-15);
+        }
+        for i in 0..3 {
+            assert!((xn[i] - xr[i]).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn lcm_of_patterns() {
+        assert_eq!(lcm(4, 6), 12);
+        assert_eq!(lcm(1, 5), 5);
+        assert_eq!([2usize, 3, 4].iter().fold(1, |a, &b| lcm(a, b)), 12);
+    }
 }

@@ -94,7 +94,9 @@ pub enum Error {
         value: f64,
     },
     /// A noise standard deviation is negative or not finite.
-    #[error("noise channel {channel}: standard deviation must be non-negative and finite (got {value})")]
+    #[error(
+        "noise channel {channel}: standard deviation must be non-negative and finite (got {value})"
+    )]
     InvalidNoiseStd {
         /// Noise source index.
         channel: usize,
@@ -102,13 +104,17 @@ pub enum Error {
         value: f64,
     },
     /// SNR scaling needs a noise-free output with nonzero variance.
-    #[error("output channel {channel}: the noise-free output has zero variance, SNR scaling is undefined")]
+    #[error(
+        "output channel {channel}: the noise-free output has zero variance, SNR scaling is undefined"
+    )]
     ZeroSignalVariance {
         /// Output channel.
         channel: usize,
     },
     /// SNR scaling needs noise with nonzero variance on the channel.
-    #[error("output channel {channel}: the generated noise has zero variance (noise model row is zero)")]
+    #[error(
+        "output channel {channel}: the generated noise has zero variance (noise model row is zero)"
+    )]
     ZeroNoiseVariance {
         /// Output channel.
         channel: usize,
@@ -132,13 +138,17 @@ pub enum Error {
         limit: f64,
     },
     /// The periodic steady state does not exist: the one-period map is not contracting.
-    #[error("no periodic steady state: spectral radius of the one-period map is {spectral_radius} ≥ 1")]
+    #[error(
+        "no periodic steady state: spectral radius of the one-period map is {spectral_radius} ≥ 1"
+    )]
     UnstableLoop {
         /// Spectral radius of the monodromy matrix.
         spectral_radius: f64,
     },
     /// The iterative steady-state search did not reach the tolerance.
-    #[error("response not periodic after {periods} periods (residual {residual:.3e} > tolerance {tolerance:.3e})")]
+    #[error(
+        "response not periodic after {periods} periods (residual {residual:.3e} > tolerance {tolerance:.3e})"
+    )]
     NotPeriodic {
         /// Periods simulated.
         periods: usize,

@@ -85,7 +85,7 @@ mod simulator;
 mod steady;
 
 pub use error::{Error, Result};
-pub use model::{closed_loop, Controller, Delays, Plant, WholeLoop};
+pub use model::{Controller, Delays, Plant, WholeLoop, closed_loop};
 pub use noise::{NoiseLevel, NoiseSpec, SnrDefinition};
 pub use simulator::{Excitation, Feedback, SimOptions, SimOutput, Simulator};
 pub use steady::{PeriodicityCheck, SteadyState, SteadyStateMethod, SteadyStateOptions};

@@ -20,7 +20,11 @@ pub(crate) fn check_ts(ts: f64) -> Result<()> {
 pub(crate) fn check_discrete_at(what: &'static str, sys: &StateSpace, ts: f64) -> Result<()> {
     match sys.ts() {
         None => Err(Error::NotDiscrete { what }),
-        Some(t) if (t - ts).abs() > TS_TOL * ts => Err(Error::SamplePeriodMismatch { what, expected: ts, got: t }),
+        Some(t) if (t - ts).abs() > TS_TOL * ts => Err(Error::SamplePeriodMismatch {
+            what,
+            expected: ts,
+            got: t,
+        }),
         Some(_) => Ok(()),
     }
 }
@@ -42,7 +46,10 @@ pub struct Delays {
 impl Delays {
     /// The same delay on every input.
     pub fn input(delays: Vec<f64>) -> Self {
-        Delays { input: delays, output: Vec::new() }
+        Delays {
+            input: delays,
+            output: Vec::new(),
+        }
     }
 }
 
@@ -69,13 +76,21 @@ impl Plant {
         let din = check_delays("input", &delays.input, m)?;
         let dout = check_delays("output", &delays.output, p)?;
         if sys.is_discrete() {
-            return Err(lifted_lti::Error::NotContinuous { what: "Plant::continuous" }.into());
+            return Err(lifted_lti::Error::NotContinuous {
+                what: "Plant::continuous",
+            }
+            .into());
         }
         let all_equal = dout.iter().all(|&d| d == dout[0]);
         if p == 0 || all_equal {
             let shift = dout.first().copied().unwrap_or(0.0);
-            let opts = C2dOptions { input_delays: Some(din.iter().map(|d| d + shift).collect()), ..Default::default() };
-            return Ok(Plant { model: sys.c2d(ts, &opts)? });
+            let opts = C2dOptions {
+                input_delays: Some(din.iter().map(|d| d + shift).collect()),
+                ..Default::default()
+            };
+            return Ok(Plant {
+                model: sys.c2d(ts, &opts)?,
+            });
         }
         let mut rows = Vec::with_capacity(p);
         for (i, &d) in dout.iter().enumerate() {
@@ -86,10 +101,15 @@ impl Plant {
                 sys.d().rows(i, 1).into_owned(),
                 None,
             )?;
-            let opts = C2dOptions { input_delays: Some(din.iter().map(|x| x + d).collect()), ..Default::default() };
+            let opts = C2dOptions {
+                input_delays: Some(din.iter().map(|x| x + d).collect()),
+                ..Default::default()
+            };
             rows.push(row.c2d(ts, &opts)?);
         }
-        Ok(Plant { model: stack_outputs(&rows, Some(ts))? })
+        Ok(Plant {
+            model: stack_outputs(&rows, Some(ts))?,
+        })
     }
 
     /// A continuous transfer-function plant with delays (see [`Plant::continuous`]).
@@ -99,14 +119,20 @@ impl Plant {
 
     /// A discrete plant at the base period, with optional integer input and
     /// output delays in samples (empty slices: none).
-    pub fn discrete(sys: &StateSpace, input_delays: &[usize], output_delays: &[usize]) -> Result<Self> {
+    pub fn discrete(
+        sys: &StateSpace,
+        input_delays: &[usize],
+        output_delays: &[usize],
+    ) -> Result<Self> {
         if !sys.is_discrete() {
             return Err(Error::NotDiscrete { what: "plant" });
         }
         if input_delays.iter().chain(output_delays).all(|&d| d == 0) {
             return Ok(Plant { model: sys.clone() });
         }
-        Ok(Plant { model: sys.with_io_delays(input_delays, output_delays)? })
+        Ok(Plant {
+            model: sys.with_io_delays(input_delays, output_delays)?,
+        })
     }
 
     /// A discrete transfer-function plant (no extra delay).
@@ -130,11 +156,26 @@ fn check_delays(what: &'static str, d: &[f64], n: usize) -> Result<Vec<f64>> {
         return Ok(vec![0.0; n]);
     }
     if d.len() != n {
-        return Err(Error::DimensionMismatch { what: if what == "input" { "input delays" } else { "output delays" }, expected: n, got: d.len() });
+        return Err(Error::DimensionMismatch {
+            what: if what == "input" {
+                "input delays"
+            } else {
+                "output delays"
+            },
+            expected: n,
+            got: d.len(),
+        });
     }
     for (index, &value) in d.iter().enumerate() {
         if !value.is_finite() {
-            return Err(Error::NonFinite { what: if what == "input" { "input delay" } else { "output delay" }, value });
+            return Err(Error::NonFinite {
+                what: if what == "input" {
+                    "input delay"
+                } else {
+                    "output delay"
+                },
+                value,
+            });
         }
         if value < 0.0 {
             return Err(Error::NegativeDelay { what, index, value });
@@ -195,23 +236,38 @@ impl Controller {
     /// A static gain K (n_u × n_y).
     pub fn gain(k: DMatrix<f64>, ts: f64) -> Result<Self> {
         check_ts(ts)?;
-        Ok(Controller { model: StateSpace::gain(k, Some(ts))? })
+        Ok(Controller {
+            model: StateSpace::gain(k, Some(ts))?,
+        })
     }
 
     /// A decentralised controller: `loops[i] = (input, output, K_i(z))`
     /// closes input `input` on output `output` with the SISO discrete
     /// transfer function K_i (coefficients in descending powers of z); every
     /// other entry is zero (loops open).
-    pub fn decentralized(n_inputs: usize, n_outputs: usize, ts: f64, loops: &[(usize, usize, &[f64], &[f64])]) -> Result<Self> {
+    pub fn decentralized(
+        n_inputs: usize,
+        n_outputs: usize,
+        ts: f64,
+        loops: &[(usize, usize, &[f64], &[f64])],
+    ) -> Result<Self> {
         check_ts(ts)?;
         let zero = lifted_lti::SisoTf::from_coeffs(&[0.0], &[1.0])?;
         let mut rows = vec![vec![zero; n_outputs]; n_inputs];
         for &(i, j, num, den) in loops {
             if i >= n_inputs {
-                return Err(Error::DimensionMismatch { what: "controller loop input index bound", expected: n_inputs, got: i });
+                return Err(Error::DimensionMismatch {
+                    what: "controller loop input index bound",
+                    expected: n_inputs,
+                    got: i,
+                });
             }
             if j >= n_outputs {
-                return Err(Error::DimensionMismatch { what: "controller loop output index bound", expected: n_outputs, got: j });
+                return Err(Error::DimensionMismatch {
+                    what: "controller loop output index bound",
+                    expected: n_outputs,
+                    got: j,
+                });
             }
             rows[i][j] = lifted_lti::SisoTf::from_coeffs(num, den)?;
         }
@@ -236,23 +292,43 @@ impl Controller {
 pub fn closed_loop(g: &StateSpace, k: &StateSpace) -> Result<StateSpace> {
     let (p, m) = (g.n_outputs(), g.n_inputs());
     if k.n_inputs() != p {
-        return Err(Error::DimensionMismatch { what: "controller inputs (= plant outputs)", expected: p, got: k.n_inputs() });
+        return Err(Error::DimensionMismatch {
+            what: "controller inputs (= plant outputs)",
+            expected: p,
+            got: k.n_inputs(),
+        });
     }
     if k.n_outputs() != m {
-        return Err(Error::DimensionMismatch { what: "controller outputs (= plant inputs)", expected: m, got: k.n_outputs() });
+        return Err(Error::DimensionMismatch {
+            what: "controller outputs (= plant inputs)",
+            expected: m,
+            got: k.n_outputs(),
+        });
     }
     match (g.ts(), k.ts()) {
         (None, None) => {}
         (Some(a), Some(b)) if (a - b).abs() <= TS_TOL * a => {}
-        (Some(a), Some(b)) => return Err(Error::SamplePeriodMismatch { what: "controller", expected: a, got: b }),
-        _ => return Err(Error::Unsupported { what: "closed loop of a continuous and a discrete model" }),
+        (Some(a), Some(b)) => {
+            return Err(Error::SamplePeriodMismatch {
+                what: "controller",
+                expected: a,
+                got: b,
+            });
+        }
+        _ => {
+            return Err(Error::Unsupported {
+                what: "closed loop of a continuous and a discrete model",
+            });
+        }
     }
     let (ng, nk) = (g.order(), k.order());
     let im = DMatrix::<f64>::identity(m, m);
-    let mmat = lifted_linalg::inv(&(&im + k.d() * g.d())).map_err(|_| Error::AlgebraicLoop { phase: 0 })?;
+    let mmat = lifted_linalg::inv(&(&im + k.d() * g.d()))
+        .map_err(|_| Error::AlgebraicLoop { phase: 0 })?;
     // u = Ux x + Ur r, with x = [xg; xk], r = [r1; r2]
     let mut ux = DMatrix::zeros(m, ng + nk);
-    ux.view_mut((0, 0), (m, ng)).copy_from(&(-(&mmat * k.d() * g.c())));
+    ux.view_mut((0, 0), (m, ng))
+        .copy_from(&(-(&mmat * k.d() * g.c())));
     ux.view_mut((0, ng), (m, nk)).copy_from(&(&mmat * k.c()));
     let mut ur = DMatrix::zeros(m, p + m);
     ur.view_mut((0, 0), (m, p)).copy_from(&(&mmat * k.d()));
@@ -308,10 +384,16 @@ impl WholeLoop {
     pub fn from_continuous(g: &StateSpace, k: &StateSpace, ts: f64) -> Result<Self> {
         check_ts(ts)?;
         if g.is_discrete() || k.is_discrete() {
-            return Err(Error::Unsupported { what: "WholeLoop::from_continuous needs continuous plant and controller" });
+            return Err(Error::Unsupported {
+                what: "WholeLoop::from_continuous needs continuous plant and controller",
+            });
         }
         let cl = closed_loop(g, k)?;
-        Ok(WholeLoop { model: cl.c2d(ts, &C2dOptions::default())?, n_y: g.n_outputs(), n_u: g.n_inputs() })
+        Ok(WholeLoop {
+            model: cl.c2d(ts, &C2dOptions::default())?,
+            n_y: g.n_outputs(),
+            n_u: g.n_inputs(),
+        })
     }
 
     /// From a closed-loop model with inputs [r₁ (n_y); r₂ (n_u)] and outputs
@@ -319,10 +401,18 @@ impl WholeLoop {
     pub fn from_model(cl: &StateSpace, n_y: usize, n_u: usize, ts: f64) -> Result<Self> {
         check_ts(ts)?;
         if cl.n_inputs() != n_y + n_u {
-            return Err(Error::DimensionMismatch { what: "closed-loop inputs (n_y + n_u)", expected: n_y + n_u, got: cl.n_inputs() });
+            return Err(Error::DimensionMismatch {
+                what: "closed-loop inputs (n_y + n_u)",
+                expected: n_y + n_u,
+                got: cl.n_inputs(),
+            });
         }
         if cl.n_outputs() != n_y + n_u {
-            return Err(Error::DimensionMismatch { what: "closed-loop outputs (n_y + n_u)", expected: n_y + n_u, got: cl.n_outputs() });
+            return Err(Error::DimensionMismatch {
+                what: "closed-loop outputs (n_y + n_u)",
+                expected: n_y + n_u,
+                got: cl.n_outputs(),
+            });
         }
         let model = if cl.is_discrete() {
             check_discrete_at("closed-loop model", cl, ts)?;
@@ -356,5 +446,50 @@ pub(crate) fn at_base_period(what: &'static str, sys: &StateSpace, ts: f64) -> R
         Ok(sys.clone())
     } else {
         Ok(sys.c2d(ts, &C2dOptions::default())?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lifted_lti::FeedbackSign;
+
+    #[test]
+    fn closed_loop_matches_lti_feedback() {
+        // H1 = GK/(1 + GK) from r1 to y, H2 = G/(1 + KG) from r2 to y (spec A2.2)
+        let g = TransferFunction::from_coeffs(&[1.0], &[0.3, 1.0], None)
+            .unwrap()
+            .to_ss()
+            .unwrap();
+        let k = TransferFunction::from_coeffs(&[0.2, 5.0], &[1.0, 0.0], None)
+            .unwrap()
+            .to_ss()
+            .unwrap();
+        let cl = closed_loop(&g, &k).unwrap();
+        let one = StateSpace::gain(DMatrix::from_element(1, 1, 1.0), None).unwrap();
+        let h1 =
+            lifted_lti::feedback(&k.series(&g).unwrap(), &one, FeedbackSign::Negative).unwrap();
+        let h2 = lifted_lti::feedback(&g, &k, FeedbackSign::Negative).unwrap();
+        for w in [0.1, 1.0, 7.0] {
+            let s = num_complex::Complex64::new(0.0, w);
+            let f = cl.freqresp(&[w]).unwrap();
+            let r1 = h1.freqresp(&[w]).unwrap();
+            let r2 = h2.freqresp(&[w]).unwrap();
+            assert!((f[0][(0, 0)] - r1[0][(0, 0)]).norm() < 1e-10, "{s}");
+            assert!((f[0][(0, 1)] - r2[0][(0, 0)]).norm() < 1e-10);
+        }
+    }
+
+    #[test]
+    fn delays_are_validated() {
+        assert!(check_delays("input", &[], 2).unwrap() == vec![0.0, 0.0]);
+        assert!(matches!(
+            check_delays("input", &[-1.0], 1),
+            Err(Error::NegativeDelay { .. })
+        ));
+        assert!(matches!(
+            check_delays("output", &[1.0], 2),
+            Err(Error::DimensionMismatch { .. })
+        ));
     }
 }

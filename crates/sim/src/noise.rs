@@ -66,7 +66,10 @@ impl Default for NoiseSpec {
         NoiseSpec {
             model: None,
             integrated: false,
-            level: NoiseLevel::Snr { ratio: vec![10.0], definition: SnrDefinition::Variance },
+            level: NoiseLevel::Snr {
+                ratio: vec![10.0],
+                definition: SnrDefinition::Variance,
+            },
             seed: 0,
             warmup: None,
         }
@@ -76,19 +79,38 @@ impl Default for NoiseSpec {
 impl NoiseSpec {
     /// White noise at a variance SNR (the same on every output).
     pub fn white_snr(snr: f64, seed: u64) -> Self {
-        NoiseSpec { level: NoiseLevel::Snr { ratio: vec![snr], definition: SnrDefinition::Variance }, seed, ..Default::default() }
+        NoiseSpec {
+            level: NoiseLevel::Snr {
+                ratio: vec![snr],
+                definition: SnrDefinition::Variance,
+            },
+            seed,
+            ..Default::default()
+        }
     }
 
     /// Noise through `model` at SNR `ratio` with the given definition.
     pub fn filtered(model: StateSpace, ratio: f64, definition: SnrDefinition, seed: u64) -> Self {
-        NoiseSpec { model: Some(model), level: NoiseLevel::Snr { ratio: vec![ratio], definition }, seed, ..Default::default() }
+        NoiseSpec {
+            model: Some(model),
+            level: NoiseLevel::Snr {
+                ratio: vec![ratio],
+                definition,
+            },
+            seed,
+            ..Default::default()
+        }
     }
 
     /// A diagonal noise model from one SISO transfer function per output
     /// (all continuous or all discrete at the same period).
     pub fn diagonal_model(filters: &[TransferFunction]) -> Result<StateSpace> {
         let mut it = filters.iter();
-        let first = it.next().ok_or(Error::DimensionMismatch { what: "noise filters", expected: 1, got: 0 })?;
+        let first = it.next().ok_or(Error::DimensionMismatch {
+            what: "noise filters",
+            expected: 1,
+            got: 0,
+        })?;
         let mut acc = first.to_ss()?;
         for f in it {
             acc = lifted_lti::append(&acc, &f.to_ss()?)?;
@@ -115,10 +137,18 @@ impl NoiseGen {
             None => (None, ny, 0.0),
             Some(m) => {
                 if m.n_outputs() != ny {
-                    return Err(Error::DimensionMismatch { what: "noise model outputs (= plant outputs)", expected: ny, got: m.n_outputs() });
+                    return Err(Error::DimensionMismatch {
+                        what: "noise model outputs (= plant outputs)",
+                        expected: ny,
+                        got: m.n_outputs(),
+                    });
                 }
                 let d = at_base_period("noise model", m, ts)?;
-                let rho = if d.order() == 0 { 0.0 } else { d.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max) };
+                let rho = if d.order() == 0 {
+                    0.0
+                } else {
+                    d.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
+                };
                 (Some(Block::new(&d)), d.n_inputs(), rho)
             }
         };
@@ -148,7 +178,15 @@ impl NoiseGen {
             None if rho >= 1.0 => 0,
             None => ((1e-9f64).ln() / rho.ln()).ceil().min(100_000.0) as usize,
         };
-        Ok(NoiseGen { filter, n_e, std, integrated: spec.integrated, seed: spec.seed, warmup, snr })
+        Ok(NoiseGen {
+            filter,
+            n_e,
+            std,
+            integrated: spec.integrated,
+            seed: spec.seed,
+            warmup,
+            snr,
+        })
     }
 
     /// Generates the raw (unscaled by SNR) noise, len × ny, column-major.
@@ -199,7 +237,11 @@ fn broadcast(v: &[f64], n: usize, what: &'static str) -> Result<Vec<f64>> {
     match v.len() {
         1 => Ok(vec![v[0]; n]),
         l if l == n => Ok(v.to_vec()),
-        l => Err(Error::DimensionMismatch { what, expected: n, got: l }),
+        l => Err(Error::DimensionMismatch {
+            what,
+            expected: n,
+            got: l,
+        }),
     }
 }
 
@@ -214,15 +256,20 @@ pub(crate) fn variance(x: &[f64]) -> f64 {
 }
 
 /// Per-channel scale α so that the realised SNR equals the request.
-pub(crate) fn snr_scale(clean: &DMatrix<f64>, raw: &DMatrix<f64>, ratio: &[f64], def: SnrDefinition) -> Result<Vec<f64>> {
+pub(crate) fn snr_scale(
+    clean: &DMatrix<f64>,
+    raw: &DMatrix<f64>,
+    ratio: &[f64],
+    def: SnrDefinition,
+) -> Result<Vec<f64>> {
     (0..clean.ncols())
         .map(|j| {
             let vs = variance(clean.column(j).as_slice());
             let vn = variance(raw.column(j).as_slice());
-            if !(vs > 0.0) {
+            if vs.is_nan() || vs <= 0.0 {
                 return Err(Error::ZeroSignalVariance { channel: j });
             }
-            if !(vn > 0.0) {
+            if vn.is_nan() || vn <= 0.0 {
                 return Err(Error::ZeroNoiseVariance { channel: j });
             }
             // var: vs / (α² vn) = r ; std: sqrt(vs) / (α sqrt(vn)) = r
@@ -232,4 +279,56 @@ pub(crate) fn snr_scale(clean: &DMatrix<f64>, raw: &DMatrix<f64>, ratio: &[f64],
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn snr_scale_is_exact_for_both_definitions() {
+        let clean = DMatrix::from_fn(1000, 1, |k, _| (k as f64 * 0.1).sin() * 3.0);
+        let raw = DMatrix::from_fn(1000, 1, |k, _| ((k * 7919) % 101) as f64 / 50.0 - 1.0);
+        let vs = variance(clean.column(0).as_slice());
+        let vn = variance(raw.column(0).as_slice());
+        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::Variance).unwrap()[0];
+        assert!((vs / (a * a * vn) - 4.0).abs() < 1e-12);
+        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::StdRatio).unwrap()[0];
+        assert!((vs.sqrt() / (a * vn.sqrt()) - 4.0).abs() < 1e-12);
+        let zero = DMatrix::zeros(1000, 1);
+        assert!(matches!(
+            snr_scale(&zero, &raw, &[4.0], SnrDefinition::Variance),
+            Err(Error::ZeroSignalVariance { channel: 0 })
+        ));
+        assert!(matches!(
+            snr_scale(&clean, &zero, &[4.0], SnrDefinition::Variance),
+            Err(Error::ZeroNoiseVariance { channel: 0 })
+        ));
+    }
+
+    #[test]
+    fn broadcast_and_warmup() {
+        assert_eq!(broadcast(&[2.0], 3, "x").unwrap(), vec![2.0; 3]);
+        assert!(matches!(
+            broadcast(&[1.0, 2.0], 3, "x"),
+            Err(Error::DimensionMismatch { .. })
+        ));
+        let ar = lifted_lti::TransferFunction::from_coeffs(&[1.0, 0.0], &[1.0, -0.5], Some(1.0))
+            .unwrap()
+            .to_ss()
+            .unwrap();
+        let g = NoiseGen::new(
+            &NoiseSpec {
+                model: Some(ar),
+                ..Default::default()
+            },
+            1,
+            1.0,
+        )
+        .unwrap();
+        // ⌈ln 1e-9 / ln 0.5⌉ = 30
+        assert_eq!(g.warmup, 30);
+        let w = NoiseGen::new(&NoiseSpec::default(), 2, 1.0).unwrap();
+        assert_eq!(w.warmup, 0);
+    }
 }

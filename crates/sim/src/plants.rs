@@ -65,8 +65,16 @@ impl Fixture {
                 }
             }
             Some(k) => {
-                if self.delays.input.iter().chain(&self.delays.output).any(|&d| d != 0.0) {
-                    return Err(Error::Unsupported { what: "whole-loop discretisation of a plant with delay" });
+                if self
+                    .delays
+                    .input
+                    .iter()
+                    .chain(&self.delays.output)
+                    .any(|&d| d != 0.0)
+                {
+                    return Err(Error::Unsupported {
+                        what: "whole-loop discretisation of a plant with delay",
+                    });
                 }
                 Simulator::whole_loop(WholeLoop::from_continuous(&self.plant, k, self.ts)?)
             }
@@ -77,14 +85,21 @@ impl Fixture {
         } else {
             sim
         };
-        if self.input_holds.iter().any(|&h| h != 1) { sim.with_holds(&self.input_holds) } else { Ok(sim) }
+        if self.input_holds.iter().any(|&h| h != 1) {
+            sim.with_holds(&self.input_holds)
+        } else {
+            Ok(sim)
+        }
     }
 
     /// The fixture's noise model at an SNR (None if the source gives no noise model).
     pub fn noise_spec(&self, snr: f64, definition: SnrDefinition, seed: u64) -> Option<NoiseSpec> {
         self.noise.as_ref().map(|m| NoiseSpec {
             model: Some(m.clone()),
-            level: NoiseLevel::Snr { ratio: vec![snr], definition },
+            level: NoiseLevel::Snr {
+                ratio: vec![snr],
+                definition,
+            },
             seed,
             ..Default::default()
         })
@@ -114,7 +129,10 @@ fn tank_noise_7_8_2(ts: f64) -> Result<StateSpace> {
     mimo(
         vec![
             vec![siso(&[0.11, 0.0], &[1.0, -0.97])?, zero()?],
-            vec![siso(&[-0.02, 0.0], &[1.0, -0.9])?, siso(&[0.04, 0.0], &[1.0, -0.86])?],
+            vec![
+                siso(&[-0.02, 0.0], &[1.0, -0.9])?,
+                siso(&[0.04, 0.0], &[1.0, -0.86])?,
+            ],
         ],
         Some(ts),
     )
@@ -129,7 +147,10 @@ pub fn stirred_tank_2_6_2() -> Result<Fixture> {
     let plant = mimo(
         vec![
             vec![siso(&[0.1416], &[1.0, -0.9868])?, zero()?],
-            vec![siso(&[-0.0379], &[1.0, -0.913])?, siso(&[0.0595], &[1.0, -0.9048])?],
+            vec![
+                siso(&[-0.0379], &[1.0, -0.913])?,
+                siso(&[0.0595], &[1.0, -0.9048])?,
+            ],
         ],
         Some(ts),
     )?;
@@ -156,15 +177,27 @@ pub fn stirred_tank_5_3_1() -> Result<Fixture> {
     let ts = 1.0;
     let plant = mimo(
         vec![
-            vec![siso(&[0.1416], &[1.0, -0.9868])?, siso(&[-0.03], &[1.0, -0.97])?],
-            vec![siso(&[-0.0379], &[1.0, -0.9131])?, siso(&[0.0595], &[1.0, -0.9048])?],
+            vec![
+                siso(&[0.1416], &[1.0, -0.9868])?,
+                siso(&[-0.03], &[1.0, -0.97])?,
+            ],
+            vec![
+                siso(&[-0.0379], &[1.0, -0.9131])?,
+                siso(&[0.0595], &[1.0, -0.9048])?,
+            ],
         ],
         Some(ts),
     )?;
     let noise = mimo(
         vec![
-            vec![siso(&[0.11], &[1.0, -0.97])?, siso(&[-0.03], &[1.0, -0.95])?],
-            vec![siso(&[-0.02], &[1.0, -0.92])?, siso(&[0.04], &[1.0, -0.88])?],
+            vec![
+                siso(&[0.11], &[1.0, -0.97])?,
+                siso(&[-0.03], &[1.0, -0.95])?,
+            ],
+            vec![
+                siso(&[-0.02], &[1.0, -0.92])?,
+                siso(&[0.04], &[1.0, -0.88])?,
+            ],
         ],
         Some(ts),
     )?;
@@ -189,7 +222,14 @@ pub fn stirred_tank_5_3_1() -> Result<Fixture> {
 pub fn stirred_tank_7_8_2() -> Result<Fixture> {
     let ts = 1.0;
     let base = stirred_tank_2_6_2()?;
-    let k = TransferFunction::from_entries(vec![vec![zero()?, zero()?], vec![zero()?, siso(&[1.6, -1.5], &[1.0, -1.0])?]], Some(ts))?.to_ss()?;
+    let k = TransferFunction::from_entries(
+        vec![
+            vec![zero()?, zero()?],
+            vec![zero()?, siso(&[1.6, -1.5], &[1.0, -1.0])?],
+        ],
+        Some(ts),
+    )?
+    .to_ss()?;
     Ok(Fixture {
         name: "stirred tank in closed loop (thesis 7.8.2)",
         source: "Li 2001 §7.8.2; spec A3.9",
@@ -292,7 +332,7 @@ pub fn ren_zhu(plant: RenZhuPlant, controller: RenZhuController) -> Result<Fixtu
 }
 
 /// The thesis' §4.3 loss-of-observability example (spec A3.3), T = 1:
-/// A = [[0.9,0,0],[1,0,0],[0,1,0]], B = e₁, C = [0 0 0.1], D = 0,
+/// `A = [[0.9,0,0],[1,0,0],[0,1,0]]`, B = e₁, C = [0 0 0.1], D = 0,
 /// TF 0.1/(z³ − 0.9z²) (erratum L-6). Hold 1, output every 3.
 pub fn loss_of_observability() -> Result<Fixture> {
     let a = DMatrix::from_row_slice(3, 3, &[0.9, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
@@ -316,8 +356,12 @@ pub fn loss_of_observability() -> Result<Fixture> {
 /// n = 3 (thesis §4.3 Prop. 2 and §4.4 with d_c = 8.5; spec A3.3, A3.4).
 /// Errors: negative delay.
 pub fn first_order_with_delay(delay: f64) -> Result<Fixture> {
-    if !(delay >= 0.0) {
-        return Err(Error::NegativeDelay { what: "input", index: 0, value: delay });
+    if delay.is_nan() || delay < 0.0 {
+        return Err(Error::NegativeDelay {
+            what: "input",
+            index: 0,
+            value: delay,
+        });
     }
     Ok(Fixture {
         name: "first order with delay (thesis 4.3/4.4)",

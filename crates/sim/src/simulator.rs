@@ -5,10 +5,12 @@ use nalgebra::DMatrix;
 
 use crate::engine::{Block, Engine, FeedbackKind, Record, RunInput, Structure};
 use crate::error::{Error, Result};
-use crate::model::{check_discrete_at, Controller, Plant, WholeLoop};
-use crate::noise::{snr_scale, NoiseGen, NoiseSpec};
+use crate::model::{Controller, Plant, WholeLoop, check_discrete_at};
+use crate::noise::{NoiseGen, NoiseSpec, snr_scale};
 
 /// What the controller sees of the outputs.
+// Built once per simulator: the variant size does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum Feedback {
     /// Every output at every fast sample (default).
@@ -35,7 +37,9 @@ pub struct SimOptions {
 
 impl Default for SimOptions {
     fn default() -> Self {
-        SimOptions { divergence_limit: 1e12 }
+        SimOptions {
+            divergence_limit: 1e12,
+        }
     }
 }
 
@@ -55,22 +59,34 @@ pub struct Excitation {
 impl Excitation {
     /// Excitation at the plant input only (open-loop input u = r₂).
     pub fn input(r2: DMatrix<f64>) -> Self {
-        Excitation { r1: None, r2: Some(r2) }
+        Excitation {
+            r1: None,
+            r2: Some(r2),
+        }
     }
 
     /// Excitation at the reference only.
     pub fn reference(r1: DMatrix<f64>) -> Self {
-        Excitation { r1: Some(r1), r2: None }
+        Excitation {
+            r1: Some(r1),
+            r2: None,
+        }
     }
 
     /// Both.
     pub fn both(r1: DMatrix<f64>, r2: DMatrix<f64>) -> Self {
-        Excitation { r1: Some(r1), r2: Some(r2) }
+        Excitation {
+            r1: Some(r1),
+            r2: Some(r2),
+        }
     }
 
     /// Number of samples (0 if both are missing).
     pub fn len(&self) -> usize {
-        self.r1.as_ref().or(self.r2.as_ref()).map_or(0, DMatrix::nrows)
+        self.r1
+            .as_ref()
+            .or(self.r2.as_ref())
+            .map_or(0, DMatrix::nrows)
     }
 
     /// True when there are no samples.
@@ -85,8 +101,6 @@ pub struct SimOutput {
     /// The multirate data set: plant input u and the measured outputs at
     /// their sampling instants (NaN elsewhere), with the channel layout.
     pub data: Dataset,
-    /// Plant input at every fast sample, N × n_u.
-    pub u: DMatrix<f64>,
     /// Measured output (plant output + noise) at every fast sample, N × n_y.
     pub y: DMatrix<f64>,
     /// Plant output without the added noise term, N × n_y (in closed loop it
@@ -94,7 +108,8 @@ pub struct SimOutput {
     pub y_clean: DMatrix<f64>,
     /// The added output noise (after scaling), N × n_y.
     pub noise: DMatrix<f64>,
-    /// Per-output scale applied to the generated noise (1 with an absolute level).
+    /// Per-output scale applied to the generated noise: the SNR factor, 1 with
+    /// an absolute level, 0 without noise.
     pub noise_scale: Vec<f64>,
     /// Reference r₁ as used, N × n_y.
     pub r1: DMatrix<f64>,
@@ -102,6 +117,14 @@ pub struct SimOutput {
     pub r2: DMatrix<f64>,
     /// Simulator state after the last sample.
     pub final_state: Vec<f64>,
+}
+
+impl SimOutput {
+    /// Plant input at every fast sample, N × n_u (held values repeated;
+    /// the same matrix as `data.u()`).
+    pub fn u(&self) -> &DMatrix<f64> {
+        self.data.u()
+    }
 }
 
 /// A configured experiment: plant (+ controller, feedback) or a whole
@@ -119,9 +142,13 @@ pub struct Simulator {
     options: SimOptions,
 }
 
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 enum Kind {
-    Plant { plant: Plant, controller: Option<Controller> },
+    Plant {
+        plant: Plant,
+        controller: Option<Controller>,
+    },
     Whole(WholeLoop),
 }
 
@@ -129,7 +156,15 @@ impl Simulator {
     /// Open loop: u = r₂ (held per input channel), y = Gu + v.
     pub fn open_loop(plant: Plant) -> Self {
         let (ny, nu) = (plant.model().n_outputs(), plant.model().n_inputs());
-        Self::build(plant.ts(), ny, nu, Kind::Plant { plant, controller: None })
+        Self::build(
+            plant.ts(),
+            ny,
+            nu,
+            Kind::Plant {
+                plant,
+                controller: None,
+            },
+        )
     }
 
     /// Plant with a discrete controller at the base period:
@@ -139,13 +174,29 @@ impl Simulator {
         let (ny, nu) = (plant.model().n_outputs(), plant.model().n_inputs());
         let k = controller.model();
         if k.n_inputs() != ny {
-            return Err(Error::DimensionMismatch { what: "controller inputs (= plant outputs)", expected: ny, got: k.n_inputs() });
+            return Err(Error::DimensionMismatch {
+                what: "controller inputs (= plant outputs)",
+                expected: ny,
+                got: k.n_inputs(),
+            });
         }
         if k.n_outputs() != nu {
-            return Err(Error::DimensionMismatch { what: "controller outputs (= plant inputs)", expected: nu, got: k.n_outputs() });
+            return Err(Error::DimensionMismatch {
+                what: "controller outputs (= plant inputs)",
+                expected: nu,
+                got: k.n_outputs(),
+            });
         }
         check_discrete_at("controller", k, plant.ts())?;
-        Ok(Self::build(plant.ts(), ny, nu, Kind::Plant { plant, controller: Some(controller) }))
+        Ok(Self::build(
+            plant.ts(),
+            ny,
+            nu,
+            Kind::Plant {
+                plant,
+                controller: Some(controller),
+            },
+        ))
     }
 
     /// A closed loop discretised as a whole ([`WholeLoop`]); noise is added
@@ -165,8 +216,12 @@ impl Simulator {
             kind,
             feedback: Feedback::Fast,
             noise: None,
-            inputs: (0..nu).map(|i| InputChannel::new(format!("u{}", i + 1), 1)).collect(),
-            outputs: (0..ny).map(|j| OutputChannel::new(format!("y{}", j + 1), 1, 0)).collect(),
+            inputs: (0..nu)
+                .map(|i| InputChannel::new(format!("u{}", i + 1), 1))
+                .collect(),
+            outputs: (0..ny)
+                .map(|j| OutputChannel::new(format!("y{}", j + 1), 1, 0))
+                .collect(),
             options: SimOptions::default(),
         }
     }
@@ -183,12 +238,26 @@ impl Simulator {
     pub fn with_feedback(mut self, feedback: Feedback) -> Result<Self> {
         if let Feedback::Inferential(p) = &feedback {
             if p.n_outputs() != self.ny || p.n_inputs() != self.nu {
-                return Err(Error::DimensionMismatch { what: "inferential model size (n_y·n_u)", expected: self.ny * self.nu, got: p.n_outputs() * p.n_inputs() });
+                return Err(Error::DimensionMismatch {
+                    what: "inferential model size (n_y·n_u)",
+                    expected: self.ny * self.nu,
+                    got: p.n_outputs() * p.n_inputs(),
+                });
             }
             check_discrete_at("inferential model", p, self.ts)?;
         }
-        if feedback != Feedback::Fast && !matches!(self.kind, Kind::Plant { controller: Some(_), .. }) {
-            return Err(Error::Unsupported { what: "a feedback mode needs a plant with a controller" });
+        if feedback != Feedback::Fast
+            && !matches!(
+                self.kind,
+                Kind::Plant {
+                    controller: Some(_),
+                    ..
+                }
+            )
+        {
+            return Err(Error::Unsupported {
+                what: "a feedback mode needs a plant with a controller",
+            });
         }
         self.feedback = feedback;
         Ok(self)
@@ -197,17 +266,29 @@ impl Simulator {
     /// Sets the input channels (names, units, holds m_i ≥ 1 and hold phases).
     pub fn with_inputs(mut self, inputs: Vec<InputChannel>) -> Result<Self> {
         if inputs.len() != self.nu {
-            return Err(Error::DimensionMismatch { what: "input channels", expected: self.nu, got: inputs.len() });
+            return Err(Error::DimensionMismatch {
+                what: "input channels",
+                expected: self.nu,
+                got: inputs.len(),
+            });
         }
         for (channel, c) in inputs.iter().enumerate() {
             if c.hold == 0 {
                 return Err(Error::ZeroHold { channel });
             }
             if c.offset >= c.hold {
-                return Err(lifted_lti::DataError::OffsetOutOfRange { what: "input", channel, offset: c.offset, period: c.hold }.into());
+                return Err(lifted_lti::DataError::OffsetOutOfRange {
+                    what: "input",
+                    channel,
+                    offset: c.offset,
+                    period: c.hold,
+                }
+                .into());
             }
             if c.hold > 1 && matches!(self.kind, Kind::Whole(_)) {
-                return Err(Error::Unsupported { what: "input holds with a whole closed-loop model" });
+                return Err(Error::Unsupported {
+                    what: "input holds with a whole closed-loop model",
+                });
             }
         }
         self.inputs = inputs;
@@ -217,23 +298,44 @@ impl Simulator {
     /// Sets the holds m_i (phase 0), keeping the names.
     pub fn with_holds(self, holds: &[usize]) -> Result<Self> {
         if holds.len() != self.nu {
-            return Err(Error::DimensionMismatch { what: "holds", expected: self.nu, got: holds.len() });
+            return Err(Error::DimensionMismatch {
+                what: "holds",
+                expected: self.nu,
+                got: holds.len(),
+            });
         }
-        let inputs = self.inputs.iter().zip(holds).map(|(c, &h)| InputChannel { hold: h, offset: 0, ..c.clone() }).collect();
+        let inputs = self
+            .inputs
+            .iter()
+            .zip(holds)
+            .map(|(c, &h)| InputChannel {
+                hold: h,
+                offset: 0,
+                ..c.clone()
+            })
+            .collect();
         self.with_inputs(inputs)
     }
 
     /// Sets the output channels (names, units, period J_i ≥ 1, offset < J_i).
     pub fn with_outputs(mut self, outputs: Vec<OutputChannel>) -> Result<Self> {
         if outputs.len() != self.ny {
-            return Err(Error::DimensionMismatch { what: "output channels", expected: self.ny, got: outputs.len() });
+            return Err(Error::DimensionMismatch {
+                what: "output channels",
+                expected: self.ny,
+                got: outputs.len(),
+            });
         }
         for (channel, c) in outputs.iter().enumerate() {
             if c.period == 0 {
                 return Err(Error::ZeroPeriod { channel });
             }
             if c.offset >= c.period {
-                return Err(Error::OffsetOutOfRange { channel, offset: c.offset, period: c.period });
+                return Err(Error::OffsetOutOfRange {
+                    channel,
+                    offset: c.offset,
+                    period: c.period,
+                });
             }
         }
         self.outputs = outputs;
@@ -243,16 +345,32 @@ impl Simulator {
     /// Sets (period, offset) per output, keeping the names.
     pub fn with_sampling(self, sampling: &[(usize, usize)]) -> Result<Self> {
         if sampling.len() != self.ny {
-            return Err(Error::DimensionMismatch { what: "output sampling", expected: self.ny, got: sampling.len() });
+            return Err(Error::DimensionMismatch {
+                what: "output sampling",
+                expected: self.ny,
+                got: sampling.len(),
+            });
         }
-        let outputs = self.outputs.iter().zip(sampling).map(|(c, &(p, o))| OutputChannel { period: p, offset: o, ..c.clone() }).collect();
+        let outputs = self
+            .outputs
+            .iter()
+            .zip(sampling)
+            .map(|(c, &(p, o))| OutputChannel {
+                period: p,
+                offset: o,
+                ..c.clone()
+            })
+            .collect();
         self.with_outputs(outputs)
     }
 
     /// Sets the options.
     pub fn with_options(mut self, options: SimOptions) -> Result<Self> {
-        if !(options.divergence_limit > 0.0) {
-            return Err(Error::NonFinite { what: "divergence_limit", value: options.divergence_limit });
+        if options.divergence_limit.is_nan() || options.divergence_limit <= 0.0 {
+            return Err(Error::NonFinite {
+                what: "divergence_limit",
+                value: options.divergence_limit,
+            });
         }
         self.options = options;
         Ok(self)
@@ -285,7 +403,11 @@ impl Simulator {
 
     /// Period of the sampling/hold pattern (lcm of holds and output periods).
     pub fn frame_period(&self) -> usize {
-        self.inputs.iter().map(|c| c.hold).chain(self.outputs.iter().map(|c| c.period)).fold(1, crate::engine::lcm)
+        self.inputs
+            .iter()
+            .map(|c| c.hold)
+            .chain(self.outputs.iter().map(|c| c.period))
+            .fold(1, crate::engine::lcm)
     }
 
     /// The loop as one discrete LTI model [r₁; r₂] → [y; u] at the base
@@ -293,7 +415,9 @@ impl Simulator {
     /// unit holds. Open loop: [y; u] from [r₁; r₂] with r₁ unused.
     pub fn lti_model(&self) -> Result<StateSpace> {
         if self.inputs.iter().any(|c| c.hold != 1) || self.feedback != Feedback::Fast {
-            return Err(Error::Unsupported { what: "lti_model of a multirate (periodically time-varying) loop" });
+            return Err(Error::Unsupported {
+                what: "lti_model of a multirate (periodically time-varying) loop",
+            });
         }
         match &self.kind {
             Kind::Whole(w) => Ok(w.model().clone()),
@@ -309,20 +433,41 @@ impl Simulator {
 
     pub(crate) fn engine(&self) -> Result<Engine> {
         let holds: Vec<(usize, usize)> = self.inputs.iter().map(|c| (c.hold, c.offset)).collect();
-        let sampling: Vec<(usize, usize)> = self.outputs.iter().map(|c| (c.period, c.offset)).collect();
+        let sampling: Vec<(usize, usize)> =
+            self.outputs.iter().map(|c| (c.period, c.offset)).collect();
         let limit = self.options.divergence_limit;
         match &self.kind {
-            Kind::Whole(w) => Engine::new(Structure::Whole { cl: Block::new(w.model()) }, self.ny, self.nu, &holds, &sampling, None, limit),
+            Kind::Whole(w) => Engine::new(
+                Structure::Whole {
+                    cl: Block::new(w.model()),
+                },
+                self.ny,
+                self.nu,
+                &holds,
+                &sampling,
+                limit,
+            ),
             Kind::Plant { plant, controller } => {
                 let g = Block::new(plant.model());
                 let k = controller.as_ref().map(|c| Block::new(c.model()));
-                let dk = k.as_ref().map(|b| b.d.clone());
                 let (phat, fb) = match &self.feedback {
                     Feedback::Fast => (None, FeedbackKind::Fast),
                     Feedback::HoldLast => (None, FeedbackKind::HoldLast),
                     Feedback::Inferential(p) => (Some(Block::new(p)), FeedbackKind::Inferential),
                 };
-                Engine::new(Structure::Loop { g, k, phat, feedback: fb }, self.ny, self.nu, &holds, &sampling, dk.as_deref(), limit)
+                Engine::new(
+                    Structure::Loop {
+                        g,
+                        k,
+                        phat,
+                        feedback: fb,
+                    },
+                    self.ny,
+                    self.nu,
+                    &holds,
+                    &sampling,
+                    limit,
+                )
             }
         }
     }
@@ -334,28 +479,61 @@ impl Simulator {
         }
         if let Some(r1) = &exc.r1 {
             if r1.ncols() != self.ny {
-                return Err(Error::DimensionMismatch { what: "columns of r1 (= outputs)", expected: self.ny, got: r1.ncols() });
+                return Err(Error::DimensionMismatch {
+                    what: "columns of r1 (= outputs)",
+                    expected: self.ny,
+                    got: r1.ncols(),
+                });
             }
             if r1.nrows() != n {
-                return Err(Error::DimensionMismatch { what: "rows of r1 (= rows of r2)", expected: n, got: r1.nrows() });
+                return Err(Error::DimensionMismatch {
+                    what: "rows of r1 (= rows of r2)",
+                    expected: n,
+                    got: r1.nrows(),
+                });
             }
             if let Some(v) = r1.iter().find(|v| !v.is_finite()) {
-                return Err(Error::NonFinite { what: "r1", value: *v });
+                return Err(Error::NonFinite {
+                    what: "r1",
+                    value: *v,
+                });
             }
         }
         if let Some(r2) = &exc.r2 {
             if r2.ncols() != self.nu {
-                return Err(Error::DimensionMismatch { what: "columns of r2 (= inputs)", expected: self.nu, got: r2.ncols() });
+                return Err(Error::DimensionMismatch {
+                    what: "columns of r2 (= inputs)",
+                    expected: self.nu,
+                    got: r2.ncols(),
+                });
             }
             if r2.nrows() != n {
-                return Err(Error::DimensionMismatch { what: "rows of r2 (= rows of r1)", expected: n, got: r2.nrows() });
+                return Err(Error::DimensionMismatch {
+                    what: "rows of r2 (= rows of r1)",
+                    expected: n,
+                    got: r2.nrows(),
+                });
             }
             if let Some(v) = r2.iter().find(|v| !v.is_finite()) {
-                return Err(Error::NonFinite { what: "r2", value: *v });
+                return Err(Error::NonFinite {
+                    what: "r2",
+                    value: *v,
+                });
             }
         }
-        if exc.r1.is_some() && matches!(self.kind, Kind::Plant { controller: None, .. }) && exc.r1.as_ref().is_some_and(|r| r.iter().any(|&v| v != 0.0)) {
-            return Err(Error::Unsupported { what: "a reference r1 in open loop (use r2 for the input)" });
+        if exc.r1.is_some()
+            && matches!(
+                self.kind,
+                Kind::Plant {
+                    controller: None,
+                    ..
+                }
+            )
+            && exc.r1.as_ref().is_some_and(|r| r.iter().any(|&v| v != 0.0))
+        {
+            return Err(Error::Unsupported {
+                what: "a reference r1 in open loop (use r2 for the input)",
+            });
         }
         Ok(n)
     }
@@ -376,7 +554,12 @@ impl Simulator {
     }
 
     /// Simulates from a given simulator state (e.g. a periodic steady state).
-    pub(crate) fn run_from(&self, engine: &Engine, z0: &[f64], exc: &Excitation) -> Result<SimOutput> {
+    pub(crate) fn run_from(
+        &self,
+        engine: &Engine,
+        z0: &[f64],
+        exc: &Excitation,
+    ) -> Result<SimOutput> {
         let n = self.check_excitation(exc)?;
         let noise = match &self.noise {
             Some(spec) => {
@@ -385,32 +568,67 @@ impl Simulator {
             }
             None => None,
         };
-        let mut rec = Record { u: DMatrix::zeros(n, self.nu), y: DMatrix::zeros(n, self.ny), y_clean: DMatrix::zeros(n, self.ny) };
-        let mut scale = vec![1.0; self.ny];
-        let final_state = match &noise {
+        let mut rec = Record {
+            u: DMatrix::zeros(n, self.nu),
+            y: DMatrix::zeros(n, self.ny),
+            y_clean: DMatrix::zeros(n, self.ny),
+        };
+        let (final_state, noise_m, scale) = match noise {
             None => {
-                scale = vec![0.0; self.ny];
-                engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: None, len: n }, Some(&mut rec))?
+                let z = engine.run(
+                    z0,
+                    &RunInput {
+                        r1: exc.r1.as_ref(),
+                        r2: exc.r2.as_ref(),
+                        noise: None,
+                        len: n,
+                    },
+                    Some(&mut rec),
+                )?;
+                (z, DMatrix::zeros(n, self.ny), vec![0.0; self.ny])
             }
-            Some((raw, snr)) => {
-                if let Some((ratio, def)) = snr {
-                    engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: None, len: n }, Some(&mut rec))?;
-                    scale = snr_scale(&rec.y_clean, raw, ratio, *def)?;
+            Some((mut raw, snr)) => {
+                let scale = match snr {
+                    Some((ratio, def)) => {
+                        engine.run(
+                            z0,
+                            &RunInput {
+                                r1: exc.r1.as_ref(),
+                                r2: exc.r2.as_ref(),
+                                noise: None,
+                                len: n,
+                            },
+                            Some(&mut rec),
+                        )?;
+                        snr_scale(&rec.y_clean, &raw, &ratio, def)?
+                    }
+                    None => vec![1.0; self.ny],
+                };
+                let z = engine.run(
+                    z0,
+                    &RunInput {
+                        r1: exc.r1.as_ref(),
+                        r2: exc.r2.as_ref(),
+                        noise: Some((&raw, &scale)),
+                        len: n,
+                    },
+                    Some(&mut rec),
+                )?;
+                for (j, &a) in scale.iter().enumerate() {
+                    raw.column_mut(j).scale_mut(a);
                 }
-                engine.run(z0, &RunInput { r1: exc.r1.as_ref(), r2: exc.r2.as_ref(), noise: Some((raw, &scale)), len: n }, Some(&mut rec))?
+                (z, raw, scale)
             }
         };
-        let noise_m = match &noise {
-            Some((raw, _)) => DMatrix::from_fn(n, self.ny, |k, j| scale[j] * raw[(k, j)]),
-            None => DMatrix::zeros(n, self.ny),
-        };
-        if noise.is_none() {
-            scale = vec![1.0; self.ny];
-        }
-        let data = Dataset::from_fast(self.ts, rec.u.clone(), rec.y.clone(), self.inputs.clone(), self.outputs.clone())?;
+        let data = Dataset::from_fast(
+            self.ts,
+            rec.u,
+            rec.y.clone(),
+            self.inputs.clone(),
+            self.outputs.clone(),
+        )?;
         Ok(SimOutput {
             data,
-            u: rec.u,
             y: rec.y,
             y_clean: rec.y_clean,
             noise: noise_m,

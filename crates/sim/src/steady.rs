@@ -49,7 +49,10 @@ pub struct SteadyStateOptions {
 
 impl Default for SteadyStateOptions {
     fn default() -> Self {
-        SteadyStateOptions { method: SteadyStateMethod::Exact, check: PeriodicityCheck::Antisymmetric }
+        SteadyStateOptions {
+            method: SteadyStateMethod::Exact,
+            check: PeriodicityCheck::Antisymmetric,
+        }
     }
 }
 
@@ -58,7 +61,14 @@ impl SteadyStateOptions {
     /// 1000 periods, antisymmetric check.
     pub fn iterate(tolerance: f64) -> Self {
         let check = PeriodicityCheck::Antisymmetric;
-        SteadyStateOptions { method: SteadyStateMethod::Iterate { tolerance, max_periods: 1000, check }, check }
+        SteadyStateOptions {
+            method: SteadyStateMethod::Iterate {
+                tolerance,
+                max_periods: 1000,
+                check,
+            },
+            check,
+        }
     }
 }
 
@@ -86,22 +96,48 @@ impl Simulator {
     /// Errors: [`Error::PeriodMismatch`], [`Error::OddPeriod`] (antisymmetric
     /// check), [`Error::UnstableLoop`], [`Error::NotPeriodic`], and those of
     /// [`Simulator::simulate`].
-    pub fn periodic_steady_state(&self, one_period: &Excitation, opts: &SteadyStateOptions) -> Result<SteadyState> {
+    pub fn periodic_steady_state(
+        &self,
+        one_period: &Excitation,
+        opts: &SteadyStateOptions,
+    ) -> Result<SteadyState> {
         let p = self.check_excitation(one_period)?;
         let engine = self.engine()?;
         if p % engine.frame != 0 {
-            return Err(Error::PeriodMismatch { period: p, frame: engine.frame });
+            return Err(Error::PeriodMismatch {
+                period: p,
+                frame: engine.frame,
+            });
         }
-        let checks = [opts.check, if let SteadyStateMethod::Iterate { check, .. } = opts.method { check } else { opts.check }];
+        let checks = [
+            opts.check,
+            if let SteadyStateMethod::Iterate { check, .. } = opts.method {
+                check
+            } else {
+                opts.check
+            },
+        ];
         if checks.contains(&PeriodicityCheck::Antisymmetric) && p % 2 != 0 {
             return Err(Error::OddPeriod { period: p });
         }
-        let inp = RunInput { r1: one_period.r1.as_ref(), r2: one_period.r2.as_ref(), noise: None, len: p };
+        let inp = RunInput {
+            r1: one_period.r1.as_ref(),
+            r2: one_period.r2.as_ref(),
+            noise: None,
+            len: p,
+        };
         let (z0, periods) = match opts.method {
             SteadyStateMethod::Exact => (exact_state(&engine, &inp)?, None),
-            SteadyStateMethod::Iterate { tolerance, max_periods, check } => {
+            SteadyStateMethod::Iterate {
+                tolerance,
+                max_periods,
+                check,
+            } => {
                 if !(tolerance > 0.0 && tolerance.is_finite()) {
-                    return Err(Error::NonFinite { what: "steady-state tolerance", value: tolerance });
+                    return Err(Error::NonFinite {
+                        what: "steady-state tolerance",
+                        value: tolerance,
+                    });
                 }
                 let mut z = vec![0.0; engine.nz];
                 let mut prev: Option<DMatrix<f64>> = None;
@@ -112,7 +148,9 @@ impl Simulator {
                     let zn = engine.run(&z, &inp, Some(&mut rec))?;
                     residual = match check {
                         PeriodicityCheck::Antisymmetric => antisymmetry(&rec.y_clean),
-                        PeriodicityCheck::Periodic => prev.as_ref().map_or(f64::INFINITY, |q| periodicity(q, &rec.y_clean)),
+                        PeriodicityCheck::Periodic => prev
+                            .as_ref()
+                            .map_or(f64::INFINITY, |q| periodicity(q, &rec.y_clean)),
                     };
                     if residual <= tolerance {
                         found = Some((z.clone(), period));
@@ -123,7 +161,13 @@ impl Simulator {
                 }
                 match found {
                     Some((z0, n)) => (z0, Some(n)),
-                    None => return Err(Error::NotPeriodic { periods: max_periods, residual, tolerance }),
+                    None => {
+                        return Err(Error::NotPeriodic {
+                            periods: max_periods,
+                            residual,
+                            tolerance,
+                        });
+                    }
                 }
             }
         };
@@ -139,17 +183,31 @@ impl Simulator {
             }
         };
         let output = self.run_from(&engine, &z0, one_period)?;
-        Ok(SteadyState { output, periods, residual, initial_state: z0 })
+        Ok(SteadyState {
+            output,
+            periods,
+            residual,
+            initial_state: z0,
+        })
     }
 }
 
 fn blank(p: usize, nu: usize, ny: usize) -> crate::engine::Record {
-    crate::engine::Record { u: DMatrix::zeros(p, nu), y: DMatrix::zeros(p, ny), y_clean: DMatrix::zeros(p, ny) }
+    crate::engine::Record {
+        u: DMatrix::zeros(p, nu),
+        y: DMatrix::zeros(p, ny),
+        y_clean: DMatrix::zeros(p, ny),
+    }
 }
 
 fn exact_state(engine: &Engine, inp: &RunInput<'_>) -> Result<Vec<f64>> {
     let nz = engine.nz;
-    let zero_inp = RunInput { r1: None, r2: None, noise: None, len: inp.len };
+    let zero_inp = RunInput {
+        r1: None,
+        r2: None,
+        noise: None,
+        len: inp.len,
+    };
     let mut phi = DMatrix::zeros(nz, nz);
     let mut e = vec![0.0; nz];
     for i in 0..nz {
@@ -162,13 +220,20 @@ fn exact_state(engine: &Engine, inp: &RunInput<'_>) -> Result<Vec<f64>> {
     if nz == 0 {
         return Ok(Vec::new());
     }
-    let rho = lifted_linalg::eigenvalues(&phi)?.iter().map(|l| l.norm()).fold(0.0, f64::max);
+    let rho = lifted_linalg::eigenvalues(&phi)?
+        .iter()
+        .map(|l| l.norm())
+        .fold(0.0, f64::max);
     if rho >= 1.0 - 1e-12 {
-        return Err(Error::UnstableLoop { spectral_radius: rho });
+        return Err(Error::UnstableLoop {
+            spectral_radius: rho,
+        });
     }
     let lhs = DMatrix::<f64>::identity(nz, nz) - &phi;
     let z0 = lifted_linalg::solve(&lhs, &DMatrix::from_column_slice(nz, 1, &f))?;
-    Ok(DVector::from_column_slice(z0.as_slice()).as_slice().to_vec())
+    Ok(DVector::from_column_slice(z0.as_slice())
+        .as_slice()
+        .to_vec())
 }
 
 fn max_abs(m: &DMatrix<f64>) -> f64 {
@@ -192,5 +257,22 @@ pub(crate) fn antisymmetry(y: &DMatrix<f64>) -> f64 {
 /// max |a − b| / max |b|.
 pub(crate) fn periodicity(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     let scale = max_abs(b).max(f64::MIN_POSITIVE);
-    a.iter().zip(b.iter()).fold(0.0f64, |r, (x, y)| r.max((x - y).abs())) / scale
+    a.iter()
+        .zip(b.iter())
+        .fold(0.0f64, |r, (x, y)| r.max((x - y).abs()))
+        / scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn residual_measures() {
+        let y = DMatrix::from_column_slice(4, 1, &[1.0, 2.0, -1.0, -2.0]);
+        assert_eq!(antisymmetry(&y), 0.0);
+        let y2 = DMatrix::from_column_slice(4, 1, &[1.0, 2.0, -1.0, -1.0]);
+        assert!((antisymmetry(&y2) - 0.5).abs() < 1e-15);
+        assert!((periodicity(&y, &y2) - 0.5).abs() < 1e-15);
+    }
 }

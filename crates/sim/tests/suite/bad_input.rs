@@ -2,7 +2,10 @@
 
 use crate::common::*;
 use lifted_lti::{InputChannel, OutputChannel, StateSpace};
-use lifted_sim::{Controller, Delays, Error, Excitation, NoiseLevel, NoiseSpec, Plant, SimOptions, Simulator, SnrDefinition};
+use lifted_sim::{
+    Controller, Delays, Error, Excitation, NoiseLevel, NoiseSpec, Plant, SimOptions, Simulator,
+    SnrDefinition,
+};
 use nalgebra::DMatrix;
 
 fn plant2x2() -> Plant {
@@ -20,58 +23,155 @@ fn plant2x2() -> Plant {
 #[test]
 fn controller_dimension_mismatch() {
     let k = Controller::gain(DMatrix::zeros(3, 2), 1.0).unwrap();
-    assert!(matches!(Simulator::closed_loop(plant2x2(), k), Err(Error::DimensionMismatch { expected: 2, got: 3, .. })));
+    assert!(matches!(
+        Simulator::closed_loop(plant2x2(), k),
+        Err(Error::DimensionMismatch {
+            expected: 2,
+            got: 3,
+            ..
+        })
+    ));
     let k = Controller::gain(DMatrix::zeros(2, 1), 1.0).unwrap();
-    assert!(matches!(Simulator::closed_loop(plant2x2(), k), Err(Error::DimensionMismatch { expected: 2, got: 1, .. })));
+    assert!(matches!(
+        Simulator::closed_loop(plant2x2(), k),
+        Err(Error::DimensionMismatch {
+            expected: 2,
+            got: 1,
+            ..
+        })
+    ));
 }
 
 #[test]
 fn controller_must_be_discrete_at_the_base_period() {
     let cont = tf(&[1.0], &[1.0, 1.0], None);
-    assert!(matches!(Controller::from_ss(&cont), Err(Error::NotDiscrete { .. })));
+    assert!(matches!(
+        Controller::from_ss(&cont),
+        Err(Error::NotDiscrete { .. })
+    ));
     let k = Controller::gain(DMatrix::zeros(2, 2), 0.5).unwrap();
-    assert!(matches!(Simulator::closed_loop(plant2x2(), k), Err(Error::SamplePeriodMismatch { .. })));
+    assert!(matches!(
+        Simulator::closed_loop(plant2x2(), k),
+        Err(Error::SamplePeriodMismatch { .. })
+    ));
 }
 
 #[test]
 fn zero_hold_and_zero_sampling_period() {
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_holds(&[1, 0]), Err(Error::ZeroHold { channel: 1 })));
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_inputs(vec![InputChannel::new("a", 0), InputChannel::new("b", 1)]), Err(Error::ZeroHold { channel: 0 })));
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_sampling(&[(0, 0), (1, 0)]), Err(Error::ZeroPeriod { channel: 0 })));
     assert!(matches!(
-        Simulator::open_loop(plant2x2()).with_outputs(vec![OutputChannel::new("a", 1, 0), OutputChannel::new("b", 3, 3)]),
+        Simulator::open_loop(plant2x2()).with_holds(&[1, 0]),
+        Err(Error::ZeroHold { channel: 1 })
+    ));
+    assert!(matches!(
+        Simulator::open_loop(plant2x2())
+            .with_inputs(vec![InputChannel::new("a", 0), InputChannel::new("b", 1)]),
+        Err(Error::ZeroHold { channel: 0 })
+    ));
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_sampling(&[(0, 0), (1, 0)]),
+        Err(Error::ZeroPeriod { channel: 0 })
+    ));
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_outputs(vec![
+            OutputChannel::new("a", 1, 0),
+            OutputChannel::new("b", 3, 3)
+        ]),
         Err(Error::OffsetOutOfRange { channel: 1, .. })
     ));
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_sampling(&[(1, 0)]), Err(Error::DimensionMismatch { .. })));
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_sampling(&[(1, 0)]),
+        Err(Error::DimensionMismatch { .. })
+    ));
 }
 
 #[test]
 fn negative_or_nonfinite_delay() {
     let g = tf(&[1.0], &[2.0, 1.0], None);
-    assert!(matches!(Plant::continuous(&g, 1.0, &Delays::input(vec![-0.5])), Err(Error::NegativeDelay { what: "input", index: 0, .. })));
-    assert!(matches!(Plant::continuous(&g, 1.0, &Delays { input: vec![], output: vec![-1.0] }), Err(Error::NegativeDelay { what: "output", .. })));
-    assert!(matches!(Plant::continuous(&g, 1.0, &Delays::input(vec![f64::NAN])), Err(Error::NonFinite { .. })));
-    assert!(matches!(Plant::continuous(&g, 1.0, &Delays::input(vec![1.0, 2.0])), Err(Error::DimensionMismatch { .. })));
-    assert!(matches!(Plant::continuous(&g, 0.0, &Delays::default()), Err(Error::InvalidSamplePeriod { .. })));
-    assert!(matches!(lifted_sim::plants::first_order_with_delay(-1.0), Err(Error::NegativeDelay { .. })));
+    assert!(matches!(
+        Plant::continuous(&g, 1.0, &Delays::input(vec![-0.5])),
+        Err(Error::NegativeDelay {
+            what: "input",
+            index: 0,
+            ..
+        })
+    ));
+    assert!(matches!(
+        Plant::continuous(
+            &g,
+            1.0,
+            &Delays {
+                input: vec![],
+                output: vec![-1.0]
+            }
+        ),
+        Err(Error::NegativeDelay { what: "output", .. })
+    ));
+    assert!(matches!(
+        Plant::continuous(&g, 1.0, &Delays::input(vec![f64::NAN])),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        Plant::continuous(&g, 1.0, &Delays::input(vec![1.0, 2.0])),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        Plant::continuous(&g, 0.0, &Delays::default()),
+        Err(Error::InvalidSamplePeriod { .. })
+    ));
+    assert!(matches!(
+        lifted_sim::plants::first_order_with_delay(-1.0),
+        Err(Error::NegativeDelay { .. })
+    ));
 }
 
 #[test]
 fn snr_not_positive() {
     for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let spec = NoiseSpec { level: NoiseLevel::Snr { ratio: vec![bad], definition: SnrDefinition::Variance }, ..Default::default() };
-        assert!(matches!(Simulator::open_loop(plant2x2()).with_noise(spec), Err(Error::InvalidSnr { channel: 0, .. })), "{bad}");
+        let spec = NoiseSpec {
+            level: NoiseLevel::Snr {
+                ratio: vec![bad],
+                definition: SnrDefinition::Variance,
+            },
+            ..Default::default()
+        };
+        assert!(
+            matches!(
+                Simulator::open_loop(plant2x2()).with_noise(spec),
+                Err(Error::InvalidSnr { channel: 0, .. })
+            ),
+            "{bad}"
+        );
     }
-    let spec = NoiseSpec { level: NoiseLevel::Snr { ratio: vec![1.0, 2.0, 3.0], definition: SnrDefinition::Variance }, ..Default::default() };
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_noise(spec), Err(Error::DimensionMismatch { .. })));
-    let spec = NoiseSpec { level: NoiseLevel::Std(vec![-1.0]), ..Default::default() };
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_noise(spec), Err(Error::InvalidNoiseStd { .. })));
+    let spec = NoiseSpec {
+        level: NoiseLevel::Snr {
+            ratio: vec![1.0, 2.0, 3.0],
+            definition: SnrDefinition::Variance,
+        },
+        ..Default::default()
+    };
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_noise(spec),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    let spec = NoiseSpec {
+        level: NoiseLevel::Std(vec![-1.0]),
+        ..Default::default()
+    };
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_noise(spec),
+        Err(Error::InvalidNoiseStd { .. })
+    ));
     // SNR on an output that is never excited
-    let sim = Simulator::open_loop(plant2x2()).with_noise(NoiseSpec::white_snr(5.0, 0)).unwrap();
+    let sim = Simulator::open_loop(plant2x2())
+        .with_noise(NoiseSpec::white_snr(5.0, 0))
+        .unwrap();
     let mut u = DMatrix::zeros(100, 2);
     u.column_mut(0).fill(1.0);
     u[(0, 0)] = 0.0;
-    assert!(matches!(sim.simulate(&Excitation::input(u)), Err(Error::ZeroSignalVariance { channel: 1 })));
+    assert!(matches!(
+        sim.simulate(&Excitation::input(u)),
+        Err(Error::ZeroSignalVariance { channel: 1 })
+    ));
 }
 
 #[test]
@@ -85,23 +185,44 @@ fn unstable_closed_loop_diverges_with_a_named_error() {
         other => panic!("{other:?}"),
     }
     // a lower limit stops earlier
-    let sim = sim.with_options(SimOptions { divergence_limit: 1e3 }).unwrap();
+    let sim = sim
+        .with_options(SimOptions {
+            divergence_limit: 1e3,
+        })
+        .unwrap();
     assert!(matches!(sim.simulate(&r), Err(Error::Diverged { sample, .. }) if sample < 10));
 }
 
 #[test]
 fn bad_excitation() {
     let sim = Simulator::open_loop(plant2x2());
-    assert!(matches!(sim.simulate(&Excitation::input(DMatrix::zeros(10, 3))), Err(Error::DimensionMismatch { .. })));
-    assert!(matches!(sim.simulate(&Excitation::default()), Err(Error::EmptyExcitation)));
+    assert!(matches!(
+        sim.simulate(&Excitation::input(DMatrix::zeros(10, 3))),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        sim.simulate(&Excitation::default()),
+        Err(Error::EmptyExcitation)
+    ));
     let mut u = DMatrix::zeros(10, 2);
     u[(3, 1)] = f64::NAN;
-    assert!(matches!(sim.simulate(&Excitation::input(u)), Err(Error::NonFinite { what: "r2", .. })));
+    assert!(matches!(
+        sim.simulate(&Excitation::input(u)),
+        Err(Error::NonFinite { what: "r2", .. })
+    ));
     let exc = Excitation::both(DMatrix::from_element(10, 2, 1.0), DMatrix::zeros(11, 2));
     let k = Controller::gain(DMatrix::zeros(2, 2), 1.0).unwrap();
-    assert!(matches!(Simulator::closed_loop(plant2x2(), k).unwrap().simulate(&exc), Err(Error::DimensionMismatch { .. })));
+    assert!(matches!(
+        Simulator::closed_loop(plant2x2(), k)
+            .unwrap()
+            .simulate(&exc),
+        Err(Error::DimensionMismatch { .. })
+    ));
     // a nonzero reference in open loop has no meaning
-    assert!(matches!(sim.simulate(&Excitation::reference(DMatrix::from_element(10, 2, 1.0))), Err(Error::Unsupported { .. })));
+    assert!(matches!(
+        sim.simulate(&Excitation::reference(DMatrix::from_element(10, 2, 1.0))),
+        Err(Error::Unsupported { .. })
+    ));
 }
 
 #[test]
@@ -109,6 +230,13 @@ fn inferential_model_must_fit() {
     let k = Controller::gain(DMatrix::zeros(2, 2), 1.0).unwrap();
     let sim = Simulator::closed_loop(plant2x2(), k).unwrap();
     let wrong = tf(&[1.0], &[1.0, -0.5], Some(1.0));
-    assert!(matches!(sim.clone().with_feedback(lifted_sim::Feedback::Inferential(wrong)), Err(Error::DimensionMismatch { .. })));
-    assert!(matches!(Simulator::open_loop(plant2x2()).with_feedback(lifted_sim::Feedback::HoldLast), Err(Error::Unsupported { .. })));
+    assert!(matches!(
+        sim.clone()
+            .with_feedback(lifted_sim::Feedback::Inferential(wrong)),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        Simulator::open_loop(plant2x2()).with_feedback(lifted_sim::Feedback::HoldLast),
+        Err(Error::Unsupported { .. })
+    ));
 }

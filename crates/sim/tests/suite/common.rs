@@ -8,7 +8,10 @@ use rand_chacha::ChaCha8Rng;
 pub type TestResult = Result<(), Box<dyn std::error::Error>>;
 
 pub fn tf(num: &[f64], den: &[f64], ts: Option<f64>) -> StateSpace {
-    TransferFunction::from_coeffs(num, den, ts).unwrap().to_ss().unwrap()
+    TransferFunction::from_coeffs(num, den, ts)
+        .unwrap()
+        .to_ss()
+        .unwrap()
 }
 
 /// Uniform random input in [-1, 1], N × m, held `hold` samples.
@@ -30,7 +33,9 @@ pub fn random_input(n: usize, m: usize, hold: usize, seed: u64) -> DMatrix<f64> 
 /// max |a − b|.
 pub fn max_diff(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     assert_eq!(a.shape(), b.shape());
-    a.iter().zip(b.iter()).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+    a.iter()
+        .zip(b.iter())
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
 }
 
 pub fn max_abs(a: &DMatrix<f64>) -> f64 {

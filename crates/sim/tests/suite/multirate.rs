@@ -9,7 +9,10 @@ use nalgebra::DMatrix;
 #[test]
 fn slow_channel_is_every_fifth_fast_sample() -> TestResult {
     let fx = plants::stirred_tank_5_3_1()?;
-    let sim = Simulator::open_loop(fx.discrete_plant()?).with_outputs(vec![OutputChannel::new("level", 5, 2), OutputChannel::new("temp", 1, 0)])?;
+    let sim = Simulator::open_loop(fx.discrete_plant()?).with_outputs(vec![
+        OutputChannel::new("level", 5, 2),
+        OutputChannel::new("temp", 1, 0),
+    ])?;
     let n = 1000;
     let out = sim.simulate(&Excitation::input(random_input(n, 2, 1, 1)))?;
     let (idx, vals) = out.data.output_samples(0)?;
@@ -28,22 +31,30 @@ fn slow_channel_is_every_fifth_fast_sample() -> TestResult {
 #[test]
 fn holds_are_applied_and_recorded() -> TestResult {
     let fx = plants::stirred_tank_5_3_1()?;
-    let sim = Simulator::open_loop(fx.discrete_plant()?).with_inputs(vec![InputChannel::new("u1", 3), InputChannel::new("u2", 2).with_offset(1)])?;
+    let sim = Simulator::open_loop(fx.discrete_plant()?).with_inputs(vec![
+        InputChannel::new("u1", 3),
+        InputChannel::new("u2", 2).with_offset(1),
+    ])?;
     let n = 600;
     let r2 = random_input(n, 2, 1, 2); // not held: the simulator holds it
     let out = sim.simulate(&Excitation::input(r2.clone()))?;
     for k in 0..n {
         let s0 = k - k % 3;
-        assert_eq!(out.u[(k, 0)], r2[(s0, 0)]);
+        assert_eq!(out.u()[(k, 0)], r2[(s0, 0)]);
         // hold 2 with phase 1: blocks start at odd k; before k = 1 the held value is 0
-        let expect = if k == 0 { 0.0 } else { r2[(k - (k + 1) % 2, 1)] };
-        assert_eq!(out.u[(k, 1)], expect, "k {k}");
+        let expect = if k == 0 {
+            0.0
+        } else {
+            r2[(k - (k + 1) % 2, 1)]
+        };
+        assert_eq!(out.u()[(k, 1)], expect, "k {k}");
     }
     assert_eq!(out.data.inputs()[0].hold, 3);
     assert_eq!(out.data.inputs()[1].offset, 1);
     assert_eq!(sim.frame_period(), 6);
     // the hold acts before the plant: same output as simulating the held input directly
-    let direct = Simulator::open_loop(fx.discrete_plant()?).simulate(&Excitation::input(out.u.clone()))?;
+    let direct =
+        Simulator::open_loop(fx.discrete_plant()?).simulate(&Excitation::input(out.u().clone()))?;
     assert_eq!(direct.y, out.y);
     Ok(())
 }
@@ -53,11 +64,13 @@ fn hold_last_feedback_uses_the_slow_samples() -> TestResult {
     // P loop on a slow output: with hold-last the controller output is constant between samples
     let g = tf(&[0.2], &[1.0, -0.9], Some(1.0));
     let k = lifted_sim::Controller::gain(DMatrix::from_element(1, 1, 0.5), 1.0)?;
-    let sim = Simulator::closed_loop(Plant::discrete(&g, &[], &[])?, k)?.with_sampling(&[(4, 0)])?.with_feedback(Feedback::HoldLast)?;
+    let sim = Simulator::closed_loop(Plant::discrete(&g, &[], &[])?, k)?
+        .with_sampling(&[(4, 0)])?
+        .with_feedback(Feedback::HoldLast)?;
     let out = sim.simulate(&Excitation::reference(DMatrix::from_element(40, 1, 1.0)))?;
     for k in 0..40 {
         let s = k - k % 4;
-        assert!((out.u[(k, 0)] - 0.5 * (1.0 - out.y[(s, 0)])).abs() < 1e-15);
+        assert!((out.u()[(k, 0)] - 0.5 * (1.0 - out.y[(s, 0)])).abs() < 1e-15);
     }
     Ok(())
 }
@@ -69,7 +82,10 @@ fn dataset_round_trips_through_csv() -> TestResult {
     let out = sim.simulate(&Excitation::input(random_input(100, 2, 1, 3)))?;
     let mut buf = Vec::new();
     out.data.to_csv_writer(&mut buf)?;
-    let back = lifted_lti::Dataset::from_csv_reader(buf.as_slice(), &lifted_lti::data::CsvOptions::with_inputs(2))?;
+    let back = lifted_lti::Dataset::from_csv_reader(
+        buf.as_slice(),
+        &lifted_lti::data::CsvOptions::with_inputs(2),
+    )?;
     assert_eq!(back, out.data);
     Ok(())
 }
