@@ -195,12 +195,13 @@ pub fn reproduce_cmd(a: &ReproduceArgs) -> CliResult<()> {
 fn print_table(header: &[&str], rows: &[Vec<String>]) {
     const MAX: usize = 48;
     let clip = |s: &str| -> String {
+        let s = s.split_whitespace().collect::<Vec<_>>().join(" ");
         if s.chars().count() > MAX {
             let mut t: String = s.chars().take(MAX - 1).collect();
             t.push('…');
             t
         } else {
-            s.to_string()
+            s
         }
     };
     let widths: Vec<usize> = (0..header.len())
