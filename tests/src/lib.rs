@@ -24,7 +24,9 @@ pub mod a3_delay_example;
 pub mod a3_lifting;
 pub mod a3_mimo;
 pub mod a3_multirate_iv;
+pub mod a3_iv;
 pub mod a3_polynomial;
+pub mod a3_subspace;
 pub mod registry;
 pub mod report;
 

@@ -157,3 +157,21 @@ mod a3_multirate_iv {
         assert!(rep.all_passed(), "{rep}");
     }
 }
+
+mod a3_subspace {
+    #[test]
+    fn a31_stirred_tank_cva_n4sid_moesp() {
+        let rep = lifted_tests::a3_subspace::run().expect("A3.1 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
+
+mod a3_iv {
+    #[test]
+    fn a39_closed_loop_iv_siso() {
+        let rep = lifted_tests::a3_iv::run().expect("A3.9 runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+}
