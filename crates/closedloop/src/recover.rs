@@ -357,11 +357,7 @@ pub const SHARED_DEN_TOL: f64 = 1e-10;
 /// Errors: [`Error::SingularReturnDifference`] when Ĥ₁ ≡ 1.
 pub fn general_tf(h1: &SisoTf, h2: &SisoTf) -> Result<SisoTf> {
     let ret = nonzero(h1.den() - h1.num(), "I - H1", "H1 is identically 1")?;
-    let scale = h1
-        .den()
-        .coeffs()
-        .iter()
-        .fold(0.0f64, |a, c| a.max(c.abs()));
+    let scale = h1.den().coeffs().iter().fold(0.0f64, |a, c| a.max(c.abs()));
     let shared = h1.den().degree() == h2.den().degree()
         && h1.den().max_abs_diff(h2.den()) <= SHARED_DEN_TOL * scale;
     if shared {

@@ -189,6 +189,71 @@ mod pipeline {
     }
 }
 
+mod swap_identifier {
+    //! The pipeline takes any `lifted_lti::Identifier`: a subspace (N4SID)
+    //! wrapper from `lifted-subspace` replaces the q-Markov Cover.
+    use super::*;
+    use lifted_lti::{Identified, Identifier};
+    use lifted_subspace::{Experiment, OrderSelection, SubspaceOptions};
+
+    struct N4sid(SubspaceOptions);
+
+    impl Identifier for N4sid {
+        type Diagnostics = ();
+        type Error = lifted_subspace::Error;
+        fn name(&self) -> &'static str {
+            "N4SID"
+        }
+        fn identify(&self, experiments: &[Dataset]) -> Result<Identified<()>, Self::Error> {
+            let ex: Vec<Experiment<'_>> = experiments
+                .iter()
+                .map(|e| Experiment { u: e.u(), y: e.y() })
+                .collect();
+            let fit = lifted_subspace::identify(&ex, &self.0)?;
+            Ok(Identified {
+                model: fit.model,
+                diagnostics: (),
+            })
+        }
+    }
+
+    #[test]
+    fn n4sid_in_the_compensator_and_general_setups() {
+        let fx = ren_zhu(RenZhuPlant::G1, RenZhuController::P).unwrap();
+        let data = run_experiment(
+            &fx.simulator().unwrap(),
+            Setup::General,
+            &ExperimentOptions {
+                periods: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let id = N4sid(SubspaceOptions {
+            order: OrderSelection::Fixed(1),
+            ts: 0.005,
+            noise_model: false,
+            ..Default::default()
+        });
+        for setup in [Setup::Compensator, Setup::General] {
+            let est = estimate_plant(
+                &id,
+                &data,
+                setup,
+                fx.controller.as_ref(),
+                &PlantOptions::default(),
+            )
+            .unwrap();
+            // noise-free data: the subspace model is exact, so G is recovered
+            let err = metrics::relative_error_at(&est.plant, &fx.plant, &[0.01, 1.0, 10.0])
+                .unwrap()
+                .into_iter()
+                .fold(0.0, f64::max);
+            assert!(err < 1e-6, "{setup}: {err}");
+        }
+    }
+}
+
 mod bad_input {
     use super::*;
 
