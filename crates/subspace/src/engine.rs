@@ -621,3 +621,47 @@ fn noise_model(
         .map_err(|e| e.to_string());
     Ok((cov, kg))
 }
+
+/// [`identify`] behind the common [`lifted_lti::identify::Identifier`]
+/// interface: single-rate [`lifted_lti::Dataset`]s (several experiments are
+/// merged); the model gets the data's period.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SubspaceIdentifier {
+    /// Options (the sample period is taken from the data).
+    pub options: SubspaceOptions,
+}
+
+impl lifted_lti::identify::Identifier for SubspaceIdentifier {
+    type Diagnostics = Diagnostics;
+    type Error = Error;
+
+    fn name(&self) -> &'static str {
+        self.options.method.name()
+    }
+
+    fn identify(
+        &self,
+        experiments: &[lifted_lti::Dataset],
+    ) -> Result<lifted_lti::identify::Identified<Diagnostics>> {
+        let layout = lifted_lti::identify::check_experiments(experiments)?;
+        if let Some(i) = experiments.iter().position(|e| !e.is_single_rate()) {
+            return Err(Error::InvalidOption {
+                what: "experiments",
+                reason: format!("experiment {i} is multirate; use the multirate crate (lifting)"),
+            });
+        }
+        let recs: Vec<Experiment<'_>> = experiments
+            .iter()
+            .map(|e| Experiment { u: e.u(), y: e.y() })
+            .collect();
+        let opts = SubspaceOptions {
+            ts: layout.ts,
+            ..self.options.clone()
+        };
+        let fit = identify(&recs, &opts)?;
+        Ok(lifted_lti::identify::Identified {
+            model: fit.model,
+            diagnostics: fit.diagnostics,
+        })
+    }
+}

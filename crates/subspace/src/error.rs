@@ -10,6 +10,9 @@ pub enum Error {
     /// An error from `lifted-lti` (building the identified model).
     #[error(transparent)]
     Lti(#[from] lifted_lti::Error),
+    /// An error of the data layer (incompatible experiments, …).
+    #[error(transparent)]
+    Data(#[from] lifted_lti::DataError),
     /// A data matrix contains NaN or an infinity where finite data are required.
     #[error("{what} contains a non-finite value at sample {row}, channel {col}")]
     NonFinite {

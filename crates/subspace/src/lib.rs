@@ -5,6 +5,7 @@
 //! | item | what |
 //! |---|---|
 //! | [`identify`] ([`SubspaceOptions`], [`Method`]) | N4SID, MOESP and CVA through the weights of the unifying theorem (thesis §2.5) |
+//! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] | model, Kalman gain, (Q, R, S), singular values, suggested order |
 //! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
@@ -73,8 +74,8 @@ mod iv;
 mod regress;
 
 pub use engine::{
-    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, SubspaceModel,
-    SubspaceOptions, SystemEstimate, gap_order, identify,
+    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, SubspaceIdentifier,
+    SubspaceModel, SubspaceOptions, SystemEstimate, gap_order, identify,
 };
 pub use error::{Error, Result};
 pub use iv::{
