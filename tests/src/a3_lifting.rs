@@ -296,10 +296,8 @@ pub fn run_a32() -> BoxResult<Reproduction> {
 /// A3.3: the §4.3 example (m = 1, n = 3) and Prop. 2.
 pub fn run_a33() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A3.3", "§4.3 example: loss of observability (m=1, n=3)");
-    let a = DMatrix::from_row_slice(3, 3, &[0.9, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
-    let b = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 0.0]);
-    let c = DMatrix::from_row_slice(1, 3, &[0.0, 0.0, 0.1]);
-    let g = StateSpace::new(a, b, c, DMatrix::zeros(1, 1), Some(1.0))?;
+    // A = [[0.9,0,0],[1,0,0],[0,1,0]], B = e₁, C = [0 0 0.1], D = 0
+    let g = lifted_sim::plants::loss_of_observability()?.plant;
     // its TF is 0.1/(z^3 − 0.9 z^2) (erratum L-6)
     let tf = g.to_tf(&MinrealOptions::default())?;
     let den = tf.den(0, 0).monic();

@@ -4,7 +4,7 @@
 //! (spec §0). Lifted N4SID (6 block rows) with the causal D̄, principal 5th
 //! root and LS for B (the reference implementation's route).
 
-use lifted_lti::{StateSpace, TransferFunction};
+use lifted_lti::StateSpace;
 use lifted_multirate::{
     LiftedIdOptions, MultirateLifting, Ordering, ProcedureOptions, identify_multirate,
 };
@@ -18,29 +18,16 @@ use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
-/// 2×2 discrete model with entries k z⁻¹/(1 − p z⁻¹) = k/(z − p) at T = 1.
-fn first_order_matrix(entries: [[(f64, f64); 2]; 2]) -> BoxResult<StateSpace> {
-    let rows = entries
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|&(k, p)| Ok(lifted_lti::SisoTf::from_coeffs(&[k], &[1.0, -p])?))
-                .collect::<BoxResult<Vec<_>>>()
-        })
-        .collect::<BoxResult<Vec<_>>>()?;
-    Ok(TransferFunction::from_entries(rows, Some(1.0))?.to_ss()?)
-}
-
-/// The §5.3.1 plant (L-14: not the §2.6.2 or §7.8.2 model).
+/// The §5.3.1 plant (lifted-sim reference fixture; L-14: not the §2.6.2 or
+/// §7.8.2 model).
 pub(crate) fn plant_531() -> BoxResult<StateSpace> {
-    first_order_matrix([
-        [(0.1416, 0.9868), (-0.03, 0.97)],
-        [(-0.0379, 0.9131), (0.0595, 0.9048)],
-    ])
+    Ok(lifted_sim::plants::stirred_tank_5_3_1()?.plant)
 }
 
 fn noise_531() -> BoxResult<StateSpace> {
-    first_order_matrix([[(0.11, 0.97), (-0.03, 0.95)], [(-0.02, 0.92), (0.04, 0.88)]])
+    lifted_sim::plants::stirred_tank_5_3_1()?
+        .noise
+        .ok_or_else(|| "the §5.3.1 fixture has a noise model".into())
 }
 
 /// Simulates N samples: RBS u, noise-free y₀ and noisy y (var-SNR `snr`).

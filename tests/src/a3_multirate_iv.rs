@@ -12,7 +12,7 @@
 //! SNR: **std-SNR 5**, std(noise-free y_i)/std(v_i) = 5 per output (the
 //! spec's acceptance for this section is calibrated under the std reading).
 
-use lifted_lti::{StateSpace, TransferFunction};
+use lifted_lti::StateSpace;
 use lifted_multirate::{
     Error as MrError, LiftedIvOptions, MultirateLifting, Ordering, identify_lifted_iv,
     identify_one_step_iv,
@@ -27,18 +27,9 @@ use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
-/// The §7.8.2 plant (L-14: G₁₂ = 0, 0.913).
+/// The §7.8.2 plant (lifted-sim reference fixture; L-14: G₁₂ = 0, 0.913).
 fn plant() -> BoxResult<StateSpace> {
-    let e = |k: f64, p: f64| lifted_lti::SisoTf::from_coeffs(&[k], &[1.0, -p]);
-    let zero = lifted_lti::SisoTf::from_coeffs(&[0.0], &[1.0])?;
-    Ok(TransferFunction::from_entries(
-        vec![
-            vec![e(0.1416, 0.9868)?, zero],
-            vec![e(-0.0379, 0.913)?, e(0.0595, 0.9048)?],
-        ],
-        Some(1.0),
-    )?
-    .to_ss()?)
+    Ok(lifted_sim::plants::stirred_tank_7_8_2()?.plant)
 }
 
 struct Record {
