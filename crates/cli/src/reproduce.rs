@@ -192,7 +192,9 @@ pub fn reproduce_cmd(a: &ReproduceArgs) -> CliResult<()> {
     Ok(())
 }
 
-fn print_table(header: &[&str], rows: &[Vec<String>]) {
+/// Prints an aligned text table; cells are put on one line and clipped
+/// to 48 characters.
+pub fn print_table(header: &[&str], rows: &[Vec<String>]) {
     const MAX: usize = 48;
     let clip = |s: &str| -> String {
         let s = s.split_whitespace().collect::<Vec<_>>().join(" ");
@@ -208,7 +210,7 @@ fn print_table(header: &[&str], rows: &[Vec<String>]) {
         .map(|j| {
             rows.iter()
                 .map(|r| clip(&r[j]).chars().count())
-                .chain(std::iter::once(header[j].len()))
+                .chain(std::iter::once(header[j].chars().count()))
                 .max()
                 .unwrap_or(0)
         })

@@ -18,6 +18,7 @@ use crate::args::ValidateArgs;
 use crate::error::{CliError, CliResult, Context, input};
 use crate::identify::data_spec;
 use crate::model::{channel_names, read_model};
+use crate::reproduce::print_table;
 use crate::table::load;
 
 /// 99 % two-sided normal quantile.
@@ -229,28 +230,8 @@ pub fn load_for_validation(
 pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
     let (file, data) = load_for_validation(&a.model, &a.data, &a.columns)?;
     let v = validate_model(&file.model, &data, a.lags, &a.data)?;
-    let rows = table_rows(&v);
-    let widths: Vec<usize> = (0..8)
-        .map(|j| {
-            rows.iter()
-                .map(|r| r[j].chars().count())
-                .chain(std::iter::once(TABLE_HEADER[j].chars().count()))
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let line = |cells: Vec<&str>| {
-        cells
-            .iter()
-            .zip(&widths)
-            .map(|(c, w)| format!("{c:<w$}"))
-            .collect::<Vec<_>>()
-            .join("  ")
-    };
-    println!("{}", line(TABLE_HEADER.to_vec()));
-    for r in &rows {
-        println!("{}", line(r.iter().map(String::as_str).collect()));
-    }
+    let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
+    print_table(&TABLE_HEADER, &rows);
     println!(
         "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
         v.lags
