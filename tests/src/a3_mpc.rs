@@ -117,8 +117,8 @@ fn identities(model: &StateSpace, seed: u64) -> BoxResult<[f64; 6]> {
         for i in 1..=nk {
             printed += (a[i + l][(0, 0)] - a[i][(0, 0)]) * du(nk - i);
         }
-        for i in 1..=l {
-            printed += a[i][(0, 0)] * du(nk + l + 1 - i);
+        for (i, ai) in a.iter().enumerate().take(l + 1).skip(1) {
+            printed += ai[(0, 0)] * du(nk + l + 1 - i);
         }
         gap_is = gap_is.min((printed - truth).abs());
     }

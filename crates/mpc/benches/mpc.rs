@@ -7,7 +7,7 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lifted_lti::StateSpace;
-use lifted_mpc::{Constraints, MpcOptions, StateSpaceMpc};
+use lifted_mpc::{Constraints, MpcOptions, Predictive, StateSpaceMpc};
 use nalgebra::{DMatrix, DVector, dmatrix, dvector};
 
 /// The A3.7 stirred-tank fast model (2x2, four first-order channels).

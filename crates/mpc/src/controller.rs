@@ -4,6 +4,7 @@
 use nalgebra::DVector;
 
 use crate::error::{Error, Result};
+use crate::law::Moves;
 
 /// A discrete controller run every fast period T.
 pub trait Controller {
@@ -19,6 +20,44 @@ pub trait Controller {
         measured: &[Option<f64>],
         reference: &DVector<f64>,
     ) -> Result<DVector<f64>>;
+}
+
+/// A receding-horizon controller ([`crate::Dmc`], [`crate::StateSpaceMpc`])
+/// that exposes its whole move plan.
+pub trait Predictive: Controller {
+    /// One update: u(t) and the plan ΔU; with `force_qp` the QP is solved
+    /// even when the closed form respects every limit.
+    ///
+    /// Errors: as [`Controller::update`], [`Error::Infeasible`].
+    fn step_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)>;
+
+    /// One update returning u(t) and the move plan.
+    ///
+    /// Errors: as [`Controller::update`].
+    fn update_with_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
+        self.step_plan(measured, reference, false)
+    }
+
+    /// One update forced through the QP (to check that the QP path equals
+    /// the closed form when no limit is active).
+    ///
+    /// Errors: as [`Controller::update`], [`Error::Infeasible`].
+    fn update_qp(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+    ) -> Result<(DVector<f64>, Moves)> {
+        self.step_plan(measured, reference, true)
+    }
 }
 
 pub(crate) fn check_update_args(

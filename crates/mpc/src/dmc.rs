@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::controller::{Controller, check_update_args};
+use crate::controller::{Controller, Predictive, check_update_args};
 use crate::error::{Error, Result};
 use crate::law::{MoveLaw, Moves};
 use crate::model::step_coefficients;
@@ -44,22 +44,62 @@ impl Dmc {
     /// Errors: model errors, [`Error::InvalidArgument`] when N < h, the
     /// move-law errors of [`MoveLaw::new`].
     pub fn new(model: &StateSpace, truncation: usize, opts: &MpcOptions) -> Result<Self> {
+        if truncation < opts.prediction_horizon {
+            return Err(Error::InvalidArgument {
+                what: "truncation N",
+                reason: format!(
+                    "N = {truncation} must be at least the prediction horizon {}",
+                    opts.prediction_horizon
+                ),
+            });
+        }
+        Self::from_steps(step_coefficients(model, truncation)?, opts)
+    }
+
+    /// Builds DMC directly from step-response coefficients a_0 = 0, a_1, …,
+    /// a_N (p×m each, e.g. from a plant step test); N = `steps.len() − 1`.
+    ///
+    /// Errors: empty or inconsistent coefficients, non-zero a_0, N < h, the
+    /// move-law errors of [`MoveLaw::new`].
+    pub fn from_steps(steps: Vec<DMatrix<f64>>, opts: &MpcOptions) -> Result<Self> {
         let hp = opts.prediction_horizon;
-        if opts.prediction_horizon == 0 || opts.control_horizon == 0 || opts.control_horizon > hp {
+        if hp == 0 || opts.control_horizon == 0 || opts.control_horizon > hp {
             return Err(Error::InvalidHorizon {
                 prediction: hp,
                 control: opts.control_horizon,
             });
         }
+        let Some(first) = steps.first() else {
+            return Err(Error::InvalidArgument {
+                what: "step coefficients",
+                reason: "empty".into(),
+            });
+        };
+        let (p, m) = first.shape();
+        if p == 0 || m == 0 || first.amax() != 0.0 {
+            return Err(Error::InvalidArgument {
+                what: "step coefficients",
+                reason: "a_0 must be a non-empty zero matrix (strictly proper model)".into(),
+            });
+        }
+        for a in &steps {
+            if a.shape() != (p, m) {
+                return Err(Error::DimensionMismatch {
+                    what: "step coefficient rows",
+                    expected: p,
+                    got: a.nrows(),
+                });
+            }
+            crate::error::check_finite_slice("step coefficients", a.as_slice())?;
+        }
+        let truncation = steps.len() - 1;
         if truncation < hp {
             return Err(Error::InvalidArgument {
                 what: "truncation N",
                 reason: format!("N = {truncation} must be at least the prediction horizon {hp}"),
             });
         }
-        let steps = step_coefficients(model, truncation)?;
         let law = MoveLaw::new(&steps, opts)?;
-        let (p, m) = steps[0].shape();
         Ok(Self {
             steps,
             truncation,
@@ -218,7 +258,7 @@ impl Dmc {
         v
     }
 
-    fn step(
+    fn step_inner(
         &mut self,
         measured: &[Option<f64>],
         reference: &DVector<f64>,
@@ -252,29 +292,6 @@ impl Dmc {
         self.history.truncate(keep);
         Ok((self.u_prev.clone(), moves))
     }
-
-    /// One update returning u(t) and the full move plan.
-    ///
-    /// Errors: as [`Controller::update`].
-    pub fn update_with_plan(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-    ) -> Result<(DVector<f64>, Moves)> {
-        self.step(measured, reference, false)
-    }
-
-    /// One update that always goes through the QP (for checking that the
-    /// QP path equals the closed form when no limit is active).
-    ///
-    /// Errors: as [`Controller::update`], [`Error::Infeasible`].
-    pub fn update_qp(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-    ) -> Result<(DVector<f64>, Moves)> {
-        self.step(measured, reference, true)
-    }
 }
 
 impl Controller for Dmc {
@@ -289,6 +306,17 @@ impl Controller for Dmc {
         measured: &[Option<f64>],
         reference: &DVector<f64>,
     ) -> Result<DVector<f64>> {
-        Ok(self.step(measured, reference, false)?.0)
+        Ok(self.step_inner(measured, reference, false)?.0)
+    }
+}
+
+impl Predictive for Dmc {
+    fn step_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)> {
+        self.step_inner(measured, reference, force_qp)
     }
 }

@@ -4,7 +4,7 @@
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::controller::{Controller, check_update_args};
+use crate::controller::{Controller, Predictive, check_update_args};
 use crate::error::{Error, Result};
 use crate::law::{MoveLaw, Moves};
 use crate::model::{integrated_model, step_coefficients};
@@ -115,7 +115,7 @@ impl StateSpaceMpc {
         Ok(&self.gamma * x_d + self.law.dynamic_matrix() * future + ys)
     }
 
-    fn step(
+    fn step_inner(
         &mut self,
         measured: &[Option<f64>],
         reference: &DVector<f64>,
@@ -149,28 +149,6 @@ impl StateSpaceMpc {
         self.x = &self.ai * &self.x + &self.bi * &du;
         Ok((self.u_prev.clone(), moves))
     }
-
-    /// One update returning u(t) and the full move plan.
-    ///
-    /// Errors: as [`Controller::update`].
-    pub fn update_with_plan(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-    ) -> Result<(DVector<f64>, Moves)> {
-        self.step(measured, reference, false)
-    }
-
-    /// One update forced through the QP.
-    ///
-    /// Errors: as [`Controller::update`], [`Error::Infeasible`].
-    pub fn update_qp(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-    ) -> Result<(DVector<f64>, Moves)> {
-        self.step(measured, reference, true)
-    }
 }
 
 impl Controller for StateSpaceMpc {
@@ -185,6 +163,17 @@ impl Controller for StateSpaceMpc {
         measured: &[Option<f64>],
         reference: &DVector<f64>,
     ) -> Result<DVector<f64>> {
-        Ok(self.step(measured, reference, false)?.0)
+        Ok(self.step_inner(measured, reference, false)?.0)
+    }
+}
+
+impl Predictive for StateSpaceMpc {
+    fn step_plan(
+        &mut self,
+        measured: &[Option<f64>],
+        reference: &DVector<f64>,
+        force_qp: bool,
+    ) -> Result<(DVector<f64>, Moves)> {
+        self.step_inner(measured, reference, force_qp)
     }
 }

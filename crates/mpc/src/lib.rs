@@ -52,7 +52,7 @@ mod options;
 mod robust;
 mod simulate;
 
-pub use controller::{Controller, SlowRate};
+pub use controller::{Controller, Predictive, SlowRate};
 pub use dmc::Dmc;
 pub use error::{Error, Result};
 pub use gpc::StateSpaceMpc;

@@ -447,6 +447,32 @@ mod predictions {
     }
 
     #[test]
+    fn dmc_from_step_test_equals_model_based() {
+        let plant = tank();
+        let opts = MpcOptions::default();
+        let steps = step_coefficients(&plant, 200).unwrap();
+        let mut a = Dmc::from_steps(steps, &opts).unwrap();
+        let mut b = Dmc::new(&plant, 200, &opts).unwrap();
+        let r = nalgebra::DMatrix::from_fn(50, 2, |_, c| c as f64 + 0.5);
+        let ya = simulate(&plant, &mut a, &LoopSetup::new(r.clone(), vec![10, 1]))
+            .unwrap()
+            .y;
+        let yb = simulate(&plant, &mut b, &LoopSetup::new(r, vec![10, 1]))
+            .unwrap()
+            .y;
+        assert_eq!(ya, yb);
+        assert!(matches!(
+            Dmc::from_steps(vec![], &opts),
+            Err(Error::InvalidArgument { .. })
+        ));
+        let bad = vec![nalgebra::DMatrix::from_element(1, 1, 1.0); 20];
+        assert!(matches!(
+            Dmc::from_steps(bad, &opts),
+            Err(Error::InvalidArgument { .. })
+        ));
+    }
+
+    #[test]
     fn slow_rate_wrapper_holds_input() {
         let plant = tank();
         let slow = hold_model(&plant, 5).unwrap();
