@@ -132,14 +132,14 @@ fn inv_or(what: &'static str, m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(lifted_linalg::inv(m).map_err(lifted_lti::Error::from)?)
 }
 
-/// The closed-loop transfer matrices of eq. (9) in state space:
-/// (H₁, H₂) = (GK(I + GK)⁻¹, (I + GK)⁻¹G), both with the loop state
-/// [x_G; x_K] and minimal realisations (default tolerance). G is n_y × n_u,
-/// K is n_u × n_y; both continuous or both discrete at the same period.
+/// The joint closed loop [H₁ H₂] of eq. (9) (inputs [r₁ (n_y); r₂ (n_u)],
+/// outputs y) with the loop state [x_G; x_K], not reduced: the form a
+/// merged r₁/r₂ identification estimates. G is n_y × n_u, K is n_u × n_y;
+/// both continuous or both discrete at the same period.
 ///
-/// Errors: dimension or domain mismatch, algebraic loop (I + D_K D_G singular).
-/// O((n_G + n_K)³).
-pub fn closed_loop(g: &StateSpace, k: &StateSpace) -> Result<(StateSpace, StateSpace)> {
+/// Errors: dimension or domain mismatch, algebraic loop (I + D_K D_G
+/// singular). O((n_G + n_K)³).
+pub fn closed_loop_joint(g: &StateSpace, k: &StateSpace) -> Result<StateSpace> {
     same_domain("closed loop", g, k)?;
     let (p, m) = (g.n_outputs(), g.n_inputs());
     if k.n_inputs() != p || k.n_outputs() != m {
@@ -150,17 +150,35 @@ pub fn closed_loop(g: &StateSpace, k: &StateSpace) -> Result<(StateSpace, StateS
         ));
     }
     let cl = lifted_sim::closed_loop(g, k)?;
+    Ok(StateSpace::new(
+        cl.a().clone(),
+        cl.b().clone(),
+        cl.c().rows(0, p).into_owned(),
+        cl.d().rows(0, p).into_owned(),
+        cl.ts(),
+    )?)
+}
+
+/// The closed-loop transfer matrices of eq. (9) in state space:
+/// (H₁, H₂) = (GK(I + GK)⁻¹, (I + GK)⁻¹G), the columns of
+/// [`closed_loop_joint`], each reduced to a minimal realisation (default
+/// tolerance).
+///
+/// Errors: as [`closed_loop_joint`]. O((n_G + n_K)³).
+pub fn closed_loop(g: &StateSpace, k: &StateSpace) -> Result<(StateSpace, StateSpace)> {
+    let joint = closed_loop_joint(g, k)?;
+    let p = g.n_outputs();
     let pick = |c0: usize, nc: usize| -> Result<StateSpace> {
         let s = StateSpace::new(
-            cl.a().clone(),
-            cl.b().columns(c0, nc).into_owned(),
-            cl.c().rows(0, p).into_owned(),
-            cl.d().view((0, c0), (p, nc)).into_owned(),
-            cl.ts(),
+            joint.a().clone(),
+            joint.b().columns(c0, nc).into_owned(),
+            joint.c().clone(),
+            joint.d().columns(c0, nc).into_owned(),
+            joint.ts(),
         )?;
         Ok(s.minreal(&MinrealOptions::default())?)
     };
-    Ok((pick(0, p)?, pick(p, m)?))
+    Ok((pick(0, p)?, pick(p, g.n_inputs())?))
 }
 
 /// Eq. (10), general set-up, from a **joint** closed-loop model Ĥ = [Ĥ₁ Ĥ₂]
@@ -200,13 +218,8 @@ pub fn general_joint(h: &StateSpace, n_r1: usize, opts: &RecoveryOptions) -> Res
     finish(StateSpace::new(a, b, c, d, h.ts())?, opts)
 }
 
-/// Eq. (10), general set-up, from separately identified Ĥ₁ (n_y × n_y) and
-/// Ĥ₂ (n_y × n_u): G = (I − Ĥ₁)⁻¹Ĥ₂ (erratum RZ-5 ordering), by stacking them
-/// into one joint model (block-diagonal state) and [`general_joint`].
-///
-/// Errors: dimension/domain mismatch, [`Error::SingularReturnDifference`].
-pub fn general(h1: &StateSpace, h2: &StateSpace, opts: &RecoveryOptions) -> Result<StateSpace> {
-    same_domain("general set-up (H1, H2)", h1, h2)?;
+/// n_y of a square Ĥ₁, or [`Error::DimensionMismatch`].
+fn square_h1(h1: &StateSpace) -> Result<usize> {
     let p = h1.n_outputs();
     if h1.n_inputs() != p {
         return Err(dims(
@@ -215,6 +228,17 @@ pub fn general(h1: &StateSpace, h2: &StateSpace, opts: &RecoveryOptions) -> Resu
             format!("{}x{}", p, h1.n_inputs()),
         ));
     }
+    Ok(p)
+}
+
+/// Eq. (10), general set-up, from separately identified Ĥ₁ (n_y × n_y) and
+/// Ĥ₂ (n_y × n_u): G = (I − Ĥ₁)⁻¹Ĥ₂ (erratum RZ-5 ordering), by stacking them
+/// into one joint model (block-diagonal state) and [`general_joint`].
+///
+/// Errors: dimension/domain mismatch, [`Error::SingularReturnDifference`].
+pub fn general(h1: &StateSpace, h2: &StateSpace, opts: &RecoveryOptions) -> Result<StateSpace> {
+    same_domain("general set-up (H1, H2)", h1, h2)?;
+    let p = square_h1(h1)?;
     if h2.n_outputs() != p {
         return Err(dims("outputs of H2 (= outputs of H1)", p, h2.n_outputs()));
     }
@@ -243,14 +267,7 @@ pub fn general(h1: &StateSpace, h2: &StateSpace, opts: &RecoveryOptions) -> Resu
 /// domain mismatch. O(n³).
 pub fn controller(h1: &StateSpace, k: &StateSpace, opts: &RecoveryOptions) -> Result<StateSpace> {
     same_domain("controller set-up (H1, K)", h1, k)?;
-    let p = h1.n_outputs();
-    if h1.n_inputs() != p {
-        return Err(dims(
-            "H1 (square, n_y x n_y)",
-            format!("{p}x{p}"),
-            format!("{}x{}", p, h1.n_inputs()),
-        ));
-    }
+    let p = square_h1(h1)?;
     if k.n_inputs() != p {
         return Err(dims("inputs of K (= outputs of H1)", p, k.n_inputs()));
     }

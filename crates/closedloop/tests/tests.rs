@@ -103,15 +103,7 @@ mod identities {
         assert!(max_err(&recover::controller(&h1, &k, &o).unwrap(), &g) < 1e-9);
         assert!(max_err(&recover::compensator(&h2, &k, &o).unwrap(), &g) < 1e-9);
         // joint model [H1 H2] from the loop state
-        let cl = lifted_sim::closed_loop(&g, &k).unwrap();
-        let joint = StateSpace::new(
-            cl.a().clone(),
-            cl.b().clone(),
-            cl.c().rows(0, 2).into_owned(),
-            cl.d().rows(0, 2).into_owned(),
-            None,
-        )
-        .unwrap();
+        let joint = recover::closed_loop_joint(&g, &k).unwrap();
         let est = recover::general_joint(&joint, 2, &o).unwrap();
         assert!(max_err(&est, &g) < 1e-9);
         assert_eq!(est.order(), g.order());
@@ -122,15 +114,7 @@ mod identities {
         // joint SISO model: both entries over det(sI - A); G = N2/(D - N1)
         let g = ss(&[1.0], &[0.3, 1.0], None);
         let k = ss(&[0.2, 5.0], &[1.0, 0.0], None);
-        let cl = lifted_sim::closed_loop(&g, &k).unwrap();
-        let joint = StateSpace::new(
-            cl.a().clone(),
-            cl.b().clone(),
-            cl.c().rows(0, 1).into_owned(),
-            cl.d().rows(0, 1).into_owned(),
-            None,
-        )
-        .unwrap();
+        let joint = recover::closed_loop_joint(&g, &k).unwrap();
         let h1 = recover::transfer_entry(&joint, 0, 0).unwrap();
         let h2 = recover::transfer_entry(&joint, 0, 1).unwrap();
         assert_eq!(h1.den(), h2.den());
