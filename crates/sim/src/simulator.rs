@@ -477,50 +477,26 @@ impl Simulator {
         if n == 0 {
             return Err(Error::EmptyExcitation);
         }
-        if let Some(r1) = &exc.r1 {
-            if r1.ncols() != self.ny {
-                return Err(Error::DimensionMismatch {
-                    what: "columns of r1 (= outputs)",
-                    expected: self.ny,
-                    got: r1.ncols(),
-                });
-            }
-            if r1.nrows() != n {
-                return Err(Error::DimensionMismatch {
-                    what: "rows of r1 (= rows of r2)",
-                    expected: n,
-                    got: r1.nrows(),
-                });
-            }
-            if let Some(v) = r1.iter().find(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "r1",
-                    value: *v,
-                });
-            }
-        }
-        if let Some(r2) = &exc.r2 {
-            if r2.ncols() != self.nu {
-                return Err(Error::DimensionMismatch {
-                    what: "columns of r2 (= inputs)",
-                    expected: self.nu,
-                    got: r2.ncols(),
-                });
-            }
-            if r2.nrows() != n {
-                return Err(Error::DimensionMismatch {
-                    what: "rows of r2 (= rows of r1)",
-                    expected: n,
-                    got: r2.nrows(),
-                });
-            }
-            if let Some(v) = r2.iter().find(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "r2",
-                    value: *v,
-                });
-            }
-        }
+        check_signal(
+            exc.r1.as_ref(),
+            self.ny,
+            n,
+            [
+                "columns of r1 (= outputs)",
+                "rows of r1 (= rows of r2)",
+                "r1",
+            ],
+        )?;
+        check_signal(
+            exc.r2.as_ref(),
+            self.nu,
+            n,
+            [
+                "columns of r2 (= inputs)",
+                "rows of r2 (= rows of r1)",
+                "r2",
+            ],
+        )?;
         if exc.r1.is_some()
             && matches!(
                 self.kind,
@@ -637,5 +613,37 @@ impl Simulator {
             r2: exc.r2.clone().unwrap_or_else(|| DMatrix::zeros(n, self.nu)),
             final_state,
         })
+    }
+}
+
+/// Shape and finiteness of one excitation signal; `what` names the column,
+/// row and value checks.
+fn check_signal(
+    r: Option<&DMatrix<f64>>,
+    cols: usize,
+    rows: usize,
+    what: [&'static str; 3],
+) -> Result<()> {
+    let Some(r) = r else { return Ok(()) };
+    if r.ncols() != cols {
+        return Err(Error::DimensionMismatch {
+            what: what[0],
+            expected: cols,
+            got: r.ncols(),
+        });
+    }
+    if r.nrows() != rows {
+        return Err(Error::DimensionMismatch {
+            what: what[1],
+            expected: rows,
+            got: r.nrows(),
+        });
+    }
+    match r.iter().find(|v| !v.is_finite()) {
+        Some(v) => Err(Error::NonFinite {
+            what: what[2],
+            value: *v,
+        }),
+        None => Ok(()),
     }
 }
