@@ -4,7 +4,8 @@
 //! * [`Dmc`] — dynamic matrix control on the step-response coefficients a_i
 //!   of P_T/Δ (8.6): free response f̂(t+j|t) = v(t) + Σ_{i=1}^{N}(a_{i+j}−a_i)Δu(t−i)
 //!   (8.8, with the **+y(nk)** of erratum L-19), dynamic matrix 𝒜, gain
-//!   K_c = (𝒜ᵀQ𝒜 + R)⁻¹𝒜ᵀQ, receding horizon.
+//!   K_c = (𝒜ᵀQ𝒜 + R)⁻¹𝒜ᵀQ, receding horizon; from a model ([`Dmc::new`]) or
+//!   from measured step-response coefficients ([`Dmc::from_steps`]).
 //! * [`StateSpaceMpc`] — the same law on the realisation of P_T/Δ (8.10–8.14):
 //!   Ŷ = Γx_d + HΔU + 1⊗(y(nk) − C_Ix_d(nk)), MIMO.
 //! * Dual-rate inferential MPC: both controllers accept `None` for an output
@@ -13,7 +14,9 @@
 //!   corrected per L-19). [`SlowRate`] + [`hold_model`] give the slow
 //!   single-rate MPC at nT.
 //! * Limits on u, Δu and the predicted y (not in the thesis): [`MoveLaw`]
-//!   solves the QP with clarabel when the closed form violates a limit.
+//!   solves the QP with clarabel when the closed form violates a limit
+//!   ([`Error::Infeasible`] when no move sequence satisfies them);
+//!   [`Predictive`] exposes the move plan and a forced-QP update.
 //! * [`DualRateLoop`] — the Chapter 9 scheme (uncorrected parallel model,
 //!   periodic switch): simulation, monodromy matrix, lifted closed loop.
 //! * [`beta_sr`], [`beta_dr`], [`beta_dr_lifted`] — Prop. 6 / Cor. 1 robustness
