@@ -317,6 +317,60 @@ mod identification {
     }
 
     #[test]
+    fn iv_with_an_instrument_column() {
+        let d = tmp("iv");
+        let (id, _) = single_rate_data(&d);
+        // open loop: the excitation itself is the instrument, in a column f1
+        let text = std::fs::read_to_string(&id).unwrap();
+        let mut out = String::new();
+        for (k, line) in text.lines().enumerate() {
+            let u = line.split(',').nth(1).unwrap();
+            out += &format!("{line},{}\n", if k == 0 { "f1" } else { u });
+        }
+        let data = p(&d, "with_f.csv");
+        std::fs::write(&data, out).unwrap();
+        let model = p(&d, "iv.json");
+        ok(&[
+            "identify",
+            "--method",
+            "iv",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--instrument",
+            "f1",
+            "--order",
+            "2",
+            "--out",
+            &model,
+        ]);
+        let f = check_model(&model, 0.02);
+        assert_eq!(f.diagnostics["instrument"][0], "f1");
+        let e = fails(
+            &[
+                "identify",
+                "--method",
+                "n4sid",
+                "--data",
+                &data,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--instrument",
+                "f1",
+                "--out",
+                &model,
+            ],
+            2,
+        );
+        assert!(e.contains("--instrument"), "{e}");
+    }
+
+    #[test]
     fn qmarkov_from_inverse_prbs() {
         let d = tmp("qmarkov");
         let prbs = InversePrbs::new(&InversePrbsOptions {
