@@ -81,14 +81,105 @@ struct Prepared {
     residual: f64,
 }
 
-/// Circular correlation `(1/c) Σ_k x(k+τ) y(k)` for every lag, by `lifted-prbs`.
-fn corr(x: &[f64], y: &[f64], c: f64, method: CorrelationMethod) -> Result<Vec<f64>> {
-    Ok(periodic_cross_correlation_with(
-        x,
-        y,
-        Normalization::Divisor(c),
-        method,
-    )?)
+/// Lags from which [`CorrelationMethod::Auto`] prefers the FFT: the direct
+/// sums cost ≈ 2·lags·N flops in vectorised dot products, the FFT route two
+/// complex transforms of length N (≈ 10 N log₂N flops at lower efficiency);
+/// measured crossover on N = 81 900 (bench `correlations` of lifted-benches):
+/// direct wins up to ≈ 4 log₂N lags.
+const DIRECT_LAGS_PER_LOG2N: f64 = 4.0;
+
+/// Circular correlation `R(τ) = (1/c) Σ_k x(k+τ) y(k)` at the lags
+/// `τ = 0 … q−1` (`pos`) and, if `negative`, `τ = 0, −1 … −(q−1)` (`neg`, read
+/// `R(−τ) = R(N−τ)`). Only these lags are used by the estimators, so
+/// [`CorrelationMethod::Auto`] computes them directly, O(N·q), when that is
+/// cheaper than the full O(N log N) FFT correlation of `lifted-prbs`
+/// (cached plan); `Direct` always takes the lag-limited sums, `Fft` always
+/// the FFT.
+struct Lagged {
+    pos: Vec<f64>,
+    neg: Vec<f64>,
+}
+
+fn corr(
+    x: &[f64],
+    y: &[f64],
+    c: f64,
+    q: usize,
+    negative: bool,
+    method: CorrelationMethod,
+) -> Result<Lagged> {
+    let n = x.len();
+    let q = q.min(n);
+    let lags = if negative { 2 * q } else { q };
+    let direct = match method {
+        CorrelationMethod::Direct => true,
+        CorrelationMethod::Fft => false,
+        CorrelationMethod::Auto => {
+            n < lifted_prbs::FFT_THRESHOLD
+                || (lags as f64) <= DIRECT_LAGS_PER_LOG2N * (n as f64).log2()
+        }
+    };
+    if direct {
+        let s = 1.0 / c;
+        // Σ_k x((k+τ) mod N) y(k), split at the wrap.
+        let pos = (0..q)
+            .map(|t| s * (dot(&x[t..], &y[..n - t]) + dot(&x[..t], &y[n - t..])))
+            .collect();
+        // Σ_k x((k−τ) mod N) y(k) = R(N−τ).
+        let neg = if negative {
+            (0..q)
+                .map(|t| s * (dot(&x[..n - t], &y[t..]) + dot(&x[n - t..], &y[..t])))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        return Ok(Lagged { pos, neg });
+    }
+    let full = periodic_cross_correlation_with(x, y, Normalization::Divisor(c), method)?;
+    let pos = full[..q].to_vec();
+    let neg = if negative {
+        (0..q).map(|t| full[(n - t) % n]).collect()
+    } else {
+        Vec::new()
+    };
+    Ok(Lagged { pos, neg })
+}
+
+/// `g(τ) = (1/c) Σ_k y((k+τ) mod N) v(k)`, τ < q, for `v` non-zero only at
+/// `k ≡ phase (mod n_r)`.
+fn impulse_train_corr(y: &[f64], v: &[f64], nr: usize, phase: usize, c: f64, q: usize) -> Vec<f64> {
+    let n = y.len();
+    let mut g = vec![0.0; q.min(n)];
+    for k in (phase..n).step_by(nr.max(1)) {
+        let vk = v[k] / c;
+        // y(k … k+q−1) with the wrap past N − 1 to the start.
+        let head = g.len().min(n - k);
+        let (g_head, g_tail) = g.split_at_mut(head);
+        for (gt, yv) in g_head.iter_mut().zip(&y[k..k + head]) {
+            *gt = yv.mul_add(vk, *gt);
+        }
+        for (gt, yv) in g_tail.iter_mut().zip(y) {
+            *gt = yv.mul_add(vk, *gt);
+        }
+    }
+    g
+}
+
+/// Σ a_i b_i with eight independent partial sums (vectorised by the compiler).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let mut ca = a.chunks_exact(8);
+    let mut cb = b.chunks_exact(8);
+    for (xa, xb) in (&mut ca).zip(&mut cb) {
+        for i in 0..8 {
+            acc[i] = xa[i].mul_add(xb[i], acc[i]);
+        }
+    }
+    let mut tail = 0.0;
+    for (xa, xb) in ca.remainder().iter().zip(cb.remainder()) {
+        tail = xa.mul_add(*xb, tail);
+    }
+    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
 }
 
 fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
@@ -265,14 +356,20 @@ fn output_covariances(
     let ny = outputs[0].ncols();
     let mut ryy = vec![DMatrix::zeros(ny, ny); q];
     for y in outputs {
-        let n = y.nrows();
         for i in 0..ny {
             for j in i..ny {
-                let full = corr(column(y, i), column(y, j), 2.0 * m as f64, method)?;
-                for (tau, r) in ryy.iter_mut().enumerate() {
-                    r[(i, j)] += full[tau];
+                let r = corr(
+                    column(y, i),
+                    column(y, j),
+                    2.0 * m as f64,
+                    q,
+                    i != j,
+                    method,
+                )?;
+                for (tau, rt) in ryy.iter_mut().enumerate().take(r.pos.len()) {
+                    rt[(i, j)] += r.pos[tau];
                     if i != j {
-                        r[(j, i)] += full[(n - tau) % n];
+                        rt[(j, i)] += r.neg[tau];
                     }
                 }
             }
@@ -297,13 +394,16 @@ fn channel_markov(p: &Prepared, opts: &QMarkovOptions, m: usize) -> Result<Vec<D
                 .enumerate()
                 .map(|(k, &x)| if k % nr == p.phase { x } else { 0.0 })
                 .collect();
+            let c = 2.0 * m as f64 * a2;
             for i in 0..ny {
-                let g = corr(
-                    column(&p.output, i),
-                    &v,
-                    2.0 * m as f64 * a2,
-                    opts.correlation,
-                )?;
+                let y = column(&p.output, i);
+                let g = if opts.correlation == CorrelationMethod::Fft {
+                    corr(y, &v, c, q, false, opts.correlation)?.pos
+                } else {
+                    // Only every n_r-th sample of v is non-zero: the q lags
+                    // cost O(q N / n_r), below both general routes.
+                    impulse_train_corr(y, &v, nr, p.phase, c, q)
+                };
                 // h(τ) = g(τ) − g(τ−1) + h(τ−n_r), negative arguments zero.
                 let mut hi = vec![0.0; q];
                 for tau in 0..q {
@@ -328,8 +428,11 @@ fn channel_markov(p: &Prepared, opts: &QMarkovOptions, m: usize) -> Result<Vec<D
                     column(&p.output, i),
                     &p.input,
                     2.0 * m as f64,
+                    q,
+                    false,
                     opts.correlation,
-                )?;
+                )?
+                .pos;
                 for (ht, v) in h.iter_mut().zip(&r) {
                     ht[i] = v / w0;
                 }
@@ -405,10 +508,12 @@ fn rel_error(model: &[DMatrix<f64>], data: &[DMatrix<f64>]) -> f64 {
 /// response fit.
 ///
 /// # Complexity
-/// Correlations: per experiment `n_y(n_y+1)/2 + n_y` circular correlations of length
-/// N through `lifted-prbs` — O(N log N) each by FFT (direct O(N²) only below
-/// [`lifted_prbs::FFT_THRESHOLD`] samples, where N² ≤ 128 N); only the first q lags
-/// are used. Cover: O((q n_y)³). Diagnostics: two simulations of N samples per
+/// Correlations: per experiment `n_y(n_y+1)/2` output correlations and `n_y`
+/// input–output ones, only at the q lags used: directly in O(N q) when
+/// `q ≤ 4 log₂N` lags (twice that for cross terms), else by the FFT of
+/// `lifted-prbs` in O(N log N) with a cached plan; the hold-deconvolution
+/// correlation with the impulse train costs O(N q / n_r). Cover: O((q n_y)³).
+/// Diagnostics: two simulations of N samples per
 /// experiment, O(N r (r + n_w + n_y)), plus the same correlations again.
 ///
 /// # Errors
@@ -655,6 +760,32 @@ mod tests {
                 "tau {tau}: {} vs {truth}",
                 e[0]
             );
+        }
+    }
+
+    #[test]
+    fn lag_limited_correlations_match_the_fft() {
+        let n = 1000;
+        let x: Vec<f64> = (0..n).map(|k| ((k * 37 + 11) % 17) as f64 - 8.0).collect();
+        let y: Vec<f64> = (0..n)
+            .map(|k| ((k * 13 + 5) % 23) as f64 * 0.5 - 3.0)
+            .collect();
+        let q = 25;
+        let d = corr(&x, &y, 7.0, q, true, CorrelationMethod::Direct).unwrap();
+        let f = corr(&x, &y, 7.0, q, true, CorrelationMethod::Fft).unwrap();
+        for t in 0..q {
+            assert!((d.pos[t] - f.pos[t]).abs() < 1e-9, "lag {t}");
+            assert!((d.neg[t] - f.neg[t]).abs() < 1e-9, "lag -{t}");
+        }
+        // The impulse-train shortcut equals the general sums.
+        let (nr, phase) = (4, 1);
+        let v: Vec<f64> = (0..n)
+            .map(|k| if k % nr == phase { x[k] } else { 0.0 })
+            .collect();
+        let g = impulse_train_corr(&y, &v, nr, phase, 3.0, q);
+        let r = corr(&y, &v, 3.0, q, false, CorrelationMethod::Direct).unwrap();
+        for (t, (a, b)) in g.iter().zip(&r.pos).enumerate() {
+            assert!((a - b).abs() < 1e-9, "lag {t}");
         }
     }
 }

@@ -96,8 +96,10 @@ pub struct QMarkovOptions {
     /// circle (erratum Z-9). Default true. When false, the cover is returned and
     /// [`Diagnostics::stable`](crate::Diagnostics) is false.
     pub require_stable: bool,
-    /// Algorithm for the circular correlations (`lifted-prbs`): direct below
-    /// [`lifted_prbs::FFT_THRESHOLD`] samples, FFT above. Default `Auto`.
+    /// Algorithm for the circular correlations at the q lags used: `Auto`
+    /// (default) sums them directly, O(N q), when `q ≤ 4 log₂N` (or below
+    /// [`lifted_prbs::FFT_THRESHOLD`] samples) and takes the FFT of
+    /// `lifted-prbs` otherwise; `Direct` and `Fft` force one route.
     pub correlation: CorrelationMethod,
 }
 
