@@ -582,6 +582,8 @@ pub fn run_a22() -> BoxResult<Reproduction> {
     let (n17, d17) = coeffs(&with_leading(&g17, 1.0)?);
     for (i, p) in ["4.07e-6", "3.335", "0.00013", "0"].iter().enumerate() {
         let (v, tol) = printed_tol(p);
+        // the trailing 0 is the factor s of K's denominator: exact
+        let tol = if i == 3 { 1e-15 } else { tol };
         rep.check(
             Check::absolute(
                 format!("eq. (12) on printed (16): num coefficient {i}"),
@@ -593,7 +595,11 @@ pub fn run_a22() -> BoxResult<Reproduction> {
             .with_note("printed eq. (17), ±1 in the last printed digit or 1%"),
         );
     }
-    for (i, p) in ["1", "3.336", "-0.015", "-0.000648"].iter().enumerate() {
+    for (i, p) in ["1", "3.336", "-0.015", "-0.000648"]
+        .iter()
+        .enumerate()
+        .skip(1)
+    {
         let (v, tol) = printed_tol(p);
         rep.check(
             Check::absolute(
@@ -1163,6 +1169,93 @@ fn table6_cases() -> Vec<Case> {
     ]
 }
 
+/// RI values (spec A2.5/A2.6 tables) of the identified closed loops, where the
+/// spec gives them: (numerator, monic denominator).
+type Coeffs = (&'static [f64], &'static [f64]);
+fn ri_closed_loop(
+    plant: RenZhuPlant,
+    ctrl: RenZhuController,
+    setup: Setup,
+    which: u8,
+) -> Option<Coeffs> {
+    use RenZhuController::{FirstOrder, P, Pi};
+    use RenZhuPlant::{G1, G2};
+    use Setup::{Compensator, Controller, General};
+    Some(match (plant, ctrl, setup, which) {
+        (G1, P, General | Controller, 1) => (&[-1.395e-5, 0.6651], &[1.0, 4.019]),
+        (G1, P, Compensator, 2) => (&[-6.973e-5, 3.326], &[1.0, 4.019]),
+        (G1, FirstOrder, General, 1) => (&[2.263e-5, 3.343, 1.994], &[1.0, 7.777, 5.647]),
+        (G1, FirstOrder, Controller, 1) => (&[2.263e-5, 3.339, 1.775], &[1.0, 7.689, 5.185]),
+        (G1, FirstOrder, Compensator, 2) => (&[-1.033e-5, 3.325, 3.052], &[1.0, 7.537, 4.665]),
+        (G1, Pi, General, 1) => (&[-2.175e-5, 0.6573, 16.88], &[1.0, 4.030, 16.69]),
+        (G1, Pi, Controller, 1) => (&[-2.175e-5, 0.6623, 16.73], &[1.0, 3.949, 16.81]),
+        (G1, Pi, Compensator, 2) => (&[1.315e-4, 3.382, -0.1877], &[1.0, 4.033, 15.94]),
+        (G2, P, General, 1) => (&[3.244e-6, 6.408e-4, 0.2017], &[1.0, 1.008, 1.194]),
+        (G2, P, General, 2) => (&[1.622e-5, 3.204e-3, 1.008], &[1.0, 1.008, 1.194]),
+        (G2, FirstOrder, General, 1) => (
+            &[-3.712e-6, -7.393e-4, 0.9981, 0.3513],
+            &[1.0, 1.842, 2.837, 1.193],
+        ),
+        (G2, FirstOrder, General, 2) => (
+            &[-3.003e-6, -6.078e-4, 0.9984, 0.8410],
+            &[1.0, 1.842, 2.837, 1.193],
+        ),
+        (G2, FirstOrder, Controller, 1) => (
+            &[-3.712e-6, -7.451e-4, 0.9983, 0.2083],
+            &[1.0, 1.700, 2.631, 0.7766],
+        ),
+        (G2, FirstOrder, Compensator, 2) => (
+            &[-3.003e-6, -6.163e-4, 0.9989, 0.5163],
+            &[1.0, 1.522, 2.471, 0.6823],
+        ),
+        (G2, Pi, General, 1) => (
+            &[-1.296e-6, -2.607e-4, 0.4998, 0.2006],
+            &[1.0, 1.002, 1.499, 0.2023],
+        ),
+        (G2, Pi, General, 2) => (
+            &[1.479e-6, 2.970e-4, 1.000, 2.159e-3],
+            &[1.0, 1.002, 1.499, 0.2023],
+        ),
+        (G2, Pi, Controller, 1) => (
+            &[-1.296e-6, -2.538e-4, 0.4997, 0.2026],
+            &[1.0, 1.004, 1.506, 0.2043],
+        ),
+        (G2, Pi, Compensator, 2) => (
+            &[1.479e-6, 3.007e-4, 1.000, 2.255e-3],
+            &[1.0, 1.002, 1.499, 0.2017],
+        ),
+        _ => return None,
+    })
+}
+
+/// Identified closed loop vs RI: 1% relative, absolute floor 1e-6 (the
+/// leading monic 1 is skipped).
+fn check_closed_loop_vs_ri(rep: &mut Reproduction, label: &str, ours: &SisoTf, ri: Coeffs) {
+    let (n, d) = coeffs(ours);
+    if n.len() != ri.0.len() || d.len() != ri.1.len() {
+        rep.check(Check::holds(
+            format!("{label}: degrees vs RI"),
+            "same degrees",
+            false,
+        ));
+        return;
+    }
+    let parts = [("num", &n, ri.0, 0usize), ("den", &d, ri.1, 1usize)];
+    for (what, vals, refs, skip) in parts {
+        for (i, (v, r)) in vals.iter().zip(refs).enumerate().skip(skip) {
+            rep.check(
+                Check::absolute(
+                    format!("{label}: {what} coefficient {i} vs RI"),
+                    *v,
+                    *r,
+                    (0.01 * r.abs()).max(1e-6),
+                )
+                .with_note("RI (spec A2.5/A2.6 tables) within 1%, floor 1e-6"),
+            );
+        }
+    }
+}
+
 fn check_table(
     rep: &mut Reproduction,
     plant: RenZhuPlant,
@@ -1181,6 +1274,9 @@ fn check_table(
                     c = c.with_note(format!("spec A2.5(1); erratum {e}"));
                 }
                 rep.check(c);
+            }
+            if let Some(ri) = ri_closed_loop(plant, case.ctrl, h.setup, h.which) {
+                check_closed_loop_vs_ri(rep, &label, h_of(id, h.which)?, ri);
             }
         }
         for g in &case.g_rows {
