@@ -91,7 +91,7 @@ pub struct SubspaceOptions {
     /// residuals (thesis §2.3) and the Kalman gain from the DARE. Default true.
     pub noise_model: bool,
     /// If the shift-invariance estimate of A is unstable, re-estimate it with
-    /// the zero-padded shift [Γ] A = [Γ↑; 0] (guaranteed stable). Default false.
+    /// the zero-padded shift Γ A = (Γ↑; 0) (guaranteed stable). Default false.
     pub enforce_stability: bool,
     /// Sample period of the returned model (seconds). Default 1.0.
     pub ts: f64,

@@ -204,9 +204,8 @@ fn iv_gamma(
         });
     }
     let mut gamma = dec.u.columns(0, n).into_owned();
-    for c in 0..n {
-        let sc = s[c].sqrt();
-        gamma.column_mut(c).scale_mut(sc);
+    for (c, sv) in s.iter().take(n).enumerate() {
+        gamma.column_mut(c).scale_mut(sv.sqrt());
     }
     Ok(GammaEstimate {
         gamma,
@@ -442,7 +441,7 @@ pub fn iv_multirate_fast(
     let mut y_fast = y.clone();
     for o in 0..ny {
         for t in 0..nn {
-            if t % periods[o] == 0 {
+            if t.is_multiple_of(periods[o]) {
                 if !y[(t, o)].is_finite() {
                     return Err(Error::NonFinite {
                         what: "y",
@@ -457,7 +456,7 @@ pub fn iv_multirate_fast(
     }
     // Lifting (time-interleaved).
     let kk = nn / n_lift;
-    let sampled_at = |r: usize| (0..ny).filter(move |&o| r % periods[o] == 0);
+    let sampled_at = |r: usize| (0..ny).filter(move |&o| r.is_multiple_of(periods[o]));
     let nyl: usize = (0..n_lift).map(|r| sampled_at(r).count()).sum();
     let ul = DMatrix::from_fn(kk, n_lift * nu, |k, c| u[(k * n_lift + c / nu, c % nu)]);
     let fl = DMatrix::from_fn(kk, n_lift * nu, |k, c| f[(k * n_lift + c / nu, c % nu)]);

@@ -282,8 +282,8 @@ fn validate(
                 }
             }
         }
-        if iv {
-            if let Some(f) = r.instrument {
+        if iv && let Some(f) = r.instrument {
+            {
                 if f.shape() != r.u.shape() {
                     return Err(Error::DimensionMismatch {
                         what: "instrument",
@@ -298,6 +298,9 @@ fn validate(
     Ok((n, nu, ny))
 }
 
+/// Receiver of streamed (regressor | target) blocks and instrument blocks.
+type Sink<'s> = dyn FnMut(&DMatrix<f64>, Option<&DMatrix<f64>>) -> Result<()> + 's;
+
 /// Rows per streamed block.
 const BLOCK: usize = 1024;
 
@@ -308,7 +311,7 @@ fn stream(
     p: &Params,
     records: &[Record<'_>],
     iv: bool,
-    sink: &mut dyn FnMut(&DMatrix<f64>, Option<&DMatrix<f64>>) -> Result<()>,
+    sink: &mut Sink<'_>,
 ) -> Result<usize> {
     let np = p.total;
     let mut phi = DMatrix::zeros(BLOCK, np + 1);
@@ -640,6 +643,7 @@ mod tests {
         (xs, y)
     }
 
+    #[allow(clippy::type_complexity)]
     fn example() -> (
         DMatrix<f64>,
         DMatrix<f64>,
