@@ -14,6 +14,10 @@ pub enum Error {
     /// matrix, no principal logarithm, …).
     #[error(transparent)]
     Linalg(#[from] lifted_linalg::Error),
+    /// An error about a data set (validation, slicing, lifting, CSV), from
+    /// [`crate::data`].
+    #[error(transparent)]
+    Data(#[from] crate::data::DataError),
     /// A scalar argument is NaN or infinite.
     #[error("{what} is not finite ({value})")]
     NonFiniteScalar {

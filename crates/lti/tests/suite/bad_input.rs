@@ -249,3 +249,14 @@ fn dc_gain_with_integrator() {
     let g = tf(&[1.0], &[1.0, 0.0], None).to_ss().unwrap();
     assert!(matches!(g.dc_gain(), Err(Error::Infinite { .. })));
 }
+
+#[test]
+fn data_errors_convert_into_the_crate_error() {
+    // A data-set error keeps its structured form inside the crate's single error type.
+    let u = DMatrix::from_element(4, 1, 1.0);
+    let y = DMatrix::from_element(3, 1, 1.0);
+    let e: lifted_lti::Error = lifted_lti::data::Dataset::single_rate(0.1, u, y)
+        .unwrap_err()
+        .into();
+    assert!(matches!(e, lifted_lti::Error::Data(_)), "{e:?}");
+}
