@@ -1,3 +1,4 @@
 mod bad_input;
 mod extraction;
+mod procedure;
 mod properties;
