@@ -405,7 +405,7 @@ pub struct ReproduceArgs {
     #[arg(long)]
     pub only: Option<String>,
     /// Directory for reproductions.json and index.html.
-    #[arg(long, default_value = "reproductions")]
+    #[arg(long, default_value = "target/reproductions")]
     pub out: String,
     /// List the registered experiments and exit.
     #[arg(long)]
