@@ -4,8 +4,10 @@
 //!
 //! * [`identify_lifted`]: the lifted data go through the subspace engine of
 //!   `lifted-subspace` (N4SID/MOESP/CVA) with the causal mask of eq. (4.17)
-//!   on D̄ ([`MultirateLifting::causal_mask`]); the masked entries are
-//!   structurally zero (regressor selection per output, spec pitfall 5).
+//!   on D̄ ([`MultirateLifting::causal_mask`]); the engine regresses the
+//!   estimated state sequences with only the allowed inputs per output row
+//!   (the normal equations after thesis eq. 4.20), so the masked entries are
+//!   structurally zero (spec pitfall 5).
 //! * [`identify_multirate`]: §4.7 steps 1–5 — delay estimate (4.4),
 //!   shift d_d = k₁m + k₂n (L-10), lifted identification, extraction
 //!   (§4.6, default matrix root + LS for B, L-12), delay re-inserted.
