@@ -170,7 +170,7 @@ pub fn run() -> BoxResult<Reproduction> {
     // Spec A3.1 acceptance; RI medians 0.13 / 0.14 / 0.023 (var-SNR 5).
     let bounds = [0.20, 0.25, 0.05];
     let reference = [0.13, 0.14, 0.023];
-    let mut medians = vec![[0.0; 3]; 3];
+    let mut medians = [[0.0; 3]; 3];
     for (mi, m) in methods.iter().enumerate() {
         for ci in 0..3 {
             let med = median(&errors[mi][ci]);
