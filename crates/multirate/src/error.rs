@@ -172,20 +172,13 @@ pub enum Error {
 /// Result alias of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
-/// First non-finite entry of `m` as an error.
+/// First non-finite entry of `m` as [`Error::NonFinite`] (lifted-linalg's
+/// `check_finite`, re-tagged so callers match one variant of this crate).
 pub(crate) fn check_finite(what: &'static str, m: &nalgebra::DMatrix<f64>) -> Result<()> {
-    for j in 0..m.ncols() {
-        for i in 0..m.nrows() {
-            if !m[(i, j)].is_finite() {
-                return Err(Error::NonFinite {
-                    what,
-                    row: i,
-                    col: j,
-                });
-            }
-        }
-    }
-    Ok(())
+    lifted_linalg::check_finite(what, m).map_err(|e| match e {
+        lifted_linalg::Error::NonFinite { what, row, col } => Error::NonFinite { what, row, col },
+        other => other.into(),
+    })
 }
 
 pub(crate) fn gcd(a: usize, b: usize) -> usize {
