@@ -1,5 +1,6 @@
 //! Simulated samples per second: a 6-state 2x2 plant with coloured noise in
-//! a decentralised PI loop (the workspace's typical closed-loop experiment).
+//! a decentralised PI loop (the workspace's typical closed-loop experiment),
+//! the fused fast path next to the block-by-block reference path.
 
 use std::hint::black_box;
 
@@ -61,6 +62,13 @@ fn closed_loop(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("absolute_noise", n), &exc, |b, exc| {
             b.iter(|| black_box(abs.simulate(exc).expect("runs")));
         });
+        g.bench_with_input(
+            BenchmarkId::new("absolute_noise_reference", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| black_box(abs.simulate_reference(exc).expect("runs")));
+            },
+        );
         let clean = Simulator::closed_loop(
             plant(),
             Controller::decentralized(
@@ -78,6 +86,13 @@ fn closed_loop(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("noise_free", n), &exc, |b, exc| {
             b.iter(|| black_box(clean.simulate(exc).expect("runs")));
         });
+        g.bench_with_input(
+            BenchmarkId::new("noise_free_reference", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| black_box(clean.simulate_reference(exc).expect("runs")));
+            },
+        );
         let snr = simulator(NoiseLevel::Snr {
             ratio: vec![5.0],
             definition: SnrDefinition::Variance,
@@ -87,6 +102,13 @@ fn closed_loop(c: &mut Criterion) {
             &exc,
             |b, exc| {
                 b.iter(|| black_box(snr.simulate(exc).expect("runs")));
+            },
+        );
+        g.bench_with_input(
+            BenchmarkId::new("snr_scaled_two_runs_reference", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| black_box(snr.simulate_reference(exc).expect("runs")));
             },
         );
     }

@@ -167,6 +167,8 @@ pub(crate) struct Engine {
     off_k: usize,
     off_p: usize,
     off_u: usize,
+    /// The per-phase matrices of the fast path (None: reference path).
+    fused: Option<Fused>,
 }
 
 /// Inputs of one run.
@@ -273,7 +275,7 @@ impl Engine {
                 }
             }
         }
-        Ok(Engine {
+        let mut engine = Engine {
             structure,
             ny,
             nu,
@@ -286,13 +288,172 @@ impl Engine {
             off_k,
             off_p,
             off_u,
-        })
+            fused: None,
+        };
+        engine.fused = engine.build_fused();
+        Ok(engine)
+    }
+
+    /// One step of the loop at phase `ph` (the reference arithmetic):
+    /// from state `z` and the inputs of this sample, writes the next state
+    /// to `zn`, the plant output without the added noise term to `s.yc` and
+    /// the plant input to `s.u`.
+    #[allow(clippy::too_many_arguments)]
+    fn step_ref(
+        &self,
+        ph: usize,
+        z: &[f64],
+        r1: &[f64],
+        r2: &[f64],
+        nse: &[f64],
+        s: &mut Scratch,
+        zn: &mut [f64],
+    ) {
+        let (ny, nu) = (self.ny, self.nu);
+        match &self.structure {
+            Structure::Loop {
+                g,
+                k: kb,
+                phat,
+                feedback,
+            } => {
+                let (xg, rest) = z.split_at(g.n);
+                let (xk, rest) = rest.split_at(self.off_p - self.off_k);
+                let (xp, rest) = rest.split_at(self.off_u - self.off_p);
+                let (uprev, vheld) = rest.split_at(nu);
+                let yg = &mut s.yc;
+                g.cx(xg, yg);
+                if let Some(p) = phat {
+                    p.cx(xp, &mut s.yp);
+                }
+                let smask = &self.sample_mask[ph * ny..(ph + 1) * ny];
+                for j in 0..ny {
+                    let vf = match feedback {
+                        FeedbackKind::Fast => yg[j] + nse[j],
+                        FeedbackKind::HoldLast => {
+                            if smask[j] {
+                                yg[j] + nse[j]
+                            } else {
+                                vheld[j]
+                            }
+                        }
+                        FeedbackKind::Inferential => {
+                            if smask[j] {
+                                yg[j] + nse[j]
+                            } else {
+                                s.yp[j]
+                            }
+                        }
+                    };
+                    s.efree[j] = r1[j] - vf;
+                }
+                if let Some(kb) = kb {
+                    kb.cx(xk, &mut s.yk);
+                    kb.add_du(&s.efree, &mut s.yk);
+                }
+                let hmask = &self.start_mask[ph * nu..(ph + 1) * nu];
+                for i in 0..nu {
+                    s.a[i] = if hmask[i] {
+                        r2[i] + if kb.is_some() { s.yk[i] } else { 0.0 }
+                    } else {
+                        uprev[i]
+                    };
+                }
+                let u = &mut s.u;
+                match &self.solve[ph] {
+                    Some(minv) => {
+                        for (i, ui) in u.iter_mut().enumerate() {
+                            *ui = minv[i * nu..(i + 1) * nu]
+                                .iter()
+                                .zip(&s.a)
+                                .map(|(m, a)| m * a)
+                                .sum();
+                        }
+                    }
+                    None => u.copy_from_slice(&s.a),
+                }
+                // y = Cg x + Dg u ; v
+                g.add_du(u, yg);
+                for j in 0..ny {
+                    let ym = yg[j] + nse[j];
+                    s.v[j] = match feedback {
+                        FeedbackKind::Fast => ym,
+                        FeedbackKind::HoldLast => {
+                            if smask[j] {
+                                ym
+                            } else {
+                                vheld[j]
+                            }
+                        }
+                        FeedbackKind::Inferential => {
+                            if smask[j] {
+                                ym
+                            } else {
+                                s.yp[j]
+                                    + phat
+                                        .as_ref()
+                                        .map_or(0.0, |p| if p.has_d { p.du_row(j, u) } else { 0.0 })
+                            }
+                        }
+                    };
+                    s.efree[j] = r1[j] - s.v[j];
+                }
+                let (xgn, rest) = zn.split_at_mut(g.n);
+                let (xkn, rest) = rest.split_at_mut(self.off_p - self.off_k);
+                let (xpn, rest) = rest.split_at_mut(self.off_u - self.off_p);
+                let (un, vn) = rest.split_at_mut(nu);
+                g.update(xg, u, xgn);
+                if let Some(kb) = kb {
+                    kb.update(xk, &s.efree, xkn);
+                }
+                if let Some(p) = phat {
+                    p.update(xp, u, xpn);
+                }
+                un.copy_from_slice(u);
+                vn.copy_from_slice(&s.v);
+            }
+            Structure::Whole { cl } => {
+                s.rin[..ny].copy_from_slice(r1);
+                s.rin[ny..].copy_from_slice(r2);
+                cl.cx(z, &mut s.out);
+                cl.add_du(&s.rin, &mut s.out);
+                cl.update(z, &s.rin, zn);
+                s.yc.copy_from_slice(&s.out[..ny]);
+                s.u.copy_from_slice(&s.out[ny..]);
+            }
+        }
     }
 
     /// Runs `inp.len` steps from state `z0` (length nz), returning the final
     /// state; records the signals when `rec` is given (its matrices must be
-    /// len × channels). O(len · (n² + nm)) with no allocation in the loop.
+    /// len × channels). Uses the fused per-phase matrices when they were
+    /// built (see [`Fused`]), else [`Engine::run_reference`].
     pub fn run(
+        &self,
+        z0: &[f64],
+        inp: &RunInput<'_>,
+        rec: Option<&mut Record>,
+    ) -> Result<Vec<f64>> {
+        match &self.fused {
+            Some(f) => match f.rows {
+                4 => self.run_fused::<4>(f, z0, inp, rec),
+                8 => self.run_fused::<8>(f, z0, inp, rec),
+                12 => self.run_fused::<12>(f, z0, inp, rec),
+                16 => self.run_fused::<16>(f, z0, inp, rec),
+                20 => self.run_fused::<20>(f, z0, inp, rec),
+                24 => self.run_fused::<24>(f, z0, inp, rec),
+                28 => self.run_fused::<28>(f, z0, inp, rec),
+                32 => self.run_fused::<32>(f, z0, inp, rec),
+                _ => self.run_fused::<0>(f, z0, inp, rec),
+            },
+            None => self.run_reference(z0, inp, rec),
+        }
+    }
+
+    /// The reference path: the loop stepped block by block (plant,
+    /// controller, parallel model, holds, feedback switch) at every sample.
+    /// O(len · (n² + nm)) with no allocation in the loop.
+    pub fn run_reference(
         &self,
         z0: &[f64],
         inp: &RunInput<'_>,
@@ -301,177 +462,36 @@ impl Engine {
         let (ny, nu, len) = (self.ny, self.nu, inp.len);
         let mut z = z0.to_vec();
         let mut zn = vec![0.0; self.nz];
-        let mut yg = vec![0.0; ny];
-        let mut yp = vec![0.0; ny];
-        let mut yk = vec![0.0; nu];
-        let mut efree = vec![0.0; ny];
-        let mut a = vec![0.0; nu];
-        let mut u = vec![0.0; nu];
-        let mut v = vec![0.0; ny];
+        let mut s = Scratch::new(ny, nu);
         let mut nse = vec![0.0; ny];
         let mut r1 = vec![0.0; ny];
         let mut r2 = vec![0.0; nu];
-        let mut rin = vec![0.0; ny + nu];
-        let mut out = vec![0.0; ny + nu];
         let r1s = inp.r1.map(|m| m.as_slice());
         let r2s = inp.r2.map(|m| m.as_slice());
         let noise = inp.noise.map(|(m, s)| (m.as_slice(), s));
         let limit = self.limit;
         let mut ph = 0usize;
         for k in 0..len {
-            if let Some(s) = r1s {
+            if let Some(src) = r1s {
                 for (j, r) in r1.iter_mut().enumerate() {
-                    *r = s[j * len + k];
+                    *r = src[j * len + k];
                 }
             }
-            if let Some(s) = r2s {
+            if let Some(src) = r2s {
                 for (i, r) in r2.iter_mut().enumerate() {
-                    *r = s[i * len + k];
+                    *r = src[i * len + k];
                 }
             }
-            if let Some((s, scale)) = noise {
+            if let Some((src, scale)) = noise {
                 for (j, e) in nse.iter_mut().enumerate() {
-                    *e = scale[j] * s[j * len + k];
+                    *e = scale[j] * src[j * len + k];
                 }
             }
-            match &self.structure {
-                Structure::Loop {
-                    g,
-                    k: kb,
-                    phat,
-                    feedback,
-                } => {
-                    let (xg, rest) = z.split_at(g.n);
-                    let (xk, rest) = rest.split_at(self.off_p - self.off_k);
-                    let (xp, rest) = rest.split_at(self.off_u - self.off_p);
-                    let (uprev, vheld) = rest.split_at(nu);
-                    g.cx(xg, &mut yg);
-                    if let Some(p) = phat {
-                        p.cx(xp, &mut yp);
-                    }
-                    let smask = &self.sample_mask[ph * ny..(ph + 1) * ny];
-                    for j in 0..ny {
-                        let vf = match feedback {
-                            FeedbackKind::Fast => yg[j] + nse[j],
-                            FeedbackKind::HoldLast => {
-                                if smask[j] {
-                                    yg[j] + nse[j]
-                                } else {
-                                    vheld[j]
-                                }
-                            }
-                            FeedbackKind::Inferential => {
-                                if smask[j] {
-                                    yg[j] + nse[j]
-                                } else {
-                                    yp[j]
-                                }
-                            }
-                        };
-                        efree[j] = r1[j] - vf;
-                    }
-                    if let Some(kb) = kb {
-                        kb.cx(xk, &mut yk);
-                        kb.add_du(&efree, &mut yk);
-                    }
-                    let hmask = &self.start_mask[ph * nu..(ph + 1) * nu];
-                    for i in 0..nu {
-                        a[i] = if hmask[i] {
-                            r2[i] + if kb.is_some() { yk[i] } else { 0.0 }
-                        } else {
-                            uprev[i]
-                        };
-                    }
-                    match &self.solve[ph] {
-                        Some(minv) => {
-                            for (i, ui) in u.iter_mut().enumerate() {
-                                *ui = minv[i * nu..(i + 1) * nu]
-                                    .iter()
-                                    .zip(&a)
-                                    .map(|(m, a)| m * a)
-                                    .sum();
-                            }
-                        }
-                        None => u.copy_from_slice(&a),
-                    }
-                    // y = Cg x + Dg u ; v
-                    g.add_du(&u, &mut yg);
-                    for j in 0..ny {
-                        let ym = yg[j] + nse[j];
-                        v[j] = match feedback {
-                            FeedbackKind::Fast => ym,
-                            FeedbackKind::HoldLast => {
-                                if smask[j] {
-                                    ym
-                                } else {
-                                    vheld[j]
-                                }
-                            }
-                            FeedbackKind::Inferential => {
-                                if smask[j] {
-                                    ym
-                                } else {
-                                    yp[j]
-                                        + phat.as_ref().map_or(0.0, |p| {
-                                            if p.has_d { p.du_row(j, &u) } else { 0.0 }
-                                        })
-                                }
-                            }
-                        };
-                        efree[j] = r1[j] - v[j];
-                    }
-                    let (xgn, rest) = zn.split_at_mut(g.n);
-                    let (xkn, rest) = rest.split_at_mut(self.off_p - self.off_k);
-                    let (xpn, rest) = rest.split_at_mut(self.off_u - self.off_p);
-                    let (un, vn) = rest.split_at_mut(nu);
-                    g.update(xg, &u, xgn);
-                    if let Some(kb) = kb {
-                        kb.update(xk, &efree, xkn);
-                    }
-                    if let Some(p) = phat {
-                        p.update(xp, &u, xpn);
-                    }
-                    un.copy_from_slice(&u);
-                    vn.copy_from_slice(&v);
-                    if let Some(rec) = rec.as_deref_mut() {
-                        let (us, ys, ycs) = (
-                            rec.u.as_mut_slice(),
-                            rec.y.as_mut_slice(),
-                            rec.y_clean.as_mut_slice(),
-                        );
-                        for i in 0..nu {
-                            us[i * len + k] = u[i];
-                        }
-                        for j in 0..ny {
-                            ycs[j * len + k] = yg[j];
-                            ys[j * len + k] = yg[j] + nse[j];
-                        }
-                    }
-                    check(k, &yg, &u, limit)?;
-                }
-                Structure::Whole { cl } => {
-                    rin[..ny].copy_from_slice(&r1);
-                    rin[ny..].copy_from_slice(&r2);
-                    cl.cx(&z, &mut out);
-                    cl.add_du(&rin, &mut out);
-                    cl.update(&z, &rin, &mut zn);
-                    if let Some(rec) = rec.as_deref_mut() {
-                        let (us, ys, ycs) = (
-                            rec.u.as_mut_slice(),
-                            rec.y.as_mut_slice(),
-                            rec.y_clean.as_mut_slice(),
-                        );
-                        for i in 0..nu {
-                            us[i * len + k] = out[ny + i];
-                        }
-                        for j in 0..ny {
-                            ycs[j * len + k] = out[j];
-                            ys[j * len + k] = out[j] + nse[j];
-                        }
-                    }
-                    check(k, &out[..ny], &out[ny..], limit)?;
-                }
+            self.step_ref(ph, &z, &r1, &r2, &nse, &mut s, &mut zn);
+            if let Some(rec) = rec.as_deref_mut() {
+                record(rec, k, len, &s.yc, &s.u, &nse);
             }
+            check(k, &s.yc, &s.u, limit)?;
             std::mem::swap(&mut z, &mut zn);
             ph += 1;
             if ph == self.frame {
@@ -479,6 +499,275 @@ impl Engine {
             }
         }
         Ok(z)
+    }
+
+    /// Builds the fused per-phase matrices by stepping the reference loop
+    /// on unit vectors (the step is linear in state and inputs). None when
+    /// they would take more than [`FUSED_MAX_ENTRIES`] numbers.
+    fn build_fused(&self) -> Option<Fused> {
+        let (nz, ny, nu) = (self.nz, self.ny, self.nu);
+        let nw = nz + ny + nu + ny;
+        let nout = nz + ny + nu;
+        let rows = nout.div_ceil(4) * 4;
+        if self.frame.saturating_mul(rows).saturating_mul(nw) > FUSED_MAX_ENTRIES {
+            return None;
+        }
+        // full matrices, column-major rows × nw per phase
+        let mut full = vec![0.0; self.frame * rows * nw];
+        let mut s = Scratch::new(ny, nu);
+        let mut w = vec![0.0; nw];
+        let mut zn = vec![0.0; nz];
+        for ph in 0..self.frame {
+            for c in 0..nw {
+                w.fill(0.0);
+                w[c] = 1.0;
+                let (z, rest) = w.split_at(nz);
+                let (r1, rest) = rest.split_at(ny);
+                let (r2, nse) = rest.split_at(nu);
+                self.step_ref(ph, z, r1, r2, nse, &mut s, &mut zn);
+                let col = &mut full[(ph * nw + c) * rows..(ph * nw + c + 1) * rows];
+                col[..nz].copy_from_slice(&zn);
+                col[nz..nz + ny].copy_from_slice(&s.yc);
+                col[nz + ny..nout].copy_from_slice(&s.u);
+            }
+        }
+        let used = |c: usize| {
+            (0..self.frame).any(|ph| {
+                full[(ph * nw + c) * rows..(ph * nw + c + 1) * rows]
+                    .iter()
+                    .any(|&x| x != 0.0)
+            })
+        };
+        // Column order: the dynamic states first (plant, controller,
+        // parallel model), then the inputs of the step with each held input
+        // next to its excitation (u_prev,i, r2_i), so that a held and a
+        // directly applied input sum in the same order.
+        let n_dyn = match &self.structure {
+            Structure::Loop { .. } => self.off_u,
+            Structure::Whole { .. } => nz,
+        };
+        let (o_r1, o_r2, o_n) = (nz, nz + ny, nz + ny + nu);
+        let mut order: Vec<usize> = (0..n_dyn).collect();
+        if n_dyn < nz {
+            for i in 0..nu {
+                order.push(self.off_u + i);
+                order.push(o_r2 + i);
+            }
+            for j in 0..ny {
+                order.push(self.off_u + nu + j);
+            }
+        } else {
+            order.extend(o_r2..o_r2 + nu);
+        }
+        order.extend(o_r1..o_r1 + ny);
+        order.extend(o_n..o_n + ny);
+        let mut cols = Vec::new();
+        let mut split = 0;
+        for &c in &order {
+            if used(c) {
+                cols.push(c);
+                if c < n_dyn {
+                    split += 1;
+                }
+            }
+        }
+        let nc = cols.len();
+        let mut mats = vec![0.0; self.frame * nc * rows];
+        for ph in 0..self.frame {
+            for (ci, &c) in cols.iter().enumerate() {
+                mats[(ph * nc + ci) * rows..(ph * nc + ci + 1) * rows]
+                    .copy_from_slice(&full[(ph * nw + c) * rows..(ph * nw + c + 1) * rows]);
+            }
+        }
+        Some(Fused {
+            rows,
+            cols,
+            split,
+            mats,
+        })
+    }
+
+    /// The fused loop: per sample one product of the phase's matrix with the
+    /// stacked vector w = [z; r₁; r₂; noise] (active columns only), column
+    /// by column into `R` accumulators (`R` = 0: run-time row count).
+    fn run_fused<const R: usize>(
+        &self,
+        f: &Fused,
+        z0: &[f64],
+        inp: &RunInput<'_>,
+        mut rec: Option<&mut Record>,
+    ) -> Result<Vec<f64>> {
+        let (nz, ny, nu, len) = (self.nz, self.ny, self.nu, inp.len);
+        let rows = f.rows;
+        let nc = f.cols.len();
+        let nw = nz + 2 * ny + nu;
+        let mut w = vec![0.0; nw];
+        w[..nz].copy_from_slice(z0);
+        let mut out = vec![0.0; rows];
+        let mut acc_dyn = vec![0.0; if R > 0 { 0 } else { rows }];
+        let mut nse = vec![0.0; ny];
+        let r1s = inp.r1.map(|m| m.as_slice());
+        let r2s = inp.r2.map(|m| m.as_slice());
+        let noise = inp.noise.map(|(m, s)| (m.as_slice(), s));
+        let limit = self.limit;
+        let (o_r1, o_r2, o_n) = (nz, nz + ny, nz + ny + nu);
+        let (cols_a, cols_b) = f.cols.split_at(f.split);
+        let mut ph = 0usize;
+        for k in 0..len {
+            if let Some(src) = r1s {
+                for j in 0..ny {
+                    w[o_r1 + j] = src[j * len + k];
+                }
+            }
+            if let Some(src) = r2s {
+                for i in 0..nu {
+                    w[o_r2 + i] = src[i * len + k];
+                }
+            }
+            if let Some((src, scale)) = noise {
+                for j in 0..ny {
+                    let e = scale[j] * src[j * len + k];
+                    nse[j] = e;
+                    w[o_n + j] = e;
+                }
+            }
+            let m = &f.mats[ph * nc * rows..(ph + 1) * nc * rows];
+            let (ma, mb) = m.split_at(f.split * rows);
+            if R > 0 {
+                // two partial sums over the state columns (halves the
+                // dependent chain), one over the inputs
+                let mut acc_a = [0.0f64; R];
+                let mut acc_a2 = [0.0f64; R];
+                let mut acc_b = [0.0f64; R];
+                let mut pairs = ma.chunks_exact(2 * R).zip(cols_a.chunks_exact(2));
+                for (col, c) in pairs.by_ref() {
+                    let (x0, x1) = (w[c[0]], w[c[1]]);
+                    let (m0, m1) = col.split_at(R);
+                    for ((a, a2), (p, q)) in
+                        acc_a.iter_mut().zip(&mut acc_a2).zip(m0.iter().zip(m1))
+                    {
+                        *a += p * x0;
+                        *a2 += q * x1;
+                    }
+                }
+                if cols_a.len() % 2 == 1 {
+                    let x = w[cols_a[cols_a.len() - 1]];
+                    let col = &ma[(cols_a.len() - 1) * R..];
+                    for (a, m) in acc_a.iter_mut().zip(col) {
+                        *a += m * x;
+                    }
+                }
+                for (a, a2) in acc_a.iter_mut().zip(&acc_a2) {
+                    *a += a2;
+                }
+                for (col, &c) in mb.chunks_exact(R).zip(cols_b) {
+                    let x = w[c];
+                    for (a, m) in acc_b.iter_mut().zip(col) {
+                        *a += m * x;
+                    }
+                }
+                for ((o, a), b) in out.iter_mut().zip(&acc_a).zip(&acc_b) {
+                    *o = a + b;
+                }
+            } else {
+                out.fill(0.0);
+                acc_dyn.fill(0.0);
+                let acc_b = &mut acc_dyn;
+                for (col, &c) in ma.chunks_exact(rows).zip(cols_a) {
+                    let x = w[c];
+                    for (a, m) in out.iter_mut().zip(col) {
+                        *a += m * x;
+                    }
+                }
+                for (col, &c) in mb.chunks_exact(rows).zip(cols_b) {
+                    let x = w[c];
+                    for (a, m) in acc_b.iter_mut().zip(col) {
+                        *a += m * x;
+                    }
+                }
+                for (o, b) in out.iter_mut().zip(acc_b.iter()) {
+                    *o += b;
+                }
+            }
+            let yc = &out[nz..nz + ny];
+            let u = &out[nz + ny..nz + ny + nu];
+            if let Some(rec) = rec.as_deref_mut() {
+                record(rec, k, len, yc, u, &nse);
+            }
+            if !yc.iter().chain(u).all(|v| v.abs() <= limit) {
+                check(k, yc, u, limit)?;
+            }
+            w[..nz].copy_from_slice(&out[..nz]);
+            ph += 1;
+            if ph == self.frame {
+                ph = 0;
+            }
+        }
+        Ok(w[..nz].to_vec())
+    }
+}
+
+/// Most numbers the fused per-phase matrices may take (frame · rows ·
+/// columns); beyond it the reference path runs (128 MiB).
+const FUSED_MAX_ENTRIES: usize = 1 << 24;
+
+/// The loop compiled to one affine map per phase of the sampling pattern:
+/// [z(k+1); y_clean(k); u(k)] = M_ph [z(k); r₁(k); r₂(k); noise(k)].
+/// Columns that are zero in every phase are dropped; rows are padded to a
+/// multiple of 4. The dynamic-state columns (`cols[..split]`) and the input
+/// columns are summed separately and added last.
+#[derive(Debug, Clone)]
+pub(crate) struct Fused {
+    rows: usize,
+    cols: Vec<usize>,
+    split: usize,
+    /// frame × (cols.len() × rows), column-major per phase.
+    mats: Vec<f64>,
+}
+
+/// Per-step work space of the reference step.
+struct Scratch {
+    yc: Vec<f64>,
+    yp: Vec<f64>,
+    yk: Vec<f64>,
+    efree: Vec<f64>,
+    a: Vec<f64>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    rin: Vec<f64>,
+    out: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(ny: usize, nu: usize) -> Self {
+        Scratch {
+            yc: vec![0.0; ny],
+            yp: vec![0.0; ny],
+            yk: vec![0.0; nu],
+            efree: vec![0.0; ny],
+            a: vec![0.0; nu],
+            u: vec![0.0; nu],
+            v: vec![0.0; ny],
+            rin: vec![0.0; ny + nu],
+            out: vec![0.0; ny + nu],
+        }
+    }
+}
+
+/// Writes sample k of u, y_clean and y = y_clean + noise.
+#[inline(always)]
+fn record(rec: &mut Record, k: usize, len: usize, yc: &[f64], u: &[f64], nse: &[f64]) {
+    let us = rec.u.as_mut_slice();
+    for (i, &ui) in u.iter().enumerate() {
+        us[i * len + k] = ui;
+    }
+    let ycs = rec.y_clean.as_mut_slice();
+    for (j, &y) in yc.iter().enumerate() {
+        ycs[j * len + k] = y;
+    }
+    let ys = rec.y.as_mut_slice();
+    for (j, (&y, &e)) in yc.iter().zip(nse).enumerate() {
+        ys[j * len + k] = y + e;
     }
 }
 

@@ -6,6 +6,8 @@ mod bad_input;
 mod closed_loop;
 #[path = "suite/common.rs"]
 mod common;
+#[path = "suite/fast_path.rs"]
+mod fast_path;
 #[path = "suite/fixtures.rs"]
 mod fixtures;
 #[path = "suite/multirate.rs"]
