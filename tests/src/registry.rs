@@ -54,7 +54,7 @@ macro_rules! experiment {
 pub fn experiments() -> Vec<Experiment> {
     use crate::{
         a1_engine, a2_closedloop, a2_openloop, a3_delay_example, a3_dual_rate, a3_lifting, a3_mimo,
-        a3_mpc, a3_multirate_iv, a3_polynomial, a3_subspace,
+        a3_iv, a3_mpc, a3_multirate_iv, a3_polynomial, a3_subspace,
     };
     vec![
         experiment!("A1.5", "a15-engine", "Zhu 2000 Tables II/III: diesel-engine stand-in, weighted multirate q-Markov Cover", a1_engine::run),
@@ -71,6 +71,7 @@ pub fn experiments() -> Vec<Experiment> {
         experiment!("A3.8a", "a38a-polyphase", "Ch. 6 polyphase identities and lifted ARX", a3_polynomial::run_polyphase),
         experiment!("A3.8b", "a38b-vectorized", "§6.3 vectorized excitation", a3_polynomial::run_vectorized),
         experiment!("A3.8c", "a38c-ccr", "§6.4 CCR stand-in: CCA input screening", a3_polynomial::run_ccr),
+        experiment!("A3.9", "a39-iv", "§7.8.2 SISO: closed-loop IV subspace with past dither as instrument", a3_iv::run),
         experiment!("A3.9b", "a39b-multirate-iv", "§7.8.2 multirate stirred tank: two-step lifted IV", a3_multirate_iv::run),
         experiment!("A3.10", "a310-mpc", "Li 2001 Ch. 8: DMC / GPC and dual-rate inferential MPC", a3_mpc::run),
         experiment!("A3.10", "a310-tank", "Stirred tank stand-in: inferential MPC, level every 10 T", a3_mpc::run_tank),
