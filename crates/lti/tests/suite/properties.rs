@@ -187,12 +187,15 @@ proptest! {
         if discrete {
             g = g.c2d(0.3, &C2dOptions::default()).unwrap();
         }
-        let h = g.hinf_norm(&Default::default()).unwrap();
+        let opts = lifted_lti::HinfOptions::default();
+        let h = g.hinf_norm(&opts).unwrap();
         let wmax = if discrete { std::f64::consts::PI / 0.3 } else { 100.0 };
         let grid: Vec<f64> = (0..=2000).map(|k| wmax * k as f64 / 2000.0).collect();
         let smax = |gm: &DMatrix<Complex64>| gm.clone().singular_values().iter().fold(0.0f64, |a, &b| a.max(b));
         let best = g.freqresp(&grid).unwrap().iter().map(smax).fold(0.0, f64::max);
-        prop_assert!(h.norm >= best * (1.0 - 1e-9), "{} < {best}", h.norm);
+        // The iteration guarantees the norm to its stated relative tolerance
+        // (HinfOptions::rel_tol), so a grid maximum may exceed it by that much.
+        prop_assert!(h.norm >= best * (1.0 - 2.0 * opts.rel_tol), "{} < {best}", h.norm);
         let at_peak = if h.peak_frequency.is_infinite() {
             g.d().clone().svd(false, false).singular_values.iter().fold(0.0f64, |a, &b| a.max(b))
         } else {
