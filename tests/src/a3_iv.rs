@@ -10,6 +10,11 @@
 //! var(noise-free output)/var(noise) (the simulator scales the noise after a
 //! noise-free run of the loop); α = 8, α_p = 16 (erratum L-16); order 2;
 //! 20 seeds, medians.
+//!
+//! [`run_bias`] is a second, clearly separate experiment (issue 7, not a
+//! spec check): the same loop in a noise-dominated regime fixed a priori
+//! (var-SNR 0.5, N = 3000 and 12 000), where plain N4SID's closed-loop bias
+//! shows and the IV estimate is closer.
 
 use lifted_lti::StateSpace;
 use lifted_prbs::{RandomBinaryOptions, random_binary};
@@ -24,7 +29,8 @@ use nalgebra::DMatrix;
 use crate::a3_subspace::{median, step_error};
 use crate::{Check, Reproduction};
 
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
+type BoxErr = Box<dyn std::error::Error>;
+type BoxResult<T> = Result<T, BoxErr>;
 
 /// Number of seeds (spec A3.9: 20).
 pub const SEEDS: u64 = 20;
@@ -205,6 +211,271 @@ pub fn run() -> BoxResult<Reproduction> {
             ok,
         )
         .with_note("erratum L-18: (C₂, A) not observable; use the two-step route"),
+    );
+    Ok(rep)
+}
+
+/// Medians over seeds of one closed-loop regime of the §7.8.2 SISO loop:
+/// `[e_step(60), |DC − 0.5|, |dominant pole − 0.81873|]` for the IV method
+/// (past dither as instrument, α = 8, α_p = 16) and for plain N4SID
+/// (p = f = 8) on the same records.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RegimeMedians {
+    /// IV medians.
+    pub iv: [f64; 3],
+    /// Plain N4SID medians.
+    pub n4sid: [f64; 3],
+    /// Signed medians of DC − 0.5 (IV, plain N4SID): a bias shows as a
+    /// median away from 0 of the sign-consistent errors.
+    pub signed_dc: [f64; 2],
+    /// Records whose DC gain estimate is below the true 0.5 (IV, plain
+    /// N4SID): near half of the successful records for an unbiased
+    /// estimate, nearly all (or none) for a biased one.
+    pub dc_below: [usize; 2],
+    /// Records on which a method returned an error (IV, plain N4SID);
+    /// they are left out of the medians.
+    pub failures: [usize; 2],
+}
+
+/// Simulates `seeds` records of `n` samples at variance SNR `snr` (spec §0
+/// definition; the dither is RBS ±1 at the plant input) and identifies each
+/// with both methods. Seeds `seed_base + s` (noise) and `seed_base + 1000 + s`
+/// (dither).
+pub fn regime(snr: f64, n: usize, seeds: u64, seed_base: u64) -> BoxResult<RegimeMedians> {
+    let fx = chapter7_siso()?;
+    let truth = fx.discrete_plant()?.model().clone();
+    let mut iv = vec![Vec::new(); 3];
+    let mut n4 = vec![Vec::new(); 3];
+    let mut signed = [Vec::new(), Vec::new()];
+    // Metrics and signed DC error; an estimate without them (e.g. a pole at
+    // z = 1) counts as a failure of its method.
+    let scored = |m: &StateSpace| -> BoxResult<([f64; 4], f64)> {
+        Ok((metrics(m, &truth)?, m.dc_gain()?[(0, 0)] - 0.5))
+    };
+    let mut failures = [0, 0];
+    for seed in 0..seeds {
+        let noise = fx
+            .noise_spec(snr, SnrDefinition::Variance, seed_base + seed)
+            .ok_or("fixture without noise model")?;
+        let sim = fx.simulator()?.with_noise(noise)?;
+        let f = rbs(n, seed_base + 1000 + seed)?;
+        let out = sim.simulate(&Excitation::input(f.clone()))?;
+        let (u, y) = (out.u(), &out.y);
+        let m = iv_identify(
+            &[IvExperiment {
+                u,
+                y,
+                instrument: Some(&f),
+            }],
+            &IvOptions {
+                order: OrderSelection::Fixed(2),
+                alpha: 8,
+                alpha_p: Some(16),
+                ..Default::default()
+            },
+        );
+        match m.map_err(BoxErr::from).and_then(|m| scored(&m.model)) {
+            Ok((mv, d)) => {
+                for (k, v) in mv.iter().take(3).enumerate() {
+                    iv[k].push(*v);
+                }
+                signed[0].push(d);
+            }
+            Err(_) => failures[0] += 1,
+        }
+        let plain = identify(
+            &[Experiment { u, y }],
+            &SubspaceOptions {
+                order: OrderSelection::Fixed(2),
+                past: 8,
+                future: 8,
+                feedthrough: Feedthrough::Free,
+                noise_model: false,
+                ..Default::default()
+            },
+        );
+        match plain.map_err(BoxErr::from).and_then(|m| scored(&m.model)) {
+            Ok((mv, d)) => {
+                for (k, v) in mv.iter().take(3).enumerate() {
+                    n4[k].push(*v);
+                }
+                signed[1].push(d);
+            }
+            Err(_) => failures[1] += 1,
+        }
+    }
+    Ok(RegimeMedians {
+        iv: [median(&iv[0]), median(&iv[1]), median(&iv[2])],
+        n4sid: [median(&n4[0]), median(&n4[1]), median(&n4[2])],
+        signed_dc: [median(&signed[0]), median(&signed[1])],
+        dc_below: [
+            signed[0].iter().filter(|&&d| d < 0.0).count(),
+            signed[1].iter().filter(|&&d| d < 0.0).count(),
+        ],
+        failures,
+    })
+}
+
+/// Variance SNR of the bias experiment ([`run_bias`]), fixed a priori.
+pub const BIAS_SNR: f64 = 0.5;
+/// Shorter record length of the bias experiment (the spec's 3000); the
+/// longer one is 4× this.
+pub const BIAS_N: usize = 3000;
+/// Seeds of the bias experiment (medians).
+pub const BIAS_SEEDS: u64 = 20;
+/// First seed of the bias experiment (disjoint from [`run`]'s 300…/700…).
+pub const BIAS_SEED_BASE: u64 = 5000;
+
+/// Second experiment of A3.9 (issue 7; not a spec check): the closed-loop
+/// bias of plain N4SID against the IV method, on the same plant,
+/// controller, disturbance and dither as [`run`], in a regime fixed before
+/// looking at the outcome.
+///
+/// Why this regime shows bias. N4SID's oblique projection assumes the
+/// future inputs U_f uncorrelated with the future innovations E_f. In this
+/// loop u(k) = S(q)f(k) − S(q)G(q)v(k) (erratum L-17, dither at the plant
+/// input; the controller 0.25z/(z − 1) even feeds v(k) through to u(k) in
+/// the same sample), so U_f is correlated with E_f through the feedback,
+/// and the projection error grows with the share of u that comes from the
+/// noise; it is a bias, the same for every record length. The IV method
+/// uses only the past dither f as instrument, independent of v, and is
+/// consistent. At the spec's var-SNR 2.5 the feedback share is small and
+/// N4SID's bias (median |DC − 0.5| ≈ 0.03) is below the IV scatter at
+/// N = 3000, which is why [`run`] cannot assert "IV closer". Here the noise
+/// variance is twice the dither-driven output variance (var-SNR 0.5; with
+/// the spec §0 definition this is the same as a dither 1/√5 ≈ 0.45 of the
+/// spec's at the spec's noise level), and the experiment is repeated with a
+/// 4× longer record: a bias keeps its size and its sign across seeds,
+/// variance shrinks and has no preferred sign.
+pub fn run_bias() -> BoxResult<Reproduction> {
+    let mut rep = Reproduction::new(
+        "A3.9",
+        "§7.8.2 SISO loop, noise-dominated regime: closed-loop bias of plain N4SID against the IV method",
+    );
+    let short = regime(BIAS_SNR, BIAS_N, BIAS_SEEDS, BIAS_SEED_BASE)?;
+    let long = regime(BIAS_SNR, 4 * BIAS_N, BIAS_SEEDS, BIAS_SEED_BASE)?;
+    let total = BIAS_SEEDS as usize;
+    rep.check(Check::holds(
+        "every record identified by both methods",
+        format!(
+            "failures IV/N4SID: N = {}: {:?}; N = {}: {:?}",
+            BIAS_N,
+            short.failures,
+            4 * BIAS_N,
+            long.failures
+        ),
+        short.failures == [0, 0] && long.failures == [0, 0],
+    ));
+    let names = ["e_step(60)", "|DC − 0.5|", "|pole − 0.8187|"];
+    for (len, r) in [(BIAS_N, &short), (4 * BIAS_N, &long)] {
+        for (k, name) in names.iter().enumerate() {
+            rep.check(
+                Check::below(
+                    format!("var-SNR {BIAS_SNR}, N = {len}: median {name} of IV minus plain N4SID"),
+                    r.iv[k] - r.n4sid[k],
+                    0.0,
+                )
+                .with_note(format!(
+                    "IV {:.3}, plain N4SID (p = f = 8) {:.3}; {total} seeds",
+                    r.iv[k], r.n4sid[k]
+                )),
+            );
+        }
+    }
+    // Bias, not variance: N4SID's error keeps its size when N grows 4×
+    // (variance alone would halve it; 0.8 leaves room for the scatter of a
+    // 20-seed median) and keeps its sign on nearly every record.
+    for (k, name) in [(1, "|DC − 0.5|"), (2, "|pole − 0.8187|")] {
+        rep.check(
+            Check::above(
+                format!(
+                    "plain N4SID median {name}: N = {} over N = {}",
+                    4 * BIAS_N,
+                    BIAS_N
+                ),
+                long.n4sid[k] / short.n4sid[k],
+                0.8,
+            )
+            .with_note(format!(
+                "{:.3} → {:.3}; IV {:.3} → {:.3} (ratio {:.2})",
+                short.n4sid[k],
+                long.n4sid[k],
+                short.iv[k],
+                long.iv[k],
+                long.iv[k] / short.iv[k]
+            )),
+        );
+    }
+    let frac = |c: usize, r: &RegimeMedians, m: usize| c as f64 / (total - r.failures[m]) as f64;
+    rep.check(
+        Check::above(
+            format!(
+                "plain N4SID, N = {}: share of records with DC < 0.5",
+                4 * BIAS_N
+            ),
+            frac(long.dc_below[1], &long, 1),
+            0.85,
+        )
+        .with_note(format!(
+            "signed median DC − 0.5: {:.3} (N = {}), {:.3} (N = {})",
+            short.signed_dc[1],
+            BIAS_N,
+            long.signed_dc[1],
+            4 * BIAS_N
+        )),
+    );
+    rep.check(
+        Check::within(
+            format!("IV, N = {}: share of records with DC < 0.5", 4 * BIAS_N),
+            frac(long.dc_below[0], &long, 0),
+            0.2,
+            0.8,
+        )
+        .with_note(format!(
+            "no preferred sign (binomial ½ ± 3σ for 20 records); signed median DC − 0.5: {:.3} (N = {}), {:.3} (N = {})",
+            short.signed_dc[0],
+            BIAS_N,
+            long.signed_dc[0],
+            4 * BIAS_N
+        )),
+    );
+    // Recorded, not asserted: the IV medians do not shrink like 1/√N on
+    // these seeds (see the report); the "IV shrinks" half of the signature
+    // is shown by the pole error only.
+    rep.figure(
+        "IV median |DC − 0.5|, N = 4·3000 over N = 3000",
+        long.iv[1] / short.iv[1],
+    );
+    rep.figure(
+        "IV median |pole − 0.8187|, N = 4·3000 over N = 3000",
+        long.iv[2] / short.iv[2],
+    );
+    // The spec's own SNR with a long record: N4SID's bias is there too,
+    // hidden at N = 3000 by the IV scatter (recorded, not asserted).
+    let spec_long = regime(2.5, 16 * BIAS_N, BIAS_SEEDS, BIAS_SEED_BASE)?;
+    rep.figure(
+        "var-SNR 2.5, N = 48000: IV median e_step(60)",
+        spec_long.iv[0],
+    );
+    rep.figure(
+        "var-SNR 2.5, N = 48000: IV median |DC − 0.5|",
+        spec_long.iv[1],
+    );
+    rep.figure(
+        "var-SNR 2.5, N = 48000: IV signed median DC − 0.5",
+        spec_long.signed_dc[0],
+    );
+    rep.figure(
+        "var-SNR 2.5, N = 48000: plain N4SID median e_step(60)",
+        spec_long.n4sid[0],
+    );
+    rep.figure(
+        "var-SNR 2.5, N = 48000: plain N4SID median |DC − 0.5|",
+        spec_long.n4sid[1],
+    );
+    rep.figure(
+        "var-SNR 2.5, N = 48000: plain N4SID signed median DC − 0.5",
+        spec_long.signed_dc[1],
     );
     Ok(rep)
 }

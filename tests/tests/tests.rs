@@ -174,4 +174,11 @@ mod a3_iv {
         println!("{rep}");
         assert!(rep.all_passed(), "{rep}");
     }
+
+    #[test]
+    fn a39_closed_loop_bias_of_plain_n4sid() {
+        let rep = lifted_tests::a3_iv::run_bias().expect("A3.9 bias experiment runs");
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
 }
