@@ -6,7 +6,9 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use lifted_lti::{StateSpace, TransferFunction};
-use lifted_sim::{Controller, Excitation, NoiseLevel, NoiseSpec, Plant, Simulator, SnrDefinition};
+use lifted_sim::{
+    Controller, Excitation, NoiseLevel, NoiseSpec, Plant, SimSignals, Simulator, SnrDefinition,
+};
 use nalgebra::DMatrix;
 
 fn plant() -> Plant {
@@ -69,6 +71,19 @@ fn closed_loop(c: &mut Criterion) {
                 b.iter(|| black_box(abs.simulate_reference(exc).expect("runs")));
             },
         );
+        // the same simulation into reused buffers (no data set, no copies
+        // of the excitation, no fresh pages)
+        let mut sig = SimSignals::default();
+        g.bench_with_input(
+            BenchmarkId::new("absolute_noise_into_buffers", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| {
+                    abs.simulate_into(exc, &mut sig).expect("runs");
+                    black_box(&sig);
+                });
+            },
+        );
         let clean = Simulator::closed_loop(
             plant(),
             Controller::decentralized(
@@ -109,6 +124,16 @@ fn closed_loop(c: &mut Criterion) {
             &exc,
             |b, exc| {
                 b.iter(|| black_box(snr.simulate_reference(exc).expect("runs")));
+            },
+        );
+        g.bench_with_input(
+            BenchmarkId::new("snr_scaled_two_runs_into_buffers", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| {
+                    snr.simulate_into(exc, &mut sig).expect("runs");
+                    black_box(&sig);
+                });
             },
         );
     }

@@ -641,33 +641,18 @@ impl Engine {
                 let mut acc_b = [0.0f64; R];
                 let mut pairs = ma.chunks_exact(2 * R).zip(cols_a.chunks_exact(2));
                 for (col, c) in pairs.by_ref() {
-                    let (x0, x1) = (w[c[0]], w[c[1]]);
                     let (m0, m1) = col.split_at(R);
-                    for ((a, a2), (p, q)) in
-                        acc_a.iter_mut().zip(&mut acc_a2).zip(m0.iter().zip(m1))
-                    {
-                        *a += p * x0;
-                        *a2 += q * x1;
-                    }
+                    axpy(&mut acc_a, m0, w[c[0]]);
+                    axpy(&mut acc_a2, m1, w[c[1]]);
                 }
-                if cols_a.len() % 2 == 1 {
-                    let x = w[cols_a[cols_a.len() - 1]];
-                    let col = &ma[(cols_a.len() - 1) * R..];
-                    for (a, m) in acc_a.iter_mut().zip(col) {
-                        *a += m * x;
-                    }
-                }
-                for (a, a2) in acc_a.iter_mut().zip(&acc_a2) {
-                    *a += a2;
+                if let Some(&c) = cols_a.get(cols_a.len() / 2 * 2) {
+                    axpy(&mut acc_a, &ma[(cols_a.len() - 1) * R..], w[c]);
                 }
                 for (col, &c) in mb.chunks_exact(R).zip(cols_b) {
-                    let x = w[c];
-                    for (a, m) in acc_b.iter_mut().zip(col) {
-                        *a += m * x;
-                    }
+                    axpy(&mut acc_b, col, w[c]);
                 }
-                for ((o, a), b) in out.iter_mut().zip(&acc_a).zip(&acc_b) {
-                    *o = a + b;
+                for r in 0..R {
+                    out[r] = (acc_a[r] + acc_a2[r]) + acc_b[r];
                 }
             } else {
                 out.fill(0.0);
@@ -704,6 +689,17 @@ impl Engine {
             }
         }
         Ok(w[..nz].to_vec())
+    }
+}
+
+/// acc += x · col[..R] on a fixed-size block (vectorised; `col` has at
+/// least R entries by construction).
+#[inline(always)]
+fn axpy<const R: usize>(acc: &mut [f64; R], col: &[f64], x: f64) {
+    if let Some(col) = col.first_chunk::<R>() {
+        for r in 0..R {
+            acc[r] += col[r] * x;
+        }
     }
 }
 

@@ -87,7 +87,7 @@ mod steady;
 pub use error::{Error, Result};
 pub use model::{Controller, Delays, Plant, WholeLoop, closed_loop};
 pub use noise::{NoiseLevel, NoiseSpec, SnrDefinition};
-pub use simulator::{Excitation, Feedback, SimOptions, SimOutput, Simulator};
+pub use simulator::{Excitation, Feedback, SimOptions, SimOutput, SimSignals, Simulator};
 pub use steady::{PeriodicityCheck, SteadyState, SteadyStateMethod, SteadyStateOptions};
 
 /// The README example, compiled and run as a doc test.

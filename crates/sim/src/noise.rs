@@ -196,9 +196,17 @@ impl NoiseGen {
     /// by one product per sample with the stacked matrix
     /// [x(k+1); v(k)] = [A B; C D][x(k); e(k)] (column-major, columns summed
     /// in order). Equal to the block-by-block filter up to rounding.
+    #[cfg(test)]
     pub fn generate(&self, len: usize, ny: usize) -> DMatrix<f64> {
-        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let mut out = DMatrix::zeros(len, ny);
+        self.generate_into(&mut out);
+        out
+    }
+
+    /// [`NoiseGen::generate`] into `out` (len × ny, every entry overwritten).
+    pub fn generate_into(&self, out: &mut DMatrix<f64>) {
+        let (len, ny) = out.shape();
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let os = out.as_mut_slice();
         let ne = self.n_e;
         let total = self.warmup + len;
@@ -267,7 +275,6 @@ impl NoiseGen {
             }
             k0 += nb;
         }
-        out
     }
 
     /// The block-by-block generator (the previous implementation), kept to

@@ -557,6 +557,18 @@ impl Simulator {
         self.run_with(engine, z0, exc, false)
     }
 
+    /// Simulates the excitation from zero initial state into reusable
+    /// buffers: the signals of [`Simulator::simulate`] without building the
+    /// [`Dataset`] or copying the excitation. Buffers of the right shape are
+    /// overwritten in place (no allocation, no page faults on repeated runs
+    /// of the same length); others are reallocated. Same method, results and
+    /// errors as [`Simulator::simulate`].
+    pub fn simulate_into(&self, exc: &Excitation, out: &mut SimSignals) -> Result<()> {
+        let engine = self.engine()?;
+        let z0 = vec![0.0; engine.nz];
+        self.signals_into(&engine, &z0, exc, false, out)
+    }
+
     fn run_with(
         &self,
         engine: &Engine,
@@ -564,75 +576,14 @@ impl Simulator {
         exc: &Excitation,
         reference: bool,
     ) -> Result<SimOutput> {
-        let n = self.check_excitation(exc)?;
-        let run = |inp: &RunInput<'_>, rec: &mut Record| {
-            if reference {
-                engine.run_reference(z0, inp, Some(rec))
-            } else {
-                engine.run(z0, inp, Some(rec))
-            }
-        };
-        let noise = match &self.noise {
-            Some(spec) => {
-                let noise_gen = NoiseGen::new(spec, self.ny, self.ts)?;
-                Some((noise_gen.generate(n, self.ny), noise_gen.snr.clone()))
-            }
-            None => None,
-        };
-        let mut rec = Record {
-            u: DMatrix::zeros(n, self.nu),
-            y: DMatrix::zeros(n, self.ny),
-            y_clean: DMatrix::zeros(n, self.ny),
-        };
-        let (final_state, noise_m, scale) = match noise {
-            None => {
-                let z = run(
-                    &RunInput {
-                        r1: exc.r1.as_ref(),
-                        r2: exc.r2.as_ref(),
-                        noise: None,
-                        len: n,
-                    },
-                    &mut rec,
-                )?;
-                (z, DMatrix::zeros(n, self.ny), vec![0.0; self.ny])
-            }
-            Some((mut raw, snr)) => {
-                let scale = match snr {
-                    Some((ratio, def)) => {
-                        run(
-                            &RunInput {
-                                r1: exc.r1.as_ref(),
-                                r2: exc.r2.as_ref(),
-                                noise: None,
-                                len: n,
-                            },
-                            &mut rec,
-                        )?;
-                        snr_scale(&rec.y_clean, &raw, &ratio, def)?
-                    }
-                    None => vec![1.0; self.ny],
-                };
-                let z = run(
-                    &RunInput {
-                        r1: exc.r1.as_ref(),
-                        r2: exc.r2.as_ref(),
-                        noise: Some((&raw, &scale)),
-                        len: n,
-                    },
-                    &mut rec,
-                )?;
-                for (j, &a) in scale.iter().enumerate() {
-                    raw.column_mut(j).scale_mut(a);
-                }
-                (z, raw, scale)
-            }
-        };
+        let mut sig = SimSignals::default();
+        self.signals_into(engine, z0, exc, reference, &mut sig)?;
+        let n = sig.y.nrows();
         // The measured samples with NaN between them (what
         // `Dataset::from_fast` does), built channel-wise.
         let mut y_data = DMatrix::from_element(n, self.ny, f64::NAN);
         for (j, ch) in self.outputs.iter().enumerate() {
-            let src = rec.y.column(j);
+            let src = sig.y.column(j);
             let mut dst = y_data.column_mut(j);
             for k in (ch.offset..n).step_by(ch.period) {
                 dst[k] = src[k];
@@ -640,21 +591,145 @@ impl Simulator {
         }
         let data = Dataset::new(
             self.ts,
-            rec.u,
+            sig.u,
             y_data,
             self.inputs.clone(),
             self.outputs.clone(),
         )?;
         Ok(SimOutput {
             data,
-            y: rec.y,
-            y_clean: rec.y_clean,
-            noise: noise_m,
-            noise_scale: scale,
+            y: sig.y,
+            y_clean: sig.y_clean,
+            noise: sig.noise,
+            noise_scale: sig.noise_scale,
             r1: exc.r1.clone().unwrap_or_else(|| DMatrix::zeros(n, self.ny)),
             r2: exc.r2.clone().unwrap_or_else(|| DMatrix::zeros(n, self.nu)),
-            final_state,
+            final_state: sig.final_state,
         })
+    }
+
+    fn signals_into(
+        &self,
+        engine: &Engine,
+        z0: &[f64],
+        exc: &Excitation,
+        reference: bool,
+        out: &mut SimSignals,
+    ) -> Result<()> {
+        let n = self.check_excitation(exc)?;
+        let (ny, nu) = (self.ny, self.nu);
+        let noise_gen = match &self.noise {
+            Some(spec) => Some(NoiseGen::new(spec, ny, self.ts)?),
+            None => None,
+        };
+        let shape = |m: &mut DMatrix<f64>, c: usize| {
+            if m.shape() != (n, c) {
+                *m = DMatrix::zeros(n, c);
+            }
+        };
+        shape(&mut out.u, nu);
+        shape(&mut out.y, ny);
+        shape(&mut out.y_clean, ny);
+        shape(&mut out.noise, ny);
+        let empty = || DMatrix::zeros(0, 0);
+        let mut rec = Record {
+            u: std::mem::replace(&mut out.u, empty()),
+            y: std::mem::replace(&mut out.y, empty()),
+            y_clean: std::mem::replace(&mut out.y_clean, empty()),
+        };
+        let result = self.record_into(engine, z0, exc, reference, noise_gen, &mut rec, out);
+        out.u = rec.u;
+        out.y = rec.y;
+        out.y_clean = rec.y_clean;
+        result
+    }
+
+    /// The loop runs of [`Simulator::signals_into`]: noise (`out.noise`),
+    /// the SNR pass, the recorded run.
+    #[allow(clippy::too_many_arguments)]
+    fn record_into(
+        &self,
+        engine: &Engine,
+        z0: &[f64],
+        exc: &Excitation,
+        reference: bool,
+        noise_gen: Option<NoiseGen>,
+        rec: &mut Record,
+        out: &mut SimSignals,
+    ) -> Result<()> {
+        let n = rec.u.nrows();
+        let run = |inp: &RunInput<'_>, rec: &mut Record| {
+            if reference {
+                engine.run_reference(z0, inp, Some(rec))
+            } else {
+                engine.run(z0, inp, Some(rec))
+            }
+        };
+        let clean = RunInput {
+            r1: exc.r1.as_ref(),
+            r2: exc.r2.as_ref(),
+            noise: None,
+            len: n,
+        };
+        let Some(noise_gen) = noise_gen else {
+            out.final_state = run(&clean, rec)?;
+            out.noise.fill(0.0);
+            out.noise_scale = vec![0.0; self.ny];
+            return Ok(());
+        };
+        noise_gen.generate_into(&mut out.noise);
+        let scale = match &noise_gen.snr {
+            Some((ratio, def)) => {
+                run(&clean, rec)?;
+                snr_scale(&rec.y_clean, &out.noise, ratio, *def)?
+            }
+            None => vec![1.0; self.ny],
+        };
+        out.final_state = run(
+            &RunInput {
+                noise: Some((&out.noise, &scale)),
+                ..clean
+            },
+            rec,
+        )?;
+        for (j, &a) in scale.iter().enumerate() {
+            out.noise.column_mut(j).scale_mut(a);
+        }
+        out.noise_scale = scale;
+        Ok(())
+    }
+}
+
+/// Reusable buffers of [`Simulator::simulate_into`]: the signals of a
+/// [`SimOutput`] without the data set and the excitation copies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSignals {
+    /// Plant input at every fast sample, N × n_u.
+    pub u: DMatrix<f64>,
+    /// Measured output (plant output + noise), N × n_y.
+    pub y: DMatrix<f64>,
+    /// Plant output without the added noise term, N × n_y.
+    pub y_clean: DMatrix<f64>,
+    /// The added output noise (after scaling), N × n_y.
+    pub noise: DMatrix<f64>,
+    /// Per-output noise scale (SNR factor, 1 for an absolute level, 0
+    /// without noise).
+    pub noise_scale: Vec<f64>,
+    /// Simulator state after the last sample.
+    pub final_state: Vec<f64>,
+}
+
+impl Default for SimSignals {
+    /// Empty buffers (allocated by the first run).
+    fn default() -> Self {
+        SimSignals {
+            u: DMatrix::zeros(0, 0),
+            y: DMatrix::zeros(0, 0),
+            y_clean: DMatrix::zeros(0, 0),
+            noise: DMatrix::zeros(0, 0),
+            noise_scale: Vec::new(),
+            final_state: Vec::new(),
+        }
     }
 }
 

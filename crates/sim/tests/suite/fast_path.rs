@@ -154,3 +154,22 @@ fn whole_loop_model() -> TestResult {
         &Excitation::both(random_input(n, 1, 7, 1), random_input(n, 1, 3, 2)),
     )
 }
+
+#[test]
+fn simulate_into_reuses_buffers_and_equals_simulate() -> TestResult {
+    let fx = plants::stirred_tank_7_8_2()?;
+    let sim = fx.simulator()?.with_noise(NoiseSpec::white_snr(3.0, 4))?;
+    let mut sig = lifted_sim::SimSignals::default();
+    for (n, seed) in [(500, 1), (800, 2), (800, 3)] {
+        let exc = Excitation::both(random_input(n, 2, 1, seed), random_input(n, 2, 2, seed + 9));
+        sim.simulate_into(&exc, &mut sig)?;
+        let full = sim.simulate(&exc)?;
+        assert_eq!(&sig.u, full.u());
+        assert_eq!(sig.y, full.y);
+        assert_eq!(sig.y_clean, full.y_clean);
+        assert_eq!(sig.noise, full.noise);
+        assert_eq!(sig.noise_scale, full.noise_scale);
+        assert_eq!(sig.final_state, full.final_state);
+    }
+    Ok(())
+}
