@@ -46,6 +46,28 @@ fn rbs(n: usize, seed: u64) -> BoxResult<DMatrix<f64>> {
     Ok(DMatrix::from_column_slice(n, 1, &s))
 }
 
+/// The IV method of spec A3.9: order 2, α = 8, α_p = 16 (erratum L-16).
+fn iv_options() -> IvOptions {
+    IvOptions {
+        order: OrderSelection::Fixed(2),
+        alpha: 8,
+        alpha_p: Some(16),
+        ..Default::default()
+    }
+}
+
+/// Plain N4SID on the same data: order 2, p = f = 8, free D.
+fn n4sid_options() -> SubspaceOptions {
+    SubspaceOptions {
+        order: OrderSelection::Fixed(2),
+        past: 8,
+        future: 8,
+        feedthrough: Feedthrough::Free,
+        noise_model: false,
+        ..Default::default()
+    }
+}
+
 /// (e_step(60), |DC − 0.5|, |dominant pole − 0.81873|, |second pole|).
 fn metrics(model: &StateSpace, truth: &StateSpace) -> BoxResult<[f64; 4]> {
     let e = step_error(model, truth, 0, 0, 60)?;
@@ -79,12 +101,7 @@ pub fn run() -> BoxResult<Reproduction> {
         let f = rbs(3000, 300 + seed)?;
         let out = sim.simulate(&Excitation::input(f.clone()))?;
         let (u, y) = (out.u().clone(), out.y.clone());
-        let opts = IvOptions {
-            order: OrderSelection::Fixed(2),
-            alpha: 8,
-            alpha_p: Some(16),
-            ..Default::default()
-        };
+        let opts = iv_options();
         let m = iv_identify(
             &[IvExperiment {
                 u: &u,
@@ -109,17 +126,7 @@ pub fn run() -> BoxResult<Reproduction> {
         for (k, v) in metrics(&mu.model, &truth)?.iter().enumerate() {
             ivu[k].push(*v);
         }
-        let plain = identify(
-            &[Experiment { u: &u, y: &y }],
-            &SubspaceOptions {
-                order: OrderSelection::Fixed(2),
-                past: 8,
-                future: 8,
-                feedthrough: Feedthrough::Free,
-                noise_model: false,
-                ..Default::default()
-            },
-        )?;
+        let plain = identify(&[Experiment { u: &u, y: &y }], &n4sid_options())?;
         for (k, v) in metrics(&plain.model, &truth)?.iter().enumerate() {
             n4[k].push(*v);
         }
@@ -244,15 +251,18 @@ pub struct RegimeMedians {
 pub fn regime(snr: f64, n: usize, seeds: u64, seed_base: u64) -> BoxResult<RegimeMedians> {
     let fx = chapter7_siso()?;
     let truth = fx.discrete_plant()?.model().clone();
-    let mut iv = vec![Vec::new(); 3];
-    let mut n4 = vec![Vec::new(); 3];
+    // Per method (0 = IV, 1 = plain N4SID): the three metrics and the signed
+    // DC error of each record; an estimate without them (an error, or e.g. a
+    // pole at z = 1) counts as a failure of its method.
+    let mut errs = [
+        [Vec::new(), Vec::new(), Vec::new()],
+        [Vec::new(), Vec::new(), Vec::new()],
+    ];
     let mut signed = [Vec::new(), Vec::new()];
-    // Metrics and signed DC error; an estimate without them (e.g. a pole at
-    // z = 1) counts as a failure of its method.
+    let mut failures = [0, 0];
     let scored = |m: &StateSpace| -> BoxResult<([f64; 4], f64)> {
         Ok((metrics(m, &truth)?, m.dc_gain()?[(0, 0)] - 0.5))
     };
-    let mut failures = [0, 0];
     for seed in 0..seeds {
         let noise = fx
             .noise_spec(snr, SnrDefinition::Variance, seed_base + seed)
@@ -261,57 +271,35 @@ pub fn regime(snr: f64, n: usize, seeds: u64, seed_base: u64) -> BoxResult<Regim
         let f = rbs(n, seed_base + 1000 + seed)?;
         let out = sim.simulate(&Excitation::input(f.clone()))?;
         let (u, y) = (out.u(), &out.y);
-        let m = iv_identify(
+        let iv = iv_identify(
             &[IvExperiment {
                 u,
                 y,
                 instrument: Some(&f),
             }],
-            &IvOptions {
-                order: OrderSelection::Fixed(2),
-                alpha: 8,
-                alpha_p: Some(16),
-                ..Default::default()
-            },
-        );
-        match m.map_err(BoxErr::from).and_then(|m| scored(&m.model)) {
-            Ok((mv, d)) => {
-                for (k, v) in mv.iter().take(3).enumerate() {
-                    iv[k].push(*v);
+            &iv_options(),
+        )
+        .map(|m| m.model);
+        let plain = identify(&[Experiment { u, y }], &n4sid_options()).map(|m| m.model);
+        for (method, model) in [iv, plain].into_iter().enumerate() {
+            match model.map_err(BoxErr::from).and_then(|m| scored(&m)) {
+                Ok((mv, d)) => {
+                    for (k, v) in mv.iter().take(3).enumerate() {
+                        errs[method][k].push(*v);
+                    }
+                    signed[method].push(d);
                 }
-                signed[0].push(d);
+                Err(_) => failures[method] += 1,
             }
-            Err(_) => failures[0] += 1,
-        }
-        let plain = identify(
-            &[Experiment { u, y }],
-            &SubspaceOptions {
-                order: OrderSelection::Fixed(2),
-                past: 8,
-                future: 8,
-                feedthrough: Feedthrough::Free,
-                noise_model: false,
-                ..Default::default()
-            },
-        );
-        match plain.map_err(BoxErr::from).and_then(|m| scored(&m.model)) {
-            Ok((mv, d)) => {
-                for (k, v) in mv.iter().take(3).enumerate() {
-                    n4[k].push(*v);
-                }
-                signed[1].push(d);
-            }
-            Err(_) => failures[1] += 1,
         }
     }
+    let meds = |e: &[Vec<f64>; 3]| [median(&e[0]), median(&e[1]), median(&e[2])];
+    let below = |v: &[f64]| v.iter().filter(|&&d| d < 0.0).count();
     Ok(RegimeMedians {
-        iv: [median(&iv[0]), median(&iv[1]), median(&iv[2])],
-        n4sid: [median(&n4[0]), median(&n4[1]), median(&n4[2])],
+        iv: meds(&errs[0]),
+        n4sid: meds(&errs[1]),
         signed_dc: [median(&signed[0]), median(&signed[1])],
-        dc_below: [
-            signed[0].iter().filter(|&&d| d < 0.0).count(),
-            signed[1].iter().filter(|&&d| d < 0.0).count(),
-        ],
+        dc_below: [below(&signed[0]), below(&signed[1])],
         failures,
     })
 }
@@ -439,9 +427,13 @@ pub fn run_bias() -> BoxResult<Reproduction> {
             4 * BIAS_N
         )),
     );
-    // Recorded, not asserted: the IV medians do not shrink like 1/√N on
-    // these seeds (see the report); the "IV shrinks" half of the signature
-    // is shown by the pole error only.
+    // Recorded, not asserted: the IV medians do not shrink like 1/√N. With
+    // 60 seeds (base 9000, exploration while writing this experiment) IV's
+    // median |DC − 0.5| was 0.050 / 0.034 / 0.038 and |pole − 0.8187| 0.034 /
+    // 0.020 / 0.026 for N = 3000 / 12000 / 48000, sign-balanced (33 of 60
+    // records below 0.5), against N4SID's 0.098 / 0.095 / 0.096 (60 of 60
+    // below). So the "IV shrinks with N" half of the signature is not
+    // asserted; the sign balance above is the part that holds.
     rep.figure(
         "IV median |DC − 0.5|, N = 4·3000 over N = 3000",
         long.iv[1] / short.iv[1],
