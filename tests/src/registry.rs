@@ -72,6 +72,7 @@ pub fn experiments() -> Vec<Experiment> {
         experiment!("A3.8b", "a38b-vectorized", "§6.3 vectorized excitation", a3_polynomial::run_vectorized),
         experiment!("A3.8c", "a38c-ccr", "§6.4 CCR stand-in: CCA input screening", a3_polynomial::run_ccr),
         experiment!("A3.9", "a39-iv", "§7.8.2 SISO: closed-loop IV subspace with past dither as instrument", a3_iv::run),
+        experiment!("A3.9", "a39-iv-bias", "§7.8.2 SISO, var-SNR 0.5: closed-loop bias of plain N4SID against the IV method", a3_iv::run_bias),
         experiment!("A3.9b", "a39b-multirate-iv", "§7.8.2 multirate stirred tank: two-step lifted IV", a3_multirate_iv::run),
         experiment!("A3.10", "a310-mpc", "Li 2001 Ch. 8: DMC / GPC and dual-rate inferential MPC", a3_mpc::run),
         experiment!("A3.10", "a310-tank", "Stirred tank stand-in: inferential MPC, level every 10 T", a3_mpc::run_tank),
