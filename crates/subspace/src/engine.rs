@@ -3,11 +3,15 @@
 
 use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, range_basis, svd, sym_eig};
 use lifted_lti::StateSpace;
+use std::time::Instant;
+
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, check_data};
-use crate::hankel::{HankelLayout, compress};
+use crate::hankel::{
+    Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
+};
 use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
@@ -97,6 +101,14 @@ pub struct SubspaceOptions {
     pub ts: f64,
     /// Time instants per block of the streamed Hankel compression. Default 2048.
     pub chunk_rows: usize,
+    /// Compression of the block-Hankel data (module docs of `hankel`):
+    /// correlations + Cholesky with automatic QR fallback, or the QR
+    /// reference. Default [`Compression::Auto`].
+    pub compression: Compression,
+    /// Threads for the correlation kernel (contiguous ranges of samples,
+    /// std scoped threads); 1 = single-threaded, 0 = all available cores.
+    /// Default 1.
+    pub threads: usize,
 }
 
 impl Default for SubspaceOptions {
@@ -113,6 +125,8 @@ impl Default for SubspaceOptions {
             enforce_stability: false,
             ts: 1.0,
             chunk_rows: 2048,
+            compression: Compression::Auto,
+            threads: 1,
         }
     }
 }
@@ -147,8 +161,29 @@ pub struct Diagnostics {
     pub stabilized: bool,
     /// Why no Kalman gain was returned, if requested but not available.
     pub noise_model_error: Option<String>,
-    /// Approximate flop count of the Hankel compression, 2Jk²(1 + k/b).
+    /// Approximate flop count of the Hankel compression actually run
+    /// (QR 2Jk²(1 + k/b), correlations 2 N n_z² s + k³/3).
     pub compression_flops: f64,
+    /// Which compression was used, the reciprocal condition of the
+    /// correlation matrix and the reason of a fallback to the QR (as
+    /// SLICOT's IWARN).
+    pub compression: CompressionReport,
+    /// Wall time per phase.
+    pub profile: Profile,
+}
+
+/// Wall time of the phases of an identification, seconds (for
+/// `lifted identify --profile`). Reading the data is the caller's.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Profile {
+    /// Hankel compression (for [`StreamingIdentifier`]: the final
+    /// factorisation only; the accumulation runs inside the pushes, whose
+    /// time the caller measures).
+    pub compress_s: f64,
+    /// Projections, weights and the SVD of the weighted projection.
+    pub svd_s: f64,
+    /// Order choice, (A, B, C, D), initial states and the noise model.
+    pub estimate_s: f64,
 }
 
 /// An identified model with its noise model and diagnostics.
@@ -307,26 +342,8 @@ pub(crate) fn numerical_rank(m: &DMatrix<f64>, rel: f64) -> Result<usize> {
     Ok(s.iter().filter(|&&v| smax > 0.0 && v > rel * smax).count())
 }
 
-/// Identifies a state-space model from one or more records with N4SID,
-/// MOESP or CVA (thesis ch. 2, unified by the weights of §2.5).
-///
-/// Steps: (1) streamed R-only QR of the block-Hankel data
-/// [U_f; U_p; Y_p; Y_f] (module `hankel`; ≈ 2Jk²(1 + k/b) flops, O(k²)
-/// memory, k = (p+f)(n_u+n_y)); (2) oblique projection Φ = Y_f /_{U_f} W_p
-/// and SVD of W₁ Φ W₂ on the k×k factor (O(k³)); (3) Γ = W₁⁻¹U₁S₁^{1/2},
-/// C = first block row, A = Γ↑⁺Γ↓ (all block rows, erratum L-3);
-/// (4) (B, D, x₀) by streamed output-error least squares with the
-/// feedthrough mask ([`estimate_bd`], O(N n_y (n_u n³ + p²)));
-/// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
-/// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
-///
-/// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
-/// [`Error::NonFinite`], [`Error::InvalidHorizon`],
-/// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`],
-/// [`Error::NotExciting`], [`Error::Unstable`] is never returned here
-/// (use `enforce_stability`).
-pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
-    let (nu, ny, total) = validate(experiments)?;
+/// Checks horizons, sample period and a fixed order; returns the Hankel layout.
+fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelLayout> {
     let (p, f) = (opts.past, opts.future);
     if p == 0 {
         return Err(Error::InvalidHorizon {
@@ -354,7 +371,6 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
         nu,
         ny,
     };
-    let k = layout.nrows();
     let max_order = (f - 1) * ny;
     if let OrderSelection::Fixed(n) = opts.order
         && (n == 0 || n > max_order)
@@ -364,6 +380,239 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
             max: max_order,
         });
     }
+    Ok(layout)
+}
+
+/// Compresses the block-Hankel data [U_f; U_p; Y_p; Y_f] of the records
+/// (past/future horizons `past`, `future`) into the k×k factor L with
+/// H Hᵀ/J = L Lᵀ, by `compression` (see [`Compression`]) with `threads`
+/// threads for the correlation kernel (0 = all cores). This is step 1 of
+/// [`identify`], exposed for benchmarks and for reuse of one compression.
+///
+/// Errors: as [`identify`] for the data and horizons;
+/// [`Error::IllConditionedCorrelation`] for [`Compression::Correlation`]
+/// when the check fails.
+pub fn compress_hankel(
+    experiments: &[Experiment<'_>],
+    past: usize,
+    future: usize,
+    compression: Compression,
+    threads: usize,
+) -> Result<HankelFactor> {
+    let (nu, ny, total) = validate(experiments)?;
+    let opts = SubspaceOptions {
+        past,
+        future,
+        order: OrderSelection::Gap { max: 1 },
+        ..Default::default()
+    };
+    let layout = check_options(nu, ny, &opts)?;
+    let columns: usize = experiments
+        .iter()
+        .map(|e| layout.columns(e.u.nrows()))
+        .sum();
+    if columns < layout.nrows() {
+        return Err(Error::HorizonTooLong {
+            past,
+            future,
+            n_samples: total,
+            min_samples: layout.nrows() + (past + future - 1) * experiments.len(),
+        });
+    }
+    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+        experiments.iter().map(|e| (e.u, e.y)).collect();
+    compress(
+        &recs,
+        &layout,
+        compression,
+        opts.chunk_rows,
+        thread_count(threads),
+    )
+}
+
+/// Identification from data fed in blocks (e.g. while a CSV file is read):
+/// memory O(((n_u + n_y)(p + f))²) whatever the number of samples.
+///
+/// Each [`push`](Self::push) takes consecutive samples of the current
+/// record; [`end_record`](Self::end_record) starts a new record (experiment);
+/// [`finish`](Self::finish) identifies the model from the compressed data
+/// exactly as [`identify`] would (same factor up to rounding, same steps
+/// 2–5) except that the records are gone: (A, B, C, D) come from the state
+/// sequences ([`SystemEstimate::StateSequence`], required), no initial
+/// state is estimated (`x0` is empty, or zeros per record for
+/// [`InitialState::Zero`]), and [`Compression::Auto`] cannot fall back to
+/// the QR after the pass: it returns [`Error::IllConditionedCorrelation`]
+/// and the data must be fed again with [`Compression::Qr`].
+///
+/// # Example
+///
+/// ```
+/// use lifted_lti::StateSpace;
+/// use lifted_subspace::{OrderSelection, StreamingIdentifier, SubspaceOptions};
+/// use nalgebra::DMatrix;
+///
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let g = StateSpace::new(
+///     DMatrix::from_element(1, 1, 0.9),
+///     DMatrix::from_element(1, 1, 0.5),
+///     DMatrix::from_element(1, 1, 1.0),
+///     DMatrix::zeros(1, 1),
+///     Some(1.0),
+/// )?;
+/// let u = DMatrix::from_fn(3000, 1, |k, _| if (k * 7919 + k / 3) % 5 < 2 { 1.0 } else { -1.0 });
+/// // A little output noise keeps the correlation matrix well conditioned.
+/// let mut y = g.lsim(&u, None, None)?.y;
+/// for (k, v) in y.iter_mut().enumerate() {
+///     *v += 1e-2 * (((k * 104_729) % 1000) as f64 / 500.0 - 1.0);
+/// }
+/// let opts = SubspaceOptions { order: OrderSelection::Fixed(1), past: 5, future: 5, ..Default::default() };
+/// let mut id = StreamingIdentifier::new(1, 1, &opts)?;
+/// for s in (0..3000).step_by(700) {
+///     let len = 700.min(3000 - s);
+///     id.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())?;
+/// }
+/// let fit = id.finish()?;
+/// assert!((fit.model.poles()?[0].re - 0.9).abs() < 1e-2);
+/// # Ok(())
+/// # }
+/// ```
+pub struct StreamingIdentifier {
+    layout: HankelLayout,
+    opts: SubspaceOptions,
+    stream: HankelStream,
+    samples: usize,
+    records: usize,
+    record_open: bool,
+}
+
+impl StreamingIdentifier {
+    /// A streaming identification of a system with `n_inputs` inputs and
+    /// `n_outputs` outputs.
+    ///
+    /// Errors: [`Error::DimensionMismatch`] (no input or output),
+    /// [`Error::InvalidHorizon`], [`Error::InvalidOption`] (sample period,
+    /// or a [`SystemEstimate`] / `enforce_stability` that needs the records),
+    /// [`Error::OrderTooLarge`].
+    pub fn new(n_inputs: usize, n_outputs: usize, opts: &SubspaceOptions) -> Result<Self> {
+        if n_inputs == 0 || n_outputs == 0 {
+            return Err(Error::DimensionMismatch {
+                what: "u, y",
+                expected: "at least one input and one output".into(),
+                got: format!("{n_inputs} inputs, {n_outputs} outputs"),
+            });
+        }
+        let layout = check_options(n_inputs, n_outputs, opts)?;
+        if opts.system != SystemEstimate::StateSequence || opts.enforce_stability {
+            need_records(None)?;
+        }
+        let stream = HankelStream::new(
+            layout,
+            opts.compression,
+            opts.chunk_rows,
+            thread_count(opts.threads),
+        );
+        Ok(StreamingIdentifier {
+            layout,
+            opts: opts.clone(),
+            stream,
+            samples: 0,
+            records: 0,
+            record_open: false,
+        })
+    }
+
+    /// Appends consecutive samples of the current record: `u` (b×n_u) and
+    /// `y` (b×n_y), one row per sample; blocks may have any length.
+    ///
+    /// Errors: [`Error::DimensionMismatch`], [`Error::NonFinite`].
+    pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let (nu, ny) = (self.layout.nu, self.layout.ny);
+        if u.ncols() != nu || y.ncols() != ny || u.nrows() != y.nrows() {
+            return Err(Error::DimensionMismatch {
+                what: "block (u, y)",
+                expected: format!("b×{nu} and b×{ny}"),
+                got: format!(
+                    "{}x{} and {}x{}",
+                    u.nrows(),
+                    u.ncols(),
+                    y.nrows(),
+                    y.ncols()
+                ),
+            });
+        }
+        check_data("u", u)?;
+        check_data("y", y)?;
+        if u.nrows() > 0 && !self.record_open {
+            self.records += 1;
+            self.record_open = true;
+        }
+        self.samples += u.nrows();
+        self.stream.push(u, y)
+    }
+
+    /// Ends the current record; the next [`push`](Self::push) starts a new
+    /// one (its first s − 1 samples only start Hankel columns).
+    pub fn end_record(&mut self) {
+        self.stream.end_record();
+        self.record_open = false;
+    }
+
+    /// Hankel columns collected so far.
+    pub fn columns(&self) -> usize {
+        self.stream.columns()
+    }
+
+    /// Identifies the model from the data pushed so far.
+    ///
+    /// Errors: [`Error::HorizonTooLong`] (fewer Hankel columns than rows),
+    /// [`Error::IllConditionedCorrelation`] (correlation route rejected),
+    /// and those of [`identify`] after the compression.
+    pub fn finish(self) -> Result<SubspaceModel> {
+        let k = self.layout.nrows();
+        let columns = self.stream.columns();
+        if columns < k {
+            let (p, f) = (self.layout.past, self.layout.future);
+            return Err(Error::HorizonTooLong {
+                past: p,
+                future: f,
+                n_samples: self.samples,
+                min_samples: k + (p + f - 1) * self.records.max(1),
+            });
+        }
+        let t0 = Instant::now();
+        let factor = self.stream.finish()?;
+        let compress_s = t0.elapsed().as_secs_f64();
+        let mut fit = from_factor(factor, &self.layout, &self.opts, None, compress_s)?;
+        if self.opts.initial_state == InitialState::Zero {
+            fit.x0 = vec![DVector::zeros(fit.model.order()); self.records.max(1)];
+        }
+        Ok(fit)
+    }
+}
+
+/// Identifies a state-space model from one or more records with N4SID,
+/// MOESP or CVA (thesis ch. 2, unified by the weights of §2.5).
+///
+/// Steps: (1) streamed compression of the block-Hankel data
+/// [U_f; U_p; Y_p; Y_f] to L with H Hᵀ/J = L Lᵀ ([`Compression`]: lagged
+/// correlations + Cholesky, ≈ 2N(n_u+n_y)²(p+f) flops, falling back to the
+/// R-only QR, ≈ 2Jk²(1 + k/b) flops; O(k²) memory, k = (p+f)(n_u+n_y)); (2) oblique projection Φ = Y_f /_{U_f} W_p
+/// and SVD of W₁ Φ W₂ on the k×k factor (O(k³)); (3) Γ = W₁⁻¹U₁S₁^{1/2},
+/// C = first block row, A = Γ↑⁺Γ↓ (all block rows, erratum L-3);
+/// (4) (B, D, x₀) by streamed output-error least squares with the
+/// feedthrough mask ([`estimate_bd`], O(N n_y (n_u n³ + p²)));
+/// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
+/// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
+///
+/// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
+/// [`Error::NonFinite`], [`Error::InvalidHorizon`],
+/// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`],
+/// [`Error::NotExciting`], [`Error::Unstable`] is never returned here
+/// (use `enforce_stability`).
+pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
+    let (nu, ny, total) = validate(experiments)?;
+    let layout = check_options(nu, ny, opts)?;
+    let (p, f, k) = (layout.past, layout.future, layout.nrows());
     let columns: usize = experiments
         .iter()
         .map(|e| layout.columns(e.u.nrows()))
@@ -380,10 +629,66 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     }
     let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
         experiments.iter().map(|e| (e.u, e.y)).collect();
-    let (l, columns) = compress(&recs, &layout, opts.chunk_rows)?;
-    let b = opts.chunk_rows.max(1) as f64;
-    let compression_flops = 2.0 * columns as f64 * (k * k) as f64 * (1.0 + k as f64 / b);
+    let t0 = Instant::now();
+    let factor = compress(
+        &recs,
+        &layout,
+        opts.compression,
+        opts.chunk_rows,
+        thread_count(opts.threads),
+    )?;
+    let compress_s = t0.elapsed().as_secs_f64();
+    let records: Vec<Record<'_>> = experiments
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: None,
+        })
+        .collect();
+    from_factor(factor, &layout, opts, Some(&records), compress_s)
+}
 
+/// Threads for the correlation kernel: 0 = all available.
+fn thread_count(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
+/// The data records when they are available (in-memory identification),
+/// else an error naming the option that needs them (streaming).
+fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<&'r [Record<'a>]> {
+    records.ok_or_else(|| Error::InvalidOption {
+        what: "system",
+        reason: "streaming identification keeps only the compressed data: (B, D) by output-error \
+                 regression (SystemEstimate::ShiftInvariance or enforce_stability) needs the records; \
+                 use SystemEstimate::StateSequence"
+            .into(),
+    })
+}
+
+/// Steps 2–5 of [`identify`] on the compressed data L (records only for the
+/// output-error (B, D, x₀) regressions; `None` when streaming).
+fn from_factor(
+    factor: HankelFactor,
+    layout: &HankelLayout,
+    opts: &SubspaceOptions,
+    records: Option<&[Record<'_>]>,
+    compress_s: f64,
+) -> Result<SubspaceModel> {
+    let t1 = Instant::now();
+    let HankelFactor {
+        l,
+        columns,
+        report: compression,
+    } = factor;
+    let compression_flops = compression.flops;
+    let (p, f, nu, ny) = (layout.past, layout.future, layout.nu, layout.ny);
+    let layout = *layout;
+    let max_order = (f - 1) * ny;
     // Persistent excitation: the input rows [U_f; U_p] must have full rank.
     let nu_rows = (p + f) * nu;
     let luu = l.view((0, 0), (nu_rows, nu_rows)).into_owned();
@@ -420,6 +725,8 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
         }
     };
     let dec = svd(&weighted)?;
+    let svd_s = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
     let singular_values: Vec<f64> = dec.s.iter().cloned().collect();
     let suggested_order = gap_order(
         &singular_values,
@@ -446,18 +753,16 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     if let Some(w1i) = &w1_inv {
         gamma = w1i * gamma;
     }
-    let records: Vec<Record<'_>> = experiments
-        .iter()
-        .map(|e| Record {
-            u: e.u,
-            y: e.y,
-            instrument: None,
-        })
-        .collect();
     let (a, c, bd, stabilized) = match opts.system {
         SystemEstimate::ShiftInvariance => {
             let (a, c, st) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
-            let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+            let bd = estimate_bd(
+                &a,
+                &c,
+                need_records(records)?,
+                &opts.feedthrough,
+                opts.initial_state,
+            )?;
             (a, c, bd, st)
         }
         SystemEstimate::StateSequence => {
@@ -465,12 +770,23 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
             let ls = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
             if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
                 let (a, c, st) = ac_from_gamma(&gamma, ny, true)?;
-                let bd = estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?;
+                let bd = estimate_bd(
+                    &a,
+                    &c,
+                    need_records(records)?,
+                    &opts.feedthrough,
+                    opts.initial_state,
+                )?;
                 (a, c, bd, st)
             } else {
                 let x0 = match opts.initial_state {
-                    InitialState::Estimate => estimate_x0(&ls.a, &ls.b, &ls.c, &ls.d, &records)?,
-                    InitialState::Zero => vec![DVector::zeros(ls.a.nrows()); records.len()],
+                    InitialState::Estimate => match records {
+                        Some(r) => estimate_x0(&ls.a, &ls.b, &ls.c, &ls.d, r)?,
+                        None => Vec::new(),
+                    },
+                    InitialState::Zero => {
+                        vec![DVector::zeros(ls.a.nrows()); records.map_or(0, |r| r.len())]
+                    }
                 };
                 let bd = BdFit {
                     b: ls.b,
@@ -513,6 +829,12 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
             stabilized,
             noise_model_error,
             compression_flops,
+            compression,
+            profile: Profile {
+                compress_s,
+                svd_s,
+                estimate_s: t2.elapsed().as_secs_f64(),
+            },
         },
     })
 }

@@ -33,6 +33,20 @@ pub enum Error {
         /// Actual dimension, human readable.
         got: String,
     },
+    /// The correlation matrix of the Hankel data is not numerically positive
+    /// definite or too ill conditioned for its Cholesky factor to be accurate
+    /// ([`crate::Compression::Correlation`], or [`crate::Compression::Auto`]
+    /// when streaming, where the data cannot be read again for the QR).
+    #[error("correlation compression rejected: {reason}; use Compression::Qr")]
+    IllConditionedCorrelation {
+        /// Reciprocal condition number λ_min/λ_max of H Hᵀ (NaN after a
+        /// Cholesky breakdown).
+        rcond: f64,
+        /// The smallest accepted value ([`crate::CORRELATION_RCOND_MIN`]).
+        min: f64,
+        /// Why, human readable.
+        reason: String,
+    },
     /// No experiment (data record) was given.
     #[error("no data: at least one experiment is needed")]
     NoData,

@@ -1,70 +1,109 @@
 //! Streaming compression of block-Hankel data.
 //!
 //! The block-Hankel matrix H (rows = stacked lagged signals, one column per
-//! time instant) is never formed. Its transpose is built `chunk_rows`
-//! time instants at a time and folded into an R-only QR
-//! ([`lifted_linalg::RAccumulator`]): Hᵀ = Q R, so H = L Qᵀ with L = Rᵀ
-//! (k×k lower triangular, k = number of Hankel rows). Every row-space
-//! operation of the subspace methods (orthogonal and oblique projections,
-//! weights, covariances) acts on the rows of H only through inner products,
-//! so it can be carried out on L instead of H: the results differ by the
-//! right factor Qᵀ, which changes neither the column spaces, the singular
-//! values nor the covariances.
+//! time instant) is never formed. Two compressions produce the same k×k
+//! lower-triangular factor L with H Hᵀ/J = L Lᵀ (k = number of Hankel rows,
+//! J = number of columns). Every row-space operation of the subspace methods
+//! (orthogonal and oblique projections, weights, covariances) acts on the
+//! rows of H only through inner products, so it can be carried out on L
+//! instead of H: the results differ by a right orthogonal factor, which
+//! changes neither the column spaces, the singular values nor the
+//! covariances.
 //!
-//! Cost: each chunk of b rows costs ≈ 2(k + b)k² flops, in total
-//! ≈ 2Jk²(1 + k/b) for J columns; memory O(k² + b·k), independent of J.
+//! * [`Compression::Qr`], the accurate reference: Hᵀ is built `chunk_rows`
+//!   time instants at a time and folded into an R-only QR
+//!   ([`lifted_linalg::RAccumulator`]), Hᵀ = Q R, L = Rᵀ/√J. Cost
+//!   ≈ 2Jk²(1 + k/b) flops for blocks of b rows.
+//! * [`Compression::Correlation`] exploits the Hankel structure: with
+//!   z(t) = [u(t); y(t)] (n_z = n_u + n_y channels) and s = p + f block rows,
+//!   every entry of H Hᵀ is a lagged correlation
+//!   Σ_j z_c(j + o₁) z_d(j + o₂), which equals the full-record sum
+//!   S_cd(δ) = Σ_t z_c(t) z_d(t + δ), δ = o₂ − o₁ < s, minus at most 2s
+//!   boundary products. One pass over the data accumulates the s matrices
+//!   S(δ) (≈ 2 N n_z² s flops, vectorised dot products on cache-sized
+//!   blocks, optionally split over threads), the boundary corrections cost
+//!   O(k² s) per record, and L is the Cholesky factor of H Hᵀ/J. As
+//!   SLICOT's IB01AD with ALG = 'C', squaring the data costs accuracy when H
+//!   is ill conditioned, so [`Compression::Auto`] checks the factor
+//!   (Cholesky breakdown, or reciprocal condition of H Hᵀ below
+//!   [`CORRELATION_RCOND_MIN`]) and falls back to the QR, reporting why.
 //!
-//! The compression sits behind the small [`Compressor`] interface so that a
-//! Hankel-structure-exploiting variant (or a Cholesky-of-correlation one)
-//! can replace the Householder accumulation later.
+//! Memory: O(k² + b·k) for the QR, O(n_z² s + n_z (s + b)) plus the k×k
+//! Gram for the correlations, independent of N; [`HankelStream`] takes the
+//! data in blocks of any size (one record after the other).
 
 use lifted_linalg::RAccumulator;
 use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
 
-use crate::Result;
+use crate::error::{Error, Result};
 
-/// Internal interface of a data compressor: rows of Hᵀ in, L out.
-pub(crate) trait Compressor {
-    /// Folds a block of rows of Hᵀ into the compressed factor.
-    fn push(&mut self, block: &DMatrix<f64>) -> Result<()>;
-    /// Rows pushed so far.
-    fn rows_seen(&self) -> usize;
-    /// The lower-triangular factor L (k×k) with H Hᵀ = L Lᵀ.
-    fn lower_factor(&self) -> DMatrix<f64>;
+/// Smallest reciprocal condition number (λ_min/λ_max) of the correlation
+/// matrix H Hᵀ accepted by [`Compression::Auto`] and
+/// [`Compression::Correlation`]. The Cholesky factor of a Gram matrix has
+/// relative errors ≈ k ε/rcond in its smallest directions; at 1e-8 they stay
+/// below ≈ 4e-6 for k = 160 (and at rounding level on well-conditioned
+/// data), below it the QR is used.
+pub const CORRELATION_RCOND_MIN: f64 = 1e-8;
+
+/// Time instants processed per cache block by the correlation kernel.
+const KERNEL_BLOCK: usize = 4096;
+
+/// Samples per block when in-memory records are streamed (bounds the
+/// working copy to 64 Ki samples per channel).
+const PUSH_BLOCK: usize = 1 << 16;
+
+/// Which compression of the block-Hankel data [`crate::identify`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Compression {
+    /// Correlations and Cholesky (structure-exploiting, ≈ 2 N n_z² s flops);
+    /// falls back to the R-only QR when the correlation matrix is not
+    /// numerically positive definite or its reciprocal condition is below
+    /// [`CORRELATION_RCOND_MIN`] (reported in
+    /// [`CompressionReport::fallback`]). Default. For
+    /// [`crate::StreamingIdentifier`] the data cannot be read twice: there
+    /// the fallback is an [`Error::IllConditionedCorrelation`] asking for
+    /// [`Compression::Qr`].
+    #[default]
+    Auto,
+    /// Correlations and Cholesky only; [`Error::IllConditionedCorrelation`]
+    /// when the check fails.
+    Correlation,
+    /// R-only Householder QR of Hᵀ streamed over row blocks (≈ 2Jk² flops),
+    /// the accurate reference.
+    Qr,
 }
 
-/// Householder R-only QR accumulated over row blocks.
-pub(crate) struct QrCompressor {
-    acc: RAccumulator,
+/// What the compression did (part of [`crate::Diagnostics`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CompressionReport {
+    /// The compression requested.
+    pub requested: Compression,
+    /// The compression whose factor was used: [`Compression::Correlation`]
+    /// or [`Compression::Qr`].
+    pub used: Compression,
+    /// Reciprocal condition number λ_min/λ_max of H Hᵀ when the correlation
+    /// route was tried (NaN otherwise, or when its Cholesky broke down).
+    pub rcond: f64,
+    /// Why the correlation factor was rejected and the QR used instead (the
+    /// analogue of SLICOT's IWARN = 2), `None` when no fallback happened.
+    pub fallback: Option<String>,
+    /// Approximate flop count of the compression actually run
+    /// (QR: 2Jk²(1 + k/b); correlations: 2 N n_z² s + k³/3).
+    pub flops: f64,
+    /// Threads used by the correlation kernel.
+    pub threads: usize,
 }
 
-impl QrCompressor {
-    pub(crate) fn new(ncols: usize) -> Self {
-        QrCompressor {
-            acc: RAccumulator::new(ncols),
-        }
-    }
-}
-
-impl Compressor for QrCompressor {
-    fn push(&mut self, block: &DMatrix<f64>) -> Result<()> {
-        Ok(self.acc.push_rows(block)?)
-    }
-    fn rows_seen(&self) -> usize {
-        self.acc.rows_seen()
-    }
-    fn lower_factor(&self) -> DMatrix<f64> {
-        let r = self.acc.r();
-        let k = self.acc.ncols();
-        // Pad to k×k if fewer rows than columns were seen (callers check J ≥ k).
-        let mut l = DMatrix::zeros(k, k);
-        for i in 0..r.nrows().min(k) {
-            for j in i..k {
-                l[(j, i)] = r[(i, j)];
-            }
-        }
-        l
-    }
+/// The compressed data: L (k×k lower triangular) with H Hᵀ/J = L Lᵀ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HankelFactor {
+    /// The factor L, rows in the order [U_f; U_p; Y_p; Y_f] (thesis §2.4).
+    pub l: DMatrix<f64>,
+    /// Hankel columns J over all records.
+    pub columns: usize,
+    /// How it was obtained.
+    pub report: CompressionReport,
 }
 
 /// Layout of the block-Hankel rows [U_f; U_p; Y_p; Y_f] (thesis §2.4 ordering,
@@ -81,6 +120,10 @@ impl HankelLayout {
     /// Number of Hankel rows k = (p + f)(n_u + n_y).
     pub(crate) fn nrows(&self) -> usize {
         (self.past + self.future) * (self.nu + self.ny)
+    }
+    /// Block rows s = p + f (the span of one Hankel column in samples).
+    fn span(&self) -> usize {
+        self.past + self.future
     }
     /// Columns contributed by a record of `n` samples.
     pub(crate) fn columns(&self, n: usize) -> usize {
@@ -102,106 +145,604 @@ impl HankelLayout {
         s..s + self.future * self.ny
     }
 
-    /// Writes the Hankel column of "present" time t (t ≥ past) into `out`.
-    fn fill(&self, u: &DMatrix<f64>, y: &DMatrix<f64>, t: usize, out: &mut [f64]) {
+    /// (offset, channel) of every Hankel row: row r of the column of
+    /// "present" time t holds z_channel(t − p + offset), channels u first.
+    fn sources(&self) -> Vec<(usize, usize)> {
         let (p, f, nu, ny) = (self.past, self.future, self.nu, self.ny);
-        let mut idx = 0;
+        let mut out = Vec::with_capacity(self.nrows());
         for lag in 0..f {
-            for j in 0..nu {
-                out[idx] = u[(t + lag, j)];
-                idx += 1;
-            }
+            out.extend((0..nu).map(|j| (p + lag, j)));
         }
         for lag in 0..p {
-            for j in 0..nu {
-                out[idx] = u[(t - p + lag, j)];
-                idx += 1;
-            }
+            out.extend((0..nu).map(|j| (lag, j)));
         }
         for lag in 0..p {
-            for j in 0..ny {
-                out[idx] = y[(t - p + lag, j)];
-                idx += 1;
-            }
+            out.extend((0..ny).map(|j| (lag, nu + j)));
         }
         for lag in 0..f {
-            for j in 0..ny {
-                out[idx] = y[(t + lag, j)];
-                idx += 1;
+            out.extend((0..ny).map(|j| (p + lag, nu + j)));
+        }
+        out
+    }
+}
+
+/// Σ_{t<len} a(t) b(t + δ) for the four lags δ = d … d+3 at once (the load
+/// of `a` is shared; eight partial sums per lag are vectorised).
+#[inline]
+fn dot4(a: &[f64], b: &[f64], d: usize, len: usize) -> [f64; 4] {
+    let mut acc = [[0.0f64; 8]; 4];
+    let n8 = len / 8 * 8;
+    let mut t = 0;
+    while t < n8 {
+        let x: &[f64; 8] = a[t..t + 8].try_into().unwrap_or(&[0.0; 8]);
+        for (l, al) in acc.iter_mut().enumerate() {
+            let s = t + d + l;
+            let y: &[f64; 8] = b[s..s + 8].try_into().unwrap_or(&[0.0; 8]);
+            for i in 0..8 {
+                al[i] = x[i].mul_add(y[i], al[i]);
+            }
+        }
+        t += 8;
+    }
+    let mut out = [0.0; 4];
+    for (l, al) in acc.iter().enumerate() {
+        let mut v = ((al[0] + al[4]) + (al[1] + al[5])) + ((al[2] + al[6]) + (al[3] + al[7]));
+        for tt in n8..len {
+            v = a[tt].mul_add(b[tt + d + l], v);
+        }
+        out[l] = v;
+    }
+    out
+}
+
+/// S[(δ n_z + c) n_z + e] += Σ_{t<len} z_c(t) z_e(t + δ), δ < span, for
+/// channel slices with at least `len + span − 1` samples each. Blocks of
+/// [`KERNEL_BLOCK`] instants keep the operands in cache.
+fn lagged_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64]) {
+    let nz = z.len();
+    let mut t0 = 0;
+    while t0 < len {
+        let bl = KERNEL_BLOCK.min(len - t0);
+        for (c, zc) in z.iter().enumerate() {
+            let a = &zc[t0..t0 + bl];
+            for (e, ze) in z.iter().enumerate() {
+                let b = &ze[t0..t0 + bl + span - 1];
+                let mut d = 0;
+                while d + 4 <= span {
+                    let v = dot4(a, b, d, bl);
+                    for (l, vl) in v.iter().enumerate() {
+                        s[((d + l) * nz + c) * nz + e] += vl;
+                    }
+                    d += 4;
+                }
+                while d < span {
+                    let v: f64 = a.iter().zip(&b[d..]).map(|(x, y)| x * y).sum();
+                    s[(d * nz + c) * nz + e] += v;
+                    d += 1;
+                }
+            }
+        }
+        t0 += bl;
+    }
+}
+
+/// [`lagged_sums`] split into `threads` contiguous ranges of instants
+/// (std scoped threads; each range reads `span − 1` samples past its end).
+fn lagged_sums_par(z: &[&[f64]], span: usize, len: usize, s: &mut [f64], threads: usize) {
+    let threads = threads.max(1).min(len / KERNEL_BLOCK).max(1);
+    if threads == 1 {
+        lagged_sums(z, span, len, s);
+        return;
+    }
+    let per = len.div_ceil(threads);
+    let slen = s.len();
+    let partial: Vec<Vec<f64>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|i| {
+                let start = i * per;
+                let part = per.min(len.saturating_sub(start));
+                scope.spawn(move || {
+                    let mut acc = vec![0.0; slen];
+                    if part > 0 {
+                        let zz: Vec<&[f64]> = z.iter().map(|c| &c[start..]).collect();
+                        lagged_sums(&zz, span, part, &mut acc);
+                    }
+                    acc
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_default())
+            .collect()
+    });
+    for p in partial {
+        for (a, b) in s.iter_mut().zip(p) {
+            *a += b;
+        }
+    }
+}
+
+/// Per-method state of a [`HankelStream`].
+enum Engine {
+    Qr {
+        acc: RAccumulator,
+        chunk_rows: usize,
+        sources: Vec<(usize, usize)>,
+    },
+    Correlation {
+        /// S(δ) of the current record.
+        s: Vec<f64>,
+        /// Gram matrix in natural order (offset-major), completed records.
+        gram: DMatrix<f64>,
+        /// First s − 1 samples of the current record, per channel.
+        head: Vec<Vec<f64>>,
+        threads: usize,
+    },
+}
+
+/// Block-by-block compression of one or more records of (u, y) data.
+///
+/// Feed each record with any number of [`HankelStream::push`] calls (blocks
+/// of consecutive samples), call [`HankelStream::end_record`] between
+/// records and [`HankelStream::finish`] at the end. Only the last s − 1
+/// samples are kept between blocks.
+pub(crate) struct HankelStream {
+    layout: HankelLayout,
+    engine: Engine,
+    /// Samples of the current record not yet used as a column start
+    /// (the last ≤ s − 1), per channel.
+    carry: Vec<Vec<f64>>,
+    /// Samples of the current record so far.
+    record_len: usize,
+    /// Columns of the completed records.
+    columns: usize,
+    /// Samples seen (all records).
+    samples: usize,
+    requested: Compression,
+}
+
+impl HankelStream {
+    pub(crate) fn new(
+        layout: HankelLayout,
+        compression: Compression,
+        chunk_rows: usize,
+        threads: usize,
+    ) -> Self {
+        let nz = layout.nu + layout.ny;
+        let k = layout.nrows();
+        let engine = match compression {
+            Compression::Qr => Engine::Qr {
+                acc: RAccumulator::new(k),
+                chunk_rows: chunk_rows.max(1),
+                sources: layout.sources(),
+            },
+            Compression::Auto | Compression::Correlation => Engine::Correlation {
+                s: vec![0.0; layout.span() * nz * nz],
+                gram: DMatrix::zeros(k, k),
+                head: vec![Vec::new(); nz],
+                threads: threads.max(1),
+            },
+        };
+        HankelStream {
+            layout,
+            engine,
+            carry: vec![Vec::new(); nz],
+            record_len: 0,
+            columns: 0,
+            samples: 0,
+            requested: compression,
+        }
+    }
+
+    /// Appends consecutive samples of the current record: `u` (b×n_u) and
+    /// `y` (b×n_y), already checked for shape and finiteness.
+    pub(crate) fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let b = u.nrows();
+        if b == 0 {
+            return Ok(());
+        }
+        let span = self.layout.span();
+        let nz = self.carry.len();
+        // Working buffer: carry followed by the new samples, per channel.
+        let mut buf: Vec<Vec<f64>> = Vec::with_capacity(nz);
+        for (c, carry) in self.carry.iter_mut().enumerate() {
+            let col = if c < self.layout.nu {
+                u.column(c)
+            } else {
+                y.column(c - self.layout.nu)
+            };
+            let mut v = std::mem::take(carry);
+            v.extend(col.iter());
+            buf.push(v);
+        }
+        let len = buf[0].len();
+        // Column starts with a complete Hankel column inside the buffer.
+        let starts = (len + 1).saturating_sub(span);
+        match &mut self.engine {
+            Engine::Correlation {
+                s, head, threads, ..
+            } => {
+                if self.record_len < span - 1 {
+                    let have = self.record_len;
+                    let want = (span - 1 - have).min(b);
+                    for (c, h) in head.iter_mut().enumerate() {
+                        // The new samples sit at the end of the buffer.
+                        let new = &buf[c][len - b..];
+                        h.extend_from_slice(&new[..want]);
+                    }
+                }
+                if starts > 0 {
+                    let z: Vec<&[f64]> = buf.iter().map(|v| v.as_slice()).collect();
+                    lagged_sums_par(&z, span, starts, s, *threads);
+                }
+            }
+            Engine::Qr {
+                acc,
+                chunk_rows,
+                sources,
+            } => {
+                let k = sources.len();
+                let mut start = 0;
+                while start < starts {
+                    let rows = (*chunk_rows).min(starts - start);
+                    let mut block = DMatrix::zeros(rows, k);
+                    for (r, &(off, ch)) in sources.iter().enumerate() {
+                        let src = &buf[ch][start + off..start + off + rows];
+                        block.column_mut(r).copy_from_slice(src);
+                    }
+                    acc.push_rows(&block)?;
+                    start += rows;
+                }
+            }
+        }
+        for (c, v) in buf.into_iter().enumerate() {
+            self.carry[c] = v[starts..].to_vec();
+        }
+        self.record_len += b;
+        self.samples += b;
+        Ok(())
+    }
+
+    /// Closes the current record; the next push starts a new one.
+    pub(crate) fn end_record(&mut self) {
+        let span = self.layout.span();
+        let n = self.record_len;
+        let cols = self.layout.columns(n);
+        let nz = self.carry.len();
+        if let Engine::Correlation { s, gram, head, .. } = &mut self.engine {
+            if cols > 0 {
+                // The carry holds the last s − 1 samples; finish the sums
+                // S(δ) = Σ_{t ≤ N−1−δ} z(t) z(t+δ)ᵀ over its start positions.
+                let tail = &self.carry;
+                let tl = tail[0].len();
+                for t in 0..tl {
+                    for d in 0..(tl - t).min(span) {
+                        for c in 0..nz {
+                            let zc = tail[c][t];
+                            for e in 0..nz {
+                                s[(d * nz + c) * nz + e] += zc * tail[e][t + d];
+                            }
+                        }
+                    }
+                }
+                // z(t) for t < s − 1 (head) and t ≥ N − (s − 1) (tail).
+                let tail_start = n - tl;
+                let at = |ch: usize, t: usize| -> f64 {
+                    if t < head[ch].len() {
+                        head[ch][t]
+                    } else {
+                        tail[ch][t - tail_start]
+                    }
+                };
+                // Natural order: index o·n_z + c for offset o, channel c.
+                for o1 in 0..span {
+                    for o2 in o1..span {
+                        let d = o2 - o1;
+                        for c1 in 0..nz {
+                            for c2 in 0..nz {
+                                // Σ_{j<J} z_c1(j+o1) z_c2(j+o2) = S(δ) − Σ_{t<o1} − Σ_{t=o1+J}^{N−1−δ}.
+                                let mut v = s[(d * nz + c1) * nz + c2];
+                                for t in 0..o1 {
+                                    v -= at(c1, t) * at(c2, t + d);
+                                }
+                                for t in (o1 + cols)..(n - d) {
+                                    v -= at(c1, t) * at(c2, t + d);
+                                }
+                                let (i, j) = (o1 * nz + c1, o2 * nz + c2);
+                                // Equal offsets visit both (c1, c2) and (c2, c1).
+                                gram[(i, j)] += v;
+                                if o1 != o2 {
+                                    gram[(j, i)] += v;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            s.iter_mut().for_each(|v| *v = 0.0);
+            head.iter_mut().for_each(|h| h.clear());
+        }
+        self.columns += cols;
+        self.record_len = 0;
+        self.carry.iter_mut().for_each(|c| c.clear());
+    }
+
+    /// Hankel columns so far (completed records plus the current one).
+    pub(crate) fn columns(&self) -> usize {
+        self.columns + self.layout.columns(self.record_len)
+    }
+
+    /// Closes the last record and returns the factor L/√J. For the
+    /// correlation route the check of [`Compression::Auto`] is applied and
+    /// a failure is returned as [`Error::IllConditionedCorrelation`] (the
+    /// caller decides whether it can fall back).
+    pub(crate) fn finish(mut self) -> Result<HankelFactor> {
+        if self.record_len > 0 {
+            self.end_record();
+        }
+        let k = self.layout.nrows();
+        let j = self.columns;
+        let nz = self.carry.len();
+        let span = self.layout.span();
+        let scale = if j > 0 { 1.0 / j as f64 } else { 0.0 };
+        match self.engine {
+            Engine::Qr {
+                acc, chunk_rows, ..
+            } => {
+                let r = acc.r();
+                let mut l = DMatrix::zeros(k, k);
+                for i in 0..r.nrows().min(k) {
+                    for c in i..k {
+                        l[(c, i)] = r[(i, c)];
+                    }
+                }
+                l *= scale.sqrt();
+                let b = chunk_rows as f64;
+                let kf = k as f64;
+                Ok(HankelFactor {
+                    l,
+                    columns: j,
+                    report: CompressionReport {
+                        requested: self.requested,
+                        used: Compression::Qr,
+                        rcond: f64::NAN,
+                        fallback: None,
+                        flops: 2.0 * j as f64 * kf * kf * (1.0 + kf / b),
+                        threads: 1,
+                    },
+                })
+            }
+            Engine::Correlation { gram, threads, .. } => {
+                let src = self.layout.sources();
+                let nat = |(o, c): (usize, usize)| o * nz + c;
+                let g = DMatrix::from_fn(k, k, |r, c| gram[(nat(src[r]), nat(src[c]))] * scale);
+                let kf = k as f64;
+                let flops =
+                    2.0 * self.samples as f64 * (nz * nz * span) as f64 + kf * kf * kf / 3.0;
+                let (l, rcond) = cholesky_checked(g)?;
+                Ok(HankelFactor {
+                    l,
+                    columns: j,
+                    report: CompressionReport {
+                        requested: self.requested,
+                        used: Compression::Correlation,
+                        rcond,
+                        fallback: None,
+                        flops,
+                        threads,
+                    },
+                })
             }
         }
     }
 }
 
-/// Compresses the block-Hankel data of all records into L/√J (k×k), J the
-/// total number of columns. Records must already be validated.
+/// Cholesky factor of the Gram matrix with the definiteness and condition
+/// checks of [`Compression::Auto`].
+fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
+    let Some(ch) = g.cholesky() else {
+        return Err(Error::IllConditionedCorrelation {
+            rcond: f64::NAN,
+            min: CORRELATION_RCOND_MIN,
+            reason:
+                "the correlation matrix is not numerically positive definite (Cholesky breakdown)"
+                    .into(),
+        });
+    };
+    let l = ch.unpack();
+    let s = lifted_linalg::singular_values(&l)?;
+    let smax = s.iter().cloned().fold(0.0, f64::max);
+    let smin = s.iter().cloned().fold(f64::INFINITY, f64::min);
+    let rcond = if smax > 0.0 {
+        (smin / smax).powi(2)
+    } else {
+        0.0
+    };
+    if rcond.is_nan() || rcond < CORRELATION_RCOND_MIN {
+        return Err(Error::IllConditionedCorrelation {
+            rcond,
+            min: CORRELATION_RCOND_MIN,
+            reason: format!(
+                "reciprocal condition {rcond:.2e} of the correlation matrix below {CORRELATION_RCOND_MIN:.0e}: squaring the data would lose accuracy"
+            ),
+        });
+    }
+    Ok((l, rcond))
+}
+
+/// Compresses the block-Hankel data of all records (already validated) into
+/// L/√J (k×k); [`Compression::Auto`] falls back to the QR when the
+/// correlation factor fails its check and records why.
 pub(crate) fn compress(
     records: &[(&DMatrix<f64>, &DMatrix<f64>)],
     layout: &HankelLayout,
+    compression: Compression,
     chunk_rows: usize,
-) -> Result<(DMatrix<f64>, usize)> {
-    let k = layout.nrows();
-    let mut comp = QrCompressor::new(k);
-    let b = chunk_rows.max(1);
-    let mut row = vec![0.0; k];
-    let mut total = 0;
-    for (u, y) in records {
-        let cols = layout.columns(u.nrows());
-        let mut start = 0;
-        while start < cols {
-            let len = b.min(cols - start);
-            let mut block = DMatrix::zeros(len, k);
-            for r in 0..len {
-                layout.fill(u, y, layout.past + start + r, &mut row);
-                for (c, v) in row.iter().enumerate() {
-                    block[(r, c)] = *v;
-                }
+    threads: usize,
+) -> Result<HankelFactor> {
+    let run = |mode: Compression| -> Result<HankelFactor> {
+        let mut st = HankelStream::new(*layout, mode, chunk_rows, threads);
+        // Blocks of PUSH_BLOCK samples bound the working copy (the kernel
+        // blocks in cache itself; the QR splits into chunk_rows columns).
+        for (u, y) in records {
+            let n = u.nrows();
+            let mut s = 0;
+            while s < n {
+                let len = PUSH_BLOCK.min(n - s);
+                st.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())?;
+                s += len;
             }
-            comp.push(&block)?;
-            start += len;
+            st.end_record();
         }
-        total += cols;
+        st.finish()
+    };
+    match compression {
+        Compression::Qr | Compression::Correlation => run(compression),
+        Compression::Auto => match run(Compression::Auto) {
+            Ok(f) => Ok(f),
+            Err(Error::IllConditionedCorrelation { rcond, reason, .. }) => {
+                let mut f = run(Compression::Qr)?;
+                f.report.requested = Compression::Auto;
+                f.report.rcond = rcond;
+                f.report.fallback = Some(reason);
+                Ok(f)
+            }
+            Err(e) => Err(e),
+        },
     }
-    let mut l = comp.lower_factor();
-    if total > 0 {
-        l /= (total as f64).sqrt();
-    }
-    debug_assert_eq!(comp.rows_seen(), total);
-    Ok((l, total))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn explicit_gram(
+        recs: &[(&DMatrix<f64>, &DMatrix<f64>)],
+        lay: &HankelLayout,
+    ) -> (DMatrix<f64>, usize) {
+        let k = lay.nrows();
+        let src = lay.sources();
+        let mut g = DMatrix::zeros(k, k);
+        let mut total = 0;
+        for (u, y) in recs {
+            let at = |ch: usize, t: usize| {
+                if ch < lay.nu {
+                    u[(t, ch)]
+                } else {
+                    y[(t, ch - lay.nu)]
+                }
+            };
+            let j = lay.columns(u.nrows());
+            let h = DMatrix::from_fn(k, j, |r, c| at(src[r].1, c + src[r].0));
+            g += &h * h.transpose();
+            total += j;
+        }
+        (g / total as f64, total)
+    }
+
+    /// Pseudo-random data (64-bit LCG), full rank Hankel matrices.
+    fn data(n: usize, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+        let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let u = DMatrix::from_fn(n, 2, |_, _| next());
+        let y = DMatrix::from_fn(n, 1, |_, _| next());
+        (u, y)
+    }
+
     #[test]
-    fn compressed_gram_matches_explicit_hankel() {
-        let n = 57;
-        let u = DMatrix::from_fn(n, 2, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
-        let y = DMatrix::from_fn(n, 1, |i, _| ((i * i) % 13) as f64 * 0.1);
+    fn both_compressions_match_the_explicit_hankel_gram() {
         let lay = HankelLayout {
             past: 3,
             future: 2,
             nu: 2,
             ny: 1,
         };
-        let (l, j) = compress(&[(&u, &y)], &lay, 7).unwrap();
-        assert_eq!(j, n - 4);
-        let k = lay.nrows();
-        let mut h = DMatrix::zeros(k, j);
-        let mut col = vec![0.0; k];
-        for t in 0..j {
-            lay.fill(&u, &y, t + 3, &mut col);
-            for r in 0..k {
-                h[(r, t)] = col[r];
+        let (u1, y1) = data(57, 0);
+        let (u2, y2) = data(23, 5);
+        let recs = [(&u1, &y1), (&u2, &y2)];
+        let (g, j) = explicit_gram(&recs, &lay);
+        assert_eq!(j, 53 + 19);
+        for mode in [Compression::Qr, Compression::Correlation] {
+            let f = compress(&recs, &lay, mode, 7, 1).unwrap();
+            assert_eq!(f.columns, j);
+            assert_eq!(f.report.used, mode);
+            let g2 = &f.l * f.l.transpose();
+            assert!((&g - g2).norm() < 1e-10 * g.norm(), "{mode:?}");
+        }
+        // Ordering: the first U_f row at the first column is u(past, 0).
+        assert_eq!(lay.sources()[lay.uf().start], (3, 0));
+        assert_eq!(lay.sources()[lay.yp().start], (0, 2));
+        assert_eq!(lay.sources()[lay.yf().start], (3, 2));
+    }
+
+    #[test]
+    fn streaming_blocks_of_any_size_give_the_same_factor() {
+        let lay = HankelLayout {
+            past: 4,
+            future: 3,
+            nu: 2,
+            ny: 1,
+        };
+        let (u, y) = data(300, 1);
+        let whole = compress(&[(&u, &y)], &lay, Compression::Correlation, 64, 1).unwrap();
+        for (b, threads) in [(1usize, 1usize), (5, 1), (6, 2), (299, 1)] {
+            for mode in [Compression::Correlation, Compression::Qr] {
+                let mut st = HankelStream::new(lay, mode, 17, threads);
+                let mut s = 0;
+                while s < 300 {
+                    let len = b.min(300 - s);
+                    st.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())
+                        .unwrap();
+                    s += len;
+                }
+                let f = st.finish().unwrap();
+                let (g1, g2) = (&whole.l * whole.l.transpose(), &f.l * f.l.transpose());
+                assert!((&g1 - g2).norm() < 1e-10 * g1.norm(), "b {b} {mode:?}");
             }
         }
-        let g1 = &h * h.transpose() / j as f64;
-        let g2 = &l * l.transpose();
-        assert!((g1 - g2).norm() < 1e-9 * h.norm_squared() / j as f64);
-        // ordering: first Uf row is u(t, 0) at t = past
-        assert_eq!(h[(lay.uf().start, 0)], u[(3, 0)]);
-        assert_eq!(h[(lay.yf().start, 0)], y[(3, 0)]);
-        assert_eq!(h[(lay.yp().start, 0)], y[(0, 0)]);
+    }
+
+    #[test]
+    fn parallel_sums_equal_sequential() {
+        let n = 3 * KERNEL_BLOCK + 77;
+        let a: Vec<f64> = (0..n).map(|i| ((i * 37) % 19) as f64 - 9.0).collect();
+        let b: Vec<f64> = (0..n).map(|i| ((i * 11) % 23) as f64 - 11.0).collect();
+        let z = [a.as_slice(), b.as_slice()];
+        let span = 6;
+        let len = n - span + 1;
+        let mut s1 = vec![0.0; span * 4];
+        let mut s2 = vec![0.0; span * 4];
+        lagged_sums(&z, span, len, &mut s1);
+        lagged_sums_par(&z, span, len, &mut s2, 2);
+        // Integer data: all sums exact in both orders.
+        assert_eq!(s1, s2);
+        let want: f64 = (0..len).map(|t| a[t] * b[t + 5]).sum();
+        assert_eq!(s1[(5 * 2) * 2 + 1], want);
+    }
+
+    #[test]
+    fn rank_deficient_data_falls_back_to_qr() {
+        let lay = HankelLayout {
+            past: 3,
+            future: 3,
+            nu: 1,
+            ny: 1,
+        };
+        // y = u delayed: the Hankel rows are linearly dependent.
+        let u = DMatrix::from_fn(200, 1, |i, _| ((i * 7919) % 101) as f64 / 50.0 - 1.0);
+        let y = DMatrix::from_fn(200, 1, |i, _| if i > 0 { u[(i - 1, 0)] } else { 0.0 });
+        let f = compress(&[(&u, &y)], &lay, Compression::Auto, 64, 1).unwrap();
+        assert_eq!(f.report.used, Compression::Qr);
+        assert!(f.report.fallback.is_some());
+        assert!(matches!(
+            compress(&[(&u, &y)], &lay, Compression::Correlation, 64, 1),
+            Err(Error::IllConditionedCorrelation { .. })
+        ));
     }
 }

@@ -6,7 +6,9 @@
 //! |---|---|
 //! | [`identify`] ([`SubspaceOptions`], [`Method`]) | N4SID, MOESP and CVA through the weights of the unifying theorem (thesis §2.5) |
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
-//! | [`SubspaceModel`], [`Diagnostics`] | model, Kalman gain, (Q, R, S), singular values, suggested order |
+//! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
+//! | [`StreamingIdentifier`] | the same identification from data fed in blocks, memory independent of N |
+//! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
 //! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
@@ -26,11 +28,18 @@
 //! least-squares regression on the data with per-output regressor selection
 //! so that a causality mask on D holds exactly (§4.5, Pitfall 5).
 //!
-//! The Hankel matrix is never stored: its transpose is built in chunks and
-//! folded into an R-only QR (O(k²) memory for k = (p+f)(n_u+n_y) Hankel
-//! rows; ≈ 2Jk² flops for J columns); the projections then act on the k×k
-//! factor. Several records (experiments) are merged by stacking their
-//! Hankel columns.
+//! The Hankel matrix is never stored. It is compressed in one streaming
+//! pass to a k×k factor L with H Hᵀ/J = L Lᵀ (k = (p+f)(n_u+n_y) Hankel
+//! rows, J columns), by default from the lagged correlations of the data
+//! (the Hankel structure makes every entry of H Hᵀ a correlation at one of
+//! p + f lags plus boundary terms: ≈ 2N(n_u+n_y)²(p+f) flops) and a
+//! Cholesky factorisation, with the R-only QR of Hᵀ (≈ 2Jk² flops) as the
+//! accurate reference and automatic fallback when the correlation matrix
+//! is not safely positive definite ([`Compression`], reported in
+//! [`Diagnostics::compression`], as SLICOT's IWARN). The projections then
+//! act on L. Several records (experiments) are merged by stacking their
+//! Hankel columns; [`StreamingIdentifier`] takes the data in blocks with
+//! memory O(k²) whatever N, and [`Diagnostics::profile`] times the phases.
 //!
 //! The instrumental-variable method of ch. 7 correlates future inputs and
 //! outputs with α_p > α block rows of past instruments (erratum L-16), takes
@@ -74,10 +83,12 @@ mod iv;
 mod regress;
 
 pub use engine::{
-    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, SubspaceIdentifier,
-    SubspaceModel, SubspaceOptions, SystemEstimate, gap_order, identify,
+    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
+    StreamingIdentifier, SubspaceIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate,
+    compress_hankel, gap_order, identify,
 };
 pub use error::{Error, Result};
+pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
     iv_multirate_fast,
