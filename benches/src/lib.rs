@@ -1,8 +1,11 @@
-//! Criterion benches of the Lifted kernels; run with
-//! `cargo bench -p lifted-benches --bench kernels`.
+//! Criterion benches of the Lifted kernels and identification pipelines; run
+//! with `cargo bench -p lifted-benches` (see benches/README.md for the groups,
+//! the peer comparison in `peers/` and the recorded figures).
 //!
-//! The library part only holds the seeded data generator shared by the benches.
+//! The library part only holds the seeded data generators shared by the
+//! benches and examples.
 
+use lifted_lti::StateSpace;
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -12,4 +15,45 @@ use rand_chacha::ChaCha8Rng;
 pub fn random_matrix(rows: usize, cols: usize, seed: u64) -> DMatrix<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     DMatrix::from_fn(rows, cols, |_, _| rng.random::<f64>() * 2.0 - 1.0)
+}
+
+/// The 2-input 2-output order-4 system of the peer comparison
+/// (benches/peers/peers.py): A = blockdiag([[0.9, 0.2], [−0.2, 0.9]], 0.7,
+/// −0.5), B = [[1, 0], [0, 1], [1, 0.5], [0.3, 1]], C = [[1, 0, 1, 0],
+/// [0, 1, 0, 1]], D = 0, sample time 1.
+pub fn peer_system() -> StateSpace {
+    let a = DMatrix::from_row_slice(
+        4,
+        4,
+        &[
+            0.9, 0.2, 0.0, 0.0, //
+            -0.2, 0.9, 0.0, 0.0, //
+            0.0, 0.0, 0.7, 0.0, //
+            0.0, 0.0, 0.0, -0.5,
+        ],
+    );
+    let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 0.5, 0.3, 1.0]);
+    let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0]);
+    StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("valid constant system")
+}
+
+/// `n` samples of [`peer_system`] driven by independent random binary ±1
+/// inputs, outputs with white Gaussian noise of standard deviation
+/// `noise_std` (Box–Muller on ChaCha8 with `seed`). Returns (u, y), one row
+/// per sample. Noise 0 gives exactly rank-deficient Hankel data.
+pub fn peer_data(n: usize, noise_std: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u = DMatrix::from_fn(n, 2, |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
+    let mut y = peer_system()
+        .lsim(&u, None, None)
+        .expect("simulation of a valid system")
+        .y;
+    if noise_std > 0.0 {
+        for v in y.iter_mut() {
+            let (a, b): (f64, f64) = (rng.random(), rng.random());
+            let g = (-2.0 * (1.0 - a).ln()).sqrt() * (std::f64::consts::TAU * b).cos();
+            *v += noise_std * g;
+        }
+    }
+    (u, y)
 }
