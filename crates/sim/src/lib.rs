@@ -7,7 +7,7 @@
 //! | [`Plant`] ([`Delays`]) | continuous plant discretised by ZOH with **exact** fractional input/output delays, or a discrete plant at the base period T |
 //! | [`Controller`] | discrete controller at T (state space, transfer function, gain, decentralised with open loops) |
 //! | [`WholeLoop`], [`closed_loop`] | a continuous closed loop discretised as a whole (Ren & Zhu, spec A2.3); the loop algebra y = G(r₂ + K(r₁ − y)) |
-//! | [`Simulator`] | open loop, plant + controller (fast, hold-last or inferential feedback), or a whole loop; input holds m_i and output sampling (J_i, offset); produces a [`lifted_lti::Dataset`] |
+//! | [`Simulator`] | open loop, plant + controller (fast, hold-last or inferential feedback), or a whole loop; input holds m_i and output sampling (J_i, offset); produces a [`lifted_lti::Dataset`] ([`SimOutput`]) or fills reusable [`SimSignals`] |
 //! | [`NoiseSpec`] | seeded white noise through a (Box–Jenkins) noise model, optionally integrated, at an absolute level or a per-channel SNR (variance or std ratio) |
 //! | [`Simulator::periodic_steady_state`] | one period of the periodic steady state: exact x₀ = (I − Φ)⁻¹x_P or iterated until y(k) ≈ −y(k + P/2) |
 //! | [`plants`] | the reference plants of the seeds (stirred tanks, diesel engine, Ren & Zhu, thesis Ch. 4, 7, 9) |
@@ -47,9 +47,13 @@
 //!
 //! # Complexity
 //!
-//! A run costs O(N(n² + nm + pn)) for a state of size n; the inner loop works
-//! on flat row-major slices with no allocation (see the criterion bench and
-//! README for the measured rate). The exact steady state costs n_z + 1 runs
+//! A run costs O(N · r · c) for the fused per-phase map (r = n_z + n_y +
+//! n_u rows, c ≤ n_z + 2n_y + n_u active columns): one dense product per
+//! sample, no allocation in the loop ([`Simulator::simulate_reference`] steps
+//! the blocks instead, O(N(n² + nm + pn)); both agree to rounding). The
+//! per-phase matrices cost (frame period) · c reference steps to build.
+//! [`Simulator::simulate_into`] reuses caller buffers (see the criterion
+//! bench and README for the measured rate). The exact steady state costs n_z + 1 runs
 //! of one period plus an O(n_z³) solve.
 //!
 //! # Example
