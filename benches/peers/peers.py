@@ -169,6 +169,7 @@ def main():
             generate(n, path)
         tools = [("lifted (stream, 1 thread)", [args.lifted, path, "--stream", "--threads", "1"]),
                  ("lifted (stream, 2 threads)", [args.lifted, path, "--stream", "--threads", "2"]),
+                 ("lifted (in memory, auto)", [args.lifted, path]),
                  ("lifted (in memory, QR)", [args.lifted, path, "--compression", "qr"]),
                  ("SIPPY N4SID", [sys.executable, me, "--run", "sippy", "--csv", path])]
         if n <= args.nfoursid_max:
