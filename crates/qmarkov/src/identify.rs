@@ -165,21 +165,12 @@ fn impulse_train_corr(y: &[f64], v: &[f64], nr: usize, phase: usize, c: f64, q: 
     g
 }
 
-/// Σ a_i b_i with eight independent partial sums (vectorised by the compiler).
+/// Σ a_i b_i over the common length (nalgebra's dot product, unrolled
+/// into independent partial sums).
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let mut ca = a.chunks_exact(8);
-    let mut cb = b.chunks_exact(8);
-    for (xa, xb) in (&mut ca).zip(&mut cb) {
-        for i in 0..8 {
-            acc[i] = xa[i].mul_add(xb[i], acc[i]);
-        }
-    }
-    let mut tail = 0.0;
-    for (xa, xb) in ca.remainder().iter().zip(cb.remainder()) {
-        tail = xa.mul_add(*xb, tail);
-    }
-    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
+    let n = a.len().min(b.len());
+    nalgebra::DVectorView::from_slice(&a[..n], n)
+        .dot(&nalgebra::DVectorView::from_slice(&b[..n], n))
 }
 
 fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {
