@@ -163,21 +163,30 @@ fn synthetic(
     Ok((id.finish()?, gen_s, push_s))
 }
 
+/// The identification options of the command line; x₀ is estimated only
+/// in memory (a stream keeps no records).
+fn options(a: &Args) -> SubspaceOptions {
+    SubspaceOptions {
+        method: a.method,
+        order: OrderSelection::Fixed(a.order),
+        past: a.horizon,
+        future: a.horizon,
+        compression: a.compression,
+        threads: a.threads,
+        initial_state: if a.stream {
+            InitialState::Zero
+        } else {
+            InitialState::Estimate
+        },
+        ..Default::default()
+    }
+}
+
 fn main() -> Result<(), Box<dyn Error>> {
     let a = parse_args()?;
     let t_start = Instant::now();
     if let Some(n) = a.synthetic {
-        let opts = SubspaceOptions {
-            method: a.method,
-            order: OrderSelection::Fixed(a.order),
-            past: a.horizon,
-            future: a.horizon,
-            compression: a.compression,
-            threads: a.threads,
-            initial_state: InitialState::Zero,
-            ..Default::default()
-        };
-        let (fit, gen_s, push_s) = synthetic(n, &a, &opts)?;
+        let (fit, gen_s, push_s) = synthetic(n, &a, &options(&a))?;
         let p = &fit.diagnostics.profile;
         let poles: Vec<(f64, f64)> = fit.model.poles()?.iter().map(|z| (z.re, z.im)).collect();
         let out = serde_json::json!({
@@ -199,20 +208,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     if ncols <= a.inputs {
         return Err(format!("{ncols} columns but {} inputs", a.inputs).into());
     }
-    let opts = SubspaceOptions {
-        method: a.method,
-        order: OrderSelection::Fixed(a.order),
-        past: a.horizon,
-        future: a.horizon,
-        compression: a.compression,
-        threads: a.threads,
-        initial_state: if a.stream {
-            InitialState::Zero
-        } else {
-            InitialState::Estimate
-        },
-        ..Default::default()
-    };
+    let opts = options(&a);
     let mut read_s = 0.0;
     let mut samples = 0;
     let fit: SubspaceModel = if a.stream {
