@@ -753,16 +753,20 @@ fn from_factor(
     if let Some(w1i) = &w1_inv {
         gamma = w1i * gamma;
     }
+    // (B, D, x₀) by output-error regression on the records (in memory only).
+    let output_error_bd = |a: &DMatrix<f64>, c: &DMatrix<f64>| -> Result<BdFit> {
+        estimate_bd(
+            a,
+            c,
+            need_records(records)?,
+            &opts.feedthrough,
+            opts.initial_state,
+        )
+    };
     let (a, c, bd, stabilized) = match opts.system {
         SystemEstimate::ShiftInvariance => {
             let (a, c, st) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
-            let bd = estimate_bd(
-                &a,
-                &c,
-                need_records(records)?,
-                &opts.feedthrough,
-                opts.initial_state,
-            )?;
+            let bd = output_error_bd(&a, &c)?;
             (a, c, bd, st)
         }
         SystemEstimate::StateSequence => {
@@ -770,13 +774,7 @@ fn from_factor(
             let ls = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
             if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
                 let (a, c, st) = ac_from_gamma(&gamma, ny, true)?;
-                let bd = estimate_bd(
-                    &a,
-                    &c,
-                    need_records(records)?,
-                    &opts.feedthrough,
-                    opts.initial_state,
-                )?;
+                let bd = output_error_bd(&a, &c)?;
                 (a, c, bd, st)
             } else {
                 let x0 = match opts.initial_state {
