@@ -180,14 +180,25 @@ fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> Si
     let n = sys.order();
     let mut y = DMatrix::zeros(nsamp, sys.n_outputs());
     let mut xs = DMatrix::zeros(nsamp, n);
+    // Allocation-free loop: the products go into preallocated vectors (gemv).
+    let (a, b, c, d) = (sys.a(), sys.b(), sys.c(), sys.d());
     let mut x = x0;
+    let mut x_next = DVector::zeros(n);
+    let mut yk = DVector::zeros(sys.n_outputs());
     let ut = u.transpose();
     for k in 0..nsamp {
         let uk = ut.column(k);
-        xs.row_mut(k).copy_from(&x.transpose());
-        let yk = sys.c() * &x + sys.d() * uk;
-        y.row_mut(k).copy_from(&yk.transpose());
-        x = sys.a() * &x + sys.b() * uk;
+        for (i, xi) in x.iter().enumerate() {
+            xs[(k, i)] = *xi;
+        }
+        yk.gemv(1.0, c, &x, 0.0);
+        yk.gemv(1.0, d, &uk, 1.0);
+        for (i, yi) in yk.iter().enumerate() {
+            y[(k, i)] = *yi;
+        }
+        x_next.gemv(1.0, a, &x, 0.0);
+        x_next.gemv(1.0, b, &uk, 1.0);
+        std::mem::swap(&mut x, &mut x_next);
     }
     SimResult { y, x: xs }
 }

@@ -2,6 +2,7 @@
 //! `R_xy(τ) = (1/c) Σ_{k<N} x((k+τ) mod N) · y(k)`, `τ = 0 … N−1`
 //! (eqs. II-5, II-9, III-22 with the normalisation chosen by [`Normalization`]).
 
+use lifted_linalg::dot;
 use num_complex::Complex;
 use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};
@@ -110,27 +111,6 @@ fn direct_sums(x: &[f64], y: &[f64]) -> Vec<f64> {
             dot(&x[tau..], &y[..n - tau]) + dot(&x[..tau], &y[n - tau..])
         })
         .collect()
-}
-
-/// Σ a_i b_i with eight independent partial sums, which the compiler maps to
-/// two SIMD accumulators (the sequential fold cannot be vectorised). Exact
-/// for integer-valued data below 2⁵³ like the sequential sum.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0f64; 8];
-    let mut ca = a.chunks_exact(8);
-    let mut cb = b.chunks_exact(8);
-    for (xa, xb) in (&mut ca).zip(&mut cb) {
-        for i in 0..8 {
-            acc[i] = xa[i].mul_add(xb[i], acc[i]);
-        }
-    }
-    let mut tail = 0.0;
-    for (xa, xb) in ca.remainder().iter().zip(cb.remainder()) {
-        tail = xa.mul_add(*xb, tail);
-    }
-    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
 }
 
 thread_local! {

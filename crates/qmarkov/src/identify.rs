@@ -1,6 +1,7 @@
 //! Steps 1–2 (data preparation, correlations, Markov parameters) and the complete
 //! identification on plain matrices: one record per input channel.
 
+use lifted_linalg::dot;
 use lifted_lti::{Identified, StateSpace};
 use lifted_prbs::{CorrelationMethod, Normalization, periodic_cross_correlation_with};
 use nalgebra::{DMatrix, DVector};
@@ -163,14 +164,6 @@ fn impulse_train_corr(y: &[f64], v: &[f64], nr: usize, phase: usize, c: f64, q: 
         }
     }
     g
-}
-
-/// Σ a_i b_i over the common length (nalgebra's dot product, unrolled
-/// into independent partial sums).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    nalgebra::DVectorView::from_slice(&a[..n], n)
-        .dot(&nalgebra::DVectorView::from_slice(&b[..n], n))
 }
 
 fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {

@@ -1,5 +1,6 @@
 //! The allocation-free inner loop: small dense blocks on slices.
 
+use lifted_linalg::dot;
 use lifted_lti::StateSpace;
 use nalgebra::DMatrix;
 
@@ -29,26 +30,6 @@ fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
         }
     }
     v
-}
-
-/// Dot product with four partial sums (no dependent chain longer than ⌈n/4⌉).
-#[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut s = [0.0f64; 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        s[0] += x[0] * y[0];
-        s[1] += x[1] * y[1];
-        s[2] += x[2] * y[2];
-        s[3] += x[3] * y[3];
-    }
-    for (k, (x, y)) in ra.iter().zip(rb).enumerate() {
-        s[k] += x * y;
-    }
-    (s[0] + s[2]) + (s[1] + s[3])
 }
 
 impl Block {
