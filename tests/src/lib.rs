@@ -15,16 +15,16 @@
 //! its `note` and records the value obtained: tolerances are never loosened silently.
 #![deny(missing_docs)]
 
-pub mod a3_dual_rate;
-pub mod a3_mpc;
 pub mod a1_engine;
 pub mod a2_closedloop;
 pub mod a2_openloop;
 pub mod a3_delay_example;
+pub mod a3_dual_rate;
+pub mod a3_iv;
 pub mod a3_lifting;
 pub mod a3_mimo;
+pub mod a3_mpc;
 pub mod a3_multirate_iv;
-pub mod a3_iv;
 pub mod a3_polynomial;
 pub mod a3_subspace;
 pub mod registry;
