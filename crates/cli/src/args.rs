@@ -289,6 +289,9 @@ pub struct IdentifyArgs {
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,
+    /// Print the wall time of each phase (read, compress, SVD, estimate).
+    #[arg(long)]
+    pub profile: bool,
 }
 
 /// `lifted validate`.

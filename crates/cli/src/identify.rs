@@ -95,11 +95,14 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             spec.inputs.len()
         )));
     }
+    let t_read = std::time::Instant::now();
     let loaded: Vec<Loaded> = a
         .data
         .iter()
         .map(|p| load(p, &spec))
         .collect::<CliResult<_>>()?;
+    let read_s = t_read.elapsed().as_secs_f64();
+    let t_identify = std::time::Instant::now();
     let sets: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
     let ts = sets[0].ts();
     let multirate = sets.iter().any(|d| !d.is_single_rate());
@@ -151,6 +154,16 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 "hankel_columns": dg.columns,
                 "kalman_gain": fit.kalman_gain.as_ref().map(rows),
                 "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
+                "compression": {
+                    "used": format!("{:?}", dg.compression.used),
+                    "rcond": dg.compression.rcond,
+                    "fallback": dg.compression.fallback,
+                },
+                "phases": {
+                    "compress_s": dg.profile.compress_s,
+                    "svd_s": dg.profile.svd_s,
+                    "estimate_s": dg.profile.estimate_s,
+                },
             });
             (fit.model, d)
         }
@@ -215,8 +228,21 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         .with_input_names(spec.inputs.clone())
         .and_then(|m| m.with_output_names(spec.outputs.clone()))
         .ctx("identify")?;
+    let identify_s = t_identify.elapsed().as_secs_f64();
     let mut diagnostics = diagnostics;
     if let Some(obj) = diagnostics.as_object_mut() {
+        // Wall time per phase (`lifted identify --profile` prints it): reading the
+        // CSV, then the whole identification; the subspace methods also report
+        // their compression / SVD / estimation phases under "phases".
+        let mut profile = json!({ "read_s": read_s, "identify_s": identify_s });
+        if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases")) {
+            if let Some(ph) = phases.as_object() {
+                for (k, v) in ph {
+                    p.insert(k.clone(), v.clone());
+                }
+            }
+        }
+        obj.insert("profile".into(), profile);
         obj.insert("data".into(), json!(a.data));
         obj.insert(
             "samples".into(),
@@ -308,6 +334,9 @@ fn qmarkov(
 pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     let file = run_identification(a)?;
     file.write(&a.out).map_err(|e| input(e.to_string()))?;
+    if a.profile {
+        print_profile(&file.diagnostics);
+    }
     let m = &file.model;
     println!(
         "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
@@ -319,4 +348,33 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
         a.out
     );
     Ok(())
+}
+
+/// Prints the per-phase wall times recorded in the diagnostics (`--profile`).
+fn print_profile(diagnostics: &serde_json::Value) {
+    let Some(p) = diagnostics.get("profile").and_then(|p| p.as_object()) else {
+        return;
+    };
+    let phases = [
+        ("read", "read_s"),
+        ("compress", "compress_s"),
+        ("svd", "svd_s"),
+        ("estimate", "estimate_s"),
+        ("identify (total)", "identify_s"),
+    ];
+    println!("phase              wall time");
+    for (label, key) in phases {
+        if let Some(t) = p.get(key).and_then(|v| v.as_f64()) {
+            println!("{label:<18} {:>9.4} s", t);
+        }
+    }
+    if let Some(c) = diagnostics.get("compression") {
+        if let Some(used) = c.get("used").and_then(|v| v.as_str()) {
+            print!("compression: {used}");
+            if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
+                print!(" (fallback: {f})");
+            }
+            println!();
+        }
+    }
 }

@@ -267,6 +267,50 @@ mod identification {
     use super::*;
 
     #[test]
+    fn profile_prints_the_phases() {
+        let d = tmp("profile");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "n4sid.json");
+        let s = ok(&[
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--horizon",
+            "8",
+            "--out",
+            &out,
+            "--profile",
+        ]);
+        for phase in [
+            "read",
+            "compress",
+            "svd",
+            "estimate",
+            "identify (total)",
+            "compression:",
+        ] {
+            assert!(s.contains(phase), "missing {phase}: {s}");
+        }
+        // The same timings are kept in the model file's diagnostics.
+        let f = ModelFile::read(&out).expect("model file");
+        let prof = &f.diagnostics["profile"];
+        for key in ["read_s", "compress_s", "svd_s", "estimate_s", "identify_s"] {
+            assert!(
+                prof[key].as_f64().is_some_and(|t| t >= 0.0),
+                "{key}: {prof}"
+            );
+        }
+    }
+
+    #[test]
     fn subspace_methods_and_iv_identify_the_plant() {
         let d = tmp("subspace");
         let (id, _) = single_rate_data(&d);
