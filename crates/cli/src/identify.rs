@@ -235,11 +235,11 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         // CSV, then the whole identification; the subspace methods also report
         // their compression / SVD / estimation phases under "phases".
         let mut profile = json!({ "read_s": read_s, "identify_s": identify_s });
-        if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases")) {
-            if let Some(ph) = phases.as_object() {
-                for (k, v) in ph {
-                    p.insert(k.clone(), v.clone());
-                }
+        if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases"))
+            && let Some(ph) = phases.as_object()
+        {
+            for (k, v) in ph {
+                p.insert(k.clone(), v.clone());
             }
         }
         obj.insert("profile".into(), profile);
@@ -368,13 +368,13 @@ fn print_profile(diagnostics: &serde_json::Value) {
             println!("{label:<18} {:>9.4} s", t);
         }
     }
-    if let Some(c) = diagnostics.get("compression") {
-        if let Some(used) = c.get("used").and_then(|v| v.as_str()) {
-            print!("compression: {used}");
-            if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
-                print!(" (fallback: {f})");
-            }
-            println!();
+    if let Some(c) = diagnostics.get("compression")
+        && let Some(used) = c.get("used").and_then(|v| v.as_str())
+    {
+        print!("compression: {used}");
+        if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
+            print!(" (fallback: {f})");
         }
+        println!();
     }
 }
