@@ -7,15 +7,15 @@ use lifted_multirate::{
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
-    Experiment, IvExperiment, IvOptions, Method, OrderSelection, SubspaceOptions, identify,
-    iv_identify,
+    Compression, Experiment, IvExperiment, IvOptions, Method, OrderSelection, StreamingIdentifier,
+    SubspaceModel, SubspaceOptions, identify, iv_identify,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::args::{DataArgs, IdentifyArgs, MethodArg};
 use crate::error::{CliResult, Context, input};
-use crate::table::{DataSpec, Loaded, load, names, parse_periods};
+use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
 
 /// The order argument: a number or `auto`.
 fn parse_order(s: &str, max: usize) -> CliResult<OrderSelection> {
@@ -94,6 +94,9 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             extra.len(),
             spec.inputs.len()
         )));
+    }
+    if let Some(file) = identify_streaming(a, &spec, order)? {
+        return Ok(file);
     }
     let t_read = std::time::Instant::now();
     let loaded: Vec<Loaded> = a
@@ -377,4 +380,146 @@ fn print_profile(diagnostics: &serde_json::Value) {
         }
         println!();
     }
+}
+
+/// Rows per block pushed to the streaming identifier.
+const STREAM_BLOCK: usize = 65_536;
+
+/// Single-rate N4SID / MOESP / CVA from one CSV file, streamed: rows are read
+/// in blocks of [`STREAM_BLOCK`] and pushed to `lifted_subspace::StreamingIdentifier`,
+/// so memory is O(((m + l) s)² + block) whatever the file length (a 1e7-row
+/// file needs no more than a 1e5-row one). Returns `None` when the set-up is not
+/// a single-rate subspace identification of one file, or when the file turns out
+/// to be multirate (an empty output cell): the caller then loads it whole. If the
+/// fast correlation compression is rejected as ill-conditioned, the file is read
+/// again with the R-only QR compression (reported in the diagnostics).
+/// The initial state is not estimated on this path (it does not change the model).
+fn identify_streaming(
+    a: &IdentifyArgs,
+    spec: &DataSpec,
+    order: OrderSelection,
+) -> CliResult<Option<ModelFile>> {
+    let subspace = matches!(
+        a.method,
+        MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva
+    );
+    if !subspace
+        || a.data.len() != 1
+        || !spec.periods.is_empty()
+        || spec.hold > 1
+        || !spec.extra.is_empty()
+    {
+        return Ok(None);
+    }
+    let path = &a.data[0];
+    let (n_u, n_y) = (spec.inputs.len(), spec.outputs.len());
+    if n_u == 0 || n_y == 0 {
+        return Ok(None); // the loader reports the missing columns
+    }
+    let wanted: Vec<&String> = spec.inputs.iter().chain(&spec.outputs).collect();
+    let what = format!("{} identification", method_of(a.method).name());
+    let run = |compression: Compression| -> CliResult<Option<(SubspaceModel, usize, f64, f64)>> {
+        let opts = SubspaceOptions {
+            method: method_of(a.method),
+            order,
+            past: a.horizon.unwrap_or(10),
+            future: a.horizon.unwrap_or(10),
+            ts: spec.ts.unwrap_or(1.0),
+            compression,
+            ..Default::default()
+        };
+        let mut sid = StreamingIdentifier::new(n_u, n_y, &opts).ctx(&what)?;
+        let block = STREAM_BLOCK;
+        let (mut ub, mut yb) = (DMatrix::zeros(block, n_u), DMatrix::zeros(block, n_y));
+        let (mut fill, mut multirate) = (0usize, false);
+        let t = std::time::Instant::now();
+        let (n_rows, ts) = scan_rows(path, &wanted, n_u..n_u + n_y, spec.ts, |row| {
+            if row[n_u..].iter().any(|v| v.is_nan()) {
+                multirate = true;
+                return Ok(false);
+            }
+            for (j, v) in row[..n_u].iter().enumerate() {
+                ub[(fill, j)] = *v;
+            }
+            for (j, v) in row[n_u..].iter().enumerate() {
+                yb[(fill, j)] = *v;
+            }
+            fill += 1;
+            if fill == block {
+                sid.push(&ub, &yb).ctx(&what)?;
+                fill = 0;
+            }
+            Ok(true)
+        })?;
+        if multirate {
+            return Ok(None);
+        }
+        if fill > 0 {
+            sid.push(
+                &ub.rows(0, fill).into_owned(),
+                &yb.rows(0, fill).into_owned(),
+            )
+            .ctx(&what)?;
+        }
+        let read_s = t.elapsed().as_secs_f64();
+        match sid.finish() {
+            Ok(fit) => Ok(Some((fit, n_rows, ts, read_s))),
+            Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
+                if compression != Compression::Qr =>
+            {
+                Ok(None)
+            }
+            Err(e) => Err(input(format!("{what}: {e}"))),
+        }
+    };
+    let t_total = std::time::Instant::now();
+    let (fit, n_rows, ts, read_s) = match run(Compression::Auto)? {
+        Some(r) => r,
+        None => match run(Compression::Qr)? {
+            Some(r) => r,
+            None => return Ok(None),
+        },
+    };
+    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
+    let m = &fit.model;
+    let model = StateSpace::new(
+        m.a().clone(),
+        m.b().clone(),
+        m.c().clone(),
+        m.d().clone(),
+        Some(ts),
+    )
+    .and_then(|m| m.with_input_names(spec.inputs.clone()))
+    .and_then(|m| m.with_output_names(spec.outputs.clone()))
+    .ctx("identify")?;
+    let dg = &fit.diagnostics;
+    let d = json!({
+        "route": "single-rate subspace identification, streamed in blocks",
+        "horizons": [dg.horizons.0, dg.horizons.1],
+        "hankel_columns": dg.columns,
+        "kalman_gain": fit.kalman_gain.as_ref().map(rows),
+        "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
+        "compression": {
+            "used": format!("{:?}", dg.compression.used),
+            "rcond": dg.compression.rcond,
+            "fallback": dg.compression.fallback,
+        },
+        // Reading and compressing overlap (blocks are compressed as they are read).
+        "profile": {
+            "read_s": read_s,
+            "compress_s": dg.profile.compress_s,
+            "svd_s": dg.profile.svd_s,
+            "estimate_s": dg.profile.estimate_s,
+            "identify_s": identify_s,
+        },
+        "data": a.data,
+        "samples": n_rows,
+        "base_period": ts,
+        "output_periods": vec![1usize; n_y],
+    });
+    Ok(Some(
+        ModelFile::new(model)
+            .with_method(a.method.name())
+            .with_diagnostics(d),
+    ))
 }

@@ -127,6 +127,28 @@ pub fn read_raw(
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
 ) -> CliResult<Raw> {
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
+    let (rows, ts) = scan_rows(path, wanted, may_be_empty, ts, |row| {
+        for (c, &v) in cols.iter_mut().zip(row) {
+            c.push(v);
+        }
+        Ok(true)
+    })?;
+    Ok(Raw { cols, rows, ts })
+}
+
+/// Streams the named columns of a CSV file row by row: `visit` receives the
+/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
+/// and returns whether to go on. Returns the number of rows visited and the
+/// base period (given, or from the time column over the rows read). Memory
+/// O(columns), whatever the file length.
+pub fn scan_rows(
+    path: &str,
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let mut rd = csv::ReaderBuilder::new()
         .has_headers(false)
@@ -167,7 +189,7 @@ pub fn read_raw(
         .iter()
         .position(|h| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time"));
     let width = header.len();
-    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
+    let mut row = vec![0.0; wanted.len()];
     let (mut t0, mut t1, mut t_last) = (f64::NAN, f64::NAN, f64::NAN);
     let mut rows = 0usize;
     let mut line = 1u64;
@@ -189,8 +211,7 @@ pub fn read_raw(
         }
         for (j, &c) in idx.iter().enumerate() {
             let allow_empty = may_be_empty.contains(&j);
-            let v = cell_value(path, line, wanted[j], &rec[c], allow_empty)?;
-            cols[j].push(v);
+            row[j] = cell_value(path, line, wanted[j], &rec[c], allow_empty)?;
         }
         if let (Some(tc), None) = (time_col, ts) {
             let t = cell_value(path, line, &header[tc], &rec[tc], false)?;
@@ -211,6 +232,9 @@ pub fn read_raw(
             t_last = t;
         }
         rows += 1;
+        if !visit(&row)? {
+            break;
+        }
     }
     if rows == 0 {
         return Err(input(format!("{path}: no data rows after the header")));
@@ -238,7 +262,7 @@ pub fn read_raw(
             ts
         }
     };
-    Ok(Raw { cols, rows, ts })
+    Ok((rows, ts))
 }
 
 /// Reads the file, streaming, and builds the data set.
