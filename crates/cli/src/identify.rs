@@ -150,24 +150,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 .collect();
             let fit = identify(&exps, &opts)
                 .ctx(format!("{} identification", method_of(a.method).name()))?;
-            let dg = &fit.diagnostics;
-            let d = json!({
-                "route": "single-rate subspace identification",
-                "horizons": [dg.horizons.0, dg.horizons.1],
-                "hankel_columns": dg.columns,
-                "kalman_gain": fit.kalman_gain.as_ref().map(rows),
-                "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
-                "compression": {
-                    "used": format!("{:?}", dg.compression.used),
-                    "rcond": dg.compression.rcond,
-                    "fallback": dg.compression.fallback,
-                },
-                "phases": {
-                    "compress_s": dg.profile.compress_s,
-                    "svd_s": dg.profile.svd_s,
-                    "estimate_s": dg.profile.estimate_s,
-                },
-            });
+            let d = subspace_json(&fit, "single-rate subspace identification");
             (fit.model, d)
         }
         MethodArg::Iv => {
@@ -232,37 +215,18 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         .and_then(|m| m.with_output_names(spec.outputs.clone()))
         .ctx("identify")?;
     let identify_s = t_identify.elapsed().as_secs_f64();
+    let periods: Vec<usize> = sets[0].outputs().iter().map(|c| c.period).collect();
+    let samples = sets.iter().map(Dataset::len).sum::<usize>();
     let mut diagnostics = diagnostics;
-    if let Some(obj) = diagnostics.as_object_mut() {
-        // Wall time per phase (`lifted identify --profile` prints it): reading the
-        // CSV, then the whole identification; the subspace methods also report
-        // their compression / SVD / estimation phases under "phases".
-        let mut profile = json!({ "read_s": read_s, "identify_s": identify_s });
-        if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases"))
-            && let Some(ph) = phases.as_object()
-        {
-            for (k, v) in ph {
-                p.insert(k.clone(), v.clone());
-            }
-        }
-        obj.insert("profile".into(), profile);
-        obj.insert("data".into(), json!(a.data));
-        obj.insert(
-            "samples".into(),
-            json!(sets.iter().map(Dataset::len).sum::<usize>()),
-        );
-        obj.insert("base_period".into(), json!(ts));
-        obj.insert(
-            "output_periods".into(),
-            json!(
-                sets[0]
-                    .outputs()
-                    .iter()
-                    .map(|c| c.period)
-                    .collect::<Vec<_>>()
-            ),
-        );
-    }
+    add_run_facts(
+        &mut diagnostics,
+        a,
+        samples,
+        ts,
+        &periods,
+        read_s,
+        identify_s,
+    );
     Ok(ModelFile::new(model)
         .with_method(a.method.name())
         .with_diagnostics(diagnostics))
@@ -492,9 +456,26 @@ fn identify_streaming(
     .and_then(|m| m.with_input_names(spec.inputs.clone()))
     .and_then(|m| m.with_output_names(spec.outputs.clone()))
     .ctx("identify")?;
+    let mut d = subspace_json(
+        &fit,
+        "single-rate subspace identification, streamed in blocks",
+    );
+    // Reading and compressing overlap: blocks are compressed as they are read.
+    add_run_facts(&mut d, a, n_rows, ts, &vec![1; n_y], read_s, identify_s);
+    Ok(Some(
+        ModelFile::new(model)
+            .with_method(a.method.name())
+            .with_diagnostics(d),
+    ))
+}
+
+/// Diagnostics of a subspace fit: horizons, order selection, compression used
+/// and the per-phase times (under "phases", merged into "profile" by
+/// [`add_run_facts`]).
+fn subspace_json(fit: &SubspaceModel, route: &str) -> serde_json::Value {
     let dg = &fit.diagnostics;
-    let d = json!({
-        "route": "single-rate subspace identification, streamed in blocks",
+    json!({
+        "route": route,
         "horizons": [dg.horizons.0, dg.horizons.1],
         "hankel_columns": dg.columns,
         "kalman_gain": fit.kalman_gain.as_ref().map(rows),
@@ -504,22 +485,41 @@ fn identify_streaming(
             "rcond": dg.compression.rcond,
             "fallback": dg.compression.fallback,
         },
-        // Reading and compressing overlap (blocks are compressed as they are read).
-        "profile": {
-            "read_s": read_s,
+        "phases": {
             "compress_s": dg.profile.compress_s,
             "svd_s": dg.profile.svd_s,
             "estimate_s": dg.profile.estimate_s,
-            "identify_s": identify_s,
         },
-        "data": a.data,
-        "samples": n_rows,
-        "base_period": ts,
-        "output_periods": vec![1usize; n_y],
-    });
-    Ok(Some(
-        ModelFile::new(model)
-            .with_method(a.method.name())
-            .with_diagnostics(d),
-    ))
+    })
+}
+
+/// Adds the facts of the run to the diagnostics: the data files, sample count,
+/// base period, output periods, and the wall time per phase under "profile"
+/// (`lifted identify --profile` prints it): reading the CSV, the whole
+/// identification, and a method's own phases (moved there from "phases").
+fn add_run_facts(
+    diagnostics: &mut serde_json::Value,
+    a: &IdentifyArgs,
+    samples: usize,
+    ts: f64,
+    output_periods: &[usize],
+    read_s: f64,
+    identify_s: f64,
+) {
+    let Some(obj) = diagnostics.as_object_mut() else {
+        return;
+    };
+    let mut profile = json!({ "read_s": read_s, "identify_s": identify_s });
+    if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases"))
+        && let Some(ph) = phases.as_object()
+    {
+        for (k, v) in ph {
+            p.insert(k.clone(), v.clone());
+        }
+    }
+    obj.insert("profile".into(), profile);
+    obj.insert("data".into(), json!(a.data));
+    obj.insert("samples".into(), json!(samples));
+    obj.insert("base_period".into(), json!(ts));
+    obj.insert("output_periods".into(), json!(output_periods));
 }
