@@ -303,7 +303,7 @@ pub struct Experiment<'a> {
 }
 
 /// Validates the records; returns (n_u, n_y, total samples).
-fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
+pub(crate) fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
     let first = experiments.first().ok_or(Error::NoData)?;
     let (nu, ny) = (first.u.ncols(), first.y.ncols());
     if nu == 0 || ny == 0 {

@@ -7,7 +7,9 @@ use lifted_linalg::{lstsq, qr_r, svd};
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::engine::{OrderSelection, ac_from_gamma, gap_order, numerical_rank, spectral_radius};
+use crate::engine::{
+    Experiment, OrderSelection, ac_from_gamma, gap_order, numerical_rank, spectral_radius, validate,
+};
 use crate::error::{Error, Result, check_data};
 use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
 
@@ -270,27 +272,13 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
     let alpha = opts.alpha;
     let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
     check_horizons(alpha, alpha_p)?;
+    // The (u, y) records are checked as for `identify`; then the instruments.
+    let records: Vec<Experiment<'_>> = experiments
+        .iter()
+        .map(|e| Experiment { u: e.u, y: e.y })
+        .collect();
+    validate(&records)?;
     for e in experiments {
-        if e.u.ncols() != nu
-            || e.y.ncols() != ny
-            || e.y.nrows() != e.u.nrows()
-            || nu == 0
-            || ny == 0
-        {
-            return Err(Error::DimensionMismatch {
-                what: "experiment (u, y)",
-                expected: format!("N×{nu} and N×{ny}, at least one input and output"),
-                got: format!(
-                    "{}x{} and {}x{}",
-                    e.u.nrows(),
-                    e.u.ncols(),
-                    e.y.nrows(),
-                    e.y.ncols()
-                ),
-            });
-        }
-        check_data("u", e.u)?;
-        check_data("y", e.y)?;
         if let Some(f) = e.instrument {
             if f.shape() != e.u.shape() {
                 return Err(Error::DimensionMismatch {
