@@ -11,7 +11,7 @@ use crate::{Error, Result};
 /// Fails with [`Error::NonFinite`] at the first NaN or infinity (column-major
 /// order) of `m`.
 pub fn check_finite(what: &'static str, m: &DMatrix<f64>) -> Result<()> {
-    match m.as_slice().iter().position(|x| !x.is_finite()) {
+    match crate::kernels::first_non_finite(m.as_slice()) {
         None => Ok(()),
         Some(k) => Err(Error::NonFinite {
             what,

@@ -19,7 +19,7 @@
 //! | [`mod@svd`] | [`svd()`], [`singular_values`] | faer thin SVD, s descending | O(mn·min(m,n)) |
 //! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR; R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
 //! | [`mod@rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
-//! | [`kernels`] | [`dot`] | eight FMA partial sums (SIMD) | O(n) |
+//! | [`kernels`] | [`dot`], [`first_non_finite`] | eight FMA partial sums (SIMD); branch-free block scan | O(n) |
 //! | [`mod@lstsq`] | [`lstsq()`] | QR if full column rank, else minimum-norm SVD solution | O(mn²) |
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
@@ -84,7 +84,7 @@ pub use check::{check_cols, check_finite, check_rows, check_square};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
 pub use error::{Error, Result};
-pub use kernels::dot;
+pub use kernels::{dot, first_non_finite};
 pub use lstsq::lstsq;
 pub use lyapunov::{dlyap, lyap, sylvester};
 pub use matfun::{expm, logm, rootm, sqrtm};

@@ -405,6 +405,16 @@ impl Dataset {
                 });
             }
             let col = u.column(c);
+            if let Some(k) = lifted_linalg::first_non_finite(col.as_slice()) {
+                return Err(DataError::NonFiniteInput {
+                    channel: c,
+                    sample: k,
+                    value: col[k],
+                });
+            }
+            if ch.hold == 1 {
+                continue;
+            }
             let mut block_value = f64::NAN;
             for k in 0..n {
                 let v = col[k];
@@ -439,6 +449,16 @@ impl Dataset {
                 });
             }
             let col = y.column(c);
+            if ch.period == 1 {
+                if let Some(k) = lifted_linalg::first_non_finite(col.as_slice()) {
+                    return Err(DataError::MissingSample {
+                        channel: c,
+                        sample: k,
+                        value: col[k],
+                    });
+                }
+                continue;
+            }
             for k in 0..n {
                 let v = col[k];
                 if ch.is_sampled(k) {

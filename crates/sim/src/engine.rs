@@ -416,17 +416,21 @@ impl Engine {
         rec: Option<&mut Record>,
     ) -> Result<Vec<f64>> {
         match &self.fused {
-            Some(f) => match f.rows {
-                4 => self.run_fused::<4>(f, z0, inp, rec),
-                8 => self.run_fused::<8>(f, z0, inp, rec),
-                12 => self.run_fused::<12>(f, z0, inp, rec),
-                16 => self.run_fused::<16>(f, z0, inp, rec),
-                20 => self.run_fused::<20>(f, z0, inp, rec),
-                24 => self.run_fused::<24>(f, z0, inp, rec),
-                28 => self.run_fused::<28>(f, z0, inp, rec),
-                32 => self.run_fused::<32>(f, z0, inp, rec),
-                _ => self.run_fused::<0>(f, z0, inp, rec),
-            },
+            Some(f) => {
+                let plan = Plan::new(self, f, inp);
+                let p = &plan;
+                match plan.rows {
+                    4 => self.run_fused::<4>(f, p, z0, inp, rec),
+                    8 => self.run_fused::<8>(f, p, z0, inp, rec),
+                    12 => self.run_fused::<12>(f, p, z0, inp, rec),
+                    16 => self.run_fused::<16>(f, p, z0, inp, rec),
+                    20 => self.run_fused::<20>(f, p, z0, inp, rec),
+                    24 => self.run_fused::<24>(f, p, z0, inp, rec),
+                    28 => self.run_fused::<28>(f, p, z0, inp, rec),
+                    32 => self.run_fused::<32>(f, p, z0, inp, rec),
+                    _ => self.run_fused::<0>(f, p, z0, inp, rec),
+                }
+            }
             None => self.run_reference(z0, inp, rec),
         }
     }
@@ -568,118 +572,443 @@ impl Engine {
         })
     }
 
-    /// The fused loop: per sample one product of the phase's matrix with the
-    /// stacked vector w = [z; r₁; r₂; noise] (active columns only), column
-    /// by column into `R` accumulators (`R` = 0: run-time row count).
+    /// The fused loop, a block of [`BLOCK`] samples at a time: per sample
+    /// the next row [z_live(k+1); y_clean(k); u(k)] = M_ph [z_live(k);
+    /// inputs(k)] is one product of the phase's compacted matrix (see
+    /// [`Plan`]) with its active columns (`R` accumulators per partial sum,
+    /// fused multiply-adds; `R` = 0: run-time row count), the inputs read
+    /// straight from the excitation and noise columns; then the block's
+    /// outputs are checked against the divergence limit and written to the
+    /// record channel by channel. The states no column reads are left out
+    /// of the recursion and computed once, for the final state, by a full
+    /// step of the last sample. O(len · rows · active columns) flops,
+    /// O(BLOCK · rows + frame · rows · columns) memory.
     fn run_fused<const R: usize>(
         &self,
         f: &Fused,
+        plan: &Plan<'_>,
         z0: &[f64],
         inp: &RunInput<'_>,
         mut rec: Option<&mut Record>,
     ) -> Result<Vec<f64>> {
         let (nz, ny, nu, len) = (self.nz, self.ny, self.nu, inp.len);
-        let rows = f.rows;
-        let nc = f.cols.len();
-        let nw = nz + 2 * ny + nu;
-        let mut w = vec![0.0; nw];
-        w[..nz].copy_from_slice(z0);
-        let mut out = vec![0.0; rows];
-        let mut acc_dyn = vec![0.0; if R > 0 { 0 } else { rows }];
-        let mut nse = vec![0.0; ny];
-        let r1s = inp.r1.map(|m| m.as_slice());
-        let r2s = inp.r2.map(|m| m.as_slice());
-        let noise = inp.noise.map(|(m, s)| (m.as_slice(), s));
-        let limit = self.limit;
-        let (o_r1, o_r2, o_n) = (nz, nz + ny, nz + ny + nu);
-        let (cols_a, cols_b) = f.cols.split_at(f.split);
+        let rows = if R > 0 { R } else { plan.rows };
+        let (nl, nk) = (plan.live.len(), plan.nk);
+        let (cols_a, srcs) = (&plan.cols_a[..], &plan.srcs[..]);
+        // row 0: the state entering the block; row b + 1: sample b's result
+        let mut hist = vec![0.0; (BLOCK + 1) * rows];
+        for (h, &c) in hist.iter_mut().zip(&plan.live) {
+            *h = z0[c];
+        }
+        let mut acc = vec![0.0; if R > 0 { 0 } else { 2 * rows }];
+        // per-row divergence limit: outputs only (∞ for states and padding)
+        let mut lim = vec![f64::INFINITY; rows];
+        lim[nl..nl + ny + nu].fill(self.limit);
+        // the live state entering the last sample (for the final full step)
+        let mut last = vec![0.0; nl];
         let mut ph = 0usize;
-        for k in 0..len {
-            if let Some(src) = r1s {
-                for j in 0..ny {
-                    w[o_r1 + j] = src[j * len + k];
+        let mut k0 = 0usize;
+        while k0 < len {
+            let nb = BLOCK.min(len - k0);
+            for b in 0..nb {
+                let m = &plan.mats[ph * nk * rows..(ph + 1) * nk * rows];
+                let (done, next) = hist.split_at_mut((b + 1) * rows);
+                let prev = &done[b * rows..];
+                if R > 0 {
+                    step_fixed::<R>(m, cols_a, srcs, k0 + b, prev, &mut next[..R]);
+                } else {
+                    let next = &mut next[..rows];
+                    step_dyn(m, rows, cols_a, srcs, k0 + b, prev, &mut acc, next);
+                }
+                ph += 1;
+                if ph == self.frame {
+                    ph = 0;
                 }
             }
-            if let Some(src) = r2s {
-                for i in 0..nu {
-                    w[o_r2 + i] = src[i * len + k];
+            let outs = || hist[rows..(nb + 1) * rows].chunks_exact(rows);
+            if !within::<R>(outs(), &lim) {
+                for (b, row) in outs().enumerate() {
+                    check(
+                        k0 + b,
+                        &row[nl..nl + ny],
+                        &row[nl + ny..nl + ny + nu],
+                        self.limit,
+                    )?;
                 }
             }
-            if let Some((src, scale)) = noise {
-                for j in 0..ny {
-                    let e = scale[j] * src[j * len + k];
-                    nse[j] = e;
-                    w[o_n + j] = e;
-                }
-            }
-            let m = &f.mats[ph * nc * rows..(ph + 1) * nc * rows];
-            let (ma, mb) = m.split_at(f.split * rows);
-            if R > 0 {
-                // two partial sums over the state columns (halves the
-                // dependent chain), one over the inputs
-                let mut acc_a = [0.0f64; R];
-                let mut acc_a2 = [0.0f64; R];
-                let mut acc_b = [0.0f64; R];
-                let mut pairs = ma.chunks_exact(2 * R).zip(cols_a.chunks_exact(2));
-                for (col, c) in pairs.by_ref() {
-                    let (m0, m1) = col.split_at(R);
-                    axpy(&mut acc_a, m0, w[c[0]]);
-                    axpy(&mut acc_a2, m1, w[c[1]]);
-                }
-                if let Some(&c) = cols_a.get(cols_a.len() / 2 * 2) {
-                    axpy(&mut acc_a, &ma[(cols_a.len() - 1) * R..], w[c]);
-                }
-                for (col, &c) in mb.chunks_exact(R).zip(cols_b) {
-                    axpy(&mut acc_b, col, w[c]);
-                }
-                for r in 0..R {
-                    out[r] = (acc_a[r] + acc_a2[r]) + acc_b[r];
-                }
-            } else {
-                out.fill(0.0);
-                acc_dyn.fill(0.0);
-                let acc_b = &mut acc_dyn;
-                for (col, &c) in ma.chunks_exact(rows).zip(cols_a) {
-                    let x = w[c];
-                    for (a, m) in out.iter_mut().zip(col) {
-                        *a += m * x;
-                    }
-                }
-                for (col, &c) in mb.chunks_exact(rows).zip(cols_b) {
-                    let x = w[c];
-                    for (a, m) in acc_b.iter_mut().zip(col) {
-                        *a += m * x;
-                    }
-                }
-                for (o, b) in out.iter_mut().zip(acc_b.iter()) {
-                    *o += b;
-                }
-            }
-            let yc = &out[nz..nz + ny];
-            let u = &out[nz + ny..nz + ny + nu];
             if let Some(rec) = rec.as_deref_mut() {
-                record(rec, k, len, yc, u, &nse);
+                for j in 0..ny {
+                    let dst = &mut rec.y_clean.as_mut_slice()[j * len + k0..][..nb];
+                    for (d, row) in dst.iter_mut().zip(outs()) {
+                        *d = row[nl + j];
+                    }
+                    let dst = &mut rec.y.as_mut_slice()[j * len + k0..][..nb];
+                    for (d, row) in dst.iter_mut().zip(outs()) {
+                        *d = row[nl + j];
+                    }
+                    if let Some((m, s)) = inp.noise {
+                        let src = &m.as_slice()[j * len + k0..][..nb];
+                        for (d, &e) in dst.iter_mut().zip(src) {
+                            *d += s[j] * e;
+                        }
+                    }
+                }
+                for i in 0..nu {
+                    let dst = &mut rec.u.as_mut_slice()[i * len + k0..][..nb];
+                    for (d, row) in dst.iter_mut().zip(outs()) {
+                        *d = row[nl + ny + i];
+                    }
+                }
             }
-            if !yc.iter().chain(u).all(|v| v.abs() <= limit) {
-                check(k, yc, u, limit)?;
+            if k0 + nb == len {
+                last.copy_from_slice(&hist[(nb - 1) * rows..(nb - 1) * rows + nl]);
             }
-            w[..nz].copy_from_slice(&out[..nz]);
-            ph += 1;
-            if ph == self.frame {
-                ph = 0;
+            hist.copy_within(nb * rows..nb * rows + nl, 0);
+            k0 += nb;
+        }
+        let mut z = z0.to_vec();
+        if len > 0 && nl < nz {
+            // the states left out of the recursion: one full step of the
+            // last sample (their own columns are zero, so their values
+            // before it do not matter)
+            let mut zl = vec![0.0; nz];
+            for (&c, &v) in plan.live.iter().zip(&last) {
+                zl[c] = v;
+            }
+            let ph_last = (len - 1) % self.frame;
+            let full = self.full_step(f, ph_last, &zl, inp, len - 1);
+            z.copy_from_slice(&full[..nz]);
+        }
+        for (&c, &v) in plan.live.iter().zip(&hist) {
+            z[c] = v;
+        }
+        Ok(z)
+    }
+
+    /// One step of the full fused map (every row) at phase `ph` from state
+    /// `z` and the inputs of sample `k` (absent inputs are zero). O(rows ·
+    /// columns); used once per run.
+    fn full_step(&self, f: &Fused, ph: usize, z: &[f64], inp: &RunInput<'_>, k: usize) -> Vec<f64> {
+        let (nz, ny, nu, len) = (self.nz, self.ny, self.nu, inp.len);
+        let nc = f.cols.len();
+        let m = &f.mats[ph * nc * f.rows..(ph + 1) * nc * f.rows];
+        let mut out = vec![0.0; f.rows];
+        for (col, &c) in m.chunks_exact(f.rows).zip(&f.cols) {
+            let x = if c < nz {
+                z[c]
+            } else if c < nz + ny {
+                inp.r1.map_or(0.0, |r| r.as_slice()[(c - nz) * len + k])
+            } else if c < nz + ny + nu {
+                inp.r2
+                    .map_or(0.0, |r| r.as_slice()[(c - nz - ny) * len + k])
+            } else {
+                let j = c - nz - ny - nu;
+                inp.noise
+                    .map_or(0.0, |(n, s)| s[j] * n.as_slice()[j * len + k])
+            };
+            for (o, mc) in out.iter_mut().zip(col) {
+                *o = mc.mul_add(x, *o);
             }
         }
-        Ok(w[..nz].to_vec())
+        out
     }
 }
 
-/// acc += x · col[..R] on a fixed-size block (vectorised; `col` has at
-/// least R entries by construction).
+/// The fused map compacted for one run: the live states (those some column
+/// reads: dynamic states and held values in use) first, then y_clean and u,
+/// rows padded to a multiple of 4; absent inputs dropped and the noise
+/// scale folded into the noise columns.
+pub(crate) struct Plan<'a> {
+    rows: usize,
+    /// z indices of the live states, in order (compact row i ↔ z index).
+    live: Vec<usize>,
+    /// Compact rows of the state columns.
+    cols_a: Vec<usize>,
+    /// Input columns (held values at compact rows, or signal columns).
+    srcs: Vec<Src<'a>>,
+    /// Columns per phase (states + inputs).
+    nk: usize,
+    /// frame × (nk × rows), column-major per phase.
+    mats: Vec<f64>,
+}
+
+impl<'a> Plan<'a> {
+    fn new(e: &Engine, f: &Fused, inp: &RunInput<'a>) -> Self {
+        let (nz, ny, nu, len) = (e.nz, e.ny, e.nu, inp.len);
+        let (o_r1, o_r2, o_n) = (nz, nz + ny, nz + ny + nu);
+        let mut is_live = vec![false; nz];
+        for &c in f.cols.iter().filter(|&&c| c < nz) {
+            is_live[c] = true;
+        }
+        let live: Vec<usize> = (0..nz).filter(|&c| is_live[c]).collect();
+        let mut pos = vec![usize::MAX; nz];
+        for (i, &c) in live.iter().enumerate() {
+            pos[c] = i;
+        }
+        let nl = live.len();
+        let rows = (nl + ny + nu).div_ceil(4).max(1) * 4;
+        // full-map row of each compact row
+        let rmap: Vec<usize> = live.iter().copied().chain(nz..nz + ny + nu).collect();
+        let cols_a: Vec<usize> = f.cols[..f.split].iter().map(|&c| pos[c]).collect();
+        let mut keep = Vec::with_capacity(f.cols.len());
+        let mut srcs = Vec::with_capacity(f.cols.len());
+        for (ci, &c) in f.cols.iter().enumerate().skip(f.split) {
+            let (src, scale) = if c < nz {
+                (Some(Src::Held(pos[c])), 1.0)
+            } else if c < o_r2 {
+                (column(inp.r1, c - o_r1, len).map(Src::Col), 1.0)
+            } else if c < o_n {
+                (column(inp.r2, c - o_r2, len).map(Src::Col), 1.0)
+            } else {
+                let j = c - o_n;
+                match inp.noise {
+                    Some((m, s)) => (column(Some(m), j, len).map(Src::Col), s[j]),
+                    None => (None, 0.0),
+                }
+            };
+            if let Some(src) = src {
+                keep.push((ci, scale));
+                srcs.push(src);
+            }
+        }
+        let nk = f.split + keep.len();
+        let nc = f.cols.len();
+        let mut mats = vec![0.0; e.frame * nk * rows];
+        let cols = (0..f.split).map(|ci| (ci, 1.0)).chain(keep.iter().copied());
+        for (k, (ci, scale)) in cols.enumerate() {
+            for ph in 0..e.frame {
+                let src = &f.mats[(ph * nc + ci) * f.rows..(ph * nc + ci + 1) * f.rows];
+                let dst = &mut mats[(ph * nk + k) * rows..(ph * nk + k + 1) * rows];
+                for (d, &r) in dst.iter_mut().zip(&rmap) {
+                    *d = src[r] * scale;
+                }
+            }
+        }
+        Plan {
+            rows,
+            live,
+            cols_a,
+            srcs,
+            nk,
+            mats,
+        }
+    }
+}
+
+/// Channel `j` of a column-major signal with `len` rows, from its first sample.
+fn column(m: Option<&DMatrix<f64>>, j: usize, len: usize) -> Option<&[f64]> {
+    m.map(|m| &m.as_slice()[j * len..(j + 1) * len])
+}
+
+/// Samples per block of the fused loop (the block's results stay in L1).
+const BLOCK: usize = 64;
+
+/// Where an input column of a fused step reads its value at sample k.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Src<'a> {
+    /// A held value of the state: `prev[p]`.
+    Held(usize),
+    /// A signal column: `col[k]`.
+    Col(&'a [f64]),
+}
+
+impl Src<'_> {
+    #[inline(always)]
+    fn at(&self, prev: &[f64], k: usize) -> f64 {
+        match *self {
+            Src::Held(p) => prev[p],
+            Src::Col(c) => c[k],
+        }
+    }
+}
+
+/// Whether every entry of the rows is within its row's limit (NaN is not),
+/// without branches (vectorised with a compile-time row count).
+fn within<'a, const R: usize>(rows: impl Iterator<Item = &'a [f64]>, lim: &[f64]) -> bool {
+    let mut ok = true;
+    if let Some(lim) = lim.first_chunk::<R>().filter(|_| R > 0) {
+        for row in rows {
+            if let Some(row) = row.first_chunk::<R>() {
+                for r in 0..R {
+                    ok &= row[r].abs() <= lim[r];
+                }
+            }
+        }
+    } else {
+        for row in rows {
+            for (v, l) in row.iter().zip(lim) {
+                ok &= v.abs() <= *l;
+            }
+        }
+    }
+    ok
+}
+
+/// A constant affine map [x(k+1); y(k)] = M [x(k); w(k)] compiled for the
+/// fused step: `m` column-major `rows` × (states + inputs), rows padded to
+/// a multiple of 4 with zero rows. Used for the noise filter.
+#[derive(Debug, Clone)]
+pub(crate) struct StepMap {
+    pub rows: usize,
+    pub states: usize,
+    inputs: usize,
+    m: Vec<f64>,
+    cols_a: Vec<usize>,
+}
+
+impl StepMap {
+    /// From the map's columns (each `states + outputs` long, states first).
+    pub fn new(states: usize, inputs: usize, cols: &[Vec<f64>]) -> Self {
+        let out = cols.first().map_or(0, |c| c.len());
+        let rows = out.div_ceil(4).max(1) * 4;
+        let mut m = vec![0.0; rows * (states + inputs)];
+        for (dst, src) in m.chunks_exact_mut(rows).zip(cols) {
+            dst[..src.len()].copy_from_slice(src);
+        }
+        StepMap {
+            rows,
+            states,
+            inputs,
+            m,
+            cols_a: (0..states).collect(),
+        }
+    }
+
+    /// Runs `nb` steps: row b + 1 of `hist` (rows wide) gets the result of
+    /// row b's state and sample b of the inputs, stored input by input in
+    /// `w` (input i at `w[i · stride + b]`). O(nb · rows · (states + inputs)).
+    pub fn run(&self, hist: &mut [f64], w: &[f64], stride: usize, nb: usize, acc: &mut Vec<f64>) {
+        let srcs: Vec<Src<'_>> = (0..self.inputs)
+            .map(|i| Src::Col(&w[i * stride..]))
+            .collect();
+        match self.rows {
+            4 => self.run_fixed::<4>(hist, &srcs, nb),
+            8 => self.run_fixed::<8>(hist, &srcs, nb),
+            12 => self.run_fixed::<12>(hist, &srcs, nb),
+            16 => self.run_fixed::<16>(hist, &srcs, nb),
+            rows => {
+                acc.resize(2 * rows, 0.0);
+                for b in 0..nb {
+                    let (done, next) = hist.split_at_mut((b + 1) * rows);
+                    let next = &mut next[..rows];
+                    let prev = &done[b * rows..];
+                    step_dyn(&self.m, rows, &self.cols_a, &srcs, b, prev, acc, next);
+                }
+            }
+        }
+    }
+
+    /// The steps with the previous row kept in registers: the state columns
+    /// are visited with compile-time indices (`states` ≤ R, the map's rows
+    /// start with the state), so the sample-to-sample chain is a lane
+    /// broadcast and the FMAs, not a store and a reload.
+    fn run_fixed<const R: usize>(&self, hist: &mut [f64], srcs: &[Src<'_>], nb: usize) {
+        let ns = self.states;
+        let (ma, mb) = self.m.split_at(ns * R);
+        let mut x = [0.0f64; R];
+        if let Some(h) = hist.first_chunk::<R>() {
+            x = *h;
+        }
+        for b in 0..nb {
+            let mut acc_b = [0.0f64; R];
+            for (col, src) in mb.chunks_exact(R).zip(srcs) {
+                axpy(&mut acc_b, col, src.at(&x, b));
+            }
+            let mut acc_a = [0.0f64; R];
+            for c in 0..R {
+                if c < ns {
+                    axpy(&mut acc_a, &ma[c * R..], x[c]);
+                }
+            }
+            for r in 0..R {
+                x[r] = acc_a[r] + acc_b[r];
+            }
+            if let Some(row) = hist[(b + 1) * R..].first_chunk_mut::<R>() {
+                *row = x;
+            }
+        }
+    }
+}
+
+/// One fused step with a compile-time row count: `next` = M [prev; inputs]
+/// over the active columns (state columns `cols_a` read from `prev`, input
+/// columns from `srcs` at sample `k`). The state columns go to two partial
+/// sums (halving the dependent chain from one sample to the next), the
+/// inputs to a third that does not wait for the state.
+#[inline(always)]
+fn step_fixed<const R: usize>(
+    m: &[f64],
+    cols_a: &[usize],
+    srcs: &[Src<'_>],
+    k: usize,
+    prev: &[f64],
+    next: &mut [f64],
+) {
+    let (ma, mb) = m.split_at(cols_a.len() * R);
+    let mut acc_b = [0.0f64; R];
+    for (col, src) in mb.chunks_exact(R).zip(srcs) {
+        axpy(&mut acc_b, col, src.at(prev, k));
+    }
+    let mut acc_a = [0.0f64; R];
+    let mut acc_a2 = [0.0f64; R];
+    let mut pairs = ma.chunks_exact(2 * R).zip(cols_a.chunks_exact(2));
+    for (col, c) in pairs.by_ref() {
+        let (m0, m1) = col.split_at(R);
+        axpy(&mut acc_a, m0, prev[c[0]]);
+        axpy(&mut acc_a2, m1, prev[c[1]]);
+    }
+    if cols_a.len() % 2 == 1 {
+        let last = cols_a.len() - 1;
+        axpy(&mut acc_a, &ma[last * R..], prev[cols_a[last]]);
+    }
+    if let Some(next) = next.first_chunk_mut::<R>() {
+        for r in 0..R {
+            next[r] = (acc_a[r] + acc_a2[r]) + acc_b[r];
+        }
+    }
+}
+
+/// [`step_fixed`] with the row count known at run time (`acc`: 2 · rows
+/// scratch numbers).
+#[allow(clippy::too_many_arguments)]
+fn step_dyn(
+    m: &[f64],
+    rows: usize,
+    cols_a: &[usize],
+    srcs: &[Src<'_>],
+    k: usize,
+    prev: &[f64],
+    acc: &mut [f64],
+    next: &mut [f64],
+) {
+    let (ma, mb) = m.split_at(cols_a.len() * rows);
+    let (acc_a, acc_b) = acc.split_at_mut(rows);
+    acc_a.fill(0.0);
+    acc_b.fill(0.0);
+    for (col, &c) in ma.chunks_exact(rows).zip(cols_a) {
+        let x = prev[c];
+        for (a, m) in acc_a.iter_mut().zip(col) {
+            *a = m.mul_add(x, *a);
+        }
+    }
+    for (col, src) in mb.chunks_exact(rows).zip(srcs) {
+        let x = src.at(prev, k);
+        for (a, m) in acc_b.iter_mut().zip(col) {
+            *a = m.mul_add(x, *a);
+        }
+    }
+    for ((n, a), b) in next.iter_mut().zip(acc_a.iter()).zip(acc_b.iter()) {
+        *n = a + b;
+    }
+}
+
+/// acc += x · col[..R] on a fixed-size block (vectorised fused multiply-adds;
+/// `col` has at least R entries by construction).
 #[inline(always)]
 fn axpy<const R: usize>(acc: &mut [f64; R], col: &[f64], x: f64) {
     if let Some(col) = col.first_chunk::<R>() {
         for r in 0..R {
-            acc[r] += col[r] * x;
+            acc[r] = col[r].mul_add(x, acc[r]);
         }
     }
 }

@@ -8,7 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use crate::engine::Block;
+use crate::engine::{Block, StepMap};
 use crate::error::{Error, Result};
 use crate::model::at_base_period;
 
@@ -193,9 +193,11 @@ impl NoiseGen {
     /// Draw order: for each sample (warm-up first), e_0 … e_{n_e−1}.
     ///
     /// The normals are drawn in blocks of [`BLOCK`] samples, then filtered
-    /// by one product per sample with the stacked matrix
-    /// [x(k+1); v(k)] = [A B; C D][x(k); e(k)] (column-major, columns summed
-    /// in order). Equal to the block-by-block filter up to rounding.
+    /// by one fused product per sample with the stacked matrix
+    /// [x(k+1); v(k)] = [A B; C D][x(k); e(k)] (the simulator's fused step:
+    /// FMAs, state and input columns in separate partial sums), then written
+    /// channel by channel. Equal to the block-by-block filter up to rounding.
+    /// O((warm-up + len) · (n_x + n_y)(n_x + n_e)).
     #[cfg(test)]
     pub fn generate(&self, len: usize, ny: usize) -> DMatrix<f64> {
         let mut out = DMatrix::zeros(len, ny);
@@ -210,68 +212,74 @@ impl NoiseGen {
         let os = out.as_mut_slice();
         let ne = self.n_e;
         let total = self.warmup + len;
-        let nx = self.filter.as_ref().map_or(0, |f| f.n);
-        let rows = nx + ny;
-        // [A B; C D] column-major, from the block applied to unit vectors
-        let mut m = vec![0.0; rows * (nx + ne)];
-        if let Some(f) = &self.filter {
+        // [A B; C D] from the block applied to unit vectors
+        let map = self.filter.as_ref().map(|f| {
+            let nx = f.n;
             let (mut x, mut e) = (vec![0.0; nx], vec![0.0; ne]);
             let (mut xn, mut v) = (vec![0.0; nx], vec![0.0; ny]);
-            for c in 0..nx + ne {
-                x.fill(0.0);
-                e.fill(0.0);
-                if c < nx {
-                    x[c] = 1.0;
-                } else {
-                    e[c - nx] = 1.0;
-                }
-                f.cx(&x, &mut v);
-                f.add_du(&e, &mut v);
-                f.update(&x, &e, &mut xn);
-                m[c * rows..c * rows + nx].copy_from_slice(&xn);
-                m[c * rows + nx..(c + 1) * rows].copy_from_slice(&v);
-            }
-        }
+            let cols: Vec<Vec<f64>> = (0..nx + ne)
+                .map(|c| {
+                    x.fill(0.0);
+                    e.fill(0.0);
+                    if c < nx {
+                        x[c] = 1.0;
+                    } else {
+                        e[c - nx] = 1.0;
+                    }
+                    f.cx(&x, &mut v);
+                    f.add_du(&e, &mut v);
+                    f.update(&x, &e, &mut xn);
+                    [xn.as_slice(), v.as_slice()].concat()
+                })
+                .collect();
+            StepMap::new(nx, ne, &cols)
+        });
+        let (rows, nx) = map.as_ref().map_or((ne, 0), |m| (m.rows, m.states));
+        // the block's normals source by source (source i at i · BLOCK + b)
         let mut e = vec![0.0; BLOCK * ne];
-        let mut w = vec![0.0; nx + ne];
-        let mut acc = vec![0.0; rows];
+        // row 0: the filter state entering the block; row b + 1: sample b
+        let mut hist = vec![0.0; (BLOCK + 1) * rows];
+        let mut acc = Vec::new();
         let mut integ = vec![0.0; ny];
         let mut k0 = 0;
         while k0 < total {
             let nb = BLOCK.min(total - k0);
-            for ek in e[..nb * ne].chunks_exact_mut(ne) {
-                for (ej, sj) in ek.iter_mut().zip(&self.std) {
+            for b in 0..nb {
+                for (i, sd) in self.std.iter().enumerate() {
                     let z: f64 = rng.sample(StandardNormal);
-                    *ej = sj * z;
+                    e[i * BLOCK + b] = sd * z;
                 }
             }
-            for (b, ek) in e[..nb * ne].chunks_exact(ne).enumerate() {
-                let k = k0 + b;
-                let v: &[f64] = if self.filter.is_some() {
-                    w[nx..].copy_from_slice(ek);
-                    acc.fill(0.0);
-                    for (col, &x) in m.chunks_exact(rows).zip(&w) {
-                        for (a, mc) in acc.iter_mut().zip(col) {
-                            *a += mc * x;
-                        }
-                    }
-                    w[..nx].copy_from_slice(&acc[..nx]);
-                    &acc[nx..]
-                } else {
-                    ek
+            if let Some(map) = &map {
+                map.run(&mut hist, &e, BLOCK, nb, &mut acc);
+            }
+            // samples of the block inside the record (after the warm-up)
+            let skip = self.warmup.saturating_sub(k0).min(nb);
+            let kk0 = (k0 + skip).saturating_sub(self.warmup);
+            let count = nb - skip;
+            for (j, integ) in integ.iter_mut().enumerate().take(ny) {
+                if count == 0 {
+                    break;
+                }
+                let dst = &mut os[j * len + kk0..j * len + kk0 + count];
+                // v_j(b): filter output row nx + j of hist row b + 1, or e_j(b)
+                let src = match &map {
+                    Some(_) => hist[(skip + 1) * rows + nx + j..].iter().step_by(rows),
+                    None => e[j * BLOCK + skip..].iter().step_by(1),
                 };
-                if k < self.warmup {
-                    continue;
+                if self.integrated {
+                    for (d, &v) in dst.iter_mut().zip(src) {
+                        *integ += v;
+                        *d = *integ;
+                    }
+                } else {
+                    for (d, &v) in dst.iter_mut().zip(src) {
+                        *d = v;
+                    }
                 }
-                let kk = k - self.warmup;
-                for (j, &vj) in v.iter().enumerate().take(ny) {
-                    os[j * len + kk] = if self.integrated {
-                        integ[j] += vj;
-                        integ[j]
-                    } else {
-                        vj
-                    };
-                }
+            }
+            if map.is_some() {
+                hist.copy_within(nb * rows..nb * rows + nx, 0);
             }
             k0 += nb;
         }
@@ -431,11 +439,27 @@ mod tests {
         let h2 = lifted_lti::TransferFunction::from_coeffs(&[1.0], &[1.0, -1.2, 0.5], Some(1.0))
             .unwrap();
         let h = NoiseSpec::diagonal_model(&[h1, h2]).unwrap();
-        for (model, integrated, std) in [
-            (None, false, vec![1.0, 0.5]),
-            (None, true, vec![2.0]),
-            (Some(h.clone()), false, vec![1.0, 3.0]),
-            (Some(h), true, vec![0.7]),
+        // an 18-state coupled model with three sources (rows 20: the
+        // run-time-size step)
+        let big = StateSpace::new(
+            DMatrix::from_fn(18, 18, |i, j| match j as i64 - i as i64 {
+                0 => 0.5,
+                1 => 0.1,
+                _ => 0.0,
+            }),
+            DMatrix::from_fn(18, 3, |i, j| ((i + 2 * j) % 5) as f64 * 0.1),
+            DMatrix::from_fn(2, 18, |i, j| if (i + j) % 3 == 0 { 1.0 } else { 0.2 }),
+            DMatrix::from_fn(2, 3, |i, j| if i == j { 1.0 } else { 0.0 }),
+            Some(1.0),
+        )
+        .unwrap();
+        for (model, integrated, std, warmup) in [
+            (None, false, vec![1.0, 0.5], 300),
+            (None, true, vec![2.0], 0),
+            (Some(h.clone()), false, vec![1.0, 3.0], 256),
+            (Some(h), true, vec![0.7], 300),
+            (Some(big.clone()), false, vec![1.0, 0.5, 2.0], 0),
+            (Some(big), true, vec![0.3], 513),
         ] {
             let g = NoiseGen::new(
                 &NoiseSpec {
@@ -443,7 +467,7 @@ mod tests {
                     integrated,
                     level: NoiseLevel::Std(std),
                     seed: 9,
-                    warmup: Some(300),
+                    warmup: Some(warmup),
                 },
                 2,
                 1.0,

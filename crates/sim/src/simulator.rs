@@ -111,10 +111,6 @@ pub struct SimOutput {
     /// Per-output scale applied to the generated noise: the SNR factor, 1 with
     /// an absolute level, 0 without noise.
     pub noise_scale: Vec<f64>,
-    /// Reference r₁ as used, N × n_y.
-    pub r1: DMatrix<f64>,
-    /// Input excitation r₂ as used, N × n_u.
-    pub r2: DMatrix<f64>,
     /// Simulator state after the last sample.
     pub final_state: Vec<f64>,
 }
@@ -578,15 +574,16 @@ impl Simulator {
     ) -> Result<SimOutput> {
         let mut sig = SimSignals::default();
         self.signals_into(engine, z0, exc, reference, &mut sig)?;
-        let n = sig.y.nrows();
         // The measured samples with NaN between them (what
         // `Dataset::from_fast` does), built channel-wise.
-        let mut y_data = DMatrix::from_element(n, self.ny, f64::NAN);
+        let mut y_data = sig.y.clone();
         for (j, ch) in self.outputs.iter().enumerate() {
-            let src = sig.y.column(j);
-            let mut dst = y_data.column_mut(j);
-            for k in (ch.offset..n).step_by(ch.period) {
-                dst[k] = src[k];
+            if ch.period > 1 {
+                for (k, v) in y_data.column_mut(j).iter_mut().enumerate() {
+                    if !ch.is_sampled(k) {
+                        *v = f64::NAN;
+                    }
+                }
             }
         }
         let data = Dataset::new(
@@ -602,8 +599,6 @@ impl Simulator {
             y_clean: sig.y_clean,
             noise: sig.noise,
             noise_scale: sig.noise_scale,
-            r1: exc.r1.clone().unwrap_or_else(|| DMatrix::zeros(n, self.ny)),
-            r2: exc.r2.clone().unwrap_or_else(|| DMatrix::zeros(n, self.nu)),
             final_state: sig.final_state,
         })
     }
@@ -756,10 +751,10 @@ fn check_signal(
             got: r.nrows(),
         });
     }
-    match r.iter().find(|v| !v.is_finite()) {
-        Some(v) => Err(Error::NonFinite {
+    match lifted_linalg::first_non_finite(r.as_slice()) {
+        Some(k) => Err(Error::NonFinite {
             what: what[2],
-            value: *v,
+            value: r.as_slice()[k],
         }),
         None => Ok(()),
     }

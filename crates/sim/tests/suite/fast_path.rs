@@ -173,3 +173,44 @@ fn simulate_into_reuses_buffers_and_equals_simulate() -> TestResult {
     }
     Ok(())
 }
+
+#[test]
+fn large_loop_takes_the_run_time_size_step() -> TestResult {
+    // a 30-state 2x2 plant under a PI pair: 32 live states + y + u = 36
+    // rows, beyond the compile-time sizes; fast, held and noisy variants
+    let n_x = 30;
+    let a = DMatrix::from_fn(n_x, n_x, |i, j| {
+        if i == j {
+            0.9 - 0.01 * i as f64
+        } else if j + 1 == i {
+            0.05
+        } else {
+            0.0
+        }
+    });
+    let b = DMatrix::from_fn(n_x, 2, |i, j| if i % 2 == j { 0.05 } else { 0.01 });
+    let c = DMatrix::from_fn(2, n_x, |i, j| if j % 2 == i { 0.3 } else { 0.05 });
+    let g = lifted_lti::StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0))?;
+    let k = Controller::decentralized(
+        2,
+        2,
+        1.0,
+        &[
+            (0, 0, &[0.3, -0.25], &[1.0, -1.0]),
+            (1, 1, &[0.2, -0.15], &[1.0, -1.0]),
+        ],
+    )?;
+    let sim = Simulator::closed_loop(Plant::discrete(&g, &[], &[])?, k)?;
+    let n = 1500;
+    let exc = Excitation::both(random_input(n, 2, 1, 31), random_input(n, 2, 1, 32));
+    check(&sim, &exc)?;
+    let noisy = sim
+        .clone()
+        .with_noise(coloured(2, NoiseLevel::Std(vec![0.2]), 5))?;
+    check(&noisy, &exc)?;
+    let held = noisy
+        .with_holds(&[3, 2])?
+        .with_sampling(&[(4, 1), (1, 0)])?
+        .with_feedback(Feedback::HoldLast)?;
+    check(&held, &exc)
+}
