@@ -3,14 +3,20 @@
 //! and fast-model extraction (§4.5–4.6). Pure algebra: every check is exact
 //! up to rounding, no noise.
 //!
+//! The brute-force side of the A3.2 checks is lifted-sim: a unit pulse on
+//! one lifted input is applied through the simulator's input holds, the
+//! output sampled by its channel specs, and the resulting multirate data set
+//! lifted — independent of the lifting's own inverse (`unlift_inputs`).
+//!
 //! Also holds the small helpers the other A3 multirate reproductions share
-//! (random fast models, step-response error, pole matching, SNR scaling).
+//! (random fast models, step-response error, pole matching, medians).
 
-use lifted_lti::{C2dOptions, MinrealOptions, StateSpace, TransferFunction};
+use lifted_lti::{MinrealOptions, StateSpace};
 use lifted_multirate::{
     DelayInterval, Error as MrError, ExtractOptions, ExtractionMethod, MultirateLifting, SisoRates,
     delay_interval, delay_matrix_exact, extract_fast, lift_model, observability,
 };
+use lifted_sim::{Excitation, Plant, Simulator};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -142,18 +148,6 @@ pub(crate) fn markov_distance(est: &StateSpace, truth: &StateSpace, k: usize) ->
     Ok(diff / scale)
 }
 
-/// Standard deviation of a slice.
-pub(crate) fn std_dev(x: &[f64]) -> f64 {
-    let n = x.len().max(1) as f64;
-    let mean = x.iter().sum::<f64>() / n;
-    (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
-}
-
-/// Noise scale for var-SNR (spec §0): var(y₀)/var(s·v) = snr.
-pub(crate) fn var_snr_scale(y0: &[f64], v: &[f64], snr: f64) -> f64 {
-    std_dev(y0) / (std_dev(v) * snr.sqrt()).max(f64::MIN_POSITIVE)
-}
-
 /// Median of a slice (NaN-free).
 pub(crate) fn median(x: &[f64]) -> f64 {
     let mut v = x.to_vec();
@@ -169,19 +163,19 @@ pub(crate) fn median(x: &[f64]) -> f64 {
     }
 }
 
-/// ZOH model at T = 1 of e^{−d s}/(τ s + 1).
-pub(crate) fn first_order_delay(tau: f64, delay: f64) -> BoxResult<StateSpace> {
-    let g = TransferFunction::from_coeffs(&[1.0], &[tau, 1.0], None)?.to_ss()?;
-    let opts = C2dOptions {
-        input_delays: Some(vec![delay]),
-        ..Default::default()
-    };
-    Ok(g.c2d(1.0, &opts)?)
+/// e^{−d s}/(20 s + 1) at T = 1, ZOH with the exact delay: the lifted-sim
+/// fixture of thesis §4.3 Prop. 2 / §4.4 (spec A3.3, A3.4).
+pub(crate) fn first_order_delay(delay: f64) -> BoxResult<StateSpace> {
+    let fx = lifted_sim::plants::first_order_with_delay(delay)?;
+    Ok(fx.discrete_plant()?.model().clone())
 }
 
-/// Brute-force lifted Markov parameters: for each lifted input column a unit
-/// lifted pulse at frame 0 is inverse-lifted, simulated on the fast grid and
-/// the outputs lifted; returns frames 0…`frames`−1 (each n̲_y×n̲_u).
+/// Brute-force lifted Markov parameters by lifted-sim: for each lifted
+/// input column (a slot: channel, start of its hold block) a unit value is
+/// put at that instant of frame 0, the simulator holds it for the channel's
+/// hold and samples the outputs with the lifting's periods and offsets, and
+/// the multirate data set is lifted; returns frames 0…`frames`−1 (each
+/// n̲_y×n̲_u).
 fn brute_force_lifted(
     fast: &StateSpace,
     lifting: &MultirateLifting,
@@ -189,13 +183,21 @@ fn brute_force_lifted(
 ) -> BoxResult<Vec<DMatrix<f64>>> {
     let nu = lifting.lifted_inputs();
     let ny = lifting.lifted_outputs();
+    let sampling: Vec<(usize, usize)> = lifting
+        .output_periods()
+        .iter()
+        .zip(lifting.output_offsets())
+        .map(|(&p, &o)| (p, o))
+        .collect();
+    let sim = Simulator::open_loop(Plant::discrete(fast, &[], &[])?)
+        .with_holds(lifting.holds())?
+        .with_sampling(&sampling)?;
     let mut out = vec![DMatrix::zeros(ny, nu); frames];
-    for col in 0..nu {
-        let mut ul = DMatrix::zeros(frames, nu);
-        ul[(0, col)] = 1.0;
-        let u = lifting.unlift_inputs(&ul)?;
-        let y = fast.lsim(&u, None, None)?.y;
-        let yl = lifting.lift_outputs(&y)?;
+    for (col, slot) in lifting.input_slots().iter().enumerate() {
+        let mut r2 = DMatrix::zeros(frames * lifting.period(), fast.n_inputs());
+        r2[(slot.time, slot.channel)] = 1.0;
+        let run = sim.simulate(&Excitation::input(r2))?;
+        let yl = lifting.lift_dataset(&run.data, false)?.y;
         for (f, o) in out.iter_mut().enumerate() {
             for r in 0..ny {
                 o[(r, col)] = yl[(f, r)];
@@ -227,7 +229,7 @@ pub fn run_a32() -> BoxResult<Reproduction> {
     }
     rep.check(
         Check::below("Prop. 1 (general D entry) vs brute-force simulation, (m,n) in {(1,3),(2,3),(3,4),(2,5)}", worst, 1e-12)
-            .with_note("spec A3.2: agreement to 1e-12; random stable 3rd-order models with D ≠ 0, 3 per (m,n)"),
+            .with_note("spec A3.2: agreement to 1e-12; random stable 3rd-order models with D ≠ 0, 3 per (m,n); brute force = lifted-sim holds and output sampling"),
     );
     // printed (1,1) entry D + C Σ_{i<n−m} A^i B is the special case n < 2m (L-5)
     let g = random_fast_model(&mut rng, 3, 1, 1, 0.5, true)?;
@@ -413,7 +415,7 @@ pub fn run_a33() -> BoxResult<Reproduction> {
     let mut detail = String::new();
     for &(m, n) in &[(1usize, 3usize), (2, 3)] {
         for &dc in &[0.5, 1.0, 1.5, 2.7] {
-            let fast = first_order_delay(20.0, dc)?;
+            let fast = first_order_delay(dc)?;
             let fo = observability(&fast, 1e-10)?;
             let lm = lift_model(&fast, &MultirateLifting::siso(SisoRates::new(m, n)?)?)?;
             let lo = observability(&lm, 1e-10)?;
@@ -441,7 +443,7 @@ pub fn run_a34() -> BoxResult<Reproduction> {
     );
     let exact = |m: usize, n: usize, dc: f64| -> BoxResult<(DMatrix<usize>, DelayInterval)> {
         let rates = SisoRates::new(m, n)?;
-        let fast = first_order_delay(20.0, dc)?;
+        let fast = first_order_delay(dc)?;
         let lm = lift_model(&fast, &MultirateLifting::siso(rates)?)?;
         let lags = (dc as usize) / (m * n) + 4;
         let l = delay_matrix_exact(&lm, lags, 1e-12)?;

@@ -9,102 +9,98 @@
 //! for B. The one-step formula (7.27) must report the rank deficiency of
 //! Γ_R, because the 0.9868 mode is seen only in y₁.
 //!
+//! Simulation: lifted-sim's `stirred_tank_7_8_2` fixture — plant, PI
+//! K = 1.5 + 0.1/(1−z⁻¹) on u₂ → y₂ only (fast feedback of y₂), the
+//! disturbance model driven by two white sources, y₁ sampled every 5 and y₂
+//! every 1 by its channel specs. Excitation: r₂ = [u₁; 0] and the set-point
+//! r₁ = [0; f], u₁ and f independent RBS ±1 from lifted-prbs.
+//!
 //! SNR: **std-SNR 5**, std(noise-free y_i)/std(v_i) = 5 per output (the
-//! spec's acceptance for this section is calibrated under the std reading).
+//! spec's acceptance for this section is calibrated under the std reading);
+//! the simulator takes the noise-free output from a noise-free run of the
+//! loop and scales the generated noise per output (spec §0). (The reference
+//! implementation took y₂ from the loop run with unit noise, i.e. including
+//! the noise's effect through the feedback; on 48 seeds both readings give
+//! the same unstable seeds.)
+//!
+//! Numbers (seeds 7821–7828): noise free worst e_step 1.6e-14; **6 of 8
+//! seeds stable** (seeds 6 and 7: lifted spectral radius 1.126 and 1.101,
+//! reported as `Error::Unstable`), below the spec's "at least 7 of 8" — a
+//! bound the method meets only on a minority of 8-seed blocks (see the
+//! check's note); medians G₁₁ 0.052, G₂₁ 0.157, G₂₂ 0.017.
 
-use lifted_lti::StateSpace;
+use lifted_lti::{Dataset, StateSpace};
 use lifted_multirate::{
-    Error as MrError, LiftedIvOptions, MultirateLifting, Ordering, identify_lifted_iv,
-    identify_one_step_iv,
+    Error as MrError, LiftedIvOptions, Ordering, identify_lifted_iv, identify_one_step_iv,
 };
+use lifted_prbs::{RandomBinaryOptions, random_binary};
+use lifted_sim::plants::stirred_tank_7_8_2;
+use lifted_sim::{Excitation, SnrDefinition};
 use lifted_subspace::{MultirateIvOptions, OrderSelection};
 use nalgebra::DMatrix;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 
-use crate::a3_lifting::{median, randn, std_dev, step_errors};
+use crate::a3_lifting::{median, step_errors};
 use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
+/// Record length (spec A3.9: 5000 samples).
+const LEN: usize = 5000;
+
 /// The §7.8.2 plant (lifted-sim reference fixture; L-14: G₁₂ = 0, 0.913).
 fn plant() -> BoxResult<StateSpace> {
-    Ok(lifted_sim::plants::stirred_tank_7_8_2()?.plant)
+    Ok(stirred_tank_7_8_2()?.plant)
 }
 
+/// The multirate data set and the dither [u₁, f] (the instruments).
 struct Record {
-    u: DMatrix<f64>,
+    data: Dataset,
     f: DMatrix<f64>,
-    y: DMatrix<f64>,
 }
 
-/// Closed-loop simulation; `snr = None` is noise free.
-fn simulate(len: usize, snr: Option<f64>, rng: &mut ChaCha8Rng) -> Record {
-    let sign = |x: f64| if x >= 0.0 { 1.0 } else { -1.0 };
-    let u1: Vec<f64> = (0..len).map(|_| sign(randn(rng))).collect();
-    let f: Vec<f64> = (0..len).map(|_| sign(randn(rng))).collect();
-    let e: Vec<(f64, f64)> = (0..len).map(|_| (randn(rng), randn(rng))).collect();
-    // disturbance v₁ = 0.11/(1−0.97q⁻¹) e₁, v₂ = −0.02/(1−0.9q⁻¹) e₁ + 0.04/(1−0.86q⁻¹) e₂
-    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
-    let mut v = Vec::with_capacity(len);
-    for &(e1, e2) in &e {
-        a = 0.97 * a + 0.11 * e1;
-        b = 0.9 * b - 0.02 * e1;
-        c = 0.86 * c + 0.04 * e2;
-        v.push((a, b + c));
+/// RBS ±1 of `len` samples.
+fn rbs(len: usize, seed: u64) -> BoxResult<Vec<f64>> {
+    Ok(random_binary(
+        len,
+        &RandomBinaryOptions {
+            seed,
+            ..Default::default()
+        },
+    )?)
+}
+
+/// Closed-loop simulation with lifted-sim: dither seeds `2·seed` (u₁) and
+/// `2·seed + 1` (f); `noise = Some((snr, noise seed))` adds the fixture's
+/// disturbance at that std-SNR, `None` is noise free.
+fn simulate(len: usize, seed: u64, noise: Option<(f64, u64)>) -> BoxResult<Record> {
+    let fx = stirred_tank_7_8_2()?;
+    let mut sim = fx.simulator()?;
+    if let Some((snr, noise_seed)) = noise {
+        let spec = fx
+            .noise_spec(snr, SnrDefinition::StdRatio, noise_seed)
+            .ok_or("the §7.8.2 fixture has a noise model")?;
+        sim = sim.with_noise(spec)?;
     }
-    let run = |s1: f64, s2: f64| {
-        let (mut x11, mut x21, mut x22, mut integ) = (0.0, 0.0, 0.0, 0.0);
-        let mut u = DMatrix::zeros(len, 2);
-        let mut y = DMatrix::zeros(len, 2);
-        let mut yd = DMatrix::zeros(len, 2);
-        for k in 0..len {
-            yd[(k, 0)] = x11;
-            yd[(k, 1)] = x21 + x22;
-            y[(k, 0)] = x11 + s1 * v[k].0;
-            y[(k, 1)] = x21 + x22 + s2 * v[k].1;
-            let err = f[k] - y[(k, 1)];
-            integ += 0.1 * err;
-            let u2 = 1.5 * err + integ;
-            u[(k, 0)] = u1[k];
-            u[(k, 1)] = u2;
-            x11 = 0.9868 * x11 + 0.1416 * u1[k];
-            x21 = 0.913 * x21 - 0.0379 * u1[k];
-            x22 = 0.9048 * x22 + 0.0595 * u2;
-        }
-        (u, y, yd)
-    };
-    let (u, y) = match snr {
-        None => {
-            let (u, y, _) = run(0.0, 0.0);
-            (u, y)
-        }
-        Some(snr) => {
-            let (_, _, yd) = run(1.0, 1.0);
-            let col =
-                |m: &DMatrix<f64>, c: usize| m.column(c).iter().cloned().collect::<Vec<f64>>();
-            let v1: Vec<f64> = v.iter().map(|x| x.0).collect();
-            let v2: Vec<f64> = v.iter().map(|x| x.1).collect();
-            let s1 = std_dev(&col(&yd, 0)) / std_dev(&v1) / snr;
-            let s2 = std_dev(&col(&yd, 1)) / std_dev(&v2) / snr;
-            let (u, y, _) = run(s1, s2);
-            (u, y)
-        }
-    };
-    let fm = DMatrix::from_fn(len, 2, |k, c| if c == 0 { u1[k] } else { f[k] });
-    Record { u, f: fm, y }
+    let u1 = rbs(len, 2 * seed)?;
+    let f = rbs(len, 2 * seed + 1)?;
+    let r1 = DMatrix::from_fn(len, 2, |k, c| if c == 1 { f[k] } else { 0.0 });
+    let r2 = DMatrix::from_fn(len, 2, |k, c| if c == 0 { u1[k] } else { 0.0 });
+    let out = sim.simulate(&Excitation::both(r1, r2))?;
+    let instruments = DMatrix::from_fn(len, 2, |k, c| if c == 0 { u1[k] } else { f[k] });
+    Ok(Record {
+        data: out.data,
+        f: instruments,
+    })
 }
 
 fn two_step(rec: &Record) -> Result<StateSpace, MrError> {
-    let lifting = MultirateLifting::mimo(2, &[5, 1], Ordering::TimeMajor)?;
-    let ds = lifting.dataset(1.0, rec.u.clone(), rec.y.clone())?;
     let opts = LiftedIvOptions {
         order: OrderSelection::Fixed(3),
         alpha: 6,
         alpha_p: Some(12),
         ..Default::default()
     };
-    Ok(identify_lifted_iv(&ds, &rec.f, Ordering::TimeMajor, &opts)?.fast)
+    Ok(identify_lifted_iv(&rec.data, &rec.f, Ordering::TimeMajor, &opts)?.fast)
 }
 
 /// A3.9 multirate stirred tank.
@@ -112,8 +108,7 @@ pub fn run() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A3.9b", "§7.8.2 multirate stirred tank: two-step lifted IV");
     let truth = plant()?;
     // noise free
-    let mut rng = ChaCha8Rng::seed_from_u64(7820);
-    let rec = simulate(5000, None, &mut rng);
+    let rec = simulate(LEN, 7820, None)?;
     let g = two_step(&rec)?;
     let e = step_errors(&g, &truth, 300)?;
     let worst_nf = e[(0, 0)].max(e[(1, 0)]).max(e[(1, 1)]);
@@ -126,10 +121,8 @@ pub fn run() -> BoxResult<Reproduction> {
         .with_note("spec A3.9: < 0.01 (RI ≤ 0.004)"),
     );
     // one-step route must report the rank deficiency of Γ_R (L-18)
-    let lifting = MultirateLifting::mimo(2, &[5, 1], Ordering::TimeMajor)?;
-    let ds = lifting.dataset(1.0, rec.u.clone(), rec.y.clone())?;
     let one = identify_one_step_iv(
-        &ds,
+        &rec.data,
         &rec.f,
         &MultirateIvOptions {
             order: OrderSelection::Fixed(3),
@@ -150,14 +143,17 @@ pub fn run() -> BoxResult<Reproduction> {
     ));
     // std-SNR 5, 8 seeds
     let mut errs = Vec::new();
-    let mut unstable = 0;
+    let mut unstable = Vec::new();
     let mut other = Vec::new();
     for seed in 0..8u64 {
-        let mut rng = ChaCha8Rng::seed_from_u64(7821 + seed);
-        let rec = simulate(5000, Some(5.0), &mut rng);
+        let rec = simulate(LEN, 7821 + seed, Some((5.0, 7821 + seed)))?;
         match two_step(&rec) {
             Ok(g) => errs.push(step_errors(&g, &truth, 300)?),
-            Err(MrError::Unstable { .. }) => unstable += 1,
+            Err(MrError::Unstable {
+                spectral_radius, ..
+            }) => unstable.push(format!(
+                "seed {seed}: lifted spectral radius {spectral_radius:.3}"
+            )),
             Err(e) => other.push(format!("seed {seed}: {e}")),
         }
     }
@@ -166,14 +162,25 @@ pub fn run() -> BoxResult<Reproduction> {
         other.join("; "),
         other.is_empty(),
     ));
-    rep.check(
-        Check::above(
-            "stable seeds (of 8); unstable ones are returned as Error::Unstable",
-            (8 - unstable - other.len()) as f64,
-            6.5,
-        )
-        .with_note("spec A3.9: at least 7 of 8 (RI: one seed had lifted pole 1.047)"),
+    let stable = 8 - unstable.len() - other.len();
+    let mut stable_check = Check::above(
+        "stable seeds (of 8); unstable ones are returned as Error::Unstable",
+        stable as f64,
+        6.5,
+    )
+    .with_note(
+        "spec A3.9: at least 7 of 8 (RI: one seed had lifted pole 1.047). Not reliably \
+         reachable by this method: in a scan of 400 seeds (same set-up, not part of this run) \
+         the lifted IV estimate was unstable on 112 (28%) with lifted-sim's noise, on 98 \
+         (24.5%) with the previous hand-made simulation, and the spec's reference \
+         implementation (ex782mr.py, α = 6, std-SNR 5) on 56 of 200 (28%): only 26%, 36% \
+         and 20% of the 8-seed blocks, respectively, have ≤ 1 unstable seed. Seeds 7821–7828 were kept from the \
+         previous version (not re-chosen); the bound is left as the spec states it",
     );
+    if !unstable.is_empty() {
+        stable_check.condition = format!("{}; {}", stable_check.condition, unstable.join("; "));
+    }
+    rep.check(stable_check);
     let med = |i: usize, j: usize| median(&errs.iter().map(|e| e[(i, j)]).collect::<Vec<_>>());
     for (name, i, j, bound, ri) in [
         ("G11", 0, 0, 0.15, "0.08"),
