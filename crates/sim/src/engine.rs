@@ -123,6 +123,10 @@ pub(crate) enum Structure {
         k: Option<Block>,
         phat: Option<Block>,
         feedback: FeedbackKind,
+        /// Controller execution (period, phase) in base periods: it runs at
+        /// k ≡ phase (mod period); in between its state is frozen and its
+        /// output held.
+        k_rate: (usize, usize),
     },
     Whole {
         cl: Block,
@@ -140,6 +144,8 @@ pub(crate) struct Engine {
     start_mask: Vec<bool>,
     /// frame × ny: whether output j is sampled at this phase.
     sample_mask: Vec<bool>,
+    /// frame: whether the controller runs at this phase.
+    k_exec: Vec<bool>,
     /// Per phase: (I + S_h D_K D_v)⁻¹ row-major, when it is not the identity.
     solve: Vec<Option<Vec<f64>>>,
     pub limit: f64,
@@ -177,11 +183,16 @@ impl Engine {
         sampling: &[(usize, usize)],
         limit: f64,
     ) -> Result<Self> {
+        let k_rate = match &structure {
+            Structure::Loop { k_rate, .. } => *k_rate,
+            Structure::Whole { .. } => (1, 0),
+        };
         let frame = holds
             .iter()
             .map(|h| h.0)
             .chain(sampling.iter().map(|s| s.0))
-            .fold(1, lcm);
+            .fold(k_rate.0, lcm);
+        let k_exec: Vec<bool> = (0..frame).map(|ph| ph % k_rate.0 == k_rate.1).collect();
         let mut start_mask = vec![false; frame * nu];
         let mut sample_mask = vec![false; frame * ny];
         for ph in 0..frame {
@@ -200,7 +211,9 @@ impl Engine {
                 let off_p = off_k + nk;
                 let off_u = off_p + np;
                 let off_v = off_u + nu;
-                (off_v + ny, off_k, off_p, off_u)
+                // the held controller output, when it does not run every sample
+                let nkh = if k.is_some() && k_rate.0 > 1 { nu } else { 0 };
+                (off_v + ny + nkh, off_k, off_p, off_u)
             }
             Structure::Whole { cl } => (cl.n, cl.n, cl.n, cl.n),
         };
@@ -210,9 +223,14 @@ impl Engine {
             k: Some(kb),
             phat,
             feedback,
+            ..
         } = &structure
         {
             for (ph, slot) in solve.iter_mut().enumerate() {
+                if !k_exec[ph] {
+                    // the held controller output does not feed through
+                    continue;
+                }
                 // F = I + S_h D_K D_v
                 let mut f = DMatrix::<f64>::identity(nu, nu);
                 let mut nonzero = false;
@@ -263,6 +281,7 @@ impl Engine {
             frame,
             start_mask,
             sample_mask,
+            k_exec,
             solve,
             limit,
             nz,
@@ -297,11 +316,14 @@ impl Engine {
                 k: kb,
                 phat,
                 feedback,
+                ..
             } => {
+                let exec = self.k_exec[ph];
                 let (xg, rest) = z.split_at(g.n);
                 let (xk, rest) = rest.split_at(self.off_p - self.off_k);
                 let (xp, rest) = rest.split_at(self.off_u - self.off_p);
-                let (uprev, vheld) = rest.split_at(nu);
+                let (uprev, rest) = rest.split_at(nu);
+                let (vheld, khold) = rest.split_at(ny);
                 let yg = &mut s.yc;
                 g.cx(xg, yg);
                 if let Some(p) = phat {
@@ -329,8 +351,12 @@ impl Engine {
                     s.efree[j] = r1[j] - vf;
                 }
                 if let Some(kb) = kb {
-                    kb.cx(xk, &mut s.yk);
-                    kb.add_du(&s.efree, &mut s.yk);
+                    if exec {
+                        kb.cx(xk, &mut s.yk);
+                        kb.add_du(&s.efree, &mut s.yk);
+                    } else {
+                        s.yk.copy_from_slice(khold);
+                    }
                 }
                 let hmask = &self.start_mask[ph * nu..(ph + 1) * nu];
                 for i in 0..nu {
@@ -382,10 +408,21 @@ impl Engine {
                 let (xgn, rest) = zn.split_at_mut(g.n);
                 let (xkn, rest) = rest.split_at_mut(self.off_p - self.off_k);
                 let (xpn, rest) = rest.split_at_mut(self.off_u - self.off_p);
-                let (un, vn) = rest.split_at_mut(nu);
+                let (un, rest) = rest.split_at_mut(nu);
+                let (vn, khn) = rest.split_at_mut(ny);
                 g.update(xg, u, xgn);
                 if let Some(kb) = kb {
-                    kb.update(xk, &s.efree, xkn);
+                    if exec {
+                        if !khn.is_empty() {
+                            // the output it ran with, for the samples until it runs again
+                            kb.cx(xk, khn);
+                            kb.add_du(&s.efree, khn);
+                        }
+                        kb.update(xk, &s.efree, xkn);
+                    } else {
+                        xkn.copy_from_slice(xk);
+                        khn.copy_from_slice(khold);
+                    }
                 }
                 if let Some(p) = phat {
                     p.update(xp, u, xpn);
@@ -538,9 +575,8 @@ impl Engine {
                 order.push(self.off_u + i);
                 order.push(o_r2 + i);
             }
-            for j in 0..ny {
-                order.push(self.off_u + nu + j);
-            }
+            // held values: outputs v, then the held controller output
+            order.extend(self.off_u + nu..nz);
         } else {
             order.extend(o_r2..o_r2 + nu);
         }
@@ -1175,6 +1211,7 @@ mod tests {
                 k: Some(Block::new(&k)),
                 phat: None,
                 feedback: FeedbackKind::HoldLast,
+                k_rate: (1, 0),
             },
             2,
             2,

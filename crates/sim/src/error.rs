@@ -75,6 +75,25 @@ pub enum Error {
         /// Output channel.
         channel: usize,
     },
+    /// The controller's sample period is not an integer multiple of the
+    /// plant's base period.
+    #[error(
+        "controller sample period {controller} s is not an integer multiple (≥ 1) of the base period {base} s"
+    )]
+    ControllerPeriod {
+        /// The controller model's sample period (s).
+        controller: f64,
+        /// The plant's base period (s).
+        base: f64,
+    },
+    /// The controller's execution phase is not below its period.
+    #[error("controller phase {phase} must be < its period {period} (base periods)")]
+    ControllerPhase {
+        /// Requested phase.
+        phase: usize,
+        /// Controller period in base periods.
+        period: usize,
+    },
     /// A sampling offset is not below its period.
     #[error("output channel {channel}: offset {offset} must be < period {period}")]
     OffsetOutOfRange {

@@ -206,14 +206,23 @@ fn stack_outputs(rows: &[StateSpace], ts: Option<f64>) -> Result<StateSpace> {
     Ok(StateSpace::new(a, b, c, d, ts)?)
 }
 
-/// A discrete controller at the base period: u_K = K(r₁ − v), where v is
-/// the fed-back measurement. K maps n_y error channels to n_u inputs.
+/// A discrete controller: u_K = K(r₁ − v), where v is the fed-back
+/// measurement. K maps n_y error channels to n_u inputs.
 ///
 /// Zero entries of K leave loops open (thesis §7.5: some loops closed,
 /// others open), e.g. [`Controller::decentralized`].
+///
+/// **Execution rate.** A controller whose model runs at the plant's base
+/// period T executes every sample. A model at an integer multiple m·T
+/// executes every m samples, at k ≡ phase (mod m) ([`Controller::with_phase`],
+/// default 0): it reads the measurement then, updates its state once and
+/// holds its output until it runs again (the slow digital controller of a
+/// multirate loop, e.g. one that acts when a lab analysis arrives). Between
+/// executions r₂ and the input holds still act at the base period.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Controller {
     model: StateSpace,
+    phase: usize,
 }
 
 impl Controller {
@@ -222,7 +231,10 @@ impl Controller {
         if !sys.is_discrete() {
             return Err(Error::NotDiscrete { what: "controller" });
         }
-        Ok(Controller { model: sys.clone() })
+        Ok(Controller {
+            model: sys.clone(),
+            phase: 0,
+        })
     }
 
     /// A discrete transfer-function controller (n_u × n_y, positive powers of z).
@@ -238,6 +250,7 @@ impl Controller {
         check_ts(ts)?;
         Ok(Controller {
             model: StateSpace::gain(k, Some(ts))?,
+            phase: 0,
         })
     }
 
@@ -274,10 +287,47 @@ impl Controller {
         Self::from_tf(&TransferFunction::from_entries(rows, Some(ts))?)
     }
 
+    /// Sets the sample, modulo the controller's period m (model period /
+    /// base period), at which it executes (validated against m when the
+    /// loop is built: [`Error::ControllerPhase`]). Default 0.
+    pub fn with_phase(mut self, phase: usize) -> Self {
+        self.phase = phase;
+        self
+    }
+
     /// The controller model.
     pub fn model(&self) -> &StateSpace {
         &self.model
     }
+
+    /// The execution phase ([`Controller::with_phase`]).
+    pub fn phase(&self) -> usize {
+        self.phase
+    }
+}
+
+/// The number of base periods `ts` in the controller's period, when it is
+/// an integer m ≥ 1 (within the sample-period tolerance).
+pub(crate) fn controller_period(k: &Controller, ts: f64) -> Result<usize> {
+    let kt = k
+        .model
+        .ts()
+        .ok_or(Error::NotDiscrete { what: "controller" })?;
+    let m = (kt / ts).round();
+    if !m.is_finite() || m < 1.0 || (kt - m * ts).abs() > TS_TOL * kt {
+        return Err(Error::ControllerPeriod {
+            controller: kt,
+            base: ts,
+        });
+    }
+    let m = m as usize;
+    if k.phase >= m {
+        return Err(Error::ControllerPhase {
+            phase: k.phase,
+            period: m,
+        });
+    }
+    Ok(m)
 }
 
 /// The closed loop y = G(r₂ + K(r₁ − y)) (negative feedback, spec A2.2) as

@@ -163,9 +163,12 @@ impl Simulator {
         )
     }
 
-    /// Plant with a discrete controller at the base period:
-    /// u = r₂ + K(r₁ − v), y = Gu + v (negative feedback, spec A2.2).
-    /// Errors: controller dimensions (n_u × n_y), sample period.
+    /// Plant with a discrete controller: u = r₂ + K(r₁ − v), y = Gu + v
+    /// (negative feedback, spec A2.2). The controller runs every sample when
+    /// its model is at the base period, every m samples when it is at m·T
+    /// (see [`Controller`]).
+    /// Errors: controller dimensions (n_u × n_y), [`Error::ControllerPeriod`],
+    /// [`Error::ControllerPhase`].
     pub fn closed_loop(plant: Plant, controller: Controller) -> Result<Self> {
         let (ny, nu) = (plant.model().n_outputs(), plant.model().n_inputs());
         let k = controller.model();
@@ -183,7 +186,7 @@ impl Simulator {
                 got: k.n_outputs(),
             });
         }
-        check_discrete_at("controller", k, plant.ts())?;
+        crate::model::controller_period(&controller, plant.ts())?;
         Ok(Self::build(
             plant.ts(),
             ny,
@@ -403,14 +406,31 @@ impl Simulator {
             .iter()
             .map(|c| c.hold)
             .chain(self.outputs.iter().map(|c| c.period))
-            .fold(1, crate::engine::lcm)
+            .fold(self.controller_rate().0, crate::engine::lcm)
+    }
+
+    /// The controller's (period, phase) in base periods; (1, 0) without one.
+    fn controller_rate(&self) -> (usize, usize) {
+        match &self.kind {
+            Kind::Plant {
+                controller: Some(k),
+                ..
+            } => (
+                crate::model::controller_period(k, self.ts).unwrap_or(1),
+                k.phase(),
+            ),
+            _ => (1, 0),
+        }
     }
 
     /// The loop as one discrete LTI model [r₁; r₂] → [y; u] at the base
     /// period (noise-free), for the single-rate cases: fast feedback and
     /// unit holds. Open loop: [y; u] from [r₁; r₂] with r₁ unused.
     pub fn lti_model(&self) -> Result<StateSpace> {
-        if self.inputs.iter().any(|c| c.hold != 1) || self.feedback != Feedback::Fast {
+        if self.inputs.iter().any(|c| c.hold != 1)
+            || self.feedback != Feedback::Fast
+            || self.controller_rate().0 != 1
+        {
             return Err(Error::Unsupported {
                 what: "lti_model of a multirate (periodically time-varying) loop",
             });
@@ -457,6 +477,7 @@ impl Simulator {
                         k,
                         phat,
                         feedback: fb,
+                        k_rate: self.controller_rate(),
                     },
                     self.ny,
                     self.nu,

@@ -6,6 +6,8 @@ mod bad_input;
 mod closed_loop;
 #[path = "suite/common.rs"]
 mod common;
+#[path = "suite/controller_rate.rs"]
+mod controller_rate;
 #[path = "suite/fast_path.rs"]
 mod fast_path;
 #[path = "suite/fixtures.rs"]

@@ -43,16 +43,17 @@ fn controller_dimension_mismatch() {
 }
 
 #[test]
-fn controller_must_be_discrete_at_the_base_period() {
+fn controller_must_be_discrete_at_a_multiple_of_the_base_period() {
     let cont = tf(&[1.0], &[1.0, 1.0], None);
     assert!(matches!(
         Controller::from_ss(&cont),
         Err(Error::NotDiscrete { .. })
     ));
+    // faster than the plant's base period: not an integer multiple ≥ 1
     let k = Controller::gain(DMatrix::zeros(2, 2), 0.5).unwrap();
     assert!(matches!(
         Simulator::closed_loop(plant2x2(), k),
-        Err(Error::SamplePeriodMismatch { .. })
+        Err(Error::ControllerPeriod { .. })
     ));
 }
 
