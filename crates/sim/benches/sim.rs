@@ -145,6 +145,16 @@ fn closed_loop(c: &mut Criterion<CpuTime>) {
             b.iter(|| black_box(clean.simulate(exc).expect("runs")));
         });
         g.bench_with_input(
+            BenchmarkId::new("noise_free_into_buffers", n),
+            &exc,
+            |b, exc| {
+                b.iter(|| {
+                    clean.simulate_into(exc, &mut sig).expect("runs");
+                    black_box(&sig);
+                });
+            },
+        );
+        g.bench_with_input(
             BenchmarkId::new("noise_free_reference", n),
             &exc,
             |b, exc| {

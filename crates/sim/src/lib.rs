@@ -5,7 +5,7 @@
 //! | item | what |
 //! |---|---|
 //! | [`Plant`] ([`Delays`]) | continuous plant discretised by ZOH with **exact** fractional input/output delays, or a discrete plant at the base period T |
-//! | [`Controller`] | discrete controller at T (state space, transfer function, gain, decentralised with open loops) |
+//! | [`Controller`] | discrete controller (state space, transfer function, gain, decentralised with open loops) at T, or at m·T executing every m samples at a chosen phase |
 //! | [`WholeLoop`], [`closed_loop`] | a continuous closed loop discretised as a whole (Ren & Zhu, spec A2.3); the loop algebra y = G(r₂ + K(r₁ − y)) |
 //! | [`Simulator`] | open loop, plant + controller (fast, hold-last or inferential feedback), or a whole loop; input holds m_i and output sampling (J_i, offset); produces a [`lifted_lti::Dataset`] ([`SimOutput`]) or fills reusable [`SimSignals`] |
 //! | [`NoiseSpec`] | seeded white noise through a (Box–Jenkins) noise model, optionally integrated, at an absolute level or a per-channel SNR (variance or std ratio) |
@@ -23,7 +23,9 @@
 //! The loop (spec A2.2, negative feedback) at sample k is
 //!
 //! * u(k) = r₂(k) + K(r₁ − v)(k) at the start of each input's hold block
-//!   (u held otherwise, m_i samples; thesis eq. 3.1 setting),
+//!   (u held otherwise, m_i samples; thesis eq. 3.1 setting); a controller
+//!   whose model is at m·T runs only at k ≡ phase (mod m), its state frozen
+//!   and its output held in between,
 //! * y(k) = (Gu)(k) + v_n(k) with the output noise v_n = α ∘ H(q)e,
 //! * v(k) = y(k) (fast feedback), the last sample of y (hold-last), or the
 //!   inferential switch of thesis §9.3 (Fig. 9.4, spec A3.11):
@@ -47,9 +49,9 @@
 //!
 //! # Complexity
 //!
-//! A run costs O(N · r · c) for the fused per-phase map (r = n_z + n_y +
-//! n_u rows, c ≤ n_z + 2n_y + n_u active columns): one dense product per
-//! sample, no allocation in the loop ([`Simulator::simulate_reference`] steps
+//! A run costs O(N · r · c) for the fused per-phase map (r = live states +
+//! n_y + n_u rows, c ≤ n_z + 2n_y + n_u active columns): one dense product
+//! per sample, blocks of 64 samples, no allocation in the loop ([`Simulator::simulate_reference`] steps
 //! the blocks instead, O(N(n² + nm + pn)); both agree to rounding). The
 //! per-phase matrices cost (frame period) · c reference steps to build.
 //! [`Simulator::simulate_into`] reuses caller buffers (see the criterion
