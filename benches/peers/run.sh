@@ -14,6 +14,9 @@ if [ ! -x "$VENV/bin/python" ]; then
   # (SLICOT's subspace routines), so it cannot identify; installed for reference.
   "$VENV/bin/pip" install -q control slycot || echo "slycot: no wheel for this platform"
 fi
+# a venv created by sim_run.sh (scipy/control/slycot only) lacks the identification peers
+"$VENV/bin/python" -c "import sippy_unipi, nfoursid, pandas" 2>/dev/null \
+  || "$VENV/bin/pip" install -q numpy scipy pandas sippy-unipi nfoursid
 "$VENV/bin/python" -c "import slycot; print('slycot', slycot.__version__, 'has ib01ad:', hasattr(slycot, 'ib01ad'))" || true
 cargo build --release -p lifted-benches --example peer_lifted
 echo "date: $(date -u +%FT%TZ)  nproc: $(nproc)  uptime: $(uptime)"
