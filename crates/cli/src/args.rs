@@ -22,6 +22,8 @@ pub enum Command {
     Rbs(RbsArgs),
     /// Generate generalized binary noise (switching probability p).
     Gbn(GbnArgs),
+    /// Generate seeded Gaussian white noise (standard deviation σ, held n_r samples).
+    Gaussian(GaussianArgs),
     /// Generate a Schroeder-phased multisine.
     Multisine(MultisineArgs),
     /// Propose (n, n_r, a) from the plant's time scales and the actuator rate (Zhu 2000 §III.D, Table II).
@@ -93,6 +95,26 @@ pub struct RbsArgs {
     /// Magnitude a.
     #[arg(long, default_value_t = 1.0)]
     pub amplitude: f64,
+    /// Hold n_r (samples per value).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// Seed of the ChaCha8 generator.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output file, name, period.
+    #[command(flatten)]
+    pub out: SignalOut,
+}
+
+/// `lifted gaussian`.
+#[derive(Debug, Args)]
+pub struct GaussianArgs {
+    /// Number of samples.
+    #[arg(long)]
+    pub len: usize,
+    /// Standard deviation σ.
+    #[arg(long, default_value_t = 1.0)]
+    pub std: f64,
     /// Hold n_r (samples per value).
     #[arg(long, default_value_t = 1)]
     pub hold: usize,

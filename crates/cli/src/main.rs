@@ -32,6 +32,7 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Prbs(a) => signals::prbs(&a),
         Command::Rbs(a) => signals::rbs(&a),
         Command::Gbn(a) => signals::gbn(&a),
+        Command::Gaussian(a) => signals::gaussian(&a),
         Command::Multisine(a) => signals::multisine_cmd(&a),
         Command::Design(a) => signals::design_cmd(&a),
         Command::Simulate(a) => model::simulate(&a),

@@ -1,11 +1,12 @@
-//! `prbs`, `rbs`, `gbn`, `multisine` and `design`.
+//! `prbs`, `rbs`, `gbn`, `gaussian`, `multisine` and `design`.
 
 use lifted_prbs::{
-    DesignRequest, GbnOptions, InversePrbs, InversePrbsOptions, MSequence, MultisineOptions,
-    RandomBinaryOptions, design, generalized_binary_noise, multisine, random_binary,
+    DesignRequest, GaussianOptions, GbnOptions, InversePrbs, InversePrbsOptions, MSequence,
+    MultisineOptions, RandomBinaryOptions, design, gaussian_white, generalized_binary_noise,
+    multisine, random_binary,
 };
 
-use crate::args::{DesignArgs, GbnArgs, MultisineArgs, PrbsArgs, RbsArgs, SignalOut};
+use crate::args::{DesignArgs, GaussianArgs, GbnArgs, MultisineArgs, PrbsArgs, RbsArgs, SignalOut};
 use crate::error::{CliResult, Context, input};
 use crate::table::write_columns;
 
@@ -114,6 +115,21 @@ pub fn gbn(a: &GbnArgs) -> CliResult<()> {
         },
     )
     .ctx("gbn")?;
+    write_signal(&a.out, w)
+}
+
+/// `lifted gaussian`.
+pub fn gaussian(a: &GaussianArgs) -> CliResult<()> {
+    let len = check_len(a.len as u64)?;
+    let w = gaussian_white(
+        len,
+        &GaussianOptions {
+            std: a.std,
+            hold: a.hold,
+            seed: a.seed,
+        },
+    )
+    .ctx("gaussian")?;
     write_signal(&a.out, w)
 }
 

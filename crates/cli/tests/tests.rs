@@ -234,7 +234,40 @@ mod generate {
             "--out",
             &p(&d, "m.csv"),
         ]);
-        for f in ["r.csv", "g.csv"] {
+        ok(&[
+            "gaussian",
+            "--len",
+            "100",
+            "--std",
+            "0.5",
+            "--hold",
+            "2",
+            "--seed",
+            "4",
+            "--out",
+            &p(&d, "n.csv"),
+        ]);
+        let n = std::fs::read_to_string(p(&d, "n.csv")).unwrap();
+        let vals: Vec<f64> = n
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect();
+        assert!(vals.chunks(2).all(|c| c[0] == c[1]), "held pairs");
+        let e = fails(
+            &[
+                "gaussian",
+                "--len",
+                "10",
+                "--std",
+                "0",
+                "--out",
+                &p(&d, "x.csv"),
+            ],
+            2,
+        );
+        assert!(e.contains("standard deviation"), "{e}");
+        for f in ["r.csv", "g.csv", "n.csv"] {
             assert_eq!(
                 std::fs::read_to_string(p(&d, f)).unwrap().lines().count(),
                 101
@@ -833,6 +866,7 @@ mod bad_input {
             "prbs",
             "rbs",
             "gbn",
+            "gaussian",
             "multisine",
             "design",
             "simulate",

@@ -1,6 +1,6 @@
 //! Excitation signals for multirate identification: m-sequences, the inverse PRBS of
 //! Zhu (2000) and Ren & Zhu (2009), the PRBS held `n_r` samples and its closed-form
-//! autocorrelation, random binary / GBN / multisine signals, multichannel plans, the
+//! autocorrelation, random binary / GBN / Gaussian / multisine signals, multichannel plans, the
 //! "vectorized" excitation of Li (2001) §6.3, and the design rules of Zhu (2000) §III.D.
 //!
 //! # Method
@@ -84,8 +84,8 @@ pub use mseq::{
 };
 pub use plan::{ChannelScheme, ExperimentPlan, PlanOptions, Segment};
 pub use random::{
-    GbnOptions, MultisineOptions, RandomBinaryOptions, generalized_binary_noise, multisine,
-    random_binary,
+    GaussianOptions, GbnOptions, MultisineOptions, RandomBinaryOptions, gaussian_white,
+    generalized_binary_noise, multisine, random_binary,
 };
 pub use vectorized::{
     VectorizedExcitation, VectorizedOptions, lifted_covariance, vectorized_excitation,

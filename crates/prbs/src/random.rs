@@ -1,11 +1,12 @@
 //! Seeded random excitations: random binary sequence (RBS), generalized binary noise
-//! (GBN) and Schroeder-phased multisine.
+//! (GBN), Gaussian white noise and Schroeder-phased multisine.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, check_amplitude, check_factor};
+use crate::error::{Error, Result, check_amplitude, check_factor, check_positive};
 
 /// Options of a random binary sequence: `±a` with probability ½ each, every value
 /// held `hold` samples (spec §0 "RBS").
@@ -123,6 +124,59 @@ pub fn generalized_binary_noise(len: usize, options: &GbnOptions) -> Result<Vec<
         first = false;
         let take = (len - out.len()).min(options.hold);
         out.extend(std::iter::repeat_n(v, take));
+    }
+    Ok(out)
+}
+
+/// Options of seeded Gaussian white noise `N(0, σ²)`, every value held `hold`
+/// samples: the "white Gaussian" input of the subspace and lifting experiments
+/// (e.g. spec A3.6 experiment 1), where a binary signal's ±a values are not wanted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct GaussianOptions {
+    /// Standard deviation `σ > 0`. Default 1.0.
+    pub std: f64,
+    /// Samples each value is held (`n_r`, eq. II-7). Default 1.
+    pub hold: usize,
+    /// Seed of the `ChaCha8Rng`. Default 0.
+    pub seed: u64,
+}
+
+impl Default for GaussianOptions {
+    fn default() -> Self {
+        Self {
+            std: 1.0,
+            hold: 1,
+            seed: 0,
+        }
+    }
+}
+
+/// Gaussian white noise of `len` samples (standard normals from `rand_distr`'s
+/// ziggurat on a seeded `ChaCha8Rng`, scaled by σ, each held `hold` samples).
+/// O(len).
+///
+/// # Errors
+/// [`Error::ZeroLength`], [`Error::InvalidParameter`] (σ not finite and
+/// positive), [`Error::ZeroFactor`].
+///
+/// ```
+/// use lifted_prbs::{GaussianOptions, gaussian_white};
+/// let w = gaussian_white(6, &GaussianOptions { std: 2.0, hold: 3, seed: 7 })?;
+/// assert_eq!(w[0], w[2]);
+/// assert_ne!(w[2], w[3]);
+/// # Ok::<(), lifted_prbs::Error>(())
+/// ```
+pub fn gaussian_white(len: usize, options: &GaussianOptions) -> Result<Vec<f64>> {
+    check_len(len)?;
+    check_positive("standard deviation σ", options.std)?;
+    check_factor("hold n_r", options.hold)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut out = Vec::with_capacity(len);
+    while out.len() < len {
+        let z: f64 = rng.sample(StandardNormal);
+        let take = (len - out.len()).min(options.hold);
+        out.extend(std::iter::repeat_n(options.std * z, take));
     }
     Ok(out)
 }

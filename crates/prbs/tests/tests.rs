@@ -337,9 +337,56 @@ mod inverse {
 
 mod random {
     use lifted_prbs::{
-        GbnOptions, MultisineOptions, RandomBinaryOptions, generalized_binary_noise, multisine,
-        random_binary,
+        Error, GaussianOptions, GbnOptions, MultisineOptions, RandomBinaryOptions, gaussian_white,
+        generalized_binary_noise, multisine, random_binary,
     };
+
+    #[test]
+    fn gaussian_seeds_moments_and_hold() {
+        let o = |seed, hold| GaussianOptions {
+            std: 2.0,
+            hold,
+            seed,
+        };
+        let a = gaussian_white(40_000, &o(3, 1)).unwrap();
+        assert_eq!(a, gaussian_white(40_000, &o(3, 1)).unwrap());
+        assert_ne!(a, gaussian_white(40_000, &o(4, 1)).unwrap());
+        let n = a.len() as f64;
+        let mean = a.iter().sum::<f64>() / n;
+        let var = a.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        // σ = 2: the mean's standard error is 2/√40000 = 0.01 (allow 5σ); the
+        // sample variance's is 4·√(2/40000) ≈ 0.028 (allow 5σ)
+        assert!(mean.abs() < 0.05, "mean {mean}");
+        assert!((var - 4.0).abs() < 0.15, "variance {var}");
+        // lag-1 correlation of white noise: standard error 1/√n = 0.005
+        let r1 = a
+            .windows(2)
+            .map(|w| (w[0] - mean) * (w[1] - mean))
+            .sum::<f64>()
+            / (n * var);
+        assert!(r1.abs() < 0.025, "lag-1 correlation {r1}");
+        // held: blocks of 4 equal values, the same draws as hold 1
+        let h = gaussian_white(1000, &o(3, 4)).unwrap();
+        for (k, c) in h.chunks(4).enumerate() {
+            assert!(c.iter().all(|&v| v == a[k]), "block {k}");
+        }
+        // bad input
+        assert!(matches!(
+            gaussian_white(0, &o(1, 1)),
+            Err(Error::ZeroLength { .. })
+        ));
+        for std in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let bad = GaussianOptions {
+                std,
+                ..Default::default()
+            };
+            assert!(matches!(
+                gaussian_white(10, &bad),
+                Err(Error::InvalidParameter { .. })
+            ));
+        }
+        assert!(gaussian_white(10, &o(1, 0)).is_err());
+    }
 
     #[test]
     fn rbs_seeds() {
