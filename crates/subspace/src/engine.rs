@@ -12,7 +12,11 @@ use crate::error::{Error, Result, check_data};
 use crate::hankel::{
     Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
 };
-use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
+use crate::order::{
+    OrderCriterion, OrderReport, gap_order, gap_values, information_criterion_values,
+    simulation_error, svc_values,
+};
+use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -54,13 +58,16 @@ pub enum SystemEstimate {
     StateSequence,
 }
 
-/// How the model order is chosen from the singular values.
+/// How the model order is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum OrderSelection {
     /// Use this order.
     Fixed(usize),
-    /// The largest gap log(σ_n/σ_{n+1}) for 1 ≤ n ≤ `max` (capped at the
-    /// largest admissible order).
+    /// Automatic choice among 1 ≤ n ≤ `max` by the options'
+    /// `order_criterion` ([`OrderCriterion`]): by default the largest gap
+    /// ln(σ_n/σ_{n+1}) (then `max` is capped at the largest admissible
+    /// order); Bauer's SVC or SIPPY's AIC/AICc/BIC (then a `max` above the
+    /// largest admissible order is an [`Error::OrderTooLarge`]).
     Gap {
         /// Largest order considered.
         max: usize,
@@ -80,6 +87,11 @@ pub struct SubspaceOptions {
     pub method: Method,
     /// Order choice. Default `Gap { max: 10 }`.
     pub order: OrderSelection,
+    /// Rule of the automatic order choice, and the criterion whose values
+    /// per order are reported in [`Diagnostics::order_selection`]. Default
+    /// [`OrderCriterion::Gap`] (singular-value gap; Bauer 2001 SVC and
+    /// SIPPY's AIC/AICc/BIC in [`OrderCriterion`]).
+    pub order_criterion: OrderCriterion,
     /// Past horizon p (block rows of U_p, Y_p; "i" of thesis §2.3). Default 10.
     pub past: usize,
     /// Future horizon f (block rows of U_f, Y_f). Default 10.
@@ -116,6 +128,7 @@ impl Default for SubspaceOptions {
         SubspaceOptions {
             method: Method::N4sid,
             order: OrderSelection::default(),
+            order_criterion: OrderCriterion::Gap,
             past: 10,
             future: 10,
             feedthrough: Feedthrough::Free,
@@ -147,12 +160,18 @@ pub struct NoiseCovariances {
 pub struct Diagnostics {
     /// Method used.
     pub method: Method,
-    /// All singular values of the weighted projection W₁ Φ W₂ (descending).
+    /// All singular values of the weighted projection W₁ Φ W₂ (descending;
+    /// N4SID's and MOESP's in the units of y, CVA's are canonical
+    /// correlations).
     pub singular_values: Vec<f64>,
     /// Order used.
     pub order: usize,
     /// Order suggested by the gap rule (whatever was used).
     pub suggested_order: usize,
+    /// The order criterion of the options with its value for every
+    /// candidate order and the order it selects (for a fixed order: the
+    /// orders up to min((f − 1) n_y, 10)).
+    pub order_selection: OrderReport,
     /// Past and future horizons.
     pub horizons: (usize, usize),
     /// Hankel columns J (all records).
@@ -199,28 +218,6 @@ pub struct SubspaceModel {
     pub x0: Vec<DVector<f64>>,
     /// Singular values, orders and other diagnostics.
     pub diagnostics: Diagnostics,
-}
-
-/// Gap rule: argmax_{1≤n≤max} log(σ_n/σ_{n+1}).
-pub fn gap_order(singular_values: &[f64], max: usize) -> usize {
-    let max = max.min(singular_values.len().saturating_sub(1)).max(1);
-    // Values below ε·len·σ₁ are numerically zero: floor them there so that
-    // rounding noise beyond the true order does not create spurious gaps.
-    let s0 = singular_values.first().cloned().unwrap_or(0.0);
-    let floor = (s0 * f64::EPSILON * singular_values.len() as f64).max(f64::MIN_POSITIVE);
-    let mut best = (1, f64::NEG_INFINITY);
-    for n in 1..=max {
-        if n >= singular_values.len() {
-            break;
-        }
-        let hi = singular_values[n - 1].max(floor);
-        let lo = singular_values[n].max(floor);
-        let g = (hi / lo).ln();
-        if g > best.1 {
-            best = (n, g);
-        }
-    }
-    best.0
 }
 
 /// Removes the row space of `u` from the rows of `m`: m Π_{u⊥}.
@@ -372,15 +369,103 @@ fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelL
         ny,
     };
     let max_order = (f - 1) * ny;
-    if let OrderSelection::Fixed(n) = opts.order
-        && (n == 0 || n > max_order)
-    {
+    check_order(opts.order, opts.order_criterion, max_order)?;
+    Ok(layout)
+}
+
+/// A fixed order, or the `max` of a criterion other than the gap rule, must
+/// lie in 1..=`max_order` ([`Error::OrderTooLarge`]); the gap rule caps its
+/// `max` instead (unchanged behaviour).
+pub(crate) fn check_order(
+    order: OrderSelection,
+    criterion: OrderCriterion,
+    max_order: usize,
+) -> Result<()> {
+    let n = match order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { max } if criterion != OrderCriterion::Gap => max,
+        OrderSelection::Gap { .. } => return Ok(()),
+    };
+    if n == 0 || n > max_order {
         return Err(Error::OrderTooLarge {
             order: n,
             max: max_order,
         });
     }
-    Ok(layout)
+    Ok(())
+}
+
+/// The candidate orders 1..=cap of the order report: `max` of
+/// [`OrderSelection::Gap`] (capped at `max_order` for the gap rule,
+/// checked by [`check_order`] otherwise), min(`max_order`, 10) for a fixed
+/// order.
+pub(crate) fn candidate_orders(order: OrderSelection, max_order: usize) -> usize {
+    match order {
+        OrderSelection::Gap { max } => max.min(max_order),
+        OrderSelection::Fixed(_) => max_order.min(10),
+    }
+}
+
+/// Scalars (powers of 4) by which the inputs, outputs and instruments are
+/// divided before the identification. The subspace methods are equivariant
+/// under such scalings (the projections see row spaces; the weighted
+/// singular values scale with the outputs), but their relative rank
+/// tolerances and the squared data products are not: without it, outputs
+/// 1e-7 times smaller than the inputs changed the N4SID poles and data of
+/// magnitude 1e150 overflowed the Gram matrices. Powers of 4 keep the
+/// scaling, its square root and its undoing exact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Scale {
+    /// Input scale s_u.
+    pub u: f64,
+    /// Output scale s_y.
+    pub y: f64,
+}
+
+impl Scale {
+    /// No scaling.
+    pub(crate) const ONE: Scale = Scale { u: 1.0, y: 1.0 };
+
+    /// Model matrices of the scaled data (B̃, C̃, D̃) in original units:
+    /// B = B̃/s_u, C = s_y C̃, D = s_y D̃/s_u (A and the state unchanged).
+    pub(crate) fn unscale(
+        &self,
+        b: DMatrix<f64>,
+        c: DMatrix<f64>,
+        d: DMatrix<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        (b / self.u, c * self.y, d * (self.y / self.u))
+    }
+
+    /// The inverse of [`Scale::unscale`].
+    pub(crate) fn rescale(
+        &self,
+        b: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        d: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        (b * self.u, c / self.y, d * (self.u / self.y))
+    }
+}
+
+/// The power of 4 nearest (in ratio) to the RMS of the finite entries of
+/// `mats`, computed without overflow (entries divided by the largest one
+/// first); 1 when they are all zero. Two passes, O(entries).
+pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
+    let finite = || mats.iter().flat_map(|m| m.iter()).filter(|v| v.is_finite());
+    let big = finite().fold(0.0f64, |a, v| a.max(v.abs()));
+    if big <= 0.0 {
+        return 1.0;
+    }
+    let (mut sum, mut count) = (0.0, 0usize);
+    for v in finite() {
+        let r = v / big;
+        sum += r * r;
+        count += 1;
+    }
+    let rms = big * (sum / count as f64).sqrt();
+    let k = (rms.log2() / 2.0).round().clamp(-500.0, 500.0) as i32;
+    2f64.powi(2 * k)
 }
 
 /// Compresses the block-Hankel data [U_f; U_p; Y_p; Y_f] of the records
@@ -427,6 +512,7 @@ pub fn compress_hankel(
         compression,
         opts.chunk_rows,
         thread_count(threads),
+        Scale::ONE,
     )
 }
 
@@ -440,7 +526,10 @@ pub fn compress_hankel(
 /// 2–5) except that the records are gone: (A, B, C, D) come from the state
 /// sequences ([`SystemEstimate::StateSequence`], required), no initial
 /// state is estimated (`x0` is empty, or zeros per record for
-/// [`InitialState::Zero`]), and [`Compression::Auto`] cannot fall back to
+/// [`InitialState::Zero`]), the AIC-type order criteria (which simulate
+/// models on the records) are not available, the data scaling (a power
+/// of 4 per signal, see [`identify`]) is fixed by the first non-empty block,
+/// and [`Compression::Auto`] cannot fall back to
 /// the QR after the pass: it returns [`Error::IllConditionedCorrelation`]
 /// and the data must be fed again with [`Compression::Qr`].
 ///
@@ -483,6 +572,8 @@ pub struct StreamingIdentifier {
     samples: usize,
     records: usize,
     record_open: bool,
+    /// Data scaling, fixed by the first non-empty block.
+    scale: Option<Scale>,
 }
 
 impl StreamingIdentifier {
@@ -491,8 +582,8 @@ impl StreamingIdentifier {
     ///
     /// Errors: [`Error::DimensionMismatch`] (no input or output),
     /// [`Error::InvalidHorizon`], [`Error::InvalidOption`] (sample period,
-    /// or a [`SystemEstimate`] / `enforce_stability` that needs the records),
-    /// [`Error::OrderTooLarge`].
+    /// or a [`SystemEstimate`] / `enforce_stability` / AIC-type
+    /// [`OrderCriterion`] that needs the records), [`Error::OrderTooLarge`].
     pub fn new(n_inputs: usize, n_outputs: usize, opts: &SubspaceOptions) -> Result<Self> {
         if n_inputs == 0 || n_outputs == 0 {
             return Err(Error::DimensionMismatch {
@@ -504,6 +595,15 @@ impl StreamingIdentifier {
         let layout = check_options(n_inputs, n_outputs, opts)?;
         if opts.system != SystemEstimate::StateSequence || opts.enforce_stability {
             need_records(None)?;
+        }
+        if opts.order_criterion.needs_models() {
+            return Err(Error::InvalidOption {
+                what: "order_criterion",
+                reason: format!(
+                    "{} simulates a model of every order on the records, which streaming does not keep; use OrderCriterion::Svc or Gap",
+                    opts.order_criterion.name()
+                ),
+            });
         }
         let stream = HankelStream::new(
             layout,
@@ -518,6 +618,7 @@ impl StreamingIdentifier {
             samples: 0,
             records: 0,
             record_open: false,
+            scale: None,
         })
     }
 
@@ -542,6 +643,14 @@ impl StreamingIdentifier {
         }
         check_data("u", u)?;
         check_data("y", y)?;
+        if u.nrows() > 0 && self.scale.is_none() {
+            let scale = Scale {
+                u: pow4_scale(&[u]),
+                y: pow4_scale(&[y]),
+            };
+            self.stream.set_scale(scale);
+            self.scale = Some(scale);
+        }
         if u.nrows() > 0 && !self.record_open {
             self.records += 1;
             self.record_open = true;
@@ -582,7 +691,8 @@ impl StreamingIdentifier {
         let t0 = Instant::now();
         let factor = self.stream.finish()?;
         let compress_s = t0.elapsed().as_secs_f64();
-        let mut fit = from_factor(factor, &self.layout, &self.opts, None, compress_s)?;
+        let scale = self.scale.unwrap_or(Scale::ONE);
+        let mut fit = from_factor(factor, &self.layout, &self.opts, None, scale, compress_s)?;
         if self.opts.initial_state == InitialState::Zero {
             fit.x0 = vec![DVector::zeros(fit.model.order()); self.records.max(1)];
         }
@@ -604,11 +714,30 @@ impl StreamingIdentifier {
 /// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
 /// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
 ///
+/// Units: u and y are divided by a power of 4 near their RMS before step
+/// (1) (exact, O(N) pass) and the model, noise model and singular values
+/// are returned in the original units, so neither the magnitude of the data
+/// (1e-200 … 1e200) nor the ratio of output to input units changes the
+/// result.
+///
+/// Order: `order_criterion` ([`OrderCriterion`]) chooses the order for
+/// [`OrderSelection::Gap`] and is reported for every candidate order in
+/// [`Diagnostics::order_selection`]: the gap rule and Bauer's SVC cost
+/// O(max) (SVC one more k×k SVD for N4SID/MOESP); AIC/AICc/BIC fit and
+/// simulate one model per candidate order (max × step 4 plus
+/// O(N n (n + n_u + n_y)) each).
+///
 /// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
 /// [`Error::NonFinite`], [`Error::InvalidHorizon`],
-/// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`],
-/// [`Error::NotExciting`], [`Error::Unstable`] is never returned here
-/// (use `enforce_stability`).
+/// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`] (also for a
+/// criterion's `max` beyond (f − 1)n_y, or beyond what the number of
+/// samples supports for AIC-type criteria), [`Error::NotExciting`],
+/// [`Error::UnstableEstimate`] when the shift-invariance A is so unstable
+/// that the (B, D, x₀) output-error regression over the record cannot be
+/// computed (raised before it runs; the default state-sequence route
+/// returns an unstable model instead and estimates x₀ on the window where
+/// C Aᵗ has grown by less than [`crate::MAX_REGRESSOR_GROWTH`]).
+/// [`Error::Unstable`] is never returned here (use `enforce_stability`).
 pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
     let (nu, ny, total) = validate(experiments)?;
     let layout = check_options(nu, ny, opts)?;
@@ -630,12 +759,19 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
         experiments.iter().map(|e| (e.u, e.y)).collect();
     let t0 = Instant::now();
+    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
+    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
+    let scale = Scale {
+        u: pow4_scale(&us),
+        y: pow4_scale(&ys),
+    };
     let factor = compress(
         &recs,
         &layout,
         opts.compression,
         opts.chunk_rows,
         thread_count(opts.threads),
+        scale,
     )?;
     let compress_s = t0.elapsed().as_secs_f64();
     let records: Vec<Record<'_>> = experiments
@@ -646,7 +782,7 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
             instrument: None,
         })
         .collect();
-    from_factor(factor, &layout, opts, Some(&records), compress_s)
+    from_factor(factor, &layout, opts, Some(&records), scale, compress_s)
 }
 
 /// Threads for the correlation kernel: 0 = all available.
@@ -670,13 +806,187 @@ fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<&'r [Record
     })
 }
 
-/// Steps 2–5 of [`identify`] on the compressed data L (records only for the
-/// output-error (B, D, x₀) regressions; `None` when streaming).
+/// CVA's weight W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2} and its inverse
+/// (eigenvalues floored at 1e-14 λ_max; erratum L-1). O(k³).
+fn cva_weights(yf: &DMatrix<f64>, uf: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
+    let yfp = perp(yf, uf)?;
+    let e = sym_eig(&(&yfp * yfp.transpose()), SortOrder::Descending)?;
+    let lmax = e.values.iter().cloned().fold(0.0, f64::max);
+    let floor = (lmax * 1e-14).max(f64::MIN_POSITIVE);
+    let mut w1 = DMatrix::zeros(e.values.len(), e.values.len());
+    let mut w1i = w1.clone();
+    for (i, &lam) in e.values.iter().enumerate() {
+        let v = e.vectors.column(i);
+        let lam = lam.max(floor);
+        w1 += v * v.transpose() / lam.sqrt();
+        w1i += v * v.transpose() * lam.sqrt();
+    }
+    Ok((w1, w1i))
+}
+
+/// The weighted subspace of one compressed data set (steps 2–3 of
+/// [`identify`]), from which a model of any order is fitted.
+struct Subspace<'a> {
+    l: &'a DMatrix<f64>,
+    layout: HankelLayout,
+    /// Oblique projection Φ (scaled data).
+    phi: DMatrix<f64>,
+    /// Left singular vectors and singular values of W₁ Φ W₂.
+    u: DMatrix<f64>,
+    s: Vec<f64>,
+    /// W₁⁻¹ (CVA only).
+    w1_inv: Option<DMatrix<f64>>,
+}
+
+impl Subspace<'_> {
+    /// Γ = W₁⁻¹ U₁ S₁^{1/2} of order n (scaled data).
+    fn gamma(&self, n: usize) -> DMatrix<f64> {
+        let mut gamma = self.u.columns(0, n).into_owned();
+        for j in 0..n {
+            gamma.column_mut(j).scale_mut(self.s[j].sqrt());
+        }
+        match &self.w1_inv {
+            Some(w1i) => w1i * gamma,
+            None => gamma,
+        }
+    }
+}
+
+/// A model of one order, in the original units of the data.
+struct Fit {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    d: DMatrix<f64>,
+    x0: Vec<DVector<f64>>,
+    stabilized: bool,
+    /// Γ of the scaled data (for the noise model).
+    gamma: DMatrix<f64>,
+}
+
+/// Step 4 of [`identify`] for order n: (A, C) by shift invariance or from
+/// the state sequences, (B, D, x₀) by the output-error regression on the
+/// records or from the state-sequence regression (then x₀ alone from the
+/// records, when present). O(k³) plus O(N n_y (n_u n³ + p²)) for the
+/// regressions.
+fn fit_order(
+    sub: &Subspace<'_>,
+    n: usize,
+    opts: &SubspaceOptions,
+    records: Option<&[Record<'_>]>,
+    scale: Scale,
+) -> Result<Fit> {
+    let (nu, ny) = (sub.layout.nu, sub.layout.ny);
+    let gamma = sub.gamma(n);
+    // (B, D, x₀) by output-error regression on the records (in memory only),
+    // for (A, C) of the scaled data: C in original units first.
+    let output_error = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
+        let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
+        let c = c * scale.y;
+        let bd = estimate_bd(
+            &a,
+            &c,
+            need_records(records)?,
+            &opts.feedthrough,
+            opts.initial_state,
+        )?;
+        Ok(Fit {
+            a,
+            b: bd.b,
+            c,
+            d: bd.d,
+            x0: bd.x0,
+            stabilized,
+            gamma,
+        })
+    };
+    match opts.system {
+        SystemEstimate::ShiftInvariance => output_error(opts.enforce_stability, gamma),
+        SystemEstimate::StateSequence => {
+            let mask = opts.feedthrough.mask(ny, nu)?;
+            let ls = ac_from_states(sub.l, &sub.layout, &gamma, &sub.phi, &mask)?;
+            if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
+                return output_error(true, gamma);
+            }
+            let (b, c, d) = scale.unscale(ls.b, ls.c, ls.d);
+            let x0 = match opts.initial_state {
+                InitialState::Estimate => match records {
+                    Some(r) => estimate_x0(&ls.a, &b, &c, &d, r)?,
+                    None => Vec::new(),
+                },
+                InitialState::Zero => vec![DVector::zeros(n); records.map_or(0, |r| r.len())],
+            };
+            Ok(Fit {
+                a: ls.a,
+                b,
+                c,
+                d,
+                x0,
+                stabilized: false,
+                gamma,
+            })
+        }
+    }
+}
+
+/// The values of the options' order criterion for orders 1..=`cap` and, for
+/// AIC/AICc/BIC, the model of every order (None where the fit failed).
+fn order_values(
+    sub: &Subspace<'_>,
+    cap: usize,
+    opts: &SubspaceOptions,
+    records: Option<&[Record<'_>]>,
+    scale: Scale,
+    columns: usize,
+) -> Result<(OrderReport, Vec<Option<Fit>>)> {
+    let (nu, ny) = (sub.layout.nu, sub.layout.ny);
+    let criterion = opts.order_criterion;
+    let mut fits = Vec::new();
+    let values = match criterion {
+        OrderCriterion::Svc => {
+            // Canonical correlations: the CVA singular values.
+            let cc = if opts.method == Method::Cva {
+                sub.s.clone()
+            } else {
+                let uf = rows(sub.l, sub.layout.uf());
+                let yf = rows(sub.l, sub.layout.yf());
+                let (w1, _) = cva_weights(&yf, &uf)?;
+                lifted_linalg::singular_values(&(w1 * perp(&sub.phi, &uf)?))?
+                    .iter()
+                    .cloned()
+                    .collect()
+            };
+            svc_values(&cc, cap, ny, nu, columns)
+        }
+        c if c.needs_models() => {
+            let recs = need_records(records)?;
+            let (values, models) = information_criterion_values(
+                c,
+                cap,
+                recs,
+                (ny, nu),
+                &opts.feedthrough,
+                opts.initial_state,
+                |n| fit_order(sub, n, opts, records, scale),
+                |f: &Fit| simulation_error(&f.a, &f.b, &f.c, &f.d, recs, &f.x0),
+            )?;
+            fits = models;
+            values
+        }
+        _ => gap_values(&sub.s, cap),
+    };
+    Ok((OrderReport::new(criterion, values), fits))
+}
+
+/// Steps 2–5 of [`identify`] on the compressed data L of the scaled data
+/// (records, in original units, only for the output-error (B, D, x₀)
+/// regressions and the AIC-type criteria; `None` when streaming).
 fn from_factor(
     factor: HankelFactor,
     layout: &HankelLayout,
     opts: &SubspaceOptions,
     records: Option<&[Record<'_>]>,
+    scale: Scale,
     compress_s: f64,
 ) -> Result<SubspaceModel> {
     let t1 = Instant::now();
@@ -709,122 +1019,83 @@ fn from_factor(
         Method::N4sid => (None, phi.clone()),
         Method::Moesp => (None, perp(&phi, &uf)?),
         Method::Cva => {
-            let yfp = perp(&yf, &uf)?;
-            let e = sym_eig(&(&yfp * yfp.transpose()), SortOrder::Descending)?;
-            let lmax = e.values.iter().cloned().fold(0.0, f64::max);
-            let floor = (lmax * 1e-14).max(f64::MIN_POSITIVE);
-            let mut w1 = DMatrix::zeros(e.values.len(), e.values.len());
-            let mut w1i = w1.clone();
-            for (i, &lam) in e.values.iter().enumerate() {
-                let v = e.vectors.column(i);
-                let lam = lam.max(floor);
-                w1 += v * v.transpose() / lam.sqrt();
-                w1i += v * v.transpose() * lam.sqrt();
-            }
+            let (w1, w1i) = cva_weights(&yf, &uf)?;
             (Some(w1i), w1 * perp(&phi, &uf)?)
         }
     };
     let dec = svd(&weighted)?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let singular_values: Vec<f64> = dec.s.iter().cloned().collect();
-    let suggested_order = gap_order(
-        &singular_values,
-        match opts.order {
-            OrderSelection::Gap { max } => max.min(max_order),
-            OrderSelection::Fixed(_) => max_order.min(10),
-        },
-    );
+    let sub = Subspace {
+        l: &l,
+        layout,
+        phi,
+        u: dec.u,
+        s: dec.s.iter().cloned().collect(),
+        w1_inv,
+    };
+    // N4SID's and MOESP's singular values scale with the outputs; CVA's
+    // are canonical correlations.
+    let sv_unit = if opts.method == Method::Cva {
+        1.0
+    } else {
+        scale.y
+    };
+    let singular_values: Vec<f64> = sub.s.iter().map(|v| v * sv_unit).collect();
+    let cap = candidate_orders(opts.order, max_order);
+    let suggested_order = gap_order(&sub.s, cap);
+    let (order_selection, mut fits) = order_values(&sub, cap, opts, records, scale, columns)?;
     let n = match opts.order {
         OrderSelection::Fixed(n) => n,
-        OrderSelection::Gap { .. } => suggested_order,
+        OrderSelection::Gap { .. } => order_selection.selected,
     };
-    if n > dec.s.len() {
+    if n > sub.s.len() {
         return Err(Error::OrderTooLarge {
             order: n,
-            max: dec.s.len(),
+            max: sub.s.len(),
         });
     }
-    let mut gamma = dec.u.columns(0, n).into_owned();
-    for j in 0..n {
-        let sc = dec.s[j].sqrt();
-        gamma.column_mut(j).scale_mut(sc);
-    }
-    if let Some(w1i) = &w1_inv {
-        gamma = w1i * gamma;
-    }
-    // (B, D, x₀) by output-error regression on the records (in memory only).
-    let output_error_bd = |a: &DMatrix<f64>, c: &DMatrix<f64>| -> Result<BdFit> {
-        estimate_bd(
-            a,
-            c,
-            need_records(records)?,
-            &opts.feedthrough,
-            opts.initial_state,
-        )
-    };
-    let (a, c, bd, stabilized) = match opts.system {
-        SystemEstimate::ShiftInvariance => {
-            let (a, c, st) = ac_from_gamma(&gamma, ny, opts.enforce_stability)?;
-            let bd = output_error_bd(&a, &c)?;
-            (a, c, bd, st)
-        }
-        SystemEstimate::StateSequence => {
-            let mask = opts.feedthrough.mask(ny, nu)?;
-            let ls = ac_from_states(&l, &layout, &gamma, &phi, &mask)?;
-            if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
-                let (a, c, st) = ac_from_gamma(&gamma, ny, true)?;
-                let bd = output_error_bd(&a, &c)?;
-                (a, c, bd, st)
-            } else {
-                let x0 = match opts.initial_state {
-                    InitialState::Estimate => match records {
-                        Some(r) => estimate_x0(&ls.a, &ls.b, &ls.c, &ls.d, r)?,
-                        None => Vec::new(),
-                    },
-                    InitialState::Zero => {
-                        vec![DVector::zeros(ls.a.nrows()); records.map_or(0, |r| r.len())]
-                    }
-                };
-                let bd = BdFit {
-                    b: ls.b,
-                    d: ls.d,
-                    x0,
-                };
-                (ls.a, ls.c, bd, false)
-            }
-        }
+    let fit = match fits.get_mut(n - 1).and_then(Option::take) {
+        Some(fit) => fit,
+        None => fit_order(&sub, n, opts, records, scale)?,
     };
 
     let mut noise = None;
     let mut kalman_gain = None;
     let mut noise_model_error = None;
     if opts.noise_model {
-        match noise_model(&l, &layout, &gamma, &phi, &a, &bd.b, &c, &bd.d) {
+        let (bs, cs, ds) = scale.rescale(&fit.b, &fit.c, &fit.d);
+        match noise_model(&l, &layout, &fit.gamma, &sub.phi, &fit.a, &bs, &cs, &ds) {
             Ok((cov, kg)) => {
-                noise = Some(cov);
-                kalman_gain = kg.as_ref().ok().cloned();
-                if let Err(e) = kg {
-                    noise_model_error = Some(e);
+                // Back to original units: v and e scale with s_y, w not.
+                noise = Some(NoiseCovariances {
+                    q: cov.q,
+                    r: cov.r * (scale.y * scale.y),
+                    s: cov.s * scale.y,
+                });
+                match kg {
+                    Ok(k) => kalman_gain = Some(k / scale.y),
+                    Err(e) => noise_model_error = Some(e),
                 }
             }
             Err(e) => noise_model_error = Some(e.to_string()),
         }
     }
-    let model = StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?;
+    let model = StateSpace::new(fit.a, fit.b, fit.c, fit.d, Some(opts.ts))?;
     Ok(SubspaceModel {
         model,
         kalman_gain,
         noise,
-        x0: bd.x0,
+        x0: fit.x0,
         diagnostics: Diagnostics {
             method: opts.method,
             singular_values,
             order: n,
             suggested_order,
+            order_selection,
             horizons: (p, f),
             columns,
-            stabilized,
+            stabilized: fit.stabilized,
             noise_model_error,
             compression_flops,
             compression,

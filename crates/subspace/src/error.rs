@@ -125,6 +125,29 @@ pub enum Error {
         /// Spectral radius of the estimated A.
         spectral_radius: f64,
     },
+    /// The estimated A is unstable and the record too long for the
+    /// output-error regression that needs it: the (B, D, x₀) regressors
+    /// simulate the model over the record and grow like ρ(A)ᵗ, by
+    /// ρ^(N−1) over N samples. Beyond `max_growth` = 1/√ε the squared
+    /// regressors span more than 1/ε, the first samples fall below rounding
+    /// and the regression would end in overflow, a failed SVD or a spurious
+    /// rank deficiency. Raised before the regression runs (typically an IV
+    /// or shift-invariance estimate at very low SNR, or too high an order).
+    #[error(
+        "estimated A is unstable (spectral radius {spectral_radius:.6}): the {stage} simulates the model over {samples} samples, where its regressors would grow by ρ^(N−1) = {growth:.3e} > {max_growth:.1e}; lower the order, use enforce_stability or require_stable, or shorten the record"
+    )]
+    UnstableEstimate {
+        /// Which regression needed the simulation.
+        stage: &'static str,
+        /// Spectral radius ρ of the estimated A (> 1).
+        spectral_radius: f64,
+        /// Samples N of the longest record.
+        samples: usize,
+        /// ρ^(N−1) (may be +∞).
+        growth: f64,
+        /// The largest accepted growth ([`crate::MAX_REGRESSOR_GROWTH`]).
+        max_growth: f64,
+    },
     /// An option has an invalid value.
     #[error("invalid option {what}: {reason}")]
     InvalidOption {

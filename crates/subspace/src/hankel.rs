@@ -36,6 +36,7 @@ use lifted_linalg::RAccumulator;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
+use crate::engine::Scale;
 use crate::error::{Error, Result};
 
 /// Smallest reciprocal condition number (λ_min/λ_max) of the correlation
@@ -300,6 +301,8 @@ pub(crate) struct HankelStream {
     /// Samples seen (all records).
     samples: usize,
     requested: Compression,
+    /// Factors 1/s_u, 1/s_y applied to the samples as they are copied in.
+    inv_scale: [f64; 2],
 }
 
 impl HankelStream {
@@ -332,7 +335,14 @@ impl HankelStream {
             columns: 0,
             samples: 0,
             requested: compression,
+            inv_scale: [1.0, 1.0],
         }
+    }
+
+    /// Divides every later sample by the scales (powers of 4, exact) of
+    /// `scale`: inputs by s_u, outputs by s_y.
+    pub(crate) fn set_scale(&mut self, scale: Scale) {
+        self.inv_scale = [1.0 / scale.u, 1.0 / scale.y];
     }
 
     /// Appends consecutive samples of the current record: `u` (b×n_u) and
@@ -347,13 +357,13 @@ impl HankelStream {
         // Working buffer: carry followed by the new samples, per channel.
         let mut buf: Vec<Vec<f64>> = Vec::with_capacity(nz);
         for (c, carry) in self.carry.iter_mut().enumerate() {
-            let col = if c < self.layout.nu {
-                u.column(c)
+            let (col, inv) = if c < self.layout.nu {
+                (u.column(c), self.inv_scale[0])
             } else {
-                y.column(c - self.layout.nu)
+                (y.column(c - self.layout.nu), self.inv_scale[1])
             };
             let mut v = std::mem::take(carry);
-            v.extend(col.iter());
+            v.extend(col.iter().map(|x| x * inv));
             buf.push(v);
         }
         let len = buf[0].len();
@@ -571,18 +581,20 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
     Ok((l, rcond))
 }
 
-/// Compresses the block-Hankel data of all records (already validated) into
-/// L/√J (k×k); [`Compression::Auto`] falls back to the QR when the
-/// correlation factor fails its check and records why.
+/// Compresses the block-Hankel data of all records (already validated),
+/// divided by `scale`, into L/√J (k×k); [`Compression::Auto`] falls back to
+/// the QR when the correlation factor fails its check and records why.
 pub(crate) fn compress(
     records: &[(&DMatrix<f64>, &DMatrix<f64>)],
     layout: &HankelLayout,
     compression: Compression,
     chunk_rows: usize,
     threads: usize,
+    scale: Scale,
 ) -> Result<HankelFactor> {
     let run = |mode: Compression| -> Result<HankelFactor> {
         let mut st = HankelStream::new(*layout, mode, chunk_rows, threads);
+        st.set_scale(scale);
         // Blocks of PUSH_BLOCK samples bound the working copy (the kernel
         // blocks in cache itself; the QR splits into chunk_rows columns).
         for (u, y) in records {
@@ -669,7 +681,7 @@ mod tests {
         let (g, j) = explicit_gram(&recs, &lay);
         assert_eq!(j, 53 + 19);
         for mode in [Compression::Qr, Compression::Correlation] {
-            let f = compress(&recs, &lay, mode, 7, 1).unwrap();
+            let f = compress(&recs, &lay, mode, 7, 1, Scale::ONE).unwrap();
             assert_eq!(f.columns, j);
             assert_eq!(f.report.used, mode);
             let g2 = &f.l * f.l.transpose();
@@ -690,7 +702,15 @@ mod tests {
             ny: 1,
         };
         let (u, y) = data(300, 1);
-        let whole = compress(&[(&u, &y)], &lay, Compression::Correlation, 64, 1).unwrap();
+        let whole = compress(
+            &[(&u, &y)],
+            &lay,
+            Compression::Correlation,
+            64,
+            1,
+            Scale::ONE,
+        )
+        .unwrap();
         for (b, threads) in [(1usize, 1usize), (5, 1), (6, 2), (299, 1)] {
             for mode in [Compression::Correlation, Compression::Qr] {
                 let mut st = HankelStream::new(lay, mode, 17, threads);
@@ -737,11 +757,18 @@ mod tests {
         // y = u delayed: the Hankel rows are linearly dependent.
         let u = DMatrix::from_fn(200, 1, |i, _| ((i * 7919) % 101) as f64 / 50.0 - 1.0);
         let y = DMatrix::from_fn(200, 1, |i, _| if i > 0 { u[(i - 1, 0)] } else { 0.0 });
-        let f = compress(&[(&u, &y)], &lay, Compression::Auto, 64, 1).unwrap();
+        let f = compress(&[(&u, &y)], &lay, Compression::Auto, 64, 1, Scale::ONE).unwrap();
         assert_eq!(f.report.used, Compression::Qr);
         assert!(f.report.fallback.is_some());
         assert!(matches!(
-            compress(&[(&u, &y)], &lay, Compression::Correlation, 64, 1),
+            compress(
+                &[(&u, &y)],
+                &lay,
+                Compression::Correlation,
+                64,
+                1,
+                Scale::ONE
+            ),
             Err(Error::IllConditionedCorrelation { .. })
         ));
     }

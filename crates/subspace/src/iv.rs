@@ -8,10 +8,14 @@ use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
 use crate::engine::{
-    Experiment, OrderSelection, ac_from_gamma, gap_order, numerical_rank, spectral_radius, validate,
+    Experiment, OrderSelection, Scale, ac_from_gamma, candidate_orders, check_order,
+    numerical_rank, pow4_scale, spectral_radius, validate,
 };
 use crate::error::{Error, Result, check_data};
-use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
+use crate::order::{
+    OrderCriterion, OrderReport, gap_values, information_criterion_values, simulation_error,
+};
+use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
 
 /// One record for [`iv_identify`].
 #[derive(Debug, Clone, Copy)]
@@ -31,6 +35,12 @@ pub struct IvExperiment<'a> {
 pub struct IvOptions {
     /// Order choice. Default `Gap { max: 10 }`.
     pub order: OrderSelection,
+    /// Rule of the automatic order choice and of
+    /// [`IvDiagnostics::order_selection`]. Default [`OrderCriterion::Gap`]
+    /// (gap of the singular values of R₂₂); AIC/AICc/BIC (SIPPY) fit and
+    /// simulate the IV model of every order; [`OrderCriterion::Svc`] is
+    /// not defined for the IV method ([`Error::InvalidOption`]).
+    pub order_criterion: OrderCriterion,
     /// α: block rows of the future U_f, Y_f (eq. 7.5; α > n). Default 8.
     pub alpha: usize,
     /// α_p: block rows of the past instrument; must exceed α + n/n_u
@@ -52,6 +62,7 @@ impl Default for IvOptions {
     fn default() -> Self {
         IvOptions {
             order: OrderSelection::default(),
+            order_criterion: OrderCriterion::Gap,
             alpha: 8,
             alpha_p: None,
             feedthrough: Feedthrough::Free,
@@ -72,6 +83,10 @@ pub struct IvDiagnostics {
     pub order: usize,
     /// Order of the gap rule.
     pub suggested_order: usize,
+    /// The order criterion of the options with its value per candidate
+    /// order and the order it selects (the gap rule for
+    /// [`iv_multirate_fast`]).
+    pub order_selection: OrderReport,
     /// (α, α_p).
     pub horizons: (usize, usize),
     /// Columns J of the Hankel matrices (all records).
@@ -93,25 +108,60 @@ pub struct IvModel {
     pub diagnostics: IvDiagnostics,
 }
 
-struct GammaEstimate {
-    gamma: DMatrix<f64>,
+/// The IV subspace: left singular vectors and singular values of R₂₂
+/// (scaled data), from which Γ of any order follows.
+struct IvSubspace {
+    u: DMatrix<f64>,
     s: Vec<f64>,
-    n: usize,
-    suggested: usize,
     columns: usize,
+    /// Instrument rows α_p·n_z and future input rows α·n_u (for errors).
+    rows_z: usize,
+    un: usize,
 }
 
-/// Γ from the LQ of [U_f Zᵀ; Y_f Zᵀ]/J and the SVD of R₂₂ (eqs. 7.20–7.23),
-/// with past instruments Z (α_p block rows) and β = α_p.
+impl IvSubspace {
+    /// Γ = U₁ S₁^{1/2} of order n (scaled data).
+    fn gamma(&self, n: usize) -> DMatrix<f64> {
+        let mut gamma = self.u.columns(0, n).into_owned();
+        for (c, sv) in self.s.iter().take(n).enumerate() {
+            gamma.column_mut(c).scale_mut(sv.sqrt());
+        }
+        gamma
+    }
+
+    /// Order n must be admissible ((α − 1)n_y) and below the number of
+    /// singular values of R₂₂ (instrument length, erratum L-16).
+    fn check(&self, n: usize, alpha: usize, ny: usize) -> Result<()> {
+        if n == 0 || n > (alpha - 1) * ny {
+            return Err(Error::OrderTooLarge {
+                order: n,
+                max: (alpha - 1) * ny,
+            });
+        }
+        if n > self.s.len() {
+            return Err(Error::InstrumentTooShort {
+                instrument_rows: self.rows_z,
+                needed: self.un + n,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The LQ of [U_f Zᵀ; Y_f Zᵀ]/J and the SVD of R₂₂ (eqs. 7.20–7.23), with
+/// past instruments Z (α_p block rows) and β = α_p, on the data divided by
+/// `scale` (u, y) and `z_scale` (instrument; powers of 4, exact).
 /// Cost O(J·α(n_u+n_y)·α_p n_z) for the correlations, memory O(α²).
-fn iv_gamma(
+fn iv_subspace(
     recs: &[(&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>)],
     alpha: usize,
     alpha_p: usize,
-    order: OrderSelection,
-) -> Result<GammaEstimate> {
+    scale: Scale,
+    z_scale: f64,
+) -> Result<IvSubspace> {
     let (u0, y0, z0) = recs[0];
     let (nu, ny, nz) = (u0.ncols(), y0.ncols(), z0.ncols());
+    let (iu, iy, iz) = (1.0 / scale.u, 1.0 / scale.y, 1.0 / z_scale);
     let rows_h = alpha * (nu + ny);
     let rows_z = alpha_p * nz;
     let mut m = DMatrix::zeros(rows_h, rows_z);
@@ -130,16 +180,16 @@ fn iv_gamma(
                 let t = start + c;
                 for lag in 0..alpha_p {
                     for q in 0..nz {
-                        zc[(lag * nz + q, c)] = z[(t + lag, q)];
+                        zc[(lag * nz + q, c)] = z[(t + lag, q)] * iz;
                     }
                 }
                 let tf = t + alpha_p;
                 for lag in 0..alpha {
                     for q in 0..nu {
-                        h[(lag * nu + q, c)] = u[(tf + lag, q)];
+                        h[(lag * nu + q, c)] = u[(tf + lag, q)] * iu;
                     }
                     for q in 0..ny {
-                        h[(alpha * nu + lag * ny + q, c)] = y[(tf + lag, q)];
+                        h[(alpha * nu + lag * ny + q, c)] = y[(tf + lag, q)] * iy;
                     }
                 }
             }
@@ -180,41 +230,12 @@ fn iv_gamma(
     }
     let r22 = l.view((un, un), (alpha * ny, cols_l - un)).into_owned();
     let dec = svd(&r22)?;
-    let s: Vec<f64> = dec.s.iter().cloned().collect();
-    let max_order = ((alpha - 1) * ny).min(s.len());
-    let suggested = gap_order(
-        &s,
-        match order {
-            OrderSelection::Gap { max } => max.min(max_order),
-            OrderSelection::Fixed(_) => max_order.min(10),
-        },
-    );
-    let n = match order {
-        OrderSelection::Fixed(n) => n,
-        OrderSelection::Gap { .. } => suggested,
-    };
-    if n == 0 || n > (alpha - 1) * ny {
-        return Err(Error::OrderTooLarge {
-            order: n,
-            max: (alpha - 1) * ny,
-        });
-    }
-    if n > s.len() {
-        return Err(Error::InstrumentTooShort {
-            instrument_rows: rows_z,
-            needed: un + n,
-        });
-    }
-    let mut gamma = dec.u.columns(0, n).into_owned();
-    for (c, sv) in s.iter().take(n).enumerate() {
-        gamma.column_mut(c).scale_mut(sv.sqrt());
-    }
-    Ok(GammaEstimate {
-        gamma,
-        s,
-        n,
-        suggested,
+    Ok(IvSubspace {
+        u: dec.u,
+        s: dec.s.iter().cloned().collect(),
         columns,
+        rows_z,
+        un,
     })
 }
 
@@ -256,15 +277,22 @@ fn check_ts(ts: f64) -> Result<()> {
 /// x₀) by least squares (open loop) or by IV regression with instruments
 /// filtered from f (closed loop). Box-Jenkins noise is allowed: nothing is
 /// assumed about the noise model beyond its independence of the instrument.
+/// u, y and the instrument are each divided by a power of 4 near their RMS
+/// first (exact; the results are in the original units).
 ///
-/// Cost O(J α(n_u+n_y) α_p n_z + (α_p n_z)³ + N n_y(n_u n³ + p²)); memory
+/// Cost O(J α(n_u+n_y) α_p n_z + (α_p n_z)³ + N n_y(n_u n³ + p²)), times
+/// the number of candidate orders for the AIC-type criteria; memory
 /// independent of N.
 ///
 /// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
 /// [`Error::NonFinite`], [`Error::InvalidHorizon`] (α_p ≤ α, L-16),
 /// [`Error::HorizonTooLong`], [`Error::NotExciting`] (instrument),
-/// [`Error::InstrumentTooShort`], [`Error::OrderTooLarge`],
-/// [`Error::Unstable`] with `require_stable`.
+/// [`Error::InstrumentTooShort`], [`Error::OrderTooLarge`] (also for a
+/// criterion's `max` above (α − 1)n_y), [`Error::InvalidOption`]
+/// ([`OrderCriterion::Svc`]), [`Error::Unstable`] with `require_stable`,
+/// [`Error::UnstableEstimate`] when the estimated A is so unstable that the
+/// (B, D, x₀) regression over the record cannot be computed (very low SNR;
+/// raised right after A is estimated, before the regression).
 pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result<IvModel> {
     let first = experiments.first().ok_or(Error::NoData)?;
     let (nu, ny) = (first.u.ncols(), first.y.ncols());
@@ -290,28 +318,24 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
             check_data("instrument", f)?;
         }
     }
-    if let OrderSelection::Fixed(n) = opts.order
-        && (n == 0 || n > (alpha - 1) * ny)
-    {
-        return Err(Error::OrderTooLarge {
-            order: n,
-            max: (alpha - 1) * ny,
+    if opts.order_criterion == OrderCriterion::Svc {
+        return Err(Error::InvalidOption {
+            what: "order_criterion",
+            reason: "SVC is defined on canonical correlations, which the IV method does not compute; use Gap, Aic, Aicc or Bic".into(),
         });
     }
+    let max_order = (alpha - 1) * ny;
+    check_order(opts.order, opts.order_criterion, max_order)?;
     let recs: Vec<_> = experiments
         .iter()
         .map(|e| (e.u, e.y, e.instrument.unwrap_or(e.u)))
         .collect();
-    let ge = iv_gamma(&recs, alpha, alpha_p, opts.order)?;
-    let (a, c, stabilized) = ac_from_gamma(&ge.gamma, ny, opts.enforce_stability)?;
-    if opts.require_stable {
-        let rho = spectral_radius(&a)?;
-        if rho >= 1.0 {
-            return Err(Error::Unstable {
-                spectral_radius: rho,
-            });
-        }
-    }
+    let scale = Scale {
+        u: pow4_scale(&recs.iter().map(|r| r.0).collect::<Vec<_>>()),
+        y: pow4_scale(&recs.iter().map(|r| r.1).collect::<Vec<_>>()),
+    };
+    let z_scale = pow4_scale(&recs.iter().map(|r| r.2).collect::<Vec<_>>());
+    let sub = iv_subspace(&recs, alpha, alpha_p, scale, z_scale)?;
     let records: Vec<Record<'_>> = experiments
         .iter()
         .map(|e| Record {
@@ -321,20 +345,77 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
         })
         .collect();
     let closed_loop = experiments.iter().any(|e| e.instrument.is_some());
-    let bd = if closed_loop {
-        estimate_bd_iv(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
-    } else {
-        estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+    // The IV model of order n in original units: A, C by shift invariance
+    // (C of the scaled data times s_y), then (B, D, x₀) from the records;
+    // an unstable A is rejected here (require_stable) or by the regression
+    // (UnstableEstimate) before any simulation.
+    let fit = |n: usize| -> Result<(DMatrix<f64>, DMatrix<f64>, BdFit, bool)> {
+        sub.check(n, alpha, ny)?;
+        let (a, c, stabilized) = ac_from_gamma(&sub.gamma(n), ny, opts.enforce_stability)?;
+        let c = c * scale.y;
+        if opts.require_stable {
+            let rho = spectral_radius(&a)?;
+            if rho >= 1.0 {
+                return Err(Error::Unstable {
+                    spectral_radius: rho,
+                });
+            }
+        }
+        let bd = if closed_loop {
+            estimate_bd_iv(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+        } else {
+            estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+        };
+        Ok((a, c, bd, stabilized))
     };
+    let cap = candidate_orders(opts.order, max_order);
+    let mut fits = Vec::new();
+    let values = if opts.order_criterion.needs_models() {
+        sub.check(cap, alpha, ny)?;
+        let (values, models) = information_criterion_values(
+            opts.order_criterion,
+            cap,
+            &records,
+            (ny, nu),
+            &opts.feedthrough,
+            opts.initial_state,
+            fit,
+            |(a, c, bd, _)| simulation_error(a, &bd.b, c, &bd.d, &records, &bd.x0),
+        )?;
+        fits = models;
+        values
+    } else {
+        gap_values(&sub.s, cap.min(sub.s.len()))
+    };
+    let suggested = OrderReport::new(
+        OrderCriterion::Gap,
+        gap_values(&sub.s, cap.min(sub.s.len())),
+    )
+    .selected;
+    let order_selection = OrderReport::new(opts.order_criterion, values);
+    let n = match opts.order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { .. } => order_selection.selected,
+    };
+    let (a, c, bd, stabilized) = match n
+        .checked_sub(1)
+        .and_then(|i| fits.get_mut(i))
+        .and_then(Option::take)
+    {
+        Some(f) => f,
+        None => fit(n)?,
+    };
+    let sv_unit = scale.y * z_scale;
     Ok(IvModel {
         model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
         x0: bd.x0,
         diagnostics: IvDiagnostics {
-            singular_values: ge.s,
-            order: ge.n,
-            suggested_order: ge.suggested,
+            singular_values: sub.s.iter().map(|v| v * sv_unit).collect(),
+            order: n,
+            suggested_order: suggested,
+            order_selection,
             horizons: (alpha, alpha_p),
-            columns: ge.columns,
+            columns: sub.columns,
             stabilized,
             gamma_r_singular_values: Vec::new(),
         },
@@ -461,8 +542,21 @@ pub fn iv_multirate_fast(
     let alpha = opts.alpha;
     let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
     check_horizons(alpha, alpha_p)?;
-    let ge = iv_gamma(&[(&ul, &yl, &fl)], alpha, alpha_p, opts.order)?;
-    let nx = ge.n;
+    check_order(opts.order, OrderCriterion::Gap, (alpha - 1) * nyl)?;
+    let scale = Scale {
+        u: pow4_scale(&[&ul]),
+        y: pow4_scale(&[&yl]),
+    };
+    let z_scale = pow4_scale(&[&fl]);
+    let sub = iv_subspace(&[(&ul, &yl, &fl)], alpha, alpha_p, scale, z_scale)?;
+    let cap = candidate_orders(opts.order, (alpha - 1) * nyl).min(sub.s.len());
+    let order_selection = OrderReport::new(OrderCriterion::Gap, gap_values(&sub.s, cap));
+    let nx = match opts.order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { .. } => order_selection.selected,
+    };
+    sub.check(nx, alpha, nyl)?;
+    let gamma = sub.gamma(nx);
     // Rows of the fast outputs: C_F A^t, t = b n + r.
     let fast: Vec<usize> = (0..ny).filter(|&o| periods[o] == 1).collect();
     let nf = fast.len();
@@ -477,14 +571,16 @@ pub fn iv_multirate_fast(
         for (i, &o) in fast.iter().enumerate() {
             let pos = sampled_at(r).position(|q| q == o).unwrap_or(0);
             let src = b * nyl + offset[r] + pos;
-            gfast.row_mut(t * nf + i).copy_from(&ge.gamma.row(src));
+            gfast.row_mut(t * nf + i).copy_from(&gamma.row(src));
         }
     }
     let g_r = gfast.rows(0, (steps - 1) * nf).into_owned();
     let g_l = gfast.rows(nf, (steps - 1) * nf).into_owned();
+    // Γ of the scaled data is Γ/√(s_y s_z) (exact: s_y s_z is a power of 4).
+    let gamma_unit = (scale.y * z_scale).sqrt();
     let sv: Vec<f64> = lifted_linalg::singular_values(&g_r)?
         .iter()
-        .cloned()
+        .map(|v| v * gamma_unit)
         .collect();
     let rank = numerical_rank(&g_r, opts.rank_tol)?;
     if rank < nx {
@@ -495,7 +591,7 @@ pub fn iv_multirate_fast(
         });
     }
     let a = lstsq(&g_r, &g_l)?;
-    let c = ge.gamma.rows(0, ny).into_owned();
+    let c = gamma.rows(0, ny) * scale.y;
     if opts.require_stable {
         let rho = spectral_radius(&a)?;
         if rho >= 1.0 {
@@ -514,11 +610,12 @@ pub fn iv_multirate_fast(
         model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
         x0: bd.x0,
         diagnostics: IvDiagnostics {
-            singular_values: ge.s,
+            singular_values: sub.s.iter().map(|v| v * scale.y * z_scale).collect(),
             order: nx,
-            suggested_order: ge.suggested,
+            suggested_order: order_selection.selected,
+            order_selection,
             horizons: (alpha, alpha_p),
-            columns: ge.columns,
+            columns: sub.columns,
             stabilized: false,
             gamma_r_singular_values: sv,
         },

@@ -7,9 +7,10 @@
 //! | [`identify`] ([`SubspaceOptions`], [`Method`]) | N4SID, MOESP and CVA through the weights of the unifying theorem (thesis §2.5) |
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
+//! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
 //! | [`StreamingIdentifier`] | the same identification from data fed in blocks, memory independent of N |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
-//! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped |
+//! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
 //! | [`iv_multirate_fast`] ([`MultirateIvOptions`]) | the one-step fast model of §7.5 (eq. 7.27) |
@@ -40,6 +41,23 @@
 //! act on L. Several records (experiments) are merged by stacking their
 //! Hankel columns; [`StreamingIdentifier`] takes the data in blocks with
 //! memory O(k²) whatever N, and [`Diagnostics::profile`] times the phases.
+//!
+//! Order selection ([`OrderCriterion`]): the largest gap ln(σ_n/σ_{n+1})
+//! (default), Bauer's singular value criterion SVC(n) = σ̂²_{n+1} +
+//! n(2n_y + n_u) ln J/J on the canonical correlations (Automatica 37, 2001),
+//! or SIPPY's AIC = N ln V_n + 2K, AICc and BIC = N ln V_n + K ln N on the
+//! mean squared simulation error V_n of the model of each order.
+//!
+//! Data units: u, y (and an instrument) are divided by a power of 4 near
+//! their RMS before anything else (exact; the methods are equivariant under
+//! such scalings) and every result is returned in the original units, so
+//! relative rank tolerances and squared-data products see data of order 1.
+//!
+//! The output-error regressions simulate the estimated model over the
+//! record; an unstable A whose growth ρ^(N−1) exceeds
+//! [`MAX_REGRESSOR_GROWTH`] (typical of IV or shift-invariance estimates
+//! at very low SNR) is reported as [`Error::UnstableEstimate`] before the
+//! regression instead of ending in overflow or a spurious rank deficiency.
 //!
 //! The instrumental-variable method of ch. 7 correlates future inputs and
 //! outputs with α_p > α block rows of past instruments (erratum L-16), takes
@@ -80,12 +98,13 @@ mod engine;
 pub mod error;
 mod hankel;
 mod iv;
+mod order;
 mod regress;
 
 pub use engine::{
     Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
     StreamingIdentifier, SubspaceIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate,
-    compress_hankel, gap_order, identify,
+    compress_hankel, identify,
 };
 pub use error::{Error, Result};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
@@ -93,7 +112,8 @@ pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
     iv_multirate_fast,
 };
+pub use order::{OrderCriterion, OrderReport, gap_order};
 pub use regress::{
-    BdFit, Feedthrough, InitialState, Record, StateFit, estimate_bd, estimate_bd_iv,
-    structured_state_lstsq,
+    BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
+    estimate_bd_iv, structured_state_lstsq,
 };

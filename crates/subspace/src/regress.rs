@@ -18,7 +18,41 @@
 use lifted_linalg::{RAccumulator, lstsq};
 use nalgebra::{DMatrix, DVector};
 
+use crate::engine::{Scale, pow4_scale, spectral_radius};
 use crate::error::{Error, Result, check_data};
+
+/// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
+/// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond
+/// it the squared regressors (R factor, IV normal matrix) span more than
+/// 1/ε, so the first samples of the record are below rounding, and the
+/// regression ends in overflow, a failed SVD or a spurious rank deficiency
+/// ([`Error::UnstableEstimate`] instead).
+pub const MAX_REGRESSOR_GROWTH: f64 = 67_108_864.0;
+
+/// Rejects an unstable A whose simulation over `samples` samples would
+/// grow by more than [`MAX_REGRESSOR_GROWTH`] with
+/// [`Error::UnstableEstimate`] naming `stage`. One eigenvalue computation,
+/// O(n³).
+pub(crate) fn check_growth(a: &DMatrix<f64>, samples: usize, stage: &'static str) -> Result<()> {
+    if samples < 2 || a.nrows() == 0 {
+        return Ok(());
+    }
+    let rho = spectral_radius(a)?;
+    if rho <= 1.0 {
+        return Ok(());
+    }
+    let ln_growth = (samples - 1) as f64 * rho.ln();
+    if ln_growth > MAX_REGRESSOR_GROWTH.ln() {
+        return Err(Error::UnstableEstimate {
+            stage,
+            spectral_radius: rho,
+            samples,
+            growth: ln_growth.exp(),
+            max_growth: MAX_REGRESSOR_GROWTH,
+        });
+    }
+    Ok(())
+}
 
 /// Which entries of the feedthrough D are estimated.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -134,7 +168,8 @@ impl Params {
         }
     }
 
-    fn unpack(&self, theta: &DMatrix<f64>, records: usize) -> BdFit {
+    /// θ of the data divided by `scale` → (B, D, x₀) in original units.
+    fn unpack(&self, theta: &DMatrix<f64>, records: usize, scale: Scale) -> BdFit {
         let (n, nu, ny) = (self.n, self.nu, self.ny);
         let b = DMatrix::from_fn(n, nu, |s, j| theta[(j * n + s, 0)]);
         let d = DMatrix::from_fn(ny, nu, |o, j| {
@@ -146,6 +181,7 @@ impl Params {
                 None => DVector::zeros(n),
             })
             .collect();
+        let (b, _, d) = scale.unscale(b, DMatrix::zeros(0, n), d);
         BdFit { b, d, x0 }
     }
 }
@@ -162,10 +198,18 @@ struct RowGen<'a> {
     /// C Aᵗ (ny×n), row-major.
     cat: Vec<f64>,
     cattmp: Vec<f64>,
+    /// Factor applied to the signal samples (1/scale, a power of 2).
+    inv: f64,
 }
 
 impl<'a> RowGen<'a> {
-    fn new(a: &'a DMatrix<f64>, c: &'a DMatrix<f64>, p: &'a Params, record: usize) -> Self {
+    fn new(
+        a: &'a DMatrix<f64>,
+        c: &'a DMatrix<f64>,
+        p: &'a Params,
+        record: usize,
+        inv: f64,
+    ) -> Self {
         let (n, nu, ny) = (p.n, p.nu, p.ny);
         let mut cat = vec![0.0; ny * n];
         for o in 0..ny {
@@ -182,6 +226,7 @@ impl<'a> RowGen<'a> {
             ztmp: vec![0.0; nu * n * n],
             cat,
             cattmp: vec![0.0; ny * n],
+            inv,
         }
     }
 
@@ -200,7 +245,7 @@ impl<'a> RowGen<'a> {
                 row[j * n + s] = acc;
             }
             if let Some(i) = self.p.d_index[(o, j)] {
-                row[i] = sig[(t, j)];
+                row[i] = sig[(t, j)] * self.inv;
             }
         }
         if let Some(off) = self.p.x0_offset {
@@ -224,7 +269,7 @@ impl<'a> RowGen<'a> {
                     }
                     out[s * n + r] = acc;
                 }
-                out[s * n + s] += sig[(t, j)];
+                out[s * n + s] += sig[(t, j)] * self.inv;
             }
         }
         std::mem::swap(&mut self.z, &mut self.ztmp);
@@ -304,15 +349,44 @@ type Sink<'s> = dyn FnMut(&DMatrix<f64>, Option<&DMatrix<f64>>) -> Result<()> + 
 /// Rows per streamed block.
 const BLOCK: usize = 1024;
 
-/// Streams (φ, ζ, y) blocks of all records to `sink`.
+/// Scales (powers of 4 near the RMS, [`pow4_scale`]) of the inputs,
+/// outputs (finite entries) and instruments of the records: the
+/// regressions run on the data divided by them, so that neither the data's
+/// magnitude (overflow of the squared regressors) nor the ratio of output
+/// to input units (relative rank tolerance) matters.
+#[derive(Debug, Clone, Copy)]
+struct DataScale {
+    io: Scale,
+    z: f64,
+}
+
+impl DataScale {
+    fn of(records: &[Record<'_>]) -> Self {
+        let us: Vec<&DMatrix<f64>> = records.iter().map(|r| r.u).collect();
+        let ys: Vec<&DMatrix<f64>> = records.iter().map(|r| r.y).collect();
+        let zs: Vec<&DMatrix<f64>> = records.iter().filter_map(|r| r.instrument).collect();
+        DataScale {
+            io: Scale {
+                u: pow4_scale(&us),
+                y: pow4_scale(&ys),
+            },
+            z: pow4_scale(&zs),
+        }
+    }
+}
+
+/// Streams (φ, ζ, y) blocks of all records, divided by `scale`, to `sink`
+/// (`c` is the C of the scaled data).
 fn stream(
     a: &DMatrix<f64>,
     c: &DMatrix<f64>,
     p: &Params,
     records: &[Record<'_>],
     iv: bool,
+    scale: DataScale,
     sink: &mut Sink<'_>,
 ) -> Result<usize> {
+    let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
     let np = p.total;
     let mut phi = DMatrix::zeros(BLOCK, np + 1);
     let mut zeta = DMatrix::zeros(if iv { BLOCK } else { 0 }, np);
@@ -320,12 +394,15 @@ fn stream(
     let mut used = 0;
     let mut rows_total = 0;
     for (e, rec) in records.iter().enumerate() {
-        let zsig = rec.instrument.unwrap_or(rec.u);
-        let mut g = RowGen::new(a, c, p, e);
-        let mut gz = RowGen::new(a, c, p, e);
+        let (zsig, iz) = match rec.instrument {
+            Some(f) => (f, 1.0 / scale.z),
+            None => (rec.u, iu),
+        };
+        let mut g = RowGen::new(a, c, p, e, iu);
+        let mut gz = RowGen::new(a, c, p, e, iz);
         for t in 0..rec.u.nrows() {
             for o in 0..p.ny {
-                let yv = rec.y[(t, o)];
+                let yv = rec.y[(t, o)] * iy;
                 if yv.is_nan() {
                     continue;
                 }
@@ -368,9 +445,14 @@ fn stream(
 /// Cost O(N_y·(n_u n³ + p²)) for N_y sampled output entries and p
 /// parameters; memory O(p²).
 ///
+/// The rank test and the solve are column-equilibrated (each regressor
+/// scaled to unit norm), so the units of B, D and x₀ do not matter.
+///
 /// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
 /// [`Error::NonFinite`], [`Error::RankDeficient`] when the regressors do
-/// not determine θ (non-exciting input).
+/// not determine θ (non-exciting input), [`Error::UnstableEstimate`] when A
+/// is unstable and ρ(A)^(N−1) exceeds [`MAX_REGRESSOR_GROWTH`] (checked
+/// first, O(n³)).
 pub fn estimate_bd(
     a: &DMatrix<f64>,
     c: &DMatrix<f64>,
@@ -379,10 +461,13 @@ pub fn estimate_bd(
     x0: InitialState,
 ) -> Result<BdFit> {
     let (n, nu, ny) = validate(a, c, records, false)?;
+    check_growth(a, longest(records), "(B, D, x₀) output-error regression")?;
     let mask = feedthrough.mask(ny, nu)?;
     let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let scale = DataScale::of(records);
+    let c_scaled = c / scale.io.y;
     let mut acc = RAccumulator::new(p.total + 1);
-    let rows = stream(a, c, &p, records, false, &mut |phi, _| {
+    let rows = stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
         Ok(acc.push_rows(phi)?)
     })?;
     if rows < p.total {
@@ -395,9 +480,8 @@ pub fn estimate_bd(
     let r = acc.r();
     let r11 = r.view((0, 0), (p.total, p.total)).into_owned();
     let r12 = r.view((0, p.total), (p.total, 1)).into_owned();
-    check_regressor_rank(&r11)?;
-    let theta = lstsq(&r11, &r12)?;
-    Ok(p.unpack(&theta, records.len()))
+    let theta = equilibrated_solve(&r11, &r12, "B/D regressor")?;
+    Ok(p.unpack(&theta, records.len(), scale.io))
 }
 
 /// Instrumental-variable estimate of (B, D, x₀) for given (A, C): the
@@ -416,12 +500,15 @@ pub fn estimate_bd_iv(
     x0: InitialState,
 ) -> Result<BdFit> {
     let (n, nu, ny) = validate(a, c, records, true)?;
+    check_growth(a, longest(records), "(B, D, x₀) IV regression")?;
     let mask = feedthrough.mask(ny, nu)?;
     let p = Params::new(n, nu, ny, &mask, x0, records.len());
     let np = p.total;
+    let scale = DataScale::of(records);
+    let c_scaled = c / scale.io.y;
     let mut g = DMatrix::zeros(np, np);
     let mut gy = DMatrix::zeros(np, 1);
-    let rows = stream(a, c, &p, records, true, &mut |phi, zeta| {
+    let rows = stream(a, &c_scaled, &p, records, true, scale, &mut |phi, zeta| {
         if let Some(z) = zeta {
             let zt = z.transpose();
             g += &zt * phi.columns(0, np);
@@ -436,9 +523,8 @@ pub fn estimate_bd_iv(
             needed: np,
         });
     }
-    check_regressor_rank(&g)?;
-    let theta = lstsq(&g, &gy)?;
-    Ok(p.unpack(&theta, records.len()))
+    let theta = equilibrated_solve(&g, &gy, "B/D instrument matrix")?;
+    Ok(p.unpack(&theta, records.len(), scale.io))
 }
 
 /// ‖C Aᵗ‖/‖C‖ below which the initial-state regression stops reading data.
@@ -446,9 +532,11 @@ const X0_NEGLIGIBLE: f64 = 1e-17;
 
 /// Least-squares initial state of each record for a fixed model
 /// (A, B, C, D): x₀ = argmin Σ‖y(t) − ŷ₀(t) − C Aᵗ x₀‖² with ŷ₀ the
-/// zero-state response; rows streamed until C Aᵗ is negligible (all N
-/// for an unstable A), O(N n_y n²) flops at most, O(n²) memory
-/// beyond the zero-state simulation.
+/// zero-state response; rows streamed until C Aᵗ is negligible, or, for
+/// an unstable A, until it has grown by [`MAX_REGRESSOR_GROWTH`] (the
+/// window that determines x₀; the later rows would swamp it and
+/// overflow), O(N n_y n²) flops at most, O(n²) memory beyond the
+/// zero-state simulation.
 pub(crate) fn estimate_x0(
     a: &DMatrix<f64>,
     b: &DMatrix<f64>,
@@ -458,6 +546,11 @@ pub(crate) fn estimate_x0(
 ) -> Result<Vec<DVector<f64>>> {
     let n = a.nrows();
     let ny = c.nrows();
+    // On the data divided by their scales (model rescaled to match; x₀ is
+    // the same).
+    let scale = DataScale::of(records).io;
+    let (iu, iy) = (1.0 / scale.u, 1.0 / scale.y);
+    let (b, c, d) = scale.rescale(b, c, d);
     let mut out = Vec::with_capacity(records.len());
     for rec in records {
         let mut acc = RAccumulator::new(n + 1);
@@ -467,10 +560,10 @@ pub(crate) fn estimate_x0(
         let mut cat = c.clone();
         let c_norm = c.norm();
         for t in 0..rec.u.nrows() {
-            let ut = rec.u.row(t).transpose();
-            let yh = c * &x + d * &ut;
+            let ut = rec.u.row(t).transpose() * iu;
+            let yh = &c * &x + &d * &ut;
             for o in 0..ny {
-                let yv = rec.y[(t, o)];
+                let yv = rec.y[(t, o)] * iy;
                 if yv.is_nan() {
                     continue;
                 }
@@ -484,12 +577,18 @@ pub(crate) fn estimate_x0(
                     used = 0;
                 }
             }
-            x = a * x + b * ut;
+            x = a * x + &b * ut;
             cat = &cat * a;
             // Rows with C Aᵗ = 0 carry no information on x₀ (they only add to
             // the residual norm, which is not used): stop once C Aᵗ is below
-            // rounding level, O(log ε / log ρ(A)) samples instead of N.
-            if t > 2 * (n + 1) && cat.norm() <= X0_NEGLIGIBLE * c_norm {
+            // rounding level, O(log ε / log ρ(A)) samples instead of N. For
+            // an unstable A stop once C Aᵗ has grown by MAX_REGRESSOR_GROWTH:
+            // later rows would swamp the earlier ones (and overflow), while
+            // x₀ is already determined by the window read so far.
+            let cn = cat.norm();
+            if t > 2 * (n + 1)
+                && (cn <= X0_NEGLIGIBLE * c_norm || cn > MAX_REGRESSOR_GROWTH * c_norm)
+            {
                 break;
             }
         }
@@ -509,13 +608,79 @@ pub(crate) fn estimate_x0(
     Ok(out)
 }
 
-fn check_regressor_rank(m: &DMatrix<f64>) -> Result<()> {
+/// Longest record (samples).
+fn longest(records: &[Record<'_>]) -> usize {
+    records.iter().map(|r| r.u.nrows()).max().unwrap_or(0)
+}
+
+/// Scales the columns of `m` to unit norm; returns the factors 1/‖·‖ (1 for
+/// a zero column).
+fn unit_columns(m: &mut DMatrix<f64>) -> Vec<f64> {
+    m.column_iter_mut()
+        .map(|mut col| {
+            let c = col.norm();
+            if c > 0.0 {
+                col /= c;
+                1.0 / c
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// Two-sided equilibration E·M·D of `m`: rows scaled to unit norm, then
+/// columns; returns (E M D, diag E, diag D) (scale 1 for a zero row or
+/// column).
+fn equilibrate(m: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>, Vec<f64>) {
+    let mut t = m.transpose();
+    let rs = unit_columns(&mut t);
+    let mut e = t.transpose();
+    let cs = unit_columns(&mut e);
+    (e, rs, cs)
+}
+
+/// Numerical rank with the relative tolerance 1e-12 of the regressions.
+fn regression_rank(m: &DMatrix<f64>) -> Result<usize> {
     let s = lifted_linalg::singular_values(m)?;
     let smax = s.iter().cloned().fold(0.0, f64::max);
-    let rank = s.iter().filter(|&&v| v > 1e-12 * smax && v > 0.0).count();
+    Ok(s.iter().filter(|&&v| v > 1e-12 * smax && v > 0.0).count())
+}
+
+/// θ = D (E M D)⁺ E b for the regression matrix M (R factor or IV normal
+/// matrix) after the rank test on the equilibrated E M D
+/// ([`equilibrate`]): test and solution do not depend on the units of the
+/// parameters or of the instruments. O(p³) for p parameters.
+fn equilibrated_solve(
+    m: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    what: &'static str,
+) -> Result<DMatrix<f64>> {
+    let (e, rs, cs) = equilibrate(m);
+    let rank = regression_rank(&e)?;
     if rank < m.ncols() {
         return Err(Error::RankDeficient {
-            what: "B/D regressor",
+            what,
+            rank,
+            needed: m.ncols(),
+        });
+    }
+    let eb = DMatrix::from_fn(b.nrows(), b.ncols(), |i, j| b[(i, j)] * rs[i]);
+    let z = lstsq(&e, &eb)?;
+    Ok(DMatrix::from_fn(z.nrows(), z.ncols(), |i, j| {
+        z[(i, j)] * cs[i]
+    }))
+}
+
+/// Column-equilibrated rank test of a regressor matrix (each column
+/// scaled to unit norm, then the relative tolerance 1e-12).
+fn check_regressor_rank(m: &DMatrix<f64>, what: &'static str) -> Result<()> {
+    let mut e = m.clone();
+    unit_columns(&mut e);
+    let rank = regression_rank(&e)?;
+    if rank < m.ncols() {
+        return Err(Error::RankDeficient {
+            what,
             rank,
             needed: m.ncols(),
         });
@@ -590,7 +755,7 @@ pub fn structured_state_lstsq(
     let mut z = DMatrix::zeros(nn, n + nu);
     z.columns_mut(0, n).copy_from(&xk);
     z.columns_mut(n, nu).copy_from(u);
-    check_regressor_rank(&z)?;
+    check_regressor_rank(&z, "B/D regressor")?;
     let ab = lstsq(&z, &xk1)?.transpose();
     let a = ab.columns(0, n).into_owned();
     let b = ab.columns(n, nu).into_owned();
@@ -716,6 +881,42 @@ mod tests {
         let fit = estimate_bd(&a, &c, &rec, &Feedthrough::Free, InitialState::Estimate).unwrap();
         assert!((&fit.b - &b).norm() < 1e-9);
         assert!((&fit.d - &d).norm() < 1e-9);
+    }
+
+    #[test]
+    fn x0_of_an_unstable_model_comes_from_the_window_before_overflow() {
+        // 1.2^4999 overflows f64: reading the whole record made the rows
+        // non-finite; the window where C Aᵗ grew by less than
+        // MAX_REGRESSOR_GROWTH (≈ 100 samples) determines x₀ exactly.
+        let (_, _, _, _, u0) = example();
+        let a = DMatrix::from_row_slice(2, 2, &[1.2, 0.1, 0.0, 0.5]);
+        let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.5]);
+        let c = DMatrix::from_row_slice(1, 2, &[1.0, 1.0]);
+        let d = DMatrix::zeros(1, 1);
+        let mut u = DMatrix::zeros(5000, 1);
+        for t in 0..5000 {
+            u[(t, 0)] = u0[(t % 300, 0)];
+        }
+        let x0 = DVector::from_vec(vec![0.3, -0.7]);
+        let (_, y) = sim(&a, &b, &c, &d, &u.rows(0, 150).into_owned(), &x0);
+        // Beyond the window the output is irrelevant (the true one
+        // overflows): zeros.
+        let mut yy = DMatrix::zeros(5000, 1);
+        yy.rows_mut(0, 150).copy_from(&y);
+        let rec = [Record {
+            u: &u,
+            y: &yy,
+            instrument: None,
+        }];
+        let est = estimate_x0(&a, &b, &c, &d, &rec).unwrap();
+        // Rows up to the growth bound carry rounding of ε·6.7e7 ≈ 1.5e-8
+        // relative to the late samples.
+        assert!((&est[0] - &x0).norm() < 1e-7, "{}", est[0]);
+        // The (B, D, x₀) regression over the whole record is refused.
+        assert!(matches!(
+            estimate_bd(&a, &c, &rec, &Feedthrough::Zero, InitialState::Estimate),
+            Err(Error::UnstableEstimate { samples: 5000, .. })
+        ));
     }
 
     #[test]
