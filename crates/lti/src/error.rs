@@ -36,6 +36,18 @@ pub enum Error {
         /// Actual dimension, human readable.
         got: String,
     },
+    /// An entry index of a MIMO model is out of range.
+    #[error("entry ({row}, {col}) is out of range for a {rows}×{cols} model")]
+    IndexOutOfRange {
+        /// Requested output index.
+        row: usize,
+        /// Requested input index.
+        col: usize,
+        /// Outputs of the model.
+        rows: usize,
+        /// Inputs of the model.
+        cols: usize,
+    },
     /// A sample period is not positive and finite.
     #[error("invalid sample period {ts}: must be positive and finite")]
     InvalidSamplePeriod {

@@ -204,7 +204,23 @@ impl TransferFunction {
     pub fn ts(&self) -> Option<f64> {
         self.ts
     }
-    /// Entry (output i, input j). Panics if out of range (indices are not user data).
+    /// Entry (output i, input j), or [`Error::IndexOutOfRange`] (the checked
+    /// form of [`TransferFunction::entry`], for indices that come from user
+    /// input).
+    pub fn get(&self, i: usize, j: usize) -> Result<&SisoTf> {
+        if i < self.rows && j < self.cols {
+            Ok(&self.entries[i * self.cols + j])
+        } else {
+            Err(Error::IndexOutOfRange {
+                row: i,
+                col: j,
+                rows: self.rows,
+                cols: self.cols,
+            })
+        }
+    }
+    /// Entry (output i, input j). Panics if out of range, like slice
+    /// indexing; use [`TransferFunction::get`] for indices from user input.
     #[track_caller]
     pub fn entry(&self, i: usize, j: usize) -> &SisoTf {
         assert!(
@@ -492,6 +508,22 @@ mod tests {
 
     fn tf(n: &[f64], d: &[f64]) -> TransferFunction {
         TransferFunction::from_coeffs(n, d, None).unwrap()
+    }
+
+    #[test]
+    fn checked_entry_access() {
+        let g = tf(&[1.0], &[1.0, 1.0]);
+        assert_eq!(g.get(0, 0).unwrap().den().coeffs(), &[1.0, 1.0]);
+        assert!(matches!(
+            g.get(0, 1),
+            Err(Error::IndexOutOfRange {
+                row: 0,
+                col: 1,
+                rows: 1,
+                cols: 1
+            })
+        ));
+        assert!(g.get(3, 0).is_err());
     }
 
     #[test]
