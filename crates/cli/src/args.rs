@@ -227,6 +227,21 @@ pub struct SimulateArgs {
     pub out: String,
 }
 
+/// Order-selection rules (`--order-criterion`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// Largest gap ln(σ_n/σ_{n+1}) of the singular values (default).
+    Gap,
+    /// Bauer's singular value criterion on the canonical correlations.
+    Svc,
+    /// Akaike's information criterion on the simulation error.
+    Aic,
+    /// Small-sample corrected AIC.
+    Aicc,
+    /// Bayesian (Schwarz) information criterion.
+    Bic,
+}
+
 /// Identification methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
@@ -290,6 +305,12 @@ pub struct IdentifyArgs {
     /// Largest order considered by `auto`.
     #[arg(long, default_value_t = 10)]
     pub max_order: usize,
+    /// Rule of `--order auto` (subspace and single-rate IV methods): the
+    /// largest singular-value gap, Bauer's SVC, or AIC / AICc / BIC on the
+    /// simulation error (SIPPY's definitions). The values per order are
+    /// written to the diagnostics either way.
+    #[arg(long, value_enum, default_value_t = CriterionArg::Gap)]
+    pub order_criterion: CriterionArg,
     /// Horizon i: past = future block rows (subspace, default 10), α (IV, default 8).
     #[arg(long)]
     pub horizon: Option<usize>,

@@ -7,13 +7,13 @@ use lifted_multirate::{
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
-    Compression, Experiment, IvExperiment, IvOptions, Method, OrderSelection, StreamingIdentifier,
-    SubspaceModel, SubspaceOptions, identify, iv_identify,
+    Compression, Experiment, IvExperiment, IvOptions, Method, OrderCriterion, OrderReport,
+    OrderSelection, StreamingIdentifier, SubspaceModel, SubspaceOptions, identify, iv_identify,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
 
-use crate::args::{DataArgs, IdentifyArgs, MethodArg};
+use crate::args::{CriterionArg, DataArgs, IdentifyArgs, MethodArg};
 use crate::error::{CliResult, Context, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
 
@@ -80,9 +80,45 @@ fn order_json(kind: &str, values: &[f64], order: usize, suggested: usize) -> ser
     json!({"kind": kind, "values": values, "order": order, "suggested_order": suggested})
 }
 
+/// Fails unless `--order-criterion` is the gap (the routes without the other rules).
+fn gap_only(a: &IdentifyArgs) -> CliResult<()> {
+    if a.order_criterion == CriterionArg::Gap {
+        Ok(())
+    } else {
+        Err(input(
+            "--order-criterion applies to single-rate n4sid, moesp, cva and iv; \
+             q-Markov and the multirate routes use the singular-value gap",
+        ))
+    }
+}
+
+/// The subspace crate's rule for `--order-criterion`.
+fn criterion_of(c: CriterionArg) -> OrderCriterion {
+    match c {
+        CriterionArg::Gap => OrderCriterion::Gap,
+        CriterionArg::Svc => OrderCriterion::Svc,
+        CriterionArg::Aic => OrderCriterion::Aic,
+        CriterionArg::Aicc => OrderCriterion::Aicc,
+        CriterionArg::Bic => OrderCriterion::Bic,
+    }
+}
+
+/// The order-selection rule's values per order (orders 1, 2, …) and choice.
+fn criterion_json(r: &OrderReport) -> serde_json::Value {
+    let values: Vec<Option<f64>> = r
+        .values
+        .iter()
+        .map(|v| v.is_finite().then_some(*v))
+        .collect();
+    json!({"criterion": format!("{:?}", r.criterion), "values": values, "selected": r.selected})
+}
+
 /// Runs the identification and returns the model file (not yet written).
 pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
     let order = parse_order(&a.order, a.max_order)?;
+    if a.method == MethodArg::Qmarkov {
+        gap_only(a)?;
+    }
     let extra = a.instrument.as_deref().map(names).unwrap_or_default();
     if !extra.is_empty() && a.method != MethodArg::Iv {
         return Err(input("--instrument is only used with --method iv"));
@@ -112,6 +148,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
     let (model, diagnostics) = match a.method {
         MethodArg::Qmarkov => qmarkov(a, &sets, order)?,
         MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva if multirate => {
+            gap_only(a)?;
             let data = single(&sets, "multirate identification")?;
             let opts = ProcedureOptions {
                 identification: LiftedIdOptions {
@@ -139,6 +176,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             let opts = SubspaceOptions {
                 method: method_of(a.method),
                 order,
+                order_criterion: criterion_of(a.order_criterion),
                 past: a.horizon.unwrap_or(10),
                 future: a.horizon.unwrap_or(10),
                 ts,
@@ -165,6 +203,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 })
                 .collect();
             if multirate {
+                gap_only(a)?;
                 let data = single(&sets, "multirate IV identification")?;
                 let f = instruments[0].cloned().unwrap_or_else(|| data.u().clone());
                 let opts = LiftedIvOptions {
@@ -185,6 +224,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             } else {
                 let opts = IvOptions {
                     order,
+                    order_criterion: criterion_of(a.order_criterion),
                     alpha: a.horizon.unwrap_or(8),
                     ts,
                     ..Default::default()
@@ -205,6 +245,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     "instrument": if extra.is_empty() { json!("inputs") } else { json!(extra) },
                     "horizons": [dg.horizons.0, dg.horizons.1],
                     "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),
+                    "order_criterion": criterion_json(&dg.order_selection),
                 });
                 (fit.model, d)
             }
@@ -367,7 +408,13 @@ fn identify_streaming(
         a.method,
         MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva
     );
+    // AIC-type rules simulate candidate models on the records: in memory
+    let needs_records = matches!(
+        a.order_criterion,
+        CriterionArg::Aic | CriterionArg::Aicc | CriterionArg::Bic
+    );
     if !subspace
+        || needs_records
         || a.data.len() != 1
         || !spec.periods.is_empty()
         || spec.hold > 1
@@ -386,6 +433,7 @@ fn identify_streaming(
         let opts = SubspaceOptions {
             method: method_of(a.method),
             order,
+            order_criterion: criterion_of(a.order_criterion),
             past: a.horizon.unwrap_or(10),
             future: a.horizon.unwrap_or(10),
             ts: spec.ts.unwrap_or(1.0),
@@ -480,6 +528,7 @@ fn subspace_json(fit: &SubspaceModel, route: &str) -> serde_json::Value {
         "hankel_columns": dg.columns,
         "kalman_gain": fit.kalman_gain.as_ref().map(rows),
         "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
+        "order_criterion": criterion_json(&dg.order_selection),
         "compression": {
             "used": format!("{:?}", dg.compression.used),
             "rcond": dg.compression.rcond,

@@ -391,6 +391,58 @@ mod identification {
             &out,
         ]);
         check_model(&out, 0.02);
+        // the other rules pick the order too (AIC-type rules load the file
+        // in memory, SVC streams), and report their value per order
+        for (method, rule, name) in [
+            ("n4sid", "svc", "Svc"),
+            ("cva", "bic", "Bic"),
+            ("moesp", "aic", "Aic"),
+            ("iv", "aicc", "Aicc"),
+        ] {
+            let out = p(&d, &format!("auto_{rule}.json"));
+            ok(&[
+                "identify",
+                "--method",
+                method,
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--max-order",
+                "6",
+                "--order-criterion",
+                rule,
+                "--out",
+                &out,
+            ]);
+            let f = check_model(&out, 0.02);
+            let c = &f.diagnostics["order_criterion"];
+            assert_eq!(c["criterion"], name, "{rule}: {c}");
+            assert_eq!(c["selected"], 2, "{rule}: {c}");
+            assert!(c["values"].as_array().is_some_and(|v| v.len() >= 2), "{c}");
+        }
+        // q-Markov has only the gap rule
+        let e = fails(
+            &[
+                "identify",
+                "--method",
+                "qmarkov",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order-criterion",
+                "aic",
+                "--out",
+                &p(&d, "q.json"),
+            ],
+            2,
+        );
+        assert!(e.contains("--order-criterion"), "{e}");
     }
 
     #[test]
