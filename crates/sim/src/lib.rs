@@ -39,7 +39,9 @@
 //! **SNR** (spec §0): SNR = var(noise-free output)/var(noise) per output
 //! channel (or the std ratio), the noise scaled after it is generated: the
 //! loop runs once noise-free to obtain y₀ (linearity), then with α_j chosen so
-//! that the realised ratio on the record is exact.
+//! that the realised ratio on the record is exact — on every fast sample, or
+//! (`SimOptions::snr_samples` = [`SnrSamples::Measured`]) on the samples at
+//! which each output channel is measured.
 //!
 //! **Periodic steady state** (spec pitfall 7; Zhu 2000 IV.B, erratum Z-12):
 //! the one-period map z ↦ Φz + f of the whole simulator state (plant,
@@ -93,7 +95,9 @@ mod steady;
 pub use error::{Error, Result};
 pub use model::{Controller, Delays, Plant, WholeLoop, closed_loop};
 pub use noise::{NoiseLevel, NoiseSpec, SnrDefinition};
-pub use simulator::{Excitation, Feedback, SimOptions, SimOutput, SimSignals, Simulator};
+pub use simulator::{
+    Excitation, Feedback, SimOptions, SimOutput, SimSignals, Simulator, SnrSamples,
+};
 pub use steady::{PeriodicityCheck, SteadyState, SteadyStateMethod, SteadyStateOptions};
 
 /// The README example, compiled and run as a doc test.

@@ -346,13 +346,15 @@ fn broadcast(v: &[f64], n: usize, what: &'static str) -> Result<Vec<f64>> {
 }
 
 /// Sample variance (1/N, about the mean) of a column.
-pub(crate) fn variance(x: &[f64]) -> f64 {
-    let n = x.len() as f64;
-    if x.is_empty() {
+/// Variance of x[offset], x[offset + step], … (population form; 0 when empty).
+pub(crate) fn variance_every(x: &[f64], step: usize, offset: usize) -> f64 {
+    let pick = || x.iter().skip(offset).step_by(step.max(1));
+    let n = pick().count();
+    if n == 0 {
         return 0.0;
     }
-    let mean = x.iter().sum::<f64>() / n;
-    x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n
+    let mean = pick().sum::<f64>() / n as f64;
+    pick().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n as f64
 }
 
 /// Per-channel scale α so that the realised SNR equals the request.
@@ -361,11 +363,13 @@ pub(crate) fn snr_scale(
     raw: &DMatrix<f64>,
     ratio: &[f64],
     def: SnrDefinition,
+    samples: Option<&[(usize, usize)]>,
 ) -> Result<Vec<f64>> {
     (0..clean.ncols())
         .map(|j| {
-            let vs = variance(clean.column(j).as_slice());
-            let vn = variance(raw.column(j).as_slice());
+            let (step, offset) = samples.map_or((1, 0), |s| s[j]);
+            let vs = variance_every(clean.column(j).as_slice(), step, offset);
+            let vn = variance_every(raw.column(j).as_slice(), step, offset);
             if vs.is_nan() || vs <= 0.0 {
                 return Err(Error::ZeroSignalVariance { channel: j });
             }
@@ -389,19 +393,19 @@ mod tests {
     fn snr_scale_is_exact_for_both_definitions() {
         let clean = DMatrix::from_fn(1000, 1, |k, _| (k as f64 * 0.1).sin() * 3.0);
         let raw = DMatrix::from_fn(1000, 1, |k, _| ((k * 7919) % 101) as f64 / 50.0 - 1.0);
-        let vs = variance(clean.column(0).as_slice());
-        let vn = variance(raw.column(0).as_slice());
-        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::Variance).unwrap()[0];
+        let vs = variance_every(clean.column(0).as_slice(), 1, 0);
+        let vn = variance_every(raw.column(0).as_slice(), 1, 0);
+        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::Variance, None).unwrap()[0];
         assert!((vs / (a * a * vn) - 4.0).abs() < 1e-12);
-        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::StdRatio).unwrap()[0];
+        let a = snr_scale(&clean, &raw, &[4.0], SnrDefinition::StdRatio, None).unwrap()[0];
         assert!((vs.sqrt() / (a * vn.sqrt()) - 4.0).abs() < 1e-12);
         let zero = DMatrix::zeros(1000, 1);
         assert!(matches!(
-            snr_scale(&zero, &raw, &[4.0], SnrDefinition::Variance),
+            snr_scale(&zero, &raw, &[4.0], SnrDefinition::Variance, None),
             Err(Error::ZeroSignalVariance { channel: 0 })
         ));
         assert!(matches!(
-            snr_scale(&clean, &zero, &[4.0], SnrDefinition::Variance),
+            snr_scale(&clean, &zero, &[4.0], SnrDefinition::Variance, None),
             Err(Error::ZeroNoiseVariance { channel: 0 })
         ));
     }

@@ -33,14 +33,30 @@ pub struct SimOptions {
     /// this value or becomes non-finite (unstable loops are reported, never
     /// returned as NaNs). Default 1e12.
     pub divergence_limit: f64,
+    /// Which samples an SNR level is measured on. Default
+    /// [`SnrSamples::Fast`].
+    pub snr_samples: SnrSamples,
 }
 
 impl Default for SimOptions {
     fn default() -> Self {
         SimOptions {
             divergence_limit: 1e12,
+            snr_samples: SnrSamples::Fast,
         }
     }
+}
+
+/// The samples on which the variances of an SNR level are taken (the
+/// papers do not say; spec §0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SnrSamples {
+    /// Every fast sample of the record (default).
+    #[default]
+    Fast,
+    /// Only the samples at which each output channel is measured (its
+    /// period and offset): the SNR an analyst computes from the data set.
+    Measured,
 }
 
 /// Exogenous signals, one row per fast sample.
@@ -697,7 +713,13 @@ impl Simulator {
         let scale = match &noise_gen.snr {
             Some((ratio, def)) => {
                 run(&clean, rec)?;
-                snr_scale(&rec.y_clean, &out.noise, ratio, *def)?
+                let sampled: Vec<(usize, usize)> =
+                    self.outputs.iter().map(|c| (c.period, c.offset)).collect();
+                let window = match self.options.snr_samples {
+                    SnrSamples::Fast => None,
+                    SnrSamples::Measured => Some(sampled.as_slice()),
+                };
+                snr_scale(&rec.y_clean, &out.noise, ratio, *def, window)?
             }
             None => vec![1.0; self.ny],
         };

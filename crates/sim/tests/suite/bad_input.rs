@@ -189,6 +189,7 @@ fn unstable_closed_loop_diverges_with_a_named_error() {
     let sim = sim
         .with_options(SimOptions {
             divergence_limit: 1e3,
+            ..Default::default()
         })
         .unwrap();
     assert!(matches!(sim.simulate(&r), Err(Error::Diverged { sample, .. }) if sample < 10));
