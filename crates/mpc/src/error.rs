@@ -56,8 +56,9 @@ pub enum Error {
         /// Solver status reported by clarabel.
         status: String,
     },
-    /// The QP solver stopped without a solution or an infeasibility certificate.
-    #[error("QP solver failed: {reason}")]
+    /// The QP/SOCP solver (clarabel) stopped without a solution or an
+    /// infeasibility certificate.
+    #[error("conic solver failed: {reason}")]
     Solver {
         /// Status or setup error of the solver.
         reason: String,
@@ -83,6 +84,16 @@ pub enum Error {
         what: &'static str,
         /// Largest |eigenvalue| found.
         spectral_radius: f64,
+    },
+    /// An iteration stopped before its tolerance was met.
+    #[error("{what} did not converge in {iterations} iterations (gap {gap:e})")]
+    NoConvergence {
+        /// Which iteration.
+        what: &'static str,
+        /// Iterations performed.
+        iterations: usize,
+        /// Remaining gap between its upper and lower bounds.
+        gap: f64,
     },
     /// Error from `lifted-linalg`.
     #[error(transparent)]

@@ -3,9 +3,7 @@
 //! and the constrained QP solved with clarabel.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT,
-};
+use clarabel::solver::{NonnegativeConeT, SupportedConeT};
 use lifted_linalg::{SortOrder, solve, sym_eig};
 use nalgebra::{DMatrix, DVector};
 
@@ -366,34 +364,11 @@ impl MoveLaw {
         } else {
             Vec::new()
         };
-        let settings = DefaultSettings {
-            verbose: false,
-            tol_gap_abs: 1e-10,
-            tol_gap_rel: 1e-10,
-            tol_feas: 1e-10,
-            ..DefaultSettings::default()
-        };
-        let mut solver =
-            DefaultSolver::new(&pmat, &q, &amat, &b, &cones, settings).map_err(|e| {
-                Error::Solver {
-                    reason: e.to_string(),
-                }
-            })?;
-        solver.solve();
-        match solver.solution.status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => Ok(Moves {
-                du: DVector::from_vec(solver.solution.x.clone()),
-                constrained: true,
-            }),
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-                Err(Error::Infeasible {
-                    status: format!("{:?}", solver.solution.status),
-                })
-            }
-            s => Err(Error::Solver {
-                reason: format!("clarabel status {s:?}"),
-            }),
-        }
+        let du = crate::conic::solve_conic(&pmat, &q, &amat, &b, &cones, 1e-10)?;
+        Ok(Moves {
+            du: DVector::from_vec(du),
+            constrained: true,
+        })
     }
 }
 

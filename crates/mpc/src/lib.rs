@@ -19,13 +19,24 @@
 //!   [`Predictive`] exposes the move plan and a forced-QP update.
 //! * [`DualRateLoop`] — the Chapter 9 scheme (uncorrected parallel model,
 //!   periodic switch): simulation, monodromy matrix, lifted closed loop.
-//! * [`beta_sr`], [`beta_dr`], [`beta_dr_lifted`] — Prop. 6 / Cor. 1 robustness
-//!   measures (closed form via the alias formula, and a brute-force lifted SVD).
+//! * [`beta_sr`], [`beta_dr`], [`beta_dr_lifted`], [`beta_socp`] — Prop. 6 /
+//!   Cor. 1 robustness measures (9.8), SISO and MIMO (all outputs sampled
+//!   every n): closed form via the alias formula
+//!   β_dr = max_θ √(λ_max((1/n)Σ_l T(z_l)ᴴT(z_l))), a brute-force lifted
+//!   SVD, and the conic form of (9.8) on a θ grid solved by clarabel.
+//! * [`gamma_sr`], [`gamma_dr`], [`prop5`] — Prop. 5 (§9.4) as convex
+//!   programmes: FIR Youla parameter Q, min ‖(I − PQ)W₂‖ (9.3) and
+//!   min ‖(I − P̲Q̲R₁)W̲₂‖ (9.7) on a frequency grid, solved as SOCPs (with
+//!   cutting planes for the spectral norm of matrices, [`NormMinimax`]);
+//!   γ_dr(L) ≥ γ_sr(L) holds exactly on the grids used by [`prop5`].
 //! * [`simulate`] — closed loop with IAE, overshoot, settling time, input energy.
 //!
 //! Complexity: building a controller costs O((hp)(mn_u)² + (mn_u)³); an
 //! unconstrained update is O(hp·mn_u) plus the free response; a constrained
-//! update solves a dense QP with m·n_u variables.
+//! update solves a dense QP with m·n_u variables. The robustness and Prop. 5
+//! routines state their costs in their docs (dominated by K frequency
+//! evaluations of lifted n-fold systems and one interior-point solve per
+//! cutting-plane round).
 //!
 //! ```
 //! use lifted_lti::StateSpace;
@@ -43,6 +54,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod conic;
 mod controller;
 mod dmc;
 pub mod error;
@@ -52,9 +64,11 @@ mod law;
 mod lifting;
 mod model;
 mod options;
+mod prop5;
 mod robust;
 mod simulate;
 
+pub use conic::{MinimaxOptions, MinimaxSolution, NormMinimax};
 pub use controller::{Controller, Predictive, SlowRate};
 pub use dmc::Dmc;
 pub use error::{Error, Result};
@@ -64,9 +78,10 @@ pub use law::{MoveLaw, Moves, dynamic_matrix};
 pub use lifting::{PeriodicStep, lift, lift_periodic, sigma_max};
 pub use model::{hold_model, integrated_model, step_coefficients};
 pub use options::{Constraints, MpcOptions};
+pub use prop5::{ModelMatching, Prop5Comparison, Prop5Options, gamma_dr, gamma_sr, prop5};
 pub use robust::{
-    Beta, LiftedPieces, RobustnessOptions, Uncertainty, alias_gain, beta_dr, beta_dr_lifted,
-    beta_sr, lifted_response, robustness_map,
+    Beta, ConicBeta, ConicOptions, LiftedPieces, RobustnessOptions, Uncertainty, alias_gain,
+    beta_dr, beta_dr_lifted, beta_socp, beta_sr, lifted_response, robustness_map,
 };
 pub use simulate::{LoopResult, LoopSetup, Performance, performance, simulate};
 

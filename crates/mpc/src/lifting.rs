@@ -113,20 +113,10 @@ pub fn lift(sys: &StateSpace, n: usize) -> Result<StateSpace> {
 ///
 /// Errors: non-finite entries.
 pub fn sigma_max(m: &DMatrix<Complex64>) -> Result<f64> {
-    let (r, c) = m.shape();
-    if r == 0 || c == 0 {
+    if m.nrows() == 0 || m.ncols() == 0 {
         return Ok(0.0);
     }
-    let mut e = DMatrix::zeros(2 * r, 2 * c);
-    for i in 0..r {
-        for j in 0..c {
-            let z = m[(i, j)];
-            e[(i, j)] = z.re;
-            e[(i + r, j + c)] = z.re;
-            e[(i, j + c)] = -z.im;
-            e[(i + r, j)] = z.im;
-        }
-    }
+    let e = crate::conic::real_embedding(m);
     let s = lifted_linalg::singular_values(&e)?;
     Ok(s.iter().copied().fold(0.0, f64::max))
 }

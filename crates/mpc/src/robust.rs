@@ -1,29 +1,23 @@
-//! Stability-robustness measures of thesis §9.5 (Prop. 6, Cor. 1, §9.7):
-//! β_sr = ‖W₁(I + KP̂)⁻¹K‖∞ and β_dr = ‖W̲₁(I + K̲P̲̂)⁻¹K̲R₁‖∞, and their
-//! multiplicative-uncertainty versions.
-//!
-//! For SISO LTI pieces the lifted response is V·diag(T(e^{j(θ+2πl)/n}))·Vᴴ
-//! with V unitary, and R₁ = e₁e₁ᵀ picks one column of it, so
-//! β_dr = max_θ √((1/n)Σ_{l<n}|T(e^{j(θ+2πl)/n})|²) (spec A3.11) with
-//! T = W₁K/(1+KP̂) (additive) or W₁P̂K/(1+KP̂) (multiplicative). T is
-//! evaluated as a closed-loop state space, which is finite at θ = 0 even
-//! when K has an integrator (spec pitfall 10).
+//! Stability-robustness measures of thesis §9.5 (Prop. 6, Cor. 1, §9.7),
+//! SISO and MIMO; the derivation and the MIMO meaning are in [`beta_dr`]'s
+//! docs.
 
 use lifted_lti::{FeedbackSign, HinfOptions, StateSpace, feedback, series};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
+use crate::conic::{MinimaxOptions, NormMinimax};
 use crate::error::{Error, Result};
 use crate::lifting::{lift, sigma_max};
 
 /// Uncertainty structure of Prop. 6 (additive) and §9.7 (multiplicative).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Uncertainty {
-    /// P = P̂ + ΔW₁: T = W₁K(1+P̂K)⁻¹.
+    /// P = P̂ + ΔW₁ (Prop. 6): T = W₁K(I + P̂K)⁻¹, W₁ q×m.
     #[default]
     Additive,
-    /// P = (1 + ΔW₁)P̂: T = W₁P̂K(1+P̂K)⁻¹.
+    /// P = (I + ΔW₁)P̂ (§9.7): T = W₁P̂K(I + P̂K)⁻¹, W₁ q×p.
     Multiplicative,
 }
 
@@ -55,23 +49,65 @@ pub struct Beta {
     pub theta: f64,
 }
 
-fn check_siso(what: &'static str, s: &StateSpace) -> Result<()> {
+/// A discrete model with at least one input and one output.
+pub(crate) fn check_discrete(what: &'static str, s: &StateSpace) -> Result<()> {
     if !s.is_discrete() {
         return Err(Error::InvalidModel {
             what,
             reason: "must be discrete-time".into(),
         });
     }
-    if s.n_inputs() != 1 || s.n_outputs() != 1 {
+    if s.n_inputs() == 0 || s.n_outputs() == 0 {
         return Err(Error::InvalidModel {
             what,
-            reason: format!("must be SISO (got {}x{})", s.n_outputs(), s.n_inputs()),
+            reason: "needs at least one input and one output".into(),
         });
     }
     Ok(())
 }
 
-fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
+/// Checks that the p×m model P̂, the m×p controller K and the weight W₁
+/// (q×m additive, q×p multiplicative) fit together; returns (p, m).
+fn check_pieces(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+) -> Result<(usize, usize)> {
+    check_discrete("model P̂", model)?;
+    check_discrete("controller K", controller)?;
+    check_discrete("weight W1", weight)?;
+    let (p, m) = (model.n_outputs(), model.n_inputs());
+    let mismatch = |what, expected, got| Error::DimensionMismatch {
+        what,
+        expected,
+        got,
+    };
+    if controller.n_inputs() != p {
+        return Err(mismatch(
+            "controller K inputs vs model outputs",
+            p,
+            controller.n_inputs(),
+        ));
+    }
+    if controller.n_outputs() != m {
+        return Err(mismatch(
+            "controller K outputs vs model inputs",
+            m,
+            controller.n_outputs(),
+        ));
+    }
+    let (what, expected) = match uncertainty {
+        Uncertainty::Additive => ("weight W1 inputs vs model inputs (additive)", m),
+        Uncertainty::Multiplicative => ("weight W1 inputs vs model outputs (multiplicative)", p),
+    };
+    if weight.n_inputs() != expected {
+        return Err(mismatch(what, expected, weight.n_inputs()));
+    }
+    Ok((p, m))
+}
+
+pub(crate) fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
     if a.nrows() == 0 {
         return Ok(0.0);
     }
@@ -81,19 +117,21 @@ fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
         .fold(0.0, f64::max))
 }
 
-/// The closed-loop product T whose norms are β_sr and β_dr.
+/// The closed-loop product T whose norms are β_sr and β_dr:
+/// W₁K(I + P̂K)⁻¹ (additive) or W₁P̂K(I + P̂K)⁻¹ (multiplicative), MIMO.
+/// O(order³).
 ///
-/// Errors: non-SISO or continuous pieces, [`Error::Unstable`] when K does
-/// not stabilise P̂ or W₁ is unstable (Prop. 6 assumes nominal stability).
+/// Errors: continuous pieces or sizes that do not fit
+/// ([`Error::InvalidModel`], [`Error::DimensionMismatch`]),
+/// [`Error::Unstable`] when K does not stabilise P̂ or W₁ is unstable
+/// (Prop. 6 assumes nominal stability).
 pub fn robustness_map(
     model: &StateSpace,
     controller: &StateSpace,
     weight: &StateSpace,
     uncertainty: Uncertainty,
 ) -> Result<StateSpace> {
-    check_siso("model P̂", model)?;
-    check_siso("controller K", controller)?;
-    check_siso("weight W1", weight)?;
+    check_pieces(model, controller, weight, uncertainty)?;
     let rho_w = spectral_radius(weight.a())?;
     if rho_w >= 1.0 {
         return Err(Error::Unstable {
@@ -117,7 +155,9 @@ pub fn robustness_map(
     Ok(series(&core, weight)?)
 }
 
-/// β_sr = ‖T‖∞ (Hamiltonian bisection of `lifted-lti`); `theta` in rad/sample.
+/// β_sr = ‖T‖∞ = sup_ω σ_max(T(e^{jω})) (Hamiltonian bisection of
+/// `lifted-lti`, relative tolerance 1e-12); `theta` in rad/sample. MIMO.
+/// O(iterations · order³).
 ///
 /// Errors: as [`robustness_map`].
 pub fn beta_sr(
@@ -209,8 +249,42 @@ fn maximise(mut f: impl FnMut(f64) -> Result<f64>, opts: &RobustnessOptions) -> 
     Ok(best)
 }
 
-/// β_dr in closed form (alias formula, spec A3.11):
-/// max_θ √((1/n)Σ_{l<n}|T(e^{j(θ+2πl)/n})|²). O(grid · n · order³).
+/// β_dr in closed form (alias formula):
+/// max_θ √(λ_max((1/n)Σ_{l<n}T(z_l)ᴴT(z_l))), z_l = e^{j(θ+2πl)/n}; for
+/// SISO max_θ √((1/n)Σ_{l<n}|T(z_l)|²) (spec A3.11). n = 1 gives β_sr.
+/// θ search: grid plus golden section ([`RobustnessOptions`]).
+/// O(grid · n · (order³ + q·p²)).
+///
+/// Stability-robustness measures of thesis §9.5 (Prop. 6, Cor. 1, §9.7):
+/// β_sr = ‖W₁(I + KP̂)⁻¹K‖∞ and β_dr = ‖W̲₁(I + K̲P̲̂)⁻¹K̲R₁‖∞ (9.8), and their
+/// multiplicative-uncertainty versions.
+///
+/// Lifting is an algebra homomorphism on LTI systems, so
+/// W̲₁(I + K̲P̲̂)⁻¹K̲ = T̲ with T = W₁K(I + P̂K)⁻¹ (additive) or
+/// W₁P̂K(I + P̂K)⁻¹ (multiplicative). For LTI pieces the lifted response is
+/// T̲(e^{jθ}) = (V⊗I)·blockdiag(T(z_l))·(V⊗I)ᴴ with z_l = e^{j(θ+2πl)/n} and
+/// V_{il} = z_lⁱ/√n unitary, and R₁ = e₁e₁ᵀ⊗I_p keeps the first block
+/// column, so T̲R₁ has the singular values of (1/√n)[T(z_0); …; T(z_{n−1})]:
+///
+/// β_dr = max_θ √(λ_max((1/n)Σ_{l<n} T(z_l)ᴴT(z_l))),  β_sr = ‖T‖∞.
+///
+/// For SISO this is max_θ √((1/n)Σ_l|T(z_l)|²) (spec A3.11). **MIMO
+/// meaning:** all p outputs are sampled together every n fast samples (one
+/// slow sampler, Fig. 9.3 with a vector y); Δ is any stable LTI
+/// perturbation with ‖Δ‖∞ < 1 (additive P = P̂ + ΔW₁ with Δ p×q and W₁ q×m,
+/// or multiplicative P = (I + ΔW₁)P̂ with W₁ q×p), and β_dr < 1 is the
+/// small-gain condition of Prop. 6 for it (sufficient, not necessary: the
+/// lifted Δ̲ is structured). β_dr is the worst gain over input directions w
+/// of the root-mean-square over the n aliases of ‖T(z_l)w‖: the switch lets
+/// the perturbation act on the loop only at the slow instants, where the
+/// n aliases of a direction add up incoherently. β_sr/√n ≤ β_dr ≤ β_sr
+/// (λ_max of a mean is at most the largest λ_max and at least 1/n of it).
+///
+/// Three routes compute β_dr: [`beta_dr`] (the alias closed form above),
+/// [`beta_dr_lifted`] (σ_max of the lifted state-space responses) and
+/// [`beta_socp`] (the conic form of (9.8) on a θ grid, solved by clarabel).
+/// T is evaluated as a closed-loop state space, which is finite at θ = 0
+/// even when K has an integrator (spec pitfall 10).
 ///
 /// Errors: as [`robustness_map`], `n = 0`, bad options.
 pub fn beta_dr(
@@ -226,40 +300,58 @@ pub fn beta_dr(
     maximise(|th| alias_gain(&t, n, th), opts)
 }
 
-/// √((1/n)Σ_l |T(e^{j(θ+2πl)/n})|²): σ_max of the lifted T̲(e^{jθ})R₁.
+/// σ_max of the lifted T̲(e^{jθ})R₁ by the alias formula:
+/// σ_max((1/√n)[T(z_0); …; T(z_{n−1})]) = √(λ_max((1/n)Σ_l T(z_l)ᴴT(z_l))),
+/// z_l = e^{j(θ+2πl)/n}; for one input √((1/n)Σ_l ‖T(z_l)‖₂²).
+/// O(n · (order³ + q·p²)).
 ///
-/// Errors: evaluation at a pole.
+/// Errors: `n = 0`, non-finite θ, evaluation at a pole.
 pub fn alias_gain(t: &StateSpace, n: usize, theta: f64) -> Result<f64> {
-    let mut acc = 0.0;
+    if n == 0 {
+        return Err(Error::InvalidArgument {
+            what: "slow period n",
+            reason: "must be at least 1".into(),
+        });
+    }
+    crate::error::check_finite_slice("theta", &[theta])?;
+    let (q, p) = (t.n_outputs(), t.n_inputs());
+    let mut stack = DMatrix::from_element(n * q, p, Complex64::new(0.0, 0.0));
     for l in 0..n {
         let w = (theta + 2.0 * std::f64::consts::PI * l as f64) / n as f64;
         let g = t.eval_complex(Complex64::from_polar(1.0, w))?;
-        acc += g[(0, 0)].norm_sqr();
+        stack.rows_mut(l * q, q).copy_from(&g);
     }
-    Ok((acc / n as f64).sqrt())
+    let s = if p == 1 {
+        stack.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt()
+    } else {
+        sigma_max(&stack)?
+    };
+    Ok(s / (n as f64).sqrt())
 }
 
-/// Lifted response of a discrete system at e^{jθ} (lifted by n).
+/// Lifted response of a discrete system at e^{jθ} (lifted by n, time-major).
+/// O(n²·order³) for the lifting, O(order³) for the evaluation.
 ///
 /// Errors: lifting errors, θ at a lifted pole.
 pub fn lifted_response(sys: &StateSpace, n: usize, theta: f64) -> Result<DMatrix<Complex64>> {
     Ok(lift(sys, n)?.eval_complex(Complex64::from_polar(1.0, theta))?)
 }
 
-/// The lifted pieces W̲₁, K̲, P̲̂ of a β_dr computation.
+/// The lifted pieces W̲₁, K̲, P̲̂ of a β_dr computation (time-major lifting,
+/// MIMO).
 #[derive(Debug, Clone)]
 pub struct LiftedPieces {
     w: StateSpace,
     k: StateSpace,
     p: StateSpace,
-    n: usize,
+    outputs: usize,
     uncertainty: Uncertainty,
 }
 
 impl LiftedPieces {
-    /// Lifts the three SISO pieces by n.
+    /// Lifts the three pieces (P̂ p×m, K m×p, W₁) by n. O(n²·order³).
     ///
-    /// Errors: as [`robustness_map`], lifting errors.
+    /// Errors: as [`robustness_map`], lifting errors (`n = 0`).
     pub fn new(
         model: &StateSpace,
         controller: &StateSpace,
@@ -272,14 +364,16 @@ impl LiftedPieces {
             w: lift(weight, n)?,
             k: lift(controller, n)?,
             p: lift(model, n)?,
-            n,
+            outputs: model.n_outputs(),
             uncertainty,
         })
     }
 
-    /// M̲(e^{jθ}) = W̲₁(I + K̲P̲̂)⁻¹K̲R₁ (additive) or W̲₁P̲̂(I + K̲P̲̂)⁻¹K̲R₁
-    /// (multiplicative), from the lifted state spaces (no alias formula).
-    /// With `switch = false` R₁ is replaced by I (the lifted β_sr map).
+    /// M̲(e^{jθ}) = W̲₁(I + K̲P̲̂)⁻¹K̲R₁ (additive, (9.8)) or
+    /// W̲₁P̲̂(I + K̲P̲̂)⁻¹K̲R₁ (multiplicative, §9.7), from the lifted state
+    /// spaces (no alias formula); R₁ = e₁e₁ᵀ⊗I_p (all outputs sampled at the
+    /// slow instants). With `switch = false` R₁ is replaced by I (the lifted
+    /// β_sr map). Size nq×np. O(order³ + (nm)³).
     ///
     /// Errors: θ at a lifted pole (θ = 0 when K has an integrator), singular
     /// I + K̲P̲̂.
@@ -288,11 +382,10 @@ impl LiftedPieces {
         let w = self.w.eval_complex(z)?;
         let k = self.k.eval_complex(z)?;
         let p = self.p.eval_complex(z)?;
-        let n = self.n;
-        let i = DMatrix::<Complex64>::identity(n, n);
+        let i = DMatrix::<Complex64>::identity(k.nrows(), k.nrows());
         let mut rhs = k.clone();
         if switch {
-            for c in 1..n {
+            for c in self.outputs..rhs.ncols() {
                 rhs.column_mut(c).fill(Complex64::new(0.0, 0.0));
             }
         }
@@ -311,7 +404,7 @@ impl LiftedPieces {
 }
 
 /// β_dr by brute force: σ_max of the lifted M̲(e^{jθ}) built from lifted state
-/// spaces, maximised like [`beta_dr`]. O(grid · n³ + n²·order³).
+/// spaces, maximised like [`beta_dr`]. O(grid · (nm)³ + n²·order³).
 ///
 /// Errors: as [`LiftedPieces::response`].
 pub fn beta_dr_lifted(
@@ -325,4 +418,95 @@ pub fn beta_dr_lifted(
     check_opts(n, opts)?;
     let pieces = LiftedPieces::new(model, controller, weight, uncertainty, n)?;
     maximise(|th| sigma_max(&pieces.response(th, true)?), opts)
+}
+
+/// Options of [`beta_socp`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ConicOptions {
+    /// Number K of frequencies θ_k = π(k + ½)/K on (0, π) (θ = 0 is left out:
+    /// a lifted integrator is singular there). Default 1000: for the §9.6
+    /// example the grid maximum is then within 4.1e-7 of the supremum
+    /// (n = 1 … 8; the grid error is at most ½·max|f″|·(π/2K)²).
+    pub grid: usize,
+    /// Tolerances of the SOCP and its cutting planes.
+    pub minimax: MinimaxOptions,
+}
+
+impl Default for ConicOptions {
+    fn default() -> Self {
+        Self {
+            grid: 1000,
+            minimax: MinimaxOptions::default(),
+        }
+    }
+}
+
+/// The conic (SOCP) value of a robustness measure.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ConicBeta {
+    /// Optimum t* of the SOCP min t s.t. σ_max(M̲(e^{jθ_k})) ≤ t for all k:
+    /// a lower bound of the measure on the grid (equal to it up to the solver
+    /// tolerance for one-column maps, i.e. SISO).
+    pub value: f64,
+    /// max_k σ_max(M̲(e^{jθ_k})) evaluated directly: the grid maximum (the
+    /// SOCP's achieved value).
+    pub grid_max: f64,
+    /// The grid frequency θ_k attaining `grid_max` (rad per lifted sample).
+    pub theta: f64,
+    /// SOCP solves used (1 for one-column maps).
+    pub rounds: usize,
+}
+
+/// Robustness measure (9.8) as a convex programme: β = min t subject to
+/// σ_max(M̲(e^{jθ_k})) ≤ t on the grid θ_k = π(k + ½)/K, with
+/// M̲ = W̲₁(I + K̲P̲̂)⁻¹K̲R₁ from the lifted state spaces
+/// ([`LiftedPieces::response`], restricted to its p nonzero columns); n = 1
+/// gives β_sr (R₁ = I). For SISO the columns are vectors and each
+/// constraint is one second-order cone 𝒬^{1+2n}: one SOCP; MIMO uses SOCP
+/// cutting planes ([`NormMinimax`]). The programme has no design variable
+/// (the controller is fixed), so its optimum is the grid maximum; it is an
+/// evaluation path independent of the alias formula and of the θ search of
+/// [`beta_dr`], and the one-variable case of the Prop. 5 programmes
+/// ([`crate::prop5`]). O(K · ((nm)³ + n²qp) + SOCP with K·p cones of
+/// dimension 1 + 2nq).
+///
+/// Errors: as [`LiftedPieces::new`], `grid = 0`, bad tolerances,
+/// [`Error::Solver`], [`Error::NoConvergence`].
+pub fn beta_socp(
+    model: &StateSpace,
+    controller: &StateSpace,
+    weight: &StateSpace,
+    uncertainty: Uncertainty,
+    n: usize,
+    opts: &ConicOptions,
+) -> Result<ConicBeta> {
+    if opts.grid == 0 {
+        return Err(Error::InvalidArgument {
+            what: "conic options grid",
+            reason: "need at least one frequency".into(),
+        });
+    }
+    opts.minimax.validate()?;
+    let pieces = LiftedPieces::new(model, controller, weight, uncertainty, n)?;
+    let p = model.n_outputs();
+    let thetas = theta_grid(opts.grid);
+    let mut mats = Vec::with_capacity(thetas.len());
+    for &th in &thetas {
+        mats.push(pieces.response(th, true)?.columns(0, p).into_owned());
+    }
+    let problem = NormMinimax::new(mats, vec![Vec::new(); thetas.len()])?;
+    let sol = problem.solve(&opts.minimax)?;
+    Ok(ConicBeta {
+        value: sol.lower_bound,
+        grid_max: sol.value,
+        theta: thetas[sol.argmax],
+        rounds: sol.rounds,
+    })
+}
+
+/// θ_k = π(k + ½)/K, k < K.
+pub(crate) fn theta_grid(k: usize) -> Vec<f64> {
+    (0..k)
+        .map(|i| std::f64::consts::PI * (i as f64 + 0.5) / k as f64)
+        .collect()
 }
