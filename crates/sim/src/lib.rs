@@ -96,7 +96,7 @@ pub use error::{Error, Result};
 pub use model::{Controller, Delays, Plant, WholeLoop, closed_loop};
 pub use noise::{NoiseLevel, NoiseSpec, SnrDefinition};
 pub use simulator::{
-    Excitation, Feedback, SimOptions, SimOutput, SimSignals, Simulator, SnrSamples,
+    Excitation, Feedback, SimOptions, SimOutput, SimSignals, Simulator, SnrSamples, StateLayout,
 };
 pub use steady::{PeriodicityCheck, SteadyState, SteadyStateMethod, SteadyStateOptions};
 

@@ -127,8 +127,40 @@ pub struct SimOutput {
     /// Per-output scale applied to the generated noise: the SNR factor, 1 with
     /// an absolute level, 0 without noise.
     pub noise_scale: Vec<f64>,
-    /// Simulator state after the last sample.
+    /// Simulator state after the last sample (layout:
+    /// [`Simulator::state_layout`]).
     pub final_state: Vec<f64>,
+}
+
+/// Where each part of the simulator state sits in a state vector such as
+/// [`SimOutput::final_state`] or a periodic steady state: index ranges, in
+/// this order. Parts a set-up does not have are empty ranges.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StateLayout {
+    /// The plant's state (the whole loop's state for [`Simulator::whole_loop`]).
+    pub plant: std::ops::Range<usize>,
+    /// The controller's state.
+    pub controller: std::ops::Range<usize>,
+    /// The parallel model P̂ of the inferential feedback.
+    pub model: std::ops::Range<usize>,
+    /// The plant input of the previous sample (what an input hold repeats).
+    pub held_inputs: std::ops::Range<usize>,
+    /// The fed-back measurement of the previous sample (hold-last feedback).
+    pub held_outputs: std::ops::Range<usize>,
+    /// The controller output held between executions of a slow controller.
+    pub held_controller: std::ops::Range<usize>,
+}
+
+impl StateLayout {
+    /// Length of the state vector.
+    pub fn len(&self) -> usize {
+        self.held_controller.end
+    }
+
+    /// True for a state-free simulator (static plant, no holds to keep).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 impl SimOutput {
@@ -423,6 +455,56 @@ impl Simulator {
             .map(|c| c.hold)
             .chain(self.outputs.iter().map(|c| c.period))
             .fold(self.controller_rate().0, crate::engine::lcm)
+    }
+
+    /// The layout of the simulator state ([`SimOutput::final_state`], the
+    /// periodic steady state): plant, controller, parallel model, then the
+    /// held input, measurement and controller-output values.
+    pub fn state_layout(&self) -> StateLayout {
+        let (ng, nk, np) = match &self.kind {
+            Kind::Whole(w) => {
+                let n = w.model().order();
+                return StateLayout {
+                    plant: 0..n,
+                    controller: n..n,
+                    model: n..n,
+                    held_inputs: n..n,
+                    held_outputs: n..n,
+                    held_controller: n..n,
+                };
+            }
+            Kind::Plant { plant, controller } => (
+                plant.model().order(),
+                controller.as_ref().map_or(0, |k| k.model().order()),
+                match &self.feedback {
+                    Feedback::Inferential(p) => p.order(),
+                    _ => 0,
+                },
+            ),
+        };
+        let has_k = matches!(
+            self.kind,
+            Kind::Plant {
+                controller: Some(_),
+                ..
+            }
+        );
+        let nkh = if has_k && self.controller_rate().0 > 1 {
+            self.nu
+        } else {
+            0
+        };
+        let (k0, p0) = (ng, ng + nk);
+        let (u0, v0) = (p0 + np, p0 + np + self.nu);
+        let h0 = v0 + self.ny;
+        StateLayout {
+            plant: 0..ng,
+            controller: k0..p0,
+            model: p0..u0,
+            held_inputs: u0..v0,
+            held_outputs: v0..h0,
+            held_controller: h0..h0 + nkh,
+        }
     }
 
     /// The controller's (period, phase) in base periods; (1, 0) without one.
@@ -753,7 +835,8 @@ pub struct SimSignals {
     /// Per-output noise scale (SNR factor, 1 for an absolute level, 0
     /// without noise).
     pub noise_scale: Vec<f64>,
-    /// Simulator state after the last sample.
+    /// Simulator state after the last sample (layout:
+    /// [`Simulator::state_layout`]).
     pub final_state: Vec<f64>,
 }
 

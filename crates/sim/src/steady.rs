@@ -84,7 +84,8 @@ pub struct SteadyState {
     /// relative to max |y|: antisymmetry max|y(k) + y(k+P/2)| within the
     /// returned period, or max|y(k+P) − y(k)| over the next period.
     pub residual: f64,
-    /// Simulator state at the start of the period.
+    /// Simulator state at the start of the period (layout:
+    /// [`crate::Simulator::state_layout`]).
     pub initial_state: Vec<f64>,
 }
 

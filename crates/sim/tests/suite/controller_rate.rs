@@ -144,3 +144,37 @@ fn controller_period_and_phase_errors() -> TestResult {
     ));
     Ok(())
 }
+
+#[test]
+fn state_layout_matches_the_final_state() -> TestResult {
+    use lifted_sim::plants;
+    let g = tf(&[0.1], &[1.0, -0.9], Some(1.0));
+    let n = 50;
+    let r = random_input(n, 1, 1, 2);
+    // open loop: the plant part is x(N), so C x(N) is the next output
+    // y(N) = 0.9 y(N−1) + 0.1 u(N−1) whatever the realisation
+    let plant = Plant::discrete(&g, &[], &[])?;
+    let c = plant.model().c()[(0, 0)];
+    let open = Simulator::open_loop(plant);
+    let out = open.simulate(&Excitation::input(r.clone()))?;
+    let lay = open.state_layout();
+    assert_eq!(lay.len(), out.final_state.len());
+    assert_eq!(lay.plant, 0..1);
+    assert!(lay.controller.is_empty() && lay.held_controller.is_empty());
+    let y_next = 0.9 * out.y[(n - 1, 0)] + 0.1 * out.u()[(n - 1, 0)];
+    let x_n = out.final_state[lay.plant.start];
+    assert!((c * x_n - y_next).abs() < 1e-12 * y_next.abs().max(1.0));
+    // the held input is the last plant input
+    assert_eq!(out.final_state[lay.held_inputs.start], out.u()[(n - 1, 0)]);
+    // slow PI and the inferential loop: the layout covers the state
+    let slow = Simulator::closed_loop(Plant::discrete(&g, &[], &[])?, pi_at(2.0))?;
+    let lay = slow.state_layout();
+    assert_eq!((lay.controller.len(), lay.held_controller.len()), (1, 1));
+    let exc = Excitation::reference(r);
+    assert_eq!(slow.simulate(&exc)?.final_state.len(), lay.len());
+    let inferential = plants::chapter9_dual_rate()?.simulator()?;
+    let lay = inferential.state_layout();
+    assert!(!lay.model.is_empty());
+    assert_eq!(inferential.simulate(&exc)?.final_state.len(), lay.len());
+    Ok(())
+}
