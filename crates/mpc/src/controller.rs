@@ -87,6 +87,15 @@ pub(crate) fn check_update_args(
     crate::error::check_finite_slice("reference", reference.as_slice())
 }
 
+/// The error of an update that leaves output `q` unmeasured before its
+/// first sample (no estimate exists yet).
+pub(crate) fn never_sampled(q: usize) -> Error {
+    Error::InvalidArgument {
+        what: "measured outputs",
+        reason: format!("output {q} has never been sampled; the first update needs every output"),
+    }
+}
+
 /// Runs an inner controller (designed on the slow model, see
 /// [`crate::hold_model`]) every `period` fast samples and holds its input in
 /// between: the slow single-rate control of thesis §3 / §8.1.
@@ -103,12 +112,7 @@ impl<C: Controller> SlowRate<C> {
     ///
     /// Errors: `period = 0`.
     pub fn new(inner: C, period: usize) -> Result<Self> {
-        if period == 0 {
-            return Err(Error::InvalidArgument {
-                what: "slow period",
-                reason: "must be at least 1".into(),
-            });
-        }
+        crate::error::check_at_least_one("slow period", period)?;
         let m = inner.n_inputs();
         Ok(Self {
             inner,

@@ -6,9 +6,9 @@ use std::collections::VecDeque;
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::controller::{Controller, Predictive, check_update_args};
+use crate::controller::{Controller, Predictive, check_update_args, never_sampled};
 use crate::error::{Error, Result};
-use crate::law::{MoveLaw, Moves};
+use crate::law::{MoveLaw, Moves, check_horizons};
 use crate::model::step_coefficients;
 use crate::options::MpcOptions;
 
@@ -63,12 +63,7 @@ impl Dmc {
     /// move-law errors of [`MoveLaw::new`].
     pub fn from_steps(steps: Vec<DMatrix<f64>>, opts: &MpcOptions) -> Result<Self> {
         let hp = opts.prediction_horizon;
-        if hp == 0 || opts.control_horizon == 0 || opts.control_horizon > hp {
-            return Err(Error::InvalidHorizon {
-                prediction: hp,
-                control: opts.control_horizon,
-            });
-        }
+        check_horizons(hp, opts.control_horizon)?;
         let Some(first) = steps.first() else {
             return Err(Error::InvalidArgument {
                 what: "step coefficients",
@@ -133,6 +128,17 @@ impl Dmc {
         self.steps[0].ncols()
     }
 
+    fn check_output(&self, y: &DVector<f64>) -> Result<()> {
+        if y.len() != self.p() {
+            return Err(Error::DimensionMismatch {
+                what: "output",
+                expected: self.p(),
+                got: y.len(),
+            });
+        }
+        Ok(())
+    }
+
     fn check_past(&self, past: &[DVector<f64>]) -> Result<()> {
         for v in past {
             if v.len() != self.m() {
@@ -152,13 +158,7 @@ impl Dmc {
     ///
     /// Errors: dimension mismatch, non-finite data.
     pub fn free_response(&self, y: &DVector<f64>, past: &[DVector<f64>]) -> Result<DVector<f64>> {
-        if y.len() != self.p() {
-            return Err(Error::DimensionMismatch {
-                what: "output",
-                expected: self.p(),
-                got: y.len(),
-            });
-        }
+        self.check_output(y)?;
         self.check_past(past)?;
         Ok(self.free_unchecked(y, past.iter()))
     }
@@ -213,13 +213,7 @@ impl Dmc {
         past: &[DVector<f64>],
         since: &[DVector<f64>],
     ) -> Result<DVector<f64>> {
-        if y_nk.len() != self.p() {
-            return Err(Error::DimensionMismatch {
-                what: "output",
-                expected: self.p(),
-                got: y_nk.len(),
-            });
-        }
+        self.check_output(y_nk)?;
         self.check_past(past)?;
         self.check_past(since)?;
         let l = since.len();
@@ -257,41 +251,6 @@ impl Dmc {
         }
         v
     }
-
-    fn step_inner(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-        force_qp: bool,
-    ) -> Result<(DVector<f64>, Moves)> {
-        check_update_args(self.p(), measured, reference)?;
-        for (q, y) in measured.iter().enumerate() {
-            match y {
-                Some(v) => {
-                    self.last[q] = Some(*v);
-                    self.since[q] = 0;
-                }
-                None if self.last[q].is_none() => {
-                    return Err(Error::InvalidArgument {
-                        what: "measured outputs",
-                        reason: format!(
-                            "output {q} has never been sampled; the first update needs every output"
-                        ),
-                    });
-                }
-                None => self.since[q] += 1,
-            }
-        }
-        let v = self.feedback();
-        let f = self.free_unchecked(&v, self.history.iter());
-        self.estimate = v;
-        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
-        self.u_prev += &du;
-        self.history.push_front(du);
-        let keep = self.truncation + 1 + self.since.iter().copied().max().unwrap_or(0) + 1;
-        self.history.truncate(keep);
-        Ok((self.u_prev.clone(), moves))
-    }
 }
 
 impl Controller for Dmc {
@@ -306,7 +265,7 @@ impl Controller for Dmc {
         measured: &[Option<f64>],
         reference: &DVector<f64>,
     ) -> Result<DVector<f64>> {
-        Ok(self.step_inner(measured, reference, false)?.0)
+        Ok(self.step_plan(measured, reference, false)?.0)
     }
 }
 
@@ -317,6 +276,25 @@ impl Predictive for Dmc {
         reference: &DVector<f64>,
         force_qp: bool,
     ) -> Result<(DVector<f64>, Moves)> {
-        self.step_inner(measured, reference, force_qp)
+        check_update_args(self.p(), measured, reference)?;
+        for (q, y) in measured.iter().enumerate() {
+            match y {
+                Some(v) => {
+                    self.last[q] = Some(*v);
+                    self.since[q] = 0;
+                }
+                None if self.last[q].is_none() => return Err(never_sampled(q)),
+                None => self.since[q] += 1,
+            }
+        }
+        let v = self.feedback();
+        let f = self.free_unchecked(&v, self.history.iter());
+        self.estimate = v;
+        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
+        self.u_prev += &du;
+        self.history.push_front(du);
+        let keep = self.truncation + 1 + self.since.iter().copied().max().unwrap_or(0) + 1;
+        self.history.truncate(keep);
+        Ok((self.u_prev.clone(), moves))
     }
 }

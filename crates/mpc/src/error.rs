@@ -117,6 +117,18 @@ pub(crate) fn check_finite_slice(what: &'static str, v: &[f64]) -> Result<()> {
     }
 }
 
+/// [`Error::InvalidArgument`] "must be at least 1" when `n = 0` (a period,
+/// lifting factor or count).
+pub(crate) fn check_at_least_one(what: &'static str, n: usize) -> Result<()> {
+    if n == 0 {
+        return Err(Error::InvalidArgument {
+            what,
+            reason: "must be at least 1".into(),
+        });
+    }
+    Ok(())
+}
+
 /// Checks the length and finiteness of each (name, vector, expected length).
 pub(crate) fn check_vectors(
     items: &[(&'static str, &nalgebra::DVector<f64>, usize)],

@@ -4,9 +4,9 @@
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::controller::{Controller, Predictive, check_update_args};
-use crate::error::{Error, Result};
-use crate::law::{MoveLaw, Moves};
+use crate::controller::{Controller, Predictive, check_update_args, never_sampled};
+use crate::error::Result;
+use crate::law::{MoveLaw, Moves, check_horizons};
 use crate::model::{integrated_model, step_coefficients};
 use crate::options::MpcOptions;
 
@@ -42,12 +42,7 @@ impl StateSpaceMpc {
     /// Errors: model errors, horizon/weight/constraint errors of [`MoveLaw::new`].
     pub fn new(model: &StateSpace, opts: &MpcOptions) -> Result<Self> {
         let hp = opts.prediction_horizon;
-        if hp == 0 || opts.control_horizon == 0 || opts.control_horizon > hp {
-            return Err(Error::InvalidHorizon {
-                prediction: hp,
-                control: opts.control_horizon,
-            });
-        }
+        check_horizons(hp, opts.control_horizon)?;
         let (ai, bi, ci) = integrated_model(model)?;
         let steps = step_coefficients(model, hp)?;
         let law = MoveLaw::new(&steps, opts)?;
@@ -114,41 +109,6 @@ impl StateSpaceMpc {
         let ys = DVector::from_fn(hp * p, |i, _| bias[i % p]);
         Ok(&self.gamma * x_d + self.law.dynamic_matrix() * future + ys)
     }
-
-    fn step_inner(
-        &mut self,
-        measured: &[Option<f64>],
-        reference: &DVector<f64>,
-        force_qp: bool,
-    ) -> Result<(DVector<f64>, Moves)> {
-        let p = self.ci.nrows();
-        check_update_args(p, measured, reference)?;
-        let yd = &self.ci * &self.x;
-        for (q, y) in measured.iter().enumerate() {
-            match y {
-                Some(v) => {
-                    self.bias[q] = v - yd[q];
-                    self.measured_once[q] = true;
-                }
-                None if !self.measured_once[q] => {
-                    return Err(Error::InvalidArgument {
-                        what: "measured outputs",
-                        reason: format!(
-                            "output {q} has never been sampled; the first update needs every output"
-                        ),
-                    });
-                }
-                None => {}
-            }
-        }
-        self.estimate = &yd + &self.bias;
-        let hp = self.law.prediction_horizon();
-        let f = &self.gamma * &self.x + DVector::from_fn(hp * p, |i, _| self.bias[i % p]);
-        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
-        self.u_prev += &du;
-        self.x = &self.ai * &self.x + &self.bi * &du;
-        Ok((self.u_prev.clone(), moves))
-    }
 }
 
 impl Controller for StateSpaceMpc {
@@ -163,7 +123,7 @@ impl Controller for StateSpaceMpc {
         measured: &[Option<f64>],
         reference: &DVector<f64>,
     ) -> Result<DVector<f64>> {
-        Ok(self.step_inner(measured, reference, false)?.0)
+        Ok(self.step_plan(measured, reference, false)?.0)
     }
 }
 
@@ -174,6 +134,25 @@ impl Predictive for StateSpaceMpc {
         reference: &DVector<f64>,
         force_qp: bool,
     ) -> Result<(DVector<f64>, Moves)> {
-        self.step_inner(measured, reference, force_qp)
+        let p = self.ci.nrows();
+        check_update_args(p, measured, reference)?;
+        let yd = &self.ci * &self.x;
+        for (q, y) in measured.iter().enumerate() {
+            match y {
+                Some(v) => {
+                    self.bias[q] = v - yd[q];
+                    self.measured_once[q] = true;
+                }
+                None if !self.measured_once[q] => return Err(never_sampled(q)),
+                None => {}
+            }
+        }
+        self.estimate = &yd + &self.bias;
+        let hp = self.law.prediction_horizon();
+        let f = &self.gamma * &self.x + DVector::from_fn(hp * p, |i, _| self.bias[i % p]);
+        let (du, moves) = self.law.plan(&f, reference, &self.u_prev, force_qp)?;
+        self.u_prev += &du;
+        self.x = &self.ai * &self.x + &self.bi * &du;
+        Ok((self.u_prev.clone(), moves))
     }
 }

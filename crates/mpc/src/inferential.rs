@@ -8,7 +8,7 @@ use num_complex::Complex64;
 
 use crate::error::{Error, Result};
 use crate::lifting::{PeriodicStep, lift_periodic};
-use crate::model::check_model;
+use crate::model::{check_model, discrete_ts};
 
 /// The loop P (plant), P̂ (model), K (controller), slow period n. With n = 1
 /// it is the fast single-rate loop of Fig. 9.2.
@@ -54,12 +54,7 @@ impl DualRateLoop {
                 got: pm,
             });
         }
-        if !controller.is_discrete() {
-            return Err(Error::InvalidModel {
-                what: "controller",
-                reason: "must be discrete-time".into(),
-            });
-        }
+        discrete_ts("controller", controller)?;
         if controller.n_inputs() != p || controller.n_outputs() != m {
             return Err(Error::DimensionMismatch {
                 what: "controller inputs vs plant outputs",
@@ -67,12 +62,7 @@ impl DualRateLoop {
                 got: controller.n_inputs(),
             });
         }
-        if n == 0 {
-            return Err(Error::InvalidArgument {
-                what: "slow period n",
-                reason: "must be at least 1".into(),
-            });
-        }
+        crate::error::check_at_least_one("slow period n", n)?;
         Ok(Self {
             plant: plant.clone(),
             model: model.clone(),

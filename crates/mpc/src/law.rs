@@ -79,16 +79,22 @@ fn weight(what: &'static str, w: &Option<DMatrix<f64>>, dim: usize) -> Result<DM
     Ok(sym)
 }
 
-/// Block-Toeplitz dynamic matrix 𝒜 (h p × m n_u) with block (j, c) =
-/// S_{j−c+1} (zero above the diagonal), from step-response coefficients
-/// `steps[i] = S_i` (index 0 is S_0 = 0; needs `steps.len() > h`).
-pub fn dynamic_matrix(steps: &[DMatrix<f64>], hp: usize, hc: usize) -> Result<DMatrix<f64>> {
+/// [`Error::InvalidHorizon`] unless 1 ≤ m ≤ h (`hc` = m, `hp` = h).
+pub(crate) fn check_horizons(hp: usize, hc: usize) -> Result<()> {
     if hp == 0 || hc == 0 || hc > hp {
         return Err(Error::InvalidHorizon {
             prediction: hp,
             control: hc,
         });
     }
+    Ok(())
+}
+
+/// Block-Toeplitz dynamic matrix 𝒜 (h p × m n_u) with block (j, c) =
+/// S_{j−c+1} (zero above the diagonal), from step-response coefficients
+/// `steps[i] = S_i` (index 0 is S_0 = 0; needs `steps.len() > h`).
+pub fn dynamic_matrix(steps: &[DMatrix<f64>], hp: usize, hc: usize) -> Result<DMatrix<f64>> {
+    check_horizons(hp, hc)?;
     if steps.len() <= hp {
         return Err(Error::DimensionMismatch {
             what: "step-response coefficients (need h+1)",

@@ -98,12 +98,7 @@ pub fn lift_periodic(steps: &[PeriodicStep], ts: f64) -> Result<StateSpace> {
 /// Errors: continuous model, `n = 0`.
 pub fn lift(sys: &StateSpace, n: usize) -> Result<StateSpace> {
     crate::model::discrete_ts("system to lift", sys)?;
-    if n == 0 {
-        return Err(Error::InvalidArgument {
-            what: "lifting factor n",
-            reason: "must be at least 1".into(),
-        });
-    }
+    crate::error::check_at_least_one("lifting factor n", n)?;
     let l = MultirateLifting::uniform(n, sys.n_inputs(), sys.n_outputs(), Ordering::TimeMajor)?;
     Ok(lift_model(sys, &l)?)
 }

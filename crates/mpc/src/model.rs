@@ -10,13 +10,7 @@ use crate::error::{Error, Result};
 /// Checks that `sys` is a discrete, strictly proper (D = 0) model with at
 /// least one input and output; returns (p, m).
 pub(crate) fn check_model(what: &'static str, sys: &StateSpace) -> Result<(usize, usize)> {
-    discrete_ts(what, sys)?;
-    if sys.n_inputs() == 0 || sys.n_outputs() == 0 {
-        return Err(Error::InvalidModel {
-            what,
-            reason: "needs at least one input and one output".into(),
-        });
-    }
+    check_discrete(what, sys)?;
     if sys.d().amax() != 0.0 {
         return Err(Error::InvalidModel {
             what,
@@ -24,6 +18,18 @@ pub(crate) fn check_model(what: &'static str, sys: &StateSpace) -> Result<(usize
         });
     }
     Ok((sys.n_outputs(), sys.n_inputs()))
+}
+
+/// A discrete model with at least one input and one output.
+pub(crate) fn check_discrete(what: &'static str, sys: &StateSpace) -> Result<()> {
+    discrete_ts(what, sys)?;
+    if sys.n_inputs() == 0 || sys.n_outputs() == 0 {
+        return Err(Error::InvalidModel {
+            what,
+            reason: "needs at least one input and one output".into(),
+        });
+    }
+    Ok(())
 }
 
 /// The sample time of a discrete model, [`Error::InvalidModel`] otherwise.
@@ -75,12 +81,7 @@ pub fn integrated_model(sys: &StateSpace) -> Result<(DMatrix<f64>, DMatrix<f64>,
 ///
 /// Errors: `n = 0`, model errors.
 pub fn hold_model(sys: &StateSpace, n: usize) -> Result<StateSpace> {
-    if n == 0 {
-        return Err(Error::InvalidArgument {
-            what: "slow period n",
-            reason: "must be at least 1".into(),
-        });
-    }
+    crate::error::check_at_least_one("slow period n", n)?;
     let ts = discrete_ts("model", sys)?;
     let order = sys.order();
     let mut an = DMatrix::identity(order, order);

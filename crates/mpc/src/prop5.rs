@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 use crate::conic::{MinimaxOptions, NormMinimax};
 use crate::error::{Error, Result};
 use crate::lifting::lift;
-use crate::robust::{check_discrete, spectral_radius, theta_grid};
+use crate::model::check_discrete;
+use crate::robust::{spectral_radius, theta_grid};
 
 /// Options of [`gamma_sr`], [`gamma_dr`] and [`prop5`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::conic::{MinimaxOptions, NormMinimax};
 use crate::error::{Error, Result};
 use crate::lifting::{lift, sigma_max};
+use crate::model::check_discrete;
 
 /// Uncertainty structure of Prop. 6 (additive) and §9.7 (multiplicative).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -47,23 +48,6 @@ pub struct Beta {
     /// Frequency θ ∈ [0, π] (rad/sample of the lifted system for β_dr, of the
     /// fast system for β_sr).
     pub theta: f64,
-}
-
-/// A discrete model with at least one input and one output.
-pub(crate) fn check_discrete(what: &'static str, s: &StateSpace) -> Result<()> {
-    if !s.is_discrete() {
-        return Err(Error::InvalidModel {
-            what,
-            reason: "must be discrete-time".into(),
-        });
-    }
-    if s.n_inputs() == 0 || s.n_outputs() == 0 {
-        return Err(Error::InvalidModel {
-            what,
-            reason: "needs at least one input and one output".into(),
-        });
-    }
-    Ok(())
 }
 
 /// Checks that the p×m model P̂, the m×p controller K and the weight W₁
@@ -178,12 +162,7 @@ pub fn beta_sr(
 }
 
 fn check_opts(n: usize, opts: &RobustnessOptions) -> Result<()> {
-    if n == 0 {
-        return Err(Error::InvalidArgument {
-            what: "slow period n",
-            reason: "must be at least 1".into(),
-        });
-    }
+    crate::error::check_at_least_one("slow period n", n)?;
     if opts.grid < 8 || !(opts.theta_tol > 0.0 && opts.theta_tol.is_finite()) {
         return Err(Error::InvalidArgument {
             what: "robustness options",
@@ -307,12 +286,7 @@ pub fn beta_dr(
 ///
 /// Errors: `n = 0`, non-finite θ, evaluation at a pole.
 pub fn alias_gain(t: &StateSpace, n: usize, theta: f64) -> Result<f64> {
-    if n == 0 {
-        return Err(Error::InvalidArgument {
-            what: "slow period n",
-            reason: "must be at least 1".into(),
-        });
-    }
+    crate::error::check_at_least_one("slow period n", n)?;
     crate::error::check_finite_slice("theta", &[theta])?;
     let (q, p) = (t.n_outputs(), t.n_inputs());
     let mut stack = DMatrix::from_element(n * q, p, Complex64::new(0.0, 0.0));
