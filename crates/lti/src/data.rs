@@ -349,6 +349,64 @@ fn default_outputs(n: usize) -> Vec<OutputChannel> {
         .collect()
 }
 
+/// [`DataError::OffsetOutOfRange`] unless `offset < period` (the phase of
+/// `what` channel `channel`).
+fn check_offset(
+    what: &'static str,
+    channel: usize,
+    offset: usize,
+    period: usize,
+) -> DataResult<()> {
+    if offset >= period {
+        return Err(DataError::OffsetOutOfRange {
+            what,
+            channel,
+            offset,
+            period,
+        });
+    }
+    Ok(())
+}
+
+/// Channel `index` of `channels` (`what` is "input" or "output"), or
+/// [`DataError::ChannelOutOfRange`].
+fn channel<'a, C>(what: &'static str, channels: &'a [C], index: usize) -> DataResult<&'a C> {
+    channels.get(index).ok_or(DataError::ChannelOutOfRange {
+        what,
+        index,
+        count: channels.len(),
+    })
+}
+
+/// The instants k < `col.len()` where `keep(k)` and the values of `col` there.
+fn samples_where(
+    col: nalgebra::DVectorView<'_, f64>,
+    keep: impl Fn(usize) -> bool,
+) -> (Vec<usize>, Vec<f64>) {
+    let idx: Vec<usize> = (0..col.len()).filter(|&k| keep(k)).collect();
+    let vals = idx.iter().map(|&k| col[k]).collect();
+    (idx, vals)
+}
+
+/// A per-channel list from [`CsvOptions`]: `given` when it has `n` entries
+/// ([`DataError::DimensionMismatch`] otherwise), else `default()`.
+fn per_channel<T: Clone>(
+    what: &'static str,
+    given: &Option<Vec<T>>,
+    n: usize,
+    default: impl FnOnce() -> DataResult<Vec<T>>,
+) -> DataResult<Vec<T>> {
+    match given {
+        Some(v) if v.len() != n => Err(DataError::DimensionMismatch {
+            what,
+            expected: n,
+            got: v.len(),
+        }),
+        Some(v) => Ok(v.clone()),
+        None => default(),
+    }
+}
+
 impl Dataset {
     /// Validates and builds a data set.
     ///
@@ -396,14 +454,7 @@ impl Dataset {
             if ch.hold == 0 {
                 return Err(DataError::ZeroHold { channel: c });
             }
-            if ch.offset >= ch.hold {
-                return Err(DataError::OffsetOutOfRange {
-                    what: "input",
-                    channel: c,
-                    offset: ch.offset,
-                    period: ch.hold,
-                });
-            }
+            check_offset("input", c, ch.offset, ch.hold)?;
             let col = u.column(c);
             if let Some(k) = lifted_linalg::first_non_finite(col.as_slice()) {
                 return Err(DataError::NonFiniteInput {
@@ -415,16 +466,10 @@ impl Dataset {
             if ch.hold == 1 {
                 continue;
             }
+            // every value is finite here (checked above)
             let mut block_value = f64::NAN;
             for k in 0..n {
                 let v = col[k];
-                if !v.is_finite() {
-                    return Err(DataError::NonFiniteInput {
-                        channel: c,
-                        sample: k,
-                        value: v,
-                    });
-                }
                 if k == 0 || ch.is_block_start(k) {
                     block_value = v;
                 } else if v != block_value {
@@ -440,14 +485,7 @@ impl Dataset {
             if ch.period == 0 {
                 return Err(DataError::ZeroPeriod { channel: c });
             }
-            if ch.offset >= ch.period {
-                return Err(DataError::OffsetOutOfRange {
-                    what: "output",
-                    channel: c,
-                    offset: ch.offset,
-                    period: ch.period,
-                });
-            }
+            check_offset("output", c, ch.offset, ch.period)?;
             let col = y.column(c);
             if ch.period == 1 {
                 if let Some(k) = lifted_linalg::first_non_finite(col.as_slice()) {
@@ -594,31 +632,17 @@ impl Dataset {
 
     /// The instants sampled by output `i` and the values there.
     pub fn output_samples(&self, i: usize) -> DataResult<(Vec<usize>, Vec<f64>)> {
-        let ch = self.outputs.get(i).ok_or(DataError::ChannelOutOfRange {
-            what: "output",
-            index: i,
-            count: self.n_outputs(),
-        })?;
-        let col = self.y.column(i);
-        let idx: Vec<usize> = (0..self.len()).filter(|&k| ch.is_sampled(k)).collect();
-        let vals = idx.iter().map(|&k| col[k]).collect();
-        Ok((idx, vals))
+        let ch = channel("output", &self.outputs, i)?;
+        Ok(samples_where(self.y.column(i), |k| ch.is_sampled(k)))
     }
 
     /// The block-start instants of input `i` (the first sample counts as a
     /// start even inside a block) and the held values.
     pub fn input_samples(&self, i: usize) -> DataResult<(Vec<usize>, Vec<f64>)> {
-        let ch = self.inputs.get(i).ok_or(DataError::ChannelOutOfRange {
-            what: "input",
-            index: i,
-            count: self.n_inputs(),
-        })?;
-        let col = self.u.column(i);
-        let idx: Vec<usize> = (0..self.len())
-            .filter(|&k| k == 0 || ch.is_block_start(k))
-            .collect();
-        let vals = idx.iter().map(|&k| col[k]).collect();
-        Ok((idx, vals))
+        let ch = channel("input", &self.inputs, i)?;
+        Ok(samples_where(self.u.column(i), |k| {
+            k == 0 || ch.is_block_start(k)
+        }))
     }
 
     /// The samples `range` (fast-grid indices). Offsets are adjusted so that
@@ -854,17 +878,9 @@ impl Dataset {
             }
             (label.to_string(), None)
         };
-        let holds = match &opts.holds {
-            Some(h) if h.len() != opts.n_inputs => {
-                return Err(DataError::DimensionMismatch {
-                    what: "CsvOptions::holds",
-                    expected: opts.n_inputs,
-                    got: h.len(),
-                });
-            }
-            Some(h) => h.clone(),
-            None => vec![1; opts.n_inputs],
-        };
+        let holds = per_channel("CsvOptions::holds", &opts.holds, opts.n_inputs, || {
+            Ok(vec![1; opts.n_inputs])
+        })?;
         let inputs = (0..opts.n_inputs)
             .map(|i| {
                 let (name, unit) = split(&names[first + i]);
@@ -876,21 +892,13 @@ impl Dataset {
                 }
             })
             .collect();
-        let sampling = match &opts.sampling {
-            Some(s) if s.len() != n_out => {
-                return Err(DataError::DimensionMismatch {
-                    what: "CsvOptions::sampling",
-                    expected: n_out,
-                    got: s.len(),
-                });
-            }
-            Some(s) => s.clone(),
-            None => (0..n_out)
+        let sampling = per_channel("CsvOptions::sampling", &opts.sampling, n_out, || {
+            (0..n_out)
                 .map(|c| {
                     infer_sampling(c, y.column(c).as_slice(), &names[first + opts.n_inputs + c])
                 })
-                .collect::<DataResult<_>>()?,
-        };
+                .collect()
+        })?;
         let outputs = (0..n_out)
             .map(|c| {
                 let (name, unit) = split(&names[first + opts.n_inputs + c]);
