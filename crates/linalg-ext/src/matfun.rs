@@ -13,7 +13,8 @@
 //! * [`rootm`], [`sqrtm`]: complex Schur form, then Smith's triangular
 //!   recurrence for the principal p-th root (Smith 2003, "A Schur algorithm
 //!   for computing matrix pth roots"; for p = 2 it is Björck–Hammarling),
-//!   O(p·n³/6).
+//!   O(p·n³/6). [`rootm_primary`] also accepts one simple zero eigenvalue
+//!   (mapped to 0: the primary root).
 //!
 //! For a real A the principal logarithm and roots are real. The complex
 //! computation's imaginary residue is checked to be below 1e-9·‖A‖_F before
@@ -32,6 +33,9 @@ use crate::check::square_finite;
 use crate::schur::real_schur;
 use crate::solve::Lu;
 use crate::{Error, Result};
+
+/// An eigenvalue with |λ| ≤ ZERO_EIG_TOL·n·ε·‖A‖_F counts as zero.
+const ZERO_EIG_TOL: f64 = 1000.0;
 
 /// Relative angle tolerance of the branch check (radians from ±π).
 pub const BRANCH_ANGLE_TOL: f64 = 1e-8;
@@ -190,13 +194,30 @@ struct Prepared {
 }
 
 fn prepare(a: &DMatrix<f64>, what: &'static str) -> Result<Prepared> {
+    prepare_with(a, what, false).map(|(p, _)| p)
+}
+
+/// [`prepare`]; with `simple_zero`, one numerically zero eigenvalue is
+/// allowed (its index in the complex Schur diagonal is returned) — a second
+/// one, or a negative real eigenvalue, is still rejected.
+fn prepare_with(
+    a: &DMatrix<f64>,
+    what: &'static str,
+    simple_zero: bool,
+) -> Result<(Prepared, Option<usize>)> {
     let n = a.nrows();
     let rs = real_schur(a)?;
     let anorm = a.norm();
-    let zero_tol = 1000.0 * n as f64 * f64::EPSILON * anorm;
+    let zero_tol = ZERO_EIG_TOL * n as f64 * f64::EPSILON * anorm;
+    let mut zeros = 0;
     for lam in rs.eigenvalues() {
         let r = lam.norm();
-        if r <= zero_tol || (lam.re < 0.0 && lam.im.abs() <= BRANCH_ANGLE_TOL * r) {
+        let zero = r <= zero_tol;
+        if zero && simple_zero && zeros == 0 {
+            zeros += 1;
+            continue;
+        }
+        if zero || (lam.re < 0.0 && lam.im.abs() <= BRANCH_ANGLE_TOL * r) {
             return Err(Error::NoPrincipalBranch {
                 what,
                 eigenvalue: lam,
@@ -204,7 +225,8 @@ fn prepare(a: &DMatrix<f64>, what: &'static str) -> Result<Prepared> {
         }
     }
     let (u, t) = rs.to_complex();
-    Ok(Prepared { u, t, anorm })
+    let zero_at = (0..n).find(|&i| zeros > 0 && t[(i, i)].norm() <= zero_tol);
+    Ok((Prepared { u, t, anorm }, zero_at))
 }
 
 /// U F Uᴴ with the imaginary residue check; returns the real part.
@@ -235,14 +257,25 @@ fn scalar_root(z: Complex64, p: u32) -> Complex64 {
     Complex64::from_polar(z.norm().powf(1.0 / p as f64), z.arg() / p as f64)
 }
 
-/// Principal p-th root of an upper triangular matrix (Smith 2003).
+/// Principal p-th root of an upper triangular matrix (Smith 2003); the
+/// diagonal entry `zero_at`, if any, is a (numerically) zero eigenvalue whose
+/// root is taken as exactly 0 (the primary root; the recurrence's
+/// denominators stay nonzero because the zero is simple).
 fn triangular_root(t: &CMat, p: u32) -> CMat {
+    triangular_root_with(t, p, None)
+}
+
+fn triangular_root_with(t: &CMat, p: u32, zero_at: Option<usize>) -> CMat {
     let n = t.nrows();
     let p = p as usize;
     // pows[q-1] = U^q for q = 1..p-1.
     let mut pows: Vec<CMat> = vec![CMat::zeros(n, n); p.max(2) - 1];
     for i in 0..n {
-        let r = scalar_root(t[(i, i)], p as u32);
+        let r = if zero_at == Some(i) {
+            c(0.0)
+        } else {
+            scalar_root(t[(i, i)], p as u32)
+        };
         let mut acc = r;
         for pw in pows.iter_mut() {
             pw[(i, i)] = acc;
@@ -303,6 +336,46 @@ pub fn rootm(a: &DMatrix<f64>, p: u32) -> Result<DMatrix<f64>> {
     }
     let r = triangular_root(&prep.t, p);
     back_transform(&prep, &r, 1.0, "rootm")
+}
+
+/// The p-th root of A that is the principal root on every nonzero
+/// eigenvalue and maps one **simple** zero eigenvalue to 0: the primary
+/// root f(A) for f(z) = z^{1/p} (principal branch, f(0) = 0), the root a
+/// lifted model with one lost delay has (e.g. spec A3.3: Ā of (4.10) with
+/// eigenvalues 0.729 and 0 has the cube root with eigenvalues 0.9 and 0).
+/// Without a zero eigenvalue it equals [`rootm`]. X^p = A holds to rounding
+/// plus the size of the discarded eigenvalue (≤ 1000·n·ε·‖A‖_F). Same
+/// algorithm and cost as [`rootm`], O(10n³ + p·n³/6).
+///
+/// Errors: as [`rootm`]; [`Error::NoPrincipalBranch`] for a second zero
+/// eigenvalue (a repeated zero has no root of this kind in general) or a
+/// negative real one.
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// let a = DMatrix::from_row_slice(2, 2, &[0.729, 0.0, 0.9, 0.0]);
+/// let x = lifted_linalg::rootm_primary(&a, 3)?;
+/// assert!((&x * &x * &x - &a).norm() < 1e-12);
+/// assert!(lifted_linalg::rootm(&a, 3).is_err()); // no principal root
+/// # Ok::<(), lifted_linalg::Error>(())
+/// ```
+pub fn rootm_primary(a: &DMatrix<f64>, p: u32) -> Result<DMatrix<f64>> {
+    let n = square_finite("a", a)?;
+    if p == 0 {
+        return Err(Error::InvalidArgument {
+            what: "p",
+            reason: "the root order must be at least 1".into(),
+        });
+    }
+    if n == 0 {
+        return Ok(DMatrix::zeros(0, 0));
+    }
+    let (prep, zero_at) = prepare_with(a, "rootm_primary", true)?;
+    if p == 1 {
+        return Ok(a.clone());
+    }
+    let r = triangular_root_with(&prep.t, p, zero_at);
+    back_transform(&prep, &r, 1.0, "rootm_primary")
 }
 
 /// Principal square root, `rootm(a, 2)` (Björck–Hammarling on the complex
@@ -421,6 +494,59 @@ pub fn logm(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn primary_root_with_a_simple_zero_eigenvalue() {
+        // spec A3.3: Ā of (4.10), eigenvalues 0.729 and 0
+        let a = DMatrix::from_row_slice(2, 2, &[0.729, 0.0, 0.9, 0.0]);
+        let x = rootm_primary(&a, 3).unwrap();
+        assert!((&x * &x * &x - &a).norm() < 1e-13);
+        let mut ev: Vec<f64> = crate::eigenvalues(&x)
+            .unwrap()
+            .iter()
+            .map(|z| z.re)
+            .collect();
+        ev.sort_by(f64::total_cmp);
+        assert!(ev[0].abs() < 1e-12 && (ev[1] - 0.9).abs() < 1e-12, "{ev:?}");
+        // a 5×5 V diag(0, 0.5, 2, 0.3 ± 0.4i) V⁻¹: X = V diag(f(λ)) V⁻¹
+        let v = DMatrix::from_fn(5, 5, |i, j| {
+            ((i * 7 + j * 3) % 5) as f64 * 0.3 + if i == j { 1.0 } else { 0.0 }
+        });
+        let mut d = DMatrix::zeros(5, 5);
+        d[(1, 1)] = 0.5;
+        d[(2, 2)] = 2.0;
+        d[(3, 3)] = 0.3;
+        d[(3, 4)] = 0.4;
+        d[(4, 3)] = -0.4;
+        d[(4, 4)] = 0.3;
+        let vinv = crate::inv(&v).unwrap();
+        let a = &v * &d * &vinv;
+        for p in [2u32, 3, 5] {
+            let x = rootm_primary(&a, p).unwrap();
+            let mut xp = x.clone();
+            for _ in 1..p {
+                xp = &xp * &x;
+            }
+            assert!((&xp - &a).norm() < 1e-11 * a.norm(), "p = {p}");
+            // x v₀ = 0 for the null vector v₀ = V e₁ (f(0) = 0)
+            assert!((&x * v.column(0)).norm() < 1e-10, "p = {p}");
+        }
+        // no zero eigenvalue: the principal root
+        let b = &v * (&d + DMatrix::identity(5, 5) * 0.1) * &vinv;
+        assert!((rootm_primary(&b, 3).unwrap() - rootm(&b, 3).unwrap()).norm() < 1e-14);
+        // a repeated zero or a negative eigenvalue: no such root
+        let two = DMatrix::from_row_slice(3, 3, &[0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]);
+        assert!(matches!(
+            rootm_primary(&two, 2),
+            Err(Error::NoPrincipalBranch { .. })
+        ));
+        let neg = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, -1.0]);
+        assert!(matches!(
+            rootm_primary(&neg, 3),
+            Err(Error::NoPrincipalBranch { .. })
+        ));
+        assert!(rootm_primary(&a, 0).is_err());
+    }
     use approx::assert_relative_eq;
     use nalgebra::dvector;
 
