@@ -8,7 +8,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, check_data};
+use crate::error::{Error, Result, check_data, check_exciting};
 use crate::hankel::{
     Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
 };
@@ -312,24 +312,60 @@ pub(crate) fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, 
     }
     let mut total = 0;
     for e in experiments {
-        if e.u.ncols() != nu || e.y.ncols() != ny || e.u.nrows() != e.y.nrows() {
-            return Err(Error::DimensionMismatch {
-                what: "experiment (u, y)",
-                expected: format!("N×{nu} and N×{ny}"),
-                got: format!(
-                    "{}x{} and {}x{}",
-                    e.u.nrows(),
-                    e.u.ncols(),
-                    e.y.nrows(),
-                    e.y.ncols()
-                ),
-            });
-        }
+        check_record_shape("experiment (u, y)", "N", e.u, e.y, nu, ny)?;
         check_data("u", e.u)?;
         check_data("y", e.y)?;
         total += e.u.nrows();
     }
     Ok((nu, ny, total))
+}
+
+/// [`Error::DimensionMismatch`] for `what` unless `u` is N×`nu` and `y` N×`ny`
+/// for some N (named `rows` in the message).
+pub(crate) fn check_record_shape(
+    what: &'static str,
+    rows: &str,
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    nu: usize,
+    ny: usize,
+) -> Result<()> {
+    if u.ncols() != nu || y.ncols() != ny || u.nrows() != y.nrows() {
+        return Err(Error::DimensionMismatch {
+            what,
+            expected: format!("{rows}×{nu} and {rows}×{ny}"),
+            got: format!(
+                "{}x{} and {}x{}",
+                u.nrows(),
+                u.ncols(),
+                y.nrows(),
+                y.ncols()
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// An instrument signal `f` of the shape of its record's input `u`, finite.
+pub(crate) fn check_instrument(f: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<()> {
+    if f.shape() != u.shape() {
+        return Err(Error::DimensionMismatch {
+            what: "instrument",
+            expected: format!("{}x{}", u.nrows(), u.ncols()),
+            got: format!("{}x{}", f.nrows(), f.ncols()),
+        });
+    }
+    check_data("instrument", f)
+}
+
+/// Γ = U₁ S₁^{1/2}: the first `n` columns of `u` scaled by the square roots
+/// of the singular values `s`.
+pub(crate) fn scaled_basis(u: &DMatrix<f64>, s: &[f64], n: usize) -> DMatrix<f64> {
+    let mut gamma = u.columns(0, n).into_owned();
+    for (j, sv) in s.iter().take(n).enumerate() {
+        gamma.column_mut(j).scale_mut(sv.sqrt());
+    }
+    gamma
 }
 
 /// Numerical rank of a lower-triangular Gram factor block.
@@ -628,19 +664,7 @@ impl StreamingIdentifier {
     /// Errors: [`Error::DimensionMismatch`], [`Error::NonFinite`].
     pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
         let (nu, ny) = (self.layout.nu, self.layout.ny);
-        if u.ncols() != nu || y.ncols() != ny || u.nrows() != y.nrows() {
-            return Err(Error::DimensionMismatch {
-                what: "block (u, y)",
-                expected: format!("b×{nu} and b×{ny}"),
-                got: format!(
-                    "{}x{} and {}x{}",
-                    u.nrows(),
-                    u.ncols(),
-                    y.nrows(),
-                    y.ncols()
-                ),
-            });
-        }
+        check_record_shape("block (u, y)", "b", u, y, nu, ny)?;
         check_data("u", u)?;
         check_data("y", y)?;
         if u.nrows() > 0 && self.scale.is_none() {
@@ -841,10 +865,7 @@ struct Subspace<'a> {
 impl Subspace<'_> {
     /// Γ = W₁⁻¹ U₁ S₁^{1/2} of order n (scaled data).
     fn gamma(&self, n: usize) -> DMatrix<f64> {
-        let mut gamma = self.u.columns(0, n).into_owned();
-        for j in 0..n {
-            gamma.column_mut(j).scale_mut(self.s[j].sqrt());
-        }
+        let gamma = scaled_basis(&self.u, &self.s, n);
         match &self.w1_inv {
             Some(w1i) => w1i * gamma,
             None => gamma,
@@ -1002,14 +1023,7 @@ fn from_factor(
     // Persistent excitation: the input rows [U_f; U_p] must have full rank.
     let nu_rows = (p + f) * nu;
     let luu = l.view((0, 0), (nu_rows, nu_rows)).into_owned();
-    let rank_u = numerical_rank(&luu, 1e-10)?;
-    if rank_u < nu_rows {
-        return Err(Error::NotExciting {
-            what: "u",
-            rank: rank_u,
-            needed: nu_rows,
-        });
-    }
+    check_exciting("u", numerical_rank(&luu, 1e-10)?, nu_rows)?;
 
     let uf = rows(&l, layout.uf());
     let wp = vstack(&[&rows(&l, layout.up()), &rows(&l, layout.yp())]);

@@ -161,6 +161,22 @@ pub enum Error {
 /// Result alias of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// [`Error::RankDeficient`] for `what` when `rank < needed`.
+pub(crate) fn check_rank(what: &'static str, rank: usize, needed: usize) -> Result<()> {
+    if rank < needed {
+        return Err(Error::RankDeficient { what, rank, needed });
+    }
+    Ok(())
+}
+
+/// [`Error::NotExciting`] for `what` when `rank < needed`.
+pub(crate) fn check_exciting(what: &'static str, rank: usize, needed: usize) -> Result<()> {
+    if rank < needed {
+        return Err(Error::NotExciting { what, rank, needed });
+    }
+    Ok(())
+}
+
 /// Rejects NaN/inf in a data matrix with [`Error::NonFinite`].
 pub(crate) fn check_data(what: &'static str, m: &nalgebra::DMatrix<f64>) -> Result<()> {
     for c in 0..m.ncols() {

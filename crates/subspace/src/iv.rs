@@ -8,10 +8,10 @@ use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
 use crate::engine::{
-    Experiment, OrderSelection, Scale, ac_from_gamma, candidate_orders, check_order,
-    numerical_rank, pow4_scale, spectral_radius, validate,
+    Experiment, OrderSelection, Scale, ac_from_gamma, candidate_orders, check_instrument,
+    check_order, numerical_rank, pow4_scale, scaled_basis, spectral_radius, validate,
 };
-use crate::error::{Error, Result, check_data};
+use crate::error::{Error, Result, check_data, check_exciting, check_rank};
 use crate::order::{
     OrderCriterion, OrderReport, gap_values, information_criterion_values, simulation_error,
 };
@@ -122,11 +122,7 @@ struct IvSubspace {
 impl IvSubspace {
     /// Γ = U₁ S₁^{1/2} of order n (scaled data).
     fn gamma(&self, n: usize) -> DMatrix<f64> {
-        let mut gamma = self.u.columns(0, n).into_owned();
-        for (c, sv) in self.s.iter().take(n).enumerate() {
-            gamma.column_mut(c).scale_mut(sv.sqrt());
-        }
-        gamma
+        scaled_basis(&self.u, &self.s, n)
     }
 
     /// Order n must be admissible ((α − 1)n_y) and below the number of
@@ -210,14 +206,7 @@ fn iv_subspace(
         });
     }
     m /= columns as f64;
-    let rank_z = numerical_rank(&zz, 1e-10)?;
-    if rank_z < rows_z {
-        return Err(Error::NotExciting {
-            what: "instrument",
-            rank: rank_z,
-            needed: rows_z,
-        });
-    }
+    check_exciting("instrument", numerical_rank(&zz, 1e-10)?, rows_z)?;
     let r = qr_r(&m.transpose())?;
     let l = r.transpose();
     let cols_l = l.ncols();
@@ -308,14 +297,7 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
     validate(&records)?;
     for e in experiments {
         if let Some(f) = e.instrument {
-            if f.shape() != e.u.shape() {
-                return Err(Error::DimensionMismatch {
-                    what: "instrument",
-                    expected: format!("{}x{}", e.u.nrows(), nu),
-                    got: format!("{}x{}", f.nrows(), f.ncols()),
-                });
-            }
-            check_data("instrument", f)?;
+            check_instrument(f, e.u)?;
         }
     }
     if opts.order_criterion == OrderCriterion::Svc {
@@ -582,14 +564,11 @@ pub fn iv_multirate_fast(
         .iter()
         .map(|v| v * gamma_unit)
         .collect();
-    let rank = numerical_rank(&g_r, opts.rank_tol)?;
-    if rank < nx {
-        return Err(Error::RankDeficient {
-            what: "Γ_R of eq. 7.27 ((C₂, A) not observable; erratum L-18)",
-            rank,
-            needed: nx,
-        });
-    }
+    check_rank(
+        "Γ_R of eq. 7.27 ((C₂, A) not observable; erratum L-18)",
+        numerical_rank(&g_r, opts.rank_tol)?,
+        nx,
+    )?;
     let a = lstsq(&g_r, &g_l)?;
     let c = gamma.rows(0, ny) * scale.y;
     if opts.require_stable {

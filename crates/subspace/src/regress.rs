@@ -18,8 +18,10 @@
 use lifted_linalg::{RAccumulator, lstsq};
 use nalgebra::{DMatrix, DVector};
 
-use crate::engine::{Scale, pow4_scale, spectral_radius};
-use crate::error::{Error, Result, check_data};
+use crate::engine::{
+    Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
+};
+use crate::error::{Error, Result, check_data, check_rank};
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
 /// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond
@@ -302,19 +304,7 @@ fn validate(
     let first = records.first().ok_or(Error::NoData)?;
     let nu = first.u.ncols();
     for r in records {
-        if r.u.ncols() != nu || r.y.ncols() != ny || r.y.nrows() != r.u.nrows() {
-            return Err(Error::DimensionMismatch {
-                what: "record (u, y)",
-                expected: format!("N×{nu} and N×{ny}"),
-                got: format!(
-                    "{}x{} and {}x{}",
-                    r.u.nrows(),
-                    r.u.ncols(),
-                    r.y.nrows(),
-                    r.y.ncols()
-                ),
-            });
-        }
+        check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
         check_data("u", r.u)?;
         for col in 0..ny {
             for row in 0..r.y.nrows() {
@@ -328,16 +318,7 @@ fn validate(
             }
         }
         if iv && let Some(f) = r.instrument {
-            {
-                if f.shape() != r.u.shape() {
-                    return Err(Error::DimensionMismatch {
-                        what: "instrument",
-                        expected: format!("{}x{}", r.u.nrows(), nu),
-                        got: format!("{}x{}", f.nrows(), f.ncols()),
-                    });
-                }
-                check_data("instrument", f)?;
-            }
+            check_instrument(f, r.u)?;
         }
     }
     Ok((n, nu, ny))
@@ -439,6 +420,31 @@ fn stream(
     Ok(rows_total)
 }
 
+/// The set-up shared by [`estimate_bd`] and [`estimate_bd_iv`] (`iv`): the
+/// checks (of the instruments too when `iv`), the growth bound, the
+/// parameter layout, the data scales and C of the scaled data.
+fn bd_problem(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+    iv: bool,
+) -> Result<(Params, DataScale, DMatrix<f64>)> {
+    let stage = if iv {
+        "(B, D, x₀) IV regression"
+    } else {
+        "(B, D, x₀) output-error regression"
+    };
+    let (n, nu, ny) = validate(a, c, records, iv)?;
+    check_growth(a, longest(records), stage)?;
+    let mask = feedthrough.mask(ny, nu)?;
+    let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let scale = DataScale::of(records);
+    let c_scaled = c / scale.io.y;
+    Ok((p, scale, c_scaled))
+}
+
 /// Least-squares estimate of (B, D, x₀) for given (A, C) (output-error
 /// regression, open loop). y may contain NaN at unsampled instants.
 ///
@@ -460,23 +466,12 @@ pub fn estimate_bd(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    let (n, nu, ny) = validate(a, c, records, false)?;
-    check_growth(a, longest(records), "(B, D, x₀) output-error regression")?;
-    let mask = feedthrough.mask(ny, nu)?;
-    let p = Params::new(n, nu, ny, &mask, x0, records.len());
-    let scale = DataScale::of(records);
-    let c_scaled = c / scale.io.y;
+    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false)?;
     let mut acc = RAccumulator::new(p.total + 1);
     let rows = stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
         Ok(acc.push_rows(phi)?)
     })?;
-    if rows < p.total {
-        return Err(Error::RankDeficient {
-            what: "B/D regressor",
-            rank: rows,
-            needed: p.total,
-        });
-    }
+    check_rank("B/D regressor", rows, p.total)?;
     let r = acc.r();
     let r11 = r.view((0, 0), (p.total, p.total)).into_owned();
     let r12 = r.view((0, p.total), (p.total, 1)).into_owned();
@@ -499,13 +494,8 @@ pub fn estimate_bd_iv(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    let (n, nu, ny) = validate(a, c, records, true)?;
-    check_growth(a, longest(records), "(B, D, x₀) IV regression")?;
-    let mask = feedthrough.mask(ny, nu)?;
-    let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, true)?;
     let np = p.total;
-    let scale = DataScale::of(records);
-    let c_scaled = c / scale.io.y;
     let mut g = DMatrix::zeros(np, np);
     let mut gy = DMatrix::zeros(np, 1);
     let rows = stream(a, &c_scaled, &p, records, true, scale, &mut |phi, zeta| {
@@ -516,13 +506,7 @@ pub fn estimate_bd_iv(
         }
         Ok(())
     })?;
-    if rows < np {
-        return Err(Error::RankDeficient {
-            what: "B/D instrument matrix",
-            rank: rows,
-            needed: np,
-        });
-    }
+    check_rank("B/D instrument matrix", rows, np)?;
     let theta = equilibrated_solve(&g, &gy, "B/D instrument matrix")?;
     Ok(p.unpack(&theta, records.len(), scale.io))
 }
@@ -642,9 +626,7 @@ fn equilibrate(m: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>, Vec<f64>) {
 
 /// Numerical rank with the relative tolerance 1e-12 of the regressions.
 fn regression_rank(m: &DMatrix<f64>) -> Result<usize> {
-    let s = lifted_linalg::singular_values(m)?;
-    let smax = s.iter().cloned().fold(0.0, f64::max);
-    Ok(s.iter().filter(|&&v| v > 1e-12 * smax && v > 0.0).count())
+    numerical_rank(m, 1e-12)
 }
 
 /// θ = D (E M D)⁺ E b for the regression matrix M (R factor or IV normal
@@ -657,14 +639,7 @@ fn equilibrated_solve(
     what: &'static str,
 ) -> Result<DMatrix<f64>> {
     let (e, rs, cs) = equilibrate(m);
-    let rank = regression_rank(&e)?;
-    if rank < m.ncols() {
-        return Err(Error::RankDeficient {
-            what,
-            rank,
-            needed: m.ncols(),
-        });
-    }
+    check_rank(what, regression_rank(&e)?, m.ncols())?;
     let eb = DMatrix::from_fn(b.nrows(), b.ncols(), |i, j| b[(i, j)] * rs[i]);
     let z = lstsq(&e, &eb)?;
     Ok(DMatrix::from_fn(z.nrows(), z.ncols(), |i, j| {
@@ -677,14 +652,7 @@ fn equilibrated_solve(
 fn check_regressor_rank(m: &DMatrix<f64>, what: &'static str) -> Result<()> {
     let mut e = m.clone();
     unit_columns(&mut e);
-    let rank = regression_rank(&e)?;
-    if rank < m.ncols() {
-        return Err(Error::RankDeficient {
-            what,
-            rank,
-            needed: m.ncols(),
-        });
-    }
+    check_rank(what, regression_rank(&e)?, m.ncols())?;
     Ok(())
 }
 
@@ -743,13 +711,7 @@ pub fn structured_state_lstsq(
     check_data("x", x)?;
     check_data("u", u)?;
     check_data("y", y)?;
-    if nn < n + nu {
-        return Err(Error::RankDeficient {
-            what: "state regressor [x; u]",
-            rank: nn,
-            needed: n + nu,
-        });
-    }
+    check_rank("state regressor [x; u]", nn, n + nu)?;
     let xk = x.rows(0, nn).into_owned();
     let xk1 = x.rows(1, nn).into_owned();
     let mut z = DMatrix::zeros(nn, n + nu);
