@@ -112,6 +112,18 @@ pub struct MultirateLifting {
     outputs: Vec<Slot>,
 }
 
+/// [`Error::DimensionMismatch`] unless the signal `m` has `expected` columns.
+fn check_columns(what: &'static str, m: &DMatrix<f64>, expected: usize) -> Result<()> {
+    if m.ncols() != expected {
+        return Err(Error::DimensionMismatch {
+            what,
+            expected: format!("{expected} columns"),
+            got: format!("{}", m.ncols()),
+        });
+    }
+    Ok(())
+}
+
 fn order_slots(mut slots: Vec<Slot>, ordering: Ordering) -> Vec<Slot> {
     match ordering {
         Ordering::ChannelMajor => slots.sort_by_key(|s| (s.channel, s.time)),
@@ -394,6 +406,16 @@ impl MultirateLifting {
         })
     }
 
+    /// The lifted signal of the fast signal `x` (`rows` frames): column c is
+    /// channel `slots[c].channel` at the instant `slots[c].time` of each frame.
+    fn gather(&self, x: &DMatrix<f64>, slots: &[Slot], rows: usize) -> DMatrix<f64> {
+        let j = self.period;
+        DMatrix::from_fn(rows, slots.len(), |k, col| {
+            let s = slots[col];
+            x[(k * j + s.time, s.channel)]
+        })
+    }
+
     fn check_len(&self, len: usize) -> Result<usize> {
         if len == 0 {
             return Err(Error::TooShort {
@@ -415,39 +437,19 @@ impl MultirateLifting {
     /// Errors: wrong column count, N not a multiple of J
     /// ([`Error::LengthNotMultiple`]), non-finite input. O(N n_u).
     pub fn lift_inputs(&self, u: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-        if u.ncols() != self.n_inputs() {
-            return Err(Error::DimensionMismatch {
-                what: "fast inputs",
-                expected: format!("{} columns", self.n_inputs()),
-                got: format!("{}", u.ncols()),
-            });
-        }
+        check_columns("fast inputs", u, self.n_inputs())?;
         check_finite("u", u)?;
         let rows = self.check_len(u.nrows())?;
-        let j = self.period;
-        Ok(DMatrix::from_fn(rows, self.inputs.len(), |k, col| {
-            let s = self.inputs[col];
-            u[(k * j + s.time, s.channel)]
-        }))
+        Ok(self.gather(u, &self.inputs, rows))
     }
 
     /// Lifts fast outputs (N×n_y, NaN allowed off the sampling instants) to
     /// (N/J)×Σ J/J_o. Errors: as [`Self::lift_inputs`]; a NaN at a sampled
     /// instant is [`Error::NonFinite`]. O(N n_y).
     pub fn lift_outputs(&self, y: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-        if y.ncols() != self.n_outputs() {
-            return Err(Error::DimensionMismatch {
-                what: "fast outputs",
-                expected: format!("{} columns", self.n_outputs()),
-                got: format!("{}", y.ncols()),
-            });
-        }
+        check_columns("fast outputs", y, self.n_outputs())?;
         let rows = self.check_len(y.nrows())?;
-        let j = self.period;
-        let out = DMatrix::from_fn(rows, self.outputs.len(), |k, col| {
-            let s = self.outputs[col];
-            y[(k * j + s.time, s.channel)]
-        });
+        let out = self.gather(y, &self.outputs, rows);
         check_finite("y at a sampling instant", &out)?;
         Ok(out)
     }
@@ -455,13 +457,7 @@ impl MultirateLifting {
     /// Inverse lifting of inputs: (K)×Σ J/m_c → (KJ)×n_u with each value
     /// repeated over its hold. O(KJ n_u).
     pub fn unlift_inputs(&self, ul: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-        if ul.ncols() != self.inputs.len() {
-            return Err(Error::DimensionMismatch {
-                what: "lifted inputs",
-                expected: format!("{} columns", self.inputs.len()),
-                got: format!("{}", ul.ncols()),
-            });
-        }
+        check_columns("lifted inputs", ul, self.inputs.len())?;
         let j = self.period;
         let mut u = DMatrix::zeros(ul.nrows() * j, self.n_inputs());
         for k in 0..ul.nrows() {
@@ -478,13 +474,7 @@ impl MultirateLifting {
     /// Inverse lifting of outputs: (K)×Σ J/J_o → (KJ)×n_y with NaN at the
     /// instants a channel does not sample. O(KJ n_y).
     pub fn unlift_outputs(&self, yl: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-        if yl.ncols() != self.outputs.len() {
-            return Err(Error::DimensionMismatch {
-                what: "lifted outputs",
-                expected: format!("{} columns", self.outputs.len()),
-                got: format!("{}", yl.ncols()),
-            });
-        }
+        check_columns("lifted outputs", yl, self.outputs.len())?;
         let j = self.period;
         let mut y = DMatrix::from_element(yl.nrows() * j, self.n_outputs(), f64::NAN);
         for k in 0..yl.nrows() {
