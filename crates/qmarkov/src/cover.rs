@@ -82,16 +82,29 @@ pub struct Realization {
     pub negative_eigenvalues: usize,
 }
 
-/// Checks that `Q` is symmetric positive definite and returns its inverse.
-fn check_weighting(q: &DMatrix<f64>, ny: usize) -> Result<DMatrix<f64>> {
-    if q.nrows() != ny || q.ncols() != ny {
+/// Checks that the matrix `m` (`what`; `symbol` in a non-finite error) is
+/// `rows`×`cols` and finite.
+fn check_block(
+    what: &'static str,
+    symbol: &'static str,
+    m: &DMatrix<f64>,
+    rows: usize,
+    cols: usize,
+) -> Result<()> {
+    if m.shape() != (rows, cols) {
         return Err(Error::DimensionMismatch {
-            what: "output weighting Q",
-            expected: format!("{ny}x{ny}"),
-            got: format!("{}x{}", q.nrows(), q.ncols()),
+            what,
+            expected: format!("{rows}x{cols}"),
+            got: format!("{}x{}", m.nrows(), m.ncols()),
         });
     }
-    lifted_linalg::check_finite("Q", q)?;
+    lifted_linalg::check_finite(symbol, m)?;
+    Ok(())
+}
+
+/// Checks that `Q` is symmetric positive definite and returns its inverse.
+fn check_weighting(q: &DMatrix<f64>, ny: usize) -> Result<DMatrix<f64>> {
+    check_block("output weighting Q", "Q", q, ny, ny)?;
     let asym = (q - q.transpose()).amax();
     if asym > 1e-12 * q.amax().max(1.0) {
         return Err(Error::InvalidWeighting {
@@ -174,24 +187,10 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
     let ny = data.ryy[0].nrows();
     let nw = data.markov[0].ncols();
     for r in &data.ryy {
-        if r.shape() != (ny, ny) {
-            return Err(Error::DimensionMismatch {
-                what: "R_yy block",
-                expected: format!("{ny}x{ny}"),
-                got: format!("{}x{}", r.nrows(), r.ncols()),
-            });
-        }
-        lifted_linalg::check_finite("R_yy", r)?;
+        check_block("R_yy block", "R_yy", r, ny, ny)?;
     }
     for h in &data.markov {
-        if h.shape() != (ny, nw) {
-            return Err(Error::DimensionMismatch {
-                what: "Markov parameter",
-                expected: format!("{ny}x{nw}"),
-                got: format!("{}x{}", h.nrows(), h.ncols()),
-            });
-        }
-        lifted_linalg::check_finite("H", h)?;
+        check_block("Markov parameter", "H", h, ny, nw)?;
     }
     for w in &data.weighting {
         if w.len() != nw {
