@@ -18,7 +18,9 @@
 //! * [`ExtractionMethod::MatrixRoot`] (§4.6.3): the principal q-th root of
 //!   Ā (lifted-linalg `rootm`), valid when |q h T η| < π (Prop. 3 with the
 //!   strict inequality of L-11); an eigenvalue of Ā on or near ℝ⁻ ∪ {0} is
-//!   [`Error::NoPrincipalRoot`]. An aliased pole cannot be seen in Ā alone;
+//!   [`Error::NoPrincipalRoot`] (one simple zero eigenvalue — a delay lost
+//!   in the lifting — is accepted with
+//!   [`ExtractOptions::allow_zero_eigenvalue`]). An aliased pole cannot be seen in Ā alone;
 //!   it shows as inconsistency of B̄ with the root, reported in
 //!   [`ExtractionDiagnostics::input_residual`] (and an error with
 //!   [`ExtractOptions::max_inconsistency`]).
@@ -32,7 +34,7 @@
 //! ([`InputMatrix::LeastSquares`], default: the most robust in the spec's
 //! calibration, A3.6, L-12). Cost O(q n³ + n³).
 
-use lifted_linalg::{RankTolerance, lstsq, pinv, rank, rootm, singular_values};
+use lifted_linalg::{RankTolerance, lstsq, pinv, rank, rootm, rootm_primary, singular_values};
 use lifted_lti::{MinrealOptions, StateSpace, TransferFunction};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -88,6 +90,12 @@ pub struct ExtractOptions {
     pub max_inconsistency: Option<f64>,
     /// Polyphase: relative tolerance of the pole–zero cancellation. Default 1e-8.
     pub cancel_tol: f64,
+    /// Matrix root: accept one simple zero eigenvalue of Ā — a delay lost
+    /// in the lifting (§4.3, spec A3.3) — and take the root that maps it to
+    /// 0 (`lifted_linalg::rootm_primary`) instead of returning
+    /// [`Error::NoPrincipalRoot`]. The fast model then misses that delay
+    /// (its response comes one sample early). Default false.
+    pub allow_zero_eigenvalue: bool,
 }
 
 impl Default for ExtractOptions {
@@ -100,6 +108,7 @@ impl Default for ExtractOptions {
             eigen_tol: 1e-8,
             max_inconsistency: None,
             cancel_tol: 1e-8,
+            allow_zero_eigenvalue: false,
         }
     }
 }
@@ -273,7 +282,12 @@ pub fn extract_fast(
                 what: "root order",
                 reason: format!("{q} too large"),
             })?;
-            match rootm(abar, root) {
+            let root_of = if opts.allow_zero_eigenvalue {
+                rootm_primary
+            } else {
+                rootm
+            };
+            match root_of(abar, root) {
                 Ok(r) => r,
                 Err(lifted_linalg::Error::NoPrincipalBranch { eigenvalue, .. }) => {
                     return Err(Error::NoPrincipalRoot {

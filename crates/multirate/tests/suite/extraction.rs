@@ -88,3 +88,42 @@ fn mimo_integer_ratios_both_orderings() {
         );
     }
 }
+
+#[test]
+fn a_simple_zero_eigenvalue_needs_the_option() {
+    // fast x(k+1) = 0.9 x + u with one pure delay in front (eigenvalues
+    // 0.9 and 0), lifted at m = 1, n = 2: Ā = A² keeps the simple zero. The
+    // principal root does not exist; with allow_zero_eigenvalue the root
+    // that maps 0 to 0 is exactly A (A is diagonalisable), so the fast model
+    // comes back exactly.
+    let fast = StateSpace::new(
+        DMatrix::from_row_slice(2, 2, &[0.9, 1.0, 0.0, 0.0]),
+        DMatrix::from_row_slice(2, 1, &[0.0, 1.0]),
+        DMatrix::from_row_slice(1, 2, &[0.1, 0.0]),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )
+    .unwrap();
+    let lifting = MultirateLifting::siso(SisoRates::new(1, 2).unwrap()).unwrap();
+    let lifted = lift_model(&fast, &lifting).unwrap();
+    assert!(matches!(
+        extract_fast(&lifted, &lifting, &ExtractOptions::default()),
+        Err(lifted_multirate::Error::NoPrincipalRoot { root: 2, .. })
+    ));
+    let fm = extract_fast(
+        &lifted,
+        &lifting,
+        &ExtractOptions {
+            allow_zero_eigenvalue: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (he, hk) = (
+        fm.model.markov_parameters(12).unwrap(),
+        fast.markov_parameters(12).unwrap(),
+    );
+    for (a, b) in he.iter().zip(&hk) {
+        assert!((a - b).amax() < 1e-12, "{a} vs {b}");
+    }
+}
