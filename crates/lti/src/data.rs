@@ -1208,40 +1208,24 @@ mod tests {
             Dataset::single_rate(1.0, u.clone(), bad),
             Err(DataError::MissingSample { sample: 3, .. })
         ));
+        // (u, y) with the given channel layout
+        let layout = |inputs, outputs| Dataset::new(1.0, u.clone(), y.clone(), inputs, outputs);
         let out2 = vec![OutputChannel::new("y", 2, 0)];
         assert!(matches!(
-            Dataset::new(1.0, u.clone(), y.clone(), default_inputs(1), out2.clone()),
+            layout(default_inputs(1), out2.clone()),
             Err(DataError::UnexpectedSample { sample: 1, .. })
         ));
         assert!(Dataset::from_fast(1.0, u.clone(), y.clone(), default_inputs(1), out2).is_ok());
         assert!(matches!(
-            Dataset::new(
-                1.0,
-                u.clone(),
-                y.clone(),
-                vec![InputChannel::new("u", 0)],
-                default_outputs(1)
-            ),
+            layout(vec![InputChannel::new("u", 0)], default_outputs(1)),
             Err(DataError::ZeroHold { channel: 0 })
         ));
         assert!(matches!(
-            Dataset::new(
-                1.0,
-                u.clone(),
-                y.clone(),
-                default_inputs(1),
-                vec![OutputChannel::new("y", 0, 0)]
-            ),
+            layout(default_inputs(1), vec![OutputChannel::new("y", 0, 0)]),
             Err(DataError::ZeroPeriod { channel: 0 })
         ));
         assert!(matches!(
-            Dataset::new(
-                1.0,
-                u.clone(),
-                y.clone(),
-                default_inputs(1),
-                vec![OutputChannel::new("y", 2, 2)]
-            ),
+            layout(default_inputs(1), vec![OutputChannel::new("y", 2, 2)]),
             Err(DataError::OffsetOutOfRange { .. })
         ));
         let steps = DMatrix::from_fn(6, 1, |k, _| k as f64);
@@ -1260,13 +1244,7 @@ mod tests {
             })
         ));
         assert!(matches!(
-            Dataset::new(
-                1.0,
-                u.clone(),
-                y.clone(),
-                default_inputs(2),
-                default_outputs(1)
-            ),
+            layout(default_inputs(2), default_outputs(1)),
             Err(DataError::DimensionMismatch { .. })
         ));
     }
