@@ -732,6 +732,7 @@ mod tests {
     #[test]
     fn rejects_bad_data() {
         let one = || DMatrix::from_element(1, 1, c(1.0, 0.0));
+        let fill = |rows, z| DMatrix::from_element(rows, 1, z);
         assert!(matches!(
             NormMinimax::new(vec![], vec![]),
             Err(Error::InvalidArgument { .. })
@@ -741,24 +742,15 @@ mod tests {
             Err(Error::DimensionMismatch { .. })
         ));
         assert!(matches!(
-            NormMinimax::new(
-                vec![one()],
-                vec![vec![DMatrix::from_element(2, 1, c(1.0, 0.0))]]
-            ),
+            NormMinimax::new(vec![one()], vec![vec![fill(2, c(1.0, 0.0))]]),
             Err(Error::DimensionMismatch { .. })
         ));
         assert!(matches!(
-            NormMinimax::new(
-                vec![DMatrix::from_element(1, 1, c(f64::NAN, 0.0))],
-                vec![vec![]]
-            ),
+            NormMinimax::new(vec![fill(1, c(f64::NAN, 0.0))], vec![vec![]]),
             Err(Error::NonFinite { .. })
         ));
         assert!(matches!(
-            NormMinimax::new(
-                vec![one()],
-                vec![vec![DMatrix::from_element(1, 1, c(0.0, 0.0))]]
-            ),
+            NormMinimax::new(vec![one()], vec![vec![fill(1, c(0.0, 0.0))]]),
             Err(Error::InvalidArgument { .. })
         ));
         let p = NormMinimax::new(vec![one()], vec![vec![one()]]).unwrap();
