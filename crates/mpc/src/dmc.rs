@@ -136,7 +136,7 @@ impl Dmc {
                 got: y.len(),
             });
         }
-        Ok(())
+        crate::error::check_finite_slice("output", y.as_slice())
     }
 
     fn check_past(&self, past: &[DVector<f64>]) -> Result<()> {

@@ -167,7 +167,7 @@ mod bad_input {
     use super::common::*;
     use lifted_lti::StateSpace;
     use lifted_mpc::*;
-    use nalgebra::{DMatrix, dmatrix, dvector};
+    use nalgebra::{DMatrix, DVector, dmatrix, dvector};
 
     fn siso() -> StateSpace {
         tf(&[0.1, 0.05], &[1.0, -1.2, 0.35])
@@ -242,6 +242,21 @@ mod bad_input {
             StateSpaceMpc::new(&siso(), &o),
             Err(Error::NonFinite { .. })
         ));
+    }
+
+    #[test]
+    fn dmc_predictions_reject_non_finite_outputs() {
+        let d = Dmc::new(&siso(), 50, &MpcOptions::default()).unwrap();
+        let bad = DVector::from_element(1, f64::NAN);
+        assert!(matches!(
+            d.free_response(&bad, &[]),
+            Err(Error::NonFinite { .. })
+        ));
+        assert!(matches!(
+            d.intersample_estimate(&bad, &[], &[]),
+            Err(Error::NonFinite { .. })
+        ));
+        assert!(d.free_response(&DVector::from_element(1, 0.5), &[]).is_ok());
     }
 
     #[test]
