@@ -1,7 +1,8 @@
 //! A controller that runs every m base periods (its model at m·T): it
 //! reads the measurement when it runs, updates its state once and holds its
 //! output in between. Checked against a hand-written loop of the difference
-//! equations, fused against reference, and the bad-input errors.
+//! equations, fused against reference, and the bad-input errors. Also the
+//! state layout and sharing a simulator across threads.
 
 use crate::common::*;
 use lifted_sim::{Controller, Error, Excitation, Feedback, Plant, Simulator};
@@ -177,4 +178,24 @@ fn state_layout_matches_the_final_state() -> TestResult {
     assert!(!lay.model.is_empty());
     assert_eq!(inferential.simulate(&exc)?.final_state.len(), lay.len());
     Ok(())
+}
+
+#[test]
+fn simulators_can_be_shared_across_threads() {
+    // Monte-Carlo runs over seeds can run on a thread pool (e.g. rayon):
+    // the simulator is shared by reference, each job owns its output
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<Simulator>();
+    send_sync::<lifted_sim::SimOutput>();
+    send_sync::<lifted_sim::SimSignals>();
+    let g = tf(&[0.1], &[1.0, -0.9], Some(1.0));
+    let sim = Simulator::closed_loop(Plant::discrete(&g, &[], &[]).unwrap(), pi_at(1.0)).unwrap();
+    let r = random_input(300, 1, 5, 1);
+    let outs: Vec<_> = std::thread::scope(|s| {
+        let jobs: Vec<_> = (0..2)
+            .map(|_| s.spawn(|| sim.simulate(&Excitation::reference(r.clone())).unwrap()))
+            .collect();
+        jobs.into_iter().map(|j| j.join().unwrap()).collect()
+    });
+    assert_eq!(outs[0].y, outs[1].y);
 }
