@@ -208,6 +208,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub input: String,
     /// Input column names, comma separated (default: the model's input names, else u1,u2,…).
+    /// In closed loop (--controller) they are the excitation r₂ added at the plant input,
+    /// and optional: without --inputs there is none.
     #[arg(long)]
     pub inputs: Option<String>,
     /// Base period T (default: the model's, else the input file's time column).
@@ -216,15 +218,51 @@ pub struct SimulateArgs {
     /// Slow output sampling, NAME=PERIOD (base periods), repeatable or comma separated.
     #[arg(long = "output-period")]
     pub output_period: Vec<String>,
-    /// White output noise at this signal-to-noise ratio (variance ratio); none by default.
+    /// Input hold, NAME=SAMPLES (the input changes only every m base periods), repeatable or comma separated.
+    #[arg(long = "hold")]
+    pub hold: Vec<String>,
+    /// Output noise at this signal-to-noise ratio (variance ratio); none by default.
     #[arg(long)]
     pub snr: Option<f64>,
+    /// Noise model file (n_y outputs; continuous or discrete at T): coloured noise H(q)e instead of white.
+    #[arg(long)]
+    pub noise_model: Option<String>,
+    /// Measure the SNR on every fast sample or only on each output's measured samples.
+    #[arg(long, value_enum, default_value_t = SnrSamplesArg::Fast)]
+    pub snr_samples: SnrSamplesArg,
     /// Noise seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Closed loop: discrete controller model file (n_u outputs, n_y inputs; at T, or at m·T to run every m samples).
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Closed loop: set-point columns r₁ of the input CSV, one per output, comma separated (default: zero set-points).
+    #[arg(long)]
+    pub references: Option<String>,
+    /// Closed loop: what the controller sees between slow samples.
+    #[arg(long, value_enum, default_value_t = FeedbackArg::Fast)]
+    pub feedback: FeedbackArg,
     /// Output data CSV.
     #[arg(long)]
     pub out: String,
+}
+
+/// Samples the SNR is measured on (`--snr-samples`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SnrSamplesArg {
+    /// Every fast sample (default).
+    Fast,
+    /// Each output's measured samples only.
+    Measured,
+}
+
+/// Feedback between slow samples (`--feedback`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FeedbackArg {
+    /// The output at every base period (default).
+    Fast,
+    /// The last measured sample, held until the next one.
+    HoldLast,
 }
 
 /// Order-selection rules (`--order-criterion`).

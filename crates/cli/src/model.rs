@@ -2,13 +2,18 @@
 //! `report`.
 
 use lifted_lti::{C2dOptions, InputChannel, MinrealOptions, ModelFile, OutputChannel, StateSpace};
-use lifted_sim::{Delays, Excitation, NoiseSpec, Plant, Simulator};
+use lifted_sim::{
+    Controller, Delays, Excitation, Feedback, NoiseSpec, Plant, SimOptions, Simulator,
+    SnrDefinition, SnrSamples,
+};
 use nalgebra::DMatrix;
 
-use crate::args::{BodeArgs, ConvertArgs, ConvertTo, SimulateArgs, StepArgs};
+use crate::args::{
+    BodeArgs, ConvertArgs, ConvertTo, FeedbackArg, SimulateArgs, SnrSamplesArg, StepArgs,
+};
 use crate::error::{CliResult, Context, input};
 use crate::plot::{Marker, Plot, Series, logspace, svg};
-use crate::table::{names, parse_periods, read_raw, write_columns};
+use crate::table::{names, parse_name_counts, parse_periods, read_raw, write_columns};
 
 /// Reads a model file; the message names the file.
 pub fn read_model(path: &str) -> CliResult<ModelFile> {
@@ -363,15 +368,41 @@ pub fn step(a: &StepArgs) -> CliResult<()> {
 pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
     let model = read_model(&a.model)?.model;
     let (def_u, yn) = channel_names(&model);
-    let un = a.inputs.as_deref().map(names).unwrap_or(def_u);
-    if un.len() != model.n_inputs() {
+    let closed = a.controller.is_some();
+    if !closed && (a.references.is_some() || a.feedback != FeedbackArg::Fast) {
+        return Err(input(
+            "--references and --feedback need a closed loop (--controller)",
+        ));
+    }
+    // plant-input columns: open loop the inputs u, closed loop the optional
+    // excitation r₂; closed loop also the set-points r₁
+    let un = match (&a.inputs, closed) {
+        (Some(list), _) => names(list),
+        (None, false) => def_u.clone(),
+        (None, true) => Vec::new(),
+    };
+    if !un.is_empty() && un.len() != model.n_inputs() {
         return Err(input(format!(
             "--inputs: {} names for a model with {} inputs",
             un.len(),
             model.n_inputs()
         )));
     }
-    let wanted: Vec<&String> = un.iter().collect();
+    let rn = a.references.as_deref().map(names).unwrap_or_default();
+    if !rn.is_empty() && rn.len() != model.n_outputs() {
+        return Err(input(format!(
+            "--references: {} names for a model with {} outputs",
+            rn.len(),
+            model.n_outputs()
+        )));
+    }
+    if closed && un.is_empty() && rn.is_empty() {
+        return Err(input(
+            "closed loop: give the excitation columns (--inputs, added at the plant input) \
+             and/or the set-point columns (--references)",
+        ));
+    }
+    let wanted: Vec<&String> = un.iter().chain(&rn).collect();
     let ts_hint = a.ts.or(model.ts());
     let raw = read_raw(&a.input, &wanted, 0..0, ts_hint)?;
     let ts = raw.ts;
@@ -396,6 +427,18 @@ pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
             )));
         }
     }
+    // the plant-input channels of the data set: open loop the input columns
+    // (u = r₂), closed loop the model's input names (u = r₂ + K(r₁ − v))
+    let u_names = if closed { def_u.clone() } else { un.clone() };
+    let holds = parse_name_counts(&a.hold, "--hold", "SAMPLES", "u1=3")?;
+    for (n, _) in &holds {
+        if !u_names.contains(n) {
+            return Err(input(format!(
+                "--hold {n}=…: the plant inputs are {}",
+                u_names.join(", ")
+            )));
+        }
+    }
     let outputs: Vec<OutputChannel> = yn
         .iter()
         .map(|n| {
@@ -403,22 +446,65 @@ pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
             OutputChannel::new(n.clone(), p, 0)
         })
         .collect();
-    let inputs: Vec<InputChannel> = un.iter().map(|n| InputChannel::new(n.clone(), 1)).collect();
-    let mut sim = Simulator::open_loop(plant)
+    let inputs: Vec<InputChannel> = u_names
+        .iter()
+        .map(|n| {
+            let h = holds.iter().find(|(m, _)| m == n).map_or(1, |h| h.1);
+            InputChannel::new(n.clone(), h)
+        })
+        .collect();
+    let mut sim = match &a.controller {
+        None => Simulator::open_loop(plant),
+        Some(path) => {
+            let k = read_model(path)?.model;
+            let k = Controller::from_ss(&k).ctx(format!("controller {path}"))?;
+            Simulator::closed_loop(plant, k).ctx(format!("controller {path}"))?
+        }
+    };
+    sim = sim
         .with_inputs(inputs)
         .ctx("simulate")?
         .with_outputs(outputs)
+        .ctx("simulate")?
+        .with_options(SimOptions {
+            snr_samples: match a.snr_samples {
+                SnrSamplesArg::Fast => SnrSamples::Fast,
+                SnrSamplesArg::Measured => SnrSamples::Measured,
+            },
+            ..Default::default()
+        })
         .ctx("simulate")?;
-    if let Some(snr) = a.snr {
-        sim = sim
-            .with_noise(NoiseSpec::white_snr(snr, a.seed))
-            .ctx("simulate")?;
+    if a.feedback == FeedbackArg::HoldLast {
+        sim = sim.with_feedback(Feedback::HoldLast).ctx("simulate")?;
     }
-    let mut u = DMatrix::zeros(raw.rows, un.len());
-    for (j, c) in raw.cols.iter().enumerate() {
-        u.column_mut(j).copy_from_slice(c);
+    match (a.snr, &a.noise_model) {
+        (Some(snr), None) => {
+            sim = sim
+                .with_noise(NoiseSpec::white_snr(snr, a.seed))
+                .ctx("simulate")?;
+        }
+        (Some(snr), Some(path)) => {
+            let h = read_model(path)?.model;
+            sim = sim
+                .with_noise(NoiseSpec::filtered(h, snr, SnrDefinition::Variance, a.seed))
+                .ctx(format!("noise model {path}"))?;
+        }
+        (None, Some(_)) => return Err(input("--noise-model needs --snr (the noise level)")),
+        (None, None) => {}
     }
-    let out = sim.simulate(&Excitation::input(u)).ctx("simulate")?;
+    let column_block = |cols: &[Vec<f64>]| {
+        let mut m = DMatrix::zeros(raw.rows, cols.len());
+        for (j, c) in cols.iter().enumerate() {
+            m.column_mut(j).copy_from_slice(c);
+        }
+        m
+    };
+    let (ucols, rcols) = raw.cols.split_at(un.len());
+    let exc = Excitation {
+        r1: (!rn.is_empty()).then(|| column_block(rcols)),
+        r2: (!un.is_empty()).then(|| column_block(ucols)),
+    };
+    let out = sim.simulate(&exc).ctx("simulate")?;
     let file = std::fs::File::create(&a.out).ctx(format!("cannot write {}", a.out))?;
     out.data
         .to_csv_writer(std::io::BufWriter::new(file))

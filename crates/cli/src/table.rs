@@ -43,8 +43,18 @@ pub struct Loaded {
     pub extra: DMatrix<f64>,
 }
 
-/// Parses `name=period` pairs.
+/// Parses `name=period` pairs of `--output-period`.
 pub fn parse_periods(specs: &[String]) -> CliResult<Vec<(String, usize)>> {
+    parse_name_counts(specs, "--output-period", "PERIOD", "y1=5")
+}
+
+/// Parses `name=n` pairs (n a positive integer) of the option `flag`.
+pub fn parse_name_counts(
+    specs: &[String],
+    flag: &str,
+    what: &str,
+    example: &str,
+) -> CliResult<Vec<(String, usize)>> {
     specs
         .iter()
         .flat_map(|s| s.split(','))
@@ -52,15 +62,16 @@ pub fn parse_periods(specs: &[String]) -> CliResult<Vec<(String, usize)>> {
         .map(|s| {
             let (name, p) = s.split_once('=').ok_or_else(|| {
                 input(format!(
-                    "--output-period '{s}': expected NAME=PERIOD, e.g. y1=5"
+                    "{flag} '{s}': expected NAME={what}, e.g. {example}"
                 ))
             })?;
-            let period: usize = p.trim().parse().ok().filter(|&p| p > 0).ok_or_else(|| {
+            let n: usize = p.trim().parse().ok().filter(|&p| p > 0).ok_or_else(|| {
                 input(format!(
-                    "--output-period '{s}': period must be a positive integer"
+                    "{flag} '{s}': {} must be a positive integer",
+                    what.to_lowercase()
                 ))
             })?;
-            Ok((name.trim().to_string(), period))
+            Ok((name.trim().to_string(), n))
         })
         .collect()
 }

@@ -746,6 +746,178 @@ mod use_models {
         assert_eq!(text.lines().next(), Some("t,u1,y1"));
         assert_eq!(text.lines().count(), 301);
     }
+
+    /// Columns of a data CSV written by `simulate` (header, then numbers;
+    /// empty cells as NaN).
+    fn read_csv(path: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut lines = text.lines();
+        let head: Vec<String> = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let mut cols = vec![Vec::new(); head.len()];
+        for l in lines {
+            for (c, v) in cols.iter_mut().zip(l.split(',')) {
+                c.push(v.parse().unwrap_or(f64::NAN));
+            }
+        }
+        (head, cols)
+    }
+
+    #[test]
+    fn simulate_command_closes_the_loop() {
+        let d = tmp("simulate_closed");
+        let model = p(&d, "plant.json");
+        ModelFile::new(plant()).write(&model).unwrap();
+        // a P controller at T and a slower one at 3T
+        let k_fast = p(&d, "k.json");
+        let gain = DMatrix::from_element(1, 1, 0.2);
+        ModelFile::new(StateSpace::gain(gain.clone(), Some(0.1)).unwrap())
+            .write(&k_fast)
+            .unwrap();
+        let k_slow = p(&d, "k3.json");
+        ModelFile::new(StateSpace::gain(gain.clone(), Some(0.3)).unwrap())
+            .write(&k_slow)
+            .unwrap();
+        let r = p(&d, "r.csv");
+        ok(&[
+            "rbs", "--len", "200", "--hold", "10", "--ts", "0.1", "--name", "sp", "--out", &r,
+        ]);
+        let data = p(&d, "cl.csv");
+        ok(&[
+            "simulate",
+            "--model",
+            &model,
+            "--input",
+            &r,
+            "--controller",
+            &k_fast,
+            "--references",
+            "sp",
+            "--out",
+            &data,
+        ]);
+        // the same loop through the library
+        let (_, rc) = read_csv(&r);
+        let r1 = DMatrix::from_column_slice(200, 1, &rc[1]);
+        let sim = Simulator::closed_loop(
+            Plant::discrete(&plant(), &[], &[]).unwrap(),
+            lifted_sim::Controller::from_ss(&StateSpace::gain(gain, Some(0.1)).unwrap()).unwrap(),
+        )
+        .unwrap();
+        let want = sim.simulate(&Excitation::reference(r1)).unwrap();
+        let (head, cols) = read_csv(&data);
+        assert_eq!(head, ["t", "u1", "y1"]);
+        for k in 0..200 {
+            assert!((cols[1][k] - want.u()[(k, 0)]).abs() < 1e-12, "u at {k}");
+            assert!((cols[2][k] - want.y[(k, 0)]).abs() < 1e-12, "y at {k}");
+        }
+        // slow controller, y sampled every 3 (offset 0), hold-last, noise:
+        // the plant input moves only when the controller runs (k ≡ 0 mod 3)
+        let slow = p(&d, "cl3.csv");
+        ok(&[
+            "simulate",
+            "--model",
+            &model,
+            "--input",
+            &r,
+            "--controller",
+            &k_slow,
+            "--references",
+            "sp",
+            "--output-period",
+            "y1=3",
+            "--feedback",
+            "hold-last",
+            "--snr",
+            "20",
+            "--snr-samples",
+            "measured",
+            "--seed",
+            "4",
+            "--out",
+            &slow,
+        ]);
+        let (_, cols) = read_csv(&slow);
+        for k in 1..200 {
+            if k % 3 != 0 {
+                assert_eq!(cols[1][k], cols[1][k - 1], "u moved at {k}");
+            }
+            assert_eq!(cols[2][k].is_nan(), k % 3 != 0, "y sample pattern at {k}");
+        }
+        // bad combinations are named errors
+        let e = fails(
+            &[
+                "simulate",
+                "--model",
+                &model,
+                "--input",
+                &r,
+                "--references",
+                "sp",
+                "--out",
+                &slow,
+            ],
+            2,
+        );
+        assert!(e.contains("--controller"), "{e}");
+        let e = fails(
+            &[
+                "simulate",
+                "--model",
+                &model,
+                "--input",
+                &r,
+                "--controller",
+                &k_fast,
+                "--out",
+                &slow,
+            ],
+            2,
+        );
+        assert!(e.contains("--references"), "{e}");
+        let e = fails(
+            &[
+                "simulate",
+                "--model",
+                &model,
+                "--input",
+                &r,
+                "--noise-model",
+                &model,
+                "--inputs",
+                "sp",
+                "--out",
+                &slow,
+            ],
+            2,
+        );
+        assert!(e.contains("--snr"), "{e}");
+        let k_bad = p(&d, "k15.json");
+        ModelFile::new(StateSpace::gain(DMatrix::from_element(1, 1, 0.2), Some(0.15)).unwrap())
+            .write(&k_bad)
+            .unwrap();
+        let e = fails(
+            &[
+                "simulate",
+                "--model",
+                &model,
+                "--input",
+                &r,
+                "--controller",
+                &k_bad,
+                "--references",
+                "sp",
+                "--out",
+                &slow,
+            ],
+            2,
+        );
+        assert!(e.contains("integer multiple"), "{e}");
+    }
 }
 
 mod reproduce {
