@@ -218,7 +218,8 @@ fn large_loop_takes_the_run_time_size_step() -> TestResult {
 mod random_loops {
     //! Property: on random loops — plant order 1–6, 1–3 inputs and outputs,
     //! direct feedthrough or not, random holds, output sampling and
-    //! offsets, fast / hold-last feedback, a controller at T or at 2T/3T,
+    //! offsets, fast / hold-last / inferential feedback, a controller at T
+    //! or at 2T/3T,
     //! absolute coloured noise — the fused path equals the block-by-block
     //! reference (1e-10 relative), or both report the same divergence.
     use super::*;
@@ -282,8 +283,15 @@ mod random_loops {
             .unwrap()
             .with_sampling(&sampling)
             .unwrap();
-            if rng.random_bool(0.5) {
-                sim = sim.with_feedback(Feedback::HoldLast).unwrap();
+            match rng.random_range(0..3usize) {
+                0 => {}
+                1 => sim = sim.with_feedback(Feedback::HoldLast).unwrap(),
+                _ => {
+                    let np = rng.random_range(1..4usize);
+                    let dp = rng.random_bool(0.5);
+                    let phat = random_ss(&mut rng, np, ny, nu, dp, 1.0);
+                    sim = sim.with_feedback(Feedback::Inferential(phat)).unwrap();
+                }
             }
             if rng.random_bool(0.5) {
                 sim = sim.with_noise(coloured(ny, NoiseLevel::Std(vec![0.1]), seed)).unwrap();
