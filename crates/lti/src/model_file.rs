@@ -9,8 +9,11 @@
 //!  "method": "n4sid", "diagnostics": {"singular_values": [3.1, 0.01]}}
 //! ```
 //!
-//! `input_names`, `output_names`, `method` and `diagnostics` are optional
-//! when reading. The matrices are validated exactly as
+//! Optional fields: `input_names`, `output_names`, `method`, `diagnostics`,
+//! `operating_point` (`{"u0": [...], "y0": [...]}`: the model maps u − u₀
+//! to y − y₀; identification stores the means it removed) and
+//! `kalman_gain` (rows of the predictor gain K, n × n_y, for k-step-ahead
+//! prediction). The matrices are validated exactly as
 //! [`StateSpace::new`] does (shapes, finite entries, positive finite `ts`).
 //! Reading and writing are O(size of the file).
 //!
@@ -40,7 +43,27 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::operating_point::OperatingPoint;
 use crate::ss::StateSpace;
+use nalgebra::DMatrix;
+
+/// A gain K of shape order × n_y with finite entries.
+fn check_gain(model: &StateSpace, k: &DMatrix<f64>) -> crate::Result<()> {
+    if k.shape() != (model.order(), model.n_outputs()) {
+        return Err(crate::Error::DimensionMismatch {
+            what: "Kalman gain",
+            expected: format!("{}x{}", model.order(), model.n_outputs()),
+            got: format!("{}x{}", k.nrows(), k.ncols()),
+        });
+    }
+    if let Some(&v) = k.iter().find(|v| !v.is_finite()) {
+        return Err(crate::Error::NonFiniteScalar {
+            what: "Kalman gain",
+            value: v,
+        });
+    }
+    Ok(())
+}
 
 /// The only `kind` written and accepted.
 pub const STATE_SPACE_KIND: &str = "state_space";
@@ -92,6 +115,13 @@ pub struct ModelFile {
     /// `null` when absent.
     #[serde(default)]
     pub diagnostics: serde_json::Value,
+    /// The offsets (u₀, y₀) the model is linearised about, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub operating_point: Option<OperatingPoint>,
+    /// Rows of the Kalman predictor gain K (n × n_y) of the innovations form
+    /// x(k+1) = A x + B u + K e, if estimated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kalman_gain: Option<Vec<Vec<f64>>>,
 }
 
 impl ModelFile {
@@ -102,7 +132,35 @@ impl ModelFile {
             model,
             method: None,
             diagnostics: serde_json::Value::Null,
+            operating_point: None,
+            kalman_gain: None,
         }
+    }
+
+    /// Records the operating point (checked against the model's channels).
+    ///
+    /// Errors: [`crate::Error::DimensionMismatch`].
+    pub fn with_operating_point(mut self, op: OperatingPoint) -> crate::Result<Self> {
+        op.check_dims(self.model.n_inputs(), self.model.n_outputs())?;
+        self.operating_point = Some(op);
+        Ok(self)
+    }
+
+    /// Records the Kalman predictor gain K (n × n_y).
+    ///
+    /// Errors: [`crate::Error::DimensionMismatch`] for a wrong shape,
+    /// [`crate::Error::NonFiniteScalar`] for a NaN/inf entry.
+    pub fn with_kalman_gain(mut self, k: &DMatrix<f64>) -> crate::Result<Self> {
+        check_gain(&self.model, k)?;
+        self.kalman_gain = Some(k.row_iter().map(|r| r.iter().copied().collect()).collect());
+        Ok(self)
+    }
+
+    /// The Kalman predictor gain K as a matrix, if present.
+    pub fn kalman_gain_matrix(&self) -> Option<DMatrix<f64>> {
+        let rows = self.kalman_gain.as_ref()?;
+        let ny = rows.first().map_or(self.model.n_outputs(), Vec::len);
+        Some(DMatrix::from_fn(rows.len(), ny, |i, j| rows[i][j]))
     }
 
     /// Records the method.
@@ -144,6 +202,27 @@ impl ModelFile {
                 path: path.to_string(),
                 kind: f.kind,
             });
+        }
+        let invalid = |reason: String| ModelFileError::Invalid {
+            path: path.to_string(),
+            reason,
+        };
+        if let Some(op) = &f.operating_point {
+            op.check_dims(f.model.n_inputs(), f.model.n_outputs())
+                .and_then(|_| OperatingPoint::new(op.u0.clone(), op.y0.clone()).map(|_| ()))
+                .map_err(|e| invalid(format!("operating_point: {e}")))?;
+        }
+        if let Some(rows) = &f.kalman_gain {
+            let ny = f.model.n_outputs();
+            if rows.len() != f.model.order() || rows.iter().any(|r| r.len() != ny) {
+                return Err(invalid(format!(
+                    "kalman_gain: expected {} rows of {ny} values",
+                    f.model.order()
+                )));
+            }
+            if rows.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(invalid("kalman_gain: non-finite entry".into()));
+            }
         }
         Ok(f)
     }

@@ -303,6 +303,21 @@ pub(crate) struct HankelStream {
     requested: Compression,
     /// Factors 1/s_u, 1/s_y applied to the samples as they are copied in.
     inv_scale: [f64; 2],
+    /// Remove the pooled per-channel means (see [`HankelStream::set_centering`]).
+    center: bool,
+    /// Σ (z_c − r_c) over all samples of all records (scaled), per channel.
+    sums: Vec<f64>,
+    /// With centring, the reference r_c (mean of the first block, scaled)
+    /// subtracted from every sample as it is copied in, so that the final
+    /// correction removes a small residual mean instead of cancelling a
+    /// large offset in the squared data.
+    reference: Vec<f64>,
+    /// Σ z_c over the current record, per channel.
+    record_sums: Vec<f64>,
+    /// Window sums W_r = Σ_j H_{r,j} of every Hankel row (sources order),
+    /// completed records (correlation engine; the QR engine carries them in
+    /// its column of ones).
+    window_sums: Vec<f64>,
 }
 
 impl HankelStream {
@@ -336,7 +351,41 @@ impl HankelStream {
             samples: 0,
             requested: compression,
             inv_scale: [1.0, 1.0],
+            center: false,
+            sums: vec![0.0; nz],
+            reference: vec![0.0; nz],
+            record_sums: vec![0.0; nz],
+            window_sums: vec![0.0; k],
         }
+    }
+
+    /// Makes the factor that of the data less the pooled per-channel means μ
+    /// over all samples of all records (exactly: Σ_j (h_j − μ)(h_j − μ)ᵀ, not
+    /// the per-window means), without a second pass: the correlation engine
+    /// corrects its Gram matrix with the window sums of every Hankel row,
+    /// the QR engine carries a column of ones and adds J (h̄ − μ)(h̄ − μ)ᵀ to
+    /// the window-centred factor at the end. Call before the first push.
+    pub(crate) fn set_centering(&mut self, center: bool) {
+        self.center = center;
+        if center && let Engine::Qr { acc, .. } = &mut self.engine {
+            *acc = RAccumulator::new(self.layout.nrows() + 1);
+        }
+    }
+
+    /// The pooled per-channel means of the (scaled) samples pushed so far.
+    pub(crate) fn means(&self) -> Vec<f64> {
+        let n = self.samples.max(1) as f64;
+        self.sums
+            .iter()
+            .zip(&self.reference)
+            .map(|(s, r)| s / n + r)
+            .collect()
+    }
+
+    /// Means of the shifted samples (what the factor sees).
+    fn shifted_means(&self) -> Vec<f64> {
+        let n = self.samples.max(1) as f64;
+        self.sums.iter().map(|s| s / n).collect()
     }
 
     /// Divides every later sample by the scales (powers of 4, exact) of
@@ -354,6 +403,16 @@ impl HankelStream {
         }
         let span = self.layout.span();
         let nz = self.carry.len();
+        if self.center && self.samples == 0 {
+            let bf = b as f64;
+            for c in 0..nz {
+                self.reference[c] = if c < self.layout.nu {
+                    u.column(c).sum() * self.inv_scale[0] / bf
+                } else {
+                    y.column(c - self.layout.nu).sum() * self.inv_scale[1] / bf
+                };
+            }
+        }
         // Working buffer: carry followed by the new samples, per channel.
         let mut buf: Vec<Vec<f64>> = Vec::with_capacity(nz);
         for (c, carry) in self.carry.iter_mut().enumerate() {
@@ -363,7 +422,12 @@ impl HankelStream {
                 (y.column(c - self.layout.nu), self.inv_scale[1])
             };
             let mut v = std::mem::take(carry);
-            v.extend(col.iter().map(|x| x * inv));
+            let from = v.len();
+            let r = self.reference[c];
+            v.extend(col.iter().map(|x| x * inv - r));
+            if self.center {
+                self.record_sums[c] += v[from..].iter().sum::<f64>();
+            }
             buf.push(v);
         }
         let len = buf[0].len();
@@ -393,13 +457,18 @@ impl HankelStream {
                 sources,
             } => {
                 let k = sources.len();
+                // With centring, column 0 holds ones (window sums in R).
+                let first = usize::from(self.center);
                 let mut start = 0;
                 while start < starts {
                     let rows = (*chunk_rows).min(starts - start);
-                    let mut block = DMatrix::zeros(rows, k);
+                    let mut block = DMatrix::zeros(rows, k + first);
+                    if self.center {
+                        block.column_mut(0).fill(1.0);
+                    }
                     for (r, &(off, ch)) in sources.iter().enumerate() {
                         let src = &buf[ch][start + off..start + off + rows];
-                        block.column_mut(r).copy_from_slice(src);
+                        block.column_mut(r + first).copy_from_slice(src);
                     }
                     acc.push_rows(&block)?;
                     start += rows;
@@ -420,6 +489,9 @@ impl HankelStream {
         let n = self.record_len;
         let cols = self.layout.columns(n);
         let nz = self.carry.len();
+        for (total, rec) in self.sums.iter_mut().zip(&mut self.record_sums) {
+            *total += *rec;
+        }
         if let Engine::Correlation { s, gram, head, .. } = &mut self.engine {
             if cols > 0 {
                 // The carry holds the last s − 1 samples; finish the sums
@@ -445,6 +517,19 @@ impl HankelStream {
                         tail[ch][t - tail_start]
                     }
                 };
+                if self.center {
+                    // W_r = Σ_{j<J} z_c(j + o) = record sum − head − tail.
+                    for (r, &(o, c)) in self.layout.sources().iter().enumerate() {
+                        let mut w = self.record_sums[c];
+                        for t in 0..o {
+                            w -= at(c, t);
+                        }
+                        for t in (o + cols)..n {
+                            w -= at(c, t);
+                        }
+                        self.window_sums[r] += w;
+                    }
+                }
                 // Natural order: index o·n_z + c for offset o, channel c.
                 for o1 in 0..span {
                     for o2 in o1..span {
@@ -476,6 +561,7 @@ impl HankelStream {
         self.columns += cols;
         self.record_len = 0;
         self.carry.iter_mut().for_each(|c| c.clear());
+        self.record_sums.iter_mut().for_each(|v| *v = 0.0);
     }
 
     /// Hankel columns so far (completed records plus the current one).
@@ -496,11 +582,40 @@ impl HankelStream {
         let nz = self.carry.len();
         let span = self.layout.span();
         let scale = if j > 0 { 1.0 / j as f64 } else { 0.0 };
+        let src = self.layout.sources();
+        // Means per Hankel row (sources order); zero without centring.
+        let mu: Vec<f64> = if self.center {
+            let m = self.shifted_means();
+            src.iter().map(|&(_, c)| m[c]).collect()
+        } else {
+            vec![0.0; k]
+        };
         match self.engine {
             Engine::Qr {
                 acc, chunk_rows, ..
             } => {
-                let r = acc.r();
+                let mut r = acc.r();
+                if self.center {
+                    // R = [ρ wᵀ; 0 R₁] for [1, Hᵀ]: R₁ᵀR₁ = Σ(h − h̄)(h − h̄)ᵀ and
+                    // ρ w = Σ h = J h̄; add the row √J (h̄ − μ)ᵀ.
+                    let kk = r.nrows().min(k + 1);
+                    let rho = if kk > 0 { r[(0, 0)] } else { 0.0 };
+                    let mut extra = DMatrix::zeros(1, k);
+                    for c in 0..k {
+                        let hbar = if kk > 0 && rho != 0.0 {
+                            r[(0, c + 1)] * rho * scale
+                        } else {
+                            0.0
+                        };
+                        extra[(0, c)] = (j as f64).sqrt() * (hbar - mu[c]);
+                    }
+                    let mut again = RAccumulator::new(k);
+                    if kk > 1 {
+                        again.push_rows(&r.view((1, 1), (kk - 1, k)).into_owned())?;
+                    }
+                    again.push_rows(&extra)?;
+                    r = again.r();
+                }
                 let mut l = DMatrix::zeros(k, k);
                 for i in 0..r.nrows().min(k) {
                     for c in i..k {
@@ -524,9 +639,13 @@ impl HankelStream {
                 })
             }
             Engine::Correlation { gram, threads, .. } => {
-                let src = self.layout.sources();
                 let nat = |(o, c): (usize, usize)| o * nz + c;
-                let g = DMatrix::from_fn(k, k, |r, c| gram[(nat(src[r]), nat(src[c]))] * scale);
+                let w = &self.window_sums;
+                // Σ(h − μ)(h − μ)ᵀ/J = HHᵀ/J − (μ Wᵀ + W μᵀ)/J + μ μᵀ.
+                let g = DMatrix::from_fn(k, k, |r, c| {
+                    let raw = gram[(nat(src[r]), nat(src[c]))];
+                    (raw - mu[r] * w[c] - w[r] * mu[c]) * scale + mu[r] * mu[c]
+                });
                 let kf = k as f64;
                 let flops =
                     2.0 * self.samples as f64 * (nz * nz * span) as f64 + kf * kf * kf / 3.0;

@@ -99,10 +99,11 @@ pub mod error;
 mod hankel;
 mod iv;
 mod order;
+mod projection;
 mod regress;
 
 pub use engine::{
-    Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
+    BdEstimate, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
     StreamingIdentifier, SubspaceIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate,
     compress_hankel, identify,
 };

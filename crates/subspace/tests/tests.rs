@@ -76,6 +76,10 @@ mod common {
     }
 }
 
+mod suite {
+    pub mod consistency;
+}
+
 mod exact {
     use super::common::*;
     use lifted_subspace::*;

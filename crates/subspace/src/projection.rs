@@ -1,0 +1,120 @@
+//! (B, D) from the compressed data for given (A, C): the MOESP regression on
+//! the orthogonal complement of the extended observability matrix
+//! (Verhaegen 1994; SLICOT IB01PD), which needs no pass over the records.
+//!
+//! With the rows of the compressed factor L ordered [U_f; U_p; Y_p; Y_f]
+//! (thesis §2.4), the orthogonal projection of the future outputs on the
+//! future inputs and the past data is Y_f/[U_f; W_p] = Θ_u U_f + Θ_w W_p,
+//! with (Θ_u, Θ_w) = L_{Y_f,1:r} L₁₁⁻¹ (L₁₁ the leading r×r block, r the
+//! rows of [U_f; W_p]). In open loop the projection equals
+//! Γ_f X̂ + H_f U_f, where H_f is the block lower-triangular Toeplitz matrix
+//! of the Markov parameters (D on the diagonal, C A^{m−1} B below), so with
+//! Γ⊥ a basis of the left null space of Γ_f
+//!
+//!   Γ⊥ᵀ Θ_u = Γ⊥ᵀ H_f(B, D),
+//!
+//! linear in (B, D). Writing Γ⊥ᵀ = [L₀ … L_{f−1}] (blocks of n_y columns),
+//! the j-th block column reads M_j = L_j D + N_j B with
+//! N_j = Σ_{i>j} L_i C A^{i−j−1}; stacking j = 0 … f−1 gives one least-squares
+//! problem per input column (feedthrough entries that the mask fixes at zero
+//! are removed from it). The estimate is consistent in open loop for any
+//! past horizon: the future innovations are uncorrelated with [U_f; W_p],
+//! and whatever the finite past leaves of the state stays in the range of
+//! Γ_f, which Γ⊥ annihilates.
+//!
+//! Cost: O(k³) for the coefficients and the null space, O(f² n_y (f n_y − n)
+//! (n + n_y) n_u) for the regression; independent of N.
+
+use lifted_linalg::{RankTolerance, lstsq, null_space};
+use nalgebra::DMatrix;
+
+use crate::error::{Error, Result};
+use crate::hankel::HankelLayout;
+
+/// (B, D) of the scaled data from the compressed factor `l` (layout `lay`)
+/// for (A, C) and the extended observability matrix `gamma` (f n_y × n) of
+/// the same scaled data; `mask[(o, j)]` says whether D[o, j] is estimated.
+///
+/// Errors: [`Error::RankDeficient`] when the regression does not determine
+/// (B, D) (f n_y − n too small for n + n_y unknowns per input, or a
+/// degenerate Γ), and those of the linear-algebra kernels.
+pub(crate) fn bd_from_projection(
+    l: &DMatrix<f64>,
+    lay: &HankelLayout,
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    gamma: &DMatrix<f64>,
+    mask: &DMatrix<bool>,
+) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
+    let (nu, ny, f) = (lay.nu, lay.ny, lay.future);
+    let n = a.nrows();
+    let theta_u = future_input_coefficients(l, lay)?;
+    // Γ⊥ᵀ: rows spanning the left null space of Γ (f n_y − n of them).
+    let perp_t = null_space(&gamma.transpose(), RankTolerance::Default)?.transpose();
+    let m_rows = perp_t.nrows();
+    if m_rows == 0 {
+        return Err(Error::RankDeficient {
+            what: "projection (B, D) regression: Γ has no left null space (future horizon too short)",
+            rank: 0,
+            needed: n + ny,
+        });
+    }
+    let m = &perp_t * theta_u;
+    // N_j = Σ_{i>j} L_i C A^{i−j−1}, built from the last block backwards:
+    // N_{f−1} = 0, N_j = L_{j+1} C + N_{j+1} A.
+    let block = |j: usize| perp_t.columns(j * ny, ny).into_owned();
+    let mut nj = vec![DMatrix::zeros(m_rows, n); f];
+    for j in (0..f - 1).rev() {
+        nj[j] = block(j + 1) * c + &nj[j + 1] * a;
+    }
+    let mut b = DMatrix::zeros(n, nu);
+    let mut d = DMatrix::zeros(ny, nu);
+    for q in 0..nu {
+        let outputs: Vec<usize> = (0..ny).filter(|&o| mask[(o, q)]).collect();
+        let unknowns = outputs.len() + n;
+        let mut k = DMatrix::zeros(f * m_rows, unknowns);
+        let mut rhs = DMatrix::zeros(f * m_rows, 1);
+        for j in 0..f {
+            let lj = block(j);
+            let r0 = j * m_rows;
+            for (t, &o) in outputs.iter().enumerate() {
+                k.view_mut((r0, t), (m_rows, 1)).copy_from(&lj.column(o));
+            }
+            k.view_mut((r0, outputs.len()), (m_rows, n))
+                .copy_from(&nj[j]);
+            rhs.view_mut((r0, 0), (m_rows, 1))
+                .copy_from(&m.column(j * nu + q));
+        }
+        let rank = lifted_linalg::rank(&k, RankTolerance::Default)?;
+        if rank < unknowns {
+            return Err(Error::RankDeficient {
+                what: "projection (B, D) regression",
+                rank,
+                needed: unknowns,
+            });
+        }
+        let th = lstsq(&k, &rhs)?;
+        for (t, &o) in outputs.iter().enumerate() {
+            d[(o, q)] = th[(t, 0)];
+        }
+        for s in 0..n {
+            b[(s, q)] = th[(outputs.len() + s, 0)];
+        }
+    }
+    Ok((b, d))
+}
+
+/// Θ_u: the coefficients of U_f in the orthogonal projection of Y_f on the
+/// rows of [U_f; W_p] (f n_y × f n_u), from the lower-triangular factor:
+/// Θ = L_{Y_f,1:r} L₁₁⁻¹ (minimum-norm least squares when the past outputs
+/// are rank deficient, e.g. noise-free data; the U_f part is unique as long
+/// as the inputs are persistently exciting). O(k³).
+fn future_input_coefficients(l: &DMatrix<f64>, lay: &HankelLayout) -> Result<DMatrix<f64>> {
+    let r = lay.yf().start;
+    let yf = lay.yf();
+    let l11 = l.view((0, 0), (r, r)).into_owned();
+    let l21 = l.view((yf.start, 0), (yf.len(), r)).into_owned();
+    // Θ L₁₁ = L₂₁  ⇔  L₁₁ᵀ Θᵀ = L₂₁ᵀ.
+    let theta = lstsq(&l11.transpose(), &l21.transpose())?.transpose();
+    Ok(theta.columns(0, lay.uf().len()).into_owned())
+}
