@@ -41,6 +41,7 @@ use lifted_prbs::{GaussianOptions, gaussian_white};
 use lifted_sim::plants::stirred_tank_5_3_1;
 use lifted_sim::{Excitation, NoiseLevel, NoiseSpec, Plant, SimOutput, Simulator, SnrDefinition};
 use lifted_subspace::OrderSelection;
+use lifted_subspace::SystemEstimate;
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -326,11 +327,17 @@ pub fn identify_tank(n: usize, len: usize, seed: u64) -> BoxResult<StateSpace> {
         .with_sampling(&[(n, 0), (1, 0)])?
         .with_noise(noise)?;
     let out = sim.simulate(&Excitation::input(rbs2(len, seed)?))?;
+    // The thesis' route (state-sequence N4SID on the lifted data). With the
+    // library's consistent default (shift invariance, since 2026-11-25) this
+    // short record (1000 lifted samples, var-SNR 5) gives a worse model for
+    // the controller: IAE ratio 0.743 (was 0.497) and end offset 1.15e-3
+    // (was 4.1e-5) for seed 830, so the reproduction keeps the thesis route.
     let opts = ProcedureOptions {
         identification: LiftedIdOptions {
             order: OrderSelection::Fixed(4),
             past: 6,
             future: 6,
+            system: SystemEstimate::StateSequence,
             ..Default::default()
         },
         ordering: Ordering::TimeMajor,

@@ -13,7 +13,9 @@ use lifted_lti::StateSpace;
 use lifted_prbs::{RandomBinaryOptions, random_binary};
 use lifted_sim::plants::stirred_tank_2_6_2;
 use lifted_sim::{Excitation, SnrDefinition};
-use lifted_subspace::{Experiment, Feedthrough, Method, OrderSelection, SubspaceOptions, identify};
+use lifted_subspace::{
+    Experiment, Feedthrough, Method, OrderSelection, SubspaceOptions, SystemEstimate, identify,
+};
 use nalgebra::DMatrix;
 
 use crate::{Check, Reproduction};
@@ -87,6 +89,15 @@ pub fn median(v: &[f64]) -> f64 {
     }
 }
 
+///
+/// The thesis' route: (A, C) from the state sequences. The library default
+/// since 2026-11-25 (shift invariance, consistent for data from an order-n
+/// innovations model) does worse here: the Box–Jenkins noise has its own
+/// poles (0.97, 0.9, 0.86), so the order-3 truncation of the subspace
+/// carries noise modes, and N4SID's median e_step of G₂₂ was 0.117 (MOESP
+/// 0.114, CVA 0.058; tolerance 0.05), with unstable estimates on some seeds
+/// (max |Ĝ₁₂ step| 2.7e6) and §2.6.1 validation fits 67.6 % / 85.3 %.
+/// The state-sequence regression keeps the deterministic dynamics.
 fn options(method: Method) -> SubspaceOptions {
     SubspaceOptions {
         method,
@@ -95,6 +106,7 @@ fn options(method: Method) -> SubspaceOptions {
         future: 15,
         feedthrough: Feedthrough::Zero,
         noise_model: false,
+        system: SystemEstimate::StateSequence,
         ..Default::default()
     }
 }

@@ -280,6 +280,28 @@ pub enum CriterionArg {
     Bic,
 }
 
+/// Route from the subspace to (A, C) (`--estimator`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EstimatorArg {
+    /// Shift invariance of the extended observability matrix (consistent; default).
+    Shift,
+    /// Least squares on the estimated state sequences (the thesis' N4SID route; biased for short horizons).
+    States,
+}
+
+/// Offset handling (`--detrend`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DetrendArg {
+    /// identify: as `mean`; validate/report: apply the model file's operating point, or remove the record's means if it has none.
+    Auto,
+    /// Use the data as they are.
+    None,
+    /// Remove each channel's mean (over its sampled values).
+    Mean,
+    /// Remove a least-squares straight line from each channel.
+    Linear,
+}
+
 /// Identification methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
@@ -367,6 +389,14 @@ pub struct IdentifyArgs {
     /// IV: instrument column names (one per input; the external excitation in closed loop).
     #[arg(long)]
     pub instrument: Option<String>,
+    /// Subspace methods: (A, C) by shift invariance (consistent, default) or from the state sequences.
+    #[arg(long, value_enum, default_value_t = EstimatorArg::Shift)]
+    pub estimator: EstimatorArg,
+    /// Offsets removed before identification (per channel, from the estimation record); the
+    /// means are stored in the model file as its operating point and re-applied by simulate,
+    /// validate and report. `linear` also removes trends (in memory, not streamed).
+    #[arg(long, value_enum, default_value_t = DetrendArg::Mean)]
+    pub detrend: DetrendArg,
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,
@@ -393,6 +423,11 @@ pub struct ValidateArgs {
     /// Exit with code 1 if the fit of any output is below this percentage.
     #[arg(long)]
     pub min_fit: Option<f64>,
+    /// Offsets: `auto` applies the model file's operating point (y = y₀ + G(u − u₀)), or removes
+    /// the record's means when the file has none; `mean`/`linear` compare deviations from the
+    /// record's own means/trends; `none` uses the data as they are.
+    #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
+    pub detrend: DetrendArg,
 }
 
 /// Conversion targets.
@@ -477,6 +512,9 @@ pub struct ReportArgs {
     /// Lags of the correlation tests.
     #[arg(long, default_value_t = 20)]
     pub lags: usize,
+    /// Offsets, as in `validate --detrend`.
+    #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
+    pub detrend: DetrendArg,
     /// Output HTML file.
     #[arg(long)]
     pub out: String,

@@ -1,6 +1,7 @@
 //! `lifted identify`: CSV → model file.
 
-use lifted_lti::{Dataset, Identifier, ModelFile, StateSpace};
+use lifted_lti::data::Detrend;
+use lifted_lti::{Dataset, Identifier, ModelFile, OperatingPoint, StateSpace};
 use lifted_multirate::{
     ExtractOptions, LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions,
     identify_lifted_iv, identify_multirate,
@@ -8,12 +9,13 @@ use lifted_multirate::{
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
     Compression, Experiment, IvExperiment, IvOptions, Method, OrderCriterion, OrderReport,
-    OrderSelection, StreamingIdentifier, SubspaceModel, SubspaceOptions, identify, iv_identify,
+    OrderSelection, StreamingIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate, identify,
+    iv_identify,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
 
-use crate::args::{CriterionArg, DataArgs, IdentifyArgs, MethodArg};
+use crate::args::{CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg};
 use crate::error::{CliResult, Context, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
 
@@ -74,6 +76,35 @@ fn method_of(m: MethodArg) -> Method {
         MethodArg::Cva => Method::Cva,
         _ => Method::N4sid,
     }
+}
+
+/// The subspace crate's (A, C) route for `--estimator`.
+fn system_of(e: EstimatorArg) -> SystemEstimate {
+    match e {
+        EstimatorArg::Shift => SystemEstimate::ShiftInvariance,
+        EstimatorArg::States => SystemEstimate::StateSequence,
+    }
+}
+
+/// The pooled per-channel means of the records (the operating point stored
+/// with the model) and the records detrended per `--detrend`.
+fn detrend_sets(
+    sets: Vec<Dataset>,
+    detrend: DetrendArg,
+) -> CliResult<(Option<OperatingPoint>, Vec<Dataset>)> {
+    let kind = match detrend {
+        DetrendArg::None => return Ok((None, sets)),
+        DetrendArg::Auto | DetrendArg::Mean => Detrend::Constant,
+        DetrendArg::Linear => Detrend::Linear,
+    };
+    let us: Vec<&DMatrix<f64>> = sets.iter().map(Dataset::u).collect();
+    let ys: Vec<&DMatrix<f64>> = sets.iter().map(Dataset::y).collect();
+    let op = OperatingPoint::means(&us, &ys).ctx("--detrend")?;
+    let out = sets
+        .iter()
+        .map(|d| d.detrend(kind).ctx("--detrend"))
+        .collect::<CliResult<_>>()?;
+    Ok((Some(op), out))
 }
 
 fn order_json(kind: &str, values: &[f64], order: usize, suggested: usize) -> serde_json::Value {
@@ -143,6 +174,8 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
     let read_s = t_read.elapsed().as_secs_f64();
     let t_identify = std::time::Instant::now();
     let sets: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
+    let (operating_point, sets) = detrend_sets(sets, a.detrend)?;
+    let mut kalman_gain = None;
     let ts = sets[0].ts();
     let multirate = sets.iter().any(|d| !d.is_single_rate());
     let (model, diagnostics) = match a.method {
@@ -179,6 +212,9 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 order_criterion: criterion_of(a.order_criterion),
                 past: a.horizon.unwrap_or(10),
                 future: a.horizon.unwrap_or(10),
+                system: system_of(a.estimator),
+                // The records are already detrended per --detrend.
+                remove_means: false,
                 ts,
                 ..Default::default()
             };
@@ -189,6 +225,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             let fit = identify(&exps, &opts)
                 .ctx(format!("{} identification", method_of(a.method).name()))?;
             let d = subspace_json(&fit, "single-rate subspace identification");
+            kalman_gain = fit.kalman_gain.clone();
             (fit.model, d)
         }
         MethodArg::Iv => {
@@ -268,9 +305,29 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         read_s,
         identify_s,
     );
-    Ok(ModelFile::new(model)
-        .with_method(a.method.name())
-        .with_diagnostics(diagnostics))
+    finish_file(
+        ModelFile::new(model)
+            .with_method(a.method.name())
+            .with_diagnostics(diagnostics),
+        operating_point,
+        kalman_gain.as_ref(),
+    )
+}
+
+/// Adds the operating point and the Kalman gain (when present) to a model file.
+fn finish_file(
+    file: ModelFile,
+    operating_point: Option<OperatingPoint>,
+    kalman_gain: Option<&DMatrix<f64>>,
+) -> CliResult<ModelFile> {
+    let file = match operating_point {
+        Some(op) => file.with_operating_point(op).ctx("operating point")?,
+        None => file,
+    };
+    match kalman_gain {
+        Some(k) => file.with_kalman_gain(k).ctx("Kalman gain"),
+        None => Ok(file),
+    }
 }
 
 fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
@@ -415,6 +472,7 @@ fn identify_streaming(
     );
     if !subspace
         || needs_records
+        || a.detrend == DetrendArg::Linear
         || a.data.len() != 1
         || !spec.periods.is_empty()
         || spec.hold > 1
@@ -436,6 +494,8 @@ fn identify_streaming(
             order_criterion: criterion_of(a.order_criterion),
             past: a.horizon.unwrap_or(10),
             future: a.horizon.unwrap_or(10),
+            system: system_of(a.estimator),
+            remove_means: a.detrend != DetrendArg::None,
             ts: spec.ts.unwrap_or(1.0),
             compression,
             ..Default::default()
@@ -510,11 +570,13 @@ fn identify_streaming(
     );
     // Reading and compressing overlap: blocks are compressed as they are read.
     add_run_facts(&mut d, a, n_rows, ts, &vec![1; n_y], read_s, identify_s);
-    Ok(Some(
+    Ok(Some(finish_file(
         ModelFile::new(model)
             .with_method(a.method.name())
             .with_diagnostics(d),
-    ))
+        fit.operating_point.clone(),
+        fit.kalman_gain.as_ref(),
+    )?))
 }
 
 /// Diagnostics of a subspace fit: horizons, order selection, compression used

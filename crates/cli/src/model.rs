@@ -366,7 +366,9 @@ pub fn step(a: &StepArgs) -> CliResult<()> {
 
 /// `lifted simulate`.
 pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
-    let model = read_model(&a.model)?.model;
+    let file = read_model(&a.model)?;
+    let operating_point = file.operating_point.clone();
+    let model = file.model;
     let (def_u, yn) = channel_names(&model);
     let closed = a.controller.is_some();
     if !closed && (a.references.is_some() || a.feedback != FeedbackArg::Fast) {
@@ -500,11 +502,27 @@ pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
         m
     };
     let (ucols, rcols) = raw.cols.split_at(un.len());
-    let exc = Excitation {
+    let mut exc = Excitation {
         r1: (!rn.is_empty()).then(|| column_block(rcols)),
         r2: (!un.is_empty()).then(|| column_block(ucols)),
     };
-    let out = sim.simulate(&exc).ctx("simulate")?;
+    // The model maps deviations u − u₀ to y − y₀ (its operating point):
+    // simulate in deviations, write plant values. In closed loop --inputs
+    // is an excitation added to the controller's output, not a plant value.
+    if let Some(op) = &operating_point {
+        if let Some(r2) = exc.r2.as_mut().filter(|_| a.controller.is_none()) {
+            *r2 = op.remove_input(r2).ctx("simulate")?;
+        }
+        if let Some(r1) = &mut exc.r1 {
+            for (c, y0) in op.y0.iter().enumerate() {
+                r1.column_mut(c).iter_mut().for_each(|v| *v -= y0);
+            }
+        }
+    }
+    let mut out = sim.simulate(&exc).ctx("simulate")?;
+    if let Some(op) = &operating_point {
+        out.data = out.data.shifted(&op.u0, &op.y0).ctx("simulate")?;
+    }
     let file = std::fs::File::create(&a.out).ctx(format!("cannot write {}", a.out))?;
     out.data
         .to_csv_writer(std::io::BufWriter::new(file))

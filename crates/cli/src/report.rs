@@ -109,9 +109,9 @@ fn order_plot(diag: &serde_json::Value) -> Option<Plot> {
 
 /// `lifted report`.
 pub fn report_cmd(a: &ReportArgs) -> CliResult<()> {
-    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns)?;
+    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
     let model = &file.model;
-    let v = validate_model(model, &data, a.lags, &a.data)?;
+    let v = validate_model(&file, &data, a.lags, &a.data)?;
     let ts = data.ts();
     let n = data.len();
     let t: Vec<f64> = (0..n).map(|k| k as f64 * ts).collect();

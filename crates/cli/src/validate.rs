@@ -2,7 +2,11 @@
 //!
 //! * fit % per output: 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖), ŷ the model's simulated
 //!   response to the measured input from a zero initial state, compared at
-//!   the instants the output is sampled;
+//!   the instants the output is sampled; with an operating point in the
+//!   model file ŷ = y₀ + G(u − u₀);
+//! * k-step-ahead prediction fit (k = 1, 5; k = ∞ is the simulation fit)
+//!   with the model file's Kalman gain ([`lifted_lti::StateSpace::predict`]),
+//!   when the file has one;
 //! * whiteness: normalised autocorrelation r_e(τ)/r_e(0), τ = 1…M, of the
 //!   residual e = y − ŷ (at the output's own sampling instants);
 //! * independence: normalised cross-correlation r_eu(τ)/√(r_e(0) r_u(0)),
@@ -12,9 +16,11 @@
 //! samples); a test passes when at most ⌈1 % of the lags⌉ (at least one)
 //! lie outside the bound. O(N (n² + M)) per output.
 
-use lifted_lti::{C2dOptions, Dataset, StateSpace};
+use lifted_lti::data::Detrend;
+use lifted_lti::{C2dOptions, Dataset, ModelFile, OperatingPoint, StateSpace};
+use nalgebra::DMatrix;
 
-use crate::args::ValidateArgs;
+use crate::args::{DetrendArg, ValidateArgs};
 use crate::error::{CliError, CliResult, Context, input};
 use crate::identify::data_spec;
 use crate::model::{channel_names, read_model};
@@ -31,6 +37,9 @@ pub struct OutputValidation {
     pub name: String,
     /// Fit in percent.
     pub fit: f64,
+    /// k-step-ahead prediction fits in percent, for k in
+    /// [`PREDICTION_HORIZONS`] (empty without a Kalman gain).
+    pub prediction_fits: Vec<f64>,
     /// Samples compared.
     pub samples: usize,
     /// Confidence bound of the correlations.
@@ -78,13 +87,36 @@ pub fn at_data_rate(model: &StateSpace, data: &Dataset, path: &str) -> CliResult
     }
 }
 
-/// Computes the validation.
+/// Horizons k of the k-step-ahead prediction fits (k = ∞ is the fit).
+pub const PREDICTION_HORIZONS: [usize; 2] = [1, 5];
+
+/// 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) (NaN for a constant y).
+fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {
+    let mean = y.iter().sum::<f64>() / y.len() as f64;
+    let ne = y
+        .iter()
+        .zip(yhat)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let nd = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+    if nd > 0.0 {
+        100.0 * (1.0 - ne / nd)
+    } else {
+        f64::NAN
+    }
+}
+
+/// Computes the validation of the model file's model, operating point and
+/// Kalman gain (the gain is used only when the model runs at the data's
+/// period as given).
 pub fn validate_model(
-    model: &StateSpace,
+    file: &ModelFile,
     data: &Dataset,
     lags: usize,
     path: &str,
 ) -> CliResult<Validation> {
+    let model = &file.model;
     if model.n_inputs() != data.n_inputs() || model.n_outputs() != data.n_outputs() {
         return Err(input(format!(
             "{path}: {} inputs and {} outputs selected, the model has {} and {}",
@@ -95,7 +127,27 @@ pub fn validate_model(
         )));
     }
     let m = at_data_rate(model, data, path)?;
-    let sim = m.lsim(data.u(), None, None).ctx("simulating the model")?;
+    let op = file
+        .operating_point
+        .clone()
+        .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
+    let (du, dy) = op.to_deviations(data.u(), data.y()).ctx(path)?;
+    let mut sim = m.lsim(&du, None, None).ctx("simulating the model")?;
+    sim.y = op.add_output(&sim.y).ctx(path)?;
+    let gain = file
+        .kalman_gain_matrix()
+        .filter(|_| model.ts().is_some() && m.order() == model.order());
+    let predictions: Vec<DMatrix<f64>> = match &gain {
+        Some(k) => PREDICTION_HORIZONS
+            .iter()
+            .map(|&h| {
+                m.predict(k, &du, &dy, h)
+                    .and_then(|p| op.add_output(&p))
+                    .ctx("k-step-ahead prediction")
+            })
+            .collect::<CliResult<_>>()?,
+        None => Vec::new(),
+    };
     let ts = data.ts();
     let mut outputs = Vec::new();
     for (o, ch) in data.outputs().iter().enumerate() {
@@ -108,15 +160,15 @@ pub fn validate_model(
                 ch.name
             )));
         }
-        let mean = y.iter().sum::<f64>() / n as f64;
         let e: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
-        let ne = e.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let nd = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
-        let fit = if nd > 0.0 {
-            100.0 * (1.0 - ne / nd)
-        } else {
-            f64::NAN
-        };
+        let fit = fit_percent(&y, &yhat);
+        let prediction_fits = predictions
+            .iter()
+            .map(|p| {
+                let yp: Vec<f64> = idx.iter().map(|&k| p[(k, o)]).collect();
+                fit_percent(&y, &yp)
+            })
+            .collect();
         let em = e.iter().sum::<f64>() / n as f64;
         let ec: Vec<f64> = e.iter().map(|v| v - em).collect();
         let r0 = ec.iter().map(|v| v * v).sum::<f64>();
@@ -165,6 +217,7 @@ pub fn validate_model(
         outputs.push(OutputValidation {
             name: ch.name.clone(),
             fit,
+            prediction_fits,
             samples: n,
             bound,
             auto,
@@ -182,15 +235,23 @@ fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
-/// Rows of the validation table: output, fit, samples, max |r_e|, max |r_eu|, bound, white, independent.
-pub fn table_rows(v: &Validation) -> Vec<[String; 8]> {
+/// Rows of the validation table: output, fit, 1- and 5-step prediction
+/// fits, samples, max |r_e|, max |r_eu|, bound, white, independent.
+pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
     v.outputs
         .iter()
         .map(|o| {
             let cross = o.cross.iter().map(|c| max_abs(c)).fold(0.0, f64::max);
+            let pred = |i: usize| {
+                o.prediction_fits
+                    .get(i)
+                    .map_or("n/a".to_string(), |f| format!("{f:.2}"))
+            };
             [
                 o.name.clone(),
                 format!("{:.2}", o.fit),
+                pred(0),
+                pred(1),
                 o.samples.to_string(),
                 format!("{:.4}", max_abs(&o.auto)),
                 format!("{cross:.4}"),
@@ -203,9 +264,11 @@ pub fn table_rows(v: &Validation) -> Vec<[String; 8]> {
 }
 
 /// Header of [`table_rows`].
-pub const TABLE_HEADER: [&str; 8] = [
+pub const TABLE_HEADER: [&str; 10] = [
     "output",
-    "fit %",
+    "fit % (simulation)",
+    "fit % 1-step",
+    "fit % 5-step",
     "samples",
     "max |r_e(τ)|, τ≥1",
     "max |r_eu(τ)|",
@@ -214,22 +277,38 @@ pub const TABLE_HEADER: [&str; 8] = [
     "independent of u",
 ];
 
-/// Loads the model and data of `validate`/`report`.
+/// Loads the model and data of `validate`/`report` and applies `--detrend`:
+/// `auto` keeps the file's operating point (or, without one, removes the
+/// record's means), `mean`/`linear` detrend the record and drop the
+/// operating point, `none` keeps both as they are.
 pub fn load_for_validation(
     model_path: &str,
     data_path: &str,
     cols: &crate::args::DataArgs,
-) -> CliResult<(lifted_lti::ModelFile, Dataset)> {
-    let file = read_model(model_path)?;
+    detrend: DetrendArg,
+) -> CliResult<(ModelFile, Dataset)> {
+    let mut file = read_model(model_path)?;
     let spec = data_spec(cols, Some(channel_names(&file.model)), 1, Vec::new())?;
     let data = load(data_path, &spec)?.data;
-    Ok((file, data))
+    let kind = match detrend {
+        DetrendArg::Auto if file.operating_point.is_none() => Some(Detrend::Constant),
+        DetrendArg::Mean => Some(Detrend::Constant),
+        DetrendArg::Linear => Some(Detrend::Linear),
+        DetrendArg::Auto | DetrendArg::None => None,
+    };
+    match kind {
+        Some(k) => {
+            file.operating_point = None;
+            Ok((file, data.detrend(k).ctx(data_path)?))
+        }
+        None => Ok((file, data)),
+    }
 }
 
 /// `lifted validate`.
 pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
-    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns)?;
-    let v = validate_model(&file.model, &data, a.lags, &a.data)?;
+    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
+    let v = validate_model(&file, &data, a.lags, &a.data)?;
     let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
     print_table(&TABLE_HEADER, &rows);
     println!(

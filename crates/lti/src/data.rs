@@ -713,6 +713,51 @@ impl Dataset {
         Ok(out)
     }
 
+    /// The record with constant offsets added to every input and output
+    /// channel (e.g. an operating point u₀, y₀ re-applied to a simulated
+    /// deviation record); unsampled outputs stay NaN, holds stay valid.
+    /// Errors: [`DataError::DimensionMismatch`] for a wrong number of
+    /// offsets, [`DataError::NonFiniteInput`] / [`DataError::MissingSample`]
+    /// (sample 0) for a non-finite one. O(N(n_u + n_y)).
+    pub fn shifted(&self, u_offset: &[f64], y_offset: &[f64]) -> DataResult<Self> {
+        if u_offset.len() != self.n_inputs() {
+            return Err(DataError::DimensionMismatch {
+                what: "input offsets",
+                expected: self.n_inputs(),
+                got: u_offset.len(),
+            });
+        }
+        if y_offset.len() != self.n_outputs() {
+            return Err(DataError::DimensionMismatch {
+                what: "output offsets",
+                expected: self.n_outputs(),
+                got: y_offset.len(),
+            });
+        }
+        if let Some((c, &v)) = u_offset.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(DataError::NonFiniteInput {
+                channel: c,
+                sample: 0,
+                value: v,
+            });
+        }
+        if let Some((c, &v)) = y_offset.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(DataError::MissingSample {
+                channel: c,
+                sample: 0,
+                value: v,
+            });
+        }
+        let mut out = self.clone();
+        for (c, &o) in u_offset.iter().enumerate() {
+            out.u.column_mut(c).iter_mut().for_each(|v| *v += o);
+        }
+        for (c, &o) in y_offset.iter().enumerate() {
+            out.y.column_mut(c).iter_mut().for_each(|v| *v += o);
+        }
+        Ok(out)
+    }
+
     /// Lifts the record by factor n (thesis eq. 3.1, L_n): row j of the
     /// result holds fast samples jn … jn+n−1 of every channel, ordered
     /// [`LiftOrdering::ChannelMajor`]: column c·n + t is channel c at fast

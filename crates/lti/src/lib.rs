@@ -80,6 +80,7 @@ mod la;
 pub mod model_file;
 mod operating_point;
 pub mod poly;
+mod predict;
 mod reduce;
 mod response;
 mod ss;

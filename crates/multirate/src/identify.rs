@@ -22,7 +22,7 @@
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::{
     Experiment, Feedthrough, InitialState, IvExperiment, IvOptions, Method, MultirateIvOptions,
-    OrderSelection, SubspaceOptions, identify, iv_identify, iv_multirate_fast,
+    OrderSelection, SubspaceOptions, SystemEstimate, identify, iv_identify, iv_multirate_fast,
 };
 use nalgebra::DMatrix;
 
@@ -56,6 +56,10 @@ pub struct LiftedIdOptions {
     /// modulus ≥ 1 (spec A3.9: an unstable estimate is an error, not a
     /// model). Default true.
     pub require_stable: bool,
+    /// Route from the lifted subspace to (Ā, C̄). Default
+    /// [`SystemEstimate::ShiftInvariance`] (consistent; the state-sequence
+    /// route was the default before 2026-11-25).
+    pub system: SystemEstimate,
 }
 
 impl Default for LiftedIdOptions {
@@ -68,6 +72,7 @@ impl Default for LiftedIdOptions {
             strictly_proper: true,
             initial_state: InitialState::Estimate,
             require_stable: true,
+            system: SystemEstimate::ShiftInvariance,
         }
     }
 }
@@ -118,6 +123,7 @@ pub fn identify_lifted(data: &LiftedData, opts: &LiftedIdOptions) -> Result<Lift
         initial_state: opts.initial_state,
         noise_model: false,
         enforce_stability: false,
+        system: opts.system,
         ts: data.ts,
         ..Default::default()
     };

@@ -17,7 +17,9 @@ use crate::order::{
     simulation_error, svc_values,
 };
 use crate::projection::bd_from_projection;
-use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
+use crate::regress::{
+    Feedthrough, InitialState, Record, estimate_bd, estimate_bd_with_offsets, estimate_x0,
+};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -74,8 +76,9 @@ pub enum SystemEstimate {
 /// How (B, D) are estimated after (A, C) by shift invariance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum BdEstimate {
-    /// [`BdEstimate::OutputError`] when the records are in memory,
-    /// [`BdEstimate::Projection`] when streaming.
+    /// [`BdEstimate::OutputError`] when the records are in memory (and the
+    /// estimated A is not too unstable for it, [`crate::MAX_REGRESSOR_GROWTH`]),
+    /// [`BdEstimate::Projection`] otherwise and when streaming.
     #[default]
     Auto,
     /// Output-error least squares over the records with x₀ per record
@@ -263,6 +266,11 @@ pub struct SubspaceModel {
     /// the model maps u − u₀ to y − y₀. `None` when the data were used as
     /// given.
     pub operating_point: Option<OperatingPoint>,
+    /// The constant output offset per record estimated with (B, D, x₀)
+    /// when means were removed (the deviations of a response that started
+    /// at rest keep an O(1/N) constant); already folded into
+    /// `operating_point`. Empty on the other routes.
+    pub output_offsets: Vec<DVector<f64>>,
     /// Singular values, orders and other diagnostics.
     pub diagnostics: Diagnostics,
 }
@@ -596,6 +604,7 @@ pub fn compress_hankel(
         opts.chunk_rows,
         thread_count(threads),
         Scale::ONE,
+        false,
     )
 }
 
@@ -829,7 +838,20 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     let (op, centered) = remove_means(experiments)?;
     let exps: Vec<Experiment<'_>> = centered.iter().map(|(u, y)| Experiment { u, y }).collect();
     let mut fit = identify_as_given(&exps, opts)?;
-    fit.operating_point = Some(op);
+    // The output-error regression estimated the constant each record's
+    // deviations keep (O(1/N) after a start at rest): y₀ absorbs their
+    // sample-weighted mean.
+    let mut y0 = op.y0.clone();
+    if !fit.output_offsets.is_empty() {
+        let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
+        for (e, c) in experiments.iter().zip(&fit.output_offsets) {
+            let w = e.u.nrows() as f64 / total as f64;
+            for (v, ci) in y0.iter_mut().zip(c.iter()) {
+                *v += w * ci;
+            }
+        }
+    }
+    fit.operating_point = Some(OperatingPoint::new(op.u0, y0)?);
     Ok(fit)
 }
 
@@ -886,6 +908,7 @@ fn identify_as_given(
         opts.chunk_rows,
         thread_count(opts.threads),
         scale,
+        opts.remove_means,
     )?;
     let compress_s = t0.elapsed().as_secs_f64();
     let records: Vec<Record<'_>> = experiments
@@ -965,6 +988,9 @@ impl Subspace<'_> {
 
 /// A model of one order, in the original units of the data.
 struct Fit {
+    /// Constant output offsets per record (output-error regression with
+    /// mean removal), else empty.
+    offsets: Vec<DVector<f64>>,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
     c: DMatrix<f64>,
@@ -994,19 +1020,24 @@ fn fit_order(
     let output_error = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
         let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
         let c = c * scale.y;
-        let bd = estimate_bd(
-            &a,
-            &c,
-            need_records(records)?,
-            &opts.feedthrough,
-            opts.initial_state,
-        )?;
+        let recs = need_records(records)?;
+        let bd = if opts.remove_means {
+            estimate_bd_with_offsets(&a, &c, recs, &opts.feedthrough, opts.initial_state)?
+        } else {
+            estimate_bd(&a, &c, recs, &opts.feedthrough, opts.initial_state)?
+        };
+        let offsets = if opts.remove_means {
+            bd.offsets
+        } else {
+            Vec::new()
+        };
         Ok(Fit {
             a,
             b: bd.b,
             c,
             d: bd.d,
             x0: bd.x0,
+            offsets,
             stabilized,
             gamma,
         })
@@ -1023,13 +1054,20 @@ fn fit_order(
             c,
             d,
             x0,
+            offsets: Vec::new(),
             stabilized,
             gamma,
         })
     };
     let shift = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
         match (opts.bd, records.is_some()) {
-            (BdEstimate::OutputError, _) | (BdEstimate::Auto, true) => output_error(enforce, gamma),
+            (BdEstimate::OutputError, _) => output_error(enforce, gamma),
+            // Auto: an A too unstable for the output-error regression over
+            // the record (low SNR) still gets (B, D) from the projection.
+            (BdEstimate::Auto, true) => match output_error(enforce, gamma.clone()) {
+                Err(Error::UnstableEstimate { .. }) => projection(enforce, gamma),
+                other => other,
+            },
             (BdEstimate::Projection, _) | (BdEstimate::Auto, false) => projection(enforce, gamma),
         }
     };
@@ -1049,6 +1087,7 @@ fn fit_order(
                 c,
                 d,
                 x0,
+                offsets: Vec::new(),
                 stabilized: false,
                 gamma,
             })
@@ -1228,6 +1267,7 @@ fn from_factor(
         kalman_gain,
         noise,
         x0: fit.x0,
+        output_offsets: fit.offsets,
         operating_point: None,
         diagnostics: Diagnostics {
             method: opts.method,

@@ -359,12 +359,16 @@ impl HankelStream {
         }
     }
 
-    /// Makes the factor that of the data less the pooled per-channel means μ
-    /// over all samples of all records (exactly: Σ_j (h_j − μ)(h_j − μ)ᵀ, not
-    /// the per-window means), without a second pass: the correlation engine
-    /// corrects its Gram matrix with the window sums of every Hankel row,
-    /// the QR engine carries a column of ones and adds J (h̄ − μ)(h̄ − μ)ᵀ to
-    /// the window-centred factor at the end. Call before the first push.
+    /// Makes the factor that of the Hankel data with the row of ones
+    /// projected out: every Hankel row less its own mean over the columns,
+    /// Σ_j (h_j − h̄)(h_j − h̄)ᵀ. A constant offset anywhere in the data (an
+    /// operating point, or the O(1/N) constant left after removing the
+    /// record means from a response that started at rest) then drops out of
+    /// the projections exactly, so it cannot appear as a mode at z = 1.
+    /// No second pass: the correlation engine corrects its Gram matrix with
+    /// the window sums W of the Hankel rows (− W Wᵀ/J), the QR engine
+    /// carries a column of ones and keeps the trailing block of R. Call
+    /// before the first push.
     pub(crate) fn set_centering(&mut self, center: bool) {
         self.center = center;
         if center && let Engine::Qr { acc, .. } = &mut self.engine {
@@ -380,12 +384,6 @@ impl HankelStream {
             .zip(&self.reference)
             .map(|(s, r)| s / n + r)
             .collect()
-    }
-
-    /// Means of the shifted samples (what the factor sees).
-    fn shifted_means(&self) -> Vec<f64> {
-        let n = self.samples.max(1) as f64;
-        self.sums.iter().map(|s| s / n).collect()
     }
 
     /// Divides every later sample by the scales (powers of 4, exact) of
@@ -583,38 +581,19 @@ impl HankelStream {
         let span = self.layout.span();
         let scale = if j > 0 { 1.0 / j as f64 } else { 0.0 };
         let src = self.layout.sources();
-        // Means per Hankel row (sources order); zero without centring.
-        let mu: Vec<f64> = if self.center {
-            let m = self.shifted_means();
-            src.iter().map(|&(_, c)| m[c]).collect()
-        } else {
-            vec![0.0; k]
-        };
         match self.engine {
             Engine::Qr {
                 acc, chunk_rows, ..
             } => {
                 let mut r = acc.r();
                 if self.center {
-                    // R = [ρ wᵀ; 0 R₁] for [1, Hᵀ]: R₁ᵀR₁ = Σ(h − h̄)(h − h̄)ᵀ and
-                    // ρ w = Σ h = J h̄; add the row √J (h̄ − μ)ᵀ.
+                    // R = [ρ wᵀ; 0 R₁] for [1, Hᵀ]: R₁ᵀR₁ = Σ(h − h̄)(h − h̄)ᵀ.
                     let kk = r.nrows().min(k + 1);
-                    let rho = if kk > 0 { r[(0, 0)] } else { 0.0 };
-                    let mut extra = DMatrix::zeros(1, k);
-                    for c in 0..k {
-                        let hbar = if kk > 0 && rho != 0.0 {
-                            r[(0, c + 1)] * rho * scale
-                        } else {
-                            0.0
-                        };
-                        extra[(0, c)] = (j as f64).sqrt() * (hbar - mu[c]);
-                    }
-                    let mut again = RAccumulator::new(k);
-                    if kk > 1 {
-                        again.push_rows(&r.view((1, 1), (kk - 1, k)).into_owned())?;
-                    }
-                    again.push_rows(&extra)?;
-                    r = again.r();
+                    r = if kk > 1 {
+                        r.view((1, 1), (kk - 1, k)).into_owned()
+                    } else {
+                        DMatrix::zeros(0, k)
+                    };
                 }
                 let mut l = DMatrix::zeros(k, k);
                 for i in 0..r.nrows().min(k) {
@@ -641,10 +620,10 @@ impl HankelStream {
             Engine::Correlation { gram, threads, .. } => {
                 let nat = |(o, c): (usize, usize)| o * nz + c;
                 let w = &self.window_sums;
-                // Σ(h − μ)(h − μ)ᵀ/J = HHᵀ/J − (μ Wᵀ + W μᵀ)/J + μ μᵀ.
+                // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without centring).
                 let g = DMatrix::from_fn(k, k, |r, c| {
                     let raw = gram[(nat(src[r]), nat(src[c]))];
-                    (raw - mu[r] * w[c] - w[r] * mu[c]) * scale + mu[r] * mu[c]
+                    (raw - w[r] * w[c] * scale) * scale
                 });
                 let kf = k as f64;
                 let flops =
@@ -701,8 +680,10 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
 }
 
 /// Compresses the block-Hankel data of all records (already validated),
-/// divided by `scale`, into L/√J (k×k); [`Compression::Auto`] falls back to
-/// the QR when the correlation factor fails its check and records why.
+/// divided by `scale`, into L/√J (k×k), with the row of ones projected out
+/// when `center` ([`HankelStream::set_centering`]); [`Compression::Auto`]
+/// falls back to the QR when the correlation factor fails its check and
+/// records why.
 pub(crate) fn compress(
     records: &[(&DMatrix<f64>, &DMatrix<f64>)],
     layout: &HankelLayout,
@@ -710,10 +691,12 @@ pub(crate) fn compress(
     chunk_rows: usize,
     threads: usize,
     scale: Scale,
+    center: bool,
 ) -> Result<HankelFactor> {
     let run = |mode: Compression| -> Result<HankelFactor> {
         let mut st = HankelStream::new(*layout, mode, chunk_rows, threads);
         st.set_scale(scale);
+        st.set_centering(center);
         // Blocks of PUSH_BLOCK samples bound the working copy (the kernel
         // blocks in cache itself; the QR splits into chunk_rows columns).
         for (u, y) in records {
@@ -800,7 +783,7 @@ mod tests {
         let (g, j) = explicit_gram(&recs, &lay);
         assert_eq!(j, 53 + 19);
         for mode in [Compression::Qr, Compression::Correlation] {
-            let f = compress(&recs, &lay, mode, 7, 1, Scale::ONE).unwrap();
+            let f = compress(&recs, &lay, mode, 7, 1, Scale::ONE, false).unwrap();
             assert_eq!(f.columns, j);
             assert_eq!(f.report.used, mode);
             let g2 = &f.l * f.l.transpose();
@@ -828,6 +811,7 @@ mod tests {
             64,
             1,
             Scale::ONE,
+            false,
         )
         .unwrap();
         for (b, threads) in [(1usize, 1usize), (5, 1), (6, 2), (299, 1)] {
@@ -876,7 +860,16 @@ mod tests {
         // y = u delayed: the Hankel rows are linearly dependent.
         let u = DMatrix::from_fn(200, 1, |i, _| ((i * 7919) % 101) as f64 / 50.0 - 1.0);
         let y = DMatrix::from_fn(200, 1, |i, _| if i > 0 { u[(i - 1, 0)] } else { 0.0 });
-        let f = compress(&[(&u, &y)], &lay, Compression::Auto, 64, 1, Scale::ONE).unwrap();
+        let f = compress(
+            &[(&u, &y)],
+            &lay,
+            Compression::Auto,
+            64,
+            1,
+            Scale::ONE,
+            false,
+        )
+        .unwrap();
         assert_eq!(f.report.used, Compression::Qr);
         assert!(f.report.fallback.is_some());
         assert!(matches!(
@@ -886,7 +879,8 @@ mod tests {
                 Compression::Correlation,
                 64,
                 1,
-                Scale::ONE
+                Scale::ONE,
+                false
             ),
             Err(Error::IllConditionedCorrelation { .. })
         ));

@@ -5,12 +5,13 @@
 //! | item | what |
 //! |---|---|
 //! | [`identify`] ([`SubspaceOptions`], [`Method`]) | N4SID, MOESP and CVA through the weights of the unifying theorem (thesis §2.5) |
+//! | [`SystemEstimate`], [`BdEstimate`] | (A, C) by shift invariance (consistent default) or from the state sequences; (B, D) by output-error regression on the records or by the Γ⊥ projection on the compressed data |
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
 //! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
 //! | [`StreamingIdentifier`] | the same identification from data fed in blocks, memory independent of N |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
-//! | [`estimate_bd`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
+//! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
 //! | [`iv_multirate_fast`] ([`MultirateIvOptions`]) | the one-step fast model of §7.5 (eq. 7.27) |
@@ -27,7 +28,19 @@
 //! Γ and A = Γ↑⁺Γ↓ uses all block rows (erratum L-3, eq. 2.20 with the
 //! missing transpose). (B, D) and the initial state come from a streamed
 //! least-squares regression on the data with per-output regressor selection
-//! so that a causality mask on D holds exactly (§4.5, Pitfall 5).
+//! so that a causality mask on D holds exactly (§4.5, Pitfall 5); when
+//! streaming, from the MOESP regression Γ⊥ᵀ Θ_u = Γ⊥ᵀ H_f(B, D) on the
+//! compressed data ([`BdEstimate::Projection`]). This route is consistent:
+//! pole and frequency-response errors shrink like 1/√N on open-loop data
+//! (the thesis' state-sequence regression, [`SystemEstimate::StateSequence`],
+//! is biased for short past horizons and is kept as an option).
+//!
+//! Offsets: by default each channel's mean is removed before the
+//! identification and returned as [`SubspaceModel::operating_point`]; the
+//! compressed Hankel data have the row of ones projected out (every Hankel
+//! row less its own mean), so no constant in the data can become a mode at
+//! z = 1, and the output-error regression estimates the O(1/N) constant a
+//! response that started at rest keeps after the means are removed.
 //!
 //! The Hankel matrix is never stored. It is compressed in one streaming
 //! pass to a k×k factor L with H Hᵀ/J = L Lᵀ (k = (p+f)(n_u+n_y) Hankel
@@ -116,5 +129,5 @@ pub use iv::{
 pub use order::{OrderCriterion, OrderReport, gap_order};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
-    estimate_bd_iv, structured_state_lstsq,
+    estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
 };

@@ -108,6 +108,9 @@ pub struct BdFit {
     pub d: DMatrix<f64>,
     /// Initial state per record (zeros when not estimated).
     pub x0: Vec<DVector<f64>>,
+    /// Constant output offset per record (n_y each; zeros unless estimated
+    /// by [`estimate_bd_with_offsets`]): y = c + G u + C Aᵗ x₀.
+    pub offsets: Vec<DVector<f64>>,
 }
 
 /// One record for [`estimate_bd`]: input u (N×n_u), output y (N×n_y, NaN
@@ -130,6 +133,8 @@ struct Params {
     ny: usize,
     d_index: DMatrix<Option<usize>>,
     x0_offset: Option<usize>,
+    /// Start of the constant output offsets (n_y per record), if estimated.
+    c_offset: Option<usize>,
     total: usize,
 }
 
@@ -141,6 +146,7 @@ impl Params {
         mask: &DMatrix<bool>,
         x0: InitialState,
         records: usize,
+        offsets: bool,
     ) -> Self {
         let mut idx = n * nu;
         let mut d_index = DMatrix::from_element(ny, nu, None);
@@ -160,12 +166,18 @@ impl Params {
             }
             InitialState::Zero => None,
         };
+        let c_offset = offsets.then(|| {
+            let off = idx;
+            idx += ny * records;
+            off
+        });
         Params {
             n,
             nu,
             ny,
             d_index,
             x0_offset,
+            c_offset,
             total: idx,
         }
     }
@@ -183,8 +195,14 @@ impl Params {
                 None => DVector::zeros(n),
             })
             .collect();
+        let offsets = (0..records)
+            .map(|e| match self.c_offset {
+                Some(off) => DVector::from_fn(ny, |o, _| theta[(off + e * ny + o, 0)] * scale.y),
+                None => DVector::zeros(ny),
+            })
+            .collect();
         let (b, _, d) = scale.unscale(b, DMatrix::zeros(0, n), d);
-        BdFit { b, d, x0 }
+        BdFit { b, d, x0, offsets }
     }
 }
 
@@ -253,6 +271,9 @@ impl<'a> RowGen<'a> {
         if let Some(off) = self.p.x0_offset {
             let base = off + self.record * n;
             row[base..base + n].copy_from_slice(&self.cat[o * n..(o + 1) * n]);
+        }
+        if let Some(off) = self.p.c_offset {
+            row[off + self.record * self.p.ny + o] = 1.0;
         }
     }
 
@@ -430,6 +451,7 @@ fn bd_problem(
     feedthrough: &Feedthrough,
     x0: InitialState,
     iv: bool,
+    offsets: bool,
 ) -> Result<(Params, DataScale, DMatrix<f64>)> {
     let stage = if iv {
         "(B, D, x₀) IV regression"
@@ -439,7 +461,7 @@ fn bd_problem(
     let (n, nu, ny) = validate(a, c, records, iv)?;
     check_growth(a, longest(records), stage)?;
     let mask = feedthrough.mask(ny, nu)?;
-    let p = Params::new(n, nu, ny, &mask, x0, records.len());
+    let p = Params::new(n, nu, ny, &mask, x0, records.len(), offsets);
     let scale = DataScale::of(records);
     let c_scaled = c / scale.io.y;
     Ok((p, scale, c_scaled))
@@ -466,7 +488,33 @@ pub fn estimate_bd(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false)?;
+    output_error_bd(a, c, records, feedthrough, x0, false)
+}
+
+/// [`estimate_bd`] with a constant output offset per record and output
+/// among the unknowns (y = c + G u + C Aᵗ x₀): for records whose means were
+/// removed, where the response that started at rest leaves an O(1/N)
+/// constant that the model cannot produce. Same cost and errors (the
+/// offsets add n_y parameters per record).
+pub fn estimate_bd_with_offsets(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+) -> Result<BdFit> {
+    output_error_bd(a, c, records, feedthrough, x0, true)
+}
+
+fn output_error_bd(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+    offsets: bool,
+) -> Result<BdFit> {
+    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false, offsets)?;
     let mut acc = RAccumulator::new(p.total + 1);
     let rows = stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
         Ok(acc.push_rows(phi)?)
@@ -494,7 +542,7 @@ pub fn estimate_bd_iv(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, true)?;
+    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, true, false)?;
     let np = p.total;
     let mut g = DMatrix::zeros(np, np);
     let mut gy = DMatrix::zeros(np, 1);

@@ -110,8 +110,11 @@ mod exact {
             );
             let err = freq_error(&fit.model, &g);
             assert!(err < 1e-8, "{method:?}: frequency response error {err:e}");
-            // the estimated initial state reproduces the record exactly
-            let yhat = sim(&fit.model, &u, Some(&fit.x0[0]));
+            // the estimated initial state reproduces the record exactly,
+            // about the returned operating point: y = y₀ + G(u − u₀) + CAᵗx₀
+            let op = fit.operating_point.clone().expect("means removed");
+            let dev = sim(&fit.model, &op.remove_input(&u).unwrap(), Some(&fit.x0[0]));
+            let yhat = op.add_output(&dev).unwrap();
             assert!((yhat - &y).norm() / y.norm() < 1e-8);
         }
     }
@@ -122,11 +125,15 @@ mod exact {
         let (u1, u2) = (rbs(5, 300, 2), rbs(6, 250, 2));
         let y1 = sim(&g, &u1, None);
         let y2 = sim(&g, &u2, Some(&DVector::from_vec(vec![1.0, 1.0, -1.0, 0.5])));
+        // The records start at rest in these units: x₀ of the first is 0
+        // only for the data as given (with the means removed it is the
+        // state of the deviation record).
         let opts = SubspaceOptions {
             order: OrderSelection::Fixed(4),
             past: 6,
             future: 6,
             feedthrough: Feedthrough::Zero,
+            remove_means: false,
             ..Default::default()
         };
         let fit = identify(
@@ -396,8 +403,25 @@ mod bad_input {
     fn constant_input_is_not_exciting() {
         let (_, y) = data();
         let u = DMatrix::from_element(500, 1, 1.0);
+        // With the means removed (default) a constant input is zero: rank 0.
         let err =
             identify(&[Experiment { u: &u, y: &y }], &SubspaceOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::NotExciting {
+                    what: "u",
+                    rank: 0,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let as_given = SubspaceOptions {
+            remove_means: false,
+            ..Default::default()
+        };
+        let err = identify(&[Experiment { u: &u, y: &y }], &as_given).unwrap_err();
         assert!(
             matches!(
                 err,
@@ -574,8 +598,8 @@ mod compression {
     //! automatic fallback and the streaming entry point.
     use super::common::{random_system, rbs, white};
     use lifted_subspace::{
-        Compression, Error, Experiment, InitialState, Method, OrderSelection, StreamingIdentifier,
-        SubspaceOptions, SystemEstimate, compress_hankel, identify,
+        BdEstimate, Compression, Error, Experiment, InitialState, Method, OrderSelection,
+        StreamingIdentifier, SubspaceOptions, compress_hankel, identify,
     };
     use nalgebra::DMatrix;
 
@@ -764,7 +788,7 @@ mod compression {
             .unwrap();
         assert!(matches!(id.finish(), Err(Error::HorizonTooLong { .. })));
         let si = SubspaceOptions {
-            system: SystemEstimate::ShiftInvariance,
+            bd: BdEstimate::OutputError,
             ..o.clone()
         };
         assert!(matches!(
