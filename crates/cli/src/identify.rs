@@ -189,6 +189,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     order,
                     past: a.horizon.unwrap_or(10),
                     future: a.horizon.unwrap_or(10),
+                    system: system_of(a.estimator),
                     ..Default::default()
                 },
                 extraction: ExtractOptions::default(),

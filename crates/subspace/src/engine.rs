@@ -855,11 +855,14 @@ pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Resul
     Ok(fit)
 }
 
+/// Records as owned (u, y) pairs.
+type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
+
 /// The pooled per-channel means of the records and the records less them.
 /// O(N (n_u + n_y)) time and a copy of the data.
 pub(crate) fn remove_means(
     experiments: &[Experiment<'_>],
-) -> Result<(OperatingPoint, Vec<(DMatrix<f64>, DMatrix<f64>)>)> {
+) -> Result<(OperatingPoint, OwnedRecords)> {
     let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
     let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
     let op = OperatingPoint::means(&us, &ys)?;

@@ -74,14 +74,13 @@ pub(crate) fn bd_from_projection(
         let unknowns = outputs.len() + n;
         let mut k = DMatrix::zeros(f * m_rows, unknowns);
         let mut rhs = DMatrix::zeros(f * m_rows, 1);
-        for j in 0..f {
+        for (j, nj) in nj.iter().enumerate() {
             let lj = block(j);
             let r0 = j * m_rows;
             for (t, &o) in outputs.iter().enumerate() {
                 k.view_mut((r0, t), (m_rows, 1)).copy_from(&lj.column(o));
             }
-            k.view_mut((r0, outputs.len()), (m_rows, n))
-                .copy_from(&nj[j]);
+            k.view_mut((r0, outputs.len()), (m_rows, n)).copy_from(nj);
             rhs.view_mut((r0, 0), (m_rows, 1))
                 .copy_from(&m.column(j * nu + q));
         }
