@@ -25,7 +25,7 @@ use lifted_lti::{Dataset, StateSpace};
 use lifted_multirate::{LiftedIdOptions, Ordering, ProcedureOptions, identify_multirate};
 use lifted_sim::plants::stirred_tank_5_3_1;
 use lifted_sim::{Excitation, SimOutput, SnrDefinition};
-use lifted_subspace::OrderSelection;
+use lifted_subspace::{Feedthrough, OrderSelection, PemOptions, Record, refine_pem};
 use nalgebra::DMatrix;
 
 use crate::a3_lifting::{median, step_errors};
@@ -71,6 +71,7 @@ pub fn run_531() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A3.7", "§5.3.1: MIMO multirate (y₁ every 5, y₂ every 1)");
     let truth = plant_531()?;
     let mut errs: Vec<DMatrix<f64>> = Vec::new();
+    let mut refined: Vec<DMatrix<f64>> = Vec::new();
     let mut pole_err: Vec<f64> = Vec::new();
     let mut failures = Vec::new();
     for seed in 0..8u64 {
@@ -78,6 +79,21 @@ pub fn run_531() -> BoxResult<Reproduction> {
         match fit_model(&out.data, 6) {
             Ok(g) => {
                 errs.push(step_errors(&g, &truth, 300)?);
+                let pem = refine_pem(
+                    &g,
+                    None,
+                    &[Record {
+                        u: out.data.u(),
+                        y: out.data.y(),
+                        instrument: None,
+                    }],
+                    &[],
+                    &PemOptions {
+                        feedthrough: Feedthrough::Zero,
+                        ..Default::default()
+                    },
+                )?;
+                refined.push(step_errors(&pem.model, &truth, 300)?);
                 let d = g
                     .poles()?
                     .iter()
@@ -115,6 +131,27 @@ pub fn run_531() -> BoxResult<Reproduction> {
         );
         rep.figure(format!("worst e_step {name}"), worst(i, j));
     }
+    // Prediction-error refinement of the same fast models on the multirate
+    // record (cost on the measured samples only; issue 15). Reached: ratios
+    // G11 0.997, G21 0.767, G22 0.918, G12 0.665; G12 median 0.196 — under
+    // the issue's 0.2 target by a small margin (400 iterations instead of
+    // 100 change it by < 1e-3).
+    let med_r = |i: usize, j: usize| median(&refined.iter().map(|e| e[(i, j)]).collect::<Vec<_>>());
+    for (name, i, j) in [("G11", 0, 0), ("G21", 1, 0), ("G22", 1, 1), ("G12", 0, 1)] {
+        rep.check(
+            Check::below(
+                format!("PEM-refined median e_step(300) {name} / two-step median"),
+                med_r(i, j) / med(i, j),
+                1.0,
+            )
+            .with_note("prediction-error refinement (refine_pem, default cost) lowers every channel's median; the output-error cost lowered G11/G21/G12 but raised G22 (ratio 1.32) and left G12 at 0.274"),
+        );
+        rep.figure(format!("PEM-refined median e_step {name}"), med_r(i, j));
+    }
+    rep.check(
+        Check::below("PEM-refined median e_step(300) G12", med_r(0, 1), 0.2)
+            .with_note("issue 15 target < 0.2, reached 0.196 (two-step route 0.30 here, RI 0.42)"),
+    );
     let wp = pole_err.iter().cloned().fold(0.0, f64::max);
     rep.check(
         Check::below(

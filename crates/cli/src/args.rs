@@ -289,6 +289,17 @@ pub enum EstimatorArg {
     States,
 }
 
+/// Refinement after the identification (`--refine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RefineArg {
+    /// No refinement (default).
+    None,
+    /// Prediction-error method: one-step prediction error, Kalman gain estimated.
+    Pem,
+    /// Output-error method: simulation error.
+    Oe,
+}
+
 /// Offset handling (`--detrend`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DetrendArg {
@@ -397,6 +408,14 @@ pub struct IdentifyArgs {
     /// validate and report. `linear` also removes trends (in memory, not streamed).
     #[arg(long, value_enum, default_value_t = DetrendArg::Mean)]
     pub detrend: DetrendArg,
+    /// Refine the identified model by Levenberg–Marquardt on the prediction error (`pem`) or
+    /// the simulation error (`oe`); multirate records use their measured samples only. The
+    /// refined model is kept only if its simulation fit on the record is at least as good.
+    #[arg(long, value_enum, default_value_t = RefineArg::None)]
+    pub refine: RefineArg,
+    /// Largest number of refinement iterations.
+    #[arg(long, default_value_t = 100)]
+    pub refine_iterations: usize,
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,

@@ -8,14 +8,16 @@ use lifted_multirate::{
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
-    Compression, Experiment, IvExperiment, IvOptions, Method, OrderCriterion, OrderReport,
-    OrderSelection, StreamingIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate, identify,
-    iv_identify,
+    Compression, Experiment, Feedthrough, IvExperiment, IvOptions, Kept, Method, OrderCriterion,
+    OrderReport, OrderSelection, PemCost, PemOptions, Record, StreamingIdentifier, SubspaceModel,
+    SubspaceOptions, SystemEstimate, identify, iv_identify, refine_pem,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
 
-use crate::args::{CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg};
+use crate::args::{
+    CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, RefineArg,
+};
 use crate::error::{CliResult, Context, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
 
@@ -289,6 +291,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             }
         }
     };
+    let (model, diagnostics) = refine(a, model, diagnostics, &sets, &mut kalman_gain)?;
     let model = model
         .with_input_names(spec.inputs.clone())
         .and_then(|m| m.with_output_names(spec.outputs.clone()))
@@ -313,6 +316,53 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         operating_point,
         kalman_gain.as_ref(),
     )
+}
+
+/// `--refine`: prediction-error or output-error refinement of the model on
+/// the (detrended) records, measured samples only; the report goes to
+/// `diagnostics.refinement` and, for `pem`, the Kalman gain is replaced.
+fn refine(
+    a: &IdentifyArgs,
+    model: StateSpace,
+    mut diagnostics: serde_json::Value,
+    sets: &[Dataset],
+    kalman_gain: &mut Option<DMatrix<f64>>,
+) -> CliResult<(StateSpace, serde_json::Value)> {
+    let cost = match a.refine {
+        RefineArg::None => return Ok((model, diagnostics)),
+        RefineArg::Pem => PemCost::Prediction,
+        RefineArg::Oe => PemCost::OutputError,
+    };
+    let records: Vec<Record<'_>> = sets
+        .iter()
+        .map(|d| Record {
+            u: d.u(),
+            y: d.y(),
+            instrument: None,
+        })
+        .collect();
+    let feedthrough = if model.d().iter().all(|&v| v == 0.0) {
+        Feedthrough::Zero
+    } else {
+        Feedthrough::Free
+    };
+    let opts = PemOptions {
+        cost,
+        feedthrough,
+        max_iterations: a.refine_iterations,
+        ..Default::default()
+    };
+    let fit = refine_pem(&model, kalman_gain.as_ref(), &records, &[], &opts).ctx("--refine")?;
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert(
+            "refinement".into(),
+            serde_json::to_value(&fit.report).unwrap_or(serde_json::Value::Null),
+        );
+    }
+    if fit.report.kept == Kept::Refined && cost == PemCost::Prediction {
+        *kalman_gain = fit.kalman_gain.clone();
+    }
+    Ok((fit.model, diagnostics))
 }
 
 /// Adds the operating point and the Kalman gain (when present) to a model file.
@@ -474,6 +524,7 @@ fn identify_streaming(
     if !subspace
         || needs_records
         || a.detrend == DetrendArg::Linear
+        || a.refine != RefineArg::None
         || a.data.len() != 1
         || !spec.periods.is_empty()
         || spec.hold > 1

@@ -9,6 +9,7 @@
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
 //! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
+//! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemFit`], [`PemReport`]) | prediction-error or output-error refinement of a model by Levenberg–Marquardt in data-driven local coordinates; multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result |
 //! | [`StreamingIdentifier`] | the same identification from data fed in blocks, memory independent of N |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
 //! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
@@ -113,6 +114,7 @@ mod hankel;
 mod iv;
 mod order;
 mod projection;
+mod refine;
 mod regress;
 
 pub use engine::{
@@ -127,6 +129,7 @@ pub use iv::{
     iv_multirate_fast,
 };
 pub use order::{OrderCriterion, OrderReport, gap_order};
+pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,

@@ -78,6 +78,7 @@ mod common {
 
 mod suite {
     pub mod consistency;
+    pub mod refine;
 }
 
 mod exact {
