@@ -27,12 +27,13 @@
 //! directions. The Jacobian is formed by central differences along the
 //! basis directions (2 simulations each).
 //!
-//! Cost per iteration: O(p · M · n (n + n_u)) for p ≈ n(n_u + 2 n_y) + n_y n_u
-//! + records·n parameters and M samples, plus O(p³). An iterate whose A (or
-//! A − KC for the prediction cost) has spectral radius ≥ 1 is rejected like a
-//! cost increase. The better of the start and the refined model is kept
-//! ([`Kept`]), judged by the simulation error (the validation fit) on
-//! optional validation records, or on the estimation records.
+//! Cost per iteration: O(p · M · n (n + n_u)) for p parameters (about
+//! n(n_u + 2 n_y) + n_y n_u plus n per record) and M samples, plus O(p³).
+//! An iterate whose A (or A − KC for the prediction cost) has spectral
+//! radius ≥ 1 is rejected like a cost increase. The better of the start and
+//! the refined model is kept ([`Kept`]), judged by the simulation error (the
+//! validation fit) on optional validation records, or on the estimation
+//! records.
 
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
