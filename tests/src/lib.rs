@@ -16,6 +16,7 @@
 #![deny(missing_docs)]
 
 pub mod a1_engine;
+pub mod a1_prbs;
 pub mod a2_closedloop;
 pub mod a2_openloop;
 pub mod a3_delay_example;

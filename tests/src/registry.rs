@@ -53,11 +53,16 @@ macro_rules! experiment {
 #[rustfmt::skip]
 pub fn experiments() -> Vec<Experiment> {
     use crate::{
-        a1_engine, a2_closedloop, a2_openloop, a3_delay_example, a3_dual_rate, a3_lifting, a3_mimo,
+        a1_engine, a1_prbs, a2_closedloop, a2_openloop, a3_delay_example, a3_dual_rate, a3_lifting, a3_mimo,
         a3_iv, a3_mpc, a3_multirate_iv, a3_polynomial, a3_subspace,
     };
     vec![
+        experiment!("A1.1", "a11-taps", "Zhu 2000 Table I: m-sequence taps", a1_prbs::run_a11),
+        experiment!("A1.2", "a12-inverse-prbs", "Zhu 2000 eqs. II-4–II-6: inverse PRBS", a1_prbs::run_a12),
+        experiment!("A1.3", "a13-held-prbs", "Zhu 2000 eqs. II-7–II-10, Fig. 1: held PRBS autocorrelation", a1_prbs::run_a13),
+        experiment!("A1.4", "a14-qmarkov", "Zhu 2000 eqs. III-22–III-30: weighted multirate q-Markov Cover", a1_prbs::run_a14),
         experiment!("A1.5", "a15-engine", "Zhu 2000 Tables II/III: diesel-engine stand-in, weighted multirate q-Markov Cover", a1_engine::run),
+        experiment!("A2.1", "a21-prbs", "Ren & Zhu 2009 Table 1, eqs. 1–8: PRBS", a1_prbs::run_a21),
         experiment!("A2.2-A2.7", "a2-closedloop", "Ren & Zhu 2009: closed-loop set-ups, Tables 2-6, eqs. (16)-(17)", a2_closedloop::run),
         experiment!("A2.4", "a24-openloop", "Ren & Zhu 2009 eq. (14): open-loop q-Markov identification of G1 and G2", a2_openloop::run),
         experiment!("A3.1", "a31-subspace", "Li 2001 §2.6.2: CVA / N4SID / MOESP on the stirred tank", a3_subspace::run),

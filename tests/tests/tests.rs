@@ -10,6 +10,33 @@ mod a1_engine {
     }
 }
 
+mod a1_prbs {
+    fn assert_rep(rep: lifted_tests::Reproduction) {
+        println!("{rep}");
+        assert!(rep.all_passed(), "{rep}");
+    }
+    #[test]
+    fn a11_table_i_taps() {
+        assert_rep(lifted_tests::a1_prbs::run_a11().expect("A1.1 runs"));
+    }
+    #[test]
+    fn a12_inverse_prbs() {
+        assert_rep(lifted_tests::a1_prbs::run_a12().expect("A1.2 runs"));
+    }
+    #[test]
+    fn a13_held_prbs_autocorrelation() {
+        assert_rep(lifted_tests::a1_prbs::run_a13().expect("A1.3 runs"));
+    }
+    #[test]
+    fn a14_qmarkov_cover() {
+        assert_rep(lifted_tests::a1_prbs::run_a14().expect("A1.4 runs"));
+    }
+    #[test]
+    fn a21_ren_zhu_prbs() {
+        assert_rep(lifted_tests::a1_prbs::run_a21().expect("A2.1 runs"));
+    }
+}
+
 mod a2_closedloop {
     fn assert_rep(rep: lifted_tests::Reproduction) {
         println!("{rep}");
