@@ -40,6 +40,8 @@ pub enum Command {
     Bode(BodeArgs),
     /// Step response of a model, as CSV or SVG.
     Step(StepArgs),
+    /// Estimate the time delay of every input-output pair from multirate data (thesis §4.4).
+    Delay(DelayArgs),
     /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
     Report(ReportArgs),
     /// Run the reproductions of the papers' experiments and report every acceptance check.
@@ -422,6 +424,29 @@ pub struct IdentifyArgs {
     /// Print the wall time of each phase (read, compress, SVD, estimate).
     #[arg(long)]
     pub profile: bool,
+}
+
+/// `lifted delay`.
+#[derive(Debug, Args)]
+pub struct DelayArgs {
+    /// Data CSV (inputs held `--hold` samples, outputs sampled every `--output-period`).
+    #[arg(long)]
+    pub data: String,
+    /// Columns and layout.
+    #[command(flatten)]
+    pub columns: DataArgs,
+    /// Input hold m in base periods (every input).
+    #[arg(long, default_value_t = 1)]
+    pub hold: usize,
+    /// Lifted lags L of the impulse-response estimate.
+    #[arg(long, default_value_t = 8)]
+    pub lags: usize,
+    /// Significance threshold in standard errors.
+    #[arg(long, default_value_t = 3.0)]
+    pub sigmas: f64,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `lifted validate`.

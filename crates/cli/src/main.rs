@@ -9,6 +9,7 @@
 #![deny(missing_docs)]
 
 mod args;
+mod delay;
 mod error;
 mod identify;
 mod model;
@@ -41,6 +42,7 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Convert(a) => model::convert(&a),
         Command::Bode(a) => model::bode(&a),
         Command::Step(a) => model::step(&a),
+        Command::Delay(a) => delay::delay_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
     }

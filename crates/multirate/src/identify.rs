@@ -27,8 +27,8 @@ use lifted_subspace::{
 use nalgebra::DMatrix;
 
 use crate::delay::{
-    DelayInterval, delay_interval, delay_matrix, lifted_impulse_response, shift_dataset,
-    shift_split,
+    DelayInterval, ImpulseEstimate, delay_interval, delay_matrix, lifted_fir_estimate,
+    lifted_impulse_response, shift_dataset, shift_split,
 };
 use crate::error::{Error, Result};
 use crate::extract::{ExtractOptions, ExtractionDiagnostics, extract_fast};
@@ -251,6 +251,121 @@ pub fn estimate_delay(data: &Dataset, lags: usize, sigmas: f64) -> Result<DelayI
     let ld = l.lift_dataset(data, true)?;
     let est = lifted_impulse_response(&ld.u, &ld.y, lags)?;
     let lm = delay_matrix(&est, sigmas)?;
+    delay_interval(&lm, rates)
+}
+
+/// The delay interval of one input-output pair of a MIMO record
+/// ([`estimate_delays`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PairDelay {
+    /// Input channel index.
+    pub input: usize,
+    /// Output channel index.
+    pub output: usize,
+    /// The input's hold m (base periods).
+    pub hold: usize,
+    /// The output's sampling period n (base periods).
+    pub period: usize,
+    /// d_c ∈ [lower, upper) in base periods, when the pair gave one.
+    pub interval: Option<DelayInterval>,
+    /// Why the pair gave no interval (no significant lag, inconsistent
+    /// bounds, rates not co-prime, …).
+    pub failure: Option<String>,
+}
+
+/// Thesis §4.4 for every input-output pair of a MIMO record. For pair
+/// (y_i, u_j) the record is lifted over the frame of the input's hold m and
+/// the output's period n; the lifted impulse response is estimated by
+/// joint least squares over `lags` lifted lags ([`crate::lifted_fir_estimate`])
+/// with **all inputs of the same hold as regressors** (so neither the other
+/// lags nor the other inputs act as noise on the pair; inputs of another
+/// hold are left out and do), significance `sigmas` residual standard
+/// errors, and the inequalities (4.14) of the pair's m×n block intersected.
+/// The inputs should be mutually uncorrelated (independent PRBS/GBN/white
+/// lifted inputs). A pair that gives no interval is reported with the
+/// reason instead of failing the whole call. Cost per pair O(N L (n n_u)²).
+///
+/// Errors: [`Error::Unsupported`] for a record without inputs or outputs.
+pub fn estimate_delays(data: &Dataset, lags: usize, sigmas: f64) -> Result<Vec<PairDelay>> {
+    if data.n_inputs() == 0 || data.n_outputs() == 0 {
+        return Err(Error::Unsupported {
+            what: "delay estimation",
+            reason: "at least one input and one output are needed".into(),
+        });
+    }
+    let mut out = Vec::with_capacity(data.n_inputs() * data.n_outputs());
+    for i in 0..data.n_outputs() {
+        for j in 0..data.n_inputs() {
+            let (hold, period) = (data.inputs()[j].hold, data.outputs()[i].period);
+            let (interval, failure) = match pair_delay(data, i, j, lags, sigmas) {
+                Ok(iv) => (Some(iv), None),
+                Err(e) => (None, Some(e.to_string())),
+            };
+            out.push(PairDelay {
+                input: j,
+                output: i,
+                hold,
+                period,
+                interval,
+                failure,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The delay interval of pair (y_i, u_j) with the same-hold inputs as
+/// joint regressors ([`estimate_delays`]).
+fn pair_delay(
+    data: &Dataset,
+    i: usize,
+    j: usize,
+    lags: usize,
+    sigmas: f64,
+) -> Result<DelayInterval> {
+    let hold = data.inputs()[j].hold;
+    let rates = SisoRates::new(hold, data.outputs()[i].period)?;
+    let lifting = MultirateLifting::siso(rates)?;
+    // The pair's input first, then the other inputs with the same hold.
+    let order: Vec<usize> = std::iter::once(j)
+        .chain((0..data.n_inputs()).filter(|&k| k != j && data.inputs()[k].hold == hold))
+        .collect();
+    let mut lifted_u: Vec<DMatrix<f64>> = Vec::new();
+    let mut lifted_y = None;
+    for &k in &order {
+        let siso = Dataset::new(
+            data.ts(),
+            data.u().columns(k, 1).into_owned(),
+            data.y().columns(i, 1).into_owned(),
+            vec![data.inputs()[k].clone()],
+            vec![data.outputs()[i].clone()],
+        )?;
+        let ld = lifting.lift_dataset(&siso, true)?;
+        lifted_y.get_or_insert(ld.y);
+        lifted_u.push(ld.u);
+    }
+    let yl = lifted_y.ok_or(Error::Unsupported {
+        what: "delay estimation",
+        reason: "no input".into(),
+    })?;
+    let width: usize = lifted_u.iter().map(|m| m.ncols()).sum();
+    let mut ul = DMatrix::zeros(yl.nrows(), width);
+    let mut c = 0;
+    for m in &lifted_u {
+        ul.columns_mut(c, m.ncols()).copy_from(m);
+        c += m.ncols();
+    }
+    let est = lifted_fir_estimate(&ul, &yl, lags)?;
+    let cols = lifted_u[0].ncols();
+    let own = ImpulseEstimate {
+        coefficients: est
+            .coefficients
+            .iter()
+            .map(|p| p.columns(0, cols).into_owned())
+            .collect(),
+        std_error: est.std_error.columns(0, cols).into_owned(),
+    };
+    let lm = delay_matrix(&own, sigmas)?;
     delay_interval(&lm, rates)
 }
 

@@ -82,7 +82,7 @@ pub use arx::{
 };
 pub use delay::{
     DelayInterval, ImpulseEstimate, delay_bounds, delay_interval, delay_matrix, delay_matrix_exact,
-    lifted_impulse_response, shift_dataset, shift_split,
+    lifted_fir_estimate, lifted_impulse_response, shift_dataset, shift_split,
 };
 pub use error::{Error, Result};
 pub use extract::{
@@ -90,8 +90,8 @@ pub use extract::{
 };
 pub use identify::{
     DelayHandling, LiftedFit, LiftedIdOptions, LiftedIvModel, LiftedIvOptions, MultirateModel,
-    ProcedureOptions, estimate_delay, identify_lifted, identify_lifted_iv, identify_multirate,
-    identify_one_step_iv,
+    PairDelay, ProcedureOptions, estimate_delay, estimate_delays, identify_lifted,
+    identify_lifted_iv, identify_multirate, identify_one_step_iv,
 };
 pub use lifting::{LiftedData, MultirateLifting, Ordering, SisoRates, Slot, lift, unlift};
 pub use model::{

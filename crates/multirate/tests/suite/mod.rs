@@ -1,4 +1,5 @@
 mod bad_input;
+mod delays;
 mod extraction;
 mod procedure;
 mod properties;
