@@ -42,6 +42,8 @@ pub enum Command {
     Step(StepArgs),
     /// Estimate the time delay of every input-output pair from multirate data (thesis §4.4).
     Delay(DelayArgs),
+    /// Recover the plant from identified closed-loop models (Ren & Zhu 2009 eqs. 10–12).
+    Closedloop(ClosedloopArgs),
     /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
     Report(ReportArgs),
     /// Run the reproductions of the papers' experiments and report every acceptance check.
@@ -447,6 +449,40 @@ pub struct DelayArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Closed-loop set-ups (`lifted closedloop --setup`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SetupArg {
+    /// Eq. (10): G = (I − Ĥ₁)⁻¹Ĥ₂ from H₁ (r₁ → y) and H₂ (r₂ → y).
+    General,
+    /// Eq. (11): G = Ĥ₁(I − Ĥ₁)⁻¹K⁻¹ from H₁ and the controller.
+    Controller,
+    /// Eq. (12): G = Ĥ₂(I − KĤ₂)⁻¹ from H₂ and the controller.
+    Compensator,
+}
+
+/// `lifted closedloop`.
+#[derive(Debug, Args)]
+pub struct ClosedloopArgs {
+    /// Set-up whose recovery formula is used.
+    #[arg(long, value_enum)]
+    pub setup: SetupArg,
+    /// Model file of Ĥ₁, the identified map from the set-point r₁ to y.
+    #[arg(long)]
+    pub h1: Option<String>,
+    /// Model file of Ĥ₂, the identified map from the plant-input excitation r₂ to y.
+    #[arg(long)]
+    pub h2: Option<String>,
+    /// Controller model file K (u = K(r₁ − y) + r₂).
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Keep the full interconnection (no minimal realisation of the recovered plant).
+    #[arg(long)]
+    pub no_minreal: bool,
+    /// Output model file of the recovered plant Ĝ.
+    #[arg(long)]
+    pub out: String,
 }
 
 /// `lifted validate`.

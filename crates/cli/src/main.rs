@@ -9,6 +9,7 @@
 #![deny(missing_docs)]
 
 mod args;
+mod closedloop;
 mod delay;
 mod error;
 mod identify;
@@ -43,6 +44,7 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Bode(a) => model::bode(&a),
         Command::Step(a) => model::step(&a),
         Command::Delay(a) => delay::delay_cmd(&a),
+        Command::Closedloop(a) => closedloop::closedloop_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
     }

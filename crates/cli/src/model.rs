@@ -20,7 +20,8 @@ pub fn read_model(path: &str) -> CliResult<ModelFile> {
     ModelFile::read(path).map_err(|e| input(e.to_string()))
 }
 
-fn write_model(file: &ModelFile, path: &str) -> CliResult<()> {
+/// Writes a model file (one-line error on failure).
+pub fn write_model(file: &ModelFile, path: &str) -> CliResult<()> {
     file.write(path).map_err(|e| input(e.to_string()))
 }
 

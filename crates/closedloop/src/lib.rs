@@ -34,8 +34,8 @@
 //! plant has a large low-frequency error (DC gain 0 in the indirect set-ups,
 //! where K⁻¹ or (I − KĤ₂)⁻¹ amplifies it); raising the PRBS order lowers ω₀
 //! and the error. The `lifted-tests` package reproduces Tables 5–6 and eqs.
-//! (16)–(17); `cargo run --release -p lifted-closedloop --example tables`
-//! prints them beside the paper.
+//! (16)–(17) (`lifted reproduce --only A2.2-A2.7`; its test `a25_a26` prints
+//! them beside the paper). On the command line: `lifted closedloop`.
 //!
 //! # Complexity
 //!
