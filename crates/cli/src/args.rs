@@ -44,6 +44,8 @@ pub enum Command {
     Delay(DelayArgs),
     /// Recover the plant from identified closed-loop models (Ren & Zhu 2009 eqs. 10–12).
     Closedloop(ClosedloopArgs),
+    /// Stability-robustness measures β_sr, β_dr and the monodromy spectral radius of a dual-rate loop (thesis ch. 9).
+    Robust(RobustArgs),
     /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
     Report(ReportArgs),
     /// Run the reproductions of the papers' experiments and report every acceptance check.
@@ -483,6 +485,44 @@ pub struct ClosedloopArgs {
     /// Output model file of the recovered plant Ĝ.
     #[arg(long)]
     pub out: String,
+}
+
+/// Uncertainty structures (`lifted robust --uncertainty`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum UncertaintyArg {
+    /// P = P̂ + ΔW₁ (Prop. 6): T = W₁K(I + P̂K)⁻¹.
+    Additive,
+    /// P = (I + ΔW₁)P̂ (§9.7): T = W₁P̂K(I + P̂K)⁻¹.
+    Multiplicative,
+}
+
+/// `lifted robust`.
+#[derive(Debug, Args)]
+pub struct RobustArgs {
+    /// Model file of the model P̂ (p×m, discrete) the controller was designed on.
+    #[arg(long)]
+    pub model: String,
+    /// Controller model file K (m×p, same sample time, negative feedback u = −K y).
+    #[arg(long)]
+    pub controller: String,
+    /// Uncertainty weight W₁ model file (q×m additive, q×p multiplicative); default the identity.
+    #[arg(long)]
+    pub weight: Option<String>,
+    /// True plant P for the monodromy matrix of the dual-rate loop; default the model.
+    #[arg(long)]
+    pub plant: Option<String>,
+    /// Uncertainty structure.
+    #[arg(long, value_enum, default_value = "additive")]
+    pub uncertainty: UncertaintyArg,
+    /// Slow output periods n (in fast samples) at which β_dr and the monodromy are evaluated.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    pub periods: Vec<usize>,
+    /// Number of θ grid points of the β_dr search (golden section refines the best three).
+    #[arg(long, default_value_t = 2000)]
+    pub grid: usize,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `lifted validate`.

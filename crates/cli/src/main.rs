@@ -17,6 +17,7 @@ mod model;
 mod plot;
 mod report;
 mod reproduce;
+mod robust;
 mod signals;
 mod table;
 mod validate;
@@ -45,6 +46,7 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Step(a) => model::step(&a),
         Command::Delay(a) => delay::delay_cmd(&a),
         Command::Closedloop(a) => closedloop::closedloop_cmd(&a),
+        Command::Robust(a) => robust::robust_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
     }
