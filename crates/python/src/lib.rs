@@ -13,7 +13,10 @@
 //! work on a machine without maturin. See the crate README.
 
 use lifted_lti::{C2dMethod, C2dOptions, ModelFile, StateSpace};
-use lifted_prbs::{GbnOptions, MSequence, MultisineOptions, RandomBinaryOptions};
+use lifted_prbs::{
+    DesignRequest, GbnOptions, InversePrbs, InversePrbsOptions, MSequence, MultisineOptions,
+    RandomBinaryOptions,
+};
 use lifted_subspace::{Experiment, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -292,15 +295,16 @@ fn prbs<'py>(
     periods: usize,
     seed: u64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    if !(amplitude.is_finite() && amplitude > 0.0) {
-        return Err(LiftedError::new_err(format!(
-            "prbs amplitude must be positive and finite, got {amplitude}"
-        )));
-    }
-    if hold == 0 || periods == 0 {
-        return Err(LiftedError::new_err(
-            "prbs hold and periods must be at least 1",
-        ));
+    // Validate through the inverse-PRBS options (order, amplitude, hold), as the CLI.
+    InversePrbs::new(&InversePrbsOptions {
+        order,
+        amplitude,
+        hold,
+        taps: None,
+    })
+    .map_err(err)?;
+    if periods == 0 {
+        return Err(LiftedError::new_err("prbs periods must be at least 1"));
     }
     let mut seq = MSequence::new(order).map_err(err)?;
     let m = seq.period();
@@ -324,6 +328,84 @@ fn prbs<'py>(
         w.extend(std::iter::repeat_n(v, take));
     }
     Ok(PyArray1::from_vec(py, w))
+}
+
+/// Inverse PRBS (Zhu 2000 eq. II-4) held `hold` samples: `periods` periods
+/// of 2·hold·m samples, started `seed mod period` samples in (as
+/// `lifted prbs --inverse`). O(length).
+#[pyfunction]
+#[pyo3(signature = (order, amplitude=1.0, hold=1, periods=1, seed=0))]
+fn inverse_prbs<'py>(
+    py: Python<'py>,
+    order: u32,
+    amplitude: f64,
+    hold: usize,
+    periods: usize,
+    seed: u64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let p = InversePrbs::new(&InversePrbsOptions {
+        order,
+        amplitude,
+        hold,
+        taps: None,
+    })
+    .map_err(err)?;
+    if periods == 0 {
+        return Err(LiftedError::new_err(
+            "inverse_prbs periods must be at least 1",
+        ));
+    }
+    let len = (p.period() as u128) * (periods as u128);
+    if len > lifted_prbs::MAX_SIGNAL_ENTRIES {
+        return Err(LiftedError::new_err(format!(
+            "inverse_prbs of {len} samples exceeds the in-memory limit {}",
+            lifted_prbs::MAX_SIGNAL_ENTRIES
+        )));
+    }
+    let shift = (seed % p.period()) as usize;
+    let w: Vec<f64> = py.detach(move || p.iter().skip(shift).take(len as usize).collect());
+    Ok(PyArray1::from_vec(py, w))
+}
+
+/// PRBS design (lifted_prbs::design, Zhu 2000 §III.D): proposes (order,
+/// hold, amplitude) from the plant's time scales and the actuator rate.
+/// Keyword defaults are `DesignRequest`'s (Table II). Returns a dict of the
+/// `DesignProposal` fields.
+#[pyfunction]
+#[pyo3(signature = (output_period=0.01, actuator_rate_hz=30.0, actuator_margin=3.0,
+    slowest_mode_hz=0.025, amplitude=1.0, min_order=2))]
+fn design<'py>(
+    py: Python<'py>,
+    output_period: f64,
+    actuator_rate_hz: f64,
+    actuator_margin: f64,
+    slowest_mode_hz: f64,
+    amplitude: f64,
+    min_order: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let p = lifted_prbs::design(&DesignRequest {
+        output_period,
+        actuator_rate_hz,
+        actuator_margin,
+        slowest_mode_hz,
+        amplitude,
+        min_order,
+    })
+    .map_err(err)?;
+    let out = PyDict::new(py);
+    out.set_item("order", p.order)?;
+    out.set_item("m", p.m)?;
+    out.set_item("hold", p.hold)?;
+    out.set_item("amplitude", p.amplitude)?;
+    out.set_item("output_period", p.output_period)?;
+    out.set_item("generation_period", p.generation_period)?;
+    out.set_item("period_samples", p.period_samples)?;
+    out.set_item("record_length_s", p.record_length_s)?;
+    out.set_item("fundamental_hz", p.fundamental_hz)?;
+    out.set_item("band_high_hz", p.band_high_hz)?;
+    out.set_item("hold_null_hz", p.hold_null_hz)?;
+    out.set_item("explanation", p.explanation)?;
+    Ok(out)
 }
 
 /// Random binary signal ±amplitude held `hold` samples (lifted_prbs::random_binary).
@@ -470,7 +552,9 @@ fn identify<'py>(
             lifted_subspace::identify(&ex, &opts)
         })
         .map_err(err)?;
-    let mut file = ModelFile::new(fit.model.clone()).with_method(method.name());
+    // The CLI's method names (`lifted identify --method`), lower case.
+    let method_name = method.name().to_ascii_lowercase();
+    let mut file = ModelFile::new(fit.model.clone()).with_method(method_name.as_str());
     if let Some(op) = &fit.operating_point {
         file = file.with_operating_point(op.clone()).map_err(err)?;
     }
@@ -490,7 +574,7 @@ fn identify<'py>(
     out.set_item("singular_values", fit.diagnostics.singular_values.clone())?;
     out.set_item("order", fit.diagnostics.order)?;
     out.set_item("suggested_order", fit.diagnostics.suggested_order)?;
-    out.set_item("method", method.name())?;
+    out.set_item("method", method_name.as_str())?;
     out.set_item("model_json", file.to_json().map_err(err)?)?;
     Ok(out)
 }
@@ -501,6 +585,8 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LiftedError", m.py().get_type::<LiftedError>())?;
     m.add_class::<PyStateSpace>()?;
     m.add_function(wrap_pyfunction!(prbs, m)?)?;
+    m.add_function(wrap_pyfunction!(inverse_prbs, m)?)?;
+    m.add_function(wrap_pyfunction!(design, m)?)?;
     m.add_function(wrap_pyfunction!(rbs, m)?)?;
     m.add_function(wrap_pyfunction!(gbn, m)?)?;
     m.add_function(wrap_pyfunction!(multisine, m)?)?;

@@ -58,6 +58,12 @@ def test_excitation_bad_options() -> None:
     with pytest.raises(lifted.LiftedError):
         lifted.prbs(7, amplitude=-1.0)
     with pytest.raises(lifted.LiftedError):
+        lifted.inverse_prbs(7, hold=0)
+    with pytest.raises(lifted.LiftedError):
+        lifted.inverse_prbs(7, periods=0)
+    with pytest.raises(lifted.LiftedError):
+        lifted.design(output_period=-0.01)
+    with pytest.raises(lifted.LiftedError):
         lifted.gbn(100, switch_probability=1.5)
     with pytest.raises(lifted.LiftedError):
         lifted.rbs(100, hold=0)

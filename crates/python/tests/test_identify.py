@@ -48,6 +48,34 @@ def test_prbs_is_the_cli_signal(tmp_path: pathlib.Path) -> None:
     np.testing.assert_array_equal(data[col], w)
 
 
+def test_inverse_prbs_is_the_cli_signal(tmp_path: pathlib.Path) -> None:
+    w = lifted.inverse_prbs(5, amplitude=1.5, hold=2, periods=1, seed=3)
+    assert w.shape == (2 * 2 * 31,)
+    # the inverse PRBS has zero mean over its period 2 n_r m (eq. II-4)
+    assert abs(w.sum()) < 1e-12
+    out = tmp_path / "iprbs.csv"
+    subprocess.run(
+        [str(cli()), "prbs", "--inverse", "--order", "5", "--amplitude", "1.5", "--hold", "2",
+         "--periods", "1", "--seed", "3", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    col = [n for n in data.dtype.names if n != "t"][0]
+    np.testing.assert_array_equal(data[col], w)
+
+
+def test_design_is_the_cli_proposal(tmp_path: pathlib.Path) -> None:
+    p = lifted.design(actuator_rate_hz=40.0)
+    assert p["hold"] == 8 and p["generation_period"] >= 0.075
+    out = tmp_path / "design.json"
+    subprocess.run([str(cli()), "design", "--actuator-rate", "40", "--json", str(out)],
+                   check=True, capture_output=True)
+    doc = json.loads(out.read_text())
+    for key in ("order", "m", "hold"):
+        assert p[key] == doc[key], key
+    assert p["record_length_s"] == pytest.approx(doc["record_length_s"], rel=1e-12)
+
+
 def test_random_signals_seeded() -> None:
     a = lifted.gbn(500, switch_probability=0.2, seed=3)
     np.testing.assert_array_equal(a, lifted.gbn(500, switch_probability=0.2, seed=3))
@@ -80,23 +108,31 @@ def test_several_records(record: tuple[np.ndarray, np.ndarray]) -> None:
 
 @pytest.mark.parametrize("method", ["n4sid", "moesp", "cva"])
 def test_agrees_with_cli(record: tuple[np.ndarray, np.ndarray], tmp_path: pathlib.Path, method: str) -> None:
-    """Same data, same options through the CLI (CSV → lifted identify → model JSON)."""
+    """Same data, same options through the CLI (CSV → lifted identify → model JSON).
+
+    Two records: with one file the CLI streams it (StreamingIdentifier, (B, D)
+    by projection); with several it calls lifted_subspace::identify on the
+    records, as the binding does."""
     u, y = record
-    t = 0.5 * np.arange(len(u))
-    data = tmp_path / "data.csv"
-    np.savetxt(data, np.column_stack([t, u[:, 0], y[:, 0]]), delimiter=",", header="t,u,y",
-               comments="", fmt="%.17g")
+    halves = [(u[:500], y[:500]), (u[500:], y[500:])]
+    files = []
+    for k, (uk, yk) in enumerate(halves):
+        t = 0.5 * np.arange(len(uk))
+        data = tmp_path / f"data{k}.csv"
+        np.savetxt(data, np.column_stack([t, uk[:, 0], yk[:, 0]]), delimiter=",",
+                   header="t,u,y", comments="", fmt="%.17g")
+        files += ["--data", str(data)]
     out = tmp_path / "model.json"
     subprocess.run(
-        [str(cli()), "identify", "--method", method, "--data", str(data), "--inputs", "u",
+        [str(cli()), "identify", "--method", method, *files, "--inputs", "u",
          "--outputs", "y", "--order", "2", "--horizon", "10", "--estimator", "shift",
          "--detrend", "none", "--out", str(out)],
         check=True, capture_output=True,
     )
     text = out.read_text()
     from_cli = lifted.StateSpace.from_json(text)
-    fit = lifted.identify(u, y, method, order=2, past=10, future=10, dt=0.5,
-                          remove_means=False, system="shift")
+    fit = lifted.identify([h[0] for h in halves], [h[1] for h in halves], method, order=2,
+                          past=10, future=10, dt=0.5, remove_means=False, system="shift")
     ours = fit["model"]
     assert from_cli.dt == ours.dt
     np.testing.assert_allclose(np.sort_complex(ours.poles()), np.sort_complex(from_cli.poles()),

@@ -16,7 +16,9 @@ import numpy as np
 from ._lifted import (
     LiftedError,
     StateSpace,
+    design,
     gbn,
+    inverse_prbs,
     multisine,
     prbs,
     rbs,
@@ -27,6 +29,8 @@ __all__ = [
     "LiftedError",
     "StateSpace",
     "prbs",
+    "inverse_prbs",
+    "design",
     "rbs",
     "gbn",
     "multisine",

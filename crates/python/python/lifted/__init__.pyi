@@ -5,7 +5,9 @@ import numpy.typing as npt
 
 from ._lifted import LiftedError as LiftedError
 from ._lifted import StateSpace as StateSpace
+from ._lifted import design as design
 from ._lifted import gbn as gbn
+from ._lifted import inverse_prbs as inverse_prbs
 from ._lifted import multisine as multisine
 from ._lifted import prbs as prbs
 from ._lifted import rbs as rbs

@@ -62,6 +62,17 @@ class StateSpace:
 def prbs(
     order: int, amplitude: float = 1.0, hold: int = 1, periods: int = 1, seed: int = 0
 ) -> npt.NDArray[np.float64]: ...
+def inverse_prbs(
+    order: int, amplitude: float = 1.0, hold: int = 1, periods: int = 1, seed: int = 0
+) -> npt.NDArray[np.float64]: ...
+def design(
+    output_period: float = 0.01,
+    actuator_rate_hz: float = 30.0,
+    actuator_margin: float = 3.0,
+    slowest_mode_hz: float = 0.025,
+    amplitude: float = 1.0,
+    min_order: int = 2,
+) -> dict[str, Any]: ...
 def rbs(n: int, amplitude: float = 1.0, hold: int = 1, seed: int = 0) -> npt.NDArray[np.float64]: ...
 def gbn(
     n: int,
