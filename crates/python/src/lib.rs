@@ -17,6 +17,9 @@ use lifted_prbs::{
     DesignRequest, GbnOptions, InversePrbs, InversePrbsOptions, MSequence, MultisineOptions,
     RandomBinaryOptions,
 };
+use lifted_sim::{
+    Controller, Delays, Excitation, Feedback, NoiseSpec, Plant, SimOutput, Simulator,
+};
 use lifted_subspace::{Experiment, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -579,6 +582,84 @@ fn identify<'py>(
     Ok(out)
 }
 
+/// Simulates an experiment with lifted_sim::Simulator: open loop (`r` is the
+/// plant input) or closed loop with a discrete `controller` at the plant's
+/// period (`r` is the setpoint r₁ when `reference`, else an input
+/// disturbance r₂ added to the controller output); `feedback` "fast" or
+/// "hold_last"; per-output `sampling` periods in base periods (offset 0) and
+/// per-input `holds`; seeded white output noise at a variance `snr`. A
+/// continuous plant is discretised by ZOH at `dt` (without `dt` it is an error). Returns a dict with `u`,
+/// `y` (measured outputs, NaN where a channel does not sample), `y_fast`
+/// (every fast sample) and `y_clean` (without the added noise). O(N·states).
+#[pyfunction]
+#[pyo3(signature = (plant, r, controller=None, reference=true, feedback="fast", sampling=None,
+    holds=None, snr=None, seed=0, dt=None))]
+#[allow(clippy::too_many_arguments)]
+fn simulate_experiment<'py>(
+    py: Python<'py>,
+    plant: &PyStateSpace,
+    r: PyReadonlyArray2<'py, f64>,
+    controller: Option<&PyStateSpace>,
+    reference: bool,
+    feedback: &str,
+    sampling: Option<Vec<usize>>,
+    holds: Option<Vec<usize>>,
+    snr: Option<f64>,
+    seed: u64,
+    dt: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let feedback = match feedback.to_ascii_lowercase().as_str() {
+        "fast" => Feedback::Fast,
+        "hold_last" | "holdlast" => Feedback::HoldLast,
+        other => {
+            return Err(LiftedError::new_err(format!(
+                "unknown feedback '{other}' (fast, hold_last)"
+            )));
+        }
+    };
+    let g = plant.inner.clone();
+    let k = controller.map(|c| c.inner.clone());
+    let r = to_mat(&r);
+    let out = py
+        .detach(move || -> Result<SimOutput, lifted_sim::Error> {
+            let plant = match dt {
+                Some(ts) if !g.is_discrete() => Plant::continuous(&g, ts, &Delays::default())?,
+                _ => Plant::discrete(&g, &[], &[])?,
+            };
+            let (mut sim, exc) = match &k {
+                Some(k) => {
+                    let sim = Simulator::closed_loop(plant, Controller::from_ss(k)?)?
+                        .with_feedback(feedback)?;
+                    let exc = if reference {
+                        Excitation::reference(r)
+                    } else {
+                        Excitation::input(r)
+                    };
+                    (sim, exc)
+                }
+                None => (Simulator::open_loop(plant), Excitation::input(r)),
+            };
+            if let Some(h) = &holds {
+                sim = sim.with_holds(h)?;
+            }
+            if let Some(periods) = &sampling {
+                let pairs: Vec<(usize, usize)> = periods.iter().map(|&p| (p, 0)).collect();
+                sim = sim.with_sampling(&pairs)?;
+            }
+            if let Some(snr) = snr {
+                sim = sim.with_noise(NoiseSpec::white_snr(snr, seed))?;
+            }
+            sim.simulate(&exc)
+        })
+        .map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("u", to_py(py, out.data.u()))?;
+    d.set_item("y", to_py(py, out.data.y()))?;
+    d.set_item("y_fast", to_py(py, &out.y))?;
+    d.set_item("y_clean", to_py(py, &out.y_clean))?;
+    Ok(d)
+}
+
 /// The extension module `lifted._lifted`.
 #[pymodule]
 fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -591,5 +672,6 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gbn, m)?)?;
     m.add_function(wrap_pyfunction!(multisine, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_experiment, m)?)?;
     Ok(())
 }

@@ -24,6 +24,7 @@ from ._lifted import (
     rbs,
 )
 from ._lifted import identify as _identify
+from ._lifted import simulate_experiment as _simulate_experiment
 
 __all__ = [
     "LiftedError",
@@ -35,6 +36,7 @@ __all__ = [
     "gbn",
     "multisine",
     "simulate",
+    "simulate_experiment",
     "identify",
     "n4sid",
     "moesp",
@@ -60,6 +62,44 @@ def simulate(
     """Simulates ``sys`` driven by ``u`` (N x m); returns ``(y, x)`` (N x p, N x n)."""
     x = None if x0 is None else np.ascontiguousarray(np.asarray(x0, dtype=np.float64).ravel())
     return sys.lsim(_as_2d(u, "u"), x, dt)
+
+
+def simulate_experiment(
+    plant: StateSpace,
+    r: Any,
+    controller: StateSpace | None = None,
+    *,
+    reference: bool = True,
+    feedback: str = "fast",
+    sampling: Sequence[int] | None = None,
+    holds: Sequence[int] | None = None,
+    snr: float | None = None,
+    seed: int = 0,
+    dt: float | None = None,
+) -> dict[str, np.ndarray]:
+    """Open- or closed-loop, multirate experiment (``lifted_sim::Simulator``).
+
+    Without ``controller``, ``r`` (N x m) is the plant input. With a discrete
+    ``controller`` at the plant's period, ``r`` is the setpoint (N x p) when
+    ``reference`` else an input disturbance (N x m); ``feedback`` is "fast"
+    or "hold_last". ``sampling``: output sampling period per output, in base
+    periods; ``holds``: input hold per input; ``snr``: seeded white output
+    noise at this variance ratio; ``dt``: ZOH period of a continuous plant.
+    Returns ``u``, ``y`` (NaN where a channel does not sample), ``y_fast``
+    and ``y_clean`` (no added noise), all samples x channels.
+    """
+    return _simulate_experiment(
+        plant,
+        _as_2d(r, "r"),
+        controller,
+        reference,
+        feedback,
+        None if sampling is None else list(sampling),
+        None if holds is None else list(holds),
+        snr,
+        seed,
+        dt,
+    )
 
 
 def identify(

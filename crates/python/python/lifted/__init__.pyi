@@ -15,6 +15,19 @@ from ._lifted import rbs as rbs
 def simulate(
     sys: StateSpace, u: Any, x0: Any = None, dt: float | None = None
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def simulate_experiment(
+    plant: StateSpace,
+    r: Any,
+    controller: StateSpace | None = None,
+    *,
+    reference: bool = True,
+    feedback: str = "fast",
+    sampling: list[int] | None = None,
+    holds: list[int] | None = None,
+    snr: float | None = None,
+    seed: int = 0,
+    dt: float | None = None,
+) -> dict[str, npt.NDArray[np.float64]]: ...
 def identify(
     u: Any,
     y: Any,

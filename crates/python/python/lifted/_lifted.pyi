@@ -103,3 +103,15 @@ def identify(
     threads: int = 1,
     system: str | None = None,
 ) -> dict[str, Any]: ...
+def simulate_experiment(
+    plant: StateSpace,
+    r: npt.NDArray[np.float64],
+    controller: StateSpace | None = None,
+    reference: bool = True,
+    feedback: str = "fast",
+    sampling: list[int] | None = None,
+    holds: list[int] | None = None,
+    snr: float | None = None,
+    seed: int = 0,
+    dt: float | None = None,
+) -> dict[str, npt.NDArray[np.float64]]: ...
