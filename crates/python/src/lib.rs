@@ -13,6 +13,9 @@
 //! work on a machine without maturin. See the crate README.
 
 use lifted_lti::{C2dMethod, C2dOptions, ModelFile, StateSpace};
+use lifted_mpc::{
+    Constraints, Controller as MpcController, Dmc, LoopSetup, MpcOptions, StateSpaceMpc,
+};
 use lifted_prbs::{
     DesignRequest, GbnOptions, InversePrbs, InversePrbsOptions, MSequence, MultisineOptions,
     RandomBinaryOptions,
@@ -660,11 +663,141 @@ fn simulate_experiment<'py>(
     Ok(d)
 }
 
+/// The two receding-horizon laws of lifted-mpc.
+enum Law {
+    Dmc(Box<Dmc>),
+    Gpc(Box<StateSpaceMpc>),
+}
+
+impl Law {
+    fn controller(&mut self) -> &mut dyn MpcController {
+        match self {
+            Law::Dmc(c) => c.as_mut(),
+            Law::Gpc(c) => c.as_mut(),
+        }
+    }
+}
+
+/// Receding-horizon controller of lifted-mpc: DMC on the step-response
+/// coefficients ([`Dmc`], `kind="dmc"`, truncation N ≥ h) or the same law on
+/// the state-space realisation ([`StateSpaceMpc`], `kind="gpc"`). Keyword
+/// defaults are `MpcOptions`' (h = 12, m = 3, identity weights, no limits).
+/// Dual-rate inferential MPC: pass None (or NaN) for an output that is not
+/// sampled at this instant.
+#[pyclass(name = "Mpc", module = "lifted._lifted")]
+pub struct PyMpc {
+    law: Law,
+}
+
+/// An optional 1-D numpy array as a vector.
+fn opt_vec(a: Option<PyReadonlyArray1<'_, f64>>) -> Option<DVector<f64>> {
+    a.map(|a| DVector::from_vec(a.as_array().to_vec()))
+}
+
+#[pymethods]
+impl PyMpc {
+    /// Mpc(model, kind="gpc", prediction_horizon=12, control_horizon=3,
+    /// output_weight=None, move_weight=None, truncation=None (DMC: 4·h),
+    /// u_min=None, u_max=None, du_max=None, y_min=None, y_max=None).
+    #[new]
+    #[pyo3(signature = (model, kind="gpc", prediction_horizon=12, control_horizon=3,
+        output_weight=None, move_weight=None, truncation=None, u_min=None, u_max=None,
+        du_max=None, y_min=None, y_max=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &PyStateSpace,
+        kind: &str,
+        prediction_horizon: usize,
+        control_horizon: usize,
+        output_weight: Option<PyReadonlyArray2<'_, f64>>,
+        move_weight: Option<PyReadonlyArray2<'_, f64>>,
+        truncation: Option<usize>,
+        u_min: Option<PyReadonlyArray1<'_, f64>>,
+        u_max: Option<PyReadonlyArray1<'_, f64>>,
+        du_max: Option<PyReadonlyArray1<'_, f64>>,
+        y_min: Option<PyReadonlyArray1<'_, f64>>,
+        y_max: Option<PyReadonlyArray1<'_, f64>>,
+    ) -> PyResult<Self> {
+        let opts = MpcOptions {
+            prediction_horizon,
+            control_horizon,
+            output_weight: output_weight.as_ref().map(to_mat),
+            move_weight: move_weight.as_ref().map(to_mat),
+            constraints: Constraints {
+                u_min: opt_vec(u_min),
+                u_max: opt_vec(u_max),
+                du_max: opt_vec(du_max),
+                y_min: opt_vec(y_min),
+                y_max: opt_vec(y_max),
+            },
+        };
+        let law = match kind.to_ascii_lowercase().as_str() {
+            "dmc" => {
+                let n = truncation.unwrap_or(4 * prediction_horizon);
+                Law::Dmc(Box::new(Dmc::new(&model.inner, n, &opts).map_err(err)?))
+            }
+            "gpc" | "ss" | "statespace" => Law::Gpc(Box::new(
+                StateSpaceMpc::new(&model.inner, &opts).map_err(err)?,
+            )),
+            other => {
+                return Err(LiftedError::new_err(format!(
+                    "unknown MPC kind '{other}' (dmc, gpc)"
+                )));
+            }
+        };
+        Ok(Self { law })
+    }
+
+    /// One update: `measured` has one entry per output, None (or NaN) when
+    /// the output is not sampled now; `reference` the set-point. Returns u(t).
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        measured: Vec<Option<f64>>,
+        reference: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let measured: Vec<Option<f64>> = measured
+            .into_iter()
+            .map(|v| v.filter(|x| !x.is_nan()))
+            .collect();
+        let r = DVector::from_vec(reference.as_array().to_vec());
+        let u = self.law.controller().update(&measured, &r).map_err(err)?;
+        Ok(PyArray1::from_vec(py, u.as_slice().to_vec()))
+    }
+
+    /// Closed loop of `plant` under this controller (lifted_mpc::simulate):
+    /// set-point `reference` (N×p), output sampling `periods` per output
+    /// (default every sample; > 1 is inferential MPC). Returns a dict `y`,
+    /// `u`, `iae`, `overshoot`, `settling_time`, `input_energy`.
+    #[pyo3(signature = (plant, reference, periods=None))]
+    fn simulate<'py>(
+        &mut self,
+        py: Python<'py>,
+        plant: &PyStateSpace,
+        reference: PyReadonlyArray2<'_, f64>,
+        periods: Option<Vec<usize>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let r = to_mat(&reference);
+        let periods = periods.unwrap_or_else(|| vec![1; r.ncols()]);
+        let setup = LoopSetup::new(r, periods);
+        let run = lifted_mpc::simulate(&plant.inner, self.law.controller(), &setup).map_err(err)?;
+        let d = PyDict::new(py);
+        d.set_item("y", to_py(py, &run.y))?;
+        d.set_item("u", to_py(py, &run.u))?;
+        d.set_item("iae", run.performance.iae.clone())?;
+        d.set_item("overshoot", run.performance.overshoot.clone())?;
+        d.set_item("settling_time", run.performance.settling_time.clone())?;
+        d.set_item("input_energy", run.performance.input_energy)?;
+        Ok(d)
+    }
+}
+
 /// The extension module `lifted._lifted`.
 #[pymodule]
 fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LiftedError", m.py().get_type::<LiftedError>())?;
     m.add_class::<PyStateSpace>()?;
+    m.add_class::<PyMpc>()?;
     m.add_function(wrap_pyfunction!(prbs, m)?)?;
     m.add_function(wrap_pyfunction!(inverse_prbs, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;

@@ -15,6 +15,7 @@ import numpy as np
 
 from ._lifted import (
     LiftedError,
+    Mpc,
     StateSpace,
     design,
     gbn,
@@ -29,6 +30,7 @@ from ._lifted import simulate_experiment as _simulate_experiment
 __all__ = [
     "LiftedError",
     "StateSpace",
+    "Mpc",
     "prbs",
     "inverse_prbs",
     "design",

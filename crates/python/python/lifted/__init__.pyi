@@ -4,6 +4,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._lifted import LiftedError as LiftedError
+from ._lifted import Mpc as Mpc
 from ._lifted import StateSpace as StateSpace
 from ._lifted import design as design
 from ._lifted import gbn as gbn

@@ -59,6 +59,34 @@ class StateSpace:
     @staticmethod
     def from_json(text: str) -> StateSpace: ...
 
+class Mpc:
+    """DMC (kind="dmc") or state-space MPC (kind="gpc"); None/NaN = output not sampled."""
+
+    def __init__(
+        self,
+        model: StateSpace,
+        kind: str = "gpc",
+        prediction_horizon: int = 12,
+        control_horizon: int = 3,
+        output_weight: npt.NDArray[np.float64] | None = None,
+        move_weight: npt.NDArray[np.float64] | None = None,
+        truncation: int | None = None,
+        u_min: npt.NDArray[np.float64] | None = None,
+        u_max: npt.NDArray[np.float64] | None = None,
+        du_max: npt.NDArray[np.float64] | None = None,
+        y_min: npt.NDArray[np.float64] | None = None,
+        y_max: npt.NDArray[np.float64] | None = None,
+    ) -> None: ...
+    def step(
+        self, measured: list[float | None], reference: npt.NDArray[np.float64]
+    ) -> npt.NDArray[np.float64]: ...
+    def simulate(
+        self,
+        plant: StateSpace,
+        reference: npt.NDArray[np.float64],
+        periods: list[int] | None = None,
+    ) -> dict[str, Any]: ...
+
 def prbs(
     order: int, amplitude: float = 1.0, hold: int = 1, periods: int = 1, seed: int = 0
 ) -> npt.NDArray[np.float64]: ...
