@@ -1,0 +1,159 @@
+"""Identification and excitation: agreement with the Rust library through an
+independent route (the `lifted` CLI binary on the same data), invariants,
+and the parallel example."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import lifted
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+
+
+def cli() -> pathlib.Path:
+    """The CLI binary: $LIFTED_CLI (must exist when set), else target/release/lifted."""
+    env = os.environ.get("LIFTED_CLI")
+    if env:
+        path = pathlib.Path(env)
+        assert path.is_file(), f"LIFTED_CLI={env} does not exist"
+        return path
+    path = ROOT / "target" / "release" / "lifted"
+    if not path.is_file():
+        pytest.skip("lifted CLI not built (cargo build --release -p lifted-cli)")
+    return path
+
+
+def test_prbs_is_the_cli_signal(tmp_path: pathlib.Path) -> None:
+    w = lifted.prbs(7, amplitude=2.0, hold=3, periods=2, seed=5)
+    assert w.shape == (127 * 3 * 2,)
+    assert set(np.unique(w)) == {-2.0, 2.0}
+    # one period of an m-sequence has one more 1 than 0s
+    assert w[: 127 * 3].sum() == pytest.approx(2.0 * 3)
+    out = tmp_path / "prbs.csv"
+    subprocess.run(
+        [str(cli()), "prbs", "--order", "7", "--amplitude", "2", "--hold", "3",
+         "--periods", "2", "--seed", "5", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    col = [n for n in data.dtype.names if n != "t"][0]
+    np.testing.assert_array_equal(data[col], w)
+
+
+def test_inverse_prbs_is_the_cli_signal(tmp_path: pathlib.Path) -> None:
+    w = lifted.inverse_prbs(5, amplitude=1.5, hold=2, periods=1, seed=3)
+    assert w.shape == (2 * 2 * 31,)
+    # the inverse PRBS has zero mean over its period 2 n_r m (eq. II-4)
+    assert abs(w.sum()) < 1e-12
+    out = tmp_path / "iprbs.csv"
+    subprocess.run(
+        [str(cli()), "prbs", "--inverse", "--order", "5", "--amplitude", "1.5", "--hold", "2",
+         "--periods", "1", "--seed", "3", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    col = [n for n in data.dtype.names if n != "t"][0]
+    np.testing.assert_array_equal(data[col], w)
+
+
+def test_design_is_the_cli_proposal(tmp_path: pathlib.Path) -> None:
+    p = lifted.design(actuator_rate_hz=40.0)
+    assert p["hold"] == 8 and p["generation_period"] >= 0.075
+    out = tmp_path / "design.json"
+    subprocess.run([str(cli()), "design", "--actuator-rate", "40", "--json", str(out)],
+                   check=True, capture_output=True)
+    doc = json.loads(out.read_text())
+    for key in ("order", "m", "hold"):
+        assert p[key] == doc[key], key
+    assert p["record_length_s"] == pytest.approx(doc["record_length_s"], rel=1e-12)
+
+
+def test_random_signals_seeded() -> None:
+    a = lifted.gbn(500, switch_probability=0.2, seed=3)
+    np.testing.assert_array_equal(a, lifted.gbn(500, switch_probability=0.2, seed=3))
+    assert not np.array_equal(a, lifted.gbn(500, switch_probability=0.2, seed=4))
+    r = lifted.rbs(400, amplitude=0.5, hold=4, seed=1)
+    assert set(np.unique(r)) <= {-0.5, 0.5}
+    assert np.all(r.reshape(-1, 4) == r.reshape(-1, 4)[:, :1])
+    m = lifted.multisine(1024, amplitude=2.0, period=256)
+    assert np.sqrt(np.mean(m**2)) == pytest.approx(2.0, rel=1e-9)
+
+
+def test_identification_recovers_known_poles(record: tuple[np.ndarray, np.ndarray]) -> None:
+    u, y = record
+    for method in ("n4sid", "moesp", "cva"):
+        fit = lifted.identify(u, y, method, order=2, dt=0.5)
+        model = fit["model"]
+        assert model.dt == 0.5 and fit["order"] == 2
+        np.testing.assert_allclose(np.sort_complex(model.poles()), [0.8 - 0.3j, 0.8 + 0.3j], atol=0.02)
+        np.testing.assert_allclose(model.dcgain(), [[0.8 / 0.13]], rtol=0.05)
+    auto = lifted.n4sid(u, y, dt=0.5)
+    assert auto["suggested_order"] == 2
+    assert len(auto["singular_values"]) >= 2
+
+
+def test_several_records(record: tuple[np.ndarray, np.ndarray]) -> None:
+    u, y = record
+    fit = lifted.n4sid([u[:500], u[500:]], [y[:500], y[500:]], order=2)
+    assert len(fit["x0"]) == 2
+
+
+@pytest.mark.parametrize("method", ["n4sid", "moesp", "cva"])
+def test_agrees_with_cli(record: tuple[np.ndarray, np.ndarray], tmp_path: pathlib.Path, method: str) -> None:
+    """Same data, same options through the CLI (CSV → lifted identify → model JSON).
+
+    Two records: with one file the CLI streams it (StreamingIdentifier, (B, D)
+    by projection); with several it calls lifted_subspace::identify on the
+    records, as the binding does."""
+    u, y = record
+    halves = [(u[:500], y[:500]), (u[500:], y[500:])]
+    files = []
+    for k, (uk, yk) in enumerate(halves):
+        t = 0.5 * np.arange(len(uk))
+        data = tmp_path / f"data{k}.csv"
+        np.savetxt(data, np.column_stack([t, uk[:, 0], yk[:, 0]]), delimiter=",",
+                   header="t,u,y", comments="", fmt="%.17g")
+        files += ["--data", str(data)]
+    out = tmp_path / "model.json"
+    subprocess.run(
+        [str(cli()), "identify", "--method", method, *files, "--inputs", "u",
+         "--outputs", "y", "--order", "2", "--horizon", "10", "--estimator", "shift",
+         "--detrend", "none", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    text = out.read_text()
+    from_cli = lifted.StateSpace.from_json(text)
+    fit = lifted.identify([h[0] for h in halves], [h[1] for h in halves], method, order=2,
+                          past=10, future=10, dt=0.5, remove_means=False, system="shift")
+    ours = fit["model"]
+    assert from_cli.dt == ours.dt
+    np.testing.assert_allclose(np.sort_complex(ours.poles()), np.sort_complex(from_cli.poles()),
+                               rtol=1e-8, atol=1e-10)
+    w = np.linspace(0.0, np.pi / 0.5, 25)
+    np.testing.assert_allclose(ours.freqresp(w), from_cli.freqresp(w), rtol=1e-7, atol=1e-10)
+    assert json.loads(fit["model_json"])["method"] == json.loads(text)["method"]
+
+
+def test_parallel_example_matches_serial() -> None:
+    path = pathlib.Path(__file__).resolve().parents[1] / "examples" / "parallel_identify.py"
+    spec = importlib.util.spec_from_file_location("parallel_identify", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    g = lifted.StateSpace(np.array([[1.6, -0.73], [1.0, 0.0]]), np.array([[1.0], [0.0]]),
+                          np.array([[0.5, 0.3]]), np.zeros((1, 1)), 1.0)
+    records = mod.make_records(g, 8)
+    parallel = mod.identify_all(records, workers=4)
+    serial = [np.sort_complex(lifted.n4sid(u, y, order=2)["model"].poles()) for u, y in records]
+    assert len(parallel) == 8
+    for p, s in zip(parallel, serial):
+        np.testing.assert_array_equal(p, s)
+        np.testing.assert_allclose(p, [0.8 - 0.3j, 0.8 + 0.3j], atol=0.03)

@@ -1,0 +1,51 @@
+"""MPC through lifted-mpc: set-point tracking, inferential (dual-rate) MPC, limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import lifted
+
+
+@pytest.fixture()
+def lag() -> lifted.StateSpace:
+    """y(k) = 0.9 y(k-1) + 0.1 u(k-1)."""
+    return lifted.StateSpace(np.array([[0.9]]), np.array([[1.0]]), np.array([[0.1]]), np.zeros((1, 1)), 1.0)
+
+
+@pytest.mark.parametrize("kind", ["gpc", "dmc"])
+def test_tracks_set_point(lag: lifted.StateSpace, kind: str) -> None:
+    run = lifted.Mpc(lag, kind).simulate(lag, np.ones((80, 1)))
+    assert run["y"].shape == (80, 1) and run["u"].shape == (80, 1)
+    assert run["y"][-1, 0] == pytest.approx(1.0, abs=1e-6)
+    assert run["iae"][0] > 0
+
+
+def test_inferential_mpc(lag: lifted.StateSpace) -> None:
+    run = lifted.Mpc(lag).simulate(lag, np.ones((80, 1)), periods=[4])
+    assert run["y"][-1, 0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_step_with_unsampled_output_and_limits(lag: lifted.StateSpace) -> None:
+    mpc = lifted.Mpc(lag, u_max=np.array([2.0]))
+    u0 = mpc.step([0.0], np.array([1.0]))
+    assert u0.shape == (1,) and u0[0] <= 2.0 + 1e-9
+    u1 = mpc.step([None], np.array([1.0]))
+    u2 = mpc.step([float("nan")], np.array([1.0]))
+    assert np.all(np.isfinite(np.concatenate([u1, u2])))
+    assert max(u0[0], u1[0], u2[0]) <= 2.0 + 1e-9
+
+
+def test_mpc_bad_input(lag: lifted.StateSpace) -> None:
+    with pytest.raises(lifted.LiftedError, match="unknown MPC kind"):
+        lifted.Mpc(lag, "magic")
+    with pytest.raises(lifted.LiftedError):
+        lifted.Mpc(lag, "dmc", truncation=3)  # N < h
+    with pytest.raises(lifted.LiftedError):
+        lifted.Mpc(lag, control_horizon=20)  # m > h
+    mpc = lifted.Mpc(lag)
+    with pytest.raises(lifted.LiftedError):
+        mpc.step([0.0, 1.0], np.array([1.0]))
+    with pytest.raises(lifted.LiftedError):
+        mpc.step([None], np.array([1.0]))  # no sample yet: no estimate
