@@ -31,6 +31,15 @@
 //! count is recorded as a figure; what is asserted is the instability rate
 //! over 48 seeds (≤ 20, the 99 % point of Binomial(48, 0.28)); medians
 //! G₁₁ 0.052, G₂₁ 0.157, G₂₂ 0.017 (first 8 seeds, stable ones).
+//!
+//! Stabilised route (`LiftedIvOptions::enforce_stability`, 2026-11-25):
+//! when the shift-invariance Ā is unstable it is re-estimated as
+//! Ā = Γ⁺[Γ↓; 0] (Maciejowski's zero-padded shift, eigenvalues inside the
+//! unit circle), then the 5th root is extracted as before. On seeds
+//! 7821–7828: **8 of 8 stable** (asserted ≥ 7, the spec's figure), medians
+//! over all 8 seeds G₁₁ 0.057, G₂₁ 0.163, G₂₂ 0.022 (asserted against the
+//! same bounds; seeds 0–5 are unchanged, the zero-padded shift only acts on
+//! unstable estimates).
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_multirate::{
@@ -96,11 +105,14 @@ fn simulate(len: usize, seed: u64, noise: Option<(f64, u64)>) -> BoxResult<Recor
     })
 }
 
-fn two_step(rec: &Record) -> Result<StateSpace, MrError> {
+/// The two-step route; `stabilised` re-estimates an unstable lifted Ā by
+/// the zero-padded shift (`LiftedIvOptions::enforce_stability`).
+fn two_step(rec: &Record, stabilised: bool) -> Result<StateSpace, MrError> {
     let opts = LiftedIvOptions {
         order: OrderSelection::Fixed(3),
         alpha: 6,
         alpha_p: Some(12),
+        enforce_stability: stabilised,
         ..Default::default()
     };
     Ok(identify_lifted_iv(&rec.data, &rec.f, Ordering::TimeMajor, &opts)?.fast)
@@ -112,7 +124,7 @@ pub fn run() -> BoxResult<Reproduction> {
     let truth = plant()?;
     // noise free
     let rec = simulate(LEN, 7820, None)?;
-    let g = two_step(&rec)?;
+    let g = two_step(&rec, false)?;
     let e = step_errors(&g, &truth, 300)?;
     let worst_nf = e[(0, 0)].max(e[(1, 0)]).max(e[(1, 1)]);
     rep.check(
@@ -150,9 +162,16 @@ pub fn run() -> BoxResult<Reproduction> {
     let mut errs = Vec::new();
     let mut unstable = Vec::new();
     let mut other = Vec::new();
+    let mut stabilised = Vec::new();
     for seed in 0..RATE_SEEDS {
         let rec = simulate(LEN, 7821 + seed, Some((5.0, 7821 + seed)))?;
-        match two_step(&rec) {
+        if seed < 8 {
+            match two_step(&rec, true) {
+                Ok(g) => stabilised.push(step_errors(&g, &truth, 300)?),
+                Err(e) => other.push(format!("seed {seed} (stabilised): {e}")),
+            }
+        }
+        match two_step(&rec, false) {
             Ok(g) if seed < 8 => errs.push(step_errors(&g, &truth, 300)?),
             Ok(_) => {}
             Err(MrError::Unstable {
@@ -205,7 +224,9 @@ pub fn run() -> BoxResult<Reproduction> {
         }
     );
     rep.check(rate);
-    let med = |i: usize, j: usize| median(&errs.iter().map(|e| e[(i, j)]).collect::<Vec<_>>());
+    let med = |set: &[DMatrix<f64>], i: usize, j: usize| {
+        median(&set.iter().map(|e| e[(i, j)]).collect::<Vec<_>>())
+    };
     for (name, i, j, bound, ri) in [
         ("G11", 0, 0, 0.15, "0.08"),
         ("G21", 1, 0, 0.25, "0.14"),
@@ -214,10 +235,36 @@ pub fn run() -> BoxResult<Reproduction> {
         rep.check(
             Check::below(
                 format!("std-SNR 5: median e_step(300) {name}"),
-                med(i, j),
+                med(&errs, i, j),
                 bound,
             )
             .with_note(format!("spec A3.9; RI median {ri}")),
+        );
+    }
+    // The stabilised estimate (enforce_stability: Ā = Γ⁺[Γ↓; 0] when the
+    // shift-invariance Ā is unstable) on the same 8 seeds: the spec's
+    // "at least 7 of 8 stable" is asserted here, and its medians over all 8
+    // seeds (the formerly unstable ones included) against the same bounds.
+    rep.check(
+        Check::above(
+            "stabilised route: stable fast models on the first 8 seeds",
+            stabilised.len() as f64,
+            6.5,
+        )
+        .with_note("spec A3.9: at least 7 of 8 seeds stable"),
+    );
+    for (name, i, j, bound) in [
+        ("G11", 0, 0, 0.15),
+        ("G21", 1, 0, 0.25),
+        ("G22", 1, 1, 0.08),
+    ] {
+        rep.check(
+            Check::below(
+                format!("stabilised route, std-SNR 5: median e_step(300) {name} over 8 seeds"),
+                med(&stabilised, i, j),
+                bound,
+            )
+            .with_note("spec A3.9 bound; every seed counts, formerly unstable ones included"),
         );
     }
     Ok(rep)

@@ -422,6 +422,14 @@ pub struct IdentifyArgs {
     /// Largest number of refinement iterations.
     #[arg(long, default_value_t = 100)]
     pub refine_iterations: usize,
+    /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
+    /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
+    /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's
+    /// stabilised shift invariance, eigenvalues inside the circle) and B, D are fitted to it;
+    /// `--refine` keeps its iterates stable. A model still unstable is an error naming its
+    /// spectral radius.
+    #[arg(long)]
+    pub stable: bool,
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,

@@ -192,6 +192,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     past: a.horizon.unwrap_or(10),
                     future: a.horizon.unwrap_or(10),
                     system: system_of(a.estimator),
+                    enforce_stability: a.stable,
                     ..Default::default()
                 },
                 extraction: ExtractOptions::default(),
@@ -218,6 +219,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 system: system_of(a.estimator),
                 // The records are already detrended per --detrend.
                 remove_means: false,
+                enforce_stability: a.stable,
                 ts,
                 ..Default::default()
             };
@@ -249,6 +251,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 let opts = LiftedIvOptions {
                     order,
                     alpha: a.horizon.unwrap_or(6),
+                    enforce_stability: a.stable,
                     ..Default::default()
                 };
                 let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &opts)
@@ -266,6 +269,7 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     order,
                     order_criterion: criterion_of(a.order_criterion),
                     alpha: a.horizon.unwrap_or(8),
+                    enforce_stability: a.stable,
                     ts,
                     ..Default::default()
                 };
@@ -425,6 +429,7 @@ fn qmarkov(
         prbs_order,
         amplitudes: a.amplitude.map(|x| vec![x; sets[0].n_inputs()]),
         record,
+        enforce_stability: a.stable,
         ..Default::default()
     };
     let id = QMarkov::new(opts)
@@ -441,6 +446,7 @@ fn qmarkov(
         "covariance_error": dg.covariance_error,
         "stable": dg.stable,
         "spectral_radius": dg.spectral_radius,
+        "stabilized_from": dg.stabilized_from,
         "order_selection": order_json("eigenvalues of D_q (Λ diagonal)", &dg.eigenvalues, dg.order, dg.suggested_order),
     });
     Ok((id.model, d))
@@ -449,6 +455,9 @@ fn qmarkov(
 /// `lifted identify`.
 pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     let file = run_identification(a)?;
+    if a.stable {
+        check_stable(&file.model)?;
+    }
     file.write(&a.out).map_err(|e| input(e.to_string()))?;
     if a.profile {
         print_profile(&file.diagnostics);
@@ -463,6 +472,26 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
         m.ts().unwrap_or(f64::NAN),
         a.out
     );
+    Ok(())
+}
+
+/// `--stable`: the model written must have every pole strictly inside the
+/// unit circle (the stabilised estimates guarantee it up to rounding).
+fn check_stable(model: &StateSpace) -> CliResult<()> {
+    if model.order() == 0 {
+        return Ok(());
+    }
+    let rho = model
+        .poles()
+        .ctx("--stable: poles of the model")?
+        .iter()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max);
+    if rho >= 1.0 {
+        return Err(input(format!(
+            "--stable: no stable estimate could be had, the model's spectral radius is {rho:.6}              (lower the order or lengthen the record)"
+        )));
+    }
     Ok(())
 }
 
@@ -548,6 +577,7 @@ fn identify_streaming(
             future: a.horizon.unwrap_or(10),
             system: system_of(a.estimator),
             remove_means: a.detrend != DetrendArg::None,
+            enforce_stability: a.stable,
             ts: spec.ts.unwrap_or(1.0),
             compression,
             ..Default::default()

@@ -60,6 +60,11 @@ pub struct LiftedIdOptions {
     /// [`SystemEstimate::ShiftInvariance`] (consistent; the state-sequence
     /// route was the default before 2026-11-25).
     pub system: SystemEstimate,
+    /// Re-estimate an unstable lifted Ā by the zero-padded shift
+    /// (`lifted_subspace::SubspaceOptions::enforce_stability`: Maciejowski's
+    /// stabilised shift invariance), so the lifted and extracted fast models
+    /// are stable. Default false.
+    pub enforce_stability: bool,
 }
 
 impl Default for LiftedIdOptions {
@@ -73,6 +78,7 @@ impl Default for LiftedIdOptions {
             initial_state: InitialState::Estimate,
             require_stable: true,
             system: SystemEstimate::ShiftInvariance,
+            enforce_stability: false,
         }
     }
 }
@@ -122,7 +128,7 @@ pub fn identify_lifted(data: &LiftedData, opts: &LiftedIdOptions) -> Result<Lift
         feedthrough: Feedthrough::Mask(mask.clone()),
         initial_state: opts.initial_state,
         noise_model: false,
-        enforce_stability: false,
+        enforce_stability: opts.enforce_stability,
         system: opts.system,
         ts: data.ts,
         ..Default::default()
@@ -426,6 +432,12 @@ pub struct LiftedIvOptions {
     pub extraction: ExtractOptions,
     /// Unstable lifted or fast model is [`Error::Unstable`]. Default true.
     pub require_stable: bool,
+    /// Re-estimate an unstable lifted Ā by the zero-padded shift
+    /// Ā = Γ⁺[Γ↓; 0] (Maciejowski's stabilised shift invariance, as
+    /// `lifted_subspace::IvOptions::enforce_stability`), whose eigenvalues lie
+    /// inside the unit circle; the fast model is then extracted from the
+    /// stable Ā. Default false (the thesis' estimate).
+    pub enforce_stability: bool,
 }
 
 impl Default for LiftedIvOptions {
@@ -437,6 +449,7 @@ impl Default for LiftedIvOptions {
             strictly_proper: true,
             extraction: ExtractOptions::default(),
             require_stable: true,
+            enforce_stability: false,
         }
     }
 }
@@ -486,6 +499,7 @@ pub fn identify_lifted_iv(
         // checked before the (B̄, D̄) regression, whose regressors explode
         // for an unstable Ā
         require_stable: opts.require_stable,
+        enforce_stability: opts.enforce_stability,
         ts: ld.ts,
         ..Default::default()
     };

@@ -1,7 +1,7 @@
 //! Steps 3–6 of the algorithm (Zhu 2000 §III.C, spec A1.4): from the correlation
 //! data `R_yy(τ)`, `H_τ` and `W(τ)` to the realisation `(Â, D̂, Ĉ, Ĥ)`.
 
-use lifted_linalg::{RankTolerance, SortOrder, null_space, pinv, rank, sym_eig};
+use lifted_linalg::{RankTolerance, SortOrder, eigenvalues, null_space, pinv, rank, sym_eig};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +37,12 @@ pub struct CoverSettings {
     pub rank_tol: f64,
     /// Orthogonal `U` of eq. (III-29).
     pub rotation: Option<DMatrix<f64>>,
+    /// When Â = P⁺P̄ has an eigenvalue on or outside the unit circle,
+    /// re-estimate it by the zero-padded shift Â = P_q⁺ [P̄; 0] (Maciejowski's
+    /// stabilised shift invariance: its eigenvalues lie inside the unit
+    /// circle). The cover then no longer matches the q Markov and covariance
+    /// parameters exactly: a stable model is offered instead of none.
+    pub enforce_stability: bool,
 }
 
 /// Whether `D_q` passed the q-identifiability test of Lemma III-1.
@@ -80,6 +86,9 @@ pub struct Realization {
     pub min_eigenvalue: f64,
     /// Number of eigenvalues below `−eigen_tol·λ₁`.
     pub negative_eigenvalues: usize,
+    /// Spectral radius of Â = P⁺P̄ when it was replaced by the stabilised
+    /// estimate (`enforce_stability`); `None` when Â is the cover's own.
+    pub stabilized_from: Option<f64>,
 }
 
 /// Checks that the matrix `m` (`what`; `symbol` in a non-finite error) is
@@ -332,6 +341,16 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
             b += corr.columns(r, nw);
         }
     }
+    let mut stabilized_from = None;
+    if settings.enforce_stability {
+        let rho = spectral_radius(&a)?;
+        if rho >= 1.0 {
+            let mut padded = DMatrix::zeros(n, r);
+            padded.rows_mut(0, n - ny).copy_from(&pbar);
+            a = pinv(&pq, tol)? * padded;
+            stabilized_from = Some(rho);
+        }
+    }
     let c = &qinv * pq.rows(0, ny);
     let d = data.markov[0].clone();
     Ok(Realization {
@@ -347,7 +366,13 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
         cover,
         min_eigenvalue,
         negative_eigenvalues: negative,
+        stabilized_from,
     })
+}
+
+/// Largest eigenvalue modulus, O(r³).
+fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
+    Ok(eigenvalues(a)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
 }
 
 #[cfg(test)]

@@ -70,6 +70,9 @@ pub struct Diagnostics {
     pub stable: bool,
     /// Largest pole modulus of Â.
     pub spectral_radius: f64,
+    /// Spectral radius of the cover's own Â when `enforce_stability`
+    /// replaced it by the stabilised estimate; `None` otherwise.
+    pub stabilized_from: Option<f64>,
 }
 
 /// One experiment after validation: the used period and what was read from it.
@@ -590,6 +593,7 @@ pub fn identify_records(
         eigen_tol: opts.eigen_tol,
         rank_tol: opts.rank_tol,
         rotation: opts.rotation.clone(),
+        enforce_stability: opts.enforce_stability,
     };
     let real = realize(&data, &settings)?;
     let model = StateSpace::new(
@@ -656,6 +660,7 @@ pub fn identify_records(
         amplitudes: prepared.iter().map(|p| p.amplitude).collect(),
         stable,
         spectral_radius,
+        stabilized_from: real.stabilized_from,
     };
     Ok(Identified { model, diagnostics })
 }

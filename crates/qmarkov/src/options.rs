@@ -96,6 +96,12 @@ pub struct QMarkovOptions {
     /// circle (erratum Z-9). Default true. When false, the cover is returned and
     /// [`Diagnostics::stable`](crate::Diagnostics) is false.
     pub require_stable: bool,
+    /// Offer a stable model instead of rejecting an unstable cover: Â is
+    /// re-estimated by the zero-padded shift Â = P_q⁺[P̄; 0] (eigenvalues
+    /// inside the unit circle; the q parameters are then matched in the
+    /// least-squares sense only). Checked before `require_stable`. Default
+    /// false.
+    pub enforce_stability: bool,
     /// Algorithm for the circular correlations at the q lags used: `Auto`
     /// (default) sums them directly, O(N q), when `q ≤ 4 log₂N` (or below
     /// [`lifted_prbs::FFT_THRESHOLD`] samples) and takes the FFT of
@@ -122,6 +128,7 @@ impl Default for QMarkovOptions {
             rank_tol: 1e-10,
             rotation: None,
             require_stable: true,
+            enforce_stability: false,
             correlation: CorrelationMethod::Auto,
         }
     }

@@ -187,3 +187,79 @@ fn bad_weighting_is_rejected() {
         Err(Error::DimensionMismatch { .. })
     ));
 }
+
+/// Cover data (2 outputs, 1 input, q = 4; a randomly drawn set for which
+/// the order-3 cover's Â = P⁺P̄ is unstable, ρ ≈ 1.24: Theorem III-1's
+/// stability claim does not hold for arbitrary data, erratum Z-9); with
+/// `enforce_stability` the zero-padded shift Â = P_q⁺[P̄; 0] is returned,
+/// stable, and the original spectral radius is reported.
+#[test]
+fn enforce_stability_offers_a_stable_cover() {
+    let m = |v: [f64; 4]| DMatrix::from_row_slice(2, 2, &v);
+    let ryy = vec![
+        m([
+            8.783629686844645,
+            4.145976694893784,
+            4.145976694893784,
+            6.039636288793552,
+        ]),
+        m([
+            -0.2178425094723252,
+            0.9131591364753681,
+            -0.9552457688688952,
+            -0.027069953906427045,
+        ]),
+        m([
+            -0.08918129068891016,
+            -1.3701483899041844,
+            -0.8961793840953896,
+            -0.4276748713792114,
+        ]),
+        m([
+            -0.6337909362133467,
+            1.0272177850669313,
+            2.49783284750258,
+            0.06847753065516042,
+        ]),
+    ];
+    let markov = [
+        [-0.1267452313817429, -0.8610974018259153],
+        [0.06805433452258097, -0.23275401716748598],
+        [-0.8218090804387952, -1.111190363084527],
+        [0.46921791158562237, -0.3359291134054783],
+    ]
+    .iter()
+    .map(|h| DMatrix::from_column_slice(2, 1, h))
+    .collect();
+    let mut weighting = vec![DVector::zeros(1); 4];
+    weighting[0] = DVector::from_element(1, 1.0);
+    let data = CoverData {
+        ryy,
+        markov,
+        weighting,
+    };
+    let radius = |a: &DMatrix<f64>| {
+        a.complex_eigenvalues()
+            .iter()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max)
+    };
+    let plain = realize(&data, &settings(3)).unwrap();
+    let rho = radius(&plain.a);
+    assert!(rho > 1.2, "the test needs an unstable cover, got {rho}");
+    assert_eq!(plain.stabilized_from, None);
+    let stable = realize(
+        &data,
+        &CoverSettings {
+            enforce_stability: true,
+            ..settings(3)
+        },
+    )
+    .unwrap();
+    let new = radius(&stable.a);
+    assert!(new < 1.0, "stabilised radius {new}");
+    approx::assert_relative_eq!(stable.stabilized_from.unwrap(), rho, max_relative = 1e-9);
+    // The stabilisation only changes Â.
+    assert_eq!(stable.c, plain.c);
+    assert_eq!(stable.b, plain.b);
+}
