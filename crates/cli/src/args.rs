@@ -44,6 +44,8 @@ pub enum Command {
     Delay(DelayArgs),
     /// Recover the plant from identified closed-loop models (Ren & Zhu 2009 eqs. 10–12).
     Closedloop(ClosedloopArgs),
+    /// Design DMC / state-space MPC (optionally dual-rate inferential) from a model file and simulate the loop (thesis ch. 8).
+    Mpc(MpcArgs),
     /// Stability-robustness measures β_sr, β_dr and the monodromy spectral radius of a dual-rate loop (thesis ch. 9).
     Robust(RobustArgs),
     /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
@@ -493,6 +495,86 @@ pub struct ClosedloopArgs {
     /// Output model file of the recovered plant Ĝ.
     #[arg(long)]
     pub out: String,
+}
+
+/// Receding-horizon laws (`lifted mpc --law`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MpcLaw {
+    /// Dynamic matrix control on the step-response coefficients (eqs. 8.6–8.9).
+    Dmc,
+    /// The same law on the state-space realisation of P/Δ (eqs. 8.10–8.14; GPC-equivalent).
+    Gpc,
+}
+
+/// `lifted mpc`.
+#[derive(Debug, Args)]
+pub struct MpcArgs {
+    /// Discrete model file the controller is designed on.
+    #[arg(long)]
+    pub model: String,
+    /// Plant model file the loop is simulated with (default: the model).
+    #[arg(long)]
+    pub plant: Option<String>,
+    /// Control law.
+    #[arg(long, value_enum, default_value = "gpc")]
+    pub law: MpcLaw,
+    /// Prediction horizon h (fast samples; thesis §8.3: 12).
+    #[arg(long, default_value_t = 12)]
+    pub horizon: usize,
+    /// Control horizon m ≤ h.
+    #[arg(long, default_value_t = 3)]
+    pub control_horizon: usize,
+    /// DMC step-response truncation N ≥ h (default 4h).
+    #[arg(long)]
+    pub truncation: Option<usize>,
+    /// Diagonal output weight Q: one value for all outputs or one per output (default 1).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub output_weight: Vec<f64>,
+    /// Diagonal move weight R: one value for all inputs or one per input (default 1).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub move_weight: Vec<f64>,
+    /// Lower input limits (one value or one per input); the QP is solved when a limit binds.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub u_min: Vec<f64>,
+    /// Upper input limits.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub u_max: Vec<f64>,
+    /// Largest input move |Δu| per sample.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub du_max: Vec<f64>,
+    /// Lower limits on the predicted outputs.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub y_min: Vec<f64>,
+    /// Upper limits on the predicted outputs.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub y_max: Vec<f64>,
+    /// Dual-rate inferential MPC: OUTPUT=n samples the output every n fast samples (repeatable or comma separated).
+    #[arg(long)]
+    pub output_period: Vec<String>,
+    /// Slow single-rate MPC: design on the hold model at n·T and update every n samples.
+    #[arg(long)]
+    pub slow: Option<usize>,
+    /// Set-point steps OUTPUT=VALUE applied at --step-at (others stay 0; repeatable or comma separated).
+    #[arg(long, allow_hyphen_values = true)]
+    pub setpoint: Vec<String>,
+    /// Sample at which the set-point steps are applied.
+    #[arg(long, default_value_t = 0)]
+    pub step_at: usize,
+    /// Length of the run in fast samples (with --setpoint).
+    #[arg(long, default_value_t = 100)]
+    pub steps: usize,
+    /// Set-point CSV with one column per model output name (instead of --setpoint).
+    #[arg(long)]
+    pub reference: Option<String>,
+    /// Output CSV: t, then per output r_y, y and y_measured (empty between slow samples), then the inputs.
+    #[arg(long)]
+    pub out: String,
+    /// Also write an SVG plot of outputs, set-points and inputs.
+    #[arg(long)]
+    pub plot: Option<String>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Uncertainty structures (`lifted robust --uncertainty`).

@@ -14,6 +14,7 @@ mod delay;
 mod error;
 mod identify;
 mod model;
+mod mpc;
 mod plot;
 mod report;
 mod reproduce;
@@ -46,6 +47,7 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Step(a) => model::step(&a),
         Command::Delay(a) => delay::delay_cmd(&a),
         Command::Closedloop(a) => closedloop::closedloop_cmd(&a),
+        Command::Mpc(a) => mpc::mpc_cmd(&a),
         Command::Robust(a) => robust::robust_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
