@@ -154,8 +154,8 @@ pub fn report_cmd(a: &ReportArgs) -> CliResult<()> {
 
     body += "<h2>Measured and model output</h2>\n";
     for o in &v.outputs {
-        let (mt, my) = &o.measured;
-        let (mt, my) = decimate(mt, my);
+        let mt: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
+        let (mt, my) = decimate(&mt, &o.measured);
         let (st, sy) = decimate(&t, &o.simulated);
         let slow = o.samples < n;
         let plot = Plot {

@@ -85,6 +85,7 @@ mod reduce;
 mod response;
 mod ss;
 mod tf;
+pub mod validation;
 
 pub use connect::{append, feedback, parallel, series};
 pub use data::{DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel};
@@ -99,3 +100,4 @@ pub use reduce::MinrealOptions;
 pub use response::SimResult;
 pub use ss::StateSpace;
 pub use tf::{FeedbackSign, SisoTf, TransferFunction};
+pub use validation::{OutputValidation, Validation, ValidationOptions, validate};
