@@ -54,9 +54,10 @@ pub fn validate_model(
         ..Default::default()
     };
     validate(model, data, &opts).map_err(|e| match e {
-        lifted_lti::Error::InvalidArgument { what: "lags", reason } => {
-            input(format!("{path}: {reason} (use --lags)"))
-        }
+        lifted_lti::Error::InvalidArgument {
+            what: "lags",
+            reason,
+        } => input(format!("{path}: {reason} (use --lags)")),
         lifted_lti::Error::DomainMismatch {
             left: Some(t),
             right: Some(d),

@@ -173,10 +173,7 @@ pub fn validate(
         .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
     let (du, dy) = op.to_deviations(data.u(), data.y())?;
     let sim = op.add_output(&m.lsim(&du, None, None)?.y)?;
-    let gain = opts
-        .kalman_gain
-        .as_ref()
-        .filter(|_| model.ts().is_some());
+    let gain = opts.kalman_gain.as_ref().filter(|_| model.ts().is_some());
     if let Some(k) = gain
         && k.shape() != (m.order(), m.n_outputs())
     {
@@ -220,7 +217,13 @@ pub fn validate(
         let ec = centred(&e);
         let r0 = corr(&ec, &ec, 0);
         let auto: Vec<f64> = (1..=lags as i64)
-            .map(|t| if r0 > 0.0 { corr(&ec, &ec, t) / r0 } else { 0.0 })
+            .map(|t| {
+                if r0 > 0.0 {
+                    corr(&ec, &ec, t) / r0
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let cross: Vec<Vec<f64>> = (0..data.n_inputs())
             .map(|i| {
@@ -228,7 +231,13 @@ pub fn validate(
                 let uc = centred(&u);
                 let den = (r0 * corr(&uc, &uc, 0)).sqrt();
                 (-(lags as i64)..=lags as i64)
-                    .map(|t| if den > 0.0 { corr(&ec, &uc, t) / den } else { 0.0 })
+                    .map(|t| {
+                        if den > 0.0 {
+                            corr(&ec, &uc, t) / den
+                        } else {
+                            0.0
+                        }
+                    })
                     .collect()
             })
             .collect();
@@ -330,14 +339,26 @@ mod tests {
         let y = lag().lsim(&u, None, None).unwrap().y;
         let d = data(u, y, 1);
         let e = validate(&lag(), &d, &Default::default()).unwrap_err();
-        assert!(matches!(e, Error::InvalidArgument { what: "lags", .. }), "{e}");
+        assert!(
+            matches!(e, Error::InvalidArgument { what: "lags", .. }),
+            "{e}"
+        );
         let opts = ValidationOptions {
             lags: 5,
             kalman_gain: Some(DMatrix::zeros(2, 1)),
             ..Default::default()
         };
         let e = validate(&lag(), &d, &opts).unwrap_err();
-        assert!(matches!(e, Error::DimensionMismatch { what: "Kalman gain", .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                Error::DimensionMismatch {
+                    what: "Kalman gain",
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let other = StateSpace::new(
             lag().a().clone(),
             lag().b().clone(),
@@ -346,8 +367,15 @@ mod tests {
             Some(0.5),
         )
         .unwrap();
-        let e = validate(&other, &d, &ValidationOptions { lags: 5, ..Default::default() })
-            .unwrap_err();
+        let e = validate(
+            &other,
+            &d,
+            &ValidationOptions {
+                lags: 5,
+                ..Default::default()
+            },
+        )
+        .unwrap_err();
         assert!(matches!(e, Error::DomainMismatch { .. }), "{e}");
     }
 }

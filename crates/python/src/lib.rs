@@ -12,6 +12,9 @@
 //! `cargo clippy`) pyo3 links libpython instead, so the workspace commands
 //! work on a machine without maturin. See the crate README.
 
+mod routes;
+mod validation;
+
 use lifted_lti::{C2dMethod, C2dOptions, ModelFile, StateSpace};
 use lifted_mpc::{
     Constraints, Controller as MpcController, Dmc, LoopSetup, MpcOptions, StateSpaceMpc,
@@ -41,19 +44,19 @@ create_exception!(
 );
 
 /// Maps any Lifted error to [`LiftedError`] with its display text.
-fn err<E: std::fmt::Display>(e: E) -> PyErr {
+pub(crate) fn err<E: std::fmt::Display>(e: E) -> PyErr {
     LiftedError::new_err(e.to_string())
 }
 
 /// numpy (row-major) → nalgebra (column-major), O(r·c).
-fn to_mat(a: &PyReadonlyArray2<'_, f64>) -> DMatrix<f64> {
+pub(crate) fn to_mat(a: &PyReadonlyArray2<'_, f64>) -> DMatrix<f64> {
     let v = a.as_array();
     let (r, c) = v.dim();
     DMatrix::from_fn(r, c, |i, j| v[[i, j]])
 }
 
 /// nalgebra → numpy, O(r·c).
-fn to_py<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
+pub(crate) fn to_py<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
     Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
 
@@ -76,7 +79,7 @@ pub struct PyStateSpace {
 }
 
 impl PyStateSpace {
-    fn wrap(inner: StateSpace) -> Self {
+    pub(crate) fn wrap(inner: StateSpace) -> Self {
         Self { inner }
     }
 }
@@ -798,6 +801,10 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LiftedError", m.py().get_type::<LiftedError>())?;
     m.add_class::<PyStateSpace>()?;
     m.add_class::<PyMpc>()?;
+    m.add_function(wrap_pyfunction!(routes::iv, m)?)?;
+    m.add_function(wrap_pyfunction!(routes::qmarkov, m)?)?;
+    m.add_function(wrap_pyfunction!(routes::multirate, m)?)?;
+    m.add_function(wrap_pyfunction!(validation::validate, m)?)?;
     m.add_function(wrap_pyfunction!(prbs, m)?)?;
     m.add_function(wrap_pyfunction!(inverse_prbs, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;

@@ -25,6 +25,10 @@ from ._lifted import (
     rbs,
 )
 from ._lifted import identify as _identify
+from ._lifted import iv as _iv
+from ._lifted import multirate as _multirate
+from ._lifted import qmarkov as _qmarkov
+from ._lifted import validate as _validate
 from ._lifted import simulate_experiment as _simulate_experiment
 
 __all__ = [
@@ -43,6 +47,10 @@ __all__ = [
     "n4sid",
     "moesp",
     "cva",
+    "iv",
+    "qmarkov",
+    "multirate",
+    "validate",
     "to_control",
     "from_control",
 ]
@@ -167,6 +175,159 @@ def moesp(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]:
 def cva(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]:
     """:func:`identify` with ``method="cva"``."""
     return identify(u, y, "cva", **kwargs)
+
+
+def _records(u: Any, y: Any) -> tuple[list[np.ndarray], list[np.ndarray], bool]:
+    many = isinstance(u, (list, tuple))
+    if many != isinstance(y, (list, tuple)):
+        raise LiftedError("u and y must both be arrays or both be lists of arrays")
+    us: Sequence[Any] = u if many else [u]
+    ys: Sequence[Any] = y if many else [y]
+    return [_as_2d(a, "u") for a in us], [_as_2d(a, "y") for a in ys], many
+
+
+def iv(
+    u: Any,
+    y: Any,
+    instrument: Any = None,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    alpha: int = 8,
+    alpha_p: int | None = None,
+    enforce_stability: bool = False,
+    require_stable: bool = False,
+    dt: float = 1.0,
+) -> dict[str, Any]:
+    """Instrumental-variable subspace identification, open or closed loop
+    (thesis ch. 7, ``lifted_subspace::iv_identify``).
+
+    ``instrument`` (N x m, per record when ``u`` is a list) is the external
+    excitation of a closed loop (the dither at the plant input or the
+    set-point), independent of the noise; None uses ``u`` (open loop).
+    ``alpha`` future block rows, ``alpha_p`` past instrument rows (None: 2
+    alpha, erratum L-16). Defaults are ``IvOptions``'. Returns ``model``,
+    ``x0``, ``singular_values``, ``order``, ``suggested_order``,
+    ``stabilized``, ``method`` and ``model_json``.
+    """
+    us, ys, many = _records(u, y)
+    if instrument is None:
+        fs: list[Any] = [None] * len(us)
+    elif many:
+        if not isinstance(instrument, (list, tuple)):
+            raise LiftedError("with lists of records, instrument must be a list too")
+        fs = [None if f is None else _as_2d(f, "instrument") for f in instrument]
+    else:
+        fs = [_as_2d(instrument, "instrument")]
+    return _iv(us, ys, fs, order, max_order, alpha, alpha_p, enforce_stability, require_stable, dt)
+
+
+def qmarkov(
+    u: Any,
+    y: Any,
+    *,
+    q: int = 60,
+    order: int | None = None,
+    max_order: int = 20,
+    hold: int = 1,
+    prbs_order: int = 8,
+    amplitudes: Sequence[float] | None = None,
+    last_period: bool = False,
+    enforce_stability: bool = False,
+    require_stable: bool = True,
+    dt: float = 1.0,
+) -> dict[str, Any]:
+    """Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS tests.
+
+    One experiment per input channel: ``u[l]`` (N x m, only column l
+    non-zero, e.g. from :func:`inverse_prbs`) and ``y[l]`` (N x p); a single
+    array pair is one experiment of a single-input plant. ``hold`` is n_r,
+    ``prbs_order`` the m-sequence order, ``q`` the number of Markov and
+    covariance parameters matched, ``order`` r (None: largest gap of diag
+    Lambda up to ``max_order``). ``last_period`` uses the last PRBS period of
+    a longer record. Defaults are ``QMarkovOptions``'. Returns ``model``,
+    ``eigenvalues`` (order-selection values), ``order``, ``suggested_order``,
+    ``markov_data``/``markov_model`` (lists of p x m arrays),
+    ``markov_error``, ``covariance_error``, ``cover``, ``stable``,
+    ``spectral_radius``, ``stabilized_from`` and ``model_json``.
+    """
+    us, ys, _ = _records(u, y)
+    return _qmarkov(
+        us, ys, q, order, max_order, hold, prbs_order,
+        None if amplitudes is None else [float(a) for a in amplitudes],
+        last_period, enforce_stability, require_stable, dt,
+    )
+
+
+def multirate(
+    u: Any,
+    y: Any,
+    periods: Sequence[int],
+    *,
+    holds: Sequence[int] | None = None,
+    instrument: Any = None,
+    method: str = "n4sid",
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    alpha: int = 6,
+    enforce_stability: bool = False,
+    require_stable: bool = True,
+    dt: float = 1.0,
+) -> dict[str, Any]:
+    """Multirate identification (thesis chs. 4-5): lifting, causal lifted
+    subspace identification, fast-model extraction.
+
+    ``y`` (N x p) has NaN where output i is not sampled; it is sampled every
+    ``periods[i]`` base periods from sample 0; input i is held ``holds[i]``
+    samples (default 1). With ``instrument`` (N x m, the closed-loop dither)
+    the lifted IV route of thesis section 7.8.2 is used (``alpha`` block rows).
+    ``enforce_stability`` re-estimates an unstable lifted A by the
+    zero-padded shift. Returns ``fast`` (model at ``dt``), ``lifted``,
+    ``lifting_period``, ``singular_values``, ``order``, ``method`` and
+    ``model_json``.
+    """
+    f = None if instrument is None else _as_2d(instrument, "instrument")
+    return _multirate(
+        _as_2d(u, "u"), _as_2d(y, "y"), [int(p) for p in periods],
+        None if holds is None else [int(h) for h in holds],
+        f, method, order, max_order, past, future, alpha,
+        enforce_stability, require_stable, dt,
+    )
+
+
+def validate(
+    model: StateSpace,
+    u: Any,
+    y: Any,
+    *,
+    periods: Sequence[int] | None = None,
+    lags: int = 20,
+    kalman_gain: Any = None,
+    u0: Sequence[float] | None = None,
+    y0: Sequence[float] | None = None,
+    horizons: Sequence[int] = (1, 5),
+    dt: float | None = None,
+) -> dict[str, Any]:
+    """Validation of ``model`` on a record (``lifted_lti::validate``, the CLI's
+    ``validate``): per output the simulation fit (%), k-step-ahead prediction
+    fits with ``kalman_gain`` (n x p), residual whiteness and independence
+    from the inputs at the 99 % level (``lags`` correlation lags).
+
+    ``y`` may have NaN at unsampled instants (``periods`` per output);
+    ``u0``/``y0`` are the model's operating point (e.g. ``identify``'s).
+    Returns ``{"outputs": [...], "lags": M, "horizons": [...]}``.
+    """
+    k = None if kalman_gain is None else _as_2d(kalman_gain, "kalman_gain")
+    return _validate(
+        model, _as_2d(u, "u"), _as_2d(y, "y"),
+        None if periods is None else [int(p) for p in periods],
+        lags, k,
+        None if u0 is None else [float(v) for v in u0],
+        None if y0 is None else [float(v) for v in y0],
+        [int(h) for h in horizons], dt,
+    )
 
 
 def to_control(sys: StateSpace) -> Any:

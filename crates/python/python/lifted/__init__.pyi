@@ -48,5 +48,63 @@ def identify(
 def n4sid(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]: ...
 def moesp(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]: ...
 def cva(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]: ...
+def iv(
+    u: Any,
+    y: Any,
+    instrument: Any = None,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    alpha: int = 8,
+    alpha_p: int | None = None,
+    enforce_stability: bool = False,
+    require_stable: bool = False,
+    dt: float = 1.0,
+) -> dict[str, Any]: ...
+def qmarkov(
+    u: Any,
+    y: Any,
+    *,
+    q: int = 60,
+    order: int | None = None,
+    max_order: int = 20,
+    hold: int = 1,
+    prbs_order: int = 8,
+    amplitudes: list[float] | None = None,
+    last_period: bool = False,
+    enforce_stability: bool = False,
+    require_stable: bool = True,
+    dt: float = 1.0,
+) -> dict[str, Any]: ...
+def multirate(
+    u: Any,
+    y: Any,
+    periods: list[int],
+    *,
+    holds: list[int] | None = None,
+    instrument: Any = None,
+    method: str = "n4sid",
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    alpha: int = 6,
+    enforce_stability: bool = False,
+    require_stable: bool = True,
+    dt: float = 1.0,
+) -> dict[str, Any]: ...
+def validate(
+    model: StateSpace,
+    u: Any,
+    y: Any,
+    *,
+    periods: list[int] | None = None,
+    lags: int = 20,
+    kalman_gain: Any = None,
+    u0: list[float] | None = None,
+    y0: list[float] | None = None,
+    horizons: tuple[int, ...] = (1, 5),
+    dt: float | None = None,
+) -> dict[str, Any]: ...
 def to_control(sys: StateSpace) -> Any: ...
 def from_control(cs: Any) -> StateSpace: ...

@@ -1,0 +1,313 @@
+//! Bindings of the other identification routes: closed-loop IV subspace
+//! (lifted-subspace, thesis ch. 7), the weighted multirate q-Markov Cover
+//! (lifted-qmarkov, Zhu 2000) and multirate lifted identification
+//! (lifted-multirate, thesis chs. 4–5, and its IV variant of §7.8.2).
+//! Conversions only; every call releases the GIL.
+
+use lifted_lti::{Dataset, Identifier, InputChannel, ModelFile, OutputChannel};
+use lifted_multirate::{
+    LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions, identify_lifted_iv,
+    identify_multirate,
+};
+use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
+use lifted_subspace::{IvExperiment, IvOptions, Method, OrderSelection};
+use nalgebra::DMatrix;
+use numpy::PyReadonlyArray2;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::{LiftedError, PyStateSpace, err, to_mat, to_py};
+
+fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
+    match order {
+        Some(n) => OrderSelection::Fixed(n),
+        None => OrderSelection::Gap { max: max_order },
+    }
+}
+
+fn model_json(model: &lifted_lti::StateSpace, method: &str) -> PyResult<String> {
+    ModelFile::new(model.clone())
+        .with_method(method)
+        .to_json()
+        .map_err(err)
+}
+
+/// Closed-loop instrumental-variable subspace identification (thesis ch. 7,
+/// `lifted_subspace::iv_identify`) of one record or several: `us`, `ys`,
+/// `instruments` lists of arrays (N×m, N×p, N×m; an instrument None uses u,
+/// the open-loop case). Returns model, x0, singular_values, order,
+/// suggested_order, stabilized, method, model_json.
+#[pyfunction]
+#[pyo3(signature = (us, ys, instruments, order=None, max_order=10, alpha=8, alpha_p=None,
+    enforce_stability=false, require_stable=false, dt=1.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn iv<'py>(
+    py: Python<'py>,
+    us: Vec<PyReadonlyArray2<'py, f64>>,
+    ys: Vec<PyReadonlyArray2<'py, f64>>,
+    instruments: Vec<Option<PyReadonlyArray2<'py, f64>>>,
+    order: Option<usize>,
+    max_order: usize,
+    alpha: usize,
+    alpha_p: Option<usize>,
+    enforce_stability: bool,
+    require_stable: bool,
+    dt: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    if us.len() != ys.len() || us.len() != instruments.len() {
+        return Err(LiftedError::new_err(format!(
+            "{} input, {} output and {} instrument records (give one of each per experiment)",
+            us.len(),
+            ys.len(),
+            instruments.len()
+        )));
+    }
+    let u: Vec<DMatrix<f64>> = us.iter().map(to_mat).collect();
+    let y: Vec<DMatrix<f64>> = ys.iter().map(to_mat).collect();
+    let f: Vec<Option<DMatrix<f64>>> = instruments.iter().map(|f| f.as_ref().map(to_mat)).collect();
+    let opts = IvOptions {
+        order: order_of(order, max_order),
+        alpha,
+        alpha_p,
+        enforce_stability,
+        require_stable,
+        ts: dt,
+        ..Default::default()
+    };
+    let fit = py
+        .detach(move || {
+            let ex: Vec<IvExperiment<'_>> = u
+                .iter()
+                .zip(&y)
+                .zip(&f)
+                .map(|((u, y), f)| IvExperiment {
+                    u,
+                    y,
+                    instrument: f.as_ref(),
+                })
+                .collect();
+            lifted_subspace::iv_identify(&ex, &opts)
+        })
+        .map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("model", PyStateSpace::wrap(fit.model.clone()))?;
+    let x0: Vec<Vec<f64>> = fit.x0.iter().map(|x| x.as_slice().to_vec()).collect();
+    d.set_item("x0", x0)?;
+    let dg = &fit.diagnostics;
+    d.set_item("singular_values", dg.singular_values.clone())?;
+    d.set_item("order", dg.order)?;
+    d.set_item("suggested_order", dg.suggested_order)?;
+    d.set_item("stabilized", dg.stabilized)?;
+    d.set_item("method", "iv")?;
+    d.set_item("model_json", model_json(&fit.model, "iv")?)?;
+    Ok(d)
+}
+
+/// Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS
+/// experiments, one per input channel (`us[l]` N×m with only column l
+/// non-zero, `ys[l]` N×p, every output sampled every base period).
+/// Returns model, eigenvalues (diag Λ of III-25, the order-selection plot),
+/// order, suggested_order, markov_data, markov_model (lists of p×m arrays),
+/// markov_error, covariance_error, cover ("Exact"/"LeastSquares"), stable,
+/// spectral_radius, stabilized_from, model_json.
+#[pyfunction]
+#[pyo3(signature = (us, ys, q=60, order=None, max_order=20, hold=1, prbs_order=8,
+    amplitudes=None, last_period=false, enforce_stability=false, require_stable=true, dt=1.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn qmarkov<'py>(
+    py: Python<'py>,
+    us: Vec<PyReadonlyArray2<'py, f64>>,
+    ys: Vec<PyReadonlyArray2<'py, f64>>,
+    q: usize,
+    order: Option<usize>,
+    max_order: usize,
+    hold: usize,
+    prbs_order: u32,
+    amplitudes: Option<Vec<f64>>,
+    last_period: bool,
+    enforce_stability: bool,
+    require_stable: bool,
+    dt: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    if us.len() != ys.len() {
+        return Err(LiftedError::new_err(format!(
+            "{} input records but {} output records",
+            us.len(),
+            ys.len()
+        )));
+    }
+    let sets = us
+        .iter()
+        .zip(&ys)
+        .map(|(u, y)| {
+            let (u, y) = (to_mat(u), to_mat(y));
+            let inputs = (1..=u.ncols())
+                .map(|i| InputChannel::new(format!("u{i}"), 1))
+                .collect();
+            let outputs = (1..=y.ncols())
+                .map(|i| OutputChannel::new(format!("y{i}"), 1, 0))
+                .collect();
+            Dataset::new(dt, u, y, inputs, outputs).map_err(err)
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let opts = QMarkovOptions {
+        q,
+        order,
+        max_auto_order: max_order,
+        hold,
+        prbs_order,
+        amplitudes,
+        record: if last_period {
+            RecordMode::LastPeriod
+        } else {
+            RecordMode::OnePeriod
+        },
+        enforce_stability,
+        require_stable,
+        ..Default::default()
+    };
+    let id = py
+        .detach(move || QMarkov::new(opts).identify(&sets))
+        .map_err(err)?;
+    let dg = &id.diagnostics;
+    let d = PyDict::new(py);
+    d.set_item("model", PyStateSpace::wrap(id.model.clone()))?;
+    d.set_item("eigenvalues", dg.eigenvalues.clone())?;
+    d.set_item("order", dg.order)?;
+    d.set_item("suggested_order", dg.suggested_order)?;
+    let mats = |ms: &[DMatrix<f64>]| ms.iter().map(|m| to_py(py, m)).collect::<Vec<_>>();
+    d.set_item("markov_data", mats(&dg.markov_data))?;
+    d.set_item("markov_model", mats(&dg.markov_model))?;
+    d.set_item("markov_error", dg.markov_error)?;
+    d.set_item("covariance_error", dg.covariance_error)?;
+    d.set_item("cover", format!("{:?}", dg.cover))?;
+    d.set_item("stable", dg.stable)?;
+    d.set_item("spectral_radius", dg.spectral_radius)?;
+    d.set_item("stabilized_from", dg.stabilized_from)?;
+    d.set_item("model_json", model_json(&id.model, "qmarkov")?)?;
+    Ok(d)
+}
+
+/// Multirate identification from one record: `u` (N×m, input i held
+/// `holds[i]` samples), `y` (N×p, NaN where output i is not sampled; it is
+/// sampled every `periods[i]` samples from sample 0). Lifting, causal lifted
+/// subspace identification (or lifted IV with `instrument`, N×m), fast-model
+/// extraction. Returns fast (the model at the base period dt), lifted,
+/// lifting_period, singular_values, order, model_json.
+#[pyfunction]
+#[pyo3(signature = (u, y, periods, holds=None, instrument=None, method="n4sid", order=None,
+    max_order=10, past=10, future=10, alpha=6, enforce_stability=false, require_stable=true,
+    dt=1.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn multirate<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+    periods: Vec<usize>,
+    holds: Option<Vec<usize>>,
+    instrument: Option<PyReadonlyArray2<'py, f64>>,
+    method: &str,
+    order: Option<usize>,
+    max_order: usize,
+    past: usize,
+    future: usize,
+    alpha: usize,
+    enforce_stability: bool,
+    require_stable: bool,
+    dt: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let holds = holds.unwrap_or_else(|| vec![1; u.ncols()]);
+    if holds.len() != u.ncols() || periods.len() != y.ncols() {
+        return Err(LiftedError::new_err(format!(
+            "{} holds for {} inputs and {} periods for {} outputs",
+            holds.len(),
+            u.ncols(),
+            periods.len(),
+            y.ncols()
+        )));
+    }
+    let method = match method.to_ascii_lowercase().as_str() {
+        "n4sid" => Method::N4sid,
+        "moesp" => Method::Moesp,
+        "cva" => Method::Cva,
+        other => {
+            return Err(LiftedError::new_err(format!(
+                "unknown subspace method '{other}' (n4sid, moesp, cva)"
+            )));
+        }
+    };
+    let inputs = holds
+        .iter()
+        .enumerate()
+        .map(|(i, &h)| InputChannel::new(format!("u{}", i + 1), h))
+        .collect();
+    let outputs = periods
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| OutputChannel::new(format!("y{}", i + 1), p, 0))
+        .collect();
+    let data = Dataset::new(dt, u, y, inputs, outputs).map_err(err)?;
+    let f = instrument.as_ref().map(to_mat);
+    let order = order_of(order, max_order);
+    let d = PyDict::new(py);
+    let (fast, lifted, sv, period, name) = match f {
+        Some(f) => {
+            let opts = LiftedIvOptions {
+                order,
+                alpha,
+                enforce_stability,
+                require_stable,
+                ..Default::default()
+            };
+            let fit = py
+                .detach(|| identify_lifted_iv(&data, &f, Ordering::ChannelMajor, &opts))
+                .map_err(err)?;
+            let period =
+                lifted_multirate::MultirateLifting::from_dataset(&data, Ordering::ChannelMajor)
+                    .map_err(err)?
+                    .period();
+            (fit.fast, fit.lifted, fit.singular_values, period, "iv")
+        }
+        None => {
+            let opts = ProcedureOptions {
+                identification: LiftedIdOptions {
+                    method,
+                    order,
+                    past,
+                    future,
+                    enforce_stability,
+                    require_stable,
+                    ..Default::default()
+                },
+                require_stable,
+                ..Default::default()
+            };
+            let fit = py
+                .detach(|| identify_multirate(&data, None, &opts))
+                .map_err(err)?;
+            let period = fit.lifting.period();
+            let name = method.name().to_ascii_lowercase();
+            let name: &'static str = match name.as_str() {
+                "moesp" => "moesp",
+                "cva" => "cva",
+                _ => "n4sid",
+            };
+            (
+                fit.fast,
+                fit.lifted.model,
+                fit.lifted.singular_values,
+                period,
+                name,
+            )
+        }
+    };
+    d.set_item("order", fast.order())?;
+    d.set_item("model_json", model_json(&fast, name)?)?;
+    d.set_item("fast", PyStateSpace::wrap(fast))?;
+    d.set_item("lifted", PyStateSpace::wrap(lifted))?;
+    d.set_item("lifting_period", period)?;
+    d.set_item("singular_values", sv)?;
+    d.set_item("method", name)?;
+    Ok(d)
+}
