@@ -11,7 +11,6 @@
 mod args;
 mod closedloop;
 mod delay;
-mod error;
 mod identify;
 mod model;
 mod mpc;
@@ -20,10 +19,11 @@ mod report;
 mod reproduce;
 mod robust;
 mod signals;
-mod table;
 mod validate;
 
 use std::process::ExitCode;
+
+use lifted_cli::{error, table};
 
 use clap::Parser;
 use clap::error::ErrorKind;
