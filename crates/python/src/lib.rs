@@ -70,6 +70,46 @@ fn stack<'py, T: numpy::Element + Copy + nalgebra::Scalar>(
     Array3::from_shape_fn((ms.len(), rows, cols), |(k, i, j)| ms[k][(i, j)]).into_pyarray(py)
 }
 
+/// The subspace weighting named `name` (n4sid, moesp, cva; any case).
+pub(crate) fn subspace_method(name: &str) -> PyResult<Method> {
+    match name.to_ascii_lowercase().as_str() {
+        "n4sid" => Ok(Method::N4sid),
+        "moesp" => Ok(Method::Moesp),
+        "cva" => Ok(Method::Cva),
+        other => Err(LiftedError::new_err(format!(
+            "unknown subspace method '{other}' (n4sid, moesp, cva)"
+        ))),
+    }
+}
+
+/// A data set with channels u1…, y1… (input i held `holds[i]`, output i
+/// sampled every `periods[i]` from sample 0; None: every sample).
+pub(crate) fn dataset(
+    dt: f64,
+    u: DMatrix<f64>,
+    y: DMatrix<f64>,
+    holds: Option<&[usize]>,
+    periods: Option<&[usize]>,
+) -> PyResult<lifted_lti::Dataset> {
+    let (nu, ny) = (u.ncols(), y.ncols());
+    if holds.is_some_and(|h| h.len() != nu) || periods.is_some_and(|p| p.len() != ny) {
+        return Err(LiftedError::new_err(format!(
+            "{} holds for {nu} inputs and {} periods for {ny} outputs",
+            holds.map_or(nu, <[usize]>::len),
+            periods.map_or(ny, <[usize]>::len)
+        )));
+    }
+    let inputs = (0..nu)
+        .map(|i| lifted_lti::InputChannel::new(format!("u{}", i + 1), holds.map_or(1, |h| h[i])))
+        .collect();
+    let outputs = (0..ny)
+        .map(|i| {
+            lifted_lti::OutputChannel::new(format!("y{}", i + 1), periods.map_or(1, |p| p[i]), 0)
+        })
+        .collect();
+    lifted_lti::Dataset::new(dt, u, y, inputs, outputs).map_err(err)
+}
+
 /// A linear time-invariant model (A, B, C, D, dt) in state space; `dt` is
 /// None for continuous time, the sample period in seconds otherwise.
 #[pyclass(name = "StateSpace", module = "lifted._lifted", frozen, from_py_object)]
@@ -519,16 +559,7 @@ fn identify<'py>(
             )));
         }
     };
-    let method = match method.to_ascii_lowercase().as_str() {
-        "n4sid" => Method::N4sid,
-        "moesp" => Method::Moesp,
-        "cva" => Method::Cva,
-        other => {
-            return Err(LiftedError::new_err(format!(
-                "unknown subspace method '{other}' (n4sid, moesp, cva)"
-            )));
-        }
-    };
+    let method = subspace_method(method)?;
     if us.len() != ys.len() {
         return Err(LiftedError::new_err(format!(
             "{} input records but {} output records",

@@ -4,19 +4,19 @@
 //! (lifted-multirate, thesis chs. 4–5, and its IV variant of §7.8.2).
 //! Conversions only; every call releases the GIL.
 
-use lifted_lti::{Dataset, Identifier, InputChannel, ModelFile, OutputChannel};
+use lifted_lti::{Identifier, ModelFile};
 use lifted_multirate::{
     LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions, identify_lifted_iv,
     identify_multirate,
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
-use lifted_subspace::{IvExperiment, IvOptions, Method, OrderSelection};
+use lifted_subspace::{IvExperiment, IvOptions, OrderSelection};
 use nalgebra::DMatrix;
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::{LiftedError, PyStateSpace, err, to_mat, to_py};
+use crate::{LiftedError, PyStateSpace, dataset, err, subspace_method, to_mat, to_py};
 
 fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
     match order {
@@ -139,16 +139,7 @@ pub fn qmarkov<'py>(
     let sets = us
         .iter()
         .zip(&ys)
-        .map(|(u, y)| {
-            let (u, y) = (to_mat(u), to_mat(y));
-            let inputs = (1..=u.ncols())
-                .map(|i| InputChannel::new(format!("u{i}"), 1))
-                .collect();
-            let outputs = (1..=y.ncols())
-                .map(|i| OutputChannel::new(format!("y{i}"), 1, 0))
-                .collect();
-            Dataset::new(dt, u, y, inputs, outputs).map_err(err)
-        })
+        .map(|(u, y)| dataset(dt, to_mat(u), to_mat(y), None, None))
         .collect::<PyResult<Vec<_>>>()?;
     let opts = QMarkovOptions {
         q,
@@ -216,38 +207,8 @@ pub fn multirate<'py>(
     require_stable: bool,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (u, y) = (to_mat(&u), to_mat(&y));
-    let holds = holds.unwrap_or_else(|| vec![1; u.ncols()]);
-    if holds.len() != u.ncols() || periods.len() != y.ncols() {
-        return Err(LiftedError::new_err(format!(
-            "{} holds for {} inputs and {} periods for {} outputs",
-            holds.len(),
-            u.ncols(),
-            periods.len(),
-            y.ncols()
-        )));
-    }
-    let method = match method.to_ascii_lowercase().as_str() {
-        "n4sid" => Method::N4sid,
-        "moesp" => Method::Moesp,
-        "cva" => Method::Cva,
-        other => {
-            return Err(LiftedError::new_err(format!(
-                "unknown subspace method '{other}' (n4sid, moesp, cva)"
-            )));
-        }
-    };
-    let inputs = holds
-        .iter()
-        .enumerate()
-        .map(|(i, &h)| InputChannel::new(format!("u{}", i + 1), h))
-        .collect();
-    let outputs = periods
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| OutputChannel::new(format!("y{}", i + 1), p, 0))
-        .collect();
-    let data = Dataset::new(dt, u, y, inputs, outputs).map_err(err)?;
+    let method = subspace_method(method)?;
+    let data = dataset(dt, to_mat(&u), to_mat(&y), holds.as_deref(), Some(&periods))?;
     let f = instrument.as_ref().map(to_mat);
     let order = order_of(order, max_order);
     let d = PyDict::new(py);

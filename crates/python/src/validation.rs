@@ -1,14 +1,12 @@
 //! Binding of `lifted_lti::validate`: simulation and k-step prediction
 //! fits, residual whiteness and input independence (the CLI's `validate`).
 
-use lifted_lti::{
-    Dataset, InputChannel, OperatingPoint, OutputChannel, ValidationOptions, validate as run,
-};
+use lifted_lti::{OperatingPoint, ValidationOptions, validate as run};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::{LiftedError, PyStateSpace, err, to_mat};
+use crate::{LiftedError, PyStateSpace, dataset, err, to_mat};
 
 /// Validates `model` on `u` (N×m), `y` (N×p, NaN where output i is not
 /// sampled; sampled every `periods[i]`): per output a dict with name, fit
@@ -44,24 +42,7 @@ pub fn validate<'py>(
             ));
         }
     };
-    let (u, y) = (to_mat(&u), to_mat(&y));
-    let periods = periods.unwrap_or_else(|| vec![1; y.ncols()]);
-    if periods.len() != y.ncols() {
-        return Err(LiftedError::new_err(format!(
-            "{} periods for {} outputs",
-            periods.len(),
-            y.ncols()
-        )));
-    }
-    let inputs = (1..=u.ncols())
-        .map(|i| InputChannel::new(format!("u{i}"), 1))
-        .collect();
-    let outputs = periods
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| OutputChannel::new(format!("y{}", i + 1), p, 0))
-        .collect();
-    let data = Dataset::new(ts, u, y, inputs, outputs).map_err(err)?;
+    let data = dataset(ts, to_mat(&u), to_mat(&y), None, periods.as_deref())?;
     let operating_point = match (u0, y0) {
         (None, None) => None,
         (u0, y0) => Some(OperatingPoint {
