@@ -146,40 +146,29 @@ fn design(a: &MpcArgs, model: &StateSpace) -> CliResult<Box<dyn Controller>> {
             y_max: per_channel("--y-max", &a.y_max, p, "outputs")?,
         },
     };
-    let law = |design_model: &StateSpace| -> CliResult<Box<dyn Controller>> {
-        Ok(match a.law {
-            MpcLaw::Dmc => {
-                let n = a.truncation.unwrap_or(4 * a.horizon);
-                Box::new(Dmc::new(design_model, n, &opts).ctx("DMC design")?)
-            }
-            MpcLaw::Gpc => {
-                Box::new(StateSpaceMpc::new(design_model, &opts).ctx("state-space MPC design")?)
-            }
-        })
+    // --slow n: the law is designed on the hold model at nT and updated every n samples.
+    let design_model = match a.slow {
+        Some(n) => hold_model(model, n).ctx("--slow: hold model at nT")?,
+        None => model.clone(),
     };
-    match a.slow {
-        None => law(model),
-        Some(n) => {
-            let slow = hold_model(model, n).ctx("--slow: hold model at nT")?;
-            // SlowRate is generic over the inner law: box each concrete type.
-            Ok(match a.law {
-                MpcLaw::Dmc => {
-                    let n_trunc = a.truncation.unwrap_or(4 * a.horizon);
-                    Box::new(
-                        SlowRate::new(Dmc::new(&slow, n_trunc, &opts).ctx("DMC design")?, n)
-                            .ctx("--slow")?,
-                    )
-                }
-                MpcLaw::Gpc => Box::new(
-                    SlowRate::new(
-                        StateSpaceMpc::new(&slow, &opts).ctx("state-space MPC design")?,
-                        n,
-                    )
-                    .ctx("--slow")?,
-                ),
-            })
+    match a.law {
+        MpcLaw::Dmc => {
+            let n = a.truncation.unwrap_or(4 * a.horizon);
+            at_rate(Dmc::new(&design_model, n, &opts).ctx("DMC design")?, a.slow)
         }
+        MpcLaw::Gpc => at_rate(
+            StateSpaceMpc::new(&design_model, &opts).ctx("state-space MPC design")?,
+            a.slow,
+        ),
     }
+}
+
+/// The law itself, or wrapped in [`SlowRate`] for `--slow n`.
+fn at_rate<C: Controller + 'static>(law: C, slow: Option<usize>) -> CliResult<Box<dyn Controller>> {
+    Ok(match slow {
+        Some(n) => Box::new(SlowRate::new(law, n).ctx("--slow")?),
+        None => Box::new(law),
+    })
 }
 
 /// SVG of the outputs with their set-points and of the inputs.

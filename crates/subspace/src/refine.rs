@@ -471,14 +471,19 @@ pub fn refine_pem(
     let mut termination = Termination::MaxIterations;
     let mut basis_and_jacobian: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
     while iterations < opts.max_iterations {
-        if basis_and_jacobian.is_none() {
-            let q = point.similarity_tangent(&lay);
-            let basis =
-                lifted_linalg::null_space(&q.transpose(), lifted_linalg::RankTolerance::Default)?;
-            let jac = jacobian(&theta, &basis, &lay, &e, &cost_of);
-            basis_and_jacobian = Some((basis, jac));
-        }
-        let (basis, jac) = basis_and_jacobian.as_ref().expect("just set");
+        // The DDLC basis and the Jacobian are recomputed after an accepted step only.
+        let (basis, jac) = match basis_and_jacobian {
+            Some(ref bj) => bj,
+            None => {
+                let q = point.similarity_tangent(&lay);
+                let basis = lifted_linalg::null_space(
+                    &q.transpose(),
+                    lifted_linalg::RankTolerance::Default,
+                )?;
+                let jac = jacobian(&theta, &basis, &lay, &e, &cost_of);
+                basis_and_jacobian.insert((basis, jac))
+            }
+        };
         let grad = jac.transpose() * &e;
         if grad.amax() <= opts.gradient_tolerance * (1.0 + e.norm_squared()) {
             termination = Termination::GradientConverged;
