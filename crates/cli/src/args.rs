@@ -52,6 +52,19 @@ pub enum Command {
     Report(ReportArgs),
     /// Run the reproductions of the papers' experiments and report every acceptance check.
     Reproduce(ReproduceArgs),
+    /// The interactive identification page (Zhu 2000 §III.D) on a local web server.
+    Studio(StudioArgs),
+}
+
+/// `lifted studio`.
+#[derive(Debug, Args)]
+pub struct StudioArgs {
+    /// A data CSV to open at start (otherwise load one in the page).
+    #[arg(long)]
+    pub data: Option<String>,
+    /// TCP port on 127.0.0.1 (0: any free port; the URL is printed).
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
 }
 
 /// Output file and signal name shared by the generators.
@@ -405,6 +418,10 @@ pub struct IdentifyArgs {
     /// q-Markov: PRBS magnitude a (default: read from the data).
     #[arg(long)]
     pub amplitude: Option<f64>,
+    /// q-Markov: diagonal output weighting Q of eq. (III-6), one positive value for every
+    /// output or one per output (default: the identity).
+    #[arg(long, value_delimiter = ',')]
+    pub output_weight: Vec<f64>,
     /// IV: instrument column names (one per input; the external excitation in closed loop).
     #[arg(long)]
     pub instrument: Option<String>,

@@ -45,3 +45,17 @@ impl<T, E: Display> Context<T> for Result<T, E> {
         self.map_err(|e| CliError::Input(format!("{what}: {e}")))
     }
 }
+
+/// Clap's error on one line: the message and its hints, without the
+/// usage block.
+pub fn clap_one_line(e: &clap::Error) -> String {
+    e.render()
+        .to_string()
+        .lines()
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}

@@ -1,8 +1,24 @@
-//! The library part of the `lifted` command: its error type and the CSV
-//! table reader (named columns, empty cells for unsampled outputs, one-line
-//! errors naming file, line and column). The binary's command modules use
-//! them through this library, and so do the fuzz targets (`fuzz/`), which
-//! feed arbitrary bytes to the same reader the command uses.
+//! The library part of the `lifted` command: its options (`args`), error
+//! type, CSV table reader, plots and the **service layer** shared by the
+//! command's handlers and by `lifted studio`:
+//!
+//! * [`table`]: CSV → data set (named columns, empty cells for unsampled
+//!   outputs, one-line errors naming file, line and column);
+//! * [`service::identify`]: data files + `identify` options → model file;
+//! * [`service::validation`]: model file + record → fit and residual tests;
+//! * [`service::figures`]: plots of a model and a record;
+//! * [`service::report`]: the HTML report page;
+//! * [`studio`]: the local web server of `lifted studio` and its JSON API.
+//!
+//! No command handler calls another command's handler: each goes through
+//! these modules. The fuzz targets (`fuzz/`) feed arbitrary bytes to the
+//! same reader the command uses.
 
+pub mod args;
 pub mod error;
+pub mod html;
+pub mod plot;
+pub mod service;
+pub mod studio;
 pub mod table;
+pub mod terminal;

@@ -8,27 +8,19 @@
 //! and a five-minute walk-through.
 #![deny(missing_docs)]
 
-mod args;
-mod closedloop;
-mod delay;
-mod identify;
-mod model;
-mod mpc;
-mod plot;
-mod report;
-mod reproduce;
-mod robust;
-mod signals;
-mod validate;
+mod commands;
 
 use std::process::ExitCode;
 
-use lifted_cli::{error, table};
+use lifted_cli::{args, error, html, plot, table, terminal};
 
 use clap::Parser;
 use clap::error::ErrorKind;
 
 use crate::args::{Cli, Command};
+use crate::commands::{
+    closedloop, delay, identify, model, mpc, report, reproduce, robust, signals, studio, validate,
+};
 use crate::error::CliResult;
 
 fn run(cli: Cli) -> CliResult<()> {
@@ -51,21 +43,8 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Robust(a) => robust::robust_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
+        Command::Studio(a) => studio::studio_cmd(&a),
     }
-}
-
-/// Clap's error on one line: the message and its hints, without the
-/// usage block.
-fn one_line(e: &clap::Error) -> String {
-    e.render()
-        .to_string()
-        .lines()
-        .map(str::trim)
-        .filter(|l| {
-            !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information")
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 fn main() -> ExitCode {
@@ -93,7 +72,7 @@ fn main() -> ExitCode {
             _ => {
                 eprintln!(
                     "lifted: {} (see --help)",
-                    one_line(&e).trim_start_matches("error: ")
+                    error::clap_one_line(&e).trim_start_matches("error: ")
                 );
                 return ExitCode::from(2);
             }

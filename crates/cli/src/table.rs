@@ -148,18 +148,12 @@ pub fn read_raw(
     Ok(Raw { cols, rows, ts })
 }
 
-/// Streams the named columns of a CSV file row by row: `visit` receives the
-/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
-/// and returns whether to go on. Returns the number of rows visited and the
-/// base period (given, or from the time column over the rows read). Memory
-/// O(columns), whatever the file length.
-pub fn scan_rows(
-    path: &str,
-    wanted: &[&String],
-    may_be_empty: std::ops::Range<usize>,
-    ts: Option<f64>,
-    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+/// A CSV reader positioned after the header row, and the header's names.
+type CsvFile = (csv::Reader<BufReader<File>>, Vec<String>);
+
+/// Opens a CSV file and reads its header row (which must name the columns,
+/// not hold numbers).
+fn open_csv(path: &str) -> CliResult<CsvFile> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let mut rd = csv::ReaderBuilder::new()
         .has_headers(false)
@@ -187,6 +181,28 @@ pub fn scan_rows(
             "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
         )));
     }
+    Ok((rd, header))
+}
+
+/// The column names of a CSV file's header row.
+pub fn header(path: &str) -> CliResult<Vec<String>> {
+    open_csv(path).map(|(_, h)| h)
+}
+
+/// Streams the named columns of a CSV file row by row: `visit` receives the
+/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
+/// and returns whether to go on. Returns the number of rows visited and the
+/// base period (given, or from the time column over the rows read). Memory
+/// O(columns), whatever the file length.
+pub fn scan_rows(
+    path: &str,
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
+    let (mut rd, header) = open_csv(path)?;
+    let mut rec = csv::ByteRecord::new();
     let find = |name: &str| -> CliResult<usize> {
         header.iter().position(|h| h == name).ok_or_else(|| {
             input(format!(

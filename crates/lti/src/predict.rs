@@ -70,31 +70,43 @@ impl StateSpace {
         }
         let (a, b, c, d) = (self.a(), self.b(), self.c(), self.d());
         let len = u.nrows();
-        // xp[t] = x̂(t|t−1), t = 0 … N−1.
-        let mut xp: Vec<DVector<f64>> = Vec::with_capacity(len);
+        // Allocation-free loops (gemv into preallocated vectors); inputs as
+        // columns so that u(t) is a contiguous slice.
+        let ut = u.transpose();
+        // xp column t = x̂(t|t−1), t = 0 … N−1.
+        let mut xp = DMatrix::zeros(n, len);
         let mut x = DVector::zeros(n);
+        let mut next = DVector::zeros(n);
+        let mut yhat = DVector::zeros(ny);
         for t in 0..len {
-            xp.push(x.clone());
-            let ut = u.row(t).transpose();
-            let mut next = a * &x + b * &ut;
-            let yhat = c * &x + d * &ut;
+            xp.column_mut(t).copy_from(&x);
+            let u_t = ut.column(t);
+            next.gemv(1.0, a, &x, 0.0);
+            next.gemv(1.0, b, &u_t, 1.0);
+            yhat.gemv(1.0, c, &x, 0.0);
+            yhat.gemv(1.0, d, &u_t, 1.0);
             for o in 0..ny {
                 let yo = y[(t, o)];
                 if !yo.is_nan() {
-                    next += k_gain.column(o) * (yo - yhat[o]);
+                    next.axpy(yo - yhat[o], &k_gain.column(o), 1.0);
                 }
             }
-            x = next;
+            std::mem::swap(&mut x, &mut next);
         }
         let mut out = DMatrix::zeros(len, ny);
         for t in 0..len {
             let start = (t + 1).saturating_sub(horizon);
-            let mut x = xp[start].clone();
+            x.copy_from(&xp.column(start));
             for s in start..t {
-                x = a * &x + b * u.row(s).transpose();
+                next.gemv(1.0, a, &x, 0.0);
+                next.gemv(1.0, b, &ut.column(s), 1.0);
+                std::mem::swap(&mut x, &mut next);
             }
-            let yt = c * &x + d * u.row(t).transpose();
-            out.row_mut(t).copy_from(&yt.transpose());
+            yhat.gemv(1.0, c, &x, 0.0);
+            yhat.gemv(1.0, d, &ut.column(t), 1.0);
+            for o in 0..ny {
+                out[(t, o)] = yhat[o];
+            }
         }
         Ok(out)
     }

@@ -1,4 +1,6 @@
-//! `lifted validate`: simulation fit and residual tests.
+//! Validation service: a model file checked on a data record (used by
+//! `lifted validate`, `lifted report` and `lifted studio`): simulation fit
+//! and residual tests.
 //!
 //! * fit % per output: 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖), ŷ the model's simulated
 //!   response to the measured input from a zero initial state, compared at
@@ -19,11 +21,10 @@
 use lifted_lti::data::Detrend;
 use lifted_lti::{Dataset, ModelFile, ValidationOptions, validate};
 
-use crate::args::{DetrendArg, ValidateArgs};
-use crate::error::{CliError, CliResult, Context, input};
-use crate::identify::data_spec;
-use crate::model::{channel_names, read_model};
-use crate::reproduce::print_table;
+use crate::args::DetrendArg;
+use crate::error::{CliResult, Context, input};
+use crate::service::identify::data_spec;
+use crate::service::models::{channel_names, read_model};
 use crate::table::load;
 
 pub use lifted_lti::validation::Validation;
@@ -125,9 +126,23 @@ pub fn load_for_validation(
     cols: &crate::args::DataArgs,
     detrend: DetrendArg,
 ) -> CliResult<(ModelFile, Dataset)> {
-    let mut file = read_model(model_path)?;
+    let file = read_model(model_path)?;
     let spec = data_spec(cols, Some(channel_names(&file.model)), 1, Vec::new())?;
     let data = load(data_path, &spec)?.data;
+    with_detrend(file, data, detrend, data_path)
+}
+
+/// Applies `--detrend` to a model file and the record it is checked on:
+/// `auto` keeps the file's operating point (or, without one, removes the
+/// record's means), `mean`/`linear` detrend the record and drop the
+/// operating point, `none` keeps both as they are; `label` names the
+/// record in errors.
+pub fn with_detrend(
+    mut file: ModelFile,
+    data: Dataset,
+    detrend: DetrendArg,
+    label: &str,
+) -> CliResult<(ModelFile, Dataset)> {
     let kind = match detrend {
         DetrendArg::Auto if file.operating_point.is_none() => Some(Detrend::Constant),
         DetrendArg::Mean => Some(Detrend::Constant),
@@ -137,35 +152,8 @@ pub fn load_for_validation(
     match kind {
         Some(k) => {
             file.operating_point = None;
-            Ok((file, data.detrend(k).ctx(data_path)?))
+            Ok((file, data.detrend(k).ctx(label)?))
         }
         None => Ok((file, data)),
     }
-}
-
-/// `lifted validate`.
-pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
-    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
-    let v = validate_model(&file, &data, a.lags, &a.data)?;
-    let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
-    print_table(&TABLE_HEADER, &rows);
-    println!(
-        "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
-        v.lags
-    );
-    if let Some(min) = a.min_fit {
-        let low: Vec<String> = v
-            .outputs
-            .iter()
-            .filter(|o| o.fit.is_nan() || o.fit < min)
-            .map(|o| format!("{} ({:.2}%)", o.name, o.fit))
-            .collect();
-        if !low.is_empty() {
-            return Err(CliError::Failed(format!(
-                "fit below --min-fit {min}%: {}",
-                low.join(", ")
-            )));
-        }
-    }
-    Ok(())
 }

@@ -20,9 +20,9 @@ use serde_json::json;
 
 use crate::args::{MpcArgs, MpcLaw};
 use crate::error::{CliResult, Context, input};
-use crate::model::{channel_names, read_model};
 use crate::plot::{Plot, Series, svg};
 use crate::table::{parse_periods, read_raw, write_columns};
+use lifted_cli::service::models::{channel_names, read_model};
 
 /// A per-channel vector option: empty → None; one value → repeated; else
 /// exactly `n` values.

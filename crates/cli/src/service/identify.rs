@@ -1,4 +1,7 @@
-//! `lifted identify`: CSV → model file.
+//! Identification service: CSV files and the `identify` options → a model
+//! file (every route: q-Markov Cover, N4SID/MOESP/CVA in memory or streamed,
+//! IV, multirate subspace and multirate IV; detrending, refinement). Used by
+//! `lifted identify` and by `lifted studio`.
 
 use lifted_lti::data::Detrend;
 use lifted_lti::{Dataset, Identifier, ModelFile, OperatingPoint, StateSpace};
@@ -153,6 +156,9 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         gap_only(a)?;
     }
     let extra = a.instrument.as_deref().map(names).unwrap_or_default();
+    if !a.output_weight.is_empty() && a.method != MethodArg::Qmarkov {
+        return Err(input("--output-weight is only used with --method qmarkov"));
+    }
     if !extra.is_empty() && a.method != MethodArg::Iv {
         return Err(input("--instrument is only used with --method iv"));
     }
@@ -322,6 +328,31 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
     )
 }
 
+/// The diagonal Q of `--output-weight`: one value for every output or one
+/// per output, each positive and finite.
+fn output_weighting(w: &[f64], outputs: usize) -> CliResult<Option<DMatrix<f64>>> {
+    if w.is_empty() {
+        return Ok(None);
+    }
+    if let Some(bad) = w.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        return Err(input(format!(
+            "--output-weight {bad}: the weights must be positive and finite"
+        )));
+    }
+    let diag: Vec<f64> = match w.len() {
+        1 => vec![w[0]; outputs],
+        n if n == outputs => w.to_vec(),
+        n => {
+            return Err(input(format!(
+                "--output-weight: {n} values for {outputs} outputs (give one, or one per output)"
+            )));
+        }
+    };
+    Ok(Some(DMatrix::from_diagonal(&nalgebra::DVector::from_vec(
+        diag,
+    ))))
+}
+
 /// `--refine`: prediction-error or output-error refinement of the model on
 /// the (detrended) records, measured samples only; the report goes to
 /// `diagnostics.refinement` and, for `pem`, the Kalman gain is replaced.
@@ -421,8 +452,10 @@ fn qmarkov(
         OrderSelection::Fixed(n) => (Some(n), a.max_order),
         OrderSelection::Gap { max } => (None, max),
     };
+    let output_weighting = output_weighting(&a.output_weight, sets[0].n_outputs())?;
     let opts = QMarkovOptions {
         q,
+        output_weighting,
         order,
         max_auto_order,
         hold,
@@ -450,78 +483,6 @@ fn qmarkov(
         "order_selection": order_json("eigenvalues of D_q (Λ diagonal)", &dg.eigenvalues, dg.order, dg.suggested_order),
     });
     Ok((id.model, d))
-}
-
-/// `lifted identify`.
-pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
-    let file = run_identification(a)?;
-    if a.stable {
-        check_stable(&file.model)?;
-    }
-    file.write(&a.out).map_err(|e| input(e.to_string()))?;
-    if a.profile {
-        print_profile(&file.diagnostics);
-    }
-    let m = &file.model;
-    println!(
-        "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
-        a.method.name(),
-        m.order(),
-        m.n_inputs(),
-        m.n_outputs(),
-        m.ts().unwrap_or(f64::NAN),
-        a.out
-    );
-    Ok(())
-}
-
-/// `--stable`: the model written must have every pole strictly inside the
-/// unit circle (the stabilised estimates guarantee it up to rounding).
-fn check_stable(model: &StateSpace) -> CliResult<()> {
-    if model.order() == 0 {
-        return Ok(());
-    }
-    let rho = model
-        .poles()
-        .ctx("--stable: poles of the model")?
-        .iter()
-        .map(|p| p.norm())
-        .fold(0.0, f64::max);
-    if rho >= 1.0 {
-        return Err(input(format!(
-            "--stable: no stable estimate could be had, the model's spectral radius is {rho:.6}              (lower the order or lengthen the record)"
-        )));
-    }
-    Ok(())
-}
-
-/// Prints the per-phase wall times recorded in the diagnostics (`--profile`).
-fn print_profile(diagnostics: &serde_json::Value) {
-    let Some(p) = diagnostics.get("profile").and_then(|p| p.as_object()) else {
-        return;
-    };
-    let phases = [
-        ("read", "read_s"),
-        ("compress", "compress_s"),
-        ("svd", "svd_s"),
-        ("estimate", "estimate_s"),
-        ("identify (total)", "identify_s"),
-    ];
-    println!("phase              wall time");
-    for (label, key) in phases {
-        if let Some(t) = p.get(key).and_then(|v| v.as_f64()) {
-            println!("{label:<18} {:>9.4} s", t);
-        }
-    }
-    if let Some(c) = diagnostics.get("compression")
-        && let Some(used) = c.get("used").and_then(|v| v.as_str())
-    {
-        print!("compression: {used}");
-        if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
-            print!(" (fallback: {f})");
-        }
-        println!();
-    }
 }
 
 /// Rows per block pushed to the streaming identifier.
@@ -715,4 +676,24 @@ fn add_run_facts(
     obj.insert("samples".into(), json!(samples));
     obj.insert("base_period".into(), json!(ts));
     obj.insert("output_periods".into(), json!(output_periods));
+}
+
+/// `--stable`: the model written must have every pole strictly inside the
+/// unit circle (the stabilised estimates guarantee it up to rounding).
+pub fn require_stable(model: &StateSpace) -> CliResult<()> {
+    if model.order() == 0 {
+        return Ok(());
+    }
+    let rho = model
+        .poles()
+        .ctx("--stable: poles of the model")?
+        .iter()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max);
+    if rho >= 1.0 {
+        return Err(input(format!(
+            "--stable: no stable estimate could be had, the model's spectral radius is {rho:.6}              (lower the order or lengthen the record)"
+        )));
+    }
+    Ok(())
 }

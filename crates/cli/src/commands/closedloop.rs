@@ -8,7 +8,7 @@ use serde_json::json;
 
 use crate::args::{ClosedloopArgs, SetupArg};
 use crate::error::{CliResult, Context, input};
-use crate::model::{read_model, write_model};
+use lifted_cli::service::models::{read_model, write_model};
 
 fn setup_of(s: SetupArg) -> Setup {
     match s {

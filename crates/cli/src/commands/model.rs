@@ -1,5 +1,5 @@
-//! `convert`, `bode`, `step`, `simulate`, and the model plots shared with
-//! `report`.
+//! `convert`, `bode`, `step`, `simulate` (the figures come from the
+//! figure service, [`lifted_cli::service::figures`]).
 
 use lifted_lti::{C2dOptions, InputChannel, MinrealOptions, ModelFile, OutputChannel, StateSpace};
 use lifted_sim::{
@@ -12,31 +12,10 @@ use crate::args::{
     BodeArgs, ConvertArgs, ConvertTo, FeedbackArg, SimulateArgs, SnrSamplesArg, StepArgs,
 };
 use crate::error::{CliResult, Context, input};
-use crate::plot::{Marker, Plot, Series, logspace, svg};
+use crate::plot::{Plot, Series, svg};
 use crate::table::{names, parse_name_counts, parse_periods, read_raw, write_columns};
-
-/// Reads a model file; the message names the file.
-pub fn read_model(path: &str) -> CliResult<ModelFile> {
-    ModelFile::read(path).map_err(|e| input(e.to_string()))
-}
-
-/// Writes a model file (one-line error on failure).
-pub fn write_model(file: &ModelFile, path: &str) -> CliResult<()> {
-    file.write(path).map_err(|e| input(e.to_string()))
-}
-
-/// Channel names of a model (its own, else u1…, y1…).
-pub fn channel_names(model: &StateSpace) -> (Vec<String>, Vec<String>) {
-    let u = model
-        .input_names()
-        .map(<[String]>::to_vec)
-        .unwrap_or_else(|| (1..=model.n_inputs()).map(|i| format!("u{i}")).collect());
-    let y = model
-        .output_names()
-        .map(<[String]>::to_vec)
-        .unwrap_or_else(|| (1..=model.n_outputs()).map(|i| format!("y{i}")).collect());
-    (u, y)
-}
+use lifted_cli::service::figures::{bode_grid, bode_plots, stack_svgs, step_data};
+use lifted_cli::service::models::{channel_names, read_model, write_model};
 
 /// Keeps the channel names of `from` on `to` when the sizes agree.
 fn keep_names(from: &StateSpace, to: StateSpace) -> StateSpace {
@@ -88,196 +67,6 @@ pub fn convert(a: &ConvertArgs) -> CliResult<()> {
         None => println!("{}", out.to_json().map_err(|e| input(e.to_string()))?),
     }
     Ok(())
-}
-
-/// (slowest, fastest) natural frequency of the poles in rad/s, if any.
-fn pole_frequencies(m: &StateSpace) -> Option<(f64, f64)> {
-    let poles = m.poles().ok()?;
-    let w: Vec<f64> = poles
-        .iter()
-        .map(|p| match m.ts() {
-            Some(ts) => p.ln().norm() / ts,
-            None => p.norm(),
-        })
-        .filter(|w| w.is_finite() && *w > 0.0)
-        .collect();
-    if w.is_empty() {
-        return None;
-    }
-    Some((
-        w.iter().copied().fold(f64::INFINITY, f64::min),
-        w.iter().copied().fold(0.0, f64::max),
-    ))
-}
-
-/// Default Bode grid.
-pub fn bode_grid(
-    m: &StateSpace,
-    wmin: Option<f64>,
-    wmax: Option<f64>,
-    n: usize,
-) -> CliResult<Vec<f64>> {
-    let (slow, fast) = pole_frequencies(m).unwrap_or((0.1, 10.0));
-    let hi = wmax.unwrap_or(match m.ts() {
-        Some(ts) => std::f64::consts::PI / ts,
-        None => 10.0 * fast,
-    });
-    let lo = wmin.unwrap_or((slow / 10.0).min(hi / 100.0));
-    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-        return Err(input(format!(
-            "bode: invalid frequency range {lo}..{hi} rad/s"
-        )));
-    }
-    if !(2..=1_000_000).contains(&n) {
-        return Err(input(format!("bode: --points {n} must be in 2..=1000000")));
-    }
-    Ok(logspace(lo, hi, n))
-}
-
-/// Bode magnitude (dB) and phase (deg) plots, one curve per channel pair.
-pub fn bode_plots(m: &StateSpace, omega: &[f64]) -> CliResult<(Plot, Plot)> {
-    let b = m.bode(omega).ctx("bode")?;
-    let (un, yn) = channel_names(m);
-    let lw: Vec<f64> = b.omega.iter().map(|w| w.log10()).collect();
-    let mut mag = Plot {
-        title: "Bode magnitude".into(),
-        x_label: "log10 ω [rad/s]".into(),
-        y_label: "|G| [dB]".into(),
-        ..Default::default()
-    };
-    let mut ph = Plot {
-        title: "Bode phase".into(),
-        x_label: "log10 ω [rad/s]".into(),
-        y_label: "phase [deg]".into(),
-        ..Default::default()
-    };
-    for i in 0..m.n_outputs() {
-        for j in 0..m.n_inputs() {
-            let label = format!("{} ← {}", yn[i], un[j]);
-            let db: Vec<f64> = b
-                .magnitude
-                .iter()
-                .map(|g| 20.0 * g[(i, j)].max(1e-300).log10())
-                .collect();
-            let deg: Vec<f64> = b.phase_deg.iter().map(|g| g[(i, j)]).collect();
-            mag.series.push(Series::line(label.clone(), lw.clone(), db));
-            ph.series.push(Series::line(label, lw.clone(), deg));
-        }
-    }
-    if let Some(ts) = m.ts() {
-        let ny = (std::f64::consts::PI / ts).log10();
-        mag.vlines.push((ny, "Nyquist".into()));
-    }
-    Ok((mag, ph))
-}
-
-/// Step-response grid: (number of samples, time step).
-fn step_grid(m: &StateSpace, samples: Option<usize>, dt: Option<f64>) -> CliResult<(usize, f64)> {
-    let (slow, _) = pole_frequencies(m).unwrap_or((1.0, 1.0));
-    let tau = 1.0 / slow;
-    let h = match m.ts() {
-        Some(ts) => ts,
-        None => dt.unwrap_or(tau / 50.0),
-    };
-    if !(h.is_finite() && h > 0.0) {
-        return Err(input(format!("step: invalid time step {h}")));
-    }
-    let n = samples.unwrap_or(((6.0 * tau / h).ceil() as usize).clamp(50, 20_000));
-    if n == 0 || n > 10_000_000 {
-        return Err(input(format!(
-            "step: --samples {n} must be in 1..=10000000"
-        )));
-    }
-    Ok((n, h))
-}
-
-/// A named data column.
-pub type NamedColumn = (String, Vec<f64>);
-
-/// Step responses: time and one column per (output, input).
-pub fn step_data(
-    m: &StateSpace,
-    samples: Option<usize>,
-    dt: Option<f64>,
-) -> CliResult<(Vec<f64>, Vec<NamedColumn>)> {
-    let (n, h) = step_grid(m, samples, dt)?;
-    let r = m
-        .step(n, if m.ts().is_some() { None } else { Some(h) })
-        .ctx("step")?;
-    let (un, yn) = channel_names(m);
-    let t: Vec<f64> = (0..n).map(|k| k as f64 * h).collect();
-    let mut cols = Vec::new();
-    for (rj, uname) in r.iter().zip(&un) {
-        for (i, yname) in yn.iter().enumerate() {
-            cols.push((
-                format!("{yname}_from_{uname}"),
-                rj.column(i).iter().copied().collect(),
-            ));
-        }
-    }
-    Ok((t, cols))
-}
-
-/// Step-response plot.
-pub fn step_plot(m: &StateSpace) -> CliResult<Plot> {
-    let (t, cols) = step_data(m, None, None)?;
-    Ok(Plot {
-        title: "Step response".into(),
-        x_label: "t [s]".into(),
-        y_label: "y".into(),
-        series: cols
-            .into_iter()
-            .map(|(name, y)| Series::line(name, t.clone(), y))
-            .collect(),
-        ..Default::default()
-    })
-}
-
-/// Pole-zero map.
-pub fn pz_plot(m: &StateSpace) -> CliResult<Plot> {
-    let poles = m.poles().ctx("poles")?;
-    let mut plot = Plot {
-        title: "Poles (×) and transmission zeros (○)".into(),
-        x_label: "Re".into(),
-        y_label: "Im".into(),
-        unit_circle: m.is_discrete(),
-        ..Default::default()
-    };
-    plot.series.push(Series::points(
-        "poles",
-        poles.iter().map(|p| p.re).collect(),
-        poles.iter().map(|p| p.im).collect(),
-        Marker::Cross,
-    ));
-    // Zeros can legitimately fail to exist (e.g. non-square numerics); show poles then.
-    if let Ok(zeros) = m.zeros() {
-        plot.series.push(Series::points(
-            "zeros",
-            zeros.iter().map(|p| p.re).collect(),
-            zeros.iter().map(|p| p.im).collect(),
-            Marker::Ring,
-        ));
-    }
-    Ok(plot)
-}
-
-/// Two SVG documents stacked vertically in one.
-pub fn stack_svgs(top: &str, bottom: &str, w: u32, h: u32) -> String {
-    let shift = |s: &str, y: u32| s.replacen("<svg ", &format!("<svg x=\"0\" y=\"{y}\" "), 1);
-    let strip = |s: &str| {
-        // drop an XML declaration if any
-        match s.find("<svg") {
-            Some(i) => s[i..].to_string(),
-            None => s.to_string(),
-        }
-    };
-    format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{}\" viewBox=\"0 0 {w} {}\">\n{}\n{}\n</svg>\n",
-        2 * h,
-        2 * h,
-        shift(&strip(top), 0),
-        shift(&strip(bottom), h)
-    )
 }
 
 enum OutKind {

@@ -6,9 +6,9 @@ use serde_json::json;
 
 use crate::args::DelayArgs;
 use crate::error::{CliResult, Context, input};
-use crate::identify::data_spec;
-use crate::reproduce::print_table;
 use crate::table::load;
+use crate::terminal::print_table;
+use lifted_cli::service::identify::data_spec;
 
 /// `lifted delay`.
 pub fn delay_cmd(a: &DelayArgs) -> CliResult<()> {

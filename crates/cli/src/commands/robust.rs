@@ -15,7 +15,7 @@ use serde_json::json;
 
 use crate::args::{RobustArgs, UncertaintyArg};
 use crate::error::{CliResult, Context, input};
-use crate::model::read_model;
+use lifted_cli::service::models::read_model;
 
 /// One slow period's figures.
 struct PeriodRow {

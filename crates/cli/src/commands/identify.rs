@@ -1,0 +1,58 @@
+//! `lifted identify`: CSV → model file, through the identification service
+//! ([`lifted_cli::service::identify`]).
+
+use crate::args::IdentifyArgs;
+use crate::error::{CliResult, input};
+use lifted_cli::service::identify::{require_stable, run_identification};
+
+/// `lifted identify`.
+pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
+    let file = run_identification(a)?;
+    if a.stable {
+        require_stable(&file.model)?;
+    }
+    file.write(&a.out).map_err(|e| input(e.to_string()))?;
+    if a.profile {
+        print_profile(&file.diagnostics);
+    }
+    let m = &file.model;
+    println!(
+        "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
+        a.method.name(),
+        m.order(),
+        m.n_inputs(),
+        m.n_outputs(),
+        m.ts().unwrap_or(f64::NAN),
+        a.out
+    );
+    Ok(())
+}
+
+/// Prints the per-phase wall times recorded in the diagnostics (`--profile`).
+fn print_profile(diagnostics: &serde_json::Value) {
+    let Some(p) = diagnostics.get("profile").and_then(|p| p.as_object()) else {
+        return;
+    };
+    let phases = [
+        ("read", "read_s"),
+        ("compress", "compress_s"),
+        ("svd", "svd_s"),
+        ("estimate", "estimate_s"),
+        ("identify (total)", "identify_s"),
+    ];
+    println!("phase              wall time");
+    for (label, key) in phases {
+        if let Some(t) = p.get(key).and_then(|v| v.as_f64()) {
+            println!("{label:<18} {:>9.4} s", t);
+        }
+    }
+    if let Some(c) = diagnostics.get("compression")
+        && let Some(used) = c.get("used").and_then(|v| v.as_str())
+    {
+        print!("compression: {used}");
+        if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
+            print!(" (fallback: {f})");
+        }
+        println!();
+    }
+}

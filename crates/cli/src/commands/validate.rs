@@ -1,0 +1,36 @@
+//! `lifted validate`: the validation service's table on the terminal, and
+//! the `--min-fit` check.
+
+use crate::args::ValidateArgs;
+use crate::error::{CliError, CliResult};
+use lifted_cli::service::validation::{
+    TABLE_HEADER, load_for_validation, table_rows, validate_model,
+};
+use lifted_cli::terminal::print_table;
+
+/// `lifted validate`.
+pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
+    let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
+    let v = validate_model(&file, &data, a.lags, &a.data)?;
+    let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
+    print_table(&TABLE_HEADER, &rows);
+    println!(
+        "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
+        v.lags
+    );
+    if let Some(min) = a.min_fit {
+        let low: Vec<String> = v
+            .outputs
+            .iter()
+            .filter(|o| o.fit.is_nan() || o.fit < min)
+            .map(|o| format!("{} ({:.2}%)", o.name, o.fit))
+            .collect();
+        if !low.is_empty() {
+            return Err(CliError::Failed(format!(
+                "fit below --min-fit {min}%: {}",
+                low.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,346 @@
+//! The figures of a model and a record, as [`Plot`]s drawn to SVG by
+//! [`crate::plot::svg`]: Bode magnitude/phase, step response, pole-zero map,
+//! order selection, the excitation and the measured-vs-model output. Shared
+//! by `lifted bode`/`step`/`report` and `lifted studio`.
+
+use lifted_lti::validation::OutputValidation;
+use lifted_lti::{Dataset, StateSpace};
+
+use crate::error::{CliResult, Context, input};
+use crate::plot::{Marker, Plot, Series, logspace};
+use crate::service::models::channel_names;
+
+/// (slowest, fastest) natural frequency of the poles in rad/s, if any.
+fn pole_frequencies(m: &StateSpace) -> Option<(f64, f64)> {
+    let poles = m.poles().ok()?;
+    let w: Vec<f64> = poles
+        .iter()
+        .map(|p| match m.ts() {
+            Some(ts) => p.ln().norm() / ts,
+            None => p.norm(),
+        })
+        .filter(|w| w.is_finite() && *w > 0.0)
+        .collect();
+    if w.is_empty() {
+        return None;
+    }
+    Some((
+        w.iter().copied().fold(f64::INFINITY, f64::min),
+        w.iter().copied().fold(0.0, f64::max),
+    ))
+}
+
+/// Default Bode grid.
+pub fn bode_grid(
+    m: &StateSpace,
+    wmin: Option<f64>,
+    wmax: Option<f64>,
+    n: usize,
+) -> CliResult<Vec<f64>> {
+    let (slow, fast) = pole_frequencies(m).unwrap_or((0.1, 10.0));
+    let hi = wmax.unwrap_or(match m.ts() {
+        Some(ts) => std::f64::consts::PI / ts,
+        None => 10.0 * fast,
+    });
+    let lo = wmin.unwrap_or((slow / 10.0).min(hi / 100.0));
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Err(input(format!(
+            "bode: invalid frequency range {lo}..{hi} rad/s"
+        )));
+    }
+    if !(2..=1_000_000).contains(&n) {
+        return Err(input(format!("bode: --points {n} must be in 2..=1000000")));
+    }
+    Ok(logspace(lo, hi, n))
+}
+
+/// Bode magnitude (dB) and phase (deg) plots, one curve per channel pair.
+pub fn bode_plots(m: &StateSpace, omega: &[f64]) -> CliResult<(Plot, Plot)> {
+    let b = m.bode(omega).ctx("bode")?;
+    let (un, yn) = channel_names(m);
+    let lw: Vec<f64> = b.omega.iter().map(|w| w.log10()).collect();
+    let mut mag = Plot {
+        title: "Bode magnitude".into(),
+        x_label: "log10 ω [rad/s]".into(),
+        y_label: "|G| [dB]".into(),
+        ..Default::default()
+    };
+    let mut ph = Plot {
+        title: "Bode phase".into(),
+        x_label: "log10 ω [rad/s]".into(),
+        y_label: "phase [deg]".into(),
+        ..Default::default()
+    };
+    for i in 0..m.n_outputs() {
+        for j in 0..m.n_inputs() {
+            let label = format!("{} ← {}", yn[i], un[j]);
+            let db: Vec<f64> = b
+                .magnitude
+                .iter()
+                .map(|g| 20.0 * g[(i, j)].max(1e-300).log10())
+                .collect();
+            let deg: Vec<f64> = b.phase_deg.iter().map(|g| g[(i, j)]).collect();
+            mag.series.push(Series::line(label.clone(), lw.clone(), db));
+            ph.series.push(Series::line(label, lw.clone(), deg));
+        }
+    }
+    if let Some(ts) = m.ts() {
+        let ny = (std::f64::consts::PI / ts).log10();
+        mag.vlines.push((ny, "Nyquist".into()));
+    }
+    Ok((mag, ph))
+}
+
+/// Step-response grid: (number of samples, time step).
+fn step_grid(m: &StateSpace, samples: Option<usize>, dt: Option<f64>) -> CliResult<(usize, f64)> {
+    let (slow, _) = pole_frequencies(m).unwrap_or((1.0, 1.0));
+    let tau = 1.0 / slow;
+    let h = match m.ts() {
+        Some(ts) => ts,
+        None => dt.unwrap_or(tau / 50.0),
+    };
+    if !(h.is_finite() && h > 0.0) {
+        return Err(input(format!("step: invalid time step {h}")));
+    }
+    let n = samples.unwrap_or(((6.0 * tau / h).ceil() as usize).clamp(50, 20_000));
+    if n == 0 || n > 10_000_000 {
+        return Err(input(format!(
+            "step: --samples {n} must be in 1..=10000000"
+        )));
+    }
+    Ok((n, h))
+}
+
+/// A named data column.
+pub type NamedColumn = (String, Vec<f64>);
+
+/// Step responses: time and one column per (output, input).
+pub fn step_data(
+    m: &StateSpace,
+    samples: Option<usize>,
+    dt: Option<f64>,
+) -> CliResult<(Vec<f64>, Vec<NamedColumn>)> {
+    let (n, h) = step_grid(m, samples, dt)?;
+    let r = m
+        .step(n, if m.ts().is_some() { None } else { Some(h) })
+        .ctx("step")?;
+    let (un, yn) = channel_names(m);
+    let t: Vec<f64> = (0..n).map(|k| k as f64 * h).collect();
+    let mut cols = Vec::new();
+    for (rj, uname) in r.iter().zip(&un) {
+        for (i, yname) in yn.iter().enumerate() {
+            cols.push((
+                format!("{yname}_from_{uname}"),
+                rj.column(i).iter().copied().collect(),
+            ));
+        }
+    }
+    Ok((t, cols))
+}
+
+/// Step-response plot.
+pub fn step_plot(m: &StateSpace) -> CliResult<Plot> {
+    let (t, cols) = step_data(m, None, None)?;
+    Ok(Plot {
+        title: "Step response".into(),
+        x_label: "t [s]".into(),
+        y_label: "y".into(),
+        series: cols
+            .into_iter()
+            .map(|(name, y)| Series::line(name, t.clone(), y))
+            .collect(),
+        ..Default::default()
+    })
+}
+
+/// Pole-zero map.
+pub fn pz_plot(m: &StateSpace) -> CliResult<Plot> {
+    let poles = m.poles().ctx("poles")?;
+    let mut plot = Plot {
+        title: "Poles (×) and transmission zeros (○)".into(),
+        x_label: "Re".into(),
+        y_label: "Im".into(),
+        unit_circle: m.is_discrete(),
+        ..Default::default()
+    };
+    plot.series.push(Series::points(
+        "poles",
+        poles.iter().map(|p| p.re).collect(),
+        poles.iter().map(|p| p.im).collect(),
+        Marker::Cross,
+    ));
+    // Zeros can legitimately fail to exist (e.g. non-square numerics); show poles then.
+    if let Ok(zeros) = m.zeros() {
+        plot.series.push(Series::points(
+            "zeros",
+            zeros.iter().map(|p| p.re).collect(),
+            zeros.iter().map(|p| p.im).collect(),
+            Marker::Ring,
+        ));
+    }
+    Ok(plot)
+}
+
+/// Two SVG documents stacked vertically in one.
+pub fn stack_svgs(top: &str, bottom: &str, w: u32, h: u32) -> String {
+    let shift = |s: &str, y: u32| s.replacen("<svg ", &format!("<svg x=\"0\" y=\"{y}\" "), 1);
+    let strip = |s: &str| {
+        // drop an XML declaration if any
+        match s.find("<svg") {
+            Some(i) => s[i..].to_string(),
+            None => s.to_string(),
+        }
+    };
+    format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{}\" viewBox=\"0 0 {w} {}\">\n{}\n{}\n</svg>\n",
+        2 * h,
+        2 * h,
+        shift(&strip(top), 0),
+        shift(&strip(bottom), h)
+    )
+}
+
+/// Most points drawn per time series (longer records are decimated by a
+/// stride; the page stays small).
+pub const MAX_POINTS: usize = 4000;
+
+fn stride(n: usize) -> usize {
+    n.div_ceil(MAX_POINTS).max(1)
+}
+
+/// Every k-th point of (t, y), k chosen so that at most [`MAX_POINTS`] remain.
+pub fn decimate(t: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let s = stride(t.len());
+    (
+        t.iter().step_by(s).copied().collect(),
+        y.iter().step_by(s).copied().collect(),
+    )
+}
+
+/// The order-selection plot from the model file's diagnostics, if present.
+pub fn order_plot(diag: &serde_json::Value) -> Option<Plot> {
+    let os = diag.get("order_selection")?;
+    let values: Vec<f64> = os
+        .get("values")?
+        .as_array()?
+        .iter()
+        .filter_map(|v| v.as_f64())
+        .collect();
+    if values.is_empty() {
+        return None;
+    }
+    let kind = os
+        .get("kind")
+        .and_then(|k| k.as_str())
+        .unwrap_or("singular values");
+    let order = os.get("order").and_then(serde_json::Value::as_u64);
+    let x: Vec<f64> = (1..=values.len()).map(|i| i as f64).collect();
+    let y: Vec<f64> = values
+        .iter()
+        .map(|v| if *v > 0.0 { v.log10() } else { f64::NAN })
+        .collect();
+    let mut plot = Plot {
+        title: format!("Order selection: {kind}"),
+        x_label: "index".into(),
+        y_label: "log10 value".into(),
+        series: vec![Series::points(kind, x, y, Marker::Dot)],
+        ..Default::default()
+    };
+    if let Some(n) = order {
+        plot.vlines
+            .push((n as f64 + 0.5, format!("chosen order {n}")));
+    }
+    Some(plot)
+}
+
+/// The measured inputs of a record against time, one line per input.
+pub fn excitation_plot(data: &Dataset, names: &[String]) -> Plot {
+    let ts = data.ts();
+    let t: Vec<f64> = (0..data.len()).map(|k| k as f64 * ts).collect();
+    let mut plot = Plot {
+        title: "Input signals".into(),
+        x_label: "t [s]".into(),
+        y_label: "u".into(),
+        ..Default::default()
+    };
+    for (j, name) in names.iter().enumerate().take(data.n_inputs()) {
+        let u: Vec<f64> = data.u().column(j).iter().copied().collect();
+        let (tt, uu) = decimate(&t, &u);
+        plot.series.push(Series::line(name.clone(), tt, uu));
+    }
+    plot
+}
+
+/// The measured outputs of a record: one series per output, a line for a
+/// fast output and markers at the sampling instants of a slow one.
+pub fn outputs_plot(data: &Dataset) -> Plot {
+    let ts = data.ts();
+    let mut plot = Plot {
+        title: "Output signals (slow outputs: markers at their samples)".into(),
+        x_label: "t [s]".into(),
+        y_label: "y".into(),
+        ..Default::default()
+    };
+    for (i, ch) in data.outputs().iter().enumerate() {
+        let (t, y): (Vec<f64>, Vec<f64>) = (0..data.len())
+            .filter(|k| data.y()[(*k, i)].is_finite())
+            .map(|k| (k as f64 * ts, data.y()[(k, i)]))
+            .unzip();
+        let (t, y) = decimate(&t, &y);
+        let label = if ch.period > 1 {
+            format!("{} (every {} samples)", ch.name, ch.period)
+        } else {
+            ch.name.clone()
+        };
+        plot.series.push(if ch.period > 1 {
+            Series::points(label, t, y, Marker::Dot)
+        } else {
+            Series::line(label, t, y)
+        });
+    }
+    plot
+}
+
+/// One output's measurement (markers when it is sampled slowly) and the
+/// model's simulated response, against time; `n` is the record length and
+/// `ts` its base period.
+pub fn response_plot(o: &OutputValidation, ts: f64, n: usize) -> Plot {
+    let t: Vec<f64> = (0..o.simulated.len()).map(|k| k as f64 * ts).collect();
+    let mt: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
+    let (mt, my) = decimate(&mt, &o.measured);
+    let (st, sy) = decimate(&t, &o.simulated);
+    let slow = o.samples < n;
+    Plot {
+        title: format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit),
+        x_label: "t [s]".into(),
+        y_label: o.name.clone(),
+        series: vec![
+            if slow {
+                Series::points("measured", mt, my, Marker::Dot)
+            } else {
+                Series::line("measured", mt, my)
+            },
+            Series::line("model (simulated)", st, sy),
+        ],
+        ..Default::default()
+    }
+}
+
+/// The response error y − ŷ of one output at its sampling instants.
+pub fn response_error_plot(o: &OutputValidation, ts: f64) -> Plot {
+    let t: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
+    let e: Vec<f64> = o
+        .instants
+        .iter()
+        .zip(&o.measured)
+        .map(|(&k, y)| y - o.simulated.get(k).copied().unwrap_or(f64::NAN))
+        .collect();
+    let (t, e) = decimate(&t, &e);
+    Plot {
+        title: format!("{}: response error y − ŷ", o.name),
+        x_label: "t [s]".into(),
+        y_label: "error".into(),
+        series: vec![Series::line("y − ŷ", t, e)],
+        ..Default::default()
+    }
+}

@@ -1,0 +1,8 @@
+//! The service layer: load data → identify → validate → figures, shared by
+//! the command's handlers and the studio.
+
+pub mod figures;
+pub mod identify;
+pub mod models;
+pub mod report;
+pub mod validation;

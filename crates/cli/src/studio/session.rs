@@ -1,0 +1,684 @@
+//! The studio's state and its operations, without HTTP: a record is
+//! uploaded, its channels viewed, a model identified with the `identify`
+//! options, and the last model saved as a model file or a report. Every
+//! operation goes through the service layer ([`crate::table`],
+//! [`crate::service`]) with the command's own option parser, so a model made
+//! here equals the one `lifted identify` writes with the same options.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Parser;
+use lifted_lti::{Dataset, ModelFile};
+use serde::{Deserialize, Serialize};
+
+use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
+use crate::error::{CliError, CliResult, clap_one_line, input};
+use crate::plot::svg;
+use crate::service::figures::{
+    bode_grid, bode_plots, excitation_plot, order_plot, outputs_plot, pz_plot, response_error_plot,
+    response_plot, stack_svgs, step_plot,
+};
+use crate::service::identify::{require_stable, run_identification};
+use crate::service::report::render;
+use crate::service::validation::{validate_model, with_detrend};
+use crate::table::{DataSpec, header, load, parse_periods, read_raw};
+
+/// Largest upload accepted (bytes).
+pub const MAX_UPLOAD: usize = 1 << 30;
+
+/// Lags of the residual tests in the studio (as `lifted validate`'s
+/// default), fewer on a short record.
+const LAGS: usize = 20;
+
+/// Identification and view options of the page, named as the options of
+/// `lifted identify` (`output_period` entries are `NAME=PERIOD`; `order` is a
+/// positive integer or `auto`). Absent fields take the command's defaults.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Request {
+    /// Input column names.
+    pub inputs: Vec<String>,
+    /// Output column names.
+    pub outputs: Vec<String>,
+    /// Base period in seconds (default: from the time column, else 1).
+    pub ts: Option<f64>,
+    /// Input hold n_r in base periods.
+    pub hold: Option<usize>,
+    /// Declared output periods, `NAME=PERIOD`.
+    pub output_period: Vec<String>,
+    /// `qmarkov`, `n4sid`, `moesp`, `cva` or `iv` (multirate records take
+    /// the multirate route of the subspace and IV methods).
+    pub method: Option<String>,
+    /// Model order, or `auto`.
+    pub order: Option<String>,
+    /// Largest order of `auto`.
+    pub max_order: Option<usize>,
+    /// Horizon (subspace i, IV α).
+    pub horizon: Option<usize>,
+    /// q-Markov: q.
+    pub q: Option<usize>,
+    /// q-Markov: PRBS order n.
+    pub prbs_order: Option<u32>,
+    /// q-Markov: PRBS magnitude.
+    pub amplitude: Option<f64>,
+    /// q-Markov: diagonal output weighting Q.
+    pub output_weight: Vec<f64>,
+    /// IV: instrument columns.
+    pub instrument: Vec<String>,
+    /// `auto`, `mean`, `linear` or `none`.
+    pub detrend: Option<String>,
+    /// `shift` or `states`.
+    pub estimator: Option<String>,
+    /// `gap`, `svc`, `aic`, `aicc` or `bic`.
+    pub order_criterion: Option<String>,
+    /// Enforce a stable model.
+    pub stable: bool,
+}
+
+/// One column of an uploaded record.
+#[derive(Debug, Clone, Serialize)]
+pub struct ColumnInfo {
+    /// Header name.
+    pub name: String,
+    /// Non-empty cells.
+    pub samples: usize,
+    /// Spacing of its samples in rows (1: every row), when regular.
+    pub period: Option<usize>,
+}
+
+/// What the page learns of an uploaded record.
+#[derive(Debug, Clone, Serialize)]
+pub struct DataInfo {
+    /// File name as uploaded.
+    pub name: String,
+    /// Data rows.
+    pub rows: usize,
+    /// Base period (time column, else 1).
+    pub ts: f64,
+    /// The columns other than the time column.
+    pub columns: Vec<ColumnInfo>,
+    /// Columns proposed as inputs (complete columns named u…/r…, else the first complete one).
+    pub suggested_inputs: Vec<String>,
+    /// Columns proposed as outputs (the others).
+    pub suggested_outputs: Vec<String>,
+}
+
+/// A channel and its rate, for the page.
+#[derive(Debug, Clone, Serialize)]
+pub struct Channel {
+    /// Name.
+    pub name: String,
+    /// Hold (inputs) or sampling period (outputs) in base periods.
+    pub period: usize,
+    /// Samples of the channel in the record.
+    pub samples: usize,
+}
+
+/// The record as selected: channels, rates and the signal plots.
+#[derive(Debug, Clone, Serialize)]
+pub struct View {
+    /// Data rows.
+    pub rows: usize,
+    /// Base period.
+    pub ts: f64,
+    /// Inputs with their holds.
+    pub inputs: Vec<Channel>,
+    /// Outputs with their sampling periods.
+    pub outputs: Vec<Channel>,
+    /// SVG of the inputs.
+    pub inputs_svg: String,
+    /// SVG of the outputs (slow outputs as markers).
+    pub outputs_svg: String,
+}
+
+/// Order-selection data of the model file.
+#[derive(Debug, Clone, Serialize)]
+pub struct OrderSelection {
+    /// What the values are (singular values, Λ diagonal).
+    pub kind: String,
+    /// The values, largest first.
+    pub values: Vec<f64>,
+    /// The order of the model.
+    pub order: usize,
+    /// The order the gap rule suggests.
+    pub suggested_order: Option<usize>,
+}
+
+/// One output's simulation fit.
+#[derive(Debug, Clone, Serialize)]
+pub struct Fit {
+    /// Output name.
+    pub output: String,
+    /// Fit % (100 (1 − ‖y − ŷ‖/‖y − ȳ‖), simulated from rest).
+    pub fit: f64,
+    /// Whether the residual is white.
+    pub white: bool,
+    /// Whether the residual is independent of the inputs.
+    pub independent: bool,
+}
+
+/// The figures of an identification, as SVG documents.
+#[derive(Debug, Clone, Serialize)]
+pub struct Figures {
+    /// Order selection (log scale, chosen order marked).
+    pub order: Option<String>,
+    /// Per output: measured and simulated response.
+    pub response: Vec<String>,
+    /// Per output: response error.
+    pub error: Vec<String>,
+    /// Step response.
+    pub step: String,
+    /// Bode magnitude over phase.
+    pub bode: String,
+    /// Pole-zero map.
+    pub pz: String,
+}
+
+/// The answer to an identification.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identified {
+    /// The equivalent command line.
+    pub command: String,
+    /// Method name.
+    pub method: String,
+    /// Model order.
+    pub order: usize,
+    /// Order-selection data, when the route has it.
+    pub order_selection: Option<OrderSelection>,
+    /// Simulation fit per output.
+    pub fits: Vec<Fit>,
+    /// Poles as (re, im).
+    pub poles: Vec<(f64, f64)>,
+    /// The figures.
+    pub figures: Figures,
+    /// Wall time of identify + validate + figures, milliseconds.
+    pub elapsed_ms: f64,
+}
+
+/// The last identification, kept for saving.
+struct Last {
+    file: ModelFile,
+    request: Request,
+}
+
+/// The uploaded record.
+struct Record {
+    name: String,
+    path: PathBuf,
+    info: DataInfo,
+}
+
+/// The studio's state: a scratch directory, the uploaded record and the
+/// last model.
+pub struct Session {
+    dir: PathBuf,
+    record: Option<Record>,
+    last: Option<Last>,
+}
+
+/// A file name safe to write in the scratch directory (the base name, with
+/// anything but letters, digits, `.`, `-`, `_` replaced).
+fn safe_name(name: &str) -> String {
+    let base = name.rsplit(['/', '\\']).next().unwrap_or("");
+    let s: String = base
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let s = s.trim_start_matches('.').to_string();
+    if s.is_empty() { "data.csv".into() } else { s }
+}
+
+/// Quotes a command-line word for a POSIX shell when needed.
+fn shell_word(w: &str) -> String {
+    if !w.is_empty()
+        && w.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_=.,/:+".contains(c))
+    {
+        w.to_string()
+    } else {
+        format!("'{}'", w.replace('\'', "'\\''"))
+    }
+}
+
+impl Session {
+    /// A session with a fresh scratch directory under `parent`.
+    pub fn new(parent: &Path) -> CliResult<Self> {
+        let dir = parent.join(format!("lifted-studio-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| input(format!("cannot create {}: {e}", dir.display())))?;
+        Ok(Session {
+            dir,
+            record: None,
+            last: None,
+        })
+    }
+
+    /// The scratch directory (removed by [`Session::close`]).
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Removes the scratch directory.
+    pub fn close(&self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+
+    /// Error messages name the record by its uploaded name, not the
+    /// scratch path.
+    fn plain(&self, e: CliError) -> CliError {
+        let prefix = format!("{}{}", self.dir.display(), std::path::MAIN_SEPARATOR);
+        match e {
+            CliError::Input(m) => CliError::Input(m.replace(&prefix, "")),
+            CliError::Failed(m) => CliError::Failed(m.replace(&prefix, "")),
+        }
+    }
+
+    fn record(&self) -> CliResult<&Record> {
+        self.record
+            .as_ref()
+            .ok_or_else(|| input("no data loaded: load a CSV file first"))
+    }
+
+    /// Stores an uploaded CSV and checks every cell with the command's
+    /// reader (the same one-line errors as the CLI); the record replaces
+    /// the previous one.
+    pub fn upload(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
+        let name = safe_name(name);
+        let path = self.dir.join(&name);
+        std::fs::write(&path, bytes).map_err(|e| input(format!("cannot store {name}: {e}")))?;
+        match self.inspect(&name, &path) {
+            Ok(info) => {
+                self.record = Some(Record {
+                    name,
+                    path,
+                    info: info.clone(),
+                });
+                self.last = None;
+                Ok(info)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_file(&path);
+                Err(self.plain(e))
+            }
+        }
+    }
+
+    /// Uses a file on disk as the record (`lifted studio --data`).
+    pub fn open(&mut self, path: &str) -> CliResult<DataInfo> {
+        let bytes =
+            std::fs::read(path).map_err(|e| input(format!("cannot open data file {path}: {e}")))?;
+        self.upload(path, &bytes)
+    }
+
+    fn inspect(&self, name: &str, path: &Path) -> CliResult<DataInfo> {
+        let p = path.display().to_string();
+        let cols: Vec<String> = header(&p)?
+            .into_iter()
+            .filter(|h| !h.eq_ignore_ascii_case("t") && !h.eq_ignore_ascii_case("time"))
+            .collect();
+        if cols.is_empty() {
+            return Err(input(format!("{name}: the file has no data columns")));
+        }
+        let wanted: Vec<&String> = cols.iter().collect();
+        let raw = read_raw(&p, &wanted, 0..cols.len(), None)?;
+        if raw.rows == 0 {
+            return Err(input(format!(
+                "{name}: the file has a header but no data rows"
+            )));
+        }
+        let columns: Vec<ColumnInfo> = cols
+            .iter()
+            .zip(&raw.cols)
+            .map(|(n, c)| {
+                let at: Vec<usize> = (0..c.len()).filter(|&k| !c[k].is_nan()).collect();
+                let period = match at.as_slice() {
+                    [] => None,
+                    [_] => Some(c.len()),
+                    [a, b, ..] => {
+                        let d = b - a;
+                        at.windows(2).all(|w| w[1] - w[0] == d).then_some(d)
+                    }
+                };
+                ColumnInfo {
+                    name: n.clone(),
+                    samples: at.len(),
+                    period,
+                }
+            })
+            .collect();
+        let complete = |c: &&ColumnInfo| c.samples == raw.rows;
+        let starts = |c: &ColumnInfo, p: &[char]| {
+            c.name
+                .chars()
+                .next()
+                .is_some_and(|f| p.contains(&f.to_ascii_lowercase()))
+        };
+        let mut inputs: Vec<String> = columns
+            .iter()
+            .filter(complete)
+            .filter(|c| starts(c, &['u', 'r']))
+            .map(|c| c.name.clone())
+            .collect();
+        if inputs.is_empty() {
+            inputs = columns
+                .iter()
+                .filter(complete)
+                .take(1)
+                .map(|c| c.name.clone())
+                .collect();
+        }
+        let named_y: Vec<String> = columns
+            .iter()
+            .filter(|c| starts(c, &['y']))
+            .map(|c| c.name.clone())
+            .collect();
+        let outputs = if named_y.is_empty() {
+            columns
+                .iter()
+                .filter(|c| !inputs.contains(&c.name))
+                .map(|c| c.name.clone())
+                .collect()
+        } else {
+            named_y
+        };
+        Ok(DataInfo {
+            name: name.to_string(),
+            rows: raw.rows,
+            ts: raw.ts,
+            columns,
+            suggested_inputs: inputs,
+            suggested_outputs: outputs,
+        })
+    }
+
+    /// The data specification of a request.
+    fn spec(r: &Request) -> CliResult<DataSpec> {
+        if r.inputs.is_empty() || r.outputs.is_empty() {
+            return Err(input("choose at least one input and one output column"));
+        }
+        Ok(DataSpec {
+            inputs: r.inputs.clone(),
+            outputs: r.outputs.clone(),
+            extra: Vec::new(),
+            ts: r.ts,
+            hold: r.hold.unwrap_or(1),
+            periods: parse_periods(&r.output_period)?,
+        })
+    }
+
+    fn load(&self, r: &Request) -> CliResult<Dataset> {
+        let rec = self.record()?;
+        let data = load(&rec.path.display().to_string(), &Self::spec(r)?);
+        data.map(|l| l.data).map_err(|e| self.plain(e))
+    }
+
+    /// The selected channels with their rates and plots.
+    pub fn view(&self, r: &Request) -> CliResult<View> {
+        let data = self.load(r)?;
+        let n = data.len();
+        let inputs = data
+            .inputs()
+            .iter()
+            .map(|c| Channel {
+                name: c.name.clone(),
+                period: c.hold,
+                samples: n,
+            })
+            .collect();
+        let outputs = data
+            .outputs()
+            .iter()
+            .map(|c| Channel {
+                name: c.name.clone(),
+                period: c.period,
+                samples: n / c.period.max(1),
+            })
+            .collect();
+        Ok(View {
+            rows: n,
+            ts: data.ts(),
+            inputs,
+            outputs,
+            inputs_svg: svg(&excitation_plot(&data, &r.inputs), 900, 240)?,
+            outputs_svg: svg(&outputs_plot(&data), 900, 240)?,
+        })
+    }
+
+    /// The `lifted identify` arguments of a request (without `lifted`).
+    fn identify_words(r: &Request, data: &str, out: &str) -> Vec<String> {
+        let mut w: Vec<String> = vec!["identify".into()];
+        let mut opt = |flag: &str, v: String| {
+            w.push(format!("--{flag}"));
+            w.push(v);
+        };
+        opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
+        opt("data", data.into());
+        opt("inputs", r.inputs.join(","));
+        opt("outputs", r.outputs.join(","));
+        if let Some(ts) = r.ts {
+            opt("ts", ts.to_string());
+        }
+        if let Some(h) = r.hold {
+            opt("hold", h.to_string());
+        }
+        for p in &r.output_period {
+            opt("output-period", p.clone());
+        }
+        if let Some(o) = &r.order {
+            opt("order", o.clone());
+        }
+        let num = |v: Option<usize>| v.map(|x| x.to_string());
+        for (flag, v) in [
+            ("max-order", num(r.max_order)),
+            ("horizon", num(r.horizon)),
+            ("q", num(r.q)),
+            ("prbs-order", r.prbs_order.map(|x| x.to_string())),
+            ("amplitude", r.amplitude.map(|x| x.to_string())),
+            ("detrend", r.detrend.clone()),
+            ("estimator", r.estimator.clone()),
+            ("order-criterion", r.order_criterion.clone()),
+        ] {
+            if let Some(v) = v {
+                opt(flag, v);
+            }
+        }
+        if !r.output_weight.is_empty() {
+            let s: Vec<String> = r.output_weight.iter().map(f64::to_string).collect();
+            opt("output-weight", s.join(","));
+        }
+        if !r.instrument.is_empty() {
+            opt("instrument", r.instrument.join(","));
+        }
+        if r.stable {
+            w.push("--stable".into());
+        }
+        w.push("--out".into());
+        w.push(out.into());
+        w
+    }
+
+    /// The request parsed by the command's own option parser.
+    fn identify_args(r: &Request, data: &str) -> CliResult<IdentifyArgs> {
+        let words = Self::identify_words(r, data, "model.json");
+        let argv = std::iter::once("lifted".to_string()).chain(words);
+        match Cli::try_parse_from(argv) {
+            Ok(Cli {
+                command: Command::Identify(a),
+            }) => Ok(a),
+            Ok(_) => Err(input("internal: not an identify request")),
+            Err(e) => Err(input(clap_one_line(&e).trim_start_matches("error: "))),
+        }
+    }
+
+    /// The model file of a request, as `lifted identify` writes it.
+    fn model_file(&self, r: &Request) -> CliResult<ModelFile> {
+        let rec = self.record()?;
+        let a = Self::identify_args(r, &rec.path.display().to_string())?;
+        let file = run_identification(&a).map_err(|e| self.plain(e))?;
+        if a.stable {
+            require_stable(&file.model)?;
+        }
+        Ok(file)
+    }
+
+    /// The record of a request checked against a model file, as `lifted
+    /// validate --detrend auto` does.
+    fn validated(
+        &self,
+        file: &ModelFile,
+        r: &Request,
+    ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
+        let rec = self.record()?;
+        let data = self.load(r)?;
+        let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &rec.name)?;
+        let shortest = data
+            .outputs()
+            .iter()
+            .map(|c| data.len() / c.period.max(1))
+            .min()
+            .unwrap_or(0);
+        let lags = LAGS.min(shortest.saturating_sub(1) / 4).max(1);
+        let v = validate_model(&file, &data, lags, &rec.name)?;
+        Ok((file, data, v))
+    }
+
+    /// Identifies with the request's options, validates on the record and
+    /// draws the figures; the model is kept for [`Session::model_json`] and
+    /// [`Session::report`].
+    pub fn identify(&mut self, r: &Request) -> CliResult<Identified> {
+        let start = Instant::now();
+        let rec = self.record()?;
+        let words = Self::identify_words(r, &rec.name, "model.json");
+        let command = std::iter::once("lifted".to_string())
+            .chain(words)
+            .map(|w| shell_word(&w))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let file = self.model_file(r)?;
+        let (_, data, v) = self.validated(&file, r)?;
+        let model = &file.model;
+        let ts = data.ts();
+        let n = data.len();
+        let mut response = Vec::new();
+        let mut error = Vec::new();
+        for o in &v.outputs {
+            response.push(svg(&response_plot(o, ts, n), 900, 260)?);
+            error.push(svg(&response_error_plot(o, ts), 900, 160)?);
+        }
+        let omega = bode_grid(model, None, None, 200)?;
+        let (mag, ph) = bode_plots(model, &omega)?;
+        let figures = Figures {
+            order: order_plot(&file.diagnostics)
+                .map(|p| svg(&p, 560, 280))
+                .transpose()?,
+            response,
+            error,
+            step: svg(&step_plot(model)?, 560, 280)?,
+            bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
+            pz: svg(&pz_plot(model)?, 340, 340)?,
+        };
+        let order_selection = file.diagnostics.get("order_selection").map(|os| {
+            let values = os
+                .get("values")
+                .and_then(|v| v.as_array())
+                .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
+                .unwrap_or_default();
+            OrderSelection {
+                kind: os
+                    .get("kind")
+                    .and_then(|k| k.as_str())
+                    .unwrap_or("singular values")
+                    .to_string(),
+                values,
+                order: model.order(),
+                suggested_order: os
+                    .get("suggested_order")
+                    .and_then(serde_json::Value::as_u64)
+                    .map(|x| x as usize),
+            }
+        });
+        let poles = model
+            .poles()
+            .map(|p| p.iter().map(|z| (z.re, z.im)).collect())
+            .unwrap_or_default();
+        let fits = v
+            .outputs
+            .iter()
+            .map(|o| Fit {
+                output: o.name.clone(),
+                fit: o.fit,
+                white: o.white,
+                independent: o.independent,
+            })
+            .collect();
+        let out = Identified {
+            command,
+            method: file.method.clone().unwrap_or_default(),
+            order: model.order(),
+            order_selection,
+            fits,
+            poles,
+            figures,
+            elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        self.last = Some(Last {
+            file,
+            request: r.clone(),
+        });
+        Ok(out)
+    }
+
+    fn last(&self) -> CliResult<&Last> {
+        self.last
+            .as_ref()
+            .ok_or_else(|| input("no model yet: identify one first"))
+    }
+
+    /// The last model as the command's model-file JSON.
+    pub fn model_json(&self) -> CliResult<String> {
+        self.last()?
+            .file
+            .to_json()
+            .map_err(|e| input(format!("model file: {e}")))
+    }
+
+    /// The report page of the last model on the record.
+    pub fn report(&self) -> CliResult<String> {
+        let last = self.last()?;
+        let rec = self.record()?;
+        let (file, data, v) = self.validated(&last.file, &last.request)?;
+        render(&file, &data, &v, "model.json (lifted studio)", &rec.name)
+    }
+
+    /// The uploaded record's description, if any.
+    pub fn data_info(&self) -> Option<&DataInfo> {
+        self.record.as_ref().map(|r| &r.info)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_made_safe() {
+        assert_eq!(safe_name("../../etc/passwd"), "passwd");
+        assert_eq!(safe_name("my data (1).csv"), "my_data__1_.csv");
+        assert_eq!(safe_name(".."), "data.csv");
+        assert_eq!(safe_name("C:\\x\\rec.csv"), "rec.csv");
+    }
+
+    #[test]
+    fn words_are_quoted_for_the_shell() {
+        assert_eq!(shell_word("--order"), "--order");
+        assert_eq!(shell_word("a b"), "'a b'");
+        assert_eq!(shell_word("it's"), "'it'\\''s'");
+    }
+}

@@ -1,0 +1,491 @@
+//! `lifted studio`: its service (the session, without HTTP) and, in a real
+//! headless Chromium driven over WebDriver (chromedriver + fantoccini), the
+//! page itself: load a record, move the order slider from 1 to 2, check
+//! that the fit and the plots change and that the saved model equals the
+//! one `lifted identify` writes with the options the page shows; load a
+//! ragged CSV and find the CLI's error in the page. Screenshots go to
+//! `target/studio-screenshots/`.
+//!
+//! The browser test needs Debian's `chromium` and `chromium-driver` (or the
+//! paths in `LIFTED_CHROMIUM` / `LIFTED_CHROMEDRIVER`). Without them it says
+//! so and returns, unless `LIFTED_BROWSER_TESTS=require` (set by `.ci/run`,
+//! which installs both), where their absence fails the test.
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use fantoccini::{Client, ClientBuilder, Locator, key::Key};
+use lifted_cli::studio::{Request, Session};
+use serde_json::{Value, json};
+
+/// A fresh directory under the system temp dir.
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lifted-studio-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A record of the second-order plant x⁺ = A x + B u, y = C x + e with a
+/// random binary input (xorshift, fixed seed) and small white noise; with
+/// `slow`, y is sampled every `slow` rows (empty cells between).
+fn record(n: usize, slow: usize) -> String {
+    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut x1, mut x2) = (0.0f64, 0.0f64);
+    let mut out = String::from("t,u1,y1\n");
+    for k in 0..n {
+        let u = if next() < 0.5 { -1.0 } else { 1.0 };
+        let e = 0.01 * (next() - 0.5);
+        let y = x1 + 0.5 * x2 + e;
+        let cell = if k % slow == 0 {
+            format!("{y:.9}")
+        } else {
+            String::new()
+        };
+        out += &format!("{},{u},{cell}\n", k as f64 * 0.1);
+        (x1, x2) = (
+            0.8 * x1 + 0.3 * x2 + 0.5 * u,
+            -0.2 * x1 + 0.6 * x2 + 0.2 * u,
+        );
+    }
+    out
+}
+
+fn request(order: &str) -> Request {
+    Request {
+        inputs: vec!["u1".into()],
+        outputs: vec!["y1".into()],
+        method: Some("n4sid".into()),
+        order: Some(order.into()),
+        ..Default::default()
+    }
+}
+
+/// The model file without the facts that name the run (file path, times).
+fn comparable(mut v: Value) -> Value {
+    if let Some(d) = v.get_mut("diagnostics").and_then(Value::as_object_mut) {
+        d.remove("profile");
+        d.remove("data");
+    }
+    v
+}
+
+fn run_lifted(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_lifted"))
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn session_identifies_like_the_command() {
+    let dir = tmp("session");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(1500, 1);
+    let info = s.upload("rec.csv", csv.as_bytes()).unwrap();
+    assert_eq!(info.rows, 1500);
+    assert_eq!(info.suggested_inputs, ["u1"]);
+    assert_eq!(info.suggested_outputs, ["y1"]);
+    let one = s.identify(&request("1")).unwrap();
+    let two = s.identify(&request("2")).unwrap();
+    assert_eq!((one.order, two.order), (1, 2));
+    // The plant is of order 2 with 1 % noise: order 2 fits far better.
+    assert!(two.fits[0].fit > 95.0, "order-2 fit {}", two.fits[0].fit);
+    assert!(two.fits[0].fit > one.fits[0].fit + 5.0);
+    assert_ne!(one.figures.response, two.figures.response);
+    assert!(two.figures.order.as_deref().unwrap_or("").contains("<svg"));
+    assert!(two.command.contains("--order 2"), "{}", two.command);
+
+    let path = dir.join("rec.csv");
+    std::fs::write(&path, &csv).unwrap();
+    let out = dir.join("cli.json");
+    let p = path.display().to_string();
+    let o = out.display().to_string();
+    run_lifted(&[
+        "identify",
+        "--method",
+        "n4sid",
+        "--data",
+        &p,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--order",
+        "2",
+        "--out",
+        &o,
+    ]);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let studio: Value = serde_json::from_str(&s.model_json().unwrap()).unwrap();
+    assert_eq!(comparable(cli), comparable(studio));
+    let report = s.report().unwrap();
+    assert!(report.contains("<svg") && report.contains("rec.csv"));
+    s.close();
+}
+
+#[test]
+fn session_reports_bad_input_with_the_command_messages() {
+    let dir = tmp("errors");
+    let mut s = Session::new(&dir).unwrap();
+    let e = s
+        .upload("ragged.csv", b"t,u1,y1\n0,1,2\n0.1,1\n")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "ragged.csv: line 3: 2 cells, the header has 3 (ragged row)"
+    );
+    let e = s.upload("x.csv", b"").unwrap_err().to_string();
+    assert!(e.contains("x.csv: empty file"), "{e}");
+    assert!(
+        s.identify(&request("2"))
+            .unwrap_err()
+            .to_string()
+            .contains("no data loaded")
+    );
+    s.upload("rec.csv", record(300, 1).as_bytes()).unwrap();
+    let e = s.identify(&request("zero")).unwrap_err().to_string();
+    assert!(e.contains("--order 'zero'"), "{e}");
+    let mut r = request("2");
+    r.method = Some("nonsense".into());
+    let e = s.identify(&r).unwrap_err().to_string();
+    assert!(e.contains("nonsense"), "{e}");
+    let mut r = request("2");
+    r.outputs = vec!["y9".into()];
+    let e = s.view(&r).unwrap_err().to_string();
+    assert!(e.starts_with("rec.csv: header has no column 'y9'"), "{e}");
+    s.close();
+}
+
+#[test]
+fn session_shows_slow_outputs_with_their_period() {
+    let dir = tmp("slow");
+    let mut s = Session::new(&dir).unwrap();
+    let info = s.upload("slow.csv", record(1200, 3).as_bytes()).unwrap();
+    let y = info.columns.iter().find(|c| c.name == "y1").unwrap();
+    assert_eq!((y.samples, y.period), (400, Some(3)));
+    let v = s.view(&request("auto")).unwrap();
+    assert_eq!(v.outputs[0].period, 3);
+    assert_eq!(v.outputs[0].samples, 400);
+    // Slow samples are drawn as markers (circles), not as a polyline.
+    assert!(v.outputs_svg.contains("<circle"));
+    let id = s.identify(&request("2")).unwrap();
+    assert!(id.fits[0].fit > 90.0, "multirate fit {}", id.fits[0].fit);
+    s.close();
+}
+
+// ---------------------------------------------------------------- browser
+
+/// Kills a child process when dropped (SIGTERM first for the studio, so it
+/// removes its scratch directory).
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .arg("-TERM")
+            .arg(self.0.id().to_string())
+            .status();
+        let t = Instant::now();
+        while t.elapsed() < Duration::from_secs(3) {
+            if let Ok(Some(_)) = self.0.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn browser_paths() -> Option<(String, String)> {
+    let find = |var: &str, default: &str| {
+        std::env::var(var)
+            .ok()
+            .or_else(|| Path::new(default).exists().then(|| default.to_string()))
+    };
+    let chromium = find("LIFTED_CHROMIUM", "/usr/bin/chromium")?;
+    let driver = find("LIFTED_CHROMEDRIVER", "/usr/bin/chromedriver")?;
+    Some((chromium, driver))
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Starts `lifted studio --port 0` and returns it with its URL.
+fn start_studio() -> (Proc, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lifted"))
+        .args(["studio", "--port", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("lifted studio starts");
+    let stdout = child.stdout.take().unwrap();
+    let mut line = String::new();
+    BufReader::new(stdout).read_line(&mut line).unwrap();
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in {line:?}"))
+        .to_string();
+    (Proc(child), url)
+}
+
+fn start_driver(driver: &str) -> (Proc, u16) {
+    let port = free_port();
+    let child = Command::new(driver)
+        .arg(format!("--port={port}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("chromedriver starts");
+    let t = Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "chromedriver does not listen"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    (Proc(child), port)
+}
+
+async fn connect(chromium: &str, port: u16, profile: &Path) -> Client {
+    let mut caps = serde_json::Map::new();
+    caps.insert(
+        "goog:chromeOptions".into(),
+        json!({
+            "binary": chromium,
+            "args": [
+                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--disable-quic", "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--window-size=1400,2600",
+                format!("--user-data-dir={}", profile.display()),
+            ],
+        }),
+    );
+    ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+        .capabilities(caps)
+        .connect(&format!("http://127.0.0.1:{port}"))
+        .await
+        .expect("a WebDriver session in headless Chromium")
+}
+
+async fn js(c: &Client, script: &str) -> Value {
+    c.execute(script, vec![]).await.expect("script runs")
+}
+
+async fn status(c: &Client, key: &str) -> u64 {
+    js(
+        c,
+        &format!("return Number(document.getElementById('status').dataset.{key});"),
+    )
+    .await
+    .as_u64()
+    .unwrap_or(0)
+}
+
+/// Waits until the page has finished `after + 1` identifications (or more)
+/// and is idle.
+async fn wait_identified(c: &Client, after: u64) -> u64 {
+    let t = Instant::now();
+    loop {
+        let g = status(c, "generation").await;
+        let busy = status(c, "busy").await;
+        if g > after && busy == 0 {
+            return g;
+        }
+        let err = js(
+            c,
+            "const e = document.getElementById('error'); return e.hidden ? '' : e.textContent;",
+        )
+        .await;
+        assert!(err.as_str().unwrap_or("").is_empty(), "page error: {err}");
+        assert!(t.elapsed() < Duration::from_secs(60), "no identification");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+async fn text(c: &Client, css: &str) -> String {
+    c.find(Locator::Css(css))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap()
+}
+
+async fn html(c: &Client, id: &str) -> String {
+    js(
+        c,
+        &format!("return document.getElementById('{id}').innerHTML;"),
+    )
+    .await
+    .as_str()
+    .unwrap_or("")
+    .to_string()
+}
+
+async fn shot(c: &Client, dir: &Path, name: &str) {
+    let png = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join(name), png).unwrap();
+}
+
+#[test]
+fn studio_in_headless_chromium() {
+    let Some((chromium, driver)) = browser_paths() else {
+        let required = std::env::var("LIFTED_BROWSER_TESTS").is_ok_and(|v| v == "require");
+        assert!(
+            !required,
+            "LIFTED_BROWSER_TESTS=require but chromium/chromedriver were not found"
+        );
+        eprintln!("studio browser test skipped: install chromium and chromium-driver");
+        return;
+    };
+    let dir = tmp("browser");
+    let rec = dir.join("rec.csv");
+    std::fs::write(&rec, record(5000, 1)).unwrap();
+    let ragged = dir.join("ragged.csv");
+    std::fs::write(&ragged, "t,u1,y1\n0,1,2\n0.1,1\n").unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+
+    let (_studio, url) = start_studio();
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let model_from_page = rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        assert_eq!(c.title().await.unwrap(), "Lifted studio");
+
+        // Load the record through the file picker: an automatic-order fit follows.
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        assert!(html(&c, "fig-inputs").await.contains("<svg"));
+        assert!(html(&c, "fig-outputs").await.contains("<svg"));
+        assert!(html(&c, "fig-order").await.contains("<svg"));
+        shot(&c, &shots, "1-loaded.png").await;
+
+        // The order slider to 1 (Home key), then to 2 (one step right).
+        let slider = c.find(Locator::Id("order-slider")).await.unwrap();
+        slider.send_keys(&Key::Home.to_string()).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        assert_eq!(text(&c, "#order-value").await, "1");
+        let fit1: f64 = text(&c, "td.fit").await.parse().unwrap();
+        let figs1: Vec<String> = futures_all(&c, &["fig-response", "fig-step", "fig-bode", "fig-pz"]).await;
+        shot(&c, &shots, "2-order-1.png").await;
+
+        slider.send_keys(&Key::Right.to_string()).await.unwrap();
+        wait_identified(&c, g).await;
+        assert_eq!(text(&c, "#order-value").await, "2");
+        let fit2: f64 = text(&c, "td.fit").await.parse().unwrap();
+        let figs2: Vec<String> = futures_all(&c, &["fig-response", "fig-step", "fig-bode", "fig-pz"]).await;
+        shot(&c, &shots, "3-order-2.png").await;
+        // Order 2 is the plant's order: its fit is far better than order 1's.
+        assert!(fit2 > 95.0 && fit2 > fit1 + 5.0, "fit {fit1} → {fit2}");
+        for (a, b) in figs1.iter().zip(&figs2) {
+            assert!(b.contains("<svg") && a != b, "a plot did not change");
+        }
+        let command = text(&c, "#command").await;
+        assert!(command.contains("--order 2"), "{command}");
+
+        // "Save model": the link's target, fetched by the page.
+        let href = c
+            .find(Locator::Id("save-model"))
+            .await
+            .unwrap()
+            .attr("href")
+            .await
+            .unwrap()
+            .unwrap();
+        let model = c
+            .execute_async(
+                "const done = arguments[arguments.length - 1]; fetch(arguments[0]).then(r => r.text()).then(done);",
+                vec![json!(href)],
+            )
+            .await
+            .unwrap();
+        let report = c
+            .execute_async(
+                "const done = arguments[arguments.length - 1]; fetch('/api/report').then(r => r.text()).then(done);",
+                vec![],
+            )
+            .await
+            .unwrap();
+        assert!(report.as_str().unwrap_or("").contains("Identification report"));
+
+        // A ragged file: the CLI's one-line message in the page.
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&ragged.display().to_string()).await.unwrap();
+        let t = Instant::now();
+        let msg = loop {
+            let m = js(&c, "const e = document.getElementById('error'); return e.hidden ? '' : e.textContent;").await;
+            let m = m.as_str().unwrap_or("").to_string();
+            if !m.is_empty() {
+                break m;
+            }
+            assert!(t.elapsed() < Duration::from_secs(20), "no error shown");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        };
+        assert_eq!(msg, "ragged.csv: line 3: 2 cells, the header has 3 (ragged row)");
+        shot(&c, &shots, "4-ragged.png").await;
+        // The server still answers.
+        c.goto(&url).await.unwrap();
+        c.close().await.unwrap();
+        (command, model.as_str().unwrap_or("").to_string())
+    });
+
+    // The saved model equals `lifted identify` with the options the page shows.
+    let (command, model) = model_from_page;
+    let out = dir.join("cli.json");
+    let mut args: Vec<String> = command
+        .split_whitespace()
+        .skip(1)
+        .map(|w| w.trim_matches('\'').to_string())
+        .collect();
+    for w in args.iter_mut() {
+        if w == "rec.csv" {
+            *w = rec.display().to_string();
+        } else if w == "model.json" {
+            *w = out.display().to_string();
+        }
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run_lifted(&args);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
+    assert_eq!(comparable(cli), comparable(page));
+}
+
+async fn futures_all(c: &Client, ids: &[&str]) -> Vec<String> {
+    let mut v = Vec::new();
+    for id in ids {
+        v.push(html(c, id).await);
+    }
+    v
+}
