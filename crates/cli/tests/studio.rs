@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use fantoccini::{Client, ClientBuilder, Locator, key::Key};
 use lifted_cli::studio::{Request, Session};
+use lifted_prbs::{InversePrbs, InversePrbsOptions};
 use serde_json::{Value, json};
 
 /// A fresh directory under the system temp dir.
@@ -29,22 +30,27 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
-/// A record of the second-order plant x⁺ = A x + B u, y = C x + e with a
-/// random binary input (xorshift, fixed seed) and small white noise; with
-/// `slow`, y is sampled every `slow` rows (empty cells between).
-fn record(n: usize, slow: usize) -> String {
+/// A random binary input (xorshift, fixed seed).
+fn binary_input(n: usize) -> Vec<f64> {
     let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            if s % 2 == 0 { -1.0 } else { 1.0 }
+        })
+        .collect()
+}
+
+/// The CSV of the second-order plant x⁺ = A x + B u, y = C x + e driven by
+/// `u`, with small deterministic noise e; with `slow`, y is sampled every
+/// `slow` rows (empty cells between).
+fn record_of(u: &[f64], slow: usize) -> String {
     let (mut x1, mut x2) = (0.0f64, 0.0f64);
     let mut out = String::from("t,u1,y1\n");
-    for k in 0..n {
-        let u = if next() < 0.5 { -1.0 } else { 1.0 };
-        let e = 0.01 * (next() - 0.5);
+    for (k, &u) in u.iter().enumerate() {
+        let e = 0.005 * ((k as f64 * 1.618_034).fract() - 0.5);
         let y = x1 + 0.5 * x2 + e;
         let cell = if k % slow == 0 {
             format!("{y:.9}")
@@ -52,12 +58,14 @@ fn record(n: usize, slow: usize) -> String {
             String::new()
         };
         out += &format!("{},{u},{cell}\n", k as f64 * 0.1);
-        (x1, x2) = (
-            0.8 * x1 + 0.3 * x2 + 0.5 * u,
-            -0.2 * x1 + 0.6 * x2 + 0.2 * u,
-        );
+        (x1, x2) = (0.8 * x1 + 0.3 * x2 + 0.5 * u, -0.2 * x1 + 0.6 * x2 + 0.2 * u);
     }
     out
+}
+
+/// The plant's record under a random binary input of `n` samples.
+fn record(n: usize, slow: usize) -> String {
+    record_of(&binary_input(n), slow)
 }
 
 fn request(order: &str) -> Request {
@@ -187,6 +195,44 @@ fn session_shows_slow_outputs_with_their_period() {
     assert!(v.outputs_svg.contains("<circle"));
     let id = s.identify(&request("2")).unwrap();
     assert!(id.fits[0].fit > 90.0, "multirate fit {}", id.fits[0].fit);
+    s.close();
+}
+
+#[test]
+fn session_moves_q_of_the_q_markov_cover() {
+    let dir = tmp("qmarkov");
+    let mut s = Session::new(&dir).unwrap();
+    let prbs = InversePrbs::new(&InversePrbsOptions {
+        order: 6,
+        amplitude: 1.0,
+        hold: 1,
+        taps: None,
+    })
+    .unwrap();
+    let u = prbs.generate(4 * prbs.period() as usize);
+    s.upload("prbs.csv", record_of(&u, 1).as_bytes()).unwrap();
+    let mut r = request("2");
+    r.method = Some("qmarkov".into());
+    r.prbs_order = Some(6);
+    let mut fits = Vec::new();
+    for q in [8, 20] {
+        r.q = Some(q);
+        let id = s.identify(&r).unwrap();
+        let sel = id.order_selection.as_ref().unwrap();
+        // Λ of eq. III-25 has one value per matched parameter: q l.
+        assert_eq!(sel.values.len(), q, "q = {q}");
+        assert!(id.command.contains(&format!("--q {q}")), "{}", id.command);
+        fits.push(id.fits[0].fit);
+    }
+    // The cover matches q Markov and covariance parameters, not the
+    // simulation error: 91.3 % (q = 8) and 91.2 % (q = 20) on this record.
+    assert!(fits.iter().all(|f| *f > 85.0), "{fits:?}");
+    // The output weighting Q is passed on (one output: any positive value).
+    r.output_weight = vec![2.0];
+    assert!(s.identify(&r).unwrap().command.contains("--output-weight 2"));
+    r.output_weight = vec![-1.0];
+    let e = s.identify(&r).unwrap_err().to_string();
+    assert!(e.contains("--output-weight"), "{e}");
     s.close();
 }
 

@@ -454,9 +454,15 @@ impl Session {
     /// The `lifted identify` arguments of a request (without `lifted`).
     fn identify_words(r: &Request, data: &str, out: &str) -> Vec<String> {
         let mut w: Vec<String> = vec!["identify".into()];
+        // A value that starts with '-' is attached (`--flag=-1`): clap
+        // would take it for an option.
         let mut opt = |flag: &str, v: String| {
-            w.push(format!("--{flag}"));
-            w.push(v);
+            if v.starts_with('-') {
+                w.push(format!("--{flag}={v}"));
+            } else {
+                w.push(format!("--{flag}"));
+                w.push(v);
+            }
         };
         opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
         opt("data", data.into());
