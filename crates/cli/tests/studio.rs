@@ -58,7 +58,10 @@ fn record_of(u: &[f64], slow: usize) -> String {
             String::new()
         };
         out += &format!("{},{u},{cell}\n", k as f64 * 0.1);
-        (x1, x2) = (0.8 * x1 + 0.3 * x2 + 0.5 * u, -0.2 * x1 + 0.6 * x2 + 0.2 * u);
+        (x1, x2) = (
+            0.8 * x1 + 0.3 * x2 + 0.5 * u,
+            -0.2 * x1 + 0.6 * x2 + 0.2 * u,
+        );
     }
     out
 }
@@ -229,7 +232,12 @@ fn session_moves_q_of_the_q_markov_cover() {
     assert!(fits.iter().all(|f| *f > 85.0), "{fits:?}");
     // The output weighting Q is passed on (one output: any positive value).
     r.output_weight = vec![2.0];
-    assert!(s.identify(&r).unwrap().command.contains("--output-weight 2"));
+    assert!(
+        s.identify(&r)
+            .unwrap()
+            .command
+            .contains("--output-weight 2")
+    );
     r.output_weight = vec![-1.0];
     let e = s.identify(&r).unwrap_err().to_string();
     assert!(e.contains("--output-weight"), "{e}");

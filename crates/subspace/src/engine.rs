@@ -740,7 +740,7 @@ impl StreamingIdentifier {
             self.record_open = true;
         }
         self.samples += u.nrows();
-        self.stream.push(u, y)
+        self.stream.push(u.as_view(), y.as_view())
     }
 
     /// Ends the current record; the next [`push`](Self::push) starts a new

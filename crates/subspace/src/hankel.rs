@@ -20,8 +20,9 @@
 //!   Σ_j z_c(j + o₁) z_d(j + o₂), which equals the full-record sum
 //!   S_cd(δ) = Σ_t z_c(t) z_d(t + δ), δ = o₂ − o₁ < s, minus at most 2s
 //!   boundary products. One pass over the data accumulates the s matrices
-//!   S(δ) (≈ 2 N n_z² s flops, vectorised dot products on cache-sized
-//!   blocks, optionally split over threads), the boundary corrections cost
+//!   S(δ) (≈ 2 N n_z² s flops: a register-tiled AVX2/FMA kernel over
+//!   interleaved cache-sized blocks, [`crate::lagged`], optionally split over
+//!   threads), the boundary corrections cost
 //!   O(k² s) per record, and L is the Cholesky factor of H Hᵀ/J. As
 //!   SLICOT's IB01AD with ALG = 'C', squaring the data costs accuracy when H
 //!   is ill conditioned, so [`Compression::Auto`] checks the factor
@@ -33,11 +34,12 @@
 //! data in blocks of any size (one record after the other).
 
 use lifted_linalg::RAccumulator;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DMatrixView};
 use serde::{Deserialize, Serialize};
 
 use crate::engine::Scale;
 use crate::error::{Error, Result};
+use crate::lagged::{KERNEL_BLOCK, Scratch, lagged_sums};
 
 /// Smallest reciprocal condition number (λ_min/λ_max) of the correlation
 /// matrix H Hᵀ accepted by [`Compression::Auto`] and
@@ -46,9 +48,6 @@ use crate::error::{Error, Result};
 /// below ≈ 4e-6 for k = 160 (and at rounding level on well-conditioned
 /// data), below it the QR is used.
 pub const CORRELATION_RCOND_MIN: f64 = 1e-8;
-
-/// Time instants processed per cache block by the correlation kernel.
-const KERNEL_BLOCK: usize = 4096;
 
 /// Samples per block when in-memory records are streamed (bounds the
 /// working copy to 64 Ki samples per channel).
@@ -167,86 +166,43 @@ impl HankelLayout {
     }
 }
 
-/// Σ_{t<len} a(t) b(t + δ) for the four lags δ = d … d+3 at once (the load
-/// of `a` is shared; eight partial sums per lag are vectorised).
-#[inline]
-fn dot4(a: &[f64], b: &[f64], d: usize, len: usize) -> [f64; 4] {
-    let mut acc = [[0.0f64; 8]; 4];
-    let n8 = len / 8 * 8;
-    let mut t = 0;
-    while t < n8 {
-        let x: &[f64; 8] = a[t..t + 8].try_into().unwrap_or(&[0.0; 8]);
-        for (l, al) in acc.iter_mut().enumerate() {
-            let s = t + d + l;
-            let y: &[f64; 8] = b[s..s + 8].try_into().unwrap_or(&[0.0; 8]);
-            for i in 0..8 {
-                al[i] = x[i].mul_add(y[i], al[i]);
-            }
-        }
-        t += 8;
-    }
-    let mut out = [0.0; 4];
-    for (l, al) in acc.iter().enumerate() {
-        let mut v = ((al[0] + al[4]) + (al[1] + al[5])) + ((al[2] + al[6]) + (al[3] + al[7]));
-        for tt in n8..len {
-            v = a[tt].mul_add(b[tt + d + l], v);
-        }
-        out[l] = v;
-    }
-    out
-}
-
-/// S[(δ n_z + c) n_z + e] += Σ_{t<len} z_c(t) z_e(t + δ), δ < span, for
-/// channel slices with at least `len + span − 1` samples each. Blocks of
-/// [`KERNEL_BLOCK`] instants keep the operands in cache.
-fn lagged_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64]) {
-    let nz = z.len();
-    let mut t0 = 0;
-    while t0 < len {
-        let bl = KERNEL_BLOCK.min(len - t0);
-        for (c, zc) in z.iter().enumerate() {
-            let a = &zc[t0..t0 + bl];
-            for (e, ze) in z.iter().enumerate() {
-                let b = &ze[t0..t0 + bl + span - 1];
-                let mut d = 0;
-                while d + 4 <= span {
-                    let v = dot4(a, b, d, bl);
-                    for (l, vl) in v.iter().enumerate() {
-                        s[((d + l) * nz + c) * nz + e] += vl;
-                    }
-                    d += 4;
-                }
-                while d < span {
-                    let v: f64 = a.iter().zip(&b[d..]).map(|(x, y)| x * y).sum();
-                    s[(d * nz + c) * nz + e] += v;
-                    d += 1;
-                }
-            }
-        }
-        t0 += bl;
-    }
-}
-
 /// [`lagged_sums`] split into `threads` contiguous ranges of instants
-/// (std scoped threads; each range reads `span − 1` samples past its end).
-fn lagged_sums_par(z: &[&[f64]], span: usize, len: usize, s: &mut [f64], threads: usize) {
-    let threads = threads.max(1).min(len / KERNEL_BLOCK).max(1);
+/// (std scoped threads; each range reads `span − 1` samples past its end),
+/// each thread with its own work space from `scratch`.
+fn lagged_sums_par(
+    z: &[&[f64]],
+    span: usize,
+    len: usize,
+    s: &mut [f64],
+    threads: usize,
+    scratch: &mut [Scratch],
+) {
+    let threads = threads
+        .max(1)
+        .min(len / KERNEL_BLOCK)
+        .min(scratch.len())
+        .max(1);
     if threads == 1 {
-        lagged_sums(z, span, len, s);
+        if let Some(w) = scratch.first_mut() {
+            lagged_sums(z, span, len, s, w);
+        }
         return;
     }
     let per = len.div_ceil(threads);
     let slen = s.len();
     let partial: Vec<Vec<f64>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..threads)
-            .map(|i| {
+        let handles: Vec<_> = scratch
+            .iter_mut()
+            .take(threads)
+            .enumerate()
+            .map(|(i, w)| {
                 let start = i * per;
                 let part = per.min(len.saturating_sub(start));
                 scope.spawn(move || {
                     let mut acc = vec![0.0; slen];
                     if part > 0 {
                         let zz: Vec<&[f64]> = z.iter().map(|c| &c[start..]).collect();
-                        lagged_sums(&zz, span, part, &mut acc);
+                        lagged_sums(&zz, span, part, &mut acc, w);
                     }
                     acc
                 })
@@ -279,6 +235,8 @@ enum Engine {
         /// First s − 1 samples of the current record, per channel.
         head: Vec<Vec<f64>>,
         threads: usize,
+        /// Kernel work space, one per thread (kept across blocks).
+        scratch: Vec<Scratch>,
     },
 }
 
@@ -340,6 +298,7 @@ impl HankelStream {
                 gram: DMatrix::zeros(k, k),
                 head: vec![Vec::new(); nz],
                 threads: threads.max(1),
+                scratch: (0..threads.max(1)).map(|_| Scratch::default()).collect(),
             },
         };
         HankelStream {
@@ -394,7 +353,7 @@ impl HankelStream {
 
     /// Appends consecutive samples of the current record: `u` (b×n_u) and
     /// `y` (b×n_y), already checked for shape and finiteness.
-    pub(crate) fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+    pub(crate) fn push(&mut self, u: DMatrixView<'_, f64>, y: DMatrixView<'_, f64>) -> Result<()> {
         let b = u.nrows();
         if b == 0 {
             return Ok(());
@@ -411,29 +370,33 @@ impl HankelStream {
                 };
             }
         }
-        // Working buffer: carry followed by the new samples, per channel.
-        let mut buf: Vec<Vec<f64>> = Vec::with_capacity(nz);
-        for (c, carry) in self.carry.iter_mut().enumerate() {
+        // Working buffer per channel: the carry followed by the new samples
+        // (the vectors keep their capacity: no allocation after the first
+        // block of the largest size).
+        for (c, v) in self.carry.iter_mut().enumerate() {
             let (col, inv) = if c < self.layout.nu {
                 (u.column(c), self.inv_scale[0])
             } else {
                 (y.column(c - self.layout.nu), self.inv_scale[1])
             };
-            let mut v = std::mem::take(carry);
             let from = v.len();
             let r = self.reference[c];
             v.extend(col.iter().map(|x| x * inv - r));
             if self.center {
                 self.record_sums[c] += v[from..].iter().sum::<f64>();
             }
-            buf.push(v);
         }
+        let buf = &self.carry;
         let len = buf[0].len();
         // Column starts with a complete Hankel column inside the buffer.
         let starts = (len + 1).saturating_sub(span);
         match &mut self.engine {
             Engine::Correlation {
-                s, head, threads, ..
+                s,
+                head,
+                threads,
+                scratch,
+                ..
             } => {
                 if self.record_len < span - 1 {
                     let have = self.record_len;
@@ -446,7 +409,7 @@ impl HankelStream {
                 }
                 if starts > 0 {
                     let z: Vec<&[f64]> = buf.iter().map(|v| v.as_slice()).collect();
-                    lagged_sums_par(&z, span, starts, s, *threads);
+                    lagged_sums_par(&z, span, starts, s, *threads, scratch);
                 }
             }
             Engine::Qr {
@@ -473,8 +436,9 @@ impl HankelStream {
                 }
             }
         }
-        for (c, v) in buf.into_iter().enumerate() {
-            self.carry[c] = v[starts..].to_vec();
+        // Keep the samples not yet used as a column start (≤ s − 1).
+        for v in &mut self.carry {
+            v.drain(..starts);
         }
         self.record_len += b;
         self.samples += b;
@@ -704,7 +668,7 @@ pub(crate) fn compress(
             let mut s = 0;
             while s < n {
                 let len = PUSH_BLOCK.min(n - s);
-                st.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())?;
+                st.push(u.rows(s, len), y.rows(s, len))?;
                 s += len;
             }
             st.end_record();
@@ -820,8 +784,7 @@ mod tests {
                 let mut s = 0;
                 while s < 300 {
                     let len = b.min(300 - s);
-                    st.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())
-                        .unwrap();
+                    st.push(u.rows(s, len), y.rows(s, len)).unwrap();
                     s += len;
                 }
                 let f = st.finish().unwrap();
@@ -841,8 +804,9 @@ mod tests {
         let len = n - span + 1;
         let mut s1 = vec![0.0; span * 4];
         let mut s2 = vec![0.0; span * 4];
-        lagged_sums(&z, span, len, &mut s1);
-        lagged_sums_par(&z, span, len, &mut s2, 2);
+        lagged_sums(&z, span, len, &mut s1, &mut Scratch::default());
+        let mut work = [Scratch::default(), Scratch::default()];
+        lagged_sums_par(&z, span, len, &mut s2, 2, &mut work);
         // Integer data: all sums exact in both orders.
         assert_eq!(s1, s2);
         let want: f64 = (0..len).map(|t| a[t] * b[t + 5]).sum();

@@ -112,6 +112,7 @@ mod engine;
 pub mod error;
 mod hankel;
 mod iv;
+mod lagged;
 mod order;
 mod projection;
 mod refine;

@@ -1,0 +1,352 @@
+//! The lagged-correlation kernel of the structured Hankel compression:
+//! S_ce(δ) += Σ_{t<len} z_c(t) z_e(t + δ) for every channel pair (c, e)
+//! and lag δ < span.
+//!
+//! With the channels interleaved in time-major order (zᵢ[t n_z + e]), the
+//! row of all lagged values z_e(t + δ), δ < span, e < n_z, is the contiguous
+//! window zᵢ[t n_z .. (t + span) n_z]; the sums are then the product of the
+//! n_z × len matrix of present values with the len × (span n_z) Hankel
+//! block, a GEMM whose second operand is a strided view of the data (no
+//! copy but the interleaving). The AVX2/FMA kernel keeps a 4 × 12 tile of
+//! sums in 12 vector registers and streams the instants of a cache block
+//! through it: per instant 3 vector loads, 4 broadcasts and 12 FMAs, so it
+//! runs at the machine's FMA rate (≈ 640 FMA lanes per sample for n_z = 4,
+//! span = 40: ≈ 80 cycles per sample on AVX2). Without AVX2/FMA (detected at
+//! run time) the portable kernel vectorises one channel pair and four lags at
+//! a time.
+//!
+//! Cost: 2 len n_z² span flops; memory: one interleaved block of
+//! (KERNEL_BLOCK + span − 1) n_z values and the n_z × span n_z tile sums,
+//! allocated once per call.
+
+/// Time instants processed per cache block (the interleaved block is
+/// 4096 × n_z × 8 bytes: 128 KiB for n_z = 4, resident in L2).
+pub(crate) const KERNEL_BLOCK: usize = 4096;
+
+/// Work space of the kernel, kept by the caller across calls so that
+/// streaming blocks allocate nothing.
+#[derive(Debug, Default)]
+pub(crate) struct Scratch {
+    /// One interleaved block.
+    zi: Vec<f64>,
+    /// The n_z × span n_z sums of a call.
+    tile: Vec<f64>,
+}
+
+/// S[(δ n_z + c) n_z + e] += Σ_{t<len} z_c(t) z_e(t + δ), δ < span, for
+/// channel slices with at least `len + span − 1` samples each. Blocks of
+/// [`KERNEL_BLOCK`] instants keep the operands in cache.
+pub(crate) fn lagged_sums(
+    z: &[&[f64]],
+    span: usize,
+    len: usize,
+    s: &mut [f64],
+    scratch: &mut Scratch,
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            interleaved_sums(z, span, len, s, scratch);
+            return;
+        }
+    }
+    let _ = scratch;
+    portable_sums(z, span, len, s);
+}
+
+/// The tiled kernel over interleaved blocks (x86-64 with AVX2 and FMA).
+#[cfg(target_arch = "x86_64")]
+fn interleaved_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64], w: &mut Scratch) {
+    let nz = z.len();
+    if nz == 0 || span == 0 || len == 0 {
+        return;
+    }
+    let cols = span * nz;
+    let need = (KERNEL_BLOCK.min(len) + span - 1) * nz;
+    if w.zi.len() < need {
+        w.zi.resize(need, 0.0);
+    }
+    w.tile.clear();
+    w.tile.resize(nz * cols, 0.0);
+    let (zi, tile) = (&mut w.zi, &mut w.tile);
+    let mut t0 = 0;
+    while t0 < len {
+        let bl = KERNEL_BLOCK.min(len - t0);
+        let rows = bl + span - 1;
+        for (e, ze) in z.iter().enumerate() {
+            for (t, v) in ze[t0..t0 + rows].iter().enumerate() {
+                zi[t * nz + e] = *v;
+            }
+        }
+        block_product(&zi[..rows * nz], nz, span, bl, tile);
+        t0 += bl;
+    }
+    for c in 0..nz {
+        for j in 0..cols {
+            // j = δ n_z + e
+            s[(j / nz * nz + c) * nz + j % nz] += tile[c * cols + j];
+        }
+    }
+}
+
+/// tile[c cols + j] += Σ_{t<len} zi[t n_z + c] zi[t n_z + j], j < cols =
+/// span n_z, over the interleaved block `zi` ((len + span − 1) n_z values).
+#[cfg(target_arch = "x86_64")]
+fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64]) {
+    let cols = span * nz;
+    debug_assert!(zi.len() >= (len + span - 1) * nz && tile.len() >= nz * cols);
+    let mut c0 = 0;
+    while c0 < nz {
+        let r = (nz - c0).min(4);
+        let mut j0 = 0;
+        while j0 + 12 <= cols {
+            micro_dispatch(r, 3, zi, nz, c0, j0, len, tile, cols);
+            j0 += 12;
+        }
+        while j0 + 4 <= cols {
+            micro_dispatch(r, 1, zi, nz, c0, j0, len, tile, cols);
+            j0 += 4;
+        }
+        // Fewer than four columns left (odd n_z): scalar.
+        for c in c0..c0 + r {
+            for j in j0..cols {
+                let mut acc = 0.0;
+                for t in 0..len {
+                    acc = zi[t * nz + c].mul_add(zi[t * nz + j], acc);
+                }
+                tile[c * cols + j] += acc;
+            }
+        }
+        c0 += r;
+    }
+}
+
+/// Runs the `r` × 4`v` register tile at (c0, j0) after checking every index
+/// it touches, so that the unchecked kernel stays in bounds.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+fn micro_dispatch(
+    r: usize,
+    v: usize,
+    zi: &[f64],
+    nz: usize,
+    c0: usize,
+    j0: usize,
+    len: usize,
+    tile: &mut [f64],
+    cols: usize,
+) {
+    // Reads: zi[t nz + c0 + r − 1] and zi[t nz + j0 + 4v − 1] for t < len;
+    // writes: tile[(c0 + r − 1) cols + j0 + 4v − 1].
+    let last_read = (len.max(1) - 1) * nz + (c0 + r).max(j0 + 4 * v) - 1;
+    assert!(
+        len > 0 && c0 + r <= nz && j0 + 4 * v <= cols && last_read < zi.len(),
+        "lagged-sum tile out of range"
+    );
+    assert!((c0 + r - 1) * cols + j0 + 4 * v <= tile.len());
+    // SAFETY: AVX2 and FMA were detected by `lagged_sums` before any call
+    // (the only caller chain), and the asserts above bound every pointer
+    // offset the kernel forms: reads below zi.len(), writes below tile.len().
+    unsafe {
+        let (zp, tp) = (zi.as_ptr(), tile.as_mut_ptr());
+        match (r, v) {
+            (4, 3) => micro::<4, 3>(zp, nz, c0, j0, len, tp, cols),
+            (3, 3) => micro::<3, 3>(zp, nz, c0, j0, len, tp, cols),
+            (2, 3) => micro::<2, 3>(zp, nz, c0, j0, len, tp, cols),
+            (1, 3) => micro::<1, 3>(zp, nz, c0, j0, len, tp, cols),
+            (4, _) => micro::<4, 1>(zp, nz, c0, j0, len, tp, cols),
+            (3, _) => micro::<3, 1>(zp, nz, c0, j0, len, tp, cols),
+            (2, _) => micro::<2, 1>(zp, nz, c0, j0, len, tp, cols),
+            _ => micro::<1, 1>(zp, nz, c0, j0, len, tp, cols),
+        }
+    }
+}
+
+/// The register tile: R rows (channels c0 …) × V vectors of 4 columns
+/// (j0 …), accumulated over `len` instants and added to the tile sums.
+///
+/// # Safety
+/// AVX2 and FMA must be available; zi[t nz + c0 + R − 1] and
+/// zi[t nz + j0 + 4V − 1] must be readable for t < len and
+/// out[(c0 + R − 1) ld + j0 + 4V − 1] writable (checked by
+/// [`micro_dispatch`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn micro<const R: usize, const V: usize>(
+    zi: *const f64,
+    nz: usize,
+    c0: usize,
+    j0: usize,
+    len: usize,
+    out: *mut f64,
+    ld: usize,
+) {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_broadcast_sd, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd,
+    };
+    // SAFETY: the caller guarantees the CPU features and the bounds of
+    // every offset formed below (see the function's safety section).
+    unsafe {
+        let mut acc = [[_mm256_setzero_pd(); V]; R];
+        let mut p = zi;
+        for _ in 0..len {
+            let mut b = [_mm256_setzero_pd(); V];
+            for (k, bk) in b.iter_mut().enumerate() {
+                *bk = _mm256_loadu_pd(p.add(j0 + 4 * k));
+            }
+            for (r, row) in acc.iter_mut().enumerate() {
+                let x = _mm256_broadcast_sd(&*p.add(c0 + r));
+                for (a, bk) in row.iter_mut().zip(&b) {
+                    *a = _mm256_fmadd_pd(x, *bk, *a);
+                }
+            }
+            p = p.add(nz);
+        }
+        for (r, row) in acc.iter().enumerate() {
+            for (k, a) in row.iter().enumerate() {
+                let o = out.add((c0 + r) * ld + j0 + 4 * k);
+                _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), *a));
+            }
+        }
+    }
+}
+
+/// Σ_{t<len} a(t) b(t + δ) for the four lags δ = d … d+3 at once (the load
+/// of `a` is shared; eight partial sums per lag are vectorised).
+#[inline]
+fn dot4(a: &[f64], b: &[f64], d: usize, len: usize) -> [f64; 4] {
+    let mut acc = [[0.0f64; 8]; 4];
+    let n8 = len / 8 * 8;
+    let mut t = 0;
+    while t < n8 {
+        let x: &[f64; 8] = a[t..t + 8].try_into().unwrap_or(&[0.0; 8]);
+        for (l, al) in acc.iter_mut().enumerate() {
+            let s = t + d + l;
+            let y: &[f64; 8] = b[s..s + 8].try_into().unwrap_or(&[0.0; 8]);
+            for i in 0..8 {
+                al[i] = x[i].mul_add(y[i], al[i]);
+            }
+        }
+        t += 8;
+    }
+    let mut out = [0.0; 4];
+    for (l, al) in acc.iter().enumerate() {
+        let mut v = ((al[0] + al[4]) + (al[1] + al[5])) + ((al[2] + al[6]) + (al[3] + al[7]));
+        for tt in n8..len {
+            v = a[tt].mul_add(b[tt + d + l], v);
+        }
+        out[l] = v;
+    }
+    out
+}
+
+/// The portable kernel: one channel pair and four lags at a time.
+pub(crate) fn portable_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64]) {
+    let nz = z.len();
+    let mut t0 = 0;
+    while t0 < len {
+        let bl = KERNEL_BLOCK.min(len - t0);
+        for (c, zc) in z.iter().enumerate() {
+            let a = &zc[t0..t0 + bl];
+            for (e, ze) in z.iter().enumerate() {
+                let b = &ze[t0..t0 + bl + span - 1];
+                let mut d = 0;
+                while d + 4 <= span {
+                    let v = dot4(a, b, d, bl);
+                    for (l, vl) in v.iter().enumerate() {
+                        s[((d + l) * nz + c) * nz + e] += vl;
+                    }
+                    d += 4;
+                }
+                while d < span {
+                    let v: f64 = a.iter().zip(&b[d..]).map(|(x, y)| x * y).sum();
+                    s[(d * nz + c) * nz + e] += v;
+                    d += 1;
+                }
+            }
+        }
+        t0 += bl;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn naive(z: &[Vec<f64>], span: usize, len: usize) -> Vec<f64> {
+        let nz = z.len();
+        let mut s = vec![0.0; span * nz * nz];
+        for d in 0..span {
+            for c in 0..nz {
+                for e in 0..nz {
+                    s[(d * nz + c) * nz + e] = (0..len).map(|t| z[c][t] * z[e][t + d]).sum();
+                }
+            }
+        }
+        s
+    }
+
+    fn signals(nz: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
+        let mut st = seed | 1;
+        (0..nz)
+            .map(|_| {
+                (0..n)
+                    .map(|_| {
+                        st ^= st << 13;
+                        st ^= st >> 7;
+                        st ^= st << 17;
+                        (st >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Every channel count (tile rows 1–4 and remainders), spans whose
+    /// column count leaves 12-, 4- and scalar remainders, lengths across
+    /// the cache block: the dispatched kernel and the portable one equal
+    /// the naive sums.
+    #[test]
+    fn kernels_equal_the_naive_sums() {
+        for nz in 1..=7 {
+            for span in [1, 2, 3, 5, 7, 13, 40] {
+                for len in [1, 9, KERNEL_BLOCK + 17] {
+                    let z = signals(nz, len + span, (nz * 1000 + span * 10 + len) as u64);
+                    let refs: Vec<&[f64]> = z.iter().map(Vec::as_slice).collect();
+                    let want = naive(&z, span, len);
+                    let scale = len as f64;
+                    let mut got = vec![0.0; want.len()];
+                    lagged_sums(&refs, span, len, &mut got, &mut Scratch::default());
+                    let mut port = vec![0.0; want.len()];
+                    portable_sums(&refs, span, len, &mut port);
+                    for ((g, p), w) in got.iter().zip(&port).zip(&want) {
+                        assert!(
+                            (g - w).abs() <= 1e-12 * scale,
+                            "nz {nz} span {span} len {len}"
+                        );
+                        assert!(
+                            (p - w).abs() <= 1e-12 * scale,
+                            "nz {nz} span {span} len {len}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sums_accumulate_into_the_output() {
+        let z = signals(2, 50, 3);
+        let refs: Vec<&[f64]> = z.iter().map(Vec::as_slice).collect();
+        let mut s = vec![1.0; 3 * 4];
+        let mut w = Scratch::default();
+        lagged_sums(&refs, 3, 40, &mut s, &mut w);
+        // The work space is reused: a second call adds the same sums again.
+        lagged_sums(&refs, 3, 40, &mut s, &mut w);
+        let want = naive(&z, 3, 40);
+        for (g, w) in s.iter().zip(&want) {
+            assert!((g - (2.0 * w + 1.0)).abs() < 1e-12);
+        }
+    }
+}
