@@ -39,7 +39,7 @@ fn r_in_place(mut work: DMatrix<f64>) -> DMatrix<f64> {
     if k == 0 {
         return DMatrix::zeros(0, n);
     }
-    let par = faer::get_global_parallelism();
+    let par = crate::svd::par_for(m, n);
     let bs = recommended_block_size::<f64>(m, n);
     let mut coeff = Mat::<f64>::zeros(bs, k);
     let params = Default::default();
