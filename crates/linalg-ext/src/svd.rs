@@ -7,9 +7,9 @@
 //! of repeated singular values are determined only up to rotation
 //! (Pitfall 1): compare subspaces or products, not raw columns.
 
+use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::svd::{ComputeSvdVectors, svd_scratch};
-use faer::diag::Diag;
 use faer::{Mat, Par};
 use nalgebra::{DMatrix, DVector};
 
@@ -34,7 +34,10 @@ pub(crate) fn par_for(m: usize, n: usize) -> Par {
 }
 
 /// faer's SVD with explicit parallelism; `vectors` selects thin U and V.
-fn faer_svd(a: &DMatrix<f64>, vectors: bool) -> Result<(Vec<f64>, Option<(Mat<f64>, Mat<f64>)>)> {
+/// Singular values and, when asked for, the thin (U, V).
+type SvdParts = (Vec<f64>, Option<(Mat<f64>, Mat<f64>)>);
+
+fn faer_svd(a: &DMatrix<f64>, vectors: bool) -> Result<SvdParts> {
     let (m, n) = a.shape();
     let k = m.min(n);
     let par = par_for(m, n);
