@@ -19,7 +19,7 @@ use lifted_sim::plants::{EngineSpeed, diesel_engine};
 use lifted_sim::{Excitation, NoiseLevel, NoiseSpec, SnrDefinition, SteadyStateOptions};
 use nalgebra::DMatrix;
 
-use crate::{Check, Reproduction};
+use crate::{Check, Curve, FigureData, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -47,6 +47,10 @@ pub struct EngineFit {
     pub lambda_ratios: (f64, f64),
     /// ln(λ₁/λ₂) − ln(λ₂/λ₃): positive when the largest gap is between orders 1 and 2.
     pub gap_excess: f64,
+    /// The Λ diagonal of D_q (eigenvalues, largest first): Zhu Fig. 6.
+    pub lambda: Vec<f64>,
+    /// Unit-step responses over 5 s at T: (true ZOH model, identified model), Zhu Fig. 7.
+    pub steps: (Vec<f64>, Vec<f64>),
 }
 
 /// The Table II/III excitation: one fast period of the held inverse PRBS.
@@ -74,12 +78,22 @@ fn options() -> QMarkovOptions {
     }
 }
 
-fn step_error(truth: &StateSpace, id: &StateSpace) -> BoxResult<f64> {
+/// The unit-step responses over 5 s of the true and the identified model.
+fn steps(truth: &StateSpace, id: &StateSpace) -> BoxResult<(Vec<f64>, Vec<f64>)> {
     let n = (5.0 / T).round() as usize;
-    let a = &truth.step(n, None)?[0];
-    let b = &id.step(n, None)?[0];
-    let scale = a.amax();
-    Ok((a - b).amax() / scale)
+    let a = truth.step(n, None)?[0].column(0).iter().copied().collect();
+    let b = id.step(n, None)?[0].column(0).iter().copied().collect();
+    Ok((a, b))
+}
+
+/// max |ŷ − y| / max |y| of the step responses.
+fn step_error((a, b): &(Vec<f64>, Vec<f64>)) -> f64 {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    diff / scale
 }
 
 /// Simulates one steady-state period (noise-free or at std-SNR `snr` with `seed`)
@@ -115,15 +129,18 @@ pub fn identify_engine(
     let slow = poles[0];
     let fast = poles[1];
     let lam = &id.diagnostics.eigenvalues;
+    let steps = steps(&truth, &id.model)?;
     Ok(EngineFit {
         slow_pole: -slow.norm().ln() / T,
         fast_pole: (fast.re, fast.im),
         slow_z: (slow.re, slow.im),
         dc: id.model.dc_gain()?[(0, 0)],
-        e_step: step_error(&truth, &id.model)?,
+        e_step: step_error(&steps),
         nmp: id.model.zeros()?.iter().any(|z| z.norm() > 1.0),
         lambda_ratios: (lam[1] / lam[0], lam[2] / lam[0]),
         gap_excess: (lam[0] / lam[1]).ln() - (lam[1] / lam[2]).ln(),
+        lambda: lam.clone(),
+        steps,
     })
 }
 
@@ -161,6 +178,29 @@ pub fn run() -> BoxResult<Reproduction> {
         (EngineSpeed::Rpm1500, "1500 rpm", 0.383, 85.6, 0.019),
     ] {
         let f = identify_engine(speed, None, &opts)?;
+        let tag = label.replace(' ', "");
+        let order: Vec<f64> = (1..=f.lambda.len()).map(|i| i as f64).collect();
+        rep.plot(
+            FigureData::new(
+                format!("zhu-fig6-{tag}"),
+                format!("Zhu (2000) Fig. 6: order selection at {label}, the Λ diagonal of D_q (eq. III-25), noise-free"),
+                "order r",
+                "log10 λ_r",
+            )
+            .log_y()
+            .curve(Curve::points("λ_r", order, f.lambda.clone())),
+        );
+        let t: Vec<f64> = (0..f.steps.0.len()).map(|k| k as f64 * T).collect();
+        rep.plot(
+            FigureData::new(
+                format!("zhu-fig7-{tag}"),
+                format!("Zhu (2000) Fig. 7: unit-step response at {label}, true plant (ZOH) and the q-Markov Cover model"),
+                "t [s]",
+                "speed",
+            )
+            .curve(Curve::line("true plant", t.clone(), f.steps.0.clone()))
+            .curve(Curve::line("identified (q = 60, order 2)", t, f.steps.1.clone())),
+        );
         rep.check(
             Check::relative(
                 format!("{label}: slow continuous pole (rad/s)"),

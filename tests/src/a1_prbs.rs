@@ -31,7 +31,7 @@ use lifted_prbs::{
 use lifted_qmarkov::{ChannelRecord, QMarkovOptions, RecordMode, identify_records};
 use nalgebra::DMatrix;
 
-use crate::{Check, Reproduction};
+use crate::{Check, Curve, FigureData, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -196,6 +196,28 @@ pub fn run_a13() -> BoxResult<Reproduction> {
         3.0 / 31.0,
         1e-12,
     ));
+    // Fig. 1: the corrected eq. II-10 and the correlation of the signal itself.
+    let p = inverse(5, 1.0, 3)?;
+    let w = p.one_period();
+    let numeric = periodic_autocorrelation(&w, Normalization::Divisor(2.0 * p.m() as f64))?;
+    let taus: Vec<f64> = (0..=90).map(f64::from).collect();
+    let formula = (0..=90)
+        .map(|t| held_autocorrelation(5, 3, 1.0, t))
+        .collect::<Result<Vec<_>, _>>()?;
+    rep.plot(
+        FigureData::new(
+            "zhu-fig1",
+            "Zhu (2000) Fig. 1: autocorrelation R_w(τ) of the held inverse PRBS, n = 5, n_r = 3, a = 1",
+            "lag τ",
+            "R_w(τ)",
+        )
+        .curve(Curve::line("corrected eq. II-10", taus.clone(), formula))
+        .curve(Curve::points(
+            "periodic autocorrelation of the signal",
+            taus,
+            numeric.iter().take(91).copied().collect(),
+        )),
+    );
     Ok(rep)
 }
 
@@ -334,4 +356,29 @@ pub fn run_a21() -> BoxResult<Reproduction> {
             .with_note("erratum RZ-2: the two forms are one signal"),
     );
     Ok(rep)
+}
+
+#[cfg(test)]
+mod figure_tests {
+    use super::*;
+
+    /// The Fig. 1 curve is the checked closed form: R(0), R(1), R(2) as
+    /// printed, and the signal's own correlation on top of it.
+    #[test]
+    fn fig1_carries_the_checked_values() {
+        let rep = run_a13().unwrap();
+        let fig = rep
+            .plots
+            .iter()
+            .find(|f| f.id == "zhu-fig1")
+            .expect("Fig. 1");
+        let (formula, numeric) = (&fig.curves[0], &fig.curves[1]);
+        assert_eq!(formula.y.len(), 91);
+        for (tau, paper) in [(0usize, 3.0), (1, 2.0323), (2, 1.0645)] {
+            assert!((formula.y[tau] - paper).abs() < 1e-4);
+        }
+        for (a, b) in formula.y.iter().zip(&numeric.y) {
+            assert!((a - b).abs() < 1e-12);
+        }
+    }
 }

@@ -19,7 +19,7 @@ use num_complex::Complex64;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::{Check, Reproduction};
+use crate::{Check, Curve, FigureData, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -112,6 +112,24 @@ pub fn run() -> BoxResult<Reproduction> {
         format!("k = {kmax}"),
         kmax == 8,
     ));
+    let shown = 60;
+    rep.plot(
+        FigureData::new(
+            "li-ch9-step",
+            "Li (2001) §9.6 example: set-point step response of the dual-rate inferential loop of Fig. 9.4 (n = 4, true plant P, uncorrected model P̂); peak 1.193 at k = 8",
+            "k (fast samples)",
+            "y",
+        )
+        .curve(Curve::indexed(
+            "y, dual-rate n = 4",
+            step.y.column(0).iter().take(shown).copied().collect(),
+        ))
+        .curve(Curve::points(
+            "slow samples (every 4)",
+            (0..shown).step_by(4).map(|k| k as f64).collect(),
+            (0..shown).step_by(4).map(|k| step.y[(k, 0)]).collect(),
+        )),
+    );
     let tail: Vec<f64> = (0..4).map(|i| step.y[(steps - 4 + i, 0)]).collect();
     for (i, refv) in [1.0537, 1.0668, 1.0738, 1.0775].iter().enumerate() {
         rep.check(

@@ -117,6 +117,104 @@ impl Check {
     }
 }
 
+/// How a curve is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CurveStyle {
+    /// A polyline.
+    Line,
+    /// Markers at the points.
+    Points,
+}
+
+/// One curve of a figure.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Curve {
+    /// Legend label.
+    pub name: String,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates.
+    pub y: Vec<f64>,
+    /// Line or markers.
+    pub style: CurveStyle,
+}
+
+impl Curve {
+    /// A line through (x, y).
+    pub fn line(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Curve {
+            name: name.into(),
+            x,
+            y,
+            style: CurveStyle::Line,
+        }
+    }
+
+    /// Markers at (x, y).
+    pub fn points(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Curve {
+            name: name.into(),
+            x,
+            y,
+            style: CurveStyle::Points,
+        }
+    }
+
+    /// A line of `y` against the sample index 0, 1, ….
+    pub fn indexed(name: impl Into<String>, y: Vec<f64>) -> Self {
+        let x = (0..y.len()).map(|k| k as f64).collect();
+        Curve::line(name, x, y)
+    }
+}
+
+/// A figure of a paper as the experiment computes it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FigureData {
+    /// Anchor id in the page, e.g. "zhu-fig1".
+    pub id: String,
+    /// Caption naming the paper's figure.
+    pub caption: String,
+    /// x-axis label.
+    pub x_label: String,
+    /// y-axis label.
+    pub y_label: String,
+    /// Draw log10 of the ordinates.
+    pub log_y: bool,
+    /// The curves.
+    pub curves: Vec<Curve>,
+}
+
+impl FigureData {
+    /// A figure with its axes and no curves yet.
+    pub fn new(
+        id: impl Into<String>,
+        caption: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
+        FigureData {
+            id: id.into(),
+            caption: caption.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            log_y: false,
+            curves: Vec::new(),
+        }
+    }
+
+    /// Ordinates on a log scale.
+    pub fn log_y(mut self) -> Self {
+        self.log_y = true;
+        self
+    }
+
+    /// Adds a curve.
+    pub fn curve(mut self, c: Curve) -> Self {
+        self.curves.push(c);
+        self
+    }
+}
+
 /// The outcome of one reproduced experiment.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Reproduction {
@@ -128,10 +226,10 @@ pub struct Reproduction {
     pub checks: Vec<Check>,
     /// Free-form numbers worth printing (name, value) that are not checks.
     pub figures: Vec<(String, f64)>,
-    /// Curves the paper plots (name, values against the sample index), drawn
-    /// by `lifted reproduce` in its HTML page. Empty by default.
+    /// The papers' figures the experiment computes (drawn by `lifted
+    /// reproduce` in its HTML page beside the numbers). Empty by default.
     #[serde(default)]
-    pub series: Vec<(String, Vec<f64>)>,
+    pub plots: Vec<FigureData>,
 }
 
 impl Reproduction {
@@ -142,7 +240,7 @@ impl Reproduction {
             title: title.into(),
             checks: Vec::new(),
             figures: Vec::new(),
-            series: Vec::new(),
+            plots: Vec::new(),
         }
     }
 
@@ -158,9 +256,9 @@ impl Reproduction {
         self
     }
 
-    /// Records a curve for the HTML report (values against the sample index).
-    pub fn add_series(&mut self, name: impl Into<String>, values: Vec<f64>) -> &mut Self {
-        self.series.push((name.into(), values));
+    /// Records a figure of the paper for the HTML report.
+    pub fn plot(&mut self, figure: FigureData) -> &mut Self {
+        self.plots.push(figure);
         self
     }
 

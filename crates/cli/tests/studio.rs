@@ -38,7 +38,7 @@ fn binary_input(n: usize) -> Vec<f64> {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
-            if s % 2 == 0 { -1.0 } else { 1.0 }
+            if s.is_multiple_of(2) { -1.0 } else { 1.0 }
         })
         .collect()
 }

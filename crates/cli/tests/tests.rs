@@ -1765,6 +1765,26 @@ mod reproduce {
             2,
         );
     }
+
+    #[test]
+    fn the_page_draws_the_papers_figures() {
+        let d = tmp("reproduce-figures");
+        let dir = p(&d, "out");
+        ok(&["reproduce", "--only", "A1.3", "--out", &dir]);
+        let html = std::fs::read_to_string(format!("{dir}/index.html")).unwrap();
+        // Fig. 1 as an inline SVG figure, listed in the index of figures.
+        let at = html
+            .find("<figure id=\"zhu-fig1\">")
+            .expect("Fig. 1 figure");
+        assert!(
+            html[at..]
+                .trim_start_matches("<figure id=\"zhu-fig1\">")
+                .trim_start()
+                .starts_with("<svg")
+        );
+        assert!(html.contains("href=\"#zhu-fig1\""));
+        assert!(html.contains("Zhu (2000) Fig. 1"));
+    }
 }
 
 mod bad_input {

@@ -6,13 +6,15 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use lifted_tests::registry::{Experiment, experiments, find};
+use lifted_tests::{CurveStyle, FigureData};
 use serde::Serialize;
 
 use crate::args::ReproduceArgs;
 use crate::error::{CliError, CliResult, Context, input};
 use crate::html::{esc, figure, html_table, page};
-use crate::plot::{Plot, Series};
+use crate::plot::{Marker, Plot, Series};
 use crate::terminal::print_table;
+use lifted_cli::service::figures::decimate;
 
 /// One row of `reproductions.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -38,18 +40,18 @@ pub struct Row {
     pub note: Option<String>,
 }
 
-/// Curves of one experiment for the HTML page: (id, title, series).
-type Curves = (String, String, Vec<(String, Vec<f64>)>);
+/// The figures of one experiment for the HTML page: (id, title, figures).
+type Figures = (String, String, Vec<FigureData>);
 
-fn run_one(e: &Experiment) -> (Vec<Row>, f64, Option<Curves>) {
+fn run_one(e: &Experiment) -> (Vec<Row>, f64, Option<Figures>) {
     let start = Instant::now();
     let outcome = std::panic::catch_unwind(e.run);
     let secs = start.elapsed().as_secs_f64();
     let mut curves = None;
     let rows = match outcome {
         Ok(Ok(rep)) => {
-            if !rep.series.is_empty() {
-                curves = Some((rep.section.clone(), rep.title.clone(), rep.series.clone()));
+            if !rep.plots.is_empty() {
+                curves = Some((rep.section.clone(), rep.title.clone(), rep.plots.clone()));
             }
             let mut rows: Vec<Row> = rep
                 .checks
@@ -197,7 +199,37 @@ pub fn reproduce_cmd(a: &ReproduceArgs) -> CliResult<()> {
     Ok(())
 }
 
-fn html(rows: &[Row], timings: &[(&str, f64)], plots: &[Curves]) -> CliResult<String> {
+/// A paper's figure as a plot: log10 ordinates when asked, long curves
+/// decimated.
+fn to_plot(f: &FigureData) -> Plot {
+    let series = f
+        .curves
+        .iter()
+        .map(|c| {
+            let y: Vec<f64> = if f.log_y {
+                c.y.iter()
+                    .map(|v| if *v > 0.0 { v.log10() } else { f64::NAN })
+                    .collect()
+            } else {
+                c.y.clone()
+            };
+            let (x, y) = decimate(&c.x, &y);
+            match c.style {
+                CurveStyle::Line => Series::line(c.name.clone(), x, y),
+                CurveStyle::Points => Series::points(c.name.clone(), x, y, Marker::Dot),
+            }
+        })
+        .collect();
+    Plot {
+        title: f.caption.split(':').next().unwrap_or("").to_string(),
+        x_label: f.x_label.clone(),
+        y_label: f.y_label.clone(),
+        series,
+        ..Default::default()
+    }
+}
+
+fn html(rows: &[Row], timings: &[(&str, f64)], plots: &[Figures]) -> CliResult<String> {
     let failed = rows.iter().filter(|r| !r.pass).count();
     let mut body = format!(
         "<h1>Lifted reproductions</h1>\n<p>{} checks, {} passed, {} failed.</p>\n",
@@ -242,26 +274,29 @@ fn html(rows: &[Row], timings: &[(&str, f64)], plots: &[Curves]) -> CliResult<St
     }
     body += "</ul>\n";
     if !plots.is_empty() {
-        body += "<h2>Plots</h2>\n";
+        body += "<h2 id=\"figures\">Figures of the papers</h2>\n<ul>\n";
+        for (id, title, figs) in plots {
+            for f in figs {
+                body += &format!(
+                    "<li><a href=\"#{}\">{}</a> ({})</li>\n",
+                    esc(&f.id),
+                    esc(&f.caption),
+                    esc(&format!("{id}: {title}"))
+                );
+            }
+        }
+        body += "</ul>\n";
     }
-    for (id, title, series) in plots {
-        let plot = Plot {
-            title: format!("{id}: {title}"),
-            x_label: "sample".into(),
-            y_label: String::new(),
-            series: series
-                .iter()
-                .map(|(name, v)| {
-                    Series::line(
-                        name.clone(),
-                        (0..v.len()).map(|k| k as f64).collect(),
-                        v.clone(),
-                    )
-                })
-                .collect(),
-            ..Default::default()
-        };
-        body += &figure(&format!("plot-{id}"), title, &plot, 900, 360)?;
+    for (id, title, figs) in plots {
+        body += &format!(
+            "<h3 id=\"exp-{}\">{}: {}</h3>\n",
+            esc(id),
+            esc(id),
+            esc(title)
+        );
+        for f in figs {
+            body += &figure(&f.id, &f.caption, &to_plot(f), 900, 360)?;
+        }
     }
     Ok(page("Lifted reproductions", &body))
 }
