@@ -28,7 +28,7 @@ use lifted_sim::{Excitation, SimOutput, SnrDefinition};
 use lifted_subspace::{Feedthrough, OrderSelection, PemOptions, Record, refine_pem};
 use nalgebra::DMatrix;
 
-use crate::a3_lifting::{median, step_errors};
+use crate::a3_lifting::{median, step_errors, step_figure};
 use crate::a3_subspace::{rbs2, validation_fit};
 use crate::{Check, Reproduction};
 
@@ -79,6 +79,18 @@ pub fn run_531() -> BoxResult<Reproduction> {
         match fit_model(&out.data, 6) {
             Ok(g) => {
                 errs.push(step_errors(&g, &truth, 300)?);
+                if seed == 0 {
+                    for (o, i, name) in [(0usize, 0usize, "11"), (1, 1, "22")] {
+                        rep.plot(step_figure(
+                            &format!("li-5-3-1-step-g{name}"),
+                            &format!("Li (2001) §5.3.1: unit-step response G{name} of the MIMO plant (y₁ every 5, y₂ every 1), true and the fast model from the lifted identification (seed 0)"),
+                            &truth,
+                            &[("identified fast model", &g)],
+                            (o, i),
+                            300,
+                        )?);
+                    }
+                }
                 let pem = refine_pem(
                     &g,
                     None,
