@@ -1736,11 +1736,11 @@ mod reproduce {
         let out = lifted(&["reproduce", "--only", "A3.3", "--out", &dir]);
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(stdout.contains("A3.3"), "{stdout}");
-        let rows: serde_json::Value = serde_json::from_str(
+        let json: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(format!("{dir}/reproductions.json")).unwrap(),
         )
         .unwrap();
-        let rows = rows.as_array().unwrap();
+        let rows = json["rows"].as_array().unwrap();
         assert!(!rows.is_empty());
         let all_pass = rows.iter().all(|r| r["pass"] == true);
         for r in rows {
