@@ -31,7 +31,8 @@ use lifted_prbs::{
 use lifted_qmarkov::{ChannelRecord, QMarkovOptions, RecordMode, identify_records};
 use nalgebra::DMatrix;
 
-use crate::{Check, Curve, FigureData, Reproduction};
+use crate::report::{Curve, CurveStyle, FigureData};
+use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -152,10 +153,48 @@ pub fn run_a12() -> BoxResult<Reproduction> {
     Ok(rep)
 }
 
+/// The Fig. 1 case: PRBS order n = 5, hold n_r = 3, magnitude a = 1.
+const FIG1: (u32, usize, f64) = (5, 3, 1.0);
+
+/// Zhu (2000) Fig. 1 from one period (N = 2 n_r m) of the numerical
+/// circular autocorrelation `r` and the corrected II-10 values `closed`
+/// (τ = 0…N−1), drawn for τ = −N/2…N/2 (R is even and N-periodic).
+fn fig1_plot(r: &[f64], closed: &[f64]) -> FigureData {
+    let n = r.len() as i64;
+    let taus: Vec<i64> = (-n / 2..=n / 2).collect();
+    let at = |v: &[f64], t: i64| {
+        v.get(t.rem_euclid(n.max(1)) as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let x: Vec<f64> = taus.iter().map(|&t| t as f64).collect();
+    FigureData::new(
+        "zhu-fig1",
+        "Zhu (2000) Fig. 1: circular autocorrelation R_w(τ) (normalised by 1/(2m), erratum Z-2) of \
+         the held inverse PRBS, n = 5 (m = 31), n_r = 3, a = 1; R > 1 for |τ| ≤ 2, |R| ≤ 3/31 for \
+         3 ≤ |τ| < 90, R(±93) = −3",
+        "lag τ (fast samples)",
+        "R_w(τ)",
+    )
+    .with_curve(Curve::new(
+        "corrected eq. II-10",
+        x.clone(),
+        taus.iter().map(|&t| at(closed, t)).collect(),
+        CurveStyle::Line,
+    ))
+    .with_curve(Curve::new(
+        "numerical circular correlation",
+        x,
+        taus.iter().map(|&t| at(r, t)).collect(),
+        CurveStyle::Points,
+    ))
+}
+
 /// A1.3: corrected eq. II-10 against the numerical correlation; Fig. 1.
 pub fn run_a13() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new("A1.3", "Zhu 2000 eqs. II-7–II-10 and Fig. 1: held PRBS");
     let mut worst: f64 = 0.0;
+    let mut fig1 = None;
     for n in 2..=9u32 {
         for hold in [1usize, 2, 3, 4, 5, 7, 10] {
             for a in [1.0, 2.0] {
@@ -163,13 +202,19 @@ pub fn run_a13() -> BoxResult<Reproduction> {
                 let w = p.one_period();
                 let m = p.m() as f64;
                 let r = periodic_autocorrelation(&w, Normalization::Divisor(2.0 * m))?;
+                let mut closed = Vec::with_capacity(r.len());
                 for (tau, v) in r.iter().enumerate() {
                     let want = held_autocorrelation(n, hold, a, tau as i64)?;
                     worst = worst.max((v - want).abs());
+                    closed.push(want);
+                }
+                if (n, hold, a) == FIG1 {
+                    fig1 = Some(fig1_plot(&r, &closed));
                 }
             }
         }
     }
+    rep.plot(fig1.ok_or("the grid covers the Fig. 1 case")?);
     rep.check(
         Check::below(
             "max |numerical R_w(τ) − corrected II-10| over the grid",
@@ -196,28 +241,6 @@ pub fn run_a13() -> BoxResult<Reproduction> {
         3.0 / 31.0,
         1e-12,
     ));
-    // Fig. 1: the corrected eq. II-10 and the correlation of the signal itself.
-    let p = inverse(5, 1.0, 3)?;
-    let w = p.one_period();
-    let numeric = periodic_autocorrelation(&w, Normalization::Divisor(2.0 * p.m() as f64))?;
-    let taus: Vec<f64> = (0..=90).map(f64::from).collect();
-    let formula = (0..=90)
-        .map(|t| held_autocorrelation(5, 3, 1.0, t))
-        .collect::<Result<Vec<_>, _>>()?;
-    rep.plot(
-        FigureData::new(
-            "zhu-fig1",
-            "Zhu (2000) Fig. 1: autocorrelation R_w(τ) of the held inverse PRBS, n = 5, n_r = 3, a = 1",
-            "lag τ",
-            "R_w(τ)",
-        )
-        .curve(Curve::line("corrected eq. II-10", taus.clone(), formula))
-        .curve(Curve::points(
-            "periodic autocorrelation of the signal",
-            taus,
-            numeric.iter().take(91).copied().collect(),
-        )),
-    );
     Ok(rep)
 }
 
@@ -359,26 +382,52 @@ pub fn run_a21() -> BoxResult<Reproduction> {
 }
 
 #[cfg(test)]
-mod figure_tests {
+mod tests {
     use super::*;
 
-    /// The Fig. 1 curve is the checked closed form: R(0), R(1), R(2) as
-    /// printed, and the signal's own correlation on top of it.
-    #[test]
-    fn fig1_carries_the_checked_values() {
-        let rep = run_a13().unwrap();
-        let fig = rep
-            .plots
+    /// The ordinate of `curve` at abscissa `x`.
+    fn at(curve: &Curve, x: f64) -> Option<f64> {
+        curve
+            .x
             .iter()
-            .find(|f| f.id == "zhu-fig1")
-            .expect("Fig. 1");
-        let (formula, numeric) = (&fig.curves[0], &fig.curves[1]);
-        assert_eq!(formula.y.len(), 91);
-        for (tau, paper) in [(0usize, 3.0), (1, 2.0323), (2, 1.0645)] {
-            assert!((formula.y[tau] - paper).abs() < 1e-4);
+            .position(|&v| v == x)
+            .and_then(|k| curve.y.get(k).copied())
+    }
+
+    #[test]
+    fn a13_plots_fig1_with_the_checked_values() {
+        let rep = run_a13().expect("A1.3 runs");
+        let fig = rep.plot_by_id("zhu-fig1").expect("Fig. 1 is plotted");
+        assert!(fig.caption.contains("Fig. 1") && !fig.log_y);
+        assert_eq!(fig.curves.len(), 2);
+        for tau in [0i64, 1, 2] {
+            let name = format!("Fig. 1 R({tau}) (n = 5, n_r = 3)");
+            let check = rep
+                .checks
+                .iter()
+                .find(|c| c.name == name)
+                .expect("the Fig. 1 check exists");
+            for curve in &fig.curves {
+                for x in [tau as f64, -(tau as f64)] {
+                    let y = at(curve, x).expect("τ is on the plotted range");
+                    assert!((y - check.value).abs() < 1e-12, "{} at {x}", curve.name);
+                }
+            }
         }
-        for (a, b) in formula.y.iter().zip(&numeric.y) {
-            assert!((a - b).abs() < 1e-12);
-        }
+        // the tail check: max |R| over 3 ≤ |τ| < 90 is 3/31 on the curve too
+        let closed = fig.curve("corrected eq. II-10").expect("closed-form curve");
+        let tail = closed
+            .x
+            .iter()
+            .zip(&closed.y)
+            .filter(|(x, _)| (3.0..90.0).contains(&x.abs()))
+            .map(|(_, y)| y.abs())
+            .fold(0.0, f64::max);
+        assert!((tail - 3.0 / 31.0).abs() < 1e-12);
+        // one full period, τ = −93…93, and it serialises with the report
+        assert_eq!(closed.x.len(), 187);
+        let json = serde_json::to_string(&rep).expect("serialises");
+        let back: Reproduction = serde_json::from_str(&json).expect("deserialises");
+        assert_eq!(back.plots, rep.plots);
     }
 }

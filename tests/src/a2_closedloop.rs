@@ -31,6 +31,7 @@ use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_sim::plants::{RenZhuController, RenZhuPlant, ren_zhu};
 use num_complex::Complex64;
 
+use crate::report::{Curve, CurveStyle, FigureData};
 use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
@@ -1686,6 +1687,77 @@ pub fn tables(t5: &[CaseResult], t6: &[CaseResult]) -> BoxResult<String> {
     Ok(out)
 }
 
+/// Frequencies of the frequency-response figures: 0.01…100 rad/s, log-spaced.
+pub(crate) fn figure_grid() -> Vec<f64> {
+    (0..=120)
+        .map(|k| 10f64.powf(-2.0 + 4.0 * k as f64 / 120.0))
+        .collect()
+}
+
+/// |g(jω)| of a SISO model on the grid `omega`.
+pub(crate) fn magnitude<G: metrics::FrequencyModel + ?Sized>(
+    g: &G,
+    omega: &[f64],
+) -> BoxResult<Vec<f64>> {
+    omega
+        .iter()
+        .map(|&w| {
+            let r = g.response(w)?;
+            Ok(r.get((0, 0)).ok_or("empty frequency response")?.norm())
+        })
+        .collect()
+}
+
+/// Ren & Zhu (2009) Figs. 4–9: the magnitude of the open-loop models
+/// calculated from the identified closed loops of the three set-ups, against
+/// the original plant (Figs. 4–6: G₁ with P, first-order and PI controller;
+/// Figs. 7–9: the same for G₂).
+fn frequency_figure(plant: RenZhuPlant, res: &CaseResult) -> BoxResult<Option<FigureData>> {
+    let (order, first) = match plant {
+        RenZhuPlant::G1 => ("First", 4),
+        RenZhuPlant::G2 => ("Second", 7),
+    };
+    let (fig, ctrl) = match res.ctrl {
+        RenZhuController::P => (first, "a proportional controller"),
+        RenZhuController::FirstOrder => (first + 1, "a first-order controller"),
+        RenZhuController::Pi => (first + 2, "a PI controller"),
+        RenZhuController::Open => return Ok(None),
+    };
+    let omega = figure_grid();
+    let x: Vec<f64> = omega.iter().map(|w| w.log10()).collect();
+    let mut f = FigureData::new(
+        format!("renzhu-fig{fig}"),
+        format!(
+            "Ren & Zhu (2009) Fig. {fig}: {order}-order open-loop models with {ctrl} in three \
+             set-ups: |G(jω)| of the plants calculated by eqs. (10)–(12) from the identified \
+             closed loops (Table 4 set-up), and of the original plant"
+        ),
+        "log10 ω [rad/s]",
+        "|G(jω)|",
+    )
+    .with_log_y()
+    .with_curve(Curve::new(
+        "original plant",
+        x.clone(),
+        magnitude(&plant_tf(plant)?, &omega)?,
+        CurveStyle::Line,
+    ));
+    for (s, id) in &res.setups {
+        let name = match s {
+            Setup::General => "general set-up, eq. (10)",
+            Setup::Controller => "controller set-up, eq. (11)",
+            Setup::Compensator => "compensator set-up, eq. (12)",
+        };
+        f = f.with_curve(Curve::new(
+            name,
+            x.clone(),
+            magnitude(&id.g, &omega)?,
+            CurveStyle::Line,
+        ));
+    }
+    Ok(Some(f))
+}
+
 /// All of A2.2–A2.7 in one report (the `lifted reproduce` entry).
 pub fn run() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new(
@@ -1707,6 +1779,13 @@ pub fn run() -> BoxResult<Reproduction> {
         }
         for (n, v) in part.figures {
             rep.figures.push((format!("{}: {n}", part.section), v));
+        }
+    }
+    for (plant, table) in [(RenZhuPlant::G1, &t5), (RenZhuPlant::G2, &t6)] {
+        for res in table.iter() {
+            if let Some(f) = frequency_figure(plant, res)? {
+                rep.plot(f);
+            }
         }
     }
     Ok(rep)

@@ -15,6 +15,8 @@ use lifted_sim::Excitation;
 use lifted_sim::plants::{RenZhuController, RenZhuPlant, ren_zhu};
 use nalgebra::DMatrix;
 
+use crate::a2_closedloop::{figure_grid, magnitude, plant_tf};
+use crate::report::{Curve, CurveStyle, FigureData};
 use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
@@ -71,6 +73,39 @@ fn tf_coeffs(g: &StateSpace) -> BoxResult<(Vec<f64>, Vec<f64>)> {
     Ok((padded, den))
 }
 
+/// Ren & Zhu (2009) Figs. 2 / 3: |G(jω)| of the open-loop identified model
+/// (eq. 14) and of the original plant.
+fn frequency_figure(plant: RenZhuPlant, identified: &StateSpace) -> BoxResult<FigureData> {
+    let (fig, order) = match plant {
+        RenZhuPlant::G1 => (2, "first"),
+        RenZhuPlant::G2 => (3, "second"),
+    };
+    let omega = figure_grid();
+    let x: Vec<f64> = omega.iter().map(|w| w.log10()).collect();
+    Ok(FigureData::new(
+        format!("renzhu-fig{fig}"),
+        format!(
+            "Ren & Zhu (2009) Fig. {fig}: frequency response (magnitude) of the identified and \
+             original {order}-order models, open-loop q-Markov Cover identification, eq. (14)"
+        ),
+        "log10 ω [rad/s]",
+        "|G(jω)|",
+    )
+    .with_log_y()
+    .with_curve(Curve::new(
+        "original",
+        x.clone(),
+        magnitude(&plant_tf(plant)?, &omega)?,
+        CurveStyle::Line,
+    ))
+    .with_curve(Curve::new(
+        "identified",
+        x,
+        magnitude(identified, &omega)?,
+        CurveStyle::Points,
+    )))
+}
+
 /// Runs A2.4: Ĝ₁ DC and time constant, Ĝ₂ coefficients.
 pub fn run() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new(
@@ -80,6 +115,7 @@ pub fn run() -> BoxResult<Reproduction> {
 
     // G₁: (8, 10, 1). Paper (−6e-5 s + 0.984)/(0.298 s + 1); RI (−6.10e-5 s + 0.9836)/(0.2983 s + 1).
     let g1 = identify_open_loop(RenZhuPlant::G1, 8, 10, 1)?;
+    rep.plot(frequency_figure(RenZhuPlant::G1, &g1)?);
     let dc1 = g1.dc_gain()?[(0, 0)];
     let pole1 = g1.poles()?[0];
     let tau1 = -1.0 / pole1.re;
@@ -104,6 +140,7 @@ pub fn run() -> BoxResult<Reproduction> {
     // G₂: (11, 60, 2). Paper (−1.7e-5 s² − 0.0037 s + 0.993)/(s² + 0.98 s + 1);
     // RI (−1.869e-5 s² − 3.713e-3 s + 1.003)/(s² + 0.9909 s + 1.008).
     let g2 = identify_open_loop(RenZhuPlant::G2, 11, 60, 2)?;
+    rep.plot(frequency_figure(RenZhuPlant::G2, &g2)?);
     let (n2, d2) = tf_coeffs(&g2)?;
     let paper_num = [-1.7e-5, -0.0037, 0.993];
     let ri_num = [-1.869e-5, -3.713e-3, 1.003];

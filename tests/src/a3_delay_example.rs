@@ -41,6 +41,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::a3_lifting::{median, randn};
+use crate::report::{CurveStyle, FigureData, step_curves};
 use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
@@ -67,11 +68,76 @@ fn experiment(ul: &DMatrix<f64>, noise_seed: u64) -> BoxResult<Dataset> {
 }
 
 struct Trial {
+    /// The extracted fast model of the shifted (residual) system, at mT = 2 s.
+    model: StateSpace,
     interval: (i64, i64),
     pole: f64,
     dc: f64,
     e_step: f64,
     delay_reinsert_refused: bool,
+}
+
+/// The truth of the residual (shifted) system at mT = 2 s:
+/// 0.09516/(z − 0.904837), ZOH of 1/(20s + 1).
+fn residual_truth() -> BoxResult<StateSpace> {
+    let p = (-0.1f64).exp();
+    Ok(StateSpace::new(
+        DMatrix::from_element(1, 1, p),
+        DMatrix::from_element(1, 1, 1.0 - p),
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::zeros(1, 1),
+        Some(2.0),
+    )?)
+}
+
+/// Samples of the Fig. 4.5 step responses (at mT = 2 s: 120 s).
+const FIG45_SAMPLES: usize = 60;
+
+/// Thesis Fig. 4.5: step responses of the actual and the estimated fast
+/// models at mT = 2 s, for the seed closest to the median e_step. The estimated
+/// model is of the shifted (residual) system; the delay d_d = 5 s is put back
+/// as a time shift of both responses (L-10: 5 is not a multiple of m = 2,
+/// so it is not a z-power at rate mT), which for a step is exact: the true
+/// response is 1 − e^{−(t−5)/20} at t = 5 + 2k.
+fn fig45(trials: &[Trial]) -> BoxResult<Option<FigureData>> {
+    let steps: Vec<f64> = trials.iter().map(|t| t.e_step).collect();
+    let mid = median(&steps);
+    let Some((seed, t)) = trials.iter().enumerate().min_by(|a, b| {
+        (a.1.e_step - mid)
+            .abs()
+            .total_cmp(&(b.1.e_step - mid).abs())
+    }) else {
+        return Ok(None);
+    };
+    let truth = residual_truth()?;
+    let mut curves = step_curves(
+        &[
+            ("actual", &truth, CurveStyle::Line),
+            ("estimated", &t.model, CurveStyle::Points),
+        ],
+        0,
+        0,
+        FIG45_SAMPLES,
+    )?;
+    // the delay estimate of this seed, d_d·T with T = 1 s
+    let delay = t.interval.0 as f64;
+    for c in &mut curves {
+        c.x.iter_mut().for_each(|x| *x += delay);
+    }
+    let mut fig = FigureData::new(
+        "li-fig4-5",
+        format!(
+            "Li (2001) Fig. 4.5: step responses of the actual (line) and estimated (markers) \
+             fast-rate models, sampling period mT = 2 s, §4.8 example (seed {seed} of {}, the one \
+             closest to the median e_step: {:.3}); the estimated delay d_d = {delay} s is re-applied as a time shift",
+            trials.len(),
+            t.e_step
+        ),
+        "t [s]",
+        "y",
+    );
+    fig.curves = curves;
+    Ok(Some(fig))
 }
 
 fn trial(seed: u64) -> BoxResult<Trial> {
@@ -111,17 +177,9 @@ fn trial(seed: u64) -> BoxResult<Trial> {
     let g = &fit.fast;
     let pole = g.poles()?[0].re;
     let dc = g.dc_gain()?[(0, 0)];
-    // truth of the residual (shifted) system at mT = 2 s: 0.09516/(z − 0.904837)
-    let p = (-0.1f64).exp();
-    let truth = StateSpace::new(
-        DMatrix::from_element(1, 1, p),
-        DMatrix::from_element(1, 1, 1.0 - p),
-        DMatrix::from_element(1, 1, 1.0),
-        DMatrix::zeros(1, 1),
-        Some(2.0),
-    )?;
-    let e_step = crate::a3_lifting::step_errors(g, &truth, 30)?[(0, 0)];
+    let e_step = crate::a3_lifting::step_errors(g, &residual_truth()?, 30)?[(0, 0)];
     Ok(Trial {
+        model: g.clone(),
         interval: (iv.lower, iv.upper),
         pole,
         dc,
@@ -162,6 +220,9 @@ pub fn run() -> BoxResult<Reproduction> {
         "compare at output instants instead",
         trials.iter().all(|t| t.delay_reinsert_refused),
     ));
+    if let Some(fig) = fig45(&trials)? {
+        rep.plot(fig);
+    }
     rep.figure(
         "median pole",
         median(&trials.iter().map(|t| t.pole).collect::<Vec<_>>()),

@@ -19,7 +19,8 @@ use num_complex::Complex64;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::{Check, Curve, FigureData, Reproduction};
+use crate::report::{Curve, CurveStyle, FigureData};
+use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -33,6 +34,53 @@ fn w1() -> BoxResult<StateSpace> {
         &[0.15, -0.138, 0.0, -0.13, 0.117],
         &[1.0, -1.82, 0.828, 0.0, 0.0, 0.0],
     )
+}
+
+/// Samples drawn in Figs. 9.9 and 9.10.
+const FIG9_SAMPLES: usize = 80;
+
+/// Thesis Fig. 9.9: the unit set-point step response in y of the fast
+/// single-rate loop with the true plant P (unstable, max|root| 1.0266).
+fn fig_9_9(sr: &DualRateLoop) -> BoxResult<FigureData> {
+    let y = sr
+        .simulate(&DMatrix::from_element(FIG9_SAMPLES, 1, 1.0), None)?
+        .y;
+    Ok(FigureData::new(
+        "li-fig9-9",
+        "Li (2001) Fig. 9.9: step response in y for the fast single-rate system (§9.6 example, \
+         K = 3 + 0.5/(1−z⁻¹) designed on P̂, applied to P = 0.13/(z³(z−0.92))): unstable, growing \
+         as 1.0266^k",
+        "k (fast samples)",
+        "y",
+    )
+    .with_curve(Curve::sampled(
+        "single-rate, true plant P",
+        0.0,
+        1.0,
+        y.column(0).iter().copied().collect(),
+        CurveStyle::Steps,
+    )))
+}
+
+/// Thesis Fig. 9.10: the unit set-point step response in y of the dual-rate
+/// inferential loop, n = 4 (the first samples of the checked response `y`).
+fn fig_9_10(y: &DMatrix<f64>) -> BoxResult<FigureData> {
+    let n = FIG9_SAMPLES.min(y.nrows());
+    Ok(FigureData::new(
+        "li-fig9-10",
+        "Li (2001) Fig. 9.10: step response in y for the dual-rate inferential control system \
+         (§9.6 example, n = 4, same K and P): stable, peak 1.193 at k = 8, periodic steady state \
+         1.054–1.078 (no integral action on the true output between slow samples)",
+        "k (fast samples)",
+        "y",
+    )
+    .with_curve(Curve::sampled(
+        "dual-rate n = 4, true plant P",
+        0.0,
+        1.0,
+        y.column(0).iter().take(n).copied().collect(),
+        CurveStyle::Steps,
+    )))
 }
 
 /// A3.11 §9.6 example: stability, step response, β values.
@@ -112,24 +160,6 @@ pub fn run() -> BoxResult<Reproduction> {
         format!("k = {kmax}"),
         kmax == 8,
     ));
-    let shown = 60;
-    rep.plot(
-        FigureData::new(
-            "li-ch9-step",
-            "Li (2001) §9.6 example: set-point step response of the dual-rate inferential loop of Fig. 9.4 (n = 4, true plant P, uncorrected model P̂); peak 1.193 at k = 8",
-            "k (fast samples)",
-            "y",
-        )
-        .curve(Curve::indexed(
-            "y, dual-rate n = 4",
-            step.y.column(0).iter().take(shown).copied().collect(),
-        ))
-        .curve(Curve::points(
-            "slow samples (every 4)",
-            (0..shown).step_by(4).map(|k| k as f64).collect(),
-            (0..shown).step_by(4).map(|k| step.y[(k, 0)]).collect(),
-        )),
-    );
     let tail: Vec<f64> = (0..4).map(|i| step.y[(steps - 4 + i, 0)]).collect();
     for (i, refv) in [1.0537, 1.0668, 1.0738, 1.0775].iter().enumerate() {
         rep.check(
@@ -144,6 +174,8 @@ pub fn run() -> BoxResult<Reproduction> {
             ),
         );
     }
+    rep.plot(fig_9_9(&sr)?);
+    rep.plot(fig_9_10(&step.y)?);
     // cross-check against lifted-sim's inferential feedback (independent code)
     let sim = fx
         .simulator()?

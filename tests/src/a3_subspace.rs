@@ -18,7 +18,8 @@ use lifted_subspace::{
 };
 use nalgebra::DMatrix;
 
-use crate::{Check, Curve, FigureData, Reproduction};
+use crate::report::{CurveStyle, FigureData, step_curves};
+use crate::{Check, Reproduction};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -72,26 +73,6 @@ pub fn step_error(
         den = den.max(st[i][(k, o)].abs());
     }
     Ok(num / den)
-}
-
-/// The figure of §2.6.2: step responses of the identified and the true
-/// model for G11, G21 and G22 (`st`, `truth`: one N×2 matrix per input).
-fn step_figure(rep: &mut Reproduction, method: &str, st: &[DMatrix<f64>], truth: &[DMatrix<f64>]) {
-    let mut fig = FigureData::new(
-        "li-2-6-2-step",
-        format!(
-            "Li (2001) §2.6.2: step responses of the stirred-tank model, true (lines) and {method} from one var-SNR 5 record (seed 0)"
-        ),
-        "k",
-        "y",
-    );
-    for (o, i, name) in [(0, 0, "G11"), (1, 0, "G21"), (1, 1, "G22")] {
-        let col = |m: &DMatrix<f64>| m.column(o).iter().copied().collect::<Vec<f64>>();
-        fig = fig
-            .curve(Curve::indexed(format!("{name} true"), col(&truth[i])))
-            .curve(Curve::indexed(format!("{name} {method}"), col(&st[i])));
-    }
-    rep.plot(fig);
 }
 
 /// Median of a slice (NaN-free).
@@ -158,6 +139,51 @@ pub fn validation_fit(
     Ok(fits)
 }
 
+/// Thesis Figs. 2.11–2.19: step responses of the process and the models
+/// estimated by CVA (Figs. 2.11–2.13), N4SID (2.14–2.16) and MOESP
+/// (2.17–2.19), on the first seed, over the 300 samples of e_step; one
+/// figure per channel (u₁→y₁, u₁→y₂, u₂→y₂) with the three methods.
+fn figs_2_11_to_2_19(
+    truth: &StateSpace,
+    cva: &StateSpace,
+    n4sid: &StateSpace,
+    moesp: &StateSpace,
+) -> BoxResult<Vec<FigureData>> {
+    [
+        ("2.11, 2.14, 2.17", "2-11-14-17", 0, 0),
+        ("2.12, 2.15, 2.18", "2-12-15-18", 1, 0),
+        ("2.13, 2.16, 2.19", "2-13-16-19", 1, 1),
+    ]
+    .into_iter()
+    .map(|(figs, id, o, i)| -> BoxResult<FigureData> {
+        let mut f = FigureData::new(
+            format!("li-figs{id}"),
+            format!(
+                "Li (2001) Figs. {figs}: step responses of the process from u{} to y{} and the \
+                 models estimated by CVA, N4SID and MOESP (§2.6.2 stirred tank, 3000 samples, \
+                 var-SNR 5, order 3, seed 0)",
+                i + 1,
+                o + 1
+            ),
+            "t (samples)",
+            format!("y{} (unit step on u{})", o + 1, i + 1),
+        );
+        f.curves = step_curves(
+            &[
+                ("process", truth, CurveStyle::Line),
+                ("CVA", cva, CurveStyle::Line),
+                ("N4SID", n4sid, CurveStyle::Line),
+                ("MOESP", moesp, CurveStyle::Line),
+            ],
+            o,
+            i,
+            300,
+        )?;
+        Ok(f)
+    })
+    .collect()
+}
+
 /// Runs A3.1 and the §2.6.1 stand-in.
 pub fn run() -> BoxResult<Reproduction> {
     let mut rep = Reproduction::new(
@@ -172,6 +198,7 @@ pub fn run() -> BoxResult<Reproduction> {
     let mut g12 = [0.0f64; 3];
     let mut g12_all = vec![Vec::new(); 3];
     let mut fits = vec![vec![Vec::new(); 2]; 3];
+    let mut shown: Vec<StateSpace> = Vec::new();
     for seed in 0..SEEDS {
         let (u, y, _) = simulate(3000, seed)?;
         let (uv, yv, y0v) = simulate(6000, 100 + seed)?;
@@ -182,6 +209,9 @@ pub fn run() -> BoxResult<Reproduction> {
         );
         for (mi, &m) in methods.iter().enumerate() {
             let fit = identify(&[Experiment { u: &u, y: &y }], &options(m))?;
+            if seed == 0 {
+                shown.push(fit.model.clone());
+            }
             for (ci, &(o, i)) in [(0, 0), (1, 0), (1, 1)].iter().enumerate() {
                 errors[mi][ci].push(step_error(&fit.model, &truth, o, i, 300)?);
             }
@@ -193,9 +223,6 @@ pub fn run() -> BoxResult<Reproduction> {
                 .fold(f64::INFINITY, f64::min);
             pole_err[mi] = pole_err[mi].max(near);
             let st = fit.model.step(300, None)?;
-            if seed == 0 && mi == 0 {
-                step_figure(&mut rep, m.name(), &st, &truth.step(300, None)?);
-            }
             let m12 = (0..300).map(|k| st[1][(k, 0)].abs()).fold(0.0, f64::max);
             g12[mi] = g12[mi].max(m12);
             g12_all[mi].push(m12);
@@ -272,6 +299,11 @@ pub fn run() -> BoxResult<Reproduction> {
             )
             .with_note("spec A3.1: ≥ 90%; RI median 95%"),
         );
+    }
+    if let [n4sid, moesp, cva] = shown.as_slice() {
+        for fig in figs_2_11_to_2_19(&truth, cva, n4sid, moesp)? {
+            rep.plot(fig);
+        }
     }
     for ci in 0..3 {
         let hi = medians.iter().map(|m| m[ci]).fold(0.0, f64::max);

@@ -31,4 +31,4 @@ pub mod a3_subspace;
 pub mod registry;
 pub mod report;
 
-pub use report::{Check, Curve, CurveStyle, FigureData, Reproduction};
+pub use report::{Check, Reproduction};

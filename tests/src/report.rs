@@ -1,5 +1,6 @@
 //! The report type every reproduction returns.
 
+use lifted_lti::StateSpace;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -119,14 +120,19 @@ impl Check {
 
 /// How a curve is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum CurveStyle {
-    /// A polyline.
+    /// A polyline through the points.
     Line,
-    /// Markers at the points.
+    /// Markers only (the thesis' "star" estimates, order-selection dots).
     Points,
+    /// A staircase: each value held until the next abscissa (sampled or
+    /// held signals).
+    Steps,
 }
 
-/// One curve of a figure.
+/// One curve of a figure: ordinates `y` against abscissae `x` (same length,
+/// finite values).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Curve {
     /// Legend label.
@@ -135,57 +141,54 @@ pub struct Curve {
     pub x: Vec<f64>,
     /// Ordinates.
     pub y: Vec<f64>,
-    /// Line or markers.
+    /// How it is drawn.
     pub style: CurveStyle,
 }
 
 impl Curve {
-    /// A line through (x, y).
-    pub fn line(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+    /// A curve with explicit abscissae.
+    pub fn new(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>, style: CurveStyle) -> Self {
         Curve {
             name: name.into(),
             x,
             y,
-            style: CurveStyle::Line,
+            style,
         }
     }
 
-    /// Markers at (x, y).
-    pub fn points(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Curve {
-            name: name.into(),
-            x,
-            y,
-            style: CurveStyle::Points,
-        }
-    }
-
-    /// A line of `y` against the sample index 0, 1, ….
-    pub fn indexed(name: impl Into<String>, y: Vec<f64>) -> Self {
-        let x = (0..y.len()).map(|k| k as f64).collect();
-        Curve::line(name, x, y)
+    /// A curve against `x0, x0 + dx, x0 + 2dx, …` (e.g. t = k·T).
+    pub fn sampled(
+        name: impl Into<String>,
+        x0: f64,
+        dx: f64,
+        y: Vec<f64>,
+        style: CurveStyle,
+    ) -> Self {
+        let x = (0..y.len()).map(|k| x0 + k as f64 * dx).collect();
+        Curve::new(name, x, y, style)
     }
 }
 
-/// A figure of a paper as the experiment computes it.
+/// A figure of one of the papers, recomputed by an experiment: the data
+/// `lifted reproduce` plots (and writes to `reproductions.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FigureData {
-    /// Anchor id in the page, e.g. "zhu-fig1".
+    /// Stable identifier, also the HTML anchor, e.g. "zhu-fig1".
     pub id: String,
-    /// Caption naming the paper's figure.
+    /// Caption naming the paper's figure, e.g. "Zhu (2000) Fig. 1: …".
     pub caption: String,
     /// x-axis label.
     pub x_label: String,
-    /// y-axis label.
+    /// y-axis label (without "log10": the renderer adds it for `log_y`).
     pub y_label: String,
-    /// Draw log10 of the ordinates.
+    /// Plot the ordinates on a logarithmic scale.
     pub log_y: bool,
     /// The curves.
     pub curves: Vec<Curve>,
 }
 
 impl FigureData {
-    /// A figure with its axes and no curves yet.
+    /// An empty figure (linear axes).
     pub fn new(
         id: impl Into<String>,
         caption: impl Into<String>,
@@ -202,17 +205,52 @@ impl FigureData {
         }
     }
 
-    /// Ordinates on a log scale.
-    pub fn log_y(mut self) -> Self {
+    /// The same figure with a logarithmic y axis.
+    pub fn with_log_y(mut self) -> Self {
         self.log_y = true;
         self
     }
 
     /// Adds a curve.
-    pub fn curve(mut self, c: Curve) -> Self {
-        self.curves.push(c);
+    pub fn with_curve(mut self, curve: Curve) -> Self {
+        self.curves.push(curve);
         self
     }
+
+    /// The curve with this name, if any.
+    pub fn curve(&self, name: &str) -> Option<&Curve> {
+        self.curves.iter().find(|c| c.name == name)
+    }
+}
+
+/// Step responses of channel (output `o`, input `i`) of each discrete
+/// model over `horizon` samples, as curves against t = k·T (T of each
+/// model; 1 for a model without a sample period).
+pub fn step_curves(
+    models: &[(&str, &StateSpace, CurveStyle)],
+    o: usize,
+    i: usize,
+    horizon: usize,
+) -> Result<Vec<Curve>, lifted_lti::Error> {
+    models
+        .iter()
+        .map(|(name, g, style)| {
+            if o >= g.n_outputs() || i >= g.n_inputs() {
+                return Err(lifted_lti::Error::IndexOutOfRange {
+                    row: o,
+                    col: i,
+                    rows: g.n_outputs(),
+                    cols: g.n_inputs(),
+                });
+            }
+            let s = g.step(horizon, None)?;
+            let y: Vec<f64> = s
+                .get(i)
+                .map(|m| m.column(o).iter().copied().collect())
+                .unwrap_or_default();
+            Ok(Curve::sampled(*name, 0.0, g.ts().unwrap_or(1.0), y, *style))
+        })
+        .collect()
 }
 
 /// The outcome of one reproduced experiment.
@@ -226,8 +264,8 @@ pub struct Reproduction {
     pub checks: Vec<Check>,
     /// Free-form numbers worth printing (name, value) that are not checks.
     pub figures: Vec<(String, f64)>,
-    /// The papers' figures the experiment computes (drawn by `lifted
-    /// reproduce` in its HTML page beside the numbers). Empty by default.
+    /// The papers' figures recomputed by the experiment, drawn by
+    /// `lifted reproduce` next to the checks. Empty by default.
     #[serde(default)]
     pub plots: Vec<FigureData>,
 }
@@ -256,10 +294,15 @@ impl Reproduction {
         self
     }
 
-    /// Records a figure of the paper for the HTML report.
+    /// Records a figure of the paper (curves) for the HTML report.
     pub fn plot(&mut self, figure: FigureData) -> &mut Self {
         self.plots.push(figure);
         self
+    }
+
+    /// The recorded figure with this id, if any.
+    pub fn plot_by_id(&self, id: &str) -> Option<&FigureData> {
+        self.plots.iter().find(|f| f.id == id)
     }
 
     /// True when every check passed (and there is at least one).
@@ -312,6 +355,47 @@ mod tests {
     fn empty_report_does_not_pass() {
         let r = Reproduction::new("A0", "nothing");
         assert!(!r.all_passed());
+    }
+
+    #[test]
+    fn plots_default_to_empty_and_round_trip() {
+        let old = r#"{"section":"A0","title":"t","checks":[],"figures":[]}"#;
+        let r: Reproduction = serde_json::from_str(old).unwrap();
+        assert!(r.plots.is_empty());
+        let mut r = Reproduction::new("A0", "demo");
+        r.plot(
+            FigureData::new("demo-fig", "Demo", "x", "y")
+                .with_log_y()
+                .with_curve(Curve::sampled(
+                    "c",
+                    1.0,
+                    0.5,
+                    vec![1.0, 10.0],
+                    CurveStyle::Steps,
+                )),
+        );
+        let json = serde_json::to_string(&r).unwrap();
+        assert!(json.contains(r#""style":"steps""#) && json.contains(r#""log_y":true"#));
+        let back: Reproduction = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, r);
+        let c = back.plot_by_id("demo-fig").unwrap().curve("c").unwrap();
+        assert_eq!(c.x, vec![1.0, 1.5]);
+    }
+
+    #[test]
+    fn step_curves_of_a_first_order_model() {
+        let g = StateSpace::new(
+            nalgebra::DMatrix::from_element(1, 1, 0.5),
+            nalgebra::DMatrix::from_element(1, 1, 1.0),
+            nalgebra::DMatrix::from_element(1, 1, 1.0),
+            nalgebra::DMatrix::zeros(1, 1),
+            Some(2.0),
+        )
+        .unwrap();
+        let c = step_curves(&[("g", &g, CurveStyle::Line)], 0, 0, 4).unwrap();
+        assert_eq!(c[0].x, vec![0.0, 2.0, 4.0, 6.0]);
+        assert_eq!(c[0].y, vec![0.0, 1.0, 1.5, 1.75]);
+        assert!(step_curves(&[("g", &g, CurveStyle::Line)], 1, 0, 4).is_err());
     }
 
     #[test]
