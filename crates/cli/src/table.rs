@@ -8,9 +8,13 @@
 //! `--ts` is absent. An output column may have empty cells: a slowly
 //! sampled output is written with empty cells between its samples. Input
 //! and instrument columns must be complete.
+//!
+//! The CSV reader is a block reader with a fast path for lines of plain
+//! numbers and `csv-core` for anything else (see [`scan_rows`]); its
+//! throughput is measured by `benches/benches/csv.rs` (benches/README.md).
 
+use std::fmt::Display;
 use std::fs::File;
-use std::io::BufReader;
 
 use lifted_lti::{Dataset, InputChannel, OutputChannel};
 use nalgebra::DMatrix;
@@ -131,7 +135,8 @@ pub struct Raw {
 }
 
 /// Reads the named columns, streaming; cells of the columns in `may_be_empty`
-/// (a range of indices into `wanted`) may be empty (NaN).
+/// (a range of indices into `wanted`) may be empty (NaN). O(file) time,
+/// O(rows × wanted) memory.
 pub fn read_raw(
     path: &str,
     wanted: &[&String],
@@ -148,30 +153,215 @@ pub fn read_raw(
     Ok(Raw { cols, rows, ts })
 }
 
-/// A CSV reader positioned after the header row, and the header's names.
-type CsvFile = (csv::Reader<BufReader<File>>, Vec<String>);
+/// The column names of a CSV file's header row. Reads only the start of
+/// the file.
+pub fn header(path: &str) -> CliResult<Vec<String>> {
+    open_csv(path, 1 << 16).map(|(_, h)| h)
+}
+
+/// Streams the named columns of a CSV file row by row: `visit` receives the
+/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
+/// and returns whether to go on. Returns the number of rows visited and the
+/// base period (given, or from the time column over the rows read).
+///
+/// CSV files are read in blocks of 1 MiB (`Read::read` into one reusable
+/// buffer; a line cut by the block end is carried over). Each line goes
+/// first through a fast path: cells split by a word-at-a-time scan for `,`,
+/// only the wanted cells and the time column parsed (Clinger's exact fast
+/// path for the usual numbers, `fast-float2` for the rest: correctly
+/// rounded, the grammar of `str::parse::<f64>`), the other cells skipped. A
+/// line it does not take as plain numbers (a quote `"`, a lone carriage
+/// return, a cell that is not a number, a ragged row) is read again through
+/// `csv-core` (the csv crate's parser) with the checks and messages of
+/// [`cell_value`], so the result is that of a full CSV parser. Line numbers
+/// in messages are those of the file. Time O(file size), memory O(columns +
+/// block + longest line), whatever the file length.
+pub fn scan_rows(
+    path: &str,
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
+    scan_csv(path, wanted, may_be_empty, ts, Mode::default(), visit)
+}
+
+/// How [`scan_csv`] reads (tests vary it).
+#[derive(Debug, Clone, Copy)]
+struct Mode {
+    /// Try the fast path on each line (false: `csv-core` for every record).
+    fast: bool,
+    /// Initial buffer size in bytes.
+    block: usize,
+}
+
+impl Default for Mode {
+    fn default() -> Self {
+        Mode {
+            fast: true,
+            block: BLOCK,
+        }
+    }
+}
+
+/// Bytes read from a CSV file at a time (the buffer grows for a longer line).
+const BLOCK: usize = 1 << 20;
+
+/// A CSV file read in blocks: whole lines for the fast path (every line
+/// before the block's last `\n`, found by `memchr::memrchr`), records by
+/// `csv-core` (quotes, lone `\r`) for the rest. `line` is the 1-based
+/// number of the line at `pos`.
+struct CsvReader<R> {
+    src: R,
+    buf: Vec<u8>,
+    pos: usize,
+    filled: usize,
+    /// End of the last whole line in `buf` (after its `\n`; `filled` at the
+    /// end of the file): a line starting before it is entirely buffered.
+    complete: usize,
+    eof: bool,
+    line: u64,
+    core: csv_core::Reader,
+    /// The fields of the last record read by `csv-core`, and their ends.
+    fields: Vec<u8>,
+    ends: Vec<usize>,
+    nfields: usize,
+}
+
+impl<R: std::io::Read> CsvReader<R> {
+    fn new(src: R, block: usize) -> Self {
+        CsvReader {
+            src,
+            buf: vec![0; block.max(1)],
+            pos: 0,
+            filled: 0,
+            complete: 0,
+            eof: false,
+            line: 1,
+            // The csv crate's defaults: ',' delimiter, '"' quotes (doubled
+            // inside a quoted field), \r, \n or \r\n ending a record.
+            core: csv_core::Reader::new(),
+            fields: vec![0; 1024],
+            ends: vec![0; 64],
+            nfields: 0,
+        }
+    }
+
+    /// Moves the unread bytes to the front and reads more (growing the buffer
+    /// when it is full); false at the end of the file. O(bytes read + unread).
+    fn refill(&mut self) -> std::io::Result<bool> {
+        if self.eof {
+            return Ok(false);
+        }
+        if self.pos > 0 {
+            self.buf.copy_within(self.pos..self.filled, 0);
+            self.filled -= self.pos;
+            self.pos = 0;
+        }
+        if self.filled == self.buf.len() {
+            self.buf.resize(2 * self.buf.len(), 0);
+        }
+        loop {
+            match self.src.read(&mut self.buf[self.filled..]) {
+                Ok(0) => {
+                    self.eof = true;
+                    self.complete = self.filled;
+                    return Ok(false);
+                }
+                Ok(n) => {
+                    self.filled += n;
+                    self.complete =
+                        memchr::memrchr(b'\n', &self.buf[..self.filled]).map_or(0, |i| i + 1);
+                    return Ok(true);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    /// Skips the line terminators before a record (blank lines, as the csv
+    /// crate does); false when the file ends first.
+    fn skip_blank_lines(&mut self) -> std::io::Result<bool> {
+        loop {
+            while self.pos < self.filled {
+                match self.buf[self.pos] {
+                    b'\n' => self.line += 1,
+                    b'\r' => {}
+                    _ => return Ok(true),
+                }
+                self.pos += 1;
+            }
+            if !self.refill()? {
+                return Ok(false);
+            }
+        }
+    }
+
+    /// Reads until the line at `pos` is entirely buffered (or the file ends):
+    /// afterwards `pos < complete` unless the file ended at `pos`.
+    fn buffer_line(&mut self) -> std::io::Result<()> {
+        while self.pos >= self.complete && self.refill()? {}
+        Ok(())
+    }
+
+    /// Reads one record at `pos` with `csv-core` into `fields`/`ends`; false
+    /// at the end of the file.
+    fn read_record(&mut self) -> std::io::Result<bool> {
+        use csv_core::ReadRecordResult as R;
+        let (mut outlen, mut endlen) = (0, 0);
+        loop {
+            if self.pos == self.filled {
+                self.refill()?; // empty input below tells csv-core the file ended
+            }
+            let input = &self.buf[self.pos..self.filled];
+            let (res, nin, nout, nend) =
+                self.core
+                    .read_record(input, &mut self.fields[outlen..], &mut self.ends[endlen..]);
+            self.line += memchr::memchr_iter(b'\n', &input[..nin]).count() as u64;
+            self.pos += nin;
+            outlen += nout;
+            endlen += nend;
+            match res {
+                R::InputEmpty => {}
+                R::OutputFull => {
+                    let n = 2 * self.fields.len();
+                    self.fields.resize(n, 0);
+                }
+                R::OutputEndsFull => {
+                    let n = 2 * self.ends.len();
+                    self.ends.resize(n, 0);
+                }
+                R::Record => {
+                    self.nfields = endlen;
+                    return Ok(true);
+                }
+                R::End => return Ok(false),
+            }
+        }
+    }
+
+    /// Field `i` of the last record read by [`Self::read_record`].
+    fn field(&self, i: usize) -> &[u8] {
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        &self.fields[start..self.ends[i]]
+    }
+}
 
 /// Opens a CSV file and reads its header row (which must name the columns,
 /// not hold numbers).
-fn open_csv(path: &str) -> CliResult<CsvFile> {
+fn open_csv(path: &str, block: usize) -> CliResult<(CsvReader<File>, Vec<String>)> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
-    let mut rd = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .buffer_capacity(1 << 16)
-        .from_reader(BufReader::with_capacity(1 << 16, file));
-    let mut rec = csv::ByteRecord::new();
-    let got = rd
-        .read_byte_record(&mut rec)
-        .ctx(format!("{path}: line 1"))?;
-    if !got || rec.iter().all(|c| c.iter().all(u8::is_ascii_whitespace)) {
+    let mut rd = CsvReader::new(file, block);
+    // csv-core skips the blank lines before the header and a UTF-8 BOM.
+    let got = rd.read_record().ctx(format!("{path}: line 1"))?;
+    if !got || (0..rd.nfields).all(|i| rd.field(i).iter().all(u8::is_ascii_whitespace)) {
         return Err(input(format!(
             "{path}: empty file (a header row is required)"
         )));
     }
-    let header: Vec<String> = rec
-        .iter()
-        .map(|c| String::from_utf8_lossy(c).trim().to_string())
+    let header: Vec<String> = (0..rd.nfields)
+        .map(|i| String::from_utf8_lossy(rd.field(i)).trim().to_string())
         .collect();
     if header
         .iter()
@@ -184,25 +374,333 @@ fn open_csv(path: &str) -> CliResult<CsvFile> {
     Ok((rd, header))
 }
 
-/// The column names of a CSV file's header row.
-pub fn header(path: &str) -> CliResult<Vec<String>> {
-    open_csv(path).map(|(_, h)| h)
+/// The index of the time column `t`/`time` (any case) of a header.
+pub(crate) fn time_column(header: &[String]) -> Option<usize> {
+    header
+        .iter()
+        .position(|h| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time"))
 }
 
-/// Streams the named columns of a CSV file row by row: `visit` receives the
-/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
-/// and returns whether to go on. Returns the number of rows visited and the
-/// base period (given, or from the time column over the rows read). Memory
-/// O(columns), whatever the file length.
-pub fn scan_rows(
+/// Row count and time-column checks of a reader.
+pub(crate) struct RowCheck {
+    ts: Option<f64>,
+    t0: f64,
+    t1: f64,
+    t_last: f64,
+    /// Rows accepted so far.
+    pub(crate) rows: usize,
+}
+
+impl RowCheck {
+    /// Checks for a file whose base period is `ts` (`None`: from the time column).
+    pub(crate) fn new(ts: Option<f64>) -> Self {
+        RowCheck {
+            ts,
+            t0: f64::NAN,
+            t1: f64::NAN,
+            t_last: f64::NAN,
+            rows: 0,
+        }
+    }
+
+    /// Whether the time column is read (no `--ts`).
+    pub(crate) fn wants_time(&self) -> bool {
+        self.ts.is_none()
+    }
+
+    /// Checks time `t` of the next row against the spacing of the first two;
+    /// `at` locates the row in messages ("line 7", "row 5").
+    #[inline]
+    pub(crate) fn time(
+        &mut self,
+        path: &str,
+        at: &dyn Display,
+        column: &str,
+        t: f64,
+    ) -> CliResult<()> {
+        match self.rows {
+            0 => self.t0 = t,
+            1 => self.t1 = t,
+            rows => {
+                let dt = self.t1 - self.t0;
+                let expect = self.t0 + rows as f64 * dt;
+                if (t - expect).abs() > 1e-6 * dt.abs().max(1e-300) + 1e-9 * expect.abs() {
+                    return Err(input(format!(
+                        "{path}: {at}, column '{column}': time {t} breaks the uniform spacing {dt} (expected {expect}); give --ts to ignore the time column"
+                    )));
+                }
+            }
+        }
+        self.t_last = t;
+        Ok(())
+    }
+
+    /// The row count and the base period once every row is read:
+    /// `ts`, or from the time column (`has_time`).
+    pub(crate) fn finish(&self, path: &str, has_time: bool) -> CliResult<(usize, f64)> {
+        let rows = self.rows;
+        if rows == 0 {
+            return Err(input(format!("{path}: no data rows after the header")));
+        }
+        let ts = match self.ts {
+            Some(ts) if ts.is_finite() && ts > 0.0 => ts,
+            Some(ts) => return Err(input(format!("--ts {ts}: must be positive and finite"))),
+            None => {
+                if !has_time {
+                    return Err(input(format!(
+                        "{path}: no time column ('t' or 'time'): give the base period with --ts"
+                    )));
+                }
+                if rows < 2 {
+                    return Err(input(format!(
+                        "{path}: one row: give the base period with --ts"
+                    )));
+                }
+                let ts = (self.t_last - self.t0) / (rows - 1) as f64;
+                if !(ts.is_finite() && ts > 0.0) {
+                    return Err(input(format!(
+                        "{path}: the time column does not increase: give --ts"
+                    )));
+                }
+                ts
+            }
+        };
+        Ok((rows, ts))
+    }
+}
+
+/// What the fast path does with each cell of a line: per header column,
+/// its slot in the parsed values (or [`SKIP`]) and whether a blank cell is
+/// accepted (as NaN).
+struct Plan {
+    cols: Vec<(usize, bool)>,
+}
+
+/// A column the fast path only skips.
+const SKIP: usize = usize::MAX;
+
+/// The index of the first `,`, `"`, `\r` or `\n` in `b[i..]` (or `b.len()`),
+/// 8 bytes at a time (SWAR) while 8 are left. O(bytes skipped).
+#[inline]
+fn find_special(b: &[u8], mut i: usize) -> usize {
+    const LO: u64 = 0x0101_0101_0101_0101;
+    const HI: u64 = 0x8080_8080_8080_8080;
+    // High bit of each zero byte of x (exact up to the first zero byte).
+    let zero = |x: u64| x.wrapping_sub(LO) & !x & HI;
+    while let Some(chunk) = b.get(i..i + 8) {
+        let mut a = [0u8; 8];
+        a.copy_from_slice(chunk);
+        let v = u64::from_le_bytes(a);
+        let hit = zero(v ^ (LO * u64::from(b',')))
+            | zero(v ^ (LO * u64::from(b'"')))
+            | zero(v ^ (LO * u64::from(b'\r')))
+            | zero(v ^ (LO * u64::from(b'\n')));
+        if hit != 0 {
+            return i + (hit.trailing_zeros() / 8) as usize;
+        }
+        i += 8;
+    }
+    while i < b.len() && !matches!(b[i], b',' | b'"' | b'\r' | b'\n') {
+        i += 1;
+    }
+    i
+}
+
+/// The powers of ten exactly representable as f64.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// The value of 8 ASCII digits read little-endian into `v` (SWAR).
+#[inline]
+fn parse_8digits(v: u64) -> u64 {
+    const MASK: u64 = 0x0000_00FF_0000_00FF;
+    const MUL1: u64 = 0x000F_4240_0000_0064; // 100 + (1000000 << 32)
+    const MUL2: u64 = 0x0000_2710_0000_0001; // 1 + (10000 << 32)
+    let v = v.wrapping_sub(0x3030_3030_3030_3030);
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    let v1 = (v & MASK).wrapping_mul(MUL1);
+    let v2 = ((v >> 16) & MASK).wrapping_mul(MUL2);
+    u64::from((v1.wrapping_add(v2) >> 32) as u32)
+}
+
+/// 10^n for n < 8.
+const POW10_U64: [u64; 8] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000];
+
+/// Appends the run of ASCII digits at `b[i..]` to the decimal accumulator
+/// `m` (wrapping: the caller discards more than 19 digits) and returns the
+/// index after the run; 8 bytes at a time (SWAR) while 8 are left.
+#[inline]
+fn digit_run(b: &[u8], mut i: usize, m: &mut u64) -> usize {
+    while let Some(chunk) = b.get(i..i + 8) {
+        let mut a = [0u8; 8];
+        a.copy_from_slice(chunk);
+        let v = u64::from_le_bytes(a);
+        // A byte's high bit is set iff it is not a digit: x = c ^ '0' is
+        // 0..=9 for a digit, and x + 0x76 reaches 0x80 for x ≥ 10. A carry
+        // out of a byte only reaches bytes after a non-digit.
+        let x = v ^ 0x3030_3030_3030_3030;
+        let non_digit = (x.wrapping_add(0x7676_7676_7676_7676) | x) & 0x8080_8080_8080_8080;
+        if non_digit == 0 {
+            *m = m.wrapping_mul(100_000_000).wrapping_add(parse_8digits(v));
+            i += 8;
+            continue;
+        }
+        let n = (non_digit.trailing_zeros() / 8) as usize;
+        if n > 0 {
+            // The n digits moved to the top, '0's before them.
+            let w = (v << (8 * (8 - n))) | (0x3030_3030_3030_3030 >> (8 * n));
+            *m = m.wrapping_mul(POW10_U64[n]).wrapping_add(parse_8digits(w));
+        }
+        return i + n;
+    }
+    while i < b.len() {
+        let d = b[i].wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        *m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    i
+}
+
+/// Parses the common numbers at the start of `b` quickly: an optional sign,
+/// at most 19 digits with an optional '.', an optional exponent of at most
+/// 3 digits, whose value m·10^e has m ≤ 2^53 and |e| ≤ 22, so that one
+/// correctly rounded product or quotient of exact f64 values (Clinger's fast
+/// path) is the nearest f64, as `str::parse` gives (and finite). Returns the
+/// value and the bytes used, or `None` for anything else (then `fast-float2`
+/// is used). O(digits).
+#[inline]
+fn parse_plain(b: &[u8]) -> Option<(f64, usize)> {
+    let n = b.len();
+    let (neg, start) = match b.first() {
+        Some(b'-') => (true, 1),
+        Some(b'+') => (false, 1),
+        _ => (false, 0),
+    };
+    // The integer part, usually short: a byte at a time.
+    let mut m: u64 = 0;
+    let mut i = start;
+    while i < n {
+        let d = b[i].wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    let mut digits = i - start;
+    let mut e: i64 = 0;
+    if i < n && b[i] == b'.' {
+        let from = i + 1;
+        i = digit_run(b, from, &mut m);
+        digits += i - from;
+        e = -((i - from) as i64);
+    }
+    if digits == 0 || digits > 19 {
+        return None;
+    }
+    if i < n && b[i] | 0x20 == b'e' {
+        let mut j = i + 1;
+        let eneg = match b.get(j) {
+            Some(b'-') => {
+                j += 1;
+                true
+            }
+            Some(b'+') => {
+                j += 1;
+                false
+            }
+            _ => false,
+        };
+        let from = j;
+        let mut x: i64 = 0;
+        while j < n && j - from < 4 && b[j].is_ascii_digit() {
+            x = 10 * x + i64::from(b[j] - b'0');
+            j += 1;
+        }
+        if j == from || (j < n && b[j].is_ascii_digit()) {
+            return None;
+        }
+        e += if eneg { -x } else { x };
+        i = j;
+    }
+    if m > 1 << 53 || !(-22..=22).contains(&e) {
+        return None;
+    }
+    let v = m as f64;
+    let v = if e < 0 {
+        v / POW10[(-e) as usize]
+    } else {
+        v * POW10[e as usize]
+    };
+    Some((if neg { -v } else { v }, i))
+}
+
+/// Parses the line at the start of `b` (which holds the whole line: up to
+/// and with its `\n`, or to the end of the file) if its cells are plain
+/// numbers: every needed cell a finite number (ASCII spaces and tabs around
+/// it) or blank where allowed, the others free of quotes and carriage
+/// returns, as many cells as the header, ended by `\n`, `\r\n` or the end of
+/// the file. Returns the bytes of the line with its terminator; `None`
+/// otherwise: the caller reads the line again with `csv-core` and
+/// [`cell_value`], which accept or reject it with the exact message. O(line).
+#[inline]
+fn fast_line(b: &[u8], plan: &Plan, vals: &mut [f64]) -> Option<usize> {
+    let width = plan.cols.len();
+    let mut i = 0;
+    for (c, &(slot, blank_ok)) in plan.cols.iter().enumerate() {
+        if slot == SKIP {
+            i = find_special(b, i);
+        } else {
+            while matches!(b.get(i), Some(b' ' | b'\t')) {
+                i += 1;
+            }
+            let cell = &b[i..];
+            let parsed = parse_plain(cell).or_else(|| {
+                fast_float2::parse_partial::<f64, _>(cell)
+                    .ok()
+                    .filter(|(v, _)| v.is_finite())
+            });
+            match parsed {
+                Some((v, len)) => {
+                    vals[slot] = v;
+                    i += len;
+                    while matches!(b.get(i), Some(b' ' | b'\t')) {
+                        i += 1;
+                    }
+                }
+                // a blank cell if the cell ends here (checked below)
+                None if blank_ok => vals[slot] = f64::NAN,
+                None => return None,
+            }
+        }
+        let last = c + 1 == width;
+        match b.get(i) {
+            Some(b',') if !last => i += 1,
+            Some(b'\n') if last => return Some(i + 1),
+            Some(b'\r') if last && b.get(i + 1) == Some(&b'\n') => return Some(i + 2),
+            None if last => return Some(i),
+            _ => return None,
+        }
+    }
+    None
+}
+
+/// [`scan_rows`] on a CSV file; `mode.fast` false reads every line with
+/// `csv-core` (the reference the fast path is tested against).
+fn scan_csv(
     path: &str,
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
+    mode: Mode,
     mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
-    let (mut rd, header) = open_csv(path)?;
-    let mut rec = csv::ByteRecord::new();
+    let (mut rd, header) = open_csv(path, mode.block)?;
     let find = |name: &str| -> CliResult<usize> {
         header.iter().position(|h| h == name).ok_or_else(|| {
             input(format!(
@@ -212,84 +710,89 @@ pub fn scan_rows(
         })
     };
     let idx: Vec<usize> = wanted.iter().map(|n| find(n)).collect::<CliResult<_>>()?;
-    let time_col = header
-        .iter()
-        .position(|h| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time"));
+    let time_col = time_column(&header);
     let width = header.len();
+    let mut check = RowCheck::new(ts);
+    let read_time = time_col.filter(|_| check.wants_time());
+    // The fast path parses each needed column once into `vals`.
+    let mut plan = Plan {
+        cols: vec![(SKIP, true); width],
+    };
+    let mut needed = 0;
+    let mut need = |c: usize, blank_ok: bool, plan: &mut Plan| -> usize {
+        let col = &mut plan.cols[c];
+        if col.0 == SKIP {
+            col.0 = needed;
+            needed += 1;
+        }
+        col.1 &= blank_ok;
+        col.0
+    };
+    let from: Vec<usize> = idx
+        .iter()
+        .enumerate()
+        .map(|(j, &c)| need(c, may_be_empty.contains(&j), &mut plan))
+        .collect();
+    let time_slot = read_time.map(|c| need(c, false, &mut plan));
+    let mut vals = vec![0.0; needed];
     let mut row = vec![0.0; wanted.len()];
-    let (mut t0, mut t1, mut t_last) = (f64::NAN, f64::NAN, f64::NAN);
-    let mut rows = 0usize;
-    let mut line = 1u64;
     loop {
-        match rd.read_byte_record(&mut rec) {
+        match rd.skip_blank_lines() {
             Ok(true) => {}
             Ok(false) => break,
-            Err(e) => return Err(input(format!("{path}: line {}: {e}", line + 1))),
+            Err(e) => return Err(input(format!("{path}: line {}: {e}", rd.line))),
         }
-        line = rec.position().map_or(line + 1, |p| p.line());
-        if rec.len() == 1 && rec.get(0).is_some_and(<[u8]>::is_empty) {
-            continue; // blank line
-        }
-        if rec.len() != width {
-            return Err(input(format!(
-                "{path}: line {line}: {} cells, the header has {width} (ragged row)",
-                rec.len()
-            )));
-        }
-        for (j, &c) in idx.iter().enumerate() {
-            let allow_empty = may_be_empty.contains(&j);
-            row[j] = cell_value(path, line, wanted[j], &rec[c], allow_empty)?;
-        }
-        if let (Some(tc), None) = (time_col, ts) {
-            let t = cell_value(path, line, &header[tc], &rec[tc], false)?;
-            match rows {
-                0 => t0 = t,
-                1 => t1 = t,
-                _ => {
-                    let dt = t1 - t0;
-                    let expect = t0 + rows as f64 * dt;
-                    if (t - expect).abs() > 1e-6 * dt.abs().max(1e-300) + 1e-9 * expect.abs() {
-                        return Err(input(format!(
-                            "{path}: line {line}, column '{}': time {t} breaks the uniform spacing {dt} (expected {expect}); give --ts to ignore the time column",
-                            header[tc]
-                        )));
-                    }
+        let line = rd.line;
+        let mut t = f64::NAN;
+        let mut done = false;
+        if mode.fast {
+            rd.buffer_line()
+                .map_err(|e| input(format!("{path}: line {line}: {e}")))?;
+            if let Some(len) = fast_line(&rd.buf[rd.pos..rd.complete], &plan, &mut vals) {
+                for (r, &s) in row.iter_mut().zip(&from) {
+                    *r = vals[s];
                 }
+                if let Some(s) = time_slot {
+                    t = vals[s];
+                }
+                rd.pos += len;
+                rd.line += 1;
+                done = true;
             }
-            t_last = t;
         }
-        rows += 1;
+        if !done {
+            // csv-core and the cell checks, with their messages
+            match rd.read_record() {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => return Err(input(format!("{path}: line {line}: {e}"))),
+            }
+            if rd.nfields == 1 && rd.field(0).is_empty() {
+                continue; // a blank record ("")
+            }
+            if rd.nfields != width {
+                return Err(input(format!(
+                    "{path}: line {line}: {} cells, the header has {width} (ragged row)",
+                    rd.nfields
+                )));
+            }
+            for (j, &c) in idx.iter().enumerate() {
+                let allow_empty = may_be_empty.contains(&j);
+                row[j] = cell_value(path, line, wanted[j], rd.field(c), allow_empty)?;
+            }
+            if let Some(tc) = read_time {
+                t = cell_value(path, line, &header[tc], rd.field(tc), false)?;
+            }
+        }
+        if let Some(tc) = read_time {
+            check.time(path, &format_args!("line {line}"), &header[tc], t)?;
+        }
+        check.rows += 1;
         if !visit(&row)? {
             break;
         }
     }
-    if rows == 0 {
-        return Err(input(format!("{path}: no data rows after the header")));
-    }
-    let ts = match ts {
-        Some(ts) if ts.is_finite() && ts > 0.0 => ts,
-        Some(ts) => return Err(input(format!("--ts {ts}: must be positive and finite"))),
-        None => {
-            if time_col.is_none() {
-                return Err(input(format!(
-                    "{path}: no time column ('t' or 'time'): give the base period with --ts"
-                )));
-            }
-            if rows < 2 {
-                return Err(input(format!(
-                    "{path}: one row: give the base period with --ts"
-                )));
-            }
-            let ts = (t_last - t0) / (rows - 1) as f64;
-            if !(ts.is_finite() && ts > 0.0) {
-                return Err(input(format!(
-                    "{path}: the time column does not increase: give --ts"
-                )));
-            }
-            ts
-        }
-    };
-    Ok((rows, ts))
+    check.finish(path, time_col.is_some())
 }
 
 /// Reads the file, streaming, and builds the data set.
@@ -419,4 +922,593 @@ pub fn write_columns(path: &str, header: &[String], columns: &[Vec<f64>]) -> Cli
         w.write_record(&row).ctx(format!("cannot write {path}"))?;
     }
     w.flush().ctx(format!("cannot write {path}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh file under the temp dir with `bytes`.
+    fn file(name: &str, bytes: &[u8]) -> String {
+        let dir = std::env::temp_dir().join(format!("lifted-table-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p.display().to_string()
+    }
+
+    /// xorshift64*: a small deterministic generator for the random files.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+        }
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+        fn chance(&mut self, per_mille: u64) -> bool {
+            self.below(1000) < per_mille
+        }
+    }
+
+    /// What a scan gives: rows, base period and every visited row (bit
+    /// patterns, so NaN compares), or the error message.
+    type Scan = Result<(usize, u64, Vec<Vec<u64>>), String>;
+
+    fn run(
+        path: &str,
+        wanted: &[&str],
+        empty: std::ops::Range<usize>,
+        ts: Option<f64>,
+        mode: Option<Mode>,
+    ) -> Scan {
+        let wanted: Vec<String> = wanted.iter().map(|s| s.to_string()).collect();
+        let w: Vec<&String> = wanted.iter().collect();
+        let mut seen = Vec::new();
+        let visit = |row: &[f64]| {
+            seen.push(row.iter().map(|v| v.to_bits()).collect());
+            Ok(true)
+        };
+        let r = match mode {
+            Some(mode) => scan_csv(path, &w, empty, ts, mode, visit),
+            None => legacy_scan(path, &w, empty, ts, visit),
+        };
+        r.map(|(n, ts)| (n, ts.to_bits(), seen))
+            .map_err(|e| e.to_string())
+    }
+
+    /// The reader before the fast path (the csv crate's `ByteRecord` and
+    /// `str::parse`), kept to check the new one against it.
+    fn legacy_scan(
+        path: &str,
+        wanted: &[&String],
+        may_be_empty: std::ops::Range<usize>,
+        ts: Option<f64>,
+        mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
+    ) -> CliResult<(usize, f64)> {
+        let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
+        let mut rd = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .from_reader(std::io::BufReader::new(file));
+        let mut rec = csv::ByteRecord::new();
+        let got = rd
+            .read_byte_record(&mut rec)
+            .ctx(format!("{path}: line 1"))?;
+        if !got || rec.iter().all(|c| c.iter().all(u8::is_ascii_whitespace)) {
+            return Err(input(format!(
+                "{path}: empty file (a header row is required)"
+            )));
+        }
+        let header: Vec<String> = rec
+            .iter()
+            .map(|c| String::from_utf8_lossy(c).trim().to_string())
+            .collect();
+        if header
+            .iter()
+            .any(|h| !h.is_empty() && h.parse::<f64>().is_ok())
+        {
+            return Err(input(format!(
+                "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
+            )));
+        }
+        let find = |name: &str| -> CliResult<usize> {
+            header.iter().position(|h| h == name).ok_or_else(|| {
+                input(format!(
+                    "{path}: header has no column '{name}' (columns: {})",
+                    header.join(", ")
+                ))
+            })
+        };
+        let idx: Vec<usize> = wanted.iter().map(|n| find(n)).collect::<CliResult<_>>()?;
+        let time_col = time_column(&header);
+        let width = header.len();
+        let mut row = vec![0.0; wanted.len()];
+        let mut check = RowCheck::new(ts);
+        let mut line = 1u64;
+        loop {
+            match rd.read_byte_record(&mut rec) {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => return Err(input(format!("{path}: line {}: {e}", line + 1))),
+            }
+            line = rec.position().map_or(line + 1, |p| p.line());
+            if rec.len() == 1 && rec.get(0).is_some_and(<[u8]>::is_empty) {
+                continue;
+            }
+            if rec.len() != width {
+                return Err(input(format!(
+                    "{path}: line {line}: {} cells, the header has {width} (ragged row)",
+                    rec.len()
+                )));
+            }
+            for (j, &c) in idx.iter().enumerate() {
+                row[j] = cell_value(path, line, wanted[j], &rec[c], may_be_empty.contains(&j))?;
+            }
+            if let (Some(tc), None) = (time_col, ts) {
+                let t = cell_value(path, line, &header[tc], &rec[tc], false)?;
+                check.time(path, &format_args!("line {line}"), &header[tc], t)?;
+            }
+            check.rows += 1;
+            if !visit(&row)? {
+                break;
+            }
+        }
+        check.finish(path, time_col.is_some())
+    }
+
+    /// A random number as CSV text in one of the forms people write.
+    fn number(rng: &mut Rng) -> String {
+        let v = (rng.next() as f64 / u64::MAX as f64 - 0.5) * 10f64.powi(rng.below(9) as i32 - 4);
+        match rng.below(9) {
+            0 => format!("{}", rng.below(2000) as i64 - 1000),
+            1 => format!("{v}"),
+            2 => format!("{v:e}"),
+            3 => format!("{v:E}"),
+            4 => format!("{v:.3}"),
+            5 => format!("{:+.17e}", v),
+            6 => format!("{v:.25}"),
+            7 => format!("{}e{}", rng.below(100), rng.below(40) as i64 - 20),
+            _ => format!("{v:.1}"),
+        }
+    }
+
+    /// A random number, padded with spaces or tabs now and then.
+    fn padded(rng: &mut Rng) -> String {
+        let s = number(rng);
+        pad(rng, s)
+    }
+
+    /// Pads a cell with spaces or tabs now and then.
+    fn pad(rng: &mut Rng, s: String) -> String {
+        match rng.below(20) {
+            0 => format!(" {s}"),
+            1 => format!("{s}  "),
+            2 => format!("\t{s} "),
+            _ => s,
+        }
+    }
+
+    /// A random CSV text: header t,u1,x,y1,y2 (x unread), `rows` rows,
+    /// uniform time; `bad` per mille of the lines carry an oddity (quotes,
+    /// blank lines, CR, bad cells, ragged rows).
+    fn random_csv(rng: &mut Rng, rows: usize, crlf: u64, bad: u64) -> Vec<u8> {
+        let mut out = String::from("t,u1,x,y1,y2\n");
+        for k in 0..rows {
+            let eol = if rng.chance(crlf) { "\r\n" } else { "\n" };
+            let t = pad(rng, format!("{}", k as f64 * 0.25));
+            let u = padded(rng);
+            let x = if rng.chance(100) {
+                "note".to_string()
+            } else {
+                number(rng)
+            };
+            let y1 = if rng.chance(50) {
+                String::new()
+            } else {
+                padded(rng)
+            };
+            let y2 = padded(rng);
+            let mut line = format!("{t},{u},{x},{y1},{y2}");
+            if rng.chance(bad) {
+                line = match rng.below(15) {
+                    14 => format!("{t},{u},{x}\r{x},{y1},{y2}"),
+                    0 => format!("{t},\"{u}\",{x},{y1},{y2}"),
+                    1 => format!("{t},{u},\"a,\"\"b\"\"\nc\",{y1},{y2}"),
+                    2 => format!("\n{line}"),
+                    3 => format!("\r\n\r\n{line}"),
+                    4 => format!("{t},{u},{x},{y1}\r{y2}"),
+                    5 => format!("{t},abc,{x},{y1},{y2}"),
+                    6 => format!("{t},{u},{x},nan,{y2}"),
+                    7 => format!("{t},,{x},{y1},{y2}"),
+                    8 => format!("{t},{u},{x},{y1}"),
+                    9 => format!("{line},9"),
+                    10 => format!("{t},{u},{x},{y1},1e999"),
+                    11 => format!("{},{u},{x},{y1},{y2}", k as f64 * 0.25 + 1.0),
+                    12 => format!("{t},{u},{x},{y1},\u{a0}1.5"),
+                    _ => format!("{t},{u},\"{x}\",\"\",{y2}"),
+                };
+            }
+            out += &line;
+            out += eol;
+        }
+        if rng.chance(500) {
+            out.pop(); // no final newline
+        }
+        out.into_bytes()
+    }
+
+    /// The fast path against `csv-core` alone, with small blocks so lines
+    /// and quoted fields straddle refills, and against the old reader.
+    #[test]
+    fn fast_path_equals_the_csv_parser_on_random_files() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut errors = 0;
+        for case in 0..400 {
+            let rows = 1 + rng.below(60) as usize;
+            let crlf = [0, 1000, 300][case % 3];
+            let bad = [0, 20, 100][(case / 3) % 3];
+            let text = random_csv(&mut rng, rows, crlf, bad);
+            let path = file(&format!("r{case}.csv"), &text);
+            let cols = ["u1", "y1", "y2"];
+            let ts = if rng.chance(200) { Some(0.25) } else { None };
+            let reference = run(
+                &path,
+                &cols,
+                1..3,
+                ts,
+                Some(Mode {
+                    fast: false,
+                    block: BLOCK,
+                }),
+            );
+            for block in [BLOCK, 1, 7, 64] {
+                let fast = run(&path, &cols, 1..3, ts, Some(Mode { fast: true, block }));
+                assert_eq!(
+                    fast,
+                    reference,
+                    "case {case}, block {block}: {}",
+                    String::from_utf8_lossy(&text)
+                );
+            }
+            errors += reference.is_err() as usize;
+            // The old reader: the same values; the same messages up to the
+            // line number (it counted the lines of CRLF files and blank
+            // lines wrongly) or exactly for LF files without blank lines.
+            let legacy = run(&path, &cols, 1..3, ts, None);
+            let plain = !text.contains(&b'\r') && !text.windows(2).any(|w| w == b"\n\n");
+            match (&reference, &legacy) {
+                (Ok(a), Ok(b)) => assert_eq!(a, b, "case {case}"),
+                (Err(a), Err(b)) if plain => assert_eq!(a, b, "case {case}"),
+                (Err(a), Err(b)) => {
+                    let mask = |s: &str| {
+                        let mut out = String::new();
+                        let mut it = s.split("line ");
+                        out += it.next().unwrap_or("");
+                        for part in it {
+                            out += "line #";
+                            out += part.trim_start_matches(|c: char| c.is_ascii_digit());
+                        }
+                        out
+                    };
+                    assert_eq!(mask(a), mask(b), "case {case}");
+                }
+                _ => panic!("case {case}: {reference:?} vs {legacy:?}"),
+            }
+        }
+        // Both kinds of file were drawn.
+        assert!(errors > 50 && errors < 350, "{errors}");
+    }
+
+    /// Lines longer than the block grow the buffer.
+    #[test]
+    fn long_lines_grow_the_buffer() {
+        let mut text = String::from("t,u1,y1,");
+        let filler: Vec<String> = (0..500).map(|i| format!("c{i}")).collect();
+        text += &filler.join(",");
+        text += "\n";
+        for k in 0..20 {
+            text += &format!("{k},{},{}", k * 2, k * 3);
+            for _ in 0..500 {
+                text += ",123456.789";
+            }
+            text += "\n";
+        }
+        let path = file("long.csv", text.as_bytes());
+        for block in [BLOCK, 16, 1000] {
+            let r = run(
+                &path,
+                &["u1", "y1"],
+                1..2,
+                None,
+                Some(Mode { fast: true, block }),
+            )
+            .unwrap();
+            assert_eq!(r.0, 20);
+            assert_eq!(f64::from_bits(r.1), 1.0);
+            assert_eq!(f64::from_bits(r.2[19][1]), 57.0);
+        }
+    }
+
+    /// The float grammar of the fast path is that of `str::parse::<f64>`
+    /// (no more: anything it refuses goes to `str::parse`).
+    #[test]
+    fn fast_float_accepts_what_str_parse_accepts() {
+        let cases = [
+            "1",
+            "-2.5e-3",
+            "1E5",
+            "+3",
+            "1.",
+            ".5",
+            "-.5",
+            "1e+5",
+            "1e-5",
+            "0",
+            "-0",
+            "00012",
+            "1.7976931348623157e308",
+            "2.2250738585072014e-308",
+            "4.9e-324",
+            "1e-400",
+            "1e400",
+            "0.1000000000000000055511151231257827",
+            "123456789012345678901234567890",
+            "inf",
+            "-inf",
+            "Infinity",
+            "nan",
+            "NaN",
+            "e5",
+            "1e",
+            "1e+",
+            ".",
+            "-",
+            "+",
+            "1.5.2",
+            "0x10",
+            "1_000",
+            "1,5",
+            "--1",
+            "1e5e5",
+            " 1",
+            "1 ",
+            "",
+            "١",
+            "1d5",
+            "infinit",
+        ];
+        for c in cases {
+            let std = c.parse::<f64>();
+            let fast = fast_float2::parse::<f64, _>(c);
+            match (std, fast) {
+                (Ok(a), Ok(b)) => assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "{c}"
+                ),
+                (Err(_), Err(_)) => {}
+                (a, b) => panic!("{c}: str::parse {a:?}, fast-float2 {b:?}"),
+            }
+        }
+        // And on many random numbers, bit for bit.
+        let mut rng = Rng(7);
+        for _ in 0..100_000 {
+            let s = number(&mut rng);
+            assert_eq!(
+                s.parse::<f64>().map(f64::to_bits).ok(),
+                fast_float2::parse::<f64, _>(&s).map(f64::to_bits).ok(),
+                "{s}"
+            );
+        }
+    }
+
+    /// The quick parser gives `str::parse`'s value for the bytes it takes,
+    /// takes the whole number, and takes the common forms.
+    #[test]
+    fn parse_plain_is_str_parse() {
+        let mut rng = Rng(11);
+        let mut taken = 0;
+        let ends = [",", "\n", "\r\n", "", " ", "e", "e+", "x", ".", "5"];
+        for k in 0..200_000 {
+            let s = number(&mut rng) + ends[k % ends.len()];
+            if let Some((v, len)) = parse_plain(s.as_bytes()) {
+                taken += 1;
+                assert_eq!(
+                    s[..len].parse::<f64>().map(f64::to_bits),
+                    Ok(v.to_bits()),
+                    "{s}"
+                );
+                let (w, flen) = fast_float2::parse_partial::<f64, _>(&s).unwrap();
+                assert_eq!((w.to_bits(), flen), (v.to_bits(), len), "{s}");
+            }
+        }
+        assert!(taken > 100_000, "{taken}");
+        // every length of digit run, on both sides of the point
+        for a in 0..=12 {
+            for b in 0..=12 {
+                let s = format!("{}.{},", "7".repeat(a), "3".repeat(b));
+                let want = s[..s.len() - 1].parse::<f64>().ok();
+                let got = parse_plain(s.as_bytes());
+                match got {
+                    None => assert!(a + b == 0 || a + b > 15, "{s}"),
+                    Some(g) => assert_eq!(Some(g), want.map(|w| (w, a + b + 1)), "{s}"),
+                }
+            }
+        }
+        assert_eq!(
+            parse_plain(b"-8.59509659634750,1"),
+            Some((-8.5950965963475, 17))
+        );
+        assert_eq!(parse_plain(b"+1E5\n"), Some((1e5, 4)));
+        assert_eq!(parse_plain(b"-2.5e-3"), Some((-2.5e-3, 7)));
+        assert_eq!(parse_plain(b"1e"), None);
+        assert_eq!(parse_plain(b"1e400"), None);
+        assert_eq!(parse_plain(b"12345678901234567890"), None);
+        assert_eq!(parse_plain(b"9007199254740993"), None);
+        assert_eq!(parse_plain(b"inf"), None);
+        assert_eq!(parse_plain(b"-"), None);
+    }
+
+    fn err(text: &str, wanted: &[&str], empty: std::ops::Range<usize>, ts: Option<f64>) -> String {
+        let path = file("e.csv", text.as_bytes());
+        let fast = run(&path, wanted, empty.clone(), ts, Some(Mode::default()));
+        let slow = run(
+            &path,
+            wanted,
+            empty,
+            ts,
+            Some(Mode {
+                fast: false,
+                block: BLOCK,
+            }),
+        );
+        assert_eq!(fast, slow);
+        fast.unwrap_err().replace(&path, "F")
+    }
+
+    /// Every message of the CSV reader, on LF and CRLF files.
+    #[test]
+    fn each_error_message() {
+        let io = &["u1", "y1"];
+        for eol in ["\n", "\r\n"] {
+            let t = |s: &str| s.replace('\n', eol);
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0.1,1\n"), io, 1..2, None),
+                "F: line 3: 2 cells, the header has 3 (ragged row)"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n\n0.1,1,2,3\n"), io, 1..2, None),
+                "F: line 4: 4 cells, the header has 3 (ragged row)"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0.1, ,2\n"), io, 1..2, None),
+                "F: line 3, column 'u1': empty cell (only output columns may have empty cells)"
+            );
+            assert_eq!(
+                err(
+                    &t("t,u1,y1\n0,1,2\n0.1,1,\u{e9}\n").replace('\u{e9}', "\u{fffd}"),
+                    io,
+                    1..2,
+                    None
+                ),
+                "F: line 3, column 'y1': cannot parse '\u{fffd}' as a number"
+            );
+            let mut latin1 = t("t,u1,y1\n0,1,2\n0.1,1,X\n").into_bytes();
+            let x = latin1.iter().position(|&b| b == b'X').unwrap();
+            latin1[x] = 0xe9;
+            let path = file("latin1.csv", &latin1);
+            let e = run(&path, io, 1..2, None, Some(Mode::default())).unwrap_err();
+            assert_eq!(
+                e.replace(&path, "F"),
+                "F: line 3, column 'y1': cell is not UTF-8"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0.1,abc,2\n"), io, 1..2, None),
+                "F: line 3, column 'u1': cannot parse 'abc' as a number"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0.1,1, NaN \n"), io, 1..2, None),
+                "F: line 3, column 'y1': value 'NaN' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,-inf,2\n"), io, 1..2, None),
+                "F: line 2, column 'u1': value '-inf' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0.1,1,2\n0.25,1,2\n"), io, 1..2, None),
+                "F: line 4, column 't': time 0.25 breaks the uniform spacing 0.1 (expected 0.2); give --ts to ignore the time column"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n,1,2\n"), io, 1..2, None),
+                "F: line 3, column 't': empty cell (only output columns may have empty cells)"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n\n"), io, 1..2, None),
+                "F: no data rows after the header"
+            );
+            assert_eq!(
+                err("", io, 1..2, None),
+                "F: empty file (a header row is required)"
+            );
+            assert_eq!(
+                err(&t(" , \n1,2\n"), io, 1..2, None),
+                "F: empty file (a header row is required)"
+            );
+            assert_eq!(
+                err(&t("t,1,y1\n0,1,2\n"), io, 1..2, None),
+                "F: line 1 is not a header row (it contains numbers); the first row must name the columns"
+            );
+            assert_eq!(
+                err(&t("t,u1,y2\n0,1,2\n"), io, 1..2, None),
+                "F: header has no column 'y1' (columns: t, u1, y2)"
+            );
+            assert_eq!(
+                err(&t("u1,y1\n1,2\n1,2\n"), io, 1..2, None),
+                "F: no time column ('t' or 'time'): give the base period with --ts"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n"), io, 1..2, None),
+                "F: one row: give the base period with --ts"
+            );
+            assert_eq!(
+                err(&t("t,u1,y1\n0,1,2\n0,1,2\n"), io, 1..2, None),
+                "F: the time column does not increase: give --ts"
+            );
+            assert_eq!(
+                err(&t("u1,y1\n1,2\n"), io, 1..2, Some(-1.0)),
+                "--ts -1: must be positive and finite"
+            );
+        }
+    }
+
+    /// Quoted cells, blank lines, CRLF, spaces and a BOM are read as the csv
+    /// crate reads them; the line numbers are those of the file.
+    #[test]
+    fn quotes_blank_lines_and_crlf() {
+        let text =
+            "\u{feff}\"t\",u1,y1\r\n\r\n0, 1 ,\"2\"\r\n\n0.5,\"-2.5e-3\",\r\n1,1E5,\"a\nb\"\r\n";
+        let path = file("q.csv", text.as_bytes());
+        let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
+        assert_eq!(
+            e.replace(&path, "F"),
+            "F: line 6, column 'y1': cannot parse 'a\nb' as a number"
+        );
+        let text = "\u{feff}\"t\",u1,y1\r\n\r\n0, 1 ,\"2\"\r\n\n0.5,\"-2.5e-3\",\r\n1,1E5,\"\"\"3\"\"\"\r\n";
+        let path = file("q2.csv", text.as_bytes());
+        let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
+        assert_eq!(
+            e.replace(&path, "F"),
+            "F: line 6, column 'y1': cannot parse '\"3\"' as a number"
+        );
+        let text = "t,u1,y1\r\n\r\n0, 1 ,\"2\"\r\n\n0.5,\"-2.5e-3\",\r\n1,1E5,\t3 \r\n";
+        let path = file("q3.csv", text.as_bytes());
+        let (rows, ts, seen) =
+            run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap();
+        assert_eq!((rows, f64::from_bits(ts)), (3, 0.5));
+        let v: Vec<Vec<f64>> = seen
+            .iter()
+            .map(|r| r.iter().map(|&b| f64::from_bits(b)).collect())
+            .collect();
+        assert_eq!(v[0], [1.0, 2.0]);
+        assert_eq!(v[1][0], -2.5e-3);
+        assert!(v[1][1].is_nan());
+        assert_eq!(v[2], [1e5, 3.0]);
+    }
+
+    /// `visit` returning false stops the scan.
+    #[test]
+    fn visit_can_stop() {
+        let path = file("stop.csv", b"t,u1,y1\n0,1,2\n1,1,2\n2,1,2\n3,x,2\n");
+        let w = [&"u1".to_string()];
+        let mut n = 0;
+        let (rows, ts) = scan_rows(&path, &w, 0..0, None, |_| {
+            n += 1;
+            Ok(n < 2)
+        })
+        .unwrap();
+        assert_eq!((rows, ts), (2, 1.0));
+    }
 }
