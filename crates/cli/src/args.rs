@@ -225,9 +225,13 @@ pub struct SimulateArgs {
     /// Model file (JSON); a continuous model is discretised by ZOH at --ts.
     #[arg(long)]
     pub model: String,
-    /// Input CSV (header row; the input columns are read by name).
+    /// Input CSV (header row; the input columns are read by name), or a .npy array (see --columns).
     #[arg(long)]
     pub input: String,
+    /// Names of the columns of a .npy input file, in order, comma separated (default c0, c1, …);
+    /// a column named t or time is the time column. Ignored for a CSV input.
+    #[arg(long)]
+    pub columns: Option<String>,
     /// Input column names, comma separated (default: the model's input names, else u1,u2,…).
     /// In closed loop (--controller) they are the excitation r₂ added at the plant input,
     /// and optional: without --inputs there is none.
@@ -377,6 +381,11 @@ pub struct DataArgs {
     /// Declared output sampling period, NAME=PERIOD in base periods (repeatable); otherwise inferred from the empty cells.
     #[arg(long = "output-period")]
     pub output_period: Vec<String>,
+    /// Names of the columns of a .npy data file, in order, comma separated (default c0, c1, …);
+    /// a column named t or time is the time column. Ignored for CSV files (their header row
+    /// names the columns).
+    #[arg(long)]
+    pub columns: Option<String>,
 }
 
 /// `lifted identify`.
@@ -385,7 +394,7 @@ pub struct IdentifyArgs {
     /// Identification method.
     #[arg(long, value_enum)]
     pub method: MethodArg,
-    /// Data CSV; repeat for several experiments (q-Markov: one file per input channel, in input order).
+    /// Data file, CSV or .npy (see --columns); repeat for several experiments (q-Markov: one file per input channel, in input order).
     #[arg(long, required = true)]
     pub data: Vec<String>,
     /// Columns and layout.

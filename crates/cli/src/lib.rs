@@ -3,7 +3,8 @@
 //! command's handlers and by `lifted studio`:
 //!
 //! * [`table`]: CSV → data set (named columns, empty cells for unsampled
-//!   outputs, one-line errors naming file, line and column);
+//!   outputs, one-line errors naming file, line and column), and
+//!   [`npy`]: numpy `.npy` arrays read the same way;
 //! * [`service::identify`]: data files + `identify` options → model file;
 //! * [`service::validation`]: model file + record → fit and residual tests;
 //! * [`service::figures`]: plots of a model and a record;
@@ -17,6 +18,7 @@
 pub mod args;
 pub mod error;
 pub mod html;
+pub mod npy;
 pub mod plot;
 pub mod service;
 pub mod studio;

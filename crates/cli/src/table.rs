@@ -1,7 +1,8 @@
-//! Reading data sets from CSV by column name, streaming, with error
-//! messages that name the file, the line and the column.
+//! Reading data sets from CSV (or numpy `.npy`, see [`crate::npy`]) by
+//! column name, streaming, with error messages that name the file, the line
+//! and the column.
 //!
-//! The file has a header row. Only the requested columns are parsed and
+//! A CSV file has a header row. Only the requested columns are parsed and
 //! kept (one `Vec<f64>` each), so memory is 8 bytes per kept cell whatever
 //! the width of the file; the time column `t`/`time`, when present, is
 //! checked for uniform spacing on the fly and gives the base period when
@@ -36,6 +37,9 @@ pub struct DataSpec {
     pub hold: usize,
     /// Declared output periods by name (`--output-period y1=5`).
     pub periods: Vec<(String, usize)>,
+    /// Names of the columns of a `.npy` file, in order (`--columns`; empty:
+    /// `c0, c1, …`). Ignored for CSV files, whose header row names them.
+    pub columns: Vec<String>,
 }
 
 /// A data set read from a file, with the extra columns.
@@ -135,16 +139,18 @@ pub struct Raw {
 }
 
 /// Reads the named columns, streaming; cells of the columns in `may_be_empty`
-/// (a range of indices into `wanted`) may be empty (NaN). O(file) time,
-/// O(rows × wanted) memory.
+/// (a range of indices into `wanted`) may be empty (NaN). `columns` names the
+/// columns of a `.npy` file (empty: `c0, c1, …`; ignored for CSV). O(file)
+/// time, O(rows × wanted) memory.
 pub fn read_raw(
     path: &str,
+    columns: &[String],
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
 ) -> CliResult<Raw> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
-    let (rows, ts) = scan_rows(path, wanted, may_be_empty, ts, |row| {
+    let (rows, ts) = scan_rows(path, columns, wanted, may_be_empty, ts, |row| {
         for (c, &v) in cols.iter_mut().zip(row) {
             c.push(v);
         }
@@ -153,16 +159,29 @@ pub fn read_raw(
     Ok(Raw { cols, rows, ts })
 }
 
-/// The column names of a CSV file's header row. Reads only the start of
-/// the file.
-pub fn header(path: &str) -> CliResult<Vec<String>> {
+/// Whether `path` names a numpy `.npy` file (by its extension, any case).
+pub fn is_npy(path: &str) -> bool {
+    std::path::Path::new(path)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+}
+
+/// The column names of a data file: a CSV file's header row, or a `.npy`
+/// file's `columns` (default `c0, c1, …`, checked against the array's
+/// width). Reads only the start of the file.
+pub fn header(path: &str, columns: &[String]) -> CliResult<Vec<String>> {
+    if is_npy(path) {
+        return crate::npy::header(path, columns);
+    }
     open_csv(path, 1 << 16).map(|(_, h)| h)
 }
 
-/// Streams the named columns of a CSV file row by row: `visit` receives the
-/// values of `wanted` (empty cells of the columns in `may_be_empty` as NaN)
-/// and returns whether to go on. Returns the number of rows visited and the
-/// base period (given, or from the time column over the rows read).
+/// Streams the named columns of a data file (CSV, or `.npy` by extension:
+/// see [`crate::npy`]) row by row: `visit` receives the values of `wanted`
+/// (empty cells of the columns in `may_be_empty` as NaN) and returns whether
+/// to go on. Returns the number of rows visited and the base period (given,
+/// or from the time column over the rows read). `columns` names the columns
+/// of a `.npy` file (empty: `c0, c1, …`); a CSV file names its own.
 ///
 /// CSV files are read in blocks of 1 MiB (`Read::read` into one reusable
 /// buffer; a line cut by the block end is carried over). Each line goes
@@ -178,11 +197,15 @@ pub fn header(path: &str) -> CliResult<Vec<String>> {
 /// block + longest line), whatever the file length.
 pub fn scan_rows(
     path: &str,
+    columns: &[String],
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
+    if is_npy(path) {
+        return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
+    }
     scan_csv(path, wanted, may_be_empty, ts, Mode::default(), visit)
 }
 
@@ -381,7 +404,7 @@ pub(crate) fn time_column(header: &[String]) -> Option<usize> {
         .position(|h| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time"))
 }
 
-/// Row count and time-column checks of a reader.
+/// Row count and time-column checks shared by the CSV and `.npy` readers.
 pub(crate) struct RowCheck {
     ts: Option<f64>,
     t0: f64,
@@ -810,7 +833,8 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
             "at least one input and one output column are needed (--inputs, --outputs)",
         ));
     }
-    let Raw { mut cols, rows, ts } = read_raw(path, &wanted, n_in..n_in + n_out, spec.ts)?;
+    let Raw { mut cols, rows, ts } =
+        read_raw(path, &spec.columns, &wanted, n_in..n_in + n_out, spec.ts)?;
     // Output sampling: declared periods are checked, others inferred.
     for (name, _) in &spec.periods {
         if !spec.outputs.contains(name) {
@@ -824,7 +848,7 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
     for (o, name) in spec.outputs.iter().enumerate() {
         let col = &mut cols[n_in + o];
         let declared = spec.periods.iter().find(|(n, _)| n == name).map(|p| p.1);
-        let (period, offset) = sampling(path, name, col, declared)?;
+        let (period, offset) = sampling(path, name, col, declared, is_npy(path))?;
         if rows % period != 0 {
             return Err(input(format!(
                 "{path}: output '{name}' has period {period}, which does not divide the record length {rows} rows (trim the file to a multiple of {period} rows)"
@@ -854,13 +878,23 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
 }
 
 /// (period, offset) of an output column from its empty cells; with a
-/// declared period, checks that the samples follow it.
+/// declared period, checks that the samples follow it. Messages locate
+/// sample k by its CSV line (k + 2) or, for a `.npy` file (`npy`), by its
+/// row k. O(rows).
 fn sampling(
     path: &str,
     name: &str,
     col: &[f64],
     declared: Option<usize>,
+    npy: bool,
 ) -> CliResult<(usize, usize)> {
+    let at = |k: usize| {
+        if npy {
+            format!("row {k}")
+        } else {
+            format!("line {}", k + 2)
+        }
+    };
     let first = col.iter().position(|v| !v.is_nan()).ok_or_else(|| {
         input(format!(
             "{path}: output column '{name}' has no samples (all cells empty)"
@@ -880,22 +914,22 @@ fn sampling(
     };
     if first >= period {
         return Err(input(format!(
-            "{path}: line {}, column '{name}': first sample is missing (period {period})",
-            first + 1
+            "{path}: {}, column '{name}': first sample is missing (period {period})",
+            at(first - 1)
         )));
     }
     for (k, v) in col.iter().enumerate() {
         let sampled = k % period == first;
         if sampled && v.is_nan() {
             return Err(input(format!(
-                "{path}: line {}, column '{name}': empty cell at a sampling instant of period {period}",
-                k + 2
+                "{path}: {}, column '{name}': empty cell at a sampling instant of period {period}",
+                at(k)
             )));
         }
         if !sampled && !v.is_nan() {
             return Err(input(format!(
-                "{path}: line {}, column '{name}': value between samples of period {period} (the cell must be empty)",
-                k + 2
+                "{path}: {}, column '{name}': value between samples of period {period} (the cell must be empty)",
+                at(k)
             )));
         }
     }
@@ -1504,7 +1538,7 @@ mod tests {
         let path = file("stop.csv", b"t,u1,y1\n0,1,2\n1,1,2\n2,1,2\n3,x,2\n");
         let w = [&"u1".to_string()];
         let mut n = 0;
-        let (rows, ts) = scan_rows(&path, &w, 0..0, None, |_| {
+        let (rows, ts) = scan_rows(&path, &[], &w, 0..0, None, |_| {
             n += 1;
             Ok(n < 2)
         })

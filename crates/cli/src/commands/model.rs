@@ -196,7 +196,8 @@ pub fn simulate(a: &SimulateArgs) -> CliResult<()> {
     }
     let wanted: Vec<&String> = un.iter().chain(&rn).collect();
     let ts_hint = a.ts.or(model.ts());
-    let raw = read_raw(&a.input, &wanted, 0..0, ts_hint)?;
+    let npy_columns = a.columns.as_deref().map(names).unwrap_or_default();
+    let raw = read_raw(&a.input, &npy_columns, &wanted, 0..0, ts_hint)?;
     let ts = raw.ts;
     let plant = match model.ts() {
         Some(mts) => {

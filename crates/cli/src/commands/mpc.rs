@@ -76,7 +76,7 @@ fn reference(a: &MpcArgs, outputs: &[String]) -> CliResult<DMatrix<f64>> {
             return Err(input("give --setpoint or --reference, not both"));
         }
         let wanted: Vec<&String> = outputs.iter().collect();
-        let raw = read_raw(path, &wanted, 0..0, Some(1.0))?;
+        let raw = read_raw(path, &[], &wanted, 0..0, Some(1.0))?;
         if raw.rows == 0 {
             return Err(input(format!("{path}: no set-point rows")));
         }

@@ -72,6 +72,7 @@ pub fn data_spec(
         ts: cols.ts,
         hold,
         periods: parse_periods(&cols.output_period)?,
+        columns: cols.columns.as_deref().map(names).unwrap_or_default(),
     })
 }
 
@@ -548,24 +549,31 @@ fn identify_streaming(
         let (mut ub, mut yb) = (DMatrix::zeros(block, n_u), DMatrix::zeros(block, n_y));
         let (mut fill, mut multirate) = (0usize, false);
         let t = std::time::Instant::now();
-        let (n_rows, ts) = scan_rows(path, &wanted, n_u..n_u + n_y, spec.ts, |row| {
-            if row[n_u..].iter().any(|v| v.is_nan()) {
-                multirate = true;
-                return Ok(false);
-            }
-            for (j, v) in row[..n_u].iter().enumerate() {
-                ub[(fill, j)] = *v;
-            }
-            for (j, v) in row[n_u..].iter().enumerate() {
-                yb[(fill, j)] = *v;
-            }
-            fill += 1;
-            if fill == block {
-                sid.push(&ub, &yb).ctx(&what)?;
-                fill = 0;
-            }
-            Ok(true)
-        })?;
+        let (n_rows, ts) = scan_rows(
+            path,
+            &spec.columns,
+            &wanted,
+            n_u..n_u + n_y,
+            spec.ts,
+            |row| {
+                if row[n_u..].iter().any(|v| v.is_nan()) {
+                    multirate = true;
+                    return Ok(false);
+                }
+                for (j, v) in row[..n_u].iter().enumerate() {
+                    ub[(fill, j)] = *v;
+                }
+                for (j, v) in row[n_u..].iter().enumerate() {
+                    yb[(fill, j)] = *v;
+                }
+                fill += 1;
+                if fill == block {
+                    sid.push(&ub, &yb).ctx(&what)?;
+                    fill = 0;
+                }
+                Ok(true)
+            },
+        )?;
         if multirate {
             return Ok(None);
         }

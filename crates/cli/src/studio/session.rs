@@ -319,7 +319,7 @@ impl Session {
 
     fn inspect(&self, name: &str, path: &Path) -> CliResult<DataInfo> {
         let p = path.display().to_string();
-        let cols: Vec<String> = header(&p)?
+        let cols: Vec<String> = header(&p, &[])?
             .into_iter()
             .filter(|h| !h.eq_ignore_ascii_case("t") && !h.eq_ignore_ascii_case("time"))
             .collect();
@@ -327,7 +327,7 @@ impl Session {
             return Err(input(format!("{name}: the file has no data columns")));
         }
         let wanted: Vec<&String> = cols.iter().collect();
-        let raw = read_raw(&p, &wanted, 0..cols.len(), None)?;
+        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), None)?;
         if raw.rows == 0 {
             return Err(input(format!(
                 "{name}: the file has a header but no data rows"
@@ -410,6 +410,7 @@ impl Session {
             ts: r.ts,
             hold: r.hold.unwrap_or(1),
             periods: parse_periods(&r.output_period)?,
+            columns: Vec::new(),
         })
     }
 
