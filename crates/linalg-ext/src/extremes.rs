@@ -9,10 +9,23 @@
 //! σ_min, so (σ_min/σ_max) is over-estimated. A caller that must decide
 //! "well conditioned" reliably accepts only with a margin and computes the
 //! singular values near its threshold ([`ConditionCheck`]).
+//!
+//! Two certificates decide most tests without iterating at all:
+//!
+//! * [`triangular_ratio_bound`]: σ_min/σ_max ≥ 1/(‖L⁻¹‖_F ‖L‖_F) from the
+//!   explicit inverse (one triangular solve with k right-hand sides,
+//!   O(k³/3)); within a factor k of the ratio, so it settles the small
+//!   thresholds of rank tests (10⁻¹⁰, k ε) at once;
+//! * [`exceeds_min_eigenvalue`]: λ_min(G) > τ for a symmetric G because
+//!   the Cholesky factorisation of G − τI succeeds (Sylvester's law of
+//!   inertia), O(k³/3); exact up to the backward error O(k ε ‖G‖), so it
+//!   settles thresholds on a Gram matrix's condition down to ≈ 10⁻¹⁰
+//!   ([`gram_condition_exceeds`]).
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::check::check_finite;
+use crate::convert::as_faer;
 use crate::{Error, Result};
 
 /// Most iterations of each power iteration.
@@ -41,15 +54,18 @@ fn start(k: usize) -> DVector<f64> {
 ///
 /// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
 pub fn lower_triangular_extremes(l: &DMatrix<f64>) -> Result<(f64, f64)> {
-    check_finite("l", l)?;
-    let k = l.nrows();
-    if l.ncols() != k {
-        return Err(Error::DimensionMismatch {
-            what: "l",
-            expected: "a square matrix".into(),
-            got: format!("{}x{}", k, l.ncols()),
-        });
-    }
+    lower_triangular_extremes_within(l, MAX_ITERATIONS)
+}
+
+/// [`lower_triangular_extremes`] with at most `max_iterations` steps of
+/// each power iteration (the bounds hold after any number of steps).
+///
+/// Errors: as [`lower_triangular_extremes`].
+pub fn lower_triangular_extremes_within(
+    l: &DMatrix<f64>,
+    max_iterations: usize,
+) -> Result<(f64, f64)> {
+    let k = check_square_lower(l)?;
     if k == 0 {
         return Ok((0.0, 0.0));
     }
@@ -57,7 +73,7 @@ pub fn lower_triangular_extremes(l: &DMatrix<f64>) -> Result<(f64, f64)> {
     // σ_max: v ← Lᵀ L v / ‖·‖, estimate ‖L v‖ (‖v‖ = 1) ≤ σ_max.
     let mut v = start(k);
     let mut smax = 0.0f64;
-    for _ in 0..MAX_ITERATIONS {
+    for _ in 0..max_iterations.max(1) {
         let lv = &low * &v;
         let est = lv.norm();
         let w = low.tr_mul(&lv);
@@ -78,7 +94,7 @@ pub fn lower_triangular_extremes(l: &DMatrix<f64>) -> Result<(f64, f64)> {
     // σ_min: x ← L⁻ᵀ L⁻¹ x / ‖·‖, estimate 1/‖L⁻¹ x‖ ≥ σ_min.
     let mut x = start(k);
     let mut inv_max = 0.0f64;
-    for _ in 0..MAX_ITERATIONS {
+    for _ in 0..max_iterations.max(1) {
         let Some(a) = low.solve_lower_triangular(&x) else {
             return Ok((smax, 0.0));
         };
@@ -100,22 +116,130 @@ pub fn lower_triangular_extremes(l: &DMatrix<f64>) -> Result<(f64, f64)> {
     Ok((smax, if inv_max > 0.0 { 1.0 / inv_max } else { 0.0 }))
 }
 
+/// Checks finiteness and squareness; returns k.
+fn check_square_lower(l: &DMatrix<f64>) -> Result<usize> {
+    check_finite("l", l)?;
+    let k = l.nrows();
+    if l.ncols() != k {
+        return Err(Error::DimensionMismatch {
+            what: "l",
+            expected: "a square matrix".into(),
+            got: format!("{}x{}", k, l.ncols()),
+        });
+    }
+    Ok(k)
+}
+
+/// A certified lower bound 1/(‖L⁻¹‖_F ‖L‖_F) ≤ σ_min/σ_max of a square
+/// lower-triangular `l` (entries above the diagonal ignored), from the
+/// explicit inverse (faer triangular solve, O(k³/3)); it is at most a
+/// factor k below the ratio. 0 when a diagonal entry is 0 or the inverse
+/// overflows.
+///
+/// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
+pub fn triangular_ratio_bound(l: &DMatrix<f64>) -> Result<f64> {
+    let k = check_square_lower(l)?;
+    if k == 0 || (0..k).any(|i| l[(i, i)] == 0.0) {
+        return Ok(0.0);
+    }
+    let low = l.lower_triangle();
+    let mut inv = faer::Mat::<f64>::identity(k, k);
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+        as_faer(&low),
+        inv.as_mut(),
+        faer::Par::Seq,
+    );
+    let inv_norm = inv.norm_l2();
+    let norm = low.norm();
+    let bound = 1.0 / (inv_norm * norm);
+    // Rounding in the inverse is far below the factor of 2 given away.
+    Ok(if bound.is_finite() { 0.5 * bound } else { 0.0 })
+}
+
+/// Whether λ_min(G) > τ for a symmetric `g` (lower triangle used): true
+/// when the Cholesky factorisation of G − τI succeeds (Sylvester's law of
+/// inertia). Exact up to the backward error of the factorisation,
+/// O(k ε ‖G‖): meaningful for τ well above that. O(k³/3).
+///
+/// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
+pub fn exceeds_min_eigenvalue(g: &DMatrix<f64>, tau: f64) -> Result<bool> {
+    let k = check_square_lower(g)?;
+    let shifted = g - DMatrix::<f64>::identity(k, k) * tau;
+    Ok(k == 0 || shifted.cholesky().is_some())
+}
+
+/// Whether λ_min(G)/λ_max(G) > threshold for a symmetric positive
+/// semi-definite `g`, proven by two Cholesky factorisations: λ_max < λ₊
+/// for λ₊ = 1.05 × a power-iteration estimate (or the row-sum bound ‖G‖∞
+/// when that fails), then λ_min > threshold · λ₊. A false answer only
+/// says "not proven" (the ratio may be up to 1.05·‖G‖∞/λ_max times above
+/// the threshold); a caller decides those cases exactly. O(k³/3).
+/// Meaningful for thresholds above ≈ 100 k ε.
+///
+/// Errors: as [`exceeds_min_eigenvalue`].
+pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> {
+    let k = check_square_lower(g)?;
+    if k == 0 {
+        return Ok(true);
+    }
+    let sym =
+        g.lower_triangle() + g.lower_triangle().transpose() - DMatrix::from_diagonal(&g.diagonal());
+    let mut v = start(k);
+    let mut lam = 0.0f64;
+    for _ in 0..30 {
+        let w = &sym * &v;
+        let est = v.dot(&w);
+        let n = w.norm();
+        if n == 0.0 {
+            break;
+        }
+        v = w / n;
+        let done = (est - lam).abs() <= 1e-3 * est;
+        lam = lam.max(est);
+        if done {
+            break;
+        }
+    }
+    let row_sums = (0..k)
+        .map(|i| sym.row(i).iter().map(|x| x.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let mut upper = 1.05 * lam;
+    if !(upper > 0.0)
+        || !(DMatrix::<f64>::identity(k, k) * upper - &sym)
+            .cholesky()
+            .is_some()
+    {
+        upper = row_sums;
+    }
+    if !(upper > 0.0) {
+        return Ok(false);
+    }
+    exceeds_min_eigenvalue(&sym, threshold * upper)
+}
+
 /// A condition test "σ_min/σ_max > threshold" on a lower-triangular factor
-/// that is exact where it matters: decided by the O(k²) estimates when they
-/// are clear of the threshold by `margin`, else by the singular values.
+/// that is exact where it matters: decided by the certified lower bound of
+/// [`triangular_ratio_bound`] when it clears the threshold, else by the
+/// O(k²) estimates when they are clear of the threshold by `margin`, else
+/// by the singular values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConditionCheck {
-    /// σ_min/σ_max: estimated when `exact` is false.
+    /// σ_min/σ_max: a proven lower bound when `certified`, an estimate
+    /// (at or above the ratio) when neither `certified` nor `exact`.
     pub ratio: f64,
     /// Whether the ratio comes from the singular values.
     pub exact: bool,
+    /// Whether `ratio` is the certified lower bound.
+    pub certified: bool,
 }
 
-/// σ_min/σ_max of a lower-triangular factor, from the estimates when the
-/// estimated ratio is above `threshold · margin` (the estimate can only
-/// over-state the ratio, and it converges to it: a margin of 10 leaves
-/// room for a start vector poorly aligned with the smallest direction),
-/// else from the singular values (exact decision near the threshold).
+/// σ_min/σ_max of a lower-triangular factor: the certified lower bound of
+/// [`triangular_ratio_bound`] when it is above `threshold` (O(k³/3), no
+/// iteration), else the estimates when the estimated ratio is above
+/// `threshold · margin` (the estimate can only over-state the ratio, and
+/// it converges to it: a margin of 10 leaves room for a start vector
+/// poorly aligned with the smallest direction), else the singular values
+/// (exact decision near the threshold).
 ///
 /// Errors: as [`lower_triangular_extremes`] and [`crate::singular_values`].
 pub fn triangular_condition(
@@ -123,12 +247,21 @@ pub fn triangular_condition(
     threshold: f64,
     margin: f64,
 ) -> Result<ConditionCheck> {
+    let bound = triangular_ratio_bound(l)?;
+    if bound > threshold {
+        return Ok(ConditionCheck {
+            ratio: bound,
+            exact: false,
+            certified: true,
+        });
+    }
     let (smax, smin) = lower_triangular_extremes(l)?;
     let ratio = if smax > 0.0 { smin / smax } else { 0.0 };
     if ratio.is_finite() && ratio > threshold * margin {
         return Ok(ConditionCheck {
             ratio,
             exact: false,
+            certified: false,
         });
     }
     let s = crate::singular_values(&l.lower_triangle())?;
@@ -137,6 +270,7 @@ pub fn triangular_condition(
     Ok(ConditionCheck {
         ratio: if hi > 0.0 { lo / hi } else { 0.0 },
         exact: true,
+        certified: false,
     })
 }
 
@@ -189,7 +323,43 @@ mod tests {
         assert_eq!(lower_triangular_extremes(&l).unwrap().1, 0.0);
         let good = lower(30, 9, 1.0);
         let c = triangular_condition(&good, 1e-8, 10.0).unwrap();
-        assert!(!c.exact && c.ratio > 1e-3, "{c:?}");
+        assert!(!c.exact && c.certified && c.ratio > 1e-8, "{c:?}");
+        // Above the certified bound, the estimates decide (no SVD).
+        let s = crate::singular_values(&good).unwrap();
+        let c = triangular_condition(
+            &good,
+            0.9 * triangular_ratio_bound(&good)
+                .unwrap()
+                .max(s[29] / s[0] / 100.0),
+            1.0,
+        )
+        .unwrap();
+        assert!(!c.exact, "{c:?}");
+    }
+
+    #[test]
+    fn certificates_hold_and_are_reasonably_tight() {
+        for (k, seed) in [(1, 1), (5, 2), (40, 3), (160, 4)] {
+            let l = lower(k, seed, 1.0);
+            let s = crate::singular_values(&l).unwrap();
+            let ratio = s[k - 1] / s[0];
+            let b = triangular_ratio_bound(&l).unwrap();
+            assert!(
+                b <= ratio && b >= ratio / (2.0 * k as f64),
+                "{k}: {b} vs {ratio}"
+            );
+            let g = &l * l.transpose();
+            let (lmin, lmax) = (s[k - 1] * s[k - 1], s[0] * s[0]);
+            assert!(exceeds_min_eigenvalue(&g, 0.99 * lmin).unwrap());
+            assert!(!exceeds_min_eigenvalue(&g, 1.01 * lmin).unwrap());
+            assert!(gram_condition_exceeds(&g, 0.5 * lmin / lmax).unwrap());
+            assert!(!gram_condition_exceeds(&g, 1.01 * lmin / lmax).unwrap());
+        }
+        let mut l = lower(30, 9, 1.0);
+        l[(29, 29)] = 0.0;
+        assert_eq!(triangular_ratio_bound(&l).unwrap(), 0.0);
+        let c = triangular_condition(&lower(30, 9, 1.0), 1e-8, 10.0).unwrap();
+        assert!(c.certified && !c.exact && c.ratio > 1e-8, "{c:?}");
     }
 
     #[test]

@@ -85,7 +85,10 @@ pub use check::{check_cols, check_finite, check_rows, check_square};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
 pub use error::{Error, Result};
-pub use extremes::{ConditionCheck, lower_triangular_extremes, triangular_condition};
+pub use extremes::{
+    ConditionCheck, exceeds_min_eigenvalue, gram_condition_exceeds, lower_triangular_extremes,
+    lower_triangular_extremes_within, triangular_condition, triangular_ratio_bound,
+};
 pub use kernels::{dot, first_non_finite};
 pub use lstsq::lstsq;
 pub use lyapunov::{dlyap, lyap, sylvester};

@@ -1,7 +1,7 @@
 //! The unified subspace engine: N4SID, MOESP and CVA as one weighted SVD
 //! (thesis §2.5, Van Overschee & De Moor's unifying theorem).
 
-use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, range_basis, svd, sym_eig};
+use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, svd, sym_eig};
 use lifted_lti::{OperatingPoint, StateSpace};
 use std::time::Instant;
 
@@ -12,6 +12,7 @@ use crate::error::{Error, Result, check_data, check_exciting};
 use crate::hankel::{
     Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
 };
+use crate::oblique::Projector;
 use crate::order::{
     OrderCriterion, OrderReport, gap_order, gap_values, information_criterion_values,
     simulation_error, svc_values,
@@ -273,29 +274,6 @@ pub struct SubspaceModel {
     pub output_offsets: Vec<DVector<f64>>,
     /// Singular values, orders and other diagnostics.
     pub diagnostics: Diagnostics,
-}
-
-/// Removes the row space of `u` from the rows of `m`: m Π_{u⊥}.
-pub(crate) fn perp(m: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-    if u.nrows() == 0 {
-        return Ok(m.clone());
-    }
-    let q = range_basis(&u.transpose(), RankTolerance::Default)?;
-    Ok(m - (m * &q) * q.transpose())
-}
-
-/// The map M of the oblique projection F /_U P = M P,
-/// M = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺.
-fn oblique_map(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-    let fp = perp(f, u)?;
-    let pp = perp(p, u)?;
-    let g = &pp * pp.transpose();
-    Ok(fp * pp.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?)
-}
-
-/// Oblique projection F /_U P = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺ P.
-fn oblique(f: &DMatrix<f64>, u: &DMatrix<f64>, p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-    Ok(oblique_map(f, u, p)? * p)
 }
 
 fn rows(m: &DMatrix<f64>, r: std::ops::Range<usize>) -> DMatrix<f64> {
@@ -958,8 +936,8 @@ fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<&'r [Record
 
 /// CVA's weight W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2} and its inverse
 /// (eigenvalues floored at 1e-14 λ_max; erratum L-1). O(k³).
-fn cva_weights(yf: &DMatrix<f64>, uf: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
-    let yfp = perp(yf, uf)?;
+fn cva_weights(pr: &Projector<'_>, yf: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
+    let yfp = pr.perp_future_inputs(yf)?;
     let e = sym_eig(&(&yfp * yfp.transpose()), SortOrder::Descending)?;
     let lmax = e.values.iter().cloned().fold(0.0, f64::max);
     let floor = (lmax * 1e-14).max(f64::MIN_POSITIVE);
@@ -979,8 +957,12 @@ fn cva_weights(yf: &DMatrix<f64>, uf: &DMatrix<f64>) -> Result<(DMatrix<f64>, DM
 struct Subspace<'a> {
     l: &'a DMatrix<f64>,
     layout: HankelLayout,
-    /// Oblique projection Φ (scaled data).
+    /// Projections of `l` (structured when L is triangular).
+    projector: Projector<'a>,
+    /// Oblique projection Φ = 𝓜 W_p (scaled data).
     phi: DMatrix<f64>,
+    /// Its map 𝓜.
+    map: DMatrix<f64>,
     /// Left singular vectors and singular values of W₁ Φ W₂.
     u: DMatrix<f64>,
     s: Vec<f64>,
@@ -1088,7 +1070,7 @@ fn fit_order(
         SystemEstimate::ShiftInvariance => shift(opts.enforce_stability, gamma),
         SystemEstimate::StateSequence => {
             let mask = opts.feedthrough.mask(ny, nu)?;
-            let ls = ac_from_states(sub.l, &sub.layout, &gamma, &sub.phi, &mask)?;
+            let ls = ac_from_states(sub.l, &sub.layout, &gamma, &sub.map, &mask)?;
             if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
                 return shift(true, gamma);
             }
@@ -1148,10 +1130,9 @@ fn order_values(
             let cc = if opts.method == Method::Cva {
                 sub.s.clone()
             } else {
-                let uf = rows(sub.l, sub.layout.uf());
                 let yf = rows(sub.l, sub.layout.yf());
-                let (w1, _) = cva_weights(&yf, &uf)?;
-                lifted_linalg::singular_values(&(w1 * perp(&sub.phi, &uf)?))?
+                let (w1, _) = cva_weights(&sub.projector, &yf)?;
+                lifted_linalg::singular_values(&(w1 * sub.projector.perp_future_inputs(&sub.phi)?))?
                     .iter()
                     .cloned()
                     .collect()
@@ -1204,16 +1185,17 @@ fn from_factor(
     let luu = l.view((0, 0), (nu_rows, nu_rows)).into_owned();
     check_exciting("u", numerical_rank(&luu, 1e-10)?, nu_rows)?;
 
-    let uf = rows(&l, layout.uf());
-    let wp = vstack(&[&rows(&l, layout.up()), &rows(&l, layout.yp())]);
+    let projector = Projector::new(&l, layout);
+    let wp = rows(&l, layout.up().start..layout.yp().end);
     let yf = rows(&l, layout.yf());
-    let phi = oblique(&yf, &uf, &wp)?;
+    let map = projector.oblique_map()?;
+    let phi = &map * &wp;
     let (w1_inv, weighted) = match opts.method {
         Method::N4sid => (None, phi.clone()),
-        Method::Moesp => (None, perp(&phi, &uf)?),
+        Method::Moesp => (None, projector.perp_future_inputs(&phi)?),
         Method::Cva => {
-            let (w1, w1i) = cva_weights(&yf, &uf)?;
-            (Some(w1i), w1 * perp(&phi, &uf)?)
+            let (w1, w1i) = cva_weights(&projector, &yf)?;
+            (Some(w1i), w1 * projector.perp_future_inputs(&phi)?)
         }
     };
     let dec = svd(&weighted)?;
@@ -1222,7 +1204,9 @@ fn from_factor(
     let sub = Subspace {
         l: &l,
         layout,
+        projector,
         phi,
+        map,
         u: dec.u,
         s: dec.s.iter().cloned().collect(),
         w1_inv,
@@ -1258,7 +1242,7 @@ fn from_factor(
     let mut noise_model_error = None;
     if opts.noise_model {
         let (bs, cs, ds) = scale.rescale(&fit.b, &fit.c, &fit.d);
-        match noise_model(&l, &layout, &fit.gamma, &sub.phi, &fit.a, &bs, &cs, &ds) {
+        match noise_model(&l, &layout, &fit.gamma, &sub.map, &fit.a, &bs, &cs, &ds) {
             Ok((cov, kg)) => {
                 // Back to original units: v and e scale with s_y, w not.
                 noise = Some(NoiseCovariances {
@@ -1312,7 +1296,7 @@ fn state_sequences(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
     gamma: &DMatrix<f64>,
-    _phi: &DMatrix<f64>,
+    map: &DMatrix<f64>,
 ) -> Result<[DMatrix<f64>; 4]> {
     let (nu, ny) = (lay.nu, lay.ny);
     let ufr = lay.uf();
@@ -1321,8 +1305,6 @@ fn state_sequences(
     let ypr = lay.yp();
     let u_i = rows(l, ufr.start..ufr.start + nu);
     let y_i = rows(l, yfr.start..yfr.start + ny);
-    let uf = rows(l, ufr.clone());
-    let yf = rows(l, yfr.clone());
     let wp = vstack(&[&rows(l, upr.clone()), &rows(l, ypr.clone())]);
     let wp_next = vstack(&[
         &rows(l, upr.start + nu..upr.end),
@@ -1330,8 +1312,7 @@ fn state_sequences(
         &rows(l, ypr.start + ny..ypr.end),
         &y_i,
     ]);
-    let m = oblique_map(&yf, &uf, &wp)?;
-    let k = pinv(gamma, RankTolerance::Default)? * m;
+    let k = pinv(gamma, RankTolerance::Default)? * map;
     Ok([&k * wp, &k * wp_next, u_i, y_i])
 }
 
@@ -1341,10 +1322,10 @@ fn ac_from_states(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
     gamma: &DMatrix<f64>,
-    phi: &DMatrix<f64>,
+    map: &DMatrix<f64>,
     mask: &DMatrix<bool>,
 ) -> Result<StateLs> {
-    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, phi)?;
+    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, map)?;
     let n = x_i.nrows();
     let z = vstack(&[&x_i, &u_i]);
     let ab = lstsq(&z.transpose(), &x_ip1.transpose())?.transpose();
@@ -1388,13 +1369,13 @@ fn noise_model(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
     gamma: &DMatrix<f64>,
-    phi: &DMatrix<f64>,
+    map: &DMatrix<f64>,
     a: &DMatrix<f64>,
     b: &DMatrix<f64>,
     c: &DMatrix<f64>,
     d: &DMatrix<f64>,
 ) -> Result<NoiseResult> {
-    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, phi)?;
+    let [x_i, x_ip1, u_i, y_i] = state_sequences(l, lay, gamma, map)?;
     let w = x_ip1 - a * &x_i - b * &u_i;
     let v = y_i - c * &x_i - d * &u_i;
     let cov = NoiseCovariances {

@@ -113,6 +113,7 @@ pub mod error;
 mod hankel;
 mod iv;
 mod lagged;
+mod oblique;
 mod order;
 mod projection;
 mod refine;

@@ -25,7 +25,7 @@
 //! Cost: O(k³) for the coefficients and the null space, O(f² n_y (f n_y − n)
 //! (n + n_y) n_u) for the regression; independent of N.
 
-use lifted_linalg::{RankTolerance, lstsq, null_space};
+use lifted_linalg::{RankTolerance, lstsq, null_space, triangular_condition};
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
@@ -107,13 +107,25 @@ pub(crate) fn bd_from_projection(
 /// rows of [U_f; W_p] (f n_y × f n_u), from the lower-triangular factor:
 /// Θ = L_{Y_f,1:r} L₁₁⁻¹ (minimum-norm least squares when the past outputs
 /// are rank deficient, e.g. noise-free data; the U_f part is unique as long
-/// as the inputs are persistently exciting). O(k³).
+/// as the inputs are persistently exciting). O(k³/3) (triangular solve) or
+/// O(k³) (least squares).
 fn future_input_coefficients(l: &DMatrix<f64>, lay: &HankelLayout) -> Result<DMatrix<f64>> {
     let r = lay.yf().start;
     let yf = lay.yf();
     let l11 = l.view((0, 0), (r, r)).into_owned();
     let l21 = l.view((yf.start, 0), (yf.len(), r)).into_owned();
-    // Θ L₁₁ = L₂₁  ⇔  L₁₁ᵀ Θᵀ = L₂₁ᵀ.
+    // Θ L₁₁ = L₂₁  ⇔  L₁₁ᵀ Θᵀ = L₂₁ᵀ. A lower-triangular L₁₁ (the factor's
+    // usual shape) of full rank by lstsq's rule takes one triangular solve
+    // (O(r² f n_y)); otherwise the minimum-norm least squares.
+    let triangular = (0..r).all(|j| (0..j).all(|i| l11[(i, j)] == 0.0));
+    if triangular {
+        let thr = RankTolerance::Default.threshold(r, r, 1.0)?;
+        if triangular_condition(&l11, thr, 10.0)?.ratio > thr {
+            if let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose()) {
+                return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
+            }
+        }
+    }
     let theta = lstsq(&l11.transpose(), &l21.transpose())?.transpose();
     Ok(theta.columns(0, lay.uf().len()).into_owned())
 }

@@ -1,0 +1,195 @@
+//! Orthogonal and oblique projections of the compressed block-Hankel data.
+//!
+//! The rows of the compressed factor L (k×k, k = (p+f)(n_u+n_y)) stand for
+//! the block rows [U_f; U_p; Y_p; Y_f] of the data (H = L Qᵀ with Q
+//! orthonormal columns), so every projection of H acts on the rows of L.
+//! L is lower triangular (Cholesky of the correlations, or Rᵀ of the R-only
+//! QR): the rows of U_f then span exactly the first r_u = f n_u coordinates
+//! as soon as their leading block L₁₁ is nonsingular, which the persistent
+//! excitation test of [`crate::identify`] establishes before any projection
+//! (σ_min(L₁₁) ≥ σ_min of the whole input block, a leading block of a
+//! triangular matrix). Then, with W_p = [U_p; Y_p] rows r_u … r_w and Y_f the
+//! rest:
+//!
+//! * M Π_{U_f⊥} (the rows of M with U_f's row space removed) is M with its
+//!   first r_u columns set to zero: O(k r_u) instead of an SVD of U_fᵀ;
+//! * the oblique projection Y_f /_{U_f} W_p = 𝓜 W_p (thesis eq. 2.15) has
+//!   the map 𝓜 = (Y_f Π⊥ W_pᵀ)(W_p Π⊥ W_pᵀ)⁺ = L₃₂ L₂₂ᵀ (L₂₂ L₂₂ᵀ)⁺ with L₂₂ the
+//!   diagonal W_p block and L₃₂ the Y_f rows under it; when L₂₂ is well
+//!   conditioned (σ_min/σ_max above 10⁻⁶, the pseudo-inverse's tolerance of
+//!   10⁻¹² on the Gram) this is the triangular solve 𝓜 = L₃₂ L₂₂⁻¹, O(r_w² n),
+//!   else the pseudo-inverse of the Gram as in the general formula.
+//!
+//! A factor without that structure (or the general [`perp`] and
+//! [`oblique_map`] on arbitrary rows) goes through the SVD-based range
+//! basis, O(k r_u²) per projection.
+
+use lifted_linalg::{RankTolerance, pinv, range_basis, triangular_condition};
+use nalgebra::DMatrix;
+
+use crate::error::Result;
+use crate::hankel::HankelLayout;
+
+/// Removes the row space of `u` from the rows of `m`: m Π_{u⊥}. One thin
+/// SVD of uᵀ, O(k r²) for r rows of u.
+pub(crate) fn perp(m: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    if u.nrows() == 0 {
+        return Ok(m.clone());
+    }
+    let q = range_basis(&u.transpose(), RankTolerance::Default)?;
+    Ok(m - (m * &q) * q.transpose())
+}
+
+/// The map 𝓜 of the oblique projection F /_U P = 𝓜 P,
+/// 𝓜 = (F Π⊥ Pᵀ)(P Π⊥ Pᵀ)⁺. Three thin SVDs, O(k r²).
+pub(crate) fn oblique_map(
+    f: &DMatrix<f64>,
+    u: &DMatrix<f64>,
+    p: &DMatrix<f64>,
+) -> Result<DMatrix<f64>> {
+    let fp = perp(f, u)?;
+    let pp = perp(p, u)?;
+    let g = &pp * pp.transpose();
+    Ok(fp * pp.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?)
+}
+
+/// The projections of one compressed factor L with its layout: which of the
+/// structured shortcuts of the module docs apply, decided once.
+pub(crate) struct Projector<'a> {
+    l: &'a DMatrix<f64>,
+    lay: HankelLayout,
+    /// The U_f rows of L vanish beyond column r_u and [U_f; W_p] beyond
+    /// column r_w (lower-triangular factor).
+    structured: bool,
+}
+
+impl<'a> Projector<'a> {
+    /// Inspects L (O(k²)). The U_f rows must be persistently exciting (the
+    /// caller's test) for the structured projection to be exact.
+    pub(crate) fn new(l: &'a DMatrix<f64>, lay: HankelLayout) -> Self {
+        let k = l.nrows();
+        let (ru, rw) = (lay.uf().end, lay.yf().start);
+        let zero = |r: usize, c: usize, nr: usize, nc: usize| {
+            l.view((r, c), (nr, nc)).iter().all(|&v| v == 0.0)
+        };
+        let structured = l.ncols() == k
+            && rw <= k
+            && zero(0, ru, ru, k - ru)
+            && zero(ru, rw, rw - ru, k - rw)
+            && (ru..rw).all(|i| zero(i, i + 1, 1, rw - i - 1));
+        Projector { l, lay, structured }
+    }
+
+    fn rows(&self, r: std::ops::Range<usize>) -> DMatrix<f64> {
+        self.l.rows(r.start, r.len()).into_owned()
+    }
+
+    /// m Π_{U_f⊥} for a matrix m in the coordinates of L's columns.
+    pub(crate) fn perp_future_inputs(&self, m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+        if self.structured {
+            let mut out = m.clone();
+            out.columns_mut(0, self.lay.uf().end).fill(0.0);
+            Ok(out)
+        } else {
+            perp(m, &self.rows(self.lay.uf()))
+        }
+    }
+
+    /// The map 𝓜 (f n_y × p(n_u+n_y)) of Y_f /_{U_f} W_p = 𝓜 W_p.
+    pub(crate) fn oblique_map(&self) -> Result<DMatrix<f64>> {
+        let (ru, rw, k) = (self.lay.uf().end, self.lay.yf().start, self.l.nrows());
+        if !self.structured {
+            let wp = self.rows(ru..rw);
+            return oblique_map(&self.rows(self.lay.yf()), &self.rows(self.lay.uf()), &wp);
+        }
+        let l22 = self.l.view((ru, ru), (rw - ru, rw - ru)).into_owned();
+        let l32 = self.l.view((rw, ru), (k - rw, rw - ru)).into_owned();
+        // Same rank decision as the Gram's pseudo-inverse: σ(L₂₂)² above
+        // 10⁻¹² σ_max².
+        let check = triangular_condition(&l22, 1e-6, 10.0)?;
+        if check.ratio > 1e-6 {
+            // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
+            if let Some(mt) = l22.transpose().solve_upper_triangular(&l32.transpose()) {
+                return Ok(mt.transpose());
+            }
+        }
+        let g = &l22 * l22.transpose();
+        Ok(l32 * l22.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn layout() -> HankelLayout {
+        HankelLayout {
+            past: 3,
+            future: 3,
+            nu: 1,
+            ny: 2,
+        }
+    }
+
+    /// A random lower-triangular factor with a positive diagonal.
+    fn factor(k: usize, seed: u64, weak_past_outputs: bool) -> DMatrix<f64> {
+        let mut s = seed | 1;
+        let lay = layout();
+        DMatrix::from_fn(k, k, |i, j| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let r = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            if i > j {
+                r
+            } else if i == j {
+                if weak_past_outputs && lay.yp().contains(&i) && i > lay.yp().start {
+                    0.0
+                } else {
+                    1.0 + r.abs()
+                }
+            } else {
+                0.0
+            }
+        })
+    }
+
+    #[test]
+    fn structured_projections_equal_the_general_formulas() {
+        let lay = layout();
+        for weak in [false, true] {
+            let l = factor(lay.yf().end, 7, weak);
+            let pr = Projector::new(&l, lay);
+            assert!(pr.structured);
+            let rows = |r: std::ops::Range<usize>| l.rows(r.start, r.len()).into_owned();
+            let uf = rows(lay.uf());
+            let wp = rows(lay.up().start..lay.yp().end);
+            let yf = rows(lay.yf());
+            let general = oblique_map(&yf, &uf, &wp).unwrap();
+            let fast = pr.oblique_map().unwrap();
+            assert_relative_eq!(&fast * &wp, &general * &wp, epsilon = 1e-10);
+            assert_relative_eq!(
+                pr.perp_future_inputs(&yf).unwrap(),
+                perp(&yf, &uf).unwrap(),
+                epsilon = 1e-12
+            );
+        }
+    }
+
+    #[test]
+    fn a_full_factor_takes_the_general_route() {
+        let lay = layout();
+        let mut l = factor(lay.yf().end, 3, false);
+        l[(0, 5)] = 0.25;
+        let pr = Projector::new(&l, lay);
+        assert!(!pr.structured);
+        let uf = l.rows(0, lay.uf().end).into_owned();
+        let m = DMatrix::from_fn(2, l.ncols(), |i, j| (i + 2 * j) as f64);
+        assert_relative_eq!(
+            pr.perp_future_inputs(&m).unwrap(),
+            perp(&m, &uf).unwrap(),
+            epsilon = 1e-12
+        );
+    }
+}
