@@ -124,6 +124,19 @@ if [ -z "${LIFTED_CLI:-}" ]; then
   LIFTED_CLI=target/release/lifted
 fi
 
+# run private copies, so that a rebuild of the workspace during the (minutes
+# long) run cannot mix two versions of lifted in one table
+SNAP=$BUILD/lifted-snapshot
+mkdir -p "$SNAP"
+for b in "$LIFTED_PEER" "$LIFTED_CLI"; do
+  echo "lifted binary: $b ($(date -u -r "$b" +%FT%TZ), sha256 $(sha256sum "$b" | cut -c1-12)," \
+    "HEAD of its repository now: $(git -C "$(dirname "$b")" rev-parse --short HEAD 2>/dev/null || echo '?'))"
+done
+cp "$LIFTED_PEER" "$SNAP/peer_lifted"
+cp "$LIFTED_CLI" "$SNAP/lifted"
+LIFTED_PEER=$SNAP/peer_lifted
+LIFTED_CLI=$SNAP/lifted
+
 # ---- Python: numpy, scipy, pandas, SIPPY
 if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/python" -c "import numpy, scipy, pandas, sippy_unipi" 2>/dev/null ||
