@@ -48,7 +48,8 @@ def true_system():
     return a, b, c, d
 
 
-def generate(n, path):
+def simulate(n):
+    """The N-by-4 record [u1 u2 y1 y2] of the recipe above (seed SEED)."""
     from scipy import signal
 
     a, b, c, d = true_system()
@@ -60,8 +61,16 @@ def generate(n, path):
         for i in range(2):
             y[:, i] += signal.lfilter(num[i], den, u[:, j])
     y += rng.normal(0.0, 0.1, size=(n, 2))
-    np.savetxt(path, np.hstack([u, y]), delimiter=",", header="u1,u2,y1,y2",
-               comments="", fmt="%.17g")
+    return np.hstack([u, y])
+
+
+def write_csv(data, path):
+    """CSV with header u1,u2,y1,y2 and %.17g values (round-trips float64)."""
+    np.savetxt(path, data, delimiter=",", header="u1,u2,y1,y2", comments="", fmt="%.17g")
+
+
+def generate(n, path):
+    write_csv(simulate(n), path)
 
 
 def freq_error(model):
