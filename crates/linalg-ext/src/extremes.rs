@@ -169,12 +169,13 @@ pub fn exceeds_min_eigenvalue(g: &DMatrix<f64>, tau: f64) -> Result<bool> {
 }
 
 /// Whether λ_min(G)/λ_max(G) > threshold for a symmetric positive
-/// semi-definite `g`, proven by two Cholesky factorisations: λ_max < λ₊
-/// for λ₊ = 1.05 × a power-iteration estimate (or the row-sum bound ‖G‖∞
-/// when that fails), then λ_min > threshold · λ₊. A false answer only
-/// says "not proven" (the ratio may be up to 1.05·‖G‖∞/λ_max times above
-/// the threshold); a caller decides those cases exactly. O(k³/3).
-/// Meaningful for thresholds above ≈ 100 k ε.
+/// semi-definite `g` (lower triangle used), proven by Cholesky
+/// factorisations: λ_min > threshold · ‖G‖∞ (the row-sum bound of λ_max),
+/// else λ_max < λ₊ for λ₊ = 1.05 × a power-iteration estimate and
+/// λ_min > threshold · λ₊. A false answer only says "not proven" (the
+/// ratio may be up to 1.05 times above the threshold); a caller decides
+/// those cases exactly. O(k³/3) per factorisation. Meaningful for
+/// thresholds above ≈ 100 k ε.
 ///
 /// Errors: as [`exceeds_min_eigenvalue`].
 pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> {
@@ -184,6 +185,15 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     }
     let sym =
         g.lower_triangle() + g.lower_triangle().transpose() - DMatrix::from_diagonal(&g.diagonal());
+    let row_sums = (0..k)
+        .map(|i| sym.row(i).iter().map(|x| x.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if !(row_sums > 0.0) {
+        return Ok(false);
+    }
+    if exceeds_min_eigenvalue(&sym, threshold * row_sums)? {
+        return Ok(true);
+    }
     let mut v = start(k);
     let mut lam = 0.0f64;
     for _ in 0..30 {
@@ -200,18 +210,12 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
             break;
         }
     }
-    let row_sums = (0..k)
-        .map(|i| sym.row(i).iter().map(|x| x.abs()).sum::<f64>())
-        .fold(0.0, f64::max);
-    let mut upper = 1.05 * lam;
-    if !(upper > 0.0)
-        || !(DMatrix::<f64>::identity(k, k) * upper - &sym)
+    let upper = 1.05 * lam;
+    if !(upper > 0.0 && upper < row_sums)
+        || (DMatrix::<f64>::identity(k, k) * upper - &sym)
             .cholesky()
-            .is_some()
+            .is_none()
     {
-        upper = row_sums;
-    }
-    if !(upper > 0.0) {
         return Ok(false);
     }
     exceeds_min_eigenvalue(&sym, threshold * upper)
