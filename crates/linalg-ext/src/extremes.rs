@@ -188,7 +188,7 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     let row_sums = (0..k)
         .map(|i| sym.row(i).iter().map(|x| x.abs()).sum::<f64>())
         .fold(0.0, f64::max);
-    if !(row_sums > 0.0) {
+    if row_sums.is_nan() || row_sums <= 0.0 {
         return Ok(false);
     }
     if exceeds_min_eigenvalue(&sym, threshold * row_sums)? {
@@ -211,7 +211,9 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
         }
     }
     let upper = 1.05 * lam;
-    if !(upper > 0.0 && upper < row_sums)
+    if upper.is_nan()
+        || upper <= 0.0
+        || upper >= row_sums
         || (DMatrix::<f64>::identity(k, k) * upper - &sym)
             .cholesky()
             .is_none()

@@ -30,6 +30,25 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
 }
 
+/// Sum `Σ x_i` with eight independent accumulators (vectorised, like
+/// [`dot`]). O(n), no allocation.
+///
+/// ```
+/// assert_eq!(lifted_linalg::kernels::sum(&[1.0, 2.0, 3.0, 4.5]), 10.5);
+/// ```
+#[inline]
+pub fn sum(x: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let mut chunks = x.chunks_exact(8);
+    for c in &mut chunks {
+        for i in 0..8 {
+            acc[i] += c[i];
+        }
+    }
+    let tail: f64 = chunks.remainder().iter().sum();
+    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
+}
+
 /// Index of the first entry of `x` that is NaN or infinite (`None`: every
 /// entry is finite).
 ///

@@ -179,16 +179,14 @@ pub(crate) fn check_exciting(what: &'static str, rank: usize, needed: usize) -> 
 
 /// Rejects NaN/inf in a data matrix with [`Error::NonFinite`].
 pub(crate) fn check_data(what: &'static str, m: &nalgebra::DMatrix<f64>) -> Result<()> {
-    for c in 0..m.ncols() {
-        for r in 0..m.nrows() {
-            if !m[(r, c)].is_finite() {
-                return Err(Error::NonFinite {
-                    what,
-                    row: r,
-                    col: c,
-                });
-            }
-        }
+    // Column-major: the first non-finite entry in storage order is the
+    // first by column, then row (vectorised scan).
+    match lifted_linalg::kernels::first_non_finite(m.as_slice()) {
+        Some(i) => Err(Error::NonFinite {
+            what,
+            row: i % m.nrows(),
+            col: i / m.nrows(),
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }

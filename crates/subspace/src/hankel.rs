@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::engine::Scale;
 use crate::error::{Error, Result};
-use crate::lagged::{KERNEL_BLOCK, Scratch, lagged_sums};
+use crate::lagged::{Channel, Scratch, channel_sums_par};
 
 /// Smallest reciprocal condition number (λ_min/λ_max) of the correlation
 /// matrix H Hᵀ accepted by [`Compression::Auto`] and
@@ -169,60 +169,6 @@ impl HankelLayout {
     }
 }
 
-/// [`lagged_sums`] split into `threads` contiguous ranges of instants
-/// (std scoped threads; each range reads `span − 1` samples past its end),
-/// each thread with its own work space from `scratch`.
-fn lagged_sums_par(
-    z: &[&[f64]],
-    span: usize,
-    len: usize,
-    s: &mut [f64],
-    threads: usize,
-    scratch: &mut [Scratch],
-) {
-    let threads = threads
-        .max(1)
-        .min(len / KERNEL_BLOCK)
-        .min(scratch.len())
-        .max(1);
-    if threads == 1 {
-        if let Some(w) = scratch.first_mut() {
-            lagged_sums(z, span, len, s, w);
-        }
-        return;
-    }
-    let per = len.div_ceil(threads);
-    let slen = s.len();
-    let partial: Vec<Vec<f64>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = scratch
-            .iter_mut()
-            .take(threads)
-            .enumerate()
-            .map(|(i, w)| {
-                let start = i * per;
-                let part = per.min(len.saturating_sub(start));
-                scope.spawn(move || {
-                    let mut acc = vec![0.0; slen];
-                    if part > 0 {
-                        let zz: Vec<&[f64]> = z.iter().map(|c| &c[start..]).collect();
-                        lagged_sums(&zz, span, part, &mut acc, w);
-                    }
-                    acc
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_default())
-            .collect()
-    });
-    for p in partial {
-        for (a, b) in s.iter_mut().zip(p) {
-            *a += b;
-        }
-    }
-}
-
 /// Per-method state of a [`HankelStream`].
 enum Engine {
     Qr {
@@ -255,6 +201,8 @@ pub(crate) struct HankelStream {
     /// Samples of the current record not yet used as a column start
     /// (the last ≤ s − 1), per channel.
     carry: Vec<Vec<f64>>,
+    /// The next block's carry while it is built (correlation engine).
+    next_carry: Vec<Vec<f64>>,
     /// Samples of the current record so far.
     record_len: usize,
     /// Columns of the completed records.
@@ -308,6 +256,7 @@ impl HankelStream {
             layout,
             engine,
             carry: vec![Vec::new(); nz],
+            next_carry: vec![Vec::new(); nz],
             record_len: 0,
             columns: 0,
             samples: 0,
@@ -373,9 +322,67 @@ impl HankelStream {
                 };
             }
         }
-        // Working buffer per channel: the carry followed by the new samples
-        // (the vectors keep their capacity: no allocation after the first
-        // block of the largest size).
+        if let Engine::Correlation {
+            s,
+            head,
+            threads,
+            scratch,
+            ..
+        } = &mut self.engine
+        {
+            // Fused: the kernel reads the carry and the caller's columns,
+            // scaling and centring while it interleaves (no working copy).
+            let held = self.carry[0].len();
+            let total = held + b;
+            let chans: Vec<Channel<'_>> = self
+                .carry
+                .iter()
+                .enumerate()
+                .map(|(c, carry)| {
+                    let (col, inv) = if c < self.layout.nu {
+                        (u.column(c), self.inv_scale[0])
+                    } else {
+                        (y.column(c - self.layout.nu), self.inv_scale[1])
+                    };
+                    Channel {
+                        carry,
+                        new: col.data.into_slice(),
+                        scale: inv,
+                        offset: self.reference[c],
+                    }
+                })
+                .collect();
+            if self.record_len < span - 1 {
+                let want = (span - 1 - self.record_len).min(b);
+                for (h, ch) in head.iter_mut().zip(&chans) {
+                    h.extend((held..held + want).map(|t| ch.at(t)));
+                }
+            }
+            let starts = (total + 1).saturating_sub(span);
+            if starts > 0 {
+                channel_sums_par(&chans, span, starts, s, *threads, scratch);
+            }
+            if self.center {
+                for (sum, ch) in self.record_sums.iter_mut().zip(&chans) {
+                    *sum += lifted_linalg::kernels::sum(ch.new) * ch.scale - b as f64 * ch.offset;
+                }
+            }
+            // Keep the last ≤ s − 1 samples (prepared) for the next block.
+            let keep = total - starts;
+            for (next, ch) in self.next_carry.iter_mut().zip(&chans) {
+                next.clear();
+                next.extend((starts..total).map(|t| ch.at(t)));
+                debug_assert_eq!(next.len(), keep);
+            }
+            drop(chans);
+            std::mem::swap(&mut self.carry, &mut self.next_carry);
+            self.record_len += b;
+            self.samples += b;
+            return Ok(());
+        }
+        // QR: working buffer per channel, the carry followed by the new
+        // samples (the vectors keep their capacity: no allocation after the
+        // first block of the largest size).
         for (c, v) in self.carry.iter_mut().enumerate() {
             let (col, inv) = if c < self.layout.nu {
                 (u.column(c), self.inv_scale[0])
@@ -394,27 +401,7 @@ impl HankelStream {
         // Column starts with a complete Hankel column inside the buffer.
         let starts = (len + 1).saturating_sub(span);
         match &mut self.engine {
-            Engine::Correlation {
-                s,
-                head,
-                threads,
-                scratch,
-                ..
-            } => {
-                if self.record_len < span - 1 {
-                    let have = self.record_len;
-                    let want = (span - 1 - have).min(b);
-                    for (c, h) in head.iter_mut().enumerate() {
-                        // The new samples sit at the end of the buffer.
-                        let new = &buf[c][len - b..];
-                        h.extend_from_slice(&new[..want]);
-                    }
-                }
-                if starts > 0 {
-                    let z: Vec<&[f64]> = buf.iter().map(|v| v.as_slice()).collect();
-                    lagged_sums_par(&z, span, starts, s, *threads, scratch);
-                }
-            }
+            Engine::Correlation { .. } => unreachable!("the correlation engine returned above"),
             Engine::Qr {
                 acc,
                 chunk_rows,
@@ -719,6 +706,7 @@ pub(crate) fn compress(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lagged::KERNEL_BLOCK;
 
     fn explicit_gram(
         recs: &[(&DMatrix<f64>, &DMatrix<f64>)],
@@ -824,14 +812,15 @@ mod tests {
         let n = 3 * KERNEL_BLOCK + 77;
         let a: Vec<f64> = (0..n).map(|i| ((i * 37) % 19) as f64 - 9.0).collect();
         let b: Vec<f64> = (0..n).map(|i| ((i * 11) % 23) as f64 - 11.0).collect();
-        let z = [a.as_slice(), b.as_slice()];
         let span = 6;
         let len = n - span + 1;
         let mut s1 = vec![0.0; span * 4];
         let mut s2 = vec![0.0; span * 4];
-        lagged_sums(&z, span, len, &mut s1, &mut Scratch::default());
+        let ch = [Channel::plain(&a), Channel::plain(&b)];
+        let mut one = [Scratch::default()];
+        channel_sums_par(&ch, span, len, &mut s1, 1, &mut one);
         let mut work = [Scratch::default(), Scratch::default()];
-        lagged_sums_par(&z, span, len, &mut s2, 2, &mut work);
+        channel_sums_par(&ch, span, len, &mut s2, 2, &mut work);
         // Integer data: all sums exact in both orders.
         assert_eq!(s1, s2);
         let want: f64 = (0..len).map(|t| a[t] * b[t + 5]).sum();

@@ -107,11 +107,11 @@ impl<'a> Projector<'a> {
         // Same rank decision as the Gram's pseudo-inverse: σ(L₂₂)² above
         // 10⁻¹² σ_max².
         let check = triangular_condition(&l22, 1e-6, 10.0)?;
-        if check.ratio > 1e-6 {
-            // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
-            if let Some(mt) = l22.transpose().solve_upper_triangular(&l32.transpose()) {
-                return Ok(mt.transpose());
-            }
+        // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
+        if check.ratio > 1e-6
+            && let Some(mt) = l22.transpose().solve_upper_triangular(&l32.transpose())
+        {
+            return Ok(mt.transpose());
         }
         let g = &l22 * l22.transpose();
         Ok(l32 * l22.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?)

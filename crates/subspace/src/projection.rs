@@ -120,10 +120,10 @@ fn future_input_coefficients(l: &DMatrix<f64>, lay: &HankelLayout) -> Result<DMa
     let triangular = (0..r).all(|j| (0..j).all(|i| l11[(i, j)] == 0.0));
     if triangular {
         let thr = RankTolerance::Default.threshold(r, r, 1.0)?;
-        if triangular_condition(&l11, thr, 10.0)?.ratio > thr {
-            if let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose()) {
-                return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
-            }
+        if triangular_condition(&l11, thr, 10.0)?.ratio > thr
+            && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose())
+        {
+            return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
         }
     }
     let theta = lstsq(&l11.transpose(), &l21.transpose())?.transpose();
