@@ -7,6 +7,9 @@
 //! (`cargo bench -p lifted-multirate`, `cargo bench -p lifted-mpc`); they
 //! are not repeated here.
 //!
+//! The fixed cost at N = 1e4 (in memory and streamed) is its own group:
+//! `cargo bench -p lifted-benches --bench pipelines -- fixed_cost`.
+//!
 //! Run: `cargo bench -p lifted-benches --bench pipelines`.
 
 use std::hint::black_box;
@@ -91,6 +94,37 @@ fn subspace(c: &mut Criterion) {
     group.finish();
 }
 
+/// The fixed cost: N4SID end to end on N = 1e4 samples (2×2, s = 20,
+/// order 4), where the k×k work (k = 160) outweighs the compression; in
+/// memory (x₀ estimated, output-error (B, D) over the record) and streamed
+/// in one block (x₀ = 0, (B, D) from the compressed data).
+fn fixed_cost(c: &mut Criterion) {
+    let mut group = c.benchmark_group("subspace_fixed_cost_2x2_s20");
+    group
+        .sample_size(30)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    let n = 10_000;
+    let (u, y) = peer_data(n, 0.1, 1);
+    let e = [Experiment { u: &u, y: &y }];
+    let opts = options(Method::N4sid, Compression::Auto);
+    group.bench_function(BenchmarkId::new("N4SID_in_memory", n), |b| {
+        b.iter(|| identify(black_box(&e), &opts).expect("identification"))
+    });
+    let stream = SubspaceOptions {
+        initial_state: InitialState::Zero,
+        ..opts.clone()
+    };
+    group.bench_function(BenchmarkId::new("N4SID_streamed", n), |b| {
+        b.iter(|| {
+            let mut id = StreamingIdentifier::new(2, 2, &stream).expect("options");
+            id.push(black_box(&u), black_box(&y)).expect("push");
+            id.finish().expect("identification")
+        })
+    });
+    group.finish();
+}
+
 /// Two periods from rest per channel of the held inverse PRBS (m = 4095,
 /// n_r = 10) through a stable 2-state plant; the last period is used.
 fn qmarkov_records(ni: usize, no: usize) -> Vec<ChannelRecord> {
@@ -163,5 +197,5 @@ fn qmarkov(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, subspace, qmarkov);
+criterion_group!(benches, fixed_cost, subspace, qmarkov);
 criterion_main!(benches);

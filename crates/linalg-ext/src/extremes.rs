@@ -183,17 +183,27 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if k == 0 {
         return Ok(true);
     }
-    let sym =
-        g.lower_triangle() + g.lower_triangle().transpose() - DMatrix::from_diagonal(&g.diagonal());
-    let row_sums = (0..k)
-        .map(|i| sym.row(i).iter().map(|x| x.abs()).sum::<f64>())
-        .fold(0.0, f64::max);
+    // Row sums of |G| from the lower triangle: row i is G[i, ..=i] then
+    // G[i+1.., i] (column i below the diagonal).
+    let mut sums = vec![0.0f64; k];
+    for j in 0..k {
+        let col = g.column(j);
+        for i in j + 1..k {
+            let v = col[i].abs();
+            sums[i] += v;
+            sums[j] += v;
+        }
+        sums[j] += col[j].abs();
+    }
+    let row_sums = sums.iter().cloned().fold(0.0, f64::max);
     if row_sums.is_nan() || row_sums <= 0.0 {
         return Ok(false);
     }
-    if exceeds_min_eigenvalue(&sym, threshold * row_sums)? {
+    if exceeds_min_eigenvalue(g, threshold * row_sums)? {
         return Ok(true);
     }
+    let sym =
+        g.lower_triangle() + g.lower_triangle().transpose() - DMatrix::from_diagonal(&g.diagonal());
     let mut v = start(k);
     let mut lam = 0.0f64;
     for _ in 0..30 {

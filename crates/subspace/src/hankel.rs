@@ -631,7 +631,7 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
     if proven {
         // Reported value: a short power-iteration estimate (at or above
         // the true rcond; the decision above is exact).
-        let (smax, smin) = lifted_linalg::lower_triangular_extremes_within(&l, 8)?;
+        let (smax, smin) = lifted_linalg::lower_triangular_extremes_within(&l, 3)?;
         let rcond = if smax > 0.0 {
             (smin / smax).powi(2)
         } else {
