@@ -209,7 +209,6 @@ impl Params {
 /// Generates regressor rows (one per sampled output entry) of one record.
 struct RowGen<'a> {
     a: &'a DMatrix<f64>,
-    c: &'a DMatrix<f64>,
     p: &'a Params,
     record: usize,
     /// Z_j stacked: nu blocks of n×n, column-major per block.
@@ -218,6 +217,8 @@ struct RowGen<'a> {
     /// C Aᵗ (ny×n), row-major.
     cat: Vec<f64>,
     cattmp: Vec<f64>,
+    /// C (ny×n), row-major.
+    c_rows: Vec<f64>,
     /// Factor applied to the signal samples (1/scale, a power of 2).
     inv: f64,
 }
@@ -239,11 +240,11 @@ impl<'a> RowGen<'a> {
         }
         RowGen {
             a,
-            c,
             p,
             record,
             z: vec![0.0; nu * n * n],
             ztmp: vec![0.0; nu * n * n],
+            c_rows: cat.clone(),
             cat,
             cattmp: vec![0.0; ny * n],
             inv,
@@ -254,15 +255,12 @@ impl<'a> RowGen<'a> {
     fn row(&self, o: usize, sig: &DMatrix<f64>, t: usize, row: &mut [f64]) {
         let (n, nu) = (self.p.n, self.p.nu);
         row.iter_mut().for_each(|v| *v = 0.0);
+        let co = &self.c_rows[o * n..(o + 1) * n];
         for j in 0..nu {
             let zj = &self.z[j * n * n..(j + 1) * n * n];
-            for s in 0..n {
+            for (s, zs) in zj.chunks_exact(n).enumerate() {
                 // (C Z_j)[o, s] = Σ_r C[o, r] Z_j[r, s]
-                let mut acc = 0.0;
-                for r in 0..n {
-                    acc += self.c[(o, r)] * zj[s * n + r];
-                }
-                row[j * n + s] = acc;
+                row[j * n + s] = co.iter().zip(zs).map(|(c, z)| c * z).sum();
             }
             if let Some(i) = self.p.d_index[(o, j)] {
                 row[i] = sig[(t, j)] * self.inv;
@@ -279,35 +277,74 @@ impl<'a> RowGen<'a> {
 
     /// Advances Z_j and C Aᵗ by one sample with input sig(t).
     fn step(&mut self, sig: &DMatrix<f64>, t: usize) {
-        let (n, nu, ny) = (self.p.n, self.p.nu, self.p.ny);
-        let a = self.a;
+        let (n, nu) = (self.p.n, self.p.nu);
+        // Column-major A: column q is ad[q n .. (q + 1) n]; each column of
+        // A Z_j is a sum of columns of A (axpy form, vectorised over rows).
+        let ad = self.a.as_slice();
         for j in 0..nu {
             let zj = &self.z[j * n * n..(j + 1) * n * n];
             let out = &mut self.ztmp[j * n * n..(j + 1) * n * n];
-            for s in 0..n {
-                for r in 0..n {
-                    let mut acc = 0.0;
-                    for q in 0..n {
-                        acc += a[(r, q)] * zj[s * n + q];
-                    }
-                    out[s * n + r] = acc;
-                }
-                out[s * n + s] += sig[(t, j)] * self.inv;
+            let uj = sig[(t, j)] * self.inv;
+            match n {
+                1 => az_fixed::<1>(ad, zj, out, uj),
+                2 => az_fixed::<2>(ad, zj, out, uj),
+                3 => az_fixed::<3>(ad, zj, out, uj),
+                4 => az_fixed::<4>(ad, zj, out, uj),
+                5 => az_fixed::<5>(ad, zj, out, uj),
+                6 => az_fixed::<6>(ad, zj, out, uj),
+                7 => az_fixed::<7>(ad, zj, out, uj),
+                8 => az_fixed::<8>(ad, zj, out, uj),
+                _ => az_any(n, ad, zj, out, uj),
             }
         }
         std::mem::swap(&mut self.z, &mut self.ztmp);
         if self.p.x0_offset.is_some() {
-            for o in 0..ny {
-                for s in 0..n {
-                    let mut acc = 0.0;
-                    for q in 0..n {
-                        acc += self.cat[o * n + q] * a[(q, s)];
-                    }
-                    self.cattmp[o * n + s] = acc;
+            // (C Aᵗ⁺¹)[o, s] = Σ_q (C Aᵗ)[o, q] A[q, s]: row o times column s.
+            for (co, out) in self
+                .cat
+                .chunks_exact(n)
+                .zip(self.cattmp.chunks_exact_mut(n))
+            {
+                for (o, acol) in out.iter_mut().zip(ad.chunks_exact(n)) {
+                    *o = co.iter().zip(acol).map(|(c, a)| c * a).sum();
                 }
             }
             std::mem::swap(&mut self.cat, &mut self.cattmp);
         }
+    }
+}
+
+/// out = A Z + u I for n×n column-major A (`ad`) and Z: the sensitivities
+/// Z_j of the state to the entries B[·, j] one sample later. Any n.
+fn az_any(n: usize, ad: &[f64], zj: &[f64], out: &mut [f64], u: f64) {
+    for (s, (zs, os)) in zj.chunks_exact(n).zip(out.chunks_exact_mut(n)).enumerate() {
+        os.fill(0.0);
+        for (zq, aq) in zs.iter().zip(ad.chunks_exact(n)) {
+            for (o, a) in os.iter_mut().zip(aq) {
+                *o += a * zq;
+            }
+        }
+        os[s] += u;
+    }
+}
+
+/// [`az_any`] for a fixed order N (loops unrolled and vectorised by the
+/// compiler; the orders of most identifications).
+#[inline(always)]
+fn az_fixed<const N: usize>(ad: &[f64], zj: &[f64], out: &mut [f64], u: f64) {
+    let a = &ad[..N * N];
+    for s in 0..N {
+        let zs = &zj[s * N..s * N + N];
+        let mut col = [0.0f64; N];
+        for q in 0..N {
+            let zq = zs[q];
+            let aq = &a[q * N..q * N + N];
+            for r in 0..N {
+                col[r] = aq[r].mul_add(zq, col[r]);
+            }
+        }
+        col[s] += u;
+        out[s * N..s * N + N].copy_from_slice(&col);
     }
 }
 
