@@ -36,6 +36,16 @@
 //! (the thesis' state-sequence regression, [`SystemEstimate::StateSequence`],
 //! is biased for short past horizons and is kept as an option).
 //!
+//! Every projection acts on the lower-triangular compressed factor L of the
+//! data (H = L Qᵀ): once the inputs are shown persistently exciting, removing
+//! the row space of U_f is zeroing L's first f n_u columns and the oblique
+//! projection's map is one triangular solve with L's W_p block (a
+//! pseudo-inverse only when that block is numerically singular), O(k² n)
+//! instead of SVDs of the k-column blocks. Condition and rank tests are first
+//! decided by certificates (an explicit-inverse bound; Cholesky
+//! factorisations of shifted Gram matrices), the singular values only near
+//! the thresholds.
+//!
 //! Offsets: by default each channel's mean is removed before the
 //! identification and returned as [`SubspaceModel::operating_point`]; the
 //! compressed Hankel data have the row of ones projected out (every Hankel
