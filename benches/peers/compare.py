@@ -32,7 +32,6 @@ import platform
 import statistics
 import subprocess
 import sys
-import time
 
 import numpy as np
 
@@ -173,25 +172,10 @@ def tool_list(args, n, paths, forced_core):
 
 
 def timed(cmd, env, timeout):
-    """Runs cmd under /usr/bin/time -v; returns (stdout, stderr, wall s, peak MB, status)."""
+    """peers.timed with single-threaded BLAS and the tool's extra environment."""
     full_env = dict(os.environ, OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1",
                     OMP_NUM_THREADS="1", **{k: v for k, v in env.items() if k != "MODEL_OUT"})
-    t0 = time.perf_counter()
-    try:
-        p = subprocess.run(["/usr/bin/time", "-v"] + cmd, capture_output=True, text=True,
-                           timeout=timeout, env=full_env)
-    except subprocess.TimeoutExpired:
-        return None, "", time.perf_counter() - t0, float("nan"), f"timeout {timeout:.0f} s"
-    wall = time.perf_counter() - t0
-    peak = float("nan")
-    for line in p.stderr.splitlines():
-        if "Maximum resident set size" in line:
-            peak = int(line.split()[-1]) / 1024.0
-    if p.returncode != 0:
-        lines = [x for x in p.stderr.strip().splitlines()
-                 if x.strip() and not x.startswith(("\t", "Command exited"))]
-        return None, p.stderr, wall, peak, f"exit {p.returncode}: {lines[0] if lines else ''}"
-    return p.stdout, p.stderr, wall, peak, "ok"
+    return peers.timed(cmd, timeout, full_env)
 
 
 def run_once(tool, max_fr):

@@ -134,23 +134,27 @@ def cli_model(doc):
     return {k: mat(doc[k]).tolist() for k in ("a", "b", "c", "d")}
 
 
-def timed(cmd, timeout):
-    """Runs cmd under /usr/bin/time -v; returns (stdout, wall s, peak MB, status)."""
+def timed(cmd, timeout, env=None):
+    """Runs cmd under /usr/bin/time -v (with environment `env`, default this
+    process's); returns (stdout, stderr, wall s, peak MB, status), stdout None
+    when the run failed or timed out."""
     t0 = time.perf_counter()
     try:
         p = subprocess.run(["/usr/bin/time", "-v"] + cmd, capture_output=True, text=True,
-                           timeout=timeout)
+                           timeout=timeout, env=env)
     except subprocess.TimeoutExpired:
-        return None, time.perf_counter() - t0, float("nan"), f"timeout {timeout} s"
+        return None, "", time.perf_counter() - t0, float("nan"), f"timeout {timeout:.0f} s"
     wall = time.perf_counter() - t0
     peak = float("nan")
     for line in p.stderr.splitlines():
         if "Maximum resident set size" in line:
             peak = int(line.split()[-1]) / 1024.0
     if p.returncode != 0:
-        tail = p.stderr.strip().splitlines()
-        return None, wall, peak, f"exit {p.returncode}: {tail[-1] if tail else ''}"
-    return p.stdout, wall, peak, "ok"
+        # The tool's own message, not the statistics of /usr/bin/time.
+        lines = [x for x in p.stderr.strip().splitlines()
+                 if x.strip() and not x.startswith(("\t", "Command exited"))]
+        return None, p.stderr, wall, peak, f"exit {p.returncode}: {lines[0] if lines else ''}"
+    return p.stdout, p.stderr, wall, peak, "ok"
 
 
 def main():
@@ -192,7 +196,7 @@ def main():
                            "--out", cli_out]))
         base = None
         for name, cmd in tools:
-            out, wall, peak, status = timed(cmd, args.timeout)
+            out, _, wall, peak, status = timed(cmd, args.timeout)
             ident, err = float("nan"), float("nan")
             if out is not None and name.startswith("lifted CLI"):
                 try:

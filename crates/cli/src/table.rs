@@ -176,6 +176,22 @@ pub fn header(path: &str, columns: &[String]) -> CliResult<Vec<String>> {
     open_csv(path, 1 << 16).map(|(_, h)| h)
 }
 
+/// Positions of the `wanted` columns in a CSV header; a missing one is an
+/// error naming the file and listing the columns it has.
+fn column_indices(path: &str, header: &[String], wanted: &[&String]) -> CliResult<Vec<usize>> {
+    wanted
+        .iter()
+        .map(|name| {
+            header.iter().position(|h| h == *name).ok_or_else(|| {
+                input(format!(
+                    "{path}: header has no column '{name}' (columns: {})",
+                    header.join(", ")
+                ))
+            })
+        })
+        .collect()
+}
+
 /// Streams the named columns of a data file (CSV, or `.npy` by extension:
 /// see [`crate::npy`]) row by row: `visit` receives the values of `wanted`
 /// (empty cells of the columns in `may_be_empty` as NaN) and returns whether
@@ -724,15 +740,7 @@ fn scan_csv(
     mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
     let (mut rd, header) = open_csv(path, mode.block)?;
-    let find = |name: &str| -> CliResult<usize> {
-        header.iter().position(|h| h == name).ok_or_else(|| {
-            input(format!(
-                "{path}: header has no column '{name}' (columns: {})",
-                header.join(", ")
-            ))
-        })
-    };
-    let idx: Vec<usize> = wanted.iter().map(|n| find(n)).collect::<CliResult<_>>()?;
+    let idx = column_indices(path, &header, wanted)?;
     let time_col = time_column(&header);
     let width = header.len();
     let mut check = RowCheck::new(ts);
@@ -1049,15 +1057,7 @@ mod tests {
                 "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
             )));
         }
-        let find = |name: &str| -> CliResult<usize> {
-            header.iter().position(|h| h == name).ok_or_else(|| {
-                input(format!(
-                    "{path}: header has no column '{name}' (columns: {})",
-                    header.join(", ")
-                ))
-            })
-        };
-        let idx: Vec<usize> = wanted.iter().map(|n| find(n)).collect::<CliResult<_>>()?;
+        let idx = column_indices(path, &header, wanted)?;
         let time_col = time_column(&header);
         let width = header.len();
         let mut row = vec![0.0; wanted.len()];

@@ -144,6 +144,26 @@ fn check_model(path: &str, tol: f64) -> ModelFile {
     f
 }
 
+/// Columns of a data CSV written by `simulate` (header, then numbers;
+/// empty cells as NaN).
+fn read_csv(path: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let mut cols = vec![Vec::new(); head.len()];
+    for l in lines {
+        for (c, v) in cols.iter_mut().zip(l.split(',')) {
+            c.push(v.parse().unwrap_or(f64::NAN));
+        }
+    }
+    (head, cols)
+}
+
 mod generate {
     use super::*;
 
@@ -745,26 +765,6 @@ mod use_models {
         let text = std::fs::read_to_string(&data).unwrap();
         assert_eq!(text.lines().next(), Some("t,u1,y1"));
         assert_eq!(text.lines().count(), 301);
-    }
-
-    /// Columns of a data CSV written by `simulate` (header, then numbers;
-    /// empty cells as NaN).
-    fn read_csv(path: &str) -> (Vec<String>, Vec<Vec<f64>>) {
-        let text = std::fs::read_to_string(path).unwrap();
-        let mut lines = text.lines();
-        let head: Vec<String> = lines
-            .next()
-            .unwrap()
-            .split(',')
-            .map(str::to_string)
-            .collect();
-        let mut cols = vec![Vec::new(); head.len()];
-        for l in lines {
-            for (c, v) in cols.iter_mut().zip(l.split(',')) {
-                c.push(v.parse().unwrap_or(f64::NAN));
-            }
-        }
-        (head, cols)
     }
 
     #[test]
@@ -1959,25 +1959,6 @@ mod bad_input {
 mod npy_input {
     use super::*;
 
-    /// The columns of a CSV file written by `simulate` (empty cells as NaN).
-    fn csv_columns(path: &str) -> (Vec<String>, Vec<Vec<f64>>) {
-        let text = std::fs::read_to_string(path).unwrap();
-        let mut lines = text.lines();
-        let head: Vec<String> = lines
-            .next()
-            .unwrap()
-            .split(',')
-            .map(str::to_string)
-            .collect();
-        let mut cols = vec![Vec::new(); head.len()];
-        for l in lines {
-            for (c, v) in cols.iter_mut().zip(l.split(',')) {
-                c.push(v.parse().unwrap_or(f64::NAN));
-            }
-        }
-        (head, cols)
-    }
-
     /// Writes `cols` as a float64 `.npy` file by hand (numpy's format 1.0:
     /// magic, version, header length, the header dict padded with spaces to
     /// a multiple of 64 bytes and ended by a newline, then the data,
@@ -2025,7 +2006,7 @@ mod npy_input {
     fn npy_identifies_as_the_csv() {
         let d = tmp("npy");
         let (csv, val) = single_rate_data(&d);
-        let (head, cols) = csv_columns(&csv);
+        let (head, cols) = read_csv(&csv);
         assert_eq!(head, ["t", "u1", "y1"]);
         let c_order = p(&d, "id.npy");
         write_npy(&c_order, &cols, false);
@@ -2062,7 +2043,7 @@ mod npy_input {
         check_model(&p(&d, "c.json"), 0.01);
         // validate reads it too: the same table as from the CSV
         let val_npy = p(&d, "val.npy");
-        write_npy(&val_npy, &csv_columns(&val).1, false);
+        write_npy(&val_npy, &read_csv(&val).1, false);
         let model = p(&d, "c.json");
         let from_npy = ok(&[
             "validate",
@@ -2128,7 +2109,7 @@ mod npy_input {
         let d = tmp("npy_mr");
         let csv = p(&d, "mr.csv");
         simulate(&csv, rbs(3000, 5), 3, 1000.0, 6);
-        let (_, cols) = csv_columns(&csv);
+        let (_, cols) = read_csv(&csv);
         assert!(cols[2].iter().any(|v| v.is_nan()));
         let npy = p(&d, "mr.npy");
         write_npy(&npy, &cols, false);
