@@ -123,6 +123,7 @@ pub mod error;
 mod hankel;
 mod iv;
 mod lagged;
+mod modal;
 mod oblique;
 mod order;
 mod projection;

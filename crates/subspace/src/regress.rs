@@ -22,6 +22,7 @@ use crate::engine::{
     Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
 };
 use crate::error::{Error, Result, check_data, check_rank};
+use crate::modal::{self, ModalForm, patterns_fit};
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
 /// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond
@@ -127,15 +128,15 @@ pub struct Record<'a> {
 }
 
 /// Parameter bookkeeping for θ = (vec B, D entries, x₀ per record).
-struct Params {
-    n: usize,
-    nu: usize,
-    ny: usize,
-    d_index: DMatrix<Option<usize>>,
-    x0_offset: Option<usize>,
+pub(crate) struct Params {
+    pub(crate) n: usize,
+    pub(crate) nu: usize,
+    pub(crate) ny: usize,
+    pub(crate) d_index: DMatrix<Option<usize>>,
+    pub(crate) x0_offset: Option<usize>,
     /// Start of the constant output offsets (n_y per record), if estimated.
-    c_offset: Option<usize>,
-    total: usize,
+    pub(crate) c_offset: Option<usize>,
+    pub(crate) total: usize,
 }
 
 impl Params {
@@ -394,8 +395,8 @@ const BLOCK: usize = 1024;
 /// magnitude (overflow of the squared regressors) nor the ratio of output
 /// to input units (relative rank tolerance) matters.
 #[derive(Debug, Clone, Copy)]
-struct DataScale {
-    io: Scale,
+pub(crate) struct DataScale {
+    pub(crate) io: Scale,
     z: f64,
 }
 
@@ -551,11 +552,34 @@ fn output_error_bd(
     x0: InitialState,
     offsets: bool,
 ) -> Result<BdFit> {
+    output_error_route(a, c, records, feedthrough, x0, offsets, true)
+}
+
+/// [`output_error_bd`] through the modal base rows ([`crate::modal`]) when
+/// `allow_modal` and A's modal form is well conditioned, else through the
+/// direct recursion (the tests compare the two).
+pub(crate) fn output_error_route(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    feedthrough: &Feedthrough,
+    x0: InitialState,
+    offsets: bool,
+    allow_modal: bool,
+) -> Result<BdFit> {
     let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false, offsets)?;
     let mut acc = RAccumulator::new(p.total + 1);
-    let rows = stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
-        Ok(acc.push_rows(phi)?)
-    })?;
+    let modal = if allow_modal && patterns_fit(records) {
+        ModalForm::of(a)
+    } else {
+        None
+    };
+    let rows = match modal {
+        Some(form) => modal::accumulate(&form, &c_scaled, &p, records, scale, &mut acc)?,
+        None => stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
+            Ok(acc.push_rows(phi)?)
+        })?,
+    };
     check_rank("B/D regressor", rows, p.total)?;
     let r = acc.r();
     let r11 = r.view((0, 0), (p.total, p.total)).into_owned();

@@ -1,0 +1,578 @@
+//! The output-error (B, D, x₀) regression of [`crate::estimate_bd`] in modal
+//! coordinates: one short row per sample instead of n_y long ones.
+//!
+//! With A = V Λ V⁻¹ (Λ real block diagonal: 1×1 blocks λ for real
+//! eigenvalues, 2×2 blocks [[a, b], [−b, a]] for a ± ib) the state
+//! sensitivities Z̃_j(t+1) = Λ Z̃_j(t) + u_j(t) I of the modal
+//! parameters B̃ = V⁻¹B are block diagonal, so each input needs only n
+//! scalar filters (w(t+1) = λ w(t) + u_j(t) per real mode, the real and
+//! imaginary parts of the complex filter per pair) instead of the n×n
+//! recursion, and the free response C Aᵗ x₀ = C̃ Λᵗ x̃₀ needs n more
+//! signals per record. Every regressor of output o is then a fixed linear
+//! combination of the sample's *base row*
+//!
+//! z(t) = [w (n n_u) | u(t) (n_u) | Λᵗ signals (n) | 1 | y(t) (n_y)],
+//!
+//! the regressor row of output o (parameters in the original coordinates,
+//! target last) being z(t) T_o with T_o = S_o M⁻¹ (S_o: the modal
+//! coefficients from C̃ = C V; M⁻¹ = V⁻¹ on the B and x₀ blocks). With
+//! Z = Q R_z (R-only QR of the base rows, one accumulator per record and
+//! per pattern of sampled outputs), Σ_t Σ_o T_oᵀ z zᵀ T_o = Σ_o (R_z T_o)ᵀ
+//! (R_z T_o): the R factor of the stacked R_z T_o is that of the full
+//! regression, exactly, without forming a normal matrix.
+//!
+//! Cost per sample: 2 n n_u flops of filtering and one QR row of
+//! q = n n_u + n_u + n + 1 + n_y columns (≈ 2q² flops), against n_u n³
+//! flops and n_y rows of p + 1 ≈ n n_u + n_y n_u + n + n_y + 1 columns
+//! for the direct route (2×2, order 4: 17-wide rows once per sample
+//! against two 19-wide rows). The route is taken only when V is well
+//! conditioned ([`MAX_MODAL_CONDITION`]); a defective or nearly defective
+//! A keeps the direct recursion.
+
+use lifted_linalg::RAccumulator;
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+
+use crate::error::Result;
+use crate::regress::{DataScale, Params, Record};
+
+/// Largest 2-norm condition number of the (column-normalised) eigenvector
+/// matrix V for which the modal route is used: the change of coordinates
+/// can amplify rounding by up to κ(V)² in the regression, so 1e4 bounds the
+/// loss at about 8 digits in the worst case and keeps near-repeated or
+/// nearly defective modes on the direct route.
+pub(crate) const MAX_MODAL_CONDITION: f64 = 1e4;
+
+/// Most distinct patterns of sampled outputs the modal route keeps an
+/// accumulator for (multirate records have a few; beyond it the direct
+/// route is used).
+const MAX_PATTERNS: usize = 16;
+
+/// Rows per block folded into a pattern's R factor (not a multiple of 512:
+/// the columns of the block, BLOCK·8 bytes apart, would then share cache
+/// sets while a row is written across them).
+const BLOCK: usize = 1000;
+
+/// Below this magnitude the free-response signals Λᵗ are set to zero (their
+/// rows carry no information on x₀ any more, and subnormal numbers would
+/// slow the arithmetic down).
+const NEGLIGIBLE: f64 = 1e-200;
+
+/// One diagonal block of Λ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    /// A real eigenvalue λ (one state).
+    Real(f64),
+    /// A complex pair a ± ib, block [[a, b], [−b, a]] (two states).
+    Pair(f64, f64),
+}
+
+/// Real modal form A = V Λ V⁻¹.
+#[derive(Debug, Clone)]
+pub(crate) struct ModalForm {
+    modes: Vec<Mode>,
+    v: DMatrix<f64>,
+    v_inv: DMatrix<f64>,
+}
+
+impl ModalForm {
+    /// The real modal form of `a`, or `None` when the eigenvector matrix is
+    /// singular or worse conditioned than [`MAX_MODAL_CONDITION`] (or the
+    /// eigen-decomposition fails, or does not reproduce A to 1e-10).
+    /// O(25n³).
+    pub(crate) fn of(a: &DMatrix<f64>) -> Option<Self> {
+        let n = a.nrows();
+        let e = lifted_linalg::eig(a).ok()?;
+        let mut v = DMatrix::zeros(n, n);
+        let mut modes = Vec::with_capacity(n);
+        let mut i = 0;
+        while i < n {
+            let lam = e.values[i];
+            let col = e.vectors.column(i);
+            if lam.im == 0.0 {
+                // Rotate the phase so that the largest entry is real.
+                let k = (0..n)
+                    .max_by(|&x, &y| col[x].norm().total_cmp(&col[y].norm()))
+                    .unwrap_or(0);
+                let ph = col[k].conj() / (col[k].norm() * col.norm());
+                for r in 0..n {
+                    v[(r, i)] = (col[r] * ph).re;
+                }
+                modes.push(Mode::Real(lam.re));
+                i += 1;
+            } else {
+                // A pair is adjacent; take the member with b > 0.
+                if i + 1 >= n {
+                    return None;
+                }
+                let (lam, col) = if lam.im > 0.0 {
+                    (lam, col)
+                } else {
+                    (e.values[i + 1], e.vectors.column(i + 1))
+                };
+                // Any complex multiple of the eigenvector gives a real
+                // pair (Re, Im) with A [Re Im] = [Re Im] [[a, b], [−b, a]];
+                // the phase that makes the two orthogonal conditions V best.
+                let (xx, yy, xy) = col.iter().fold((0.0, 0.0, 0.0), |(p, q, r), z| {
+                    (p + z.re * z.re, q + z.im * z.im, r + z.re * z.im)
+                });
+                let phi = 0.5 * (-2.0 * xy).atan2(xx - yy);
+                let rot = Complex64::from_polar(1.0, phi);
+                let nrm = (xx + yy).sqrt();
+                if !(nrm > 0.0) {
+                    return None;
+                }
+                for r in 0..n {
+                    let z = col[r] * rot / nrm;
+                    v[(r, i)] = z.re;
+                    v[(r, i + 1)] = z.im;
+                }
+                modes.push(Mode::Pair(lam.re, lam.im));
+                i += 2;
+            }
+        }
+        let sv = lifted_linalg::singular_values(&v).ok()?;
+        let (smax, smin) = (sv[0], sv[sv.len() - 1]);
+        if !(smin > 0.0) || smax / smin > MAX_MODAL_CONDITION {
+            return None;
+        }
+        let v_inv = lifted_linalg::inv(&v).ok()?;
+        let form = ModalForm { modes, v, v_inv };
+        // A V = V Λ to rounding (a mis-paired or inaccurate decomposition
+        // falls back to the direct route).
+        let resid = (a * &form.v - &form.v * form.lambda()).norm();
+        if !(resid <= 1e-10 * (a.norm() + 1.0)) {
+            return None;
+        }
+        Some(form)
+    }
+
+    /// Λ as a matrix.
+    fn lambda(&self) -> DMatrix<f64> {
+        let n = self.v.nrows();
+        let mut l = DMatrix::zeros(n, n);
+        let mut i = 0;
+        for m in &self.modes {
+            match *m {
+                Mode::Real(x) => {
+                    l[(i, i)] = x;
+                    i += 1;
+                }
+                Mode::Pair(a, b) => {
+                    l[(i, i)] = a;
+                    l[(i, i + 1)] = b;
+                    l[(i + 1, i)] = -b;
+                    l[(i + 1, i + 1)] = a;
+                    i += 2;
+                }
+            }
+        }
+        l
+    }
+
+    /// Advances n modal filters `w` by one sample with input `u`
+    /// (w ← Λ w + u for real modes; the pair form p' = ap − bq + u,
+    /// q' = aq + bp, the real and imaginary parts of the complex filter).
+    #[inline]
+    fn step(&self, w: &mut [f64], u: f64) {
+        let mut i = 0;
+        for m in &self.modes {
+            match *m {
+                Mode::Real(l) => {
+                    w[i] = l.mul_add(w[i], u);
+                    i += 1;
+                }
+                Mode::Pair(a, b) => {
+                    let (p, q) = (w[i], w[i + 1]);
+                    w[i] = a.mul_add(p, (-b).mul_add(q, u));
+                    w[i + 1] = a.mul_add(q, b * p);
+                    i += 2;
+                }
+            }
+        }
+    }
+
+    /// Writes into `s` (rows `base..base + n`, parameter columns
+    /// `col..col + n`) the coefficients of the n modal parameters on the
+    /// base signals of one filter bank for the output row `ct` of C̃:
+    /// real mode i: c̃_i w_i; pair (i, i+1) with signals (p, q):
+    /// θ̃_i ← c̃_i p − c̃_{i+1} q, θ̃_{i+1} ← c̃_{i+1} p + c̃_i q.
+    fn coefficients(&self, ct: &[f64], s: &mut DMatrix<f64>, base: usize, col: usize) {
+        let mut i = 0;
+        for m in &self.modes {
+            match m {
+                Mode::Real(_) => {
+                    s[(base + i, col + i)] = ct[i];
+                    i += 1;
+                }
+                Mode::Pair(..) => {
+                    let (c0, c1) = (ct[i], ct[i + 1]);
+                    s[(base + i, col + i)] = c0;
+                    s[(base + i + 1, col + i)] = -c1;
+                    s[(base + i, col + i + 1)] = c1;
+                    s[(base + i + 1, col + i + 1)] = c0;
+                    i += 2;
+                }
+            }
+        }
+    }
+}
+
+/// Layout of the base row z(t).
+struct Layout {
+    n: usize,
+    nu: usize,
+    ny: usize,
+    /// Start of the free-response signals (if x₀ is estimated).
+    x0: Option<usize>,
+    /// Column of the constant 1 (if offsets are estimated).
+    one: Option<usize>,
+    /// Start of the outputs.
+    y: usize,
+    /// Width q.
+    width: usize,
+}
+
+impl Layout {
+    fn of(p: &Params) -> Self {
+        let (n, nu, ny) = (p.n, p.nu, p.ny);
+        let mut q = n * nu + nu;
+        let x0 = p.x0_offset.map(|_| {
+            q += n;
+            q - n
+        });
+        let one = p.c_offset.map(|_| {
+            q += 1;
+            q - 1
+        });
+        let y = q;
+        Layout {
+            n,
+            nu,
+            ny,
+            x0,
+            one,
+            y,
+            width: q + ny,
+        }
+    }
+}
+
+/// T_o of output `o` in record `e`: (width)×(p + 1), mapping the base row
+/// to the regressor row of o in the original coordinates, target last.
+fn row_map(
+    form: &ModalForm,
+    ct: &DMatrix<f64>,
+    p: &Params,
+    lay: &Layout,
+    o: usize,
+    e: usize,
+) -> DMatrix<f64> {
+    let (n, nu) = (lay.n, lay.nu);
+    let np = p.total;
+    let mut s = DMatrix::zeros(lay.width, np + 1);
+    let crow: Vec<f64> = ct.row(o).iter().copied().collect();
+    for j in 0..nu {
+        form.coefficients(&crow, &mut s, j * n, j * n);
+        if let Some(k) = p.d_index[(o, j)] {
+            s[(n * nu + j, k)] = 1.0;
+        }
+    }
+    if let (Some(base), Some(off)) = (lay.x0, p.x0_offset) {
+        form.coefficients(&crow, &mut s, base, off + e * n);
+    }
+    if let (Some(one), Some(off)) = (lay.one, p.c_offset) {
+        s[(one, off + e * p.ny + o)] = 1.0;
+    }
+    s[(lay.y + o, np)] = 1.0;
+    // M⁻¹ on the parameter blocks in modal coordinates: θ̃ = V⁻¹θ.
+    let mut blocks: Vec<usize> = (0..nu).map(|j| j * n).collect();
+    if let Some(off) = p.x0_offset {
+        blocks.push(off + e * n);
+    }
+    for c0 in blocks {
+        let cols = s.columns(c0, n) * &form.v_inv;
+        s.columns_mut(c0, n).copy_from(&cols);
+    }
+    s
+}
+
+/// One pattern of sampled outputs: its base rows and their R factor.
+struct PatternAcc {
+    mask: u64,
+    block: DMatrix<f64>,
+    used: usize,
+    acc: RAccumulator,
+}
+
+impl PatternAcc {
+    fn flush(&mut self) -> Result<()> {
+        if self.used == BLOCK {
+            self.acc.push_rows(&self.block)?;
+        } else if self.used > 0 {
+            self.acc
+                .push_rows(&self.block.rows(0, self.used).into_owned())?;
+        }
+        self.used = 0;
+        Ok(())
+    }
+}
+
+/// Bit mask of the sampled (non-NaN) outputs of row `t`.
+fn pattern(y: &DMatrix<f64>, t: usize) -> u64 {
+    (0..y.ncols()).fold(
+        0u64,
+        |m, o| {
+            if y[(t, o)].is_nan() { m } else { m | (1 << o) }
+        },
+    )
+}
+
+/// Whether the records fit the modal route's bookkeeping: at most 64
+/// outputs and [`MAX_PATTERNS`] patterns of sampled outputs per record.
+pub(crate) fn patterns_fit(records: &[Record<'_>]) -> bool {
+    records.iter().all(|r| {
+        if r.y.ncols() > 64 {
+            return false;
+        }
+        let mut seen: Vec<u64> = Vec::new();
+        for t in 0..r.y.nrows() {
+            let m = pattern(r.y, t);
+            if !seen.contains(&m) {
+                if seen.len() == MAX_PATTERNS {
+                    return false;
+                }
+                seen.push(m);
+            }
+        }
+        true
+    })
+}
+
+/// Folds the regression rows of all records into `acc` (p + 1 columns,
+/// the R factor of the direct route's [Φ | y] up to rounding) through the
+/// modal base rows; returns the number of sampled output entries. `c` is
+/// the C of the data divided by `scale`.
+pub(crate) fn accumulate(
+    form: &ModalForm,
+    c: &DMatrix<f64>,
+    p: &Params,
+    records: &[Record<'_>],
+    scale: DataScale,
+    acc: &mut RAccumulator,
+) -> Result<usize> {
+    let lay = Layout::of(p);
+    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
+    let ct = c * &form.v;
+    let mut rows_total = 0;
+    for (e, rec) in records.iter().enumerate() {
+        let maps: Vec<DMatrix<f64>> = (0..ny).map(|o| row_map(form, &ct, p, &lay, o, e)).collect();
+        let mut pats: Vec<PatternAcc> = Vec::new();
+        let mut w = vec![0.0; n * nu];
+        // Free response Λᵗ (first column of each block: (1) or (1, 0)).
+        let mut fr = vec![0.0; n];
+        let mut i = 0;
+        for m in &form.modes {
+            fr[i] = 1.0;
+            i += if matches!(m, Mode::Real(_)) { 1 } else { 2 };
+        }
+        let mut fr_live = lay.x0.is_some();
+        for t in 0..rec.u.nrows() {
+            let mask = pattern(rec.y, t);
+            if mask != 0 {
+                let k = match pats.iter().position(|pa| pa.mask == mask) {
+                    Some(k) => k,
+                    None => {
+                        pats.push(PatternAcc {
+                            mask,
+                            block: DMatrix::zeros(BLOCK, lay.width),
+                            used: 0,
+                            acc: RAccumulator::new(lay.width),
+                        });
+                        pats.len() - 1
+                    }
+                };
+                let pa = &mut pats[k];
+                // Row `used` of the column-major block: entry (row, col) at
+                // col·BLOCK + row.
+                let row = pa.used;
+                let blk = pa.block.as_mut_slice();
+                let mut put = |col: usize, v: f64| blk[col * BLOCK + row] = v;
+                for (col, &v) in w.iter().enumerate() {
+                    put(col, v);
+                }
+                for j in 0..nu {
+                    put(n * nu + j, rec.u[(t, j)] * iu);
+                }
+                if let Some(x0) = lay.x0 {
+                    for (i, &v) in fr.iter().enumerate() {
+                        put(x0 + i, v);
+                    }
+                }
+                if let Some(one) = lay.one {
+                    put(one, 1.0);
+                }
+                for o in 0..ny {
+                    let v = rec.y[(t, o)];
+                    put(lay.y + o, if v.is_nan() { 0.0 } else { v * iy });
+                }
+                pa.used += 1;
+                if pa.used == BLOCK {
+                    pa.flush()?;
+                }
+                rows_total += mask.count_ones() as usize;
+            }
+            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
+                form.step(wj, rec.u[(t, j)] * iu);
+            }
+            if fr_live {
+                form.step(&mut fr, 0.0);
+                if fr.iter().all(|v| v.abs() < NEGLIGIBLE) {
+                    fr.fill(0.0);
+                    fr_live = false;
+                }
+            }
+        }
+        for pa in &mut pats {
+            pa.flush()?;
+            let rz = pa.acc.r();
+            for (o, map) in maps.iter().enumerate() {
+                if pa.mask & (1 << o) != 0 {
+                    acc.push_rows(&(&rz * map))?;
+                }
+            }
+        }
+    }
+    Ok(rows_total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::regress::{Feedthrough, InitialState, output_error_route};
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A stable 4-state A with a complex pair and two real modes, in a
+    /// non-modal basis.
+    fn system() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let lam = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.8, 0.3, 0.0, 0.0, //
+                -0.3, 0.8, 0.0, 0.0, //
+                0.0, 0.0, 0.6, 0.0, //
+                0.0, 0.0, 0.0, -0.4,
+            ],
+        );
+        let t = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.0, 0.2, 0.0, 0.3, //
+                0.1, 1.0, 0.4, 0.0, //
+                0.0, 0.3, 1.0, 0.2, //
+                0.2, 0.0, 0.1, 1.0,
+            ],
+        );
+        let a = &t * lam * lifted_linalg::inv(&t).unwrap();
+        let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.0, 0.0, 1.0, 0.5, 0.5, -0.3, 1.0]);
+        let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0]);
+        (a, b, c)
+    }
+
+    fn record(
+        a: &DMatrix<f64>,
+        b: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        n: usize,
+        seed: u64,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let u = DMatrix::from_fn(n, 2, |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
+        let mut x = nalgebra::DVector::from_element(4, 0.7);
+        let mut y = DMatrix::zeros(n, 2);
+        for t in 0..n {
+            let ut = u.row(t).transpose();
+            let yt: nalgebra::DVector<f64> = c * &x + &ut * 0.2;
+            for o in 0..2 {
+                y[(t, o)] = yt[o] + 3.0 + 0.05 * (rng.random::<f64>() - 0.5);
+            }
+            x = a * &x + b * &ut;
+        }
+        (u, y)
+    }
+
+    #[test]
+    fn modal_form_reproduces_a() {
+        let (a, _, _) = system();
+        let f = ModalForm::of(&a).expect("well-conditioned modes");
+        let back = &f.v * f.lambda() * &f.v_inv;
+        assert!((back - &a).norm() < 1e-12);
+        assert_eq!(f.modes.len(), 3);
+    }
+
+    #[test]
+    fn defective_a_keeps_the_direct_route() {
+        let a = DMatrix::from_row_slice(2, 2, &[0.5, 1.0, 0.0, 0.5]);
+        assert!(ModalForm::of(&a).is_none());
+    }
+
+    /// The modal base rows give the direct route's (B, D, x₀, offsets) to
+    /// rounding: several records, multirate NaN patterns, a D mask, with
+    /// and without x₀ and offsets.
+    #[test]
+    fn modal_route_equals_direct_route() {
+        let (a, b, c) = system();
+        let (u1, mut y1) = record(&a, &b, &c, 3000, 1);
+        let (u2, mut y2) = record(&a, &b, &c, 1700, 2);
+        // Output 2 sampled every third instant in the first record, output
+        // 1 missing at a few instants of the second.
+        for t in 0..y1.nrows() {
+            if t % 3 != 0 {
+                y1[(t, 1)] = f64::NAN;
+            }
+        }
+        for t in (5..y2.nrows()).step_by(97) {
+            y2[(t, 0)] = f64::NAN;
+        }
+        let recs = [
+            Record {
+                u: &u1,
+                y: &y1,
+                instrument: None,
+            },
+            Record {
+                u: &u2,
+                y: &y2,
+                instrument: None,
+            },
+        ];
+        let mask = Feedthrough::Mask(DMatrix::from_row_slice(2, 2, &[true, false, true, true]));
+        for ft in [Feedthrough::Free, Feedthrough::Zero, mask] {
+            for x0 in [InitialState::Estimate, InitialState::Zero] {
+                for offsets in [false, true] {
+                    let fast = output_error_route(&a, &c, &recs, &ft, x0, offsets, true).unwrap();
+                    let slow = output_error_route(&a, &c, &recs, &ft, x0, offsets, false).unwrap();
+                    let close = |x: &DMatrix<f64>, y: &DMatrix<f64>| {
+                        (x - y).norm() <= 1e-9 * (1.0 + y.norm())
+                    };
+                    assert!(close(&fast.b, &slow.b), "{ft:?} {x0:?} {offsets}");
+                    assert!(close(&fast.d, &slow.d), "{ft:?} {x0:?} {offsets}");
+                    for (p, q) in fast.x0.iter().zip(&slow.x0) {
+                        assert!((p - q).norm() <= 1e-8 * (1.0 + q.norm()));
+                    }
+                    for (p, q) in fast.offsets.iter().zip(&slow.offsets) {
+                        assert!((p - q).norm() <= 1e-9 * (1.0 + q.norm()));
+                    }
+                    if offsets && x0 == InitialState::Estimate {
+                        // The estimate itself is right (noise 0.05 uniform).
+                        assert!((&fast.b - &b).norm() < 0.02 * b.norm());
+                    }
+                }
+            }
+        }
+    }
+}
