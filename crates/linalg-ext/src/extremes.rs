@@ -165,7 +165,7 @@ pub fn triangular_ratio_bound(l: &DMatrix<f64>) -> Result<f64> {
 pub fn exceeds_min_eigenvalue(g: &DMatrix<f64>, tau: f64) -> Result<bool> {
     let k = check_square_lower(g)?;
     let shifted = g - DMatrix::<f64>::identity(k, k) * tau;
-    Ok(k == 0 || shifted.cholesky().is_some())
+    Ok(k == 0 || crate::cholesky_lower(shifted).is_some())
 }
 
 /// Whether λ_min(G)/λ_max(G) > threshold for a symmetric positive
@@ -224,9 +224,7 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if upper.is_nan()
         || upper <= 0.0
         || upper >= row_sums
-        || (DMatrix::<f64>::identity(k, k) * upper - &sym)
-            .cholesky()
-            .is_none()
+        || crate::cholesky_lower(DMatrix::<f64>::identity(k, k) * upper - &sym).is_none()
     {
         return Ok(false);
     }

@@ -65,6 +65,7 @@
 
 pub mod cca;
 pub mod check;
+pub mod cholesky;
 pub mod convert;
 pub mod eig;
 pub mod error;
@@ -82,6 +83,7 @@ pub mod svd;
 
 pub use cca::{Cca, cca, center_rows};
 pub use check::{check_cols, check_finite, check_rows, check_square};
+pub use cholesky::cholesky_lower;
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
 pub use error::{Error, Result};

@@ -618,7 +618,7 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
     // rcond above the threshold proven by two Cholesky factorisations of
     // shifted copies of G (O(k³/3) each; no SVD): the common case.
     let proven = lifted_linalg::gram_condition_exceeds(&g, CORRELATION_RCOND_MIN)?;
-    let Some(ch) = g.cholesky() else {
+    let Some(l) = lifted_linalg::cholesky_lower(g) else {
         return Err(Error::IllConditionedCorrelation {
             rcond: f64::NAN,
             min: CORRELATION_RCOND_MIN,
@@ -627,7 +627,6 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
                     .into(),
         });
     };
-    let l = ch.unpack();
     if proven {
         // Reported value: a short power-iteration estimate (at or above
         // the true rcond; the decision above is exact).
