@@ -148,21 +148,43 @@ impl OperatingPoint {
 fn channel_means(records: &[&DMatrix<f64>], n: usize, skip_nan: bool) -> Result<Vec<f64>> {
     let mut out = Vec::with_capacity(n);
     for c in 0..n {
-        let (mut sum, mut count) = (0.0, 0usize);
+        // Four independent partial sums (vectorised); a NaN adds nothing
+        // when skipped, and any other non-finite value is reported after
+        // the pass.
+        let (mut sums, mut count, mut bad) = ([0.0f64; 4], 0usize, None);
         for m in records {
-            for &v in m.column(c).iter() {
-                if v.is_nan() && skip_nan {
-                    continue;
+            let col = m.column(c);
+            let v = col.as_slice();
+            let mut chunks = v.chunks_exact(4);
+            for q in &mut chunks {
+                for (s, &x) in sums.iter_mut().zip(q) {
+                    let skip = skip_nan && x.is_nan();
+                    *s += if skip { 0.0 } else { x };
+                    count += usize::from(!skip);
                 }
-                if !v.is_finite() {
-                    return Err(Error::NonFiniteScalar {
-                        what: "operating point data",
-                        value: v,
-                    });
-                }
-                sum += v;
-                count += 1;
             }
+            for &x in chunks.remainder() {
+                if !(skip_nan && x.is_nan()) {
+                    sums[0] += x;
+                    count += 1;
+                }
+            }
+            let sum: f64 = sums.iter().sum();
+            if !sum.is_finite() {
+                bad = v
+                    .iter()
+                    .copied()
+                    .find(|x| !x.is_finite() && !(skip_nan && x.is_nan()));
+                if bad.is_some() {
+                    break;
+                }
+            }
+        }
+        if let Some(value) = bad {
+            return Err(Error::NonFiniteScalar {
+                what: "operating point data",
+                value,
+            });
         }
         if count == 0 {
             return Err(Error::NonFiniteScalar {
@@ -170,7 +192,7 @@ fn channel_means(records: &[&DMatrix<f64>], n: usize, skip_nan: bool) -> Result<
                 value: f64::NAN,
             });
         }
-        out.push(sum / count as f64);
+        out.push(sums.iter().sum::<f64>() / count as f64);
     }
     Ok(out)
 }
