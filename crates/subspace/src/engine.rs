@@ -83,7 +83,10 @@ pub enum BdEstimate {
     #[default]
     Auto,
     /// Output-error least squares over the records with x₀ per record
-    /// ([`crate::estimate_bd`], SLICOT IB01CD's approach): O(N n_y n_u n³).
+    /// ([`crate::estimate_bd`], SLICOT IB01CD's approach): one base row
+    /// of n n_u + n_u + n + n_y + 1 columns per sample in modal coordinates
+    /// (O(N q²)), O(N n_y (n_u n³ + p²)) when A's eigenvectors are ill
+    /// conditioned.
     OutputError,
     /// The MOESP regression Γ⊥ᵀ Θ_u = Γ⊥ᵀ H_f(B, D) on the compressed data
     /// (Verhaegen 1994, SLICOT IB01PD): independent of N, so available to
@@ -817,7 +820,8 @@ impl StreamingIdentifier {
 /// and SVD of W₁ Φ W₂ on the k×k factor (O(k³)); (3) Γ = W₁⁻¹U₁S₁^{1/2},
 /// C = first block row, A = Γ↑⁺Γ↓ (all block rows, erratum L-3);
 /// (4) (B, D, x₀) by streamed output-error least squares with the
-/// feedthrough mask ([`estimate_bd`], O(N n_y (n_u n³ + p²)));
+/// feedthrough mask ([`estimate_bd`], O(N q²) with q = n n_u + n_u + n +
+/// n_y + 1 in modal coordinates, O(N n_y (n_u n³ + p²)) otherwise);
 /// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
 /// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
 ///
