@@ -1477,6 +1477,8 @@ fn scan_parallel<V: FnMut(&[f64]) -> CliResult<bool>>(
                 Step::End => return Ok(()),
                 Step::Blank => {}
                 Step::Row(at, t) => {
+                    #[cfg(test)]
+                    tests::SEQUENTIAL_ROWS.with(|n| n.set(n.get() + 1));
                     if !sink.row(lay, &row, at, t)? {
                         return Ok(());
                     }
@@ -2206,6 +2208,289 @@ mod tests {
         assert_eq!(v[1][0], -2.5e-3);
         assert!(v[1][1].is_nan());
         assert_eq!(v[2], [1e5, 3.0]);
+    }
+
+    thread_local! {
+        /// Rows the parallel reader has read with its sequential reader on
+        /// this thread (the others came from blocks).
+        pub(super) static SEQUENTIAL_ROWS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+    }
+
+    fn sequential() -> Mode {
+        Mode {
+            fast: true,
+            block: BLOCK,
+            threads: Some(1),
+        }
+    }
+
+    fn parallel(threads: usize, block: usize) -> Mode {
+        Mode {
+            fast: true,
+            block,
+            threads: Some(threads),
+        }
+    }
+
+    /// The parallel reader's scan of `path` (and the rows it read
+    /// sequentially), checked equal to the sequential reader's.
+    fn same_in_parallel(
+        path: &str,
+        wanted: &[&str],
+        empty: std::ops::Range<usize>,
+        ts: Option<f64>,
+        modes: &[Mode],
+        what: &str,
+    ) -> (Scan, Vec<u64>) {
+        let reference = run(path, wanted, empty.clone(), ts, Some(sequential()));
+        let mut fallback = Vec::new();
+        for &mode in modes {
+            let before = SEQUENTIAL_ROWS.with(std::cell::Cell::get);
+            let got = run(path, wanted, empty.clone(), ts, Some(mode));
+            fallback.push(SEQUENTIAL_ROWS.with(std::cell::Cell::get) - before);
+            assert_eq!(got, reference, "{what}, {mode:?}");
+        }
+        (reference, fallback)
+    }
+
+    /// Random files of many rows (every oddity of [`random_csv`]: quotes,
+    /// blank lines, CRLF and lone CR, bad cells, ragged rows, empty output
+    /// cells) read in parallel with blocks of a few lines to a few hundred:
+    /// the sequential reader's rows, base period or message.
+    #[test]
+    fn parallel_equals_sequential_on_random_files() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut errors = 0;
+        for case in 0..120 {
+            let rows = [150, 1500, 4000][case % 3];
+            let crlf = [0, 1000, 300][(case / 3) % 3];
+            let bad = [0, 1, 3, 20][(case / 9) % 4];
+            let text = random_csv(&mut rng, rows, crlf, bad);
+            let path = file(&format!("p{case}.csv"), &text);
+            let ts = if rng.chance(200) { Some(0.25) } else { None };
+            let mut modes = vec![parallel(2, 64), parallel(2, 700), parallel(3, 4096)];
+            if rows < 1000 {
+                modes.push(parallel(2, 1));
+                modes.push(parallel(4, 16));
+            }
+            let (reference, _) = same_in_parallel(
+                &path,
+                &["u1", "y1", "y2"],
+                1..3,
+                ts,
+                &modes,
+                &format!("case {case}"),
+            );
+            errors += reference.is_err() as usize;
+        }
+        assert!(errors > 20 && errors < 100, "{errors}");
+    }
+
+    /// A clean file of `rows` rows t,u1,x,y1,y2 (t = k/4, y1 empty on odd
+    /// rows, x unread), `blanks` blank lines after every `blank_every` rows
+    /// (0: none), as lines to edit.
+    fn clean_lines(rows: usize, blank_every: usize, blanks: usize) -> Vec<String> {
+        let mut lines = vec!["t,u1,x,y1,y2".to_string()];
+        for k in 0..rows {
+            let y1 = if k % 2 == 0 {
+                format!("{:.14}", (k as f64 * 0.37).sin())
+            } else {
+                String::new()
+            };
+            lines.push(format!(
+                "{},{},{},{y1},{:.6e}",
+                k as f64 * 0.25,
+                if k % 3 == 0 { -1 } else { 1 },
+                k * 7,
+                (k as f64).sqrt()
+            ));
+            if blank_every > 0 && k % blank_every == blank_every - 1 {
+                lines.extend(std::iter::repeat_n(String::new(), blanks));
+            }
+        }
+        lines
+    }
+
+    fn join(lines: &[String], eol: &str) -> Vec<u8> {
+        let mut text = lines.join(eol);
+        text += eol;
+        text.into_bytes()
+    }
+
+    /// A quoted cell in the middle of a big file, with line ends inside it
+    /// that look like rows: read by `csv-core`, and the blocks take over
+    /// again after it (the rows read sequentially are about a block's); a
+    /// bad cell further on has its line number (counted from the block
+    /// where the blocks took over, which may start with blank lines).
+    #[test]
+    fn parallel_quoted_line_in_a_big_file() {
+        for eol in ["\n", "\r\n"] {
+            // Runs of 30 blank lines: blocks often start with blank lines.
+            for (blank_every, blanks) in [(0, 0), (1, 30), (97, 1)] {
+                let mut lines = clean_lines(20_000, blank_every, blanks);
+                let mid = (lines.len() / 2..)
+                    .find(|&k| !lines[k].is_empty())
+                    .unwrap_or(1);
+                let t = mid as f64; // any: x is not read
+                lines[mid] = lines[mid].replacen(
+                    &format!(",{},", lines[mid].split(',').nth(2).unwrap_or("")),
+                    &format!(",\"{t},1,2,3,4{eol}{t},1,2,3,4{eol}\","),
+                    1,
+                );
+                assert!(lines[mid].contains('"'), "{}", lines[mid]);
+                let text = join(&lines, eol);
+                let path = file("quoted_big.csv", &text);
+                let modes = [parallel(2, 4096), parallel(2, 1 << 16), parallel(3, 300)];
+                let (reference, fallback) =
+                    same_in_parallel(&path, &["u1", "y1", "y2"], 1..3, None, &modes, "quoted");
+                let (rows, ts, seen) = reference.unwrap();
+                assert_eq!((rows, f64::from_bits(ts)), (20_000, 0.25));
+                assert!(f64::from_bits(seen[1][1]).is_nan());
+                // The blocks took over again: about one block of rows read
+                // by csv-core (≈ 45 bytes a row).
+                for (&n, mode) in fallback.iter().zip(&modes) {
+                    assert!(
+                        n >= 1 && n <= (mode.block / 20) as u64 + 2,
+                        "{n} rows read sequentially, {mode:?}"
+                    );
+                }
+                for after in [5, 150, 3000] {
+                    let mut lines = lines.clone();
+                    let bad = (mid + after..)
+                        .find(|&k| lines[k].split(',').nth(1) == Some("1"))
+                        .unwrap_or(mid);
+                    lines[bad] = lines[bad].replacen(",1,", ",x,", 1);
+                    let path = file("quoted_bad.csv", &join(&lines, eol));
+                    let (reference, _) = same_in_parallel(
+                        &path,
+                        &["u1", "y1", "y2"],
+                        1..3,
+                        None,
+                        &modes,
+                        "quoted, bad",
+                    );
+                    // the quoted cell holds two line ends
+                    let e = reference.unwrap_err().replace(&path, "F");
+                    assert_eq!(
+                        e,
+                        format!(
+                            "F: line {}, column 'u1': cannot parse 'x' as a number",
+                            bad + 3
+                        )
+                    );
+                }
+            }
+        }
+    }
+
+    /// Errors late in a big file (after blank lines, with LF and CRLF): the
+    /// sequential reader's message and line number.
+    #[test]
+    fn parallel_errors_late_in_the_file() {
+        for eol in ["\n", "\r\n"] {
+            let lines = clean_lines(30_000, 50, 1);
+            let at = lines.len() - 400; // line `at + 1` of the file
+            type Edit = fn(&str) -> String;
+            let cases: [(&str, Edit); 7] = [
+                ("bad cell", |l| {
+                    l.replacen(",-1,", ",abc,", 1).replacen(",1,", ",abc,", 1)
+                }),
+                ("NaN", |l| {
+                    format!("{},nan", l.rsplit_once(',').map_or(l, |p| p.0))
+                }),
+                ("ragged", |l| format!("{l},5")),
+                ("empty input", |l| {
+                    l.replacen(",-1,", ",,", 1).replacen(",1,", ",,", 1)
+                }),
+                ("time", |l| format!("1e9{}", &l[l.find(',').unwrap_or(0)..])),
+                ("lone CR", |l| l.replacen(',', "\r", 1)),
+                ("quote then bad", |l| {
+                    format!("\"{}", l.replacen(',', "\",x", 1))
+                }),
+            ];
+            for (what, edit) in &cases {
+                let mut lines = lines.clone();
+                if lines[at].is_empty() {
+                    lines.swap(at, at - 1);
+                }
+                lines[at] = edit(&lines[at]);
+                let path = file("late.csv", &join(&lines, eol));
+                let modes = [parallel(2, 4096), parallel(2, 1 << 16), parallel(3, 64)];
+                let (reference, _) =
+                    same_in_parallel(&path, &["u1", "y1", "y2"], 1..3, None, &modes, what);
+                let e = reference.unwrap_err().replace(&path, "F");
+                assert!(e.starts_with(&format!("F: line {}", at + 1)), "{what}: {e}");
+            }
+            // The time check counts rows across blocks and blank lines.
+            let mut lines = lines.clone();
+            let t = |l: &str| l.split(',').next().unwrap_or("").to_string();
+            let k = lines.iter().rposition(|l| !l.is_empty()).unwrap_or(0);
+            let last = t(&lines[k]);
+            lines[k] = lines[k].replacen(&last, "0", 1);
+            let path = file("late_t.csv", &join(&lines, eol));
+            let (reference, _) = same_in_parallel(
+                &path,
+                &["u1", "y1", "y2"],
+                1..3,
+                None,
+                &[parallel(2, 4096)],
+                "time",
+            );
+            let e = reference.unwrap_err().replace(&path, "F");
+            assert!(
+                e.starts_with(&format!("F: line {}, column 't': time 0 breaks", k + 1)),
+                "{e}"
+            );
+        }
+    }
+
+    /// Odd shapes in parallel: no final line end, blank lines only, CR line
+    /// ends (no `\n` at all), lines longer than the block limit, a header
+    /// with a quoted line end, `visit` stopping, and `--ts` without a time
+    /// column.
+    #[test]
+    fn parallel_odd_files() {
+        let modes = [parallel(2, 16), parallel(2, 64), parallel(3, 1000)];
+        let w = ["u1", "y1", "y2"];
+        let mut lines = clean_lines(3000, 7, 2);
+        let check = |text: &[u8], what: &str, ts: Option<f64>| {
+            let path = file("odd.csv", text);
+            same_in_parallel(&path, &w, 1..3, ts, &modes, what).0
+        };
+        let text = join(&lines, "\n");
+        assert!(check(&text[..text.len() - 1], "no final newline", None).is_ok());
+        assert!(check(b"t,u1,x,y1,y2\n\n\r\n\n", "blank lines only", None).is_err());
+        assert!(check(&join(&lines, "\r"), "CR only", None).is_ok());
+        lines[0] = "\"t\",\"u\n1\",x,y1,y2".to_string();
+        let e = check(&join(&lines, "\n"), "quoted header", None).unwrap_err();
+        assert!(e.contains("header has no column 'u1'"), "{e}");
+        lines[0] = "\u{feff}t,u1,x,y1,y2".to_string();
+        for l in lines.iter_mut().skip(1000).step_by(300) {
+            if !l.is_empty() {
+                let pad = " ".repeat(5000);
+                *l = l.replacen(',', &format!("{pad},"), 1);
+            }
+        }
+        let long = check(&join(&lines, "\n"), "long lines", None).unwrap();
+        assert_eq!(long.0, 3000);
+        let no_t: Vec<String> = lines
+            .iter()
+            .map(|l| l.split_once(',').map_or(String::new(), |p| p.1.to_string()))
+            .collect();
+        let r = check(&join(&no_t, "\n"), "no time column", Some(0.5)).unwrap();
+        assert_eq!((r.0, f64::from_bits(r.1)), (3000, 0.5));
+        // visit stops: the same rows
+        let path = file("odd_stop.csv", &join(&lines, "\n"));
+        let u = "u1".to_string();
+        let w = [&u];
+        for mode in [sequential(), parallel(2, 64), parallel(2, 4096)] {
+            let mut n = 0;
+            let r = scan_csv(&path, &w, 0..0, None, mode, |_| {
+                n += 1;
+                Ok(n < 1234)
+            });
+            assert_eq!(r.unwrap(), (1234, 0.25), "{mode:?}");
+        }
     }
 
     /// `visit` returning false stops the scan.
