@@ -229,10 +229,31 @@ pub fn scan_rows(
     ts: Option<f64>,
     visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
+    scan_rows_threads(path, columns, wanted, may_be_empty, ts, None, visit)
+}
+
+/// [`scan_rows`] with the number of threads parsing a CSV file given:
+/// `Some(1)` reads on the calling thread alone, `Some(n)` parses blocks on
+/// n threads in all (the calling thread included) whatever the file's size,
+/// `None` chooses as [`scan_rows`] does. The same rows, checks and
+/// messages in every case (the benches compare the timings).
+pub fn scan_rows_threads(
+    path: &str,
+    columns: &[String],
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    threads: Option<usize>,
+    visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
     if is_npy(path) {
         return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
-    scan_csv(path, wanted, may_be_empty, ts, Mode::default(), visit)
+    let mode = Mode {
+        threads: threads.map(|n| n.max(1)),
+        ..Mode::default()
+    };
+    scan_csv(path, wanted, may_be_empty, ts, mode, visit)
 }
 
 /// How [`scan_csv`] reads (tests vary it).
@@ -923,7 +944,9 @@ fn scan_csv(
     let wants_time = sink.check.wants_time();
     // Blocks are read at offsets: a regular file only.
     let has_time = if mode.fast && threads >= 2 && regular {
-        let mut rd = CsvReader::new(FileAt { file: &file, at: 0 }, mode.block);
+        // A small buffer: it holds the start of the first block, and the
+        // lines the fast path does not take.
+        let mut rd = CsvReader::new(FileAt { file: &file, at: 0 }, mode.block.min(1 << 16));
         let header = read_header(path, &mut rd)?;
         let lay = Layout::new(path, header, wanted, may_be_empty, wants_time)?;
         scan_parallel(rd, &lay, threads, mode.block, &mut sink)?;
