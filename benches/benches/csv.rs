@@ -3,9 +3,13 @@
 //! decimals: ~48 bytes a row, as `benches/peers/csv_data.py` writes it) read
 //! with `lifted_cli::table::read_raw` (parse and keep the four channels,
 //! check the time column), with `scan_rows` alone (parse, nothing kept: the
-//! streamed identification's reading), with the reader of main before the
-//! fast path (csv crate `ByteRecord` + `str::parse`, same checks, kept here
-//! as `legacy_read_raw`), and the same numbers as a C-order float64 `.npy`
+//! streamed identification's reading) on as many threads as it chooses (the
+//! parallel reader on a multi-core machine) and on the calling thread alone
+//! (`scan_rows_threads(…, Some(1), …)`: the sequential reader), with
+//! `scan_rows` and a consumer costing about what the streamed identifier's
+//! compression costs per row, with the reader of main before the fast path
+//! (csv crate `ByteRecord` + `str::parse`, same checks, kept here as
+//! `legacy_read_raw`), and the same numbers as a C-order float64 `.npy`
 //! file. Throughput in bytes of the file read.
 //!
 //! Run: `cargo bench -p lifted-benches --bench csv` (10 samples each, ~1 min).
@@ -15,7 +19,7 @@ use std::time::Duration;
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use lifted_benches::peer_data;
-use lifted_cli::table::{read_raw, scan_rows};
+use lifted_cli::table::{read_raw, scan_rows, scan_rows_threads};
 
 const ROWS: usize = 1_000_000;
 
@@ -135,6 +139,35 @@ fn reader(c: &mut Criterion) {
             });
             black_box((r.expect("scan"), sum))
         })
+    });
+    group.bench_function("csv_scan_rows_1_thread", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            let r = scan_rows_threads(&csv, &[], &wanted, 2..4, None, Some(1), |row| {
+                sum += row[3];
+                Ok(true)
+            });
+            black_box((r.expect("scan"), sum))
+        })
+    });
+    // A consumer of ≈ 40 ns a row (12 × 4 dependent multiply-adds; about
+    // what the streamed compression costs per row at 1e6, benches/README.md):
+    // how much of it the parallel reader overlaps.
+    let consumer = |threads: Option<usize>| {
+        let mut acc = [0.0f64; 4];
+        let r = scan_rows_threads(&csv, &[], &wanted, 2..4, None, threads, |row| {
+            for _ in 0..12 {
+                for (a, &v) in acc.iter_mut().zip(row) {
+                    *a = a.mul_add(0.999_999, v);
+                }
+            }
+            Ok(true)
+        });
+        black_box((r.expect("scan"), acc))
+    };
+    group.bench_function("csv_scan_rows_consumer", |b| b.iter(|| consumer(None)));
+    group.bench_function("csv_scan_rows_consumer_1_thread", |b| {
+        b.iter(|| consumer(Some(1)))
     });
     group.bench_function("csv_legacy_read_raw", |b| {
         b.iter(|| black_box(legacy_read_raw(&csv, &["u1", "u2", "y1", "y2"]).expect("read")))

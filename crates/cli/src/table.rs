@@ -11,8 +11,10 @@
 //! and instrument columns must be complete.
 //!
 //! The CSV reader is a block reader with a fast path for lines of plain
-//! numbers and `csv-core` for anything else (see [`scan_rows`]); its
-//! throughput is measured by `benches/benches/csv.rs` (benches/README.md).
+//! numbers and `csv-core` for anything else (see [`scan_rows`]); on a
+//! large file it parses blocks of whole lines on several threads and
+//! delivers the rows in file order on the calling thread. Its throughput is
+//! measured by `benches/benches/csv.rs` (benches/README.md).
 
 use std::fmt::Display;
 use std::fs::File;
@@ -209,8 +211,16 @@ fn column_indices(path: &str, header: &[String], wanted: &[&String]) -> CliResul
 /// return, a cell that is not a number, a ragged row) is read again through
 /// `csv-core` (the csv crate's parser) with the checks and messages of
 /// [`cell_value`], so the result is that of a full CSV parser. Line numbers
-/// in messages are those of the file. Time O(file size), memory O(columns +
-/// block + longest line), whatever the file length.
+/// in messages are those of the file.
+///
+/// A regular file of at least 4 MiB is parsed on up to 4 threads (the
+/// available parallelism; 1: as above): blocks of about 1 MiB of whole lines
+/// go through the fast path on helper threads and the calling thread, which
+/// calls `visit` for the rows in file order; from a line the fast path does
+/// not take, the file is read as above until the next block boundary. The
+/// rows, checks and messages are the same (see `scan_parallel`). Time
+/// O(file size), memory O(columns + threads × block + longest line),
+/// whatever the file length.
 pub fn scan_rows(
     path: &str,
     columns: &[String],
@@ -219,19 +229,48 @@ pub fn scan_rows(
     ts: Option<f64>,
     visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
+    scan_rows_threads(path, columns, wanted, may_be_empty, ts, None, visit)
+}
+
+/// [`scan_rows`] with the number of threads parsing a CSV file given:
+/// `Some(1)` reads on the calling thread alone, `Some(n)` parses blocks on
+/// n threads in all (the calling thread included) whatever the file's size,
+/// `None` chooses as [`scan_rows`] does. The same rows, checks and
+/// messages in every case (the benches compare the timings).
+pub fn scan_rows_threads(
+    path: &str,
+    columns: &[String],
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    threads: Option<usize>,
+    visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
     if is_npy(path) {
         return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
-    scan_csv(path, wanted, may_be_empty, ts, Mode::default(), visit)
+    let mode = Mode {
+        threads: threads.map(|n| n.max(1)),
+        ..Mode::default()
+    };
+    scan_csv(path, wanted, may_be_empty, ts, mode, visit)
 }
 
 /// How [`scan_csv`] reads (tests vary it).
 #[derive(Debug, Clone, Copy)]
 struct Mode {
-    /// Try the fast path on each line (false: `csv-core` for every record).
+    /// Try the fast path on each line (false: `csv-core` for every record,
+    /// on the calling thread).
     fast: bool,
-    /// Initial buffer size in bytes.
+    /// Initial buffer size in bytes; also the size of the blocks of whole
+    /// lines parsed in parallel.
     block: usize,
+    /// Threads parsing the file, the calling thread included: 1 reads
+    /// sequentially, n ≥ 2 parses blocks on the calling thread and n − 1
+    /// helpers (see [`scan_parallel`]); `None` chooses (the available
+    /// parallelism, at most [`MAX_THREADS`], for a regular file of at least
+    /// [`MIN_BLOCKS`] blocks; otherwise 1).
+    threads: Option<usize>,
 }
 
 impl Default for Mode {
@@ -239,12 +278,20 @@ impl Default for Mode {
         Mode {
             fast: true,
             block: BLOCK,
+            threads: None,
         }
     }
 }
 
 /// Bytes read from a CSV file at a time (the buffer grows for a longer line).
 const BLOCK: usize = 1 << 20;
+
+/// At most this many threads parse a CSV file.
+const MAX_THREADS: usize = 4;
+
+/// A file shorter than this many blocks is read sequentially (threads
+/// would not pay for themselves).
+const MIN_BLOCKS: u64 = 4;
 
 /// A CSV file read in blocks: whole lines for the fast path (every line
 /// before the block's last `\n`, found by `memchr::memrchr`), records by
@@ -253,6 +300,8 @@ const BLOCK: usize = 1 << 20;
 struct CsvReader<R> {
     src: R,
     buf: Vec<u8>,
+    /// Offset in the file of `buf[0]`.
+    base: u64,
     pos: usize,
     filled: usize,
     /// End of the last whole line in `buf` (after its `\n`; `filled` at the
@@ -272,6 +321,7 @@ impl<R: std::io::Read> CsvReader<R> {
         CsvReader {
             src,
             buf: vec![0; block.max(1)],
+            base: 0,
             pos: 0,
             filled: 0,
             complete: 0,
@@ -295,6 +345,7 @@ impl<R: std::io::Read> CsvReader<R> {
         if self.pos > 0 {
             self.buf.copy_within(self.pos..self.filled, 0);
             self.filled -= self.pos;
+            self.base += self.pos as u64;
             self.pos = 0;
         }
         if self.filled == self.buf.len() {
@@ -385,6 +436,46 @@ impl<R: std::io::Read> CsvReader<R> {
         let start = if i == 0 { 0 } else { self.ends[i - 1] };
         &self.fields[start..self.ends[i]]
     }
+
+    /// The offset in the file of `pos`.
+    fn offset(&self) -> u64 {
+        self.base + self.pos as u64
+    }
+}
+
+impl CsvReader<FileAt<'_>> {
+    /// Moves to offset `at` of the file, the start of line `line` (between
+    /// two records: `csv-core` goes on from its state after the last record,
+    /// as after a line taken by the fast path). Keeps the buffer when it
+    /// holds `at`.
+    fn seek_to(&mut self, at: u64, line: u64) {
+        if at >= self.base && at <= self.base + self.filled as u64 {
+            self.pos = (at - self.base) as usize;
+        } else {
+            self.src.at = at;
+            self.base = at;
+            (self.pos, self.filled, self.complete, self.eof) = (0, 0, 0, false);
+        }
+        self.line = line;
+    }
+}
+
+/// A regular file read from offset `at` on (each read seeks first), so that
+/// the parallel reader's blocks and its sequential reader share one handle.
+struct FileAt<'a> {
+    file: &'a File,
+    at: u64,
+}
+
+impl std::io::Read for FileAt<'_> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        use std::io::Seek;
+        let mut f = self.file;
+        f.seek(std::io::SeekFrom::Start(self.at))?;
+        let n = f.read(out)?;
+        self.at += n as u64;
+        Ok(n)
+    }
 }
 
 /// Opens a CSV file and reads its header row (which must name the columns,
@@ -392,6 +483,12 @@ impl<R: std::io::Read> CsvReader<R> {
 fn open_csv(path: &str, block: usize) -> CliResult<(CsvReader<File>, Vec<String>)> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let mut rd = CsvReader::new(file, block);
+    let header = read_header(path, &mut rd)?;
+    Ok((rd, header))
+}
+
+/// Reads the header row of a CSV file at the start of `rd`.
+fn read_header<R: std::io::Read>(path: &str, rd: &mut CsvReader<R>) -> CliResult<Vec<String>> {
     // csv-core skips the blank lines before the header and a UTF-8 BOM.
     let got = rd.read_record().ctx(format!("{path}: line 1"))?;
     if !got || (0..rd.nfields).all(|i| rd.field(i).iter().all(u8::is_ascii_whitespace)) {
@@ -410,7 +507,7 @@ fn open_csv(path: &str, block: usize) -> CliResult<(CsvReader<File>, Vec<String>
             "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
         )));
     }
-    Ok((rd, header))
+    Ok(header)
 }
 
 /// The index of the time column `t`/`time` (any case) of a header.
@@ -729,101 +826,689 @@ fn fast_line(b: &[u8], plan: &Plan, vals: &mut [f64]) -> Option<usize> {
     None
 }
 
+/// What [`scan_csv`] knows of a CSV file once its header is read.
+struct Layout<'a> {
+    path: &'a str,
+    header: Vec<String>,
+    wanted: &'a [&'a String],
+    may_be_empty: std::ops::Range<usize>,
+    /// Header positions of the `wanted` columns.
+    idx: Vec<usize>,
+    /// The time column, if any.
+    time_col: Option<usize>,
+    /// The time column when it is read (no `--ts`).
+    read_time: Option<usize>,
+    /// The fast path's plan; the slot in its values of each wanted column
+    /// and of the time column read; values per line.
+    plan: Plan,
+    from: Vec<usize>,
+    time_slot: Option<usize>,
+    needed: usize,
+}
+
+impl<'a> Layout<'a> {
+    fn new(
+        path: &'a str,
+        header: Vec<String>,
+        wanted: &'a [&'a String],
+        may_be_empty: std::ops::Range<usize>,
+        wants_time: bool,
+    ) -> CliResult<Self> {
+        let idx = column_indices(path, &header, wanted)?;
+        let time_col = time_column(&header);
+        let read_time = time_col.filter(|_| wants_time);
+        // The fast path parses each needed column once.
+        let mut plan = Plan {
+            cols: vec![(SKIP, true); header.len()],
+        };
+        let mut needed = 0;
+        let mut need = |c: usize, blank_ok: bool, plan: &mut Plan| -> usize {
+            let col = &mut plan.cols[c];
+            if col.0 == SKIP {
+                col.0 = needed;
+                needed += 1;
+            }
+            col.1 &= blank_ok;
+            col.0
+        };
+        let from: Vec<usize> = idx
+            .iter()
+            .enumerate()
+            .map(|(j, &c)| need(c, may_be_empty.contains(&j), &mut plan))
+            .collect();
+        let time_slot = read_time.map(|c| need(c, false, &mut plan));
+        Ok(Layout {
+            path,
+            header,
+            wanted,
+            may_be_empty,
+            idx,
+            time_col,
+            read_time,
+            plan,
+            from,
+            time_slot,
+            needed,
+        })
+    }
+}
+
+/// Where the rows go, in file order: the row count and time-column checks,
+/// then the caller's `visit`.
+struct Sink<V> {
+    check: RowCheck,
+    visit: V,
+}
+
+impl<V: FnMut(&[f64]) -> CliResult<bool>> Sink<V> {
+    /// Checks and visits the row of line `line` with time `t`; false: stop.
+    #[inline]
+    fn row(&mut self, lay: &Layout, row: &[f64], line: u64, t: f64) -> CliResult<bool> {
+        if let Some(tc) = lay.read_time {
+            self.check
+                .time(lay.path, &format_args!("line {line}"), &lay.header[tc], t)?;
+        }
+        self.check.rows += 1;
+        (self.visit)(row)
+    }
+}
+
 /// [`scan_rows`] on a CSV file; `mode.fast` false reads every line with
-/// `csv-core` (the reference the fast path is tested against).
+/// `csv-core` (the reference the fast path is tested against), `mode.threads`
+/// chooses between [`scan_sequential`] and [`scan_parallel`] (the same rows,
+/// checks and messages).
 fn scan_csv(
     path: &str,
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     mode: Mode,
-    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
+    visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
-    let (mut rd, header) = open_csv(path, mode.block)?;
-    let idx = column_indices(path, &header, wanted)?;
-    let time_col = time_column(&header);
-    let width = header.len();
-    let mut check = RowCheck::new(ts);
-    let read_time = time_col.filter(|_| check.wants_time());
-    // The fast path parses each needed column once into `vals`.
-    let mut plan = Plan {
-        cols: vec![(SKIP, true); width],
-    };
-    let mut needed = 0;
-    let mut need = |c: usize, blank_ok: bool, plan: &mut Plan| -> usize {
-        let col = &mut plan.cols[c];
-        if col.0 == SKIP {
-            col.0 = needed;
-            needed += 1;
+    let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
+    let meta = file.metadata().ok();
+    let regular = meta.as_ref().is_some_and(std::fs::Metadata::is_file);
+    let threads = match mode.threads {
+        Some(n) => n,
+        None if meta.is_some_and(|m| m.len() >= MIN_BLOCKS * mode.block as u64) => {
+            std::thread::available_parallelism()
+                .map_or(1, std::num::NonZero::get)
+                .min(MAX_THREADS)
         }
-        col.1 &= blank_ok;
-        col.0
+        None => 1,
     };
-    let from: Vec<usize> = idx
-        .iter()
-        .enumerate()
-        .map(|(j, &c)| need(c, may_be_empty.contains(&j), &mut plan))
-        .collect();
-    let time_slot = read_time.map(|c| need(c, false, &mut plan));
-    let mut vals = vec![0.0; needed];
-    let mut row = vec![0.0; wanted.len()];
+    let mut sink = Sink {
+        check: RowCheck::new(ts),
+        visit,
+    };
+    let wants_time = sink.check.wants_time();
+    // Blocks are read at offsets: a regular file only.
+    let has_time = if mode.fast && threads >= 2 && regular {
+        // A small buffer: it holds the start of the first block, and the
+        // lines the fast path does not take.
+        let mut rd = CsvReader::new(FileAt { file: &file, at: 0 }, mode.block.min(1 << 16));
+        let header = read_header(path, &mut rd)?;
+        let lay = Layout::new(path, header, wanted, may_be_empty, wants_time)?;
+        scan_parallel(rd, &lay, threads, mode.block, &mut sink)?;
+        lay.time_col.is_some()
+    } else {
+        let mut rd = CsvReader::new(&file, mode.block);
+        let header = read_header(path, &mut rd)?;
+        let lay = Layout::new(path, header, wanted, may_be_empty, wants_time)?;
+        scan_sequential(&mut rd, &lay, mode.fast, &mut sink)?;
+        lay.time_col.is_some()
+    };
+    sink.check.finish(path, has_time)
+}
+
+/// What [`read_one`] found.
+enum Step {
+    /// The end of the file.
+    End,
+    /// A blank record (`""`), skipped.
+    Blank,
+    /// A row, in `row`: its line and its time (NaN unless read).
+    Row(u64, f64),
+}
+
+/// Reads the record at `rd.pos` (after [`CsvReader::skip_blank_lines`]):
+/// through the fast path if `fast` and it takes the line (its values in
+/// `vals`, then `row`), else through `csv-core` and [`cell_value`] with
+/// their messages. O(line).
+fn read_one<R: std::io::Read>(
+    rd: &mut CsvReader<R>,
+    lay: &Layout,
+    fast: bool,
+    vals: &mut [f64],
+    row: &mut [f64],
+) -> CliResult<Step> {
+    let path = lay.path;
+    let line = rd.line;
+    if fast {
+        rd.buffer_line()
+            .map_err(|e| input(format!("{path}: line {line}: {e}")))?;
+        if let Some(len) = fast_line(&rd.buf[rd.pos..rd.complete], &lay.plan, vals) {
+            for (r, &s) in row.iter_mut().zip(&lay.from) {
+                *r = vals[s];
+            }
+            let t = lay.time_slot.map_or(f64::NAN, |s| vals[s]);
+            rd.pos += len;
+            rd.line += 1;
+            return Ok(Step::Row(line, t));
+        }
+    }
+    // csv-core and the cell checks, with their messages
+    match rd.read_record() {
+        Ok(true) => {}
+        Ok(false) => return Ok(Step::End),
+        Err(e) => return Err(input(format!("{path}: line {line}: {e}"))),
+    }
+    if rd.nfields == 1 && rd.field(0).is_empty() {
+        return Ok(Step::Blank); // a blank record ("")
+    }
+    let width = lay.header.len();
+    if rd.nfields != width {
+        return Err(input(format!(
+            "{path}: line {line}: {} cells, the header has {width} (ragged row)",
+            rd.nfields
+        )));
+    }
+    for (j, &c) in lay.idx.iter().enumerate() {
+        let allow_empty = lay.may_be_empty.contains(&j);
+        row[j] = cell_value(path, line, lay.wanted[j], rd.field(c), allow_empty)?;
+    }
+    let mut t = f64::NAN;
+    if let Some(tc) = lay.read_time {
+        t = cell_value(path, line, &lay.header[tc], rd.field(tc), false)?;
+    }
+    Ok(Step::Row(line, t))
+}
+
+/// Reads the rows after the header on the calling thread, line by line.
+fn scan_sequential<R: std::io::Read, V: FnMut(&[f64]) -> CliResult<bool>>(
+    rd: &mut CsvReader<R>,
+    lay: &Layout,
+    fast: bool,
+    sink: &mut Sink<V>,
+) -> CliResult<()> {
+    let mut vals = vec![0.0; lay.needed];
+    let mut row = vec![0.0; lay.wanted.len()];
     loop {
         match rd.skip_blank_lines() {
             Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(input(format!("{path}: line {}: {e}", rd.line))),
+            Ok(false) => return Ok(()),
+            Err(e) => return Err(input(format!("{}: line {}: {e}", lay.path, rd.line))),
         }
-        let line = rd.line;
-        let mut t = f64::NAN;
-        let mut done = false;
-        if mode.fast {
-            rd.buffer_line()
-                .map_err(|e| input(format!("{path}: line {line}: {e}")))?;
-            if let Some(len) = fast_line(&rd.buf[rd.pos..rd.complete], &plan, &mut vals) {
-                for (r, &s) in row.iter_mut().zip(&from) {
-                    *r = vals[s];
+        match read_one(rd, lay, fast, &mut vals, &mut row)? {
+            Step::End => return Ok(()),
+            Step::Blank => {}
+            Step::Row(line, t) => {
+                if !sink.row(lay, &row, line, t)? {
+                    return Ok(());
                 }
-                if let Some(s) = time_slot {
-                    t = vals[s];
-                }
-                rd.pos += len;
-                rd.line += 1;
-                done = true;
             }
-        }
-        if !done {
-            // csv-core and the cell checks, with their messages
-            match rd.read_record() {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(e) => return Err(input(format!("{path}: line {line}: {e}"))),
-            }
-            if rd.nfields == 1 && rd.field(0).is_empty() {
-                continue; // a blank record ("")
-            }
-            if rd.nfields != width {
-                return Err(input(format!(
-                    "{path}: line {line}: {} cells, the header has {width} (ragged row)",
-                    rd.nfields
-                )));
-            }
-            for (j, &c) in idx.iter().enumerate() {
-                let allow_empty = may_be_empty.contains(&j);
-                row[j] = cell_value(path, line, wanted[j], rd.field(c), allow_empty)?;
-            }
-            if let Some(tc) = read_time {
-                t = cell_value(path, line, &header[tc], rd.field(tc), false)?;
-            }
-        }
-        if let Some(tc) = read_time {
-            check.time(path, &format_args!("line {line}"), &header[tc], t)?;
-        }
-        check.rows += 1;
-        if !visit(&row)? {
-            break;
         }
     }
-    check.finish(path, time_col.is_some())
+}
+
+/// A block of whole lines of a CSV file for [`scan_parallel`], and what the
+/// fast path made of it ([`parse_block`]). Its buffers are reused.
+#[derive(Default)]
+struct Block {
+    /// Its number in the file (0, 1, …).
+    seq: u64,
+    /// Offset in the file of its first byte, the start of a line.
+    start: u64,
+    /// The bytes `raw[..len]`: whole lines, each ended by `\n` except the
+    /// file's last.
+    raw: Vec<u8>,
+    len: usize,
+    /// Whether [`parse_block`] has run.
+    parsed: bool,
+    /// The values of the rows the fast path took, `rows` × `needed`.
+    vals: Vec<f64>,
+    rows: usize,
+    /// (r, n): n blank lines before row r (r = `rows`: before the `stop`
+    /// line), ascending.
+    gaps: Vec<(usize, u64)>,
+    /// Line ends (`\n`) in `raw[..stop]` (`raw[..len]` without a stop).
+    newlines: u64,
+    /// The start (in `raw`) of the first line the fast path does not take:
+    /// the rest of the block is to be read by `csv-core`.
+    stop: Option<usize>,
+}
+
+impl Block {
+    /// Line ends before the block's first row or its stop line.
+    fn lead(&self) -> u64 {
+        match self.gaps.first() {
+            Some(&(0, n)) => n,
+            _ => 0,
+        }
+    }
+}
+
+/// Parses a block through the fast path (the loop of [`scan_sequential`]
+/// without `csv-core`: blank lines skipped, then [`fast_line`]) up to its
+/// end or the first line the fast path does not take. O(block); no
+/// allocation once the block's buffers have grown.
+fn parse_block(blk: &mut Block, plan: &Plan, needed: usize) {
+    let b = &blk.raw[..blk.len];
+    blk.gaps.clear();
+    blk.stop = None;
+    let (mut i, mut rows, mut newlines) = (0, 0, 0u64);
+    loop {
+        let mut blank = 0;
+        while let Some(&c) = b.get(i) {
+            match c {
+                b'\n' => blank += 1,
+                b'\r' => {}
+                _ => break,
+            }
+            i += 1;
+        }
+        newlines += blank;
+        if i == b.len() {
+            break;
+        }
+        if blank > 0 {
+            blk.gaps.push((rows, blank));
+        }
+        let at = rows * needed;
+        if blk.vals.len() < at + needed {
+            let n = (2 * blk.vals.len()).max(at + needed).max(1024);
+            blk.vals.resize(n, 0.0);
+        }
+        match fast_line(&b[i..], plan, &mut blk.vals[at..at + needed]) {
+            Some(len) if len > 0 => {
+                i += len;
+                newlines += u64::from(b[i - 1] == b'\n');
+                rows += 1;
+            }
+            _ => {
+                blk.stop = Some(i);
+                break;
+            }
+        }
+    }
+    blk.rows = rows;
+    blk.newlines = newlines;
+    blk.parsed = true;
+}
+
+/// Cuts a CSV file into blocks of whole lines of about `block` bytes (the
+/// bytes up to the last `\n` once `block` bytes are read) for
+/// [`scan_parallel`].
+struct Chunker<'a> {
+    src: FileAt<'a>,
+    /// The bytes read after the previous block (a part of a line).
+    carry: Vec<u8>,
+    /// Offset in the file of the next block.
+    next: u64,
+    block: usize,
+    /// The largest block: a longer line stops the cutting.
+    limit: usize,
+    eof: bool,
+    /// Where the cutting stopped before the end of the file (a line longer
+    /// than `limit`, or a read error): the rest is read sequentially (which
+    /// reports the error with its line).
+    stopped: Option<u64>,
+}
+
+impl Chunker<'_> {
+    /// Fills `blk` with the next block; false when there is none (the end of
+    /// the file, or `stopped`). O(block).
+    fn fill(&mut self, blk: &mut Block) -> bool {
+        if self.stopped.is_some() || (self.eof && self.carry.is_empty()) {
+            return false;
+        }
+        let mut len = self.carry.len();
+        if blk.raw.len() < len.max(self.block) {
+            blk.raw.resize(len.max(self.block), 0);
+        }
+        blk.raw[..len].copy_from_slice(&self.carry);
+        self.carry.clear();
+        // No `\n` in raw[..searched] (the carry has none).
+        let mut searched = len;
+        while !self.eof {
+            if len >= self.block {
+                if let Some(k) = memchr::memrchr(b'\n', &blk.raw[searched..len]) {
+                    let cut = searched + k + 1;
+                    self.carry.extend_from_slice(&blk.raw[cut..len]);
+                    len = cut;
+                    break;
+                }
+                searched = len;
+                if len >= self.limit {
+                    self.stopped = Some(self.next);
+                    return false;
+                }
+            }
+            if len == blk.raw.len() {
+                blk.raw.resize(2 * len, 0);
+            }
+            match std::io::Read::read(&mut self.src, &mut blk.raw[len..]) {
+                Ok(0) => self.eof = true,
+                Ok(n) => len += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(_) => {
+                    self.stopped = Some(self.next);
+                    return false;
+                }
+            }
+        }
+        if len == 0 {
+            return false;
+        }
+        blk.start = self.next;
+        blk.len = len;
+        blk.parsed = false;
+        self.next += len as u64;
+        true
+    }
+}
+
+/// The blocks between the calling thread and the helpers of
+/// [`scan_parallel`].
+#[derive(Default)]
+struct Queue {
+    /// Read, not yet parsed, in file order.
+    todo: std::collections::VecDeque<Block>,
+    /// Parsed, not yet taken.
+    done: Vec<Block>,
+    /// The helpers are to stop.
+    quit: bool,
+    /// A helper panicked (its block is lost).
+    failed: bool,
+}
+
+#[derive(Default)]
+struct Shared {
+    queue: std::sync::Mutex<Queue>,
+    /// A block to parse, or `quit`.
+    work: std::sync::Condvar,
+    /// A block parsed, or `failed`.
+    done: std::sync::Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Queue> {
+        self.queue
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Hands a block read to the parsers.
+    fn push(&self, blk: Block) {
+        self.lock().todo.push_back(blk);
+        self.work.notify_one();
+    }
+
+    /// Takes block `seq` (read, not yet taken), parsed or not. With `help`,
+    /// parses the oldest unclaimed block while `seq` is being parsed by a
+    /// helper.
+    fn take(&self, seq: u64, help: Option<(&Plan, usize)>) -> Block {
+        let mut q = self.lock();
+        loop {
+            if let Some(k) = q.done.iter().position(|b| b.seq == seq) {
+                return q.done.swap_remove(k);
+            }
+            if q.todo.front().is_some_and(|b| b.seq == seq)
+                && let Some(b) = q.todo.pop_front()
+            {
+                return b;
+            }
+            assert!(!q.failed, "a CSV parsing thread panicked");
+            if let Some((plan, needed)) = help
+                && let Some(mut b) = q.todo.pop_front()
+            {
+                drop(q);
+                parse_block(&mut b, plan, needed);
+                q = self.lock();
+                q.done.push(b);
+                continue;
+            }
+            q = self
+                .done
+                .wait(q)
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+    }
+
+    /// A helper: parses the blocks it takes from `todo` until `quit`.
+    fn help(&self, plan: &Plan, needed: usize) {
+        // Tells the calling thread if this one panics (it would wait forever).
+        struct Failed<'s>(&'s Shared);
+        impl Drop for Failed<'_> {
+            fn drop(&mut self) {
+                if std::thread::panicking() {
+                    self.0.lock().failed = true;
+                    self.0.done.notify_all();
+                }
+            }
+        }
+        let _failed = Failed(self);
+        let mut q = self.lock();
+        loop {
+            if q.quit {
+                return;
+            }
+            if let Some(mut b) = q.todo.pop_front() {
+                drop(q);
+                parse_block(&mut b, plan, needed);
+                q = self.lock();
+                q.done.push(b);
+                self.done.notify_one();
+            } else {
+                q = self
+                    .work
+                    .wait(q)
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+            }
+        }
+    }
+}
+
+/// Stops the helpers when dropped (at the end of the scan or on an error).
+struct Quit<'s>(&'s Shared);
+
+impl Drop for Quit<'_> {
+    fn drop(&mut self) {
+        self.0.lock().quit = true;
+        self.0.work.notify_all();
+    }
+}
+
+/// What the rows of a block left to do.
+enum After {
+    /// `visit` asked to stop.
+    Stop,
+    /// Go on with the next block, which starts at this line.
+    Next(u64),
+    /// Read sequentially from this offset, the start of this line.
+    Sequential(u64, u64),
+}
+
+/// Visits the rows of a parsed block whose first line is `line`.
+fn consume<V: FnMut(&[f64]) -> CliResult<bool>>(
+    blk: &Block,
+    line: u64,
+    lay: &Layout,
+    sink: &mut Sink<V>,
+    row: &mut [f64],
+) -> CliResult<After> {
+    let needed = lay.needed;
+    let mut gaps = blk.gaps.iter().peekable();
+    let mut newlines = 0;
+    for r in 0..blk.rows {
+        if let Some(&&(g, n)) = gaps.peek()
+            && g == r
+        {
+            newlines += n;
+            gaps.next();
+        }
+        let v = &blk.vals[r * needed..(r + 1) * needed];
+        for (x, &s) in row.iter_mut().zip(&lay.from) {
+            *x = v[s];
+        }
+        let t = lay.time_slot.map_or(f64::NAN, |s| v[s]);
+        if !sink.row(lay, row, line + newlines, t)? {
+            return Ok(After::Stop);
+        }
+        newlines += 1;
+    }
+    Ok(match blk.stop {
+        Some(q) => After::Sequential(blk.start + q as u64, line + blk.newlines),
+        None => After::Next(line + blk.newlines),
+    })
+}
+
+/// Reads the rows after the header with `threads` parsers: the calling
+/// thread cuts the file into blocks of whole lines ([`Chunker`]), at most
+/// 2 × `threads` of them in flight; `threads` − 1 helpers and the calling
+/// thread (while the next block is being parsed) run the fast path on them
+/// ([`parse_block`]); the calling thread visits the rows in file order,
+/// counting lines from the blocks' line ends.
+///
+/// A block the fast path does not take to its end is read from its stop
+/// line on by `rd` (the sequential reader: `csv-core`, [`cell_value`] and
+/// their messages) until `rd` is between two records at the start of a
+/// later block: the fast path's rows of that block are then the
+/// sequential reader's, and the blocks take over again (blocks passed over
+/// are dropped). So the rows, checks and messages are those of
+/// [`scan_sequential`]. Memory O(threads × block + longest line).
+fn scan_parallel<V: FnMut(&[f64]) -> CliResult<bool>>(
+    mut rd: CsvReader<FileAt<'_>>,
+    lay: &Layout,
+    threads: usize,
+    block: usize,
+    sink: &mut Sink<V>,
+) -> CliResult<()> {
+    let block = block.max(1);
+    let mut chunker = Chunker {
+        src: FileAt {
+            file: rd.src.file,
+            at: rd.src.at,
+        },
+        carry: rd.buf[rd.pos..rd.filled].to_vec(),
+        next: rd.offset(),
+        block,
+        limit: block.saturating_mul(16).max(1 << 12),
+        eof: rd.eof,
+        stopped: None,
+    };
+    let shared = Shared::default();
+    let (plan, needed) = (&lay.plan, lay.needed);
+    std::thread::scope(|s| {
+        for _ in 1..threads {
+            // Without a helper the calling thread parses every block.
+            let _ = std::thread::Builder::new()
+                .name("lifted-csv".into())
+                .spawn_scoped(s, || shared.help(plan, needed));
+        }
+        let _quit = Quit(&shared);
+        let in_flight = 2 * threads.max(1);
+        let mut row = vec![0.0; lay.wanted.len()];
+        let mut vals = vec![0.0; needed];
+        let mut free: Vec<Block> = Vec::new();
+        // Starts of the blocks read and not yet taken; the first is block `taken`.
+        let mut pending = std::collections::VecDeque::new();
+        let (mut read, mut taken) = (0u64, 0u64);
+        // A block to visit next (after switching back from `rd`).
+        let mut ready: Option<Block> = None;
+        // Some(line of the next block's start): visiting blocks; None:
+        // reading with `rd`.
+        let mut line = Some(rd.line);
+        loop {
+            while pending.len() < in_flight {
+                let mut blk = free.pop().unwrap_or_default();
+                if !chunker.fill(&mut blk) {
+                    free.push(blk);
+                    break;
+                }
+                blk.seq = read;
+                read += 1;
+                pending.push_back(blk.start);
+                shared.push(blk);
+            }
+            if let Some(at) = line {
+                let mut blk = match ready.take() {
+                    Some(blk) => blk,
+                    None if pending.pop_front().is_some() => {
+                        taken += 1;
+                        shared.take(taken - 1, Some((plan, needed)))
+                    }
+                    None => match chunker.stopped {
+                        Some(next) => {
+                            rd.seek_to(next, at);
+                            line = None;
+                            continue;
+                        }
+                        None => return Ok(()), // the end of the file
+                    },
+                };
+                if !blk.parsed {
+                    parse_block(&mut blk, plan, needed);
+                }
+                let after = consume(&blk, at, lay, sink, &mut row)?;
+                free.push(blk);
+                match after {
+                    After::Stop => return Ok(()),
+                    After::Next(next) => line = Some(next),
+                    After::Sequential(offset, at) => {
+                        rd.seek_to(offset, at);
+                        line = None;
+                    }
+                }
+                continue;
+            }
+            // One record with `rd`, the blocks it passes dropped; at a block
+            // start between two records (before or among blank lines), the
+            // blocks take over.
+            let p0 = rd.offset();
+            let more = rd
+                .skip_blank_lines()
+                .map_err(|e| input(format!("{}: line {}: {e}", lay.path, rd.line)))?;
+            let p1 = rd.offset();
+            while let Some(&start) = pending.front() {
+                if start > p1 {
+                    break;
+                }
+                pending.pop_front();
+                taken += 1;
+                let mut blk = shared.take(taken - 1, None);
+                if start >= p0 {
+                    if !blk.parsed {
+                        parse_block(&mut blk, plan, needed);
+                    }
+                    if blk.rows > 0 || blk.stop.is_some() {
+                        // Its first row or stop line is at p1, line rd.line.
+                        line = Some(rd.line - blk.lead());
+                        ready = Some(blk);
+                        break;
+                    }
+                }
+                free.push(blk);
+            }
+            if line.is_some() {
+                continue;
+            }
+            if !more {
+                return Ok(());
+            }
+            match read_one(&mut rd, lay, true, &mut vals, &mut row)? {
+                Step::End => return Ok(()),
+                Step::Blank => {}
+                Step::Row(at, t) => {
+                    #[cfg(test)]
+                    tests::SEQUENTIAL_ROWS.with(|n| n.set(n.get() + 1));
+                    if !sink.row(lay, &row, at, t)? {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+    })
 }
 
 /// Reads the file, streaming, and builds the data set.
@@ -1197,10 +1882,21 @@ mod tests {
                 Some(Mode {
                     fast: false,
                     block: BLOCK,
+                    threads: Some(1),
                 }),
             );
             for block in [BLOCK, 1, 7, 64] {
-                let fast = run(&path, &cols, 1..3, ts, Some(Mode { fast: true, block }));
+                let fast = run(
+                    &path,
+                    &cols,
+                    1..3,
+                    ts,
+                    Some(Mode {
+                        fast: true,
+                        block,
+                        threads: Some(1),
+                    }),
+                );
                 assert_eq!(
                     fast,
                     reference,
@@ -1258,7 +1954,11 @@ mod tests {
                 &["u1", "y1"],
                 1..2,
                 None,
-                Some(Mode { fast: true, block }),
+                Some(Mode {
+                    fast: true,
+                    block,
+                    threads: Some(1),
+                }),
             )
             .unwrap();
             assert_eq!(r.0, 20);
@@ -1397,6 +2097,7 @@ mod tests {
             Some(Mode {
                 fast: false,
                 block: BLOCK,
+                threads: Some(1),
             }),
         );
         assert_eq!(fast, slow);
@@ -1530,6 +2231,289 @@ mod tests {
         assert_eq!(v[1][0], -2.5e-3);
         assert!(v[1][1].is_nan());
         assert_eq!(v[2], [1e5, 3.0]);
+    }
+
+    thread_local! {
+        /// Rows the parallel reader has read with its sequential reader on
+        /// this thread (the others came from blocks).
+        pub(super) static SEQUENTIAL_ROWS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+    }
+
+    fn sequential() -> Mode {
+        Mode {
+            fast: true,
+            block: BLOCK,
+            threads: Some(1),
+        }
+    }
+
+    fn parallel(threads: usize, block: usize) -> Mode {
+        Mode {
+            fast: true,
+            block,
+            threads: Some(threads),
+        }
+    }
+
+    /// The parallel reader's scan of `path` (and the rows it read
+    /// sequentially), checked equal to the sequential reader's.
+    fn same_in_parallel(
+        path: &str,
+        wanted: &[&str],
+        empty: std::ops::Range<usize>,
+        ts: Option<f64>,
+        modes: &[Mode],
+        what: &str,
+    ) -> (Scan, Vec<u64>) {
+        let reference = run(path, wanted, empty.clone(), ts, Some(sequential()));
+        let mut fallback = Vec::new();
+        for &mode in modes {
+            let before = SEQUENTIAL_ROWS.with(std::cell::Cell::get);
+            let got = run(path, wanted, empty.clone(), ts, Some(mode));
+            fallback.push(SEQUENTIAL_ROWS.with(std::cell::Cell::get) - before);
+            assert_eq!(got, reference, "{what}, {mode:?}");
+        }
+        (reference, fallback)
+    }
+
+    /// Random files of many rows (every oddity of [`random_csv`]: quotes,
+    /// blank lines, CRLF and lone CR, bad cells, ragged rows, empty output
+    /// cells) read in parallel with blocks of a few lines to a few hundred:
+    /// the sequential reader's rows, base period or message.
+    #[test]
+    fn parallel_equals_sequential_on_random_files() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut errors = 0;
+        for case in 0..120 {
+            let rows = [150, 1500, 4000][case % 3];
+            let crlf = [0, 1000, 300][(case / 3) % 3];
+            let bad = [0, 1, 3, 20][(case / 9) % 4];
+            let text = random_csv(&mut rng, rows, crlf, bad);
+            let path = file(&format!("p{case}.csv"), &text);
+            let ts = if rng.chance(200) { Some(0.25) } else { None };
+            let mut modes = vec![parallel(2, 64), parallel(2, 700), parallel(3, 4096)];
+            if rows < 1000 {
+                modes.push(parallel(2, 1));
+                modes.push(parallel(4, 16));
+            }
+            let (reference, _) = same_in_parallel(
+                &path,
+                &["u1", "y1", "y2"],
+                1..3,
+                ts,
+                &modes,
+                &format!("case {case}"),
+            );
+            errors += reference.is_err() as usize;
+        }
+        assert!(errors > 20 && errors < 100, "{errors}");
+    }
+
+    /// A clean file of `rows` rows t,u1,x,y1,y2 (t = k/4, y1 empty on odd
+    /// rows, x unread), `blanks` blank lines after every `blank_every` rows
+    /// (0: none), as lines to edit.
+    fn clean_lines(rows: usize, blank_every: usize, blanks: usize) -> Vec<String> {
+        let mut lines = vec!["t,u1,x,y1,y2".to_string()];
+        for k in 0..rows {
+            let y1 = if k % 2 == 0 {
+                format!("{:.14}", (k as f64 * 0.37).sin())
+            } else {
+                String::new()
+            };
+            lines.push(format!(
+                "{},{},{},{y1},{:.6e}",
+                k as f64 * 0.25,
+                if k % 3 == 0 { -1 } else { 1 },
+                k * 7,
+                (k as f64).sqrt()
+            ));
+            if blank_every > 0 && k % blank_every == blank_every - 1 {
+                lines.extend(std::iter::repeat_n(String::new(), blanks));
+            }
+        }
+        lines
+    }
+
+    fn join(lines: &[String], eol: &str) -> Vec<u8> {
+        let mut text = lines.join(eol);
+        text += eol;
+        text.into_bytes()
+    }
+
+    /// A quoted cell in the middle of a big file, with line ends inside it
+    /// that look like rows: read by `csv-core`, and the blocks take over
+    /// again after it (the rows read sequentially are about a block's); a
+    /// bad cell further on has its line number (counted from the block
+    /// where the blocks took over, which may start with blank lines).
+    #[test]
+    fn parallel_quoted_line_in_a_big_file() {
+        for eol in ["\n", "\r\n"] {
+            // Runs of 30 blank lines: blocks often start with blank lines.
+            for (blank_every, blanks) in [(0, 0), (1, 30), (97, 1)] {
+                let mut lines = clean_lines(20_000, blank_every, blanks);
+                let mid = (lines.len() / 2..)
+                    .find(|&k| !lines[k].is_empty())
+                    .unwrap_or(1);
+                let t = mid as f64; // any: x is not read
+                lines[mid] = lines[mid].replacen(
+                    &format!(",{},", lines[mid].split(',').nth(2).unwrap_or("")),
+                    &format!(",\"{t},1,2,3,4{eol}{t},1,2,3,4{eol}\","),
+                    1,
+                );
+                assert!(lines[mid].contains('"'), "{}", lines[mid]);
+                let text = join(&lines, eol);
+                let path = file("quoted_big.csv", &text);
+                let modes = [parallel(2, 4096), parallel(2, 1 << 16), parallel(3, 300)];
+                let (reference, fallback) =
+                    same_in_parallel(&path, &["u1", "y1", "y2"], 1..3, None, &modes, "quoted");
+                let (rows, ts, seen) = reference.unwrap();
+                assert_eq!((rows, f64::from_bits(ts)), (20_000, 0.25));
+                assert!(f64::from_bits(seen[1][1]).is_nan());
+                // The blocks took over again: about one block of rows read
+                // by csv-core (≈ 45 bytes a row).
+                for (&n, mode) in fallback.iter().zip(&modes) {
+                    assert!(
+                        n >= 1 && n <= (mode.block / 20) as u64 + 2,
+                        "{n} rows read sequentially, {mode:?}"
+                    );
+                }
+                for after in [5, 150, 3000] {
+                    let mut lines = lines.clone();
+                    let bad = (mid + after..)
+                        .find(|&k| lines[k].split(',').nth(1) == Some("1"))
+                        .unwrap_or(mid);
+                    lines[bad] = lines[bad].replacen(",1,", ",x,", 1);
+                    let path = file("quoted_bad.csv", &join(&lines, eol));
+                    let (reference, _) = same_in_parallel(
+                        &path,
+                        &["u1", "y1", "y2"],
+                        1..3,
+                        None,
+                        &modes,
+                        "quoted, bad",
+                    );
+                    // the quoted cell holds two line ends
+                    let e = reference.unwrap_err().replace(&path, "F");
+                    assert_eq!(
+                        e,
+                        format!(
+                            "F: line {}, column 'u1': cannot parse 'x' as a number",
+                            bad + 3
+                        )
+                    );
+                }
+            }
+        }
+    }
+
+    /// Errors late in a big file (after blank lines, with LF and CRLF): the
+    /// sequential reader's message and line number.
+    #[test]
+    fn parallel_errors_late_in_the_file() {
+        for eol in ["\n", "\r\n"] {
+            let lines = clean_lines(30_000, 50, 1);
+            let at = lines.len() - 400; // line `at + 1` of the file
+            type Edit = fn(&str) -> String;
+            let cases: [(&str, Edit); 7] = [
+                ("bad cell", |l| {
+                    l.replacen(",-1,", ",abc,", 1).replacen(",1,", ",abc,", 1)
+                }),
+                ("NaN", |l| {
+                    format!("{},nan", l.rsplit_once(',').map_or(l, |p| p.0))
+                }),
+                ("ragged", |l| format!("{l},5")),
+                ("empty input", |l| {
+                    l.replacen(",-1,", ",,", 1).replacen(",1,", ",,", 1)
+                }),
+                ("time", |l| format!("1e9{}", &l[l.find(',').unwrap_or(0)..])),
+                ("lone CR", |l| l.replacen(',', "\r", 1)),
+                ("quote then bad", |l| {
+                    format!("\"{}", l.replacen(',', "\",x", 1))
+                }),
+            ];
+            for (what, edit) in &cases {
+                let mut lines = lines.clone();
+                if lines[at].is_empty() {
+                    lines.swap(at, at - 1);
+                }
+                lines[at] = edit(&lines[at]);
+                let path = file("late.csv", &join(&lines, eol));
+                let modes = [parallel(2, 4096), parallel(2, 1 << 16), parallel(3, 64)];
+                let (reference, _) =
+                    same_in_parallel(&path, &["u1", "y1", "y2"], 1..3, None, &modes, what);
+                let e = reference.unwrap_err().replace(&path, "F");
+                assert!(e.starts_with(&format!("F: line {}", at + 1)), "{what}: {e}");
+            }
+            // The time check counts rows across blocks and blank lines.
+            let mut lines = lines.clone();
+            let t = |l: &str| l.split(',').next().unwrap_or("").to_string();
+            let k = lines.iter().rposition(|l| !l.is_empty()).unwrap_or(0);
+            let last = t(&lines[k]);
+            lines[k] = lines[k].replacen(&last, "0", 1);
+            let path = file("late_t.csv", &join(&lines, eol));
+            let (reference, _) = same_in_parallel(
+                &path,
+                &["u1", "y1", "y2"],
+                1..3,
+                None,
+                &[parallel(2, 4096)],
+                "time",
+            );
+            let e = reference.unwrap_err().replace(&path, "F");
+            assert!(
+                e.starts_with(&format!("F: line {}, column 't': time 0 breaks", k + 1)),
+                "{e}"
+            );
+        }
+    }
+
+    /// Odd shapes in parallel: no final line end, blank lines only, CR line
+    /// ends (no `\n` at all), lines longer than the block limit, a header
+    /// with a quoted line end, `visit` stopping, and `--ts` without a time
+    /// column.
+    #[test]
+    fn parallel_odd_files() {
+        let modes = [parallel(2, 16), parallel(2, 64), parallel(3, 1000)];
+        let w = ["u1", "y1", "y2"];
+        let mut lines = clean_lines(3000, 7, 2);
+        let check = |text: &[u8], what: &str, ts: Option<f64>| {
+            let path = file("odd.csv", text);
+            same_in_parallel(&path, &w, 1..3, ts, &modes, what).0
+        };
+        let text = join(&lines, "\n");
+        assert!(check(&text[..text.len() - 1], "no final newline", None).is_ok());
+        assert!(check(b"t,u1,x,y1,y2\n\n\r\n\n", "blank lines only", None).is_err());
+        assert!(check(&join(&lines, "\r"), "CR only", None).is_ok());
+        lines[0] = "\"t\",\"u\n1\",x,y1,y2".to_string();
+        let e = check(&join(&lines, "\n"), "quoted header", None).unwrap_err();
+        assert!(e.contains("header has no column 'u1'"), "{e}");
+        lines[0] = "\u{feff}t,u1,x,y1,y2".to_string();
+        for l in lines.iter_mut().skip(1000).step_by(300) {
+            if !l.is_empty() {
+                let pad = " ".repeat(5000);
+                *l = l.replacen(',', &format!("{pad},"), 1);
+            }
+        }
+        let long = check(&join(&lines, "\n"), "long lines", None).unwrap();
+        assert_eq!(long.0, 3000);
+        let no_t: Vec<String> = lines
+            .iter()
+            .map(|l| l.split_once(',').map_or(String::new(), |p| p.1.to_string()))
+            .collect();
+        let r = check(&join(&no_t, "\n"), "no time column", Some(0.5)).unwrap();
+        assert_eq!((r.0, f64::from_bits(r.1)), (3000, 0.5));
+        // visit stops: the same rows
+        let path = file("odd_stop.csv", &join(&lines, "\n"));
+        let u = "u1".to_string();
+        let w = [&u];
+        for mode in [sequential(), parallel(2, 64), parallel(2, 4096)] {
+            let mut n = 0;
+            let r = scan_csv(&path, &w, 0..0, None, mode, |_| {
+                n += 1;
+                Ok(n < 1234)
+            });
+            assert_eq!(r.unwrap(), (1234, 0.25), "{mode:?}");
+        }
     }
 
     /// `visit` returning false stops the scan.
