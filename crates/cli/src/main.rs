@@ -48,6 +48,8 @@ fn run(cli: Cli) -> CliResult<()> {
 }
 
 fn main() -> ExitCode {
+    // faer's one-time set-up runs while the arguments and data are read.
+    lifted_linalg::warm_up();
     // A bug below must not print a Rust backtrace: one line, exit code 2.
     std::panic::set_hook(Box::new(|info| {
         let msg = info

@@ -80,6 +80,7 @@ pub mod riccati;
 pub mod schur;
 pub mod solve;
 pub mod svd;
+pub mod warm;
 
 pub use cca::{Cca, cca, center_rows};
 pub use check::{check_cols, check_finite, check_rows, check_square};
@@ -101,6 +102,7 @@ pub use riccati::{DareSolution, dare};
 pub use schur::{RealSchur, real_schur};
 pub use solve::{det, inv, rcond, solve};
 pub use svd::{Svd, singular_values, svd};
+pub use warm::warm_up;
 
 /// Compiles the README example as a doc test.
 #[cfg(doctest)]

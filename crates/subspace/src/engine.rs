@@ -698,6 +698,8 @@ impl StreamingIdentifier {
     /// or [`BdEstimate::OutputError`] / an AIC-type [`OrderCriterion`],
     /// which need the records), [`Error::OrderTooLarge`].
     pub fn new(n_inputs: usize, n_outputs: usize, opts: &SubspaceOptions) -> Result<Self> {
+        // faer's one-time set-up runs while the data are pushed.
+        lifted_linalg::warm_up();
         if n_inputs == 0 || n_outputs == 0 {
             return Err(Error::DimensionMismatch {
                 what: "u, y",
@@ -850,6 +852,8 @@ impl StreamingIdentifier {
 /// C Aᵗ has grown by less than [`crate::MAX_REGRESSOR_GROWTH`]).
 /// [`Error::Unstable`] is never returned here (use `enforce_stability`).
 pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
+    // faer's one-time set-up runs during the compression.
+    lifted_linalg::warm_up();
     validate(experiments)?;
     if !opts.remove_means {
         return identify_as_given(experiments, opts);
