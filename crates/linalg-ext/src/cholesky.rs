@@ -36,7 +36,7 @@ pub fn cholesky_lower(mut g: DMatrix<f64>) -> Option<DMatrix<f64>> {
             g[(i, j)] = 0.0;
         }
     }
-    if (0..k).any(|i| !(g[(i, i)] > 0.0) || !g[(i, i)].is_finite()) {
+    if (0..k).any(|i| !g[(i, i)].is_finite() || g[(i, i)] <= 0.0) {
         return None;
     }
     Some(g)

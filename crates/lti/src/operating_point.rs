@@ -174,7 +174,7 @@ fn channel_means(records: &[&DMatrix<f64>], n: usize, skip_nan: bool) -> Result<
                 bad = v
                     .iter()
                     .copied()
-                    .find(|x| !x.is_finite() && !(skip_nan && x.is_nan()));
+                    .find(|x| !(x.is_finite() || skip_nan && x.is_nan()));
                 if bad.is_some() {
                     break;
                 }

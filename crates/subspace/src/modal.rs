@@ -119,7 +119,7 @@ impl ModalForm {
                 let phi = 0.5 * (-2.0 * xy).atan2(xx - yy);
                 let rot = Complex64::from_polar(1.0, phi);
                 let nrm = (xx + yy).sqrt();
-                if !(nrm > 0.0) {
+                if nrm.is_nan() || nrm <= 0.0 {
                     return None;
                 }
                 for r in 0..n {
@@ -133,7 +133,7 @@ impl ModalForm {
         }
         let sv = lifted_linalg::singular_values(&v).ok()?;
         let (smax, smin) = (sv[0], sv[sv.len() - 1]);
-        if !(smin > 0.0) || smax / smin > MAX_MODAL_CONDITION {
+        if smin.is_nan() || smin <= 0.0 || smax / smin > MAX_MODAL_CONDITION {
             return None;
         }
         let v_inv = lifted_linalg::inv(&v).ok()?;
@@ -141,7 +141,7 @@ impl ModalForm {
         // A V = V Λ to rounding (a mis-paired or inaccurate decomposition
         // falls back to the direct route).
         let resid = (a * &form.v - &form.v * form.lambda()).norm();
-        if !(resid <= 1e-10 * (a.norm() + 1.0)) {
+        if resid.is_nan() || resid > 1e-10 * (a.norm() + 1.0) {
             return None;
         }
         Some(form)
