@@ -258,23 +258,23 @@ fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64
     while c0 < nz {
         let r = (nz - c0).min(4);
         let mut j0 = 0;
-        if wide {
-            while j0 + 24 <= cols {
-                micro_dispatch_512(r, 3, zi, nz, c0, j0, len, tile, cols);
-                j0 += 24;
+        // Widest tiles first: 24 and 8 columns (AVX-512), then 12 and 4.
+        let plan: &[(Lanes, usize)] = if wide {
+            &[
+                (Lanes::Eight, 3),
+                (Lanes::Eight, 1),
+                (Lanes::Four, 3),
+                (Lanes::Four, 1),
+            ]
+        } else {
+            &[(Lanes::Four, 3), (Lanes::Four, 1)]
+        };
+        for &(lanes, v) in plan {
+            let w = lanes.width() * v;
+            while j0 + w <= cols {
+                micro_dispatch(lanes, r, v, zi, nz, c0, j0, len, tile, cols);
+                j0 += w;
             }
-            while j0 + 8 <= cols {
-                micro_dispatch_512(r, 1, zi, nz, c0, j0, len, tile, cols);
-                j0 += 8;
-            }
-        }
-        while j0 + 12 <= cols {
-            micro_dispatch(r, 3, zi, nz, c0, j0, len, tile, cols);
-            j0 += 12;
-        }
-        while j0 + 4 <= cols {
-            micro_dispatch(r, 1, zi, nz, c0, j0, len, tile, cols);
-            j0 += 4;
         }
         // Fewer than four columns left (odd n_z): scalar.
         for c in c0..c0 + r {
@@ -290,11 +290,31 @@ fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64
     }
 }
 
-/// Runs the `r` × 4`v` register tile at (c0, j0) after checking every index
-/// it touches, so that the unchecked kernel stays in bounds.
+/// Vector width of a register tile: 4 lanes (AVX2 + FMA) or 8 (AVX-512F).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+enum Lanes {
+    Four,
+    Eight,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Lanes {
+    /// Columns per vector.
+    fn width(self) -> usize {
+        match self {
+            Lanes::Four => 4,
+            Lanes::Eight => 8,
+        }
+    }
+}
+
+/// Runs the `r` × `lanes`·`v` register tile at (c0, j0) after checking
+/// every index it touches, so that the unchecked kernel stays in bounds.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn micro_dispatch(
+    lanes: Lanes,
     r: usize,
     v: usize,
     zi: &[f64],
@@ -305,169 +325,107 @@ fn micro_dispatch(
     tile: &mut [f64],
     cols: usize,
 ) {
-    // Reads: zi[t nz + c0 + r − 1] and zi[t nz + j0 + 4v − 1] for t < len;
-    // writes: tile[(c0 + r − 1) cols + j0 + 4v − 1].
-    let last_read = (len.max(1) - 1) * nz + (c0 + r).max(j0 + 4 * v) - 1;
+    let w = lanes.width() * v;
+    // Reads: zi[t nz + c0 + r − 1] and zi[t nz + j0 + w − 1] for t < len;
+    // writes: tile[(c0 + r − 1) cols + j0 + w − 1].
+    let last_read = (len.max(1) - 1) * nz + (c0 + r).max(j0 + w) - 1;
     assert!(
-        len > 0 && c0 + r <= nz && j0 + 4 * v <= cols && last_read < zi.len(),
+        len > 0 && c0 + r <= nz && j0 + w <= cols && last_read < zi.len(),
         "lagged-sum tile out of range"
     );
-    assert!((c0 + r - 1) * cols + j0 + 4 * v <= tile.len());
-    // SAFETY: AVX2 and FMA were detected by `lagged_sums` before any call
-    // (the only caller chain), and the asserts above bound every pointer
-    // offset the kernel forms: reads below zi.len(), writes below tile.len().
+    assert!((c0 + r - 1) * cols + j0 + w <= tile.len());
+    // SAFETY: AVX2 and FMA (and AVX-512F for `Lanes::Eight`) were detected
+    // by `channel_sums` before any call (the only caller chain), and the
+    // asserts above bound every pointer offset the kernel forms: reads
+    // below zi.len(), writes below tile.len().
     unsafe {
         let (zp, tp) = (zi.as_ptr(), tile.as_mut_ptr());
-        match (r, v) {
-            (4, 3) => micro::<4, 3>(zp, nz, c0, j0, len, tp, cols),
-            (3, 3) => micro::<3, 3>(zp, nz, c0, j0, len, tp, cols),
-            (2, 3) => micro::<2, 3>(zp, nz, c0, j0, len, tp, cols),
-            (1, 3) => micro::<1, 3>(zp, nz, c0, j0, len, tp, cols),
-            (4, _) => micro::<4, 1>(zp, nz, c0, j0, len, tp, cols),
-            (3, _) => micro::<3, 1>(zp, nz, c0, j0, len, tp, cols),
-            (2, _) => micro::<2, 1>(zp, nz, c0, j0, len, tp, cols),
-            _ => micro::<1, 1>(zp, nz, c0, j0, len, tp, cols),
+        macro_rules! run {
+            ($k:ident) => {
+                match (r, v) {
+                    (4, 3) => $k::<4, 3>(zp, nz, c0, j0, len, tp, cols),
+                    (3, 3) => $k::<3, 3>(zp, nz, c0, j0, len, tp, cols),
+                    (2, 3) => $k::<2, 3>(zp, nz, c0, j0, len, tp, cols),
+                    (1, 3) => $k::<1, 3>(zp, nz, c0, j0, len, tp, cols),
+                    (4, _) => $k::<4, 1>(zp, nz, c0, j0, len, tp, cols),
+                    (3, _) => $k::<3, 1>(zp, nz, c0, j0, len, tp, cols),
+                    (2, _) => $k::<2, 1>(zp, nz, c0, j0, len, tp, cols),
+                    _ => $k::<1, 1>(zp, nz, c0, j0, len, tp, cols),
+                }
+            };
+        }
+        match lanes {
+            Lanes::Four => run!(micro),
+            Lanes::Eight => run!(micro_512),
         }
     }
 }
 
-/// [`micro_dispatch`] for the AVX-512 tile: `r` × 8`v` columns.
-#[cfg(target_arch = "x86_64")]
-#[allow(clippy::too_many_arguments)]
-fn micro_dispatch_512(
-    r: usize,
-    v: usize,
-    zi: &[f64],
-    nz: usize,
-    c0: usize,
-    j0: usize,
-    len: usize,
-    tile: &mut [f64],
-    cols: usize,
-) {
-    let last_read = (len.max(1) - 1) * nz + (c0 + r).max(j0 + 8 * v) - 1;
-    assert!(
-        len > 0 && c0 + r <= nz && j0 + 8 * v <= cols && last_read < zi.len(),
-        "lagged-sum tile out of range"
-    );
-    assert!((c0 + r - 1) * cols + j0 + 8 * v <= tile.len());
-    // SAFETY: AVX-512F was detected by `channel_sums` (`wide`) before any
-    // call (the only caller chain), and the asserts above bound every pointer offset the
-    // kernel forms: reads below zi.len(), writes below tile.len().
-    unsafe {
-        let (zp, tp) = (zi.as_ptr(), tile.as_mut_ptr());
-        match (r, v) {
-            (4, 3) => micro_512::<4, 3>(zp, nz, c0, j0, len, tp, cols),
-            (3, 3) => micro_512::<3, 3>(zp, nz, c0, j0, len, tp, cols),
-            (2, 3) => micro_512::<2, 3>(zp, nz, c0, j0, len, tp, cols),
-            (1, 3) => micro_512::<1, 3>(zp, nz, c0, j0, len, tp, cols),
-            (4, _) => micro_512::<4, 1>(zp, nz, c0, j0, len, tp, cols),
-            (3, _) => micro_512::<3, 1>(zp, nz, c0, j0, len, tp, cols),
-            (2, _) => micro_512::<2, 1>(zp, nz, c0, j0, len, tp, cols),
-            _ => micro_512::<1, 1>(zp, nz, c0, j0, len, tp, cols),
-        }
-    }
-}
-
-/// [`micro`] with 512-bit vectors: R rows × V vectors of 8 columns (12
-/// zmm accumulators for the 4 × 24 tile).
-///
-/// # Safety
-/// AVX-512F must be available; zi[t nz + c0 + R − 1] and
-/// zi[t nz + j0 + 8V − 1] must be readable for t < len and
-/// out[(c0 + R − 1) ld + j0 + 8V − 1] writable (checked by
-/// [`micro_dispatch_512`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn micro_512<const R: usize, const V: usize>(
-    zi: *const f64,
-    nz: usize,
-    c0: usize,
-    j0: usize,
-    len: usize,
-    out: *mut f64,
-    ld: usize,
-) {
-    use std::arch::x86_64::{
-        _mm512_add_pd, _mm512_fmadd_pd, _mm512_loadu_pd, _mm512_set1_pd, _mm512_setzero_pd,
-        _mm512_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the CPU features and the bounds of
-    // every offset formed below (see the function's safety section).
-    unsafe {
-        let mut acc = [[_mm512_setzero_pd(); V]; R];
-        let mut p = zi;
-        for _ in 0..len {
-            let mut b = [_mm512_setzero_pd(); V];
-            for (k, bk) in b.iter_mut().enumerate() {
-                *bk = _mm512_loadu_pd(p.add(j0 + 8 * k));
-            }
-            for (r, row) in acc.iter_mut().enumerate() {
-                let x = _mm512_set1_pd(*p.add(c0 + r));
-                for (a, bk) in row.iter_mut().zip(&b) {
-                    *a = _mm512_fmadd_pd(x, *bk, *a);
+/// Defines a register-tile kernel: R rows (channels c0 …) × V vectors of
+/// `$lanes` columns (j0 …), accumulated over `len` instants and added to
+/// the tile sums.
+macro_rules! tile_kernel {
+    ($(#[$doc:meta])* $name:ident, $feature:literal, $lanes:literal,
+     $zero:ident, $load:ident, $splat:ident, $fma:ident, $add:ident, $store:ident) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// The CPU features must be available; zi[t nz + c0 + R − 1] and
+        /// zi[t nz + j0 + lanes·V − 1] must be readable for t < len and
+        /// out[(c0 + R − 1) ld + j0 + lanes·V − 1] writable (checked by
+        /// [`micro_dispatch`]).
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $feature)]
+        unsafe fn $name<const R: usize, const V: usize>(
+            zi: *const f64,
+            nz: usize,
+            c0: usize,
+            j0: usize,
+            len: usize,
+            out: *mut f64,
+            ld: usize,
+        ) {
+            use std::arch::x86_64::{$add, $fma, $load, $splat, $store, $zero};
+            // SAFETY: the caller guarantees the CPU features and the bounds
+            // of every offset formed below (see the safety section).
+            unsafe {
+                let mut acc = [[$zero(); V]; R];
+                let mut p = zi;
+                for _ in 0..len {
+                    let mut b = [$zero(); V];
+                    for (k, bk) in b.iter_mut().enumerate() {
+                        *bk = $load(p.add(j0 + $lanes * k));
+                    }
+                    for (r, row) in acc.iter_mut().enumerate() {
+                        let x = $splat(*p.add(c0 + r));
+                        for (a, bk) in row.iter_mut().zip(&b) {
+                            *a = $fma(x, *bk, *a);
+                        }
+                    }
+                    p = p.add(nz);
+                }
+                for (r, row) in acc.iter().enumerate() {
+                    for (k, a) in row.iter().enumerate() {
+                        let o = out.add((c0 + r) * ld + j0 + $lanes * k);
+                        $store(o, $add($load(o), *a));
+                    }
                 }
             }
-            p = p.add(nz);
         }
-        for (r, row) in acc.iter().enumerate() {
-            for (k, a) in row.iter().enumerate() {
-                let o = out.add((c0 + r) * ld + j0 + 8 * k);
-                _mm512_storeu_pd(o, _mm512_add_pd(_mm512_loadu_pd(o), *a));
-            }
-        }
-    }
+    };
 }
 
-/// The register tile: R rows (channels c0 …) × V vectors of 4 columns
-/// (j0 …), accumulated over `len` instants and added to the tile sums.
-///
-/// # Safety
-/// AVX2 and FMA must be available; zi[t nz + c0 + R − 1] and
-/// zi[t nz + j0 + 4V − 1] must be readable for t < len and
-/// out[(c0 + R − 1) ld + j0 + 4V − 1] writable (checked by
-/// [`micro_dispatch`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn micro<const R: usize, const V: usize>(
-    zi: *const f64,
-    nz: usize,
-    c0: usize,
-    j0: usize,
-    len: usize,
-    out: *mut f64,
-    ld: usize,
-) {
-    use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_broadcast_sd, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd,
-        _mm256_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the CPU features and the bounds of
-    // every offset formed below (see the function's safety section).
-    unsafe {
-        let mut acc = [[_mm256_setzero_pd(); V]; R];
-        let mut p = zi;
-        for _ in 0..len {
-            let mut b = [_mm256_setzero_pd(); V];
-            for (k, bk) in b.iter_mut().enumerate() {
-                *bk = _mm256_loadu_pd(p.add(j0 + 4 * k));
-            }
-            for (r, row) in acc.iter_mut().enumerate() {
-                let x = _mm256_broadcast_sd(&*p.add(c0 + r));
-                for (a, bk) in row.iter_mut().zip(&b) {
-                    *a = _mm256_fmadd_pd(x, *bk, *a);
-                }
-            }
-            p = p.add(nz);
-        }
-        for (r, row) in acc.iter().enumerate() {
-            for (k, a) in row.iter().enumerate() {
-                let o = out.add((c0 + r) * ld + j0 + 4 * k);
-                _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), *a));
-            }
-        }
-    }
-}
+tile_kernel!(
+    /// The AVX2 tile: vectors of 4 columns (12 ymm accumulators for 4 × 12).
+    micro, "avx2,fma", 4, _mm256_setzero_pd, _mm256_loadu_pd, _mm256_set1_pd,
+    _mm256_fmadd_pd, _mm256_add_pd, _mm256_storeu_pd
+);
+
+tile_kernel!(
+    /// The AVX-512 tile: vectors of 8 columns (12 zmm accumulators for 4 × 24).
+    micro_512, "avx512f", 8, _mm512_setzero_pd, _mm512_loadu_pd, _mm512_set1_pd,
+    _mm512_fmadd_pd, _mm512_add_pd, _mm512_storeu_pd
+);
 
 /// Σ_{t<len} a(t) b(t + δ) for the four lags δ = d … d+3 at once (the load
 /// of `a` is shared; eight partial sums per lag are vectorised).

@@ -531,7 +531,7 @@ pub fn estimate_bd(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    output_error_bd(a, c, records, feedthrough, x0, false)
+    output_error_route(a, c, records, feedthrough, x0, false, true)
 }
 
 /// [`estimate_bd`] with a constant output offset per record and output
@@ -546,21 +546,11 @@ pub fn estimate_bd_with_offsets(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    output_error_bd(a, c, records, feedthrough, x0, true)
+    output_error_route(a, c, records, feedthrough, x0, true, true)
 }
 
-fn output_error_bd(
-    a: &DMatrix<f64>,
-    c: &DMatrix<f64>,
-    records: &[Record<'_>],
-    feedthrough: &Feedthrough,
-    x0: InitialState,
-    offsets: bool,
-) -> Result<BdFit> {
-    output_error_route(a, c, records, feedthrough, x0, offsets, true)
-}
-
-/// [`output_error_bd`] through the modal base rows ([`crate::modal`]) when
+/// The output-error (B, D, x₀) regression of [`estimate_bd`] (`offsets`:
+/// [`estimate_bd_with_offsets`]) through the modal base rows ([`crate::modal`]) when
 /// `allow_modal` and A's modal form is well conditioned, else through the
 /// direct recursion (the tests compare the two).
 pub(crate) fn output_error_route(
