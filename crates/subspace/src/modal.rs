@@ -82,6 +82,9 @@ impl ModalForm {
     /// O(25n³).
     pub(crate) fn of(a: &DMatrix<f64>) -> Option<Self> {
         let n = a.nrows();
+        if n == 0 {
+            return None;
+        }
         let e = lifted_linalg::eig(a).ok()?;
         let mut v = DMatrix::zeros(n, n);
         let mut modes = Vec::with_capacity(n);
@@ -518,6 +521,11 @@ mod tests {
     fn defective_a_keeps_the_direct_route() {
         let a = DMatrix::from_row_slice(2, 2, &[0.5, 1.0, 0.0, 0.5]);
         assert!(ModalForm::of(&a).is_none());
+        assert!(ModalForm::of(&DMatrix::zeros(0, 0)).is_none());
+        // A nilpotent A (FIR model) is defective too; A = 0 is diagonal.
+        let nil = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+        assert!(ModalForm::of(&nil).is_none());
+        assert!(ModalForm::of(&DMatrix::zeros(3, 3)).is_some());
     }
 
     /// The modal base rows give the direct route's (B, D, x₀, offsets) to
