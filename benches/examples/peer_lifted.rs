@@ -7,7 +7,7 @@
 //! ```text
 //! peer_lifted data.csv [--inputs 2] [--order 4] [--horizon 20]
 //!             [--method n4sid|moesp|cva] [--compression auto|correlation|qr]
-//!             [--threads 1] [--stream] [--block 65536]
+//!             [--threads 1] [--stream] [--block 65536] [--no-noise-model]
 //! peer_lifted --synthetic N [--threads 1] [--block 65536]
 //! ```
 //!
@@ -15,6 +15,10 @@
 //! [`lifted_benches::peer_system`] (random binary inputs, output noise 0.1)
 //! block by block and streams them, so that peak memory shows what the
 //! identification itself needs at any N (the 1e7 streaming target).
+//!
+//! `--no-noise-model` skips the noise covariances and the Kalman gain
+//! (`SubspaceOptions::noise_model = false`), the work SLICOT's driver
+//! skips with JOBCK = 'N'.
 //!
 //! `--stream` feeds the file to [`StreamingIdentifier`] in blocks of
 //! `--block` rows while it is parsed (memory independent of N); without it
@@ -43,6 +47,7 @@ struct Args {
     stream: bool,
     block: usize,
     synthetic: Option<usize>,
+    no_noise_model: bool,
 }
 
 fn parse_args() -> Result<Args, Box<dyn Error>> {
@@ -58,6 +63,7 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
         stream: false,
         block: 1 << 16,
         synthetic: None,
+        no_noise_model: false,
     };
     while let Some(x) = it.next() {
         let mut val = || it.next().ok_or(format!("{x} needs a value"));
@@ -68,6 +74,7 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             "--threads" => a.threads = val()?.parse()?,
             "--block" => a.block = val()?.parse()?,
             "--stream" => a.stream = true,
+            "--no-noise-model" => a.no_noise_model = true,
             "--synthetic" => a.synthetic = Some(val()?.parse()?),
             "--method" => {
                 a.method = match val()?.as_str() {
@@ -178,6 +185,7 @@ fn options(a: &Args) -> SubspaceOptions {
         } else {
             InitialState::Estimate
         },
+        noise_model: !a.no_noise_model,
         ..Default::default()
     }
 }

@@ -146,6 +146,11 @@ def tool_list(args, n, paths, forced_core):
     tools.append(("lifted (stream, 2 threads)", [lifted, csv, "--stream", "--threads", "2"], {},
                   "json", args.timeout))
     tools.append(("lifted (in memory, auto)", [lifted, csv], {}, "json", args.timeout))
+    # SLICOT's driver runs IB01BD with JOBCK='N' (no covariances, no Kalman
+    # gain); this row skips lifted's noise model likewise.
+    tools.append(("lifted (stream, 1 thread, no noise model)",
+                  [lifted, csv, "--stream", "--threads", "1", "--no-noise-model"], {}, "json",
+                  args.timeout))
     if args.cli:
         common = ["--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--order",
                   str(peers.ORDER), "--horizon", str(peers.BLOCK_ROWS)]
