@@ -9,7 +9,7 @@
 //! blocks: least squares through an R-only QR of [Φ | y]
 //! ([`lifted_linalg::RAccumulator`]) — for a well-conditioned modal form of
 //! A through n scalar filters per input and one short base row per sample
-//! instead ([`crate::modal`], the same R to rounding, ≈ 2.5× fewer flops
+//! instead (`modal.rs`: the same R to rounding, ≈ 2.5× fewer flops
 //! for 2×2 order 4) — instrumental variables through the
 //! p×p normal matrix Σ ζ φᵀ with instruments ζ built by the same filters from
 //! the instrument signal (spec A3.9: "f-filtered instruments"). Memory is
@@ -512,7 +512,7 @@ fn bd_problem(
 /// regression, open loop). y may contain NaN at unsampled instants.
 ///
 /// Cost O(N q²) with q = n n_u + n_u + n + n_y + 1 through the modal base
-/// rows (A with well-conditioned eigenvectors, [`crate::modal`]),
+/// rows (A with well-conditioned eigenvectors, `modal.rs`),
 /// O(N_y·(n_u n³ + p²)) for N_y sampled output entries and p parameters
 /// otherwise; memory O(p²) (one q×q factor per pattern of sampled outputs).
 ///
@@ -550,7 +550,7 @@ pub fn estimate_bd_with_offsets(
 }
 
 /// The output-error (B, D, x₀) regression of [`estimate_bd`] (`offsets`:
-/// [`estimate_bd_with_offsets`]) through the modal base rows ([`crate::modal`]) when
+/// [`estimate_bd_with_offsets`]) through the modal base rows (`modal.rs`) when
 /// `allow_modal` and A's modal form is well conditioned, else through the
 /// direct recursion (the tests compare the two).
 pub(crate) fn output_error_route(
