@@ -368,16 +368,18 @@ fn validate(
     for r in records {
         check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
         check_data("u", r.u)?;
-        for col in 0..ny {
-            for row in 0..r.y.nrows() {
-                if r.y[(row, col)].is_infinite() {
-                    return Err(Error::NonFinite {
-                        what: "y",
-                        row,
-                        col,
-                    });
-                }
-            }
+        // NaN marks an unsampled output; ±∞ is an error. One branch-free
+        // (vectorised) pass, then the first infinite entry in column order.
+        let ys = r.y.as_slice();
+        if ys.iter().fold(false, |any, v| any | v.is_infinite())
+            && let Some(i) = ys.iter().position(|v| v.is_infinite())
+        {
+            let rows = r.y.nrows();
+            return Err(Error::NonFinite {
+                what: "y",
+                row: i % rows,
+                col: i / rows,
+            });
         }
         if iv && let Some(f) = r.instrument {
             check_instrument(f, r.u)?;
@@ -901,6 +903,33 @@ mod tests {
             (((i * 37 + j * 11) * 7919) % 101) as f64 / 50.0 - 1.0
         });
         (a, b, c, d, u)
+    }
+
+    #[test]
+    fn infinite_output_is_named_nan_is_skipped() {
+        let (a, b, c, d, u) = example();
+        let (_, mut y) = sim(&a, &b, &c, &d, &u, &DVector::zeros(2));
+        y[(3, 0)] = f64::NAN;
+        let rec = |y: &DMatrix<f64>| {
+            estimate_bd(
+                &a,
+                &c,
+                &[Record {
+                    u: &u,
+                    y,
+                    instrument: None,
+                }],
+                &Feedthrough::Free,
+                InitialState::Estimate,
+            )
+        };
+        assert!(rec(&y).is_ok());
+        y[(7, 1)] = f64::NEG_INFINITY;
+        y[(9, 0)] = f64::INFINITY;
+        match rec(&y) {
+            Err(Error::NonFinite { what, row, col }) => assert_eq!((what, row, col), ("y", 9, 0)),
+            other => panic!("expected NonFinite, got {other:?}"),
+        }
     }
 
     #[test]
