@@ -43,10 +43,13 @@ use crate::regress::{DataScale, Params, Record};
 /// nearly defective modes on the direct route.
 pub(crate) const MAX_MODAL_CONDITION: f64 = 1e4;
 
-/// Most distinct patterns of sampled outputs the modal route keeps an
-/// accumulator for (multirate records have a few; beyond it the direct
-/// route is used).
+/// Most distinct patterns of sampled outputs per record the modal route
+/// keeps an accumulator for (multirate records have a few; beyond it the
+/// direct route is used).
 const MAX_PATTERNS: usize = 16;
+
+/// Most outputs of the modal route (a pattern is a 64-bit mask).
+pub(crate) const MAX_OUTPUTS: usize = 64;
 
 /// Rows per block folded into a pattern's R factor (not a multiple of 512:
 /// the columns of the block, BLOCK·8 bytes apart, would then share cache
@@ -331,31 +334,12 @@ fn pattern(y: &DMatrix<f64>, t: usize) -> u64 {
     )
 }
 
-/// Whether the records fit the modal route's bookkeeping: at most 64
-/// outputs and [`MAX_PATTERNS`] patterns of sampled outputs per record.
-pub(crate) fn patterns_fit(records: &[Record<'_>]) -> bool {
-    records.iter().all(|r| {
-        if r.y.ncols() > 64 {
-            return false;
-        }
-        let mut seen: Vec<u64> = Vec::new();
-        for t in 0..r.y.nrows() {
-            let m = pattern(r.y, t);
-            if !seen.contains(&m) {
-                if seen.len() == MAX_PATTERNS {
-                    return false;
-                }
-                seen.push(m);
-            }
-        }
-        true
-    })
-}
-
 /// Folds the regression rows of all records into `acc` (p + 1 columns,
 /// the R factor of the direct route's [Φ | y] up to rounding) through the
-/// modal base rows; returns the number of sampled output entries. `c` is
-/// the C of the data divided by `scale`.
+/// modal base rows; returns the number of sampled output entries, or
+/// `None` (with `acc` partly filled) when a record has more than
+/// [`MAX_PATTERNS`] patterns of sampled outputs. `c` is the C of the data
+/// divided by `scale`; at most [`MAX_OUTPUTS`] outputs.
 pub(crate) fn accumulate(
     form: &ModalForm,
     c: &DMatrix<f64>,
@@ -363,7 +347,7 @@ pub(crate) fn accumulate(
     records: &[Record<'_>],
     scale: DataScale,
     acc: &mut RAccumulator,
-) -> Result<usize> {
+) -> Result<Option<usize>> {
     let lay = Layout::of(p);
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
     let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
@@ -386,6 +370,7 @@ pub(crate) fn accumulate(
             if mask != 0 {
                 let k = match pats.iter().position(|pa| pa.mask == mask) {
                     Some(k) => k,
+                    None if pats.len() == MAX_PATTERNS => return Ok(None),
                     None => {
                         pats.push(PatternAcc {
                             mask,
@@ -447,7 +432,7 @@ pub(crate) fn accumulate(
             }
         }
     }
-    Ok(rows_total)
+    Ok(Some(rows_total))
 }
 
 #[cfg(test)]
@@ -526,6 +511,40 @@ mod tests {
         let nil = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 0.0, 0.0]);
         assert!(ModalForm::of(&nil).is_none());
         assert!(ModalForm::of(&DMatrix::zeros(3, 3)).is_some());
+    }
+
+    /// More sampling patterns than the modal route keeps (five outputs
+    /// missing at random) fall back to the direct route: the same bits.
+    #[test]
+    fn many_sampling_patterns_take_the_direct_route() {
+        let (a, b, _) = system();
+        let c = DMatrix::from_fn(5, 4, |i, j| ((i + 2 * j) % 5) as f64 * 0.3 + 0.1);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let n = 800;
+        let u = DMatrix::from_fn(n, 2, |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
+        let mut x = nalgebra::DVector::zeros(4);
+        let mut y = DMatrix::zeros(n, 5);
+        for t in 0..n {
+            let yt: nalgebra::DVector<f64> = &c * &x;
+            for o in 0..5 {
+                y[(t, o)] = if rng.random::<f64>() < 0.3 {
+                    f64::NAN
+                } else {
+                    yt[o]
+                };
+            }
+            x = &a * &x + &b * u.row(t).transpose();
+        }
+        let recs = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        let (ft, x0) = (Feedthrough::Free, InitialState::Estimate);
+        let fast = output_error_route(&a, &c, &recs, &ft, x0, true, true).unwrap();
+        let slow = output_error_route(&a, &c, &recs, &ft, x0, true, false).unwrap();
+        assert_eq!(fast, slow);
+        assert!((&fast.b - &b).norm() < 1e-8 * b.norm());
     }
 
     /// The modal base rows give the direct route's (B, D, x₀, offsets) to

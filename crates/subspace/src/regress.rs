@@ -25,7 +25,7 @@ use crate::engine::{
     Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
 };
 use crate::error::{Error, Result, check_data, check_rank};
-use crate::modal::{self, ModalForm, patterns_fit};
+use crate::modal::{self, ModalForm};
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
 /// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond
@@ -566,16 +566,26 @@ pub(crate) fn output_error_route(
 ) -> Result<BdFit> {
     let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false, offsets)?;
     let mut acc = RAccumulator::new(p.total + 1);
-    let modal = if allow_modal && patterns_fit(records) {
+    let modal = if allow_modal && c.nrows() <= modal::MAX_OUTPUTS {
         ModalForm::of(a)
     } else {
         None
     };
-    let rows = match modal {
+    // The modal route gives up (None) on a record with more sampling
+    // patterns than it keeps accumulators for; the direct route then starts
+    // afresh.
+    let fast = match modal {
         Some(form) => modal::accumulate(&form, &c_scaled, &p, records, scale, &mut acc)?,
-        None => stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
-            Ok(acc.push_rows(phi)?)
-        })?,
+        None => None,
+    };
+    let rows = match fast {
+        Some(rows) => rows,
+        None => {
+            acc = RAccumulator::new(p.total + 1);
+            stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
+                Ok(acc.push_rows(phi)?)
+            })?
+        }
     };
     check_rank("B/D regressor", rows, p.total)?;
     let r = acc.r();
