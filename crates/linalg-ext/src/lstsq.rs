@@ -1,18 +1,21 @@
 //! Linear least squares min ‖A X − B‖_F.
 //!
-//! For m ≥ n the QR of A (faer, O(mn²)) is computed and the singular values
-//! of its n×n R factor (O(n³)) decide the rank with the default rule of
-//! [`crate::RankTolerance`]. With full column rank X = R⁻¹ Qᵀ B (faer
-//! `solve_lstsq`); otherwise — and always for m < n — the minimum-norm
-//! solution X = A⁺ B from the thin SVD (O(mn·min(m,n))).
+//! For m ≥ n the Householder QR of A in place (faer, unblocked for narrow
+//! A; O(mn²)) is computed and the singular values of its n×n R factor
+//! decide the rank with the default rule of [`crate::RankTolerance`]
+//! (O(n²) estimates when clearly above the threshold, O(n³) near it). With
+//! full column rank X = R⁻¹ (Qᵀ B)₁:ₙ (reflectors applied to B, O(mnk),
+//! one triangular solve); otherwise — and always for m < n — the
+//! minimum-norm solution X = A⁺ B from the thin SVD (O(mn·min(m,n))).
 
-use faer::linalg::solvers::SolveLstsq;
+use faer::Par;
 use nalgebra::DMatrix;
 
 use crate::Result;
 use crate::check::{check_finite, check_rows};
-use crate::convert::{as_faer, to_dmatrix};
+use crate::convert::as_faer_mut;
 use crate::extremes::triangular_condition;
+use crate::qr::{apply_qt, householder_in_place};
 use crate::rank::{RankTolerance, pinv};
 
 /// Least-squares solution X (n×k) of A X ≈ B for A m×n, B m×k; the
@@ -29,15 +32,25 @@ pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         return Ok(DMatrix::zeros(0, b.ncols()));
     }
     if m >= n {
-        let qr = as_faer(a).qr();
-        let r = to_dmatrix(qr.thin_R());
+        let mut work = a.clone();
+        let coeff = householder_in_place(&mut work);
+        // Rᵀ (lower triangular) for the condition test.
+        let rt = DMatrix::from_fn(n, n, |i, j| if j <= i { work[(j, i)] } else { 0.0 });
         // Full rank when σ_min/σ_max of R exceeds the default tolerance
         // max(m, n) ε: the O(n²) estimates decide when clearly above it,
         // the singular values near it (same decision as before).
         let thr = RankTolerance::Default.threshold(m, n, 1.0)?;
-        let check = triangular_condition(&r.transpose(), thr, 10.0)?;
+        let check = triangular_condition(&rt, thr, 10.0)?;
         if check.ratio > thr {
-            return Ok(to_dmatrix(qr.solve_lstsq(as_faer(b)).as_ref()));
+            let mut qtb = b.clone();
+            apply_qt(&work, &coeff, &mut qtb);
+            let mut x = qtb.rows(0, n).into_owned();
+            faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+                crate::convert::as_faer(&work).get(..n, ..n),
+                as_faer_mut(&mut x),
+                Par::Seq,
+            );
+            return Ok(x);
         }
     }
     Ok(pinv(a, RankTolerance::Default)? * b)

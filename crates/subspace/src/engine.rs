@@ -1340,15 +1340,24 @@ fn state_sequences(
     let ypr = lay.yp();
     let u_i = rows(l, ufr.start..ufr.start + nu);
     let y_i = rows(l, yfr.start..yfr.start + ny);
-    let wp = vstack(&[&rows(l, upr.clone()), &rows(l, ypr.clone())]);
-    let wp_next = vstack(&[
-        &rows(l, upr.start + nu..upr.end),
-        &u_i,
-        &rows(l, ypr.start + ny..ypr.end),
-        &y_i,
-    ]);
+    // K = Γ⁺M (n × p(n_u+n_y), columns in the order of W_p = [U_p; Y_p],
+    // which are consecutive rows of L): X(t) = K W_p(t) on a view of L.
     let k = pinv(gamma, RankTolerance::Default)? * map;
-    Ok([&k * wp, &k * wp_next, u_i, y_i])
+    debug_assert_eq!(upr.end, ypr.start);
+    let x_i = &k * l.rows(upr.start, upr.len() + ypr.len());
+    // W_p(t+1) = [U_p rows n_u…; u(t); Y_p rows n_y…; y(t)]: four products
+    // with row views of L instead of a stacked copy.
+    let (pu, py) = (upr.len(), ypr.len());
+    let mut x_ip1 = k.columns(0, pu - nu) * l.rows(upr.start + nu, pu - nu);
+    x_ip1.gemm(1.0, &k.columns(pu - nu, nu), &u_i, 1.0);
+    x_ip1.gemm(
+        1.0,
+        &k.columns(pu, py - ny),
+        &l.rows(ypr.start + ny, py - ny),
+        1.0,
+    );
+    x_ip1.gemm(1.0, &k.columns(pu + py - ny, ny), &y_i, 1.0);
+    Ok([x_i, x_ip1, u_i, y_i])
 }
 
 /// A and C from the state-sequence regression (thesis §2.3) with the

@@ -22,10 +22,16 @@
 //! and whatever the finite past leaves of the state stays in the range of
 //! Γ_f, which Γ⊥ annihilates.
 //!
-//! Cost: O(k³) for the coefficients and the null space, O(f² n_y (f n_y − n)
-//! (n + n_y) n_u) for the regression; independent of N.
+//! Inputs with the same feedthrough mask share one regression matrix, so
+//! the default (all of D estimated) takes one Householder QR of
+//! [K | M₁ … M_{n_u}] whatever n_u.
+//!
+//! Cost: O(k³) for the coefficients and the null space, O(f n_y (f n_y − n)
+//! (n + n_y + n_u)²) for the regression; independent of N.
 
-use lifted_linalg::{RankTolerance, lstsq, null_space, triangular_condition};
+use lifted_linalg::{
+    RankTolerance, lstsq, null_space, qr_r_owned, singular_values, triangular_condition,
+};
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
@@ -69,38 +75,75 @@ pub(crate) fn bd_from_projection(
     }
     let mut b = DMatrix::zeros(n, nu);
     let mut d = DMatrix::zeros(ny, nu);
+    // Inputs whose feedthrough mask is the same share the regressors:
+    // one QR of [K | M columns of those inputs] serves them all.
+    let mut groups: Vec<(Vec<usize>, Vec<usize>)> = Vec::new();
     for q in 0..nu {
         let outputs: Vec<usize> = (0..ny).filter(|&o| mask[(o, q)]).collect();
+        match groups.iter_mut().find(|(outs, _)| *outs == outputs) {
+            Some((_, inputs)) => inputs.push(q),
+            None => groups.push((outputs, vec![q])),
+        }
+    }
+    for (outputs, inputs) in &groups {
         let unknowns = outputs.len() + n;
-        let mut k = DMatrix::zeros(f * m_rows, unknowns);
-        let mut rhs = DMatrix::zeros(f * m_rows, 1);
+        let mut w = DMatrix::zeros(f * m_rows, unknowns + inputs.len());
         for (j, nj) in nj.iter().enumerate() {
             let lj = block(j);
             let r0 = j * m_rows;
             for (t, &o) in outputs.iter().enumerate() {
-                k.view_mut((r0, t), (m_rows, 1)).copy_from(&lj.column(o));
+                w.view_mut((r0, t), (m_rows, 1)).copy_from(&lj.column(o));
             }
-            k.view_mut((r0, outputs.len()), (m_rows, n)).copy_from(nj);
-            rhs.view_mut((r0, 0), (m_rows, 1))
-                .copy_from(&m.column(j * nu + q));
+            w.view_mut((r0, outputs.len()), (m_rows, n)).copy_from(nj);
+            for (g, &q) in inputs.iter().enumerate() {
+                w.view_mut((r0, unknowns + g), (m_rows, 1))
+                    .copy_from(&m.column(j * nu + q));
+            }
         }
-        let rank = lifted_linalg::rank(&k, RankTolerance::Default)?;
-        if rank < unknowns {
-            return Err(Error::RankDeficient {
-                what: "projection (B, D) regression",
-                rank,
-                needed: unknowns,
-            });
-        }
-        let th = lstsq(&k, &rhs)?;
-        for (t, &o) in outputs.iter().enumerate() {
-            d[(o, q)] = th[(t, 0)];
-        }
-        for s in 0..n {
-            b[(s, q)] = th[(outputs.len() + s, 0)];
+        let th = solve_full_rank(w, unknowns)?;
+        for (g, &q) in inputs.iter().enumerate() {
+            for (t, &o) in outputs.iter().enumerate() {
+                d[(o, q)] = th[(t, g)];
+            }
+            for s in 0..n {
+                b[(s, q)] = th[(outputs.len() + s, g)];
+            }
         }
     }
     Ok((b, d))
+}
+
+/// The least-squares solution of K θ = M for W = [K | M] (K the first
+/// `unknowns` columns): one Householder QR of W (R-only; Qᵀ M comes out as
+/// the last columns of R), the rank of K from R₁₁ (the default rule of
+/// [`RankTolerance`], O(n²) estimates when clearly full rank) and
+/// θ = R₁₁⁻¹ R₁₂. O(rows · cols²).
+///
+/// Errors: [`Error::RankDeficient`] when K does not have full column rank.
+fn solve_full_rank(w: DMatrix<f64>, unknowns: usize) -> Result<DMatrix<f64>> {
+    let rows = w.nrows();
+    let rank_error = |rank| Error::RankDeficient {
+        what: "projection (B, D) regression",
+        rank,
+        needed: unknowns,
+    };
+    if rows < unknowns {
+        return Err(rank_error(rows));
+    }
+    let r = qr_r_owned(w)?;
+    let r11t = r.view((0, 0), (unknowns, unknowns)).transpose();
+    let smax = r11t.norm();
+    let thr = RankTolerance::Default.threshold(rows, unknowns, 1.0)?;
+    if smax == 0.0 || triangular_condition(&r11t, thr, 10.0)?.ratio <= thr {
+        let s = singular_values(&r11t)?;
+        let top = s.iter().cloned().fold(0.0, f64::max);
+        let tol = RankTolerance::Default.threshold(rows, unknowns, top)?;
+        return Err(rank_error(s.iter().filter(|&&v| v > tol).count()));
+    }
+    let rhs = r.view((0, unknowns), (unknowns, r.ncols() - unknowns));
+    r11t.transpose()
+        .solve_upper_triangular(&rhs)
+        .ok_or_else(|| rank_error(unknowns - 1))
 }
 
 /// Θ_u: the coefficients of U_f in the orthogonal projection of Y_f on the
