@@ -130,30 +130,60 @@ fn check_square_lower(l: &DMatrix<f64>) -> Result<usize> {
     Ok(k)
 }
 
+/// ‖L⁻¹‖_F of a square lower-triangular `l` (entries above the diagonal
+/// ignored) from the explicit inverse (faer triangular solve with k
+/// right-hand sides, O(k³/3)); +∞ when a diagonal entry is 0 or the
+/// inverse overflows. 1/‖L⁻¹‖_F ≤ σ_min(L) ≤ √k/‖L⁻¹‖_F; the norms of the
+/// inverses of leading and trailing diagonal blocks of a triangular L are
+/// at most this one (they are blocks of L⁻¹).
+///
+/// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
+pub fn lower_inverse_frobenius(l: &DMatrix<f64>) -> Result<f64> {
+    let k = check_square_lower(l)?;
+    if k == 0 {
+        return Ok(0.0);
+    }
+    if (0..k).any(|i| l[(i, i)] == 0.0) {
+        return Ok(f64::INFINITY);
+    }
+    let mut inv = faer::Mat::<f64>::identity(k, k);
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+        as_faer(l),
+        inv.as_mut(),
+        faer::Par::Seq,
+    );
+    let norm = inv.norm_l2();
+    Ok(if norm.is_finite() {
+        norm
+    } else {
+        f64::INFINITY
+    })
+}
+
 /// A certified lower bound 1/(‖L⁻¹‖_F ‖L‖_F) ≤ σ_min/σ_max of a square
 /// lower-triangular `l` (entries above the diagonal ignored), from the
-/// explicit inverse (faer triangular solve, O(k³/3)); it is at most a
-/// factor k below the ratio. 0 when a diagonal entry is 0 or the inverse
+/// explicit inverse ([`lower_inverse_frobenius`], O(k³/3)); it is at most
+/// a factor k below the ratio. 0 when a diagonal entry is 0 or the inverse
 /// overflows.
 ///
 /// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
 pub fn triangular_ratio_bound(l: &DMatrix<f64>) -> Result<f64> {
-    let k = check_square_lower(l)?;
-    if k == 0 || (0..k).any(|i| l[(i, i)] == 0.0) {
-        return Ok(0.0);
-    }
-    let low = l.lower_triangle();
-    let mut inv = faer::Mat::<f64>::identity(k, k);
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-        as_faer(&low),
-        inv.as_mut(),
-        faer::Par::Seq,
-    );
-    let inv_norm = inv.norm_l2();
-    let norm = low.norm();
-    let bound = 1.0 / (inv_norm * norm);
+    let inv_norm = lower_inverse_frobenius(l)?;
+    Ok(ratio_bound(inv_norm, l.lower_triangle().norm()))
+}
+
+/// The certified bound 1/(‖L⁻¹‖_F ‖L‖_F) ≤ σ_min/σ_max of
+/// [`triangular_ratio_bound`] from the two norms (an upper bound of
+/// ‖L⁻¹‖_F is as good), halved for the rounding in the inverse; 0 when
+/// either norm is not finite and positive.
+pub fn ratio_bound(inverse_norm: f64, norm: f64) -> f64 {
+    let bound = 1.0 / (inverse_norm * norm);
     // Rounding in the inverse is far below the factor of 2 given away.
-    Ok(if bound.is_finite() { 0.5 * bound } else { 0.0 })
+    if bound.is_finite() && bound > 0.0 {
+        0.5 * bound
+    } else {
+        0.0
+    }
 }
 
 /// Whether λ_min(G) > τ for a symmetric `g` (lower triangle used): true
@@ -164,8 +194,15 @@ pub fn triangular_ratio_bound(l: &DMatrix<f64>) -> Result<f64> {
 /// Errors: [`Error::NonFinite`], [`Error::DimensionMismatch`] when not square.
 pub fn exceeds_min_eigenvalue(g: &DMatrix<f64>, tau: f64) -> Result<bool> {
     let k = check_square_lower(g)?;
-    let shifted = g - DMatrix::<f64>::identity(k, k) * tau;
-    Ok(k == 0 || crate::cholesky_lower(shifted).is_some())
+    Ok(k == 0 || crate::cholesky_lower(shifted_diagonal(g.clone(), -tau)).is_some())
+}
+
+/// `m` + `shift`·I in place (one copy of the caller's matrix, no identity).
+fn shifted_diagonal(mut m: DMatrix<f64>, shift: f64) -> DMatrix<f64> {
+    for i in 0..m.nrows().min(m.ncols()) {
+        m[(i, i)] += shift;
+    }
+    m
 }
 
 /// Whether λ_min(G)/λ_max(G) > threshold for a symmetric positive
@@ -202,8 +239,13 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if exceeds_min_eigenvalue(g, threshold * row_sums)? {
         return Ok(true);
     }
-    let sym =
-        g.lower_triangle() + g.lower_triangle().transpose() - DMatrix::from_diagonal(&g.diagonal());
+    // The symmetric matrix of the lower triangle, in one copy.
+    let mut sym = g.clone();
+    for j in 0..k {
+        for i in j + 1..k {
+            sym[(j, i)] = sym[(i, j)];
+        }
+    }
     let mut v = start(k);
     let mut lam = 0.0f64;
     for _ in 0..30 {
@@ -224,7 +266,7 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if upper.is_nan()
         || upper <= 0.0
         || upper >= row_sums
-        || crate::cholesky_lower(DMatrix::<f64>::identity(k, k) * upper - &sym).is_none()
+        || crate::cholesky_lower(shifted_diagonal(-&sym, upper)).is_none()
     {
         return Ok(false);
     }

@@ -89,8 +89,9 @@ pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
 pub use error::{Error, Result};
 pub use extremes::{
-    ConditionCheck, exceeds_min_eigenvalue, gram_condition_exceeds, lower_triangular_extremes,
-    lower_triangular_extremes_within, triangular_condition, triangular_ratio_bound,
+    ConditionCheck, exceeds_min_eigenvalue, gram_condition_exceeds, lower_inverse_frobenius,
+    lower_triangular_extremes, lower_triangular_extremes_within, ratio_bound, triangular_condition,
+    triangular_ratio_bound,
 };
 pub use kernels::{dot, first_non_finite};
 pub use lstsq::lstsq;

@@ -531,32 +531,39 @@ impl Scale {
 }
 
 /// The power of 4 nearest (in ratio) to the RMS of the finite entries of
-/// `mats`; 1 when they are all zero. One pass with four independent sums
+/// `mats`; 1 when they are all zero. One pass with eight independent lanes
 /// (vectorised), and a second pass with the entries divided by the largest
 /// one only when the squares could overflow or underflow. O(entries).
 pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
-    let (mut big, mut count) = (0.0f64, 0usize);
-    let mut sums = [0.0f64; 4];
+    // Eight independent lanes (sum, largest magnitude, count): no chain of
+    // dependent max/add across elements, so the loop vectorises.
+    const LANES: usize = 8;
+    let mut sums = [0.0f64; LANES];
+    let mut bigs = [0.0f64; LANES];
+    let mut counts = [0usize; LANES];
     for m in mats {
         let v = m.as_slice();
-        let mut chunks = v.chunks_exact(4);
+        let mut chunks = v.chunks_exact(LANES);
         for c in &mut chunks {
-            for (s, &x) in sums.iter_mut().zip(c) {
+            for l in 0..LANES {
+                let x = c[l];
                 let ok = x.is_finite();
                 let x = if ok { x } else { 0.0 };
-                big = big.max(x.abs());
-                *s += x * x;
-                count += usize::from(ok);
+                bigs[l] = bigs[l].max(x.abs());
+                sums[l] += x * x;
+                counts[l] += usize::from(ok);
             }
         }
         for &x in chunks.remainder() {
             if x.is_finite() {
-                big = big.max(x.abs());
+                bigs[0] = bigs[0].max(x.abs());
                 sums[0] += x * x;
-                count += 1;
+                counts[0] += 1;
             }
         }
     }
+    let big = bigs.iter().cloned().fold(0.0f64, f64::max);
+    let count: usize = counts.iter().sum();
     if big <= 0.0 {
         return 1.0;
     }
@@ -1075,7 +1082,15 @@ fn fit_order(
     let projection = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
         let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
         let mask = opts.feedthrough.mask(ny, nu)?;
-        let (b, d) = bd_from_projection(sub.l, &sub.layout, &a, &c, &gamma, &mask)?;
+        let (b, d) = bd_from_projection(
+            sub.l,
+            &sub.layout,
+            sub.projector.leading_ratio_bound(),
+            &a,
+            &c,
+            &gamma,
+            &mask,
+        )?;
         let (b, c, d) = scale.unscale(b, c, d);
         let x0 = initial_states(&a, &b, &c, &d, opts.initial_state, records, n)?;
         Ok(Fit {
@@ -1217,10 +1232,9 @@ fn from_factor(
     let max_order = (f - 1) * ny;
     // Persistent excitation: the input rows [U_f; U_p] must have full rank.
     let nu_rows = (p + f) * nu;
-    let luu = l.view((0, 0), (nu_rows, nu_rows)).into_owned();
-    check_exciting("u", numerical_rank(&luu, 1e-10)?, nu_rows)?;
+    let projector = Projector::new(&l, layout)?;
+    check_exciting("u", projector.input_rank(1e-10)?, nu_rows)?;
 
-    let projector = Projector::new(&l, layout);
     let wp = rows(&l, layout.up().start..layout.yp().end);
     let yf = rows(&l, layout.yf());
     let map = projector.oblique_map()?;

@@ -179,8 +179,12 @@ enum Engine {
     Correlation {
         /// S(δ) of the current record.
         s: Vec<f64>,
-        /// Gram matrix in natural order (offset-major), completed records.
+        /// Gram matrix of the completed records, in the row order of the
+        /// factor (sources order).
         gram: DMatrix<f64>,
+        /// Row of the factor of each natural index o·n_z + c (offset o,
+        /// channel c).
+        position: Vec<usize>,
         /// First s − 1 samples of the current record, per channel.
         head: Vec<Vec<f64>>,
         threads: usize,
@@ -247,6 +251,13 @@ impl HankelStream {
             Compression::Auto | Compression::Correlation => Engine::Correlation {
                 s: vec![0.0; layout.span() * nz * nz],
                 gram: DMatrix::zeros(k, k),
+                position: {
+                    let mut position = vec![0; layout.span() * nz];
+                    for (r, &(o, c)) in layout.sources().iter().enumerate() {
+                        position[o * nz + c] = r;
+                    }
+                    position
+                },
                 head: vec![Vec::new(); nz],
                 threads: threads.max(1),
                 scratch: (0..threads.max(1)).map(|_| Scratch::default()).collect(),
@@ -444,7 +455,14 @@ impl HankelStream {
         for (total, rec) in self.sums.iter_mut().zip(&mut self.record_sums) {
             *total += *rec;
         }
-        if let Engine::Correlation { s, gram, head, .. } = &mut self.engine {
+        if let Engine::Correlation {
+            s,
+            gram,
+            position,
+            head,
+            ..
+        } = &mut self.engine
+        {
             if cols > 0 {
                 // The carry holds the last s − 1 samples; finish the sums
                 // S(δ) = Σ_{t ≤ N−1−δ} z(t) z(t+δ)ᵀ over its start positions.
@@ -508,7 +526,7 @@ impl HankelStream {
                             let sd = s[(d * nz + c1) * nz + c2];
                             for o1 in 0..m {
                                 let v = sd - head_part[o1] - tail_part[o1];
-                                let (i, j) = (o1 * nz + c1, (o1 + d) * nz + c2);
+                                let (i, j) = (position[o1 * nz + c1], position[(o1 + d) * nz + c2]);
                                 // Equal offsets visit both (c1, c2) and (c2, c1).
                                 gram[(i, j)] += v;
                                 if d != 0 {
@@ -546,7 +564,6 @@ impl HankelStream {
         let nz = self.carry.len();
         let span = self.layout.span();
         let scale = if j > 0 { 1.0 / j as f64 } else { 0.0 };
-        let src = self.layout.sources();
         match self.engine {
             Engine::Qr {
                 acc, chunk_rows, ..
@@ -583,14 +600,19 @@ impl HankelStream {
                     },
                 })
             }
-            Engine::Correlation { gram, threads, .. } => {
-                let nat = |(o, c): (usize, usize)| o * nz + c;
+            Engine::Correlation {
+                gram: mut g,
+                threads,
+                ..
+            } => {
                 let w = &self.window_sums;
-                // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without centring).
-                let g = DMatrix::from_fn(k, k, |r, c| {
-                    let raw = gram[(nat(src[r]), nat(src[c]))];
-                    (raw - w[r] * w[c] * scale) * scale
-                });
+                // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without
+                // centring), in place.
+                for (c, mut col) in g.column_iter_mut().enumerate() {
+                    for (r, v) in col.iter_mut().enumerate() {
+                        *v = (*v - w[r] * w[c] * scale) * scale;
+                    }
+                }
                 let kf = k as f64;
                 let flops =
                     2.0 * self.samples as f64 * (nz * nz * span) as f64 + kf * kf * kf / 3.0;

@@ -24,7 +24,9 @@
 //! [`oblique_map`] on arbitrary rows) goes through the SVD-based range
 //! basis, O(k r_u²) per projection.
 
-use lifted_linalg::{RankTolerance, pinv, range_basis, triangular_condition};
+use lifted_linalg::{
+    RankTolerance, lower_inverse_frobenius, pinv, range_basis, ratio_bound, triangular_condition,
+};
 use nalgebra::DMatrix;
 
 use crate::error::Result;
@@ -61,12 +63,31 @@ pub(crate) struct Projector<'a> {
     /// The U_f rows of L vanish beyond column r_u and [U_f; W_p] beyond
     /// column r_w (lower-triangular factor).
     structured: bool,
+    /// Norms of the structured factor's diagonal blocks and their inverses.
+    blocks: Option<BlockNorms>,
+}
+
+/// ‖·‖_F and ‖·⁻¹‖_F of two diagonal blocks of a lower-triangular L: the
+/// input rows L_uu ([U_f; U_p], the persistent-excitation test) and L₂₂
+/// (W_p, the oblique projection). Two explicit triangular inverses
+/// (O(r³/3) each) certify three condition tests: those two blocks and the
+/// leading block L₁₁ of [U_f; W_p] (see [`Projector::leading_ratio_bound`]).
+#[derive(Debug, Clone, Copy)]
+struct BlockNorms {
+    uu: f64,
+    inv_uu: f64,
+    l22: f64,
+    inv_22: f64,
 }
 
 impl<'a> Projector<'a> {
-    /// Inspects L (O(k²)). The U_f rows must be persistently exciting (the
-    /// caller's test) for the structured projection to be exact.
-    pub(crate) fn new(l: &'a DMatrix<f64>, lay: HankelLayout) -> Self {
+    /// Inspects L (O(k²)) and, when it is lower triangular, inverts its
+    /// diagonal blocks L_uu and L₂₂ (O(k³/3)). The U_f rows must be
+    /// persistently exciting (the caller's test, [`Projector::input_rank`])
+    /// for the structured projection to be exact.
+    ///
+    /// Errors: [`crate::Error::Linalg`] for a non-finite factor.
+    pub(crate) fn new(l: &'a DMatrix<f64>, lay: HankelLayout) -> Result<Self> {
         let k = l.nrows();
         let (ru, rw) = (lay.uf().end, lay.yf().start);
         let zero = |r: usize, c: usize, nr: usize, nc: usize| {
@@ -77,7 +98,58 @@ impl<'a> Projector<'a> {
             && zero(0, ru, ru, k - ru)
             && zero(ru, rw, rw - ru, k - rw)
             && (ru..rw).all(|i| zero(i, i + 1, 1, rw - i - 1));
-        Projector { l, lay, structured }
+        // The input block [U_f; U_p] is lower triangular as soon as L is.
+        let uu_rows = lay.up().end;
+        let lower =
+            structured && uu_rows <= k && (ru..uu_rows).all(|i| zero(i, i + 1, 1, uu_rows - i - 1));
+        let blocks = if lower {
+            let uu = l.view((0, 0), (uu_rows, uu_rows)).into_owned();
+            let l22 = l.view((ru, ru), (rw - ru, rw - ru)).into_owned();
+            Some(BlockNorms {
+                uu: uu.norm(),
+                inv_uu: lower_inverse_frobenius(&uu)?,
+                l22: l22.norm(),
+                inv_22: lower_inverse_frobenius(&l22)?,
+            })
+        } else {
+            None
+        };
+        Ok(Projector {
+            l,
+            lay,
+            structured,
+            blocks,
+        })
+    }
+
+    /// Numerical rank of the input rows [U_f; U_p] (the leading
+    /// n_u(p+f) × n_u(p+f) block of L) by [`crate::engine::numerical_rank`]'s
+    /// rule at the relative threshold `rel`: full when the certified bound
+    /// of the block's inverse clears it (no further work), else that
+    /// function's estimates and singular values.
+    ///
+    /// Errors: those of the linear-algebra kernels.
+    pub(crate) fn input_rank(&self, rel: f64) -> Result<usize> {
+        let r = self.lay.up().end.min(self.l.nrows());
+        if let Some(b) = self.blocks
+            && ratio_bound(b.inv_uu, b.uu) > rel
+        {
+            return Ok(r);
+        }
+        crate::engine::numerical_rank(&self.l.view((0, 0), (r, r)).into_owned(), rel)
+    }
+
+    /// A certified lower bound of σ_min/σ_max of the leading block L₁₁ of
+    /// [U_f; W_p] (r_w × r_w) without inverting it: L₁₁ = [A 0; B L₂₂] with
+    /// A the U_f block (a leading block of L_uu, so ‖A⁻¹‖_F ≤ ‖L_uu⁻¹‖_F) has
+    /// ‖L₁₁⁻¹‖_F ≤ ‖A⁻¹‖_F + ‖L₂₂⁻¹‖_F + ‖L₂₂⁻¹‖_F ‖B‖_F ‖A⁻¹‖_F. `None` for
+    /// a factor without the triangular structure. O(k²).
+    pub(crate) fn leading_ratio_bound(&self) -> Option<f64> {
+        let b = self.blocks?;
+        let (ru, rw) = (self.lay.uf().end, self.lay.yf().start);
+        let coupling = self.l.view((ru, 0), (rw - ru, ru)).norm();
+        let inv = b.inv_uu + b.inv_22 + b.inv_22 * coupling * b.inv_uu;
+        Some(ratio_bound(inv, self.l.view((0, 0), (rw, rw)).norm()))
     }
 
     fn rows(&self, r: std::ops::Range<usize>) -> DMatrix<f64> {
@@ -105,10 +177,13 @@ impl<'a> Projector<'a> {
         let l22 = self.l.view((ru, ru), (rw - ru, rw - ru)).into_owned();
         let l32 = self.l.view((rw, ru), (k - rw, rw - ru)).into_owned();
         // Same rank decision as the Gram's pseudo-inverse: σ(L₂₂)² above
-        // 10⁻¹² σ_max².
-        let check = triangular_condition(&l22, 1e-6, 10.0)?;
+        // 10⁻¹² σ_max² (certified by the block inverse when it can be).
+        let certified = self
+            .blocks
+            .is_some_and(|b| ratio_bound(b.inv_22, b.l22) > 1e-6);
+        let well_conditioned = certified || triangular_condition(&l22, 1e-6, 10.0)?.ratio > 1e-6;
         // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
-        if check.ratio > 1e-6
+        if well_conditioned
             && let Some(mt) = l22.transpose().solve_upper_triangular(&l32.transpose())
         {
             return Ok(mt.transpose());
@@ -160,7 +235,7 @@ mod tests {
         let lay = layout();
         for weak in [false, true] {
             let l = factor(lay.yf().end, 7, weak);
-            let pr = Projector::new(&l, lay);
+            let pr = Projector::new(&l, lay).unwrap();
             assert!(pr.structured);
             let rows = |r: std::ops::Range<usize>| l.rows(r.start, r.len()).into_owned();
             let uf = rows(lay.uf());
@@ -178,11 +253,37 @@ mod tests {
     }
 
     #[test]
+    fn block_certificates_bound_the_exact_ratios() {
+        let lay = layout();
+        for seed in [3, 7, 11] {
+            let l = factor(lay.yf().end, seed, false);
+            let pr = Projector::new(&l, lay).unwrap();
+            let rw = lay.yf().start;
+            let s = lifted_linalg::singular_values(&l.view((0, 0), (rw, rw)).into_owned()).unwrap();
+            let exact = s[s.len() - 1] / s[0];
+            let bound = pr.leading_ratio_bound().unwrap();
+            assert!(bound > 0.0 && bound <= exact, "{bound} vs {exact}");
+            let r = lay.up().end;
+            let luu = l.view((0, 0), (r, r)).into_owned();
+            assert_eq!(
+                pr.input_rank(1e-10).unwrap(),
+                crate::engine::numerical_rank(&luu, 1e-10).unwrap()
+            );
+        }
+        // A singular input block: the certificate does not claim full rank.
+        let mut l = factor(lay.yf().end, 5, false);
+        l[(1, 1)] = 0.0;
+        let pr = Projector::new(&l, lay).unwrap();
+        assert!(pr.input_rank(1e-10).unwrap() < lay.up().end);
+        assert_eq!(pr.leading_ratio_bound(), Some(0.0));
+    }
+
+    #[test]
     fn a_full_factor_takes_the_general_route() {
         let lay = layout();
         let mut l = factor(lay.yf().end, 3, false);
         l[(0, 5)] = 0.25;
-        let pr = Projector::new(&l, lay);
+        let pr = Projector::new(&l, lay).unwrap();
         assert!(!pr.structured);
         let uf = l.rows(0, lay.uf().end).into_owned();
         let m = DMatrix::from_fn(2, l.ncols(), |i, j| (i + 2 * j) as f64);

@@ -37,8 +37,9 @@ use nalgebra::DMatrix;
 use crate::error::{Error, Result};
 use crate::hankel::HankelLayout;
 
-/// (B, D) of the scaled data from the compressed factor `l` (layout `lay`)
-/// for (A, C) and the extended observability matrix `gamma` (f n_y × n) of
+/// (B, D) of the scaled data from the compressed factor `l` (layout `lay`;
+/// `leading_bound` a certified lower bound of σ_min/σ_max of its leading
+/// [U_f; W_p] block, when known) for (A, C) and the extended observability matrix `gamma` (f n_y × n) of
 /// the same scaled data; `mask[(o, j)]` says whether D[o, j] is estimated.
 ///
 /// Errors: [`Error::RankDeficient`] when the regression does not determine
@@ -47,6 +48,7 @@ use crate::hankel::HankelLayout;
 pub(crate) fn bd_from_projection(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
+    leading_bound: Option<f64>,
     a: &DMatrix<f64>,
     c: &DMatrix<f64>,
     gamma: &DMatrix<f64>,
@@ -54,7 +56,7 @@ pub(crate) fn bd_from_projection(
 ) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
     let (nu, ny, f) = (lay.nu, lay.ny, lay.future);
     let n = a.nrows();
-    let theta_u = future_input_coefficients(l, lay)?;
+    let theta_u = future_input_coefficients(l, lay, leading_bound)?;
     // Γ⊥ᵀ: rows spanning the left null space of Γ (f n_y − n of them).
     let perp_t = null_space(&gamma.transpose(), RankTolerance::Default)?.transpose();
     let m_rows = perp_t.nrows();
@@ -152,7 +154,11 @@ fn solve_full_rank(w: DMatrix<f64>, unknowns: usize) -> Result<DMatrix<f64>> {
 /// are rank deficient, e.g. noise-free data; the U_f part is unique as long
 /// as the inputs are persistently exciting). O(k³/3) (triangular solve) or
 /// O(k³) (least squares).
-fn future_input_coefficients(l: &DMatrix<f64>, lay: &HankelLayout) -> Result<DMatrix<f64>> {
+fn future_input_coefficients(
+    l: &DMatrix<f64>,
+    lay: &HankelLayout,
+    leading_bound: Option<f64>,
+) -> Result<DMatrix<f64>> {
     let r = lay.yf().start;
     let yf = lay.yf();
     let l11 = l.view((0, 0), (r, r)).into_owned();
@@ -163,9 +169,9 @@ fn future_input_coefficients(l: &DMatrix<f64>, lay: &HankelLayout) -> Result<DMa
     let triangular = (0..r).all(|j| (0..j).all(|i| l11[(i, j)] == 0.0));
     if triangular {
         let thr = RankTolerance::Default.threshold(r, r, 1.0)?;
-        if triangular_condition(&l11, thr, 10.0)?.ratio > thr
-            && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose())
-        {
+        let full_rank = leading_bound.is_some_and(|b| b > thr)
+            || triangular_condition(&l11, thr, 10.0)?.ratio > thr;
+        if full_rank && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose()) {
             return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
         }
     }
