@@ -102,7 +102,7 @@ pub use rank::{RankTolerance, null_space, pinv, range_basis, rank};
 pub use riccati::{DareSolution, dare};
 pub use schur::{RealSchur, real_schur};
 pub use solve::{det, inv, rcond, solve};
-pub use svd::{Svd, singular_values, svd};
+pub use svd::{Svd, singular_values, svd, svd_left};
 pub use warm::warm_up;
 
 /// Compiles the README example as a doc test.

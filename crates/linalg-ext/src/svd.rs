@@ -33,39 +33,55 @@ pub(crate) fn par_for(m: usize, n: usize) -> Par {
     }
 }
 
-/// faer's SVD with explicit parallelism; `vectors` selects thin U and V.
-/// Singular values and, when asked for, the thin (U, V).
+/// Singular values and, when asked for, the thin U and V (V empty when
+/// only U was asked for).
 type SvdParts = (Vec<f64>, Option<(Mat<f64>, Mat<f64>)>);
 
-fn faer_svd(a: &DMatrix<f64>, vectors: bool) -> Result<SvdParts> {
+/// Which singular vectors [`faer_svd`] computes.
+#[derive(Clone, Copy, PartialEq)]
+enum Vectors {
+    None,
+    Left,
+    Both,
+}
+
+/// faer's SVD with explicit parallelism.
+fn faer_svd(a: &DMatrix<f64>, vectors: Vectors) -> Result<SvdParts> {
     let (m, n) = a.shape();
     let k = m.min(n);
     let par = par_for(m, n);
-    let which = if vectors {
-        ComputeSvdVectors::Thin
-    } else {
-        ComputeSvdVectors::No
+    let pick = |on: bool| {
+        if on {
+            ComputeSvdVectors::Thin
+        } else {
+            ComputeSvdVectors::No
+        }
     };
+    let (want_u, want_v) = (vectors != Vectors::None, vectors == Vectors::Both);
     let params = Default::default();
-    let mut mem = MemBuffer::new(svd_scratch::<f64>(m, n, which, which, par, params));
+    let mut mem = MemBuffer::new(svd_scratch::<f64>(
+        m,
+        n,
+        pick(want_u),
+        pick(want_v),
+        par,
+        params,
+    ));
     let mut s = Diag::<f64>::zeros(k);
-    let (mut u, mut v) = if vectors {
-        (Mat::<f64>::zeros(m, k), Mat::<f64>::zeros(n, k))
-    } else {
-        (Mat::<f64>::zeros(0, 0), Mat::<f64>::zeros(0, 0))
-    };
+    let mut u = Mat::<f64>::zeros(if want_u { m } else { 0 }, if want_u { k } else { 0 });
+    let mut v = Mat::<f64>::zeros(if want_v { n } else { 0 }, if want_v { k } else { 0 });
     faer::linalg::svd::svd(
         as_faer(a),
         s.as_mut(),
-        vectors.then(|| u.as_mut()),
-        vectors.then(|| v.as_mut()),
+        want_u.then(|| u.as_mut()),
+        want_v.then(|| v.as_mut()),
         par,
         MemStack::new(&mut mem),
         params,
     )
     .map_err(|_| svd_err("faer svd"))?;
     let sv: Vec<f64> = (0..k).map(|i| s.column_vector()[i]).collect();
-    Ok((sv, vectors.then_some((u, v))))
+    Ok((sv, want_u.then_some((u, v))))
 }
 
 /// Thin SVD A = U diag(s) Vᵀ.
@@ -111,13 +127,29 @@ pub fn svd(a: &DMatrix<f64>) -> Result<Svd> {
             v: DMatrix::zeros(n, 0),
         });
     }
-    let (sv, uv) = faer_svd(a, true)?;
+    let (sv, uv) = faer_svd(a, Vectors::Both)?;
     let (u, v) = uv.ok_or_else(|| svd_err("faer svd"))?;
     Ok(Svd {
         u: to_dmatrix(u.as_ref()),
         s: DVector::from_vec(sv),
         v: to_dmatrix(v.as_ref()),
     })
+}
+
+/// The left singular vectors (m×k, thin) and the singular values
+/// (nonincreasing) of an m×n matrix, without V: [`svd`] less the right
+/// vectors (≈ 20 % less work on a 40×160 matrix). O(mn·min(m,n)).
+///
+/// Errors: [`Error::NonFinite`], [`Error::NoConvergence`].
+pub fn svd_left(a: &DMatrix<f64>) -> Result<(DMatrix<f64>, DVector<f64>)> {
+    check_finite("a", a)?;
+    let (m, n) = a.shape();
+    if m.min(n) == 0 {
+        return Ok((DMatrix::zeros(m, 0), DVector::zeros(0)));
+    }
+    let (sv, uv) = faer_svd(a, Vectors::Left)?;
+    let (u, _) = uv.ok_or_else(|| svd_err("faer svd"))?;
+    Ok((to_dmatrix(u.as_ref()), DVector::from_vec(sv)))
 }
 
 /// Full SVD: U (m×m), s (min(m,n)), V (n×n); used for null spaces.
@@ -149,7 +181,7 @@ pub fn singular_values(a: &DMatrix<f64>) -> Result<DVector<f64>> {
     if a.nrows().min(a.ncols()) == 0 {
         return Ok(DVector::zeros(0));
     }
-    let (mut s, _) = faer_svd(a, false)?;
+    let (mut s, _) = faer_svd(a, Vectors::None)?;
     s.sort_by(|x, y| y.total_cmp(x));
     Ok(DVector::from_vec(s))
 }
@@ -166,6 +198,29 @@ mod tests {
         assert_relative_eq!(f.s, DVector::from_vec(vec![4.0, 3.0]), epsilon = 1e-15);
         assert_relative_eq!(f.reconstruct(), a, epsilon = 1e-14);
         assert_relative_eq!(singular_values(&a).unwrap(), f.s, epsilon = 1e-15);
+    }
+
+    #[test]
+    fn left_vectors_equal_those_of_the_full_svd() {
+        for (m, n) in [(4, 9), (9, 4), (6, 6)] {
+            let a = DMatrix::from_fn(m, n, |i, j| {
+                ((i * 7 + j * 3) % 5) as f64 - 2.0 + 0.1 * j as f64
+            });
+            let full = svd(&a).unwrap();
+            let (u, s) = svd_left(&a).unwrap();
+            assert_relative_eq!(s, full.s, epsilon = 1e-12);
+            // Same columns up to sign (distinct singular values).
+            for j in 0..s.len() {
+                let sign = u.column(j).dot(&full.u.column(j)).signum();
+                assert_relative_eq!(
+                    u.column(j) * sign,
+                    full.u.column(j).into_owned(),
+                    epsilon = 1e-10
+                );
+            }
+        }
+        let (u, s) = svd_left(&DMatrix::zeros(3, 0)).unwrap();
+        assert_eq!((u.shape(), s.len()), ((3, 0), 0));
     }
 
     #[test]

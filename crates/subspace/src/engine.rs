@@ -1,7 +1,7 @@
 //! The unified subspace engine: N4SID, MOESP and CVA as one weighted SVD
 //! (thesis §2.5, Van Overschee & De Moor's unifying theorem).
 
-use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, svd, sym_eig};
+use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, svd_left, sym_eig};
 use lifted_lti::{OperatingPoint, StateSpace};
 use std::time::Instant;
 
@@ -1247,7 +1247,8 @@ fn from_factor(
             (Some(w1i), w1 * projector.perp_future_inputs(&phi)?)
         }
     };
-    let dec = svd(&weighted)?;
+    // U and the singular values only (V is never used).
+    let (u, s) = svd_left(&weighted)?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let sub = Subspace {
@@ -1256,8 +1257,8 @@ fn from_factor(
         projector,
         phi,
         map,
-        u: dec.u,
-        s: dec.s.iter().cloned().collect(),
+        u,
+        s: s.iter().cloned().collect(),
         w1_inv,
     };
     // N4SID's and MOESP's singular values scale with the outputs; CVA's
