@@ -1005,6 +1005,9 @@ struct Subspace<'a> {
     phi: DMatrix<f64>,
     /// Its map 𝓜.
     map: DMatrix<f64>,
+    /// Whether 𝓜 = L₃₂ L₂₂⁻¹ exactly (structured factor, well-conditioned
+    /// L₂₂), so that the projection (B, D) can reuse it.
+    map_triangular: bool,
     /// Left singular vectors and singular values of W₁ Φ W₂.
     u: DMatrix<f64>,
     s: Vec<f64>,
@@ -1085,7 +1088,7 @@ fn fit_order(
         let (b, d) = bd_from_projection(
             sub.l,
             &sub.layout,
-            sub.projector.leading_ratio_bound(),
+            sub.map_triangular.then_some(&sub.map),
             &a,
             &c,
             &gamma,
@@ -1235,20 +1238,21 @@ fn from_factor(
     let projector = Projector::new(&l, layout)?;
     check_exciting("u", projector.input_rank(1e-10)?, nu_rows)?;
 
-    let wp = rows(&l, layout.up().start..layout.yp().end);
-    let yf = rows(&l, layout.yf());
-    let map = projector.oblique_map()?;
-    let phi = &map * &wp;
+    // Φ = 𝓜 W_p with W_p = [U_p; Y_p], consecutive rows of L (a view).
+    let (map, map_triangular) = projector.oblique_map()?;
+    let wp_rows = layout.up().start..layout.yp().end;
+    let phi = &map * l.rows(wp_rows.start, wp_rows.len());
     let (w1_inv, weighted) = match opts.method {
-        Method::N4sid => (None, phi.clone()),
-        Method::Moesp => (None, projector.perp_future_inputs(&phi)?),
+        Method::N4sid => (None, None),
+        Method::Moesp => (None, Some(projector.perp_future_inputs(&phi)?)),
         Method::Cva => {
-            let (w1, w1i) = cva_weights(&projector, &yf)?;
-            (Some(w1i), w1 * projector.perp_future_inputs(&phi)?)
+            let (w1, w1i) = cva_weights(&projector, &rows(&l, layout.yf()))?;
+            (Some(w1i), Some(w1 * projector.perp_future_inputs(&phi)?))
         }
     };
-    // U and the singular values only (V is never used).
-    let (u, s) = svd_left(&weighted)?;
+    // U and the singular values only (V is never used); N4SID's weights
+    // are identities.
+    let (u, s) = svd_left(weighted.as_ref().unwrap_or(&phi))?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let sub = Subspace {
@@ -1257,6 +1261,7 @@ fn from_factor(
         projector,
         phi,
         map,
+        map_triangular,
         u,
         s: s.iter().cloned().collect(),
         w1_inv,

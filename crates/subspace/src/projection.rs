@@ -38,8 +38,8 @@ use crate::error::{Error, Result};
 use crate::hankel::HankelLayout;
 
 /// (B, D) of the scaled data from the compressed factor `l` (layout `lay`;
-/// `leading_bound` a certified lower bound of σ_min/σ_max of its leading
-/// [U_f; W_p] block, when known) for (A, C) and the extended observability matrix `gamma` (f n_y × n) of
+/// `exact_map` the oblique map 𝓜 = L₃₂ L₂₂⁻¹ when the caller computed it
+/// by the triangular solve, see [`future_input_coefficients`]) for (A, C) and the extended observability matrix `gamma` (f n_y × n) of
 /// the same scaled data; `mask[(o, j)]` says whether D[o, j] is estimated.
 ///
 /// Errors: [`Error::RankDeficient`] when the regression does not determine
@@ -48,7 +48,7 @@ use crate::hankel::HankelLayout;
 pub(crate) fn bd_from_projection(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
-    leading_bound: Option<f64>,
+    exact_map: Option<&DMatrix<f64>>,
     a: &DMatrix<f64>,
     c: &DMatrix<f64>,
     gamma: &DMatrix<f64>,
@@ -56,7 +56,7 @@ pub(crate) fn bd_from_projection(
 ) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
     let (nu, ny, f) = (lay.nu, lay.ny, lay.future);
     let n = a.nrows();
-    let theta_u = future_input_coefficients(l, lay, leading_bound)?;
+    let theta_u = future_input_coefficients(l, lay, exact_map)?;
     // Γ⊥ᵀ: rows spanning the left null space of Γ (f n_y − n of them).
     let perp_t = null_space(&gamma.transpose(), RankTolerance::Default)?.transpose();
     let m_rows = perp_t.nrows();
@@ -152,15 +152,32 @@ fn solve_full_rank(w: DMatrix<f64>, unknowns: usize) -> Result<DMatrix<f64>> {
 /// rows of [U_f; W_p] (f n_y × f n_u), from the lower-triangular factor:
 /// Θ = L_{Y_f,1:r} L₁₁⁻¹ (minimum-norm least squares when the past outputs
 /// are rank deficient, e.g. noise-free data; the U_f part is unique as long
-/// as the inputs are persistently exciting). O(k³/3) (triangular solve) or
-/// O(k³) (least squares).
+/// as the inputs are persistently exciting).
+///
+/// With L₁₁ = [A 0; B L₂₂] (A the U_f block) and Θ = [Θ_u Θ_w], Θ L₁₁ =
+/// L_{Y_f,1:r} reads Θ_w L₂₂ = L₃₂ — the oblique map, Θ_w = 𝓜 — and
+/// Θ_u A + 𝓜 B = L_{Y_f,U_f}. So with `exact_map` (𝓜 from the triangular
+/// solve) Θ_u = (L_{Y_f,U_f} − 𝓜 B) A⁻¹: one product and an f n_u
+/// triangular solve, O(f n_y r_w f n_u). Otherwise one triangular solve
+/// with L₁₁ (O(r² f n_y)) or the least squares (O(r³)).
 fn future_input_coefficients(
     l: &DMatrix<f64>,
     lay: &HankelLayout,
-    leading_bound: Option<f64>,
+    exact_map: Option<&DMatrix<f64>>,
 ) -> Result<DMatrix<f64>> {
     let r = lay.yf().start;
     let yf = lay.yf();
+    let ru = lay.uf().len();
+    if let Some(map) = exact_map {
+        // A is nonsingular: the excitation test certified [U_f; U_p], of
+        // which A is a leading block.
+        let a = l.view((0, 0), (ru, ru));
+        let mut rhs = l.view((yf.start, 0), (yf.len(), ru)).into_owned();
+        rhs.gemm(-1.0, map, &l.view((ru, 0), (r - ru, ru)), 1.0);
+        if let Some(tt) = a.transpose().solve_upper_triangular(&rhs.transpose()) {
+            return Ok(tt.transpose());
+        }
+    }
     let l11 = l.view((0, 0), (r, r)).into_owned();
     let l21 = l.view((yf.start, 0), (yf.len(), r)).into_owned();
     // Θ L₁₁ = L₂₁  ⇔  L₁₁ᵀ Θᵀ = L₂₁ᵀ. A lower-triangular L₁₁ (the factor's
@@ -169,12 +186,49 @@ fn future_input_coefficients(
     let triangular = (0..r).all(|j| (0..j).all(|i| l11[(i, j)] == 0.0));
     if triangular {
         let thr = RankTolerance::Default.threshold(r, r, 1.0)?;
-        let full_rank = leading_bound.is_some_and(|b| b > thr)
-            || triangular_condition(&l11, thr, 10.0)?.ratio > thr;
-        if full_rank && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose()) {
+        if triangular_condition(&l11, thr, 10.0)?.ratio > thr
+            && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose())
+        {
             return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
         }
     }
     let theta = lstsq(&l11.transpose(), &l21.transpose())?.transpose();
     Ok(theta.columns(0, lay.uf().len()).into_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::oblique::Projector;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn coefficients_from_the_oblique_map_equal_the_direct_solve() {
+        let lay = HankelLayout {
+            past: 3,
+            future: 4,
+            nu: 2,
+            ny: 1,
+        };
+        let k = lay.yf().end;
+        let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+        let l = DMatrix::from_fn(k, k, |i, j| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let r = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            match i.cmp(&j) {
+                std::cmp::Ordering::Greater => r,
+                std::cmp::Ordering::Equal => 1.0 + r.abs(),
+                std::cmp::Ordering::Less => 0.0,
+            }
+        });
+        let pr = Projector::new(&l, lay).unwrap();
+        let (map, triangular) = pr.oblique_map().unwrap();
+        assert!(triangular);
+        let via_map = future_input_coefficients(&l, &lay, Some(&map)).unwrap();
+        let direct = future_input_coefficients(&l, &lay, None).unwrap();
+        assert_eq!(via_map.shape(), (lay.yf().len(), lay.uf().len()));
+        assert_relative_eq!(via_map, direct, epsilon = 1e-10);
+    }
 }
