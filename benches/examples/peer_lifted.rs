@@ -20,6 +20,9 @@
 //! (`SubspaceOptions::noise_model = false`), the work SLICOT's driver
 //! skips with JOBCK = 'N'.
 //!
+//! Like the `lifted` command, it starts `lifted_linalg::warm_up` before
+//! anything else.
+//!
 //! `--stream` feeds the file to [`StreamingIdentifier`] in blocks of
 //! `--block` rows while it is parsed (memory independent of N); without it
 //! the whole file is parsed into matrices first and [`identify`] runs on
@@ -191,6 +194,11 @@ fn options(a: &Args) -> SubspaceOptions {
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
+    // As the `lifted` command does first thing: faer's one-time set-up on
+    // a background thread while the arguments and the file are read (see
+    // lifted_linalg::warm_up; identify and StreamingIdentifier::new call it
+    // too, but later).
+    lifted_linalg::warm_up();
     let a = parse_args()?;
     let t_start = Instant::now();
     if let Some(n) = a.synthetic {

@@ -103,7 +103,7 @@ pub use riccati::{DareSolution, dare};
 pub use schur::{RealSchur, real_schur};
 pub use solve::{det, inv, rcond, solve};
 pub use svd::{Svd, singular_values, svd, svd_left};
-pub use warm::warm_up;
+pub use warm::{pin_parallelism, warm_up};
 
 /// Compiles the README example as a doc test.
 #[cfg(doctest)]
