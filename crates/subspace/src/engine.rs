@@ -337,6 +337,25 @@ pub struct Experiment<'a> {
 
 /// Validates the records; returns (n_u, n_y, total samples).
 pub(crate) fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
+    validate_on(experiments, 1)
+}
+
+/// [`validate`] with the finiteness scan split over `threads` threads.
+pub(crate) fn validate_on(
+    experiments: &[Experiment<'_>],
+    threads: usize,
+) -> Result<(usize, usize, usize)> {
+    let dims = validate_shapes(experiments)?;
+    for e in experiments {
+        check_data_on("u", e.u, threads)?;
+        check_data_on("y", e.y, threads)?;
+    }
+    Ok(dims)
+}
+
+/// The shape checks of [`validate`] without the finiteness scan (for data
+/// already scanned, or derived from scanned data by finite operations).
+fn validate_shapes(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
     let first = experiments.first().ok_or(Error::NoData)?;
     let (nu, ny) = (first.u.ncols(), first.y.ncols());
     if nu == 0 || ny == 0 {
@@ -349,11 +368,46 @@ pub(crate) fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, 
     let mut total = 0;
     for e in experiments {
         check_record_shape("experiment (u, y)", "N", e.u, e.y, nu, ny)?;
-        check_data("u", e.u)?;
-        check_data("y", e.y)?;
         total += e.u.nrows();
     }
     Ok((nu, ny, total))
+}
+
+/// Entries below which the finiteness scan stays on the calling thread.
+const PARALLEL_SCAN_MIN: usize = 1 << 18;
+
+/// [`check_data`] with the scan split into `threads` contiguous ranges of
+/// the column-major storage (std scoped threads) for large matrices; the
+/// first non-finite entry reported is the same as the sequential scan's.
+fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result<()> {
+    let v = m.as_slice();
+    if threads <= 1 || v.len() < PARALLEL_SCAN_MIN {
+        return check_data(what, m);
+    }
+    let per = v.len().div_ceil(threads);
+    let hits: Vec<Option<usize>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = v
+            .chunks(per)
+            .enumerate()
+            .skip(1)
+            .map(|(i, c)| {
+                scope
+                    .spawn(move || lifted_linalg::kernels::first_non_finite(c).map(|j| i * per + j))
+            })
+            .collect();
+        let first = lifted_linalg::kernels::first_non_finite(&v[..per.min(v.len())]);
+        std::iter::once(first)
+            .chain(handles.into_iter().map(|h| h.join().unwrap_or(None)))
+            .collect()
+    });
+    match hits.into_iter().flatten().next() {
+        Some(i) => Err(Error::NonFinite {
+            what,
+            row: i % m.nrows(),
+            col: i / m.nrows(),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// [`Error::DimensionMismatch`] for `what` unless `u` is N×`nu` and `y` N×`ny`
@@ -535,6 +589,11 @@ impl Scale {
 /// (vectorised), and a second pass with the entries divided by the largest
 /// one only when the squares could overflow or underflow. O(entries).
 pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
+    pow4_scale_counted(mats).0
+}
+
+/// [`pow4_scale`] and the number of finite entries it saw.
+pub(crate) fn pow4_scale_counted(mats: &[&DMatrix<f64>]) -> (f64, usize) {
     // Eight independent lanes (sum, largest magnitude, count): no chain of
     // dependent max/add across elements, so the loop vectorises.
     const LANES: usize = 8;
@@ -565,7 +624,7 @@ pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
     let big = bigs.iter().cloned().fold(0.0f64, f64::max);
     let count: usize = counts.iter().sum();
     if big <= 0.0 {
-        return 1.0;
+        return (1.0, count);
     }
     let mut sum: f64 = sums.iter().sum();
     let mut unit = 1.0;
@@ -581,7 +640,7 @@ pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
     }
     let rms = unit * (sum / count as f64).sqrt();
     let k = (rms.log2() / 2.0).round().clamp(-500.0, 500.0) as i32;
-    2f64.powi(2 * k)
+    (2f64.powi(2 * k), count)
 }
 
 /// Compresses the block-Hankel data [U_f; U_p; Y_p; Y_f] of the records
@@ -600,7 +659,7 @@ pub fn compress_hankel(
     compression: Compression,
     threads: usize,
 ) -> Result<HankelFactor> {
-    let (nu, ny, total) = validate(experiments)?;
+    let (nu, ny, total) = validate_on(experiments, thread_count(threads))?;
     let opts = SubspaceOptions {
         past,
         future,
@@ -752,8 +811,9 @@ impl StreamingIdentifier {
     pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
         let (nu, ny) = (self.layout.nu, self.layout.ny);
         check_record_shape("block (u, y)", "b", u, y, nu, ny)?;
-        check_data("u", u)?;
-        check_data("y", y)?;
+        let threads = thread_count(self.opts.threads);
+        check_data_on("u", u, threads)?;
+        check_data_on("y", y, threads)?;
         if u.nrows() > 0 && self.scale.is_none() {
             let scale = Scale {
                 u: pow4_scale(&[u]),
@@ -861,7 +921,7 @@ impl StreamingIdentifier {
 pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
     // faer's one-time set-up runs during the compression.
     lifted_linalg::warm_up();
-    validate(experiments)?;
+    validate_on(experiments, thread_count(opts.threads))?;
     if !opts.remove_means {
         return identify_as_given(experiments, opts);
     }
@@ -903,12 +963,14 @@ pub(crate) fn remove_means(
     Ok((op, centered))
 }
 
-/// [`identify`] on the data as given (no mean removal).
+/// [`identify`] on the data as given (no mean removal), already scanned
+/// for non-finite entries by the caller (the centred copies are finite
+/// when the data are).
 fn identify_as_given(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
 ) -> Result<SubspaceModel> {
-    let (nu, ny, total) = validate(experiments)?;
+    let (nu, ny, total) = validate_shapes(experiments)?;
     let layout = check_options(nu, ny, opts)?;
     let (p, f, k) = (layout.past, layout.future, layout.nrows());
     let columns: usize = experiments
@@ -930,10 +992,13 @@ fn identify_as_given(
     let t0 = Instant::now();
     let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
     let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
-    let scale = Scale {
-        u: pow4_scale(&us),
-        y: pow4_scale(&ys),
-    };
+    let ((su, finite_u), (sy, finite_y)) = (pow4_scale_counted(&us), pow4_scale_counted(&ys));
+    if finite_u + finite_y < total * (nu + ny) {
+        // A non-finite entry the caller's scan could not see (a centred
+        // copy overflowed): the full scan names it.
+        validate(experiments)?;
+    }
+    let scale = Scale { u: su, y: sy };
     let factor = compress(
         &recs,
         &layout,
@@ -1494,5 +1559,37 @@ impl lifted_lti::identify::Identifier for SubspaceIdentifier {
             model: fit.model,
             diagnostics: fit.diagnostics,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parallel_finiteness_scan_names_the_same_entry() {
+        let n = PARALLEL_SCAN_MIN / 2 + 17;
+        let mut m = DMatrix::from_fn(n, 3, |i, j| (i as f64 * 0.37 + j as f64).sin());
+        assert!(check_data_on("y", &m, 2).is_ok());
+        // Several bad entries, in different thread ranges: the first in
+        // storage order (column-major) is reported, as by the serial scan.
+        for (r, c, v) in [
+            (n - 1, 2, f64::NAN),
+            (5, 2, f64::INFINITY),
+            (n - 3, 1, f64::NAN),
+        ] {
+            m[(r, c)] = v;
+            for threads in [1, 2, 3, 8] {
+                let got = check_data_on("y", &m, threads).unwrap_err().to_string();
+                let want = check_data("y", &m).unwrap_err().to_string();
+                assert_eq!(got, want, "{threads} threads");
+            }
+        }
+        assert!(
+            check_data("y", &m)
+                .unwrap_err()
+                .to_string()
+                .contains(&format!("{}", n - 3))
+        );
     }
 }

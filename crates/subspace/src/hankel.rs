@@ -694,13 +694,20 @@ pub(crate) fn compress(
         let mut st = HankelStream::new(*layout, mode, chunk_rows, threads);
         st.set_scale(scale);
         st.set_centering(center);
-        // Blocks of PUSH_BLOCK samples bound the working copy (the kernel
-        // blocks in cache itself; the QR splits into chunk_rows columns).
+        // The QR copies each push into its working buffer: blocks of
+        // PUSH_BLOCK samples bound it (it splits them into chunk_rows
+        // columns). The correlation kernel reads the caller's columns and
+        // blocks in cache itself, so a record goes in one push: its threads
+        // start once per record and split the whole record between them.
+        let block = match mode {
+            Compression::Qr => PUSH_BLOCK,
+            Compression::Auto | Compression::Correlation => usize::MAX,
+        };
         for (u, y) in records {
             let n = u.nrows();
             let mut s = 0;
             while s < n {
-                let len = PUSH_BLOCK.min(n - s);
+                let len = block.min(n - s);
                 st.push(u.rows(s, len), y.rows(s, len))?;
                 s += len;
             }
