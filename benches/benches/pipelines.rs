@@ -70,6 +70,15 @@ fn subspace(c: &mut Criterion) {
             b.iter(|| identify(black_box(&e), &opts).expect("identification"))
         });
     }
+    // The in-memory default on 2 threads (compression, finiteness scan and
+    // the modal (B, D, x₀) regression split over them).
+    let opts = SubspaceOptions {
+        threads: 2,
+        ..options(Method::N4sid, Compression::Auto)
+    };
+    group.bench_function(BenchmarkId::new("N4SID_auto_x0_2threads", n), |b| {
+        b.iter(|| identify(black_box(&e), &opts).expect("identification"))
+    });
     // Streaming: blocks of 65 536 samples.
     let opts = SubspaceOptions {
         initial_state: InitialState::Zero,

@@ -18,9 +18,7 @@ use crate::order::{
     simulation_error, svc_values,
 };
 use crate::projection::bd_from_projection;
-use crate::regress::{
-    Feedthrough, InitialState, Record, estimate_bd, estimate_bd_with_offsets, estimate_x0,
-};
+use crate::regress::{Feedthrough, InitialState, Record, Route, estimate_x0, output_error_route};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -164,9 +162,10 @@ pub struct SubspaceOptions {
     /// correlations + Cholesky with automatic QR fallback, or the QR
     /// reference. Default [`Compression::Auto`].
     pub compression: Compression,
-    /// Threads for the correlation kernel (contiguous ranges of samples,
-    /// std scoped threads); 1 = single-threaded, 0 = all available cores.
-    /// Default 1.
+    /// Threads for the correlation kernel, the finiteness scan of the data
+    /// and the modal (B, D, x₀) regression (contiguous ranges of samples,
+    /// std scoped threads; results depend on the count through rounding
+    /// only); 1 = single-threaded, 0 = all available cores. Default 1.
     pub threads: usize,
 }
 
@@ -1126,11 +1125,18 @@ fn fit_order(
         let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
         let c = c * scale.y;
         let recs = need_records(records)?;
-        let bd = if opts.remove_means {
-            estimate_bd_with_offsets(&a, &c, recs, &opts.feedthrough, opts.initial_state)?
-        } else {
-            estimate_bd(&a, &c, recs, &opts.feedthrough, opts.initial_state)?
-        };
+        let bd = output_error_route(
+            &a,
+            &c,
+            recs,
+            &opts.feedthrough,
+            opts.initial_state,
+            Route {
+                offsets: opts.remove_means,
+                allow_modal: true,
+                threads: thread_count(opts.threads),
+            },
+        )?;
         let offsets = if opts.remove_means {
             bd.offsets
         } else {

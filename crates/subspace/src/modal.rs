@@ -334,12 +334,23 @@ fn pattern(y: &DMatrix<f64>, t: usize) -> u64 {
     )
 }
 
+/// Records shorter than this many samples per thread are scanned on the
+/// calling thread.
+const PARALLEL_MIN_SAMPLES: usize = 20_000;
+
 /// Folds the regression rows of all records into `acc` (p + 1 columns,
 /// the R factor of the direct route's [Φ | y] up to rounding) through the
 /// modal base rows; returns the number of sampled output entries, or
 /// `None` (with `acc` partly filled) when a record has more than
 /// [`MAX_PATTERNS`] patterns of sampled outputs. `c` is the C of the data
 /// divided by `scale`; at most [`MAX_OUTPUTS`] outputs.
+///
+/// With `threads` > 1 a long record is cut into that many consecutive
+/// ranges: a serial pass runs the filter recursions alone (O(N n n_u)) to
+/// give each range its starting filter states — the same numbers the
+/// single scan would hold there — and the ranges' base rows are reduced to
+/// R factors on their own threads, then stacked (R of [R₁; R₂] is the R of
+/// all rows). The result depends on `threads` through rounding only.
 pub(crate) fn accumulate(
     form: &ModalForm,
     c: &DMatrix<f64>,
@@ -347,86 +358,61 @@ pub(crate) fn accumulate(
     records: &[Record<'_>],
     scale: DataScale,
     acc: &mut RAccumulator,
+    threads: usize,
 ) -> Result<Option<usize>> {
     let lay = Layout::of(p);
-    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
+    let ny = lay.ny;
+    let inv = (1.0 / scale.io.u, 1.0 / scale.io.y);
     let ct = c * &form.v;
     let mut rows_total = 0;
     for (e, rec) in records.iter().enumerate() {
         let maps: Vec<DMatrix<f64>> = (0..ny).map(|o| row_map(form, &ct, p, &lay, o, e)).collect();
-        let mut pats: Vec<PatternAcc> = Vec::new();
-        let mut w = vec![0.0; n * nu];
-        // Free response Λᵗ (first column of each block: (1) or (1, 0)).
-        let mut fr = vec![0.0; n];
-        let mut i = 0;
-        for m in &form.modes {
-            fr[i] = 1.0;
-            i += if matches!(m, Mode::Real(_)) { 1 } else { 2 };
-        }
-        let mut fr_live = lay.x0.is_some();
-        for t in 0..rec.u.nrows() {
-            let mask = pattern(rec.y, t);
-            if mask != 0 {
-                let k = match pats.iter().position(|pa| pa.mask == mask) {
-                    Some(k) => k,
+        let len = rec.u.nrows();
+        let parts = threads.max(1).min(len / PARALLEL_MIN_SAMPLES).max(1);
+        let per = len.div_ceil(parts);
+        let starts = FilterState::at(form, &lay, rec, inv.0, per, parts);
+        let scans: Vec<Result<Option<Scan>>> = if parts == 1 {
+            vec![scan(form, &lay, rec, inv, 0..len, starts[0].clone())]
+        } else {
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = starts
+                    .iter()
+                    .enumerate()
+                    .skip(1)
+                    .map(|(i, st)| {
+                        let range = i * per..((i + 1) * per).min(len);
+                        let st = st.clone();
+                        let lay = &lay;
+                        scope.spawn(move || scan(form, lay, rec, inv, range, st))
+                    })
+                    .collect();
+                let first = scan(form, &lay, rec, inv, 0..per.min(len), starts[0].clone());
+                std::iter::once(first)
+                    // A range whose thread failed gives up like a record
+                    // with too many patterns: the direct route runs instead.
+                    .chain(handles.into_iter().map(|h| h.join().unwrap_or(Ok(None))))
+                    .collect()
+            })
+        };
+        // Merge the ranges' patterns (in range order).
+        let mut pats: Vec<(u64, RAccumulator)> = Vec::new();
+        for sc in scans {
+            let Some(sc) = sc? else {
+                return Ok(None);
+            };
+            rows_total += sc.rows;
+            for pa in sc.patterns {
+                match pats.iter().position(|(m, _)| *m == pa.mask) {
+                    Some(k) => pats[k].1.push_rows(&pa.acc.r())?,
                     None if pats.len() == MAX_PATTERNS => return Ok(None),
-                    None => {
-                        pats.push(PatternAcc {
-                            mask,
-                            block: DMatrix::zeros(BLOCK, lay.width),
-                            used: 0,
-                            acc: RAccumulator::new(lay.width),
-                        });
-                        pats.len() - 1
-                    }
-                };
-                let pa = &mut pats[k];
-                // Row `used` of the column-major block: entry (row, col) at
-                // col·BLOCK + row.
-                let row = pa.used;
-                let blk = pa.block.as_mut_slice();
-                let mut put = |col: usize, v: f64| blk[col * BLOCK + row] = v;
-                for (col, &v) in w.iter().enumerate() {
-                    put(col, v);
-                }
-                for j in 0..nu {
-                    put(n * nu + j, rec.u[(t, j)] * iu);
-                }
-                if let Some(x0) = lay.x0 {
-                    for (i, &v) in fr.iter().enumerate() {
-                        put(x0 + i, v);
-                    }
-                }
-                if let Some(one) = lay.one {
-                    put(one, 1.0);
-                }
-                for o in 0..ny {
-                    let v = rec.y[(t, o)];
-                    put(lay.y + o, if v.is_nan() { 0.0 } else { v * iy });
-                }
-                pa.used += 1;
-                if pa.used == BLOCK {
-                    pa.flush()?;
-                }
-                rows_total += mask.count_ones() as usize;
-            }
-            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
-                form.step(wj, rec.u[(t, j)] * iu);
-            }
-            if fr_live {
-                form.step(&mut fr, 0.0);
-                if fr.iter().all(|v| v.abs() < NEGLIGIBLE) {
-                    fr.fill(0.0);
-                    fr_live = false;
+                    None => pats.push((pa.mask, pa.acc)),
                 }
             }
         }
-        for pa in &mut pats {
-            pa.flush()?;
-            let rz = pa.acc.r();
+        for (mask, pa) in &pats {
+            let rz = pa.r();
             for (o, map) in maps.iter().enumerate() {
-                if pa.mask & (1 << o) != 0 {
+                if mask & (1 << o) != 0 {
                     acc.push_rows(&(&rz * map))?;
                 }
             }
@@ -435,10 +421,155 @@ pub(crate) fn accumulate(
     Ok(Some(rows_total))
 }
 
+/// The filter states at the start of a range of instants: the input
+/// filters' outputs w (n per input) and the free response Λᵗ (x₀ columns)
+/// with whether it is still above [`NEGLIGIBLE`].
+#[derive(Clone)]
+struct FilterState {
+    w: Vec<f64>,
+    fr: Vec<f64>,
+    fr_live: bool,
+}
+
+impl FilterState {
+    /// The state at t = 0.
+    fn initial(form: &ModalForm, lay: &Layout) -> Self {
+        // Free response Λᵗ (first column of each block: (1) or (1, 0)).
+        let mut fr = vec![0.0; lay.n];
+        let mut i = 0;
+        for m in &form.modes {
+            fr[i] = 1.0;
+            i += if matches!(m, Mode::Real(_)) { 1 } else { 2 };
+        }
+        FilterState {
+            w: vec![0.0; lay.n * lay.nu],
+            fr,
+            fr_live: lay.x0.is_some(),
+        }
+    }
+
+    /// Advances by the input row `t` of `rec` (inputs times `iu`): the
+    /// same operations as the scan, so the states are bit for bit those
+    /// the scan holds at the next instant.
+    fn step(&mut self, form: &ModalForm, rec: &Record<'_>, iu: f64, t: usize) {
+        let n = self.fr.len();
+        for (j, wj) in self.w.chunks_exact_mut(n).enumerate() {
+            form.step(wj, rec.u[(t, j)] * iu);
+        }
+        if self.fr_live {
+            form.step(&mut self.fr, 0.0);
+            if self.fr.iter().all(|v| v.abs() < NEGLIGIBLE) {
+                self.fr.fill(0.0);
+                self.fr_live = false;
+            }
+        }
+    }
+
+    /// The states at t = 0, per, 2·per, … (`parts` of them) by one pass
+    /// of the recursions over the first (parts − 1)·per instants.
+    fn at(
+        form: &ModalForm,
+        lay: &Layout,
+        rec: &Record<'_>,
+        iu: f64,
+        per: usize,
+        parts: usize,
+    ) -> Vec<FilterState> {
+        let mut st = FilterState::initial(form, lay);
+        let mut out = vec![st.clone()];
+        let end = (per * (parts - 1)).min(rec.u.nrows());
+        for t in 0..end {
+            st.step(form, rec, iu, t);
+            if (t + 1) % per == 0 {
+                out.push(st.clone());
+            }
+        }
+        out
+    }
+}
+
+/// The patterns of one range of instants and its sampled output entries.
+struct Scan {
+    patterns: Vec<PatternAcc>,
+    rows: usize,
+}
+
+/// The base rows of the instants `range` of `rec` (inputs times `inv.0`,
+/// outputs times `inv.1`) from the filter state at its start, reduced per
+/// sampling pattern to R factors; `None` beyond [`MAX_PATTERNS`] patterns.
+fn scan(
+    form: &ModalForm,
+    lay: &Layout,
+    rec: &Record<'_>,
+    inv: (f64, f64),
+    range: std::ops::Range<usize>,
+    mut st: FilterState,
+) -> Result<Option<Scan>> {
+    let (iu, iy) = inv;
+    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    let mut pats: Vec<PatternAcc> = Vec::new();
+    let mut rows = 0;
+    for t in range {
+        let mask = pattern(rec.y, t);
+        if mask != 0 {
+            let k = match pats.iter().position(|pa| pa.mask == mask) {
+                Some(k) => k,
+                None if pats.len() == MAX_PATTERNS => return Ok(None),
+                None => {
+                    pats.push(PatternAcc {
+                        mask,
+                        block: DMatrix::zeros(BLOCK, lay.width),
+                        used: 0,
+                        acc: RAccumulator::new(lay.width),
+                    });
+                    pats.len() - 1
+                }
+            };
+            let pa = &mut pats[k];
+            // Row `used` of the column-major block: entry (row, col) at
+            // col·BLOCK + row.
+            let row = pa.used;
+            let blk = pa.block.as_mut_slice();
+            let mut put = |col: usize, v: f64| blk[col * BLOCK + row] = v;
+            for (col, &v) in st.w.iter().enumerate() {
+                put(col, v);
+            }
+            for j in 0..nu {
+                put(n * nu + j, rec.u[(t, j)] * iu);
+            }
+            if let Some(x0) = lay.x0 {
+                for (i, &v) in st.fr.iter().enumerate() {
+                    put(x0 + i, v);
+                }
+            }
+            if let Some(one) = lay.one {
+                put(one, 1.0);
+            }
+            for o in 0..ny {
+                let v = rec.y[(t, o)];
+                put(lay.y + o, if v.is_nan() { 0.0 } else { v * iy });
+            }
+            pa.used += 1;
+            if pa.used == BLOCK {
+                pa.flush()?;
+            }
+            rows += mask.count_ones() as usize;
+        }
+        st.step(form, rec, iu, t);
+    }
+    for pa in &mut pats {
+        pa.flush()?;
+    }
+    Ok(Some(Scan {
+        patterns: pats,
+        rows,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::regress::{Feedthrough, InitialState, output_error_route};
+    use crate::regress::{Feedthrough, InitialState, Route, output_error_route};
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -541,8 +672,32 @@ mod tests {
             instrument: None,
         }];
         let (ft, x0) = (Feedthrough::Free, InitialState::Estimate);
-        let fast = output_error_route(&a, &c, &recs, &ft, x0, true, true).unwrap();
-        let slow = output_error_route(&a, &c, &recs, &ft, x0, true, false).unwrap();
+        let fast = output_error_route(
+            &a,
+            &c,
+            &recs,
+            &ft,
+            x0,
+            Route {
+                offsets: true,
+                allow_modal: true,
+                threads: 1,
+            },
+        )
+        .unwrap();
+        let slow = output_error_route(
+            &a,
+            &c,
+            &recs,
+            &ft,
+            x0,
+            Route {
+                offsets: true,
+                allow_modal: false,
+                threads: 1,
+            },
+        )
+        .unwrap();
         assert_eq!(fast, slow);
         assert!((&fast.b - &b).norm() < 1e-8 * b.norm());
     }
@@ -581,8 +736,32 @@ mod tests {
         for ft in [Feedthrough::Free, Feedthrough::Zero, mask] {
             for x0 in [InitialState::Estimate, InitialState::Zero] {
                 for offsets in [false, true] {
-                    let fast = output_error_route(&a, &c, &recs, &ft, x0, offsets, true).unwrap();
-                    let slow = output_error_route(&a, &c, &recs, &ft, x0, offsets, false).unwrap();
+                    let fast = output_error_route(
+                        &a,
+                        &c,
+                        &recs,
+                        &ft,
+                        x0,
+                        Route {
+                            offsets,
+                            allow_modal: true,
+                            threads: 1,
+                        },
+                    )
+                    .unwrap();
+                    let slow = output_error_route(
+                        &a,
+                        &c,
+                        &recs,
+                        &ft,
+                        x0,
+                        Route {
+                            offsets,
+                            allow_modal: false,
+                            threads: 1,
+                        },
+                    )
+                    .unwrap();
                     let close = |x: &DMatrix<f64>, y: &DMatrix<f64>| {
                         (x - y).norm() <= 1e-9 * (1.0 + y.norm())
                     };
@@ -600,6 +779,59 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn threads_split_long_records_with_the_same_result() {
+        let (a, b, c) = system();
+        let n = 3 * PARALLEL_MIN_SAMPLES + 123;
+        let (u, mut y) = record(&a, &b, &c, n, 5);
+        // Output 2 sampled every fourth instant: two patterns in every
+        // range, one range boundary inside a stretch of missing samples.
+        for t in 0..n {
+            if t % 4 != 0 {
+                y[(t, 1)] = f64::NAN;
+            }
+        }
+        let (u2, y2) = record(&a, &b, &c, 900, 6);
+        let recs = [
+            Record {
+                u: &u,
+                y: &y,
+                instrument: None,
+            },
+            Record {
+                u: &u2,
+                y: &y2,
+                instrument: None,
+            },
+        ];
+        for x0 in [InitialState::Estimate, InitialState::Zero] {
+            let run = |threads| {
+                let route = Route {
+                    offsets: true,
+                    allow_modal: true,
+                    threads,
+                };
+                output_error_route(&a, &c, &recs, &Feedthrough::Free, x0, route).unwrap()
+            };
+            let one = run(1);
+            for threads in [2, 3, 4] {
+                let many = run(threads);
+                let close =
+                    |x: &DMatrix<f64>, y: &DMatrix<f64>| (x - y).norm() <= 1e-10 * (1.0 + y.norm());
+                assert!(close(&many.b, &one.b), "{threads} threads, {x0:?}");
+                assert!(close(&many.d, &one.d), "{threads} threads, {x0:?}");
+                for (p, q) in many.x0.iter().zip(&one.x0) {
+                    assert!((p - q).norm() <= 1e-9 * (1.0 + q.norm()));
+                }
+                for (p, q) in many.offsets.iter().zip(&one.offsets) {
+                    assert!((p - q).norm() <= 1e-10 * (1.0 + q.norm()));
+                }
+            }
+            // Same threads, same bits.
+            assert_eq!(run(2).b, run(2).b);
         }
     }
 }

@@ -533,7 +533,7 @@ pub fn estimate_bd(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    output_error_route(a, c, records, feedthrough, x0, false, true)
+    output_error_route(a, c, records, feedthrough, x0, Route::default())
 }
 
 /// [`estimate_bd`] with a constant output offset per record and output
@@ -548,7 +548,39 @@ pub fn estimate_bd_with_offsets(
     feedthrough: &Feedthrough,
     x0: InitialState,
 ) -> Result<BdFit> {
-    output_error_route(a, c, records, feedthrough, x0, true, true)
+    output_error_route(
+        a,
+        c,
+        records,
+        feedthrough,
+        x0,
+        Route {
+            offsets: true,
+            ..Route::default()
+        },
+    )
+}
+
+/// How [`output_error_route`] runs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Route {
+    /// Estimate a constant output offset per record and output
+    /// ([`estimate_bd_with_offsets`]).
+    pub(crate) offsets: bool,
+    /// Take the modal base rows when A's modal form allows it.
+    pub(crate) allow_modal: bool,
+    /// Threads of the modal accumulation (long records are split).
+    pub(crate) threads: usize,
+}
+
+impl Default for Route {
+    fn default() -> Self {
+        Route {
+            offsets: false,
+            allow_modal: true,
+            threads: 1,
+        }
+    }
 }
 
 /// The output-error (B, D, x₀) regression of [`estimate_bd`] (`offsets`:
@@ -561,12 +593,11 @@ pub(crate) fn output_error_route(
     records: &[Record<'_>],
     feedthrough: &Feedthrough,
     x0: InitialState,
-    offsets: bool,
-    allow_modal: bool,
+    route: Route,
 ) -> Result<BdFit> {
-    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false, offsets)?;
+    let (p, scale, c_scaled) = bd_problem(a, c, records, feedthrough, x0, false, route.offsets)?;
     let mut acc = RAccumulator::new(p.total + 1);
-    let modal = if allow_modal && c.nrows() <= modal::MAX_OUTPUTS {
+    let modal = if route.allow_modal && c.nrows() <= modal::MAX_OUTPUTS {
         ModalForm::of(a)
     } else {
         None
@@ -575,7 +606,15 @@ pub(crate) fn output_error_route(
     // patterns than it keeps accumulators for; the direct route then starts
     // afresh.
     let fast = match modal {
-        Some(form) => modal::accumulate(&form, &c_scaled, &p, records, scale, &mut acc)?,
+        Some(form) => modal::accumulate(
+            &form,
+            &c_scaled,
+            &p,
+            records,
+            scale,
+            &mut acc,
+            route.threads,
+        )?,
         None => None,
     };
     let rows = match fast {
