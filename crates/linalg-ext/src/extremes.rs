@@ -117,7 +117,7 @@ pub fn lower_triangular_extremes_within(
 }
 
 /// Checks finiteness and squareness; returns k.
-fn check_square_lower(l: &DMatrix<f64>) -> Result<usize> {
+pub(crate) fn check_square_lower(l: &DMatrix<f64>) -> Result<usize> {
     check_finite("l", l)?;
     let k = l.nrows();
     if l.ncols() != k {
@@ -205,6 +205,24 @@ fn shifted_diagonal(mut m: DMatrix<f64>, shift: f64) -> DMatrix<f64> {
     m
 }
 
+/// ‖G‖∞ of the symmetric matrix whose lower triangle `g` holds (the
+/// largest row sum of |G|, an upper bound of λ_max). O(k²).
+pub(crate) fn lower_row_sums_max(g: &DMatrix<f64>) -> f64 {
+    let k = g.nrows();
+    // Row i is G[i, ..=i] then G[i+1.., i] (column i below the diagonal).
+    let mut sums = vec![0.0f64; k];
+    for j in 0..k {
+        let col = g.column(j);
+        for i in j + 1..k {
+            let v = col[i].abs();
+            sums[i] += v;
+            sums[j] += v;
+        }
+        sums[j] += col[j].abs();
+    }
+    sums.iter().cloned().fold(0.0, f64::max)
+}
+
 /// Whether λ_min(G)/λ_max(G) > threshold for a symmetric positive
 /// semi-definite `g` (lower triangle used), proven by Cholesky
 /// factorisations: λ_min > threshold · ‖G‖∞ (the row-sum bound of λ_max),
@@ -220,19 +238,7 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if k == 0 {
         return Ok(true);
     }
-    // Row sums of |G| from the lower triangle: row i is G[i, ..=i] then
-    // G[i+1.., i] (column i below the diagonal).
-    let mut sums = vec![0.0f64; k];
-    for j in 0..k {
-        let col = g.column(j);
-        for i in j + 1..k {
-            let v = col[i].abs();
-            sums[i] += v;
-            sums[j] += v;
-        }
-        sums[j] += col[j].abs();
-    }
-    let row_sums = sums.iter().cloned().fold(0.0, f64::max);
+    let row_sums = lower_row_sums_max(g);
     if row_sums.is_nan() || row_sums <= 0.0 {
         return Ok(false);
     }

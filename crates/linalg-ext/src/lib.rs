@@ -84,7 +84,7 @@ pub mod warm;
 
 pub use cca::{Cca, cca, center_rows};
 pub use check::{check_cols, check_finite, check_rows, check_square};
-pub use cholesky::cholesky_lower;
+pub use cholesky::{cholesky_condition, cholesky_lower};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
 pub use error::{Error, Result};

@@ -637,10 +637,9 @@ impl HankelStream {
 /// Cholesky factor of the Gram matrix with the definiteness and condition
 /// checks of [`Compression::Auto`].
 fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
-    // rcond above the threshold proven by two Cholesky factorisations of
-    // shifted copies of G (O(k³/3) each; no SVD): the common case.
-    let proven = lifted_linalg::gram_condition_exceeds(&g, CORRELATION_RCOND_MIN)?;
-    let Some(l) = lifted_linalg::cholesky_lower(g) else {
+    // rcond above the threshold proven by the Cholesky factorisation of a
+    // shifted G (O(k³/3); no SVD), the common case, then G's own factor.
+    let Some((l, proven)) = lifted_linalg::cholesky_condition(g, CORRELATION_RCOND_MIN)? else {
         return Err(Error::IllConditionedCorrelation {
             rcond: f64::NAN,
             min: CORRELATION_RCOND_MIN,
