@@ -503,24 +503,30 @@ impl HankelStream {
                 // Natural order: index o·n_z + c for offset o, channel c.
                 // Σ_{j<J} z_c1(j+o1) z_c2(j+o1+δ) = S(δ) − Σ_{t<o1} − Σ_{t=o1+J}^{N−1−δ}:
                 // both corrections are running sums over o1, O(s² n_z²) in all.
+                // The head holds z(0 … s−2) and the tail z(J … N−1)
+                // (tail_start = J as soon as a column exists), so both
+                // corrections read plain slices.
+                debug_assert_eq!(tail_start, cols);
                 let mut head_part = vec![0.0; span];
                 let mut tail_part = vec![0.0; span];
                 for d in 0..span {
                     let m = span - d;
                     for c1 in 0..nz {
+                        let (h1, t1) = (&head[c1][..m - 1], &tail[c1][..m - 1]);
                         for c2 in 0..nz {
+                            let (h2, t2) = (&head[c2][d..d + m - 1], &tail[c2][d..d + m - 1]);
+                            // head_part[o1] = Σ_{t<o1} z_c1(t) z_c2(t+δ).
                             let mut acc = 0.0;
-                            for (o1, h) in head_part.iter_mut().take(m).enumerate() {
+                            for ((h, a), b) in head_part.iter_mut().zip(h1).zip(h2) {
                                 *h = acc;
-                                if o1 + 1 < m {
-                                    acc += at(c1, o1) * at(c2, o1 + d);
-                                }
+                                acc += a * b;
                             }
+                            head_part[m - 1] = acc;
+                            // tail_part[o1] = Σ_{t=o1+J}^{N−1−δ} z_c1(t) z_c2(t+δ).
                             let mut acc = 0.0;
-                            for o1 in (0..m).rev() {
-                                if o1 + 1 < m {
-                                    acc += at(c1, o1 + cols) * at(c2, o1 + cols + d);
-                                }
+                            tail_part[m - 1] = 0.0;
+                            for o1 in (0..m - 1).rev() {
+                                acc += t1[o1] * t2[o1];
                                 tail_part[o1] = acc;
                             }
                             let sd = s[(d * nz + c1) * nz + c2];
