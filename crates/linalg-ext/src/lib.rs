@@ -16,14 +16,17 @@
 //! | [`matfun`] | [`expm`], [`logm`], [`rootm`], [`rootm_primary`], [`sqrtm`] | Padé-13 scaling and squaring (Higham 2005); complex Schur + inverse scaling and squaring; Smith's Schur p-th root recurrence | O(n³), O(p·n³) |
 //! | [`schur`] | [`real_schur`], [`RealSchur::eigenvalues`], [`RealSchur::reorder`] | nalgebra Francis QR (faer's is private), standardised 2×2 blocks; Bai–Demmel block swaps | O(10n³) |
 //! | [`mod@eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
-//! | [`mod@svd`] | [`svd()`], [`singular_values`] | faer thin SVD, s descending | O(mn·min(m,n)) |
-//! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR; R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
+//! | [`mod@svd`] | [`svd()`], [`svd_left`], [`singular_values`] | faer thin SVD (U only for `svd_left`), s descending | O(mn·min(m,n)) |
+//! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR (unblocked up to 24 columns); R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
+//! | [`cholesky`] | [`cholesky_lower`], [`cholesky_condition`] | faer blocked Cholesky; the latter also proves λ_min/λ_max above a threshold by factoring the shifted matrix in place (packed half-size copy) | k³/3, 2k³/3 |
+//! | [`extremes`] | [`gram_condition_exceeds`], [`triangular_condition`], [`triangular_ratio_bound`], [`lower_inverse_frobenius`], [`lower_triangular_extremes`] | shifted-Cholesky certificates, explicit triangular inverse bounds, power iteration | O(k²) per step, O(k³/3) |
 //! | [`mod@rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
 //! | [`kernels`] | [`dot`], [`first_non_finite`] | eight FMA partial sums (SIMD); branch-free block scan | O(n) |
-//! | [`mod@lstsq`] | [`lstsq()`] | QR if full column rank, else minimum-norm SVD solution | O(mn²) |
+//! | [`mod@lstsq`] | [`lstsq()`] | Householder QR in place, reflectors applied to B, if full column rank; else minimum-norm SVD solution | O(mn²) |
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
 //! | [`mod@cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
+//! | [`warm`] | [`warm_up`], [`pin_parallelism`] | faer's one-time set-up on a background thread; faer's global parallelism pinned so its solvers start no idle thread pool | O(1) |
 //!
 //! Numerical notes from the reproduction spec (Part C, Pitfalls 1–2): SVD
 //! and eigen bases are unique only up to sign/rotation, so tests compare
