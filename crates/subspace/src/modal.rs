@@ -569,9 +569,29 @@ fn scan(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::regress::{Feedthrough, InitialState, Route, output_error_route};
+    use crate::regress::{BdFit, Feedthrough, InitialState, Route, output_error_route};
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// The modal and the direct route on the same problem (one thread).
+    fn both_routes(
+        a: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        recs: &[Record<'_>],
+        ft: &Feedthrough,
+        x0: InitialState,
+        offsets: bool,
+    ) -> (BdFit, BdFit) {
+        let run = |allow_modal| {
+            let route = Route {
+                offsets,
+                allow_modal,
+                threads: 1,
+            };
+            output_error_route(a, c, recs, ft, x0, route).unwrap()
+        };
+        (run(true), run(false))
+    }
 
     /// A stable 4-state A with a complex pair and two real modes, in a
     /// non-modal basis.
@@ -672,32 +692,7 @@ mod tests {
             instrument: None,
         }];
         let (ft, x0) = (Feedthrough::Free, InitialState::Estimate);
-        let fast = output_error_route(
-            &a,
-            &c,
-            &recs,
-            &ft,
-            x0,
-            Route {
-                offsets: true,
-                allow_modal: true,
-                threads: 1,
-            },
-        )
-        .unwrap();
-        let slow = output_error_route(
-            &a,
-            &c,
-            &recs,
-            &ft,
-            x0,
-            Route {
-                offsets: true,
-                allow_modal: false,
-                threads: 1,
-            },
-        )
-        .unwrap();
+        let (fast, slow) = both_routes(&a, &c, &recs, &ft, x0, true);
         assert_eq!(fast, slow);
         assert!((&fast.b - &b).norm() < 1e-8 * b.norm());
     }
@@ -736,32 +731,7 @@ mod tests {
         for ft in [Feedthrough::Free, Feedthrough::Zero, mask] {
             for x0 in [InitialState::Estimate, InitialState::Zero] {
                 for offsets in [false, true] {
-                    let fast = output_error_route(
-                        &a,
-                        &c,
-                        &recs,
-                        &ft,
-                        x0,
-                        Route {
-                            offsets,
-                            allow_modal: true,
-                            threads: 1,
-                        },
-                    )
-                    .unwrap();
-                    let slow = output_error_route(
-                        &a,
-                        &c,
-                        &recs,
-                        &ft,
-                        x0,
-                        Route {
-                            offsets,
-                            allow_modal: false,
-                            threads: 1,
-                        },
-                    )
-                    .unwrap();
+                    let (fast, slow) = both_routes(&a, &c, &recs, &ft, x0, offsets);
                     let close = |x: &DMatrix<f64>, y: &DMatrix<f64>| {
                         (x - y).norm() <= 1e-9 * (1.0 + y.norm())
                     };
