@@ -384,7 +384,7 @@ fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result
         return check_data(what, m);
     }
     let per = v.len().div_ceil(threads);
-    let hits: Vec<Option<usize>> = std::thread::scope(|scope| {
+    let hits: Vec<Option<Option<usize>>> = std::thread::scope(|scope| {
         let handles: Vec<_> = v
             .chunks(per)
             .enumerate()
@@ -395,10 +395,14 @@ fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result
             })
             .collect();
         let first = lifted_linalg::kernels::first_non_finite(&v[..per.min(v.len())]);
-        std::iter::once(first)
-            .chain(handles.into_iter().map(|h| h.join().unwrap_or(None)))
+        std::iter::once(Some(first))
+            .chain(handles.into_iter().map(|h| h.join().ok()))
             .collect()
     });
+    // A range whose thread failed is scanned again here (never skipped).
+    let Some(hits) = hits.into_iter().collect::<Option<Vec<Option<usize>>>>() else {
+        return check_data(what, m);
+    };
     match hits.into_iter().flatten().next() {
         Some(i) => Err(Error::NonFinite {
             what,

@@ -179,36 +179,45 @@ pub(crate) fn channel_sums_par(
     let per = len.div_ceil(threads);
     let slen = s.len();
     let (first, rest) = scratch.split_at_mut(1);
-    let partial: Vec<Vec<f64>> = std::thread::scope(|scope| {
+    let partial: Vec<Option<Vec<f64>>> = std::thread::scope(|scope| {
         let handles: Vec<_> = rest
             .iter_mut()
             .take(threads - 1)
             .enumerate()
-            .map(|(i, w)| {
-                let start = (i + 1) * per;
-                let part = per.min(len.saturating_sub(start));
-                scope.spawn(move || {
-                    let mut acc = vec![0.0; slen];
-                    if part > 0 {
-                        let zz: Vec<Channel<'_>> = z.iter().map(|c| c.skip(start)).collect();
-                        channel_sums(&zz, span, part, &mut acc, w);
-                    }
-                    acc
-                })
-            })
+            .map(|(i, w)| scope.spawn(move || range_sums(z, span, len, per, i + 1, slen, w)))
             .collect();
         // The calling thread takes the first range.
         channel_sums(z, span, per.min(len), s, &mut first[0]);
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_default())
-            .collect()
+        handles.into_iter().map(|h| h.join().ok()).collect()
     });
-    for p in partial {
+    for (i, p) in partial.into_iter().enumerate() {
+        // A range whose thread failed is summed again here (never skipped).
+        let p = p.unwrap_or_else(|| range_sums(z, span, len, per, i + 1, slen, &mut first[0]));
         for (a, b) in s.iter_mut().zip(p) {
             *a += b;
         }
     }
+}
+
+/// The sums of range `r` (instants r·per … (r+1)·per − 1 as column starts)
+/// of [`channel_sums_par`], into a fresh vector of `slen` entries.
+fn range_sums(
+    z: &[Channel<'_>],
+    span: usize,
+    len: usize,
+    per: usize,
+    r: usize,
+    slen: usize,
+    w: &mut Scratch,
+) -> Vec<f64> {
+    let start = r * per;
+    let part = per.min(len.saturating_sub(start));
+    let mut acc = vec![0.0; slen];
+    if part > 0 {
+        let zz: Vec<Channel<'_>> = z.iter().map(|c| c.skip(start)).collect();
+        channel_sums(&zz, span, part, &mut acc, w);
+    }
+    acc
 }
 
 /// The tiled kernel over interleaved blocks (x86-64 with AVX2 and FMA;
