@@ -21,6 +21,7 @@
 //! | [`cholesky`] | [`cholesky_lower`], [`cholesky_condition`] | faer blocked Cholesky; the latter also proves λ_min/λ_max above a threshold by factoring the shifted matrix in place (packed half-size copy) | k³/3, 2k³/3 |
 //! | [`extremes`] | [`gram_condition_exceeds`], [`triangular_condition`], [`triangular_ratio_bound`], [`lower_inverse_frobenius`], [`lower_triangular_extremes`] | shifted-Cholesky certificates, explicit triangular inverse bounds, power iteration | O(k²) per step, O(k³/3) |
 //! | [`mod@rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
+//! | [`product`] | [`mul_blocks`] | faer matmul on column/row blocks of `DMatrix` operands (no copies) | O(mkn) |
 //! | [`kernels`] | [`dot`], [`first_non_finite`] | eight FMA partial sums (SIMD); branch-free block scan | O(n) |
 //! | [`mod@lstsq`] | [`lstsq()`] | Householder QR in place, reflectors applied to B, if full column rank; else minimum-norm SVD solution | O(mn²) |
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
@@ -77,6 +78,7 @@ pub mod kernels;
 pub mod lstsq;
 pub mod lyapunov;
 pub mod matfun;
+pub mod product;
 pub mod qr;
 pub mod rank;
 pub mod riccati;
@@ -100,6 +102,7 @@ pub use kernels::{dot, first_non_finite};
 pub use lstsq::lstsq;
 pub use lyapunov::{dlyap, lyap, sylvester};
 pub use matfun::{expm, logm, rootm, rootm_primary, sqrtm};
+pub use product::mul_blocks;
 pub use qr::{Qr, RAccumulator, qr_full, qr_r, qr_r_owned, qr_thin};
 pub use rank::{RankTolerance, null_space, pinv, range_basis, rank};
 pub use riccati::{DareSolution, dare};

@@ -3,8 +3,9 @@
 //! All three factor A = PᵀLU with faer's partial-pivoting LU (⅔n³ flops).
 //! [`solve`] and [`inv`] then estimate the reciprocal 1-norm condition number
 //! rcond = 1/(‖A‖₁‖A⁻¹‖₁) with Hager's estimator as refined by Higham
-//! (LAPACK `dlacon`; a few O(n²) triangular solves) and refuse systems with
-//! rcond < ε, i.e. condition numbers beyond ~1/ε, with [`Error::Singular`].
+//! (LAPACK `dlacon`; a few O(n²) triangular solves) — exactly, from the
+//! inverse, up to n = 16 — and refuse systems with rcond < ε, i.e.
+//! condition numbers beyond ~1/ε, with [`Error::Singular`].
 
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
@@ -13,6 +14,9 @@ use nalgebra::DMatrix;
 use crate::check::{check_finite, check_rows, square_finite};
 use crate::convert::{as_faer, to_dmatrix};
 use crate::{Error, Result};
+
+/// Order up to which the rcond is computed exactly from the inverse.
+const EXACT_RCOND_MAX: usize = 16;
 
 /// An LU factorisation together with its rcond estimate.
 pub(crate) struct Lu {
@@ -75,6 +79,17 @@ impl Lu {
         let anorm = a.column_iter().map(|c| c.lp_norm(1)).fold(0.0, f64::max);
         if anorm == 0.0 {
             return 0.0;
+        }
+        if n <= EXACT_RCOND_MAX {
+            // Small: ‖A⁻¹‖₁ exactly from the inverse, one solve with n
+            // right-hand sides (cheaper here than the estimator's up to
+            // twelve single-column solves).
+            let inv = self.lu.solve(Mat::<f64>::identity(n, n));
+            let inv_norm = (0..n)
+                .map(|j| (0..n).map(|i| inv[(i, j)].abs()).sum::<f64>())
+                .fold(0.0, f64::max);
+            let rcond = 1.0 / (anorm * inv_norm);
+            return if rcond.is_finite() { rcond } else { 0.0 };
         }
         let mut x = DMatrix::from_element(n, 1, 1.0 / n as f64);
         let mut est: f64 = 0.0;
@@ -200,6 +215,33 @@ mod tests {
         let a = DMatrix::from_diagonal(&nalgebra::dvector![1.0, 1e-3]);
         assert_relative_eq!(rcond(&a).unwrap(), 1e-3, max_relative = 1e-12);
         assert_eq!(rcond(&DMatrix::identity(3, 3)).unwrap(), 1.0);
+    }
+
+    #[test]
+    fn exact_rcond_for_small_orders_and_an_estimate_above() {
+        for n in [5, EXACT_RCOND_MAX, EXACT_RCOND_MAX + 14] {
+            let a = DMatrix::from_fn(n, n, |i, j| {
+                (1.0 + 0.9 * i as f64 + 0.37 * (j * j) as f64).sin()
+                    + 2.0 * f64::from(u8::from(i == j))
+            });
+            let norm1 = |m: &DMatrix<f64>| {
+                m.column_iter()
+                    .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+                    .fold(0.0, f64::max)
+            };
+            let inverse = a.clone().try_inverse().unwrap();
+            let exact = 1.0 / (norm1(&a) * norm1(&inverse));
+            let got = rcond(&a).unwrap();
+            if n <= EXACT_RCOND_MAX {
+                assert_relative_eq!(got, exact, max_relative = 1e-10);
+            } else {
+                // The estimator bounds ‖A⁻¹‖₁ from below: rcond from above.
+                assert!(
+                    got >= exact * (1.0 - 1e-12) && got <= 10.0 * exact,
+                    "{got} vs {exact}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The unified subspace engine: N4SID, MOESP and CVA as one weighted SVD
 //! (thesis §2.5, Van Overschee & De Moor's unifying theorem).
 
-use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, pinv, svd_left, sym_eig};
+use lifted_linalg::{RankTolerance, SortOrder, dare, lstsq, mul_blocks, pinv, svd_left, sym_eig};
 use lifted_lti::{OperatingPoint, StateSpace};
 use std::time::Instant;
 
@@ -1439,19 +1439,44 @@ fn state_sequences(
     // which are consecutive rows of L): X(t) = K W_p(t) on a view of L.
     let k = pinv(gamma, RankTolerance::Default)? * map;
     debug_assert_eq!(upr.end, ypr.start);
-    let x_i = &k * l.rows(upr.start, upr.len() + ypr.len());
-    // W_p(t+1) = [U_p rows n_u…; u(t); Y_p rows n_y…; y(t)]: four products
-    // with row views of L instead of a stacked copy.
     let (pu, py) = (upr.len(), ypr.len());
-    let mut x_ip1 = k.columns(0, pu - nu) * l.rows(upr.start + nu, pu - nu);
-    x_ip1.gemm(1.0, &k.columns(pu - nu, nu), &u_i, 1.0);
-    x_ip1.gemm(
-        1.0,
-        &k.columns(pu, py - ny),
-        &l.rows(ypr.start + ny, py - ny),
-        1.0,
-    );
-    x_ip1.gemm(1.0, &k.columns(pu + py - ny, ny), &y_i, 1.0);
+    let mut x_i = DMatrix::zeros(k.nrows(), l.ncols());
+    mul_blocks(&mut x_i, false, &k, 0..pu + py, l, upr.start..ypr.end)?;
+    // W_p(t+1) = [U_p rows n_u…; u(t); Y_p rows n_y…; y(t)]: four products
+    // with row blocks of L instead of a stacked copy.
+    let mut x_ip1 = DMatrix::zeros(k.nrows(), l.ncols());
+    mul_blocks(
+        &mut x_ip1,
+        false,
+        &k,
+        0..pu - nu,
+        l,
+        upr.start + nu..upr.end,
+    )?;
+    mul_blocks(
+        &mut x_ip1,
+        true,
+        &k,
+        pu - nu..pu,
+        l,
+        ufr.start..ufr.start + nu,
+    )?;
+    mul_blocks(
+        &mut x_ip1,
+        true,
+        &k,
+        pu..pu + py - ny,
+        l,
+        ypr.start + ny..ypr.end,
+    )?;
+    mul_blocks(
+        &mut x_ip1,
+        true,
+        &k,
+        pu + py - ny..pu + py,
+        l,
+        yfr.start..yfr.start + ny,
+    )?;
     Ok([x_i, x_ip1, u_i, y_i])
 }
 
