@@ -60,7 +60,7 @@ fn factor_lower_in_place(g: &mut DMatrix<f64>) -> bool {
 /// copy (k(k+1)/2 entries, half a matrix), and restored for the
 /// factorisation proper. Only when that certificate fails does the
 /// power-iteration route of [`crate::gram_condition_exceeds`] run (with its
-/// copies). `None` when G is not numerically positive definite. Two
+/// copies; the row-sum certificate is not repeated). `None` when G is not numerically positive definite. Two
 /// factorisations, O(2k³/3).
 ///
 /// Errors: [`crate::Error::NonFinite`], [`crate::Error::DimensionMismatch`]
@@ -98,7 +98,7 @@ pub fn cholesky_condition(
             }
         }
         if !proven {
-            proven = crate::gram_condition_exceeds(&g, threshold)?;
+            proven = crate::extremes::power_certificate(&g, threshold, row_sums)?;
         }
     }
     Ok(cholesky_lower(g).map(|l| (l, proven)))

@@ -248,6 +248,16 @@ pub fn gram_condition_exceeds(g: &DMatrix<f64>, threshold: f64) -> Result<bool> 
     if exceeds_min_eigenvalue(g, threshold * row_sums)? {
         return Ok(true);
     }
+    power_certificate(g, threshold, row_sums)
+}
+
+/// The second certificate of [`gram_condition_exceeds`], for when the
+/// row-sum bound `row_sums` (‖G‖∞, finite and positive) of λ_max was too
+/// loose: λ_max < λ₊ = 1.05 × a power-iteration estimate, proven by a
+/// Cholesky factorisation of λ₊I − G, then λ_min > threshold · λ₊ by one of
+/// G − threshold·λ₊ I. `g` square, finite, lower triangle used.
+pub(crate) fn power_certificate(g: &DMatrix<f64>, threshold: f64, row_sums: f64) -> Result<bool> {
+    let k = g.nrows();
     // The symmetric matrix of the lower triangle, in one copy.
     let mut sym = g.clone();
     for j in 0..k {

@@ -23,6 +23,8 @@ pub(crate) struct Lu {
     lu: PartialPivLu<f64>,
     n: usize,
     rcond: f64,
+    /// A⁻¹ when the exact rcond computed it (n ≤ [`EXACT_RCOND_MAX`]).
+    inverse: Option<Mat<f64>>,
 }
 
 impl Lu {
@@ -30,7 +32,12 @@ impl Lu {
     pub(crate) fn new(a: &DMatrix<f64>) -> Self {
         let n = a.nrows();
         let lu = as_faer(a).partial_piv_lu();
-        let mut this = Lu { lu, n, rcond: 1.0 };
+        let mut this = Lu {
+            lu,
+            n,
+            rcond: 1.0,
+            inverse: None,
+        };
         this.rcond = this.estimate_rcond(a);
         this
     }
@@ -66,7 +73,7 @@ impl Lu {
     /// "FORTRAN codes for estimating the one-norm of a real or complex
     /// matrix"): at most 5 iterations of two solves each, then the
     /// alternating-sign lower bound of LAPACK's `dlacon`.
-    fn estimate_rcond(&self, a: &DMatrix<f64>) -> f64 {
+    fn estimate_rcond(&mut self, a: &DMatrix<f64>) -> f64 {
         let n = self.n;
         if n == 0 {
             return 1.0;
@@ -88,6 +95,7 @@ impl Lu {
             let inv_norm = (0..n)
                 .map(|j| (0..n).map(|i| inv[(i, j)].abs()).sum::<f64>())
                 .fold(0.0, f64::max);
+            self.inverse = Some(inv);
             let rcond = 1.0 / (anorm * inv_norm);
             return if rcond.is_finite() { rcond } else { 0.0 };
         }
@@ -168,7 +176,12 @@ pub fn inv(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     }
     let lu = Lu::new(a);
     lu.require_regular("a")?;
-    Ok(to_dmatrix(lu.solve_mat(&Mat::identity(n, n)).as_ref()))
+    // Small orders: the rcond already computed the inverse.
+    let inverse = match lu.inverse {
+        Some(ref m) => to_dmatrix(m.as_ref()),
+        None => to_dmatrix(lu.solve_mat(&Mat::identity(n, n)).as_ref()),
+    };
+    Ok(inverse)
 }
 
 /// Reciprocal 1-norm condition estimate rcond(A) = 1/(‖A‖₁‖A⁻¹‖₁) in [0, 1]

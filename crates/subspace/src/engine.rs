@@ -8,7 +8,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, check_data, check_exciting};
+use crate::error::{Error, Result, check_data, check_exciting, non_finite_at};
 use crate::hankel::{
     Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
 };
@@ -404,11 +404,7 @@ fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result
         return check_data(what, m);
     };
     match hits.into_iter().flatten().next() {
-        Some(i) => Err(Error::NonFinite {
-            what,
-            row: i % m.nrows(),
-            col: i / m.nrows(),
-        }),
+        Some(i) => Err(non_finite_at(what, m, i)),
         None => Ok(()),
     }
 }

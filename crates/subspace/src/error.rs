@@ -182,11 +182,17 @@ pub(crate) fn check_data(what: &'static str, m: &nalgebra::DMatrix<f64>) -> Resu
     // Column-major: the first non-finite entry in storage order is the
     // first by column, then row (vectorised scan).
     match lifted_linalg::kernels::first_non_finite(m.as_slice()) {
-        Some(i) => Err(Error::NonFinite {
-            what,
-            row: i % m.nrows(),
-            col: i / m.nrows(),
-        }),
+        Some(i) => Err(non_finite_at(what, m, i)),
         None => Ok(()),
+    }
+}
+
+/// [`Error::NonFinite`] for the entry at column-major storage index `i`
+/// of `m`.
+pub(crate) fn non_finite_at(what: &'static str, m: &nalgebra::DMatrix<f64>, i: usize) -> Error {
+    Error::NonFinite {
+        what,
+        row: i % m.nrows(),
+        col: i / m.nrows(),
     }
 }

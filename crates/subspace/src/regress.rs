@@ -24,7 +24,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::engine::{
     Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
 };
-use crate::error::{Error, Result, check_data, check_rank};
+use crate::error::{Error, Result, check_data, check_rank, non_finite_at};
 use crate::modal::{self, ModalForm};
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
@@ -374,12 +374,7 @@ fn validate(
         if ys.iter().fold(false, |any, v| any | v.is_infinite())
             && let Some(i) = ys.iter().position(|v| v.is_infinite())
         {
-            let rows = r.y.nrows();
-            return Err(Error::NonFinite {
-                what: "y",
-                row: i % rows,
-                col: i / rows,
-            });
+            return Err(non_finite_at("y", r.y, i));
         }
         if iv && let Some(f) = r.instrument {
             check_instrument(f, r.u)?;
