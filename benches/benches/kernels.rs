@@ -71,5 +71,35 @@ fn r_only_qr(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(kernels, thin_svd, r_only_qr);
+/// The narrow least squares of the subspace estimates (the projection (B, D)
+/// regression is 720 × 8; `lstsq` 720 × 6 with two right-hand sides): this
+/// crate's unblocked in-place path against nalgebra's QR solve.
+fn narrow_least_squares(c: &mut Criterion) {
+    let mut group = c.benchmark_group("narrow_least_squares");
+    group
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    let a = random_matrix(720, 8, 3);
+    group.bench_function(BenchmarkId::new("qr_r_faer", "720x8"), |b| {
+        b.iter(|| black_box(lifted_linalg::qr_r(black_box(&a)).expect("finite input")))
+    });
+    group.bench_function(BenchmarkId::new("qr_r_nalgebra", "720x8"), |b| {
+        b.iter(|| black_box(black_box(&a).clone().qr().r()))
+    });
+    let (x, y) = (a.columns(0, 6).into_owned(), a.columns(6, 2).into_owned());
+    group.bench_function(BenchmarkId::new("lstsq_faer", "720x6"), |b| {
+        b.iter(|| black_box(lifted_linalg::lstsq(black_box(&x), &y).expect("finite input")))
+    });
+    group.bench_function(BenchmarkId::new("lstsq_nalgebra", "720x6"), |b| {
+        b.iter(|| {
+            let qr = black_box(&x).clone().qr();
+            let qty = qr.q().transpose() * &y;
+            black_box(qr.r().solve_upper_triangular(&qty))
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(kernels, thin_svd, r_only_qr, narrow_least_squares);
 criterion_main!(kernels);

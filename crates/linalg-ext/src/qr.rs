@@ -38,7 +38,9 @@ pub struct Qr {
 /// blocked update (block size from `recommended_block_size`) costs more
 /// than it saves on narrow matrices (720×8: 5 µs unblocked against 19 µs
 /// blocked; 10 000×16: 0.32 ms against 0.50 ms; even at 24 columns, above
-/// it the blocked form wins; benches/examples measurements, 2026-11-25).
+/// it the blocked form wins; one-off timings of both block sizes,
+/// 2026-11-25; the unblocked path against nalgebra is the criterion bench
+/// `kernels -- narrow_least`).
 const NARROW_COLUMNS: usize = 24;
 
 /// Householder QR of `work` in place (faer `qr_in_place`): R in the upper
