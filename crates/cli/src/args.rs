@@ -314,6 +314,18 @@ pub enum EstimatorArg {
     States,
 }
 
+/// Route of (B, D, x₀) after (A, C) (`--bd`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BdArg {
+    /// Output-error least squares on the data; the projection only when A is too unstable
+    /// for the regression over the record (default).
+    Auto,
+    /// Output-error least squares on the data, always.
+    OutputError,
+    /// The projection on the compressed data (one pass over a file).
+    Projection,
+}
+
 /// Refinement after the identification (`--refine`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum RefineArg {
@@ -437,6 +449,11 @@ pub struct IdentifyArgs {
     /// Subspace methods: (A, C) by shift invariance (consistent, default) or from the state sequences.
     #[arg(long, value_enum, default_value_t = EstimatorArg::Shift)]
     pub estimator: EstimatorArg,
+    /// Subspace methods: (B, D, x₀) by output-error least squares on the data (`auto`, the
+    /// default: a data file is read a second time, memory stays flat) or by the projection on
+    /// the compressed data (`projection`: one pass, less accurate on real records).
+    #[arg(long, value_enum, default_value_t = BdArg::Auto)]
+    pub bd: BdArg,
     /// Offsets removed before identification (per channel, from the estimation record); the
     /// means are stored in the model file as its operating point and re-applied by simulate,
     /// validate and report. `linear` also removes trends (in memory, not streamed).

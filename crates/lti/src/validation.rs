@@ -70,6 +70,10 @@ pub struct OutputValidation {
     pub white: bool,
     /// Independence test passed.
     pub independent: bool,
+    /// Every residual is finite. When false (a diverging simulation of an
+    /// unstable model), the fit is NaN or meaningless, the correlations are
+    /// NaN and neither test passes.
+    pub residual_finite: bool,
     /// Sample indices compared (the output's measured instants).
     pub instants: Vec<usize>,
     /// Measured output at those instants.
@@ -87,6 +91,17 @@ pub struct Validation {
     pub lags: usize,
     /// Horizons of the prediction fits (empty when no gain was used).
     pub horizons: Vec<usize>,
+    /// Spectral radius ρ(A) of the model at the data's period (0 for a
+    /// static gain).
+    pub spectral_radius: f64,
+}
+
+impl Validation {
+    /// Whether the model is stable (ρ(A) < 1): otherwise its simulation
+    /// diverges and the simulation fits are not meaningful.
+    pub fn stable(&self) -> bool {
+        self.spectral_radius < 1.0
+    }
 }
 
 /// 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖); NaN for a constant `y`. O(N).
@@ -106,7 +121,12 @@ pub fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {
     }
 }
 
+/// At most max(1, ⌈len/100⌉) of the correlations `r` outside ±`bound`;
+/// never when one is not finite.
 fn passes(r: &[f64], bound: f64) -> bool {
+    if r.iter().any(|v| !v.is_finite()) {
+        return false;
+    }
     let outside = r.iter().filter(|v| v.abs() > bound).count();
     outside <= r.len().div_ceil(100).max(1)
 }
@@ -214,11 +234,14 @@ pub fn validate(
                 fit_percent(&y, &yp)
             })
             .collect();
+        let residual_finite = e.iter().all(|v| v.is_finite());
         let ec = centred(&e);
         let r0 = corr(&ec, &ec, 0);
         let auto: Vec<f64> = (1..=lags as i64)
             .map(|t| {
-                if r0 > 0.0 {
+                if !residual_finite {
+                    f64::NAN
+                } else if r0 > 0.0 {
                     corr(&ec, &ec, t) / r0
                 } else {
                     0.0
@@ -232,7 +255,9 @@ pub fn validate(
                 let den = (r0 * corr(&uc, &uc, 0)).sqrt();
                 (-(lags as i64)..=lags as i64)
                     .map(|t| {
-                        if den > 0.0 {
+                        if !residual_finite {
+                            f64::NAN
+                        } else if den > 0.0 {
                             corr(&ec, &uc, t) / den
                         } else {
                             0.0
@@ -242,9 +267,15 @@ pub fn validate(
             })
             .collect();
         let bound = Z99 / (n as f64).sqrt();
+        let fit = if residual_finite {
+            fit_percent(&y, &yhat)
+        } else {
+            f64::NAN
+        };
         outputs.push(OutputValidation {
             name: ch.name.clone(),
-            fit: fit_percent(&y, &yhat),
+            fit,
+            residual_finite,
             prediction_fits,
             samples: n,
             bound,
@@ -257,8 +288,14 @@ pub fn validate(
             simulated: sim.column(o).iter().copied().collect(),
         });
     }
+    let spectral_radius = if m.order() == 0 {
+        0.0
+    } else {
+        m.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
+    };
     Ok(Validation {
         outputs,
+        spectral_radius,
         lags,
         horizons: if predictions.is_empty() {
             Vec::new()

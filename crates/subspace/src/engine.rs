@@ -8,6 +8,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use crate::bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
 use crate::error::{Error, Result, check_data, check_exciting, non_finite_at};
 use crate::hankel::{
     Compression, CompressionReport, HankelFactor, HankelLayout, HankelStream, compress,
@@ -237,6 +238,36 @@ pub struct Diagnostics {
     pub compression: CompressionReport,
     /// Wall time per phase.
     pub profile: Profile,
+    /// The route that gave (B, D) and x₀.
+    pub bd_route: BdRoute,
+    /// Every fallback taken on the way to the model (a route refused and
+    /// the one used instead), human readable; empty when none.
+    pub fallbacks: Vec<String>,
+    /// Spectral radius ρ(A) of the returned model (≥ 1: unstable; a
+    /// simulation of it diverges and its simulation fit is meaningless).
+    pub spectral_radius: f64,
+}
+
+/// The route that gave (B, D) and x₀ ([`Diagnostics::bd_route`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BdRoute {
+    /// Output-error least squares over the records ([`BdEstimate::OutputError`]).
+    OutputError,
+    /// The MOESP projection on the compressed data ([`BdEstimate::Projection`]).
+    Projection,
+    /// The state-sequence regression ([`SystemEstimate::StateSequence`]).
+    StateSequence,
+}
+
+impl BdRoute {
+    /// Human-readable name.
+    pub fn name(self) -> &'static str {
+        match self {
+            BdRoute::OutputError => "output-error least squares on the data",
+            BdRoute::Projection => "projection on the compressed data",
+            BdRoute::StateSequence => "state-sequence regression",
+        }
+    }
 }
 
 /// Wall time of the phases of an identification, seconds (for
@@ -745,7 +776,8 @@ pub struct StreamingIdentifier {
     opts: SubspaceOptions,
     stream: HankelStream,
     samples: usize,
-    records: usize,
+    /// Samples per record pushed so far.
+    record_samples: Vec<usize>,
     record_open: bool,
     /// Data scaling, fixed by the first non-empty block.
     scale: Option<Scale>,
@@ -797,7 +829,7 @@ impl StreamingIdentifier {
             opts: opts.clone(),
             stream,
             samples: 0,
-            records: 0,
+            record_samples: Vec::new(),
             record_open: false,
             scale: None,
         })
@@ -822,8 +854,11 @@ impl StreamingIdentifier {
             self.scale = Some(scale);
         }
         if u.nrows() > 0 && !self.record_open {
-            self.records += 1;
+            self.record_samples.push(0);
             self.record_open = true;
+        }
+        if let Some(last) = self.record_samples.last_mut() {
+            *last += u.nrows();
         }
         self.samples += u.nrows();
         self.stream.push(u.as_view(), y.as_view())
@@ -841,21 +876,38 @@ impl StreamingIdentifier {
         self.stream.columns()
     }
 
-    /// Identifies the model from the data pushed so far.
+    /// Identifies the model from the data pushed so far in one pass: (B, D)
+    /// from the projection on the compressed data, no x₀
+    /// ([`finish_subspace`](Self::finish_subspace) for the two-pass
+    /// identification with the output-error (B, D, x₀)).
     ///
     /// Errors: [`Error::HorizonTooLong`] (fewer Hankel columns than rows),
     /// [`Error::IllConditionedCorrelation`] (correlation route rejected),
     /// and those of [`identify`] after the compression.
     pub fn finish(self) -> Result<SubspaceModel> {
+        Ok(self.finish_subspace()?.into_model())
+    }
+
+    /// The first pass of the two-pass identification: the model of
+    /// [`finish`](Self::finish) (its (A, C) final, (B, D) from the
+    /// projection) with what the second pass needs. Feed the records again
+    /// to [`StreamedSubspace::regression`] and give it to
+    /// [`StreamedSubspace::finish`]: the result is the model [`identify`]
+    /// returns on the same data in memory (output-error (B, D, x₀), noise
+    /// model from them), up to rounding.
+    ///
+    /// Errors: as [`finish`](Self::finish).
+    pub fn finish_subspace(self) -> Result<StreamedSubspace> {
         let k = self.layout.nrows();
         let columns = self.stream.columns();
+        let records = self.record_samples.len().max(1);
         if columns < k {
             let (p, f) = (self.layout.past, self.layout.future);
             return Err(Error::HorizonTooLong {
                 past: p,
                 future: f,
                 n_samples: self.samples,
-                min_samples: k + (p + f - 1) * self.records.max(1),
+                min_samples: k + (p + f - 1) * records,
             });
         }
         let t0 = Instant::now();
@@ -864,7 +916,9 @@ impl StreamingIdentifier {
         let nu = self.layout.nu;
         let factor = self.stream.finish()?;
         let compress_s = t0.elapsed().as_secs_f64();
-        let mut fit = from_factor(factor, &self.layout, &self.opts, None, scale, compress_s)?;
+        let mut factored =
+            from_factor_parts(factor, &self.layout, &self.opts, None, scale, compress_s)?;
+        let fit = &mut factored.fit;
         if self.opts.remove_means {
             fit.operating_point = Some(OperatingPoint::new(
                 means[..nu].iter().map(|m| m * scale.u).collect(),
@@ -872,9 +926,134 @@ impl StreamingIdentifier {
             )?);
         }
         if self.opts.initial_state == InitialState::Zero {
-            fit.x0 = vec![DVector::zeros(fit.model.order()); self.records.max(1)];
+            fit.x0 = vec![DVector::zeros(fit.model.order()); records];
         }
-        Ok(fit)
+        Ok(StreamedSubspace {
+            factored,
+            layout: self.layout,
+            opts: self.opts,
+            scale,
+            record_samples: self.record_samples,
+        })
+    }
+}
+
+/// The first pass of a streamed identification
+/// ([`StreamingIdentifier::finish_subspace`]): the model with (B, D) from
+/// the projection, and the compressed data to finish the two-pass
+/// identification with the output-error (B, D, x₀) of a second pass.
+pub struct StreamedSubspace {
+    factored: Factored,
+    layout: HankelLayout,
+    opts: SubspaceOptions,
+    scale: Scale,
+    record_samples: Vec<usize>,
+}
+
+impl StreamedSubspace {
+    /// The one-pass model ((B, D) from the projection).
+    pub fn model(&self) -> &SubspaceModel {
+        &self.factored.fit
+    }
+
+    /// The one-pass model, consuming the first pass.
+    pub fn into_model(self) -> SubspaceModel {
+        self.factored.fit
+    }
+
+    /// Whether the options ask for the output-error (B, D, x₀) of a second
+    /// pass: (A, C) by shift invariance and [`BdEstimate::Auto`] or
+    /// [`BdEstimate::OutputError`].
+    pub fn wants_second_pass(&self) -> bool {
+        self.opts.system == SystemEstimate::ShiftInvariance
+            && self.opts.bd != BdEstimate::Projection
+    }
+
+    /// The second pass: an [`OutputErrorStream`] for the model's (A, C)
+    /// that takes the records again, as pushed to the
+    /// [`StreamingIdentifier`] (same records, same order, raw data: the
+    /// operating point is removed inside), ending each record with
+    /// [`OutputErrorStream::end_record`].
+    ///
+    /// Errors: [`Error::UnstableEstimate`] when A is too unstable for the
+    /// regression over the longest record (keep the one-pass model then).
+    pub fn regression(&self) -> Result<OutputErrorStream> {
+        let fit = &self.factored.fit;
+        let opts = OutputErrorStreamOptions {
+            feedthrough: self.opts.feedthrough.clone(),
+            initial_state: self.opts.initial_state,
+            offsets: self.opts.remove_means,
+            records: self.record_samples.len().max(1),
+            longest_record: self.record_samples.iter().copied().max().unwrap_or(0),
+            operating_point: fit.operating_point.clone(),
+        };
+        OutputErrorStream::new(fit.model.a(), fit.model.c(), self.layout.nu, &opts)
+    }
+
+    /// The model with (B, D, x₀) from the second pass, the noise model
+    /// recomputed from them, and the operating point corrected by the
+    /// estimated output offsets (as [`identify`] does).
+    ///
+    /// Errors: those of [`OutputErrorStream::finish`].
+    pub fn finish(self, pass: OutputErrorStream) -> Result<SubspaceModel> {
+        let bd = pass.finish()?;
+        let StreamedSubspace {
+            factored,
+            layout,
+            opts,
+            scale,
+            record_samples,
+        } = self;
+        let Factored {
+            fit: mut model,
+            l,
+            gamma,
+            map,
+        } = factored;
+        let t0 = Instant::now();
+        let fit = Fit {
+            a: model.model.a().clone(),
+            b: bd.b,
+            c: model.model.c().clone(),
+            d: bd.d,
+            x0: bd.x0,
+            offsets: if opts.remove_means {
+                bd.offsets
+            } else {
+                Vec::new()
+            },
+            stabilized: model.diagnostics.stabilized,
+            gamma,
+            bd_route: BdRoute::OutputError,
+            fallback: None,
+        };
+        let noise = if opts.noise_model {
+            noise_part(&l, &layout, &fit.gamma, &map, &fit, scale)
+        } else {
+            NoisePart::default()
+        };
+        model.model = StateSpace::new(fit.a, fit.b, fit.c, fit.d, Some(opts.ts))?;
+        model.kalman_gain = noise.kalman_gain;
+        model.noise = noise.covariances;
+        model.diagnostics.noise_model_error = noise.error;
+        model.diagnostics.bd_route = BdRoute::OutputError;
+        model.diagnostics.profile.estimate_s += t0.elapsed().as_secs_f64();
+        model.x0 = fit.x0;
+        if let Some(op) = model.operating_point.as_mut()
+            && !fit.offsets.is_empty()
+        {
+            let total: usize = record_samples.iter().sum();
+            let mut y0 = op.y0.clone();
+            for (len, c) in record_samples.iter().zip(&fit.offsets) {
+                let w = *len as f64 / total.max(1) as f64;
+                for (v, ci) in y0.iter_mut().zip(c.iter()) {
+                    *v += w * ci;
+                }
+            }
+            *op = OperatingPoint::new(op.u0.clone(), y0)?;
+        }
+        model.output_offsets = fit.offsets;
+        Ok(model)
     }
 }
 
@@ -1103,6 +1282,10 @@ struct Fit {
     stabilized: bool,
     /// Γ of the scaled data (for the noise model).
     gamma: DMatrix<f64>,
+    /// Route of (B, D, x₀).
+    bd_route: BdRoute,
+    /// A fallback taken (the route refused and why).
+    fallback: Option<String>,
 }
 
 /// Step 4 of [`identify`] for order n: (A, C) by shift invariance or from
@@ -1151,6 +1334,8 @@ fn fit_order(
             offsets,
             stabilized,
             gamma,
+            bd_route: BdRoute::OutputError,
+            fallback: None,
         })
     };
     let projection = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
@@ -1176,6 +1361,8 @@ fn fit_order(
             offsets: Vec::new(),
             stabilized,
             gamma,
+            bd_route: BdRoute::Projection,
+            fallback: None,
         })
     };
     let shift = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
@@ -1184,7 +1371,13 @@ fn fit_order(
             // Auto: an A too unstable for the output-error regression over
             // the record (low SNR) still gets (B, D) from the projection.
             (BdEstimate::Auto, true) => match output_error(enforce, gamma.clone()) {
-                Err(Error::UnstableEstimate { .. }) => projection(enforce, gamma),
+                Err(e @ Error::UnstableEstimate { .. }) => {
+                    let mut fit = projection(enforce, gamma)?;
+                    fit.fallback = Some(format!(
+                        "(B, D) from the projection on the compressed data: the output-error regression was refused ({e})"
+                    ));
+                    Ok(fit)
+                }
                 other => other,
             },
             (BdEstimate::Projection, _) | (BdEstimate::Auto, false) => projection(enforce, gamma),
@@ -1209,6 +1402,8 @@ fn fit_order(
                 offsets: Vec::new(),
                 stabilized: false,
                 gamma,
+                bd_route: BdRoute::StateSequence,
+                fallback: None,
             })
         }
     }
@@ -1294,6 +1489,18 @@ fn from_factor(
     scale: Scale,
     compress_s: f64,
 ) -> Result<SubspaceModel> {
+    Ok(from_factor_parts(factor, layout, opts, records, scale, compress_s)?.fit)
+}
+
+/// [`from_factor`] keeping L, Γ and the oblique map.
+fn from_factor_parts(
+    factor: HankelFactor,
+    layout: &HankelLayout,
+    opts: &SubspaceOptions,
+    records: Option<&[Record<'_>]>,
+    scale: Scale,
+    compress_s: f64,
+) -> Result<Factored> {
     let t1 = Instant::now();
     let HankelFactor {
         l,
@@ -1363,32 +1570,19 @@ fn from_factor(
         None => fit_order(&sub, n, opts, records, scale)?,
     };
 
-    let mut noise = None;
-    let mut kalman_gain = None;
-    let mut noise_model_error = None;
-    if opts.noise_model {
-        let (bs, cs, ds) = scale.rescale(&fit.b, &fit.c, &fit.d);
-        match noise_model(&l, &layout, &fit.gamma, &sub.map, &fit.a, &bs, &cs, &ds) {
-            Ok((cov, kg)) => {
-                // Back to original units: v and e scale with s_y, w not.
-                noise = Some(NoiseCovariances {
-                    q: cov.q,
-                    r: cov.r * (scale.y * scale.y),
-                    s: cov.s * scale.y,
-                });
-                match kg {
-                    Ok(k) => kalman_gain = Some(k / scale.y),
-                    Err(e) => noise_model_error = Some(e),
-                }
-            }
-            Err(e) => noise_model_error = Some(e.to_string()),
-        }
-    }
+    let noise = if opts.noise_model {
+        noise_part(&l, &layout, &fit.gamma, &sub.map, &fit, scale)
+    } else {
+        NoisePart::default()
+    };
+    let spectral_radius = spectral_radius(&fit.a)?;
+    let gamma = fit.gamma;
+    let map = sub.map;
     let model = StateSpace::new(fit.a, fit.b, fit.c, fit.d, Some(opts.ts))?;
-    Ok(SubspaceModel {
+    let fitted = SubspaceModel {
         model,
-        kalman_gain,
-        noise,
+        kalman_gain: noise.kalman_gain,
+        noise: noise.covariances,
         x0: fit.x0,
         output_offsets: fit.offsets,
         operating_point: None,
@@ -1401,7 +1595,7 @@ fn from_factor(
             horizons: (p, f),
             columns,
             stabilized: fit.stabilized,
-            noise_model_error,
+            noise_model_error: noise.error,
             compression_flops,
             compression,
             profile: Profile {
@@ -1409,8 +1603,74 @@ fn from_factor(
                 svd_s,
                 estimate_s: t2.elapsed().as_secs_f64(),
             },
+            bd_route: fit.bd_route,
+            fallbacks: fit.fallback.into_iter().collect(),
+            spectral_radius,
         },
+    };
+    Ok(Factored {
+        fit: fitted,
+        l,
+        gamma,
+        map,
     })
+}
+
+/// A model fitted from a compressed factor, with what a later (B, D)
+/// re-estimate needs to recompute the noise model: L, Γ and the oblique
+/// map (scaled data).
+struct Factored {
+    fit: SubspaceModel,
+    l: DMatrix<f64>,
+    gamma: DMatrix<f64>,
+    map: DMatrix<f64>,
+}
+
+/// The noise model of a fit: covariances, Kalman gain, or why not.
+#[derive(Default)]
+struct NoisePart {
+    covariances: Option<NoiseCovariances>,
+    kalman_gain: Option<DMatrix<f64>>,
+    error: Option<String>,
+}
+
+/// Q, R, S and the Kalman gain of the model `fit` (original units) from
+/// the state sequences of the factor (step 5 of [`identify`]).
+fn noise_part(
+    l: &DMatrix<f64>,
+    layout: &HankelLayout,
+    gamma: &DMatrix<f64>,
+    map: &DMatrix<f64>,
+    fit: &Fit,
+    scale: Scale,
+) -> NoisePart {
+    let (bs, cs, ds) = scale.rescale(&fit.b, &fit.c, &fit.d);
+    match noise_model(l, layout, gamma, map, &fit.a, &bs, &cs, &ds) {
+        Ok((cov, kg)) => {
+            // Back to original units: v and e scale with s_y, w not.
+            let covariances = Some(NoiseCovariances {
+                q: cov.q,
+                r: cov.r * (scale.y * scale.y),
+                s: cov.s * scale.y,
+            });
+            match kg {
+                Ok(k) => NoisePart {
+                    covariances,
+                    kalman_gain: Some(k / scale.y),
+                    error: None,
+                },
+                Err(e) => NoisePart {
+                    covariances,
+                    kalman_gain: None,
+                    error: Some(e),
+                },
+            }
+        }
+        Err(e) => NoisePart {
+            error: Some(e.to_string()),
+            ..NoisePart::default()
+        },
+    }
 }
 
 /// The state sequence X(t) = Γ⁺Φ(t) = Γ⁺M W_p(t) (Φ = M W_p, the oblique

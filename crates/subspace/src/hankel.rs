@@ -298,13 +298,15 @@ impl HankelStream {
         }
     }
 
-    /// The pooled per-channel means of the (scaled) samples pushed so far.
+    /// The pooled per-channel means of the (scaled) samples pushed so far,
+    /// the open record's included (its sums join `sums` only when it ends).
     pub(crate) fn means(&self) -> Vec<f64> {
         let n = self.samples.max(1) as f64;
         self.sums
             .iter()
+            .zip(&self.record_sums)
             .zip(&self.reference)
-            .map(|(s, r)| s / n + r)
+            .map(|((s, o), r)| (s + o) / n + r)
             .collect()
     }
 

@@ -118,6 +118,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod bd_stream;
 mod engine;
 pub mod error;
 mod hankel;
@@ -130,10 +131,11 @@ mod projection;
 mod refine;
 mod regress;
 
+pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
 pub use engine::{
-    BdEstimate, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
-    StreamingIdentifier, SubspaceIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate,
-    compress_hankel, identify,
+    BdEstimate, BdRoute, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection,
+    Profile, StreamedSubspace, StreamingIdentifier, SubspaceIdentifier, SubspaceModel,
+    SubspaceOptions, SystemEstimate, compress_hankel, identify,
 };
 pub use error::{Error, Result};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};

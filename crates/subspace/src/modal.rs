@@ -225,7 +225,7 @@ impl ModalForm {
 }
 
 /// Layout of the base row z(t).
-struct Layout {
+pub(crate) struct Layout {
     n: usize,
     nu: usize,
     ny: usize,
@@ -240,7 +240,7 @@ struct Layout {
 }
 
 impl Layout {
-    fn of(p: &Params) -> Self {
+    pub(crate) fn of(p: &Params) -> Self {
         let (n, nu, ny) = (p.n, p.nu, p.ny);
         let mut q = n * nu + nu;
         let x0 = p.x0_offset.map(|_| {
@@ -372,7 +372,7 @@ pub(crate) fn accumulate(
         let per = len.div_ceil(parts);
         let starts = FilterState::at(form, &lay, rec, inv.0, per, parts);
         let scans: Vec<Result<Option<Scan>>> = if parts == 1 {
-            vec![scan(form, &lay, rec, inv, 0..len, starts[0].clone())]
+            vec![scan(form, &lay, rec, inv, 0..len, &mut starts[0].clone())]
         } else {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = starts
@@ -381,12 +381,19 @@ pub(crate) fn accumulate(
                     .skip(1)
                     .map(|(i, st)| {
                         let range = i * per..((i + 1) * per).min(len);
-                        let st = st.clone();
+                        let mut st = st.clone();
                         let lay = &lay;
-                        scope.spawn(move || scan(form, lay, rec, inv, range, st))
+                        scope.spawn(move || scan(form, lay, rec, inv, range, &mut st))
                     })
                     .collect();
-                let first = scan(form, &lay, rec, inv, 0..per.min(len), starts[0].clone());
+                let first = scan(
+                    form,
+                    &lay,
+                    rec,
+                    inv,
+                    0..per.min(len),
+                    &mut starts[0].clone(),
+                );
                 std::iter::once(first)
                     // A range whose thread failed gives up like a record
                     // with too many patterns: the direct route runs instead.
@@ -401,24 +408,125 @@ pub(crate) fn accumulate(
                 return Ok(None);
             };
             rows_total += sc.rows;
-            for pa in sc.patterns {
-                match pats.iter().position(|(m, _)| *m == pa.mask) {
-                    Some(k) => pats[k].1.push_rows(&pa.acc.r())?,
-                    None if pats.len() == MAX_PATTERNS => return Ok(None),
-                    None => pats.push((pa.mask, pa.acc)),
-                }
+            if !merge_patterns(&mut pats, sc, MAX_PATTERNS)? {
+                return Ok(None);
             }
         }
-        for (mask, pa) in &pats {
-            let rz = pa.r();
-            for (o, map) in maps.iter().enumerate() {
-                if mask & (1 << o) != 0 {
-                    acc.push_rows(&(&rz * map))?;
-                }
+        fold_patterns(&pats, &maps, acc)?;
+    }
+    Ok(Some(rows_total))
+}
+
+/// Adds the patterns of `sc` to `pats` (R factors of equal masks stacked);
+/// false when that would make more than `max` patterns.
+fn merge_patterns(pats: &mut Vec<(u64, RAccumulator)>, sc: Scan, max: usize) -> Result<bool> {
+    for pa in sc.patterns {
+        match pats.iter().position(|(m, _)| *m == pa.mask) {
+            Some(k) => pats[k].1.push_rows(&pa.acc.r())?,
+            None if pats.len() == max => return Ok(false),
+            None => pats.push((pa.mask, pa.acc)),
+        }
+    }
+    Ok(true)
+}
+
+/// Folds each pattern's R factor of base rows into `acc` through the row
+/// maps T_o of its sampled outputs: R_z T_o stacked, the R factor of the
+/// full regression rows of the record.
+fn fold_patterns(
+    pats: &[(u64, RAccumulator)],
+    maps: &[DMatrix<f64>],
+    acc: &mut RAccumulator,
+) -> Result<()> {
+    for (mask, pa) in pats {
+        let rz = pa.r();
+        for (o, map) in maps.iter().enumerate() {
+            if mask & (1 << o) != 0 {
+                acc.push_rows(&(&rz * map))?;
             }
         }
     }
-    Ok(Some(rows_total))
+    Ok(())
+}
+
+/// Most patterns of sampled outputs per record the streamed regression
+/// keeps (it cannot restart on the direct route once data have passed).
+pub(crate) const MAX_STREAM_PATTERNS: usize = 64;
+
+/// The modal regression of [`accumulate`] fed in blocks of consecutive
+/// samples (a second pass over a file): the filter states carry over from
+/// block to block, so the rows are those of one scan of the record. Memory
+/// O(patterns · BLOCK · q), independent of the record length.
+pub(crate) struct ModalStream {
+    form: ModalForm,
+    lay: Layout,
+    /// C̃ = C V of the scaled data.
+    ct: DMatrix<f64>,
+    inv: (f64, f64),
+    state: FilterState,
+    pats: Vec<(u64, RAccumulator)>,
+    record: usize,
+    rows: usize,
+}
+
+impl ModalStream {
+    /// A stream for `form` with C of the data divided by `scale` (`c`).
+    pub(crate) fn new(form: ModalForm, c: &DMatrix<f64>, p: &Params, scale: DataScale) -> Self {
+        let lay = Layout::of(p);
+        let ct = c * &form.v;
+        let state = FilterState::initial(&form, &lay);
+        ModalStream {
+            form,
+            lay,
+            ct,
+            inv: (1.0 / scale.io.u, 1.0 / scale.io.y),
+            state,
+            pats: Vec::new(),
+            record: 0,
+            rows: 0,
+        }
+    }
+
+    /// Scans the next samples of the current record; false when the
+    /// record has more than [`MAX_STREAM_PATTERNS`] sampling patterns.
+    pub(crate) fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<bool> {
+        let rec = Record {
+            u,
+            y,
+            instrument: None,
+        };
+        let Some(sc) = scan(
+            &self.form,
+            &self.lay,
+            &rec,
+            self.inv,
+            0..u.nrows(),
+            &mut self.state,
+        )?
+        else {
+            return Ok(false);
+        };
+        self.rows += sc.rows;
+        merge_patterns(&mut self.pats, sc, MAX_STREAM_PATTERNS)
+    }
+
+    /// Ends the current record: folds its patterns into `acc` and starts
+    /// the next record from rest.
+    pub(crate) fn end_record(&mut self, p: &Params, acc: &mut RAccumulator) -> Result<()> {
+        let maps: Vec<DMatrix<f64>> = (0..self.lay.ny)
+            .map(|o| row_map(&self.form, &self.ct, p, &self.lay, o, self.record))
+            .collect();
+        fold_patterns(&self.pats, &maps, acc)?;
+        self.pats.clear();
+        self.state = FilterState::initial(&self.form, &self.lay);
+        self.record += 1;
+        Ok(())
+    }
+
+    /// Sampled output entries seen so far.
+    pub(crate) fn rows(&self) -> usize {
+        self.rows
+    }
 }
 
 /// The filter states at the start of a range of instants: the input
@@ -503,7 +611,7 @@ fn scan(
     rec: &Record<'_>,
     inv: (f64, f64),
     range: std::ops::Range<usize>,
-    mut st: FilterState,
+    st: &mut FilterState,
 ) -> Result<Option<Scan>> {
     let (iu, iy) = inv;
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);

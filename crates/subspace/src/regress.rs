@@ -131,6 +131,7 @@ pub struct Record<'a> {
 }
 
 /// Parameter bookkeeping for θ = (vec B, D entries, x₀ per record).
+#[derive(Debug, Clone)]
 pub(crate) struct Params {
     pub(crate) n: usize,
     pub(crate) nu: usize,
@@ -143,7 +144,7 @@ pub(crate) struct Params {
 }
 
 impl Params {
-    fn new(
+    pub(crate) fn new(
         n: usize,
         nu: usize,
         ny: usize,
@@ -187,7 +188,7 @@ impl Params {
     }
 
     /// θ of the data divided by `scale` → (B, D, x₀) in original units.
-    fn unpack(&self, theta: &DMatrix<f64>, records: usize, scale: Scale) -> BdFit {
+    pub(crate) fn unpack(&self, theta: &DMatrix<f64>, records: usize, scale: Scale) -> BdFit {
         let (n, nu, ny) = (self.n, self.nu, self.ny);
         let b = DMatrix::from_fn(n, nu, |s, j| theta[(j * n + s, 0)]);
         let d = DMatrix::from_fn(ny, nu, |o, j| {
@@ -210,10 +211,12 @@ impl Params {
     }
 }
 
-/// Generates regressor rows (one per sampled output entry) of one record.
-struct RowGen<'a> {
-    a: &'a DMatrix<f64>,
-    p: &'a Params,
+/// Generates regressor rows (one per sampled output entry) of one record
+/// (owns copies of A and the layout, so that it can live between the
+/// blocks of a streamed record).
+struct RowGen {
+    a: DMatrix<f64>,
+    p: Params,
     record: usize,
     /// Z_j stacked: nu blocks of n×n, column-major per block.
     z: Vec<f64>,
@@ -227,14 +230,8 @@ struct RowGen<'a> {
     inv: f64,
 }
 
-impl<'a> RowGen<'a> {
-    fn new(
-        a: &'a DMatrix<f64>,
-        c: &'a DMatrix<f64>,
-        p: &'a Params,
-        record: usize,
-        inv: f64,
-    ) -> Self {
+impl RowGen {
+    fn new(a: &DMatrix<f64>, c: &DMatrix<f64>, p: &Params, record: usize, inv: f64) -> Self {
         let (n, nu, ny) = (p.n, p.nu, p.ny);
         let mut cat = vec![0.0; ny * n];
         for o in 0..ny {
@@ -243,8 +240,8 @@ impl<'a> RowGen<'a> {
             }
         }
         RowGen {
-            a,
-            p,
+            a: a.clone(),
+            p: p.clone(),
             record,
             z: vec![0.0; nu * n * n],
             ztmp: vec![0.0; nu * n * n],
@@ -401,6 +398,11 @@ pub(crate) struct DataScale {
 }
 
 impl DataScale {
+    /// The scales of inputs and outputs (no instrument).
+    pub(crate) fn with_io(io: Scale) -> Self {
+        DataScale { io, z: 1.0 }
+    }
+
     fn of(records: &[Record<'_>]) -> Self {
         let us: Vec<&DMatrix<f64>> = records.iter().map(|r| r.u).collect();
         let ys: Vec<&DMatrix<f64>> = records.iter().map(|r| r.y).collect();
@@ -616,9 +618,12 @@ pub(crate) fn output_error_route(
         Some(rows) => rows,
         None => {
             acc = RAccumulator::new(p.total + 1);
-            stream(a, &c_scaled, &p, records, false, scale, &mut |phi, _| {
-                Ok(acc.push_rows(phi)?)
-            })?
+            let mut direct = DirectStream::new(a, &c_scaled, &p, scale);
+            for rec in records {
+                direct.push(rec.u, rec.y, &mut acc)?;
+                direct.end_record(&mut acc)?;
+            }
+            direct.rows()
         }
     };
     check_rank("B/D regressor", rows, p.total)?;
@@ -627,6 +632,97 @@ pub(crate) fn output_error_route(
     let r12 = r.view((0, p.total), (p.total, 1)).into_owned();
     let theta = equilibrated_solve(&r11, &r12, "B/D regressor")?;
     Ok(p.unpack(&theta, records.len(), scale.io))
+}
+
+/// The direct-route output-error regression rows (one per sampled output
+/// entry, [`RowGen`]) of consecutive blocks of samples folded into an R
+/// accumulator: the regressor recursions carry over between blocks, so a
+/// record may arrive in pieces (a second pass over a file). Memory
+/// O(BLOCK · p), independent of the record length.
+pub(crate) struct DirectStream {
+    rows_of: RowGen,
+    a: DMatrix<f64>,
+    c: DMatrix<f64>,
+    p: Params,
+    iu: f64,
+    iy: f64,
+    block: DMatrix<f64>,
+    row: Vec<f64>,
+    used: usize,
+    rows: usize,
+}
+
+impl DirectStream {
+    /// A stream for (A, C) with C of the data divided by `scale` (`c`).
+    pub(crate) fn new(a: &DMatrix<f64>, c: &DMatrix<f64>, p: &Params, scale: DataScale) -> Self {
+        let iu = 1.0 / scale.io.u;
+        DirectStream {
+            rows_of: RowGen::new(a, c, p, 0, iu),
+            a: a.clone(),
+            c: c.clone(),
+            p: p.clone(),
+            iu,
+            iy: 1.0 / scale.io.y,
+            block: DMatrix::zeros(BLOCK, p.total + 1),
+            row: vec![0.0; p.total],
+            used: 0,
+            rows: 0,
+        }
+    }
+
+    /// The regression rows of the next samples of the current record.
+    pub(crate) fn push(
+        &mut self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        acc: &mut RAccumulator,
+    ) -> Result<()> {
+        let np = self.p.total;
+        for t in 0..u.nrows() {
+            for o in 0..self.p.ny {
+                let yv = y[(t, o)] * self.iy;
+                if yv.is_nan() {
+                    continue;
+                }
+                self.rows_of.row(o, u, t, &mut self.row);
+                for (k, v) in self.row.iter().enumerate() {
+                    self.block[(self.used, k)] = *v;
+                }
+                self.block[(self.used, np)] = yv;
+                self.used += 1;
+                if self.used == BLOCK {
+                    self.flush(acc)?;
+                }
+            }
+            self.rows_of.step(u, t);
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self, acc: &mut RAccumulator) -> Result<()> {
+        if self.used == BLOCK {
+            acc.push_rows(&self.block)?;
+        } else if self.used > 0 {
+            acc.push_rows(&self.block.rows(0, self.used).into_owned())?;
+        }
+        self.rows += self.used;
+        self.used = 0;
+        Ok(())
+    }
+
+    /// Ends the current record; the next samples start the next record
+    /// from rest (its own x₀ and offset columns).
+    pub(crate) fn end_record(&mut self, acc: &mut RAccumulator) -> Result<()> {
+        self.flush(acc)?;
+        let next = self.rows_of.record + 1;
+        self.rows_of = RowGen::new(&self.a, &self.c, &self.p, next, self.iu);
+        Ok(())
+    }
+
+    /// Rows (sampled output entries) folded so far.
+    pub(crate) fn rows(&self) -> usize {
+        self.rows + self.used
+    }
 }
 
 /// Instrumental-variable estimate of (B, D, x₀) for given (A, C): the
@@ -783,7 +879,7 @@ fn regression_rank(m: &DMatrix<f64>) -> Result<usize> {
 /// matrix) after the rank test on the equilibrated E M D
 /// ([`equilibrate`]): test and solution do not depend on the units of the
 /// parameters or of the instruments. O(p³) for p parameters.
-fn equilibrated_solve(
+pub(crate) fn equilibrated_solve(
     m: &DMatrix<f64>,
     b: &DMatrix<f64>,
     what: &'static str,

@@ -79,6 +79,7 @@ mod common {
 mod suite {
     pub mod consistency;
     pub mod refine;
+    pub mod two_pass;
 }
 
 mod exact {

@@ -12,6 +12,7 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
         require_stable(&file.model)?;
     }
     file.write(&a.out).map_err(|e| input(e.to_string()))?;
+    print_notes(&file.diagnostics);
     if a.profile {
         print_profile(&file.diagnostics);
     }
@@ -26,6 +27,18 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
         a.out
     );
     Ok(())
+}
+
+/// Prints the diagnostics' warnings (an unstable model) and fallbacks (a
+/// route refused and the one used instead) to standard error.
+fn print_notes(diagnostics: &serde_json::Value) {
+    for (key, label) in [("warnings", "warning"), ("fallbacks", "note")] {
+        if let Some(list) = diagnostics.get(key).and_then(|v| v.as_array()) {
+            for w in list.iter().filter_map(|v| v.as_str()) {
+                eprintln!("{label}: {w}");
+            }
+        }
+    }
 }
 
 /// Prints the per-phase wall times recorded in the diagnostics (`--profile`).

@@ -4,7 +4,7 @@
 use crate::args::ValidateArgs;
 use crate::error::{CliError, CliResult};
 use lifted_cli::service::validation::{
-    TABLE_HEADER, load_for_validation, table_rows, validate_model,
+    TABLE_HEADER, fit_cell, load_for_validation, table_rows, unstable_note, validate_model,
 };
 use lifted_cli::terminal::print_table;
 
@@ -18,12 +18,15 @@ pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
         "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
         v.lags
     );
+    if let Some(note) = unstable_note(&v) {
+        eprintln!("warning: {note}");
+    }
     if let Some(min) = a.min_fit {
         let low: Vec<String> = v
             .outputs
             .iter()
-            .filter(|o| o.fit.is_nan() || o.fit < min)
-            .map(|o| format!("{} ({:.2}%)", o.name, o.fit))
+            .filter(|o| !v.stable() || o.fit.is_nan() || o.fit < min)
+            .map(|o| format!("{} ({}%)", o.name, fit_cell(&v, o.fit)))
             .collect();
         if !low.is_empty() {
             return Err(CliError::Failed(format!(

@@ -311,7 +311,11 @@ pub fn response_plot(o: &OutputValidation, ts: f64, n: usize) -> Plot {
     let (st, sy) = decimate(&t, &o.simulated);
     let slow = o.samples < n;
     Plot {
-        title: format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit),
+        title: if o.residual_finite {
+            format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit)
+        } else {
+            format!("{}: measured vs simulated (simulation diverges)", o.name)
+        },
         x_label: "t [s]".into(),
         y_label: o.name.clone(),
         series: vec![

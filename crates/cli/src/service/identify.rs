@@ -11,15 +11,16 @@ use lifted_multirate::{
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
-    Compression, Experiment, Feedthrough, IvExperiment, IvOptions, Kept, Method, OrderCriterion,
-    OrderReport, OrderSelection, PemCost, PemOptions, Record, StreamingIdentifier, SubspaceModel,
-    SubspaceOptions, SystemEstimate, identify, iv_identify, refine_pem,
+    BdEstimate, Compression, Experiment, Feedthrough, IvExperiment, IvOptions, Kept, Method,
+    OrderCriterion, OrderReport, OrderSelection, PemCost, PemOptions, Record, StreamedSubspace,
+    StreamingIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate, identify, iv_identify,
+    refine_pem,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::args::{
-    CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, RefineArg,
+    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, RefineArg,
 };
 use crate::error::{CliResult, Context, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -89,6 +90,15 @@ fn system_of(e: EstimatorArg) -> SystemEstimate {
     match e {
         EstimatorArg::Shift => SystemEstimate::ShiftInvariance,
         EstimatorArg::States => SystemEstimate::StateSequence,
+    }
+}
+
+/// The subspace crate's (B, D) route for `--bd`.
+fn bd_of(b: BdArg) -> BdEstimate {
+    match b {
+        BdArg::Auto => BdEstimate::Auto,
+        BdArg::OutputError => BdEstimate::OutputError,
+        BdArg::Projection => BdEstimate::Projection,
     }
 }
 
@@ -182,11 +192,27 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         .collect::<CliResult<_>>()?;
     let read_s = t_read.elapsed().as_secs_f64();
     let t_identify = std::time::Instant::now();
-    let sets: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
-    let (operating_point, sets) = detrend_sets(sets, a.detrend)?;
+    let raw: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
+    let multirate = raw.iter().any(|d| !d.is_single_rate());
+    let subspace_single_rate = !multirate
+        && matches!(
+            a.method,
+            MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva
+        );
+    // Single-rate N4SID/MOESP/CVA remove the means inside the
+    // identification (as the streamed route and the Python package do:
+    // the output-error regression then also estimates the constant a
+    // response that started at rest keeps); the other routes take the
+    // detrended records.
+    let inner_means =
+        subspace_single_rate && matches!(a.detrend, DetrendArg::Auto | DetrendArg::Mean);
+    let (mut operating_point, mut sets) = if inner_means {
+        (None, raw)
+    } else {
+        detrend_sets(raw, a.detrend)?
+    };
     let mut kalman_gain = None;
     let ts = sets[0].ts();
-    let multirate = sets.iter().any(|d| !d.is_single_rate());
     let (model, diagnostics) = match a.method {
         MethodArg::Qmarkov => qmarkov(a, &sets, order)?,
         MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva if multirate => {
@@ -224,8 +250,10 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 past: a.horizon.unwrap_or(10),
                 future: a.horizon.unwrap_or(10),
                 system: system_of(a.estimator),
-                // The records are already detrended per --detrend.
-                remove_means: false,
+                bd: bd_of(a.bd),
+                // Means removed here (--detrend mean) or already (--detrend
+                // linear / none).
+                remove_means: inner_means,
                 enforce_stability: a.stable,
                 ts,
                 ..Default::default()
@@ -238,6 +266,15 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 .ctx(format!("{} identification", method_of(a.method).name()))?;
             let d = subspace_json(&fit, "single-rate subspace identification");
             kalman_gain = fit.kalman_gain.clone();
+            if inner_means {
+                // The refinement and the stored model see deviations from
+                // the identification's operating point.
+                sets = sets
+                    .iter()
+                    .map(|r| deviations(r, fit.operating_point.as_ref()))
+                    .collect::<CliResult<_>>()?;
+                operating_point = fit.operating_point.clone();
+            }
             (fit.model, d)
         }
         MethodArg::Iv => {
@@ -401,12 +438,54 @@ fn refine(
     Ok((fit.model, diagnostics))
 }
 
-/// Adds the operating point and the Kalman gain (when present) to a model file.
+/// Spectral radius ρ(A) of a model (0 for a static gain).
+pub fn spectral_radius(model: &StateSpace) -> CliResult<f64> {
+    if model.order() == 0 {
+        return Ok(0.0);
+    }
+    Ok(model
+        .poles()
+        .ctx("poles of the model")?
+        .iter()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max))
+}
+
+/// The warning printed and stored for an unstable model.
+pub fn unstable_warning(rho: f64) -> String {
+    format!(
+        "the identified model is unstable: spectral radius rho(A) = {rho:.6} >= 1; its simulation diverges, so simulation fits are not meaningful (try a lower order, --stable, or --refine pem)"
+    )
+}
+
+/// Adds `stability` ({stable, spectral_radius}) to the diagnostics and, for
+/// an unstable model, the warning under `warnings`.
+fn add_stability(file: &mut ModelFile) -> CliResult<()> {
+    let rho = spectral_radius(&file.model)?;
+    let stable = rho < 1.0;
+    if let Some(obj) = file.diagnostics.as_object_mut() {
+        obj.insert(
+            "stability".into(),
+            json!({"stable": stable, "spectral_radius": rho}),
+        );
+        if !stable {
+            let warnings = obj.entry("warnings").or_insert_with(|| json!([]));
+            if let Some(w) = warnings.as_array_mut() {
+                w.push(json!(unstable_warning(rho)));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Adds the operating point and the Kalman gain (when present) to a model
+/// file, and its stability to the diagnostics.
 fn finish_file(
-    file: ModelFile,
+    mut file: ModelFile,
     operating_point: Option<OperatingPoint>,
     kalman_gain: Option<&DMatrix<f64>>,
 ) -> CliResult<ModelFile> {
+    add_stability(&mut file)?;
     let file = match operating_point {
         Some(op) => file.with_operating_point(op).ctx("operating point")?,
         None => file,
@@ -489,15 +568,81 @@ fn qmarkov(
 /// Rows per block pushed to the streaming identifier.
 const STREAM_BLOCK: usize = 65_536;
 
-/// Single-rate N4SID / MOESP / CVA from one CSV file, streamed: rows are read
-/// in blocks of [`STREAM_BLOCK`] and pushed to `lifted_subspace::StreamingIdentifier`,
-/// so memory is O(((m + l) s)² + block) whatever the file length (a 1e7-row
-/// file needs no more than a 1e5-row one). Returns `None` when the set-up is not
-/// a single-rate subspace identification of one file, or when the file turns out
-/// to be multirate (an empty output cell): the caller then loads it whole. If the
-/// fast correlation compression is rejected as ill-conditioned, the file is read
-/// again with the R-only QR compression (reported in the diagnostics).
-/// The initial state is not estimated on this path (it does not change the model).
+/// What a pass over the data file saw.
+struct FilePass {
+    rows: usize,
+    ts: f64,
+    /// An output cell was empty (a multirate record): the pass stopped.
+    multirate: bool,
+}
+
+/// One pass over the single data file of a streamed identification: the
+/// rows of the input and output columns in blocks of [`STREAM_BLOCK`]
+/// samples to `push` (u block, y block). Stops at the first empty output
+/// cell (a multirate record, loaded whole by the caller instead).
+fn stream_file(
+    path: &str,
+    spec: &DataSpec,
+    mut push: impl FnMut(&DMatrix<f64>, &DMatrix<f64>) -> CliResult<()>,
+) -> CliResult<FilePass> {
+    let (n_u, n_y) = (spec.inputs.len(), spec.outputs.len());
+    let wanted: Vec<&String> = spec.inputs.iter().chain(&spec.outputs).collect();
+    let block = STREAM_BLOCK;
+    let (mut ub, mut yb) = (DMatrix::zeros(block, n_u), DMatrix::zeros(block, n_y));
+    let (mut fill, mut multirate) = (0usize, false);
+    let (rows, ts) = scan_rows(
+        path,
+        &spec.columns,
+        &wanted,
+        n_u..n_u + n_y,
+        spec.ts,
+        |row| {
+            if row[n_u..].iter().any(|v| v.is_nan()) {
+                multirate = true;
+                return Ok(false);
+            }
+            for (j, v) in row[..n_u].iter().enumerate() {
+                ub[(fill, j)] = *v;
+            }
+            for (j, v) in row[n_u..].iter().enumerate() {
+                yb[(fill, j)] = *v;
+            }
+            fill += 1;
+            if fill == block {
+                push(&ub, &yb)?;
+                fill = 0;
+            }
+            Ok(true)
+        },
+    )?;
+    if !multirate && fill > 0 {
+        push(
+            &ub.rows(0, fill).into_owned(),
+            &yb.rows(0, fill).into_owned(),
+        )?;
+    }
+    Ok(FilePass {
+        rows,
+        ts,
+        multirate,
+    })
+}
+
+/// Single-rate N4SID / MOESP / CVA from one data file, streamed in two
+/// passes: rows are read in blocks of [`STREAM_BLOCK`] and pushed to
+/// `lifted_subspace::StreamingIdentifier` (the Hankel compression, then
+/// (A, C)); the file is then read a second time for the output-error
+/// (B, D, x₀) regression (`StreamedSubspace::regression`), so the model is
+/// the one the in-memory identification gives and memory is
+/// O(((m + l) s)² + block) whatever the file length. `--bd projection`
+/// keeps the one-pass (B, D) from the compressed data. Returns `None` when
+/// the set-up is not a single-rate subspace identification of one file, or
+/// when the file turns out to be multirate (an empty output cell): the
+/// caller then loads it whole. If the fast correlation compression is
+/// rejected as ill-conditioned, the file is read again with the R-only QR
+/// compression (reported in the diagnostics). `--refine` then refines this
+/// model on the file loaded in memory, so it starts from exactly the model
+/// plain `identify` writes.
 fn identify_streaming(
     a: &IdentifyArgs,
     spec: &DataSpec,
@@ -515,7 +660,6 @@ fn identify_streaming(
     if !subspace
         || needs_records
         || a.detrend == DetrendArg::Linear
-        || a.refine != RefineArg::None
         || a.data.len() != 1
         || !spec.periods.is_empty()
         || spec.hold > 1
@@ -528,65 +672,29 @@ fn identify_streaming(
     if n_u == 0 || n_y == 0 {
         return Ok(None); // the loader reports the missing columns
     }
-    let wanted: Vec<&String> = spec.inputs.iter().chain(&spec.outputs).collect();
     let what = format!("{} identification", method_of(a.method).name());
-    let run = |compression: Compression| -> CliResult<Option<(SubspaceModel, usize, f64, f64)>> {
-        let opts = SubspaceOptions {
-            method: method_of(a.method),
-            order,
-            order_criterion: criterion_of(a.order_criterion),
-            past: a.horizon.unwrap_or(10),
-            future: a.horizon.unwrap_or(10),
-            system: system_of(a.estimator),
-            remove_means: a.detrend != DetrendArg::None,
-            enforce_stability: a.stable,
-            ts: spec.ts.unwrap_or(1.0),
-            compression,
-            ..Default::default()
-        };
-        let mut sid = StreamingIdentifier::new(n_u, n_y, &opts).ctx(&what)?;
-        let block = STREAM_BLOCK;
-        let (mut ub, mut yb) = (DMatrix::zeros(block, n_u), DMatrix::zeros(block, n_y));
-        let (mut fill, mut multirate) = (0usize, false);
-        let t = std::time::Instant::now();
-        let (n_rows, ts) = scan_rows(
-            path,
-            &spec.columns,
-            &wanted,
-            n_u..n_u + n_y,
-            spec.ts,
-            |row| {
-                if row[n_u..].iter().any(|v| v.is_nan()) {
-                    multirate = true;
-                    return Ok(false);
-                }
-                for (j, v) in row[..n_u].iter().enumerate() {
-                    ub[(fill, j)] = *v;
-                }
-                for (j, v) in row[n_u..].iter().enumerate() {
-                    yb[(fill, j)] = *v;
-                }
-                fill += 1;
-                if fill == block {
-                    sid.push(&ub, &yb).ctx(&what)?;
-                    fill = 0;
-                }
-                Ok(true)
-            },
-        )?;
-        if multirate {
+    let opts_with = |compression: Compression| SubspaceOptions {
+        method: method_of(a.method),
+        order,
+        order_criterion: criterion_of(a.order_criterion),
+        past: a.horizon.unwrap_or(10),
+        future: a.horizon.unwrap_or(10),
+        system: system_of(a.estimator),
+        bd: bd_of(a.bd),
+        remove_means: a.detrend != DetrendArg::None,
+        enforce_stability: a.stable,
+        ts: spec.ts.unwrap_or(1.0),
+        compression,
+        ..Default::default()
+    };
+    let first_pass = |compression: Compression| -> CliResult<Option<(StreamedSubspace, FilePass)>> {
+        let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
+        let pass = stream_file(path, spec, |u, y| sid.push(u, y).ctx(&what))?;
+        if pass.multirate {
             return Ok(None);
         }
-        if fill > 0 {
-            sid.push(
-                &ub.rows(0, fill).into_owned(),
-                &yb.rows(0, fill).into_owned(),
-            )
-            .ctx(&what)?;
-        }
-        let read_s = t.elapsed().as_secs_f64();
-        match sid.finish() {
-            Ok(fit) => Ok(Some((fit, n_rows, ts, read_s))),
+        match sid.finish_subspace() {
+            Ok(first) => Ok(Some((first, pass))),
             Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
                 if compression != Compression::Qr =>
             {
@@ -596,14 +704,21 @@ fn identify_streaming(
         }
     };
     let t_total = std::time::Instant::now();
-    let (fit, n_rows, ts, read_s) = match run(Compression::Auto)? {
+    let (first, pass) = match first_pass(Compression::Auto)? {
         Some(r) => r,
-        None => match run(Compression::Qr)? {
+        None => match first_pass(Compression::Qr)? {
             Some(r) => r,
             None => return Ok(None),
         },
     };
+    let read_s = t_total.elapsed().as_secs_f64();
+    let fit = if first.wants_second_pass() {
+        second_pass(path, spec, first, &what)?
+    } else {
+        first.into_model()
+    };
     let identify_s = t_total.elapsed().as_secs_f64() - read_s;
+    let (ts, n_rows) = (pass.ts, pass.rows);
     let m = &fit.model;
     let model = StateSpace::new(
         m.a().clone(),
@@ -612,13 +727,25 @@ fn identify_streaming(
         m.d().clone(),
         Some(ts),
     )
-    .and_then(|m| m.with_input_names(spec.inputs.clone()))
-    .and_then(|m| m.with_output_names(spec.outputs.clone()))
     .ctx("identify")?;
-    let mut d = subspace_json(
+    let d = subspace_json(
         &fit,
         "single-rate subspace identification, streamed in blocks",
     );
+    let mut kalman_gain = fit.kalman_gain.clone();
+    let (model, mut d) = if a.refine == RefineArg::None {
+        (model, d)
+    } else {
+        // The refinement starts from the model above, on the file in memory
+        // (deviations from the model's operating point).
+        let loaded = load(path, spec)?;
+        let set = deviations(&loaded.data, fit.operating_point.as_ref())?;
+        refine(a, model, d, &[set], &mut kalman_gain)?
+    };
+    let model = model
+        .with_input_names(spec.inputs.clone())
+        .and_then(|m| m.with_output_names(spec.outputs.clone()))
+        .ctx("identify")?;
     // Reading and compressing overlap: blocks are compressed as they are read.
     add_run_facts(&mut d, a, n_rows, ts, &vec![1; n_y], read_s, identify_s);
     Ok(Some(finish_file(
@@ -626,8 +753,49 @@ fn identify_streaming(
             .with_method(a.method.name())
             .with_diagnostics(d),
         fit.operating_point.clone(),
-        fit.kalman_gain.as_ref(),
+        kalman_gain.as_ref(),
     )?))
+}
+
+/// The second pass of the streamed identification: the file read again
+/// into the output-error (B, D, x₀) regression for the first pass's
+/// (A, C). A regression that cannot run (A too unstable for the record,
+/// regressors rank deficient) keeps the one-pass model and says so in its
+/// fallbacks.
+fn second_pass(
+    path: &str,
+    spec: &DataSpec,
+    first: StreamedSubspace,
+    what: &str,
+) -> CliResult<SubspaceModel> {
+    let mut bd = match first.regression() {
+        Ok(bd) => bd,
+        Err(e) => return Ok(with_fallback(first.into_model(), &e)),
+    };
+    stream_file(path, spec, |u, y| bd.push(u, y).ctx(what))?;
+    first.finish(bd).map_err(|e| input(format!("{what}: {e}")))
+}
+
+/// A record less an operating point (the data the model's deviations are
+/// fitted to), or the record itself.
+fn deviations(data: &Dataset, op: Option<&OperatingPoint>) -> CliResult<Dataset> {
+    match op {
+        Some(op) => {
+            let neg = |v: &[f64]| v.iter().map(|x| -x).collect::<Vec<f64>>();
+            data.shifted(&neg(&op.u0), &neg(&op.y0))
+                .ctx("operating point")
+        }
+        None => Ok(data.clone()),
+    }
+}
+
+/// The one-pass model with a note of why the output-error (B, D) was not
+/// used.
+fn with_fallback(mut fit: SubspaceModel, e: &lifted_subspace::Error) -> SubspaceModel {
+    fit.diagnostics.fallbacks.push(format!(
+        "(B, D) from the projection on the compressed data: the output-error regression was refused ({e})"
+    ));
+    fit
 }
 
 /// Diagnostics of a subspace fit: horizons, order selection, compression used
@@ -637,6 +805,9 @@ fn subspace_json(fit: &SubspaceModel, route: &str) -> serde_json::Value {
     let dg = &fit.diagnostics;
     json!({
         "route": route,
+        "bd_route": dg.bd_route.name(),
+        "fallbacks": dg.fallbacks,
+        "stabilized": dg.stabilized,
         "horizons": [dg.horizons.0, dg.horizons.1],
         "hankel_columns": dg.columns,
         "kalman_gain": fit.kalman_gain.as_ref().map(rows),
@@ -689,15 +860,7 @@ fn add_run_facts(
 /// `--stable`: the model written must have every pole strictly inside the
 /// unit circle (the stabilised estimates guarantee it up to rounding).
 pub fn require_stable(model: &StateSpace) -> CliResult<()> {
-    if model.order() == 0 {
-        return Ok(());
-    }
-    let rho = model
-        .poles()
-        .ctx("--stable: poles of the model")?
-        .iter()
-        .map(|p| p.norm())
-        .fold(0.0, f64::max);
+    let rho = spectral_radius(model)?;
     if rho >= 1.0 {
         return Err(input(format!(
             "--stable: no stable estimate could be had, the model's spectral radius is {rho:.6}              (lower the order or lengthen the record)"

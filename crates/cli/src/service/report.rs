@@ -11,7 +11,7 @@ use crate::service::figures::{
     bode_grid, bode_plots, excitation_plot, order_plot, pz_plot, response_plot, step_plot,
 };
 use crate::service::models::channel_names;
-use crate::service::validation::{TABLE_HEADER, Validation, table_rows};
+use crate::service::validation::{TABLE_HEADER, Validation, table_rows, unstable_note};
 
 /// The report page of `file` validated on `data` (`v`, from
 /// [`crate::service::validation::validate_model`]); the labels name the
@@ -124,6 +124,12 @@ pub fn render(
 
     body += "<h2>Validation</h2>\n";
     let rows: Vec<Vec<String>> = table_rows(v).into_iter().map(|r| r.to_vec()).collect();
+    if let Some(note) = unstable_note(v) {
+        body += &format!(
+            "<p class=\"warning\"><strong>Warning:</strong> {}.</p>\n",
+            esc(&note)
+        );
+    }
     body += &html_table(&TABLE_HEADER, &rows, Some(6));
     body += &format!(
         "<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖) with ŷ simulated from rest; residual autocorrelation over τ = 1…{0} and input–residual cross-correlation over τ = −{0}…{0}, 99 % bound ±2.576/√N.</p>\n",

@@ -74,12 +74,44 @@ fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
+/// The fit column: "n/a: unstable" for an unstable model (its simulation
+/// diverges), else the percentage.
+pub fn fit_cell(v: &Validation, fit: f64) -> String {
+    if v.stable() {
+        format!("{fit:.2}")
+    } else {
+        "n/a: unstable".to_string()
+    }
+}
+
+/// The line printed under the table of an unstable model.
+pub fn unstable_note(v: &Validation) -> Option<String> {
+    (!v.stable()).then(|| {
+        format!(
+            "unstable: simulation fit not meaningful (spectral radius rho(A) = {:.6} >= 1)",
+            v.spectral_radius
+        )
+    })
+}
+
 /// Rows of the validation table: output, fit, 1- and 5-step prediction
-/// fits, samples, max |r_e|, max |r_eu|, bound, white, independent.
+/// fits, samples, max |r_e|, max |r_eu|, bound, white, independent. An
+/// unstable model's fit reads "n/a: unstable"; residual tests on
+/// non-finite residuals read "n/a".
 pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
     v.outputs
         .iter()
         .map(|o| {
+            let test = |passed: bool| {
+                if !o.residual_finite {
+                    "n/a"
+                } else if passed {
+                    "yes"
+                } else {
+                    "no"
+                }
+                .to_string()
+            };
             let cross = o.cross.iter().map(|c| max_abs(c)).fold(0.0, f64::max);
             let pred = |i: usize| {
                 o.prediction_fits
@@ -88,15 +120,15 @@ pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
             };
             [
                 o.name.clone(),
-                format!("{:.2}", o.fit),
+                fit_cell(v, o.fit),
                 pred(0),
                 pred(1),
                 o.samples.to_string(),
                 format!("{:.4}", max_abs(&o.auto)),
                 format!("{cross:.4}"),
                 format!("{:.4}", o.bound),
-                if o.white { "yes" } else { "no" }.to_string(),
-                if o.independent { "yes" } else { "no" }.to_string(),
+                test(o.white),
+                test(o.independent),
             ]
         })
         .collect()
