@@ -1508,42 +1508,12 @@ fn from_factor_parts(
         report: compression,
     } = factor;
     let compression_flops = compression.flops;
-    let (p, f, nu, ny) = (layout.past, layout.future, layout.nu, layout.ny);
+    let (p, f) = (layout.past, layout.future);
     let layout = *layout;
-    let max_order = (f - 1) * ny;
-    // Persistent excitation: the input rows [U_f; U_p] must have full rank.
-    let nu_rows = (p + f) * nu;
-    let projector = Projector::new(&l, layout)?;
-    check_exciting("u", projector.input_rank(1e-10)?, nu_rows)?;
-
-    // Φ = 𝓜 W_p with W_p = [U_p; Y_p], consecutive rows of L (a view).
-    let (map, map_triangular) = projector.oblique_map()?;
-    let wp_rows = layout.up().start..layout.yp().end;
-    let phi = &map * l.rows(wp_rows.start, wp_rows.len());
-    let (w1_inv, weighted) = match opts.method {
-        Method::N4sid => (None, None),
-        Method::Moesp => (None, Some(projector.perp_future_inputs(&phi)?)),
-        Method::Cva => {
-            let (w1, w1i) = cva_weights(&projector, &rows(&l, layout.yf()))?;
-            (Some(w1i), Some(w1 * projector.perp_future_inputs(&phi)?))
-        }
-    };
-    // U and the singular values only (V is never used); N4SID's weights
-    // are identities.
-    let (u, s) = svd_left(weighted.as_ref().unwrap_or(&phi))?;
+    let max_order = (f - 1) * layout.ny;
+    let sub = subspace_of(&l, layout, opts)?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let sub = Subspace {
-        l: &l,
-        layout,
-        projector,
-        phi,
-        map,
-        map_triangular,
-        u,
-        s: s.iter().cloned().collect(),
-        w1_inv,
-    };
     // N4SID's and MOESP's singular values scale with the outputs; CVA's
     // are canonical correlations.
     let sv_unit = if opts.method == Method::Cva {
@@ -1614,6 +1584,118 @@ fn from_factor_parts(
         gamma,
         map,
     })
+}
+
+/// Steps 2–3 of [`identify`] on the factor `l` (scaled data): the
+/// excitation test, the oblique projection, the weights of `opts.method`
+/// and the SVD. O(k³).
+fn subspace_of<'l>(
+    l: &'l DMatrix<f64>,
+    layout: HankelLayout,
+    opts: &SubspaceOptions,
+) -> Result<Subspace<'l>> {
+    // Persistent excitation: the input rows [U_f; U_p] must have full rank.
+    let nu_rows = (layout.past + layout.future) * layout.nu;
+    let projector = Projector::new(l, layout)?;
+    check_exciting("u", projector.input_rank(1e-10)?, nu_rows)?;
+    // Φ = 𝓜 W_p with W_p = [U_p; Y_p], consecutive rows of L (a view).
+    let (map, map_triangular) = projector.oblique_map()?;
+    let wp_rows = layout.up().start..layout.yp().end;
+    let phi = &map * l.rows(wp_rows.start, wp_rows.len());
+    let (w1_inv, weighted) = match opts.method {
+        Method::N4sid => (None, None),
+        Method::Moesp => (None, Some(projector.perp_future_inputs(&phi)?)),
+        Method::Cva => {
+            let (w1, w1i) = cva_weights(&projector, &rows(l, layout.yf()))?;
+            (Some(w1i), Some(w1 * projector.perp_future_inputs(&phi)?))
+        }
+    };
+    // U and the singular values only (V is never used); N4SID's weights
+    // are identities.
+    let (u, s) = svd_left(weighted.as_ref().unwrap_or(&phi))?;
+    Ok(Subspace {
+        l,
+        layout,
+        projector,
+        phi,
+        map,
+        map_triangular,
+        u,
+        s: s.iter().cloned().collect(),
+        w1_inv,
+    })
+}
+
+/// The model of every order 1..=`cap` (`None` where the fit failed) from
+/// one compression of the records, with the operating point removed when
+/// `opts.remove_means` (returned; y₀ includes the output offsets of each
+/// order's regression only through the model's own deviations, so the
+/// caller compares deviations from it). For the structure selection of
+/// [`crate::select_structure`]: one O(N) compression, then per order
+/// O(k³) plus the (B, D, x₀) regression O(N q²).
+pub(crate) fn models_of_orders(
+    experiments: &[Experiment<'_>],
+    opts: &SubspaceOptions,
+    cap: usize,
+) -> Result<(Option<OperatingPoint>, Vec<Option<StateSpace>>)> {
+    validate_on(experiments, thread_count(opts.threads))?;
+    let (op, owned) = if opts.remove_means {
+        let (op, c) = remove_means(experiments)?;
+        (Some(op), Some(c))
+    } else {
+        (None, None)
+    };
+    let exps: Vec<Experiment<'_>> = match &owned {
+        Some(c) => c.iter().map(|(u, y)| Experiment { u, y }).collect(),
+        None => experiments.to_vec(),
+    };
+    let (nu, ny, total) = validate_shapes(&exps)?;
+    let layout = check_options(nu, ny, opts)?;
+    let k = layout.nrows();
+    let columns: usize = exps.iter().map(|e| layout.columns(e.u.nrows())).sum();
+    if columns < k {
+        let (p, f) = (layout.past, layout.future);
+        return Err(Error::HorizonTooLong {
+            past: p,
+            future: f,
+            n_samples: total,
+            min_samples: k + (p + f - 1) * exps.len(),
+        });
+    }
+    let us: Vec<&DMatrix<f64>> = exps.iter().map(|e| e.u).collect();
+    let ys: Vec<&DMatrix<f64>> = exps.iter().map(|e| e.y).collect();
+    let scale = Scale {
+        u: pow4_scale(&us),
+        y: pow4_scale(&ys),
+    };
+    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = exps.iter().map(|e| (e.u, e.y)).collect();
+    let factor = compress(
+        &recs,
+        &layout,
+        opts.compression,
+        opts.chunk_rows,
+        thread_count(opts.threads),
+        scale,
+        opts.remove_means,
+    )?;
+    let records: Vec<Record<'_>> = exps
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: None,
+        })
+        .collect();
+    let sub = subspace_of(&factor.l, layout, opts)?;
+    let cap = cap.min(sub.s.len()).min((layout.future - 1) * ny);
+    let models = (1..=cap)
+        .map(|n| {
+            fit_order(&sub, n, opts, Some(&records), scale)
+                .ok()
+                .and_then(|f| StateSpace::new(f.a, f.b, f.c, f.d, Some(opts.ts)).ok())
+        })
+        .collect();
+    Ok((op, models))
 }
 
 /// A model fitted from a compressed factor, with what a later (B, D)

@@ -10,7 +10,9 @@
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
 //! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
 //! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemFit`], [`PemReport`]) | prediction-error or output-error refinement of a model by Levenberg–Marquardt in data-driven local coordinates; multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result |
-//! | [`StreamingIdentifier`] | the same identification from data fed in blocks, memory independent of N |
+//! | [`StreamingIdentifier`], [`StreamedSubspace`] | the same identification from data fed in blocks, memory independent of N: one pass ((B, D) by the projection) or two passes ((B, D, x₀) by the output-error regression of a second pass, equal to [`identify`] in memory up to rounding) |
+//! | [`OutputErrorStream`] ([`OutputErrorStreamOptions`]) | the output-error (B, D, x₀) regression fed in blocks (the second pass) |
+//! | [`select_structure`] ([`StructureOptions`], [`StructureSelection`], [`Candidate`]) | horizon, (A, C) route and order chosen by the simulation fit on held-out data (the default of the `lifted` command) |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
 //! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
@@ -130,6 +132,7 @@ mod order;
 mod projection;
 mod refine;
 mod regress;
+mod select;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
 pub use engine::{
@@ -149,3 +152,4 @@ pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
 };
+pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};

@@ -13,8 +13,8 @@ use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
     BdEstimate, Compression, Experiment, Feedthrough, IvExperiment, IvOptions, Kept, Method,
     OrderCriterion, OrderReport, OrderSelection, PemCost, PemOptions, Record, StreamedSubspace,
-    StreamingIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate, identify, iv_identify,
-    refine_pem,
+    StreamingIdentifier, StructureOptions, SubspaceModel, SubspaceOptions, SystemEstimate,
+    identify, iv_identify, refine_pem, select_structure,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
@@ -88,7 +88,7 @@ fn method_of(m: MethodArg) -> Method {
 /// The subspace crate's (A, C) route for `--estimator`.
 fn system_of(e: EstimatorArg) -> SystemEstimate {
     match e {
-        EstimatorArg::Shift => SystemEstimate::ShiftInvariance,
+        EstimatorArg::Auto | EstimatorArg::Shift => SystemEstimate::ShiftInvariance,
         EstimatorArg::States => SystemEstimate::StateSequence,
     }
 }
@@ -129,7 +129,10 @@ fn order_json(kind: &str, values: &[f64], order: usize, suggested: usize) -> ser
 
 /// Fails unless `--order-criterion` is the gap (the routes without the other rules).
 fn gap_only(a: &IdentifyArgs) -> CliResult<()> {
-    if a.order_criterion == CriterionArg::Gap {
+    if matches!(
+        a.order_criterion,
+        CriterionArg::Gap | CriterionArg::Validation
+    ) {
         Ok(())
     } else {
         Err(input(
@@ -142,11 +145,105 @@ fn gap_only(a: &IdentifyArgs) -> CliResult<()> {
 /// The subspace crate's rule for `--order-criterion`.
 fn criterion_of(c: CriterionArg) -> OrderCriterion {
     match c {
-        CriterionArg::Gap => OrderCriterion::Gap,
+        // The held-out validation runs before the identification
+        // (`select`); a fixed order is then passed on.
+        CriterionArg::Validation | CriterionArg::Gap => OrderCriterion::Gap,
         CriterionArg::Svc => OrderCriterion::Svc,
         CriterionArg::Aic => OrderCriterion::Aic,
         CriterionArg::Aicc => OrderCriterion::Aicc,
         CriterionArg::Bic => OrderCriterion::Bic,
+    }
+}
+
+/// Largest data file (bytes, all files) on which the structure of a
+/// single-rate subspace identification is selected on held-out data; larger
+/// files are streamed with horizon 10, shift invariance and, for an
+/// automatic order, Bauer's SVC.
+pub const SELECT_MAX_BYTES: u64 = 16 << 20;
+
+/// Whether the set-up leaves the structure (horizon, (A, C) route, order) of
+/// a single-rate N4SID/MOESP/CVA to the held-out validation: the default
+/// `--order-criterion validation` with any of them not given.
+fn wants_selection(a: &IdentifyArgs) -> bool {
+    matches!(
+        a.method,
+        MethodArg::N4sid | MethodArg::Moesp | MethodArg::Cva
+    ) && a.order_criterion == CriterionArg::Validation
+        && (a.horizon.is_none()
+            || a.estimator == EstimatorArg::Auto
+            || a.order.trim().eq_ignore_ascii_case("auto"))
+}
+
+/// Whether the data files are small enough for the held-out selection
+/// ([`SELECT_MAX_BYTES`]); a file that cannot be read counts as small (the
+/// loader then names the problem).
+fn small_enough_to_select(a: &IdentifyArgs) -> bool {
+    let bytes: u64 = a
+        .data
+        .iter()
+        .map(|p| std::fs::metadata(p).map_or(0, |m| m.len()))
+        .sum();
+    bytes <= SELECT_MAX_BYTES
+}
+
+/// The structure chosen by held-out simulation fit for `opts` on the
+/// records ([`select_structure`]): the options with the chosen horizon,
+/// route and order, and the diagnostics entry; a selection that fails
+/// keeps `opts` (horizon 10, shift invariance, the gap rule) and says why.
+fn select(
+    a: &IdentifyArgs,
+    exps: &[Experiment<'_>],
+    opts: SubspaceOptions,
+) -> (SubspaceOptions, serde_json::Value) {
+    let sel_opts = StructureOptions {
+        horizons: a.horizon.map(|h| vec![h]).unwrap_or_default(),
+        systems: match a.estimator {
+            EstimatorArg::Auto => Vec::new(),
+            e => vec![system_of(e)],
+        },
+        max_order: a.max_order.max(1),
+        ..Default::default()
+    };
+    match select_structure(exps, &opts, &sel_opts) {
+        Ok(sel) => {
+            let candidates: Vec<serde_json::Value> = sel
+                .candidates
+                .iter()
+                .map(|c| {
+                    json!({"horizon": c.horizon, "system": system_name(c.system),
+                           "order": c.order, "fit": c.fit})
+                })
+                .collect();
+            let d = json!({
+                "criterion": "simulation fit on the held-out last third of the record, x0 estimated",
+                "horizon": sel.horizon,
+                "system": system_name(sel.system),
+                "order": sel.order,
+                "held_out_fit": sel.fit,
+                "samples": {"estimation": sel.split.0, "held_out": sel.split.1},
+                "candidates": candidates,
+            });
+            let opts = SubspaceOptions {
+                past: sel.horizon,
+                future: sel.horizon,
+                system: sel.system,
+                order: OrderSelection::Fixed(sel.order),
+                ..opts
+            };
+            (opts, d)
+        }
+        Err(e) => (
+            opts,
+            json!({"error": format!("no structure selected on held-out data ({e}); horizon {}, shift invariance, singular-value gap", 10)}),
+        ),
+    }
+}
+
+/// Name of an (A, C) route in the diagnostics.
+fn system_name(s: SystemEstimate) -> &'static str {
+    match s {
+        SystemEstimate::ShiftInvariance => "shift invariance",
+        SystemEstimate::StateSequence => "state sequences",
     }
 }
 
@@ -262,9 +359,18 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 .iter()
                 .map(|d| Experiment { u: d.u(), y: d.y() })
                 .collect();
+            let (opts, structure) = if wants_selection(a) {
+                let (o, d) = select(a, &exps, opts);
+                (o, Some(d))
+            } else {
+                (opts, None)
+            };
             let fit = identify(&exps, &opts)
                 .ctx(format!("{} identification", method_of(a.method).name()))?;
-            let d = subspace_json(&fit, "single-rate subspace identification");
+            let mut d = subspace_json(&fit, "single-rate subspace identification");
+            if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
+                obj.insert("structure_selection".into(), st);
+            }
             kalman_gain = fit.kalman_gain.clone();
             if inner_means {
                 // The refinement and the stored model see deviations from
@@ -659,6 +765,7 @@ fn identify_streaming(
     );
     if !subspace
         || needs_records
+        || (wants_selection(a) && small_enough_to_select(a))
         || a.detrend == DetrendArg::Linear
         || a.data.len() != 1
         || !spec.periods.is_empty()
@@ -673,10 +780,16 @@ fn identify_streaming(
         return Ok(None); // the loader reports the missing columns
     }
     let what = format!("{} identification", method_of(a.method).name());
+    // Too large a file for the held-out selection: horizon 10, shift
+    // invariance, and Bauer's SVC for an automatic order.
+    let criterion = match a.order_criterion {
+        CriterionArg::Validation => OrderCriterion::Svc,
+        c => criterion_of(c),
+    };
     let opts_with = |compression: Compression| SubspaceOptions {
         method: method_of(a.method),
         order,
-        order_criterion: criterion_of(a.order_criterion),
+        order_criterion: criterion,
         past: a.horizon.unwrap_or(10),
         future: a.horizon.unwrap_or(10),
         system: system_of(a.estimator),
