@@ -43,27 +43,36 @@ mod session;
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
-pub use api::router;
+pub use api::{Access, MAX_JSON, SECURITY_HEADERS, TOKEN_HEADER, lock, router};
 pub use session::{
-    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, OrderSelection, Request, Session, View,
+    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, MAX_UPLOAD, MAX_WORK_BYTES,
+    OrderSelection, Request, Session, View,
 };
 
 use crate::error::{CliResult, input};
 
 /// Serves the studio on 127.0.0.1:`port` (0: any free port) until Ctrl-C or
-/// SIGTERM; prints `lifted studio: http://127.0.0.1:PORT/` first. With
-/// `data`, that CSV is loaded at start (a bad file is an error before the
-/// server starts).
+/// SIGTERM; prints `lifted studio: http://127.0.0.1:PORT/?token=TOKEN`
+/// first (the page's URL with the session token). With `data`, that CSV is
+/// loaded at start (a bad file is an error before the server starts). The
+/// scratch directory is removed on every way out: a stop signal, an error,
+/// a panic (the session's drop).
 pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
     let mut session = Session::new(&std::env::temp_dir())?;
-    if let Some(path) = data
-        && let Err(e) = session.open(path)
-    {
-        session.close();
-        return Err(e);
+    if let Some(path) = data {
+        session.open(path)?;
     }
     let dir = session.dir().to_path_buf();
     let state = Arc::new(Mutex::new(session));
+    let served = serve(state.clone(), port);
+    // The server's tasks are gone; remove the directory even if a blocking
+    // call still holds the session.
+    let _ = std::fs::remove_dir_all(&dir);
+    drop(state);
+    served
+}
+
+fn serve(state: Arc<Mutex<Session>>, port: u16) -> CliResult<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -76,14 +85,17 @@ pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
         let addr = listener
             .local_addr()
             .map_err(|e| input(format!("studio: {e}")))?;
-        println!("lifted studio: http://{addr}/ (Ctrl-C to stop)");
+        let access = Access::new(addr.port())?;
+        println!("lifted studio: {} (Ctrl-C to stop)", access.url());
         let _ = std::io::stdout().flush();
-        axum::serve(listener, router(state))
+        axum::serve(listener, router(state, access))
             .with_graceful_shutdown(stop_signal())
             .await
             .map_err(|e| input(format!("studio: {e}")))
     });
-    let _ = std::fs::remove_dir_all(dir);
+    // Do not wait for a long identification still running on the blocking
+    // pool: the process is about to end.
+    rt.shutdown_timeout(std::time::Duration::from_secs(1));
     served
 }
 
