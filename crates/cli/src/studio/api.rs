@@ -172,9 +172,10 @@ impl Access {
                 );
             }
             None => {
-                return forbidden(format!(
-                    "the studio token is missing: state-changing calls send it as {TOKEN_HEADER}"
-                ));
+                return forbidden(
+                    "the studio token is missing: state-changing calls send it as X-Lifted-Token"
+                        .into(),
+                );
             }
         }
         if *req.method() == Method::POST {
