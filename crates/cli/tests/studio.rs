@@ -791,6 +791,21 @@ impl Drop for Proc {
     }
 }
 
+/// Chromium and chromedriver, or `None` (the test says it is skipped)
+/// unless `LIFTED_BROWSER_TESTS=require`, where their absence fails it.
+fn browser_or_skip() -> Option<(String, String)> {
+    let found = browser_paths();
+    if found.is_none() {
+        let required = std::env::var("LIFTED_BROWSER_TESTS").is_ok_and(|v| v == "require");
+        assert!(
+            !required,
+            "LIFTED_BROWSER_TESTS=require but chromium/chromedriver were not found"
+        );
+        eprintln!("studio browser test skipped: install chromium and chromium-driver");
+    }
+    found
+}
+
 fn browser_paths() -> Option<(String, String)> {
     let find = |var: &str, default: &str| {
         std::env::var(var)
@@ -811,13 +826,15 @@ fn free_port() -> u16 {
 }
 
 /// Starts `lifted studio --port 0` with its scratch directory under
-/// `parent` (as TMPDIR) and returns it with its URL (with the token).
+/// `parent` (as TMPDIR) and its stderr in `parent/studio.log`, and returns
+/// it with its URL (with the token).
 fn start_studio(parent: &Path) -> (Proc, String) {
+    let log = std::fs::File::create(parent.join("studio.log")).unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_lifted"))
         .args(["studio", "--port", "0"])
         .env("TMPDIR", parent)
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(log)
         .spawn()
         .expect("lifted studio starts");
     let stdout = child.stdout.take().unwrap();
@@ -933,13 +950,7 @@ async fn shot(c: &Client, dir: &Path, name: &str) {
 
 #[test]
 fn studio_in_headless_chromium() {
-    let Some((chromium, driver)) = browser_paths() else {
-        let required = std::env::var("LIFTED_BROWSER_TESTS").is_ok_and(|v| v == "require");
-        assert!(
-            !required,
-            "LIFTED_BROWSER_TESTS=require but chromium/chromedriver were not found"
-        );
-        eprintln!("studio browser test skipped: install chromium and chromium-driver");
+    let Some((chromium, driver)) = browser_or_skip() else {
         return;
     };
     let dir = tmp("browser");
@@ -1011,7 +1022,7 @@ fn studio_in_headless_chromium() {
             .unwrap();
         let report = c
             .execute_async(
-                "const done = arguments[arguments.length - 1]; fetch('/api/report').then(r => r.text()).then(done);",
+                "const done = arguments[arguments.length - 1]; fetch(document.getElementById('save-report').href).then(r => r.text()).then(done);",
                 vec![],
             )
             .await
@@ -1067,4 +1078,195 @@ async fn futures_all(c: &Client, ids: &[&str]) -> Vec<String> {
         v.push(html(c, id).await);
     }
     v
+}
+
+/// A second origin: a tiny server on another port of 127.0.0.1 that
+/// answers every request with an empty page (the test's script runs in it).
+fn other_origin() -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        for conn in listener.incoming().flatten() {
+            let mut conn = conn;
+            let mut seen = Vec::new();
+            let mut buf = [0u8; 1024];
+            while !seen.windows(4).any(|w| w == b"\r\n\r\n") {
+                match conn.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => seen.extend_from_slice(&buf[..n]),
+                }
+            }
+            let page = "<!DOCTYPE html><title>another origin</title><p>not the studio</p>";
+            let _ = write!(
+                conn,
+                "HTTP/1.1 200 OK\r\nContent-Type: text/html\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{page}",
+                page.len()
+            );
+        }
+    });
+    port
+}
+
+/// The page's error text ('' when hidden).
+async fn page_error(c: &Client) -> String {
+    js(
+        c,
+        "const e = document.getElementById('error'); return e.hidden ? '' : e.textContent;",
+    )
+    .await
+    .as_str()
+    .unwrap_or("")
+    .to_string()
+}
+
+/// Waits until the page has counted more than `after` failed calls and is
+/// idle; returns the count.
+async fn wait_failed(c: &Client, after: u64) -> u64 {
+    let t = Instant::now();
+    loop {
+        let f = status(c, "failed").await;
+        if f > after && status(c, "busy").await == 0 {
+            return f;
+        }
+        assert!(t.elapsed() < Duration::from_secs(60), "no failure shown");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// Types `value` into the number field `id` and submits the form (Enter).
+async fn set_field(c: &Client, id: &str, value: &str) {
+    let f = c.find(Locator::Id(id)).await.unwrap();
+    f.clear().await.unwrap();
+    f.send_keys(&format!("{value}{}", Key::Enter))
+        .await
+        .unwrap();
+}
+
+async fn saves_disabled(c: &Client) -> bool {
+    js(
+        c,
+        "const a = document.getElementById('save-model'); \
+         return !a.hasAttribute('href') && a.getAttribute('aria-disabled') === 'true';",
+    )
+    .await
+    .as_bool()
+    .unwrap_or(false)
+}
+
+#[test]
+fn studio_refuses_another_origin_in_chromium_and_works_under_its_policy() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("browser-origin");
+    let st = Studio::start(&dir);
+    assert_eq!(st.upload("rec.csv", &record(3000, 1)).status, 200);
+    let studio = format!("http://127.0.0.1:{}", st.port);
+    let page_url = format!("{studio}/?token={}", st.token);
+    let evil = other_origin();
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+
+        // A page of another origin posts at the studio: no-cors fetches
+        // (a simple request, which the browser sends without asking),
+        // with and without a content type, and even with the token (as if
+        // it had leaked), which needs a CORS preflight.
+        c.goto(&format!("http://127.0.0.1:{evil}/")).await.unwrap();
+        assert_eq!(c.title().await.unwrap(), "another origin");
+        let outcome = c
+            .execute_async(
+                r#"const [studio, token] = arguments;
+                const done = arguments[arguments.length - 1];
+                const csv = "t,u1,y1\n0,1,2\n0.1,3,4\n0.2,5,6\n";
+                const tries = [
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "no-cors", body: csv}),
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "no-cors", body: csv,
+                        headers: {"Content-Type": "text/plain"}}),
+                  fetch(studio + "/api/identify", {method: "POST", mode: "no-cors",
+                        body: '{"inputs":["u1"],"outputs":["y1"],"horizon":100000}'}),
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "cors", body: csv,
+                        headers: {"X-Lifted-Token": token, "Content-Type": "application/octet-stream"}}),
+                ];
+                Promise.allSettled(tries).then((r) => done(r.map((x) => x.status + ":" +
+                  (x.status === "fulfilled" ? x.value.type : String(x.reason)))));"#,
+                vec![json!(studio), json!(st.token)],
+            )
+            .await
+            .unwrap();
+        let outcome: Vec<String> = serde_json::from_value(outcome).unwrap();
+        // The page learns nothing (the studio's answers are same-origin
+        // only: Cross-Origin-Resource-Policy turns them into network
+        // errors), and the request with the token failed its preflight.
+        assert!(
+            outcome.iter().all(|o| o.starts_with("rejected:")),
+            "{outcome:?}"
+        );
+        // The browser did send them, and the studio refused each one (its
+        // log), the preflight included: the record stands.
+        let log = std::fs::read_to_string(dir.join("studio.log")).unwrap();
+        let refused = |what: &str| log.lines().filter(|l| l.contains(what)).count();
+        assert_eq!(refused("refused POST /api/data"), 2, "{log}");
+        assert_eq!(refused("refused POST /api/identify"), 1, "{log}");
+        assert_eq!(refused("refused OPTIONS /api/data"), 1, "{log}");
+        assert!(
+            log.lines()
+                .filter(|l| l.contains("refused"))
+                .all(|l| l.contains("cross-origin request refused")),
+            "{log}"
+        );
+        assert_eq!(st.record(), ("rec.csv".to_string(), 3000));
+
+        // The studio's own page works under its policy: the record loaded
+        // at start is shown and identified, with no violation reported.
+        c.goto(&page_url).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        assert!(html(&c, "fig-pz").await.contains("<svg"));
+        assert!(html(&c, "fig-order").await.contains("<svg"));
+        assert!(!saves_disabled(&c).await);
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
+
+        // A typo in a number field is an error in the page, not a default.
+        set_field(&c, "horizon", "1e").await;
+        let f = wait_failed(&c, 0).await;
+        assert_eq!(page_error(&c).await, "Horizon: not a number");
+        assert!(saves_disabled(&c).await);
+        assert_eq!(html(&c, "fig-pz").await, "");
+
+        // An absurd horizon: the server's named error; the old figures
+        // and Save links are gone.
+        set_field(&c, "horizon", "100000").await;
+        wait_failed(&c, f).await;
+        let e = page_error(&c).await;
+        assert!(e.starts_with("horizon 100000 is too large for rec.csv"), "{e}");
+        assert!(saves_disabled(&c).await);
+        for id in ["fig-response", "fig-step", "fig-bode", "fig-pz", "fits"] {
+            assert_eq!(html(&c, id).await, "", "{id} kept the previous model");
+        }
+        // A click on the disabled link goes nowhere.
+        c.find(Locator::Id("save-model"))
+            .await
+            .unwrap()
+            .click()
+            .await
+            .unwrap();
+        assert_eq!(c.current_url().await.unwrap().as_str(), page_url);
+
+        // A sensible horizon again: a model, its figures and Save links.
+        set_field(&c, "horizon", "12").await;
+        wait_identified(&c, g).await;
+        assert!(html(&c, "fig-pz").await.contains("<svg"));
+        assert!(!saves_disabled(&c).await);
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
+        let png = c.screenshot().await.expect("screenshot");
+        let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target");
+        std::fs::create_dir_all(&target).unwrap();
+        std::fs::write(target.join("studio-security.png"), png).unwrap();
+        c.close().await.unwrap();
+    });
+    assert_eq!(st.record(), ("rec.csv".to_string(), 3000));
 }

@@ -107,11 +107,11 @@ impl Access {
         given.len() == want.len() && given.iter().zip(want).fold(0u8, |d, (a, b)| d | (a ^ b)) == 0
     }
 
-    /// The refusal of a request, if any (see the module documentation).
-    #[allow(clippy::result_large_err)]
-    fn check(&self, req: &HttpRequest) -> Result<(), Response> {
+    /// The refusal of a request, if any (see the module documentation):
+    /// its status and message.
+    fn check(&self, req: &HttpRequest) -> Result<(), (StatusCode, String)> {
         let h = req.headers();
-        let forbidden = |m: String| Err(error(StatusCode::FORBIDDEN, m));
+        let forbidden = |m: String| Err((StatusCode::FORBIDDEN, m));
         let host = text(h, header::HOST);
         let host = match host {
             Some(host) if self.host_ok(host) => host,
@@ -146,7 +146,10 @@ impl Access {
             ));
         }
         let path = req.uri().path();
-        if matches!(path, "/app.js" | "/app.css" | "/api/health") {
+        if matches!(
+            path,
+            "/app.js" | "/app.css" | "/api/health" | "/favicon.ico"
+        ) {
             return Ok(());
         }
         let header_token = h.get(TOKEN_HEADER).map(HeaderValue::as_bytes);
@@ -187,7 +190,7 @@ impl Access {
             let given = text(h, header::CONTENT_TYPE).unwrap_or("");
             let mime = given.split(';').next().unwrap_or("").trim();
             if !wanted.iter().any(|w| mime.eq_ignore_ascii_case(w)) {
-                return Err(error(
+                return Err((
                     StatusCode::UNSUPPORTED_MEDIA_TYPE,
                     format!(
                         "{path} takes Content-Type {}, not '{given}'",
@@ -250,13 +253,16 @@ pub fn router(state: Shared, access: Access) -> Router {
         .with_state(app)
 }
 
-/// Refuses what [`Access`] refuses, answers every error as JSON and adds
-/// the [`SECURITY_HEADERS`] to every answer.
+/// Refuses what [`Access`] refuses (and says so on stderr), answers every
+/// error as JSON and adds the [`SECURITY_HEADERS`] to every answer.
 async fn guard(State(app): State<App>, req: HttpRequest, next: Next) -> Response {
     let path = req.uri().path().to_string();
     let mut res = match app.access.check(&req) {
         Ok(()) => json_errors(next.run(req).await, &path).await,
-        Err(refused) => refused,
+        Err((status, msg)) => {
+            eprintln!("lifted studio: refused {} {path}: {msg}", req.method());
+            error(status, msg)
+        }
     };
     let h = res.headers_mut();
     for (name, value) in SECURITY_HEADERS {
