@@ -1266,7 +1266,30 @@ fn studio_refuses_another_origin_in_chromium_and_works_under_its_policy() {
         let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target");
         std::fs::create_dir_all(&target).unwrap();
         std::fs::write(target.join("studio-security.png"), png).unwrap();
+
+        // A column name with markup and both quotes is shown as text: in
+        // the channel boxes, the rates table, the fit table and its
+        // data-output attribute, with no element made of it.
+        let name = r#"y<b>"1'"#;
+        let csv = record(3000, 1).replacen("y1", name, 1);
+        assert_eq!(st.upload("xss.csv", &csv).status, 200);
+        c.goto(&page_url).await.unwrap();
+        wait_identified(&c, 0).await;
+        let seen = js(
+            &c,
+            "return [document.querySelectorAll('main b').length, \
+             document.querySelector('td.fit').dataset.output, \
+             document.getElementById('outputs-box').textContent, \
+             document.getElementById('rates').textContent];",
+        )
+        .await;
+        assert_eq!(seen[0], json!(0), "markup from a column name: {seen}");
+        assert_eq!(seen[1], json!(name));
+        for text in [&seen[2], &seen[3]] {
+            assert!(text.as_str().unwrap_or("").contains(name), "{seen}");
+        }
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
         c.close().await.unwrap();
     });
-    assert_eq!(st.record(), ("rec.csv".to_string(), 3000));
+    assert_eq!(st.record(), ("xss.csv".to_string(), 3000));
 }

@@ -4,7 +4,7 @@
 //! `400 {"error": "<the CLI's one-line message>"}`, a bug `500` with a
 //! message, and the server keeps running either way.
 //!
-//! Every request passes [`guard`] first (the model is Jupyter's server):
+//! Every request passes `guard` first (the model is Jupyter's server):
 //! the `Host` must be this server (127.0.0.1, localhost or [::1] with its
 //! port: no DNS rebinding), an `Origin` must be this server's origin, a
 //! `Sec-Fetch-Site` must not be `cross-site` or `same-site`, every call but
@@ -221,7 +221,7 @@ struct App {
 }
 
 /// The studio's routes (see the module documentation of [`crate::studio`]),
-/// behind [`guard`].
+/// behind `guard` (the checks of the module documentation of [`crate::studio`]).
 pub fn router(state: Shared, access: Access) -> Router {
     let dir = lock(&state).dir().to_path_buf();
     let index: Arc<str> = INDEX.replace("{{token}}", access.token()).into();

@@ -259,7 +259,7 @@ fn plain_in(folder: &Path, e: CliError) -> CliError {
 /// A new folder `upload-<random>` of the scratch directory `dir`, owner
 /// only, and the path of the record `name` in it (made safe: its base name
 /// with anything but letters, digits, `.`, `-`, `_` replaced).
-pub fn staging(dir: &Path, name: &str) -> CliResult<(PathBuf, PathBuf)> {
+pub(crate) fn staging(dir: &Path, name: &str) -> CliResult<(PathBuf, PathBuf)> {
     let folder = dir.join(format!("upload-{}", random_hex(8)?));
     private_dir(&folder).map_err(|e| input(format!("cannot store the upload: {e}")))?;
     let path = folder.join(safe_name(name));
@@ -365,7 +365,8 @@ impl Session {
     }
 
     /// A new folder of the scratch directory for an incoming record, and
-    /// the path of the record `name` in it (see [`staging`]).
+    /// the path of the record `name` in it (made safe: its base name with
+    /// anything but letters, digits, `.`, `-`, `_` replaced).
     pub fn staging(&self, name: &str) -> CliResult<(PathBuf, PathBuf)> {
         staging(&self.dir, name)
     }
