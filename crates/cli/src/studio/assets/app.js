@@ -86,14 +86,14 @@ function labelOf(id) {
 // else a finite number (an integer ≥ `min` when asked); anything else is
 // an error that names the field, never a silent default.
 function num(id, integer, min) {
-  const el = $(id);
-  el.removeAttribute("aria-invalid");
-  const v = el.value.trim();
+  const field = $(id);
+  field.removeAttribute("aria-invalid");
+  const v = field.value.trim();
   const bad = (why) => {
-    el.setAttribute("aria-invalid", "true");
+    field.setAttribute("aria-invalid", "true");
     return new Error(labelOf(id) + ": " + why);
   };
-  if (el.validity && el.validity.badInput) throw bad("not a number");
+  if (field.validity && field.validity.badInput) throw bad("not a number");
   if (v === "") return null;
   const x = Number(v);
   if (!Number.isFinite(x)) throw bad("'" + v + "' is not a number");
@@ -104,12 +104,12 @@ function num(id, integer, min) {
 
 // A comma-separated list of numbers (the output weighting).
 function numbers(id) {
-  const el = $(id);
-  el.removeAttribute("aria-invalid");
-  return listOf(el.value).map((w) => {
+  const field = $(id);
+  field.removeAttribute("aria-invalid");
+  return listOf(field.value).map((w) => {
     const x = Number(w);
     if (!Number.isFinite(x)) {
-      el.setAttribute("aria-invalid", "true");
+      field.setAttribute("aria-invalid", "true");
       throw new Error(labelOf(id) + ": '" + w + "' is not a number");
     }
     return x;
@@ -259,7 +259,9 @@ async function loadFile(file) {
     const info = await call("/api/data?name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
     setup(info);
   } catch (e) {
-    setStatus("no data");
+    // The server keeps the record it had (a file replaces it only once
+    // read whole), and so does the page.
+    setStatus(state.info ? state.info.name + " kept" : "no data");
     showError(e.message);
   }
 }
