@@ -451,6 +451,24 @@ fn studio_refuses_foreign_requests_and_keeps_its_state() {
         "{csp}"
     );
     assert!(csp.contains("frame-ancestors 'none'"), "{csp}");
+    // Nothing inline for the policy to block (the browser tests count the
+    // violations the page reports after its script has loaded).
+    assert!(!page.body.contains("<style") && !page.body.contains(" style="));
+    let handler = page.body.match_indices(" on").any(|(i, _)| {
+        let rest = &page.body[i + 3..];
+        let word = rest.len()
+            - rest
+                .trim_start_matches(|c: char| c.is_ascii_lowercase())
+                .len();
+        word > 0 && rest[word..].starts_with('=')
+    });
+    assert!(!handler, "an inline event handler");
+    assert_eq!(
+        page.body.matches("<script").count(),
+        page.body
+            .matches("<script src=\"/app.js\"></script>")
+            .count()
+    );
     let no_token = raw(port, "GET", "/", &[], b"");
     assert_eq!(no_token.status, 403);
     assert!(no_token.error().contains("token"));
@@ -976,6 +994,7 @@ fn studio_in_headless_chromium() {
         let file = c.find(Locator::Id("file")).await.unwrap();
         file.send_keys(&rec.display().to_string()).await.unwrap();
         let g = wait_identified(&c, 0).await;
+        assert_eq!(status(&c, "csp").await, 0, "a content-security-policy violation");
         assert!(html(&c, "fig-inputs").await.contains("<svg"));
         assert!(html(&c, "fig-outputs").await.contains("<svg"));
         assert!(html(&c, "fig-order").await.contains("<svg"));
