@@ -11,14 +11,14 @@
 //! so and returns, unless `LIFTED_BROWSER_TESTS=require` (set by `.ci/run`,
 //! which installs both), where their absence fails the test.
 
-use std::io::{BufRead, BufReader};
-use std::net::TcpListener;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use fantoccini::{Client, ClientBuilder, Locator, key::Key};
-use lifted_cli::studio::{Request, Session};
+use lifted_cli::studio::{MAX_JSON, MAX_UPLOAD, Request, Session};
 use lifted_prbs::{InversePrbs, InversePrbsOptions};
 use serde_json::{Value, json};
 
@@ -244,6 +244,546 @@ fn session_moves_q_of_the_q_markov_cover() {
     s.close();
 }
 
+// ------------------------------------------------------------------- HTTP
+
+/// An answer read off the socket.
+struct Answer {
+    status: u16,
+    head: String,
+    body: String,
+}
+
+impl Answer {
+    fn header(&self, name: &str) -> Option<&str> {
+        self.head.lines().find_map(|l| {
+            let (k, v) = l.split_once(':')?;
+            k.trim().eq_ignore_ascii_case(name).then_some(v.trim())
+        })
+    }
+
+    /// The `error` of a JSON error answer (panics if it is not one).
+    fn error(&self) -> String {
+        assert_eq!(
+            self.header("content-type"),
+            Some("application/json"),
+            "{} {}",
+            self.status,
+            self.body
+        );
+        let v: Value = serde_json::from_str(&self.body).expect("a JSON body");
+        v["error"].as_str().expect("an error message").to_string()
+    }
+}
+
+/// One raw HTTP/1.1 request on its own connection: `headers` as given (a
+/// `Host` of 127.0.0.1:port and the `Content-Length` of `body` unless
+/// given). The body is written by a second thread while the answer is read,
+/// so a server that answers before reading it all (413) is seen.
+fn raw(port: u16, method: &str, path: &str, headers: &[(&str, &str)], body: &[u8]) -> Answer {
+    let has = |n: &str| headers.iter().any(|(k, _)| k.eq_ignore_ascii_case(n));
+    let mut head = format!("{method} {path} HTTP/1.1\r\n");
+    if !has("host") {
+        head += &format!("Host: 127.0.0.1:{port}\r\n");
+    }
+    for (k, v) in headers {
+        head += &format!("{k}: {v}\r\n");
+    }
+    if !has("content-length") {
+        head += &format!("Content-Length: {}\r\n", body.len());
+    }
+    head += "Connection: close\r\n\r\n";
+    let mut s = TcpStream::connect(("127.0.0.1", port)).expect("the studio listens");
+    s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+    let mut w = s.try_clone().unwrap();
+    let bytes = [head.as_bytes(), body].concat();
+    let writer = std::thread::spawn(move || {
+        let _ = w.write_all(&bytes);
+    });
+    let mut out = Vec::new();
+    // A reset after the answer (body left unread) ends the read, not the data.
+    let _ = s.read_to_end(&mut out);
+    let _ = writer.join();
+    let text = String::from_utf8_lossy(&out).into_owned();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    let status = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("no HTTP answer: {text:?}"));
+    Answer {
+        status,
+        head: head.to_string(),
+        body: body.to_string(),
+    }
+}
+
+/// A running studio seen from outside: its port, token and scratch folder.
+struct Studio {
+    proc: Option<Proc>,
+    port: u16,
+    token: String,
+    scratch: PathBuf,
+}
+
+impl Studio {
+    /// `lifted studio` with TMPDIR = `parent` (which holds nothing else).
+    fn start(parent: &Path) -> Studio {
+        let (proc, url) = start_studio(parent);
+        let rest = url.trim_start_matches("http://127.0.0.1:");
+        let (port, token) = rest.split_once("/?token=").expect("URL with token");
+        let scratch: Vec<PathBuf> = std::fs::read_dir(parent)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("lifted-studio-"))
+            })
+            .collect();
+        assert_eq!(scratch.len(), 1, "{scratch:?}");
+        Studio {
+            proc: Some(proc),
+            port: port.parse().unwrap(),
+            token: token.to_string(),
+            scratch: scratch[0].clone(),
+        }
+    }
+
+    /// A call with the token header and, with a body, its content type.
+    fn call(&self, method: &str, path: &str, ctype: &str, body: &[u8]) -> Answer {
+        let mut h = vec![("X-Lifted-Token", self.token.as_str())];
+        if !ctype.is_empty() {
+            h.push(("Content-Type", ctype));
+        }
+        raw(self.port, method, path, &h, body)
+    }
+
+    fn upload(&self, name: &str, csv: &str) -> Answer {
+        self.call(
+            "POST",
+            &format!("/api/data?name={name}"),
+            "application/octet-stream",
+            csv.as_bytes(),
+        )
+    }
+
+    fn identify(&self, r: &Value) -> Answer {
+        self.call(
+            "POST",
+            "/api/identify",
+            "application/json",
+            r.to_string().as_bytes(),
+        )
+    }
+
+    /// The loaded record's (name, rows), from `GET /api/data`.
+    fn record(&self) -> (String, u64) {
+        let a = self.call("GET", "/api/data", "", b"");
+        assert_eq!(a.status, 200, "{}", a.body);
+        let v: Value = serde_json::from_str(&a.body).unwrap();
+        (
+            v["name"].as_str().unwrap_or("").to_string(),
+            v["rows"].as_u64().unwrap_or(0),
+        )
+    }
+
+    /// Stops the server with `signal` and waits for it.
+    fn stop(&mut self, signal: &str) {
+        if let Some(mut p) = self.proc.take() {
+            let _ = Command::new("kill")
+                .arg(format!("-{signal}"))
+                .arg(p.0.id().to_string())
+                .status();
+            let t = Instant::now();
+            while t.elapsed() < Duration::from_secs(10) {
+                if let Ok(Some(_)) = p.0.try_wait() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
+    }
+}
+
+fn n4sid(order: &str) -> Value {
+    json!({"inputs": ["u1"], "outputs": ["y1"], "method": "n4sid", "order": order})
+}
+
+#[test]
+fn studio_refuses_foreign_requests_and_keeps_its_state() {
+    let parent = tmp("attacks");
+    let mut st = Studio::start(&parent);
+    let port = st.port;
+
+    // The scratch folder: a random name (not the PID), owner only.
+    let name = st
+        .scratch
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .into_owned();
+    let suffix = name.trim_start_matches("lifted-studio-");
+    assert!(
+        suffix.len() == 32 && suffix.chars().all(|c| c.is_ascii_hexdigit()),
+        "{name}"
+    );
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&st.scratch).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o700, "scratch mode {mode:o}");
+    }
+
+    // The page: only with the token, which it carries for its script.
+    let page = raw(port, "GET", &format!("/?token={}", st.token), &[], b"");
+    assert_eq!(page.status, 200);
+    assert!(page.body.contains(&format!("content=\"{}\"", st.token)));
+    for (h, v) in [
+        ("x-content-type-options", "nosniff"),
+        ("x-frame-options", "DENY"),
+        ("referrer-policy", "no-referrer"),
+    ] {
+        assert_eq!(page.header(h), Some(v), "{h}");
+    }
+    let csp = page.header("content-security-policy").unwrap_or("");
+    assert!(
+        csp.contains("script-src 'self'") && !csp.contains("unsafe-inline"),
+        "{csp}"
+    );
+    assert!(csp.contains("frame-ancestors 'none'"), "{csp}");
+    // Nothing inline for the policy to block (the browser tests count the
+    // violations the page reports after its script has loaded).
+    assert!(!page.body.contains("<style") && !page.body.contains(" style="));
+    let handler = page.body.match_indices(" on").any(|(i, _)| {
+        let rest = &page.body[i + 3..];
+        let word = rest.len()
+            - rest
+                .trim_start_matches(|c: char| c.is_ascii_lowercase())
+                .len();
+        word > 0 && rest[word..].starts_with('=')
+    });
+    assert!(!handler, "an inline event handler");
+    assert_eq!(
+        page.body.matches("<script").count(),
+        page.body
+            .matches("<script src=\"/app.js\"></script>")
+            .count()
+    );
+    let no_token = raw(port, "GET", "/", &[], b"");
+    assert_eq!(no_token.status, 403);
+    assert!(no_token.error().contains("token"));
+    // Refusals carry the security headers too.
+    assert!(no_token.header("content-security-policy").is_some());
+    // The assets and the health check need no token.
+    assert_eq!(raw(port, "GET", "/app.js", &[], b"").status, 200);
+    assert_eq!(raw(port, "GET", "/api/health", &[], b"").body, "ok");
+
+    // A record and a model.
+    let csv = record(1500, 1);
+    let up = st.upload("rec.csv", &csv);
+    assert_eq!(up.status, 200, "{}", up.body);
+    let id = st.identify(&n4sid("2"));
+    assert_eq!(id.status, 200, "{}", id.body);
+    let model = st.call("GET", "/api/model", "", b"");
+    assert_eq!(model.status, 200, "{}", model.body);
+    let other = record(400, 1);
+    let t = st.token.clone();
+    let tok = t.as_str();
+    let up_path = "/api/data?name=other.csv";
+    let octet = ("Content-Type", "application/octet-stream");
+    let json_ct = ("Content-Type", "application/json");
+    let body = n4sid("1").to_string();
+    let refused: Vec<(&str, Answer, u16, &str)> = vec![
+        (
+            "DNS rebinding: Host evil.example",
+            raw(
+                port,
+                "GET",
+                &format!("/?token={tok}"),
+                &[("Host", "evil.example")],
+                b"",
+            ),
+            403,
+            "Host 'evil.example'",
+        ),
+        (
+            "Host evil.example with the port, on an upload",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[
+                    ("Host", &format!("evil.example:{port}")),
+                    ("X-Lifted-Token", tok),
+                    octet,
+                ],
+                other.as_bytes(),
+            ),
+            403,
+            "is not this studio",
+        ),
+        (
+            "foreign Origin, text/plain (a no-cors form post)",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[
+                    ("Origin", "http://evil.example"),
+                    ("Content-Type", "text/plain"),
+                ],
+                other.as_bytes(),
+            ),
+            403,
+            "Origin http://evil.example",
+        ),
+        (
+            "foreign Origin even with the token",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[
+                    ("Origin", "http://evil.example"),
+                    ("X-Lifted-Token", tok),
+                    octet,
+                ],
+                other.as_bytes(),
+            ),
+            403,
+            "cross-origin",
+        ),
+        (
+            "another port of 127.0.0.1 is another origin",
+            raw(
+                port,
+                "POST",
+                "/api/identify",
+                &[
+                    (
+                        "Origin",
+                        &format!("http://127.0.0.1:{}", port.wrapping_add(1)),
+                    ),
+                    ("X-Lifted-Token", tok),
+                    json_ct,
+                ],
+                body.as_bytes(),
+            ),
+            403,
+            "cross-origin",
+        ),
+        (
+            "Sec-Fetch-Site: cross-site",
+            raw(
+                port,
+                "POST",
+                "/api/identify",
+                &[
+                    ("Sec-Fetch-Site", "cross-site"),
+                    ("X-Lifted-Token", tok),
+                    json_ct,
+                ],
+                body.as_bytes(),
+            ),
+            403,
+            "Sec-Fetch-Site: cross-site",
+        ),
+        (
+            "Sec-Fetch-Site: same-site",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[
+                    ("Sec-Fetch-Site", "same-site"),
+                    ("X-Lifted-Token", tok),
+                    octet,
+                ],
+                other.as_bytes(),
+            ),
+            403,
+            "Sec-Fetch-Site: same-site",
+        ),
+        (
+            "text/plain on a JSON call",
+            raw(
+                port,
+                "POST",
+                "/api/identify",
+                &[("X-Lifted-Token", tok), ("Content-Type", "text/plain")],
+                body.as_bytes(),
+            ),
+            415,
+            "application/json",
+        ),
+        (
+            "JSON on the upload",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[("X-Lifted-Token", tok), json_ct],
+                other.as_bytes(),
+            ),
+            415,
+            "application/octet-stream",
+        ),
+        (
+            "no token",
+            raw(port, "POST", up_path, &[octet], other.as_bytes()),
+            403,
+            "X-Lifted-Token",
+        ),
+        (
+            "wrong token",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[("X-Lifted-Token", &"0".repeat(64)), octet],
+                other.as_bytes(),
+            ),
+            403,
+            "wrong studio token",
+        ),
+        (
+            "token in the query of a POST",
+            raw(
+                port,
+                "POST",
+                &format!("{up_path}&token={tok}"),
+                &[octet],
+                other.as_bytes(),
+            ),
+            403,
+            "X-Lifted-Token",
+        ),
+        (
+            "the model without the token",
+            raw(port, "GET", "/api/model", &[], b""),
+            403,
+            "token",
+        ),
+        (
+            "a JSON body over the 1 MiB limit",
+            raw(
+                port,
+                "POST",
+                "/api/identify",
+                &[("X-Lifted-Token", tok), json_ct],
+                &vec![b' '; MAX_JSON + 1],
+            ),
+            413,
+            "request body too large: /api/identify takes at most 1 MiB",
+        ),
+        (
+            "an upload declared over the 1 GiB limit",
+            raw(
+                port,
+                "POST",
+                up_path,
+                &[
+                    ("X-Lifted-Token", tok),
+                    octet,
+                    ("Content-Length", &(MAX_UPLOAD + 1).to_string()),
+                ],
+                b"",
+            ),
+            413,
+            "/api/data takes at most 1024 MiB",
+        ),
+    ];
+    for (what, a, status, msg) in &refused {
+        assert_eq!(a.status, *status, "{what}: {}", a.body);
+        let e = a.error();
+        assert!(e.contains(msg), "{what}: {e}");
+        assert_eq!(a.header("x-frame-options"), Some("DENY"), "{what}");
+    }
+    // Nothing of it reached the session: the record and the model stand.
+    assert_eq!(st.record(), ("rec.csv".to_string(), 1500));
+    let again = st.call("GET", &format!("/api/model?token={tok}"), "", b"");
+    assert_eq!(again.status, 200);
+    assert_eq!(again.body, model.body);
+
+    // An absurd horizon is refused before anything is allocated (it used
+    // to abort the process: 5 TB for the Hankel matrix).
+    let mut r = n4sid("2");
+    r["horizon"] = json!(100_000);
+    let a = st.identify(&r);
+    assert_eq!(a.status, 400, "{}", a.body);
+    let e = a.error();
+    assert!(
+        e.starts_with("horizon 100000 is too large for rec.csv"),
+        "{e}"
+    );
+    r["horizon"] = json!(20);
+    r["q"] = json!(10_000_000);
+    let e = st.identify(&r).error();
+    assert!(e.starts_with("q 10000000 is too large"), "{e}");
+    r["q"] = Value::Null;
+    r["order"] = json!("5000");
+    let e = st.identify(&r).error();
+    assert!(e.starts_with("order 5000 is too large"), "{e}");
+    // A failed identification leaves no model to save by mistake.
+    let none = st.call("GET", "/api/model", "", b"");
+    assert_eq!(none.status, 400);
+    assert!(none.error().contains("no model yet"));
+    assert_eq!(raw(port, "GET", "/api/health", &[], b"").body, "ok");
+
+    // A bad file under the loaded record's name leaves the record intact.
+    let bad = st.upload("rec.csv", "t,u1,y1\n0,1,2\n0.1,1\n");
+    assert_eq!(bad.status, 400);
+    assert_eq!(
+        bad.error(),
+        "rec.csv: line 3: 2 cells, the header has 3 (ragged row)"
+    );
+    assert_eq!(st.record(), ("rec.csv".to_string(), 1500));
+    let id = st.identify(&n4sid("2"));
+    assert_eq!(id.status, 200, "{}", id.body);
+    let after: Value = serde_json::from_str(&st.call("GET", "/api/model", "", b"").body).unwrap();
+    let before: Value = serde_json::from_str(&model.body).unwrap();
+    assert_eq!(comparable(after), comparable(before));
+    // A good new file replaces it, and only the new record stays on disk.
+    assert_eq!(st.upload("rec.csv", &other).status, 200);
+    assert_eq!(st.record(), ("rec.csv".to_string(), 400));
+    assert_eq!(std::fs::read_dir(&st.scratch).unwrap().count(), 1);
+
+    // SIGTERM: the scratch folder goes with the server.
+    st.stop("TERM");
+    assert!(!st.scratch.exists(), "{} left behind", st.scratch.display());
+}
+
+#[test]
+fn studio_removes_its_scratch_folder_on_every_exit() {
+    // Ctrl-C (SIGINT).
+    let parent = tmp("exit-int");
+    let mut st = Studio::start(&parent);
+    assert_eq!(st.upload("rec.csv", &record(300, 1)).status, 200);
+    st.stop("INT");
+    assert!(!st.scratch.exists());
+    // An error before the server starts (a bad --data file).
+    let parent = tmp("exit-error");
+    let bad = parent.join("bad.csv");
+    std::fs::write(&bad, "t,u1,y1\n0,1\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lifted"))
+        .args(["studio", "--port", "0", "--data"])
+        .arg(&bad)
+        .env("TMPDIR", &parent)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let left: Vec<_> = std::fs::read_dir(&parent)
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with("lifted-studio-")
+        })
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
 // ---------------------------------------------------------------- browser
 
 /// Kills a child process when dropped (SIGTERM first for the studio, so it
@@ -255,6 +795,7 @@ impl Drop for Proc {
         let _ = Command::new("kill")
             .arg("-TERM")
             .arg(self.0.id().to_string())
+            .stderr(Stdio::null())
             .status();
         let t = Instant::now();
         while t.elapsed() < Duration::from_secs(3) {
@@ -266,6 +807,21 @@ impl Drop for Proc {
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
+}
+
+/// Chromium and chromedriver, or `None` (the test says it is skipped)
+/// unless `LIFTED_BROWSER_TESTS=require`, where their absence fails it.
+fn browser_or_skip() -> Option<(String, String)> {
+    let found = browser_paths();
+    if found.is_none() {
+        let required = std::env::var("LIFTED_BROWSER_TESTS").is_ok_and(|v| v == "require");
+        assert!(
+            !required,
+            "LIFTED_BROWSER_TESTS=require but chromium/chromedriver were not found"
+        );
+        eprintln!("studio browser test skipped: install chromium and chromium-driver");
+    }
+    found
 }
 
 fn browser_paths() -> Option<(String, String)> {
@@ -287,12 +843,16 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// Starts `lifted studio --port 0` and returns it with its URL.
-fn start_studio() -> (Proc, String) {
+/// Starts `lifted studio --port 0` with its scratch directory under
+/// `parent` (as TMPDIR) and its stderr in `parent/studio.log`, and returns
+/// it with its URL (with the token).
+fn start_studio(parent: &Path) -> (Proc, String) {
+    let log = std::fs::File::create(parent.join("studio.log")).unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_lifted"))
         .args(["studio", "--port", "0"])
+        .env("TMPDIR", parent)
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(log)
         .spawn()
         .expect("lifted studio starts");
     let stdout = child.stdout.take().unwrap();
@@ -408,13 +968,7 @@ async fn shot(c: &Client, dir: &Path, name: &str) {
 
 #[test]
 fn studio_in_headless_chromium() {
-    let Some((chromium, driver)) = browser_paths() else {
-        let required = std::env::var("LIFTED_BROWSER_TESTS").is_ok_and(|v| v == "require");
-        assert!(
-            !required,
-            "LIFTED_BROWSER_TESTS=require but chromium/chromedriver were not found"
-        );
-        eprintln!("studio browser test skipped: install chromium and chromium-driver");
+    let Some((chromium, driver)) = browser_or_skip() else {
         return;
     };
     let dir = tmp("browser");
@@ -425,7 +979,7 @@ fn studio_in_headless_chromium() {
     let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
     std::fs::create_dir_all(&shots).unwrap();
 
-    let (_studio, url) = start_studio();
+    let (_studio, url) = start_studio(&dir);
     let (_driver, port) = start_driver(&driver);
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -440,6 +994,7 @@ fn studio_in_headless_chromium() {
         let file = c.find(Locator::Id("file")).await.unwrap();
         file.send_keys(&rec.display().to_string()).await.unwrap();
         let g = wait_identified(&c, 0).await;
+        assert_eq!(status(&c, "csp").await, 0, "a content-security-policy violation");
         assert!(html(&c, "fig-inputs").await.contains("<svg"));
         assert!(html(&c, "fig-outputs").await.contains("<svg"));
         assert!(html(&c, "fig-order").await.contains("<svg"));
@@ -486,7 +1041,7 @@ fn studio_in_headless_chromium() {
             .unwrap();
         let report = c
             .execute_async(
-                "const done = arguments[arguments.length - 1]; fetch('/api/report').then(r => r.text()).then(done);",
+                "const done = arguments[arguments.length - 1]; fetch(document.getElementById('save-report').href).then(r => r.text()).then(done);",
                 vec![],
             )
             .await
@@ -542,4 +1097,218 @@ async fn futures_all(c: &Client, ids: &[&str]) -> Vec<String> {
         v.push(html(c, id).await);
     }
     v
+}
+
+/// A second origin: a tiny server on another port of 127.0.0.1 that
+/// answers every request with an empty page (the test's script runs in it).
+fn other_origin() -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        for conn in listener.incoming().flatten() {
+            let mut conn = conn;
+            let mut seen = Vec::new();
+            let mut buf = [0u8; 1024];
+            while !seen.windows(4).any(|w| w == b"\r\n\r\n") {
+                match conn.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => seen.extend_from_slice(&buf[..n]),
+                }
+            }
+            let page = "<!DOCTYPE html><title>another origin</title><p>not the studio</p>";
+            let _ = write!(
+                conn,
+                "HTTP/1.1 200 OK\r\nContent-Type: text/html\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{page}",
+                page.len()
+            );
+        }
+    });
+    port
+}
+
+/// The page's error text ('' when hidden).
+async fn page_error(c: &Client) -> String {
+    js(
+        c,
+        "const e = document.getElementById('error'); return e.hidden ? '' : e.textContent;",
+    )
+    .await
+    .as_str()
+    .unwrap_or("")
+    .to_string()
+}
+
+/// Waits until the page has counted more than `after` failed calls and is
+/// idle; returns the count.
+async fn wait_failed(c: &Client, after: u64) -> u64 {
+    let t = Instant::now();
+    loop {
+        let f = status(c, "failed").await;
+        if f > after && status(c, "busy").await == 0 {
+            return f;
+        }
+        assert!(t.elapsed() < Duration::from_secs(60), "no failure shown");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// Types `value` into the number field `id` and submits the form (Enter).
+async fn set_field(c: &Client, id: &str, value: &str) {
+    let f = c.find(Locator::Id(id)).await.unwrap();
+    f.clear().await.unwrap();
+    f.send_keys(&format!("{value}{}", Key::Enter))
+        .await
+        .unwrap();
+}
+
+async fn saves_disabled(c: &Client) -> bool {
+    js(
+        c,
+        "const a = document.getElementById('save-model'); \
+         return !a.hasAttribute('href') && a.getAttribute('aria-disabled') === 'true';",
+    )
+    .await
+    .as_bool()
+    .unwrap_or(false)
+}
+
+#[test]
+fn studio_refuses_another_origin_in_chromium_and_works_under_its_policy() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("browser-origin");
+    let st = Studio::start(&dir);
+    assert_eq!(st.upload("rec.csv", &record(3000, 1)).status, 200);
+    let studio = format!("http://127.0.0.1:{}", st.port);
+    let page_url = format!("{studio}/?token={}", st.token);
+    let evil = other_origin();
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+
+        // A page of another origin posts at the studio: no-cors fetches
+        // (a simple request, which the browser sends without asking),
+        // with and without a content type, and even with the token (as if
+        // it had leaked), which needs a CORS preflight.
+        c.goto(&format!("http://127.0.0.1:{evil}/")).await.unwrap();
+        assert_eq!(c.title().await.unwrap(), "another origin");
+        let outcome = c
+            .execute_async(
+                r#"const [studio, token] = arguments;
+                const done = arguments[arguments.length - 1];
+                const csv = "t,u1,y1\n0,1,2\n0.1,3,4\n0.2,5,6\n";
+                const tries = [
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "no-cors", body: csv}),
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "no-cors", body: csv,
+                        headers: {"Content-Type": "text/plain"}}),
+                  fetch(studio + "/api/identify", {method: "POST", mode: "no-cors",
+                        body: '{"inputs":["u1"],"outputs":["y1"],"horizon":100000}'}),
+                  fetch(studio + "/api/data?name=rec.csv", {method: "POST", mode: "cors", body: csv,
+                        headers: {"X-Lifted-Token": token, "Content-Type": "application/octet-stream"}}),
+                ];
+                Promise.allSettled(tries).then((r) => done(r.map((x) => x.status + ":" +
+                  (x.status === "fulfilled" ? x.value.type : String(x.reason)))));"#,
+                vec![json!(studio), json!(st.token)],
+            )
+            .await
+            .unwrap();
+        let outcome: Vec<String> = serde_json::from_value(outcome).unwrap();
+        // The page learns nothing (the studio's answers are same-origin
+        // only: Cross-Origin-Resource-Policy turns them into network
+        // errors), and the request with the token failed its preflight.
+        assert!(
+            outcome.iter().all(|o| o.starts_with("rejected:")),
+            "{outcome:?}"
+        );
+        // The browser did send them, and the studio refused each one (its
+        // log), the preflight included: the record stands.
+        let log = std::fs::read_to_string(dir.join("studio.log")).unwrap();
+        let refused = |what: &str| log.lines().filter(|l| l.contains(what)).count();
+        assert_eq!(refused("refused POST /api/data"), 2, "{log}");
+        assert_eq!(refused("refused POST /api/identify"), 1, "{log}");
+        assert_eq!(refused("refused OPTIONS /api/data"), 1, "{log}");
+        assert!(
+            log.lines()
+                .filter(|l| l.contains("refused"))
+                .all(|l| l.contains("cross-origin request refused")),
+            "{log}"
+        );
+        assert_eq!(st.record(), ("rec.csv".to_string(), 3000));
+
+        // The studio's own page works under its policy: the record loaded
+        // at start is shown and identified, with no violation reported.
+        c.goto(&page_url).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        assert!(html(&c, "fig-pz").await.contains("<svg"));
+        assert!(html(&c, "fig-order").await.contains("<svg"));
+        assert!(!saves_disabled(&c).await);
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
+
+        // A typo in a number field is an error in the page, not a default.
+        set_field(&c, "horizon", "1e").await;
+        let f = wait_failed(&c, 0).await;
+        assert_eq!(page_error(&c).await, "Horizon: not a number");
+        assert!(saves_disabled(&c).await);
+        assert_eq!(html(&c, "fig-pz").await, "");
+
+        // An absurd horizon: the server's named error; the old figures
+        // and Save links are gone.
+        set_field(&c, "horizon", "100000").await;
+        wait_failed(&c, f).await;
+        let e = page_error(&c).await;
+        assert!(e.starts_with("horizon 100000 is too large for rec.csv"), "{e}");
+        assert!(saves_disabled(&c).await);
+        for id in ["fig-response", "fig-step", "fig-bode", "fig-pz", "fits"] {
+            assert_eq!(html(&c, id).await, "", "{id} kept the previous model");
+        }
+        // A click on the disabled link goes nowhere.
+        c.find(Locator::Id("save-model"))
+            .await
+            .unwrap()
+            .click()
+            .await
+            .unwrap();
+        assert_eq!(c.current_url().await.unwrap().as_str(), page_url);
+
+        // A sensible horizon again: a model, its figures and Save links.
+        set_field(&c, "horizon", "12").await;
+        wait_identified(&c, g).await;
+        assert!(html(&c, "fig-pz").await.contains("<svg"));
+        assert!(!saves_disabled(&c).await);
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
+        let png = c.screenshot().await.expect("screenshot");
+        let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target");
+        std::fs::create_dir_all(&target).unwrap();
+        std::fs::write(target.join("studio-security.png"), png).unwrap();
+
+        // A column name with markup and both quotes is shown as text: in
+        // the channel boxes, the rates table, the fit table and its
+        // data-output attribute, with no element made of it.
+        let name = r#"y<b>"1'"#;
+        let csv = record(3000, 1).replacen("y1", name, 1);
+        assert_eq!(st.upload("xss.csv", &csv).status, 200);
+        c.goto(&page_url).await.unwrap();
+        wait_identified(&c, 0).await;
+        let seen = js(
+            &c,
+            "return [document.querySelectorAll('main b').length, \
+             document.querySelector('td.fit').dataset.output, \
+             document.getElementById('outputs-box').textContent, \
+             document.getElementById('rates').textContent];",
+        )
+        .await;
+        assert_eq!(seen[0], json!(0), "markup from a column name: {seen}");
+        assert_eq!(seen[1], json!(name));
+        for text in [&seen[2], &seen[3]] {
+            assert!(text.as_str().unwrap_or("").contains(name), "{seen}");
+        }
+        assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
+        c.close().await.unwrap();
+    });
+    assert_eq!(st.record(), ("xss.csv".to_string(), 3000));
 }

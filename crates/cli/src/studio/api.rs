@@ -3,45 +3,316 @@
 //! one at a time (the session is behind a mutex); a failed call answers
 //! `400 {"error": "<the CLI's one-line message>"}`, a bug `500` with a
 //! message, and the server keeps running either way.
+//!
+//! Every request passes `guard` first (the model is Jupyter's server):
+//! the `Host` must be this server (127.0.0.1, localhost or [::1] with its
+//! port: no DNS rebinding), an `Origin` must be this server's origin, a
+//! `Sec-Fetch-Site` must not be `cross-site` or `same-site`, every call but
+//! the page's assets and `/api/health` carries the session token (the
+//! `X-Lifted-Token` header; a `GET` may give it as `?token=` instead, as
+//! the printed URL and the Save links do; a `POST` only as the header, which
+//! no cross-origin page can send without a CORS preflight this server never
+//! grants), and a `POST` has the route's content type. Every answer carries
+//! the security headers of [`SECURITY_HEADERS`], and every error is JSON.
 
-use std::sync::{Arc, Mutex};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::pin::Pin;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use axum::Router;
-use axum::body::Bytes;
-use axum::extract::{DefaultBodyLimit, Query, State};
-use axum::http::{StatusCode, header};
+use axum::body::{Body, Bytes, HttpBody};
+use axum::extract::{DefaultBodyLimit, Query, Request as HttpRequest, State};
+use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
+use axum::middleware::{self, Next};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::error::{CliResult, input};
-use crate::studio::session::{MAX_UPLOAD, Request, Session};
+use crate::studio::session::{MAX_UPLOAD, Request, Session, random_hex, staging};
 
 /// The session shared by the handlers.
 pub type Shared = Arc<Mutex<Session>>;
+
+/// Largest body of a JSON call (`/api/view`, `/api/identify`), bytes.
+pub const MAX_JSON: usize = 1 << 20;
+
+/// The header that carries the session token.
+pub const TOKEN_HEADER: &str = "x-lifted-token";
+
+/// The headers of every answer: a content security policy without inline
+/// script or style (the page's SVG figures are inserted as markup and
+/// could carry neither), no MIME sniffing, no framing, no referrer (the
+/// page's URL holds the token), no caching (the page holds the token).
+pub const SECURITY_HEADERS: [(&str, &str); 7] = [
+    (
+        "content-security-policy",
+        "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; \
+         connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+    ),
+    ("x-content-type-options", "nosniff"),
+    ("x-frame-options", "DENY"),
+    ("referrer-policy", "no-referrer"),
+    ("cache-control", "no-store"),
+    ("cross-origin-opener-policy", "same-origin"),
+    ("cross-origin-resource-policy", "same-origin"),
+];
 
 const INDEX: &str = include_str!("assets/index.html");
 const APP_JS: &str = include_str!("assets/app.js");
 const APP_CSS: &str = include_str!("assets/app.css");
 
-/// The studio's routes (see the module documentation of [`crate::studio`]).
-pub fn router(state: Shared) -> Router {
+/// Who may talk to the server: its port (the allowed `Host`s and `Origin`s
+/// follow) and the session token.
+#[derive(Debug, Clone)]
+pub struct Access {
+    port: u16,
+    token: String,
+}
+
+impl Access {
+    /// The access rules of a server on 127.0.0.1:`port`, with a token of
+    /// 32 random bytes from the operating system's CSPRNG (64 hex digits).
+    pub fn new(port: u16) -> CliResult<Self> {
+        Ok(Access {
+            port,
+            token: random_hex(32)?,
+        })
+    }
+
+    /// The session token.
+    pub fn token(&self) -> &str {
+        &self.token
+    }
+
+    /// The URL that opens the page: `http://127.0.0.1:PORT/?token=TOKEN`.
+    pub fn url(&self) -> String {
+        format!("http://127.0.0.1:{}/?token={}", self.port, self.token)
+    }
+
+    /// Whether `host` (a `Host` header or URI authority) names this server.
+    fn host_ok(&self, host: &str) -> bool {
+        let host = host.to_ascii_lowercase();
+        ["127.0.0.1", "localhost", "[::1]"]
+            .iter()
+            .any(|h| host == format!("{h}:{}", self.port))
+    }
+
+    /// Whether `given` is the token (in time independent of where they
+    /// differ).
+    fn token_ok(&self, given: &[u8]) -> bool {
+        let want = self.token.as_bytes();
+        given.len() == want.len() && given.iter().zip(want).fold(0u8, |d, (a, b)| d | (a ^ b)) == 0
+    }
+
+    /// The refusal of a request, if any (see the module documentation):
+    /// its status and message.
+    fn check(&self, req: &HttpRequest) -> Result<(), (StatusCode, String)> {
+        let h = req.headers();
+        let forbidden = |m: String| Err((StatusCode::FORBIDDEN, m));
+        let host = text(h, header::HOST);
+        let host = match host {
+            Some(host) if self.host_ok(host) => host,
+            Some(host) => {
+                return forbidden(format!(
+                    "Host '{host}' is not this studio (127.0.0.1:{} or localhost:{})",
+                    self.port, self.port
+                ));
+            }
+            None => return forbidden("a Host header is required".into()),
+        };
+        if let Some(a) = req.uri().authority()
+            && !self.host_ok(a.as_str())
+        {
+            return forbidden(format!("'{a}' is not this studio"));
+        }
+        if let Some(origin) = h.get(header::ORIGIN) {
+            let own = format!("http://{host}");
+            let same = origin.to_str().is_ok_and(|o| o.eq_ignore_ascii_case(&own));
+            if !same {
+                return forbidden(format!(
+                    "cross-origin request refused (Origin {})",
+                    String::from_utf8_lossy(origin.as_bytes())
+                ));
+            }
+        }
+        if let Some(site) = text(h, "sec-fetch-site")
+            && !matches!(site, "same-origin" | "none")
+        {
+            return forbidden(format!(
+                "cross-origin request refused (Sec-Fetch-Site: {site})"
+            ));
+        }
+        let path = req.uri().path();
+        if matches!(
+            path,
+            "/app.js" | "/app.css" | "/api/health" | "/favicon.ico"
+        ) {
+            return Ok(());
+        }
+        let header_token = h.get(TOKEN_HEADER).map(HeaderValue::as_bytes);
+        let query_token = req
+            .uri()
+            .query()
+            .and_then(|q| q.split('&').find_map(|kv| kv.strip_prefix("token=")))
+            .map(str::as_bytes);
+        let read_only = matches!(*req.method(), Method::GET | Method::HEAD);
+        let token = match (header_token, query_token) {
+            (Some(t), _) => Some(t),
+            (None, Some(t)) if read_only => Some(t),
+            _ => None,
+        };
+        match token {
+            Some(t) if self.token_ok(t) => {}
+            Some(_) => return forbidden("wrong studio token".into()),
+            None if read_only => {
+                return forbidden(
+                    "the studio token is missing: open the URL `lifted studio` printed \
+                     (it ends in ?token=…)"
+                        .into(),
+                );
+            }
+            None => {
+                return forbidden(
+                    "the studio token is missing: state-changing calls send it as X-Lifted-Token"
+                        .into(),
+                );
+            }
+        }
+        if *req.method() == Method::POST {
+            let wanted: &[&str] = if path == "/api/data" {
+                &["application/octet-stream", "text/csv"]
+            } else {
+                &["application/json"]
+            };
+            let given = text(h, header::CONTENT_TYPE).unwrap_or("");
+            let mime = given.split(';').next().unwrap_or("").trim();
+            if !wanted.iter().any(|w| mime.eq_ignore_ascii_case(w)) {
+                return Err((
+                    StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                    format!(
+                        "{path} takes Content-Type {}, not '{given}'",
+                        wanted.join(" or ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A header's value as text, if it is text.
+fn text(h: &HeaderMap, name: impl header::AsHeaderName) -> Option<&str> {
+    h.get(name).and_then(|v| v.to_str().ok())
+}
+
+/// The state of the handlers.
+#[derive(Clone)]
+struct App {
+    session: Shared,
+    /// The session's scratch directory (uploads are staged there outside
+    /// the lock).
+    dir: PathBuf,
+    access: Arc<Access>,
+    /// The page with the token in its `lifted-token` meta tag.
+    index: Arc<str>,
+}
+
+/// The studio's routes (see the module documentation of [`crate::studio`]),
+/// behind `guard` (the checks of the module documentation of [`crate::studio`]).
+pub fn router(state: Shared, access: Access) -> Router {
+    let dir = lock(&state).dir().to_path_buf();
+    let index: Arc<str> = INDEX.replace("{{token}}", access.token()).into();
+    let app = App {
+        session: state,
+        dir,
+        access: Arc::new(access),
+        index,
+    };
     Router::new()
-        .route("/", get(|| async { Html(INDEX) }))
+        .route("/", get(index_page))
         .route(
             "/app.js",
-            get(|| async { asset(APP_JS, "text/javascript") }),
+            get(|| async { asset(APP_JS, "text/javascript; charset=utf-8") }),
         )
-        .route("/app.css", get(|| async { asset(APP_CSS, "text/css") }))
+        .route(
+            "/app.css",
+            get(|| async { asset(APP_CSS, "text/css; charset=utf-8") }),
+        )
         .route("/api/health", get(|| async { "ok" }))
         .route("/api/data", post(upload).get(data_info))
         .route("/api/view", post(view))
         .route("/api/identify", post(identify))
         .route("/api/model", get(model))
         .route("/api/report", get(report))
-        .layer(DefaultBodyLimit::max(MAX_UPLOAD))
-        .with_state(state)
+        .fallback(|| async { error(StatusCode::NOT_FOUND, "no such page or call") })
+        .layer(DefaultBodyLimit::max(MAX_JSON))
+        .layer(middleware::from_fn_with_state(app.clone(), guard))
+        .with_state(app)
+}
+
+/// Refuses what [`Access`] refuses (and says so on stderr), answers every
+/// error as JSON and adds the [`SECURITY_HEADERS`] to every answer.
+async fn guard(State(app): State<App>, req: HttpRequest, next: Next) -> Response {
+    let path = req.uri().path().to_string();
+    let mut res = match app.access.check(&req) {
+        Ok(()) => json_errors(next.run(req).await, &path).await,
+        Err((status, msg)) => {
+            eprintln!("lifted studio: refused {} {path}: {msg}", req.method());
+            error(status, msg)
+        }
+    };
+    let h = res.headers_mut();
+    for (name, value) in SECURITY_HEADERS {
+        h.insert(name, HeaderValue::from_static(value));
+    }
+    res
+}
+
+/// An error answer that is not JSON (axum's own rejections: 404, 405, 413,
+/// a bad query) as `{"error": "…"}` with the same status.
+async fn json_errors(res: Response, path: &str) -> Response {
+    let status = res.status();
+    let is_json = text(res.headers(), header::CONTENT_TYPE)
+        .is_some_and(|c| c.starts_with("application/json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_json {
+        return res;
+    }
+    if status == StatusCode::PAYLOAD_TOO_LARGE {
+        return too_large(path);
+    }
+    let body = axum::body::to_bytes(res.into_body(), 4096)
+        .await
+        .unwrap_or_default();
+    let msg = String::from_utf8_lossy(&body).trim().to_string();
+    let msg = if msg.is_empty() {
+        status.canonical_reason().unwrap_or("error").to_string()
+    } else {
+        msg
+    };
+    error(status, msg)
+}
+
+/// The 413 answer of `path`.
+fn too_large(path: &str) -> Response {
+    let limit = if path == "/api/data" {
+        MAX_UPLOAD
+    } else {
+        MAX_JSON
+    };
+    error(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        format!(
+            "request body too large: {path} takes at most {} MiB",
+            limit >> 20
+        ),
+    )
+}
+
+async fn index_page(State(app): State<App>) -> Response {
+    Html(app.index.to_string()).into_response()
 }
 
 fn asset(body: &'static str, mime: &'static str) -> Response {
@@ -52,13 +323,32 @@ fn error(status: StatusCode, msg: impl std::fmt::Display) -> Response {
     (status, axum::Json(json!({ "error": msg.to_string() }))).into_response()
 }
 
+/// The session, locked. A lock poisoned by a call that panicked halfway
+/// is not trusted: the session is reset (no record, no model, an empty
+/// scratch directory) and the poison cleared, so later calls start clean.
+pub fn lock(state: &Shared) -> MutexGuard<'_, Session> {
+    match state.lock() {
+        Ok(s) => s,
+        Err(poisoned) => {
+            let mut s = poisoned.into_inner();
+            s.reset();
+            state.clear_poison();
+            eprintln!(
+                "lifted studio: a call failed inside the studio; the session was reset \
+                 (load the record again)"
+            );
+            s
+        }
+    }
+}
+
 /// Runs `f` on the session in the blocking pool.
 async fn with_session<T: Send + 'static>(
     state: Shared,
     f: impl FnOnce(&mut Session) -> CliResult<T> + Send + 'static,
 ) -> Result<T, Response> {
     let joined = tokio::task::spawn_blocking(move || {
-        let mut s = state.lock().unwrap_or_else(|p| p.into_inner());
+        let mut s = lock(&state);
         f(&mut s)
     })
     .await;
@@ -67,7 +357,8 @@ async fn with_session<T: Send + 'static>(
         Ok(Err(e)) => Err(error(StatusCode::BAD_REQUEST, e)),
         Err(_) => Err(error(
             StatusCode::INTERNAL_SERVER_ERROR,
-            "internal error while handling the request (the studio keeps running)",
+            "internal error while handling the request (the studio keeps running; \
+             the session was reset)",
         )),
     }
 }
@@ -92,21 +383,66 @@ struct UploadQuery {
     name: Option<String>,
 }
 
-async fn upload(State(s): State<Shared>, Query(q): Query<UploadQuery>, body: Bytes) -> Response {
+/// Streams an upload's body to `path`, at most [`MAX_UPLOAD`] bytes.
+#[allow(clippy::result_large_err)]
+async fn receive(headers: &HeaderMap, mut body: Body, path: &Path) -> Result<(), Response> {
+    let declared = text(headers, header::CONTENT_LENGTH).and_then(|l| l.parse::<u64>().ok());
+    if declared.is_some_and(|l| l > MAX_UPLOAD as u64) {
+        return Err(too_large("/api/data"));
+    }
+    let store = |e: std::io::Error| {
+        error(
+            StatusCode::BAD_REQUEST,
+            format!("cannot store the upload: {e}"),
+        )
+    };
+    let mut file = std::fs::File::create(path).map_err(store)?;
+    let mut total = 0usize;
+    while let Some(frame) = std::future::poll_fn(|cx| Pin::new(&mut body).poll_frame(cx)).await {
+        let frame =
+            frame.map_err(|e| error(StatusCode::BAD_REQUEST, format!("upload cut short: {e}")))?;
+        if let Ok(data) = frame.into_data() {
+            total += data.len();
+            if total > MAX_UPLOAD {
+                return Err(too_large("/api/data"));
+            }
+            file.write_all(&data).map_err(store)?;
+        }
+    }
+    file.flush().map_err(store)
+}
+
+/// `POST /api/data?name=F`: the body goes to a new folder of the scratch
+/// directory (outside the lock); only once it reads whole does it replace
+/// the loaded record.
+async fn upload(
+    State(app): State<App>,
+    Query(q): Query<UploadQuery>,
+    headers: HeaderMap,
+    body: Body,
+) -> Response {
     let name = q.name.unwrap_or_else(|| "data.csv".into());
-    json_answer(with_session(s, move |s| s.upload(&name, &body)).await)
+    let (folder, path) = match staging(&app.dir, &name) {
+        Ok(fp) => fp,
+        Err(e) => return error(StatusCode::BAD_REQUEST, e),
+    };
+    if let Err(res) = receive(&headers, body, &path).await {
+        let _ = std::fs::remove_dir_all(&folder);
+        return res;
+    }
+    json_answer(with_session(app.session, move |s| s.adopt(folder, path)).await)
 }
 
-async fn data_info(State(s): State<Shared>) -> Response {
-    json_answer(with_session(s, |s| Ok(s.data_info().cloned())).await)
+async fn data_info(State(app): State<App>) -> Response {
+    json_answer(with_session(app.session, |s| Ok(s.data_info().cloned())).await)
 }
 
-async fn view(State(s): State<Shared>, body: Bytes) -> Response {
-    json_answer(with_session(s, move |s| s.view(&parse_request(&body)?)).await)
+async fn view(State(app): State<App>, body: Bytes) -> Response {
+    json_answer(with_session(app.session, move |s| s.view(&parse_request(&body)?)).await)
 }
 
-async fn identify(State(s): State<Shared>, body: Bytes) -> Response {
-    json_answer(with_session(s, move |s| s.identify(&parse_request(&body)?)).await)
+async fn identify(State(app): State<App>, body: Bytes) -> Response {
+    json_answer(with_session(app.session, move |s| s.identify(&parse_request(&body)?)).await)
 }
 
 fn download(body: String, mime: &'static str, file: &'static str) -> Response {
@@ -123,16 +459,70 @@ fn download(body: String, mime: &'static str, file: &'static str) -> Response {
         .into_response()
 }
 
-async fn model(State(s): State<Shared>) -> Response {
-    match with_session(s, |s| s.model_json()).await {
+async fn model(State(app): State<App>) -> Response {
+    match with_session(app.session, |s| s.model_json()).await {
         Ok(j) => download(j, "application/json", "model.json"),
         Err(e) => e,
     }
 }
 
-async fn report(State(s): State<Shared>) -> Response {
-    match with_session(s, |s| s.report()).await {
+async fn report(State(app): State<App>) -> Response {
+    match with_session(app.session, |s| s.report()).await {
         Ok(h) => download(h, "text/html; charset=utf-8", "report.html"),
         Err(e) => e,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_poisoned_session_is_reset_not_reused() {
+        let parent = std::env::temp_dir();
+        let mut s = Session::new(&parent).unwrap();
+        s.upload("rec.csv", b"t,u1,y1\n0,1,2\n0.1,-1,3\n").unwrap();
+        let dir = s.dir().to_path_buf();
+        let shared: Shared = Arc::new(Mutex::new(s));
+        let poison = shared.clone();
+        let _ = std::thread::spawn(move || {
+            let _held = poison.lock().unwrap();
+            panic!("a call fails halfway");
+        })
+        .join();
+        assert!(shared.is_poisoned());
+        {
+            let s = lock(&shared);
+            assert!(s.data_info().is_none());
+            assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        }
+        assert!(!shared.is_poisoned());
+    }
+
+    #[test]
+    fn hosts_and_tokens() {
+        let a = Access::new(8123).unwrap();
+        assert_eq!(a.token().len(), 64);
+        assert_ne!(a.token(), Access::new(8123).unwrap().token());
+        for ok in [
+            "127.0.0.1:8123",
+            "localhost:8123",
+            "LOCALHOST:8123",
+            "[::1]:8123",
+        ] {
+            assert!(a.host_ok(ok), "{ok}");
+        }
+        for bad in [
+            "evil.example",
+            "evil.example:8123",
+            "127.0.0.1",
+            "127.0.0.1:80",
+            "localhost",
+        ] {
+            assert!(!a.host_ok(bad), "{bad}");
+        }
+        assert!(a.token_ok(a.token().as_bytes()));
+        assert!(!a.token_ok(b""));
+        assert!(!a.token_ok(&a.token().as_bytes()[1..]));
     }
 }

@@ -15,17 +15,73 @@
 //! ([`crate::service::figures`]); the page, its script and style are
 //! embedded in the binary, so it works offline.
 //!
+//! # Security
+//!
+//! A server on 127.0.0.1 is reachable by every page the user's browser
+//! opens, so the studio follows Jupyter's server:
+//!
+//! * **Token.** At start the studio draws a session token (32 bytes of the
+//!   operating system's CSPRNG, 64 hex digits) and prints the page's URL
+//!   with it: `lifted studio: http://127.0.0.1:PORT/?token=TOKEN`. The page
+//!   is served only with the token and carries it in a `<meta
+//!   name="lifted-token">` tag; its script sends it as the
+//!   `X-Lifted-Token` header on every call. A `GET` may give it as
+//!   `?token=` instead (the printed URL, the Save links); a `POST` only as
+//!   the header, which a page of another origin cannot send without a CORS
+//!   preflight, which the studio refuses. Without the token: `403`.
+//!   `/app.js`, `/app.css`, `/api/health` and `/favicon.ico` need none.
+//! * **Host.** Only `127.0.0.1:PORT`, `localhost:PORT` and `[::1]:PORT` (the
+//!   bound port): a DNS-rebound name is refused (`403`).
+//! * **Same origin.** An `Origin` header must be the server's own origin
+//!   (`http://` + the request's `Host`); a `Sec-Fetch-Site` of `cross-site`
+//!   or `same-site` (another port of 127.0.0.1 is same-site) is refused
+//!   (`403`), `same-origin` and `none` pass.
+//! * **Content types.** `POST /api/view` and `/api/identify` take
+//!   `application/json` only, `POST /api/data` `application/octet-stream`
+//!   or `text/csv` (else `415`), so no HTML form or `no-cors` fetch can make
+//!   a call.
+//! * **Body limits.** JSON calls take at most [`MAX_JSON`] (1 MiB); an
+//!   upload at most [`MAX_UPLOAD`] (1 GiB), streamed to a file of the
+//!   scratch directory, never held in memory (else `413`).
+//! * **Headers** on every answer, refusals included ([`SECURITY_HEADERS`]):
+//!   `Content-Security-Policy: default-src 'none'; script-src 'self';
+//!   style-src 'self'; img-src 'self' data:; connect-src 'self'; base-uri
+//!   'none'; form-action 'none'; frame-ancestors 'none'` (the page has no
+//!   inline script or style; the SVG figures, the only markup it inserts,
+//!   are drawn by the server), `X-Content-Type-Options: nosniff`,
+//!   `X-Frame-Options: DENY`, `Referrer-Policy: no-referrer`,
+//!   `Cache-Control: no-store`, `Cross-Origin-Opener-Policy` and
+//!   `Cross-Origin-Resource-Policy: same-origin`.
+//! * **Scratch directory** `lifted-studio-<32 random hex digits>` under the
+//!   system's temp directory, mode 0700, removed on every way out (Ctrl-C,
+//!   SIGTERM, an error, a panic).
+//! * **State changes only after the input has been read whole.** An upload
+//!   goes to a folder of its own and replaces the loaded record only once
+//!   it has been read without error; a bad file leaves the record and the
+//!   model as they were. An identification whose horizon, q, order or hold
+//!   the record cannot support is refused before anything is allocated
+//!   ([`Session::check_sizes`]). A call that panics poisons the session's
+//!   lock; the next call resets the session (no record, no model) rather
+//!   than reuse what the failed call left.
+//!
+//! Every refusal is logged on stderr (`lifted studio: refused POST
+//! /api/data: …`).
+//!
 //! # JSON API
 //!
-//! | call | body | answer |
-//! |---|---|---|
-//! | `POST /api/data?name=F` | the CSV file's bytes | [`DataInfo`]: rows, base period, columns (samples, period), suggested inputs/outputs |
-//! | `GET /api/data` | – | the loaded record's [`DataInfo`] or `null` |
-//! | `POST /api/view` | [`Request`] (channels) | [`View`]: channels with rates, SVG of inputs and outputs |
-//! | `POST /api/identify` | [`Request`] | [`Identified`]: equivalent command line, order, order-selection values, fit % per output, poles, SVG figures |
-//! | `GET /api/model` | – | the last model as the model-file JSON of `lifted identify` |
-//! | `GET /api/report` | – | the HTML report of `lifted report` for the last model |
-//! | `GET /api/health` | – | `ok` |
+//! Every call but `/api/health` carries the token (`X-Lifted-Token: TOKEN`,
+//! or `?token=TOKEN` on a `GET`).
+//!
+//! | call | content type | body | answer |
+//! |---|---|---|---|
+//! | `GET /?token=T` | – | – | the page (with the token in its meta tag) |
+//! | `POST /api/data?name=F` | `application/octet-stream` or `text/csv` | the CSV file's bytes (≤ 1 GiB) | [`DataInfo`]: rows, base period, columns (samples, period), suggested inputs/outputs |
+//! | `GET /api/data` | – | – | the loaded record's [`DataInfo`] or `null` |
+//! | `POST /api/view` | `application/json` | [`Request`] (channels; ≤ 1 MiB) | [`View`]: channels with rates, SVG of inputs and outputs |
+//! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB) | [`Identified`]: equivalent command line, order, order-selection values, fit % per output, poles, SVG figures |
+//! | `GET /api/model` | – | – | the last model as the model-file JSON of `lifted identify` |
+//! | `GET /api/report` | – | – | the HTML report of `lifted report` for the last model |
+//! | `GET /api/health` | – | – | `ok` (no token needed) |
 //!
 //! A [`Request`]'s fields are the options of `lifted identify`, with the
 //! same names and defaults (`inputs`, `outputs`, `ts`, `hold`,
@@ -33,9 +89,21 @@
 //! `prbs_order`, `amplitude`, `output_weight`, `instrument`, `detrend`,
 //! `estimator`, `order_criterion`, `stable`); they are handed to the
 //! command's own option parser, so the saved model equals the one
-//! `lifted identify` writes with the same options. An error answers
-//! `400 {"error": "…"}` with the command's one-line message (a bad CSV
-//! names the uploaded file, the line and the column).
+//! `lifted identify` writes with the same options. A failed identification
+//! leaves no model (`GET /api/model` then answers `400`).
+//!
+//! # Errors
+//!
+//! Every error is JSON, `{"error": "…"}`, with its status:
+//!
+//! | status | when |
+//! |---|---|
+//! | `400` | the command's one-line message (a bad CSV names the uploaded file, the line and the column; `horizon 100000 is too large for rec.csv: the block Hankel matrix would have …`) |
+//! | `403` | a foreign `Host`, a foreign `Origin`, `Sec-Fetch-Site: cross-site`/`same-site`, a missing or wrong token |
+//! | `404`, `405` | no such page or call, or not with that method |
+//! | `413` | a body over the route's limit (`request body too large: /api/identify takes at most 1 MiB`) |
+//! | `415` | a `POST` with another content type |
+//! | `500` | a bug inside the studio (the server keeps running; the session is reset) |
 
 mod api;
 mod session;
@@ -43,27 +111,36 @@ mod session;
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
-pub use api::router;
+pub use api::{Access, MAX_JSON, SECURITY_HEADERS, TOKEN_HEADER, lock, router};
 pub use session::{
-    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, OrderSelection, Request, Session, View,
+    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, MAX_UPLOAD, MAX_WORK_BYTES,
+    OrderSelection, Request, Session, View,
 };
 
 use crate::error::{CliResult, input};
 
 /// Serves the studio on 127.0.0.1:`port` (0: any free port) until Ctrl-C or
-/// SIGTERM; prints `lifted studio: http://127.0.0.1:PORT/` first. With
-/// `data`, that CSV is loaded at start (a bad file is an error before the
-/// server starts).
+/// SIGTERM; prints `lifted studio: http://127.0.0.1:PORT/?token=TOKEN`
+/// first (the page's URL with the session token). With `data`, that CSV is
+/// loaded at start (a bad file is an error before the server starts). The
+/// scratch directory is removed on every way out: a stop signal, an error,
+/// a panic (the session's drop).
 pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
     let mut session = Session::new(&std::env::temp_dir())?;
-    if let Some(path) = data
-        && let Err(e) = session.open(path)
-    {
-        session.close();
-        return Err(e);
+    if let Some(path) = data {
+        session.open(path)?;
     }
     let dir = session.dir().to_path_buf();
     let state = Arc::new(Mutex::new(session));
+    let served = serve(state.clone(), port);
+    // The server's tasks are gone; remove the directory even if a blocking
+    // call still holds the session.
+    let _ = std::fs::remove_dir_all(&dir);
+    drop(state);
+    served
+}
+
+fn serve(state: Arc<Mutex<Session>>, port: u16) -> CliResult<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -76,14 +153,17 @@ pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
         let addr = listener
             .local_addr()
             .map_err(|e| input(format!("studio: {e}")))?;
-        println!("lifted studio: http://{addr}/ (Ctrl-C to stop)");
+        let access = Access::new(addr.port())?;
+        println!("lifted studio: {} (Ctrl-C to stop)", access.url());
         let _ = std::io::stdout().flush();
-        axum::serve(listener, router(state))
+        axum::serve(listener, router(state, access))
             .with_graceful_shutdown(stop_signal())
             .await
             .map_err(|e| input(format!("studio: {e}")))
     });
-    let _ = std::fs::remove_dir_all(dir);
+    // Do not wait for a long identification still running on the blocking
+    // pool: the process is about to end.
+    rt.shutdown_timeout(std::time::Duration::from_secs(1));
     served
 }
 

@@ -27,6 +27,11 @@ use crate::table::{DataSpec, header, load, parse_periods, read_raw};
 /// Largest upload accepted (bytes).
 pub const MAX_UPLOAD: usize = 1 << 30;
 
+/// Largest working matrix an identification request may ask for, in bytes
+/// (8 k² for the k block-Hankel rows of the request): larger requests are
+/// refused before the identification allocates anything.
+pub const MAX_WORK_BYTES: u64 = 2 << 30;
+
 /// Lags of the residual tests in the studio (as `lifted validate`'s
 /// default), fewer on a short record.
 const LAGS: usize = 20;
@@ -202,19 +207,73 @@ struct Last {
     request: Request,
 }
 
-/// The uploaded record.
+/// The uploaded record: `path` is `<scratch>/<folder>/<name>`, in a folder
+/// of its own so that a new upload never touches the loaded record.
 struct Record {
     name: String,
+    folder: PathBuf,
     path: PathBuf,
     info: DataInfo,
 }
 
 /// The studio's state: a scratch directory, the uploaded record and the
-/// last model.
+/// last model. The scratch directory has a random name and owner-only
+/// permissions (0700 on Unix); it is removed when the session is dropped.
 pub struct Session {
     dir: PathBuf,
     record: Option<Record>,
     last: Option<Last>,
+}
+
+/// `bytes` random bytes from the operating system's CSPRNG, as hex.
+pub(crate) fn random_hex(bytes: usize) -> CliResult<String> {
+    use rand::TryRng;
+    let mut b = vec![0u8; bytes];
+    rand::rngs::SysRng
+        .try_fill_bytes(&mut b)
+        .map_err(|e| input(format!("studio: no random numbers from the system: {e}")))?;
+    Ok(b.iter().map(|x| format!("{x:02x}")).collect())
+}
+
+/// Creates the directory `path` (not its parents) for the owner only; fails
+/// if it exists.
+fn private_dir(path: &Path) -> std::io::Result<()> {
+    let mut b = std::fs::DirBuilder::new();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::DirBuilderExt;
+        b.mode(0o700);
+    }
+    b.create(path)
+}
+
+/// An error message with `folder/` taken out of the paths it names.
+fn plain_in(folder: &Path, e: CliError) -> CliError {
+    let prefix = format!("{}{}", folder.display(), std::path::MAIN_SEPARATOR);
+    match e {
+        CliError::Input(m) => CliError::Input(m.replace(&prefix, "")),
+        CliError::Failed(m) => CliError::Failed(m.replace(&prefix, "")),
+    }
+}
+
+/// A new folder `upload-<random>` of the scratch directory `dir`, owner
+/// only, and the path of the record `name` in it (made safe: its base name
+/// with anything but letters, digits, `.`, `-`, `_` replaced).
+pub(crate) fn staging(dir: &Path, name: &str) -> CliResult<(PathBuf, PathBuf)> {
+    let folder = dir.join(format!("upload-{}", random_hex(8)?));
+    private_dir(&folder).map_err(|e| input(format!("cannot store the upload: {e}")))?;
+    let path = folder.join(safe_name(name));
+    Ok((folder, path))
+}
+
+/// `8 k²` in bytes, as text (`2.0 GiB`).
+fn bytes_text(b: f64) -> String {
+    let gib = b / (1u64 << 30) as f64;
+    if gib >= 1024.0 {
+        format!("{:.1} TiB", gib / 1024.0)
+    } else {
+        format!("{gib:.1} GiB")
+    }
 }
 
 /// A file name safe to write in the scratch directory (the base name, with
@@ -248,11 +307,13 @@ fn shell_word(w: &str) -> String {
 }
 
 impl Session {
-    /// A session with a fresh scratch directory under `parent`.
+    /// A session with a fresh scratch directory under `parent`
+    /// (`lifted-studio-<32 random hex digits>`, created for the owner only:
+    /// mode 0700 on Unix; an existing directory of that name is an error,
+    /// never reused).
     pub fn new(parent: &Path) -> CliResult<Self> {
-        let dir = parent.join(format!("lifted-studio-{}", std::process::id()));
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| input(format!("cannot create {}: {e}", dir.display())))?;
+        let dir = parent.join(format!("lifted-studio-{}", random_hex(16)?));
+        private_dir(&dir).map_err(|e| input(format!("cannot create {}: {e}", dir.display())))?;
         Ok(Session {
             dir,
             record: None,
@@ -265,18 +326,35 @@ impl Session {
         &self.dir
     }
 
-    /// Removes the scratch directory.
+    /// Removes the scratch directory (dropping the session does too).
     pub fn close(&self) {
         let _ = std::fs::remove_dir_all(&self.dir);
+    }
+
+    /// Forgets the record and the last model and empties the scratch
+    /// directory: the state after a request failed halfway (a poisoned
+    /// lock), when what it left cannot be trusted.
+    pub fn reset(&mut self) {
+        self.record = None;
+        self.last = None;
+        if let Ok(entries) = std::fs::read_dir(&self.dir) {
+            for e in entries.flatten() {
+                let p = e.path();
+                let _ = if p.is_dir() {
+                    std::fs::remove_dir_all(&p)
+                } else {
+                    std::fs::remove_file(&p)
+                };
+            }
+        }
     }
 
     /// Error messages name the record by its uploaded name, not the
     /// scratch path.
     fn plain(&self, e: CliError) -> CliError {
-        let prefix = format!("{}{}", self.dir.display(), std::path::MAIN_SEPARATOR);
-        match e {
-            CliError::Input(m) => CliError::Input(m.replace(&prefix, "")),
-            CliError::Failed(m) => CliError::Failed(m.replace(&prefix, "")),
+        match &self.record {
+            Some(r) => plain_in(&r.folder, e),
+            None => plain_in(&self.dir, e),
         }
     }
 
@@ -286,26 +364,53 @@ impl Session {
             .ok_or_else(|| input("no data loaded: load a CSV file first"))
     }
 
+    /// A new folder of the scratch directory for an incoming record, and
+    /// the path of the record `name` in it (made safe: its base name with
+    /// anything but letters, digits, `.`, `-`, `_` replaced).
+    pub fn staging(&self, name: &str) -> CliResult<(PathBuf, PathBuf)> {
+        staging(&self.dir, name)
+    }
+
     /// Stores an uploaded CSV and checks every cell with the command's
     /// reader (the same one-line errors as the CLI); the record replaces
-    /// the previous one.
+    /// the previous one only once it has been read whole (a bad file leaves
+    /// the loaded record and the last model as they were).
     pub fn upload(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
-        let name = safe_name(name);
-        let path = self.dir.join(&name);
-        std::fs::write(&path, bytes).map_err(|e| input(format!("cannot store {name}: {e}")))?;
+        let (folder, path) = self.staging(name)?;
+        let safe = safe_name(name);
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {safe}: {e}")));
+        }
+        self.adopt(folder, path)
+    }
+
+    /// Reads the record staged at `path` (in `folder`, both from
+    /// [`Session::staging`]) and, if it reads whole, makes it the loaded
+    /// record (the previous one and the last model are dropped); else
+    /// removes `folder` and keeps the state as it was.
+    pub fn adopt(&mut self, folder: PathBuf, path: PathBuf) -> CliResult<DataInfo> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "data.csv".into());
         match self.inspect(&name, &path) {
             Ok(info) => {
-                self.record = Some(Record {
+                let old = self.record.replace(Record {
                     name,
+                    folder,
                     path,
                     info: info.clone(),
                 });
                 self.last = None;
+                if let Some(old) = old {
+                    let _ = std::fs::remove_dir_all(old.folder);
+                }
                 Ok(info)
             }
             Err(e) => {
-                let _ = std::fs::remove_file(&path);
-                Err(self.plain(e))
+                let _ = std::fs::remove_dir_all(&folder);
+                Err(plain_in(&folder, e))
             }
         }
     }
@@ -422,6 +527,7 @@ impl Session {
 
     /// The selected channels with their rates and plots.
     pub fn view(&self, r: &Request) -> CliResult<View> {
+        self.check_sizes(r)?;
         let data = self.load(r)?;
         let n = data.len();
         let inputs = data
@@ -556,11 +662,74 @@ impl Session {
         Ok((file, data, v))
     }
 
+    /// Refuses a request whose sizes the record cannot support, before
+    /// anything is allocated: a horizon i whose block Hankel matrix (past +
+    /// future = 2i block rows of n_u + n_y rows each) would have more rows
+    /// than the record has samples, or whose k² working matrix would pass
+    /// [`MAX_WORK_BYTES`]; a q, order or largest order beyond the record's
+    /// length or that bound; a hold longer than the record. (A lifted,
+    /// multirate record needs at least as many rows, so the bound never
+    /// refuses a request the identification could have served.)
+    pub fn check_sizes(&self, r: &Request) -> CliResult<()> {
+        let rec = self.record()?;
+        let (rows, name) = (rec.info.rows, rec.name.as_str());
+        let channels = (r.inputs.len() + r.outputs.len()).max(1) as u128;
+        let memory = |flag: &str, value: usize, k: u128, what: &str| -> CliResult<()> {
+            let bytes = 8 * k * k;
+            if bytes > MAX_WORK_BYTES as u128 {
+                return Err(input(format!(
+                    "{flag} {value} is too large: the {what} ({k} rows) would need {} of memory \
+                     (the studio's limit is {})",
+                    bytes_text(bytes as f64),
+                    bytes_text(MAX_WORK_BYTES as f64)
+                )));
+            }
+            Ok(())
+        };
+        if let Some(h) = r.horizon {
+            let k = 2 * h as u128 * channels;
+            if k > rows as u128 {
+                return Err(input(format!(
+                    "horizon {h} is too large for {name}: the block Hankel matrix would have \
+                     {k} rows (2 × {h} × {channels} channels), more than the record's {rows} samples"
+                )));
+            }
+            memory("horizon", h, k, "block Hankel matrix")?;
+        }
+        let numeric_order = r
+            .order
+            .as_deref()
+            .and_then(|o| o.trim().parse::<usize>().ok());
+        for (flag, v) in [
+            ("q", r.q),
+            ("order", numeric_order),
+            ("max_order", r.max_order),
+            ("hold", r.hold),
+        ] {
+            let Some(v) = v else { continue };
+            if v > rows {
+                return Err(input(format!(
+                    "{flag} {v} is too large for {name}: more than the record's {rows} samples"
+                )));
+            }
+            match flag {
+                "q" => memory(flag, v, v as u128 * channels, "q-Markov data matrix")?,
+                "order" | "max_order" => memory(flag, v, v as u128, "state matrix")?,
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
     /// Identifies with the request's options, validates on the record and
     /// draws the figures; the model is kept for [`Session::model_json`] and
-    /// [`Session::report`].
+    /// [`Session::report`]. A failed identification leaves no model (the
+    /// previous one is dropped: saving after a failure is an error, not the
+    /// model of other options).
     pub fn identify(&mut self, r: &Request) -> CliResult<Identified> {
         let start = Instant::now();
+        self.last = None;
+        self.check_sizes(r)?;
         let rec = self.record()?;
         let words = Self::identify_words(r, &rec.name, "model.json");
         let command = std::iter::once("lifted".to_string())
@@ -667,6 +836,13 @@ impl Session {
     /// The uploaded record's description, if any.
     pub fn data_info(&self) -> Option<&DataInfo> {
         self.record.as_ref().map(|r| &r.info)
+    }
+}
+
+impl Drop for Session {
+    /// Removes the scratch directory.
+    fn drop(&mut self) {
+        self.close();
     }
 }
 

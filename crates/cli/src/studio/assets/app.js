@@ -1,9 +1,15 @@
 // Lifted studio: the page's logic. Plain JavaScript, no library: the server
 // draws every plot as SVG; this script only gathers the options, calls the
 // JSON API (documented in lifted_cli::studio) and puts the answers in place.
+// Text from the record (column names, messages) goes in as text nodes,
+// never as markup; only the server's own SVG figures are inserted as markup,
+// under the page's content security policy.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
+
+// The session token the server put in the page; every API call sends it.
+const TOKEN = document.querySelector('meta[name="lifted-token"]').content;
 
 const state = {
   info: null,        // DataInfo of the loaded record
@@ -13,6 +19,8 @@ const state = {
   pending: null,     // the latest request made while busy
   generation: 0,     // completed identifications
   views: 0,          // completed channel views
+  failed: 0,         // failed calls
+  csp: 0,            // content-security-policy violations seen
 };
 
 function showError(msg) {
@@ -30,8 +38,16 @@ function setStatus(text) {
   $("status").textContent = text;
 }
 
-async function call(path, body) {
-  const init = body === undefined ? {} : { method: "POST", body };
+// A GET (no body) or a POST of `body` with its content type (JSON unless
+// given), with the token header.
+async function call(path, body, type) {
+  const headers = { "X-Lifted-Token": TOKEN };
+  const init = { headers };
+  if (body !== undefined) {
+    init.method = "POST";
+    init.body = body;
+    headers["Content-Type"] = type || "application/json";
+  }
   let res;
   try {
     res = await fetch(path, init);
@@ -59,17 +75,55 @@ function listOf(text) {
   return text.split(",").map((s) => s.trim()).filter((s) => s.length > 0);
 }
 
+// The label text of a field, for messages.
+function labelOf(id) {
+  const l = $(id).closest("label");
+  const span = l && l.querySelector("span");
+  return span ? span.textContent : id;
+}
+
+// A number field's value: null when empty (the command's default applies),
+// else a finite number (an integer ≥ `min` when asked); anything else is
+// an error that names the field, never a silent default.
+function num(id, integer, min) {
+  const field = $(id);
+  field.removeAttribute("aria-invalid");
+  const v = field.value.trim();
+  const bad = (why) => {
+    field.setAttribute("aria-invalid", "true");
+    return new Error(labelOf(id) + ": " + why);
+  };
+  if (field.validity && field.validity.badInput) throw bad("not a number");
+  if (v === "") return null;
+  const x = Number(v);
+  if (!Number.isFinite(x)) throw bad("'" + v + "' is not a number");
+  if (integer && !Number.isInteger(x)) throw bad("'" + v + "' is not a whole number");
+  if (min !== undefined && x < min) throw bad(v + " is below " + min);
+  return x;
+}
+
+// A comma-separated list of numbers (the output weighting).
+function numbers(id) {
+  const field = $(id);
+  field.removeAttribute("aria-invalid");
+  return listOf(field.value).map((w) => {
+    const x = Number(w);
+    if (!Number.isFinite(x)) {
+      field.setAttribute("aria-invalid", "true");
+      throw new Error(labelOf(id) + ": '" + w + "' is not a number");
+    }
+    return x;
+  });
+}
+
 // The Request of the API: only the options the user set, so that the
-// command's defaults apply to the rest.
+// command's defaults apply to the rest. Throws on a field that is not a
+// number.
 function request(withOrder) {
   const r = { inputs: checked("inputs-box"), outputs: checked("outputs-box") };
-  const num = (id) => {
-    const v = $(id).value.trim();
-    return v === "" ? null : Number(v);
-  };
-  const ts = num("ts");
+  const ts = num("ts", false, 0);
   if (ts !== null) r.ts = ts;
-  const hold = num("hold");
+  const hold = num("hold", true, 1);
   if (hold !== null) r.hold = hold;
   const periods = listOf($("output-period").value);
   if (periods.length) r.output_period = periods;
@@ -80,15 +134,15 @@ function request(withOrder) {
   r.detrend = $("detrend").value;
   if ($("stable").checked) r.stable = true;
   if (method === "qmarkov") {
-    const n = num("prbs-order");
+    const n = num("prbs-order", true, 2);
     if (n !== null) r.prbs_order = n;
-    const a = num("amplitude");
+    const a = num("amplitude", false);
     if (a !== null) r.amplitude = a;
-    const w = listOf($("output-weight").value).map(Number);
+    const w = numbers("output-weight");
     if (w.length) r.output_weight = w;
     if (state.q !== null) r.q = state.q;
   } else {
-    const h = num("horizon");
+    const h = num("horizon", true, 1);
     if (h !== null) r.horizon = h;
   }
   if (method === "iv") {
@@ -116,10 +170,60 @@ function qRange() {
   if (Number(s.value) > max) s.value = String(max);
 }
 
+// An element with text content (never markup).
+function el(tag, text, cls) {
+  const e = document.createElement(tag);
+  if (text !== undefined) e.textContent = String(text);
+  if (cls) e.className = cls;
+  return e;
+}
+
+// A table's rows from arrays of cells (header row first), as text.
+function fillTable(table, head, rows) {
+  const tr = el("tr");
+  for (const h of head) tr.appendChild(el("th", h));
+  const all = [tr];
+  for (const cells of rows) {
+    const r = el("tr");
+    for (const c of cells) r.appendChild(c instanceof Node ? c : el("td", c));
+    all.push(r);
+  }
+  table.replaceChildren(...all);
+}
+
+// The Save links: real links only while a model of the current options
+// exists; else no href, aria-disabled, and clicks ignored.
+function setSaves(enabled) {
+  for (const id of ["save-model", "save-report"]) {
+    const a = $(id);
+    if (enabled) {
+      a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN);
+      a.setAttribute("aria-disabled", "false");
+      a.classList.remove("disabled");
+    } else {
+      a.removeAttribute("href");
+      a.setAttribute("aria-disabled", "true");
+      a.classList.add("disabled");
+    }
+  }
+}
+
+// Clears what an identification showed (its figures, fits, command) and
+// disables the Save links: after a failed identification nothing of the
+// previous model remains to be mistaken for the current one.
+function clearIdentified() {
+  for (const id of ["fig-order", "fits", "fig-response", "fig-error", "fig-step", "fig-bode", "fig-pz"]) {
+    $(id).replaceChildren();
+  }
+  $("command").textContent = "";
+  $("order-kind").textContent = "";
+  setSaves(false);
+}
+
 function channelBoxes(info) {
   const fill = (boxId, legend, selected) => {
     const box = $(boxId);
-    box.innerHTML = "<legend>" + legend + "</legend>";
+    box.replaceChildren(el("legend", legend));
     for (const c of info.columns) {
       const label = document.createElement("label");
       const cb = document.createElement("input");
@@ -143,8 +247,7 @@ function setup(info) {
   $("data-name").textContent = info.name + ": " + info.rows + " rows, T = " + info.ts + " s, columns " +
     info.columns.map((c) => c.name).join(", ");
   channelBoxes(info);
-  $("save-model").classList.add("disabled");
-  $("save-report").classList.add("disabled");
+  clearIdentified();
   schedule({ view: true, identify: true });
 }
 
@@ -153,10 +256,12 @@ async function loadFile(file) {
   setStatus("loading " + file.name + "…");
   try {
     const buf = await file.arrayBuffer();
-    const info = await call("/api/data?name=" + encodeURIComponent(file.name), buf);
+    const info = await call("/api/data?name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
     setup(info);
   } catch (e) {
-    setStatus("no data");
+    // The server keeps the record it had (a file replaces it only once
+    // read whole), and so does the page.
+    setStatus(state.info ? state.info.name + " kept" : "no data");
     showError(e.message);
   }
 }
@@ -164,16 +269,12 @@ async function loadFile(file) {
 function renderView(v) {
   $("fig-inputs").innerHTML = v.inputs_svg;
   $("fig-outputs").innerHTML = v.outputs_svg;
-  const rows = ["<tr><th>channel</th><th>kind</th><th>period</th><th>samples</th></tr>"];
-  for (const c of v.inputs) rows.push("<tr><td>" + esc(c.name) + "</td><td>input</td><td>hold " + c.period + " T</td><td>" + c.samples + "</td></tr>");
-  for (const c of v.outputs) rows.push("<tr><td>" + esc(c.name) + "</td><td>output</td><td>" + c.period + " T</td><td>" + c.samples + "</td></tr>");
-  $("rates").innerHTML = rows.join("");
+  const rows = [];
+  for (const c of v.inputs) rows.push([c.name, "input", "hold " + c.period + " T", c.samples]);
+  for (const c of v.outputs) rows.push([c.name, "output", c.period + " T", c.samples]);
+  fillTable($("rates"), ["channel", "kind", "period", "samples"], rows);
   state.views += 1;
   $("status").dataset.view = String(state.views);
-}
-
-function esc(s) {
-  return String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;");
 }
 
 function renderIdentified(r) {
@@ -189,21 +290,24 @@ function renderIdentified(r) {
   slider.disabled = false;
   slider.value = String(r.order);
   $("order-value").textContent = state.order === "auto" ? r.order + " (auto)" : String(r.order);
-  $("fig-order").innerHTML = r.figures.order || "<p class=\"note\">This route gives no order-selection values.</p>";
-  const fits = ["<tr><th>output</th><th>fit % (simulation)</th><th>white residual</th><th>independent of u</th></tr>"];
-  for (const f of r.fits) {
-    fits.push("<tr><td>" + esc(f.output) + "</td><td class=\"fit\" data-output=\"" + esc(f.output) + "\">" +
-      f.fit.toFixed(2) + "</td><td>" + (f.white ? "yes" : "no") + "</td><td>" + (f.independent ? "yes" : "no") + "</td></tr>");
+  if (r.figures.order) {
+    $("fig-order").innerHTML = r.figures.order;
+  } else {
+    $("fig-order").replaceChildren(el("p", "This route gives no order-selection values.", "note"));
   }
-  $("fits").innerHTML = fits.join("");
+  const fits = r.fits.map((f) => {
+    const fit = el("td", f.fit.toFixed(2), "fit");
+    fit.dataset.output = f.output;
+    return [f.output, fit, f.white ? "yes" : "no", f.independent ? "yes" : "no"];
+  });
+  fillTable($("fits"), ["output", "fit % (simulation)", "white residual", "independent of u"], fits);
   $("fig-response").innerHTML = r.figures.response.join("");
   $("fig-error").innerHTML = r.figures.error.join("");
   $("fig-step").innerHTML = r.figures.step;
   $("fig-bode").innerHTML = r.figures.bode;
   $("fig-pz").innerHTML = r.figures.pz;
   $("command").textContent = r.command;
-  $("save-model").classList.remove("disabled");
-  $("save-report").classList.remove("disabled");
+  setSaves(true);
   state.generation += 1;
   $("status").dataset.generation = String(state.generation);
   setStatus(r.method + ", order " + r.order + " — " + r.elapsed_ms.toFixed(0) + " ms");
@@ -234,6 +338,11 @@ async function run(job) {
       renderIdentified(await call("/api/identify", JSON.stringify(request(true))));
     }
   } catch (e) {
+    // The figures and Save links of an earlier model do not belong to
+    // these options (the server has dropped that model too).
+    clearIdentified();
+    state.failed += 1;
+    $("status").dataset.failed = String(state.failed);
     showError(e.message);
     setStatus("error");
   }
@@ -245,6 +354,18 @@ async function run(job) {
 }
 
 function wire() {
+  // A Save link without a model does nothing, whatever the CSS.
+  for (const id of ["save-model", "save-report"]) {
+    $(id).addEventListener("click", (e) => {
+      if (e.currentTarget.getAttribute("aria-disabled") === "true") e.preventDefault();
+    });
+  }
+  // Anything the content security policy blocks is a bug of the page: say so.
+  document.addEventListener("securitypolicyviolation", (e) => {
+    state.csp += 1;
+    $("status").dataset.csp = String(state.csp);
+    showError("blocked by the page's security policy: " + e.violatedDirective + " (" + (e.blockedURI || "inline") + ")");
+  });
   $("file").addEventListener("change", (e) => {
     if (e.target.files.length) loadFile(e.target.files[0]);
   });
