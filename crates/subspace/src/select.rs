@@ -7,17 +7,24 @@
 //! validation fit), and no single horizon or route is best on every record
 //! (`benches/README.md`, "Real records beside SIPPY"). Each candidate
 //! structure (horizon s = p = f, [`SystemEstimate`], order n) is therefore
-//! identified on the first part of every record (by default 2/3) and
-//! scored by its simulation fit on the held-out rest, with the initial
-//! state of the held-out part estimated by least squares (the way a
+//! scored on held-out data: every record is cut into
+//! [`StructureOptions::folds`] contiguous blocks (default 3); by default
+//! (forward validation) the structure is identified on all blocks but the
+//! last and scored on the last one — on the data that follow its
+//! estimation data, as the model will be used — or, with
+//! [`StructureOptions::forward`] false, each block is held out once and the
+//! structure identified on the others (as separate records). A fold's
+//! score is the simulation fit on the held-out block, with
+//! the block's initial state estimated by least squares (the way a
 //! validation record is scored): fit = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), averaged
-//! over the outputs and records. Unstable candidates score nothing. The
-//! selection is the smallest order, then the shortest horizon, within
+//! over the outputs and records. The score is the mean over the folds, a
+//! fold with no stable model counting as −100 %. The selection is the
+//! smallest order, then the shortest horizon, within
 //! [`StructureOptions::tolerance`] points of the best score (parsimony).
 //!
-//! Cost: one compression of the estimation part per (horizon, route),
-//! O(N (n_u + n_y)² s), then per order O(k³) and the (B, D, x₀)
-//! regression O(N q²), and a simulation of the held-out part, O(N n²).
+//! Cost per fold: one compression of the estimation blocks per (horizon,
+//! route), O(N (n_u + n_y)² s), then per order O(k³) and the (B, D, x₀)
+//! regression O(N q²), and a simulation of the held-out block, O(N n²).
 
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
@@ -46,9 +53,13 @@ pub struct StructureOptions {
     pub systems: Vec<SystemEstimate>,
     /// Largest order tried when the order is automatic. Default 10.
     pub max_order: usize,
-    /// Fraction of every record held out for scoring (from its end).
-    /// Default 1/3.
-    pub holdout: f64,
+    /// Contiguous blocks per record, 2..=10. Default 3.
+    pub folds: usize,
+    /// Forward validation: only the last block of every record is held
+    /// out, so a structure is scored on the data that follow its
+    /// estimation data, as the model will be used (default true); false:
+    /// every block is held out once (blocked cross-validation).
+    pub forward: bool,
     /// Points of fit within which a smaller order or horizon is preferred.
     /// Default 0.5.
     pub tolerance: f64,
@@ -63,7 +74,8 @@ impl Default for StructureOptions {
             horizons: Vec::new(),
             systems: Vec::new(),
             max_order: 10,
-            holdout: 1.0 / 3.0,
+            folds: 3,
+            forward: true,
             tolerance: 0.5,
             search_samples: 200_000,
         }
@@ -79,8 +91,9 @@ pub struct Candidate {
     pub system: SystemEstimate,
     /// Order.
     pub order: usize,
-    /// Held-out simulation fit in percent (mean over outputs and records);
-    /// `None` for a failed fit or an unstable model.
+    /// Cross-validated simulation fit in percent (mean over the folds of
+    /// the mean over outputs and records; a fold without a stable model
+    /// counts as −100); `None` when no fold gave a stable model.
     pub fit: Option<f64>,
 }
 
@@ -97,8 +110,8 @@ pub struct StructureSelection {
     pub fit: f64,
     /// Every candidate with its score (the curve shown by the front ends).
     pub candidates: Vec<Candidate>,
-    /// Samples used for the estimation parts and held out.
-    pub split: (usize, usize),
+    /// Folds scored (1 for forward validation).
+    pub folds: usize,
 }
 
 /// Chooses the horizon, the (A, C) route and, when `base.order` is
@@ -119,36 +132,41 @@ pub fn select_structure(
     base: &SubspaceOptions,
     opts: &StructureOptions,
 ) -> Result<StructureSelection> {
-    if !(opts.holdout > 0.0 && opts.holdout <= 0.9) {
+    if !(2..=10).contains(&opts.folds) {
         return Err(Error::InvalidOption {
-            what: "holdout",
-            reason: format!(
-                "the held-out fraction must lie in (0, 0.9], got {}",
-                opts.holdout
-            ),
+            what: "folds",
+            reason: format!("2 to 10 cross-validation folds, got {}", opts.folds),
         });
     }
     let (nu, ny, total) = crate::engine::validate(experiments)?;
-    let cut = |len: usize| len - ((len as f64 * opts.holdout).round() as usize).min(len);
-    let parts: Vec<(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>)> = experiments
-        .iter()
-        .map(|e| {
+    let k_folds = opts.folds;
+    let fold_ids: Vec<usize> = if opts.forward {
+        vec![k_folds - 1]
+    } else {
+        (0..k_folds).collect()
+    };
+    // Fold boundaries per record: block b of a record of length n is
+    // rows b n / K .. (b + 1) n / K.
+    let bounds = |n: usize, b: usize| (b * n / k_folds, (b + 1) * n / k_folds);
+    // Estimation pieces of fold f: the runs of consecutive blocks ≠ f.
+    let pieces = |f: usize| -> Vec<(usize, usize, usize)> {
+        let mut out = Vec::new();
+        for (r, e) in experiments.iter().enumerate() {
             let n = e.u.nrows();
-            let m = cut(n);
-            (
-                e.u.rows(0, m).into_owned(),
-                e.y.rows(0, m).into_owned(),
-                e.u.rows(m, n - m).into_owned(),
-                e.y.rows(m, n - m).into_owned(),
-            )
-        })
-        .collect();
-    let est: Vec<Experiment<'_>> = parts
+            if f > 0 {
+                out.push((r, 0, bounds(n, f).0));
+            }
+            if f + 1 < k_folds {
+                out.push((r, bounds(n, f).1, n));
+            }
+        }
+        out
+    };
+    let shortest = fold_ids
         .iter()
-        .map(|p| Experiment { u: &p.0, y: &p.1 })
-        .collect();
-    let est_len: usize = parts.iter().map(|p| p.0.nrows()).sum();
-    let shortest = parts.iter().map(|p| p.0.nrows()).min().unwrap_or(0);
+        .flat_map(|&f| pieces(f).into_iter().map(|(_, a, b)| b - a))
+        .min()
+        .unwrap_or(0);
     let search = total <= opts.search_samples;
     let horizons: Vec<usize> = if !opts.horizons.is_empty() {
         opts.horizons.clone()
@@ -157,33 +175,28 @@ pub fn select_structure(
     } else {
         vec![10]
     };
-    // At least 3k Hankel columns per estimation part (k = 2 s (n_u + n_y)):
-    // fewer make the compressed correlations too noisy to rank structures.
+    // At least 3k Hankel columns in the shortest estimation piece
+    // (k = 2 s (n_u + n_y)): fewer make the compressed correlations too
+    // noisy to rank structures.
+    let columns_at = |s: usize| (shortest + 1).saturating_sub(2 * s);
     let feasible: Vec<usize> = horizons
         .iter()
         .copied()
-        .filter(|&s| {
-            s >= 2 && {
-                let k = 2 * s * (nu + ny);
-                shortest + 1 >= 2 * s && shortest + 1 - 2 * s >= 3 * k
-            }
-        })
+        .filter(|&s| s >= 2 && columns_at(s) >= 3 * 2 * s * (nu + ny))
         .collect();
     let horizons = if feasible.is_empty() {
-        // The shortest candidate the data allow at all (J ≥ k).
+        // The longest horizon the data allow at all (J ≥ k).
         match (2..=horizons.iter().copied().max().unwrap_or(10))
             .rev()
-            .find(|&s| {
-                let k = 2 * s * (nu + ny);
-                shortest + 1 >= 2 * s && shortest + 1 - 2 * s >= k
-            }) {
+            .find(|&s| columns_at(s) >= 2 * s * (nu + ny))
+        {
             Some(s) => vec![s],
             None => {
                 return Err(Error::HorizonTooLong {
                     past: 2,
                     future: 2,
-                    n_samples: est_len,
-                    min_samples: 4 * (nu + ny) + 3,
+                    n_samples: total,
+                    min_samples: k_folds * (4 * (nu + ny) + 3),
                 });
             }
         }
@@ -200,14 +213,44 @@ pub fn select_structure(
     } else {
         vec![SystemEstimate::ShiftInvariance]
     };
-    let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = parts.iter().map(|p| (&p.2, &p.3)).collect();
+    let (cap, fixed) = match base.order {
+        OrderSelection::Fixed(n) => (n, Some(n)),
+        OrderSelection::Gap { max } => (max.min(opts.max_order).max(1), None),
+    };
+    let orders: Vec<usize> = match fixed {
+        Some(n) => vec![n],
+        None => (1..=cap).collect(),
+    };
+    // The estimation pieces and held-out blocks of every fold (copies:
+    // O(K N (n_u + n_y)) memory for records of at most `search_samples`).
+    let slice = |r: usize, a: usize, b: usize| {
+        let e = &experiments[r];
+        (
+            e.u.rows(a, b - a).into_owned(),
+            e.y.rows(a, b - a).into_owned(),
+        )
+    };
+    let folds: Vec<(OwnedRecords, OwnedRecords)> = fold_ids
+        .iter()
+        .map(|&f| {
+            let est = pieces(f)
+                .into_iter()
+                .map(|(r, a, b)| slice(r, a, b))
+                .collect();
+            let held = experiments
+                .iter()
+                .enumerate()
+                .map(|(r, e)| {
+                    let (a, b) = bounds(e.u.nrows(), f);
+                    slice(r, a, b)
+                })
+                .collect();
+            (est, held)
+        })
+        .collect();
     let mut candidates = Vec::new();
     for &s in &horizons {
         for &system in &systems {
-            let (cap, fixed) = match base.order {
-                OrderSelection::Fixed(n) => (n, Some(n)),
-                OrderSelection::Gap { max } => (max.min(opts.max_order).max(1), None),
-            };
             let o = SubspaceOptions {
                 past: s,
                 future: s,
@@ -215,25 +258,34 @@ pub fn select_structure(
                 order: OrderSelection::Fixed(1),
                 ..base.clone()
             };
-            let fitted = models_of_orders(&est, &o, cap);
-            let (op, models) = match fitted {
-                Ok(r) => r,
-                Err(_) => (None, Vec::new()),
-            };
-            let orders: Vec<usize> = match fixed {
-                Some(n) => vec![n],
-                None => (1..=cap).collect(),
-            };
-            for n in orders {
-                let fit = models
-                    .get(n - 1)
-                    .and_then(Option::as_ref)
-                    .and_then(|m| held_out_fit(m, op.as_ref(), &held));
+            // fits[order index][fold]
+            let mut fits: Vec<Vec<Option<f64>>> = vec![Vec::new(); orders.len()];
+            for (est, held) in &folds {
+                let exps: Vec<Experiment<'_>> =
+                    est.iter().map(|(u, y)| Experiment { u, y }).collect();
+                let (op, models) = models_of_orders(&exps, &o, cap).unwrap_or((None, Vec::new()));
+                let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+                    held.iter().map(|(u, y)| (u, y)).collect();
+                for (i, &n) in orders.iter().enumerate() {
+                    let fit = models
+                        .get(n - 1)
+                        .and_then(Option::as_ref)
+                        .and_then(|m| held_out_fit(m, op.as_ref(), &held));
+                    fits[i].push(fit);
+                }
+            }
+            for (i, &n) in orders.iter().enumerate() {
+                let any = fits[i].iter().any(Option::is_some);
+                let mean = fits[i]
+                    .iter()
+                    .map(|f| f.unwrap_or(FAILED_FOLD).max(FAILED_FOLD))
+                    .sum::<f64>()
+                    / fold_ids.len() as f64;
                 candidates.push(Candidate {
                     horizon: s,
                     system,
                     order: n,
-                    fit,
+                    fit: any.then_some(mean),
                 });
             }
         }
@@ -247,29 +299,69 @@ pub fn select_structure(
             spectral_radius: f64::NAN,
         });
     }
-    // Parsimony: the smallest order, then the shortest horizon, then shift
-    // invariance, within the tolerance of the best score.
-    let chosen = candidates
-        .iter()
-        .filter(|c| c.fit.is_some_and(|f| f >= best - opts.tolerance))
-        .min_by_key(|c| {
+    let mut sel = StructureSelection {
+        horizon: 0,
+        system: SystemEstimate::ShiftInvariance,
+        order: 0,
+        fit: best,
+        candidates,
+        folds: fold_ids.len(),
+    };
+    let chosen = sel
+        .ranking(opts.tolerance)
+        .into_iter()
+        .next()
+        .ok_or(Error::NoData)?;
+    sel.horizon = chosen.horizon;
+    sel.system = chosen.system;
+    sel.order = chosen.order;
+    sel.fit = chosen.fit.unwrap_or(best);
+    Ok(sel)
+}
+
+impl StructureSelection {
+    /// The scored candidates in the order of preference: those within
+    /// `tolerance` points of the best score by parsimony (the smallest
+    /// order, then the shortest horizon, then shift invariance), then the
+    /// others by decreasing score. The first is the selection; a caller
+    /// whose model of it on the whole records turns out unstable takes the
+    /// next.
+    pub fn ranking(&self, tolerance: f64) -> Vec<Candidate> {
+        let best = self
+            .candidates
+            .iter()
+            .filter_map(|c| c.fit)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let key = |c: &Candidate| {
             (
                 c.order,
                 c.horizon,
                 c.system != SystemEstimate::ShiftInvariance,
             )
-        })
-        .cloned()
-        .ok_or(Error::NoData)?;
-    Ok(StructureSelection {
-        horizon: chosen.horizon,
-        system: chosen.system,
-        order: chosen.order,
-        fit: chosen.fit.unwrap_or(best),
-        candidates,
-        split: (est_len, total - est_len),
-    })
+        };
+        let (mut near, mut far): (Vec<Candidate>, Vec<Candidate>) = self
+            .candidates
+            .iter()
+            .filter(|c| c.fit.is_some())
+            .cloned()
+            .partition(|c| c.fit.is_some_and(|f| f >= best - tolerance));
+        near.sort_by_key(key);
+        far.sort_by(|a, b| {
+            b.fit
+                .unwrap_or(f64::NEG_INFINITY)
+                .total_cmp(&a.fit.unwrap_or(f64::NEG_INFINITY))
+        });
+        near.extend(far);
+        near
+    }
 }
+
+/// The score of a fold without a stable model (and the floor of every
+/// fold's fit, so that one diverging fold does not swamp the mean).
+const FAILED_FOLD: f64 = -100.0;
+
+/// Records as owned (u, y) pairs.
+type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
 
 /// Simulation fit (percent, mean over outputs and records) of `model` on
 /// the held-out parts, deviations from the estimation part's operating
@@ -286,7 +378,7 @@ fn held_out_fit(
         .iter()
         .map(|p| p.norm())
         .fold(0.0, f64::max);
-    if !(rho < 1.0) {
+    if rho.is_nan() || rho >= 1.0 {
         return None;
     }
     let dev: Vec<(DMatrix<f64>, DMatrix<f64>)> = held

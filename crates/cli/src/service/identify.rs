@@ -186,15 +186,23 @@ fn small_enough_to_select(a: &IdentifyArgs) -> bool {
     bytes <= SELECT_MAX_BYTES
 }
 
-/// The structure chosen by held-out simulation fit for `opts` on the
-/// records ([`select_structure`]): the options with the chosen horizon,
-/// route and order, and the diagnostics entry; a selection that fails
-/// keeps `opts` (horizon 10, shift invariance, the gap rule) and says why.
+/// Most candidates of the structure ranking identified on the whole
+/// records while looking for a stable model.
+const STABLE_TRIES: usize = 6;
+
+/// The model of the structure chosen by cross-validated simulation fit for
+/// `opts` on the records ([`select_structure`]), identified on the whole
+/// records, and the diagnostics entry. When the chosen structure's model is
+/// unstable on the whole records, the next candidates of the ranking are
+/// tried (up to [`STABLE_TRIES`]) and the first stable one is kept (the
+/// diagnostics say so); a selection that fails keeps `opts` (horizon 10,
+/// shift invariance, the singular-value gap) and says why.
 fn select(
     a: &IdentifyArgs,
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
-) -> (SubspaceOptions, serde_json::Value) {
+) -> CliResult<(SubspaceModel, serde_json::Value)> {
+    let what = format!("{} identification", method_of(a.method).name());
     let sel_opts = StructureOptions {
         horizons: a.horizon.map(|h| vec![h]).unwrap_or_default(),
         systems: match a.estimator {
@@ -204,38 +212,70 @@ fn select(
         max_order: a.max_order.max(1),
         ..Default::default()
     };
-    match select_structure(exps, &opts, &sel_opts) {
-        Ok(sel) => {
-            let candidates: Vec<serde_json::Value> = sel
-                .candidates
-                .iter()
-                .map(|c| {
-                    json!({"horizon": c.horizon, "system": system_name(c.system),
-                           "order": c.order, "fit": c.fit})
-                })
-                .collect();
-            let d = json!({
-                "criterion": "simulation fit on the held-out last third of the record, x0 estimated",
-                "horizon": sel.horizon,
-                "system": system_name(sel.system),
-                "order": sel.order,
-                "held_out_fit": sel.fit,
-                "samples": {"estimation": sel.split.0, "held_out": sel.split.1},
-                "candidates": candidates,
-            });
-            let opts = SubspaceOptions {
-                past: sel.horizon,
-                future: sel.horizon,
-                system: sel.system,
-                order: OrderSelection::Fixed(sel.order),
-                ..opts
-            };
-            (opts, d)
+    let sel = match select_structure(exps, &opts, &sel_opts) {
+        Ok(sel) => sel,
+        Err(e) => {
+            let fit = identify(exps, &opts).ctx(&what)?;
+            let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, singular-value gap", opts.past)});
+            return Ok((fit, d));
         }
-        Err(e) => (
-            opts,
-            json!({"error": format!("no structure selected on held-out data ({e}); horizon {}, shift invariance, singular-value gap", 10)}),
-        ),
+    };
+    let candidates: Vec<serde_json::Value> = sel
+        .candidates
+        .iter()
+        .map(|c| {
+            json!({"horizon": c.horizon, "system": system_name(c.system),
+                   "order": c.order, "fit": c.fit})
+        })
+        .collect();
+    let mut tried = Vec::new();
+    let mut first_fit = None;
+    for c in sel
+        .ranking(sel_opts.tolerance)
+        .into_iter()
+        .take(STABLE_TRIES)
+    {
+        let o = SubspaceOptions {
+            past: c.horizon,
+            future: c.horizon,
+            system: c.system,
+            order: OrderSelection::Fixed(c.order),
+            ..opts.clone()
+        };
+        let fit = match identify(exps, &o) {
+            Ok(fit) => fit,
+            Err(e) => {
+                tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "error": e.to_string()}));
+                continue;
+            }
+        };
+        let stable = fit.diagnostics.spectral_radius < 1.0;
+        let d = json!({
+            "criterion": "simulation fit on the held-out last third of the record (x0 estimated), the structure identified on the first two thirds",
+            "horizon": c.horizon,
+            "system": system_name(c.system),
+            "order": c.order,
+            "held_out_fit": c.fit,
+            "folds": sel.folds,
+            "unstable_on_whole_record": tried,
+            "candidates": candidates,
+        });
+        if stable {
+            return Ok((fit, d));
+        }
+        tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "spectral_radius": fit.diagnostics.spectral_radius}));
+        if first_fit.is_none() {
+            first_fit = Some((fit, d));
+        }
+    }
+    // No stable model among the tries: the first choice, unstable (the
+    // caller warns).
+    match first_fit {
+        Some(r) => Ok(r),
+        None => Err(input(format!(
+            "{what}: no candidate structure could be identified on the whole record ({})",
+            serde_json::Value::Array(tried)
+        ))),
     }
 }
 
@@ -359,14 +399,13 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 .iter()
                 .map(|d| Experiment { u: d.u(), y: d.y() })
                 .collect();
-            let (opts, structure) = if wants_selection(a) {
-                let (o, d) = select(a, &exps, opts);
-                (o, Some(d))
+            let what = format!("{} identification", method_of(a.method).name());
+            let (fit, structure) = if wants_selection(a) {
+                let (fit, d) = select(a, &exps, opts)?;
+                (fit, Some(d))
             } else {
-                (opts, None)
+                (identify(&exps, &opts).ctx(&what)?, None)
             };
-            let fit = identify(&exps, &opts)
-                .ctx(format!("{} identification", method_of(a.method).name()))?;
             let mut d = subspace_json(&fit, "single-rate subspace identification");
             if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
                 obj.insert("structure_selection".into(), st);
