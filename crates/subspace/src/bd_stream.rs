@@ -47,6 +47,11 @@ pub struct OutputErrorStreamOptions {
     /// regression then sees deviations u − u₀, y − y₀, as the in-memory
     /// identification with mean removal does). Default none.
     pub operating_point: Option<OperatingPoint>,
+    /// Threads of the modal regression: a pushed block of at least
+    /// 40 000 samples is cut into ranges scanned in parallel (results
+    /// depend on the count through rounding only); 0 or 1: one thread.
+    /// Default 0.
+    pub threads: usize,
 }
 
 /// Which recursions generate the rows.
@@ -206,6 +211,7 @@ impl OutputErrorStream {
                     &c_scaled,
                     &self.params,
                     scale,
+                    self.opts.threads,
                 ))),
                 None => Rows::Direct(Box::new(DirectStream::new(
                     &self.a,

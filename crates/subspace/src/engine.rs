@@ -986,6 +986,7 @@ impl StreamedSubspace {
             records: self.record_samples.len().max(1),
             longest_record: self.record_samples.iter().copied().max().unwrap_or(0),
             operating_point: fit.operating_point.clone(),
+            threads: thread_count(self.opts.threads),
         };
         OutputErrorStream::new(fit.model.a(), fit.model.c(), self.layout.nu, &opts)
     }

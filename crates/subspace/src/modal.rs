@@ -370,7 +370,14 @@ pub(crate) fn accumulate(
         let len = rec.u.nrows();
         let parts = threads.max(1).min(len / PARALLEL_MIN_SAMPLES).max(1);
         let per = len.div_ceil(parts);
-        let starts = FilterState::at(form, &lay, rec, inv.0, per, parts);
+        let starts = FilterState::at(
+            FilterState::initial(form, &lay),
+            form,
+            rec,
+            inv.0,
+            per,
+            parts,
+        );
         let scans: Vec<Result<Option<Scan>>> = if parts == 1 {
             vec![scan(form, &lay, rec, inv, 0..len, &mut starts[0].clone())]
         } else {
@@ -467,11 +474,20 @@ pub(crate) struct ModalStream {
     pats: Vec<(u64, RAccumulator)>,
     record: usize,
     rows: usize,
+    threads: usize,
 }
 
 impl ModalStream {
-    /// A stream for `form` with C of the data divided by `scale` (`c`).
-    pub(crate) fn new(form: ModalForm, c: &DMatrix<f64>, p: &Params, scale: DataScale) -> Self {
+    /// A stream for `form` with C of the data divided by `scale` (`c`);
+    /// blocks of at least 2 × 20 000 samples are scanned on up to `threads`
+    /// threads (as [`accumulate`] splits a record).
+    pub(crate) fn new(
+        form: ModalForm,
+        c: &DMatrix<f64>,
+        p: &Params,
+        scale: DataScale,
+        threads: usize,
+    ) -> Self {
         let lay = Layout::of(p);
         let ct = c * &form.v;
         let state = FilterState::initial(&form, &lay);
@@ -484,6 +500,7 @@ impl ModalStream {
             pats: Vec::new(),
             record: 0,
             rows: 0,
+            threads: threads.max(1),
         }
     }
 
@@ -495,19 +512,75 @@ impl ModalStream {
             y,
             instrument: None,
         };
-        let Some(sc) = scan(
-            &self.form,
-            &self.lay,
-            &rec,
-            self.inv,
-            0..u.nrows(),
-            &mut self.state,
-        )?
-        else {
-            return Ok(false);
-        };
-        self.rows += sc.rows;
-        merge_patterns(&mut self.pats, sc, MAX_STREAM_PATTERNS)
+        let len = u.nrows();
+        let parts = self.threads.min(len / PARALLEL_MIN_SAMPLES).max(1);
+        if parts == 1 {
+            let Some(sc) = scan(
+                &self.form,
+                &self.lay,
+                &rec,
+                self.inv,
+                0..len,
+                &mut self.state,
+            )?
+            else {
+                return Ok(false);
+            };
+            self.rows += sc.rows;
+            return merge_patterns(&mut self.pats, sc, MAX_STREAM_PATTERNS);
+        }
+        // The block's ranges from their starting states (a serial pass of
+        // the filters), scanned on their own threads; the last range's
+        // scan leaves the state at the end of the block.
+        let per = len.div_ceil(parts);
+        let starts = FilterState::at(self.state.clone(), &self.form, &rec, self.inv.0, per, parts);
+        let (form, lay, inv) = (&self.form, &self.lay, self.inv);
+        let results: Vec<Option<(Result<Option<Scan>>, FilterState)>> =
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = starts
+                    .iter()
+                    .enumerate()
+                    .skip(1)
+                    .map(|(i, st)| {
+                        let range = i * per..((i + 1) * per).min(len);
+                        let mut st = st.clone();
+                        let rec = &rec;
+                        scope.spawn(move || {
+                            let sc = scan(form, lay, rec, inv, range, &mut st);
+                            (sc, st)
+                        })
+                    })
+                    .collect();
+                let mut st0 = starts[0].clone();
+                let first = scan(form, lay, &rec, inv, 0..per.min(len), &mut st0);
+                std::iter::once(Some((first, st0)))
+                    .chain(handles.into_iter().map(|h| h.join().ok()))
+                    .collect()
+            });
+        let mut end_state = None;
+        for (i, r) in results.into_iter().enumerate() {
+            // A range whose thread failed is scanned again here.
+            let (sc, st) = match r {
+                Some(x) => x,
+                None => {
+                    let mut st = starts[i].clone();
+                    let range = i * per..((i + 1) * per).min(len);
+                    (scan(form, lay, &rec, inv, range, &mut st), st)
+                }
+            };
+            let Some(sc) = sc? else {
+                return Ok(false);
+            };
+            self.rows += sc.rows;
+            if !merge_patterns(&mut self.pats, sc, MAX_STREAM_PATTERNS)? {
+                return Ok(false);
+            }
+            end_state = Some(st);
+        }
+        if let Some(st) = end_state {
+            self.state = st;
+        }
+        Ok(true)
     }
 
     /// Ends the current record: folds its patterns into `acc` and starts
@@ -573,17 +646,17 @@ impl FilterState {
         }
     }
 
-    /// The states at t = 0, per, 2·per, … (`parts` of them) by one pass
-    /// of the recursions over the first (parts − 1)·per instants.
+    /// The states at t = 0, per, 2·per, … (`parts` of them) of a scan of
+    /// `rec` that starts from `st`, by one pass of the recursions over the
+    /// first (parts − 1)·per instants.
     fn at(
+        mut st: FilterState,
         form: &ModalForm,
-        lay: &Layout,
         rec: &Record<'_>,
         iu: f64,
         per: usize,
         parts: usize,
     ) -> Vec<FilterState> {
-        let mut st = FilterState::initial(form, lay);
         let mut out = vec![st.clone()];
         let end = (per * (parts - 1)).min(rec.u.nrows());
         for t in 0..end {

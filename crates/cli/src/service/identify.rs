@@ -837,6 +837,10 @@ fn identify_streaming(
         enforce_stability: a.stable,
         ts: spec.ts.unwrap_or(1.0),
         compression,
+        // The machine's threads (results depend on the count through
+        // rounding only): the correlation kernel and the second pass's
+        // modal regression.
+        threads: 0,
         ..Default::default()
     };
     let first_pass = |compression: Compression| -> CliResult<Option<(StreamedSubspace, FilePass)>> {

@@ -232,3 +232,34 @@ fn output_error_stream_rejects_bad_use() {
             .is_err()
     );
 }
+
+#[test]
+fn output_error_stream_threads_change_rounding_only() {
+    let g = random_system(9, &[0.9, 0.5], &[(0.8, 0.6)], 2, 2, true);
+    let n = 150_000;
+    let u = rbs(10, n, 2);
+    let y = sim(&g, &u, None) + white(11, n, 2, 0.05);
+    let run = |threads: usize| {
+        let opts = OutputErrorStreamOptions {
+            records: 1,
+            longest_record: n,
+            threads,
+            ..Default::default()
+        };
+        let mut bd = OutputErrorStream::new(g.a(), g.c(), 2, &opts).unwrap();
+        for s in (0..n).step_by(65_536) {
+            let len = 65_536.min(n - s);
+            bd.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())
+                .unwrap();
+        }
+        bd.finish().unwrap()
+    };
+    let (one, two, three) = (run(1), run(2), run(3));
+    for other in [&two, &three] {
+        assert!(rel(&other.b, &one.b) < 1e-10);
+        assert!(rel(&other.d, &one.d) < 1e-10);
+        assert!((&other.x0[0] - &one.x0[0]).norm() < 1e-8 * one.x0[0].norm().max(1.0));
+    }
+    // Same count, same bits.
+    assert_eq!(run(2).b, two.b);
+}
