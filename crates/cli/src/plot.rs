@@ -23,7 +23,8 @@ pub struct Series {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Marker {
     /// A polyline (NaN breaks it). The k-th line of a plot is solid,
-    /// dashed or dotted in turn, so coinciding curves stay distinguishable.
+    /// dashed, dotted or long-dashed in turn, so coinciding curves stay
+    /// distinguishable.
     Line,
     /// Small filled circles.
     Dot,
@@ -90,8 +91,9 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(140, 86, 75),
 ];
 
-/// Dash patterns (dash, gap) of the k-th line: solid, dashed, dotted.
-const DASHES: [Option<(i32, i32)>; 3] = [None, Some((7, 4)), Some((2, 3))];
+/// Dash patterns (dash, gap) of the k-th line: solid, dashed, dotted,
+/// long-dashed.
+const DASHES: [Option<(i32, i32)>; 4] = [None, Some((7, 4)), Some((2, 3)), Some((14, 4))];
 
 fn range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     let (lo, hi) = values
@@ -113,6 +115,9 @@ fn range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 fn draw_err(e: impl std::fmt::Display) -> crate::error::CliError {
     input(format!("plot: {e}"))
 }
+
+/// A legend entry: label, colour, marker, dash pattern.
+type LegendEntry = (String, RGBColor, Marker, Option<(i32, i32)>);
 
 /// Height of a legend row, pixels.
 const LEGEND_ROW: i32 = 16;
@@ -199,7 +204,7 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
         }
 
         // The legend's entries: vertical lines, then the non-empty series.
-        let mut entries: Vec<(String, RGBColor, Marker, Option<(i32, i32)>)> = plot
+        let mut entries: Vec<LegendEntry> = plot
             .vlines
             .iter()
             .map(|(_, l)| (l.clone(), RGBColor(90, 90, 90), Marker::Line, Some((3, 3))))
