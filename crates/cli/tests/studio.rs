@@ -1372,6 +1372,27 @@ async fn wait_settled(c: &Client) -> u64 {
     }
 }
 
+/// Presses `keys` on the order slider (focused) 50 ms apart, timed by the
+/// browser (WebDriver key actions), not by this test's round trips.
+async fn press_50ms_apart(c: &Client, keys: &[Key]) {
+    use fantoccini::actions::{InputSource, KeyAction, KeyActions};
+    js(
+        c,
+        "document.getElementById('order-slider').focus(); return 0;",
+    )
+    .await;
+    let mut seq = KeyActions::new("keys".into());
+    for (i, &k) in keys.iter().enumerate() {
+        if i > 0 {
+            seq = seq.pause(Duration::from_millis(50));
+        }
+        seq = seq
+            .then(KeyAction::Down { value: k.into() })
+            .then(KeyAction::Up { value: k.into() });
+    }
+    c.perform_actions(seq).await.expect("key presses");
+}
+
 #[test]
 fn studio_shows_and_saves_one_model_in_chromium() {
     let Some((chromium, driver)) = browser_or_skip() else {
@@ -1379,7 +1400,8 @@ fn studio_shows_and_saves_one_model_in_chromium() {
     };
     let dir = tmp("browser-consistent");
     let rec = dir.join("rec.csv");
-    std::fs::write(&rec, record(3000, 1)).unwrap();
+    // Short, so that answers come back between the key presses.
+    std::fs::write(&rec, record(600, 1)).unwrap();
     let unstable = dir.join("unstable.csv");
     std::fs::write(&unstable, unstable_record(600)).unwrap();
     let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/screens");
@@ -1400,15 +1422,13 @@ fn studio_shows_and_saves_one_model_in_chromium() {
 
         // Home (order 1), then four right steps 50 ms apart: answers come
         // back while keys are still pressed, and none of them may move the
-        // slider. Three runs: each must end at order 5.
-        let slider = c.find(Locator::Id("order-slider")).await.unwrap();
-        for run in 0..3 {
-            slider.send_keys(&Key::Home.to_string()).await.unwrap();
-            tokio::time::sleep(Duration::from_millis(50)).await;
-            for _ in 0..4 {
-                slider.send_keys(&Key::Right.to_string()).await.unwrap();
-                tokio::time::sleep(Duration::from_millis(50)).await;
-            }
+        // slider. Four runs: each must end at order 5.
+        for run in 0..4 {
+            press_50ms_apart(
+                &c,
+                &[Key::Home, Key::Right, Key::Right, Key::Right, Key::Right],
+            )
+            .await;
             wait_settled(&c).await;
             let value = js(&c, "return document.getElementById('order-slider').value;").await;
             assert_eq!(value.as_str(), Some("5"), "run {run}: the slider moved");
@@ -1437,10 +1457,7 @@ fn studio_shows_and_saves_one_model_in_chromium() {
             .await
             .unwrap();
         wait_settled(&c).await;
-        let slider = c.find(Locator::Id("order-slider")).await.unwrap();
-        slider.send_keys(&Key::Home.to_string()).await.unwrap();
-        tokio::time::sleep(Duration::from_millis(50)).await;
-        slider.send_keys(&Key::Right.to_string()).await.unwrap();
+        press_50ms_apart(&c, &[Key::Home, Key::Right]).await;
         wait_settled(&c).await;
         assert_eq!(status(&c, "jserrors").await, 0, "a script error");
         assert_eq!(page_error(&c).await, "");
