@@ -4,7 +4,11 @@
 //! that the fit and the plots change and that the saved model equals the
 //! one `lifted identify` writes with the options the page shows; load a
 //! ragged CSV and find the CLI's error in the page. Screenshots go to
-//! `target/studio-screenshots/`.
+//! `target/studio-screenshots/`. Issue 28: the slider pressed 50 ms apart
+//! ends at the last order with everything shown and saved of that order;
+//! an unstable model reads "n/a: unstable" without a script error; tabs
+//! (and raw-request sessions) keep their own records and models
+//! (screenshots in `target/screens/`).
 //!
 //! The browser test needs Debian's `chromium` and `chromium-driver` (or the
 //! paths in `LIFTED_CHROMIUM` / `LIFTED_CHROMEDRIVER`). Without them it says
@@ -1479,6 +1483,33 @@ fn studio_shows_and_saves_one_model_in_chromium() {
         let model = saved_model(&c).await;
         assert_eq!(order_of(&model), 2);
         shot(&c, &shots, "studio-unstable.png").await;
+
+        // A second tab has its own session: loading another record there
+        // leaves the first tab's record and model alone.
+        let first = c.window().await.unwrap();
+        let second = c.new_window(true).await.unwrap().handle;
+        c.switch_to_window(second).await.unwrap();
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        wait_settled(&c).await;
+        assert!(text(&c, "#data-name").await.starts_with("rec.csv"));
+        assert_eq!(status(&c, "jserrors").await, 0);
+        c.switch_to_window(first).await.unwrap();
+        let info = c
+            .execute_async(
+                "const done = arguments[arguments.length - 1]; \
+                 const href = document.getElementById('save-model').href; \
+                 const session = new URL(href).searchParams.get('session'); \
+                 fetch('/api/data', {headers: {'X-Lifted-Token': document.querySelector('meta[name=\"lifted-token\"]').content, \
+                   'X-Lifted-Session': session}}).then(r => r.json()).then(done);",
+                vec![],
+            )
+            .await
+            .unwrap();
+        assert_eq!(info["name"], json!("unstable.csv"), "{info}");
+        assert_eq!(order_of(&saved_model(&c).await), 2);
+        assert_eq!(text(&c, "td.fit").await, "n/a: unstable");
         c.close().await.unwrap();
     });
 }
