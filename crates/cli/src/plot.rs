@@ -1,6 +1,7 @@
 //! SVG plots (plotters' SVG backend: no system library, no font file; text
 //! is left to the browser).
 
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use crate::error::{CliResult, input};
@@ -21,7 +22,9 @@ pub struct Series {
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Marker {
-    /// A polyline (NaN breaks it).
+    /// A polyline (NaN breaks it). The k-th line of a plot is solid,
+    /// dashed, dotted or long-dashed in turn, so coinciding curves stay
+    /// distinguishable.
     Line,
     /// Small filled circles.
     Dot,
@@ -29,6 +32,8 @@ pub enum Marker {
     Cross,
     /// Open circles (zeros).
     Ring,
+    /// Triangles (a point beyond the frame, drawn at its edge).
+    Triangle,
 }
 
 impl Series {
@@ -61,12 +66,20 @@ pub struct Plot {
     pub x_label: String,
     /// y-axis label.
     pub y_label: String,
-    /// The series.
+    /// The series (an empty one keeps its colour but has no legend entry).
     pub series: Vec<Series>,
     /// Vertical marker lines (e.g. the chosen order), with a label.
     pub vlines: Vec<(f64, String)>,
     /// Draw the unit circle and equal axes (pole-zero map of a discrete model).
     pub unit_circle: bool,
+    /// The abscissae are log10 of the quantity: ticks at the decades,
+    /// labelled 10^k (Bode plots).
+    pub log_x: bool,
+    /// Fixed axes `[x0, x1, y0, y1]` instead of the data's range (points
+    /// outside are clipped).
+    pub frame: Option<[f64; 4]>,
+    /// Lines of text under the legend (e.g. what lies beyond the frame).
+    pub notes: Vec<String>,
 }
 
 const COLORS: [RGBColor; 6] = [
@@ -77,6 +90,10 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
 ];
+
+/// Dash patterns (dash, gap) of the k-th line: solid, dashed, dotted,
+/// long-dashed.
+const DASHES: [Option<(i32, i32)>; 4] = [None, Some((7, 4)), Some((2, 3)), Some((14, 4))];
 
 fn range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     let (lo, hi) = values
@@ -99,7 +116,64 @@ fn draw_err(e: impl std::fmt::Display) -> crate::error::CliError {
     input(format!("plot: {e}"))
 }
 
-/// Renders the plot as an SVG document (size w × h pixels).
+/// A legend entry: label, colour, marker, dash pattern.
+type LegendEntry = (String, RGBColor, Marker, Option<(i32, i32)>);
+
+/// Height of a legend row, pixels.
+const LEGEND_ROW: i32 = 16;
+
+/// Width of a legend entry of `label` (sample line plus text at 12 px).
+fn entry_width(label: &str) -> i32 {
+    34 + 7 * label.chars().count() as i32
+}
+
+/// Where the legend goes: below the plot area, never on it. Entries of
+/// `labels` flow left to right in rows of a `w` pixels wide figure, then
+/// one row per note; returns the height of the legend band and each
+/// entry's top-left corner, relative to the band.
+pub fn legend_layout(labels: &[String], notes: usize, w: u32) -> (i32, Vec<(i32, i32)>) {
+    let (left, right) = (60, w as i32 - 10);
+    let mut at = Vec::with_capacity(labels.len());
+    let (mut x, mut y) = (left, 4);
+    for l in labels {
+        let ew = entry_width(l);
+        if x > left && x + ew > right {
+            x = left;
+            y += LEGEND_ROW;
+        }
+        at.push((x, y));
+        x += ew + 12;
+    }
+    let rows = if labels.is_empty() {
+        0
+    } else {
+        y / LEGEND_ROW + 1
+    };
+    let total = rows + notes as i32;
+    let height = if total == 0 {
+        0
+    } else {
+        total * LEGEND_ROW + 8
+    };
+    (height, at)
+}
+
+/// `10^k` with superscript digits (`10⁻²`).
+pub fn decade_label(k: i32) -> String {
+    const SUP: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+    let mut s = String::from("10");
+    if k < 0 {
+        s.push('⁻');
+    }
+    for c in k.unsigned_abs().to_string().chars() {
+        s.push(c.to_digit(10).map_or(c, |d| SUP[d as usize]));
+    }
+    s
+}
+
+/// Renders the plot as an SVG document (size w × h pixels). The legend
+/// (when there is more than one entry) and the notes sit in a band under
+/// the plot area, outside the data.
 pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
     let mut out = String::new();
     {
@@ -122,28 +196,102 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
         }
         let (mut x0, mut x1) = range(xs.into_iter()).unwrap_or((0.0, 1.0));
         let (mut y0, mut y1) = range(ys.into_iter()).unwrap_or((0.0, 1.0));
+        if let Some([a, b, c, d]) = plot.frame
+            && a < b
+            && c < d
+        {
+            (x0, x1, y0, y1) = (a, b, c, d);
+        }
+
+        // The legend's entries: vertical lines, then the non-empty series.
+        let mut entries: Vec<LegendEntry> = plot
+            .vlines
+            .iter()
+            .map(|(_, l)| (l.clone(), RGBColor(90, 90, 90), Marker::Line, Some((3, 3))))
+            .collect();
+        let mut styles = Vec::with_capacity(plot.series.len());
+        let mut lines = 0;
+        for (i, s) in plot.series.iter().enumerate() {
+            let color = COLORS[i % COLORS.len()];
+            let dash = if s.marker == Marker::Line {
+                lines += 1;
+                DASHES[(lines - 1) % DASHES.len()]
+            } else {
+                None
+            };
+            styles.push((color, dash));
+            if !s.x.is_empty() {
+                entries.push((s.name.clone(), color, s.marker, dash));
+            }
+        }
+        let show_legend = entries.len() > 1;
+        let labels: Vec<String> = if show_legend {
+            entries.iter().map(|e| e.0.clone()).collect()
+        } else {
+            Vec::new()
+        };
+        let (band, at) = legend_layout(&labels, plot.notes.len(), w);
+        let band = band.min(h as i32 / 2).max(0);
+        let (upper, lower) = root.split_vertically(h as i32 - band);
+
+        let plot_h = (h as i32 - band) as f64;
         if plot.unit_circle {
             // equal scales: widen the narrower range
-            let aspect = (w as f64 - 80.0) / (h as f64 - 80.0);
+            let aspect = (w as f64 - 80.0) / (plot_h - 80.0).max(1.0);
             let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
             let half_x = ((x1 - x0) / 2.0).max((y1 - y0) / 2.0 * aspect);
             let half_y = half_x / aspect;
             (x0, x1, y0, y1) = (cx - half_x, cx + half_x, cy - half_y, cy + half_y);
         }
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(&upper)
             .caption(&plot.title, ("sans-serif", 16))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(draw_err)?;
-        chart
-            .configure_mesh()
-            .x_desc(plot.x_label.as_str())
-            .y_desc(plot.y_label.as_str())
-            .label_style(("sans-serif", 12))
-            .draw()
-            .map_err(draw_err)?;
+        {
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc(plot.x_label.as_str())
+                .y_desc(plot.y_label.as_str())
+                .label_style(("sans-serif", 12));
+            if plot.log_x {
+                mesh.disable_x_mesh().x_labels(0);
+            }
+            mesh.draw().map_err(draw_err)?;
+        }
+        if plot.log_x {
+            // Decades: grid line and 10^k label; light lines at 2..9 × 10^k.
+            let (k0, k1) = (x0.floor() as i32, x1.ceil() as i32);
+            for k in k0..=k1 {
+                for m in 1..10 {
+                    let x = k as f64 + (m as f64).log10();
+                    if x < x0 || x > x1 {
+                        continue;
+                    }
+                    let style = if m == 1 {
+                        BLACK.mix(0.25).stroke_width(1)
+                    } else {
+                        BLACK.mix(0.08).stroke_width(1)
+                    };
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            vec![(x, y0), (x, y1)],
+                            style,
+                        )))
+                        .map_err(draw_err)?;
+                    if m == 1 {
+                        let (px, py) = chart.backend_coord(&(x, y0));
+                        root.draw(&Text::new(
+                            decade_label(k),
+                            (px - 10, py + 6),
+                            ("sans-serif", 12).into_font(),
+                        ))
+                        .map_err(draw_err)?;
+                    }
+                }
+            }
+        }
         if plot.unit_circle {
             let circle: Vec<(f64, f64)> = (0..=200)
                 .map(|k| {
@@ -155,20 +303,25 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
                 .draw_series(std::iter::once(PathElement::new(circle, BLACK.mix(0.4))))
                 .map_err(draw_err)?;
         }
-        for (x, label) in &plot.vlines {
+        for (x, _) in &plot.vlines {
             chart
-                .draw_series(std::iter::once(PathElement::new(
+                .draw_series(std::iter::once(DashedPathElement::new(
                     vec![(*x, y0), (*x, y1)],
+                    3,
+                    3,
                     BLACK.mix(0.6).stroke_width(1),
                 )))
-                .map_err(draw_err)?
-                .label(label.as_str())
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLACK.mix(0.6)));
+                .map_err(draw_err)?;
         }
-        for (i, s) in plot.series.iter().enumerate() {
-            let color = COLORS[i % COLORS.len()];
+        let inside = |p: &(f64, f64)| {
+            p.0.is_finite()
+                && p.1.is_finite()
+                && (x0..=x1).contains(&p.0)
+                && (y0..=y1).contains(&p.1)
+        };
+        for (s, &(color, dash)) in plot.series.iter().zip(&styles) {
             let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
-            let anno = match s.marker {
+            match s.marker {
                 Marker::Line => {
                     // NaN breaks the line into segments
                     let mut segments: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
@@ -181,47 +334,102 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
                             segments.push(Vec::new());
                         }
                     }
+                    let style = color.stroke_width(if dash.is_some() { 2 } else { 1 });
+                    for seg in segments.into_iter().filter(|s| !s.is_empty()) {
+                        match dash {
+                            None => chart
+                                .draw_series(std::iter::once(PathElement::new(seg, style)))
+                                .map(|_| ()),
+                            Some((on, off)) => chart
+                                .draw_series(std::iter::once(DashedPathElement::new(
+                                    seg, on, off, style,
+                                )))
+                                .map(|_| ()),
+                        }
+                        .map_err(draw_err)?;
+                    }
+                }
+                Marker::Dot => {
                     chart
                         .draw_series(
-                            segments
-                                .into_iter()
-                                .filter(|s| !s.is_empty())
-                                .map(|s| PathElement::new(s, color.stroke_width(1))),
+                            pts.into_iter()
+                                .filter(inside)
+                                .map(|p| Circle::new(p, 2, color.filled())),
                         )
-                        .map_err(draw_err)?
+                        .map_err(draw_err)?;
                 }
-                Marker::Dot => chart
-                    .draw_series(
-                        pts.into_iter()
-                            .filter(|p| p.0.is_finite() && p.1.is_finite())
-                            .map(|p| Circle::new(p, 2, color.filled())),
-                    )
-                    .map_err(draw_err)?,
-                Marker::Cross => chart
-                    .draw_series(
-                        pts.into_iter()
-                            .filter(|p| p.0.is_finite() && p.1.is_finite())
-                            .map(|p| Cross::new(p, 5, color.stroke_width(2))),
-                    )
-                    .map_err(draw_err)?,
-                Marker::Ring => chart
-                    .draw_series(
-                        pts.into_iter()
-                            .filter(|p| p.0.is_finite() && p.1.is_finite())
-                            .map(|p| Circle::new(p, 5, color.stroke_width(2))),
-                    )
-                    .map_err(draw_err)?,
-            };
-            anno.label(s.name.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+                Marker::Cross => {
+                    chart
+                        .draw_series(
+                            pts.into_iter()
+                                .filter(inside)
+                                .map(|p| Cross::new(p, 5, color.stroke_width(2))),
+                        )
+                        .map_err(draw_err)?;
+                }
+                Marker::Ring => {
+                    chart
+                        .draw_series(
+                            pts.into_iter()
+                                .filter(inside)
+                                .map(|p| Circle::new(p, 5, color.stroke_width(2))),
+                        )
+                        .map_err(draw_err)?;
+                }
+                Marker::Triangle => {
+                    chart
+                        .draw_series(
+                            pts.into_iter()
+                                .filter(inside)
+                                .map(|p| TriangleMarker::new(p, 6, color.filled())),
+                        )
+                        .map_err(draw_err)?;
+                }
+            }
         }
-        if plot.series.len() + plot.vlines.len() > 1 {
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
+        // The legend band, under the plot area.
+        let font = ("sans-serif", 12).into_font();
+        for ((label, color, marker, dash), (x, y)) in
+            entries.iter().zip(&at).filter(|_| show_legend)
+        {
+            let mid = y + LEGEND_ROW / 2;
+            let sample: Vec<(i32, i32)> = vec![(x + 2, mid), (x + 26, mid)];
+            match (marker, dash) {
+                (Marker::Line, None) => {
+                    lower.draw(&PathElement::new(sample, color.stroke_width(2)))
+                }
+                (Marker::Line, Some((on, off))) => lower.draw(&DashedPathElement::new(
+                    sample,
+                    *on,
+                    *off,
+                    color.stroke_width(2),
+                )),
+                (Marker::Dot, _) => lower.draw(&Circle::new((x + 14, mid), 3, color.filled())),
+                (Marker::Cross, _) => {
+                    lower.draw(&Cross::new((x + 14, mid), 5, color.stroke_width(2)))
+                }
+                (Marker::Ring, _) => {
+                    lower.draw(&Circle::new((x + 14, mid), 5, color.stroke_width(2)))
+                }
+                (Marker::Triangle, _) => {
+                    lower.draw(&TriangleMarker::new((x + 14, mid), 6, color.filled()))
+                }
+            }
+            .map_err(draw_err)?;
+            lower
+                .draw(&Text::new(label.clone(), (x + 32, mid - 7), font.clone()))
+                .map_err(draw_err)?;
+        }
+        let rows_used = at.last().map_or(0, |&(_, y)| y / LEGEND_ROW + 1);
+        let first_note = if show_legend { rows_used } else { 0 };
+        for (i, note) in plot.notes.iter().enumerate() {
+            let y = 4 + (first_note + i as i32) * LEGEND_ROW;
+            lower
+                .draw(&Text::new(
+                    note.clone(),
+                    (60, y + 1),
+                    font.clone().color(&BLACK.mix(0.7)),
+                ))
                 .map_err(draw_err)?;
         }
         root.present().map_err(draw_err)?;
@@ -236,4 +444,57 @@ pub fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (0..n)
         .map(|k| 10f64.powf(a + (b - a) * k as f64 / (n - 1) as f64))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_legend_sits_under_the_plot_area() {
+        let labels: Vec<String> = ["measured", "model (simulated)", "y1 ← u1", "y2 ← u1"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        // Wide: one row; narrow: the entries flow into more rows, each inside the figure.
+        let (wide, at) = legend_layout(&labels, 0, 900);
+        assert_eq!(wide, LEGEND_ROW + 8);
+        assert!(at.iter().all(|&(_, y)| y == 4));
+        let (narrow, at) = legend_layout(&labels, 1, 340);
+        assert!(narrow > 2 * LEGEND_ROW, "{narrow}");
+        for (l, &(x, _)) in labels.iter().zip(&at) {
+            assert!(x >= 60 && x + entry_width(l) <= 340 - 10, "{l} at {x}");
+        }
+        // In the SVG, every legend label is drawn below the plot area.
+        let plot = Plot {
+            title: "t".into(),
+            series: vec![
+                Series::line("measured", vec![0.0, 1.0], vec![0.0, 1.0]),
+                Series::line("model (simulated)", vec![0.0, 1.0], vec![0.0, 1.0]),
+            ],
+            ..Default::default()
+        };
+        let (h, band) = (260, wide);
+        let svg = svg(&plot, 900, h).unwrap();
+        for label in ["measured", "model (simulated)"] {
+            let at = svg.find(&format!(">\n{label}\n<")).expect(label);
+            let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
+            let y: f64 = tag
+                .split("y=\"")
+                .nth(1)
+                .and_then(|r| r.split('"').next())
+                .and_then(|v| v.parse().ok())
+                .expect("a y attribute");
+            assert!(y >= (h as i32 - band) as f64, "{label} at y = {y}");
+        }
+        // Coinciding lines: the second is dashed.
+        assert!(svg.matches("<line").count() > 20, "no dashes");
+    }
+
+    #[test]
+    fn decades_are_labelled_as_powers_of_ten() {
+        assert_eq!(decade_label(0), "10⁰");
+        assert_eq!(decade_label(3), "10³");
+        assert_eq!(decade_label(-12), "10⁻¹²");
+    }
 }

@@ -389,11 +389,14 @@ fn section(o: &Outcome, anchors: &[String]) -> CliResult<String> {
 }
 
 /// The SVG plot of a figure: log10 ordinates for `log_y`, long curves
-/// decimated, staircases expanded.
+/// decimated, staircases expanded; abscissae labelled `log10 …` (the
+/// experiments' Bode plots) get decade ticks labelled 10^k.
 fn plot(f: &FigureData) -> Plot {
+    let log_x = f.x_label.strip_prefix("log10 ");
     Plot {
         title: short(f).to_string(),
-        x_label: f.x_label.clone(),
+        x_label: log_x.unwrap_or(&f.x_label).to_string(),
+        log_x: log_x.is_some(),
         y_label: if f.log_y {
             format!("log10 {}", f.y_label)
         } else {

@@ -61,14 +61,16 @@ pub fn bode_plots(m: &StateSpace, omega: &[f64]) -> CliResult<(Plot, Plot)> {
     let lw: Vec<f64> = b.omega.iter().map(|w| w.log10()).collect();
     let mut mag = Plot {
         title: "Bode magnitude".into(),
-        x_label: "log10 ω [rad/s]".into(),
+        x_label: "ω [rad/s]".into(),
         y_label: "|G| [dB]".into(),
+        log_x: true,
         ..Default::default()
     };
     let mut ph = Plot {
         title: "Bode phase".into(),
-        x_label: "log10 ω [rad/s]".into(),
+        x_label: "ω [rad/s]".into(),
         y_label: "phase [deg]".into(),
+        log_x: true,
         ..Default::default()
     };
     for i in 0..m.n_outputs() {
@@ -153,31 +155,121 @@ pub fn step_plot(m: &StateSpace) -> CliResult<Plot> {
     })
 }
 
-/// Pole-zero map.
+/// The frame of a discrete model's pole-zero map: the unit circle and
+/// every pole in view, far zeros moved to the edge.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PzFrame {
+    /// Half-width of the square frame: 1.2, or 1.1 max |p| when a pole lies
+    /// beyond 1.2/1.1.
+    pub half: f64,
+    /// Zeros inside the frame, as (re, im).
+    pub zeros: Vec<(f64, f64)>,
+    /// Zeros beyond the frame, drawn at its edge in their direction:
+    /// (re, im) on the edge and the zero's modulus.
+    pub far: Vec<(f64, f64, f64)>,
+}
+
+/// The pole-zero frame of `poles` and `zeros` (as (re, im)): scaled to
+/// the unit circle (±1.2) or to the poles when one lies outside, never to
+/// far zeros (a zero at 4000 would shrink the poles and the circle to a
+/// dot); zeros beyond it are placed on its edge.
+pub fn pz_frame(poles: &[(f64, f64)], zeros: &[(f64, f64)]) -> PzFrame {
+    let reach = poles
+        .iter()
+        .map(|p| p.0.abs().max(p.1.abs()))
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    let half = (1.1 * reach).max(1.2);
+    let edge = 0.97 * half;
+    let (mut inside, mut far) = (Vec::new(), Vec::new());
+    for &(re, im) in zeros {
+        let r = re.abs().max(im.abs());
+        if !r.is_finite() {
+            continue;
+        }
+        if r <= edge {
+            inside.push((re, im));
+        } else {
+            let s = edge / r;
+            far.push((re * s, im * s, re.hypot(im)));
+        }
+    }
+    PzFrame {
+        half,
+        zeros: inside,
+        far,
+    }
+}
+
+/// Pole-zero map. A discrete model's map is framed by [`pz_frame`]: the
+/// unit circle at about ±1.2, poles outside it in their own colour, zeros
+/// beyond the frame as triangles at its edge with their moduli in a note.
 pub fn pz_plot(m: &StateSpace) -> CliResult<Plot> {
     let poles = m.poles().ctx("poles")?;
+    let discrete = m.is_discrete();
     let mut plot = Plot {
         title: "Poles (×) and transmission zeros (○)".into(),
         x_label: "Re".into(),
         y_label: "Im".into(),
-        unit_circle: m.is_discrete(),
+        unit_circle: discrete,
         ..Default::default()
     };
+    let p: Vec<(f64, f64)> = poles.iter().map(|z| (z.re, z.im)).collect();
+    // Zeros can legitimately fail to exist (e.g. non-square numerics); show poles then.
+    let z: Vec<(f64, f64)> = m
+        .zeros()
+        .map(|z| z.iter().map(|z| (z.re, z.im)).collect())
+        .unwrap_or_default();
+    let unzip = |v: Vec<(f64, f64)>| -> (Vec<f64>, Vec<f64>) { v.into_iter().unzip() };
+    if !discrete {
+        let (px, py) = unzip(p);
+        plot.series
+            .push(Series::points("poles", px, py, Marker::Cross));
+        let (zx, zy) = unzip(z);
+        plot.series
+            .push(Series::points("zeros", zx, zy, Marker::Ring));
+        return Ok(plot);
+    }
+    let frame = pz_frame(&p, &z);
+    let (stable, outside): (Vec<_>, Vec<_>) = p.into_iter().partition(|q| q.0.hypot(q.1) < 1.0);
+    let (px, py) = unzip(stable);
+    plot.series
+        .push(Series::points("poles", px, py, Marker::Cross));
+    let (ox, oy) = unzip(outside);
     plot.series.push(Series::points(
-        "poles",
-        poles.iter().map(|p| p.re).collect(),
-        poles.iter().map(|p| p.im).collect(),
+        "poles outside the unit circle",
+        ox,
+        oy,
         Marker::Cross,
     ));
-    // Zeros can legitimately fail to exist (e.g. non-square numerics); show poles then.
-    if let Ok(zeros) = m.zeros() {
-        plot.series.push(Series::points(
-            "zeros",
-            zeros.iter().map(|p| p.re).collect(),
-            zeros.iter().map(|p| p.im).collect(),
-            Marker::Ring,
+    let (zx, zy) = unzip(frame.zeros.clone());
+    plot.series
+        .push(Series::points("zeros", zx, zy, Marker::Ring));
+    let fx = frame.far.iter().map(|f| f.0).collect();
+    let fy = frame.far.iter().map(|f| f.1).collect();
+    plot.series.push(Series::points(
+        "zeros beyond the frame (at its edge)",
+        fx,
+        fy,
+        Marker::Triangle,
+    ));
+    if !frame.far.is_empty() {
+        let mut moduli: Vec<String> = frame
+            .far
+            .iter()
+            .take(6)
+            .map(|f| format!("{:.3e}", f.2))
+            .collect();
+        if frame.far.len() > 6 {
+            moduli.push(format!("… ({} in all)", frame.far.len()));
+        }
+        plot.notes.push(format!(
+            "▲ zeros beyond the frame: |z| = {}",
+            moduli.join(", ")
         ));
     }
+    let h = frame.half;
+    plot.frame = Some([-h, h, -h, h]);
     Ok(plot)
 }
 
@@ -302,19 +394,22 @@ pub fn outputs_plot(data: &Dataset) -> Plot {
 }
 
 /// One output's measurement (markers when it is sampled slowly) and the
-/// model's simulated response, against time; `n` is the record length and
-/// `ts` its base period.
-pub fn response_plot(o: &OutputValidation, ts: f64, n: usize) -> Plot {
+/// model's simulated response (dashed), against time; `n` is the record
+/// length and `ts` its base period. The title gives the fit only for a
+/// `stable` model with finite residuals ("fit n/a: unstable" otherwise).
+pub fn response_plot(o: &OutputValidation, ts: f64, n: usize, stable: bool) -> Plot {
     let t: Vec<f64> = (0..o.simulated.len()).map(|k| k as f64 * ts).collect();
     let mt: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
     let (mt, my) = decimate(&mt, &o.measured);
     let (st, sy) = decimate(&t, &o.simulated);
     let slow = o.samples < n;
     Plot {
-        title: if o.residual_finite {
-            format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit)
-        } else {
+        title: if !o.residual_finite {
             format!("{}: measured vs simulated (simulation diverges)", o.name)
+        } else if !stable {
+            format!("{}: measured vs simulated (fit n/a: unstable)", o.name)
+        } else {
+            format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit)
         },
         x_label: "t [s]".into(),
         y_label: o.name.clone(),
@@ -346,5 +441,34 @@ pub fn response_error_plot(o: &OutputValidation, ts: f64) -> Plot {
         y_label: "error".into(),
         series: vec![Series::line("y − ŷ", t, e)],
         ..Default::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pole_zero_frame_keeps_the_unit_circle_in_view() {
+        // Poles inside, a zero at 4000 and one at -3000i: the frame stays
+        // ±1.2 and the far zeros go to its edge, their moduli kept.
+        let poles = [(0.9, 0.1), (0.9, -0.1), (0.5, 0.0)];
+        let zeros = [(0.3, 0.0), (4000.0, 0.0), (0.0, -3000.0)];
+        let f = pz_frame(&poles, &zeros);
+        assert_eq!(f.half, 1.2);
+        assert_eq!(f.zeros, vec![(0.3, 0.0)]);
+        assert_eq!(f.far.len(), 2);
+        for &(x, y, m) in &f.far {
+            assert!(x.abs().max(y.abs()) <= f.half, "({x}, {y}) outside");
+            assert!(x.abs().max(y.abs()) > 1.1, "({x}, {y}) not at the edge");
+            assert!(m == 4000.0 || m == 3000.0);
+        }
+        assert!(f.far[0].0 > 0.0 && f.far[1].1 < 0.0, "direction kept");
+        // A pole outside the unit circle widens the frame to it.
+        let f = pz_frame(&[(1.5, 0.0), (0.2, 0.0)], &[(4000.0, 0.0)]);
+        assert!((f.half - 1.65).abs() < 1e-12, "{}", f.half);
+        assert_eq!(f.far.len(), 1);
+        // No poles, no zeros: the unit circle's frame.
+        assert_eq!(pz_frame(&[], &[]).half, 1.2);
     }
 }

@@ -55,7 +55,7 @@ pub fn render(
 
     body += "<h2>Measured and model output</h2>\n";
     for o in &v.outputs {
-        let plot = response_plot(o, ts, n);
+        let plot = response_plot(o, ts, n, v.stable());
         body += &figure(
             &format!("fit-{}", o.name),
             &format!(

@@ -33,8 +33,131 @@ use serde_json::json;
 use crate::error::{CliResult, input};
 use crate::studio::session::{MAX_UPLOAD, Request, Session, random_hex, staging};
 
-/// The session shared by the handlers.
+/// A session shared by the handlers.
 pub type Shared = Arc<Mutex<Session>>;
+
+/// The header that names the browser tab's session.
+pub const SESSION_HEADER: &str = "x-lifted-session";
+
+/// Sessions of browser tabs kept at once; beyond, the least recently used
+/// one is dropped (its record, models and folder go).
+pub const MAX_SESSIONS: usize = 8;
+
+/// A session and its directory (uploads are staged there outside the lock).
+#[derive(Clone)]
+struct Handle {
+    session: Shared,
+    dir: PathBuf,
+}
+
+/// The sessions of the server: the default one (calls without a session
+/// id: `lifted studio --data`'s record, scripts) and one per browser tab
+/// (the page draws a random id on load and sends it as `X-Lifted-Session`,
+/// or `?session=` on a GET), each in a folder `session-…` of the scratch
+/// directory; at most [`MAX_SESSIONS`] tabs, least recently used dropped.
+/// A new tab starts with a copy of the default session's record, then
+/// keeps its own.
+pub struct Sessions {
+    base: Handle,
+    tabs: Mutex<Tabs>,
+}
+
+#[derive(Default)]
+struct Tabs {
+    clock: u64,
+    /// (id, session, last use).
+    open: Vec<(String, Handle, u64)>,
+}
+
+impl Sessions {
+    /// The sessions of a server whose default session is `base`.
+    pub fn new(base: Session) -> Self {
+        let dir = base.dir().to_path_buf();
+        Sessions {
+            base: Handle {
+                session: Arc::new(Mutex::new(base)),
+                dir,
+            },
+            tabs: Mutex::new(Tabs::default()),
+        }
+    }
+
+    /// The default session.
+    pub fn base(&self) -> &Shared {
+        &self.base.session
+    }
+
+    /// Tabs open now.
+    pub fn tabs(&self) -> usize {
+        self.tabs.lock().map(|t| t.open.len()).unwrap_or(0)
+    }
+
+    /// The session of `id` (the default one without), created on first
+    /// use with a copy of the default session's record. An id is 8 to 64
+    /// letters, digits, `-` or `_`. Blocking (it may copy a record).
+    fn get(&self, id: Option<&str>) -> CliResult<Handle> {
+        let Some(id) = id else {
+            return Ok(self.base.clone());
+        };
+        let valid = (8..=64).contains(&id.len())
+            && id
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_');
+        if !valid {
+            return Err(input(
+                "a session id is 8 to 64 letters, digits, '-' or '_' (X-Lifted-Session)",
+            ));
+        }
+        let lock_tabs = || match self.tabs.lock() {
+            Ok(t) => t,
+            Err(p) => p.into_inner(),
+        };
+        {
+            let mut tabs = lock_tabs();
+            tabs.clock += 1;
+            let now = tabs.clock;
+            if let Some(t) = tabs.open.iter_mut().find(|t| t.0 == id) {
+                t.2 = now;
+                return Ok(t.1.clone());
+            }
+        }
+        // A new tab, made outside the map's lock (the default session may
+        // be busy identifying).
+        let mut s = Session::named(&self.base.dir, "session-")?;
+        let seed = lock(&self.base.session).record_file();
+        if let Some((name, path)) = seed {
+            // If the default record is replaced meanwhile, the tab starts
+            // empty.
+            let _ = s.seed(&name, &path);
+        }
+        let handle = Handle {
+            dir: s.dir().to_path_buf(),
+            session: Arc::new(Mutex::new(s)),
+        };
+        let mut tabs = lock_tabs();
+        tabs.clock += 1;
+        let now = tabs.clock;
+        if let Some(t) = tabs.open.iter_mut().find(|t| t.0 == id) {
+            // Another call of the same tab made it first: use that one.
+            t.2 = now;
+            return Ok(t.1.clone());
+        }
+        tabs.open.push((id.to_string(), handle.clone(), now));
+        if tabs.open.len() > MAX_SESSIONS
+            && let Some(oldest) = tabs
+                .open
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, t)| t.2)
+                .map(|(i, _)| i)
+        {
+            // Dropped with its last handle: a call still running on it
+            // finishes first.
+            tabs.open.remove(oldest);
+        }
+        Ok(handle)
+    }
+}
 
 /// Largest body of a JSON call (`/api/view`, `/api/identify`), bytes.
 pub const MAX_JSON: usize = 1 << 20;
@@ -211,10 +334,7 @@ fn text(h: &HeaderMap, name: impl header::AsHeaderName) -> Option<&str> {
 /// The state of the handlers.
 #[derive(Clone)]
 struct App {
-    session: Shared,
-    /// The session's scratch directory (uploads are staged there outside
-    /// the lock).
-    dir: PathBuf,
+    sessions: Arc<Sessions>,
     access: Arc<Access>,
     /// The page with the token in its `lifted-token` meta tag.
     index: Arc<str>,
@@ -222,12 +342,10 @@ struct App {
 
 /// The studio's routes (see the module documentation of [`crate::studio`]),
 /// behind `guard` (the checks of the module documentation of [`crate::studio`]).
-pub fn router(state: Shared, access: Access) -> Router {
-    let dir = lock(&state).dir().to_path_buf();
+pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
     let index: Arc<str> = INDEX.replace("{{token}}", access.token()).into();
     let app = App {
-        session: state,
-        dir,
+        sessions,
         access: Arc::new(access),
         index,
     };
@@ -377,10 +495,31 @@ fn parse_request(body: &[u8]) -> CliResult<Request> {
     serde_json::from_slice(body).map_err(|e| input(format!("request: {e}")))
 }
 
-/// `?name=` of an upload.
-#[derive(Debug, Deserialize)]
-struct UploadQuery {
+/// `?name=` of an upload, `?seq=` of a model or report, `?session=` of a
+/// GET without the session header (the token is checked by `guard`).
+#[derive(Debug, Default, Deserialize)]
+struct CallQuery {
     name: Option<String>,
+    seq: Option<u64>,
+    session: Option<String>,
+}
+
+/// The session of a call: `X-Lifted-Session`, else `?session=`, else the
+/// default session (found or made on the blocking pool).
+#[allow(clippy::result_large_err)]
+async fn session_of(app: &App, headers: &HeaderMap, q: &CallQuery) -> Result<Handle, Response> {
+    let id = text(headers, SESSION_HEADER)
+        .or(q.session.as_deref())
+        .map(str::to_string);
+    let sessions = app.sessions.clone();
+    match tokio::task::spawn_blocking(move || sessions.get(id.as_deref())).await {
+        Ok(Ok(h)) => Ok(h),
+        Ok(Err(e)) => Err(error(StatusCode::BAD_REQUEST, e)),
+        Err(_) => Err(error(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "internal error while opening the session",
+        )),
+    }
 }
 
 /// Streams an upload's body to `path`, at most [`MAX_UPLOAD`] bytes.
@@ -417,12 +556,16 @@ async fn receive(headers: &HeaderMap, mut body: Body, path: &Path) -> Result<(),
 /// the loaded record.
 async fn upload(
     State(app): State<App>,
-    Query(q): Query<UploadQuery>,
+    Query(q): Query<CallQuery>,
     headers: HeaderMap,
     body: Body,
 ) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
     let name = q.name.unwrap_or_else(|| "data.csv".into());
-    let (folder, path) = match staging(&app.dir, &name) {
+    let (folder, path) = match staging(&h.dir, &name) {
         Ok(fp) => fp,
         Err(e) => return error(StatusCode::BAD_REQUEST, e),
     };
@@ -430,19 +573,36 @@ async fn upload(
         let _ = std::fs::remove_dir_all(&folder);
         return res;
     }
-    json_answer(with_session(app.session, move |s| s.adopt(folder, path)).await)
+    json_answer(with_session(h.session, move |s| s.adopt(folder, path)).await)
 }
 
-async fn data_info(State(app): State<App>) -> Response {
-    json_answer(with_session(app.session, |s| Ok(s.data_info().cloned())).await)
+async fn data_info(
+    State(app): State<App>,
+    Query(q): Query<CallQuery>,
+    headers: HeaderMap,
+) -> Response {
+    match session_of(&app, &headers, &q).await {
+        Ok(h) => json_answer(with_session(h.session, |s| Ok(s.data_info().cloned())).await),
+        Err(e) => e,
+    }
 }
 
-async fn view(State(app): State<App>, body: Bytes) -> Response {
-    json_answer(with_session(app.session, move |s| s.view(&parse_request(&body)?)).await)
+async fn view(State(app): State<App>, headers: HeaderMap, body: Bytes) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => {
+            json_answer(with_session(h.session, move |s| s.view(&parse_request(&body)?)).await)
+        }
+        Err(e) => e,
+    }
 }
 
-async fn identify(State(app): State<App>, body: Bytes) -> Response {
-    json_answer(with_session(app.session, move |s| s.identify(&parse_request(&body)?)).await)
+async fn identify(State(app): State<App>, headers: HeaderMap, body: Bytes) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => {
+            json_answer(with_session(h.session, move |s| s.identify(&parse_request(&body)?)).await)
+        }
+        Err(e) => e,
+    }
 }
 
 fn download(body: String, mime: &'static str, file: &'static str) -> Response {
@@ -459,15 +619,29 @@ fn download(body: String, mime: &'static str, file: &'static str) -> Response {
         .into_response()
 }
 
-async fn model(State(app): State<App>) -> Response {
-    match with_session(app.session, |s| s.model_json()).await {
+/// `GET /api/model[?seq=N]`: the model of request N (the last without).
+async fn model(State(app): State<App>, Query(q): Query<CallQuery>, headers: HeaderMap) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
+    match with_session(h.session, move |s| s.model_json(q.seq)).await {
         Ok(j) => download(j, "application/json", "model.json"),
         Err(e) => e,
     }
 }
 
-async fn report(State(app): State<App>) -> Response {
-    match with_session(app.session, |s| s.report()).await {
+/// `GET /api/report[?seq=N]`: the report of the model of request N.
+async fn report(
+    State(app): State<App>,
+    Query(q): Query<CallQuery>,
+    headers: HeaderMap,
+) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
+    match with_session(h.session, move |s| s.report(q.seq)).await {
         Ok(h) => download(h, "text/html; charset=utf-8", "report.html"),
         Err(e) => e,
     }

@@ -72,15 +72,30 @@
 //! Every call but `/api/health` carries the token (`X-Lifted-Token: TOKEN`,
 //! or `?token=TOKEN` on a `GET`).
 //!
+//! **Sessions.** Each browser tab has its own session: the page draws a
+//! random id on load and sends it as `X-Lifted-Session` (a `GET` may give
+//! `?session=`). A new session starts with a copy of the default session's
+//! record (the one `--data` loaded, or a call without an id uploaded) and
+//! then keeps its own record and models, in a folder `session-…` of the
+//! scratch directory; at most [`MAX_SESSIONS`] (8) are kept, the least
+//! recently used dropped with its folder. Calls without an id use the
+//! default session.
+//!
+//! **One model shown, one saved.** The page numbers its identify requests
+//! (`seq`), drops an answer older than its latest request, never moves the
+//! order slider from an answer (unless the order is `auto`), and its Save
+//! links ask for the model of the sequence number it shows
+//! (`/api/model?seq=N`); a session keeps its last [`KEPT_MODELS`] (8).
+//!
 //! | call | content type | body | answer |
 //! |---|---|---|---|
 //! | `GET /?token=T` | – | – | the page (with the token in its meta tag) |
 //! | `POST /api/data?name=F` | `application/octet-stream` or `text/csv` | the CSV file's bytes (≤ 1 GiB) | [`DataInfo`]: rows, base period, columns (samples, period), suggested inputs/outputs |
 //! | `GET /api/data` | – | – | the loaded record's [`DataInfo`] or `null` |
 //! | `POST /api/view` | `application/json` | [`Request`] (channels; ≤ 1 MiB) | [`View`]: channels with rates, SVG of inputs and outputs |
-//! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB) | [`Identified`]: equivalent command line, order, order-selection values, fit % per output, poles, SVG figures |
-//! | `GET /api/model` | – | – | the last model as the model-file JSON of `lifted identify` |
-//! | `GET /api/report` | – | – | the HTML report of `lifted report` for the last model |
+//! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB, with the page's sequence number `seq`) | [`Identified`]: `seq` echoed, equivalent command line, order, stability (`stable`, `spectral_radius`), order-selection values, fit % per output (`null` with `stable: false` for an unstable model), poles, SVG figures |
+//! | `GET /api/model[?seq=N]` | – | – | the model of request N (the last model without `seq`) as the model-file JSON of `lifted identify` |
+//! | `GET /api/report[?seq=N]` | – | – | the HTML report of `lifted report` for that model |
 //! | `GET /api/health` | – | – | `ok` (no token needed) |
 //!
 //! A [`Request`]'s fields are the options of `lifted identify`, with the
@@ -109,12 +124,15 @@ mod api;
 mod session;
 
 use std::io::Write;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
-pub use api::{Access, MAX_JSON, SECURITY_HEADERS, TOKEN_HEADER, lock, router};
+pub use api::{
+    Access, MAX_JSON, MAX_SESSIONS, SECURITY_HEADERS, SESSION_HEADER, Sessions, TOKEN_HEADER, lock,
+    router,
+};
 pub use session::{
-    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, MAX_UPLOAD, MAX_WORK_BYTES,
-    OrderSelection, Request, Session, View,
+    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, KEPT_MODELS, MAX_UPLOAD,
+    MAX_WORK_BYTES, OrderSelection, Request, Session, View,
 };
 
 use crate::error::{CliResult, input};
@@ -131,7 +149,7 @@ pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
         session.open(path)?;
     }
     let dir = session.dir().to_path_buf();
-    let state = Arc::new(Mutex::new(session));
+    let state = Arc::new(Sessions::new(session));
     let served = serve(state.clone(), port);
     // The server's tasks are gone; remove the directory even if a blocking
     // call still holds the session.
@@ -140,7 +158,7 @@ pub fn run(data: Option<&str>, port: u16) -> CliResult<()> {
     served
 }
 
-fn serve(state: Arc<Mutex<Session>>, port: u16) -> CliResult<()> {
+fn serve(state: Arc<Sessions>, port: u16) -> CliResult<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

@@ -79,6 +79,10 @@ pub struct Request {
     pub order_criterion: Option<String>,
     /// Enforce a stable model.
     pub stable: bool,
+    /// The page's sequence number of this request (not an option of
+    /// `lifted identify`): echoed in the answer, and the key under which
+    /// the model is kept for `GET /api/model?seq=`.
+    pub seq: Option<u64>,
 }
 
 /// One column of an uploaded record.
@@ -155,8 +159,13 @@ pub struct OrderSelection {
 pub struct Fit {
     /// Output name.
     pub output: String,
-    /// Fit % (100 (1 − ‖y − ŷ‖/‖y − ȳ‖), simulated from rest).
-    pub fit: f64,
+    /// Fit % (100 (1 − ‖y − ŷ‖/‖y − ȳ‖), simulated from rest); `null`
+    /// when it is not meaningful: an unstable model (its simulation
+    /// diverges), a non-finite residual or a constant output.
+    pub fit: Option<f64>,
+    /// Whether the model is stable (ρ(A) < 1); when not, the page shows
+    /// "n/a: unstable" for the fit.
+    pub stable: bool,
     /// Whether the residual is white.
     pub white: bool,
     /// Whether the residual is independent of the inputs.
@@ -183,6 +192,13 @@ pub struct Figures {
 /// The answer to an identification.
 #[derive(Debug, Clone, Serialize)]
 pub struct Identified {
+    /// The request's sequence number, as sent (the page drops an answer
+    /// older than its latest request).
+    pub seq: Option<u64>,
+    /// Whether the model is stable (ρ(A) < 1).
+    pub stable: bool,
+    /// The spectral radius ρ(A) (`null` if not finite).
+    pub spectral_radius: Option<f64>,
     /// The equivalent command line.
     pub command: String,
     /// Method name.
@@ -201,11 +217,16 @@ pub struct Identified {
     pub elapsed_ms: f64,
 }
 
-/// The last identification, kept for saving.
+/// An identification kept for saving, under its request's sequence number.
 struct Last {
+    seq: Option<u64>,
     file: ModelFile,
     request: Request,
 }
+
+/// Models kept per session: the page may save any of its last few answers
+/// by sequence number.
+pub const KEPT_MODELS: usize = 8;
 
 /// The uploaded record: `path` is `<scratch>/<folder>/<name>`, in a folder
 /// of its own so that a new upload never touches the loaded record.
@@ -222,7 +243,8 @@ struct Record {
 pub struct Session {
     dir: PathBuf,
     record: Option<Record>,
-    last: Option<Last>,
+    /// The last [`KEPT_MODELS`] identifications, oldest first.
+    models: Vec<Last>,
 }
 
 /// `bytes` random bytes from the operating system's CSPRNG, as hex.
@@ -312,12 +334,19 @@ impl Session {
     /// mode 0700 on Unix; an existing directory of that name is an error,
     /// never reused).
     pub fn new(parent: &Path) -> CliResult<Self> {
-        let dir = parent.join(format!("lifted-studio-{}", random_hex(16)?));
+        Self::named(parent, "lifted-studio-")
+    }
+
+    /// A session with a fresh directory `<parent>/<prefix><32 random hex
+    /// digits>` (owner only; a tab's session is `session-…` inside the
+    /// studio's scratch directory).
+    pub fn named(parent: &Path, prefix: &str) -> CliResult<Self> {
+        let dir = parent.join(format!("{prefix}{}", random_hex(16)?));
         private_dir(&dir).map_err(|e| input(format!("cannot create {}: {e}", dir.display())))?;
         Ok(Session {
             dir,
             record: None,
-            last: None,
+            models: Vec::new(),
         })
     }
 
@@ -333,12 +362,16 @@ impl Session {
 
     /// Forgets the record and the last model and empties the scratch
     /// directory: the state after a request failed halfway (a poisoned
-    /// lock), when what it left cannot be trusted.
+    /// lock), when what it left cannot be trusted. Only the session's own
+    /// upload folders go (the sessions of other tabs may live beside them).
     pub fn reset(&mut self) {
         self.record = None;
-        self.last = None;
+        self.models.clear();
         if let Ok(entries) = std::fs::read_dir(&self.dir) {
             for e in entries.flatten() {
+                if !e.file_name().to_string_lossy().starts_with("upload-") {
+                    continue;
+                }
                 let p = e.path();
                 let _ = if p.is_dir() {
                     std::fs::remove_dir_all(&p)
@@ -402,7 +435,7 @@ impl Session {
                     path,
                     info: info.clone(),
                 });
-                self.last = None;
+                self.models.clear();
                 if let Some(old) = old {
                     let _ = std::fs::remove_dir_all(old.folder);
                 }
@@ -413,6 +446,25 @@ impl Session {
                 Err(plain_in(&folder, e))
             }
         }
+    }
+
+    /// The loaded record's name and file, if any (a new tab's session
+    /// starts with a copy: [`Session::seed`]).
+    pub fn record_file(&self) -> Option<(String, PathBuf)> {
+        self.record
+            .as_ref()
+            .map(|r| (r.name.clone(), r.path.clone()))
+    }
+
+    /// Loads a copy of the record file `path` (named `name`), as an upload
+    /// would.
+    pub fn seed(&mut self, name: &str, path: &Path) -> CliResult<DataInfo> {
+        let (folder, to) = self.staging(name)?;
+        if let Err(e) = std::fs::copy(path, &to) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot copy {name}: {e}")));
+        }
+        self.adopt(folder, to)
     }
 
     /// Uses a file on disk as the record (`lifted studio --data`).
@@ -724,11 +776,18 @@ impl Session {
     /// Identifies with the request's options, validates on the record and
     /// draws the figures; the model is kept for [`Session::model_json`] and
     /// [`Session::report`]. A failed identification leaves no model (the
-    /// previous one is dropped: saving after a failure is an error, not the
+    /// previous ones are dropped: saving after a failure is an error, not the
     /// model of other options).
     pub fn identify(&mut self, r: &Request) -> CliResult<Identified> {
+        let out = self.identified(r);
+        if out.is_err() {
+            self.models.clear();
+        }
+        out
+    }
+
+    fn identified(&mut self, r: &Request) -> CliResult<Identified> {
         let start = Instant::now();
-        self.last = None;
         self.check_sizes(r)?;
         let rec = self.record()?;
         let words = Self::identify_words(r, &rec.name, "model.json");
@@ -745,7 +804,7 @@ impl Session {
         let mut response = Vec::new();
         let mut error = Vec::new();
         for o in &v.outputs {
-            response.push(svg(&response_plot(o, ts, n), 900, 260)?);
+            response.push(svg(&response_plot(o, ts, n, v.stable()), 900, 260)?);
             error.push(svg(&response_error_plot(o, ts), 900, 160)?);
         }
         let omega = bode_grid(model, None, None, 200)?;
@@ -758,7 +817,7 @@ impl Session {
             error,
             step: svg(&step_plot(model)?, 560, 280)?,
             bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
-            pz: svg(&pz_plot(model)?, 340, 340)?,
+            pz: svg(&pz_plot(model)?, 380, 440)?,
         };
         let order_selection = file.diagnostics.get("order_selection").map(|os| {
             let values = os
@@ -784,17 +843,22 @@ impl Session {
             .poles()
             .map(|p| p.iter().map(|z| (z.re, z.im)).collect())
             .unwrap_or_default();
+        let stable = v.stable();
         let fits = v
             .outputs
             .iter()
             .map(|o| Fit {
                 output: o.name.clone(),
-                fit: o.fit,
+                fit: (stable && o.residual_finite && o.fit.is_finite()).then_some(o.fit),
+                stable,
                 white: o.white,
                 independent: o.independent,
             })
             .collect();
         let out = Identified {
+            seq: r.seq,
+            stable,
+            spectral_radius: v.spectral_radius.is_finite().then_some(v.spectral_radius),
             command,
             method: file.method.clone().unwrap_or_default(),
             order: model.order(),
@@ -804,30 +868,51 @@ impl Session {
             figures,
             elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
         };
-        self.last = Some(Last {
+        if self.models.len() >= KEPT_MODELS {
+            self.models.remove(0);
+        }
+        self.models.push(Last {
+            seq: r.seq,
             file,
             request: r.clone(),
         });
         Ok(out)
     }
 
-    fn last(&self) -> CliResult<&Last> {
-        self.last
-            .as_ref()
-            .ok_or_else(|| input("no model yet: identify one first"))
+    /// The model of the request numbered `seq`, or the last one.
+    fn last(&self, seq: Option<u64>) -> CliResult<&Last> {
+        let Some(last) = self.models.last() else {
+            return Err(input("no model yet: identify one first"));
+        };
+        match seq {
+            None => Ok(last),
+            Some(s) => self
+                .models
+                .iter()
+                .rev()
+                .find(|m| m.seq == Some(s))
+                .ok_or_else(|| {
+                    input(format!(
+                        "no model of request {s}: the studio keeps the last {KEPT_MODELS} \
+                         models of the current options"
+                    ))
+                }),
+        }
     }
 
-    /// The last model as the command's model-file JSON.
-    pub fn model_json(&self) -> CliResult<String> {
-        self.last()?
+    /// The model of request `seq` (the last model without one) as the
+    /// command's model-file JSON.
+    pub fn model_json(&self, seq: Option<u64>) -> CliResult<String> {
+        self.last(seq)?
             .file
             .to_json()
             .map_err(|e| input(format!("model file: {e}")))
     }
 
-    /// The report page of the last model on the record.
-    pub fn report(&self) -> CliResult<String> {
-        let last = self.last()?;
+    /// The report page of the model of request `seq` (the last model
+    /// without one) on the record.
+    pub fn report(&self, seq: Option<u64>) -> CliResult<String> {
+        let last = self.last(seq)?;
         let rec = self.record()?;
         let (file, data, v) = self.validated(&last.file, &last.request)?;
         render(&file, &data, &v, "model.json (lifted studio)", &rec.name)

@@ -11,12 +11,26 @@ const $ = (id) => document.getElementById(id);
 // The session token the server put in the page; every API call sends it.
 const TOKEN = document.querySelector('meta[name="lifted-token"]').content;
 
+// This tab's session: a random id drawn on load and sent with every call,
+// so that another tab has its own record and models.
+const SESSION = Array.from(crypto.getRandomValues(new Uint8Array(16)))
+  .map((b) => b.toString(16).padStart(2, "0"))
+  .join("");
+
+// A number with `digits` decimals, or `none` when it is null, NaN or
+// infinite (an unstable model's fit is null in JSON).
+function fixed(x, digits, none) {
+  return typeof x === "number" && Number.isFinite(x) ? x.toFixed(digits) : none === undefined ? "n/a" : none;
+}
+
 const state = {
   info: null,        // DataInfo of the loaded record
   order: "auto",     // "auto" or the slider's order
   q: null,           // null: the command's default q
   busy: false,
   pending: null,     // the latest request made while busy
+  seq: 0,           // sequence number of the latest identify request sent
+  shown: 0,          // sequence number of the answer on the page (0: none)
   generation: 0,     // completed identifications
   views: 0,          // completed channel views
   failed: 0,         // failed calls
@@ -41,7 +55,7 @@ function setStatus(text) {
 // A GET (no body) or a POST of `body` with its content type (JSON unless
 // given), with the token header.
 async function call(path, body, type) {
-  const headers = { "X-Lifted-Token": TOKEN };
+  const headers = { "X-Lifted-Token": TOKEN, "X-Lifted-Session": SESSION };
   const init = { headers };
   if (body !== undefined) {
     init.method = "POST";
@@ -192,12 +206,13 @@ function fillTable(table, head, rows) {
 }
 
 // The Save links: real links only while a model of the current options
-// exists; else no href, aria-disabled, and clicks ignored.
-function setSaves(enabled) {
+// is shown, to that very model (its request's sequence number `seq`); else
+// no href, aria-disabled, and clicks ignored.
+function setSaves(enabled, seq) {
   for (const id of ["save-model", "save-report"]) {
     const a = $(id);
     if (enabled) {
-      a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN);
+      a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&seq=" + seq;
       a.setAttribute("aria-disabled", "false");
       a.classList.remove("disabled");
     } else {
@@ -212,9 +227,11 @@ function setSaves(enabled) {
 // disables the Save links: after a failed identification nothing of the
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
-  for (const id of ["fig-order", "fits", "fig-response", "fig-error", "fig-step", "fig-bode", "fig-pz"]) {
+  for (const id of ["fig-order", "fits", "poles", "fig-response", "fig-error", "fig-step", "fig-bode", "fig-pz"]) {
     $(id).replaceChildren();
   }
+  $("stability").hidden = true;
+  $("stability").textContent = "";
   $("command").textContent = "";
   $("order-kind").textContent = "";
   setSaves(false);
@@ -277,40 +294,75 @@ function renderView(v) {
   $("status").dataset.view = String(state.views);
 }
 
+// The poles as a list, those outside the unit circle marked.
+function renderPoles(poles) {
+  const items = poles.map(([re, im]) => {
+    const m = Math.hypot(re, im);
+    const sign = im < 0 ? " − " : " + ";
+    const text = fixed(re, 4) + (im === 0 ? "" : sign + fixed(Math.abs(im), 4) + "i") + "  |p| = " + fixed(m, 4);
+    const outside = !(m < 1);
+    const li = el("li", outside ? text + "  (outside the unit circle)" : text, outside ? "outside" : undefined);
+    return li;
+  });
+  $("poles").replaceChildren(...items);
+}
+
+// Puts an identification's answer on the page. The slider is never moved
+// by an answer (the user may have moved it since), except to show the
+// order `auto` chose while the slider is on auto.
 function renderIdentified(r) {
   const sel = r.order_selection;
   const slider = $("order-slider");
-  if (sel && sel.values.length > 0) {
-    slider.max = String(Math.max(1, Math.min(sel.values.length, 60)));
-    $("order-kind").textContent = sel.kind + (sel.suggested_order ? "; largest gap at order " + sel.suggested_order : "");
-  } else {
-    slider.max = String(Math.max(10, r.order));
-    $("order-kind").textContent = "";
-  }
+  const keep = Number(slider.value);
+  let max = sel && sel.values.length > 0 ? Math.max(1, Math.min(sel.values.length, 60)) : Math.max(10, r.order);
+  if (state.order !== "auto") max = Math.max(max, keep);
+  slider.max = String(max);
+  $("order-kind").textContent = sel && sel.values.length > 0
+    ? sel.kind + (sel.suggested_order ? "; largest gap at order " + sel.suggested_order : "")
+    : "";
   slider.disabled = false;
-  slider.value = String(r.order);
-  $("order-value").textContent = state.order === "auto" ? r.order + " (auto)" : String(r.order);
+  if (state.order === "auto") {
+    slider.value = String(r.order);
+    $("order-value").textContent = r.order + " (auto)";
+  } else {
+    slider.value = String(keep);
+    $("order-value").textContent = String(state.order);
+  }
   if (r.figures.order) {
     $("fig-order").innerHTML = r.figures.order;
   } else {
     $("fig-order").replaceChildren(el("p", "This route gives no order-selection values.", "note"));
   }
   const fits = r.fits.map((f) => {
-    const fit = el("td", f.fit.toFixed(2), "fit");
+    const text = f.stable === false ? "n/a: unstable" : fixed(f.fit, 2);
+    const fit = el("td", text, "fit");
     fit.dataset.output = f.output;
     return [f.output, fit, f.white ? "yes" : "no", f.independent ? "yes" : "no"];
   });
   fillTable($("fits"), ["output", "fit % (simulation)", "white residual", "independent of u"], fits);
+  const stab = $("stability");
+  if (r.stable === false) {
+    stab.textContent = "Unstable model: spectral radius ρ(A) = " + fixed(r.spectral_radius, 4, "∞") +
+      " ≥ 1; its simulation diverges, so the fit is not meaningful (poles outside the unit circle are marked).";
+    stab.hidden = false;
+  } else {
+    stab.hidden = true;
+    stab.textContent = "";
+  }
+  renderPoles(r.poles || []);
   $("fig-response").innerHTML = r.figures.response.join("");
   $("fig-error").innerHTML = r.figures.error.join("");
   $("fig-step").innerHTML = r.figures.step;
   $("fig-bode").innerHTML = r.figures.bode;
   $("fig-pz").innerHTML = r.figures.pz;
   $("command").textContent = r.command;
-  setSaves(true);
+  state.shown = r.seq;
+  setSaves(true, r.seq);
   state.generation += 1;
   $("status").dataset.generation = String(state.generation);
-  setStatus(r.method + ", order " + r.order + " — " + r.elapsed_ms.toFixed(0) + " ms");
+  $("status").dataset.seq = String(r.seq);
+  $("status").dataset.order = String(r.order);
+  setStatus(r.method + ", order " + r.order + (r.stable === false ? " (unstable)" : "") + " — " + fixed(r.elapsed_ms, 0, "?") + " ms");
 }
 
 // One request at a time; while one runs, only the latest of the requests
@@ -335,7 +387,13 @@ async function run(job) {
     if (job.view) renderView(await call("/api/view", JSON.stringify(request(false))));
     if (job.identify) {
       setStatus("identifying…");
-      renderIdentified(await call("/api/identify", JSON.stringify(request(true))));
+      const req = request(true);
+      state.seq += 1;
+      req.seq = state.seq;
+      const r = await call("/api/identify", JSON.stringify(req));
+      // An answer older than the latest request is dropped: the page shows
+      // (and saves) only the model of the options it was last asked for.
+      if (r.seq === state.seq) renderIdentified(r);
     }
   } catch (e) {
     // The figures and Save links of an earlier model do not belong to
@@ -360,6 +418,12 @@ function wire() {
       if (e.currentTarget.getAttribute("aria-disabled") === "true") e.preventDefault();
     });
   }
+  // A script error is a bug of the page: count it (the tests read it) and say so.
+  window.addEventListener("error", (e) => {
+    const n = Number($("status").dataset.jserrors || "0") + 1;
+    $("status").dataset.jserrors = String(n);
+    showError("page script error: " + e.message);
+  });
   // Anything the content security policy blocks is a bug of the page: say so.
   document.addEventListener("securitypolicyviolation", (e) => {
     state.csp += 1;
