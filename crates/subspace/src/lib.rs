@@ -118,6 +118,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod budget;
 mod engine;
 pub mod error;
 mod hankel;
@@ -130,6 +131,7 @@ mod projection;
 mod refine;
 mod regress;
 
+pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use engine::{
     BdEstimate, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection, Profile,
     StreamingIdentifier, SubspaceIdentifier, SubspaceModel, SubspaceOptions, SystemEstimate,
