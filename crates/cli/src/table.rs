@@ -23,6 +23,7 @@ use lifted_lti::{Dataset, InputChannel, OutputChannel};
 use nalgebra::DMatrix;
 
 use crate::error::{CliResult, Context, input};
+use crate::shown::{shown, shown_list};
 
 /// Which columns to read and how to lay out the data set.
 #[derive(Debug, Clone, Default)]
@@ -86,6 +87,52 @@ pub fn parse_name_counts(
         .collect()
 }
 
+/// An error naming the first name of `names` that occurs twice, with both
+/// 1-based positions: "`what`: column 'y1' appears twice (positions 2 and
+/// 3)". Empty names (a trailing comma in a header) are not compared.
+pub fn check_unique<S: AsRef<str>>(what: &str, names: &[S]) -> CliResult<()> {
+    let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for (i, n) in names.iter().enumerate() {
+        let n = n.as_ref();
+        if n.is_empty() {
+            continue;
+        }
+        if let Some(first) = seen.insert(n, i) {
+            return Err(input(format!(
+                "{what}: column '{}' appears twice (positions {} and {})",
+                shown(n),
+                first + 1,
+                i + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
+impl DataSpec {
+    /// Rejects a column selected twice among the inputs and outputs (a name
+    /// in both lists, or twice in one), naming it and both places, e.g.
+    /// "column 'y1' is selected twice (--outputs position 1 and --outputs
+    /// position 2)". Extra columns (instruments) may repeat an input.
+    pub fn check_selection(&self) -> CliResult<()> {
+        let mut seen: std::collections::HashMap<&str, (&str, usize)> =
+            std::collections::HashMap::new();
+        for (flag, list) in [("--inputs", &self.inputs), ("--outputs", &self.outputs)] {
+            for (i, n) in list.iter().enumerate() {
+                if let Some((f0, i0)) = seen.insert(n.as_str(), (flag, i)) {
+                    return Err(input(format!(
+                        "column '{}' is selected twice ({f0} position {} and {flag} position {})",
+                        shown(n),
+                        i0 + 1,
+                        i + 1
+                    )));
+                }
+            }
+        }
+        check_unique("--instrument", &self.extra)
+    }
+}
+
 /// Splits a comma-separated list of names.
 pub fn names(list: &str) -> Vec<String> {
     list.split(',')
@@ -119,12 +166,14 @@ fn cell_value(
     }
     let v: f64 = text.parse().map_err(|_| {
         input(format!(
-            "{path}: line {line}, column '{column}': cannot parse '{text}' as a number"
+            "{path}: line {line}, column '{column}': cannot parse '{}' as a number",
+            shown(text)
         ))
     })?;
     if !v.is_finite() {
         return Err(input(format!(
-            "{path}: line {line}, column '{column}': value '{text}' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)"
+            "{path}: line {line}, column '{column}': value '{}' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)",
+            shown(text)
         )));
     }
     Ok(v)
@@ -186,8 +235,10 @@ fn column_indices(path: &str, header: &[String], wanted: &[&String]) -> CliResul
         .map(|name| {
             header.iter().position(|h| h == *name).ok_or_else(|| {
                 input(format!(
-                    "{path}: header has no column '{name}' (columns: {})",
-                    header.join(", ")
+                    "{}: header has no column '{}' (columns: {})",
+                    shown(path),
+                    shown(name),
+                    shown_list(header)
                 ))
             })
         })
@@ -507,6 +558,7 @@ fn read_header<R: std::io::Read>(path: &str, rd: &mut CsvReader<R>) -> CliResult
             "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
         )));
     }
+    check_unique(&format!("{}: header", shown(path)), &header)?;
     Ok(header)
 }
 
@@ -1526,6 +1578,7 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
             "at least one input and one output column are needed (--inputs, --outputs)",
         ));
     }
+    spec.check_selection()?;
     let Raw { mut cols, rows, ts } =
         read_raw(path, &spec.columns, &wanted, n_in..n_in + n_out, spec.ts)?;
     // Output sampling: declared periods are checked, others inferred.

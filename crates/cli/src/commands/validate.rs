@@ -2,10 +2,11 @@
 //! the `--min-fit` check.
 
 use crate::args::ValidateArgs;
-use crate::error::{CliError, CliResult};
+use crate::error::{CliResult, failed};
 use lifted_cli::service::validation::{
     TABLE_HEADER, load_for_validation, table_rows, validate_model,
 };
+use lifted_cli::shown::{percent, shown};
 use lifted_cli::terminal::print_table;
 
 /// `lifted validate`.
@@ -23,11 +24,12 @@ pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
             .outputs
             .iter()
             .filter(|o| o.fit.is_nan() || o.fit < min)
-            .map(|o| format!("{} ({:.2}%)", o.name, o.fit))
+            .map(|o| format!("{} ({} %)", shown(&o.name), percent(o.fit)))
             .collect();
         if !low.is_empty() {
-            return Err(CliError::Failed(format!(
-                "fit below --min-fit {min}%: {}",
+            return Err(failed(format!(
+                "fit below --min-fit {} %: {}",
+                percent(min),
                 low.join(", ")
             )));
         }

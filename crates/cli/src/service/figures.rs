@@ -311,7 +311,11 @@ pub fn response_plot(o: &OutputValidation, ts: f64, n: usize) -> Plot {
     let (st, sy) = decimate(&t, &o.simulated);
     let slow = o.samples < n;
     Plot {
-        title: format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit),
+        title: format!(
+            "{}: measured vs simulated (fit {} %)",
+            o.name,
+            crate::shown::percent(o.fit)
+        ),
         x_label: "t [s]".into(),
         y_label: o.name.clone(),
         series: vec![

@@ -84,11 +84,11 @@ pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
             let pred = |i: usize| {
                 o.prediction_fits
                     .get(i)
-                    .map_or("n/a".to_string(), |f| format!("{f:.2}"))
+                    .map_or("n/a".to_string(), |f| crate::shown::percent(*f))
             };
             [
                 o.name.clone(),
-                format!("{:.2}", o.fit),
+                crate::shown::percent(o.fit),
                 pred(0),
                 pred(1),
                 o.samples.to_string(),
