@@ -186,6 +186,194 @@ mod tests {
         assert!(big.get().unwrap() > 30_000_000_000_000);
     }
 
+    use crate::{
+        Experiment, IvExperiment, IvOptions, OrderSelection, PemOptions, Record,
+        StreamingIdentifier, SubspaceOptions, compress_hankel, identify, iv_identify, refine_pem,
+    };
+    use lifted_lti::StateSpace;
+    use nalgebra::DMatrix;
+
+    /// 600 samples of two inputs and two outputs of a second-order system
+    /// (deterministic pseudo-random binary inputs, a little output noise).
+    fn record() -> (DMatrix<f64>, DMatrix<f64>) {
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 600;
+        let u = DMatrix::from_fn(n, 2, |_, _| if next() < 0.5 { -1.0 } else { 1.0 });
+        let mut y = DMatrix::zeros(n, 2);
+        let (mut x1, mut x2) = (0.0, 0.0);
+        for k in 0..n {
+            y[(k, 0)] = x1 + 0.01 * (next() - 0.5);
+            y[(k, 1)] = x2 + 0.01 * (next() - 0.5);
+            x1 = 0.8 * x1 + 0.5 * u[(k, 0)];
+            x2 = 0.5 * x2 + 0.3 * u[(k, 1)] + 0.2 * u[(k, 0)];
+        }
+        (u, y)
+    }
+
+    fn too_large(e: &Error) -> bool {
+        matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. }))
+    }
+
+    #[test]
+    fn horizon_beyond_memory_is_too_large_on_every_subspace_entry() {
+        let (u, y) = record();
+        let exps = [Experiment { u: &u, y: &y }];
+        let big = SubspaceOptions {
+            order: OrderSelection::Fixed(2),
+            past: 100_000,
+            future: 100_000,
+            ..Default::default()
+        };
+        let e = identify(&exps, &big).unwrap_err();
+        assert!(too_large(&e), "{e}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("LIFTED_MEMORY_LIMIT") && msg.contains("TB"),
+            "{msg}"
+        );
+        let e = StreamingIdentifier::new(2, 2, &big).err().unwrap();
+        assert!(too_large(&e), "{e}");
+        let e = compress_hankel(&exps, 100_000, 100_000, Compression::Auto, 1).unwrap_err();
+        assert!(too_large(&e), "{e}");
+        // Overflowing horizons: a size error, never a wrapped product.
+        let huge = SubspaceOptions {
+            past: usize::MAX / 2,
+            future: usize::MAX / 2,
+            ..big.clone()
+        };
+        let e = identify(&exps, &huge).unwrap_err();
+        assert!(too_large(&e), "{e}");
+        let e = StreamingIdentifier::new(2, 2, &huge).err().unwrap();
+        assert!(too_large(&e), "{e}");
+        // The same record with horizons it supports is identified.
+        let fine = SubspaceOptions {
+            past: 10,
+            future: 10,
+            ..big
+        };
+        assert!(identify(&exps, &fine).is_ok());
+        // Thread counts far beyond the machine are capped, not spawned.
+        let many = SubspaceOptions {
+            threads: 100_000,
+            ..fine
+        };
+        assert!(identify(&exps, &many).is_ok());
+    }
+
+    #[test]
+    fn iv_horizons_are_checked_before_allocation() {
+        let (u, y) = record();
+        let exps = [IvExperiment {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        for alpha in [1949, 1_000_000, usize::MAX / 4] {
+            let opts = IvOptions {
+                order: OrderSelection::Fixed(2),
+                alpha,
+                ..Default::default()
+            };
+            let e = iv_identify(&exps, &opts).err().unwrap();
+            assert!(matches!(e, Error::HorizonTooLong { .. }), "{alpha}: {e}");
+        }
+        // Known to fit the record: allowed.
+        let ok = IvOptions {
+            order: OrderSelection::Fixed(2),
+            alpha: 8,
+            ..Default::default()
+        };
+        assert!(iv_identify(&exps, &ok).is_ok());
+        // Memory beyond any budget on a record long enough for it.
+        assert!(check_iv(200_000, 400_000, 2, 2, 2, 512).is_err());
+        assert!(check_iv(8, 16, 2, 2, 2, 512).is_ok());
+    }
+
+    /// A stable model of order n with 2 inputs and 2 outputs.
+    fn model(n: usize) -> StateSpace {
+        let a = DMatrix::from_fn(n, n, |i, j| {
+            if i == j {
+                0.5
+            } else if j == i + 1 {
+                0.1
+            } else {
+                0.0
+            }
+        });
+        let b = DMatrix::from_fn(n, 2, |i, j| ((i + j) % 3) as f64 * 0.3 + 0.1);
+        let c = DMatrix::from_fn(2, n, |i, j| ((i * 7 + j) % 5) as f64 * 0.2 + 0.1);
+        StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).unwrap()
+    }
+
+    #[test]
+    fn pem_rejects_more_parameters_than_the_data_support() {
+        let (u, y) = record();
+        let recs = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        // Order 91: 641 free parameters for 1200 measured samples.
+        let e = refine_pem(&model(91), None, &recs, &[], &PemOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::TooManyParameters {
+                    parameters: 641,
+                    measured: 1200,
+                    max: 600,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn pem_work_is_bounded() {
+        let (u, y) = record();
+        let recs = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        // One iteration above the bound: refused before it runs.
+        let tiny = PemOptions {
+            max_work: 1e3,
+            ..Default::default()
+        };
+        let e = refine_pem(&model(2), None, &recs, &[], &tiny).unwrap_err();
+        assert!(matches!(e, Error::TooMuchWork { .. }), "{e}");
+        // Room for a few iterations only: capped, and the report says so.
+        let m = model(2);
+        let per = pem_flops_per_iteration(2, 2, 2, 4 + 4 + 4 + 4 + 4 + 2, 600, 1200);
+        let few = PemOptions {
+            max_work: 3.5 * per,
+            ..Default::default()
+        };
+        let fit = refine_pem(&m, None, &recs, &[], &few).unwrap();
+        assert_eq!(fit.report.iteration_cap, Some(3));
+        assert!(fit.report.iterations <= 3);
+        // The default bound leaves a small model its iterations.
+        let fit = refine_pem(&m, None, &recs, &[], &PemOptions::default()).unwrap();
+        assert_eq!(fit.report.iteration_cap, None);
+        // A bound that is not positive is an invalid option.
+        let bad = PemOptions {
+            max_work: f64::NAN,
+            ..Default::default()
+        };
+        assert!(matches!(
+            refine_pem(&m, None, &recs, &[], &bad),
+            Err(Error::InvalidOption { .. })
+        ));
+    }
+
     #[test]
     fn pem_parameters_are_bounded_by_the_samples() {
         assert!(check_pem_parameters(600, 1200).is_ok());

@@ -159,11 +159,10 @@ fn iv_subspace(
     let (nu, ny, nz) = (u0.ncols(), y0.ncols(), z0.ncols());
     let (iu, iy, iz) = (1.0 / scale.u, 1.0 / scale.y, 1.0 / z_scale);
     const B: usize = 512;
-    // Sizes checked (memory budget, overflow) and the horizons against the
-    // records before anything is allocated.
-    crate::budget::check_iv(alpha, alpha_p, nu, ny, nz, B)?;
-    let rows_h = alpha * (nu + ny);
-    let rows_z = alpha_p * nz;
+    // The horizons against the records, then the sizes (memory budget,
+    // overflow), before anything is allocated.
+    let rows_h = alpha.saturating_mul(nu + ny);
+    let rows_z = alpha_p.saturating_mul(nz);
     let total: usize = recs.iter().map(|r| r.0.nrows()).sum();
     let span = alpha.saturating_add(alpha_p);
     let available: usize = recs
@@ -180,6 +179,7 @@ fn iv_subspace(
                 .saturating_add((span - 1).saturating_mul(recs.len())),
         });
     }
+    crate::budget::check_iv(alpha, alpha_p, nu, ny, nz, B)?;
     let mut m = DMatrix::zeros(rows_h, rows_z);
     let mut zz = DMatrix::zeros(rows_z, rows_z);
     let mut columns = 0;
