@@ -453,6 +453,18 @@ mod tests {
     }
 
     #[test]
+    fn horizons_beyond_memory_are_too_large() {
+        assert!(check_horizon_size(12, 3, 2, 2).is_ok());
+        for (hp, hc) in [(10_000_000, 1_000_000), (usize::MAX, 1)] {
+            let e = check_horizon_size(hp, hc, 2, 2).unwrap_err();
+            assert!(
+                matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
     fn dynamic_matrix_is_lower_toeplitz() {
         let a = dynamic_matrix(&steps(), 4, 2).unwrap();
         assert_eq!(a, dmatrix![1.0, 0.0; 2.0, 1.0; 3.0, 2.0; 4.0, 3.0]);

@@ -541,3 +541,41 @@ pub(crate) fn theta_grid(k: usize) -> Vec<f64> {
         .map(|i| std::f64::consts::PI * (i as f64 + 0.5) / k as f64)
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn first_order(a: f64, b: f64) -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_element(1, 1, a),
+            DMatrix::from_element(1, 1, b),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn beta_dr_work_is_bounded() {
+        let (p, k) = (first_order(0.9, 0.15), first_order(0.0, 0.5));
+        let w = StateSpace::gain(DMatrix::identity(1, 1), Some(1.0)).unwrap();
+        let opts = RobustnessOptions {
+            grid: 64,
+            ..Default::default()
+        };
+        assert!(beta_dr(&p, &k, &w, Uncertainty::Additive, 4, &opts).is_ok());
+        let e = beta_dr(&p, &k, &w, Uncertainty::Additive, 100_000_000, &opts).unwrap_err();
+        assert!(matches!(e, Error::TooMuchWork { .. }), "{e}");
+        let huge_grid = RobustnessOptions {
+            grid: usize::MAX / 2,
+            ..Default::default()
+        };
+        let e = beta_dr(&p, &k, &w, Uncertainty::Additive, 2, &huge_grid).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+    }
+}

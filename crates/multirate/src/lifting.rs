@@ -616,6 +616,45 @@ mod tests {
     }
 
     #[test]
+    fn frames_beyond_memory_or_usize_are_rejected() {
+        // Coprime periods whose lcm overflows usize: a named error, not a
+        // wrapped frame.
+        let e = MultirateLifting::new(
+            &[4_294_967_291],
+            &[4_294_967_279, 4_294_967_231],
+            &[0, 0],
+            Ordering::ChannelMajor,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::InvalidRates {
+                    what: "lifting period",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        // A frame of 1e6·999_983 base periods: its lifted channels (and
+        // the causal mask) would exceed the memory budget.
+        let e = MultirateLifting::new(&[1], &[999_983, 1_000_000], &[0, 0], Ordering::ChannelMajor)
+            .unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+        // The same for an explicit period.
+        let e =
+            MultirateLifting::new_with_period(&[1], &[1], &[0], Ordering::ChannelMajor, 1 << 40)
+                .unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn coprime_is_checked_and_normalised() {
         assert!(matches!(
             SisoRates::new(2, 4),

@@ -699,6 +699,33 @@ mod tests {
     }
 
     #[test]
+    fn lags_beyond_memory_are_too_large() {
+        assert!(check_cover_size(60, 2, 2).is_ok());
+        let e = check_cover_size(500_000, 2, 2).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+        let e = check_cover_size(usize::MAX / 2, 4, 4).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn hold_times_period_overflow_is_an_option_error() {
+        let opts = QMarkovOptions {
+            hold: usize::MAX / 4,
+            ..Default::default()
+        };
+        assert!(matches!(
+            opts.validate(),
+            Err(Error::InvalidOption { what: "hold", .. })
+        ));
+    }
+
+    #[test]
     fn unstable_cover_is_reported() {
         let g = first_order(1.02);
         assert!(matches!(
