@@ -285,7 +285,8 @@ pub fn scan_rows(
 
 /// [`scan_rows`] with the number of threads parsing a CSV file given:
 /// `Some(1)` reads on the calling thread alone, `Some(n)` parses blocks on
-/// n threads in all (the calling thread included) whatever the file's size,
+/// n threads in all (the calling thread included; at most the available
+/// parallelism, `lifted_linalg::budget::resolve_threads`) whatever the file's size,
 /// `None` chooses as [`scan_rows`] does. The same rows, checks and
 /// messages in every case (the benches compare the timings).
 pub fn scan_rows_threads(
@@ -301,7 +302,7 @@ pub fn scan_rows_threads(
         return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
     let mode = Mode {
-        threads: threads.map(|n| n.max(1)),
+        threads: threads.map(|n| lifted_linalg::budget::resolve_threads(n.max(1))),
         ..Mode::default()
     };
     scan_csv(path, wanted, may_be_empty, ts, mode, visit)
