@@ -179,7 +179,8 @@ fn check_opts(n: usize, opts: &RobustnessOptions) -> Result<()> {
     crate::error::check_at_least_one("slow period n", n)?;
     if opts.grid < 8
         || !(opts.theta_tol > 0.0 && opts.theta_tol.is_finite())
-        || !(opts.max_work > 0.0)
+        || opts.max_work.is_nan()
+        || opts.max_work <= 0.0
     {
         return Err(Error::InvalidArgument {
             what: "robustness options",

@@ -405,7 +405,8 @@ pub fn refine_pem(
         reason: "PEM refinement needs a discrete-time model".into(),
     })?;
     if opts.max_iterations == 0
-        || !(opts.max_work > 0.0)
+        || opts.max_work.is_nan()
+        || opts.max_work <= 0.0
         || !(opts.cost_tolerance >= 0.0
             && opts.step_tolerance >= 0.0
             && opts.gradient_tolerance >= 0.0)
