@@ -1991,6 +1991,42 @@ mod npy_input {
         std::fs::write(path, out).unwrap();
     }
 
+    /// Issue 30: `--columns` naming a column twice is an error naming it
+    /// and both positions (the first one would otherwise win silently).
+    #[test]
+    fn duplicate_columns_names_are_rejected() {
+        let d = tmp("npy-dup");
+        let f = p(&d, "three.npy");
+        let cols = vec![
+            (0..50).map(|k| k as f64).collect::<Vec<_>>(),
+            (0..50).map(|k| (k % 2) as f64).collect(),
+            (0..50).map(|k| (k % 3) as f64).collect(),
+        ];
+        write_npy(&f, &cols, false);
+        let e = fails(
+            &[
+                "identify",
+                "--method",
+                "n4sid",
+                "--data",
+                &f,
+                "--columns",
+                "t,u1,u1",
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--out",
+                &p(&d, "x.json"),
+            ],
+            2,
+        );
+        assert!(
+            e.contains("--columns") && e.contains("'u1' appears twice (positions 2 and 3)"),
+            "{e}"
+        );
+    }
+
     /// The model matrices and base period of a model file.
     fn matrices(path: &str) -> Vec<serde_json::Value> {
         let v: serde_json::Value =
