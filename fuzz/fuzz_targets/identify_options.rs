@@ -4,6 +4,7 @@
 //! small single-rate and multirate records, through the same service the
 //! `lifted identify` command calls (`run_identification`): a model file or
 //! a one-line error, never a panic, abort (allocation failure) or hang.
+//! The memory budget is 2 GiB (the smoke run's RSS limit is 4 GiB).
 //! Refinement runs with at most 3 iterations here so that one input stays
 //! within the smoke run's `-timeout` (the work bound of `refine_pem` caps
 //! each iteration; the iteration count is the command's own option).
@@ -17,6 +18,7 @@ use clap::Parser;
 use libfuzzer_sys::fuzz_target;
 use lifted_cli::args::{Cli, Command};
 use lifted_cli::service::identify::run_identification;
+use lifted_linalg::budget::MemoryBudget;
 
 #[derive(Debug, Arbitrary)]
 struct Case {
@@ -51,6 +53,9 @@ fn up_to_1e6(v: u32) -> u32 {
 fn records() -> &'static (String, String) {
     static FILES: OnceLock<(String, String)> = OnceLock::new();
     FILES.get_or_init(|| {
+        // Within the smoke run's -rss_limit_mb=4096: a request the budget
+        // admits must also fit under libFuzzer's limit.
+        MemoryBudget::set_process_default(2 << 30);
         let dir: PathBuf = std::env::temp_dir();
         let pid = std::process::id();
         let single = dir.join(format!("lifted-fuzz-options-{pid}-single.csv"));
@@ -62,7 +67,10 @@ fn records() -> &'static (String, String) {
             s ^= s << 17;
             s
         };
-        let (mut a, mut b) = (String::from("t,u1,u2,y1,y2\n"), String::from("t,u1,u2,y1,y2\n"));
+        let (mut a, mut b) = (
+            String::from("t,u1,u2,y1,y2\n"),
+            String::from("t,u1,u2,y1,y2\n"),
+        );
         let (mut x1, mut x2) = (0.0f64, 0.0f64);
         for k in 0..300 {
             let u1 = if next() & 1 == 0 { -1.0 } else { 1.0 };
@@ -70,7 +78,11 @@ fn records() -> &'static (String, String) {
             let e = (next() % 1000) as f64 * 1e-5;
             let (y1, y2) = (x1 + e, x2 - e);
             a += &format!("{k},{u1},{u2},{y1},{y2}\n");
-            let y2s = if k % 3 == 0 { format!("{y2}") } else { String::new() };
+            let y2s = if k % 3 == 0 {
+                format!("{y2}")
+            } else {
+                String::new()
+            };
             b += &format!("{k},{u1},{u2},{y1},{y2s}\n");
             x1 = 0.8 * x1 + 0.5 * u1;
             x2 = 0.5 * x2 + 0.3 * u2 + 0.2 * u1;
@@ -91,8 +103,20 @@ fuzz_target!(|c: Case| {
         up_to_1e6(c.order).to_string()
     };
     let mut argv: Vec<String> = [
-        "lifted", "identify", "--method", method, "--data", data, "--inputs", "u1,u2",
-        "--outputs", "y1,y2", "--order", &order, "--out", "unused.json",
+        "lifted",
+        "identify",
+        "--method",
+        method,
+        "--data",
+        data,
+        "--inputs",
+        "u1,u2",
+        "--outputs",
+        "y1,y2",
+        "--order",
+        &order,
+        "--out",
+        "unused.json",
     ]
     .iter()
     .map(|s| s.to_string())
