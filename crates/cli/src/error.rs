@@ -2,6 +2,8 @@
 
 use std::fmt::Display;
 
+use crate::shown::clean_message;
+
 /// Everything that ends a command early. `main` prints the message on one
 /// line and exits with [`CliError::exit_code`].
 #[derive(Debug, thiserror::Error)]
@@ -29,20 +31,28 @@ impl CliError {
 /// Result alias of the command.
 pub type CliResult<T> = Result<T, CliError>;
 
-/// An input error with a message.
+/// An input error with a message, made safe for one line
+/// ([`crate::shown::clean_message`]: control characters escaped, long
+/// runs and the whole cut with a count).
 pub fn input(msg: impl Display) -> CliError {
-    CliError::Input(msg.to_string())
+    CliError::Input(clean_message(&msg.to_string()))
+}
+
+/// A failed check with a message, made safe like [`input`]'s.
+pub fn failed(msg: impl Display) -> CliError {
+    CliError::Failed(clean_message(&msg.to_string()))
 }
 
 /// Adds context ("what was being done") to any displayable error.
 pub trait Context<T> {
-    /// Maps the error to [`CliError::Input`] with "`what`: `error`".
+    /// Maps the error to [`CliError::Input`] with "`what`: `error`"
+    /// (through [`input`]).
     fn ctx(self, what: impl Display) -> CliResult<T>;
 }
 
 impl<T, E: Display> Context<T> for Result<T, E> {
     fn ctx(self, what: impl Display) -> CliResult<T> {
-        self.map_err(|e| CliError::Input(format!("{what}: {e}")))
+        self.map_err(|e| input(format!("{what}: {e}")))
     }
 }
 

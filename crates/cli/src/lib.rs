@@ -9,7 +9,9 @@
 //! * [`service::validation`]: model file + record → fit and residual tests;
 //! * [`service::figures`]: plots of a model and a record;
 //! * [`service::report`]: the HTML report page;
-//! * [`studio`]: the local web server of `lifted studio` and its JSON API.
+//! * [`studio`]: the local web server of `lifted studio` and its JSON API;
+//! * [`shown`]: user content in messages (escaped, bounded) and fit
+//!   percentages in bounded width.
 //!
 //! No command handler calls another command's handler: each goes through
 //! these modules. The fuzz targets (`fuzz/`) feed arbitrary bytes to the
@@ -21,6 +23,7 @@ pub mod html;
 pub mod npy;
 pub mod plot;
 pub mod service;
+pub mod shown;
 pub mod studio;
 pub mod table;
 pub mod terminal;

@@ -17,7 +17,8 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 
 use crate::error::{CliResult, input};
-use crate::table::{RowCheck, time_column};
+use crate::shown::{shown, shown_list};
+use crate::table::{RowCheck, check_unique, time_column};
 
 /// The magic string opening every `.npy` file.
 const MAGIC: &[u8; 6] = b"\x93NUMPY";
@@ -266,6 +267,7 @@ fn names(path: &str, given: &[String], cols: usize) -> CliResult<Vec<String>> {
             given.len()
         )));
     }
+    check_unique(&format!("{}: --columns", shown(path)), given)?;
     Ok(given.to_vec())
 }
 
@@ -300,8 +302,10 @@ pub fn scan_rows(
                     ""
                 };
                 input(format!(
-                    "{path}: no column '{n}' (columns: {}{hint})",
-                    header.join(", ")
+                    "{}: no column '{}' (columns: {}{hint})",
+                    shown(path),
+                    shown(n),
+                    shown_list(&header)
                 ))
             })
         })

@@ -23,6 +23,7 @@ use lifted_lti::{Dataset, InputChannel, OutputChannel};
 use nalgebra::DMatrix;
 
 use crate::error::{CliResult, Context, input};
+use crate::shown::{shown, shown_list};
 
 /// Which columns to read and how to lay out the data set.
 #[derive(Debug, Clone, Default)]
@@ -86,6 +87,52 @@ pub fn parse_name_counts(
         .collect()
 }
 
+/// An error naming the first name of `names` that occurs twice, with both
+/// 1-based positions: "`what`: column 'y1' appears twice (positions 2 and
+/// 3)". Empty names (a trailing comma in a header) are not compared.
+pub fn check_unique<S: AsRef<str>>(what: &str, names: &[S]) -> CliResult<()> {
+    let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for (i, n) in names.iter().enumerate() {
+        let n = n.as_ref();
+        if n.is_empty() {
+            continue;
+        }
+        if let Some(first) = seen.insert(n, i) {
+            return Err(input(format!(
+                "{what}: column '{}' appears twice (positions {} and {})",
+                shown(n),
+                first + 1,
+                i + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
+impl DataSpec {
+    /// Rejects a column selected twice among the inputs and outputs (a name
+    /// in both lists, or twice in one), naming it and both places, e.g.
+    /// "column 'y1' is selected twice (--outputs position 1 and --outputs
+    /// position 2)". Extra columns (instruments) may repeat an input.
+    pub fn check_selection(&self) -> CliResult<()> {
+        let mut seen: std::collections::HashMap<&str, (&str, usize)> =
+            std::collections::HashMap::new();
+        for (flag, list) in [("--inputs", &self.inputs), ("--outputs", &self.outputs)] {
+            for (i, n) in list.iter().enumerate() {
+                if let Some((f0, i0)) = seen.insert(n.as_str(), (flag, i)) {
+                    return Err(input(format!(
+                        "column '{}' is selected twice ({f0} position {} and {flag} position {})",
+                        shown(n),
+                        i0 + 1,
+                        i + 1
+                    )));
+                }
+            }
+        }
+        check_unique("--instrument", &self.extra)
+    }
+}
+
 /// Splits a comma-separated list of names.
 pub fn names(list: &str) -> Vec<String> {
     list.split(',')
@@ -119,12 +166,14 @@ fn cell_value(
     }
     let v: f64 = text.parse().map_err(|_| {
         input(format!(
-            "{path}: line {line}, column '{column}': cannot parse '{text}' as a number"
+            "{path}: line {line}, column '{column}': cannot parse '{}' as a number",
+            shown(text)
         ))
     })?;
     if !v.is_finite() {
         return Err(input(format!(
-            "{path}: line {line}, column '{column}': value '{text}' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)"
+            "{path}: line {line}, column '{column}': value '{}' is not finite (NaN/inf are not allowed; leave the cell empty for an unsampled output)",
+            shown(text)
         )));
     }
     Ok(v)
@@ -186,8 +235,10 @@ fn column_indices(path: &str, header: &[String], wanted: &[&String]) -> CliResul
         .map(|name| {
             header.iter().position(|h| h == *name).ok_or_else(|| {
                 input(format!(
-                    "{path}: header has no column '{name}' (columns: {})",
-                    header.join(", ")
+                    "{}: header has no column '{}' (columns: {})",
+                    shown(path),
+                    shown(name),
+                    shown_list(header)
                 ))
             })
         })
@@ -234,7 +285,8 @@ pub fn scan_rows(
 
 /// [`scan_rows`] with the number of threads parsing a CSV file given:
 /// `Some(1)` reads on the calling thread alone, `Some(n)` parses blocks on
-/// n threads in all (the calling thread included) whatever the file's size,
+/// n threads in all (the calling thread included; at most the available
+/// parallelism, `lifted_linalg::budget::resolve_threads`) whatever the file's size,
 /// `None` chooses as [`scan_rows`] does. The same rows, checks and
 /// messages in every case (the benches compare the timings).
 pub fn scan_rows_threads(
@@ -250,7 +302,7 @@ pub fn scan_rows_threads(
         return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
     let mode = Mode {
-        threads: threads.map(|n| n.max(1)),
+        threads: threads.map(|n| lifted_linalg::budget::resolve_threads(n.max(1))),
         ..Mode::default()
     };
     scan_csv(path, wanted, may_be_empty, ts, mode, visit)
@@ -507,6 +559,7 @@ fn read_header<R: std::io::Read>(path: &str, rd: &mut CsvReader<R>) -> CliResult
             "{path}: line 1 is not a header row (it contains numbers); the first row must name the columns"
         )));
     }
+    check_unique(&format!("{}: header", shown(path)), &header)?;
     Ok(header)
 }
 
@@ -1526,6 +1579,7 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
             "at least one input and one output column are needed (--inputs, --outputs)",
         ));
     }
+    spec.check_selection()?;
     let Raw { mut cols, rows, ts } =
         read_raw(path, &spec.columns, &wanted, n_in..n_in + n_out, spec.ts)?;
     // Output sampling: declared periods are checked, others inferred.
@@ -2209,7 +2263,8 @@ mod tests {
         let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
         assert_eq!(
             e.replace(&path, "F"),
-            "F: line 6, column 'y1': cannot parse 'a\nb' as a number"
+            // The newline in the cell is shown escaped (one-line messages).
+            "F: line 6, column 'y1': cannot parse 'a\\nb' as a number"
         );
         let text = "\u{feff}\"t\",u1,y1\r\n\r\n0, 1 ,\"2\"\r\n\n0.5,\"-2.5e-3\",\r\n1,1E5,\"\"\"3\"\"\"\r\n";
         let path = file("q2.csv", text.as_bytes());

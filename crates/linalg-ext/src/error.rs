@@ -126,6 +126,23 @@ pub enum Error {
         /// Iterations performed.
         iterations: usize,
     },
+    /// A request would need more memory than the budget allows
+    /// ([`crate::budget::MemoryBudget`]): refused before anything is
+    /// allocated.
+    #[error(
+        "{what} needs {} of memory, more than the budget of {} (half the physical memory by default); \
+         lower the horizons, order or periods, or set LIFTED_MEMORY_LIMIT=<bytes> to raise the budget",
+        crate::budget::format_bytes(*needed_bytes),
+        crate::budget::format_bytes(*budget_bytes)
+    )]
+    TooLarge {
+        /// What would have been allocated.
+        what: &'static str,
+        /// Bytes needed (`u64::MAX` when the size overflows 64 bits).
+        needed_bytes: u64,
+        /// The budget in bytes.
+        budget_bytes: u64,
+    },
     /// The backend decomposition failed.
     #[error("{what} failed in the backend: {reason}")]
     Backend {

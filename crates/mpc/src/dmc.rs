@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::controller::{Controller, Predictive, check_update_args, never_sampled};
 use crate::error::{Error, Result};
-use crate::law::{MoveLaw, Moves, check_horizons};
+use crate::law::{MoveLaw, Moves, check_horizon_size, check_horizons};
 use crate::model::step_coefficients;
 use crate::options::MpcOptions;
 
@@ -53,6 +53,13 @@ impl Dmc {
                 ),
             });
         }
+        // The truncation sizes the step coefficients (N + 1 p×n_u matrices).
+        check_horizon_size(
+            truncation,
+            opts.control_horizon.min(truncation),
+            model.n_outputs(),
+            model.n_inputs(),
+        )?;
         Self::from_steps(step_coefficients(model, truncation)?, opts)
     }
 

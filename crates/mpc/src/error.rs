@@ -95,7 +95,24 @@ pub enum Error {
         /// Remaining gap between its upper and lower bounds.
         gap: f64,
     },
-    /// Error from `lifted-linalg`.
+    /// A computation whose work is set by its options (e.g. the slow period
+    /// n and the θ grid of β_dr) would exceed its work bound
+    /// ([`crate::RobustnessOptions::max_work`]).
+    #[error(
+        "{what} needs about {flops:.2e} floating-point operations, more than the bound of {limit:.2e}; {hint}"
+    )]
+    TooMuchWork {
+        /// Which computation.
+        what: &'static str,
+        /// Estimated operations.
+        flops: f64,
+        /// The bound.
+        limit: f64,
+        /// Which options lower the work.
+        hint: &'static str,
+    },
+    /// Error from `lifted-linalg` (including `TooLarge`: a horizon or
+    /// period whose matrices would exceed the memory budget).
     #[error(transparent)]
     Linalg(#[from] lifted_linalg::Error),
     /// Error from `lifted-lti`.

@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::controller::{Controller, Predictive, check_update_args, never_sampled};
 use crate::error::Result;
-use crate::law::{MoveLaw, Moves, check_horizons};
+use crate::law::{MoveLaw, Moves, check_horizon_size, check_horizons};
 use crate::model::{integrated_model, step_coefficients};
 use crate::options::MpcOptions;
 
@@ -43,6 +43,12 @@ impl StateSpaceMpc {
     pub fn new(model: &StateSpace, opts: &MpcOptions) -> Result<Self> {
         let hp = opts.prediction_horizon;
         check_horizons(hp, opts.control_horizon)?;
+        check_horizon_size(
+            hp,
+            opts.control_horizon,
+            model.n_outputs(),
+            model.n_inputs(),
+        )?;
         let (ai, bi, ci) = integrated_model(model)?;
         let steps = step_coefficients(model, hp)?;
         let law = MoveLaw::new(&steps, opts)?;

@@ -90,6 +90,22 @@ pub(crate) fn check_horizons(hp: usize, hc: usize) -> Result<()> {
     Ok(())
 }
 
+/// The memory of a receding-horizon law with horizons (h, m) for p outputs
+/// and n_u inputs, checked against the memory budget before anything is
+/// formed (`lifted_linalg::Error::TooLarge`, wrapped): the step
+/// coefficients ((h + 1) p n_u), the dynamic matrix and its two weighted
+/// copies (h p × m n_u each), the Hessian and its factor ((m n_u)² each).
+pub(crate) fn check_horizon_size(hp: usize, hc: usize, p: usize, m: usize) -> Result<()> {
+    use lifted_linalg::budget::{MemoryBudget, Size};
+    let need = match (hp.checked_mul(p), hc.checked_mul(m)) {
+        (Some(rows), Some(cols)) => Size::matrices(3, rows, cols)
+            .plus(Size::matrices(2, cols, cols))
+            .plus(Size::matrices(hp.saturating_add(1), p, m)),
+        _ => Size::OVERFLOW,
+    };
+    Ok(MemoryBudget::default().check("the MPC prediction matrices (horizons)", need)?)
+}
+
 /// Block-Toeplitz dynamic matrix 𝒜 (h p × m n_u) with block (j, c) =
 /// S_{j−c+1} (zero above the diagonal), from step-response coefficients
 /// `steps[i] = S_i` (index 0 is S_0 = 0; needs `steps.len() > h`).
@@ -103,6 +119,7 @@ pub fn dynamic_matrix(steps: &[DMatrix<f64>], hp: usize, hc: usize) -> Result<DM
         });
     }
     let (p, m) = steps[0].shape();
+    check_horizon_size(hp, hc, p, m)?;
     let mut a = DMatrix::zeros(hp * p, hc * m);
     for j in 0..hp {
         for c in 0..hc.min(j + 1) {
@@ -433,6 +450,18 @@ mod tests {
 
     fn steps() -> Vec<DMatrix<f64>> {
         (0..=6).map(|i| dmatrix![i as f64]).collect()
+    }
+
+    #[test]
+    fn horizons_beyond_memory_are_too_large() {
+        assert!(check_horizon_size(12, 3, 2, 2).is_ok());
+        for (hp, hc) in [(10_000_000, 1_000_000), (usize::MAX, 1)] {
+            let e = check_horizon_size(hp, hc, 2, 2).unwrap_err();
+            assert!(
+                matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -29,6 +29,19 @@ pub struct RobustnessOptions {
     pub grid: usize,
     /// Golden-section tolerance on θ around the best grid points. Default 1e-10.
     pub theta_tol: f64,
+    /// Bound on the work of one β_dr computation in floating-point
+    /// operations: (grid + golden-section steps) θ values × n transfer
+    /// evaluations of ≈ 10(order + 1)³ + 8 q p (order + 1) each
+    /// ([`Error::TooMuchWork`] above it, before any evaluation). Default
+    /// 1e10 (seconds).
+    #[serde(default = "default_max_work")]
+    pub max_work: f64,
+}
+
+/// [`RobustnessOptions::max_work`]'s default (also for options serialised
+/// before the field existed).
+fn default_max_work() -> f64 {
+    1e10
 }
 
 impl Default for RobustnessOptions {
@@ -36,6 +49,7 @@ impl Default for RobustnessOptions {
         Self {
             grid: 2000,
             theta_tol: 1e-10,
+            max_work: default_max_work(),
         }
     }
 }
@@ -163,12 +177,55 @@ pub fn beta_sr(
 
 fn check_opts(n: usize, opts: &RobustnessOptions) -> Result<()> {
     crate::error::check_at_least_one("slow period n", n)?;
-    if opts.grid < 8 || !(opts.theta_tol > 0.0 && opts.theta_tol.is_finite()) {
+    if opts.grid < 8
+        || !(opts.theta_tol > 0.0 && opts.theta_tol.is_finite())
+        || opts.max_work.is_nan()
+        || opts.max_work <= 0.0
+    {
         return Err(Error::InvalidArgument {
             what: "robustness options",
-            reason: "grid >= 8 and theta_tol > 0 required".into(),
+            reason: "grid >= 8, theta_tol > 0 and max_work > 0 required".into(),
         });
     }
+    // The grid values (θ, f(θ)) and their order.
+    lifted_linalg::budget::MemoryBudget::default().check(
+        "the theta grid of the robustness measure",
+        lifted_linalg::budget::Size::f64s(opts.grid).times(3),
+    )?;
+    Ok(())
+}
+
+/// θ values [`maximise`] evaluates: the grid, then for each of the best
+/// three grid points two starts and one golden-section step per factor
+/// 1/φ until the bracket 2π/grid is below `theta_tol`.
+fn theta_evaluations(opts: &RobustnessOptions) -> f64 {
+    let bracket = 2.0 * std::f64::consts::PI / opts.grid as f64;
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let steps = ((opts.theta_tol / bracket).ln() / g.ln()).ceil().max(0.0);
+    opts.grid as f64 + 3.0 * (2.0 + steps)
+}
+
+/// [`Error::TooMuchWork`] when β_dr at slow period `n` for the map `t`
+/// would exceed [`RobustnessOptions::max_work`], and the memory of the
+/// n-alias stack against the memory budget.
+fn check_alias_work(t: &StateSpace, n: usize, opts: &RobustnessOptions) -> Result<()> {
+    let (q, p) = (t.n_outputs(), t.n_inputs());
+    let order = (t.order() + 1) as f64;
+    let per_eval = 10.0 * order.powi(3) + 8.0 * (q * p) as f64 * order;
+    let flops = theta_evaluations(opts) * n as f64 * per_eval;
+    if flops > opts.max_work {
+        return Err(Error::TooMuchWork {
+            what: "beta_dr",
+            flops,
+            limit: opts.max_work,
+            hint: "lower the slow period n or the theta grid, or raise max_work",
+        });
+    }
+    use lifted_linalg::budget::{MemoryBudget, Size};
+    // Complex n q × p stack and its real embedding (2nq × 2p).
+    let need =
+        Size::matrices(2, n, q.saturating_mul(p)).plus(Size::matrices(4, n, q.saturating_mul(p)));
+    MemoryBudget::default().check("the beta_dr alias stack (slow period n)", need)?;
     Ok(())
 }
 
@@ -276,6 +333,7 @@ pub fn beta_dr(
 ) -> Result<Beta> {
     check_opts(n, opts)?;
     let t = robustness_map(model, controller, weight, uncertainty)?;
+    check_alias_work(&t, n, opts)?;
     maximise(|th| alias_gain(&t, n, th), opts)
 }
 
@@ -483,4 +541,42 @@ pub(crate) fn theta_grid(k: usize) -> Vec<f64> {
     (0..k)
         .map(|i| std::f64::consts::PI * (i as f64 + 0.5) / k as f64)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn first_order(a: f64, b: f64) -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_element(1, 1, a),
+            DMatrix::from_element(1, 1, b),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn beta_dr_work_is_bounded() {
+        let (p, k) = (first_order(0.9, 0.15), first_order(0.0, 0.5));
+        let w = StateSpace::gain(DMatrix::identity(1, 1), Some(1.0)).unwrap();
+        let opts = RobustnessOptions {
+            grid: 64,
+            ..Default::default()
+        };
+        assert!(beta_dr(&p, &k, &w, Uncertainty::Additive, 4, &opts).is_ok());
+        let e = beta_dr(&p, &k, &w, Uncertainty::Additive, 100_000_000, &opts).unwrap_err();
+        assert!(matches!(e, Error::TooMuchWork { .. }), "{e}");
+        let huge_grid = RobustnessOptions {
+            grid: usize::MAX / 2,
+            ..Default::default()
+        };
+        let e = beta_dr(&p, &k, &w, Uncertainty::Additive, 2, &huge_grid).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+    }
 }

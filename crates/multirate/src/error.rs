@@ -185,10 +185,11 @@ pub(crate) fn gcd(a: usize, b: usize) -> usize {
     if b == 0 { a } else { gcd(b, a % b) }
 }
 
-pub(crate) fn lcm(a: usize, b: usize) -> usize {
+/// lcm(a, b), `None` when it overflows (lcm(0, ·) = 0).
+pub(crate) fn checked_lcm(a: usize, b: usize) -> Option<usize> {
     if a == 0 || b == 0 {
-        0
+        Some(0)
     } else {
-        a / gcd(a, b) * b
+        (a / gcd(a, b)).checked_mul(b)
     }
 }

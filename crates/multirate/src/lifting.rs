@@ -21,12 +21,13 @@
 //! (re-exported from the data layer of `lifted-lti`): norm preserving and
 //! exactly inverse to each other.
 
+use lifted_linalg::budget::{MemoryBudget, Size};
 use lifted_lti::Dataset;
 use lifted_lti::{InputChannel, OutputChannel};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, check_finite, gcd, lcm};
+use crate::error::{Error, Result, check_finite, checked_lcm, gcd};
 
 pub use lifted_lti::data::{lift_signal as lift, unlift_signal as unlift};
 
@@ -112,6 +113,28 @@ pub struct MultirateLifting {
     outputs: Vec<Slot>,
 }
 
+/// The lifted channel counts n̲_u = Σ J/m_c and n̲_y = Σ J/J_o checked
+/// against the memory budget (the slots, and the n̲_y × n̲_u causal mask and
+/// lifted D̄ every route forms) before they are built:
+/// `lifted_linalg::Error::TooLarge` (wrapped) for a frame J that the
+/// holds and periods make too long.
+fn check_lifted_size(holds: &[usize], out_periods: &[usize], period: usize) -> Result<()> {
+    let sum = |v: &[usize]| {
+        v.iter()
+            .try_fold(0usize, |acc, &h| acc.checked_add(period / h))
+    };
+    let need = match (sum(holds), sum(out_periods)) {
+        (Some(nu), Some(ny)) => {
+            Size::matrices(2, ny, nu).plus(Size::f64s(nu.saturating_add(ny)).times(4))
+        }
+        _ => Size::OVERFLOW,
+    };
+    Ok(MemoryBudget::default().check(
+        "the lifted channels of the frame (holds and output periods)",
+        need,
+    )?)
+}
+
 /// [`Error::DimensionMismatch`] unless the signal `m` has `expected` columns.
 fn check_columns(what: &'static str, m: &DMatrix<f64>, expected: usize) -> Result<()> {
     if m.ncols() != expected {
@@ -184,7 +207,13 @@ impl MultirateLifting {
         let period = holds
             .iter()
             .chain(out_periods.iter())
-            .fold(1usize, |a, &b| lcm(a, b));
+            .try_fold(1usize, |a, &b| checked_lcm(a, b))
+            .ok_or_else(|| Error::InvalidRates {
+                what: "lifting period",
+                reason: "the least common multiple of the holds and output periods overflows"
+                    .into(),
+            })?;
+        check_lifted_size(holds, out_periods, period)?;
         Ok(Self::build(
             holds,
             out_periods,
@@ -260,6 +289,7 @@ impl MultirateLifting {
         if period == base.period {
             return Ok(base);
         }
+        check_lifted_size(holds, out_periods, period)?;
         Ok(Self::build(
             holds,
             out_periods,
@@ -582,6 +612,45 @@ mod tests {
         assert_eq!(
             mask,
             DMatrix::from_row_slice(2, 3, &[false, false, false, true, true, false])
+        );
+    }
+
+    #[test]
+    fn frames_beyond_memory_or_usize_are_rejected() {
+        // Coprime periods whose lcm overflows usize: a named error, not a
+        // wrapped frame.
+        let e = MultirateLifting::new(
+            &[4_294_967_291],
+            &[4_294_967_279, 4_294_967_231],
+            &[0, 0],
+            Ordering::ChannelMajor,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::InvalidRates {
+                    what: "lifting period",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        // A frame of 1e6·999_983 base periods: its lifted channels (and
+        // the causal mask) would exceed the memory budget.
+        let e = MultirateLifting::new(&[1], &[999_983, 1_000_000], &[0, 0], Ordering::ChannelMajor)
+            .unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+        // The same for an explicit period.
+        let e =
+            MultirateLifting::new_with_period(&[1], &[1], &[0], Ordering::ChannelMajor, 1 << 40)
+                .unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
         );
     }
 

@@ -509,7 +509,8 @@ fn rel_error(model: &[DMatrix<f64>], data: &[DMatrix<f64>]) -> f64 {
 /// [`Error::RecordTooShort`], [`Error::WrongPeriodLength`], [`Error::PeriodMismatch`],
 /// [`Error::NotPrbs`], [`Error::NotSteadyState`], [`Error::InvalidAmplitude`],
 /// [`Error::LagsOutOfRange`], [`Error::OrderExceedsRank`], [`Error::InvalidOption`],
-/// [`Error::InvalidWeighting`], [`Error::UnstableCover`].
+/// [`Error::InvalidWeighting`], [`Error::UnstableCover`]; `lifted_linalg::Error::TooLarge`
+/// (wrapped in [`Error::Linalg`]) when q lags need more memory than the budget.
 pub fn identify_records(
     records: &[ChannelRecord],
     ts: f64,
@@ -552,6 +553,7 @@ pub fn identify_records(
             });
         }
     }
+    check_cover_size(opts.q, ny, nw)?;
     let prepared: Vec<Prepared> = records
         .iter()
         .enumerate()
@@ -665,6 +667,22 @@ pub fn identify_records(
     Ok(Identified { model, diagnostics })
 }
 
+/// The memory of the cover for q lags, n_y outputs and n_w inputs, checked
+/// against `lifted_linalg::budget::MemoryBudget` before it is formed
+/// (`lifted_linalg::Error::TooLarge`, wrapped): D_q and its weighted copy,
+/// R_q and their eigenvectors (four qn_y × qn_y matrices), W_q
+/// ((q n_w)²) and H_q (q n_y × q n_w, twice).
+fn check_cover_size(q: usize, ny: usize, nw: usize) -> Result<()> {
+    use lifted_linalg::budget::{MemoryBudget, Size};
+    let need = match (q.checked_mul(ny), q.checked_mul(nw)) {
+        (Some(n), Some(w)) => Size::matrices(4, n, n)
+            .plus(Size::matrices(1, w, w))
+            .plus(Size::matrices(2, n, w)),
+        _ => Size::OVERFLOW,
+    };
+    Ok(MemoryBudget::default().check("the q-Markov cover (q lags)", need)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -678,6 +696,33 @@ mod tests {
             Some(1.0),
         )
         .unwrap()
+    }
+
+    #[test]
+    fn lags_beyond_memory_are_too_large() {
+        assert!(check_cover_size(60, 2, 2).is_ok());
+        let e = check_cover_size(500_000, 2, 2).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+        let e = check_cover_size(usize::MAX / 2, 4, 4).unwrap_err();
+        assert!(
+            matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. })),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn hold_times_period_overflow_is_an_option_error() {
+        let opts = QMarkovOptions {
+            hold: usize::MAX / 4,
+            ..Default::default()
+        };
+        assert!(matches!(
+            opts.validate(),
+            Err(Error::InvalidOption { what: "hold", .. })
+        ));
     }
 
     #[test]

@@ -149,7 +149,22 @@ impl QMarkovOptions {
             });
         }
         let m = self.m()?;
-        let half = self.hold * m;
+        let half = self
+            .hold
+            .checked_mul(m)
+            .ok_or_else(|| Error::InvalidOption {
+                what: "hold",
+                reason: format!(
+                    "n_r = {} times the PRBS period {m} overflows the sample count",
+                    self.hold
+                ),
+            })?;
+        if half > usize::MAX / 2 {
+            return Err(Error::InvalidOption {
+                what: "hold",
+                reason: format!("a record of 2 n_r m = 2 × {half} samples cannot be indexed"),
+            });
+        }
         if self.q < 2 || self.q >= half {
             return Err(Error::LagsOutOfRange {
                 q: self.q,

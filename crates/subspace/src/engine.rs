@@ -528,6 +528,7 @@ fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelL
             reason: format!("sample period must be positive and finite, got {}", opts.ts),
         });
     }
+    crate::budget::check_hankel(p, f, nu, ny, opts.compression, opts.chunk_rows)?;
     let layout = HankelLayout {
         past: p,
         future: f,
@@ -1199,13 +1200,10 @@ fn identify_as_given(
     from_factor(factor, &layout, opts, Some(&records), scale, compress_s)
 }
 
-/// Threads for the correlation kernel: 0 = all available.
+/// Threads for the correlation kernel: 0 = all available, else capped at
+/// the available parallelism ([`crate::budget::threads`]).
 fn thread_count(threads: usize) -> usize {
-    if threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        threads
-    }
+    crate::budget::threads(threads)
 }
 
 /// The data records when they are available (in-memory identification),

@@ -180,7 +180,9 @@ enum Engine {
         /// S(δ) of the current record.
         s: Vec<f64>,
         /// Gram matrix of the completed records, in the row order of the
-        /// factor (sources order).
+        /// factor (sources order); 0×0 until a record yields a column, so
+        /// that a horizon too long for the data is reported without the
+        /// k×k allocation.
         gram: DMatrix<f64>,
         /// Row of the factor of each natural index o·n_z + c (offset o,
         /// channel c).
@@ -250,7 +252,7 @@ impl HankelStream {
             },
             Compression::Auto | Compression::Correlation => Engine::Correlation {
                 s: vec![0.0; layout.span() * nz * nz],
-                gram: DMatrix::zeros(k, k),
+                gram: DMatrix::zeros(0, 0),
                 position: {
                     let mut position = vec![0; layout.span() * nz];
                     for (r, &(o, c)) in layout.sources().iter().enumerate() {
@@ -466,6 +468,10 @@ impl HankelStream {
         } = &mut self.engine
         {
             if cols > 0 {
+                if gram.nrows() == 0 {
+                    let k = self.layout.nrows();
+                    *gram = DMatrix::zeros(k, k);
+                }
                 // The carry holds the last s − 1 samples; finish the sums
                 // S(δ) = Σ_{t ≤ N−1−δ} z(t) z(t+δ)ᵀ over its start positions.
                 let tail = &self.carry;
@@ -613,6 +619,10 @@ impl HankelStream {
                 threads,
                 ..
             } => {
+                if g.nrows() == 0 {
+                    // No record gave a column (the callers report that first).
+                    g = DMatrix::zeros(k, k);
+                }
                 let w = &self.window_sums;
                 // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without
                 // centring), in place.

@@ -158,12 +158,31 @@ fn iv_subspace(
     let (u0, y0, z0) = recs[0];
     let (nu, ny, nz) = (u0.ncols(), y0.ncols(), z0.ncols());
     let (iu, iy, iz) = (1.0 / scale.u, 1.0 / scale.y, 1.0 / z_scale);
-    let rows_h = alpha * (nu + ny);
-    let rows_z = alpha_p * nz;
+    const B: usize = 512;
+    // The horizons against the records, then the sizes (memory budget,
+    // overflow), before anything is allocated.
+    let rows_h = alpha.saturating_mul(nu + ny);
+    let rows_z = alpha_p.saturating_mul(nz);
+    let total: usize = recs.iter().map(|r| r.0.nrows()).sum();
+    let span = alpha.saturating_add(alpha_p);
+    let available: usize = recs
+        .iter()
+        .map(|r| (r.0.nrows() + 1).saturating_sub(span))
+        .sum();
+    if available < rows_z.max(rows_h) {
+        return Err(Error::HorizonTooLong {
+            past: alpha_p,
+            future: alpha,
+            n_samples: total,
+            min_samples: rows_z
+                .max(rows_h)
+                .saturating_add((span - 1).saturating_mul(recs.len())),
+        });
+    }
+    crate::budget::check_iv(alpha, alpha_p, nu, ny, nz, B)?;
     let mut m = DMatrix::zeros(rows_h, rows_z);
     let mut zz = DMatrix::zeros(rows_z, rows_z);
     let mut columns = 0;
-    const B: usize = 512;
     for (u, y, z) in recs {
         let nn = u.nrows();
         let j = (nn + 1).saturating_sub(alpha + alpha_p);
@@ -196,15 +215,7 @@ fn iv_subspace(
         }
         columns += j;
     }
-    let total: usize = recs.iter().map(|r| r.0.nrows()).sum();
-    if columns < rows_z.max(rows_h) {
-        return Err(Error::HorizonTooLong {
-            past: alpha_p,
-            future: alpha,
-            n_samples: total,
-            min_samples: rows_z.max(rows_h) + (alpha + alpha_p - 1) * recs.len(),
-        });
-    }
+    debug_assert_eq!(columns, available);
     m /= columns as f64;
     check_exciting("instrument", numerical_rank(&zz, 1e-10)?, rows_z)?;
     let r = qr_r(&m.transpose())?;
@@ -287,7 +298,7 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
     let (nu, ny) = (first.u.ncols(), first.y.ncols());
     check_ts(opts.ts)?;
     let alpha = opts.alpha;
-    let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
+    let alpha_p = opts.alpha_p.unwrap_or(alpha.saturating_mul(2));
     check_horizons(alpha, alpha_p)?;
     // The (u, y) records are checked as for `identify`; then the instruments.
     let records: Vec<Experiment<'_>> = experiments
@@ -306,7 +317,7 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
             reason: "SVC is defined on canonical correlations, which the IV method does not compute; use Gap, Aic, Aicc or Bic".into(),
         });
     }
-    let max_order = (alpha - 1) * ny;
+    let max_order = (alpha - 1).saturating_mul(ny);
     check_order(opts.order, opts.order_criterion, max_order)?;
     let recs: Vec<_> = experiments
         .iter()
@@ -522,9 +533,13 @@ pub fn iv_multirate_fast(
         }
     }
     let alpha = opts.alpha;
-    let alpha_p = opts.alpha_p.unwrap_or(2 * alpha);
+    let alpha_p = opts.alpha_p.unwrap_or(alpha.saturating_mul(2));
     check_horizons(alpha, alpha_p)?;
-    check_order(opts.order, OrderCriterion::Gap, (alpha - 1) * nyl)?;
+    check_order(
+        opts.order,
+        OrderCriterion::Gap,
+        (alpha - 1).saturating_mul(nyl),
+    )?;
     let scale = Scale {
         u: pow4_scale(&[&ul]),
         y: pow4_scale(&[&yl]),

@@ -121,6 +121,7 @@
 #![deny(missing_docs)]
 
 mod bd_stream;
+mod budget;
 mod engine;
 pub mod error;
 mod hankel;
@@ -135,6 +136,7 @@ mod regress;
 mod select;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
+pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use engine::{
     BdEstimate, BdRoute, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection,
     Profile, StreamedSubspace, StreamingIdentifier, SubspaceIdentifier, SubspaceModel,

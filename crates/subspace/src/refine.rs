@@ -29,6 +29,15 @@
 //!
 //! Cost per iteration: O(p · M · n (n + n_u)) for p parameters (about
 //! n(n_u + 2 n_y) + n_y n_u plus n per record) and M samples, plus O(p³).
+//! Bounds, checked before anything is formed: at most one free parameter
+//! per two measured output samples ([`Error::TooManyParameters`]), the
+//! memory of the local coordinates and the Jacobian within the budget of
+//! `lifted_linalg::budget`, and `max_iterations` × the cost of one
+//! iteration (the null space of the n²-column similarity tangent,
+//! O(len · n⁴ + len³), dominates for large n) within
+//! [`PemOptions::max_work`]: fewer iterations when it allows fewer, an
+//! error when it does not allow one.
+//!
 //! An iterate whose A (or A − KC for the prediction cost) has spectral
 //! radius ≥ 1 is rejected like a cost increase. The better of the start and
 //! the refined model is kept ([`Kept`]), judged by the simulation error (the
@@ -98,6 +107,14 @@ pub struct PemOptions {
     pub step_tolerance: f64,
     /// Stop when ‖Jᵀe‖∞ falls below this times the cost. Default 1e-10.
     pub gradient_tolerance: f64,
+    /// Bound on the work of the whole refinement, in floating-point
+    /// operations of the cost model of the module docs
+    /// (`max_iterations` × the cost of one iteration). When the bound
+    /// allows fewer iterations than `max_iterations` they are capped and
+    /// [`PemReport::iteration_cap`] says so; when it does not allow one,
+    /// [`Error::TooMuchWork`]. Default 2e10 (a few seconds: ≈ 4e9 of
+    /// these operations per second were measured on one core).
+    pub max_work: f64,
 }
 
 impl Default for PemOptions {
@@ -109,6 +126,7 @@ impl Default for PemOptions {
             cost_tolerance: 1e-9,
             step_tolerance: 1e-10,
             gradient_tolerance: 1e-10,
+            max_work: 2e10,
         }
     }
 }
@@ -134,6 +152,11 @@ pub struct PemReport {
     /// re-estimated, on the validation records or else the estimation
     /// records) of the start and of the refined model.
     pub judged: (f64, f64),
+    /// The iteration limit used when [`PemOptions::max_work`] lowered
+    /// `max_iterations` (the work bound, not convergence, may then have
+    /// stopped the iterations); `None` when it did not.
+    #[serde(default)]
+    pub iteration_cap: Option<usize>,
 }
 
 /// A refined model.
@@ -363,6 +386,11 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
 /// [`Error::NonFinite`] (u anywhere, y infinite; NaN y = not sampled),
 /// [`Error::InvalidOption`] (a continuous model, bad tolerances),
 /// [`Error::NotExciting`] when fewer measured samples than parameters,
+/// [`Error::TooManyParameters`] when more than one free parameter per two
+/// measured samples, [`Error::TooMuchWork`] when one iteration exceeds
+/// [`PemOptions::max_work`] (fewer affordable iterations than
+/// `max_iterations` cap them, see [`PemReport::iteration_cap`]),
+/// [`lifted_linalg::Error::TooLarge`] (wrapped) beyond the memory budget,
 /// [`Error::Unstable`] when the start is unstable for the chosen cost
 /// (A for the output error, A − KC for the prediction error).
 pub fn refine_pem(
@@ -377,13 +405,16 @@ pub fn refine_pem(
         reason: "PEM refinement needs a discrete-time model".into(),
     })?;
     if opts.max_iterations == 0
+        || opts.max_work.is_nan()
+        || opts.max_work <= 0.0
         || !(opts.cost_tolerance >= 0.0
             && opts.step_tolerance >= 0.0
             && opts.gradient_tolerance >= 0.0)
     {
         return Err(Error::InvalidOption {
             what: "PemOptions",
-            reason: "max_iterations ≥ 1 and non-negative tolerances are required".into(),
+            reason: "max_iterations ≥ 1, max_work > 0 and non-negative tolerances are required"
+                .into(),
         });
     }
     let measured = check_records(initial, records)?;
@@ -413,6 +444,27 @@ pub fn refine_pem(
             needed: free + 1,
         });
     }
+    // The data must support the parameters, and the work must be bounded,
+    // before the n² × len similarity tangent and the Jacobian are formed.
+    crate::budget::check_pem_parameters(free, measured)?;
+    crate::budget::check_pem_memory(n, lay.len(), measured)?;
+    let samples: usize = records.iter().map(|r| r.u.nrows()).sum();
+    let per_iteration =
+        crate::budget::pem_flops_per_iteration(n, nu, ny, lay.len(), samples, measured);
+    let affordable = opts.max_work / per_iteration;
+    if affordable < 1.0 {
+        return Err(Error::TooMuchWork {
+            what: "the PEM refinement",
+            flops: per_iteration,
+            limit: opts.max_work,
+        });
+    }
+    let (max_iterations, iteration_cap) = if affordable < opts.max_iterations as f64 {
+        let cap = affordable as usize;
+        (cap, Some(cap))
+    } else {
+        (opts.max_iterations, None)
+    };
     let k0 = match kalman_gain {
         Some(k) if gain => {
             if k.shape() != (n, ny) {
@@ -470,7 +522,7 @@ pub fn refine_pem(
     let mut accepted = 0;
     let mut termination = Termination::MaxIterations;
     let mut basis_and_jacobian: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
-    while iterations < opts.max_iterations {
+    while iterations < max_iterations {
         // The DDLC basis and the Jacobian are recomputed after an accepted step only.
         let (basis, jac) = match basis_and_jacobian {
             Some(ref bj) => bj,
@@ -582,6 +634,7 @@ pub fn refine_pem(
             termination,
             kept,
             judged: (j0, j1),
+            iteration_cap,
         },
     })
 }

@@ -93,6 +93,14 @@ fn reference(a: &MpcArgs, outputs: &[String]) -> CliResult<DMatrix<f64>> {
             a.step_at, a.steps
         )));
     }
+    // The run keeps the set points, outputs, inputs and moves of every
+    // step (a few trajectories of the outputs' and inputs' width).
+    lifted_linalg::budget::MemoryBudget::default()
+        .check(
+            "the simulated run (--steps)",
+            lifted_linalg::budget::Size::matrices(8, a.steps, outputs.len().max(1)),
+        )
+        .ctx("--steps")?;
     let mut r = DMatrix::zeros(a.steps, outputs.len());
     for spec in a.setpoint.iter().flat_map(|s| s.split(',')) {
         let spec = spec.trim();

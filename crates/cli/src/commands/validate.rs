@@ -2,10 +2,11 @@
 //! the `--min-fit` check.
 
 use crate::args::ValidateArgs;
-use crate::error::{CliError, CliResult};
+use crate::error::{CliResult, failed};
 use lifted_cli::service::validation::{
     TABLE_HEADER, fit_cell, load_for_validation, table_rows, unstable_note, validate_model,
 };
+use lifted_cli::shown::{percent, shown};
 use lifted_cli::terminal::print_table;
 
 /// `lifted validate`.
@@ -26,11 +27,12 @@ pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
             .outputs
             .iter()
             .filter(|o| !v.stable() || o.fit.is_nan() || o.fit < min)
-            .map(|o| format!("{} ({}%)", o.name, fit_cell(&v, o.fit)))
+            .map(|o| format!("{} ({} %)", shown(&o.name), fit_cell(&v, o.fit)))
             .collect();
         if !low.is_empty() {
-            return Err(CliError::Failed(format!(
-                "fit below --min-fit {min}%: {}",
+            return Err(failed(format!(
+                "fit below --min-fit {} %: {}",
+                percent(min),
                 low.join(", ")
             )));
         }

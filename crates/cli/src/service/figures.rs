@@ -409,7 +409,11 @@ pub fn response_plot(o: &OutputValidation, ts: f64, n: usize, stable: bool) -> P
         } else if !stable {
             format!("{}: measured vs simulated (fit n/a: unstable)", o.name)
         } else {
-            format!("{}: measured vs simulated (fit {:.2} %)", o.name, o.fit)
+            format!(
+                "{}: measured vs simulated (fit {} %)",
+                o.name,
+                crate::shown::percent(o.fit)
+            )
         },
         x_label: "t [s]".into(),
         y_label: o.name.clone(),

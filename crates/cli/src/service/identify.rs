@@ -66,7 +66,7 @@ pub fn data_spec(
     if inputs.is_empty() || outputs.is_empty() {
         return Err(input("at least one input and one output column are needed"));
     }
-    Ok(DataSpec {
+    let spec = DataSpec {
         inputs,
         outputs,
         extra,
@@ -74,7 +74,9 @@ pub fn data_spec(
         hold,
         periods: parse_periods(&cols.output_period)?,
         columns: cols.columns.as_deref().map(names).unwrap_or_default(),
-    })
+    };
+    spec.check_selection()?;
+    Ok(spec)
 }
 
 fn method_of(m: MethodArg) -> Method {

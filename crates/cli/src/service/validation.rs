@@ -78,7 +78,7 @@ fn max_abs(v: &[f64]) -> f64 {
 /// diverges), else the percentage.
 pub fn fit_cell(v: &Validation, fit: f64) -> String {
     if v.stable() {
-        format!("{fit:.2}")
+        crate::shown::percent(fit)
     } else {
         "n/a: unstable".to_string()
     }
@@ -116,7 +116,7 @@ pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
             let pred = |i: usize| {
                 o.prediction_fits
                     .get(i)
-                    .map_or("n/a".to_string(), |f| format!("{f:.2}"))
+                    .map_or("n/a".to_string(), |f| crate::shown::percent(*f))
             };
             [
                 o.name.clone(),

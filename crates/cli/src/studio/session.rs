@@ -312,7 +312,11 @@ fn safe_name(name: &str) -> String {
             }
         })
         .collect();
-    let s = s.trim_start_matches('.').to_string();
+    let s = s.trim_start_matches('.');
+    // File systems take names of at most 255 bytes: keep the last 100
+    // characters (the extension with them).
+    let skip = s.chars().count().saturating_sub(100);
+    let s: String = s.chars().skip(skip).collect();
     if s.is_empty() { "data.csv".into() } else { s }
 }
 
