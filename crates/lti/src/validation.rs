@@ -321,6 +321,36 @@ mod tests {
         .unwrap()
     }
 
+    #[test]
+    fn diverging_simulation_passes_no_residual_test() {
+        // A = 2: the simulation overflows to ±∞ within the record, so the
+        // residuals are not finite: no fit, and neither test may pass.
+        let g = StateSpace::new(
+            DMatrix::from_element(1, 1, 2.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        let n = 2000;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 5 < 2 { 1.0 } else { -1.0 });
+        let y = DMatrix::from_fn(n, 1, |k, _| (k as f64 * 0.1).sin());
+        let v = validate(&g, &data(u, y, 1), &ValidationOptions::default()).unwrap();
+        let o = &v.outputs[0];
+        assert!(!v.stable());
+        assert!((v.spectral_radius - 2.0).abs() < 1e-12);
+        assert!(!o.residual_finite);
+        assert!(o.fit.is_nan());
+        assert!(!o.white && !o.independent);
+        // A stable model keeps the flags as before.
+        let n = 400;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 5 < 2 { 1.0 } else { -1.0 });
+        let y = lag().lsim(&u, None, None).unwrap().y;
+        let v = validate(&lag(), &data(u, y, 1), &ValidationOptions::default()).unwrap();
+        assert!(v.stable() && v.outputs[0].residual_finite);
+    }
+
     fn data(u: DMatrix<f64>, y: DMatrix<f64>, period: usize) -> Dataset {
         Dataset::new(
             1.0,

@@ -847,9 +847,23 @@ impl StreamingIdentifier {
         check_data_on("u", u, threads)?;
         check_data_on("y", y, threads)?;
         if u.nrows() > 0 && self.scale.is_none() {
+            // With mean removal, the scale of the first block less its
+            // means, as `identify` scales the centred records (the same
+            // power of 4 unless the RMS sits near a boundary; the model is
+            // then the same up to a diagonal change of state basis).
+            let centred = |m: &DMatrix<f64>| {
+                let mut c = m.clone();
+                if self.opts.remove_means {
+                    for mut col in c.column_iter_mut() {
+                        let mean = col.mean();
+                        col.add_scalar_mut(-mean);
+                    }
+                }
+                c
+            };
             let scale = Scale {
-                u: pow4_scale(&[u]),
-                y: pow4_scale(&[y]),
+                u: pow4_scale(&[&centred(u)]),
+                y: pow4_scale(&[&centred(y)]),
             };
             self.stream.set_scale(scale);
             self.scale = Some(scale);

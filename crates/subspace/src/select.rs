@@ -179,12 +179,35 @@ pub fn select_structure(
     // (k = 2 s (n_u + n_y)): fewer make the compressed correlations too
     // noisy to rank structures.
     let columns_at = |s: usize| (shortest + 1).saturating_sub(2 * s);
+    if !opts.horizons.is_empty() {
+        // Horizons given by the caller are kept or refused, never replaced.
+        let given: Vec<usize> = horizons
+            .iter()
+            .copied()
+            .filter(|&s| s >= 2 && columns_at(s) >= 2 * s * (nu + ny))
+            .collect();
+        if given.is_empty() {
+            let s = horizons.iter().copied().max().unwrap_or(0);
+            return Err(Error::HorizonTooLong {
+                past: s,
+                future: s,
+                n_samples: shortest,
+                min_samples: (2 * s).saturating_mul(nu + ny + 1),
+            });
+        }
+    }
     let feasible: Vec<usize> = horizons
         .iter()
         .copied()
         .filter(|&s| s >= 2 && columns_at(s) >= 3 * 2 * s * (nu + ny))
         .collect();
-    let horizons = if feasible.is_empty() {
+    let horizons = if feasible.is_empty() && !opts.horizons.is_empty() {
+        opts.horizons
+            .iter()
+            .copied()
+            .filter(|&s| s >= 2 && columns_at(s) >= 2 * s * (nu + ny))
+            .collect()
+    } else if feasible.is_empty() {
         // The longest horizon the data allow at all (J ≥ k).
         match (2..=horizons.iter().copied().max().unwrap_or(10))
             .rev()

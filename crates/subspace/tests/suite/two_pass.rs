@@ -63,9 +63,18 @@ fn two_pass_equals_the_in_memory_identification() {
             ..Default::default()
         };
         let mem = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
-        // Blocks that do not divide the record, and one that does.
-        for block in [4096, 5000] {
-            let st = two_pass(&u, &y, &opts, block);
+        // Blocks that do not divide the record, and one that does; one
+        // thread and all of them.
+        for (block, threads) in [(4096, 1), (5000, 1), (4096, 0), (30_000, 0)] {
+            let st = two_pass(
+                &u,
+                &y,
+                &SubspaceOptions {
+                    threads,
+                    ..opts.clone()
+                },
+                block,
+            );
             assert_eq!(st.diagnostics.bd_route, BdRoute::OutputError);
             // Same (A, C) basis up to rounding (same factor, same SVD), so
             // the matrices themselves agree; 1e-10 relative (the
