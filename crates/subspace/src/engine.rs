@@ -1199,7 +1199,7 @@ fn identify_as_given(
 }
 
 /// Threads for the correlation kernel: 0 = all available.
-fn thread_count(threads: usize) -> usize {
+pub(crate) fn thread_count(threads: usize) -> usize {
     if threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
