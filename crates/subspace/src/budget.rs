@@ -116,9 +116,10 @@ pub const PEM_SAMPLES_PER_PARAMETER: usize = 2;
 /// directions), `free` = len − n² directions, `measured` residuals over
 /// `samples` time steps of a model with (n, n_u, n_y). Counted: the null
 /// space of the n²×len similarity tangent (an SVD, ≈ 4·len·n⁴ + 4·len³/3
-/// for the full right basis), the Jacobian by central differences
-/// (2·free simulations of ≈ 2(n + n_y)(n + n_u) flops per sample), its
-/// normal equations (free²·measured) and their Cholesky (free³/3).
+/// for the full right basis), the analytic Jacobian (the n × free state
+/// sensitivities advanced by the predictor's recursion, ≈ 2·free·n·(n +
+/// n_u + n_y) flops per sample, twice with threads), its R-only QR
+/// (≈ 2·free²·measured) and a few trial steps' small QRs (free³ each).
 pub(crate) fn pem_flops_per_iteration(
     n: usize,
     nu: usize,
@@ -131,14 +132,15 @@ pub(crate) fn pem_flops_per_iteration(
     let (samples, measured) = (samples as f64, measured as f64);
     let free = (len - n * n).max(0.0);
     let basis = 4.0 * len * n.powi(4) + 4.0 * len.powi(3) / 3.0;
-    let jacobian = 2.0 * free * samples * 2.0 * (n + ny) * (n + nu);
-    let normal = free * free * measured + free.powi(3) / 3.0;
-    basis + jacobian + normal
+    let jacobian = 2.0 * 2.0 * free * samples * n * (n + nu + ny);
+    let qr = 2.0 * free * free * measured + 4.0 * free.powi(3);
+    basis + jacobian + qr
 }
 
 /// Memory of one PEM iteration: the similarity tangent (len × n²), the
 /// null-space basis (len × free) and the SVD's len × len right factor, the
-/// Jacobian (measured × free) and its normal matrix (free²).
+/// Jacobian's R factor and blocks of its rows (counted as measured × free,
+/// an upper bound) and the small QRs (free²).
 pub(crate) fn check_pem_memory(n: usize, len: usize, measured: usize) -> Result<()> {
     let free = len.saturating_sub(n.saturating_mul(n));
     let need = Size::matrices(1, len, n.saturating_mul(n))

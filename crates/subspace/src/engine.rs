@@ -1216,7 +1216,7 @@ fn identify_as_given(
 
 /// Threads for the correlation kernel: 0 = all available, else capped at
 /// the available parallelism ([`crate::budget::threads`]).
-fn thread_count(threads: usize) -> usize {
+pub(crate) fn thread_count(threads: usize) -> usize {
     crate::budget::threads(threads)
 }
 
