@@ -261,7 +261,7 @@ fn column_indices(path: &str, header: &[String], wanted: &[&String]) -> CliResul
 /// line it does not take as plain numbers (a quote `"`, a lone carriage
 /// return, a cell that is not a number, a ragged row) is read again through
 /// `csv-core` (the csv crate's parser) with the checks and messages of
-/// [`cell_value`], so the result is that of a full CSV parser. Line numbers
+/// `cell_value`, so the result is that of a full CSV parser. Line numbers
 /// in messages are those of the file.
 ///
 /// A regular file of at least 4 MiB is parsed on up to 4 threads (the

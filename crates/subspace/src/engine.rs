@@ -1083,7 +1083,7 @@ impl StreamedSubspace {
 /// and SVD of W₁ Φ W₂ on the k×k factor (O(k³)); (3) Γ = W₁⁻¹U₁S₁^{1/2},
 /// C = first block row, A = Γ↑⁺Γ↓ (all block rows, erratum L-3);
 /// (4) (B, D, x₀) by streamed output-error least squares with the
-/// feedthrough mask ([`estimate_bd`], O(N q²) with q = n n_u + n_u + n +
+/// feedthrough mask ([`crate::estimate_bd`], O(N q²) with q = n n_u + n_u + n +
 /// n_y + 1 in modal coordinates, O(N n_y (n_u n³ + p²)) otherwise);
 /// (5) optionally Q, R, S from the state sequences X_i = Γ⁺Φ and
 /// X_{i+1} = Γ₋⁺Φ₊ and the Kalman gain from the filter DARE.
