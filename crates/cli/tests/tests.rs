@@ -2952,6 +2952,39 @@ mod trust {
             verr.contains("unstable: simulation fit not meaningful"),
             "{verr}"
         );
+        // --refine starts from the stabilised model with either cost and
+        // returns a stable model (never an unstable one, never an error).
+        for cost in ["pem", "oe"] {
+            let r = p(&d, &format!("{cost}.json"));
+            ok(&[
+                "identify",
+                "--method",
+                "n4sid",
+                "--data",
+                &data,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order",
+                "1",
+                "--horizon",
+                "4",
+                "--detrend",
+                "none",
+                "--refine",
+                cost,
+                "--out",
+                &r,
+            ]);
+            let fr = ModelFile::read(&r).unwrap();
+            let rho = pole_modulus(&fr.model)[0];
+            assert!(rho < 1.0, "--refine {cost}: rho {rho}");
+            let started = fr.diagnostics["refinement"]["stabilized_start"]
+                .as_f64()
+                .unwrap();
+            assert!((started - 1.02).abs() < 1e-3, "{cost}: {started}");
+        }
         // --min-fit fails on an unstable model.
         let m = lifted(&[
             "validate",

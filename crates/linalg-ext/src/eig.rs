@@ -7,6 +7,8 @@
 //!   2-norm, their phase is arbitrary (Pitfall 1).
 //! * [`sym_eig`]: symmetrises (A + Aᵀ)/2, then faer's tridiagonalisation +
 //!   divide and conquer, O(4n³/3 + vectors); values sorted as requested.
+//! * [`reflect_into_unit_disc`]: A with its eigenvalues outside the unit
+//!   circle reflected inside, eigenvectors kept, O(25n³).
 
 use faer::Side;
 use nalgebra::{DMatrix, DVector};
@@ -151,5 +153,106 @@ mod tests {
         let a = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 0.0, 1.0]);
         let e = sym_eig(&a, SortOrder::Descending).unwrap();
         assert_relative_eq!(e.values, DVector::from_vec(vec![2.0, 0.0]), epsilon = 1e-14);
+    }
+}
+
+/// Largest condition ‖V‖_F ‖V⁻¹‖_F of the eigenvector matrix for which
+/// [`reflect_into_unit_disc`] moves eigenvalues in the eigenbasis.
+pub const MAX_REFLECTION_CONDITION: f64 = 1e8;
+
+/// The matrix A' = V Λ' V⁻¹ with the eigenvectors V of A kept and every
+/// eigenvalue on or outside the unit circle moved inside: λ ↦ λ/|λ|²
+/// (reflected through the circle, keeping the mode's frequency), its
+/// modulus capped at `max_radius` < 1; the other eigenvalues are
+/// untouched. Conjugate pairs move together, so A' is real (imaginary
+/// rounding dropped). `None` when A is already stable, or its eigenvector
+/// matrix is singular or worse conditioned than
+/// [`MAX_REFLECTION_CONDITION`] (a defective A needs another
+/// stabilisation). O(25n³).
+///
+/// Errors: [`Error::NotSquare`], [`Error::NonFinite`],
+/// [`Error::NoConvergence`]; [`Error::InvalidArgument`] unless
+/// 0 < `max_radius` < 1.
+pub fn reflect_into_unit_disc(a: &DMatrix<f64>, max_radius: f64) -> Result<Option<DMatrix<f64>>> {
+    if !(max_radius > 0.0 && max_radius < 1.0) {
+        return Err(Error::InvalidArgument {
+            what: "max_radius",
+            reason: format!("must lie in (0, 1), got {max_radius}"),
+        });
+    }
+    let e = eig(a)?;
+    if e.values.iter().all(|l| l.norm() < 1.0) {
+        return Ok(None);
+    }
+    let v = &e.vectors;
+    let Some(vi) = v.clone().try_inverse() else {
+        return Ok(None);
+    };
+    let cond = v.norm() * vi.norm();
+    if !cond.is_finite() || cond > MAX_REFLECTION_CONDITION {
+        return Ok(None);
+    }
+    let n = a.nrows();
+    let mut vl = v.clone();
+    for (j, &l) in e.values.iter().enumerate() {
+        let r = l.norm();
+        let moved = if r < 1.0 {
+            l
+        } else {
+            l * ((1.0 / r).min(max_radius) / r)
+        };
+        for i in 0..n {
+            vl[(i, j)] *= moved;
+        }
+    }
+    let ac = vl * vi;
+    if ac.iter().any(|z| z.im.abs() > 1e-8 * a.norm().max(1.0)) {
+        return Ok(None);
+    }
+    Ok(Some(DMatrix::from_fn(n, n, |i, j| ac[(i, j)].re)))
+}
+
+#[cfg(test)]
+mod reflection_tests {
+    use super::*;
+
+    #[test]
+    fn unstable_eigenvalues_are_reflected_the_others_kept() {
+        // Eigenvalues 1.25, 0.5 and the pair 0.6 ± 0.9i (|λ| ≈ 1.08), in a
+        // non-modal basis.
+        let lam = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.25, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.6, 0.9, 0.0, 0.0, -0.9, 0.6,
+            ],
+        );
+        let t = DMatrix::from_fn(4, 4, |i, j| {
+            if i == j {
+                2.0
+            } else {
+                0.3 * (i + 2 * j) as f64 / 7.0
+            }
+        });
+        let a = &t * lam * t.clone().try_inverse().unwrap();
+        let r = reflect_into_unit_disc(&a, 0.999).unwrap().unwrap();
+        let mut got: Vec<f64> = eigenvalues(&r).unwrap().iter().map(|z| z.norm()).collect();
+        got.sort_by(f64::total_cmp);
+        let pair = (0.36f64 + 0.81).sqrt();
+        let mut want = vec![0.5, 1.0 / 1.25, 1.0 / pair, 1.0 / pair];
+        want.sort_by(f64::total_cmp);
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() < 1e-10, "{got:?} vs {want:?}");
+        }
+        // A stable matrix is left alone; a bad radius is refused.
+        assert!(
+            reflect_into_unit_disc(&(a.clone() * 0.1), 0.999)
+                .unwrap()
+                .is_none()
+        );
+        assert!(reflect_into_unit_disc(&a, 1.0).is_err());
+        // A defective unstable A (Jordan block) has no eigenbasis.
+        let j = DMatrix::from_row_slice(2, 2, &[1.1, 1.0, 0.0, 1.1]);
+        assert!(reflect_into_unit_disc(&j, 0.999).unwrap().is_none());
     }
 }

@@ -93,7 +93,10 @@ pub use cca::{Cca, cca, center_rows};
 pub use check::{check_cols, check_finite, check_rows, check_square};
 pub use cholesky::{cholesky_condition, cholesky_lower};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
-pub use eig::{Eigen, SortOrder, SymEigen, eig, eigenvalues, sym_eig};
+pub use eig::{
+    Eigen, MAX_REFLECTION_CONDITION, SortOrder, SymEigen, eig, eigenvalues, reflect_into_unit_disc,
+    sym_eig,
+};
 pub use error::{Error, Result};
 pub use extremes::{
     ConditionCheck, exceeds_min_eigenvalue, gram_condition_exceeds, lower_inverse_frobenius,

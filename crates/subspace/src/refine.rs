@@ -64,7 +64,10 @@
 //! error when it does not allow one.
 //!
 //! An iterate whose A (or A − KC for the prediction cost) has spectral
-//! radius ≥ 1 is rejected like a cost increase. The better of the start and
+//! radius ≥ 1 is rejected like a cost increase, so a stable start stays
+//! stable; an unstable start is first stabilised (its unstable eigenvalues
+//! reflected into the unit circle, [`PemReport::stabilized_start`]) for
+//! either cost. The better of the start and
 //! the refined model is kept ([`Kept`]), judged by the simulation error (the
 //! validation fit) on optional validation records, or on the estimation
 //! records.
@@ -187,6 +190,12 @@ pub struct PemReport {
     /// stopped the iterations); `None` when it did not.
     #[serde(default)]
     pub iteration_cap: Option<usize>,
+    /// ρ(A) of the given start when it was unstable: the refinement then
+    /// started from it with its unstable eigenvalues reflected into the
+    /// unit circle (and K = 0 if the predictor was then unstable); `None`
+    /// for a stable start.
+    #[serde(default)]
+    pub stabilized_start: Option<f64>,
 }
 
 /// A refined model.
@@ -407,15 +416,20 @@ fn mean_square(e: &DVector<f64>) -> f64 {
     e.norm_squared() / e.len().max(1) as f64
 }
 
-/// Is the iterate admissible (stable simulation or predictor)?
+/// Is the iterate admissible: a stable simulation (ρ(A) < 1) and, for the
+/// prediction cost, a stable predictor (ρ(A − KC) < 1)? A refinement never
+/// turns a stable model unstable.
 fn admissible(p: &Point, gain: bool) -> bool {
-    let m = if gain {
-        &p.a - &p.k * &p.c
-    } else {
-        p.a.clone()
-    };
-    spectral_radius(&m).is_ok_and(|r| r < 1.0)
+    let stable_a = spectral_radius(&p.a).is_ok_and(|r| r < 1.0);
+    if !gain {
+        return stable_a;
+    }
+    stable_a && spectral_radius(&(&p.a - &p.k * &p.c)).is_ok_and(|r| r < 1.0)
 }
+
+/// Largest modulus of an eigenvalue of an unstable start moved inside the
+/// unit circle ([`lifted_linalg::reflect_into_unit_disc`]).
+const STABILIZED_START_RADIUS: f64 = 0.999;
 
 /// 1/std of each output's measured samples over the records (1 for a
 /// constant output).
@@ -484,7 +498,8 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
 /// [`PemOptions::max_work`] (fewer affordable iterations than
 /// `max_iterations` cap them, see [`PemReport::iteration_cap`]),
 /// [`lifted_linalg::Error::TooLarge`] (wrapped) beyond the memory budget,
-/// [`Error::Unstable`] when the start is unstable for the chosen cost
+/// [`Error::Unstable`] when the start is unstable and defective (no
+/// eigenbasis to stabilise it in) or its stabilised predictor is unstable for the chosen cost
 /// (A for the output error, A − KC for the prediction error).
 pub fn refine_pem(
     initial: &StateSpace,
@@ -588,14 +603,30 @@ pub fn refine_pem(
         k: k0,
         x0: Vec::new(),
     };
+    // An unstable start (either cost) is stabilised first: its unstable
+    // eigenvalues reflected into the unit circle, eigenvectors kept; a
+    // predictor that is then unstable starts with K = 0.
+    let rho_start = spectral_radius(&start.a)?;
+    let mut stabilized_start = None;
+    if rho_start >= 1.0 {
+        match lifted_linalg::reflect_into_unit_disc(&start.a, STABILIZED_START_RADIUS)? {
+            Some(a) => {
+                start.a = a;
+                stabilized_start = Some(rho_start);
+            }
+            None => {
+                return Err(Error::Unstable {
+                    spectral_radius: rho_start,
+                });
+            }
+        }
+    }
+    if gain && !admissible(&start, gain) {
+        start.k = DMatrix::zeros(n, ny);
+    }
     if !admissible(&start, gain) {
-        let m = if gain {
-            &start.a - &start.k * &start.c
-        } else {
-            start.a.clone()
-        };
         return Err(Error::Unstable {
-            spectral_radius: spectral_radius(&m)?,
+            spectral_radius: spectral_radius(&start.a)?,
         });
     }
     start.x0 = estimate_x0(&start.a, &start.b, &start.c, &start.d, records)?;
@@ -736,6 +767,7 @@ pub fn refine_pem(
             kept,
             judged: (j0, j1),
             iteration_cap,
+            stabilized_start,
         },
     })
 }

@@ -179,9 +179,53 @@ fn rejected_inputs_are_named() {
         Some(1.0),
     )
     .unwrap();
+    // An unstable start is stabilised first (its unstable eigenvalues
+    // reflected into the unit circle), for either cost, and the result is
+    // stable.
+    for cost in [PemCost::Prediction, PemCost::OutputError] {
+        let fit = refine_pem(
+            &unstable,
+            None,
+            &[Record {
+                u: &u,
+                y: &y,
+                instrument: None,
+            }],
+            &[],
+            &PemOptions {
+                cost,
+                ..PemOptions::default()
+            },
+        )
+        .unwrap();
+        let rho_start = fit.report.stabilized_start.unwrap();
+        assert!(rho_start > 1.0);
+        let rho = fit
+            .model
+            .poles()
+            .unwrap()
+            .iter()
+            .map(|p| p.norm())
+            .fold(0.0, f64::max);
+        assert!(rho < 1.0, "{cost:?}: rho {rho}");
+    }
+    // A defective unstable start has no eigenbasis to stabilise it in.
+    let n = g.order();
+    let mut jordan = DMatrix::<f64>::identity(n, n) * 1.1;
+    for i in 0..n - 1 {
+        jordan[(i, i + 1)] = 1.0;
+    }
+    let defective = StateSpace::new(
+        jordan,
+        g.b().clone(),
+        g.c().clone(),
+        g.d().clone(),
+        Some(1.0),
+    )
+    .unwrap();
     assert!(matches!(
         refine_pem(
-            &unstable,
+            &defective,
             None,
             &[Record {
                 u: &u,
