@@ -1164,6 +1164,27 @@ fn identify_as_given(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
 ) -> Result<SubspaceModel> {
+    let t0 = Instant::now();
+    let (layout, factor, scale) = compressed(experiments, opts)?;
+    let compress_s = t0.elapsed().as_secs_f64();
+    from_factor(
+        factor,
+        &layout,
+        opts,
+        Some(&records_of(experiments)),
+        scale,
+        compress_s,
+    )
+}
+
+/// Step 1 of [`identify`] on records already scanned (or centred from
+/// scanned ones): the shape and option checks, the horizon against the
+/// records (J ≥ k Hankel columns), the data scales and the compressed
+/// factor of the scaled data.
+fn compressed(
+    experiments: &[Experiment<'_>],
+    opts: &SubspaceOptions,
+) -> Result<(HankelLayout, HankelFactor, Scale)> {
     let (nu, ny, total) = validate_shapes(experiments)?;
     let layout = check_options(nu, ny, opts)?;
     let (p, f, k) = (layout.past, layout.future, layout.nrows());
@@ -1183,7 +1204,6 @@ fn identify_as_given(
     }
     let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
         experiments.iter().map(|e| (e.u, e.y)).collect();
-    let t0 = Instant::now();
     let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
     let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
     let ((su, finite_u), (sy, finite_y)) = (pow4_scale_counted(&us), pow4_scale_counted(&ys));
@@ -1202,16 +1222,19 @@ fn identify_as_given(
         scale,
         opts.remove_means,
     )?;
-    let compress_s = t0.elapsed().as_secs_f64();
-    let records: Vec<Record<'_>> = experiments
+    Ok((layout, factor, scale))
+}
+
+/// The experiments as regression records (no instrument).
+fn records_of<'a>(experiments: &[Experiment<'a>]) -> Vec<Record<'a>> {
+    experiments
         .iter()
         .map(|e| Record {
             u: e.u,
             y: e.y,
             instrument: None,
         })
-        .collect();
-    from_factor(factor, &layout, opts, Some(&records), scale, compress_s)
+        .collect()
 }
 
 /// Threads for the correlation kernel: 0 = all available, else capped at
@@ -1662,43 +1685,9 @@ pub(crate) fn models_of_orders(
         Some(c) => c.iter().map(|(u, y)| Experiment { u, y }).collect(),
         None => experiments.to_vec(),
     };
-    let (nu, ny, total) = validate_shapes(&exps)?;
-    let layout = check_options(nu, ny, opts)?;
-    let k = layout.nrows();
-    let columns: usize = exps.iter().map(|e| layout.columns(e.u.nrows())).sum();
-    if columns < k {
-        let (p, f) = (layout.past, layout.future);
-        return Err(Error::HorizonTooLong {
-            past: p,
-            future: f,
-            n_samples: total,
-            min_samples: k + (p + f - 1) * exps.len(),
-        });
-    }
-    let us: Vec<&DMatrix<f64>> = exps.iter().map(|e| e.u).collect();
-    let ys: Vec<&DMatrix<f64>> = exps.iter().map(|e| e.y).collect();
-    let scale = Scale {
-        u: pow4_scale(&us),
-        y: pow4_scale(&ys),
-    };
-    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = exps.iter().map(|e| (e.u, e.y)).collect();
-    let factor = compress(
-        &recs,
-        &layout,
-        opts.compression,
-        opts.chunk_rows,
-        thread_count(opts.threads),
-        scale,
-        opts.remove_means,
-    )?;
-    let records: Vec<Record<'_>> = exps
-        .iter()
-        .map(|e| Record {
-            u: e.u,
-            y: e.y,
-            instrument: None,
-        })
-        .collect();
+    let (layout, factor, scale) = compressed(&exps, opts)?;
+    let ny = layout.ny;
+    let records = records_of(&exps);
     let sub = subspace_of(&factor.l, layout, opts)?;
     let cap = cap.min(sub.s.len()).min((layout.future - 1) * ny);
     let models = (1..=cap)

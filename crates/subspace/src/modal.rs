@@ -381,32 +381,10 @@ pub(crate) fn accumulate(
         let scans: Vec<Result<Option<Scan>>> = if parts == 1 {
             vec![scan(form, &lay, rec, inv, 0..len, &mut starts[0].clone())]
         } else {
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = starts
-                    .iter()
-                    .enumerate()
-                    .skip(1)
-                    .map(|(i, st)| {
-                        let range = i * per..((i + 1) * per).min(len);
-                        let mut st = st.clone();
-                        let lay = &lay;
-                        scope.spawn(move || scan(form, lay, rec, inv, range, &mut st))
-                    })
-                    .collect();
-                let first = scan(
-                    form,
-                    &lay,
-                    rec,
-                    inv,
-                    0..per.min(len),
-                    &mut starts[0].clone(),
-                );
-                std::iter::once(first)
-                    // A range whose thread failed gives up like a record
-                    // with too many patterns: the direct route runs instead.
-                    .chain(handles.into_iter().map(|h| h.join().unwrap_or(Ok(None))))
-                    .collect()
-            })
+            scan_parallel(form, &lay, rec, inv, &starts, per)
+                .into_iter()
+                .map(|(sc, _)| sc)
+                .collect()
         };
         // Merge the ranges' patterns (in range order).
         let mut pats: Vec<(u64, RAccumulator)> = Vec::new();
@@ -422,6 +400,39 @@ pub(crate) fn accumulate(
         fold_patterns(&pats, &maps, acc)?;
     }
     Ok(Some(rows_total))
+}
+
+/// The ranges `i·per .. (i + 1)·per` of `rec` (one per entry of `starts`,
+/// their starting filter states) scanned on their own threads, the first on
+/// the calling thread; each result comes with the filter state at the end
+/// of its range. A range whose thread failed is scanned again here.
+fn scan_parallel(
+    form: &ModalForm,
+    lay: &Layout,
+    rec: &Record<'_>,
+    inv: (f64, f64),
+    starts: &[FilterState],
+    per: usize,
+) -> Vec<(Result<Option<Scan>>, FilterState)> {
+    let len = rec.u.nrows();
+    let range = |i: usize| (i * per).min(len)..((i + 1) * per).min(len);
+    let run = |i: usize| {
+        let mut st = starts[i].clone();
+        (scan(form, lay, rec, inv, range(i), &mut st), st)
+    };
+    let joined: Vec<Option<(Result<Option<Scan>>, FilterState)>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (1..starts.len())
+            .map(|i| scope.spawn(move || run(i)))
+            .collect();
+        std::iter::once(Some(run(0)))
+            .chain(handles.into_iter().map(|h| h.join().ok()))
+            .collect()
+    });
+    joined
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| r.unwrap_or_else(|| run(i)))
+        .collect()
 }
 
 /// Adds the patterns of `sc` to `pats` (R factors of equal masks stacked);
@@ -534,40 +545,8 @@ impl ModalStream {
         // scan leaves the state at the end of the block.
         let per = len.div_ceil(parts);
         let starts = FilterState::at(self.state.clone(), &self.form, &rec, self.inv.0, per, parts);
-        let (form, lay, inv) = (&self.form, &self.lay, self.inv);
-        let results: Vec<Option<(Result<Option<Scan>>, FilterState)>> =
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = starts
-                    .iter()
-                    .enumerate()
-                    .skip(1)
-                    .map(|(i, st)| {
-                        let range = i * per..((i + 1) * per).min(len);
-                        let mut st = st.clone();
-                        let rec = &rec;
-                        scope.spawn(move || {
-                            let sc = scan(form, lay, rec, inv, range, &mut st);
-                            (sc, st)
-                        })
-                    })
-                    .collect();
-                let mut st0 = starts[0].clone();
-                let first = scan(form, lay, &rec, inv, 0..per.min(len), &mut st0);
-                std::iter::once(Some((first, st0)))
-                    .chain(handles.into_iter().map(|h| h.join().ok()))
-                    .collect()
-            });
         let mut end_state = None;
-        for (i, r) in results.into_iter().enumerate() {
-            // A range whose thread failed is scanned again here.
-            let (sc, st) = match r {
-                Some(x) => x,
-                None => {
-                    let mut st = starts[i].clone();
-                    let range = i * per..((i + 1) * per).min(len);
-                    (scan(form, lay, &rec, inv, range, &mut st), st)
-                }
-            };
+        for (sc, st) in scan_parallel(&self.form, &self.lay, &rec, self.inv, &starts, per) {
             let Some(sc) = sc? else {
                 return Ok(false);
             };
