@@ -96,6 +96,13 @@ pub struct ExtractOptions {
     /// [`Error::NoPrincipalRoot`]. The fast model then misses that delay
     /// (its response comes one sample early). Default false.
     pub allow_zero_eigenvalue: bool,
+    /// Matrix root: when the principal root is not defined
+    /// ([`Error::NoPrincipalRoot`]), use the extraction that needs no root
+    /// (§4.6.1 controllability, §4.6.2 eigenvalue) whose B_h reproduces B̄
+    /// best, and say so in [`ExtractionDiagnostics::fallback`], instead of
+    /// failing. Default false (the method as asked; `lifted identify` sets
+    /// it).
+    pub fallback_without_root: bool,
 }
 
 impl Default for ExtractOptions {
@@ -109,6 +116,7 @@ impl Default for ExtractOptions {
             max_inconsistency: None,
             cancel_tol: 1e-8,
             allow_zero_eigenvalue: false,
+            fallback_without_root: false,
         }
     }
 }
@@ -132,6 +140,13 @@ pub struct ExtractionDiagnostics {
     /// q·max|arg λ(A_h)| — the estimate of |n m T η| of Prop. 3 (< π for a
     /// principal root by construction).
     pub aliasing_angle: f64,
+    /// Why `method` differs from the requested one: the matrix root was not
+    /// defined (an eigenvalue of Ā on or near ℝ⁻ ∪ {0}, e.g. a fast pole
+    /// lifted to ≈ 0 and pushed below zero by noise) and the extraction that
+    /// needs no root with the most consistent B̄ was used. `None` when the
+    /// requested method ran.
+    #[serde(default)]
+    pub fallback: Option<String>,
 }
 
 /// An extracted fast model and its diagnostics.
@@ -220,9 +235,60 @@ fn b_slot(b: &DMatrix<f64>, lay: &Layout, s: usize) -> DMatrix<f64> {
 /// Errors: lifted model/lifting mismatch, unequal holds, outputs not
 /// sampled at frame time 0 ([`Error::Unsupported`]); per method:
 /// [`Error::RankDeficient`] (Φ_c), [`Error::EigenApproach`],
-/// [`Error::NoPrincipalRoot`], [`Error::Inconsistent`] (with
+/// [`Error::NoPrincipalRoot`] (unless [`ExtractOptions::fallback_without_root`]
+/// finds a root-free extraction), [`Error::Inconsistent`] (with
 /// `max_inconsistency`), polyphase on a non-SISO or h ≠ 1 lifting.
 pub fn extract_fast(
+    lifted: &StateSpace,
+    lifting: &MultirateLifting,
+    opts: &ExtractOptions,
+) -> Result<FastModel> {
+    match extract_with(lifted, lifting, opts) {
+        Err(Error::NoPrincipalRoot { root, eigenvalue }) if opts.fallback_without_root => {
+            // The root is not defined: the extractions that need none
+            // (§4.6.1, §4.6.2), the one whose B_h reproduces B̄ best.
+            let best = [
+                ExtractionMethod::Controllability,
+                ExtractionMethod::Eigenvalue,
+            ]
+            .into_iter()
+            .filter_map(|method| {
+                extract_with(
+                    lifted,
+                    lifting,
+                    &ExtractOptions {
+                        method,
+                        ..opts.clone()
+                    },
+                )
+                .ok()
+            })
+            .filter(|f| f.diagnostics.input_residual.is_finite())
+            .min_by(|a, b| {
+                a.diagnostics
+                    .input_residual
+                    .total_cmp(&b.diagnostics.input_residual)
+            });
+            match best {
+                Some(mut f) => {
+                    f.diagnostics.fallback = Some(format!(
+                        "no principal {root}-th root of the lifted A (eigenvalue {:.3e}{:+.3e}i on or near the negative real axis): {:?} extraction (§4.6), the consistent one of B̄ (input residual {:.3e})",
+                        eigenvalue.re,
+                        eigenvalue.im,
+                        f.diagnostics.method,
+                        f.diagnostics.input_residual
+                    ));
+                    Ok(f)
+                }
+                None => Err(Error::NoPrincipalRoot { root, eigenvalue }),
+            }
+        }
+        other => other,
+    }
+}
+
+/// [`extract_fast`] by `opts.method` alone (no fallback).
+fn extract_with(
     lifted: &StateSpace,
     lifting: &MultirateLifting,
     opts: &ExtractOptions,
@@ -351,6 +417,7 @@ pub fn extract_fast(
             root_residual,
             input_residual,
             aliasing_angle,
+            fallback: None,
         },
     })
 }
@@ -460,6 +527,7 @@ fn extract_polyphase(
             root_residual: 0.0,
             input_residual: 0.0,
             aliasing_angle: 0.0,
+            fallback: None,
         },
     })
 }

@@ -367,7 +367,10 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     enforce_stability: a.stable,
                     ..Default::default()
                 },
-                extraction: ExtractOptions::default(),
+                extraction: ExtractOptions {
+                    fallback_without_root: true,
+                    ..Default::default()
+                },
                 ..Default::default()
             };
             let fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
@@ -376,6 +379,12 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             let suggested = lifted_subspace::gap_order(sv, a.max_order);
             let d = json!({
                 "route": "multirate: lifting, causal lifted subspace identification, fast-model extraction",
+                "extraction": {
+                    "method": format!("{:?}", fit.extraction.method),
+                    "input_residual": fit.extraction.input_residual,
+                    "fallback": fit.extraction.fallback,
+                },
+                "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
                 "lifting_period": fit.lifting.period(),
                 "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
             });
@@ -443,6 +452,10 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                     order,
                     alpha: a.horizon.unwrap_or(6),
                     enforce_stability: a.stable,
+                    extraction: ExtractOptions {
+                        fallback_without_root: true,
+                        ..Default::default()
+                    },
                     ..Default::default()
                 };
                 let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &opts)

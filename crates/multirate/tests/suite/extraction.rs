@@ -127,3 +127,54 @@ fn a_simple_zero_eigenvalue_needs_the_option() {
         assert!((a - b).amax() < 1e-12, "{a} vs {b}");
     }
 }
+
+#[test]
+fn extraction_without_a_root_falls_back_and_says_so() {
+    // A fast pole at −0.7 lifts (q = 3) to −0.343 on the negative real
+    // axis: no principal cube root. With `fallback_without_root` the
+    // controllability or eigenvalue extraction (§4.6.1/§4.6.2) returns the
+    // fast model (noise free: exactly, up to similarity) and names itself.
+    let fast = StateSpace::new(
+        DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.95, 0.1, 0.0, 0.0, //
+                -0.1, 0.95, 0.0, 0.0, //
+                0.0, 0.0, 0.85, 0.0, //
+                0.0, 0.0, 0.0, -0.7,
+            ],
+        ),
+        DMatrix::from_row_slice(4, 1, &[1.0, 0.5, 1.0, 1.0]),
+        DMatrix::from_row_slice(1, 4, &[1.0, 0.3, 0.7, 0.5]),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )
+    .unwrap();
+    let lifting = MultirateLifting::siso(SisoRates::new(1, 3).unwrap()).unwrap();
+    let lifted = lift_model(&fast, &lifting).unwrap();
+    assert!(matches!(
+        extract_fast(&lifted, &lifting, &ExtractOptions::default()),
+        Err(lifted_multirate::Error::NoPrincipalRoot { root: 3, .. })
+    ));
+    let fm = extract_fast(
+        &lifted,
+        &lifting,
+        &ExtractOptions {
+            fallback_without_root: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_ne!(fm.diagnostics.method, ExtractionMethod::MatrixRoot);
+    let note = fm.diagnostics.fallback.as_deref().unwrap();
+    assert!(note.contains("no principal 3-th root"), "{note}");
+    assert!(fm.diagnostics.input_residual < 1e-9);
+    let (mf, mt) = (
+        fm.model.markov_parameters(40).unwrap(),
+        fast.markov_parameters(40).unwrap(),
+    );
+    for (a, b) in mf.iter().zip(&mt) {
+        assert!((a - b).norm() < 1e-8, "{a} vs {b}");
+    }
+}
