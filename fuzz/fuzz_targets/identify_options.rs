@@ -156,7 +156,7 @@ fuzz_target!(|c: Case| {
     }
     opt(
         "--order-criterion",
-        ["gap", "svc", "aic", "aicc", "bic"][(c.criterion % 5) as usize].to_string(),
+        ["validation", "gap", "svc", "aic", "aicc", "bic"][(c.criterion % 6) as usize].to_string(),
     );
     if c.estimator {
         opt("--estimator", "states".to_string());
