@@ -69,6 +69,20 @@ struct Tabs {
     open: Vec<(String, Handle, u64)>,
 }
 
+impl Tabs {
+    /// Advances the clock; the tab `id`'s session, marked as just used,
+    /// if it is open.
+    fn touch(&mut self, id: &str) -> (u64, Option<Handle>) {
+        self.clock += 1;
+        let now = self.clock;
+        let found = self.open.iter_mut().find(|t| t.0 == id).map(|t| {
+            t.2 = now;
+            t.1.clone()
+        });
+        (now, found)
+    }
+}
+
 impl Sessions {
     /// The sessions of a server whose default session is `base`.
     pub fn new(base: Session) -> Self {
@@ -112,14 +126,8 @@ impl Sessions {
             Ok(t) => t,
             Err(p) => p.into_inner(),
         };
-        {
-            let mut tabs = lock_tabs();
-            tabs.clock += 1;
-            let now = tabs.clock;
-            if let Some(t) = tabs.open.iter_mut().find(|t| t.0 == id) {
-                t.2 = now;
-                return Ok(t.1.clone());
-            }
+        if let (_, Some(h)) = lock_tabs().touch(id) {
+            return Ok(h);
         }
         // A new tab, made outside the map's lock (the default session may
         // be busy identifying).
@@ -135,12 +143,10 @@ impl Sessions {
             session: Arc::new(Mutex::new(s)),
         };
         let mut tabs = lock_tabs();
-        tabs.clock += 1;
-        let now = tabs.clock;
-        if let Some(t) = tabs.open.iter_mut().find(|t| t.0 == id) {
+        let (now, found) = tabs.touch(id);
+        if let Some(h) = found {
             // Another call of the same tab made it first: use that one.
-            t.2 = now;
-            return Ok(t.1.clone());
+            return Ok(h);
         }
         tabs.open.push((id.to_string(), handle.clone(), now));
         if tabs.open.len() > MAX_SESSIONS
