@@ -409,7 +409,7 @@ const PARALLEL_SCAN_MIN: usize = 1 << 18;
 /// [`check_data`] with the scan split into `threads` contiguous ranges of
 /// the column-major storage (std scoped threads) for large matrices; the
 /// first non-finite entry reported is the same as the sequential scan's.
-fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result<()> {
+pub(crate) fn check_data_on(what: &'static str, m: &DMatrix<f64>, threads: usize) -> Result<()> {
     let v = m.as_slice();
     if threads <= 1 || v.len() < PARALLEL_SCAN_MIN {
         return check_data(what, m);
@@ -506,7 +506,7 @@ pub(crate) fn numerical_rank(m: &DMatrix<f64>, rel: f64) -> Result<usize> {
 }
 
 /// Checks horizons, sample period and a fixed order; returns the Hankel layout.
-fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelLayout> {
+pub(crate) fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelLayout> {
     let (p, f) = (opts.past, opts.future);
     if p == 0 {
         return Err(Error::InvalidHorizon {
@@ -928,29 +928,66 @@ impl StreamingIdentifier {
         let t0 = Instant::now();
         let scale = self.scale.unwrap_or(Scale::ONE);
         let means = self.stream.means();
-        let nu = self.layout.nu;
         let factor = self.stream.finish()?;
-        let compress_s = t0.elapsed().as_secs_f64();
-        let mut factored =
-            from_factor_parts(factor, &self.layout, &self.opts, None, scale, compress_s)?;
-        let fit = &mut factored.fit;
-        if self.opts.remove_means {
-            fit.operating_point = Some(OperatingPoint::new(
-                means[..nu].iter().map(|m| m * scale.u).collect(),
-                means[nu..].iter().map(|m| m * scale.y).collect(),
-            )?);
-        }
-        if self.opts.initial_state == InitialState::Zero {
-            fit.x0 = vec![DVector::zeros(fit.model.order()); records];
-        }
-        Ok(StreamedSubspace {
-            factored,
-            layout: self.layout,
-            opts: self.opts,
-            scale,
-            record_samples: self.record_samples,
-        })
+        streamed_subspace(
+            factor,
+            StreamedParts {
+                layout: self.layout,
+                opts: self.opts,
+                scale,
+                means,
+                record_samples: self.record_samples,
+                compress_s: t0.elapsed().as_secs_f64(),
+            },
+        )
     }
+}
+
+/// What [`streamed_subspace`] needs besides the factor.
+pub(crate) struct StreamedParts {
+    pub layout: HankelLayout,
+    pub opts: SubspaceOptions,
+    pub scale: Scale,
+    /// Pooled channel means of the scaled data (used with mean removal).
+    pub means: Vec<f64>,
+    pub record_samples: Vec<usize>,
+    pub compress_s: f64,
+}
+
+/// The first pass of a streamed identification from the compressed data
+/// (a [`StreamingIdentifier`] or merged [`crate::CompressedRecords`]).
+pub(crate) fn streamed_subspace(
+    factor: HankelFactor,
+    parts: StreamedParts,
+) -> Result<StreamedSubspace> {
+    let StreamedParts {
+        layout,
+        opts,
+        scale,
+        means,
+        record_samples,
+        compress_s,
+    } = parts;
+    let records = record_samples.len().max(1);
+    let nu = layout.nu;
+    let mut factored = from_factor_parts(factor, &layout, &opts, None, scale, compress_s)?;
+    let fit = &mut factored.fit;
+    if opts.remove_means {
+        fit.operating_point = Some(OperatingPoint::new(
+            means[..nu].iter().map(|m| m * scale.u).collect(),
+            means[nu..].iter().map(|m| m * scale.y).collect(),
+        )?);
+    }
+    if opts.initial_state == InitialState::Zero {
+        fit.x0 = vec![DVector::zeros(fit.model.order()); records];
+    }
+    Ok(StreamedSubspace {
+        factored,
+        layout,
+        opts,
+        scale,
+        record_samples,
+    })
 }
 
 /// The first pass of a streamed identification

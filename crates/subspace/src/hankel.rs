@@ -125,7 +125,7 @@ impl HankelLayout {
         (self.past + self.future) * (self.nu + self.ny)
     }
     /// Block rows s = p + f (the span of one Hankel column in samples).
-    fn span(&self) -> usize {
+    pub(crate) fn span(&self) -> usize {
         self.past + self.future
     }
     /// Columns contributed by a record of `n` samples.
@@ -146,6 +146,17 @@ impl HankelLayout {
     pub(crate) fn yf(&self) -> std::ops::Range<usize> {
         let s = (self.future + self.past) * self.nu + self.past * self.ny;
         s..s + self.future * self.ny
+    }
+
+    /// Row of the factor of each natural index o·n_z + c (offset o,
+    /// channel c).
+    pub(crate) fn positions(&self) -> Vec<usize> {
+        let nz = self.nu + self.ny;
+        let mut position = vec![0; self.span() * nz];
+        for (r, &(o, c)) in self.sources().iter().enumerate() {
+            position[o * nz + c] = r;
+        }
+        position
     }
 
     /// (offset, channel) of every Hankel row: row r of the column of
@@ -227,6 +238,9 @@ pub(crate) struct HankelStream {
     /// correction removes a small residual mean instead of cancelling a
     /// large offset in the squared data.
     reference: Vec<f64>,
+    /// Set by [`HankelStream::set_reference`]: the first block does not
+    /// choose the reference.
+    fixed_reference: bool,
     /// Σ z_c over the current record, per channel.
     record_sums: Vec<f64>,
     /// Window sums W_r = Σ_j H_{r,j} of every Hankel row (sources order),
@@ -253,13 +267,7 @@ impl HankelStream {
             Compression::Auto | Compression::Correlation => Engine::Correlation {
                 s: vec![0.0; layout.span() * nz * nz],
                 gram: DMatrix::zeros(0, 0),
-                position: {
-                    let mut position = vec![0; layout.span() * nz];
-                    for (r, &(o, c)) in layout.sources().iter().enumerate() {
-                        position[o * nz + c] = r;
-                    }
-                    position
-                },
+                position: layout.positions(),
                 head: vec![Vec::new(); nz],
                 threads: threads.max(1),
                 scratch: (0..threads.max(1)).map(|_| Scratch::default()).collect(),
@@ -278,6 +286,7 @@ impl HankelStream {
             center: false,
             sums: vec![0.0; nz],
             reference: vec![0.0; nz],
+            fixed_reference: false,
             record_sums: vec![0.0; nz],
             window_sums: vec![0.0; k],
         }
@@ -312,6 +321,16 @@ impl HankelStream {
             .collect()
     }
 
+    /// Fixes the centring reference r_c (per channel, in the units of the
+    /// scaled samples) instead of taking the mean of the first block, so
+    /// that pieces of one record compressed apart share it
+    /// ([`crate::CompressionPlan`]). Call before the first push.
+    pub(crate) fn set_reference(&mut self, reference: Vec<f64>) {
+        debug_assert_eq!(reference.len(), self.reference.len());
+        self.reference = reference;
+        self.fixed_reference = true;
+    }
+
     /// Divides every later sample by the scales (powers of 4, exact) of
     /// `scale`: inputs by s_u, outputs by s_y.
     pub(crate) fn set_scale(&mut self, scale: Scale) {
@@ -327,7 +346,7 @@ impl HankelStream {
         }
         let span = self.layout.span();
         let nz = self.carry.len();
-        if self.center && self.samples == 0 {
+        if self.center && self.samples == 0 && !self.fixed_reference {
             let bf = b as f64;
             for c in 0..nz {
                 self.reference[c] = if c < self.layout.nu {
@@ -455,8 +474,7 @@ impl HankelStream {
         let span = self.layout.span();
         let n = self.record_len;
         let cols = self.layout.columns(n);
-        let nz = self.carry.len();
-        for (total, rec) in self.sums.iter_mut().zip(&mut self.record_sums) {
+        for (total, rec) in self.sums.iter_mut().zip(&self.record_sums) {
             *total += *rec;
         }
         if let Engine::Correlation {
@@ -472,84 +490,21 @@ impl HankelStream {
                     let k = self.layout.nrows();
                     *gram = DMatrix::zeros(k, k);
                 }
-                // The carry holds the last s − 1 samples; finish the sums
-                // S(δ) = Σ_{t ≤ N−1−δ} z(t) z(t+δ)ᵀ over its start positions.
-                let tail = &self.carry;
-                let tl = tail[0].len();
-                for t in 0..tl {
-                    for d in 0..(tl - t).min(span) {
-                        for c in 0..nz {
-                            let zc = tail[c][t];
-                            for e in 0..nz {
-                                s[(d * nz + c) * nz + e] += zc * tail[e][t + d];
-                            }
-                        }
-                    }
-                }
-                // z(t) for t < s − 1 (head) and t ≥ N − (s − 1) (tail).
-                let tail_start = n - tl;
-                let at = |ch: usize, t: usize| -> f64 {
-                    if t < head[ch].len() {
-                        head[ch][t]
-                    } else {
-                        tail[ch][t - tail_start]
-                    }
-                };
-                if self.center {
-                    // W_r = Σ_{j<J} z_c(j + o) = record sum − head − tail.
-                    for (r, &(o, c)) in self.layout.sources().iter().enumerate() {
-                        let mut w = self.record_sums[c];
-                        for t in 0..o {
-                            w -= at(c, t);
-                        }
-                        for t in (o + cols)..n {
-                            w -= at(c, t);
-                        }
-                        self.window_sums[r] += w;
-                    }
-                }
-                // Natural order: index o·n_z + c for offset o, channel c.
-                // Σ_{j<J} z_c1(j+o1) z_c2(j+o1+δ) = S(δ) − Σ_{t<o1} − Σ_{t=o1+J}^{N−1−δ}:
-                // both corrections are running sums over o1, O(s² n_z²) in all.
-                // The head holds z(0 … s−2) and the tail z(J … N−1)
-                // (tail_start = J as soon as a column exists), so both
-                // corrections read plain slices.
-                debug_assert_eq!(tail_start, cols);
-                let mut head_part = vec![0.0; span];
-                let mut tail_part = vec![0.0; span];
-                for d in 0..span {
-                    let m = span - d;
-                    for c1 in 0..nz {
-                        let (h1, t1) = (&head[c1][..m - 1], &tail[c1][..m - 1]);
-                        for c2 in 0..nz {
-                            let (h2, t2) = (&head[c2][d..d + m - 1], &tail[c2][d..d + m - 1]);
-                            // head_part[o1] = Σ_{t<o1} z_c1(t) z_c2(t+δ).
-                            let mut acc = 0.0;
-                            for ((h, a), b) in head_part.iter_mut().zip(h1).zip(h2) {
-                                *h = acc;
-                                acc += a * b;
-                            }
-                            head_part[m - 1] = acc;
-                            // tail_part[o1] = Σ_{t=o1+J}^{N−1−δ} z_c1(t) z_c2(t+δ).
-                            let mut acc = 0.0;
-                            tail_part[m - 1] = 0.0;
-                            for o1 in (0..m - 1).rev() {
-                                acc += t1[o1] * t2[o1];
-                                tail_part[o1] = acc;
-                            }
-                            let sd = s[(d * nz + c1) * nz + c2];
-                            for o1 in 0..m {
-                                let v = sd - head_part[o1] - tail_part[o1];
-                                let (i, j) = (position[o1 * nz + c1], position[(o1 + d) * nz + c2]);
-                                // Equal offsets visit both (c1, c2) and (c2, c1).
-                                gram[(i, j)] += v;
-                                if d != 0 {
-                                    gram[(j, i)] += v;
-                                }
-                            }
-                        }
-                    }
-                }
+                complete_tail(s, &self.carry, span);
+                fold_record(
+                    &self.layout,
+                    position,
+                    RecordSums {
+                        s,
+                        head,
+                        tail: &self.carry,
+                        len: n,
+                        sums: &self.record_sums,
+                    },
+                    self.center,
+                    gram,
+                    &mut self.window_sums,
+                );
             }
             s.iter_mut().for_each(|v| *v = 0.0);
             head.iter_mut().for_each(|h| h.clear());
@@ -558,6 +513,26 @@ impl HankelStream {
         self.record_len = 0;
         self.carry.iter_mut().for_each(|c| c.clear());
         self.record_sums.iter_mut().for_each(|v| *v = 0.0);
+    }
+
+    /// The lag sums and boundary samples of the data pushed since the last
+    /// record end, as one [`Piece`] of a record (correlation engine only,
+    /// `None` for the QR); the stream starts a new record afterwards.
+    pub(crate) fn take_piece(&mut self) -> Option<Piece> {
+        let span = self.layout.span();
+        let Engine::Correlation { s, head, .. } = &mut self.engine else {
+            return None;
+        };
+        complete_tail(s, &self.carry, span);
+        let piece = Piece {
+            s: std::mem::replace(s, vec![0.0; s.len()]),
+            head: std::mem::replace(head, vec![Vec::new(); self.carry.len()]),
+            tail: std::mem::replace(&mut self.carry, vec![Vec::new(); self.next_carry.len()]),
+            len: self.record_len,
+            sums: std::mem::replace(&mut self.record_sums, vec![0.0; self.next_carry.len()]),
+        };
+        self.record_len = 0;
+        Some(piece)
     }
 
     /// Hankel columns so far (completed records plus the current one).
@@ -614,39 +589,254 @@ impl HankelStream {
                     },
                 })
             }
-            Engine::Correlation {
-                gram: mut g,
-                threads,
-                ..
-            } => {
-                if g.nrows() == 0 {
-                    // No record gave a column (the callers report that first).
-                    g = DMatrix::zeros(k, k);
+            Engine::Correlation { gram, threads, .. } => correlation_factor(
+                gram,
+                &self.window_sums,
+                j,
+                CompressionWork {
+                    requested: self.requested,
+                    samples: self.samples,
+                    nz,
+                    span,
+                    threads,
+                },
+            ),
+        }
+    }
+}
+
+/// What a correlation compression did, for its [`CompressionReport`].
+pub(crate) struct CompressionWork {
+    pub requested: Compression,
+    pub samples: usize,
+    pub nz: usize,
+    pub span: usize,
+    pub threads: usize,
+}
+
+/// The factor L/√J of the correlation route from the Gram matrix H Hᵀ of
+/// all records (0×0 when no record gave a column) and, with centring, the
+/// window sums W of the Hankel rows (zeros otherwise), with the checks of
+/// [`Compression::Auto`] ([`Error::IllConditionedCorrelation`]). O(k³/3).
+pub(crate) fn correlation_factor(
+    mut g: DMatrix<f64>,
+    w: &[f64],
+    columns: usize,
+    work: CompressionWork,
+) -> Result<HankelFactor> {
+    let k = w.len();
+    if g.nrows() == 0 {
+        // No record gave a column (the callers report that first).
+        g = DMatrix::zeros(k, k);
+    }
+    let scale = if columns > 0 {
+        1.0 / columns as f64
+    } else {
+        0.0
+    };
+    // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without centring), in
+    // place.
+    for (c, mut col) in g.column_iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = (*v - w[r] * w[c] * scale) * scale;
+        }
+    }
+    let kf = k as f64;
+    let flops =
+        2.0 * work.samples as f64 * (work.nz * work.nz * work.span) as f64 + kf * kf * kf / 3.0;
+    let (l, rcond) = cholesky_checked(g)?;
+    Ok(HankelFactor {
+        l,
+        columns,
+        report: CompressionReport {
+            requested: work.requested,
+            used: Compression::Correlation,
+            rcond,
+            fallback: None,
+            flops,
+            threads: work.threads,
+        },
+    })
+}
+
+/// Lag sums and boundary samples of a contiguous piece of one record
+/// (scaled, less the reference): everything the correlation compression
+/// needs from it. Pieces of a record concatenate ([`Piece::append`]), and a
+/// whole record folds into the Gram matrix ([`fold_record`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Piece {
+    /// S(δ) = Σ z(t) z(t + δ)ᵀ over the t with t and t + δ in the piece,
+    /// entry (δ n_z + c) n_z + e for channels c, e and δ < s.
+    pub s: Vec<f64>,
+    /// The first min(s − 1, len) samples, per channel.
+    pub head: Vec<Vec<f64>>,
+    /// The last min(s − 1, len) samples, per channel.
+    pub tail: Vec<Vec<f64>>,
+    /// Samples in the piece.
+    pub len: usize,
+    /// Σ z_c over the piece, per channel (kept with centring only).
+    pub sums: Vec<f64>,
+}
+
+impl Piece {
+    /// The piece of the samples of `self` followed by those of `next`:
+    /// the lag sums gain the products that straddle the boundary (only
+    /// the last s − 1 samples of `self` and the first s − 1 of `next` take
+    /// part, O(s² n_z²)). Associative up to rounding.
+    pub(crate) fn append(mut self, next: Piece, span: usize) -> Piece {
+        let nz = self.head.len();
+        let keep = span - 1;
+        for (a, b) in self.s.iter_mut().zip(&next.s) {
+            *a += b;
+        }
+        // t in self (index tail_start + i of the tail), t + δ in next.
+        let tl = self.tail.first().map_or(0, Vec::len);
+        let hl = next.head.first().map_or(0, Vec::len);
+        for d in 1..span {
+            for back in 1..=d.min(tl) {
+                // t = len − back, t + δ = len − back + d: index d − back of next.
+                let j = d - back;
+                if j >= hl {
+                    continue;
                 }
-                let w = &self.window_sums;
-                // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without
-                // centring), in place.
-                for (c, mut col) in g.column_iter_mut().enumerate() {
-                    for (r, v) in col.iter_mut().enumerate() {
-                        *v = (*v - w[r] * w[c] * scale) * scale;
+                for c in 0..nz {
+                    let zc = self.tail[c][tl - back];
+                    for e in 0..nz {
+                        self.s[(d * nz + c) * nz + e] += zc * next.head[e][j];
                     }
                 }
-                let kf = k as f64;
-                let flops =
-                    2.0 * self.samples as f64 * (nz * nz * span) as f64 + kf * kf * kf / 3.0;
-                let (l, rcond) = cholesky_checked(g)?;
-                Ok(HankelFactor {
-                    l,
-                    columns: j,
-                    report: CompressionReport {
-                        requested: self.requested,
-                        used: Compression::Correlation,
-                        rcond,
-                        fallback: None,
-                        flops,
-                        threads,
-                    },
-                })
+            }
+        }
+        for c in 0..nz {
+            if self.head[c].len() < keep {
+                let more = (keep - self.head[c].len()).min(next.head[c].len());
+                let add: Vec<f64> = next.head[c][..more].to_vec();
+                self.head[c].extend(add);
+            }
+            let mut tail = std::mem::take(&mut self.tail[c]);
+            if next.tail[c].len() < keep {
+                tail.extend_from_slice(&next.tail[c]);
+                let drop = tail.len().saturating_sub(keep);
+                tail.drain(..drop);
+            } else {
+                tail.clone_from(&next.tail[c]);
+            }
+            self.tail[c] = tail;
+        }
+        for (a, b) in self.sums.iter_mut().zip(&next.sums) {
+            *a += b;
+        }
+        self.len += next.len;
+        self
+    }
+}
+
+/// Borrowed [`Piece`] of a whole record, as [`fold_record`] reads it.
+pub(crate) struct RecordSums<'a> {
+    pub s: &'a [f64],
+    pub head: &'a [Vec<f64>],
+    pub tail: &'a [Vec<f64>],
+    pub len: usize,
+    pub sums: &'a [f64],
+}
+
+/// Completes the lag sums S(δ) with the start positions t held in `tail`
+/// (the last ≤ s − 1 samples, whose products t + δ fall inside it): the
+/// kernel sums only the starts of complete Hankel columns.
+fn complete_tail(s: &mut [f64], tail: &[Vec<f64>], span: usize) {
+    let nz = tail.len();
+    let tl = tail.first().map_or(0, Vec::len);
+    for t in 0..tl {
+        for d in 0..(tl - t).min(span) {
+            for c in 0..nz {
+                let zc = tail[c][t];
+                for e in 0..nz {
+                    s[(d * nz + c) * nz + e] += zc * tail[e][t + d];
+                }
+            }
+        }
+    }
+}
+
+/// Adds the Hankel Gram matrix Σ_j h_j h_jᵀ of one whole record (at least
+/// one column) to `gram` (rows in the factor's order, `position` from
+/// [`HankelLayout::positions`]) from its full lag sums, and with centring
+/// its window sums W_r = Σ_j H_{r,j} to `window_sums`: O(s² n_z²).
+pub(crate) fn fold_record(
+    layout: &HankelLayout,
+    position: &[usize],
+    rec: RecordSums<'_>,
+    center: bool,
+    gram: &mut DMatrix<f64>,
+    window_sums: &mut [f64],
+) {
+    let span = layout.span();
+    let n = rec.len;
+    let cols = layout.columns(n);
+    let nz = rec.head.len();
+    let (s, head, tail) = (rec.s, rec.head, rec.tail);
+    let tl = tail[0].len();
+    // z(t) for t < s − 1 (head) and t ≥ N − (s − 1) (tail).
+    let tail_start = n - tl;
+    let at = |ch: usize, t: usize| -> f64 {
+        if t < head[ch].len() {
+            head[ch][t]
+        } else {
+            tail[ch][t - tail_start]
+        }
+    };
+    if center {
+        // W_r = Σ_{j<J} z_c(j + o) = record sum − head − tail.
+        for (r, &(o, c)) in layout.sources().iter().enumerate() {
+            let mut w = rec.sums[c];
+            for t in 0..o {
+                w -= at(c, t);
+            }
+            for t in (o + cols)..n {
+                w -= at(c, t);
+            }
+            window_sums[r] += w;
+        }
+    }
+    // Natural order: index o·n_z + c for offset o, channel c.
+    // Σ_{j<J} z_c1(j+o1) z_c2(j+o1+δ) = S(δ) − Σ_{t<o1} − Σ_{t=o1+J}^{N−1−δ}:
+    // both corrections are running sums over o1, O(s² n_z²) in all.
+    // The head holds z(0 … s−2) and the tail z(J … N−1)
+    // (tail_start = J as soon as a column exists), so both
+    // corrections read plain slices.
+    debug_assert_eq!(tail_start, cols);
+    let mut head_part = vec![0.0; span];
+    let mut tail_part = vec![0.0; span];
+    for d in 0..span {
+        let m = span - d;
+        for c1 in 0..nz {
+            let (h1, t1) = (&head[c1][..m - 1], &tail[c1][..m - 1]);
+            for c2 in 0..nz {
+                let (h2, t2) = (&head[c2][d..d + m - 1], &tail[c2][d..d + m - 1]);
+                // head_part[o1] = Σ_{t<o1} z_c1(t) z_c2(t+δ).
+                let mut acc = 0.0;
+                for ((h, a), b) in head_part.iter_mut().zip(h1).zip(h2) {
+                    *h = acc;
+                    acc += a * b;
+                }
+                head_part[m - 1] = acc;
+                // tail_part[o1] = Σ_{t=o1+J}^{N−1−δ} z_c1(t) z_c2(t+δ).
+                let mut acc = 0.0;
+                tail_part[m - 1] = 0.0;
+                for o1 in (0..m - 1).rev() {
+                    acc += t1[o1] * t2[o1];
+                    tail_part[o1] = acc;
+                }
+                let sd = s[(d * nz + c1) * nz + c2];
+                for o1 in 0..m {
+                    let v = sd - head_part[o1] - tail_part[o1];
+                    let (i, j) = (position[o1 * nz + c1], position[(o1 + d) * nz + c2]);
+                    // Equal offsets visit both (c1, c2) and (c2, c1).
+                    gram[(i, j)] += v;
+                    if d != 0 {
+                        gram[(j, i)] += v;
+                    }
+                }
             }
         }
     }

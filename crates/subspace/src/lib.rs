@@ -130,6 +130,7 @@ mod lagged;
 mod modal;
 mod oblique;
 mod order;
+mod partial;
 mod projection;
 mod refine;
 mod regress;
@@ -149,6 +150,7 @@ pub use iv::{
     iv_multirate_fast,
 };
 pub use order::{OrderCriterion, OrderReport, gap_order};
+pub use partial::{CompressedRecords, CompressionPlan, RecordPiece};
 pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,

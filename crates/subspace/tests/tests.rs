@@ -78,6 +78,7 @@ mod common {
 
 mod suite {
     pub mod consistency;
+    pub mod partial;
     pub mod refine;
     pub mod two_pass;
 }
