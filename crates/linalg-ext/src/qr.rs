@@ -196,7 +196,7 @@ pub fn qr_full(a: &DMatrix<f64>) -> Result<Qr> {
 /// # Ok(())
 /// # }
 /// ```
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RAccumulator {
     ncols: usize,
     r: DMatrix<f64>,
@@ -245,6 +245,13 @@ impl RAccumulator {
     /// Number of columns.
     pub fn ncols(&self) -> usize {
         self.ncols
+    }
+
+    /// Whether the stored factor has the accumulator's shape (at most
+    /// `ncols` rows, `ncols` columns): a check for states decoded from
+    /// bytes.
+    pub fn is_consistent(&self) -> bool {
+        self.r.ncols() == self.ncols && self.r.nrows() <= self.ncols
     }
 }
 

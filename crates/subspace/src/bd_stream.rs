@@ -15,6 +15,7 @@
 use lifted_linalg::RAccumulator;
 use lifted_lti::OperatingPoint;
 use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
 
 use crate::engine::{Scale, pow4_scale};
 use crate::error::{Error, Result, check_rank};
@@ -26,7 +27,7 @@ use crate::regress::{
 
 /// Options of [`OutputErrorStream`]. `Default` gives the values documented
 /// per field.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct OutputErrorStreamOptions {
     /// Which entries of D are estimated. Default [`Feedthrough::Free`].
     pub feedthrough: Feedthrough,
@@ -55,9 +56,20 @@ pub struct OutputErrorStreamOptions {
 }
 
 /// Which recursions generate the rows.
+#[derive(Serialize, Deserialize)]
 enum Rows {
     Modal(Box<ModalStream>),
     Direct(Box<DirectStream>),
+}
+
+impl Rows {
+    /// Whether the recursions' sizes are those of `p` (decoded states).
+    fn fits(&self, p: &Params) -> bool {
+        match self {
+            Rows::Modal(m) => m.fits(p),
+            Rows::Direct(d) => d.fits(p),
+        }
+    }
 }
 
 /// The output-error (B, D, x₀) regression for given (A, C), fed in blocks
@@ -90,6 +102,7 @@ enum Rows {
 /// # Ok(())
 /// # }
 /// ```
+#[derive(Serialize, Deserialize)]
 pub struct OutputErrorStream {
     a: DMatrix<f64>,
     c: DMatrix<f64>,
@@ -268,6 +281,40 @@ impl OutputErrorStream {
         })
     }
 
+    /// The stream's state (filter states, R factor, options) in compact
+    /// binary form (CBOR, a few kB): the second pass over a record split
+    /// in shards on several machines carries it from the shard before to
+    /// the shard after, so each shard is read where it lies
+    /// ([`crate::CompressedRecords`]).
+    ///
+    /// Errors: [`Error::InvalidOption`] if encoding fails.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        crate::wire::to_cbor(self)
+    }
+
+    /// The stream from [`to_bytes`](Self::to_bytes).
+    ///
+    /// Errors: [`Error::InvalidOption`] naming what is wrong with the bytes.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        let s: OutputErrorStream = crate::wire::from_cbor(bytes, "regression stream")?;
+        let n = s.a.nrows();
+        let ok = s.a.ncols() == n
+            && s.c.ncols() == n
+            && s.params.n == n
+            && s.params.nu == s.nu
+            && s.params.ny == s.c.nrows()
+            && s.acc.ncols() == s.params.total + 1
+            && s.acc.is_consistent()
+            && s.rows.as_ref().is_none_or(|(r, _)| r.fits(&s.params));
+        if !ok {
+            return Err(Error::InvalidOption {
+                what: "regression stream",
+                reason: "the decoded stream is inconsistent (corrupted bytes?)".into(),
+            });
+        }
+        Ok(s)
+    }
+
     /// Solves the regression.
     ///
     /// Errors: [`Error::NoData`] (nothing pushed), [`Error::InvalidOption`]
@@ -296,5 +343,86 @@ impl OutputErrorStream {
         let r12 = r.view((0, total), (total, 1)).into_owned();
         let theta = equilibrated_solve(&r11, &r12, "B/D regressor")?;
         Ok(self.params.unpack(&theta, records, scale.io))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pushes `u`, `y` in shards of `shard` rows, the stream's state going
+    /// through its bytes between shards.
+    fn through_bytes(
+        a: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        shard: usize,
+    ) -> (BdFit, &'static str) {
+        let mut s = OutputErrorStream::new(a, c, 1, &OutputErrorStreamOptions::default()).unwrap();
+        for k in (0..u.nrows()).step_by(shard) {
+            let len = shard.min(u.nrows() - k);
+            s.push(&u.rows(k, len).into_owned(), &y.rows(k, len).into_owned())
+                .unwrap();
+            s = OutputErrorStream::from_bytes(&s.to_bytes().unwrap()).unwrap();
+        }
+        let route = s.route().unwrap();
+        (s.finish().unwrap(), route)
+    }
+
+    #[test]
+    fn state_through_bytes_gives_the_same_fit_on_both_routes() {
+        let n = 3000;
+        let u = DMatrix::from_fn(n, 1, |k, _| {
+            if (k * 7919 + k / 3) % 5 < 2 {
+                1.0
+            } else {
+                -1.0
+            }
+        });
+        // A diagonalisable A (modal route) and a Jordan block (direct route).
+        for (a, route) in [
+            (
+                DMatrix::from_row_slice(2, 2, &[0.9, 0.0, 0.0, 0.5]),
+                "modal",
+            ),
+            (
+                DMatrix::from_row_slice(2, 2, &[0.9, 1.0, 0.0, 0.9]),
+                "direct",
+            ),
+        ] {
+            let b = DMatrix::from_row_slice(2, 1, &[0.5, -0.3]);
+            let c = DMatrix::from_row_slice(1, 2, &[1.0, 0.7]);
+            let g = lifted_lti::StateSpace::new(
+                a.clone(),
+                b.clone(),
+                c.clone(),
+                DMatrix::zeros(1, 1),
+                Some(1.0),
+            )
+            .unwrap();
+            let y = g.lsim(&u, None, None).unwrap().y;
+            let (whole, r1) = through_bytes(&a, &c, &u, &y, n);
+            let (split, r2) = through_bytes(&a, &c, &u, &y, 701);
+            assert_eq!((r1, r2), (route, route));
+            // The same rows in the same order, blocks cut elsewhere:
+            // rounding only.
+            assert!((&split.b - &whole.b).norm() < 1e-12 * whole.b.norm());
+            assert!((&split.b - &b).norm() < 1e-9, "{route}: B {}", split.b);
+        }
+        let mut bytes = OutputErrorStream::new(
+            &DMatrix::from_element(1, 1, 0.5),
+            &DMatrix::from_element(1, 1, 1.0),
+            1,
+            &OutputErrorStreamOptions::default(),
+        )
+        .unwrap()
+        .to_bytes()
+        .unwrap();
+        bytes.truncate(bytes.len() - 3);
+        assert!(matches!(
+            OutputErrorStream::from_bytes(&bytes),
+            Err(Error::InvalidOption { .. })
+        ));
     }
 }

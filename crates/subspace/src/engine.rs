@@ -581,7 +581,7 @@ pub(crate) fn candidate_orders(order: OrderSelection, max_order: usize) -> usize
 /// 1e-7 times smaller than the inputs changed the N4SID poles and data of
 /// magnitude 1e150 overflowed the Gram matrices. Powers of 4 keep the
 /// scaling, its square root and its undoing exact.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Scale {
     /// Input scale s_u.
     pub u: f64,

@@ -135,6 +135,7 @@ mod projection;
 mod refine;
 mod regress;
 mod select;
+mod wire;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
 pub use budget::PEM_SAMPLES_PER_PARAMETER;

@@ -32,6 +32,7 @@
 use lifted_linalg::RAccumulator;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
 use crate::regress::{DataScale, Params, Record};
@@ -62,7 +63,7 @@ const BLOCK: usize = 1000;
 const NEGLIGIBLE: f64 = 1e-200;
 
 /// One diagonal block of Λ.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 enum Mode {
     /// A real eigenvalue λ (one state).
     Real(f64),
@@ -71,7 +72,7 @@ enum Mode {
 }
 
 /// Real modal form A = V Λ V⁻¹.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub(crate) struct ModalForm {
     modes: Vec<Mode>,
     v: DMatrix<f64>,
@@ -225,6 +226,7 @@ impl ModalForm {
 }
 
 /// Layout of the base row z(t).
+#[derive(Serialize, Deserialize)]
 pub(crate) struct Layout {
     n: usize,
     nu: usize,
@@ -475,6 +477,7 @@ pub(crate) const MAX_STREAM_PATTERNS: usize = 64;
 /// samples (a second pass over a file): the filter states carry over from
 /// block to block, so the rows are those of one scan of the record. Memory
 /// O(patterns · BLOCK · q), independent of the record length.
+#[derive(Serialize, Deserialize)]
 pub(crate) struct ModalStream {
     form: ModalForm,
     lay: Layout,
@@ -579,12 +582,36 @@ impl ModalStream {
     pub(crate) fn rows(&self) -> usize {
         self.rows
     }
+
+    /// Whether the sizes are those of `p` (a state decoded from bytes).
+    pub(crate) fn fits(&self, p: &Params) -> bool {
+        let lay = Layout::of(p);
+        let n = p.n;
+        let blocks: usize = self
+            .form
+            .modes
+            .iter()
+            .map(|m| if matches!(m, Mode::Real(_)) { 1 } else { 2 })
+            .sum();
+        lay.width == self.lay.width
+            && (self.lay.x0, self.lay.one, self.lay.y) == (lay.x0, lay.one, lay.y)
+            && blocks == n
+            && self.form.v.shape() == (n, n)
+            && self.form.v_inv.shape() == (n, n)
+            && self.ct.shape() == (p.ny, n)
+            && self.state.w.len() == n * p.nu
+            && self.state.fr.len() == n
+            && self
+                .pats
+                .iter()
+                .all(|(_, acc)| acc.ncols() == lay.width && acc.is_consistent())
+    }
 }
 
 /// The filter states at the start of a range of instants: the input
 /// filters' outputs w (n per input) and the free response Λᵗ (x₀ columns)
 /// with whether it is still above [`NEGLIGIBLE`].
-#[derive(Clone)]
+#[derive(Clone, Serialize, Deserialize)]
 struct FilterState {
     w: Vec<f64>,
     fr: Vec<f64>,

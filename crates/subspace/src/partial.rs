@@ -52,6 +52,7 @@ use crate::hankel::{
     Compression, CompressionWork, HankelLayout, HankelStream, Piece, RecordSums,
     correlation_factor, fold_record,
 };
+use crate::wire::{from_cbor, to_cbor};
 
 /// The units every piece of a record is compressed in: horizons, data
 /// scale and centring reference (see the module docs). Serialisable, so a
@@ -497,20 +498,4 @@ impl CompressedRecords {
         }
         Ok(c)
     }
-}
-
-fn to_cbor<T: Serialize>(value: &T) -> Result<Vec<u8>> {
-    let mut out = Vec::new();
-    ciborium::into_writer(value, &mut out).map_err(|e| Error::InvalidOption {
-        what: "serialisation",
-        reason: e.to_string(),
-    })?;
-    Ok(out)
-}
-
-fn from_cbor<T: for<'de> Deserialize<'de>>(bytes: &[u8], what: &'static str) -> Result<T> {
-    ciborium::from_reader(bytes).map_err(|e| Error::InvalidOption {
-        what,
-        reason: format!("cannot decode: {e}"),
-    })
 }

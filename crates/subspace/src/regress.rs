@@ -20,6 +20,7 @@
 
 use lifted_linalg::{RAccumulator, lstsq};
 use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
 
 use crate::engine::{
     Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
@@ -61,7 +62,7 @@ pub(crate) fn check_growth(a: &DMatrix<f64>, samples: usize, stage: &'static str
 }
 
 /// Which entries of the feedthrough D are estimated.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub enum Feedthrough {
     /// All entries free.
     #[default]
@@ -94,7 +95,7 @@ impl Feedthrough {
 }
 
 /// How the initial state of each record is treated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum InitialState {
     /// x₀ = 0 (zero-initial-state simulation).
     Zero,
@@ -131,7 +132,7 @@ pub struct Record<'a> {
 }
 
 /// Parameter bookkeeping for θ = (vec B, D entries, x₀ per record).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub(crate) struct Params {
     pub(crate) n: usize,
     pub(crate) nu: usize,
@@ -214,6 +215,7 @@ impl Params {
 /// Generates regressor rows (one per sampled output entry) of one record
 /// (owns copies of A and the layout, so that it can live between the
 /// blocks of a streamed record).
+#[derive(Serialize, Deserialize)]
 struct RowGen {
     a: DMatrix<f64>,
     p: Params,
@@ -391,7 +393,7 @@ const BLOCK: usize = 1024;
 /// regressions run on the data divided by them, so that neither the data's
 /// magnitude (overflow of the squared regressors) nor the ratio of output
 /// to input units (relative rank tolerance) matters.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub(crate) struct DataScale {
     pub(crate) io: Scale,
     z: f64,
@@ -639,6 +641,7 @@ pub(crate) fn output_error_route(
 /// accumulator: the regressor recursions carry over between blocks, so a
 /// record may arrive in pieces (a second pass over a file). Memory
 /// O(BLOCK · p), independent of the record length.
+#[derive(Serialize, Deserialize)]
 pub(crate) struct DirectStream {
     rows_of: RowGen,
     a: DMatrix<f64>,
@@ -722,6 +725,25 @@ impl DirectStream {
     /// Rows (sampled output entries) folded so far.
     pub(crate) fn rows(&self) -> usize {
         self.rows + self.used
+    }
+
+    /// Whether the sizes are those of `p` (a state decoded from bytes).
+    pub(crate) fn fits(&self, p: &Params) -> bool {
+        let (n, nu, ny) = (p.n, p.nu, p.ny);
+        let g = &self.rows_of;
+        self.p.total == p.total
+            && self.a.shape() == (n, n)
+            && self.c.shape() == (ny, n)
+            && self.block.shape() == (BLOCK, p.total + 1)
+            && self.used <= BLOCK
+            && self.row.len() == p.total
+            && g.a.shape() == (n, n)
+            && g.p.total == p.total
+            && g.z.len() == nu * n * n
+            && g.ztmp.len() == nu * n * n
+            && g.cat.len() == ny * n
+            && g.cattmp.len() == ny * n
+            && g.c_rows.len() == ny * n
     }
 }
 

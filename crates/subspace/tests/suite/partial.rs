@@ -5,8 +5,8 @@
 
 use lifted_lti::StateSpace;
 use lifted_subspace::{
-    CompressedRecords, CompressionPlan, Error, Method, OrderSelection, RecordPiece,
-    StreamingIdentifier, SubspaceModel, SubspaceOptions,
+    CompressedRecords, CompressionPlan, Error, Method, OrderSelection, OutputErrorStream,
+    RecordPiece, StreamingIdentifier, SubspaceModel, SubspaceOptions,
 };
 use nalgebra::DMatrix;
 
@@ -93,16 +93,25 @@ fn tree(mut ps: Vec<RecordPiece>) -> RecordPiece {
     ps.pop().unwrap()
 }
 
+/// The identification from the merged records; the regression's second
+/// pass visits each record in shards of `shard` rows, its state passed
+/// between them as bytes (as from worker to worker).
 fn finish(
     c: CompressedRecords,
     o: &SubspaceOptions,
     records: &[(DMatrix<f64>, DMatrix<f64>)],
+    shard: usize,
 ) -> SubspaceModel {
     let c = CompressedRecords::from_bytes(&c.to_bytes().unwrap()).unwrap();
     let first = c.identify(o).unwrap();
     let mut bd = first.regression().unwrap();
     for (u, y) in records {
-        bd.push(u, y).unwrap();
+        for s in (0..u.nrows()).step_by(shard) {
+            let len = shard.min(u.nrows() - s);
+            bd.push(&u.rows(s, len).into_owned(), &y.rows(s, len).into_owned())
+                .unwrap();
+            bd = OutputErrorStream::from_bytes(&bd.to_bytes().unwrap()).unwrap();
+        }
         bd.end_record().unwrap();
     }
     first.finish(bd).unwrap()
@@ -138,7 +147,7 @@ fn merged_pieces_give_the_streamed_model() {
         .unwrap();
         let piece = tree(pieces(&plan, &u, &y, &cuts));
         assert_eq!(piece.len(), 20_000);
-        let merged = finish(piece.close().unwrap(), &o, &[(u.clone(), y.clone())]);
+        let merged = finish(piece.close().unwrap(), &o, &[(u.clone(), y.clone())], 3001);
         // Same compression up to the rounding of the summation order; the
         // SVD and the regression on top keep it near 1e-12: 1e-10 leaves
         // two digits of margin and still fails on any missed product.
@@ -180,7 +189,7 @@ fn records_merge_in_any_order_of_closing() {
         .unwrap();
     let c = r1.merge(r2).unwrap();
     assert_eq!(c.records(), &[6000, 9000]);
-    let merged = finish(c, &o, &records);
+    let merged = finish(c, &o, &records, 5000);
     poles_close(&merged, &whole, 1e-10);
     assert!(freq_error(&merged.model, &whole.model) < 1e-10);
 }
