@@ -12,6 +12,7 @@
 //! `cargo clippy`) pyo3 links libpython instead, so the workspace commands
 //! work on a machine without maturin. See the crate README.
 
+mod distributed;
 mod routes;
 mod validation;
 
@@ -593,8 +594,16 @@ fn identify<'py>(
         })
         .map_err(err)?;
     // The CLI's method names (`lifted identify --method`), lower case.
-    let method_name = method.name().to_ascii_lowercase();
-    let mut file = ModelFile::new(fit.model.clone()).with_method(method_name.as_str());
+    fit_dict(py, &fit, &method.name().to_ascii_lowercase())
+}
+
+/// The dict `identify` returns for a subspace fit.
+pub(crate) fn fit_dict<'py>(
+    py: Python<'py>,
+    fit: &lifted_subspace::SubspaceModel,
+    method_name: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut file = ModelFile::new(fit.model.clone()).with_method(method_name);
     if let Some(op) = &fit.operating_point {
         file = file.with_operating_point(op.clone()).map_err(err)?;
     }
@@ -614,7 +623,7 @@ fn identify<'py>(
     out.set_item("singular_values", fit.diagnostics.singular_values.clone())?;
     out.set_item("order", fit.diagnostics.order)?;
     out.set_item("suggested_order", fit.diagnostics.suggested_order)?;
-    out.set_item("method", method_name.as_str())?;
+    out.set_item("method", method_name)?;
     out.set_item("model_json", file.to_json().map_err(err)?)?;
     Ok(out)
 }
@@ -844,5 +853,19 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(multisine, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_experiment, m)?)?;
+    m.add_class::<distributed::PyFirstPass>()?;
+    m.add_function(wrap_pyfunction!(distributed::partial_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::partial_compress, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::partial_append, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::partial_close, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::partial_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::partial_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_push, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_end_record, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_prime, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_advance, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::regression_absorb, m)?)?;
     Ok(())
 }

@@ -185,13 +185,38 @@ impl OutputErrorStream {
     /// are pushed than declared, or a record has more than 64 patterns of
     /// sampled outputs.
     pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let Some((u, y)) = self.prepare(u, y)? else {
+            return Ok(());
+        };
+        let Some((rows, _)) = self.rows.as_mut() else {
+            return Ok(());
+        };
+        match rows {
+            Rows::Modal(m) => {
+                if !m.push(&u, &y)? {
+                    return Err(too_many_patterns());
+                }
+            }
+            Rows::Direct(d) => d.push(&u, &y, &mut self.acc)?,
+        }
+        Ok(())
+    }
+
+    /// Checks a block, opens a record if none is open, removes the
+    /// operating point and fixes the scale and the route on the first
+    /// block; `None` for an empty block.
+    fn prepare(
+        &mut self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
         crate::engine::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
         crate::error::check_data("u", u)?;
         if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
             return Err(crate::error::non_finite_at("y", y, i));
         }
         if u.nrows() == 0 {
-            return Ok(());
+            return Ok(None);
         }
         if !self.record_open {
             if self.records_done >= self.opts.records.max(1) {
@@ -210,49 +235,183 @@ impl OutputErrorStream {
             None => (u.clone(), y.clone()),
         };
         if self.rows.is_none() {
-            let scale = DataScale::with_io(Scale {
-                u: pow4_scale(&[&u]),
-                y: pow4_scale(&[&y]),
-            });
-            let c_scaled = &self.c / scale.io.y;
-            let rows = match (self.c.nrows() <= modal::MAX_OUTPUTS)
-                .then(|| ModalForm::of(&self.a))
-                .flatten()
-            {
-                Some(form) => Rows::Modal(Box::new(ModalStream::new(
-                    form,
-                    &c_scaled,
-                    &self.params,
-                    scale,
-                    self.opts.threads,
-                ))),
-                None => Rows::Direct(Box::new(DirectStream::new(
-                    &self.a,
-                    &c_scaled,
-                    &self.params,
-                    scale,
-                ))),
-            };
-            self.rows = Some((rows, scale));
+            self.choose_rows(&u, &y);
         }
-        let Some((rows, _)) = self.rows.as_mut() else {
+        Ok(Some((u, y)))
+    }
+
+    /// The data scale (from the block `u`, `y`, deviations) and the
+    /// recursions (modal when A has a well-conditioned eigenbasis).
+    fn choose_rows(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) {
+        let scale = DataScale::with_io(Scale {
+            u: pow4_scale(&[u]),
+            y: pow4_scale(&[y]),
+        });
+        let c_scaled = &self.c / scale.io.y;
+        let rows = match (self.c.nrows() <= modal::MAX_OUTPUTS)
+            .then(|| ModalForm::of(&self.a))
+            .flatten()
+        {
+            Some(form) => Rows::Modal(Box::new(ModalStream::new(
+                form,
+                &c_scaled,
+                &self.params,
+                scale,
+                self.opts.threads,
+            ))),
+            None => Rows::Direct(Box::new(DirectStream::new(
+                &self.a,
+                &c_scaled,
+                &self.params,
+                scale,
+            ))),
+        };
+        self.rows = Some((rows, scale));
+    }
+
+    /// Fixes the data scale and the route from a leading block of the
+    /// data without taking its rows: call it with the first samples
+    /// before a parallel second pass ([`advance`](Self::advance),
+    /// [`scan_apart`](Self::scan_apart)), so that every shard is scanned in
+    /// the same units. No effect once the scale is fixed.
+    ///
+    /// Errors: as [`push`](Self::push).
+    pub fn prime(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let was_open = self.record_open;
+        if self.rows.is_none() {
+            self.prepare(u, y)?;
+        }
+        self.record_open = was_open;
+        Ok(())
+    }
+
+    /// Moves the regressor recursions over the next samples of the current
+    /// record without taking their rows: the state at the start of the
+    /// next shard (2 n n_u flops per sample on the modal route, n_u n³ on
+    /// the direct one, against ≈ 2q² for the rows). The parallel second
+    /// pass runs this from shard to shard, cheap, and scans each shard
+    /// with [`scan_apart`](Self::scan_apart) from its state on its own
+    /// worker.
+    ///
+    /// Errors: as [`push`](Self::push).
+    pub fn advance(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let Some((u, _)) = self.prepare(u, y)? else {
             return Ok(());
         };
-        match rows {
-            Rows::Modal(m) => {
-                if !m.push(&u, &y)? {
-                    return Err(Error::InvalidOption {
-                        what: "y",
-                        reason: format!(
-                            "more than {} patterns of sampled outputs in one record: the streamed (B, D) regression cannot keep them; identify the record in memory",
-                            modal::MAX_STREAM_PATTERNS
-                        ),
-                    });
-                }
-            }
-            Rows::Direct(d) => d.push(&u, &y, &mut self.acc)?,
+        match self.rows.as_mut() {
+            Some((Rows::Modal(m), _)) => m.advance(&u),
+            Some((Rows::Direct(d), _)) => d.advance(&u),
+            None => {}
         }
         Ok(())
+    }
+
+    /// The regression rows of the next samples of the current record,
+    /// scanned from the stream's state and returned as a
+    /// [`RegressionPiece`] (R factors) without changing the stream: run it
+    /// on each shard from the state [`advance`](Self::advance) reached at
+    /// its start, merge the pieces ([`RegressionPiece::merge`]) and give
+    /// them to [`absorb`](Self::absorb). The same rows as
+    /// [`push`](Self::push) (rounding of the QR blocks apart).
+    ///
+    /// Errors: as [`push`](Self::push); [`Error::InvalidOption`] when the
+    /// scale was not fixed ([`prime`](Self::prime)).
+    pub fn scan_apart(&self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<RegressionPiece> {
+        if self.rows.is_none() {
+            return Err(Error::InvalidOption {
+                what: "regression stream",
+                reason: "prime the stream with the first samples before scanning shards apart"
+                    .into(),
+            });
+        }
+        let mut probe = OutputErrorStream {
+            a: DMatrix::zeros(0, 0),
+            c: self.c.clone(),
+            nu: self.nu,
+            params: self.params.clone(),
+            opts: self.opts.clone(),
+            rows: None,
+            acc: RAccumulator::new(0),
+            records_done: self.records_done,
+            record_open: self.record_open,
+        };
+        let Some((u, y)) = probe.prepare_primed(u, y)? else {
+            return Ok(RegressionPiece {
+                rows: PieceRows::Empty,
+                count: 0,
+                params: self.params.total,
+            });
+        };
+        let (rows, count) = match self.rows.as_ref() {
+            Some((Rows::Modal(m), _)) => match m.scan_apart(&u, &y)? {
+                Some((pats, count)) => (PieceRows::Modal(pats), count),
+                None => return Err(too_many_patterns()),
+            },
+            Some((Rows::Direct(d), _)) => {
+                let (acc, count) = d.scan_apart(&u, &y)?;
+                (PieceRows::Direct(acc), count)
+            }
+            None => unreachable!("checked above"),
+        };
+        Ok(RegressionPiece {
+            rows,
+            count,
+            params: self.params.total,
+        })
+    }
+
+    /// [`prepare`](Self::prepare) for a stream whose rows are already
+    /// chosen elsewhere (no scale choice).
+    fn prepare_primed(
+        &mut self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
+        crate::engine::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
+        crate::error::check_data("u", u)?;
+        if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
+            return Err(crate::error::non_finite_at("y", y, i));
+        }
+        if u.nrows() == 0 {
+            return Ok(None);
+        }
+        Ok(Some(match &self.opts.operating_point {
+            Some(op) => op.to_deviations(u, y)?,
+            None => (u.clone(), y.clone()),
+        }))
+    }
+
+    /// Adds the rows of shards scanned apart ([`scan_apart`](Self::scan_apart),
+    /// merged) to the current record.
+    ///
+    /// Errors: [`Error::InvalidOption`] when the piece belongs to another
+    /// regression (parameter count or route) or has too many sampling
+    /// patterns.
+    pub fn absorb(&mut self, piece: RegressionPiece) -> Result<()> {
+        let mismatch = || Error::InvalidOption {
+            what: "regression piece",
+            reason: "the piece was scanned by another regression (route or parameters differ)"
+                .into(),
+        };
+        if piece.params != self.params.total {
+            return Err(mismatch());
+        }
+        match (self.rows.as_mut(), piece.rows) {
+            (_, PieceRows::Empty) => Ok(()),
+            (Some((Rows::Modal(m), _)), PieceRows::Modal(pats)) => {
+                self.record_open = true;
+                if m.absorb(pats, piece.count)? {
+                    Ok(())
+                } else {
+                    Err(too_many_patterns())
+                }
+            }
+            (Some((Rows::Direct(d), _)), PieceRows::Direct(acc)) => {
+                self.record_open = true;
+                d.absorb(&acc, piece.count, &mut self.acc)
+            }
+            _ => Err(mismatch()),
+        }
     }
 
     /// Ends the current record; the next [`push`](Self::push) starts the
@@ -346,6 +505,115 @@ impl OutputErrorStream {
     }
 }
 
+fn too_many_patterns() -> Error {
+    Error::InvalidOption {
+        what: "y",
+        reason: format!(
+            "more than {} patterns of sampled outputs in one record: the streamed (B, D) regression cannot keep them; identify the record in memory",
+            modal::MAX_STREAM_PATTERNS
+        ),
+    }
+}
+
+/// The rows of one or more shards of a record scanned apart
+/// ([`OutputErrorStream::scan_apart`]), as R factors: pieces merge in any
+/// order ([`RegressionPiece::merge`], R factors stacked and reduced,
+/// O(q³)), and serialise ([`RegressionPiece::to_bytes`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RegressionPiece {
+    rows: PieceRows,
+    /// Sampled output entries.
+    count: usize,
+    /// Parameter count of the regression that made it.
+    params: usize,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+enum PieceRows {
+    Empty,
+    /// R factor of the base rows per pattern of sampled outputs.
+    Modal(Vec<(u64, RAccumulator)>),
+    /// R factor of the regression rows.
+    Direct(RAccumulator),
+}
+
+impl RegressionPiece {
+    /// The rows of both pieces. Commutative and associative up to
+    /// rounding.
+    ///
+    /// Errors: [`Error::InvalidOption`] when the pieces come from
+    /// different regressions or have more than
+    /// [`modal::MAX_STREAM_PATTERNS`] patterns together.
+    pub fn merge(self, other: RegressionPiece) -> Result<RegressionPiece> {
+        if self.params != other.params {
+            return Err(Error::InvalidOption {
+                what: "regression piece",
+                reason: "the pieces were scanned by different regressions".into(),
+            });
+        }
+        let rows = match (self.rows, other.rows) {
+            (PieceRows::Empty, r) | (r, PieceRows::Empty) => r,
+            (PieceRows::Modal(mut a), PieceRows::Modal(b)) => {
+                for (mask, acc) in b {
+                    match a.iter().position(|(m, _)| *m == mask) {
+                        Some(k) => a[k].1.push_rows(&acc.r())?,
+                        None if a.len() == modal::MAX_STREAM_PATTERNS => {
+                            return Err(too_many_patterns());
+                        }
+                        None => a.push((mask, acc)),
+                    }
+                }
+                PieceRows::Modal(a)
+            }
+            (PieceRows::Direct(mut a), PieceRows::Direct(b)) => {
+                a.push_rows(&b.r())?;
+                PieceRows::Direct(a)
+            }
+            _ => {
+                return Err(Error::InvalidOption {
+                    what: "regression piece",
+                    reason: "the pieces were scanned on different routes (modal, direct)".into(),
+                });
+            }
+        };
+        Ok(RegressionPiece {
+            rows,
+            count: self.count + other.count,
+            params: self.params,
+        })
+    }
+
+    /// Compact binary form (CBOR).
+    ///
+    /// Errors: [`Error::InvalidOption`] if encoding fails.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        crate::wire::to_cbor(self)
+    }
+
+    /// The piece from [`to_bytes`](Self::to_bytes).
+    ///
+    /// Errors: [`Error::InvalidOption`] naming what is wrong with the bytes.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        let p: RegressionPiece = crate::wire::from_cbor(bytes, "regression piece")?;
+        let ok = match &p.rows {
+            PieceRows::Empty => true,
+            PieceRows::Modal(pats) => {
+                let w = pats.first().map_or(0, |(_, a)| a.ncols());
+                pats.iter()
+                    .all(|(_, a)| a.ncols() == w && a.is_consistent())
+            }
+            PieceRows::Direct(a) => a.ncols() == p.params + 1 && a.is_consistent(),
+        };
+        if !ok {
+            return Err(Error::InvalidOption {
+                what: "regression piece",
+                reason: "the decoded piece is inconsistent (corrupted bytes?)".into(),
+            });
+        }
+        Ok(p)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -368,6 +636,38 @@ mod tests {
         }
         let route = s.route().unwrap();
         (s.finish().unwrap(), route)
+    }
+
+    /// The parallel second pass: the state advanced from shard to shard,
+    /// each shard scanned apart from its state, the pieces merged in a
+    /// scrambled order (through bytes) and absorbed.
+    fn apart(
+        a: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        cuts: &[usize],
+    ) -> BdFit {
+        let mut s = OutputErrorStream::new(a, c, 1, &OutputErrorStreamOptions::default()).unwrap();
+        s.prime(&u.rows(0, 500).into_owned(), &y.rows(0, 500).into_owned())
+            .unwrap();
+        let mut pieces = Vec::new();
+        for w in cuts.windows(2) {
+            let (us, ys) = (
+                u.rows(w[0], w[1] - w[0]).into_owned(),
+                y.rows(w[0], w[1] - w[0]).into_owned(),
+            );
+            let p = s.scan_apart(&us, &ys).unwrap();
+            pieces.push(RegressionPiece::from_bytes(&p.to_bytes().unwrap()).unwrap());
+            s.advance(&us, &ys).unwrap();
+            s = OutputErrorStream::from_bytes(&s.to_bytes().unwrap()).unwrap();
+        }
+        pieces.reverse();
+        let mut it = pieces.into_iter();
+        let first = it.next().unwrap();
+        let merged = it.fold(first, |acc, p| p.merge(acc).unwrap());
+        s.absorb(merged).unwrap();
+        s.finish().unwrap()
     }
 
     #[test]
@@ -409,6 +709,15 @@ mod tests {
             // rounding only.
             assert!((&split.b - &whole.b).norm() < 1e-12 * whole.b.norm());
             assert!((&split.b - &b).norm() < 1e-9, "{route}: B {}", split.b);
+            // Shards scanned apart from their states: the same rows.
+            let par = apart(&a, &c, &u, &y, &[0, 1000, 1001, 2500, 3000]);
+            assert!(
+                (&par.b - &whole.b).norm() < 1e-12 * whole.b.norm(),
+                "{route}: {} vs {}",
+                par.b,
+                whole.b
+            );
+            assert!((&par.x0[0] - &whole.x0[0]).norm() < 1e-10);
         }
         let mut bytes = OutputErrorStream::new(
             &DMatrix::from_element(1, 1, 0.5),

@@ -137,7 +137,7 @@ mod regress;
 mod select;
 mod wire;
 
-pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
+pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use engine::{
     BdEstimate, BdRoute, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection,

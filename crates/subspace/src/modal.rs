@@ -226,7 +226,7 @@ impl ModalForm {
 }
 
 /// Layout of the base row z(t).
-#[derive(Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub(crate) struct Layout {
     n: usize,
     nu: usize,
@@ -477,7 +477,7 @@ pub(crate) const MAX_STREAM_PATTERNS: usize = 64;
 /// samples (a second pass over a file): the filter states carry over from
 /// block to block, so the rows are those of one scan of the record. Memory
 /// O(patterns · BLOCK · q), independent of the record length.
-#[derive(Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub(crate) struct ModalStream {
     form: ModalForm,
     lay: Layout,
@@ -581,6 +581,56 @@ impl ModalStream {
     /// Sampled output entries seen so far.
     pub(crate) fn rows(&self) -> usize {
         self.rows
+    }
+
+    /// Advances the filter states over the inputs of the next samples
+    /// without making rows (2 n n_u flops per sample): the state at the
+    /// start of a later shard.
+    pub(crate) fn advance(&mut self, u: &DMatrix<f64>) {
+        let rec = Record {
+            u,
+            y: u,
+            instrument: None,
+        };
+        for t in 0..u.nrows() {
+            self.state.step(&self.form, &rec, self.inv.0, t);
+        }
+    }
+
+    /// The pattern R factors of the next samples scanned from the current
+    /// state, leaving the stream as it is (a shard of a parallel second
+    /// pass); `None` beyond [`MAX_STREAM_PATTERNS`] patterns.
+    pub(crate) fn scan_apart(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> Result<Option<(Vec<(u64, RAccumulator)>, usize)>> {
+        let mut s = ModalStream {
+            pats: Vec::new(),
+            rows: 0,
+            ..self.clone()
+        };
+        Ok(s.push(u, y)?.then_some((s.pats, s.rows)))
+    }
+
+    /// Adds pattern R factors scanned apart to the current record's; false
+    /// beyond [`MAX_STREAM_PATTERNS`] patterns.
+    pub(crate) fn absorb(&mut self, pats: Vec<(u64, RAccumulator)>, rows: usize) -> Result<bool> {
+        self.rows += rows;
+        let patterns = pats
+            .into_iter()
+            .map(|(mask, acc)| PatternAcc {
+                mask,
+                block: DMatrix::zeros(0, 0),
+                used: 0,
+                acc,
+            })
+            .collect();
+        merge_patterns(
+            &mut self.pats,
+            Scan { patterns, rows: 0 },
+            MAX_STREAM_PATTERNS,
+        )
     }
 
     /// Whether the sizes are those of `p` (a state decoded from bytes).

@@ -143,6 +143,45 @@ impl CompressionPlan {
         })
     }
 
+    /// Compact binary form (CBOR) for sending to the workers.
+    ///
+    /// Errors: [`Error::InvalidOption`] if encoding fails.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        to_cbor(self)
+    }
+
+    /// The plan from [`to_bytes`](Self::to_bytes).
+    ///
+    /// Errors: [`Error::InvalidOption`] naming what is wrong with the bytes.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        let p: CompressionPlan = from_cbor(bytes, "compression plan")?;
+        let nz = p.n_inputs + p.n_outputs;
+        let pow4 = |s: f64| s > 0.0 && s.is_finite();
+        if p.n_inputs == 0
+            || p.n_outputs == 0
+            || p.past == 0
+            || p.future < 2
+            || p.reference.len() != nz
+            || !pow4(p.scale[0])
+            || !pow4(p.scale[1])
+            || p.reference.iter().any(|r| !r.is_finite())
+        {
+            return Err(Error::InvalidOption {
+                what: "compression plan",
+                reason: "the decoded plan is inconsistent (corrupted bytes?)".into(),
+            });
+        }
+        crate::budget::check_hankel(
+            p.past,
+            p.future,
+            p.n_inputs,
+            p.n_outputs,
+            Compression::Correlation,
+            1,
+        )?;
+        Ok(p)
+    }
+
     fn layout(&self) -> HankelLayout {
         HankelLayout {
             past: self.past,

@@ -215,7 +215,7 @@ impl Params {
 /// Generates regressor rows (one per sampled output entry) of one record
 /// (owns copies of A and the layout, so that it can live between the
 /// blocks of a streamed record).
-#[derive(Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 struct RowGen {
     a: DMatrix<f64>,
     p: Params,
@@ -641,7 +641,7 @@ pub(crate) fn output_error_route(
 /// accumulator: the regressor recursions carry over between blocks, so a
 /// record may arrive in pieces (a second pass over a file). Memory
 /// O(BLOCK · p), independent of the record length.
-#[derive(Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub(crate) struct DirectStream {
     rows_of: RowGen,
     a: DMatrix<f64>,
@@ -725,6 +725,45 @@ impl DirectStream {
     /// Rows (sampled output entries) folded so far.
     pub(crate) fn rows(&self) -> usize {
         self.rows + self.used
+    }
+
+    /// Advances the recursions over the inputs of the next samples without
+    /// making rows (n_u n³ flops per sample).
+    pub(crate) fn advance(&mut self, u: &DMatrix<f64>) {
+        for t in 0..u.nrows() {
+            self.rows_of.step(u, t);
+        }
+    }
+
+    /// The R factor (p + 1 columns) of the rows of the next samples from
+    /// the current state, leaving the stream as it is, and their count.
+    pub(crate) fn scan_apart(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> Result<(RAccumulator, usize)> {
+        let mut s = DirectStream {
+            used: 0,
+            rows: 0,
+            ..self.clone()
+        };
+        let mut acc = RAccumulator::new(self.p.total + 1);
+        s.push(u, y, &mut acc)?;
+        s.flush(&mut acc)?;
+        Ok((acc, s.rows))
+    }
+
+    /// Adds rows scanned apart (their R factor) to `acc`.
+    pub(crate) fn absorb(
+        &mut self,
+        r: &RAccumulator,
+        rows: usize,
+        acc: &mut RAccumulator,
+    ) -> Result<()> {
+        self.flush(acc)?;
+        acc.push_rows(&r.r())?;
+        self.rows += rows;
+        Ok(())
     }
 
     /// Whether the sizes are those of `p` (a state decoded from bytes).

@@ -1,0 +1,384 @@
+"""Scale-out on Dask: one record split across workers, and many loops at once.
+
+Install the optional extra: ``pip install "lifted[dask]"`` (``dask[distributed]``).
+
+:func:`identify` identifies one record stored as shards (a dask array, a dask
+DataFrame, or a list of ``.npy`` / Parquet files) without gathering it: each
+shard is compressed on the worker that holds it into lagged correlation sums
+(O(s (m+p)^2) floats, a few kB), the pieces are merged in a tree of
+adjacent pairs (the merge is associative: each join adds the products that
+straddle the shard boundary), the subspace step runs on the client from the
+merged k x k matrix, and the output-error (B, D, x0) regression of the
+default route makes a second pass: the regressor filters' state (a few kB)
+goes from shard to shard in record order (filtering only, ~2 n m flops per
+sample), each shard's regression rows are reduced to R factors on its
+worker from the state at its start, and the R factors merge in a tree. The
+model is the one-process streaming identification of the whole record up
+to rounding (``lifted_subspace::CompressedRecords``,
+``lifted_subspace::RegressionPiece``).
+
+:func:`identify_many` identifies many independent loops, one task each, and
+returns every model and every failure by name (a bad loop never loses the
+others).
+
+Both take ``client=``: a ``dask.distributed.Client``, a scheduler address
+(``"tcp://10.0.0.5:8786"``), or None for the current default scheduler::
+
+    from dask.distributed import Client, LocalCluster
+    client = Client(LocalCluster(n_workers=4))        # on this machine
+    # client = Client("tcp://scheduler:8786")          # an existing cluster
+    fit = lifted.dask.identify(["hist-000.npy", "hist-001.npy"],
+                               inputs=[0, 1], outputs=[2, 3], order=4,
+                               client=client)
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from . import _lifted
+from ._lifted import LiftedError
+
+__all__ = ["identify", "identify_many", "ManyResult", "compress_shards"]
+
+
+def _dask():
+    try:
+        import dask  # noqa: F401
+        from dask import delayed
+    except ImportError as e:  # pragma: no cover - exercised without dask only
+        raise ImportError(
+            "lifted.dask needs dask: pip install 'lifted[dask]' (dask[distributed])"
+        ) from e
+    return delayed
+
+
+def _client(client: Any) -> Any:
+    """A Client from a Client, an address string, or None (default scheduler)."""
+    if client is None or not isinstance(client, str):
+        return client
+    from dask.distributed import Client
+
+    return Client(client)
+
+
+def _compute(client: Any, *objs: Any) -> tuple:
+    import dask
+
+    if client is None:
+        return dask.compute(*objs)
+    futures = client.compute(list(objs))
+    return tuple(client.gather(futures))
+
+
+# ---------------------------------------------------------------- shards
+
+
+def _columns(block: np.ndarray, cols: Sequence[int], name: str) -> np.ndarray:
+    if block.ndim == 1:
+        block = block.reshape(-1, 1)
+    if block.ndim != 2:
+        raise LiftedError(f"shard must be 2-D (samples x columns), got {block.ndim} dimensions")
+    try:
+        out = block[:, list(cols)]
+    except IndexError as e:
+        raise LiftedError(f"{name} columns {list(cols)} not in a shard of {block.shape[1]} columns") from e
+    if np.iscomplexobj(out):
+        raise LiftedError(f"{name}: complex data is not supported")
+    return np.ascontiguousarray(out, dtype=np.float64)
+
+
+def _load_npy(path: str, inputs: Sequence[int], outputs: Sequence[int]) -> tuple:
+    a = np.load(path, mmap_mode="r")
+    return _columns(a, inputs, "inputs"), _columns(a, outputs, "outputs")
+
+
+def _load_parquet(path: str, inputs: Sequence[str], outputs: Sequence[str]) -> tuple:
+    import pandas as pd
+
+    df = pd.read_parquet(path, columns=list(inputs) + list(outputs))
+    return _frame(df, inputs, outputs)
+
+
+def _frame(df: Any, inputs: Sequence[str], outputs: Sequence[str]) -> tuple:
+    missing = [c for c in list(inputs) + list(outputs) if c not in df.columns]
+    if missing:
+        raise LiftedError(f"columns {missing} not in the data (columns: {list(df.columns)[:20]})")
+    u = np.ascontiguousarray(df[list(inputs)].to_numpy(dtype=np.float64))
+    y = np.ascontiguousarray(df[list(outputs)].to_numpy(dtype=np.float64))
+    return u, y
+
+
+def _split(block: np.ndarray, inputs: Sequence[int], outputs: Sequence[int]) -> tuple:
+    return _columns(np.asarray(block), inputs, "inputs"), _columns(np.asarray(block), outputs, "outputs")
+
+
+def _pair(u: Any, y: Any) -> tuple:
+    u, y = np.asarray(u), np.asarray(y)
+    u = u.reshape(len(u), -1) if u.ndim == 1 else u
+    y = y.reshape(len(y), -1) if y.ndim == 1 else y
+    return _columns(u, range(u.shape[1]), "u"), _columns(y, range(y.shape[1]), "y")
+
+
+def _index_list(cols: Any, name: str) -> list:
+    if cols is None:
+        raise LiftedError(f"{name} must name the columns (indices or names)")
+    if isinstance(cols, (int, np.integer)):
+        return list(range(int(cols)))
+    return list(cols)
+
+
+def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list:
+    """The record as a list of delayed (u, y) shards, in record order."""
+    delayed = _dask()
+    if u is not None or y is not None:
+        if u is None or y is None or data is not None:
+            raise LiftedError("give either data= with inputs/outputs, or both u= and y=")
+        import dask.array as da
+
+        u = da.asarray(u)
+        y = da.asarray(y)
+        if u.ndim == 1:
+            u = u[:, None]
+        if y.ndim == 1:
+            y = y[:, None]
+        if u.shape[0] != y.shape[0]:
+            raise LiftedError(f"u has {u.shape[0]} samples, y {y.shape[0]}")
+        u = u.rechunk({1: -1})
+        y = y.rechunk({0: u.chunks[0], 1: -1})
+        ub = u.to_delayed().ravel()
+        yb = y.to_delayed().ravel()
+        return [delayed(_pair)(a, b) for a, b in zip(ub, yb)]
+    if data is None:
+        raise LiftedError("no data: give data= (dask array, dask DataFrame or shard files) or u= and y=")
+    if isinstance(data, (str, os.PathLike)):
+        data = [data]
+    if isinstance(data, (list, tuple)):
+        if not data:
+            raise LiftedError("the list of shard files is empty")
+        paths = [os.fspath(p) for p in data]
+        ins, outs = _index_list(inputs, "inputs"), _index_list(outputs, "outputs")
+        out = []
+        for p in paths:
+            if p.endswith(".npy"):
+                out.append(delayed(_load_npy)(p, ins, outs))
+            elif p.endswith((".parquet", ".pq")):
+                out.append(delayed(_load_parquet)(p, ins, outs))
+            else:
+                raise LiftedError(f"shard {p!r}: only .npy and .parquet files are read")
+        return out
+    # dask DataFrame (has .to_delayed and .columns) or dask array.
+    if hasattr(data, "columns") and hasattr(data, "to_delayed"):
+        ins, outs = _index_list(inputs, "inputs"), _index_list(outputs, "outputs")
+        missing = [c for c in ins + outs if c not in data.columns]
+        if missing:
+            raise LiftedError(f"columns {missing} not in the data (columns: {list(data.columns)[:20]})")
+        return [delayed(_frame)(part, ins, outs) for part in data.to_delayed()]
+    if hasattr(data, "to_delayed") and hasattr(data, "chunks"):
+        if data.ndim != 2:
+            raise LiftedError(f"data must be 2-D (samples x columns), got {data.ndim} dimensions")
+        ins, outs = _index_list(inputs, "inputs"), _index_list(outputs, "outputs")
+        data = data.rechunk({1: -1})
+        return [delayed(_split)(b, ins, outs) for b in data.to_delayed().ravel()]
+    raise LiftedError(
+        f"data of type {type(data).__name__}: expected a dask array, a dask DataFrame or a list of .npy/.parquet files"
+    )
+
+
+# ---------------------------------------------------------------- tasks
+
+
+def _plan(shard: tuple, past: int, future: int, remove_means: bool, rows: int) -> bytes:
+    u, y = shard
+    return _lifted.partial_plan(u[:rows], y[:rows], past=past, future=future, remove_means=remove_means)
+
+
+def _compress(plan: bytes, shard: tuple, threads: int) -> bytes:
+    u, y = shard
+    return _lifted.partial_compress(plan, u, y, threads=threads)
+
+
+def _prime(state: bytes, shard: tuple, rows: int) -> bytes:
+    u, y = shard
+    return _lifted.regression_prime(state, u[:rows], y[:rows])
+
+
+def _advance(state: bytes, shard: tuple) -> bytes:
+    u, y = shard
+    return _lifted.regression_advance(state, u, y)
+
+
+def _scan(state: bytes, shard: tuple) -> bytes:
+    u, y = shard
+    return _lifted.regression_scan(state, u, y)
+
+
+def _tree(items: list, join: Callable) -> Any:
+    """Adjacent pairs joined level by level (record order kept)."""
+    delayed = _dask()
+    while len(items) > 1:
+        nxt = [delayed(join)(items[i], items[i + 1]) for i in range(0, len(items) - 1, 2)]
+        if len(items) % 2:
+            nxt.append(items[-1])
+        items = nxt
+    return items[0]
+
+
+def _compress_shards(
+    shards: list, past: int, future: int, remove_means: bool, threads: int, plan_rows: int, client: Any
+) -> bytes:
+    delayed = _dask()
+    (plan,) = _compute(client, delayed(_plan)(shards[0], past, future, remove_means, plan_rows))
+    pieces = [delayed(_compress)(plan, s, threads) for s in shards]
+    root = _tree(pieces, _lifted.partial_append)
+    (records,) = _compute(client, delayed(_lifted.partial_close)(root))
+    return records
+
+
+def compress_shards(
+    data: Any = None,
+    *,
+    u: Any = None,
+    y: Any = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    threads: int = 1,
+    plan_rows: int = 65536,
+    client: Any = None,
+) -> bytes:
+    """The merged compressed record (bytes) of a sharded record: the first
+    pass of :func:`identify` alone (to keep, or to merge with other records'
+    by ``lifted._lifted.partial_merge``)."""
+    shards = _shards(data, u, y, inputs, outputs)
+    return _compress_shards(shards, past, future, remove_means, threads, plan_rows, _client(client))
+
+
+def identify(
+    data: Any = None,
+    *,
+    u: Any = None,
+    y: Any = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    method: str = "n4sid",
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    noise_model: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+    plan_rows: int = 65536,
+    client: Any = None,
+) -> dict:
+    """Identifies one record stored as shards, on a Dask cluster.
+
+    ``data``: a dask array (samples x columns; ``inputs``/``outputs`` column
+    indices, or ``inputs=m`` for the first m columns), a dask DataFrame
+    (``inputs``/``outputs`` column names), or a list of ``.npy`` (indices)
+    / Parquet (names) files in record order; or ``u=``, ``y=`` dask arrays
+    chunked along samples. The data scale and centring reference come from
+    the first ``plan_rows`` samples. ``threads`` per task (0: all cores of
+    the worker). Returns what :func:`lifted.identify` returns.
+    """
+    client = _client(client)
+    delayed = _dask()
+    shards = _shards(data, u, y, inputs, outputs)
+    records = _compress_shards(shards, past, future, remove_means, threads, plan_rows, client)
+    first = _lifted.partial_identify(
+        records,
+        method=method,
+        order=order,
+        max_order=max_order,
+        past=past,
+        future=future,
+        remove_means=remove_means,
+        noise_model=noise_model,
+        dt=dt,
+        threads=threads,
+    )
+    if not first.wants_second_pass():
+        return first.finish()
+    # Second pass, parallel: the regressor recursions' state goes from
+    # shard to shard (cheap: filtering only), each shard's rows are scanned
+    # from its state on its worker, and the R factors merge in a tree.
+    state: Any = delayed(_prime)(first.regression(), shards[0], plan_rows)
+    start = state
+    pieces = []
+    for s in shards:
+        pieces.append(delayed(_scan)(state, s))
+        state = delayed(_advance)(state, s)
+    merged = _tree(pieces, _lifted.regression_merge)
+    final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
+    (final,) = _compute(client, final)
+    return first.finish(final)
+
+
+# ---------------------------------------------------------------- many loops
+
+
+@dataclass
+class ManyResult:
+    """What :func:`identify_many` returns: the models and the failures, by
+    loop name (list positions when the loops came as a list)."""
+
+    models: dict = field(default_factory=dict)
+    errors: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.models) + len(self.errors)
+
+
+def _one(u: Any, y: Any, options: dict) -> tuple:
+    from . import identify as _identify_mem
+
+    try:
+        return ("ok", _identify_mem(u, y, **options))
+    except Exception as e:  # reported per loop, never raised
+        return ("error", e)
+
+
+def identify_many(
+    loops: Mapping[Any, tuple] | Iterable[tuple],
+    *,
+    client: Any = None,
+    **options: Any,
+) -> ManyResult:
+    """Identifies many independent loops, one task each.
+
+    ``loops``: a mapping name -> (u, y) or a sequence of (u, y) (numpy
+    arrays, or dask delayed objects / futures of them); ``options`` as for
+    :func:`lifted.identify`. A loop whose identification fails is reported
+    in ``errors`` with its exception (the others are kept).
+    """
+    client = _client(client)
+    delayed = _dask()
+    items = list(loops.items()) if isinstance(loops, Mapping) else list(enumerate(loops))
+    tasks = []
+    for name, pair in items:
+        try:
+            u, y = pair
+        except (TypeError, ValueError):
+            tasks.append((name, None))
+            continue
+        tasks.append((name, delayed(_one)(u, y, options)))
+    out = ManyResult()
+    live = [(n, t) for n, t in tasks if t is not None]
+    for name, t in tasks:
+        if t is None:
+            out.errors[name] = LiftedError(f"loop {name!r}: expected a pair (u, y)")
+    results = _compute(client, *[t for _, t in live]) if live else ()
+    for (name, _), (status, value) in zip(live, results):
+        if status == "ok":
+            out.models[name] = value
+        else:
+            out.errors[name] = value
+    return out

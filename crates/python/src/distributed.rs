@@ -1,0 +1,377 @@
+//! Bindings of the mergeable partial compressions of lifted-subspace
+//! (`CompressionPlan`, `RecordPiece`, `CompressedRecords`) and of the
+//! serialisable (B, D, x₀) regression stream, for `lifted.dask`: every
+//! state that crosses a process boundary is `bytes` (CBOR), so it pickles
+//! as is. Conversions only; every call releases the GIL.
+
+use lifted_subspace::{
+    CompressedRecords, CompressionPlan, OrderSelection, OutputErrorStream, RecordPiece,
+    RegressionPiece, StreamedSubspace, SubspaceOptions,
+};
+use numpy::PyReadonlyArray2;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+
+use crate::{LiftedError, err, subspace_method, to_mat};
+
+/// The options of a sharded identification (the in-memory `identify`'s).
+#[allow(clippy::too_many_arguments)]
+fn options(
+    method: &str,
+    order: Option<usize>,
+    max_order: usize,
+    past: usize,
+    future: usize,
+    remove_means: bool,
+    noise_model: bool,
+    dt: f64,
+    threads: usize,
+) -> PyResult<SubspaceOptions> {
+    Ok(SubspaceOptions {
+        method: subspace_method(method)?,
+        order: match order {
+            Some(n) => OrderSelection::Fixed(n),
+            None => OrderSelection::Gap { max: max_order },
+        },
+        past,
+        future,
+        remove_means,
+        noise_model,
+        ts: dt,
+        threads,
+        ..Default::default()
+    })
+}
+
+/// The compression plan (scale, centring reference, horizons) from the
+/// first samples of the record `u` (N×m), `y` (N×p); returns its bytes.
+#[pyfunction]
+#[pyo3(signature = (u, y, past=10, future=10, remove_means=true))]
+pub fn partial_plan<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+    past: usize,
+    future: usize,
+    remove_means: bool,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let opts = SubspaceOptions {
+        past,
+        future,
+        remove_means,
+        order: OrderSelection::Gap { max: 1 },
+        ..Default::default()
+    };
+    let plan = py
+        .detach(move || CompressionPlan::from_first_block(&u, &y, &opts))
+        .map_err(err)?;
+    let bytes = plan.to_bytes().map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+fn plan_of(bytes: &[u8]) -> PyResult<CompressionPlan> {
+    CompressionPlan::from_bytes(bytes).map_err(err)
+}
+
+/// Compresses consecutive samples `u`, `y` of one record with `plan`;
+/// returns the piece's bytes.
+#[pyfunction]
+#[pyo3(signature = (plan, u, y, threads=1))]
+pub fn partial_compress<'py>(
+    py: Python<'py>,
+    plan: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let plan = plan_of(plan)?;
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let bytes = py
+        .detach(move || plan.compress(&u, &y, threads)?.to_bytes())
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// The piece of the samples of `first` followed by those of `second`.
+#[pyfunction]
+pub fn partial_append<'py>(
+    py: Python<'py>,
+    first: &[u8],
+    second: &[u8],
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (a, b) = (first.to_vec(), second.to_vec());
+    let bytes = py
+        .detach(move || {
+            RecordPiece::from_bytes(&a)?
+                .append(RecordPiece::from_bytes(&b)?)?
+                .to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Closes a piece holding a whole record into compressed records.
+#[pyfunction]
+pub fn partial_close<'py>(py: Python<'py>, piece: &[u8]) -> PyResult<Bound<'py, PyBytes>> {
+    let a = piece.to_vec();
+    let bytes = py
+        .detach(move || RecordPiece::from_bytes(&a)?.close()?.to_bytes())
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// The compressed records of `first` and `second` together.
+#[pyfunction]
+pub fn partial_merge<'py>(
+    py: Python<'py>,
+    first: &[u8],
+    second: &[u8],
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (a, b) = (first.to_vec(), second.to_vec());
+    let bytes = py
+        .detach(move || {
+            CompressedRecords::from_bytes(&a)?
+                .merge(CompressedRecords::from_bytes(&b)?)?
+                .to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Appends samples of the current record to a regression stream's state;
+/// returns the new state.
+#[pyfunction]
+pub fn regression_push<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let s = stream.to_vec();
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let bytes = py
+        .detach(move || {
+            let mut st = OutputErrorStream::from_bytes(&s)?;
+            st.push(&u, &y)?;
+            st.to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// One step on a regression stream's state with a block of samples.
+fn stream_step<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+    step: fn(
+        &mut OutputErrorStream,
+        &nalgebra::DMatrix<f64>,
+        &nalgebra::DMatrix<f64>,
+    ) -> lifted_subspace::Result<()>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let s = stream.to_vec();
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let bytes = py
+        .detach(move || {
+            let mut st = OutputErrorStream::from_bytes(&s)?;
+            step(&mut st, &u, &y)?;
+            st.to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Fixes a regression stream's data scale from the first samples of the
+/// record (before a parallel second pass).
+#[pyfunction]
+pub fn regression_prime<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    stream_step(py, stream, u, y, OutputErrorStream::prime)
+}
+
+/// Moves a regression stream's recursions over a shard without its rows:
+/// the state at the start of the next shard.
+#[pyfunction]
+pub fn regression_advance<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    stream_step(py, stream, u, y, OutputErrorStream::advance)
+}
+
+/// The rows of a shard scanned from the stream state at its start (bytes
+/// of a regression piece).
+#[pyfunction]
+pub fn regression_scan<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    u: PyReadonlyArray2<'py, f64>,
+    y: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let s = stream.to_vec();
+    let (u, y) = (to_mat(&u), to_mat(&y));
+    let bytes = py
+        .detach(move || {
+            OutputErrorStream::from_bytes(&s)?
+                .scan_apart(&u, &y)?
+                .to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Two regression pieces together.
+#[pyfunction]
+pub fn regression_merge<'py>(
+    py: Python<'py>,
+    first: &[u8],
+    second: &[u8],
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (a, b) = (first.to_vec(), second.to_vec());
+    let bytes = py
+        .detach(move || {
+            RegressionPiece::from_bytes(&a)?
+                .merge(RegressionPiece::from_bytes(&b)?)?
+                .to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// A regression stream's state with the rows of a (merged) piece added.
+#[pyfunction]
+pub fn regression_absorb<'py>(
+    py: Python<'py>,
+    stream: &[u8],
+    piece: &[u8],
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (s, p) = (stream.to_vec(), piece.to_vec());
+    let bytes = py
+        .detach(move || {
+            let mut st = OutputErrorStream::from_bytes(&s)?;
+            st.absorb(RegressionPiece::from_bytes(&p)?)?;
+            st.to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Ends the current record of a regression stream's state.
+#[pyfunction]
+pub fn regression_end_record<'py>(py: Python<'py>, stream: &[u8]) -> PyResult<Bound<'py, PyBytes>> {
+    let s = stream.to_vec();
+    let bytes = py
+        .detach(move || {
+            let mut st = OutputErrorStream::from_bytes(&s)?;
+            st.end_record()?;
+            st.to_bytes()
+        })
+        .map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// The first pass of a sharded identification (held by the client): the
+/// model from the merged compressed records, and the second pass's
+/// regression stream for the output-error (B, D, x₀).
+#[pyclass(name = "FirstPass", module = "lifted._lifted")]
+pub struct PyFirstPass {
+    inner: Option<StreamedSubspace>,
+    method: String,
+}
+
+/// First pass of the identification from merged compressed records.
+#[pyfunction]
+#[pyo3(signature = (records, method="n4sid", order=None, max_order=10, past=10, future=10,
+    remove_means=true, noise_model=true, dt=1.0, threads=1))]
+#[allow(clippy::too_many_arguments)]
+pub fn partial_identify(
+    py: Python<'_>,
+    records: &[u8],
+    method: &str,
+    order: Option<usize>,
+    max_order: usize,
+    past: usize,
+    future: usize,
+    remove_means: bool,
+    noise_model: bool,
+    dt: f64,
+    threads: usize,
+) -> PyResult<PyFirstPass> {
+    let opts = options(
+        method,
+        order,
+        max_order,
+        past,
+        future,
+        remove_means,
+        noise_model,
+        dt,
+        threads,
+    )?;
+    let c = records.to_vec();
+    let first = py
+        .detach(move || CompressedRecords::from_bytes(&c)?.identify(&opts))
+        .map_err(err)?;
+    Ok(PyFirstPass {
+        inner: Some(first),
+        method: method.to_ascii_lowercase(),
+    })
+}
+
+impl PyFirstPass {
+    fn get(&self) -> PyResult<&StreamedSubspace> {
+        self.inner
+            .as_ref()
+            .ok_or_else(|| LiftedError::new_err("this first pass was already finished"))
+    }
+}
+
+#[pymethods]
+impl PyFirstPass {
+    /// Whether the options ask for the second pass (output-error (B, D, x₀)).
+    fn wants_second_pass(&self) -> PyResult<bool> {
+        Ok(self.get()?.wants_second_pass())
+    }
+
+    /// The empty regression stream of the second pass (bytes).
+    fn regression<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let bytes = self
+            .get()?
+            .regression()
+            .and_then(|s| s.to_bytes())
+            .map_err(err)?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// The identified model: with `stream` (the regression state after the
+    /// second pass over every record) the output-error (B, D, x₀), else the
+    /// one-pass model. Returns the dict of `identify`.
+    #[pyo3(signature = (stream=None))]
+    fn finish<'py>(
+        &mut self,
+        py: Python<'py>,
+        stream: Option<&[u8]>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let first = self
+            .inner
+            .take()
+            .ok_or_else(|| LiftedError::new_err("this first pass was already finished"))?;
+        let stream = stream.map(<[u8]>::to_vec);
+        let fit = py
+            .detach(move || match stream {
+                Some(s) => first.finish(OutputErrorStream::from_bytes(&s)?),
+                None => Ok(first.into_model()),
+            })
+            .map_err(err)?;
+        crate::fit_dict(py, &fit, &self.method)
+    }
+}
