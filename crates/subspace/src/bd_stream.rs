@@ -17,9 +17,9 @@ use lifted_lti::OperatingPoint;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{Scale, pow4_scale};
 use crate::error::{Error, Result, check_rank};
 use crate::modal::{self, ModalForm, ModalStream};
+use crate::numerics::{Scale, pow4_scale};
 use crate::regress::{
     BdFit, DataScale, DirectStream, Feedthrough, InitialState, Params, check_growth,
     equilibrated_solve,
@@ -210,7 +210,7 @@ impl OutputErrorStream {
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
     ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
-        crate::engine::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
+        crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
         crate::error::check_data("u", u)?;
         if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
             return Err(crate::error::non_finite_at("y", y, i));
@@ -367,7 +367,7 @@ impl OutputErrorStream {
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
     ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
-        crate::engine::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
+        crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
         crate::error::check_data("u", u)?;
         if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
             return Err(crate::error::non_finite_at("y", y, i));
@@ -543,7 +543,7 @@ impl RegressionPiece {
     ///
     /// Errors: [`Error::InvalidOption`] when the pieces come from
     /// different regressions or have more than
-    /// [`modal::MAX_STREAM_PATTERNS`] patterns together.
+    /// 64 sampling patterns together.
     pub fn merge(self, other: RegressionPiece) -> Result<RegressionPiece> {
         if self.params != other.params {
             return Err(Error::InvalidOption {

@@ -37,9 +37,9 @@ use lifted_linalg::RAccumulator;
 use nalgebra::{DMatrix, DMatrixView};
 use serde::{Deserialize, Serialize};
 
-use crate::engine::Scale;
 use crate::error::{Error, Result};
 use crate::lagged::{Channel, Scratch, channel_sums_par};
+use crate::numerics::Scale;
 
 /// Smallest reciprocal condition number (λ_min/λ_max) of the correlation
 /// matrix H Hᵀ accepted by [`Compression::Auto`] and

@@ -7,11 +7,13 @@ use lifted_linalg::{lstsq, qr_r, svd};
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
-use crate::engine::{
-    Experiment, OrderSelection, Scale, ac_from_gamma, candidate_orders, check_instrument,
-    check_order, numerical_rank, pow4_scale, scaled_basis, spectral_radius, validate,
-};
+use crate::checks::{candidate_orders, check_instrument, check_order, validate};
 use crate::error::{Error, Result, check_data, check_exciting, check_rank};
+use crate::model::Experiment;
+use crate::numerics::{
+    Scale, ac_from_gamma, numerical_rank, pow4_scale, scaled_basis, spectral_radius,
+};
+use crate::options::OrderSelection;
 use crate::order::{
     OrderCriterion, OrderReport, gap_values, information_criterion_values, simulation_error,
 };

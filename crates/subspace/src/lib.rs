@@ -122,34 +122,37 @@
 
 mod bd_stream;
 mod budget;
+mod checks;
 mod engine;
 pub mod error;
 mod hankel;
 mod iv;
 mod lagged;
 mod modal;
+mod model;
+mod numerics;
 mod oblique;
+mod options;
 mod order;
 mod partial;
 mod projection;
 mod refine;
 mod regress;
 mod select;
+mod streaming;
 mod wire;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
-pub use engine::{
-    BdEstimate, BdRoute, Diagnostics, Experiment, Method, NoiseCovariances, OrderSelection,
-    Profile, StreamedSubspace, StreamingIdentifier, SubspaceIdentifier, SubspaceModel,
-    SubspaceOptions, SystemEstimate, compress_hankel, identify,
-};
+pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
     iv_multirate_fast,
 };
+pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
+pub use options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 pub use order::{OrderCriterion, OrderReport, gap_order};
 pub use partial::{CompressedRecords, CompressionPlan, RecordPiece};
 pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
@@ -158,3 +161,4 @@ pub use regress::{
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
 };
 pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};
+pub use streaming::{StreamedSubspace, StreamingIdentifier};

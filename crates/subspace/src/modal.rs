@@ -305,6 +305,9 @@ fn row_map(
     s
 }
 
+/// R factors of base rows per pattern of sampled outputs (bit mask).
+pub(crate) type Patterns = Vec<(u64, RAccumulator)>;
+
 /// One pattern of sampled outputs: its base rows and their R factor.
 struct PatternAcc {
     mask: u64,
@@ -604,7 +607,7 @@ impl ModalStream {
         &self,
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
-    ) -> Result<Option<(Vec<(u64, RAccumulator)>, usize)>> {
+    ) -> Result<Option<(Patterns, usize)>> {
         let mut s = ModalStream {
             pats: Vec::new(),
             rows: 0,
@@ -615,7 +618,7 @@ impl ModalStream {
 
     /// Adds pattern R factors scanned apart to the current record's; false
     /// beyond [`MAX_STREAM_PATTERNS`] patterns.
-    pub(crate) fn absorb(&mut self, pats: Vec<(u64, RAccumulator)>, rows: usize) -> Result<bool> {
+    pub(crate) fn absorb(&mut self, pats: Patterns, rows: usize) -> Result<bool> {
         self.rows += rows;
         let patterns = pats
             .into_iter()

@@ -122,7 +122,7 @@ impl<'a> Projector<'a> {
     }
 
     /// Numerical rank of the input rows [U_f; U_p] (the leading
-    /// n_u(p+f) × n_u(p+f) block of L) by [`crate::engine::numerical_rank`]'s
+    /// n_u(p+f) × n_u(p+f) block of L) by [`crate::numerics::numerical_rank`]'s
     /// rule at the relative threshold `rel`: full when the certified bound
     /// of the block's inverse clears it (no further work), else that
     /// function's estimates and singular values.
@@ -135,7 +135,7 @@ impl<'a> Projector<'a> {
         {
             return Ok(r);
         }
-        crate::engine::numerical_rank(&self.l.view((0, 0), (r, r)).into_owned(), rel)
+        crate::numerics::numerical_rank(&self.l.view((0, 0), (r, r)).into_owned(), rel)
     }
 
     fn rows(&self, r: std::ops::Range<usize>) -> DMatrix<f64> {
@@ -253,7 +253,7 @@ mod tests {
             let luu = l.view((0, 0), (r, r)).into_owned();
             assert_eq!(
                 pr.input_rank(1e-10).unwrap(),
-                crate::engine::numerical_rank(&luu, 1e-10).unwrap()
+                crate::numerics::numerical_rank(&luu, 1e-10).unwrap()
             );
         }
         // A singular input block: the certificate does not claim full rank.

@@ -43,15 +43,15 @@ use lifted_linalg::budget::{MemoryBudget, Size};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{
-    Scale, StreamedParts, StreamedSubspace, SubspaceOptions, check_options, check_record_shape,
-    pow4_scale, streamed_subspace, thread_count,
-};
+use crate::checks::{check_options, check_record_shape, thread_count};
 use crate::error::{Error, Result};
 use crate::hankel::{
     Compression, CompressionWork, HankelLayout, HankelStream, Piece, RecordSums,
     correlation_factor, fold_record,
 };
+use crate::numerics::{Scale, pow4_scale};
+use crate::options::SubspaceOptions;
+use crate::streaming::{StreamedParts, StreamedSubspace, streamed_subspace};
 use crate::wire::{from_cbor, to_cbor};
 
 /// The units every piece of a record is compressed in: horizons, data
@@ -82,7 +82,7 @@ impl CompressionPlan {
     /// Errors: [`Error::DimensionMismatch`], [`Error::NonFinite`],
     /// [`Error::NoData`] (empty block), and the option checks of
     /// [`crate::identify`] ([`Error::InvalidHorizon`],
-    /// [`Error::OrderTooLarge`], [`Error::TooLarge`]);
+    /// [`Error::OrderTooLarge`], [`lifted_linalg::Error::TooLarge`] (as [`Error::Linalg`]));
     /// [`Error::InvalidOption`] for `Compression::Qr`, which does not merge.
     pub fn from_first_block(
         u: &DMatrix<f64>,
@@ -207,8 +207,8 @@ impl CompressionPlan {
         let (nu, ny) = (self.n_inputs, self.n_outputs);
         check_record_shape("piece (u, y)", "N", u, y, nu, ny)?;
         let threads = thread_count(threads);
-        crate::engine::check_data_on("u", u, threads)?;
-        crate::engine::check_data_on("y", y, threads)?;
+        crate::checks::check_data_on("u", u, threads)?;
+        crate::checks::check_data_on("y", y, threads)?;
         let mut stream = HankelStream::new(self.layout(), Compression::Correlation, 1, threads);
         stream.set_scale(Scale {
             u: self.scale[0],
@@ -285,7 +285,7 @@ impl RecordPiece {
     /// Gram matrix (none when it is shorter than s samples: such a record
     /// only adds to the means) joins [`CompressedRecords`]. O(s² n_z² + k²).
     ///
-    /// Errors: [`Error::TooLarge`] when the k×k matrix exceeds the memory
+    /// Errors: [`lifted_linalg::Error::TooLarge`] (as [`Error::Linalg`]) when the k×k matrix exceeds the memory
     /// budget.
     pub fn close(self) -> Result<CompressedRecords> {
         let layout = self.plan.layout();

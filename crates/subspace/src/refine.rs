@@ -76,8 +76,8 @@ use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::engine::spectral_radius;
 use crate::error::{Error, Result};
+use crate::numerics::spectral_radius;
 use crate::regress::{Feedthrough, Record, estimate_x0};
 
 /// The cost minimised by [`refine_pem`].
@@ -460,7 +460,7 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
     let (nu, ny) = (model.n_inputs(), model.n_outputs());
     let mut measured = 0;
     for r in records {
-        crate::engine::check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
+        crate::checks::check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
         crate::error::check_data("u", r.u)?;
         for ((row, col), v) in
             r.y.iter()
@@ -645,7 +645,7 @@ pub fn refine_pem(
     let mut iterations = 0;
     let mut accepted = 0;
     let mut termination = Termination::MaxIterations;
-    let threads = crate::engine::thread_count(opts.threads);
+    let threads = crate::checks::thread_count(opts.threads);
     // The DDLC basis and R₁₁, r of the QR of [J | e] (J in local coordinates).
     let mut basis_and_r: Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)> = None;
     while iterations < max_iterations {

@@ -22,11 +22,10 @@ use lifted_linalg::{RAccumulator, lstsq};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{
-    Scale, check_instrument, check_record_shape, numerical_rank, pow4_scale, spectral_radius,
-};
+use crate::checks::{check_instrument, check_record_shape};
 use crate::error::{Error, Result, check_data, check_rank, non_finite_at};
 use crate::modal::{self, ModalForm};
+use crate::numerics::{Scale, numerical_rank, pow4_scale, spectral_radius};
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
 /// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond

@@ -30,10 +30,10 @@ use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{
-    Experiment, OrderSelection, SubspaceOptions, SystemEstimate, models_of_orders,
-};
+use crate::engine::models_of_orders;
 use crate::error::{Error, Result};
+use crate::model::Experiment;
+use crate::options::{OrderSelection, SubspaceOptions, SystemEstimate};
 use crate::regress::{Record, estimate_x0};
 
 /// Options of [`select_structure`]. `Default` gives the values documented
@@ -138,7 +138,7 @@ pub fn select_structure(
             reason: format!("2 to 10 cross-validation folds, got {}", opts.folds),
         });
     }
-    let (nu, ny, total) = crate::engine::validate(experiments)?;
+    let (nu, ny, total) = crate::checks::validate(experiments)?;
     let k_folds = opts.folds;
     let fold_ids: Vec<usize> = if opts.forward {
         vec![k_folds - 1]
