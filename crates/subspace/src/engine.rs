@@ -28,8 +28,10 @@ use crate::regress::{InitialState, Record, Route, estimate_x0, output_error_rout
 /// Compresses the block-Hankel data [U_f; U_p; Y_p; Y_f] of the records
 /// (past/future horizons `past`, `future`) into the k×k factor L with
 /// H Hᵀ/J = L Lᵀ, by `compression` (see [`Compression`]) with `threads`
-/// threads for the correlation kernel (0 = all cores). This is step 1 of
-/// [`identify`], exposed for benchmarks and for reuse of one compression.
+/// threads for the correlation kernel (0 = all cores): step 1 of
+/// [`identify`]'s kernel on the data as given (no scaling, no centring),
+/// exposed for benchmarks; [`crate::CompressedData`] keeps the factor
+/// [`identify`] itself uses, for reuse across orders and methods.
 ///
 /// Errors: as [`identify`] for the data and horizons;
 /// [`Error::IllConditionedCorrelation`] for [`Compression::Correlation`]
@@ -114,34 +116,11 @@ pub fn compress_hankel(
 /// C Aᵗ has grown by less than [`crate::MAX_REGRESSOR_GROWTH`]).
 /// [`Error::Unstable`] is never returned here (use `enforce_stability`).
 pub fn identify(experiments: &[Experiment<'_>], opts: &SubspaceOptions) -> Result<SubspaceModel> {
-    // faer's one-time set-up runs during the compression.
-    lifted_linalg::warm_up();
-    validate_on(experiments, thread_count(opts.threads))?;
-    if !opts.remove_means {
-        return identify_as_given(experiments, opts);
-    }
-    let (op, centered) = remove_means(experiments)?;
-    let exps: Vec<Experiment<'_>> = centered.iter().map(|(u, y)| Experiment { u, y }).collect();
-    let mut fit = identify_as_given(&exps, opts)?;
-    // The output-error regression estimated the constant each record's
-    // deviations keep (O(1/N) after a start at rest): y₀ absorbs their
-    // sample-weighted mean.
-    let mut y0 = op.y0.clone();
-    if !fit.output_offsets.is_empty() {
-        let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
-        for (e, c) in experiments.iter().zip(&fit.output_offsets) {
-            let w = e.u.nrows() as f64 / total as f64;
-            for (v, ci) in y0.iter_mut().zip(c.iter()) {
-                *v += w * ci;
-            }
-        }
-    }
-    fit.operating_point = Some(OperatingPoint::new(op.u0, y0)?);
-    Ok(fit)
+    crate::separable::CompressedData::new(experiments, opts)?.identify(opts)
 }
 
 /// Records as owned (u, y) pairs.
-type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
+pub(crate) type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
 
 /// The pooled per-channel means of the records and the records less them.
 /// O(N (n_u + n_y)) time and a copy of the data.
@@ -158,31 +137,11 @@ pub(crate) fn remove_means(
     Ok((op, centered))
 }
 
-/// [`identify`] on the data as given (no mean removal), already scanned
-/// for non-finite entries by the caller (the centred copies are finite
-/// when the data are).
-fn identify_as_given(
-    experiments: &[Experiment<'_>],
-    opts: &SubspaceOptions,
-) -> Result<SubspaceModel> {
-    let t0 = Instant::now();
-    let (layout, factor, scale) = compressed(experiments, opts)?;
-    let compress_s = t0.elapsed().as_secs_f64();
-    from_factor(
-        factor,
-        &layout,
-        opts,
-        Some(&records_of(experiments)),
-        scale,
-        compress_s,
-    )
-}
-
 /// Step 1 of [`identify`] on records already scanned (or centred from
 /// scanned ones): the shape and option checks, the horizon against the
 /// records (J ≥ k Hankel columns), the data scales and the compressed
 /// factor of the scaled data.
-fn compressed(
+pub(crate) fn compressed(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
 ) -> Result<(HankelLayout, HankelFactor, Scale)> {
@@ -227,7 +186,7 @@ fn compressed(
 }
 
 /// The experiments as regression records (no instrument).
-fn records_of<'a>(experiments: &[Experiment<'a>]) -> Vec<Record<'a>> {
+pub(crate) fn records_of<'a>(experiments: &[Experiment<'a>]) -> Vec<Record<'a>> {
     experiments
         .iter()
         .map(|e| Record {
@@ -512,7 +471,7 @@ fn order_values(
 /// Steps 2–5 of [`identify`] on the compressed data L of the scaled data
 /// (records, in original units, only for the output-error (B, D, x₀)
 /// regressions and the AIC-type criteria; `None` when streaming).
-fn from_factor(
+pub(crate) fn from_factor(
     factor: HankelFactor,
     layout: &HankelLayout,
     opts: &SubspaceOptions,
@@ -545,14 +504,7 @@ pub(crate) fn from_factor_parts(
     let sub = subspace_of(&l, layout, opts)?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    // N4SID's and MOESP's singular values scale with the outputs; CVA's
-    // are canonical correlations.
-    let sv_unit = if opts.method == Method::Cva {
-        1.0
-    } else {
-        scale.y
-    };
-    let singular_values: Vec<f64> = sub.s.iter().map(|v| v * sv_unit).collect();
+    let singular_values = singular_values_in_units(&sub.s, opts.method, scale);
     let cap = candidate_orders(opts.order, max_order);
     let suggested_order = gap_order(&sub.s, cap);
     let (order_selection, mut fits) = order_values(&sub, cap, opts, records, scale, columns)?;
@@ -620,6 +572,25 @@ pub(crate) fn from_factor_parts(
 /// Steps 2–3 of [`identify`] on the factor `l` (scaled data): the
 /// excitation test, the oblique projection, the weights of `opts.method`
 /// and the SVD. O(k³).
+/// Step 2 alone: the singular values of the weighted projection in the
+/// units of the original data (the factor's data were divided by `scale`).
+pub(crate) fn weighted_singular_values(
+    l: &DMatrix<f64>,
+    layout: HankelLayout,
+    opts: &SubspaceOptions,
+    scale: Scale,
+) -> Result<Vec<f64>> {
+    let sub = subspace_of(l, layout, opts)?;
+    Ok(singular_values_in_units(&sub.s, opts.method, scale))
+}
+
+/// N4SID's and MOESP's singular values scale with the outputs; CVA's are
+/// canonical correlations.
+fn singular_values_in_units(s: &[f64], method: Method, scale: Scale) -> Vec<f64> {
+    let unit = if method == Method::Cva { 1.0 } else { scale.y };
+    s.iter().map(|v| v * unit).collect()
+}
+
 fn subspace_of<'l>(
     l: &'l DMatrix<f64>,
     layout: HankelLayout,

@@ -13,7 +13,9 @@
 //! | [`StreamingIdentifier`], [`StreamedSubspace`] | the same identification from data fed in blocks, memory independent of N: one pass ((B, D) by the projection) or two passes ((B, D, x₀) by the output-error regression of a second pass, equal to [`identify`] in memory up to rounding) |
 //! | [`OutputErrorStream`] ([`OutputErrorStreamOptions`]) | the output-error (B, D, x₀) regression fed in blocks (the second pass) |
 //! | [`select_structure`] ([`StructureOptions`], [`StructureSelection`], [`Candidate`]) | horizon, (A, C) route and order chosen by the simulation fit on held-out data (the default of the `lifted` command) |
-//! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | step 1 alone: correlation/Cholesky or QR compression of the block-Hankel data |
+//! | [`CompressedData`] | the separable steps (as SLICOT's IB01AD / IB01BD / IB01CD): step 1 of [`identify`] kept, then any number of fits (every order, method and route) at O(k³) plus the (B, D, x₀) regression, each equal to [`identify`] with those options |
+//! | [`CompressionPlan`], [`RecordPiece`], [`CompressedRecords`], [`RegressionPiece`] | one record compressed in pieces on several machines: pieces concatenate associatively, closed records add, both passes (compression, (B, D, x₀) rows) merge; CBOR bytes to cross processes (the `lifted.dask` package) |
+//! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | the compression kernel alone on the raw data (no scaling or centring; benchmarks): correlation/Cholesky or QR |
 //! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
@@ -139,6 +141,7 @@ mod projection;
 mod refine;
 mod regress;
 mod select;
+mod separable;
 mod streaming;
 mod wire;
 
@@ -161,4 +164,5 @@ pub use regress::{
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
 };
 pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};
+pub use separable::CompressedData;
 pub use streaming::{StreamedSubspace, StreamingIdentifier};

@@ -245,3 +245,39 @@ fn mismatched_plans_options_and_bytes_are_named_errors() {
         Err(Error::NonFinite { .. })
     ));
 }
+
+/// The separable steps (issue 26): one compression, every order and
+/// method, each fit the model `identify` returns with those options.
+#[test]
+fn one_compression_serves_every_order_and_method() {
+    use lifted_subspace::{CompressedData, Experiment, identify};
+    let (_, u, y) = record(51, 4000);
+    let ex = [Experiment { u: &u, y: &y }];
+    let base = SubspaceOptions::default();
+    let data = CompressedData::new(&ex, &base).unwrap();
+    assert!(data.operating_point().is_some());
+    for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+        let sv = data.singular_values(method).unwrap();
+        for n in [2, 4, 6] {
+            let o = SubspaceOptions {
+                method,
+                order: OrderSelection::Fixed(n),
+                ..base.clone()
+            };
+            let a = data.identify(&o).unwrap();
+            let b = identify(&ex, &o).unwrap();
+            // The same computation on the same factor: equal bits.
+            assert_eq!(a.model, b.model, "{method:?} order {n}");
+            assert_eq!(a.operating_point, b.operating_point);
+            assert_eq!(a.diagnostics.singular_values, sv);
+        }
+    }
+    let other = SubspaceOptions { past: 7, ..base };
+    assert!(matches!(
+        data.identify(&other),
+        Err(Error::InvalidOption {
+            what: "options",
+            ..
+        })
+    ));
+}

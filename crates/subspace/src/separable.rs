@@ -1,0 +1,203 @@
+//! The identification in separable steps, as SLICOT separates IB01AD
+//! (compression and SVD), IB01BD (system matrices) and IB01CD (initial
+//! state): [`CompressedData::new`] is step 1 of [`crate::identify`] (mean
+//! removal, exact power-of-4 scaling, the block-Hankel compression to the
+//! k×k factor L, O(N (n_u + n_y)² s)), and [`CompressedData::identify`]
+//! runs steps 2–5 on it for any weighting, order, (A, C) and (B, D) route
+//! with the same horizons: the oblique projection and weighted SVD
+//! (O(k³)), (A, C) at the order (O(k³)), (B, D, x₀) by output-error least
+//! squares over the kept records (O(N q²)) or by the projection (O(k³)).
+//! One compression therefore serves every order and method (an order
+//! slider, an order criterion): the O(N) compression is not repeated.
+//! [`CompressedData::singular_values`] is step 2 alone.
+//!
+//! `identify(records, opts)` equals
+//! `CompressedData::new(records, opts)?.identify(opts)` exactly (it is
+//! implemented so).
+
+use lifted_lti::OperatingPoint;
+use nalgebra::DMatrix;
+use std::time::Instant;
+
+use crate::checks::{thread_count, validate_on};
+use crate::engine::{OwnedRecords, compressed, from_factor, records_of, remove_means};
+use crate::error::{Error, Result};
+use crate::hankel::{HankelFactor, HankelLayout};
+use crate::model::{Experiment, SubspaceModel};
+use crate::numerics::Scale;
+use crate::options::{Method, SubspaceOptions};
+
+/// The records as given, or their centred copies.
+enum Records<'a> {
+    Borrowed(Vec<Experiment<'a>>),
+    Centred(OwnedRecords),
+}
+
+/// Step 1 of the identification, kept for any number of fits: the
+/// compressed block-Hankel data of the records (means removed and scaled
+/// as [`crate::identify`] does) and the records themselves for the
+/// output-error (B, D, x₀). Memory: the k×k factor, plus a centred copy of
+/// the records when means are removed (as `identify` makes).
+pub struct CompressedData<'a> {
+    layout: HankelLayout,
+    factor: HankelFactor,
+    scale: Scale,
+    operating_point: Option<OperatingPoint>,
+    records: Records<'a>,
+    /// Samples per record.
+    lengths: Vec<usize>,
+    /// The options of the compression (horizons, mean removal,
+    /// compression route, threads).
+    opts: SubspaceOptions,
+    compress_s: f64,
+}
+
+impl<'a> CompressedData<'a> {
+    /// Step 1 of [`crate::identify`] with `opts` (only its horizons,
+    /// `remove_means`, `compression`, `chunk_rows`, `threads` and the
+    /// option checks matter here).
+    ///
+    /// Errors: as [`crate::identify`] for the data and horizons
+    /// ([`Error::NoData`], [`Error::DimensionMismatch`],
+    /// [`Error::NonFinite`], [`Error::InvalidHorizon`],
+    /// [`Error::HorizonTooLong`], [`Error::OrderTooLarge`], memory budget).
+    pub fn new(experiments: &[Experiment<'a>], opts: &SubspaceOptions) -> Result<Self> {
+        lifted_linalg::warm_up();
+        validate_on(experiments, thread_count(opts.threads))?;
+        let lengths = experiments.iter().map(|e| e.u.nrows()).collect();
+        let t0 = Instant::now();
+        let (operating_point, records) = if opts.remove_means {
+            let (op, centred) = remove_means(experiments)?;
+            (Some(op), Records::Centred(centred))
+        } else {
+            (None, Records::Borrowed(experiments.to_vec()))
+        };
+        let (layout, factor, scale) = match &records {
+            Records::Borrowed(e) => compressed(e, opts)?,
+            Records::Centred(c) => {
+                let e: Vec<Experiment<'_>> = c.iter().map(|(u, y)| Experiment { u, y }).collect();
+                compressed(&e, opts)?
+            }
+        };
+        Ok(CompressedData {
+            layout,
+            factor,
+            scale,
+            operating_point,
+            records,
+            lengths,
+            opts: opts.clone(),
+            compress_s: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The factor L (H Hᵀ/J = L Lᵀ) of the centred data divided by the
+    /// scales (powers of 4): the one [`crate::identify`] works on. (The
+    /// factor of [`crate::compress_hankel`] is that of the raw data.)
+    pub fn factor(&self) -> &HankelFactor {
+        &self.factor
+    }
+
+    /// The data scales (s_u, s_y) the factor's data were divided by.
+    pub fn scales(&self) -> (f64, f64) {
+        (self.scale.u, self.scale.y)
+    }
+
+    /// The means removed from the records, `None` without mean removal.
+    pub fn operating_point(&self) -> Option<&OperatingPoint> {
+        self.operating_point.as_ref()
+    }
+
+    /// Step 2 alone: the singular values of the weighted projection for
+    /// `method` (in the units of the original data), O(k³).
+    ///
+    /// Errors: [`Error::NotExciting`] (input rows of less than full rank).
+    pub fn singular_values(&self, method: Method) -> Result<Vec<f64>> {
+        let opts = SubspaceOptions {
+            method,
+            ..self.opts.clone()
+        };
+        crate::engine::weighted_singular_values(&self.factor.l, self.layout, &opts, self.scale)
+    }
+
+    /// Steps 2–5 with `opts`: the model [`crate::identify`] returns for the
+    /// records with these options. `opts` may choose any method, order,
+    /// order criterion, (A, C) and (B, D) route, feedthrough, initial
+    /// state, noise model, stability option and sample period; its
+    /// horizons, mean removal and compression must be those of the
+    /// compression. O(k³) + the (B, D, x₀) regression (O(N q²), or O(k³)
+    /// by the projection).
+    ///
+    /// Errors: [`Error::InvalidOption`] when the horizons, mean removal or
+    /// compression differ from those of [`CompressedData::new`]; otherwise
+    /// as [`crate::identify`] after the compression.
+    pub fn identify(&self, opts: &SubspaceOptions) -> Result<SubspaceModel> {
+        let c = &self.opts;
+        if (opts.past, opts.future, opts.remove_means, opts.compression)
+            != (c.past, c.future, c.remove_means, c.compression)
+        {
+            return Err(Error::InvalidOption {
+                what: "options",
+                reason: format!(
+                    "the data were compressed with past {}, future {}, remove_means {}, {:?}; the options ask for past {}, future {}, remove_means {}, {:?}",
+                    c.past,
+                    c.future,
+                    c.remove_means,
+                    c.compression,
+                    opts.past,
+                    opts.future,
+                    opts.remove_means,
+                    opts.compression
+                ),
+            });
+        }
+        crate::checks::check_options(self.layout.nu, self.layout.ny, opts)?;
+        let mut fit = match &self.records {
+            Records::Borrowed(e) => from_factor(
+                self.factor.clone(),
+                &self.layout,
+                opts,
+                Some(&records_of(e)),
+                self.scale,
+                self.compress_s,
+            )?,
+            Records::Centred(c) => {
+                let e: Vec<Experiment<'_>> = c.iter().map(|(u, y)| Experiment { u, y }).collect();
+                from_factor(
+                    self.factor.clone(),
+                    &self.layout,
+                    opts,
+                    Some(&records_of(&e)),
+                    self.scale,
+                    self.compress_s,
+                )?
+            }
+        };
+        if let Some(op) = &self.operating_point {
+            // The output-error regression estimated the constant each
+            // record's deviations keep (O(1/N) after a start at rest): y₀
+            // absorbs their sample-weighted mean.
+            let mut y0 = op.y0.clone();
+            if !fit.output_offsets.is_empty() {
+                let total: usize = self.lengths.iter().sum();
+                for (len, c) in self.lengths.iter().zip(&fit.output_offsets) {
+                    let w = *len as f64 / total as f64;
+                    for (v, ci) in y0.iter_mut().zip(c.iter()) {
+                        *v += w * ci;
+                    }
+                }
+            }
+            fit.operating_point = Some(OperatingPoint::new(op.u0.clone(), y0)?);
+        }
+        Ok(fit)
+    }
+
+    /// The records the compression was made from (centred when means were
+    /// removed), for refinements on the same data.
+    pub fn records(&self) -> Vec<(&DMatrix<f64>, &DMatrix<f64>)> {
+        match &self.records {
+            Records::Borrowed(e) => e.iter().map(|e| (e.u, e.y)).collect(),
+            Records::Centred(c) => c.iter().map(|(u, y)| (u, y)).collect(),
+        }
+    }
+}
