@@ -36,8 +36,9 @@
 //! The rows of [J | e] are streamed in blocks into an R-only QR
 //! (`lifted_linalg::RAccumulator`), so memory is O(p²), not O(M p), and
 //! JᵀJ is never formed: the Levenberg–Marquardt step solves
-//! [R₁₁; √λ D] δ = [−r; 0] by a second small QR, with D² = 1 + diag(JᵀJ)
-//! (the squared column norms of R₁₁) and r = Qᵀe.
+//! [R₁₁; √λ D] δ = [−r; 0] by a second small QR, with D² = diag(JᵀJ)
+//! (the squared column norms of R₁₁, floored at 1e-10 of the largest;
+//! Marquardt's scaling, λ dimensionless from 1e-3) and r = Qᵀe.
 //!
 //! **Threads** ([`PemOptions::threads`]): each record is split into
 //! contiguous ranges. A serial predictor pass gives x̂ at each range start;
@@ -677,12 +678,12 @@ pub fn refine_pem(
         // diag(JᵀJ) = diag(R₁₁ᵀR₁₁): the squared column norms of R₁₁.
         let colsq: Vec<f64> = r11.column_iter().map(|c| c.norm_squared()).collect();
         if lambda == 0.0 {
-            lambda = 1e-3
-                * colsq
-                    .iter()
-                    .copied()
-                    .fold(0.0, f64::max)
-                    .max(f64::MIN_POSITIVE);
+            // Dimensionless: the damping term is λ diag(JᵀJ) (Marquardt's
+            // scaling), so 1e-3 is a small fraction of the curvature in
+            // every direction. (Before 2026-11-26: λ₀ = 1e-3 max diag(JᵀJ)
+            // on 1 + diag(JᵀJ), which damped every direction by ≈ 1e-3
+            // max c_i / c_i and took twice the iterations.)
+            lambda = 1e-3;
         }
         iterations += 1;
         let Some(step) = lm_step(r11, rv, lambda, &colsq) else {
@@ -772,8 +773,10 @@ pub fn refine_pem(
     })
 }
 
-/// The Levenberg–Marquardt step δ minimising ‖R₁₁ δ + r‖² + λ Σ (1 + c_i) δ_i²
-/// (c_i = diag(JᵀJ)) by the R-only QR of [R₁₁ −r; √(λ(1 + c)) 0]; `None`
+/// The Levenberg–Marquardt step δ minimising ‖R₁₁ δ + r‖² + λ Σ c_i δ_i²
+/// (c_i = diag(JᵀJ), floored at 1e-10 max c_i so that a direction the data
+/// do not determine stays damped) by the R-only QR of [R₁₁ −r; √(λc) 0];
+/// `None`
 /// when the triangular factor is singular or the step not finite. O(p³).
 fn lm_step(
     r11: &DMatrix<f64>,
@@ -782,11 +785,12 @@ fn lm_step(
     colsq: &[f64],
 ) -> Option<DVector<f64>> {
     let np = r11.ncols();
+    let floor = 1e-10 * colsq.iter().copied().fold(0.0, f64::max);
     let mut stacked = DMatrix::zeros(2 * np, np + 1);
     stacked.view_mut((0, 0), (np, np)).copy_from(r11);
     for i in 0..np {
         stacked[(i, np)] = -rv[i];
-        stacked[(np + i, i)] = (lambda * (1.0 + colsq[i])).sqrt();
+        stacked[(np + i, i)] = (lambda * colsq[i].max(floor).max(f64::MIN_POSITIVE)).sqrt();
     }
     let r = lifted_linalg::qr_r_owned(stacked).ok()?;
     if r.nrows() < np || (0..np).any(|i| r[(i, i)] == 0.0) {

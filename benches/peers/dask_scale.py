@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Scale-out benchmark of issue 29: one 2x2 record, order 4, stored as .npy
+shards of 6.25e6 samples (u1, u2, y1, y2), identified by
+
+  * the single-process CLI on the same shards (`lifted identify --data ...
+    --concat`, the streamed two-pass route on all cores), and
+  * lifted.dask.identify on a LocalCluster of 1 and of 2 worker processes
+    (one thread each) on 127.0.0.1,
+
+with the whole-run wall time of each and the peak resident memory of each
+worker (getrusage), for 4 shards (2.5e7 samples) and 16 shards (1e8):
+memory per worker stays that of one shard whatever the number of shards.
+
+  benches/peers/dask_scale.py --dir /work/dask-bench --cli target/release/lifted \
+      [--shards 4,16] [--json out.json]
+
+Shards are written once (seeded) and reused. Needs numpy, lifted (the
+wheel) and dask[distributed].
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import resource
+import subprocess
+import time
+
+import numpy as np
+
+import lifted
+import lifted.dask
+
+SHARD = 6_250_000
+
+
+def plant() -> lifted.StateSpace:
+    a = np.diag([0.9, 0.5, 0.0, 0.0])
+    r, th = 0.8, 0.6
+    a[2:, 2:] = [[r * np.cos(th), -r * np.sin(th)], [r * np.sin(th), r * np.cos(th)]]
+    t = np.array([[2.0, 0.3, -0.2, 0.1], [0.1, 1.5, 0.4, 0.0], [0.0, 0.2, 1.8, -0.3], [0.3, 0.0, 0.1, 1.2]])
+    ti = np.linalg.inv(t)
+    b = t @ np.array([[1.0, 0.2], [-0.5, 1.0], [0.3, 0.7], [0.8, -0.4]])
+    c = np.array([[1.0, 0.5, -0.3, 0.2], [0.0, 0.7, 0.4, -1.0]]) @ ti
+    return lifted.StateSpace(t @ a @ ti, b, c, np.array([[0.1, 0.0], [0.0, 0.2]]), 1.0)
+
+
+def write_shards(folder: pathlib.Path, count: int) -> list[pathlib.Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    g = plant()
+    rng = np.random.default_rng(29)
+    x = np.zeros(4)
+    paths = []
+    for k in range(count):
+        p = folder / f"hist-{k:03d}.npy"
+        paths.append(p)
+        u = np.where(rng.random((SHARD, 2)) < 0.5, -1.0, 1.0) + 0.3
+        noise = 0.05 * rng.standard_normal((SHARD, 2))
+        if p.exists():
+            continue
+        y, xs = lifted.simulate(g, u, x)
+        x = np.asarray(g.A) @ xs[-1] + np.asarray(g.B) @ u[-1]
+        np.save(p, np.hstack([u, y + noise + 2.0]))
+    return paths
+
+
+def cli_run(cli: str, paths: list[pathlib.Path], out: pathlib.Path) -> tuple[float, float]:
+    cmd = [cli, "identify", "--method", "n4sid", "--order", "4", "--horizon", "10", "--concat",
+           "--inputs", "0,1", "--outputs", "2,3", "--out", str(out)]
+    for p in paths:
+        cmd += ["--data", str(p)]
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True)
+    wall = time.perf_counter() - t0
+    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    return wall, rss
+
+
+def peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def dask_run(paths: list[pathlib.Path], workers: int) -> tuple[float, list[float], dict]:
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                      host="127.0.0.1", dashboard_address=None) as cluster, Client(cluster) as client:
+        t0 = time.perf_counter()
+        fit = lifted.dask.identify(paths, inputs=[0, 1], outputs=[2, 3], order=4,
+                                   past=10, future=10, client=client)
+        wall = time.perf_counter() - t0
+        rss = list(client.run(peak_rss_mb).values())
+    return wall, rss, fit
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--dir", default="/work/dask-bench")
+    ap.add_argument("--cli", default="target/release/lifted")
+    ap.add_argument("--shards", default="4,16")
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    rows = []
+    for count in [int(s) for s in args.shards.split(",")]:
+        paths = write_shards(pathlib.Path(args.dir), count)[:count]
+        n = count * SHARD
+        cli_wall, cli_rss = cli_run(args.cli, paths, pathlib.Path(args.dir) / "cli-model.json")
+        row = {"samples": n, "shards": count, "cli_s": cli_wall, "cli_peak_mb": cli_rss}
+        for w in (1, 2):
+            wall, rss, fit = dask_run(paths, w)
+            row[f"dask{w}_s"] = wall
+            row[f"dask{w}_worker_peak_mb"] = max(rss)
+            poles = np.sort_complex(np.linalg.eigvals(np.asarray(fit.model.A) if hasattr(fit, "model") else np.asarray(fit["model"].A)))
+            row[f"dask{w}_poles"] = [str(p) for p in poles]
+        rows.append(row)
+        print(json.dumps(row))
+    cpu = os.cpu_count()
+    print(f"\n| samples | shards | CLI (1 process, {cpu} cores) | Dask 1 worker | Dask 2 workers | peak MB per worker (1 / 2 workers) | CLI peak MB |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['samples']:.2e} | {r['shards']} | {r['cli_s']:.1f} s | {r['dask1_s']:.1f} s | {r['dask2_s']:.1f} s "
+              f"| {r['dask1_worker_peak_mb']:.0f} / {r['dask2_worker_peak_mb']:.0f} | {r['cli_peak_mb']:.0f} |")
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
