@@ -503,7 +503,7 @@ def to_control(sys: StateSpace) -> Any:
     """The python-control ``StateSpace`` of ``sys`` (needs ``pip install control``;
     the operating point and Kalman gain have no python-control counterpart)."""
     try:
-        import control
+        import control  # type: ignore[import-untyped]
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("to_control needs python-control: pip install control") from e
     dt = 0 if sys.dt is None else sys.dt
