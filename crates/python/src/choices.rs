@@ -26,7 +26,8 @@ pub(crate) trait Choice: Sized + Clone + 'static {
             .find(|(n, _)| *n == lower)
             .map(|(_, v)| v.clone())
             .ok_or_else(|| {
-                let names: Vec<String> = Self::NAMES.iter().map(|(n, _)| format!("'{n}'")).collect();
+                let names: Vec<String> =
+                    Self::NAMES.iter().map(|(n, _)| format!("'{n}'")).collect();
                 arg_error(
                     argument,
                     format!(
@@ -113,8 +114,7 @@ pub(crate) enum MpcKind {
 
 impl Choice for MpcKind {
     const WHAT: &'static str = "MPC kind";
-    const NAMES: &'static [(&'static str, Self)] =
-        &[("gpc", MpcKind::Gpc), ("dmc", MpcKind::Dmc)];
+    const NAMES: &'static [(&'static str, Self)] = &[("gpc", MpcKind::Gpc), ("dmc", MpcKind::Dmc)];
 }
 
 /// Every option type and its names, for `lifted._lifted._choices()` (the

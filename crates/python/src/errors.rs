@@ -22,9 +22,9 @@
 //! they travel with the exception through `pickle`:
 //! `BaseException.__reduce__` carries the instance `__dict__`.
 
+use pyo3::IntoPyObjectExt;
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
-use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::{PyComplex, PyType};
 
@@ -113,7 +113,11 @@ const CLASSES: [(Kind, &str, &[&str]); 10] = [
     (Kind::NonFinite, "NonFiniteError", &["row", "col", "value"]),
     (Kind::Order, "OrderError", &["order", "max", "rank"]),
     (Kind::NotExciting, "NotExcitingError", &["rank", "needed"]),
-    (Kind::Unstable, "UnstableError", &["spectral_radius", "pole"]),
+    (
+        Kind::Unstable,
+        "UnstableError",
+        &["spectral_radius", "pole"],
+    ),
     (Kind::TooShort, "TooShortError", &["got", "needed"]),
     (
         Kind::MemoryBudget,
@@ -221,12 +225,15 @@ fn build(
     message: String,
     items: Vec<(&'static str, Bound<'_, PyAny>)>,
 ) -> PyErr {
-    let made = kind.type_object(py).call1((message.clone(),)).and_then(|inst| {
-        for (k, v) in items {
-            inst.setattr(k, v)?;
-        }
-        Ok(inst)
-    });
+    let made = kind
+        .type_object(py)
+        .call1((message.clone(),))
+        .and_then(|inst| {
+            for (k, v) in items {
+                inst.setattr(k, v)?;
+            }
+            Ok(inst)
+        });
     match made {
         Ok(inst) => PyErr::from_value(inst),
         Err(_) => LiftedError::new_err(message),
@@ -258,9 +265,7 @@ impl Classify for lifted_linalg::Error {
                 Kind::Dimension
             }
             E::NotEnoughData { what, got, needed } => {
-                f.set("what", *what)
-                    .set("got", *got)
-                    .set("needed", *needed);
+                f.set("what", *what).set("got", *got).set("needed", *needed);
                 Kind::TooShort
             }
             E::TooLarge {
@@ -333,9 +338,7 @@ impl Classify for lifted_lti::DataError {
                 Kind::NonFinite
             }
             E::TooShort { what, needed, got } => {
-                f.set("what", *what)
-                    .set("got", *got)
-                    .set("needed", *needed);
+                f.set("what", *what).set("got", *got).set("needed", *needed);
                 Kind::TooShort
             }
             E::Empty => {
@@ -511,9 +514,7 @@ impl Classify for lifted_multirate::Error {
             E::Data(e) => e.classify(f),
             E::Subspace(e) => e.classify(f),
             E::TooShort { what, got, needed } => {
-                f.set("what", *what)
-                    .set("got", *got)
-                    .set("needed", *needed);
+                f.set("what", *what).set("got", *got).set("needed", *needed);
                 Kind::TooShort
             }
             E::NonFinite { what, row, col } => {

@@ -4,9 +4,7 @@
 //! Kalman gain of the noise model, exactly as the CLI's model file does.
 
 use lifted_linalg::budget::resolve_threads;
-use lifted_subspace::{
-    Experiment, Method, OrderSelection, SubspaceOptions, SystemEstimate,
-};
+use lifted_subspace::{Experiment, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 

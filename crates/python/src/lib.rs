@@ -2,10 +2,10 @@
 //! by the pure-Python package `lifted` (`python/lifted/`).
 //!
 //! Every function reads its arguments with one conversion per kind
-//! ([`convert`]: arrays through `numpy.asarray`, counts as Python integers,
-//! string options through [`choices`]), calls the Lifted crates' public API
+//! (`convert`: arrays through `numpy.asarray`, counts as Python integers,
+//! string options through `choices`), calls the Lifted crates' public API
 //! with the interpreter lock released (`Python::detach`), and maps every
-//! Rust error to the exception hierarchy of [`errors`] (`LiftedError`, a
+//! Rust error to the exception hierarchy of `errors` (`LiftedError`, a
 //! `ValueError`, and its subclasses carrying the error's fields). No
 //! numerics live here: conversions only (O(N·channels) copies).
 //!

@@ -57,7 +57,11 @@ pub(crate) fn iv<'py>(
         .iter()
         .enumerate()
         .map(|(k, f)| {
-            let name = if many { format!("instrument[{k}]") } else { "instrument".into() };
+            let name = if many {
+                format!("instrument[{k}]")
+            } else {
+                "instrument".into()
+            };
             f.as_ref().map(|f| record(f, &name)).transpose()
         })
         .collect::<PyResult<Vec<Option<DMatrix<f64>>>>>()?;

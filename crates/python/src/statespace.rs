@@ -158,21 +158,33 @@ impl PyStateSpace {
         let b = matrix(
             b,
             "B",
-            if b_len == Some(n) { Vector::Column } else { Vector::Row },
+            if b_len == Some(n) {
+                Vector::Column
+            } else {
+                Vector::Row
+            },
             None,
         )?;
         let c_len = vector_len(c);
         let c = matrix(
             c,
             "C",
-            if c_len == Some(n) { Vector::Row } else { Vector::Column },
+            if c_len == Some(n) {
+                Vector::Row
+            } else {
+                Vector::Column
+            },
             None,
         )?;
         let (p, m) = (c.nrows(), b.ncols());
         let d = matrix(
             d,
             "D",
-            if m == 1 && p > 1 { Vector::Column } else { Vector::Row },
+            if m == 1 && p > 1 {
+                Vector::Column
+            } else {
+                Vector::Row
+            },
             Some((p, m)),
         )?;
         let inner = StateSpace::new(a, b, c, d, dt).map_err(err)?;
@@ -388,9 +400,7 @@ impl PyStateSpace {
     /// identify`), with its operating point and Kalman gain.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
-        ModelFile::from_json(text)
-            .map(Self::from_file)
-            .map_err(err)
+        ModelFile::from_json(text).map(Self::from_file).map_err(err)
     }
 
     /// Pickles as the model-file JSON: (StateSpace.from_json, (json,)).
@@ -443,11 +453,7 @@ impl PyStateSpace {
 /// The length of a 1-D array argument (None for anything else).
 fn vector_len(obj: &Bound<'_, PyAny>) -> Option<usize> {
     let np = obj.py().import("numpy").ok()?;
-    let shape: Vec<usize> = np
-        .call_method1("shape", (obj,))
-        .ok()?
-        .extract()
-        .ok()?;
+    let shape: Vec<usize> = np.call_method1("shape", (obj,)).ok()?.extract().ok()?;
     match shape.as_slice() {
         [k] => Some(*k),
         _ => None,

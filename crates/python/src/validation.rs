@@ -6,9 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::convert::{Int, Vector, count, counts, matrix, record};
+use crate::dataset;
 use crate::errors::{err, lifted_error};
 use crate::statespace::PyStateSpace;
-use crate::dataset;
 
 /// Validates `model` on `u` (N×m), `y` (N×p, NaN where output i is not
 /// sampled; sampled every `periods[i]`): per output a dict with name, fit
@@ -46,22 +46,25 @@ pub(crate) fn validate<'py>(
         }
     };
     let periods = periods.map(|p| counts(&p, "periods")).transpose()?;
-    let data = dataset(ts, record(u, "u")?, record(y, "y")?, None, periods.as_deref())?;
+    let data = dataset(
+        ts,
+        record(u, "u")?,
+        record(y, "y")?,
+        None,
+        periods.as_deref(),
+    )?;
     let operating_point = match (u0, y0) {
         (None, None) => model.operating_point.clone(),
         (u0, y0) => {
             let base = model.operating_point.as_ref();
             let given = model.operating_point_of(u0, y0)?;
+            // an offset not given stays the model's (zeros without one)
             given.map(|mut op| {
-                if u0.is_none() {
-                    if let Some(b) = base {
-                        op.u0 = b.u0.clone();
-                    }
+                if let (None, Some(b)) = (u0, base) {
+                    op.u0 = b.u0.clone();
                 }
-                if y0.is_none() {
-                    if let Some(b) = base {
-                        op.y0 = b.y0.clone();
-                    }
+                if let (None, Some(b)) = (y0, base) {
+                    op.y0 = b.y0.clone();
                 }
                 op
             })
