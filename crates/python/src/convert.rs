@@ -100,8 +100,10 @@ fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, 
 }
 
 /// The shape and row-major values of a float array.
-fn values(a: &Bound<'_, PyArrayDyn<f64>>) -> PyResult<(Vec<usize>, Vec<f64>)> {
-    let ro = a.readonly();
+fn values(a: &Bound<'_, PyArrayDyn<f64>>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+    let ro = a
+        .try_readonly()
+        .map_err(|e| arg_error(name, format!("cannot be read ({e})")))?;
     let view = ro.as_array();
     Ok((a.shape().to_vec(), view.iter().copied().collect()))
 }
@@ -114,7 +116,7 @@ fn from_rows(r: usize, c: usize, v: &[f64]) -> DMatrix<f64> {
 /// A data record: samples × channels; a 1-D array is one channel.
 pub(crate) fn record(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DMatrix<f64>> {
     let a = float_array(obj, name)?;
-    let (shape, v) = values(&a)?;
+    let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [n] => Ok(from_rows(*n, 1, &v)),
         [r, c] => Ok(from_rows(*r, *c, &v)),
@@ -146,7 +148,7 @@ pub(crate) fn matrix(
     fill: Option<(usize, usize)>,
 ) -> PyResult<DMatrix<f64>> {
     let a = float_array(obj, name)?;
-    let (shape, v) = values(&a)?;
+    let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [] => {
             let (r, c) = fill.unwrap_or((1, 1));
@@ -168,7 +170,7 @@ pub(crate) fn matrix(
 /// row or one column.
 pub(crate) fn vector(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f64>> {
     let a = float_array(obj, name)?;
-    let (shape, v) = values(&a)?;
+    let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [] | [_] => Ok(v),
         [1, _] | [_, 1] => Ok(v),

@@ -114,3 +114,23 @@ def test_operating_point_and_gain_are_checked(plant) -> None:
     c = k.d2c()
     np.testing.assert_array_equal(c.u0, [1.0])
     assert c.kalman_gain is None
+
+
+def test_cli_model_file_operating_point_is_read(offset_record, tmp_path) -> None:
+    """A model identified by `lifted identify` (the CLI's own mean removal
+    and model file) validates in Python as in `lifted validate`."""
+    u, y = offset_record
+    data, model = tmp_path / "rec.csv", tmp_path / "cli.json"
+    write_csv(data, 0.5, u, y)
+    subprocess.run([str(cli()), "identify", "--method", "n4sid", "--data", str(data),
+                    "--inputs", "u1", "--outputs", "y1", "--order", "2", "--out", str(model)],
+                   check=True, capture_output=True)
+    m = lifted.StateSpace.from_json(model.read_text())
+    doc = json.loads(model.read_text())
+    np.testing.assert_array_equal(m.u0, doc["operating_point"]["u0"])
+    np.testing.assert_array_equal(m.y0, doc["operating_point"]["y0"])
+    o = lifted.validate(m, u, y).outputs[0]
+    want = cli_fits(model, data)
+    got = [o.fit, *o.prediction_fits] if "kalman_gain" in doc else [o.fit]
+    np.testing.assert_allclose(got, want[: len(got)], atol=0.005 + 1e-9)
+    assert o.fit > 99.0

@@ -9,7 +9,7 @@ mapping view of the dict results of earlier versions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -175,7 +175,7 @@ class Experiment(_Result):
     u: FloatArray
     y: FloatArray
     y_fast: FloatArray
-    y_clean: FloatArray = field(repr=False)
+    y_clean: FloatArray
 
     def __repr__(self) -> str:
         return f"Experiment(samples={self.u.shape[0]}, inputs={self.u.shape[1]}, outputs={self.y.shape[1]})"
