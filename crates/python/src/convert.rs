@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use crate::errors::arg_error;
+use crate::errors::{arg_error, err};
 
 /// The Python type of integer arguments (read without overflow, checked by
 /// [`count`]).
@@ -41,6 +41,16 @@ pub(crate) fn counts(values: &[Int], name: &str) -> PyResult<Vec<usize>> {
         .enumerate()
         .map(|(k, &v)| count(v, &format!("{name}[{k}]")))
         .collect()
+}
+
+/// Checks an allocation the binding asks for by an argument (a signal
+/// length, a number of samples) against the memory budget
+/// (`lifted_linalg::budget`): a `MemoryBudgetError`, not an abort, for a
+/// length such as 2⁴⁰.
+pub(crate) fn budget(what: &'static str, size: lifted_linalg::budget::Size) -> PyResult<()> {
+    lifted_linalg::budget::MemoryBudget::default()
+        .check(what, size)
+        .map_err(err)
 }
 
 /// A non-negative integer that fits `u64` (seeds).

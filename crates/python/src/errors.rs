@@ -214,6 +214,20 @@ pub(crate) fn arg_error(argument: &str, message: impl std::fmt::Display) -> PyEr
     })
 }
 
+/// A [`WorkBudgetError`] raised by a check of the binding itself.
+pub(crate) fn work_budget(what: &'static str, flops: f64, limit: f64) -> PyErr {
+    Python::attach(|py| {
+        let mut f = Fields {
+            py,
+            items: Vec::new(),
+        };
+        f.set("what", what).set("flops", flops).set("limit", limit);
+        let message =
+            format!("{what}: about {flops:.2e} operations, more than the bound of {limit:.2e}");
+        build(py, Kind::WorkBudget, message, f.items)
+    })
+}
+
 /// A plain [`LiftedError`] with a message (a check of the binding itself).
 pub(crate) fn lifted_error(message: impl Into<String>) -> PyErr {
     LiftedError::new_err(message.into())

@@ -3,6 +3,7 @@
 //! signals, generalized binary noise and multisines. O(length) each; the
 //! generation runs with the GIL released.
 
+use lifted_linalg::budget::Size;
 use lifted_prbs::{
     DesignRequest, GbnOptions, InversePrbs, InversePrbsOptions, MSequence, MultisineOptions,
     RandomBinaryOptions,
@@ -11,8 +12,8 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{Int, count, seed as seed_of, small};
-use crate::errors::{arg_error, err};
+use crate::convert::{Int, budget, count, seed as seed_of, small};
+use crate::errors::{arg_error, err, work_budget};
 
 /// `periods` periods of `period` samples, refused above the in-memory
 /// limit of lifted-prbs.
@@ -27,7 +28,9 @@ fn length(period: u128, periods: usize) -> PyResult<usize> {
             max: lifted_prbs::MAX_SIGNAL_ENTRIES,
         }));
     }
-    Ok(len as usize)
+    let len = len as usize;
+    budget("the signal", Size::f64s(len))?;
+    Ok(len)
 }
 
 /// Maximum-length PRBS of shift-register order `order` mapped to ±amplitude,
@@ -143,6 +146,14 @@ pub(crate) fn design<'py>(
     Ok(out)
 }
 
+/// The length `n` of a generated signal, checked against the memory
+/// budget (the signal and one working copy).
+fn signal_length(n: Int) -> PyResult<usize> {
+    let n = count(n, "n")?;
+    budget("the signal (n samples)", Size::f64s(n).times(2))?;
+    Ok(n)
+}
+
 /// Random binary signal ±amplitude held `hold` samples (lifted_prbs::random_binary).
 #[pyfunction]
 #[pyo3(signature = (n, amplitude=1.0, hold=1, seed=0))]
@@ -153,7 +164,7 @@ pub(crate) fn rbs<'py>(
     hold: Int,
     seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let n = count(n, "n")?;
+    let n = signal_length(n)?;
     let o = RandomBinaryOptions {
         amplitude,
         hold: count(hold, "hold")?,
@@ -176,7 +187,7 @@ pub(crate) fn gbn<'py>(
     hold: Int,
     seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let n = count(n, "n")?;
+    let n = signal_length(n)?;
     let o = GbnOptions {
         amplitude,
         switch_probability,
@@ -187,6 +198,37 @@ pub(crate) fn gbn<'py>(
         .detach(move || lifted_prbs::generalized_binary_noise(n, &o))
         .map_err(err)?;
     Ok(PyArray1::from_vec(py, v))
+}
+
+/// Bound on the cosine evaluations of one multisine period (period ×
+/// harmonics), about ten seconds of work.
+const MULTISINE_WORK: f64 = 1e9;
+
+/// lifted_prbs::multisine tabulates one whole period (period × harmonics
+/// cosines) before it copies the record out, whatever the record length:
+/// the table is checked against the memory budget and the work bound here,
+/// so that a period of 2⁴⁰ is an error and not an abort.
+fn check_multisine(period: usize, first: usize, last: Option<Int>) -> PyResult<()> {
+    lifted_linalg::budget::MemoryBudget::default()
+        .check(
+            "the multisine period table",
+            lifted_linalg::budget::Size::f64s(period),
+        )
+        .map_err(err)?;
+    let last = match last {
+        Some(l) => count(l, "last_harmonic")?,
+        None => period.div_ceil(2).saturating_sub(1),
+    };
+    let harmonics = last.saturating_sub(first).saturating_add(1) as f64;
+    let work = harmonics * period as f64;
+    if work > MULTISINE_WORK {
+        return Err(work_budget(
+            "multisine (period x harmonics cosines)",
+            work,
+            MULTISINE_WORK,
+        ));
+    }
+    Ok(())
 }
 
 /// Periodic multisine of RMS `amplitude` (lifted_prbs::multisine).
@@ -200,10 +242,16 @@ pub(crate) fn multisine<'py>(
     first_harmonic: Int,
     last_harmonic: Option<Int>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let n = count(n, "n")?;
+    let n = signal_length(n)?;
+    let period = count(period, "period")?;
+    check_multisine(
+        period,
+        count(first_harmonic, "first_harmonic")?,
+        last_harmonic,
+    )?;
     let o = MultisineOptions {
         amplitude,
-        period: count(period, "period")?,
+        period,
         first_harmonic: count(first_harmonic, "first_harmonic")?,
         last_harmonic: crate::convert::opt_count(last_harmonic, "last_harmonic")?,
     };

@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 
 use crate::choices::Choice;
 use crate::convert::{Int, counts, record, seed as seed_of};
-use crate::errors::err;
+use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
 use crate::to_py;
 
@@ -47,10 +47,17 @@ pub(crate) fn simulate_experiment<'py>(
     let sampling = sampling.map(|s| counts(&s, "sampling")).transpose()?;
     let holds = holds.map(|h| counts(&h, "holds")).transpose()?;
     let seed = seed_of(seed, "seed")?;
+    let r = record(r, "r")?;
+    check_frame(
+        r.nrows(),
+        holds.as_deref(),
+        sampling.as_deref(),
+        plant.inner.ts().or(dt),
+        controller.and_then(|c| c.inner.ts()),
+    )?;
     let g = plant.inner.clone();
     let op = plant.operating_point.clone();
     let k = controller.map(|c| c.inner.clone());
-    let r = record(r, "r")?;
     let out = py
         .detach(move || -> Result<SimOutput, lifted_sim::Error> {
             let plant = match dt {
@@ -105,6 +112,75 @@ pub(crate) fn simulate_experiment<'py>(
     d.set_item("y_fast", to_py(py, &out.y))?;
     d.set_item("y_clean", to_py(py, &out.y_clean))?;
     Ok(d)
+}
+
+/// Longest sampling pattern accepted whatever the record length (2²⁰
+/// phases).
+const MAX_FRAME: usize = 1 << 20;
+
+/// The simulator tabulates its sampling pattern, one entry per phase of
+/// the least common multiple of the holds, the output periods and the
+/// controller's rate (lifted_sim's `Engine`), before it checks anything
+/// else; a pattern longer than both the record and [`MAX_FRAME`] is refused
+/// here, so that e.g. `holds=[2**40]` is an error and not an abort of the
+/// interpreter on a failed allocation.
+fn check_frame(
+    samples: usize,
+    holds: Option<&[usize]>,
+    sampling: Option<&[usize]>,
+    base: Option<f64>,
+    controller: Option<f64>,
+) -> PyResult<()> {
+    let rate = match (base, controller) {
+        // the controller runs every round(T_K / T) base periods; lifted-sim
+        // rejects a ratio that is not an integer
+        (Some(t), Some(tk)) if t > 0.0 && (tk / t).is_finite() => (tk / t).round().max(1.0),
+        _ => 1.0,
+    };
+    let limit = samples.max(MAX_FRAME);
+    if rate > limit as f64 {
+        return Err(arg_error(
+            "controller",
+            format!(
+                "runs every {rate} base periods, a pattern longer than the record ({samples} samples) and than {MAX_FRAME}"
+            ),
+        ));
+    }
+    let mut frame = rate as usize;
+    let all = holds
+        .unwrap_or_default()
+        .iter()
+        .map(|&h| ("holds", h))
+        .chain(
+            sampling
+                .unwrap_or_default()
+                .iter()
+                .map(|&p| ("sampling", p)),
+        );
+    for (name, v) in all {
+        if v == 0 {
+            continue; // lifted-sim names the zero hold or period
+        }
+        frame = frame
+            .checked_div(gcd(frame, v))
+            .and_then(|f| f.checked_mul(v))
+            .filter(|&f| f <= limit)
+            .ok_or_else(|| {
+                arg_error(
+                    name,
+                    format!(
+                        "the holds, sampling periods and controller rate repeat only every \
+                         lcm > {limit} samples, longer than the record ({samples} samples) and \
+                         than {MAX_FRAME}; the simulator tabulates one entry per phase"
+                    ),
+                )
+            })?;
+    }
+    Ok(())
+}
+
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 { a } else { gcd(b, a % b) }
 }
 
 /// Adds `sign · offsets[c]` to column c.

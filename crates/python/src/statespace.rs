@@ -4,6 +4,7 @@
 //! innovations form x(k+1) = A x + B u + K e. The same content as the CLI's
 //! model file (`lifted_lti::ModelFile`), which is also its pickled form.
 
+use lifted_linalg::budget::Size;
 use lifted_lti::{C2dOptions, ModelFile, OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -12,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyFloat, PyTuple};
 
 use crate::choices::{Choice, Discretization};
-use crate::convert::{Int, Vector, count, matrix, record, vector};
+use crate::convert::{Int, Vector, budget, count, matrix, record, vector};
 use crate::errors::err;
 use crate::{stack, to_py};
 
@@ -333,6 +334,16 @@ impl PyStateSpace {
         dt: Option<f64>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = count(n_samples, "n_samples")?;
+        let (p, m, states) = (
+            self.inner.n_outputs(),
+            self.inner.n_inputs(),
+            self.inner.order(),
+        );
+        // m responses of n × p, and the n × states trajectory of each run
+        budget(
+            "the step responses (n_samples x outputs x inputs)",
+            Size::matrices(m.max(1), n, p + states),
+        )?;
         let s = self.inner.clone();
         let r = py.detach(move || s.step(n, dt)).map_err(err)?;
         Ok(stack(py, &r, n, self.inner.n_outputs()))
