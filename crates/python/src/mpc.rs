@@ -35,7 +35,9 @@ impl Law {
 /// the state-space realisation (`StateSpaceMpc`, `kind="gpc"`). Keyword
 /// defaults are `MpcOptions`' (h = 12, m = 3, identity weights, no limits).
 /// Dual-rate inferential MPC: pass None (or NaN) for an output that is not
-/// sampled at this instant. The model is used in deviation variables.
+/// sampled at this instant. The controller works in deviation variables:
+/// an identified model's operating point is not applied (measurements and
+/// set-points are y − y₀, the moves u − u₀).
 #[pyclass(name = "Mpc", module = "lifted._lifted")]
 pub struct PyMpc {
     law: Law,
