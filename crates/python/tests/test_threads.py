@@ -77,8 +77,9 @@ def test_identify_and_validate_release_the_gil(long_record, lag) -> None:
 
 
 def test_mpc_step_from_threads(lag: lifted.StateSpace) -> None:
-    """step releases the GIL while it solves; one controller per thread
-    gives the same moves as the same controller stepped serially."""
+    """Controllers stepped from four threads at once (step runs with the
+    GIL released, too short a call for other_thread_ran_during to observe)
+    give exactly the moves of serial stepping."""
     def run() -> list[float]:
         mpc = lifted.Mpc(lag, u_max=[2.0])
         return [float(mpc.step([0.1 * k], [1.0])[0]) for k in range(200)]
