@@ -29,7 +29,7 @@ def identify_all(records: list[tuple[np.ndarray, np.ndarray]], workers: int = 4,
 
     def one(rec: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         fit = lifted.n4sid(rec[0], rec[1], order=order)
-        return np.sort_complex(fit["model"].poles())
+        return np.sort_complex(fit.model.poles())
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(one, records))

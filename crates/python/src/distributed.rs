@@ -8,37 +8,42 @@ use lifted_subspace::{
     CompressedRecords, CompressionPlan, OrderSelection, OutputErrorStream, RecordPiece,
     RegressionPiece, StreamedSubspace, SubspaceOptions,
 };
-use numpy::PyReadonlyArray2;
+use lifted_linalg::budget::resolve_threads;
+use lifted_subspace::Method;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use crate::{LiftedError, err, subspace_method, to_mat};
+use crate::choices::Choice;
+use crate::convert::{Int, count, opt_count, record};
+use crate::errors::{err, lifted_error};
 
 /// The options of a sharded identification (the in-memory `identify`'s).
 #[allow(clippy::too_many_arguments)]
 fn options(
     method: &str,
-    order: Option<usize>,
-    max_order: usize,
-    past: usize,
-    future: usize,
+    order: Option<Int>,
+    max_order: Int,
+    past: Int,
+    future: Int,
     remove_means: bool,
     noise_model: bool,
     dt: f64,
-    threads: usize,
+    threads: Int,
 ) -> PyResult<SubspaceOptions> {
     Ok(SubspaceOptions {
-        method: subspace_method(method)?,
-        order: match order {
+        method: Method::parse(method, "method")?,
+        order: match opt_count(order, "order")? {
             Some(n) => OrderSelection::Fixed(n),
-            None => OrderSelection::Gap { max: max_order },
+            None => OrderSelection::Gap {
+                max: count(max_order, "max_order")?,
+            },
         },
-        past,
-        future,
+        past: count(past, "past")?,
+        future: count(future, "future")?,
         remove_means,
         noise_model,
         ts: dt,
-        threads,
+        threads: resolve_threads(count(threads, "threads")?),
         ..Default::default()
     })
 }
@@ -49,16 +54,16 @@ fn options(
 #[pyo3(signature = (u, y, past=10, future=10, remove_means=true))]
 pub fn partial_plan<'py>(
     py: Python<'py>,
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
-    past: usize,
-    future: usize,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
+    past: Int,
+    future: Int,
     remove_means: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
-    let (u, y) = (to_mat(&u), to_mat(&y));
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
     let opts = SubspaceOptions {
-        past,
-        future,
+        past: count(past, "past")?,
+        future: count(future, "future")?,
         remove_means,
         order: OrderSelection::Gap { max: 1 },
         ..Default::default()
@@ -81,12 +86,13 @@ fn plan_of(bytes: &[u8]) -> PyResult<CompressionPlan> {
 pub fn partial_compress<'py>(
     py: Python<'py>,
     plan: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
-    threads: usize,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
+    threads: Int,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let plan = plan_of(plan)?;
-    let (u, y) = (to_mat(&u), to_mat(&y));
+    let threads = resolve_threads(count(threads, "threads")?);
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
     let bytes = py
         .detach(move || plan.compress(&u, &y, threads)?.to_bytes())
         .map_err(err)?;
@@ -145,11 +151,11 @@ pub fn partial_merge<'py>(
 pub fn regression_push<'py>(
     py: Python<'py>,
     stream: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (to_mat(&u), to_mat(&y));
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
     let bytes = py
         .detach(move || {
             let mut st = OutputErrorStream::from_bytes(&s)?;
@@ -164,8 +170,8 @@ pub fn regression_push<'py>(
 fn stream_step<'py>(
     py: Python<'py>,
     stream: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
     step: fn(
         &mut OutputErrorStream,
         &nalgebra::DMatrix<f64>,
@@ -173,7 +179,7 @@ fn stream_step<'py>(
     ) -> lifted_subspace::Result<()>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (to_mat(&u), to_mat(&y));
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
     let bytes = py
         .detach(move || {
             let mut st = OutputErrorStream::from_bytes(&s)?;
@@ -190,8 +196,8 @@ fn stream_step<'py>(
 pub fn regression_prime<'py>(
     py: Python<'py>,
     stream: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     stream_step(py, stream, u, y, OutputErrorStream::prime)
 }
@@ -202,8 +208,8 @@ pub fn regression_prime<'py>(
 pub fn regression_advance<'py>(
     py: Python<'py>,
     stream: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     stream_step(py, stream, u, y, OutputErrorStream::advance)
 }
@@ -214,11 +220,11 @@ pub fn regression_advance<'py>(
 pub fn regression_scan<'py>(
     py: Python<'py>,
     stream: &[u8],
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
+    u: Bound<'py, PyAny>,
+    y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (to_mat(&u), to_mat(&y));
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
     let bytes = py
         .detach(move || {
             OutputErrorStream::from_bytes(&s)?
@@ -297,14 +303,14 @@ pub fn partial_identify(
     py: Python<'_>,
     records: &[u8],
     method: &str,
-    order: Option<usize>,
-    max_order: usize,
-    past: usize,
-    future: usize,
+    order: Option<Int>,
+    max_order: Int,
+    past: Int,
+    future: Int,
     remove_means: bool,
     noise_model: bool,
     dt: f64,
-    threads: usize,
+    threads: Int,
 ) -> PyResult<PyFirstPass> {
     let opts = options(
         method,
@@ -331,7 +337,7 @@ impl PyFirstPass {
     fn get(&self) -> PyResult<&StreamedSubspace> {
         self.inner
             .as_ref()
-            .ok_or_else(|| LiftedError::new_err("this first pass was already finished"))
+            .ok_or_else(|| lifted_error("this first pass was already finished"))
     }
 }
 
@@ -364,7 +370,7 @@ impl PyFirstPass {
         let first = self
             .inner
             .take()
-            .ok_or_else(|| LiftedError::new_err("this first pass was already finished"))?;
+            .ok_or_else(|| lifted_error("this first pass was already finished"))?;
         let stream = stream.map(<[u8]>::to_vec);
         let fit = py
             .detach(move || match stream {
@@ -372,6 +378,7 @@ impl PyFirstPass {
                 None => Ok(first.into_model()),
             })
             .map_err(err)?;
-        crate::fit_dict(py, &fit, &self.method)
+        let threads = fit.diagnostics.compression.threads;
+        crate::identify::fit_dict(py, &fit, &self.method, threads)
     }
 }

@@ -4,33 +4,23 @@
 //! (lifted-multirate, thesis chs. 4–5, and its IV variant of §7.8.2).
 //! Conversions only; every call releases the GIL.
 
-use lifted_lti::{Identifier, ModelFile};
+use lifted_lti::Identifier;
 use lifted_multirate::{
     LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions, identify_lifted_iv,
     identify_multirate,
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
-use lifted_subspace::{IvExperiment, IvOptions, OrderSelection};
+use lifted_subspace::{IvExperiment, IvOptions, Method};
 use nalgebra::DMatrix;
-use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::{LiftedError, PyStateSpace, dataset, err, subspace_method, to_mat, to_py};
-
-fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
-    match order {
-        Some(n) => OrderSelection::Fixed(n),
-        None => OrderSelection::Gap { max: max_order },
-    }
-}
-
-fn model_json(model: &lifted_lti::StateSpace, method: &str) -> PyResult<String> {
-    ModelFile::new(model.clone())
-        .with_method(method)
-        .to_json()
-        .map_err(err)
-}
+use crate::choices::Choice;
+use crate::convert::{Int, count, counts, opt_count, record, small};
+use crate::errors::{err, lifted_error};
+use crate::identify::order_of;
+use crate::statespace::PyStateSpace;
+use crate::{dataset, records, to_py};
 
 /// Closed-loop instrumental-variable subspace identification (thesis ch. 7,
 /// `lifted_subspace::iv_identify`) of one record or several: `us`, `ys`,
@@ -41,34 +31,44 @@ fn model_json(model: &lifted_lti::StateSpace, method: &str) -> PyResult<String> 
 #[pyo3(signature = (us, ys, instruments, order=None, max_order=10, alpha=8, alpha_p=None,
     enforce_stability=false, require_stable=false, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
-pub fn iv<'py>(
+pub(crate) fn iv<'py>(
     py: Python<'py>,
-    us: Vec<PyReadonlyArray2<'py, f64>>,
-    ys: Vec<PyReadonlyArray2<'py, f64>>,
-    instruments: Vec<Option<PyReadonlyArray2<'py, f64>>>,
-    order: Option<usize>,
-    max_order: usize,
-    alpha: usize,
-    alpha_p: Option<usize>,
+    us: Vec<Bound<'py, PyAny>>,
+    ys: Vec<Bound<'py, PyAny>>,
+    instruments: Vec<Option<Bound<'py, PyAny>>>,
+    order: Option<Int>,
+    max_order: Int,
+    alpha: Int,
+    alpha_p: Option<Int>,
     enforce_stability: bool,
     require_stable: bool,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if us.len() != ys.len() || us.len() != instruments.len() {
-        return Err(LiftedError::new_err(format!(
-            "{} input, {} output and {} instrument records (give one of each per experiment)",
+    if us.len() != instruments.len() {
+        return Err(lifted_error(format!(
+            "{} input records and {} instrument records (give one instrument, or None, per experiment)",
             us.len(),
-            ys.len(),
             instruments.len()
         )));
     }
-    let u: Vec<DMatrix<f64>> = us.iter().map(to_mat).collect();
-    let y: Vec<DMatrix<f64>> = ys.iter().map(to_mat).collect();
-    let f: Vec<Option<DMatrix<f64>>> = instruments.iter().map(|f| f.as_ref().map(to_mat)).collect();
+    let (u, y) = records(&us, &ys)?;
+    let many = instruments.len() > 1;
+    let f = instruments
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let name = if many {
+                format!("instrument[{k}]")
+            } else {
+                "instrument".into()
+            };
+            f.as_ref().map(|f| record(f, &name)).transpose()
+        })
+        .collect::<PyResult<Vec<Option<DMatrix<f64>>>>>()?;
     let opts = IvOptions {
-        order: order_of(order, max_order),
-        alpha,
-        alpha_p,
+        order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
+        alpha: count(alpha, "alpha")?,
+        alpha_p: opt_count(alpha_p, "alpha_p")?,
         enforce_stability,
         require_stable,
         ts: dt,
@@ -90,7 +90,9 @@ pub fn iv<'py>(
         })
         .map_err(err)?;
     let d = PyDict::new(py);
-    d.set_item("model", PyStateSpace::wrap(fit.model.clone()))?;
+    let model = PyStateSpace::wrap(fit.model.clone());
+    d.set_item("model_json", model.to_json_with(Some("iv"))?)?;
+    d.set_item("model", model)?;
     let x0: Vec<Vec<f64>> = fit.x0.iter().map(|x| x.as_slice().to_vec()).collect();
     d.set_item("x0", x0)?;
     let dg = &fit.diagnostics;
@@ -99,7 +101,6 @@ pub fn iv<'py>(
     d.set_item("suggested_order", dg.suggested_order)?;
     d.set_item("stabilized", dg.stabilized)?;
     d.set_item("method", "iv")?;
-    d.set_item("model_json", model_json(&fit.model, "iv")?)?;
     Ok(d)
 }
 
@@ -114,39 +115,33 @@ pub fn iv<'py>(
 #[pyo3(signature = (us, ys, q=60, order=None, max_order=20, hold=1, prbs_order=8,
     amplitudes=None, last_period=false, enforce_stability=false, require_stable=true, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
-pub fn qmarkov<'py>(
+pub(crate) fn qmarkov<'py>(
     py: Python<'py>,
-    us: Vec<PyReadonlyArray2<'py, f64>>,
-    ys: Vec<PyReadonlyArray2<'py, f64>>,
-    q: usize,
-    order: Option<usize>,
-    max_order: usize,
-    hold: usize,
-    prbs_order: u32,
+    us: Vec<Bound<'py, PyAny>>,
+    ys: Vec<Bound<'py, PyAny>>,
+    q: Int,
+    order: Option<Int>,
+    max_order: Int,
+    hold: Int,
+    prbs_order: Int,
     amplitudes: Option<Vec<f64>>,
     last_period: bool,
     enforce_stability: bool,
     require_stable: bool,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if us.len() != ys.len() {
-        return Err(LiftedError::new_err(format!(
-            "{} input records but {} output records",
-            us.len(),
-            ys.len()
-        )));
-    }
-    let sets = us
-        .iter()
-        .zip(&ys)
-        .map(|(u, y)| dataset(dt, to_mat(u), to_mat(y), None, None))
+    let (u, y) = records(&us, &ys)?;
+    let sets = u
+        .into_iter()
+        .zip(y)
+        .map(|(u, y)| dataset(dt, u, y, None, None))
         .collect::<PyResult<Vec<_>>>()?;
     let opts = QMarkovOptions {
-        q,
-        order,
-        max_auto_order: max_order,
-        hold,
-        prbs_order,
+        q: count(q, "q")?,
+        order: opt_count(order, "order")?,
+        max_auto_order: count(max_order, "max_order")?,
+        hold: count(hold, "hold")?,
+        prbs_order: small(prbs_order, "prbs_order")?,
         amplitudes,
         record: if last_period {
             RecordMode::LastPeriod
@@ -162,7 +157,9 @@ pub fn qmarkov<'py>(
         .map_err(err)?;
     let dg = &id.diagnostics;
     let d = PyDict::new(py);
-    d.set_item("model", PyStateSpace::wrap(id.model.clone()))?;
+    let model = PyStateSpace::wrap(id.model.clone());
+    d.set_item("model_json", model.to_json_with(Some("qmarkov"))?)?;
+    d.set_item("model", model)?;
     d.set_item("eigenvalues", dg.eigenvalues.clone())?;
     d.set_item("order", dg.order)?;
     d.set_item("suggested_order", dg.suggested_order)?;
@@ -175,7 +172,7 @@ pub fn qmarkov<'py>(
     d.set_item("stable", dg.stable)?;
     d.set_item("spectral_radius", dg.spectral_radius)?;
     d.set_item("stabilized_from", dg.stabilized_from)?;
-    d.set_item("model_json", model_json(&id.model, "qmarkov")?)?;
+    d.set_item("method", "qmarkov")?;
     Ok(d)
 }
 
@@ -190,27 +187,37 @@ pub fn qmarkov<'py>(
     max_order=10, past=10, future=10, alpha=6, enforce_stability=false, require_stable=true,
     dt=1.0))]
 #[allow(clippy::too_many_arguments)]
-pub fn multirate<'py>(
+pub(crate) fn multirate<'py>(
     py: Python<'py>,
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
-    periods: Vec<usize>,
-    holds: Option<Vec<usize>>,
-    instrument: Option<PyReadonlyArray2<'py, f64>>,
+    u: &Bound<'py, PyAny>,
+    y: &Bound<'py, PyAny>,
+    periods: Vec<Int>,
+    holds: Option<Vec<Int>>,
+    instrument: Option<&Bound<'py, PyAny>>,
     method: &str,
-    order: Option<usize>,
-    max_order: usize,
-    past: usize,
-    future: usize,
-    alpha: usize,
+    order: Option<Int>,
+    max_order: Int,
+    past: Int,
+    future: Int,
+    alpha: Int,
     enforce_stability: bool,
     require_stable: bool,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let method = subspace_method(method)?;
-    let data = dataset(dt, to_mat(&u), to_mat(&y), holds.as_deref(), Some(&periods))?;
-    let f = instrument.as_ref().map(to_mat);
-    let order = order_of(order, max_order);
+    let method = Method::parse(method, "method")?;
+    let periods = counts(&periods, "periods")?;
+    let holds = holds.map(|h| counts(&h, "holds")).transpose()?;
+    let (past, future) = (count(past, "past")?, count(future, "future")?);
+    let alpha = count(alpha, "alpha")?;
+    let data = dataset(
+        dt,
+        record(u, "u")?,
+        record(y, "y")?,
+        holds.as_deref(),
+        Some(&periods),
+    )?;
+    let f = instrument.map(|f| record(f, "instrument")).transpose()?;
+    let order = order_of(opt_count(order, "order")?, count(max_order, "max_order")?);
     let d = PyDict::new(py);
     let (fast, lifted, sv, period, name) = match f {
         Some(f) => {
@@ -248,12 +255,7 @@ pub fn multirate<'py>(
                 .detach(|| identify_multirate(&data, None, &opts))
                 .map_err(err)?;
             let period = fit.lifting.period();
-            let name = method.name().to_ascii_lowercase();
-            let name: &'static str = match name.as_str() {
-                "moesp" => "moesp",
-                "cva" => "cva",
-                _ => "n4sid",
-            };
+            let name = Method::name_of(&method);
             (
                 fit.fast,
                 fit.lifted.model,
@@ -264,8 +266,9 @@ pub fn multirate<'py>(
         }
     };
     d.set_item("order", fast.order())?;
-    d.set_item("model_json", model_json(&fast, name)?)?;
-    d.set_item("fast", PyStateSpace::wrap(fast))?;
+    let fast = PyStateSpace::wrap(fast);
+    d.set_item("model_json", fast.to_json_with(Some(name))?)?;
+    d.set_item("fast", fast)?;
     d.set_item("lifted", PyStateSpace::wrap(lifted))?;
     d.set_item("lifting_period", period)?;
     d.set_item("singular_values", sv)?;

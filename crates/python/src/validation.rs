@@ -1,35 +1,38 @@
 //! Binding of `lifted_lti::validate`: simulation and k-step prediction
 //! fits, residual whiteness and input independence (the CLI's `validate`).
 
-use lifted_lti::{OperatingPoint, ValidationOptions, validate as run};
-use numpy::PyReadonlyArray2;
+use lifted_lti::{ValidationOptions, validate as run};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::{LiftedError, PyStateSpace, dataset, err, to_mat};
+use crate::convert::{Int, Vector, count, counts, matrix, record};
+use crate::dataset;
+use crate::errors::{err, lifted_error};
+use crate::statespace::PyStateSpace;
 
 /// Validates `model` on `u` (N×m), `y` (N×p, NaN where output i is not
 /// sampled; sampled every `periods[i]`): per output a dict with name, fit
-/// (%), prediction_fits (one per horizon, with `kalman_gain` n×p), samples,
+/// (%), prediction_fits (one per horizon, with the Kalman gain), samples,
 /// bound (99 %), auto (τ = 1…lags), cross (per input, τ = −lags…lags),
-/// white, independent, simulated. `u0`/`y0`: the model's operating point.
-/// A continuous model is discretised (ZOH) at `dt`; a discrete one runs at
-/// its own period.
+/// white, independent, simulated. The model's operating point and Kalman
+/// gain are used (as the CLI's `lifted validate --model`); `u0`, `y0` and
+/// `kalman_gain` replace them when given. A continuous model is
+/// discretised (ZOH) at `dt`; a discrete one runs at its own period.
 #[pyfunction]
 #[pyo3(signature = (model, u, y, periods=None, lags=20, kalman_gain=None, u0=None, y0=None,
     horizons=vec![1, 5], dt=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn validate<'py>(
+pub(crate) fn validate<'py>(
     py: Python<'py>,
     model: &PyStateSpace,
-    u: PyReadonlyArray2<'py, f64>,
-    y: PyReadonlyArray2<'py, f64>,
-    periods: Option<Vec<usize>>,
-    lags: usize,
-    kalman_gain: Option<PyReadonlyArray2<'py, f64>>,
-    u0: Option<Vec<f64>>,
-    y0: Option<Vec<f64>>,
-    horizons: Vec<usize>,
+    u: &Bound<'py, PyAny>,
+    y: &Bound<'py, PyAny>,
+    periods: Option<Vec<Int>>,
+    lags: Int,
+    kalman_gain: Option<&Bound<'py, PyAny>>,
+    u0: Option<&Bound<'py, PyAny>>,
+    y0: Option<&Bound<'py, PyAny>>,
+    horizons: Vec<Int>,
     dt: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = &model.inner;
@@ -37,24 +40,45 @@ pub fn validate<'py>(
         (Some(t), None) => t,
         (_, Some(d)) => d,
         (None, None) => {
-            return Err(LiftedError::new_err(
+            return Err(lifted_error(
                 "a continuous model needs dt (the data's sample period)",
             ));
         }
     };
-    let data = dataset(ts, to_mat(&u), to_mat(&y), None, periods.as_deref())?;
+    let periods = periods.map(|p| counts(&p, "periods")).transpose()?;
+    let data = dataset(
+        ts,
+        record(u, "u")?,
+        record(y, "y")?,
+        None,
+        periods.as_deref(),
+    )?;
     let operating_point = match (u0, y0) {
-        (None, None) => None,
-        (u0, y0) => Some(OperatingPoint {
-            u0: u0.unwrap_or_else(|| vec![0.0; m.n_inputs()]),
-            y0: y0.unwrap_or_else(|| vec![0.0; m.n_outputs()]),
-        }),
+        (None, None) => model.operating_point.clone(),
+        (u0, y0) => {
+            let base = model.operating_point.as_ref();
+            let given = model.operating_point_of(u0, y0)?;
+            // an offset not given stays the model's (zeros without one)
+            given.map(|mut op| {
+                if let (None, Some(b)) = (u0, base) {
+                    op.u0 = b.u0.clone();
+                }
+                if let (None, Some(b)) = (y0, base) {
+                    op.y0 = b.y0.clone();
+                }
+                op
+            })
+        }
+    };
+    let kalman_gain = match kalman_gain {
+        Some(k) => Some(matrix(k, "kalman_gain", Vector::Column, None)?),
+        None => model.kalman_gain.clone(),
     };
     let opts = ValidationOptions {
-        lags,
+        lags: count(lags, "lags")?,
         operating_point,
-        kalman_gain: kalman_gain.as_ref().map(to_mat),
-        horizons,
+        kalman_gain,
+        horizons: counts(&horizons, "horizons")?,
     };
     let model = m.clone();
     let v = py.detach(move || run(&model, &data, &opts)).map_err(err)?;
@@ -79,6 +103,8 @@ pub fn validate<'py>(
         .collect::<PyResult<Vec<_>>>()?;
     out.set_item("outputs", rows)?;
     out.set_item("lags", v.lags)?;
+    out.set_item("stable", v.stable())?;
     out.set_item("horizons", v.horizons)?;
+    out.set_item("spectral_radius", v.spectral_radius)?;
     Ok(out)
 }

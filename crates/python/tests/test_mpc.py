@@ -51,3 +51,23 @@ def test_mpc_bad_input(lag: lifted.StateSpace) -> None:
         mpc.step([0.0, 1.0], np.array([1.0]))
     with pytest.raises(lifted.LiftedError):
         mpc.step([None], np.array([1.0]))  # no sample yet: no estimate
+
+
+@pytest.mark.parametrize("kind", ["gpc", "dmc"])
+def test_operating_point_gives_plant_values(lag: lifted.StateSpace, kind: str) -> None:
+    """With the model's operating point (u0 = 3, y0 = -40) the controller
+    reads and returns plant values: the same loop as the deviation model,
+    shifted by the offsets (to rounding of adding and removing 40)."""
+    at = lag.with_operating_point([3.0], [-40.0])
+    dev = lifted.Mpc(lag, kind, u_max=[1.5]).simulate(lag, np.ones((300, 1)))
+    run = lifted.Mpc(at, kind, u_max=[4.5]).simulate(lag, np.full((300, 1), -39.0))
+    np.testing.assert_allclose(run["y"], dev["y"] - 40.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run["u"], dev["u"] + 3.0, rtol=0, atol=1e-12)
+    assert run["y"][-1, 0] == pytest.approx(-39.0, abs=1e-6)
+    # the limit is in plant units, and active in the first moves
+    assert run["u"].max() == pytest.approx(4.5, abs=1e-9)
+    a, b = lifted.Mpc(lag, kind), lifted.Mpc(at, kind)
+    for y in (0.0, 0.2, None, 0.5):
+        ua = a.step([y], [1.0])
+        ub = b.step([None if y is None else y - 40.0], [-39.0])
+        np.testing.assert_allclose(ub, ua + 3.0, rtol=0, atol=1e-12)

@@ -8,6 +8,8 @@ import re
 
 import pytest
 
+import lifted
+
 
 def test_readme_example(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
     text = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
@@ -17,5 +19,5 @@ def test_readme_example(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch)
     scope: dict[str, object] = {}
     exec(compile(code.group(1), "README.md", "exec"), scope)
     fit = scope["fit"]
-    assert isinstance(fit, dict) and fit["order"] == 2
+    assert isinstance(fit, lifted.SubspaceFit) and fit.order == 2
     assert os.path.exists(tmp_path / "model.json")

@@ -1,10 +1,16 @@
 """Lifted: identification and control of multirate sampled-data systems.
 
-numpy arrays in and out, samples x channels, float64. The numerics are the
-Rust crates' (lifted-lti, lifted-prbs, lifted-subspace); this package only
-converts arguments and results. Every error of the library is raised as
-:class:`LiftedError`, a subclass of :class:`ValueError`, with the Rust message.
-Long computations release the GIL, so threads run them in parallel.
+numpy arrays in and out, samples x channels, float64. Arguments are read
+by ``numpy.asarray``: lists, integer arrays and 1-D arrays (one channel) are
+accepted, complex arrays are refused. The numerics are the Rust crates'
+(lifted-lti, lifted-prbs, lifted-subspace, ...); this package only converts
+arguments and results. Every error of the library is raised as
+:class:`LiftedError`, a subclass of :class:`ValueError`, or one of its
+subclasses (:class:`DimensionError`, :class:`NonFiniteError`,
+:class:`OrderError`, ...) carrying the Rust error's fields as attributes.
+Identification, validation, simulation and MPC calls release the GIL, so
+threads run them in parallel; models, results and errors pickle, so
+processes can too.
 """
 
 from __future__ import annotations
@@ -12,35 +18,80 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from ._lifted import (
+    ArgumentError,
+    DimensionError,
     LiftedError,
+    MemoryBudgetError,
     Mpc,
+    NonFiniteError,
+    NotExcitingError,
+    OrderError,
     StateSpace,
+    TooShortError,
+    UnstableError,
+    WorkBudgetError,
+    __version__,
     design,
     gbn,
     inverse_prbs,
     multisine,
     prbs,
     rbs,
+    resolve_threads,
 )
 from ._lifted import identify as _identify
 from ._lifted import iv as _iv
 from ._lifted import multirate as _multirate
 from ._lifted import qmarkov as _qmarkov
-from ._lifted import validate as _validate
 from ._lifted import simulate_experiment as _simulate_experiment
+from ._lifted import validate as _validate
+from ._results import (
+    Experiment,
+    IvFit,
+    MultirateFit,
+    OutputValidation,
+    QMarkovFit,
+    SubspaceFit,
+    Validation,
+)
+from ._types import C2dMethod, Feedback, MpcKind, SubspaceMethod, SystemEstimate
 
 __all__ = [
+    "__version__",
     "LiftedError",
+    "ArgumentError",
+    "DimensionError",
+    "NonFiniteError",
+    "OrderError",
+    "NotExcitingError",
+    "UnstableError",
+    "TooShortError",
+    "MemoryBudgetError",
+    "WorkBudgetError",
     "StateSpace",
     "Mpc",
+    "SubspaceFit",
+    "IvFit",
+    "QMarkovFit",
+    "MultirateFit",
+    "Validation",
+    "OutputValidation",
+    "Experiment",
+    "SubspaceMethod",
+    "SystemEstimate",
+    "Feedback",
+    "C2dMethod",
+    "MpcKind",
     "prbs",
     "inverse_prbs",
     "design",
     "rbs",
     "gbn",
     "multisine",
+    "resolve_threads",
     "simulate",
     "simulate_experiment",
     "identify",
@@ -55,38 +106,59 @@ __all__ = [
     "from_control",
 ]
 
+FloatArray = npt.NDArray[np.float64]
 
-def _as_2d(a: Any, name: str) -> np.ndarray:
-    """float64, C-contiguous, samples x channels (a 1-D array is one channel)."""
-    arr = np.asarray(a, dtype=np.float64)
-    if arr.ndim == 1:
-        arr = arr.reshape(-1, 1)
-    if arr.ndim != 2:
-        raise LiftedError(f"{name} must be a 1-D or 2-D array, got {arr.ndim} dimensions")
-    return np.ascontiguousarray(arr)
+
+def _is_record_list(x: object) -> bool:
+    """True for a list/tuple of arrays (several records); a list of numbers
+    or of lists is one array, as numpy reads it."""
+    if not isinstance(x, (list, tuple)) or len(x) == 0:
+        return False
+    return all(
+        not isinstance(e, (list, tuple, np.generic, int, float, complex))
+        and hasattr(e, "__array__")
+        and np.ndim(e) >= 1
+        for e in x
+    )
+
+
+def _records(u: Any, y: Any) -> tuple[list[Any], list[Any]]:
+    """``u`` and ``y`` as lists of records (one each when they are arrays)."""
+    many_u, many_y = _is_record_list(u), _is_record_list(y)
+    if many_u != many_y:
+        which, other = ("u", "y") if many_u else ("y", "u")
+        raise LiftedError(
+            f"{which} is a list of {len(u if many_u else y)} records but {other} is one array: "
+            "give both as lists of arrays (several records) or both as arrays"
+        )
+    if many_u:
+        return list(u), list(y)
+    return [u], [y]
 
 
 def simulate(
-    sys: StateSpace, u: Any, x0: Any = None, dt: float | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Simulates ``sys`` driven by ``u`` (N x m); returns ``(y, x)`` (N x p, N x n)."""
-    x = None if x0 is None else np.ascontiguousarray(np.asarray(x0, dtype=np.float64).ravel())
-    return sys.lsim(_as_2d(u, "u"), x, dt)
+    sys: StateSpace, u: npt.ArrayLike, x0: npt.ArrayLike | None = None, dt: float | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Simulates ``sys`` driven by ``u`` (N x m; 1-D: one input) from ``x0``
+    (zeros when None); returns ``(y, x)`` (N x p, N x n). A model with an
+    operating point (an identified one) maps plant values to plant values:
+    y = y0 + G(u - u0), as ``lifted simulate --model`` does."""
+    return sys.lsim(u, x0, dt)
 
 
 def simulate_experiment(
     plant: StateSpace,
-    r: Any,
+    r: npt.ArrayLike,
     controller: StateSpace | None = None,
     *,
     reference: bool = True,
-    feedback: str = "fast",
+    feedback: Feedback = "fast",
     sampling: Sequence[int] | None = None,
     holds: Sequence[int] | None = None,
     snr: float | None = None,
     seed: int = 0,
     dt: float | None = None,
-) -> dict[str, np.ndarray]:
+) -> Experiment:
     """Open- or closed-loop, multirate experiment (``lifted_sim::Simulator``).
 
     Without ``controller``, ``r`` (N x m) is the plant input. With a discrete
@@ -95,12 +167,14 @@ def simulate_experiment(
     or "hold_last". ``sampling``: output sampling period per output, in base
     periods; ``holds``: input hold per input; ``snr``: seeded white output
     noise at this variance ratio; ``dt``: ZOH period of a continuous plant.
-    Returns ``u``, ``y`` (NaN where a channel does not sample), ``y_fast``
-    and ``y_clean`` (no added noise), all samples x channels.
+    A plant with an operating point is simulated in deviations, its signals
+    returned in plant values. Returns an :class:`Experiment`: ``u``, ``y``
+    (NaN where a channel does not sample), ``y_fast`` and ``y_clean`` (no
+    added noise), all samples x channels.
     """
-    return _simulate_experiment(
+    d = _simulate_experiment(
         plant,
-        _as_2d(r, "r"),
+        r,
         controller,
         reference,
         feedback,
@@ -110,12 +184,13 @@ def simulate_experiment(
         seed,
         dt,
     )
+    return Experiment(u=d["u"], y=d["y"], y_fast=d["y_fast"], y_clean=d["y_clean"])
 
 
 def identify(
     u: Any,
     y: Any,
-    method: str = "n4sid",
+    method: SubspaceMethod = "n4sid",
     *,
     order: int | None = None,
     max_order: int = 10,
@@ -126,64 +201,115 @@ def identify(
     enforce_stability: bool = False,
     dt: float = 1.0,
     threads: int = 1,
-    system: str | None = None,
-) -> dict[str, Any]:
+    system: SystemEstimate | None = None,
+) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP or CVA) of one record or several.
 
-    ``u`` and ``y`` are arrays (N x m, N x p) or lists of such arrays (several
-    experiments). Defaults are those of ``lifted_subspace::SubspaceOptions``:
-    automatic order by the singular-value gap up to ``max_order``, horizons
-    10/10, means removed, noise model estimated, ``dt`` = 1 s.
-    Returns a dict with ``model`` (:class:`StateSpace`), ``kalman_gain``,
-    ``x0``, ``u0``, ``y0``, ``singular_values``, ``order``,
-    ``suggested_order``, ``method`` and ``model_json`` (the CLI's model file).
-    ``system`` is None (the library's default ``SystemEstimate``), "shift" or
-    "states"; ``threads`` the correlation-kernel threads (0 = all cores).
+    ``u`` and ``y`` are arrays (N x m, N x p; anything numpy reads, a 1-D
+    array is one channel) or lists of such arrays (several experiments).
+    Defaults are those of ``lifted_subspace::SubspaceOptions``: automatic
+    order by the singular-value gap up to ``max_order``, horizons 10/10,
+    means removed, noise model estimated, ``dt`` = 1 s. ``system`` is None
+    (the library's default), "shift" or "states"; ``threads`` the
+    correlation-kernel threads (0 = all cores; capped at the machine's
+    available parallelism, the count used is ``fit.threads``).
+
+    Returns a :class:`SubspaceFit`; its ``model`` carries the operating point
+    (the means removed) and the Kalman gain, so ``validate(fit.model, u, y)``
+    and ``simulate(fit.model, u)`` work on plant values.
     """
-    many = isinstance(u, (list, tuple))
-    if many != isinstance(y, (list, tuple)):
-        raise LiftedError("u and y must both be arrays or both be lists of arrays")
-    us: Sequence[Any] = u if many else [u]
-    ys: Sequence[Any] = y if many else [y]
-    return _identify(
-        [_as_2d(a, "u") for a in us],
-        [_as_2d(a, "y") for a in ys],
-        method,
-        order,
-        max_order,
-        past,
-        future,
-        remove_means,
-        noise_model,
-        enforce_stability,
-        dt,
-        threads,
-        system,
+    us, ys = _records(u, y)
+    d = _identify(
+        us, ys, method, order, max_order, past, future, remove_means, noise_model,
+        enforce_stability, dt, threads, system,
+    )
+    return _subspace_fit(d)
+
+
+def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:
+    """The :class:`SubspaceFit` of the extension's result dict."""
+    return SubspaceFit(
+        model=d["model"],
+        kalman_gain=d["kalman_gain"],
+        x0=[np.asarray(x, dtype=np.float64) for x in d["x0"]],
+        u0=None if d["u0"] is None else np.asarray(d["u0"], dtype=np.float64),
+        y0=None if d["y0"] is None else np.asarray(d["y0"], dtype=np.float64),
+        singular_values=np.asarray(d["singular_values"], dtype=np.float64),
+        order=d["order"],
+        suggested_order=d["suggested_order"],
+        method=d["method"],
+        threads=d["threads"],
+        model_json=d["model_json"],
     )
 
 
-def n4sid(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]:
+def n4sid(
+    u: Any,
+    y: Any,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    noise_model: bool = True,
+    enforce_stability: bool = False,
+    dt: float = 1.0,
+    threads: int = 1,
+    system: SystemEstimate | None = None,
+) -> SubspaceFit:
     """:func:`identify` with ``method="n4sid"``."""
-    return identify(u, y, "n4sid", **kwargs)
+    return identify(
+        u, y, "n4sid", order=order, max_order=max_order, past=past, future=future,
+        remove_means=remove_means, noise_model=noise_model,
+        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+    )
 
 
-def moesp(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]:
+def moesp(
+    u: Any,
+    y: Any,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    noise_model: bool = True,
+    enforce_stability: bool = False,
+    dt: float = 1.0,
+    threads: int = 1,
+    system: SystemEstimate | None = None,
+) -> SubspaceFit:
     """:func:`identify` with ``method="moesp"``."""
-    return identify(u, y, "moesp", **kwargs)
+    return identify(
+        u, y, "moesp", order=order, max_order=max_order, past=past, future=future,
+        remove_means=remove_means, noise_model=noise_model,
+        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+    )
 
 
-def cva(u: Any, y: Any, **kwargs: Any) -> dict[str, Any]:
+def cva(
+    u: Any,
+    y: Any,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    noise_model: bool = True,
+    enforce_stability: bool = False,
+    dt: float = 1.0,
+    threads: int = 1,
+    system: SystemEstimate | None = None,
+) -> SubspaceFit:
     """:func:`identify` with ``method="cva"``."""
-    return identify(u, y, "cva", **kwargs)
-
-
-def _records(u: Any, y: Any) -> tuple[list[np.ndarray], list[np.ndarray], bool]:
-    many = isinstance(u, (list, tuple))
-    if many != isinstance(y, (list, tuple)):
-        raise LiftedError("u and y must both be arrays or both be lists of arrays")
-    us: Sequence[Any] = u if many else [u]
-    ys: Sequence[Any] = y if many else [y]
-    return [_as_2d(a, "u") for a in us], [_as_2d(a, "y") for a in ys], many
+    return identify(
+        u, y, "cva", order=order, max_order=max_order, past=past, future=future,
+        remove_means=remove_means, noise_model=noise_model,
+        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+    )
 
 
 def iv(
@@ -198,7 +324,7 @@ def iv(
     enforce_stability: bool = False,
     require_stable: bool = False,
     dt: float = 1.0,
-) -> dict[str, Any]:
+) -> IvFit:
     """Instrumental-variable subspace identification, open or closed loop
     (thesis ch. 7, ``lifted_subspace::iv_identify``).
 
@@ -206,20 +332,30 @@ def iv(
     excitation of a closed loop (the dither at the plant input or the
     set-point), independent of the noise; None uses ``u`` (open loop).
     ``alpha`` future block rows, ``alpha_p`` past instrument rows (None: 2
-    alpha, erratum L-16). Defaults are ``IvOptions``'. Returns ``model``,
-    ``x0``, ``singular_values``, ``order``, ``suggested_order``,
-    ``stabilized``, ``method`` and ``model_json``.
+    alpha, erratum L-16). Defaults are ``IvOptions``'. Returns an
+    :class:`IvFit`.
     """
-    us, ys, many = _records(u, y)
+    us, ys = _records(u, y)
+    fs: list[Any]
     if instrument is None:
-        fs: list[Any] = [None] * len(us)
-    elif many:
+        fs = [None] * len(us)
+    elif len(us) > 1 or _is_record_list(u):
         if not isinstance(instrument, (list, tuple)):
             raise LiftedError("with lists of records, instrument must be a list too")
-        fs = [None if f is None else _as_2d(f, "instrument") for f in instrument]
+        fs = list(instrument)
     else:
-        fs = [_as_2d(instrument, "instrument")]
-    return _iv(us, ys, fs, order, max_order, alpha, alpha_p, enforce_stability, require_stable, dt)
+        fs = [instrument]
+    d = _iv(us, ys, fs, order, max_order, alpha, alpha_p, enforce_stability, require_stable, dt)
+    return IvFit(
+        model=d["model"],
+        x0=[np.asarray(x, dtype=np.float64) for x in d["x0"]],
+        singular_values=np.asarray(d["singular_values"], dtype=np.float64),
+        order=d["order"],
+        suggested_order=d["suggested_order"],
+        stabilized=d["stabilized"],
+        method=d["method"],
+        model_json=d["model_json"],
+    )
 
 
 def qmarkov(
@@ -236,7 +372,7 @@ def qmarkov(
     enforce_stability: bool = False,
     require_stable: bool = True,
     dt: float = 1.0,
-) -> dict[str, Any]:
+) -> QMarkovFit:
     """Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS tests.
 
     One experiment per input channel: ``u[l]`` (N x m, only column l
@@ -245,28 +381,41 @@ def qmarkov(
     ``prbs_order`` the m-sequence order, ``q`` the number of Markov and
     covariance parameters matched, ``order`` r (None: largest gap of diag
     Lambda up to ``max_order``). ``last_period`` uses the last PRBS period of
-    a longer record. Defaults are ``QMarkovOptions``'. Returns ``model``,
-    ``eigenvalues`` (order-selection values), ``order``, ``suggested_order``,
-    ``markov_data``/``markov_model`` (lists of p x m arrays),
-    ``markov_error``, ``covariance_error``, ``cover``, ``stable``,
-    ``spectral_radius``, ``stabilized_from`` and ``model_json``.
+    a longer record. Defaults are ``QMarkovOptions``'. Returns a
+    :class:`QMarkovFit`.
     """
-    us, ys, _ = _records(u, y)
-    return _qmarkov(
+    us, ys = _records(u, y)
+    d = _qmarkov(
         us, ys, q, order, max_order, hold, prbs_order,
         None if amplitudes is None else [float(a) for a in amplitudes],
         last_period, enforce_stability, require_stable, dt,
     )
+    return QMarkovFit(
+        model=d["model"],
+        eigenvalues=np.asarray(d["eigenvalues"], dtype=np.float64),
+        order=d["order"],
+        suggested_order=d["suggested_order"],
+        markov_data=d["markov_data"],
+        markov_model=d["markov_model"],
+        markov_error=d["markov_error"],
+        covariance_error=d["covariance_error"],
+        cover=d["cover"],
+        stable=d["stable"],
+        spectral_radius=d["spectral_radius"],
+        stabilized_from=d["stabilized_from"],
+        method=d["method"],
+        model_json=d["model_json"],
+    )
 
 
 def multirate(
-    u: Any,
-    y: Any,
+    u: npt.ArrayLike,
+    y: npt.ArrayLike,
     periods: Sequence[int],
     *,
     holds: Sequence[int] | None = None,
-    instrument: Any = None,
-    method: str = "n4sid",
+    instrument: npt.ArrayLike | None = None,
+    method: SubspaceMethod = "n4sid",
     order: int | None = None,
     max_order: int = 10,
     past: int = 10,
@@ -275,7 +424,7 @@ def multirate(
     enforce_stability: bool = False,
     require_stable: bool = True,
     dt: float = 1.0,
-) -> dict[str, Any]:
+) -> MultirateFit:
     """Multirate identification (thesis chs. 4-5): lifting, causal lifted
     subspace identification, fast-model extraction.
 
@@ -284,56 +433,82 @@ def multirate(
     samples (default 1). With ``instrument`` (N x m, the closed-loop dither)
     the lifted IV route of thesis section 7.8.2 is used (``alpha`` block rows).
     ``enforce_stability`` re-estimates an unstable lifted A by the
-    zero-padded shift. Returns ``fast`` (model at ``dt``), ``lifted``,
-    ``lifting_period``, ``singular_values``, ``order``, ``method`` and
-    ``model_json``.
+    zero-padded shift. Returns a :class:`MultirateFit`.
     """
-    f = None if instrument is None else _as_2d(instrument, "instrument")
-    return _multirate(
-        _as_2d(u, "u"), _as_2d(y, "y"), [int(p) for p in periods],
-        None if holds is None else [int(h) for h in holds],
-        f, method, order, max_order, past, future, alpha,
+    d = _multirate(
+        u, y, list(periods), None if holds is None else list(holds),
+        instrument, method, order, max_order, past, future, alpha,
         enforce_stability, require_stable, dt,
+    )
+    return MultirateFit(
+        fast=d["fast"],
+        lifted=d["lifted"],
+        lifting_period=d["lifting_period"],
+        singular_values=np.asarray(d["singular_values"], dtype=np.float64),
+        order=d["order"],
+        method=d["method"],
+        model_json=d["model_json"],
     )
 
 
 def validate(
     model: StateSpace,
-    u: Any,
-    y: Any,
+    u: npt.ArrayLike,
+    y: npt.ArrayLike,
     *,
     periods: Sequence[int] | None = None,
     lags: int = 20,
-    kalman_gain: Any = None,
-    u0: Sequence[float] | None = None,
-    y0: Sequence[float] | None = None,
+    kalman_gain: npt.ArrayLike | None = None,
+    u0: npt.ArrayLike | None = None,
+    y0: npt.ArrayLike | None = None,
     horizons: Sequence[int] = (1, 5),
     dt: float | None = None,
-) -> dict[str, Any]:
+) -> Validation:
     """Validation of ``model`` on a record (``lifted_lti::validate``, the CLI's
     ``validate``): per output the simulation fit (%), k-step-ahead prediction
-    fits with ``kalman_gain`` (n x p), residual whiteness and independence
+    fits with the Kalman gain (n x p), residual whiteness and independence
     from the inputs at the 99 % level (``lags`` correlation lags).
 
-    ``y`` may have NaN at unsampled instants (``periods`` per output);
-    ``u0``/``y0`` are the model's operating point (e.g. ``identify``'s).
-    Returns ``{"outputs": [...], "lags": M, "horizons": [...]}``.
+    The model's operating point and Kalman gain are used, as
+    ``lifted validate --model`` uses the model file's; ``u0``, ``y0`` and
+    ``kalman_gain`` replace them when given (``model.with_operating_point()``
+    drops the operating point). ``y`` may have NaN at unsampled instants
+    (``periods`` per output). Returns a :class:`Validation`.
     """
-    k = None if kalman_gain is None else _as_2d(kalman_gain, "kalman_gain")
-    return _validate(
-        model, _as_2d(u, "u"), _as_2d(y, "y"),
-        None if periods is None else [int(p) for p in periods],
-        lags, k,
-        None if u0 is None else [float(v) for v in u0],
-        None if y0 is None else [float(v) for v in y0],
-        [int(h) for h in horizons], dt,
+    d = _validate(
+        model, u, y,
+        None if periods is None else list(periods),
+        lags, kalman_gain, u0, y0, list(horizons), dt,
+    )
+    outputs = [
+        OutputValidation(
+            name=o["name"],
+            fit=o["fit"],
+            prediction_fits=o["prediction_fits"],
+            samples=o["samples"],
+            bound=o["bound"],
+            auto=o["auto"],
+            cross=o["cross"],
+            white=o["white"],
+            independent=o["independent"],
+            simulated=np.asarray(o["simulated"], dtype=np.float64),
+        )
+        for o in d["outputs"]
+    ]
+    return Validation(
+        outputs=outputs,
+        lags=d["lags"],
+        horizons=d["horizons"],
+        stable=d["stable"],
+        spectral_radius=d["spectral_radius"],
     )
 
 
 def to_control(sys: StateSpace) -> Any:
-    """The python-control ``StateSpace`` of ``sys`` (needs ``pip install control``)."""
+    """The python-control ``StateSpace`` of ``sys`` (needs ``pip install control``;
+    the operating point and Kalman gain have no python-control counterpart)."""
     try:
-        import control
+        import control  # type: ignore[import-untyped]
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("to_control needs python-control: pip install control") from e
     dt = 0 if sys.dt is None else sys.dt
@@ -348,7 +523,7 @@ def from_control(cs: Any) -> StateSpace:
         raise LiftedError("python-control model with unspecified sample period (dt=True)")
     dt = None if dt is None or dt == 0 else float(dt)
 
-    def m(a: Any) -> np.ndarray:
+    def m(a: Any) -> FloatArray:
         return np.ascontiguousarray(np.atleast_2d(np.asarray(a, dtype=np.float64)))
 
     return StateSpace(m(cs.A), m(cs.B), m(cs.C), m(cs.D), dt)

@@ -1,24 +1,126 @@
-"""Type stubs of the extension module (Rust, PyO3)."""
+"""Type stubs of the extension module `lifted._lifted` (Rust, PyO3).
 
-from typing import Any
+The only stub of the package: the Python modules carry inline annotations.
+Checked against the built extension by ``python -m mypy.stubtest
+lifted._lifted`` in CI.
+"""
+
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
 
+from lifted._types import C2dMethod, Feedback, MpcKind, SubspaceMethod, SystemEstimate
+
+__version__: str
+# pyo3 lists every name added to the module
+__all__ = [
+    "ArgumentError",
+    "DimensionError",
+    "LiftedError",
+    "MemoryBudgetError",
+    "Mpc",
+    "NonFiniteError",
+    "NotExcitingError",
+    "OrderError",
+    "StateSpace",
+    "TooShortError",
+    "UnstableError",
+    "WorkBudgetError",
+    "__version__",
+    "_choices",
+    "design",
+    "gbn",
+    "identify",
+    "inverse_prbs",
+    "iv",
+    "multirate",
+    "multisine",
+    "prbs",
+    "qmarkov",
+    "rbs",
+    "resolve_threads",
+    "simulate_experiment",
+    "validate",
+]
+
 class LiftedError(ValueError):
     """Any error of the Lifted library; the message is the Rust error's."""
 
-class StateSpace:
-    """(A, B, C, D, dt); dt None = continuous time."""
+    what: str | None
 
-    def __init__(
-        self,
-        a: npt.NDArray[np.float64],
-        b: npt.NDArray[np.float64],
-        c: npt.NDArray[np.float64],
-        d: npt.NDArray[np.float64],
+class ArgumentError(LiftedError):
+    """A Python argument could not be read; ``argument`` is its name."""
+
+    argument: str | None
+
+class DimensionError(LiftedError):
+    """Shapes or lengths that do not fit together."""
+
+    expected: str | int | None
+    got: str | int | None
+
+class NonFiniteError(LiftedError):
+    """A NaN or infinite value where a finite one is needed."""
+
+    row: int | None
+    col: int | None
+    value: float | None
+
+class OrderError(LiftedError):
+    """A model order (or parameter count) the data or the method cannot support."""
+
+    order: int | None
+    max: int | None
+    rank: int | None
+
+class NotExcitingError(LiftedError):
+    """The input is not persistently exciting."""
+
+    rank: int | None
+    needed: int | None
+
+class UnstableError(LiftedError):
+    """A stable model or loop was required."""
+
+    spectral_radius: float | None
+    pole: complex | None
+
+class TooShortError(LiftedError):
+    """The record is too short for the options."""
+
+    got: int | None
+    needed: int | None
+
+class MemoryBudgetError(LiftedError):
+    """The request would allocate more than the memory budget."""
+
+    needed_bytes: int | None
+    budget_bytes: int | None
+
+class WorkBudgetError(LiftedError):
+    """The request needs more floating-point operations than the work bound."""
+
+    flops: float | None
+    limit: float | None
+
+@final
+class StateSpace:
+    """(A, B, C, D, dt), dt None = continuous time, with the operating point
+    (u0, y0) and Kalman gain of an identified model."""
+
+    def __new__(
+        cls,
+        a: npt.ArrayLike,
+        b: npt.ArrayLike,
+        c: npt.ArrayLike,
+        d: npt.ArrayLike,
         dt: float | None = None,
-    ) -> None: ...
+        *,
+        u0: npt.ArrayLike | None = None,
+        y0: npt.ArrayLike | None = None,
+        kalman_gain: npt.ArrayLike | None = None,
+    ) -> StateSpace: ...
     @property
     def A(self) -> npt.NDArray[np.float64]: ...
     @property
@@ -35,22 +137,32 @@ class StateSpace:
     def ninputs(self) -> int: ...
     @property
     def noutputs(self) -> int: ...
+    @property
+    def u0(self) -> npt.NDArray[np.float64] | None: ...
+    @property
+    def y0(self) -> npt.NDArray[np.float64] | None: ...
+    @property
+    def kalman_gain(self) -> npt.NDArray[np.float64] | None: ...
+    def with_operating_point(
+        self, u0: npt.ArrayLike | None = None, y0: npt.ArrayLike | None = None
+    ) -> StateSpace: ...
+    def with_kalman_gain(self, kalman_gain: npt.ArrayLike | None = None) -> StateSpace: ...
     def poles(self) -> npt.NDArray[np.complex128]: ...
     def zeros(self) -> npt.NDArray[np.complex128]: ...
     def dcgain(self) -> npt.NDArray[np.float64]: ...
     def is_stable(self, margin: float = 0.0) -> bool: ...
-    def freqresp(self, omega: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]: ...
+    def freqresp(self, omega: npt.ArrayLike) -> npt.NDArray[np.complex128]: ...
     def step(self, n_samples: int, dt: float | None = None) -> npt.NDArray[np.float64]: ...
     def lsim(
         self,
-        u: npt.NDArray[np.float64],
-        x0: npt.NDArray[np.float64] | None = None,
+        u: npt.ArrayLike,
+        x0: npt.ArrayLike | None = None,
         dt: float | None = None,
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def c2d(
         self,
         dt: float,
-        method: str = "zoh",
+        method: C2dMethod = "zoh",
         prewarp: float | None = None,
         input_delays: list[float] | None = None,
     ) -> StateSpace: ...
@@ -58,32 +170,35 @@ class StateSpace:
     def to_json(self, method: str | None = None) -> str: ...
     @staticmethod
     def from_json(text: str) -> StateSpace: ...
+    def __reduce__(self) -> tuple[Any, tuple[str]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
+@final
 class Mpc:
     """DMC (kind="dmc") or state-space MPC (kind="gpc"); None/NaN = output not sampled."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: StateSpace,
-        kind: str = "gpc",
+        kind: MpcKind = "gpc",
         prediction_horizon: int = 12,
         control_horizon: int = 3,
-        output_weight: npt.NDArray[np.float64] | None = None,
-        move_weight: npt.NDArray[np.float64] | None = None,
+        output_weight: npt.ArrayLike | None = None,
+        move_weight: npt.ArrayLike | None = None,
         truncation: int | None = None,
-        u_min: npt.NDArray[np.float64] | None = None,
-        u_max: npt.NDArray[np.float64] | None = None,
-        du_max: npt.NDArray[np.float64] | None = None,
-        y_min: npt.NDArray[np.float64] | None = None,
-        y_max: npt.NDArray[np.float64] | None = None,
-    ) -> None: ...
+        u_min: npt.ArrayLike | None = None,
+        u_max: npt.ArrayLike | None = None,
+        du_max: npt.ArrayLike | None = None,
+        y_min: npt.ArrayLike | None = None,
+        y_max: npt.ArrayLike | None = None,
+    ) -> Mpc: ...
     def step(
-        self, measured: list[float | None], reference: npt.NDArray[np.float64]
+        self, measured: list[float | None], reference: npt.ArrayLike
     ) -> npt.NDArray[np.float64]: ...
     def simulate(
         self,
         plant: StateSpace,
-        reference: npt.NDArray[np.float64],
+        reference: npt.ArrayLike,
         periods: list[int] | None = None,
     ) -> dict[str, Any]: ...
 
@@ -116,10 +231,11 @@ def multisine(
     first_harmonic: int = 1,
     last_harmonic: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
+def resolve_threads(threads: int) -> int: ...
 def identify(
-    us: list[npt.NDArray[np.float64]],
-    ys: list[npt.NDArray[np.float64]],
-    method: str = "n4sid",
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
+    method: SubspaceMethod = "n4sid",
     order: int | None = None,
     max_order: int = 10,
     past: int = 10,
@@ -129,14 +245,14 @@ def identify(
     enforce_stability: bool = False,
     dt: float = 1.0,
     threads: int = 1,
-    system: str | None = None,
+    system: SystemEstimate | None = None,
 ) -> dict[str, Any]: ...
 def simulate_experiment(
     plant: StateSpace,
-    r: npt.NDArray[np.float64],
+    r: npt.ArrayLike,
     controller: StateSpace | None = None,
     reference: bool = True,
-    feedback: str = "fast",
+    feedback: Feedback = "fast",
     sampling: list[int] | None = None,
     holds: list[int] | None = None,
     snr: float | None = None,
@@ -144,9 +260,9 @@ def simulate_experiment(
     dt: float | None = None,
 ) -> dict[str, npt.NDArray[np.float64]]: ...
 def iv(
-    us: list[npt.NDArray[np.float64]],
-    ys: list[npt.NDArray[np.float64]],
-    instruments: list[npt.NDArray[np.float64] | None],
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
+    instruments: list[npt.ArrayLike | None],
     order: int | None = None,
     max_order: int = 10,
     alpha: int = 8,
@@ -156,8 +272,8 @@ def iv(
     dt: float = 1.0,
 ) -> dict[str, Any]: ...
 def qmarkov(
-    us: list[npt.NDArray[np.float64]],
-    ys: list[npt.NDArray[np.float64]],
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
     q: int = 60,
     order: int | None = None,
     max_order: int = 20,
@@ -170,12 +286,12 @@ def qmarkov(
     dt: float = 1.0,
 ) -> dict[str, Any]: ...
 def multirate(
-    u: npt.NDArray[np.float64],
-    y: npt.NDArray[np.float64],
+    u: npt.ArrayLike,
+    y: npt.ArrayLike,
     periods: list[int],
     holds: list[int] | None = None,
-    instrument: npt.NDArray[np.float64] | None = None,
-    method: str = "n4sid",
+    instrument: npt.ArrayLike | None = None,
+    method: SubspaceMethod = "n4sid",
     order: int | None = None,
     max_order: int = 10,
     past: int = 10,
@@ -187,13 +303,48 @@ def multirate(
 ) -> dict[str, Any]: ...
 def validate(
     model: StateSpace,
-    u: npt.NDArray[np.float64],
-    y: npt.NDArray[np.float64],
+    u: npt.ArrayLike,
+    y: npt.ArrayLike,
     periods: list[int] | None = None,
     lags: int = 20,
-    kalman_gain: npt.NDArray[np.float64] | None = None,
-    u0: list[float] | None = None,
-    y0: list[float] | None = None,
-    horizons: list[int] = ...,
+    kalman_gain: npt.ArrayLike | None = None,
+    u0: npt.ArrayLike | None = None,
+    y0: npt.ArrayLike | None = None,
+    horizons: list[int] = ...,  # [1, 5]
     dt: float | None = None,
 ) -> dict[str, Any]: ...
+def _choices() -> list[tuple[str, list[str]]]: ...
+
+# Mergeable partial compressions and the regression's second pass
+# (lifted.dask): every state crossing a process boundary is bytes.
+class FirstPass:
+    def wants_second_pass(self) -> bool: ...
+    def regression(self) -> bytes: ...
+    def finish(self, stream: bytes | None = None) -> dict[str, Any]: ...
+
+def partial_plan(
+    u: npt.ArrayLike, y: npt.ArrayLike, past: int = 10, future: int = 10, remove_means: bool = True
+) -> bytes: ...
+def partial_compress(plan: bytes, u: npt.ArrayLike, y: npt.ArrayLike, threads: int = 1) -> bytes: ...
+def partial_append(first: bytes, second: bytes) -> bytes: ...
+def partial_close(piece: bytes) -> bytes: ...
+def partial_merge(first: bytes, second: bytes) -> bytes: ...
+def partial_identify(
+    records: bytes,
+    method: str = "n4sid",
+    order: int | None = None,
+    max_order: int = 10,
+    past: int = 10,
+    future: int = 10,
+    remove_means: bool = True,
+    noise_model: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> FirstPass: ...
+def regression_push(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> bytes: ...
+def regression_end_record(stream: bytes) -> bytes: ...
+def regression_prime(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> bytes: ...
+def regression_advance(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> bytes: ...
+def regression_scan(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> bytes: ...
+def regression_merge(first: bytes, second: bytes) -> bytes: ...
+def regression_absorb(stream: bytes, piece: bytes) -> bytes: ...

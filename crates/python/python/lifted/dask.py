@@ -40,8 +40,9 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import _lifted
+from . import _lifted, _subspace_fit
 from ._lifted import LiftedError
+from ._results import SubspaceFit
 
 __all__ = ["identify", "identify_many", "ManyResult", "compress_shards"]
 
@@ -278,7 +279,7 @@ def identify(
     threads: int = 1,
     plan_rows: int = 65536,
     client: Any = None,
-) -> dict:
+) -> SubspaceFit:
     """Identifies one record stored as shards, on a Dask cluster.
 
     ``data``: a dask array (samples x columns; ``inputs``/``outputs`` column
@@ -287,7 +288,7 @@ def identify(
     / Parquet (names) files in record order; or ``u=``, ``y=`` dask arrays
     chunked along samples. The data scale and centring reference come from
     the first ``plan_rows`` samples. ``threads`` per task (0: all cores of
-    the worker). Returns what :func:`lifted.identify` returns.
+    the worker). Returns a :class:`lifted.SubspaceFit`, as :func:`lifted.identify`.
     """
     client = _client(client)
     delayed = _dask()
@@ -306,7 +307,7 @@ def identify(
         threads=threads,
     )
     if not first.wants_second_pass():
-        return first.finish()
+        return _subspace_fit(first.finish())
     # Second pass, parallel: the regressor recursions' state goes from
     # shard to shard (cheap: filtering only), each shard's rows are scanned
     # from its state on its worker, and the R factors merge in a tree.
@@ -319,7 +320,7 @@ def identify(
     merged = _tree(pieces, _lifted.regression_merge)
     final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
     (final,) = _compute(client, final)
-    return first.finish(final)
+    return _subspace_fit(first.finish(final))
 
 
 # ---------------------------------------------------------------- many loops

@@ -1,0 +1,27 @@
+"""The string options of the package as ``Literal`` aliases.
+
+Each alias lists exactly the names the extension accepts for that option
+(one conversion per option type on the Rust side, ``lifted._lifted._choices()``;
+the test suite checks the two lists against each other). Matching is
+case-insensitive; there are no other spellings.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+__all__ = ["SubspaceMethod", "SystemEstimate", "Feedback", "C2dMethod", "MpcKind"]
+
+#: Weighting of the subspace identification (``identify(method=...)``).
+SubspaceMethod = Literal["n4sid", "moesp", "cva"]
+#: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
+#: shift invariance of the extended observability matrix, or regression on
+#: the estimated state sequence.
+SystemEstimate = Literal["shift", "states"]
+#: Controller feedback of a multirate closed loop (``simulate_experiment``):
+#: every fast sample, or the last measured sample held.
+Feedback = Literal["fast", "hold_last"]
+#: Discretisation method of ``StateSpace.c2d``.
+C2dMethod = Literal["zoh", "foh", "tustin"]
+#: Receding-horizon law of ``Mpc``: state-space MPC or DMC.
+MpcKind = Literal["gpc", "dmc"]

@@ -1,0 +1,133 @@
+//! String options: one table per option type, read by one conversion
+//! ([`Choice`]). The names are exactly the `Literal` aliases of
+//! `lifted._types` (a test checks both lists against each other); there are
+//! no aliases, and the error message lists the accepted names.
+
+use lifted_lti::C2dMethod;
+use lifted_sim::Feedback;
+use lifted_subspace::{Method, SystemEstimate};
+use pyo3::prelude::*;
+
+use crate::errors::arg_error;
+
+/// An option type spelled by a fixed set of names.
+pub(crate) trait Choice: Sized + Clone + 'static {
+    /// What the option chooses, for messages ("subspace method").
+    const WHAT: &'static str;
+    /// The names and their values, in the order the docs list them.
+    const NAMES: &'static [(&'static str, Self)];
+
+    /// The value named `text` (case-insensitive), or an `ArgumentError`
+    /// naming `argument` and listing the names.
+    fn parse(text: &str, argument: &str) -> PyResult<Self> {
+        let lower = text.to_ascii_lowercase();
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == lower)
+            .map(|(_, v)| v.clone())
+            .ok_or_else(|| {
+                let names: Vec<String> =
+                    Self::NAMES.iter().map(|(n, _)| format!("'{n}'")).collect();
+                arg_error(
+                    argument,
+                    format!(
+                        "unknown {} '{text}' (expected one of {})",
+                        Self::WHAT,
+                        names.join(", ")
+                    ),
+                )
+            })
+    }
+
+    /// The name of `value` (the first entry that equals it).
+    fn name_of(value: &Self) -> &'static str
+    where
+        Self: PartialEq,
+    {
+        Self::NAMES
+            .iter()
+            .find(|(_, v)| v == value)
+            .map_or("?", |(n, _)| n)
+    }
+}
+
+impl Choice for Method {
+    const WHAT: &'static str = "subspace method";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("n4sid", Method::N4sid),
+        ("moesp", Method::Moesp),
+        ("cva", Method::Cva),
+    ];
+}
+
+impl Choice for SystemEstimate {
+    const WHAT: &'static str = "system estimate";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("shift", SystemEstimate::ShiftInvariance),
+        ("states", SystemEstimate::StateSequence),
+    ];
+}
+
+impl Choice for Feedback {
+    const WHAT: &'static str = "feedback";
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("fast", Feedback::Fast), ("hold_last", Feedback::HoldLast)];
+}
+
+/// The c2d methods without their parameters (Tustin's pre-warping
+/// frequency is its own argument).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Discretization {
+    Zoh,
+    Foh,
+    Tustin,
+}
+
+impl Discretization {
+    /// The lifted-lti method, with `prewarp` for Tustin.
+    pub(crate) fn method(self, prewarp: Option<f64>) -> C2dMethod {
+        match self {
+            Discretization::Zoh => C2dMethod::Zoh,
+            Discretization::Foh => C2dMethod::Foh,
+            Discretization::Tustin => C2dMethod::Tustin { prewarp },
+        }
+    }
+}
+
+impl Choice for Discretization {
+    const WHAT: &'static str = "c2d method";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("zoh", Discretization::Zoh),
+        ("foh", Discretization::Foh),
+        ("tustin", Discretization::Tustin),
+    ];
+}
+
+/// The two receding-horizon laws of lifted-mpc.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum MpcKind {
+    /// State-space MPC (GPC-like), `StateSpaceMpc`.
+    Gpc,
+    /// Dynamic matrix control on step-response coefficients, `Dmc`.
+    Dmc,
+}
+
+impl Choice for MpcKind {
+    const WHAT: &'static str = "MPC kind";
+    const NAMES: &'static [(&'static str, Self)] = &[("gpc", MpcKind::Gpc), ("dmc", MpcKind::Dmc)];
+}
+
+/// Every option type and its names, for `lifted._lifted._choices()` (the
+/// test that keeps the `Literal` aliases in step).
+pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
+    fn names<T: Choice>() -> Vec<&'static str> {
+        T::NAMES.iter().map(|(n, _)| *n).collect()
+    }
+    vec![
+        ("SubspaceMethod", names::<Method>()),
+        ("SystemEstimate", names::<SystemEstimate>()),
+        ("Feedback", names::<Feedback>()),
+        ("C2dMethod", names::<Discretization>()),
+        ("MpcKind", names::<MpcKind>()),
+    ]
+}

@@ -1,0 +1,120 @@
+"""The public surface: full signatures (no **kwargs), __version__, Python
+style reprs, the Literal aliases in step with the options the extension
+parses, and one stub for the binary module."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import inspect
+import pathlib
+import pydoc
+import typing
+
+import numpy as np
+import pytest
+
+import lifted
+
+PACKAGE = pathlib.Path(lifted.__file__).resolve().parent
+
+
+def public_callables() -> list[tuple[str, object]]:
+    out = []
+    for name in lifted.__all__:
+        obj = getattr(lifted, name)
+        routine = inspect.isroutine(obj) or isinstance(obj, type)
+        if routine and not (isinstance(obj, type) and issubclass(obj, BaseException)):
+            out.append((name, obj))
+    return out
+
+
+def test_no_var_keyword_anywhere() -> None:
+    checked = 0
+    for name, obj in public_callables():
+        if isinstance(obj, type) and not hasattr(obj, "__text_signature__"):
+            continue
+        sig = inspect.signature(obj)  # type: ignore[arg-type]
+        kinds = {p.kind for p in sig.parameters.values()}
+        assert inspect.Parameter.VAR_KEYWORD not in kinds, name
+        assert inspect.Parameter.VAR_POSITIONAL not in kinds, name
+        checked += 1
+    assert checked >= 20
+    for fn in (lifted.n4sid, lifted.moesp, lifted.cva):
+        params = inspect.signature(fn).parameters
+        for key in ("order", "dt", "past", "future", "threads", "system"):
+            assert params[key].kind is inspect.Parameter.KEYWORD_ONLY, (fn, key)
+        assert "**" not in pydoc.render_doc(fn)
+
+
+def test_extension_signatures_are_complete() -> None:
+    sig = inspect.signature(lifted.StateSpace)
+    assert list(sig.parameters) == ["a", "b", "c", "d", "dt", "u0", "y0", "kalman_gain"]
+    assert sig.parameters["u0"].kind is inspect.Parameter.KEYWORD_ONLY
+    assert list(inspect.signature(lifted.gbn).parameters) == [
+        "n", "amplitude", "switch_probability", "hold", "seed"]
+    assert inspect.signature(lifted.Mpc).parameters["kind"].default == "gpc"
+    assert "prediction_horizon" in pydoc.render_doc(lifted.Mpc)
+
+
+def test_version() -> None:
+    assert lifted.__version__ == importlib.metadata.version("lifted")
+    assert lifted.__version__ == lifted._lifted.__version__
+    assert all(part.isdigit() for part in lifted.__version__.split(".")[:3])
+
+
+def test_python_style_repr(plant: lifted.StateSpace) -> None:
+    assert repr(plant) == "StateSpace(n=2, m=1, p=1, dt=0.5)"
+    cont = lifted.StateSpace(-1.0, 1, 1, 0)
+    assert repr(cont) == "StateSpace(n=1, m=1, p=1, dt=None)"
+    g = lifted.StateSpace(0.5, 1, 1, 0, 1.0, u0=[3.0], y0=[-40.0])
+    assert repr(g) == "StateSpace(n=1, m=1, p=1, dt=1.0, u0=[3.0], y0=[-40.0])"
+    assert "Some(" not in repr(g) and "None" not in repr(g)
+
+
+def test_result_repr_is_short(record) -> None:
+    u, y = record
+    fit = lifted.n4sid(u, y, order=2, dt=0.5)
+    text = repr(fit)
+    assert text.startswith("SubspaceFit(method='n4sid', order=2, suggested_order=2, model=StateSpace(")
+    assert len(text) < 200
+
+
+def test_literal_aliases_match_the_extension() -> None:
+    parsed = dict(lifted._lifted._choices())
+    for alias, names in parsed.items():
+        assert list(typing.get_args(getattr(lifted, alias))) == names, alias
+    assert set(parsed) == {"SubspaceMethod", "SystemEstimate", "Feedback", "C2dMethod", "MpcKind"}
+
+
+@pytest.mark.parametrize(
+    ("alias", "call"),
+    [
+        ("SubspaceMethod", lambda v, p, u, y: lifted.identify(u, y, v, order=2)),
+        ("SystemEstimate", lambda v, p, u, y: lifted.n4sid(u, y, order=2, system=v)),
+        ("Feedback", lambda v, p, u, y: lifted.simulate_experiment(
+            p, np.ones(20), lifted.StateSpace(np.zeros((0, 0)), np.zeros((0, 1)),
+                                              np.zeros((1, 0)), 0.05, 0.5), feedback=v)),
+        ("C2dMethod", lambda v, p, u, y: lifted.StateSpace(-1.0, 1, 1, 0).c2d(0.1, method=v)),
+        ("MpcKind", lambda v, p, u, y: lifted.Mpc(p, v)),
+    ],
+)
+def test_every_literal_is_accepted_and_nothing_else(alias, call, plant, record) -> None:
+    u, y = record
+    names = typing.get_args(getattr(lifted, alias))
+    for v in names:
+        call(v, plant, u, y)
+    with pytest.raises(lifted.ArgumentError) as e:
+        call("magic", plant, u, y)
+    listed = ", ".join(f"'{n}'" for n in names)
+    assert f"(expected one of {listed})" in str(e.value)
+    # the former aliases are gone
+    for old in ("bilinear", "holdlast", "ss", "statespace", "shift_invariance", "state_sequence"):
+        if old not in names:
+            with pytest.raises(lifted.ArgumentError):
+                call(old, plant, u, y)
+
+
+def test_one_stub_for_the_extension() -> None:
+    stubs = sorted(p.name for p in PACKAGE.glob("*.pyi"))
+    assert stubs == ["_lifted.pyi"]
+    assert (PACKAGE / "py.typed").is_file()
