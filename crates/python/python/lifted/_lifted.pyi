@@ -17,6 +17,7 @@ __version__: str
 __all__ = [
     "ArgumentError",
     "DimensionError",
+    "FirstPass",
     "LiftedError",
     "MemoryBudgetError",
     "Mpc",
@@ -36,9 +37,22 @@ __all__ = [
     "iv",
     "multirate",
     "multisine",
+    "partial_append",
+    "partial_close",
+    "partial_compress",
+    "partial_identify",
+    "partial_merge",
+    "partial_plan",
     "prbs",
     "qmarkov",
     "rbs",
+    "regression_absorb",
+    "regression_advance",
+    "regression_end_record",
+    "regression_merge",
+    "regression_prime",
+    "regression_push",
+    "regression_scan",
     "resolve_threads",
     "simulate_experiment",
     "validate",
@@ -317,6 +331,7 @@ def _choices() -> list[tuple[str, list[str]]]: ...
 
 # Mergeable partial compressions and the regression's second pass
 # (lifted.dask): every state crossing a process boundary is bytes.
+@final
 class FirstPass:
     def wants_second_pass(self) -> bool: ...
     def regression(self) -> bytes: ...

@@ -34,6 +34,7 @@ Both take ``client=``: a ``dask.distributed.Client``, a scheduler address
 
 from __future__ import annotations
 
+import importlib
 import os
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -47,31 +48,32 @@ from ._results import SubspaceFit
 __all__ = ["identify", "identify_many", "ManyResult", "compress_shards"]
 
 
-def _dask():
+def _module(name: str) -> Any:
+    """An optional dependency, imported when first used (typed as Any: dask
+    and pandas ship no complete annotations)."""
     try:
-        import dask  # noqa: F401
-        from dask import delayed
+        return importlib.import_module(name)
     except ImportError as e:  # pragma: no cover - exercised without dask only
         raise ImportError(
-            "lifted.dask needs dask: pip install 'lifted[dask]' (dask[distributed])"
+            f"lifted.dask needs {name.split('.')[0]}: pip install 'lifted[dask]' (dask[distributed,dataframe])"
         ) from e
-    return delayed
+
+
+def _dask() -> Any:
+    """``dask.delayed``."""
+    return _module("dask").delayed
 
 
 def _client(client: Any) -> Any:
     """A Client from a Client, an address string, or None (default scheduler)."""
     if client is None or not isinstance(client, str):
         return client
-    from dask.distributed import Client
-
-    return Client(client)
+    return _module("dask.distributed").Client(client)
 
 
-def _compute(client: Any, *objs: Any) -> tuple:
-    import dask
-
+def _compute(client: Any, *objs: Any) -> tuple[Any, ...]:
     if client is None:
-        return dask.compute(*objs)
+        return tuple(_module("dask").compute(*objs))
     futures = client.compute(list(objs))
     return tuple(client.gather(futures))
 
@@ -93,19 +95,17 @@ def _columns(block: np.ndarray, cols: Sequence[int], name: str) -> np.ndarray:
     return np.ascontiguousarray(out, dtype=np.float64)
 
 
-def _load_npy(path: str, inputs: Sequence[int], outputs: Sequence[int]) -> tuple:
+def _load_npy(path: str, inputs: Sequence[int], outputs: Sequence[int]) -> tuple[Any, Any]:
     a = np.load(path, mmap_mode="r")
     return _columns(a, inputs, "inputs"), _columns(a, outputs, "outputs")
 
 
-def _load_parquet(path: str, inputs: Sequence[str], outputs: Sequence[str]) -> tuple:
-    import pandas as pd
-
-    df = pd.read_parquet(path, columns=list(inputs) + list(outputs))
+def _load_parquet(path: str, inputs: Sequence[str], outputs: Sequence[str]) -> tuple[Any, Any]:
+    df = _module("pandas").read_parquet(path, columns=list(inputs) + list(outputs))
     return _frame(df, inputs, outputs)
 
 
-def _frame(df: Any, inputs: Sequence[str], outputs: Sequence[str]) -> tuple:
+def _frame(df: Any, inputs: Sequence[str], outputs: Sequence[str]) -> tuple[Any, Any]:
     missing = [c for c in list(inputs) + list(outputs) if c not in df.columns]
     if missing:
         raise LiftedError(f"columns {missing} not in the data (columns: {list(df.columns)[:20]})")
@@ -114,18 +114,18 @@ def _frame(df: Any, inputs: Sequence[str], outputs: Sequence[str]) -> tuple:
     return u, y
 
 
-def _split(block: np.ndarray, inputs: Sequence[int], outputs: Sequence[int]) -> tuple:
+def _split(block: np.ndarray, inputs: Sequence[int], outputs: Sequence[int]) -> tuple[Any, Any]:
     return _columns(np.asarray(block), inputs, "inputs"), _columns(np.asarray(block), outputs, "outputs")
 
 
-def _pair(u: Any, y: Any) -> tuple:
+def _pair(u: Any, y: Any) -> tuple[Any, Any]:
     u, y = np.asarray(u), np.asarray(y)
     u = u.reshape(len(u), -1) if u.ndim == 1 else u
     y = y.reshape(len(y), -1) if y.ndim == 1 else y
     return _columns(u, range(u.shape[1]), "u"), _columns(y, range(y.shape[1]), "y")
 
 
-def _index_list(cols: Any, name: str) -> list:
+def _index_list(cols: Any, name: str) -> list[Any]:
     if cols is None:
         raise LiftedError(f"{name} must name the columns (indices or names)")
     if isinstance(cols, (int, np.integer)):
@@ -133,14 +133,13 @@ def _index_list(cols: Any, name: str) -> list:
     return list(cols)
 
 
-def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list:
+def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list[Any]:
     """The record as a list of delayed (u, y) shards, in record order."""
     delayed = _dask()
     if u is not None or y is not None:
         if u is None or y is None or data is not None:
             raise LiftedError("give either data= with inputs/outputs, or both u= and y=")
-        import dask.array as da
-
+        da = _module("dask.array")
         u = da.asarray(u)
         y = da.asarray(y)
         if u.ndim == 1:
@@ -193,32 +192,32 @@ def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list:
 # ---------------------------------------------------------------- tasks
 
 
-def _plan(shard: tuple, past: int, future: int, remove_means: bool, rows: int) -> bytes:
+def _plan(shard: tuple[Any, Any], past: int, future: int, remove_means: bool, rows: int) -> bytes:
     u, y = shard
     return _lifted.partial_plan(u[:rows], y[:rows], past=past, future=future, remove_means=remove_means)
 
 
-def _compress(plan: bytes, shard: tuple, threads: int) -> bytes:
+def _compress(plan: bytes, shard: tuple[Any, Any], threads: int) -> bytes:
     u, y = shard
     return _lifted.partial_compress(plan, u, y, threads=threads)
 
 
-def _prime(state: bytes, shard: tuple, rows: int) -> bytes:
+def _prime(state: bytes, shard: tuple[Any, Any], rows: int) -> bytes:
     u, y = shard
     return _lifted.regression_prime(state, u[:rows], y[:rows])
 
 
-def _advance(state: bytes, shard: tuple) -> bytes:
+def _advance(state: bytes, shard: tuple[Any, Any]) -> bytes:
     u, y = shard
     return _lifted.regression_advance(state, u, y)
 
 
-def _scan(state: bytes, shard: tuple) -> bytes:
+def _scan(state: bytes, shard: tuple[Any, Any]) -> bytes:
     u, y = shard
     return _lifted.regression_scan(state, u, y)
 
 
-def _tree(items: list, join: Callable) -> Any:
+def _tree(items: list[Any], join: Callable[..., Any]) -> Any:
     """Adjacent pairs joined level by level (record order kept)."""
     delayed = _dask()
     while len(items) > 1:
@@ -230,14 +229,14 @@ def _tree(items: list, join: Callable) -> Any:
 
 
 def _compress_shards(
-    shards: list, past: int, future: int, remove_means: bool, threads: int, plan_rows: int, client: Any
+    shards: list[Any], past: int, future: int, remove_means: bool, threads: int, plan_rows: int, client: Any
 ) -> bytes:
     delayed = _dask()
     (plan,) = _compute(client, delayed(_plan)(shards[0], past, future, remove_means, plan_rows))
     pieces = [delayed(_compress)(plan, s, threads) for s in shards]
     root = _tree(pieces, _lifted.partial_append)
     (records,) = _compute(client, delayed(_lifted.partial_close)(root))
-    return records
+    return bytes(records)
 
 
 def compress_shards(
@@ -331,14 +330,14 @@ class ManyResult:
     """What :func:`identify_many` returns: the models and the failures, by
     loop name (list positions when the loops came as a list)."""
 
-    models: dict = field(default_factory=dict)
-    errors: dict = field(default_factory=dict)
+    models: dict[Any, Any] = field(default_factory=dict)
+    errors: dict[Any, Any] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.models) + len(self.errors)
 
 
-def _one(u: Any, y: Any, options: dict) -> tuple:
+def _one(u: Any, y: Any, options: dict[str, Any]) -> tuple[str, Any]:
     from . import identify as _identify_mem
 
     try:
@@ -348,7 +347,7 @@ def _one(u: Any, y: Any, options: dict) -> tuple:
 
 
 def identify_many(
-    loops: Mapping[Any, tuple] | Iterable[tuple],
+    loops: Mapping[Any, tuple[Any, Any]] | Iterable[tuple[Any, Any]],
     *,
     client: Any = None,
     **options: Any,
