@@ -821,7 +821,12 @@ pub struct BodeArgs {
     pub points: usize,
     /// Evaluate at these frequencies (rad/s, comma separated) instead of a grid; a discrete
     /// model refuses frequencies above its Nyquist frequency π/T.
-    #[arg(long, value_delimiter = ',', conflicts_with = "omega_file")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "omega_file",
+        allow_hyphen_values = true
+    )]
     pub omega: Vec<f64>,
     /// Evaluate at the frequencies (rad/s) of the first column of this CSV (one per line,
     /// an optional header line).
