@@ -5,6 +5,9 @@
 //! sampled every n fast samples) or as the slow single-rate MPC on the
 //! hold model at nT; simulate it against a plant model (default: the model)
 //! and write the trajectories (CSV), an SVG plot and the performance table.
+//! The model maps deviations from its operating point (u₀, y₀) (the model
+//! file's, else the plant file's): the loop runs in deviations, set-points,
+//! limits and the written trajectories are plant values.
 //!
 //! Cost: design O((h·p)(m·n_u)² + (m·n_u)³); each of the K steps an
 //! unconstrained update O(h·p·m·n_u) or one dense QP with m·n_u variables
@@ -372,6 +375,11 @@ pub fn mpc_cmd(a: &MpcArgs) -> CliResult<()> {
             perf.settling_time[q].map_or("not settled".to_string(), |k| k.to_string())
         );
     }
-    println!("input energy {:.6}; wrote {}", perf.input_energy, a.out);
+    println!(
+        "input energy {:.6}{}; wrote {}",
+        perf.input_energy,
+        if op.is_some() { " (of u − u0)" } else { "" },
+        a.out
+    );
     Ok(())
 }
