@@ -3081,6 +3081,9 @@ mod analyses {
         assert!((r["hankel_singular_values"][0].as_f64().unwrap() - k / (2.0 * pl)).abs() < 1e-12);
         assert_eq!(r["stability"]["max_real_part"].as_f64(), Some(-pl));
         assert!(ok(&["analyze", "--model", &c]).contains("largest real part of a pole = -2"));
+        // its work arrays are checked against the memory budget first
+        let e = fails(&["analyze", "--model", &c, "--memory-limit", "100"], 2);
+        assert!(e.contains("Hamiltonian") && e.contains("needs"), "{e}");
     }
 
     #[test]

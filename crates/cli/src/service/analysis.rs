@@ -29,6 +29,7 @@
 //! Cost: O(n³) for each quantity (eigenvalues, Lyapunov equations, each
 //! Hamiltonian iteration of the H∞ norm), O(n⁴) worst case for the zeros.
 
+use lifted_linalg::budget::{MemoryBudget, Size};
 use lifted_lti::{Error as LtiError, HinfOptions, StateSpace};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -153,6 +154,15 @@ fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
 /// values of `model` (module docs). Errors only when the poles cannot be
 /// computed; every other quantity that fails is `None` with a note.
 pub fn analyze(model: &StateSpace) -> CliResult<Analysis> {
+    let n = model.order();
+    // The largest work arrays: the H∞ iteration's 2n×2n Hamiltonian and its
+    // eigenvalue workspace, a few copies of it.
+    MemoryBudget::default()
+        .check(
+            "the analysis of the model (2n×2n Hamiltonian matrices)",
+            Size::matrices(8, 2 * n, 2 * n),
+        )
+        .ctx("analyze")?;
     let (inputs, outputs) = super::models::channel_names(model);
     let raw_poles = model.poles().ctx("poles")?;
     let mut notes = serde_json::Map::new();
@@ -307,6 +317,14 @@ pub fn lqr(model: &StateSpace, q: &DMatrix<f64>, r: &DMatrix<f64>) -> CliResult<
              (DARE) only: discretise it first (lifted convert --to discrete --ts T --out md.json)",
         )
     })?;
+    let n = model.order();
+    // The doubling iteration keeps about a dozen n×n matrices.
+    MemoryBudget::default()
+        .check(
+            "the Riccati iteration (n×n matrices)",
+            Size::matrices(12, n, n),
+        )
+        .ctx("lqr")?;
     let sym = (q + q.transpose()) * 0.5;
     let min_eig = lifted_linalg::sym_eig(&sym, lifted_linalg::SortOrder::Ascending)
         .ctx("--q")?
