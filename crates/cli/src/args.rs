@@ -13,6 +13,52 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// The memory budget of the commands that size their work by options.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ResourceArgs {
+    /// Memory budget of one request, in bytes or with a suffix (`4G`, `512M`, `1.5GiB`,
+    /// `2GB`): K/M/G/T and KiB/MiB/GiB/TiB are powers of 1024, kB/MB/GB/TB powers of 1000.
+    /// Overrides the environment variable LIFTED_MEMORY_LIMIT (default: half the physical
+    /// memory). An option whose matrices would need more is an error (exit 2) before anything
+    /// is allocated.
+    #[arg(long, value_parser = parse_memory_limit)]
+    pub memory_limit: Option<u64>,
+}
+
+/// `--memory-limit`: bytes with an optional binary (K, M, G, T, KiB…TiB) or
+/// decimal (kB, MB, GB, TB) suffix; positive, at most 2^64 − 1 bytes.
+pub fn parse_memory_limit(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, suffix) = t.split_at(split);
+    let unit: f64 = match suffix.trim() {
+        "" | "B" | "b" => 1.0,
+        "K" | "k" | "KiB" => 1024.0,
+        "M" | "m" | "MiB" => 1024f64.powi(2),
+        "G" | "g" | "GiB" => 1024f64.powi(3),
+        "T" | "t" | "TiB" => 1024f64.powi(4),
+        "kB" | "KB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        "TB" => 1e12,
+        other => {
+            return Err(format!(
+                "unknown unit '{other}' (use bytes, K/M/G/T, KiB…TiB or kB/MB/GB/TB)"
+            ));
+        }
+    };
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size such as 4G or 512M"))?;
+    let bytes = (value * unit).round();
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("'{text}' is not a positive size below 2^64 bytes"));
+    }
+    Ok(bytes as u64)
+}
+
 /// The commands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -48,6 +94,10 @@ pub enum Command {
     Mpc(MpcArgs),
     /// Stability-robustness measures β_sr, β_dr and the monodromy spectral radius of a dual-rate loop (thesis ch. 9).
     Robust(RobustArgs),
+    /// Poles, zeros, DC gain, stability, H2 and H∞ norms (with the peak frequency) and Hankel singular values of a model.
+    Analyze(AnalyzeArgs),
+    /// Discrete LQR: the stabilising DARE solution, the gain K of u = −Kx and the closed-loop poles.
+    Lqr(LqrArgs),
     /// One self-contained HTML page: excitation, fit, order selection, step, Bode, poles/zeros, validation.
     Report(ReportArgs),
     /// Run the reproductions of the papers' experiments and report every acceptance check.
@@ -70,12 +120,16 @@ pub struct StudioArgs {
 /// Output file and signal name shared by the generators.
 #[derive(Debug, Args)]
 pub struct SignalOut {
-    /// Output CSV file (columns `t,<name>`).
+    /// Output CSV file (columns `t,<name>`, or `t` and one column per channel).
     #[arg(long)]
     pub out: String,
-    /// Column name of the signal.
-    #[arg(long, default_value = "u1")]
+    /// Column name of the signal; comma separated for several channels (one column each).
+    #[arg(long, visible_alias = "inputs", default_value = "u1")]
     pub name: String,
+    /// Number of mutually uncorrelated channels (default: one per `--name`). With one name,
+    /// its trailing digits are dropped and the channels are numbered (u1 → u1, u2, …).
+    #[arg(long)]
+    pub channels: Option<usize>,
     /// Sample period T written in the time column (seconds).
     #[arg(long, default_value_t = 1.0)]
     pub ts: f64,
@@ -270,6 +324,9 @@ pub struct SimulateArgs {
     /// Output data CSV.
     #[arg(long)]
     pub out: String,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Samples the SNR is measured on (`--snr-samples`).
@@ -490,6 +547,9 @@ pub struct IdentifyArgs {
     /// Print the wall time of each phase (read, compress, SVD, estimate).
     #[arg(long)]
     pub profile: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// `lifted delay`.
@@ -513,6 +573,9 @@ pub struct DelayArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Closed-loop set-ups (`lifted closedloop --setup`).
@@ -547,6 +610,9 @@ pub struct ClosedloopArgs {
     /// Output model file of the recovered plant Ĝ.
     #[arg(long)]
     pub out: String,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Receding-horizon laws (`lifted mpc --law`).
@@ -627,6 +693,9 @@ pub struct MpcArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Uncertainty structures (`lifted robust --uncertainty`).
@@ -665,6 +734,9 @@ pub struct RobustArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// `lifted validate`.
@@ -690,6 +762,9 @@ pub struct ValidateArgs {
     /// record's own means/trends; `none` uses the data as they are.
     #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
     pub detrend: DetrendArg,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Conversion targets.
@@ -717,9 +792,13 @@ pub struct ConvertArgs {
     /// Sample period for `--to discrete`.
     #[arg(long)]
     pub ts: Option<f64>,
-    /// Write the converted model here (model file; for tf, a text file); default: print.
+    /// Write the converted model here (model file; for tf, a text file); default: print
+    /// the poles, the DC gain and the matrices.
     #[arg(long)]
     pub out: Option<String>,
+    /// Print the converted model file (JSON) instead of the summary.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `lifted bode`.
@@ -728,18 +807,73 @@ pub struct BodeArgs {
     /// Model file (JSON).
     #[arg(long)]
     pub model: String,
-    /// Output file: `.csv` or `.svg`.
+    /// Output file: `.csv` or `.svg` (default with --omega/--omega-file: a table on stdout).
     #[arg(long)]
-    pub out: String,
+    pub out: Option<String>,
     /// Lowest frequency, rad/s (default: a decade below the slowest pole).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["omega", "omega_file"])]
     pub wmin: Option<f64>,
     /// Highest frequency, rad/s (default: Nyquist for discrete models).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["omega", "omega_file"])]
     pub wmax: Option<f64>,
     /// Number of log-spaced frequencies.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, conflicts_with_all = ["omega", "omega_file"])]
     pub points: usize,
+    /// Evaluate at these frequencies (rad/s, comma separated) instead of a grid; a discrete
+    /// model refuses frequencies above its Nyquist frequency π/T.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "omega_file",
+        allow_hyphen_values = true
+    )]
+    pub omega: Vec<f64>,
+    /// Evaluate at the frequencies (rad/s) of the first column of this CSV (one per line,
+    /// an optional header line).
+    #[arg(long)]
+    pub omega_file: Option<String>,
+    /// Print JSON (frequency, magnitude, magnitude in dB, phase per channel pair) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
+}
+
+/// `lifted analyze`.
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// Model file (JSON), discrete or continuous.
+    #[arg(long)]
+    pub model: String,
+    /// Print JSON instead of a table (a quantity that is not defined is null and its reason
+    /// is under `notes`).
+    #[arg(long)]
+    pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
+}
+
+/// `lifted lqr`.
+#[derive(Debug, Args)]
+pub struct LqrArgs {
+    /// Discrete model file (JSON); the states are the model's own.
+    #[arg(long)]
+    pub model: String,
+    /// State weight Q (n×n, positive semi-definite): one value (q·I), n values (the
+    /// diagonal) or n rows of n values separated by `;`. Default: CᵀC (output weighting).
+    #[arg(long, allow_hyphen_values = true)]
+    pub q: Option<String>,
+    /// Input weight R (m×m, positive definite): one value, m values or m rows separated by `;`.
+    #[arg(long, default_value = "1", allow_hyphen_values = true)]
+    pub r: String,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// `lifted step`.
@@ -757,6 +891,9 @@ pub struct StepArgs {
     /// Time step for continuous models (default: the slowest time constant / 50).
     #[arg(long)]
     pub dt: Option<f64>,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// `lifted report`.
@@ -780,6 +917,9 @@ pub struct ReportArgs {
     /// Output HTML file.
     #[arg(long)]
     pub out: String,
+    /// Memory budget.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// `lifted reproduce`.

@@ -17,13 +17,38 @@ use lifted_cli::{args, error, html, plot, table, terminal};
 use clap::Parser;
 use clap::error::ErrorKind;
 
-use crate::args::{Cli, Command};
+use crate::args::{Cli, Command, ResourceArgs};
 use crate::commands::{
-    closedloop, delay, identify, model, mpc, report, reproduce, robust, signals, studio, validate,
+    analyze, closedloop, delay, identify, model, mpc, report, reproduce, robust, signals, studio,
+    validate,
 };
 use crate::error::CliResult;
 
+/// The `--memory-limit` of the commands that size their work by options.
+fn resources(c: &Command) -> Option<&ResourceArgs> {
+    match c {
+        Command::Simulate(a) => Some(&a.resources),
+        Command::Identify(a) => Some(&a.resources),
+        Command::Validate(a) => Some(&a.resources),
+        Command::Bode(a) => Some(&a.resources),
+        Command::Step(a) => Some(&a.resources),
+        Command::Delay(a) => Some(&a.resources),
+        Command::Closedloop(a) => Some(&a.resources),
+        Command::Mpc(a) => Some(&a.resources),
+        Command::Robust(a) => Some(&a.resources),
+        Command::Analyze(a) => Some(&a.resources),
+        Command::Lqr(a) => Some(&a.resources),
+        Command::Report(a) => Some(&a.resources),
+        _ => None,
+    }
+}
+
 fn run(cli: Cli) -> CliResult<()> {
+    // --memory-limit overrides LIFTED_MEMORY_LIMIT for every budget check
+    // of this process (lifted_linalg::budget::MemoryBudget::default).
+    if let Some(bytes) = resources(&cli.command).and_then(|r| r.memory_limit) {
+        lifted_linalg::budget::MemoryBudget::set_process_default(bytes);
+    }
     match cli.command {
         Command::Prbs(a) => signals::prbs(&a),
         Command::Rbs(a) => signals::rbs(&a),
@@ -41,6 +66,8 @@ fn run(cli: Cli) -> CliResult<()> {
         Command::Closedloop(a) => closedloop::closedloop_cmd(&a),
         Command::Mpc(a) => mpc::mpc_cmd(&a),
         Command::Robust(a) => robust::robust_cmd(&a),
+        Command::Analyze(a) => analyze::analyze_cmd(&a),
+        Command::Lqr(a) => analyze::lqr_cmd(&a),
         Command::Report(a) => report::report_cmd(&a),
         Command::Reproduce(a) => reproduce::reproduce_cmd(&a),
         Command::Studio(a) => studio::studio_cmd(&a),

@@ -1946,6 +1946,8 @@ mod bad_input {
             "closedloop",
             "mpc",
             "robust",
+            "analyze",
+            "lqr",
         ] {
             let s = ok(&[cmd, "--help"]);
             assert!(s.contains("Usage: lifted"), "{cmd}: {s}");
@@ -3003,5 +3005,669 @@ mod trust {
             "{}",
             String::from_utf8_lossy(&m.stderr)
         );
+    }
+}
+
+/// `analyze`, `bode --omega`, `lqr` against closed forms (issue 30).
+mod analyses {
+    use super::*;
+
+    /// G(z) = b/(z − a) at T = 0.1 s.
+    fn first_order(a: f64, b: f64) -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_element(1, 1, a),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, b),
+            DMatrix::zeros(1, 1),
+            Some(0.1),
+        )
+        .unwrap()
+    }
+
+    fn json(args: &[&str]) -> serde_json::Value {
+        serde_json::from_str(&ok(args)).unwrap()
+    }
+
+    #[test]
+    fn analyze_matches_first_order_closed_forms() {
+        let d = tmp("analyze");
+        let (a, b) = (0.8, 0.5);
+        let m = p(&d, "d.json");
+        ModelFile::new(first_order(a, b)).write(&m).unwrap();
+        let r = json(&["analyze", "--model", &m, "--json"]);
+        // ‖G‖₂² = Σ_k (b a^k)² = b²/(1 − a²); ‖G‖∞ = b/(1 − a) at θ = 0;
+        // Hankel value b/(1 − a²). Tolerances: exact to rounding for the
+        // Lyapunov solves (1e-12), the H∞ iteration's relative 1e-8.
+        let h2 = r["h2_norm"].as_f64().unwrap();
+        assert!((h2 - b / (1.0 - a * a).sqrt()).abs() < 1e-12, "{h2}");
+        let hinf = r["hinf_norm"]["norm"].as_f64().unwrap();
+        assert!((hinf - b / (1.0 - a)).abs() < 1e-7 * hinf, "{hinf}");
+        assert!(r["hinf_norm"]["peak_frequency"].as_f64().unwrap().abs() < 1e-6);
+        let hsv = r["hankel_singular_values"][0].as_f64().unwrap();
+        assert!((hsv - b / (1.0 - a * a)).abs() < 1e-12);
+        assert_eq!(r["stability"]["stable"], true);
+        assert!((r["stability"]["spectral_radius"].as_f64().unwrap() - a).abs() < 1e-15);
+        assert!((r["dc_gain"][0][0].as_f64().unwrap() - b / (1.0 - a)).abs() < 1e-12);
+        let text = ok(&["analyze", "--model", &m]);
+        for what in [
+            "poles (1)",
+            "spectral radius",
+            "DC gain",
+            "H2 norm: 0.833333",
+            "H∞ norm: 2.500000 at ω = 0",
+            "Hankel singular values: 1.388889",
+        ] {
+            assert!(text.contains(what), "{what}: {text}");
+        }
+
+        // Continuous k/(s + p): ‖G‖₂ = k/√(2p), ‖G‖∞ = k/p, Hankel k/(2p).
+        let (pl, k) = (2.0, 3.0);
+        let c = p(&d, "c.json");
+        ModelFile::new(
+            StateSpace::new(
+                DMatrix::from_element(1, 1, -pl),
+                DMatrix::from_element(1, 1, 1.0),
+                DMatrix::from_element(1, 1, k),
+                DMatrix::zeros(1, 1),
+                None,
+            )
+            .unwrap(),
+        )
+        .write(&c)
+        .unwrap();
+        let r = json(&["analyze", "--model", &c, "--json"]);
+        assert!((r["h2_norm"].as_f64().unwrap() - k / (2.0 * pl).sqrt()).abs() < 1e-12);
+        assert!((r["hinf_norm"]["norm"].as_f64().unwrap() - k / pl).abs() < 1e-7);
+        assert!((r["hankel_singular_values"][0].as_f64().unwrap() - k / (2.0 * pl)).abs() < 1e-12);
+        assert_eq!(r["stability"]["max_real_part"].as_f64(), Some(-pl));
+        assert!(ok(&["analyze", "--model", &c]).contains("largest real part of a pole = -2"));
+        // its work arrays are checked against the memory budget first
+        let e = fails(&["analyze", "--model", &c, "--memory-limit", "100"], 2);
+        assert!(e.contains("Hamiltonian") && e.contains("needs"), "{e}");
+    }
+
+    #[test]
+    fn analyze_of_an_unstable_model_says_the_norms_are_not_defined() {
+        let d = tmp("analyze-unstable");
+        let m = p(&d, "u.json");
+        ModelFile::new(first_order(1.2, 1.0)).write(&m).unwrap();
+        let text = ok(&["analyze", "--model", &m]);
+        assert!(
+            text.contains("UNSTABLE, spectral radius ρ(A) = 1.2"),
+            "{text}"
+        );
+        for what in ["H2 norm", "H∞ norm", "Hankel singular values"] {
+            assert!(
+                text.contains(&format!("{what}: not defined: the model is unstable")),
+                "{what}: {text}"
+            );
+        }
+        let r = json(&["analyze", "--model", &m, "--json"]);
+        assert!(r["h2_norm"].is_null() && r["hinf_norm"].is_null());
+        assert!(r["notes"]["hinf_norm"].as_str().unwrap().contains("1.2"));
+        // an integrator has no DC gain
+        let i = p(&d, "i.json");
+        ModelFile::new(first_order(1.0, 1.0)).write(&i).unwrap();
+        let r = json(&["analyze", "--model", &i, "--json"]);
+        assert!(r["dc_gain"].is_null());
+        assert!(r["notes"]["dc_gain"].as_str().unwrap().contains("infinite"));
+    }
+
+    #[test]
+    fn bode_at_given_frequencies() {
+        let d = tmp("bode-omega");
+        let (a, b) = (0.8, 0.5);
+        let m = p(&d, "d.json");
+        ModelFile::new(first_order(a, b)).write(&m).unwrap();
+        let r = json(&["bode", "--model", &m, "--omega", "0.1,1,10,31.4", "--json"]);
+        let omega = [0.1, 1.0, 10.0, 31.4];
+        for (k, w) in omega.iter().enumerate() {
+            // |b/(e^{jωT} − a)|, phase −arg(e^{jωT} − a)
+            let z = num_complex::Complex64::from_polar(1.0, w * 0.1) - a;
+            let mag = b / z.norm();
+            let got = r["pairs"][0]["magnitude"][k].as_f64().unwrap();
+            assert!((got - mag).abs() < 1e-12 * mag, "{w}: {got} vs {mag}");
+            let ph = r["pairs"][0]["phase_deg"][k].as_f64().unwrap();
+            assert!((ph + z.arg().to_degrees()).abs() < 1e-9, "{w}: {ph}");
+        }
+        let table = ok(&["bode", "--model", &m, "--omega", "0.1,1"]);
+        assert_eq!(table.lines().count(), 3, "{table}");
+        // above the Nyquist frequency π/T = 31.4159 rad/s: refused
+        let e = fails(&["bode", "--model", &m, "--omega", "1,40"], 2);
+        assert!(e.contains("Nyquist") && e.contains("40"), "{e}");
+        let e = fails(&["bode", "--model", &m, "--omega", "-1"], 2);
+        assert!(e.contains("non-negative"), "{e}");
+        // a frequency file with a header line; a CSV file written from it
+        let f = p(&d, "w.csv");
+        std::fs::write(&f, "omega\n0.1\n1\n10\n").unwrap();
+        let out = p(&d, "b.csv");
+        ok(&["bode", "--model", &m, "--omega-file", &f, "--out", &out]);
+        let (head, cols) = read_csv(&out);
+        assert_eq!(head[0], "omega");
+        assert_eq!(cols[0], vec![0.1, 1.0, 10.0]);
+        std::fs::write(&f, "omega\n0.1\nx\n").unwrap();
+        let e = fails(&["bode", "--model", &m, "--omega-file", &f], 2);
+        assert!(e.contains("line 3"), "{e}");
+        let e = fails(&["bode", "--model", &m, "--omega", "1", "--wmin", "0.1"], 2);
+        assert!(e.contains("--wmin"), "{e}");
+        let e = fails(&["bode", "--model", &m], 2);
+        assert!(e.contains("--out") && e.contains("--omega"), "{e}");
+    }
+
+    #[test]
+    fn lqr_matches_the_scalar_riccati_equation() {
+        let d = tmp("lqr");
+        let m = p(&d, "d.json");
+        let a = 1.1;
+        ModelFile::new(first_order(a, 1.0)).write(&m).unwrap();
+        let (q, r) = (2.0, 0.5);
+        // Scalar DARE with b = 1: x² + (r(1 − a²) − q)x − q r = 0, positive root;
+        // k = a x/(r + x), closed-loop pole a − k.
+        let bq = r * (1.0 - a * a) - q;
+        let x = (-bq + (bq * bq + 4.0 * q * r).sqrt()) / 2.0;
+        let k = a * x / (r + x);
+        let out = json(&["lqr", "--model", &m, "--q", "2", "--r", "0.5", "--json"]);
+        // the solver verifies a relative residual ≤ 1e-9
+        assert!((out["x"][0][0].as_f64().unwrap() - x).abs() < 1e-9 * x);
+        assert!((out["k"][0][0].as_f64().unwrap() - k).abs() < 1e-9 * k);
+        let pole = out["closed_loop_poles"][0]["re"].as_f64().unwrap();
+        assert!((pole - (a - k)).abs() < 1e-9);
+        let text = ok(&["lqr", "--model", &m, "--q", "2", "--r", "0.5"]);
+        assert!(
+            text.contains("gain K") && text.contains("closed-loop poles"),
+            "{text}"
+        );
+        let e = fails(&["lqr", "--model", &m, "--q", "1,2"], 2);
+        assert!(e.contains("--q") && e.contains("1 states"), "{e}");
+        let e = fails(&["lqr", "--model", &m, "--r", "-1"], 2);
+        assert!(e.contains("positive definite"), "{e}");
+        let c = p(&d, "c.json");
+        ModelFile::new(
+            StateSpace::new(
+                DMatrix::from_element(1, 1, -1.0),
+                DMatrix::from_element(1, 1, 1.0),
+                DMatrix::from_element(1, 1, 1.0),
+                DMatrix::zeros(1, 1),
+                None,
+            )
+            .unwrap(),
+        )
+        .write(&c)
+        .unwrap();
+        let e = fails(&["lqr", "--model", &c], 2);
+        assert!(e.contains("continuous") && e.contains("DARE"), "{e}");
+    }
+}
+
+/// `--channels` on the excitation commands: the channels are uncorrelated
+/// as designed (issue 30).
+mod channels {
+    use super::*;
+
+    fn mean_product(x: &[f64], y: &[f64]) -> f64 {
+        x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>() / x.len() as f64
+    }
+
+    #[test]
+    fn shifted_prbs_channels_have_the_designed_cross_correlation() {
+        let d = tmp("channels-prbs");
+        let f = p(&d, "u.csv");
+        // m-sequence n = 5 (m = 31), hold 2, a = 2, 3 channels shifted by
+        // l·⌊31/3⌋ = 10 l: over whole periods every pair correlates to −a²/m
+        // exactly (the ±1 m-sequence's periodic autocorrelation is −1/m off
+        // lag 0), each channel to a².
+        let s = ok(&[
+            "prbs",
+            "--order",
+            "5",
+            "--amplitude",
+            "2",
+            "--hold",
+            "2",
+            "--periods",
+            "2",
+            "--channels",
+            "3",
+            "--out",
+            &f,
+        ]);
+        assert!(s.contains("3 channels"), "{s}");
+        let (head, cols) = read_csv(&f);
+        assert_eq!(head, ["t", "u1", "u2", "u3"]);
+        assert_eq!(cols[1].len(), 2 * 2 * 31);
+        for i in 1..4 {
+            assert!((mean_product(&cols[i], &cols[i]) - 4.0).abs() < 1e-12);
+            for j in i + 1..4 {
+                let r = mean_product(&cols[i], &cols[j]);
+                assert!((r + 4.0 / 31.0).abs() < 1e-12, "{i},{j}: {r}");
+            }
+        }
+        // one channel is the plain command's output
+        let g = p(&d, "one.csv");
+        ok(&[
+            "prbs",
+            "--order",
+            "5",
+            "--amplitude",
+            "2",
+            "--hold",
+            "2",
+            "--periods",
+            "2",
+            "--out",
+            &g,
+        ]);
+        assert_eq!(read_csv(&g).1[1], cols[1]);
+
+        // inverse PRBS (n = 4, m = 15), 2 channels shifted by 7: |R| = a²/m
+        // (eqs. II-6, II-10 normalised per sample).
+        let s = ok(&[
+            "prbs",
+            "--inverse",
+            "--order",
+            "4",
+            "--amplitude",
+            "1",
+            "--hold",
+            "3",
+            "--inputs",
+            "ua,ub",
+            "--out",
+            &f,
+        ]);
+        assert!(s.contains("2 channels"), "{s}");
+        let (head, cols) = read_csv(&f);
+        assert_eq!(head, ["t", "ua", "ub"]);
+        assert_eq!(cols[1].len(), 2 * 3 * 15);
+        let r = mean_product(&cols[1], &cols[2]);
+        assert!((r.abs() - 1.0 / 15.0).abs() < 1e-12, "{r}");
+        // more channels than m: refused
+        let e = fails(
+            &[
+                "prbs",
+                "--order",
+                "2",
+                "--amplitude",
+                "1",
+                "--channels",
+                "4",
+                "--out",
+                &f,
+            ],
+            2,
+        );
+        assert!(e.contains("at most 3 channels"), "{e}");
+    }
+
+    #[test]
+    fn multisine_channels_are_orthogonal_and_random_ones_independent() {
+        let d = tmp("channels-random");
+        let f = p(&d, "u.csv");
+        // zippered harmonics: disjoint frequency sets, cross-correlation 0
+        // over whole periods at every lag (rounding only: 1e-12 · RMS²).
+        ok(&[
+            "multisine",
+            "--len",
+            "512",
+            "--period",
+            "128",
+            "--channels",
+            "3",
+            "--out",
+            &f,
+        ]);
+        let (_, cols) = read_csv(&f);
+        for i in 1..4 {
+            assert!((mean_product(&cols[i], &cols[i]) - 1.0).abs() < 1e-9);
+            for j in i + 1..4 {
+                for lag in [0usize, 1, 5] {
+                    let shifted: Vec<f64> = (0..512).map(|k| cols[j][(k + lag) % 512]).collect();
+                    let r = mean_product(&cols[i], &shifted);
+                    assert!(r.abs() < 1e-12, "{i},{j} lag {lag}: {r}");
+                }
+            }
+        }
+        // rbs / gbn / gaussian: independent seeded streams; channel 1 is the
+        // single-channel signal. Sample correlation of N = 20000 independent
+        // ±1 values has standard deviation 1/√N = 0.007; 5σ bound.
+        for cmd in ["rbs", "gbn", "gaussian"] {
+            ok(&[
+                cmd,
+                "--len",
+                "20000",
+                "--seed",
+                "4",
+                "--channels",
+                "2",
+                "--out",
+                &f,
+            ]);
+            let (_, cols) = read_csv(&f);
+            let g = p(&d, "one.csv");
+            ok(&[cmd, "--len", "20000", "--seed", "4", "--out", &g]);
+            assert_eq!(read_csv(&g).1[1], cols[1], "{cmd}");
+            let r = mean_product(&cols[1], &cols[2])
+                / (mean_product(&cols[1], &cols[1]) * mean_product(&cols[2], &cols[2])).sqrt();
+            assert!(r.abs() < 5.0 / 20000f64.sqrt(), "{cmd}: {r}");
+            assert_ne!(cols[1], cols[2]);
+        }
+        let e = fails(
+            &[
+                "rbs",
+                "--len",
+                "10",
+                "--inputs",
+                "a,b",
+                "--channels",
+                "3",
+                "--out",
+                &f,
+            ],
+            2,
+        );
+        assert!(e.contains("--channels 3") && e.contains("2 names"), "{e}");
+        let e = fails(&["rbs", "--len", "10", "--inputs", "a,a", "--out", &f], 2);
+        assert!(e.contains("named twice"), "{e}");
+        let e = fails(
+            &[
+                "multisine",
+                "--len",
+                "64",
+                "--period",
+                "8",
+                "--channels",
+                "5",
+                "--out",
+                &f,
+            ],
+            2,
+        );
+        assert!(e.contains("harmonics"), "{e}");
+    }
+}
+
+/// The smaller faults of issue 30, one test each.
+mod faults {
+    use super::*;
+
+    #[test]
+    fn refine_iterations_zero_names_the_option() {
+        let d = tmp("refine-zero");
+        let (id, _) = single_rate_data(&d);
+        let e = fails(
+            &[
+                "identify",
+                "--method",
+                "n4sid",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order",
+                "2",
+                "--refine",
+                "pem",
+                "--refine-iterations",
+                "0",
+                "--out",
+                &p(&d, "m.json"),
+            ],
+            2,
+        );
+        assert!(
+            e.contains("--refine-iterations") && !e.contains("PemOptions"),
+            "{e}"
+        );
+    }
+
+    /// A 2-output model y = (x, 2x), x(k+1) = 0.9x + 0.1u, T = 1 s.
+    fn two_outputs() -> StateSpace {
+        StateSpace::new(
+            DMatrix::from_element(1, 1, 0.9),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::from_row_slice(2, 1, &[1.0, 2.0]),
+            DMatrix::zeros(2, 1),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn mpc_names_plant_and_model_dimensions() {
+        let d = tmp("mpc-dims");
+        let m = p(&d, "m.json");
+        ModelFile::new(two_outputs()).write(&m).unwrap();
+        let plant = p(&d, "plant.json");
+        let one = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.9),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        ModelFile::new(one).write(&plant).unwrap();
+        let e = fails(
+            &[
+                "mpc",
+                "--model",
+                &m,
+                "--plant",
+                &plant,
+                "--setpoint",
+                "y1=1",
+                "--out",
+                &p(&d, "o.csv"),
+            ],
+            2,
+        );
+        assert!(
+            e.contains("1 output and 1 input") && e.contains("2 outputs and 1 input"),
+            "{e}"
+        );
+        assert!(!e.contains("controller"), "{e}");
+    }
+
+    #[test]
+    fn mpc_applies_the_operating_point() {
+        let d = tmp("mpc-op");
+        let plain = p(&d, "plain.json");
+        let lag = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.9),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        ModelFile::new(lag.clone()).write(&plain).unwrap();
+        let shifted = p(&d, "op.json");
+        ModelFile::new(lag)
+            .with_operating_point(lifted_lti::OperatingPoint::new(vec![1.0], vec![5.0]).unwrap())
+            .unwrap()
+            .write(&shifted)
+            .unwrap();
+        let (a, b) = (p(&d, "a.csv"), p(&d, "b.csv"));
+        // deviations: a step of +1 from y0 = 5 is the step to 1 without one
+        ok(&[
+            "mpc",
+            "--model",
+            &plain,
+            "--setpoint",
+            "y1=1",
+            "--steps",
+            "60",
+            "--out",
+            &a,
+        ]);
+        ok(&[
+            "mpc",
+            "--model",
+            &shifted,
+            "--setpoint",
+            "y1=6",
+            "--steps",
+            "60",
+            "--out",
+            &b,
+        ]);
+        let (ha, ca) = read_csv(&a);
+        let (hb, cb) = read_csv(&b);
+        assert_eq!(ha, hb);
+        let col = |h: &[String], n: &str| h.iter().position(|x| x == n).unwrap();
+        for (name, offset) in [("y1", 5.0), ("r_y1", 5.0), ("u1", 1.0)] {
+            let (ia, ib) = (col(&ha, name), col(&hb, name));
+            for (x, y) in ca[ia].iter().zip(&cb[ib]) {
+                // the same loop in deviations; only the offset's rounding differs
+                assert!((y - x - offset).abs() < 1e-9, "{name}: {x} vs {y}");
+            }
+        }
+        // plant values: the run starts at the operating point, settles at 6
+        let y = &cb[col(&hb, "y1")];
+        assert!(
+            (y[0] - 5.0).abs() < 1e-12 && (y[59] - 6.0).abs() < 1e-3,
+            "{y:?}"
+        );
+        // limits are plant values too: u ≤ 1.5 binds (u0 = 1, the steady
+        // deviation needed is 1)
+        let c = p(&d, "c.csv");
+        ok(&[
+            "mpc",
+            "--model",
+            &shifted,
+            "--setpoint",
+            "y1=6",
+            "--steps",
+            "60",
+            "--u-max",
+            "1.5",
+            "--out",
+            &c,
+        ]);
+        let (hc, cc) = read_csv(&c);
+        let u = &cc[col(&hc, "u1")];
+        assert!(u.iter().all(|v| *v <= 1.5 + 1e-6), "{u:?}");
+        assert!((u[59] - 1.5).abs() < 1e-6, "{u:?}");
+    }
+
+    #[test]
+    fn convert_keeps_the_operating_point_and_prints_pole_and_gain() {
+        let d = tmp("convert-op");
+        // the README's plant 2/(10 s + 1) at T = 1 s, identified with offsets
+        let cont = StateSpace::new(
+            DMatrix::from_element(1, 1, -0.1),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 0.2),
+            DMatrix::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let disc = cont.c2d(1.0, &lifted_lti::C2dOptions::default()).unwrap();
+        let m = p(&d, "m.json");
+        ModelFile::new(disc)
+            .with_method("n4sid")
+            .with_diagnostics(serde_json::json!({"horizons": [10], "samples": 500}))
+            .with_operating_point(lifted_lti::OperatingPoint::new(vec![0.5], vec![3.0]).unwrap())
+            .unwrap()
+            .with_kalman_gain(&DMatrix::from_element(1, 1, 0.3))
+            .unwrap()
+            .write(&m)
+            .unwrap();
+        let out = p(&d, "c.json");
+        let s = ok(&[
+            "convert",
+            "--model",
+            &m,
+            "--to",
+            "continuous",
+            "--out",
+            &out,
+        ]);
+        assert!(s.contains("poles: -0.100000"), "{s}");
+        assert!(s.contains("DC gain: y1/u1 2.000000"), "{s}");
+        assert!(
+            s.contains("operating point: u0 = [0.500000], y0 = [3.000000]"),
+            "{s}"
+        );
+        assert!(!s.trim_start().starts_with('{'), "{s}");
+        let c = ModelFile::read(&out).unwrap();
+        assert_eq!(c.model.ts(), None);
+        let op = c.operating_point.unwrap();
+        assert_eq!((op.u0, op.y0), (vec![0.5], vec![3.0]));
+        assert!(
+            c.kalman_gain.is_none(),
+            "the Kalman gain is discrete-time only"
+        );
+        assert!(c.diagnostics.get("horizons").is_none(), "{}", c.diagnostics);
+        assert_eq!(c.diagnostics["converted_from"]["ts"], 1.0);
+        assert_eq!(c.method.as_deref(), Some("n4sid"));
+        // --json prints the model file
+        let j = ok(&["convert", "--model", &m, "--to", "continuous", "--json"]);
+        assert!(ModelFile::from_json(&j).is_ok(), "{j}");
+    }
+
+    #[test]
+    fn memory_limit_overrides_the_environment() {
+        let d = tmp("memory-limit");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "m.json");
+        let args = [
+            "identify",
+            "--method",
+            "n4sid",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--horizon",
+            "10",
+            "--out",
+            &out,
+        ];
+        let run = |env: Option<&str>, extra: &[&str]| {
+            let mut c = Command::new(env!("CARGO_BIN_EXE_lifted"));
+            c.args(args).args(extra);
+            if let Some(v) = env {
+                c.env("LIFTED_MEMORY_LIMIT", v);
+            }
+            c.output().unwrap()
+        };
+        let tiny = run(None, &["--memory-limit", "2K"]);
+        let e = String::from_utf8_lossy(&tiny.stderr);
+        assert_eq!(tiny.status.code(), Some(2), "{e}");
+        assert!(e.contains("needs") && e.contains("2048 bytes"), "{e}");
+        // the flag wins over a tiny environment budget
+        let ok_run = run(Some("1000"), &["--memory-limit", "1G"]);
+        assert!(
+            ok_run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ok_run.stderr)
+        );
+        assert_eq!(run(Some("1000"), &[]).status.code(), Some(2));
+        let bad = fails(&[&args[..], &["--memory-limit", "4X"]].concat(), 2);
+        assert!(
+            bad.contains("--memory-limit") && bad.contains("unit"),
+            "{bad}"
+        );
+    }
+
+    #[test]
+    fn memory_limit_units() {
+        use lifted_cli::args::parse_memory_limit;
+        assert_eq!(parse_memory_limit("4G"), Ok(4 << 30));
+        assert_eq!(parse_memory_limit("512M"), Ok(512 << 20));
+        assert_eq!(parse_memory_limit("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_memory_limit("2GB"), Ok(2_000_000_000));
+        assert_eq!(parse_memory_limit("1000"), Ok(1000));
+        assert!(parse_memory_limit("0").is_err());
+        assert!(parse_memory_limit("-1G").is_err());
+        assert!(parse_memory_limit("1e30").is_err());
+        assert!(parse_memory_limit("99999999999T").is_err());
     }
 }

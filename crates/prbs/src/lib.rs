@@ -85,7 +85,7 @@ pub use mseq::{
 pub use plan::{ChannelScheme, ExperimentPlan, PlanOptions, Segment};
 pub use random::{
     GaussianOptions, GbnOptions, MultisineOptions, RandomBinaryOptions, gaussian_white,
-    generalized_binary_noise, multisine, random_binary,
+    generalized_binary_noise, multisine, multisine_harmonics, random_binary,
 };
 pub use vectorized::{
     VectorizedExcitation, VectorizedOptions, lifted_covariance, vectorized_excitation,

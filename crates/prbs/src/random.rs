@@ -229,14 +229,67 @@ pub fn multisine(len: usize, options: &MultisineOptions) -> Result<Vec<f64>> {
             period: p,
         });
     }
-    let k = (last - first + 1) as f64;
-    let c = options.amplitude * (2.0 / k).sqrt();
+    let harmonics: Vec<usize> = (first..=last).collect();
+    Ok(schroeder(len, options.amplitude, p, &harmonics))
+}
+
+/// Schroeder-phased multisine of `len` samples on an explicit set of
+/// harmonics `h_1 < … < h_K` of the period `P`, RMS value `amplitude`:
+/// `u(k) = a √(2/K) Σ_j cos(2π h_j k / P − π j (j − 1) / K)`. Multisine
+/// channels on disjoint harmonic sets (e.g. the "zippered" sets
+/// `{first + l, first + l + m, …}` of channel `l` out of `m`) are orthogonal
+/// over every whole period: their cross-correlation is zero at every lag.
+/// With `first..=last` it is [`multisine`]. O(len · K) (one period computed,
+/// then repeated).
+///
+/// # Errors
+/// [`Error::ZeroLength`], [`Error::InvalidAmplitude`],
+/// [`Error::InvalidHarmonics`] (empty set, not strictly increasing, a
+/// harmonic 0 or at or above `P/2`).
+///
+/// ```
+/// use lifted_prbs::multisine_harmonics;
+/// let a = multisine_harmonics(64, 1.0, 64, &[1, 3, 5])?;
+/// let b = multisine_harmonics(64, 1.0, 64, &[2, 4, 6])?;
+/// let cross: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+/// assert!(cross.abs() < 1e-12);
+/// # Ok::<(), lifted_prbs::Error>(())
+/// ```
+pub fn multisine_harmonics(
+    len: usize,
+    amplitude: f64,
+    period: usize,
+    harmonics: &[usize],
+) -> Result<Vec<f64>> {
+    check_len(len)?;
+    check_amplitude(amplitude)?;
+    let first = harmonics.first().copied().unwrap_or(0);
+    let last = harmonics.last().copied().unwrap_or(0);
+    if harmonics.is_empty()
+        || first == 0
+        || 2 * last >= period
+        || harmonics.windows(2).any(|w| w[1] <= w[0])
+    {
+        return Err(Error::InvalidHarmonics {
+            first,
+            last,
+            period,
+        });
+    }
+    Ok(schroeder(len, amplitude, period, harmonics))
+}
+
+/// The multisine of [`multisine_harmonics`] on validated harmonics.
+fn schroeder(len: usize, amplitude: f64, p: usize, harmonics: &[usize]) -> Vec<f64> {
+    let k = harmonics.len() as f64;
+    let c = amplitude * (2.0 / k).sqrt();
     let pi = std::f64::consts::PI;
     let one: Vec<f64> = (0..p)
         .map(|t| {
-            (first..=last)
+            harmonics
+                .iter()
                 .enumerate()
-                .map(|(j, h)| {
+                .map(|(j, &h)| {
                     let j = (j + 1) as f64;
                     let phase = -pi * j * (j - 1.0) / k;
                     // Reduce h·t mod P first so the argument stays exact.
@@ -247,7 +300,7 @@ pub fn multisine(len: usize, options: &MultisineOptions) -> Result<Vec<f64>> {
                 * c
         })
         .collect();
-    Ok((0..len).map(|t| one[t % p]).collect())
+    (0..len).map(|t| one[t % p]).collect()
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! service layer of the library ([`lifted_cli::service`]) and prints or
 //! writes the result. No handler calls another handler.
 
+pub mod analyze;
 pub mod closedloop;
 pub mod delay;
 pub mod identify;

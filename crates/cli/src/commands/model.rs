@@ -11,9 +11,11 @@ use nalgebra::DMatrix;
 use crate::args::{
     BodeArgs, ConvertArgs, ConvertTo, FeedbackArg, SimulateArgs, SnrSamplesArg, StepArgs,
 };
+use crate::commands::analyze::num;
 use crate::error::{CliResult, Context, input};
 use crate::plot::{Plot, Series, svg};
 use crate::table::{names, parse_name_counts, parse_periods, read_raw, write_columns};
+use lifted_cli::service::analysis::check_omega;
 use lifted_cli::service::figures::{bode_grid, bode_plots, stack_svgs, step_data};
 use lifted_cli::service::models::{channel_names, read_model, write_model};
 
@@ -30,11 +32,68 @@ fn keep_names(from: &StateSpace, to: StateSpace) -> StateSpace {
     }
 }
 
+/// Prints a model: time domain, poles, DC gain, operating point and the
+/// matrices (what `convert` promises instead of raw JSON).
+fn print_summary(title: &str, file: &ModelFile) {
+    let m = &file.model;
+    let (un, yn) = channel_names(m);
+    let time = match m.ts() {
+        Some(t) => format!("discrete, T = {t} s"),
+        None => "continuous".to_string(),
+    };
+    println!(
+        "{title}: {time}, order {}, inputs {}, outputs {}",
+        m.order(),
+        un.join(", "),
+        yn.join(", ")
+    );
+    match m.poles() {
+        Ok(p) => println!(
+            "poles: {}",
+            p.iter()
+                .map(|z| lifted_cli::service::analysis::show_complex(*z))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        Err(e) => println!("poles: not computed ({e})"),
+    }
+    match m.dc_gain() {
+        Ok(g) => {
+            for (i, y) in yn.iter().enumerate() {
+                let row: Vec<String> = (0..m.n_inputs())
+                    .map(|j| format!("{}/{} {}", y, un[j], num(g[(i, j)])))
+                    .collect();
+                println!("DC gain: {}", row.join(", "));
+            }
+        }
+        Err(e) => println!("DC gain: {e}"),
+    }
+    if let Some(op) = &file.operating_point {
+        let list = |v: &[f64]| v.iter().map(|x| num(*x)).collect::<Vec<_>>().join(", ");
+        println!(
+            "operating point: u0 = [{}], y0 = [{}]",
+            list(&op.u0),
+            list(&op.y0)
+        );
+    }
+    for (name, mat) in [("A", m.a()), ("B", m.b()), ("C", m.c()), ("D", m.d())] {
+        println!("{name} =");
+        for r in 0..mat.nrows() {
+            let row: Vec<String> = mat
+                .row(r)
+                .iter()
+                .map(|v| format!("{:>14}", num(*v)))
+                .collect();
+            println!("  {}", row.join(" "));
+        }
+    }
+}
+
 /// `lifted convert`.
 pub fn convert(a: &ConvertArgs) -> CliResult<()> {
     let file = read_model(&a.model)?;
     let m = &file.model;
-    let converted = match a.to {
+    let (converted, how) = match a.to {
         ConvertTo::Tf => {
             let tf = m.to_tf(&MinrealOptions::default()).ctx("convert to tf")?;
             let text = format!("{tf}");
@@ -44,27 +103,57 @@ pub fn convert(a: &ConvertArgs) -> CliResult<()> {
             }
             return Ok(());
         }
-        ConvertTo::Ss => m.clone(),
-        ConvertTo::Continuous => keep_names(m, m.d2c().ctx("convert to continuous (d2c)")?),
+        ConvertTo::Ss => (None, "state space"),
+        ConvertTo::Continuous => (
+            Some(keep_names(m, m.d2c().ctx("convert to continuous (d2c)")?)),
+            "continuous model by inverse ZOH (d2c)",
+        ),
         ConvertTo::Discrete => {
             let ts = a.ts.ok_or_else(|| {
                 input("convert --to discrete needs --ts T (sample period in seconds)")
             })?;
-            keep_names(
-                m,
-                m.c2d(ts, &C2dOptions::default())
-                    .ctx("convert to discrete (c2d, ZOH)")?,
+            (
+                Some(keep_names(
+                    m,
+                    m.c2d(ts, &C2dOptions::default())
+                        .ctx("convert to discrete (c2d, ZOH)")?,
+                )),
+                "discrete model by ZOH (c2d)",
             )
         }
     };
-    let mut out = ModelFile::new(converted).with_diagnostics(file.diagnostics.clone());
-    out.method = file.method.clone();
-    match &a.out {
-        Some(p) => {
-            write_model(&out, p)?;
-            println!("wrote {p}");
+    let out = match converted {
+        None => file.clone(),
+        Some(model) => {
+            // The operating point is a steady state (u₀, y₀): the same for
+            // the ZOH equivalents. The Kalman gain and the identification's
+            // diagnostics (singular values, horizons, fits of the sampled
+            // model) belong to the source's sample period: they are not
+            // carried over; the diagnostics say where the model came from.
+            let mut out = ModelFile::new(model).with_diagnostics(serde_json::json!({
+                "converted_from": {
+                    "file": a.model,
+                    "ts": m.ts(),
+                    "conversion": how,
+                }
+            }));
+            out.method = file.method.clone();
+            if let Some(op) = &file.operating_point {
+                out = out
+                    .with_operating_point(op.clone())
+                    .ctx("operating point")?;
+            }
+            out
         }
-        None => println!("{}", out.to_json().map_err(|e| input(e.to_string()))?),
+    };
+    if a.json {
+        println!("{}", out.to_json().map_err(|e| input(e.to_string()))?);
+    } else {
+        print_summary(how, &out);
+    }
+    if let Some(p) = &a.out {
+        write_model(&out, p)?;
+        println!("wrote {p}");
     }
     Ok(())
 }
@@ -87,39 +176,143 @@ fn out_kind(path: &str) -> CliResult<OutKind> {
     }
 }
 
+/// The frequencies of `--omega` or `--omega-file` (rad/s), `None` for the grid.
+fn given_omega(a: &BodeArgs) -> CliResult<Option<Vec<f64>>> {
+    if !a.omega.is_empty() {
+        return Ok(Some(a.omega.clone()));
+    }
+    let Some(path) = &a.omega_file else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(path).ctx(format!("cannot read {path}"))?;
+    let mut omega = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let cell = line.split(',').next().unwrap_or("").trim();
+        if cell.is_empty() {
+            continue;
+        }
+        match cell.parse::<f64>() {
+            Ok(w) => omega.push(w),
+            // the first line may be a header
+            Err(_) if i == 0 => {}
+            Err(_) => {
+                return Err(input(format!(
+                    "{path}: line {}: cannot parse '{}' as a frequency",
+                    i + 1,
+                    lifted_cli::shown::shown(cell)
+                )));
+            }
+        }
+    }
+    if omega.is_empty() {
+        return Err(input(format!("{path}: no frequency in the first column")));
+    }
+    Ok(Some(omega))
+}
+
 /// `lifted bode`.
 pub fn bode(a: &BodeArgs) -> CliResult<()> {
-    let kind = out_kind(&a.out)?;
+    let kind = a.out.as_deref().map(out_kind).transpose()?;
     let m = read_model(&a.model)?.model;
-    let omega = bode_grid(&m, a.wmin, a.wmax, a.points)?;
-    match kind {
-        OutKind::Csv => {
-            let b = m.bode(&omega).ctx("bode")?;
-            let (un, yn) = channel_names(&m);
+    let given = given_omega(a)?;
+    if given.is_none() && kind.is_none() {
+        return Err(input(
+            "bode: give --out f.csv|f.svg, or the frequencies to print (--omega 0.1,1,10 or --omega-file f.csv)",
+        ));
+    }
+    let omega = match given {
+        Some(w) => {
+            check_omega(&m, &w)?;
+            lifted_linalg::budget::MemoryBudget::default()
+                .check(
+                    "the frequency response (--omega)",
+                    lifted_linalg::budget::Size::matrices(
+                        3 * w.len(),
+                        m.n_outputs().max(1),
+                        m.n_inputs().max(1),
+                    ),
+                )
+                .ctx("bode")?;
+            w
+        }
+        None => bode_grid(&m, a.wmin, a.wmax, a.points)?,
+    };
+    let b = m.bode(&omega).ctx("bode")?;
+    let (un, yn) = channel_names(&m);
+    let db = |g: f64| 20.0 * g.max(1e-300).log10();
+    match (&a.out, kind) {
+        (Some(out), Some(OutKind::Csv)) => {
             let mut header = vec!["omega".to_string()];
             let mut cols = vec![b.omega.clone()];
             for i in 0..m.n_outputs() {
                 for j in 0..m.n_inputs() {
                     header.push(format!("mag_db_{}_{}", yn[i], un[j]));
-                    cols.push(
-                        b.magnitude
-                            .iter()
-                            .map(|g| 20.0 * g[(i, j)].max(1e-300).log10())
-                            .collect(),
-                    );
+                    cols.push(b.magnitude.iter().map(|g| db(g[(i, j)])).collect());
                     header.push(format!("phase_deg_{}_{}", yn[i], un[j]));
                     cols.push(b.phase_deg.iter().map(|g| g[(i, j)]).collect());
                 }
             }
-            write_columns(&a.out, &header, &cols)?;
+            write_columns(out, &header, &cols)?;
+            println!("wrote {out}");
         }
-        OutKind::Svg => {
+        (Some(out), _) => {
             let (mag, ph) = bode_plots(&m, &omega)?;
             let doc = stack_svgs(&svg(&mag, 720, 320)?, &svg(&ph, 720, 320)?, 720, 320);
-            std::fs::write(&a.out, doc).ctx(format!("cannot write {}", a.out))?;
+            std::fs::write(out, doc).ctx(format!("cannot write {out}"))?;
+            println!("wrote {out}");
+        }
+        (None, _) => {}
+    }
+    if a.out.is_some() && !a.json {
+        return Ok(());
+    }
+    if a.json {
+        let pairs: Vec<serde_json::Value> = (0..m.n_outputs())
+            .flat_map(|i| (0..m.n_inputs()).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                serde_json::json!({
+                    "output": yn[i],
+                    "input": un[j],
+                    "magnitude": b.magnitude.iter().map(|g| g[(i, j)]).collect::<Vec<_>>(),
+                    "magnitude_db": b.magnitude.iter().map(|g| db(g[(i, j)])).collect::<Vec<_>>(),
+                    "phase_deg": b.phase_deg.iter().map(|g| g[(i, j)]).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        let v = serde_json::json!({"ts": m.ts(), "omega": b.omega, "pairs": pairs});
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).ctx("JSON of the response")?
+        );
+        return Ok(());
+    }
+    print!("{:>14}", "omega [rad/s]");
+    for y in &yn {
+        for u in &un {
+            print!(
+                " {:>14} {:>14} {:>14}",
+                format!("|G| {y}/{u}"),
+                "dB",
+                "phase [deg]"
+            );
         }
     }
-    println!("wrote {}", a.out);
+    println!();
+    for (k, w) in b.omega.iter().enumerate() {
+        print!("{:>14}", num(*w));
+        for i in 0..m.n_outputs() {
+            for j in 0..m.n_inputs() {
+                let g = b.magnitude[k][(i, j)];
+                print!(
+                    " {:>14} {:>14} {:>14}",
+                    num(g),
+                    num(db(g)),
+                    num(b.phase_deg[k][(i, j)])
+                );
+            }
+        }
+        println!();
+    }
     Ok(())
 }
 

@@ -5,12 +5,15 @@
 //! sampled every n fast samples) or as the slow single-rate MPC on the
 //! hold model at nT; simulate it against a plant model (default: the model)
 //! and write the trajectories (CSV), an SVG plot and the performance table.
+//! The model maps deviations from its operating point (u₀, y₀) (the model
+//! file's, else the plant file's): the loop runs in deviations, set-points,
+//! limits and the written trajectories are plant values.
 //!
 //! Cost: design O((h·p)(m·n_u)² + (m·n_u)³); each of the K steps an
 //! unconstrained update O(h·p·m·n_u) or one dense QP with m·n_u variables
 //! (clarabel) when a limit is active; the plant O(K·order²).
 
-use lifted_lti::StateSpace;
+use lifted_lti::{OperatingPoint, StateSpace};
 use lifted_mpc::{
     Constraints, Controller, Dmc, LoopResult, LoopSetup, MpcOptions, SlowRate, StateSpaceMpc,
     hold_model, simulate,
@@ -68,9 +71,11 @@ fn periods(a: &MpcArgs, outputs: &[String]) -> CliResult<Vec<usize>> {
     Ok(per)
 }
 
-/// The set-point trajectory: `--reference` CSV (one column per output name)
-/// or steps of `--setpoint NAME=VALUE` at `--step-at` held for `--steps`.
-fn reference(a: &MpcArgs, outputs: &[String]) -> CliResult<DMatrix<f64>> {
+/// The set-point trajectory in plant units: `--reference` CSV (one column
+/// per output name) or steps of `--setpoint NAME=VALUE` at `--step-at` held
+/// for `--steps`; an output without a step stays at its operating value
+/// `y0` (0 without an operating point).
+fn reference(a: &MpcArgs, outputs: &[String], y0: &[f64]) -> CliResult<DMatrix<f64>> {
     if let Some(path) = &a.reference {
         if !a.setpoint.is_empty() {
             return Err(input("give --setpoint or --reference, not both"));
@@ -101,7 +106,7 @@ fn reference(a: &MpcArgs, outputs: &[String]) -> CliResult<DMatrix<f64>> {
             lifted_linalg::budget::Size::matrices(8, a.steps, outputs.len().max(1)),
         )
         .ctx("--steps")?;
-    let mut r = DMatrix::zeros(a.steps, outputs.len());
+    let mut r = DMatrix::from_fn(a.steps, outputs.len(), |_, q| y0[q]);
     for spec in a.setpoint.iter().flat_map(|s| s.split(',')) {
         let spec = spec.trim();
         if spec.is_empty() {
@@ -138,20 +143,29 @@ fn reference(a: &MpcArgs, outputs: &[String]) -> CliResult<DMatrix<f64>> {
     Ok(r)
 }
 
-/// The controller the options describe, designed on `model`.
-fn design(a: &MpcArgs, model: &StateSpace) -> CliResult<Box<dyn Controller>> {
+/// The controller the options describe, designed on `model`, whose
+/// variables are deviations from the operating point `(u0, y0)`: the limits,
+/// given in plant units, are shifted by it (the move limit is not).
+fn design(
+    a: &MpcArgs,
+    model: &StateSpace,
+    (u0, y0): (&[f64], &[f64]),
+) -> CliResult<Box<dyn Controller>> {
     let (m, p) = (model.n_inputs(), model.n_outputs());
+    let shifted = |v: Option<DVector<f64>>, by: &[f64]| {
+        v.map(|v| DVector::from_fn(v.len(), |i, _| v[i] - by[i]))
+    };
     let opts = MpcOptions {
         prediction_horizon: a.horizon,
         control_horizon: a.control_horizon,
         output_weight: weight("--output-weight", &a.output_weight, p, "outputs")?,
         move_weight: weight("--move-weight", &a.move_weight, m, "inputs")?,
         constraints: Constraints {
-            u_min: per_channel("--u-min", &a.u_min, m, "inputs")?,
-            u_max: per_channel("--u-max", &a.u_max, m, "inputs")?,
+            u_min: shifted(per_channel("--u-min", &a.u_min, m, "inputs")?, u0),
+            u_max: shifted(per_channel("--u-max", &a.u_max, m, "inputs")?, u0),
             du_max: per_channel("--du-max", &a.du_max, m, "inputs")?,
-            y_min: per_channel("--y-min", &a.y_min, p, "outputs")?,
-            y_max: per_channel("--y-max", &a.y_max, p, "outputs")?,
+            y_min: shifted(per_channel("--y-min", &a.y_min, p, "outputs")?, y0),
+            y_max: shifted(per_channel("--y-max", &a.y_max, p, "outputs")?, y0),
         },
     };
     // --slow n: the law is designed on the hold model at nT and updated every n samples.
@@ -211,18 +225,71 @@ fn plot(run: &LoopResult, r: &DMatrix<f64>, ts: f64, names: (&[String], &[String
     }
 }
 
+/// "2 outputs and 1 input" for messages.
+fn shape(m: &StateSpace) -> String {
+    let plural = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
+    format!(
+        "{} and {}",
+        plural(m.n_outputs(), "output"),
+        plural(m.n_inputs(), "input")
+    )
+}
+
+/// The plant the loop is simulated with (default: the model), checked
+/// against the model: same channels and sample period, and an operating
+/// point, if it has one, equal to the model's. Returns the plant and the
+/// operating point of the run: the model file's, else the plant file's.
+fn plant_and_operating_point(
+    a: &MpcArgs,
+    model: &StateSpace,
+    model_op: Option<OperatingPoint>,
+) -> CliResult<(StateSpace, Option<OperatingPoint>)> {
+    let Some(path) = &a.plant else {
+        return Ok((model.clone(), model_op));
+    };
+    let file = read_model(path)?;
+    let plant = file.model;
+    if plant.n_outputs() != model.n_outputs() || plant.n_inputs() != model.n_inputs() {
+        return Err(input(format!(
+            "--plant {path} has {}, the model {} has {}: the plant must have the model's inputs and outputs",
+            shape(&plant),
+            a.model,
+            shape(model)
+        )));
+    }
+    if plant.ts() != model.ts() {
+        return Err(input(format!(
+            "--plant {path}: sample period {:?} differs from the model's {:?} (None = continuous;              discretise it with lifted convert --to discrete --ts T)",
+            plant.ts(),
+            model.ts()
+        )));
+    }
+    match (model_op, file.operating_point) {
+        (Some(m), Some(p)) if m != p => Err(input(format!(
+            "--plant {path}: its operating point (u0 {:?}, y0 {:?}) differs from the model's              (u0 {:?}, y0 {:?}); the loop is simulated in deviations from one operating point",
+            p.u0, p.y0, m.u0, m.y0
+        ))),
+        (m, p) => Ok((plant, m.or(p))),
+    }
+}
+
 /// `lifted mpc`.
 pub fn mpc_cmd(a: &MpcArgs) -> CliResult<()> {
-    let model = read_model(&a.model)?.model;
+    let file = read_model(&a.model)?;
+    let model = file.model;
     let ts = model.ts().ok_or_else(|| {
         input(format!(
             "{}: the model is continuous; MPC needs a discrete model (lifted convert --to discrete --ts T)",
             a.model
         ))
     })?;
-    let plant = match &a.plant {
-        Some(p) => read_model(p)?.model,
-        None => model.clone(),
+    let (plant, op) = plant_and_operating_point(a, &model, file.operating_point)?;
+    // The model maps u − u0 to y − y0: the controller and the loop run in
+    // these deviations; set-points, limits and the written trajectories are
+    // plant values.
+    let (u0, y0) = match &op {
+        Some(op) => (op.u0.clone(), op.y0.clone()),
+        None => (vec![0.0; model.n_inputs()], vec![0.0; model.n_outputs()]),
     };
     let (inputs, outputs) = channel_names(&model);
     let per = periods(a, &outputs)?;
@@ -233,10 +300,17 @@ pub fn mpc_cmd(a: &MpcArgs) -> CliResult<()> {
             "--slow {n} runs the single-rate MPC at nT on every output; drop --output-period"
         )));
     }
-    let r = reference(a, &outputs)?;
-    let mut controller = design(a, &model)?;
-    let setup = LoopSetup::new(r.clone(), per.clone());
-    let run = simulate(&plant, controller.as_mut(), &setup).ctx("closed-loop simulation")?;
+    let r = reference(a, &outputs, &y0)?;
+    let mut controller = design(a, &model, (&u0, &y0))?;
+    let r_dev = DMatrix::from_fn(r.nrows(), r.ncols(), |t, q| r[(t, q)] - y0[q]);
+    let setup = LoopSetup::new(r_dev, per.clone());
+    let mut run = simulate(&plant, controller.as_mut(), &setup).ctx("closed-loop simulation")?;
+    for (q, v) in y0.iter().enumerate() {
+        run.y.column_mut(q).add_scalar_mut(*v);
+    }
+    for (j, v) in u0.iter().enumerate() {
+        run.u.column_mut(j).add_scalar_mut(*v);
+    }
 
     let mut header = vec!["t".to_string()];
     let mut cols = vec![(0..r.nrows()).map(|k| k as f64 * ts).collect::<Vec<_>>()];
@@ -278,6 +352,7 @@ pub fn mpc_cmd(a: &MpcArgs) -> CliResult<()> {
                 "settling_time": perf.settling_time[q],
             })).collect::<Vec<_>>(),
             "input_energy": perf.input_energy,
+            "operating_point": op.as_ref().map(|o| json!({"u0": o.u0, "y0": o.y0})),
             "out": a.out,
         });
         println!(
@@ -300,6 +375,11 @@ pub fn mpc_cmd(a: &MpcArgs) -> CliResult<()> {
             perf.settling_time[q].map_or("not settled".to_string(), |k| k.to_string())
         );
     }
-    println!("input energy {:.6}; wrote {}", perf.input_energy, a.out);
+    println!(
+        "input energy {:.6}{}; wrote {}",
+        perf.input_energy,
+        if op.is_some() { " (of u − u0)" } else { "" },
+        a.out
+    );
     Ok(())
 }

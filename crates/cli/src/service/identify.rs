@@ -302,6 +302,11 @@ fn criterion_json(r: &OrderReport) -> serde_json::Value {
 /// Runs the identification and returns the model file (not yet written).
 pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
     let order = parse_order(&a.order, a.max_order)?;
+    if a.refine != RefineArg::None && a.refine_iterations == 0 {
+        return Err(input(
+            "--refine-iterations 0: the refinement needs at least one iteration (or drop --refine)",
+        ));
+    }
     if a.method == MethodArg::Qmarkov {
         gap_only(a)?;
     }

@@ -1,6 +1,8 @@
 //! The service layer: load data → identify → validate → figures, shared by
-//! the command's handlers and the studio.
+//! the command's handlers and the studio; [`analysis`] gathers the model
+//! analyses (norms, LQR) of `lifted analyze` / `lifted lqr`.
 
+pub mod analysis;
 pub mod figures;
 pub mod identify;
 pub mod models;
