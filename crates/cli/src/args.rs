@@ -370,6 +370,10 @@ pub enum MethodArg {
     Cva,
     /// Instrumental-variable subspace (thesis ch. 7), open or closed loop.
     Iv,
+    /// Predictor-based subspace (PBSID-opt, Chiuso 2007): closed-loop data without an
+    /// instrument; --horizon sets the past horizon p (default: Akaike's choice up to 30),
+    /// the future horizon is min(p, 10).
+    Pbsid,
 }
 
 impl MethodArg {
@@ -381,6 +385,7 @@ impl MethodArg {
             MethodArg::Moesp => "moesp",
             MethodArg::Cva => "cva",
             MethodArg::Iv => "iv",
+            MethodArg::Pbsid => "pbsid",
         }
     }
 }

@@ -132,6 +132,7 @@ mod modal;
 mod oblique;
 mod order;
 mod pbsid;
+mod predictor_regress;
 mod projection;
 mod refine;
 mod regress;

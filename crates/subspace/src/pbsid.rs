@@ -66,8 +66,15 @@
 //!    innovation, then [A B K] from x̂(t+1) = A x̂(t) + B u(t) + K ê(t)
 //!    (equivalently [Ã B̃ K] on [x̂; u; y] and A = Ã + K C, B = B̃ + K D).
 //!    The innovation covariance is the residual covariance of the first
-//!    regression. x₀ per record is estimated afterwards by least squares
-//!    on the simulation error (as the engine's other routes).
+//!    regression.
+//! 5. **Predictor regression** ([`PbsidOptions::predictor_regression`],
+//!    default on): with (Ã, C) of step 4 fixed, (B̃, K, D, x₀) by the
+//!    linear least squares (8) of the one-step predictor on the records
+//!    (as PARSIM-K and SSARX finish), A = Ã + K C, B = B̃ + K D. Still
+//!    consistent in closed loop (the regressors are the past filtered by
+//!    Ã), and free of the truncation to p lags of the state estimate.
+//!    Without it, x₀ per record is estimated by least squares on the
+//!    simulation error (as the engine's other routes).
 //!
 //! In closed loop the default is a strictly proper model
 //! ([`crate::Feedthrough::Zero`], as MATLAB's `n4sid` with SSARX weighting
@@ -78,7 +85,8 @@
 //! Both variants are consistent under feedback; the optimised one has the
 //! smaller variance for long horizons (Chiuso 2007, §5) and is the default.
 //! Cost: the compression ≈ 2 N n_z² (p + f) flops, then O(f k³) for the
-//! regressions and the SVD (k = (p + f) n_z), independent of N.
+//! regressions and the SVD (k = (p + f) n_z), independent of N; step 5
+//! O(N (n_y q² + n³ n_z)) for q = n n_z + n_y n_u + n parameters.
 //!
 //! # References
 //!
@@ -92,6 +100,9 @@
 //!   overview", IET Control Theory & Applications 7 (2013) 1339–1358.
 //! * M. Jansson, "Subspace identification and ARX modeling", IFAC SYSID
 //!   2003 (SSARX, the same predictor idea with a CCA step).
+//! * S. J. Qin, W. Lin, L. Ljung, "A novel subspace identification approach
+//!   with enforced causal models", Automatica 41 (2005) 2043–2053
+//!   (PARSIM-K).
 
 use lifted_lti::{OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};
@@ -104,6 +115,7 @@ use crate::engine::{
 use crate::error::{Error, Result};
 use crate::hankel::{Compression, CompressionReport, HankelLayout, compress};
 use crate::order::{OrderCriterion, OrderReport, gap_values};
+use crate::predictor_regress::predictor_regression;
 use crate::regress::{Feedthrough, InitialState, Record, estimate_x0};
 
 /// How the product Γ_f K_p of step 2 is estimated (module docs).
@@ -156,6 +168,12 @@ pub struct PbsidOptions {
     /// Which entries of D are estimated. Default [`Feedthrough::Zero`]
     /// (closed loop: see the module docs).
     pub feedthrough: Feedthrough,
+    /// Step 5: re-estimate (B̃, K, D, x₀) by the predictor regression (8)
+    /// on the records for the (Ã, C) of step 4 (A = Ã + K C). Default true:
+    /// it uses the whole past instead of p lags (on the ball-and-beam
+    /// record it raised the order-2 validation fit from 68.7 % to 75.3 %);
+    /// skipped, with a note, when Ã is not stable.
+    pub predictor_regression: bool,
     /// Remove each channel's mean (over all records) first, returned as
     /// [`PbsidModel::operating_point`]. Default true.
     pub remove_means: bool,
@@ -181,6 +199,7 @@ impl Default for PbsidOptions {
             max_past: 30,
             future: 10,
             feedthrough: Feedthrough::Zero,
+            predictor_regression: true,
             remove_means: true,
             initial_state: InitialState::Estimate,
             ts: 1.0,
@@ -224,6 +243,9 @@ pub struct PbsidDiagnostics {
     /// Spectral radius of the predictor matrix Ã = A − K C; the neglected
     /// term of (2) is of relative size ρ(Ã)^p.
     pub predictor_spectral_radius: f64,
+    /// Whether (B, K, D, x₀) come from the predictor regression (8) (step
+    /// 5) rather than from the state-sequence regression (7).
+    pub predictor_regression: bool,
     /// Notes on the result (e.g. a past horizon short for ρ(Ã)), human
     /// readable; empty when none.
     pub notes: Vec<String>,
@@ -655,7 +677,6 @@ fn identify_as_given(
     let kg = kg / scale.y;
     let re = re * (scale.y * scale.y);
     let a_pred = &a - &kg * &c;
-    let rho = spectral_radius(&a)?;
     let rho_pred = spectral_radius(&a_pred)?;
     let mut notes = Vec::new();
     let truncation = rho_pred.powi(p as i32);
@@ -665,22 +686,41 @@ fn identify_as_given(
              (the neglected term of the state estimate); a longer past horizon reduces the bias"
         ));
     }
-    let x0 = match opts.initial_state {
-        InitialState::Estimate => {
-            let recs: Vec<Record<'_>> = experiments
-                .iter()
-                .map(|e| Record {
-                    u: e.u,
-                    y: e.y,
-                    instrument: None,
-                })
-                .collect();
-            // An unstable A: estimate_x0 reads the window where C Aᵗ
-            // has not yet grown past MAX_REGRESSOR_GROWTH.
-            estimate_x0(&a, &b, &c, &d, &recs)?
+    let recs: Vec<Record<'_>> = experiments
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: None,
+        })
+        .collect();
+    let mut step5 = false;
+    let (a, b, d, kg, re, x0) = if opts.predictor_regression && rho_pred < 1.0 {
+        // Step 5 (eq. 8); its x₀ is the predictor's, which also serves the
+        // simulation (the same state at t = 0).
+        let fit = predictor_regression(&a_pred, &c, &mask, &recs)?;
+        step5 = true;
+        let x0 = match opts.initial_state {
+            InitialState::Estimate => fit.x0,
+            InitialState::Zero => vec![DVector::zeros(n); records],
+        };
+        (fit.a, fit.b, fit.d, fit.k, fit.innovation_covariance, x0)
+    } else {
+        if opts.predictor_regression {
+            notes.push(format!(
+                "the predictor regression (step 5) was skipped: A − KC is not stable \
+                 (spectral radius {rho_pred:.4}); (B, K) from the state-sequence regression"
+            ));
         }
-        InitialState::Zero => vec![DVector::zeros(n); records],
+        let x0 = match opts.initial_state {
+            // An unstable A: estimate_x0 reads the window where C Aᵗ has
+            // not yet grown past MAX_REGRESSOR_GROWTH.
+            InitialState::Estimate => estimate_x0(&a, &b, &c, &d, &recs)?,
+            InitialState::Zero => vec![DVector::zeros(n); records],
+        };
+        (a, b, d, kg, re, x0)
     };
+    let rho = spectral_radius(&a)?;
     let model = StateSpace::new(a, b, c, d, Some(opts.ts))?;
     Ok(PbsidModel {
         model,
@@ -700,6 +740,7 @@ fn identify_as_given(
             compression: factor.report,
             spectral_radius: rho,
             predictor_spectral_radius: rho_pred,
+            predictor_regression: step5,
             notes,
         },
     })
