@@ -374,6 +374,9 @@ pub enum MethodArg {
     /// instrument; --horizon sets the past horizon p (default: Akaike's choice up to 30),
     /// the future horizon is min(p, 10).
     Pbsid,
+    /// SSARX (Jansson 2003), the predictor-based method with a canonical-correlation
+    /// step: closed-loop data without an instrument; horizons as pbsid.
+    Ssarx,
 }
 
 impl MethodArg {
@@ -386,6 +389,7 @@ impl MethodArg {
             MethodArg::Cva => "cva",
             MethodArg::Iv => "iv",
             MethodArg::Pbsid => "pbsid",
+            MethodArg::Ssarx => "ssarx",
         }
     }
 }

@@ -3009,9 +3009,10 @@ mod trust {
 mod pbsid {
     use super::*;
 
-    /// `--method pbsid` identifies the plant (PBSID on open-loop data is
-    /// consistent too; the closed-loop checks are in lifted-subspace),
-    /// names itself in the model file and rejects the options it lacks.
+    /// `--method pbsid` and `ssarx` identify the plant (both are
+    /// consistent on open-loop data too; the closed-loop checks are in
+    /// lifted-subspace), name themselves in the model file, and pbsid
+    /// rejects the options it lacks.
     #[test]
     fn pbsid_identifies_and_rejects_what_it_lacks() {
         let d = tmp("pbsid");
@@ -3045,5 +3046,15 @@ mod pbsid {
         let mut aic = base.to_vec();
         aic.extend(["--order-criterion", "aic"]);
         fails(&aic, 2);
+        // SSARX: the same route with the canonical-correlation step.
+        let out = p(&d, "ssarx.json");
+        let mut ssarx = base.to_vec();
+        ssarx[2] = "ssarx";
+        ssarx[12] = &out;
+        ok(&ssarx);
+        let f = check_model(&out, 0.02);
+        assert_eq!(f.method.as_deref(), Some("ssarx"));
+        let route = f.diagnostics["route"].as_str().unwrap_or_default();
+        assert!(route.contains("SSARX"), "{route}");
     }
 }

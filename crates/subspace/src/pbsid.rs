@@ -53,7 +53,15 @@
 //!    * [`PbsidVariant::RowWise`] (PBSID, Chiuso & Picci 2005): for each
 //!      future block j a separate regression of y(t+j) on Z_p(t) and the
 //!      data z(t) … z(t+j−1) (and u(t+j) when D is estimated), whose
-//!      coefficient on Z_p(t) is C Ã^j K_p (eq. 5, no truncation in j).
+//!      coefficient on Z_p(t) is C Ã^j K_p (eq. 5, no truncation in j);
+//!      or
+//!    * [`PbsidVariant::Ssarx`] (SSARX, Jansson 2003): the VARX Markov
+//!      parameters remove the future data's effect from the future
+//!      outputs, ỹ(t+j) = y(t+j) − Σ_{i<j} Φ̂_{j−i} z(t+i) − D̂ u(t+j)
+//!      ≈ C Ã^j x(t) + e(t+j) (eq. 5a), Γ̂K̂ is the regression of Ỹ_f on
+//!      Z_p, and step 3's SVD is weighted by W₁ = (Ỹ_f Ỹ_fᵀ)^{−1/2} (the
+//!      canonical correlations of Ỹ_f and Z_p; W₁ = R⁻ᵀ from the QR of
+//!      Ỹ_fᵀ).
 //! 3. **State sequence.** With Γ̂K̂ the f n_y × p n_z matrix of step 2, the
 //!    SVD Γ̂K̂ L_P = U Σ Wᵀ (L_P: the past rows of L, so that this is the
 //!    SVD of Γ̂K̂ Z_p/√J up to a right orthogonal factor) gives the order
@@ -128,6 +136,11 @@ pub enum PbsidVariant {
     /// PBSID (Chiuso & Picci 2005): one regression per future block row
     /// (eq. 5).
     RowWise,
+    /// SSARX (Jansson 2003): the future outputs less the effect of the
+    /// future data through the VARX Markov parameters, Ỹ_f = Y_f − Ĥ_f Z_f
+    /// (eq. 5a), regressed on Z_p, and the states from the canonical
+    /// correlations of Ỹ_f and Z_p (weight W₁ = (Ỹ_f Ỹ_fᵀ)^{−1/2}).
+    Ssarx,
 }
 
 impl PbsidVariant {
@@ -136,6 +149,7 @@ impl PbsidVariant {
         match self {
             PbsidVariant::Optimized => "PBSID-opt",
             PbsidVariant::RowWise => "PBSID",
+            PbsidVariant::Ssarx => "SSARX",
         }
     }
 }
@@ -496,14 +510,16 @@ fn choose_past(
     Ok((best, values))
 }
 
-/// Γ̂K̂ (f n_y × p n_z, columns z(t−p) … z(t−1)) of the chosen variant.
+/// Γ̂K̂ (f n_y × p n_z, columns z(t−p) … z(t−1)) of the chosen variant
+/// and, for SSARX, the lower-triangular Rᵀ whose inverse is the row weight
+/// W₁ of its SVD (the CCA weight; None = I).
 fn gamma_k(
     rows: &Rows<'_>,
     p: usize,
     f: usize,
     variant: PbsidVariant,
     mask: &DMatrix<bool>,
-) -> Result<DMatrix<f64>> {
+) -> Result<(DMatrix<f64>, Option<DMatrix<f64>>)> {
     let (ny, nz) = (rows.layout.ny, rows.layout.nu + rows.layout.ny);
     let zp = rows.z(-(p as isize), 0);
     let mut gk = DMatrix::zeros(f * ny, p * nz);
@@ -536,8 +552,34 @@ fn gamma_k(
                     .copy_from(&theta.columns(0, p * nz));
             }
         }
+        PbsidVariant::Ssarx => {
+            // Eq. (5a): ỹ(t+j) = y(t+j) − Σ_{i<j} Φ_{j−i} z(t+i) − D u(t+j)
+            // ≈ C Ã^j x(t) + e(t+j), with Φ_m the column block p − m of
+            // the VARX coefficients.
+            let (theta, d, _) = regress_masked(&rows.y(0), &zp, &rows.u(0), mask)?;
+            let k = rows.l.ncols();
+            let mut yt = DMatrix::zeros(f * ny, k);
+            for j in 0..f {
+                let jj = j as isize;
+                let mut block = rows.y(jj) - &d * rows.u(jj);
+                for i in 0..j {
+                    let m = j - i;
+                    let phi = theta.view((0, (p - m) * nz), (ny, nz)).into_owned();
+                    block -= phi * rows.z(i as isize, i as isize + 1);
+                }
+                yt.rows_mut(j * ny, ny).copy_from(&block);
+            }
+            let (beta, _) = regress(&yt, &zp)?;
+            gk.copy_from(&beta);
+            // W₁ = R⁻ᵀ with Ỹ_fᵀ = Q R (W₁ Ỹ_f Ỹ_fᵀ W₁ᵀ = I, the
+            // whitening of the canonical correlation analysis), applied
+            // by a solve with Rᵀ, never as an explicit inverse.
+            let r = lifted_linalg::qr_r(&yt.transpose())?;
+            let rt = r.rows(0, f * ny).transpose();
+            return Ok((gk, Some(rt)));
+        }
     }
-    Ok(gk)
+    Ok((gk, None))
 }
 
 fn identify_as_given(
@@ -550,10 +592,10 @@ fn identify_as_given(
     let nz = nu + ny;
     let f = opts.future;
     // The optimised variant reads z(t−p) … z(t) only (the VARX and the
-    // shifted state window), the row-wise one z(t−p) … z(t+f−1).
+    // shifted state window), the row-wise one and SSARX z(t−p) … z(t+f−1).
     let f_layout = match opts.variant {
         PbsidVariant::Optimized => 1,
-        PbsidVariant::RowWise => f,
+        PbsidVariant::RowWise | PbsidVariant::Ssarx => f,
     };
     let records = experiments.len();
     // Hankel columns a record of n samples gives for a span of s samples.
@@ -567,13 +609,15 @@ fn identify_as_given(
     // the records give SAMPLES_PER_VARX_PARAMETER columns per regressor
     // (the row-wise variant's last regression has (p + f) n_z of them).
     let regressors = |p: usize| match opts.variant {
-        PbsidVariant::Optimized => p * nz + nu,
+        PbsidVariant::Optimized | PbsidVariant::Ssarx => p * nz + nu,
         PbsidVariant::RowWise => (p + f) * nz,
     };
     let max_past = match opts.past {
         Some(p) => p,
         None => {
-            let mut p = opts.max_past;
+            // No more lags than samples (also keeps the sums below from
+            // overflowing for an absurd max_past).
+            let mut p = opts.max_past.min(total);
             while p > f && columns_for(p + f_layout) < SAMPLES_PER_VARX_PARAMETER * regressors(p) {
                 p -= 1;
             }
@@ -628,11 +672,23 @@ fn identify_as_given(
         columns,
     };
     let (p, past_selection) = choose_past(&rows, opts, &mask, max_past)?;
+    let mut notes = Vec::new();
+    if opts.past.is_none() && p == max_past && max_past > f {
+        notes.push(format!(
+            "Akaike's criterion chose the largest past horizon considered ({p}): a longer one \
+             (PbsidOptions::max_past, or a fixed past) may fit the predictor better"
+        ));
+    }
     let zp = rows.z(-(p as isize), 0);
     check_independent("past inputs and outputs (the VARX regressor Z_p)", &zp)?;
 
     // Steps 2–3.
-    let gk = gamma_k(&rows, p, f, opts.variant, &mask)?;
+    let (gk, weight) = gamma_k(&rows, p, f, opts.variant, &mask)?;
+    // The weighted map W₁ Γ̂K̂ = R⁻ᵀ Γ̂K̂ (SSARX) whose SVD gives the states.
+    let gk = match weight {
+        Some(rt) => lifted_linalg::solve(&rt, &gk)?,
+        None => gk,
+    };
     let weighted = &gk * &zp;
     let (uw, sv) = lifted_linalg::svd_left(&weighted)?;
     let sv: Vec<f64> = sv.iter().cloned().collect();
@@ -678,7 +734,6 @@ fn identify_as_given(
     let re = re * (scale.y * scale.y);
     let a_pred = &a - &kg * &c;
     let rho_pred = spectral_radius(&a_pred)?;
-    let mut notes = Vec::new();
     let truncation = rho_pred.powi(p as i32);
     if truncation > TRUNCATION_NOTE {
         notes.push(format!(
@@ -698,7 +753,8 @@ fn identify_as_given(
     let (a, b, d, kg, re, x0) = if opts.predictor_regression && rho_pred < 1.0 {
         // Step 5 (eq. 8); its x₀ is the predictor's, which also serves the
         // simulation (the same state at t = 0).
-        let fit = predictor_regression(&a_pred, &c, &mask, &recs)?;
+        let with_x0 = opts.initial_state == InitialState::Estimate;
+        let fit = predictor_regression(&a_pred, &c, &mask, &recs, with_x0)?;
         step5 = true;
         let x0 = match opts.initial_state {
             InitialState::Estimate => fit.x0,

@@ -41,13 +41,15 @@ pub(crate) struct PredictorFit {
     pub innovation_covariance: DMatrix<f64>,
 }
 
-/// Least squares (8) for (B̃, K, D (entries where `mask`), x₀ per record)
-/// with (Ã, C) fixed; Ã must be stable (the caller checks).
+/// Least squares (8) for (B̃, K, D (entries where `mask`), and x₀ per
+/// record when `with_x0`, else x₀ = 0) with (Ã, C) fixed; Ã must be
+/// stable (the caller checks).
 pub(crate) fn predictor_regression(
     a_pred: &DMatrix<f64>,
     c: &DMatrix<f64>,
     mask: &DMatrix<bool>,
     records: &[Record<'_>],
+    with_x0: bool,
 ) -> Result<PredictorFit> {
     let n = a_pred.nrows();
     let (ny, nu) = mask.shape();
@@ -57,7 +59,7 @@ pub(crate) fn predictor_regression(
         .filter(|&(i, j)| mask[(i, j)])
         .collect();
     let n_bk = n * nz;
-    let n_x0 = n * records.len();
+    let n_x0 = if with_x0 { n * records.len() } else { 0 };
     let q = n_bk + free_d.len() + n_x0;
     let mut acc = RAccumulator::new(q + 1);
     for (r, rec) in records.iter().enumerate() {
@@ -87,9 +89,11 @@ pub(crate) fn predictor_regression(
                             rows[(row, n_bk + m)] = rec.u[(t, j)];
                         }
                     }
-                    let base = n_bk + free_d.len() + r * n;
-                    for i in 0..n {
-                        rows[(row, base + i)] = phi[(o, i)];
+                    if with_x0 {
+                        let base = n_bk + free_d.len() + r * n;
+                        for i in 0..n {
+                            rows[(row, base + i)] = phi[(o, i)];
+                        }
                     }
                     rows[(row, q)] = rec.y[(t, o)];
                 }
@@ -141,7 +145,7 @@ pub(crate) fn predictor_regression(
     let x0: Vec<DVector<f64>> = (0..records.len())
         .map(|r| {
             let base = n_bk + free_d.len() + r * n;
-            DVector::from_fn(n, |i, _| theta[base + i])
+            DVector::from_fn(n, |i, _| if with_x0 { theta[base + i] } else { 0.0 })
         })
         .collect();
     let innovation_covariance = innovations(a_pred, &b_pred, &k, c, &d, records, &x0);

@@ -433,22 +433,27 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             }
             (fit.model, d)
         }
-        MethodArg::Pbsid => {
+        MethodArg::Pbsid | MethodArg::Ssarx => {
             if multirate {
                 return Err(input(
-                    "--method pbsid needs single-rate records (every output sampled at every \
+                    "--method pbsid and ssarx need single-rate records (every output sampled at every \
                      instant); use n4sid, moesp, cva or iv for multirate data",
                 ));
             }
             gap_only(a)?;
             if a.stable {
                 return Err(input(
-                    "--stable is not available with --method pbsid (its A comes from the \
+                    "--stable is not available with --method pbsid or ssarx (A comes from the \
                      state-sequence regression, with no stabilised variant)",
                 ));
             }
             let past = a.horizon;
             let opts = lifted_subspace::PbsidOptions {
+                variant: if a.method == MethodArg::Ssarx {
+                    lifted_subspace::PbsidVariant::Ssarx
+                } else {
+                    lifted_subspace::PbsidVariant::Optimized
+                },
                 order,
                 past,
                 future: past.map_or(10, |p| p.min(10)),
@@ -459,7 +464,8 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
                 .iter()
                 .map(|d| Experiment { u: d.u(), y: d.y() })
                 .collect();
-            let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx("PBSID identification")?;
+            let what = format!("{} identification", opts.variant.name());
+            let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
             kalman_gain = Some(fit.kalman_gain.clone());
             (fit.model.clone(), pbsid_json(&fit))
         }

@@ -298,7 +298,7 @@ fn pbsid_agrees_with_n4sid_in_open_loop_mimo() {
 }
 
 /// Every option route agrees with the truth on one closed-loop record of
-/// 1e5 samples: the row-wise variant, the automatic past horizon, the
+/// 1e5 samples: the row-wise variant, SSARX, the automatic past horizon, the
 /// state-sequence (B, K) without the predictor regression. Each pole
 /// error is below 0.05 (measured 0.009–0.019; N4SID's median is 0.06,
 /// biased). A free D is not among them: this PI controller reacts to y(t)
@@ -316,6 +316,13 @@ fn pbsid_option_routes_agree_in_closed_loop() {
             "row-wise",
             PbsidOptions {
                 variant: PbsidVariant::RowWise,
+                ..base.clone()
+            },
+        ),
+        (
+            "SSARX",
+            PbsidOptions {
+                variant: PbsidVariant::Ssarx,
                 ..base.clone()
             },
         ),
@@ -442,4 +449,36 @@ fn pbsid_rejects_bad_input() {
     )
     .unwrap_err();
     assert!(matches!(e, Error::NotExciting { .. }), "{e}");
+}
+
+/// Two records of one loop (different seeds) identify the plant as well
+/// as one record of their joint length (pole errors within 2× of each
+/// other, both below 0.05), with one x₀ per record, and a record that
+/// starts at a non-zero state gets a non-zero x₀.
+#[test]
+fn pbsid_merges_records() {
+    let l = siso();
+    let (u1, y1) = simulate(&l, 50_000, 5, 1.0, 0.25, false);
+    let (u2, y2) = simulate(&l, 50_000, 6, 1.0, 0.25, false);
+    // The second record starts mid-transient: drop its first 50 samples.
+    let (u2, y2) = (
+        u2.rows(50, 49_950).into_owned(),
+        y2.rows(50, 49_950).into_owned(),
+    );
+    let opts = pbsid_options(3, 20);
+    let two = pbsid_identify(
+        &[Experiment { u: &u1, y: &y1 }, Experiment { u: &u2, y: &y2 }],
+        &opts,
+    )
+    .unwrap();
+    let (u, y) = simulate(&l, 100_000, 5, 1.0, 0.25, false);
+    let one = pbsid_identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
+    let (e2, e1) = (
+        pole_error(&l.plant, &two.model),
+        pole_error(&l.plant, &one.model),
+    );
+    eprintln!("two records {e2:.3e}, one record {e1:.3e}, x0 {:?}", two.x0);
+    assert!(e2 < 0.05 && e1 < 0.05 && e2 < 2.0 * e1 && e1 < 2.0 * e2);
+    assert_eq!(two.x0.len(), 2);
+    assert!(two.x0[1].norm() > 0.0);
 }
