@@ -17,7 +17,7 @@ Score: the relative frequency-response error of the plant model
   sqrt(sum_w ||G_est(w) - G(w)||_F^2 / sum_w ||G(w)||_F^2)
 over 256 log-spaced frequencies in [1e-3, pi] rad/sample; the median over the seeds.
 
-Tools: lifted (`$LIFTED_CLI identify --method pbsid --order n`, and `--method n4sid
+Tools: lifted (`$LIFTED_CLI identify --method pbsid --order n`, `--method ssarx`, and `--method n4sid
 --order n --horizon 10` for reference), SIPPY (sippy-unipi) PARSIM-K and N4SID with
 SS_fixed_order = n, SS_f = SS_p = 20, other options at SIPPY's defaults (D = 0).
 
@@ -133,12 +133,14 @@ def simulated(cli, n, seeds):
     rows = []
     for sys_ in loops():
         order = sys_["a"].shape[0]
-        errs = {k: [] for k in ("lifted PBSID", "lifted N4SID", "SIPPY PARSIM-K", "SIPPY N4SID")}
+        errs = {k: [] for k in ("lifted PBSID", "lifted SSARX", "lifted N4SID", "SIPPY PARSIM-K",
+                                "SIPPY N4SID")}
         secs = {k: 0.0 for k in errs}
         for seed in range(seeds):
             u, y = simulate(sys_, n, seed)
             with tempfile.TemporaryDirectory() as wd:
                 for key, method, extra in [("lifted PBSID", "pbsid", ()),
+                                           ("lifted SSARX", "ssarx", ()),
                                            ("lifted N4SID", "n4sid", ("--horizon", "10"))]:
                     t0 = time.perf_counter()
                     mats, r = lifted(cli, wd, u, y, method, order, extra)
@@ -171,6 +173,7 @@ def ballbeam(cli, data_dir):
         with tempfile.TemporaryDirectory() as wd:
             for key, method, extra in [("lifted PBSID", "pbsid", ()),
                                        ("lifted PBSID p=20", "pbsid", ("--horizon", "20")),
+                                       ("lifted SSARX", "ssarx", ()),
                                        ("lifted N4SID", "n4sid", ())]:
                 mats, r = lifted(cli, wd, ue, ye, method, order, extra)
                 row[key] = R.score(mats, uv, yv)[0] if mats is not None else None
