@@ -144,7 +144,7 @@ pub enum PbsidVariant {
 }
 
 impl PbsidVariant {
-    /// Short name ("PBSID-opt", "PBSID").
+    /// Short name ("PBSID-opt", "PBSID", "SSARX").
     pub fn name(self) -> &'static str {
         match self {
             PbsidVariant::Optimized => "PBSID-opt",
@@ -254,8 +254,8 @@ pub struct PbsidDiagnostics {
     pub compression: CompressionReport,
     /// Spectral radius of A.
     pub spectral_radius: f64,
-    /// Spectral radius of the predictor matrix Ã = A − K C; the neglected
-    /// term of (2) is of relative size ρ(Ã)^p.
+    /// Spectral radius of the predictor matrix Ã = A − K C of step 4 (step
+    /// 5 keeps Ã); the neglected term of (2) is of relative size ρ(Ã)^p.
     pub predictor_spectral_radius: f64,
     /// Whether (B, K, D, x₀) come from the predictor regression (8) (step
     /// 5) rather than from the state-sequence regression (7).
@@ -286,7 +286,38 @@ pub struct PbsidModel {
 
 /// Predictor-based subspace identification of the innovations model (1)
 /// from one or more records, open or closed loop, without an external
-/// instrument (module docs, steps 1–4).
+/// instrument (module docs, steps 1–5).
+///
+/// # Example
+///
+/// ```
+/// use lifted_subspace::{Experiment, OrderSelection, PbsidOptions, pbsid_identify};
+/// use nalgebra::DMatrix;
+///
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// // x(k+1) = 0.9 x + 0.5 u + 0.3 e, y = x + e, under u = r − 0.4 y: the
+/// // noise reaches u through the controller; r is not given.
+/// let n = 20_000;
+/// let mut state = 12345u64;
+/// let mut uniform = move || {
+///     state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+///     (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+/// };
+/// let (mut u, mut y) = (DMatrix::zeros(n, 1), DMatrix::zeros(n, 1));
+/// let mut x = 0.0;
+/// for k in 0..n {
+///     let (r, e) = (uniform(), 0.5 * uniform());
+///     y[(k, 0)] = x + e;
+///     u[(k, 0)] = r - 0.4 * y[(k, 0)];
+///     x = 0.9 * x + 0.5 * u[(k, 0)] + 0.3 * e;
+/// }
+/// let opts = PbsidOptions { order: OrderSelection::Fixed(1), ..Default::default() };
+/// let fit = pbsid_identify(&[Experiment { u: &u, y: &y }], &opts)?;
+/// assert!((fit.model.poles()?[0].re - 0.9).abs() < 0.02);
+/// assert!((fit.kalman_gain[(0, 0)] * fit.model.c()[(0, 0)] - 0.3).abs() < 0.05);
+/// # Ok(())
+/// # }
+/// ```
 ///
 /// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
 /// [`Error::NonFinite`]; [`Error::InvalidHorizon`] (p or f zero, f > p);
