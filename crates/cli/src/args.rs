@@ -427,6 +427,13 @@ pub enum MethodArg {
     Cva,
     /// Instrumental-variable subspace (thesis ch. 7), open or closed loop.
     Iv,
+    /// Predictor-based subspace (PBSID-opt, Chiuso 2007): closed-loop data without an
+    /// instrument; --horizon sets the past horizon p (default: Akaike's choice up to 30),
+    /// the future horizon is min(p, 10).
+    Pbsid,
+    /// SSARX (Jansson 2003), the predictor-based method with a canonical-correlation
+    /// step: closed-loop data without an instrument; horizons as pbsid.
+    Ssarx,
 }
 
 impl MethodArg {
@@ -438,6 +445,8 @@ impl MethodArg {
             MethodArg::Moesp => "moesp",
             MethodArg::Cva => "cva",
             MethodArg::Iv => "iv",
+            MethodArg::Pbsid => "pbsid",
+            MethodArg::Ssarx => "ssarx",
         }
     }
 }

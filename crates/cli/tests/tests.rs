@@ -3671,3 +3671,56 @@ mod faults {
         assert!(parse_memory_limit("99999999999T").is_err());
     }
 }
+
+mod pbsid {
+    use super::*;
+
+    /// `--method pbsid` and `ssarx` identify the plant (both are
+    /// consistent on open-loop data too; the closed-loop checks are in
+    /// lifted-subspace), name themselves in the model file, and pbsid
+    /// rejects the options it lacks.
+    #[test]
+    fn pbsid_identifies_and_rejects_what_it_lacks() {
+        let d = tmp("pbsid");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "pbsid.json");
+        let base = [
+            "identify",
+            "--method",
+            "pbsid",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--out",
+            &out,
+        ];
+        ok(&base);
+        let f = check_model(&out, 0.02);
+        assert_eq!(f.method.as_deref(), Some("pbsid"));
+        let route = f.diagnostics["route"].as_str().unwrap_or_default();
+        assert!(route.contains("PBSID-opt"), "{route}");
+        assert!(f.diagnostics["kalman_gain"].is_array());
+        let mut stable = base.to_vec();
+        stable.push("--stable");
+        let msg = fails(&stable, 2);
+        assert!(msg.contains("pbsid"), "{msg}");
+        let mut aic = base.to_vec();
+        aic.extend(["--order-criterion", "aic"]);
+        fails(&aic, 2);
+        // SSARX: the same route with the canonical-correlation step.
+        let out = p(&d, "ssarx.json");
+        let mut ssarx = base.to_vec();
+        ssarx[2] = "ssarx";
+        ssarx[12] = &out;
+        ok(&ssarx);
+        let f = check_model(&out, 0.02);
+        assert_eq!(f.method.as_deref(), Some("ssarx"));
+        let route = f.diagnostics["route"].as_str().unwrap_or_default();
+        assert!(route.contains("SSARX"), "{route}");
+    }
+}

@@ -4,12 +4,12 @@
 //! state that crosses a process boundary is `bytes` (CBOR), so it pickles
 //! as is. Conversions only; every call releases the GIL.
 
+use lifted_linalg::budget::resolve_threads;
+use lifted_subspace::Method;
 use lifted_subspace::{
     CompressedRecords, CompressionPlan, OrderSelection, OutputErrorStream, RecordPiece,
     RegressionPiece, StreamedSubspace, SubspaceOptions,
 };
-use lifted_linalg::budget::resolve_threads;
-use lifted_subspace::Method;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 

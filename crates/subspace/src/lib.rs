@@ -19,6 +19,7 @@
 //! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
+//! | [`pbsid_identify`] ([`PbsidOptions`], [`PbsidModel`]) | predictor-based subspace identification (PBSID-opt, Chiuso 2007; row-wise PBSID; SSARX, Jansson 2003; [`PbsidVariant`]): consistent on closed-loop data without an instrument, on the same compressed lagged data, then (B, K, x₀) by the predictor regression on the records |
 //! | [`iv_multirate_fast`] ([`MultirateIvOptions`]) | the one-step fast model of §7.5 (eq. 7.27) |
 //!
 //! # Method
@@ -137,6 +138,8 @@ mod oblique;
 mod options;
 mod order;
 mod partial;
+mod pbsid;
+mod predictor_regress;
 mod projection;
 mod refine;
 mod regress;
@@ -158,6 +161,10 @@ pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, Sub
 pub use options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 pub use order::{OrderCriterion, OrderReport, gap_order};
 pub use partial::{CompressedRecords, CompressionPlan, RecordPiece};
+pub use pbsid::{
+    PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
+    pbsid_identify,
+};
 pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,

@@ -77,6 +77,7 @@ mod common {
 }
 
 mod suite {
+    pub mod closed_loop;
     pub mod consistency;
     pub mod partial;
     pub mod refine;

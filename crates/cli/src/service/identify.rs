@@ -438,6 +438,42 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
             }
             (fit.model, d)
         }
+        MethodArg::Pbsid | MethodArg::Ssarx => {
+            if multirate {
+                return Err(input(
+                    "--method pbsid and ssarx need single-rate records (every output sampled at every \
+                     instant); use n4sid, moesp, cva or iv for multirate data",
+                ));
+            }
+            gap_only(a)?;
+            if a.stable {
+                return Err(input(
+                    "--stable is not available with --method pbsid or ssarx (A comes from the \
+                     state-sequence regression, with no stabilised variant)",
+                ));
+            }
+            let past = a.horizon;
+            let opts = lifted_subspace::PbsidOptions {
+                variant: if a.method == MethodArg::Ssarx {
+                    lifted_subspace::PbsidVariant::Ssarx
+                } else {
+                    lifted_subspace::PbsidVariant::Optimized
+                },
+                order,
+                past,
+                future: past.map_or(10, |p| p.min(10)),
+                ts,
+                ..Default::default()
+            };
+            let exps: Vec<Experiment<'_>> = sets
+                .iter()
+                .map(|d| Experiment { u: d.u(), y: d.y() })
+                .collect();
+            let what = format!("{} identification", opts.variant.name());
+            let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
+            kalman_gain = Some(fit.kalman_gain.clone());
+            (fit.model.clone(), pbsid_json(&fit))
+        }
         MethodArg::Iv => {
             let instruments: Vec<Option<&DMatrix<f64>>> = loaded
                 .iter()
@@ -999,6 +1035,27 @@ fn subspace_json(fit: &SubspaceModel, route: &str) -> serde_json::Value {
             "svd_s": dg.profile.svd_s,
             "estimate_s": dg.profile.estimate_s,
         },
+    })
+}
+
+/// The diagnostics entry of a PBSID identification.
+fn pbsid_json(fit: &lifted_subspace::PbsidModel) -> serde_json::Value {
+    let dg = &fit.diagnostics;
+    json!({
+        "route": format!("single-rate predictor-based subspace identification ({})", dg.variant.name()),
+        "horizons": [dg.horizons.0, dg.horizons.1],
+        "past_selection": dg.past_selection.iter().map(|(p, v)| json!({"past": p, "aic": v})).collect::<Vec<_>>(),
+        "hankel_columns": dg.columns,
+        "kalman_gain": rows(&fit.kalman_gain),
+        "innovation_covariance": rows(&fit.innovation_covariance),
+        "predictor_spectral_radius": dg.predictor_spectral_radius,
+        "order_selection": order_json("singular values of the predictor-based Γ_f K_p", &dg.singular_values, dg.order, dg.suggested_order),
+        "compression": {
+            "used": format!("{:?}", dg.compression.used),
+            "rcond": dg.compression.rcond,
+            "fallback": dg.compression.fallback,
+        },
+        "notes": dg.notes,
     })
 }
 
