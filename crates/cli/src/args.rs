@@ -474,14 +474,19 @@ pub struct DataArgs {
 }
 
 /// `lifted identify`.
-#[derive(Debug, Args)]
+#[derive(Debug, Args, Clone)]
 pub struct IdentifyArgs {
     /// Identification method.
     #[arg(long, value_enum)]
     pub method: MethodArg,
-    /// Data file, CSV or .npy (see --columns); repeat for several experiments (q-Markov: one file per input channel, in input order).
+    /// Data file, CSV or .npy (see --columns); repeat for several experiments (q-Markov: one file per input channel, in input order). A `*` or `?` in the file name is expanded to the matching files in name order (quote it: `--data 'hist-*.npy'`).
     #[arg(long, required = true)]
     pub data: Vec<String>,
+    /// The --data files are consecutive shards of one record, in the order given (a pattern's
+    /// files in name order), not separate experiments. N4SID/MOESP/CVA stream them in two passes
+    /// on the machine's threads when they are too large for the held-out structure selection.
+    #[arg(long)]
+    pub concat: bool,
     /// Columns and layout.
     #[command(flatten)]
     pub columns: DataArgs,

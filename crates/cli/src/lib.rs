@@ -23,6 +23,7 @@ pub mod html;
 pub mod npy;
 pub mod plot;
 pub mod service;
+pub mod shards;
 pub mod shown;
 pub mod studio;
 pub mod table;

@@ -301,6 +301,16 @@ fn criterion_json(r: &OrderReport) -> serde_json::Value {
 
 /// Runs the identification and returns the model file (not yet written).
 pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
+    let expanded = IdentifyArgs {
+        data: crate::shards::expand(&a.data)?,
+        ..a.clone()
+    };
+    let a = &expanded;
+    if a.concat && a.method == MethodArg::Qmarkov {
+        return Err(input(
+            "--concat joins shards of one record; q-Markov takes one file per input",
+        ));
+    }
     let order = parse_order(&a.order, a.max_order)?;
     if a.refine != RefineArg::None && a.refine_iterations == 0 {
         return Err(input(
@@ -329,11 +339,14 @@ pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
         return Ok(file);
     }
     let t_read = std::time::Instant::now();
-    let loaded: Vec<Loaded> = a
+    let mut loaded: Vec<Loaded> = a
         .data
         .iter()
         .map(|p| load(p, &spec))
         .collect::<CliResult<_>>()?;
+    if a.concat {
+        loaded = vec![crate::shards::join(loaded, &a.data)?];
+    }
     let read_s = t_read.elapsed().as_secs_f64();
     let t_identify = std::time::Instant::now();
     let raw: Vec<Dataset> = loaded.iter().map(|l| l.data.clone()).collect();
@@ -829,6 +842,41 @@ fn stream_file(
     })
 }
 
+/// [`stream_file`] over the files of one record in order (`--concat`; one
+/// file otherwise): the rows of all files, the sample period of the first
+/// (the others must agree), the pass stopped at a multirate file.
+fn stream_files(
+    paths: &[String],
+    spec: &DataSpec,
+    mut push: impl FnMut(&DMatrix<f64>, &DMatrix<f64>) -> CliResult<()>,
+) -> CliResult<FilePass> {
+    let mut total = FilePass {
+        rows: 0,
+        ts: f64::NAN,
+        multirate: false,
+    };
+    for (k, path) in paths.iter().enumerate() {
+        let pass = stream_file(path, spec, &mut push)?;
+        if k == 0 {
+            total.ts = pass.ts;
+        } else if (pass.ts - total.ts).abs() > 1e-9 * total.ts.abs() {
+            return Err(input(format!(
+                "--concat: {} has sample period {} s, {} has {} s",
+                crate::shown::shown(path),
+                pass.ts,
+                crate::shown::shown(&paths[0]),
+                total.ts
+            )));
+        }
+        total.rows += pass.rows;
+        if pass.multirate {
+            total.multirate = true;
+            break;
+        }
+    }
+    Ok(total)
+}
+
 /// Single-rate N4SID / MOESP / CVA from one data file, streamed in two
 /// passes: rows are read in blocks of [`STREAM_BLOCK`] and pushed to
 /// `lifted_subspace::StreamingIdentifier` (the Hankel compression, then
@@ -862,14 +910,14 @@ fn identify_streaming(
         || needs_records
         || (wants_selection(a) && small_enough_to_select(a))
         || a.detrend == DetrendArg::Linear
-        || a.data.len() != 1
+        || (a.data.len() != 1 && !a.concat)
         || !spec.periods.is_empty()
         || spec.hold > 1
         || !spec.extra.is_empty()
     {
         return Ok(None);
     }
-    let path = &a.data[0];
+    let paths = &a.data;
     let (n_u, n_y) = (spec.inputs.len(), spec.outputs.len());
     if n_u == 0 || n_y == 0 {
         return Ok(None); // the loader reports the missing columns
@@ -901,7 +949,7 @@ fn identify_streaming(
     };
     let first_pass = |compression: Compression| -> CliResult<Option<(StreamedSubspace, FilePass)>> {
         let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
-        let pass = stream_file(path, spec, |u, y| sid.push(u, y).ctx(&what))?;
+        let pass = stream_files(paths, spec, |u, y| sid.push(u, y).ctx(&what))?;
         if pass.multirate {
             return Ok(None);
         }
@@ -925,7 +973,7 @@ fn identify_streaming(
     };
     let read_s = t_total.elapsed().as_secs_f64();
     let fit = if first.wants_second_pass() {
-        second_pass(path, spec, first, &what)?
+        second_pass(paths, spec, first, &what)?
     } else {
         first.into_model()
     };
@@ -950,7 +998,11 @@ fn identify_streaming(
     } else {
         // The refinement starts from the model above, on the file in memory
         // (deviations from the model's operating point).
-        let loaded = load(path, spec)?;
+        let loaded: Vec<Loaded> = paths
+            .iter()
+            .map(|p| load(p, spec))
+            .collect::<CliResult<_>>()?;
+        let loaded = crate::shards::join(loaded, paths)?;
         let set = deviations(&loaded.data, fit.operating_point.as_ref())?;
         refine(a, model, d, &[set], &mut kalman_gain)?
     };
@@ -975,7 +1027,7 @@ fn identify_streaming(
 /// regressors rank deficient) keeps the one-pass model and says so in its
 /// fallbacks.
 fn second_pass(
-    path: &str,
+    paths: &[String],
     spec: &DataSpec,
     first: StreamedSubspace,
     what: &str,
@@ -984,7 +1036,7 @@ fn second_pass(
         Ok(bd) => bd,
         Err(e) => return Ok(with_fallback(first.into_model(), &e)),
     };
-    stream_file(path, spec, |u, y| bd.push(u, y).ctx(what))?;
+    stream_files(paths, spec, |u, y| bd.push(u, y).ctx(what))?;
     first.finish(bd).map_err(|e| input(format!("{what}: {e}")))
 }
 
