@@ -5,7 +5,7 @@
 
 use lifted_lti::C2dMethod;
 use lifted_sim::Feedback;
-use lifted_subspace::{Method, SystemEstimate};
+use lifted_subspace::{Method, PbsidVariant, SystemEstimate};
 use pyo3::prelude::*;
 
 use crate::errors::arg_error;
@@ -68,6 +68,15 @@ impl Choice for SystemEstimate {
     ];
 }
 
+impl Choice for PbsidVariant {
+    const WHAT: &'static str = "closed-loop subspace variant";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("pbsid", PbsidVariant::Optimized),
+        ("pbsid_rowwise", PbsidVariant::RowWise),
+        ("ssarx", PbsidVariant::Ssarx),
+    ];
+}
+
 impl Choice for Feedback {
     const WHAT: &'static str = "feedback";
     const NAMES: &'static [(&'static str, Self)] =
@@ -126,6 +135,7 @@ pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
     vec![
         ("SubspaceMethod", names::<Method>()),
         ("SystemEstimate", names::<SystemEstimate>()),
+        ("PbsidVariant", names::<PbsidVariant>()),
         ("Feedback", names::<Feedback>()),
         ("C2dMethod", names::<Discretization>()),
         ("MpcKind", names::<MpcKind>()),

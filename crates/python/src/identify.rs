@@ -80,6 +80,83 @@ pub(crate) fn identify<'py>(
     fit_dict(py, &fit, Method::name_of(&method), threads)
 }
 
+/// Predictor-based subspace identification (lifted_subspace::pbsid_identify:
+/// PBSID-opt, row-wise PBSID or SSARX), consistent on closed-loop records
+/// without an external excitation. `past` None: chosen by Akaike's
+/// criterion on the VARX predictor (up to 30); `feedthrough` false: no D
+/// (the closed-loop default). Returns the dict of `identify`.
+#[pyfunction]
+#[pyo3(signature = (us, ys, variant="pbsid", order=None, max_order=10, past=None, future=10,
+    feedthrough=false, remove_means=true, dt=1.0, threads=1))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pbsid<'py>(
+    py: Python<'py>,
+    us: Vec<Bound<'py, PyAny>>,
+    ys: Vec<Bound<'py, PyAny>>,
+    variant: &str,
+    order: Option<Int>,
+    max_order: Int,
+    past: Option<Int>,
+    future: Int,
+    feedthrough: bool,
+    remove_means: bool,
+    dt: f64,
+    threads: Int,
+) -> PyResult<Bound<'py, PyDict>> {
+    let variant = lifted_subspace::PbsidVariant::parse(variant, "variant")?;
+    let (u, y) = records(&us, &ys)?;
+    let threads = resolve_threads(count(threads, "threads")?);
+    let opts = lifted_subspace::PbsidOptions {
+        variant,
+        order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
+        past: opt_count(past, "past")?,
+        future: count(future, "future")?,
+        feedthrough: if feedthrough {
+            lifted_subspace::Feedthrough::Free
+        } else {
+            lifted_subspace::Feedthrough::Zero
+        },
+        remove_means,
+        ts: dt,
+        threads,
+        ..Default::default()
+    };
+    let fit = py
+        .detach(move || {
+            let ex: Vec<Experiment<'_>> =
+                u.iter().zip(&y).map(|(u, y)| Experiment { u, y }).collect();
+            lifted_subspace::pbsid_identify(&ex, &opts)
+        })
+        .map_err(err)?;
+    let name = lifted_subspace::PbsidVariant::name_of(&variant);
+    let d = &fit.diagnostics;
+    dict_of(
+        py,
+        FitParts {
+            model: &fit.model,
+            kalman_gain: Some(&fit.kalman_gain),
+            x0: &fit.x0,
+            operating_point: fit.operating_point.as_ref(),
+            singular_values: &d.singular_values,
+            order: d.order,
+            suggested_order: d.suggested_order,
+        },
+        name,
+        threads,
+    )
+}
+
+/// What the result dict of a subspace-type fit is made of.
+pub(crate) struct FitParts<'a> {
+    pub model: &'a lifted_lti::StateSpace,
+    pub kalman_gain: Option<&'a nalgebra::DMatrix<f64>>,
+    pub x0: &'a [nalgebra::DVector<f64>],
+    pub operating_point: Option<&'a lifted_lti::OperatingPoint>,
+    pub singular_values: &'a [f64],
+    pub order: usize,
+    pub suggested_order: usize,
+}
+
 /// The dict `identify` returns for a subspace fit (`method_name`: the CLI's
 /// method name, `threads`: the count used).
 pub(crate) fn fit_dict<'py>(
@@ -88,25 +165,46 @@ pub(crate) fn fit_dict<'py>(
     method_name: &str,
     threads: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let d = &fit.diagnostics;
+    dict_of(
+        py,
+        FitParts {
+            model: &fit.model,
+            kalman_gain: fit.kalman_gain.as_ref(),
+            x0: &fit.x0,
+            operating_point: fit.operating_point.as_ref(),
+            singular_values: &d.singular_values,
+            order: d.order,
+            suggested_order: d.suggested_order,
+        },
+        method_name,
+        threads,
+    )
+}
+
+/// The result dict from its parts.
+fn dict_of<'py>(
+    py: Python<'py>,
+    f: FitParts<'_>,
+    method_name: &str,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
     let model = PyStateSpace::with_parts(
-        fit.model.clone(),
-        fit.operating_point.clone(),
-        fit.kalman_gain.clone(),
+        f.model.clone(),
+        f.operating_point.cloned(),
+        f.kalman_gain.cloned(),
     )?;
     let out = PyDict::new(py);
     out.set_item("model_json", model.to_json_with(Some(method_name))?)?;
     out.set_item("model", model)?;
-    out.set_item(
-        "kalman_gain",
-        fit.kalman_gain.as_ref().map(|k| to_py(py, k)),
-    )?;
-    let x0: Vec<Vec<f64>> = fit.x0.iter().map(|x| x.as_slice().to_vec()).collect();
+    out.set_item("kalman_gain", f.kalman_gain.map(|k| to_py(py, k)))?;
+    let x0: Vec<Vec<f64>> = f.x0.iter().map(|x| x.as_slice().to_vec()).collect();
     out.set_item("x0", x0)?;
-    out.set_item("u0", fit.operating_point.as_ref().map(|o| o.u0.clone()))?;
-    out.set_item("y0", fit.operating_point.as_ref().map(|o| o.y0.clone()))?;
-    out.set_item("singular_values", fit.diagnostics.singular_values.clone())?;
-    out.set_item("order", fit.diagnostics.order)?;
-    out.set_item("suggested_order", fit.diagnostics.suggested_order)?;
+    out.set_item("u0", f.operating_point.map(|o| o.u0.clone()))?;
+    out.set_item("y0", f.operating_point.map(|o| o.y0.clone()))?;
+    out.set_item("singular_values", f.singular_values.to_vec())?;
+    out.set_item("order", f.order)?;
+    out.set_item("suggested_order", f.suggested_order)?;
     out.set_item("method", method_name)?;
     out.set_item("threads", threads)?;
     Ok(out)

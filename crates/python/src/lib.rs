@@ -150,6 +150,7 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(signals::gbn, m)?)?;
     m.add_function(wrap_pyfunction!(signals::multisine, m)?)?;
     m.add_function(wrap_pyfunction!(identify::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(identify::pbsid, m)?)?;
     m.add_function(wrap_pyfunction!(simulation::simulate_experiment, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
     m.add_function(wrap_pyfunction!(_choices, m)?)?;

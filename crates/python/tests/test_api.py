@@ -83,7 +83,9 @@ def test_literal_aliases_match_the_extension() -> None:
     parsed = dict(lifted._lifted._choices())
     for alias, names in parsed.items():
         assert list(typing.get_args(getattr(lifted, alias))) == names, alias
-    assert set(parsed) == {"SubspaceMethod", "SystemEstimate", "Feedback", "C2dMethod", "MpcKind"}
+    assert set(parsed) == {
+        "SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind"
+    }
 
 
 @pytest.mark.parametrize(
@@ -91,6 +93,7 @@ def test_literal_aliases_match_the_extension() -> None:
     [
         ("SubspaceMethod", lambda v, p, u, y: lifted.identify(u, y, v, order=2)),
         ("SystemEstimate", lambda v, p, u, y: lifted.n4sid(u, y, order=2, system=v)),
+        ("PbsidVariant", lambda v, p, u, y: lifted.pbsid(u, y, v, order=2)),
         ("Feedback", lambda v, p, u, y: lifted.simulate_experiment(
             p, np.ones(20), lifted.StateSpace(np.zeros((0, 0)), np.zeros((0, 1)),
                                               np.zeros((1, 0)), 0.05, 0.5), feedback=v)),

@@ -157,3 +157,44 @@ def test_parallel_example_matches_serial() -> None:
     for p, s in zip(parallel, serial):
         np.testing.assert_array_equal(p, s)
         np.testing.assert_allclose(p, [0.8 - 0.3j, 0.8 + 0.3j], atol=0.03)
+
+
+def test_pbsid_identifies_a_closed_loop_without_the_reference() -> None:
+    """A plant under PI-like feedback with coloured noise fed back: the
+    reference is not given. PBSID's poles are close to the plant's, N4SID's
+    are biased (the closed-loop consistency itself is tested in Rust)."""
+    rng = np.random.default_rng(27)
+    n = 20_000
+    a, b, c = np.array([[1.5, -0.7], [1.0, 0.0]]), np.array([1.0, 0.0]), np.array([0.5, 0.3])
+    x = np.zeros(2)
+    r = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    e = rng.standard_normal(n)
+    v = np.zeros(n)
+    for k in range(1, n):
+        v[k] = 0.9 * v[k - 1] + 0.3 * e[k]
+    u = np.zeros(n)
+    y = np.zeros(n)
+    integ = 0.0
+    for k in range(n):
+        y[k] = c @ x + v[k]
+        err = r[k] - y[k]
+        integ += err
+        u[k] = 0.2 * err + 0.05 * integ
+        x = a @ x + b * u[k]
+    # Plant (order 2) and AR(1) noise: the innovation model has order 3.
+    truth = np.linalg.eigvals(a)
+
+    def pole_error(fit: lifted.SubspaceFit) -> float:
+        p = np.linalg.eigvals(np.asarray(fit.model.A))
+        return max(min(abs(q - t) for q in p) for t in truth)
+
+    fit = lifted.pbsid(u, y, order=3)
+    assert isinstance(fit, lifted.SubspaceFit) and fit.method == "pbsid"
+    # Measured 0.0027 (PBSID) against 0.063 (N4SID, biased by the feedback).
+    assert pole_error(fit) < 0.01
+    assert pole_error(lifted.n4sid(u, y, order=3)) > 0.03
+    assert fit.model.kalman_gain is not None
+    ss = lifted.pbsid(u, y, "ssarx", order=3)
+    assert ss.method == "ssarx" and pole_error(ss) < 0.01
+    with pytest.raises(lifted.ArgumentError, match="variant"):
+        lifted.pbsid(u, y, "parsim", order=3)

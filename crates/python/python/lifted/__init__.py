@@ -43,6 +43,7 @@ from ._lifted import (
     resolve_threads,
 )
 from ._lifted import identify as _identify
+from ._lifted import pbsid as _pbsid
 from ._lifted import iv as _iv
 from ._lifted import multirate as _multirate
 from ._lifted import qmarkov as _qmarkov
@@ -57,7 +58,7 @@ from ._results import (
     SubspaceFit,
     Validation,
 )
-from ._types import C2dMethod, Feedback, MpcKind, SubspaceMethod, SystemEstimate
+from ._types import C2dMethod, Feedback, MpcKind, PbsidVariant, SubspaceMethod, SystemEstimate
 
 __all__ = [
     "__version__",
@@ -81,6 +82,7 @@ __all__ = [
     "OutputValidation",
     "Experiment",
     "SubspaceMethod",
+    "PbsidVariant",
     "SystemEstimate",
     "Feedback",
     "C2dMethod",
@@ -96,6 +98,7 @@ __all__ = [
     "simulate_experiment",
     "identify",
     "n4sid",
+    "pbsid",
     "moesp",
     "cva",
     "iv",
@@ -241,6 +244,38 @@ def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:
         threads=d["threads"],
         model_json=d["model_json"],
     )
+
+
+def pbsid(
+    u: Any,
+    y: Any,
+    variant: PbsidVariant = "pbsid",
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    past: int | None = None,
+    future: int = 10,
+    feedthrough: bool = False,
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """Predictor-based subspace identification for closed-loop records
+    without an external excitation (``lifted_subspace::pbsid_identify``):
+    PBSID-opt (Chiuso 2007, default), row-wise PBSID, or SSARX (Jansson
+    2003); the CLI's ``lifted identify --method pbsid`` / ``ssarx``.
+
+    ``u``, ``y`` as for :func:`identify` (the plant's input and output as
+    logged; the reference is not needed). ``past`` None chooses the past
+    horizon by Akaike's criterion on the high-order predictor (up to 30);
+    ``feedthrough`` False (no D) is the closed-loop default, since an
+    estimated D is biased when the controller reacts within the sample.
+    Returns a :class:`SubspaceFit` whose model carries the operating point
+    and the Kalman gain of the innovation model.
+    """
+    us, ys = _records(u, y)
+    d = _pbsid(us, ys, variant, order, max_order, past, future, feedthrough, remove_means, dt, threads)
+    return _subspace_fit(d)
 
 
 def n4sid(

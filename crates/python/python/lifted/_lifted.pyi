@@ -10,7 +10,14 @@ from typing import Any, final
 import numpy as np
 import numpy.typing as npt
 
-from lifted._types import C2dMethod, Feedback, MpcKind, SubspaceMethod, SystemEstimate
+from lifted._types import (
+    C2dMethod,
+    Feedback,
+    MpcKind,
+    PbsidVariant,
+    SubspaceMethod,
+    SystemEstimate,
+)
 
 __version__: str
 # pyo3 lists every name added to the module
@@ -43,6 +50,7 @@ __all__ = [
     "partial_identify",
     "partial_merge",
     "partial_plan",
+    "pbsid",
     "prbs",
     "qmarkov",
     "rbs",
@@ -260,6 +268,19 @@ def identify(
     dt: float = 1.0,
     threads: int = 1,
     system: SystemEstimate | None = None,
+) -> dict[str, Any]: ...
+def pbsid(
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
+    variant: PbsidVariant = "pbsid",
+    order: int | None = None,
+    max_order: int = 10,
+    past: int | None = None,
+    future: int = 10,
+    feedthrough: bool = False,
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
 ) -> dict[str, Any]: ...
 def simulate_experiment(
     plant: StateSpace,

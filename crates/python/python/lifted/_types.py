@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-__all__ = ["SubspaceMethod", "SystemEstimate", "Feedback", "C2dMethod", "MpcKind"]
+__all__ = ["SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind"]
 
 #: Weighting of the subspace identification (``identify(method=...)``).
 SubspaceMethod = Literal["n4sid", "moesp", "cva"]
@@ -18,6 +18,9 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: shift invariance of the extended observability matrix, or regression on
 #: the estimated state sequence.
 SystemEstimate = Literal["shift", "states"]
+#: Predictor-based closed-loop subspace method (``pbsid(variant=...)``):
+#: PBSID-opt (Chiuso 2007), row-wise PBSID, or SSARX (Jansson 2003).
+PbsidVariant = Literal["pbsid", "pbsid_rowwise", "ssarx"]
 #: Controller feedback of a multirate closed loop (``simulate_experiment``):
 #: every fast sample, or the last measured sample held.
 Feedback = Literal["fast", "hold_last"]
