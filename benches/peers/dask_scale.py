@@ -68,7 +68,7 @@ def write_shards(folder: pathlib.Path, count: int) -> list[pathlib.Path]:
 
 def cli_run(cli: str, paths: list[pathlib.Path], out: pathlib.Path) -> tuple[float, float]:
     cmd = [cli, "identify", "--method", "n4sid", "--order", "4", "--horizon", "10", "--concat",
-           "--inputs", "0,1", "--outputs", "2,3", "--out", str(out)]
+           "--columns", "u1,u2,y1,y2", "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--out", str(out)]
     for p in paths:
         cmd += ["--data", str(p)]
     t0 = time.perf_counter()
