@@ -48,6 +48,16 @@ fn options(
     })
 }
 
+/// Runs `f` without the GIL and returns its bytes (every state crossing a
+/// process boundary).
+fn bytes_of<'py>(
+    py: Python<'py>,
+    f: impl FnOnce() -> lifted_subspace::Result<Vec<u8>> + Send,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let bytes = py.detach(f).map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
 /// The compression plan (scale, centring reference, horizons) from the
 /// first samples of the record `u` (N×m), `y` (N×p); returns its bytes.
 #[pyfunction]
@@ -93,10 +103,7 @@ pub fn partial_compress<'py>(
     let plan = plan_of(plan)?;
     let threads = resolve_threads(count(threads, "threads")?);
     let (u, y) = (record(&u, "u")?, record(&y, "y")?);
-    let bytes = py
-        .detach(move || plan.compress(&u, &y, threads)?.to_bytes())
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || plan.compress(&u, &y, threads)?.to_bytes())
 }
 
 /// The piece of the samples of `first` followed by those of `second`.
@@ -107,24 +114,18 @@ pub fn partial_append<'py>(
     second: &[u8],
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (a, b) = (first.to_vec(), second.to_vec());
-    let bytes = py
-        .detach(move || {
-            RecordPiece::from_bytes(&a)?
-                .append(RecordPiece::from_bytes(&b)?)?
-                .to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        RecordPiece::from_bytes(&a)?
+            .append(RecordPiece::from_bytes(&b)?)?
+            .to_bytes()
+    })
 }
 
 /// Closes a piece holding a whole record into compressed records.
 #[pyfunction]
 pub fn partial_close<'py>(py: Python<'py>, piece: &[u8]) -> PyResult<Bound<'py, PyBytes>> {
     let a = piece.to_vec();
-    let bytes = py
-        .detach(move || RecordPiece::from_bytes(&a)?.close()?.to_bytes())
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || RecordPiece::from_bytes(&a)?.close()?.to_bytes())
 }
 
 /// The compressed records of `first` and `second` together.
@@ -135,14 +136,11 @@ pub fn partial_merge<'py>(
     second: &[u8],
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (a, b) = (first.to_vec(), second.to_vec());
-    let bytes = py
-        .detach(move || {
-            CompressedRecords::from_bytes(&a)?
-                .merge(CompressedRecords::from_bytes(&b)?)?
-                .to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        CompressedRecords::from_bytes(&a)?
+            .merge(CompressedRecords::from_bytes(&b)?)?
+            .to_bytes()
+    })
 }
 
 /// Appends samples of the current record to a regression stream's state;
@@ -156,14 +154,11 @@ pub fn regression_push<'py>(
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
     let (u, y) = (record(&u, "u")?, record(&y, "y")?);
-    let bytes = py
-        .detach(move || {
-            let mut st = OutputErrorStream::from_bytes(&s)?;
-            st.push(&u, &y)?;
-            st.to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        let mut st = OutputErrorStream::from_bytes(&s)?;
+        st.push(&u, &y)?;
+        st.to_bytes()
+    })
 }
 
 /// One step on a regression stream's state with a block of samples.
@@ -180,14 +175,11 @@ fn stream_step<'py>(
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
     let (u, y) = (record(&u, "u")?, record(&y, "y")?);
-    let bytes = py
-        .detach(move || {
-            let mut st = OutputErrorStream::from_bytes(&s)?;
-            step(&mut st, &u, &y)?;
-            st.to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        let mut st = OutputErrorStream::from_bytes(&s)?;
+        step(&mut st, &u, &y)?;
+        st.to_bytes()
+    })
 }
 
 /// Fixes a regression stream's data scale from the first samples of the
@@ -225,14 +217,11 @@ pub fn regression_scan<'py>(
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
     let (u, y) = (record(&u, "u")?, record(&y, "y")?);
-    let bytes = py
-        .detach(move || {
-            OutputErrorStream::from_bytes(&s)?
-                .scan_apart(&u, &y)?
-                .to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        OutputErrorStream::from_bytes(&s)?
+            .scan_apart(&u, &y)?
+            .to_bytes()
+    })
 }
 
 /// Two regression pieces together.
@@ -243,14 +232,11 @@ pub fn regression_merge<'py>(
     second: &[u8],
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (a, b) = (first.to_vec(), second.to_vec());
-    let bytes = py
-        .detach(move || {
-            RegressionPiece::from_bytes(&a)?
-                .merge(RegressionPiece::from_bytes(&b)?)?
-                .to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        RegressionPiece::from_bytes(&a)?
+            .merge(RegressionPiece::from_bytes(&b)?)?
+            .to_bytes()
+    })
 }
 
 /// A regression stream's state with the rows of a (merged) piece added.
@@ -261,28 +247,22 @@ pub fn regression_absorb<'py>(
     piece: &[u8],
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (s, p) = (stream.to_vec(), piece.to_vec());
-    let bytes = py
-        .detach(move || {
-            let mut st = OutputErrorStream::from_bytes(&s)?;
-            st.absorb(RegressionPiece::from_bytes(&p)?)?;
-            st.to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        let mut st = OutputErrorStream::from_bytes(&s)?;
+        st.absorb(RegressionPiece::from_bytes(&p)?)?;
+        st.to_bytes()
+    })
 }
 
 /// Ends the current record of a regression stream's state.
 #[pyfunction]
 pub fn regression_end_record<'py>(py: Python<'py>, stream: &[u8]) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let bytes = py
-        .detach(move || {
-            let mut st = OutputErrorStream::from_bytes(&s)?;
-            st.end_record()?;
-            st.to_bytes()
-        })
-        .map_err(err)?;
-    Ok(PyBytes::new(py, &bytes))
+    bytes_of(py, move || {
+        let mut st = OutputErrorStream::from_bytes(&s)?;
+        st.end_record()?;
+        st.to_bytes()
+    })
 }
 
 /// The first pass of a sharded identification (held by the client): the

@@ -210,14 +210,9 @@ impl OutputErrorStream {
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
     ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
-        crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
-        crate::error::check_data("u", u)?;
-        if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
-            return Err(crate::error::non_finite_at("y", y, i));
-        }
-        if u.nrows() == 0 {
+        let Some((u, y)) = self.deviations(u, y)? else {
             return Ok(None);
-        }
+        };
         if !self.record_open {
             if self.records_done >= self.opts.records.max(1) {
                 return Err(Error::InvalidOption {
@@ -230,14 +225,31 @@ impl OutputErrorStream {
             }
             self.record_open = true;
         }
-        let (u, y) = match &self.opts.operating_point {
-            Some(op) => op.to_deviations(u, y)?,
-            None => (u.clone(), y.clone()),
-        };
         if self.rows.is_none() {
             self.choose_rows(&u, &y);
         }
         Ok(Some((u, y)))
+    }
+
+    /// A block checked (shape, finiteness) and less the operating point;
+    /// `None` for an empty block.
+    fn deviations(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
+        crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
+        crate::error::check_data("u", u)?;
+        if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
+            return Err(crate::error::non_finite_at("y", y, i));
+        }
+        if u.nrows() == 0 {
+            return Ok(None);
+        }
+        Ok(Some(match &self.opts.operating_point {
+            Some(op) => op.to_deviations(u, y)?,
+            None => (u.clone(), y.clone()),
+        }))
     }
 
     /// The data scale (from the block `u`, `y`, deviations) and the
@@ -324,18 +336,7 @@ impl OutputErrorStream {
                     .into(),
             });
         }
-        let mut probe = OutputErrorStream {
-            a: DMatrix::zeros(0, 0),
-            c: self.c.clone(),
-            nu: self.nu,
-            params: self.params.clone(),
-            opts: self.opts.clone(),
-            rows: None,
-            acc: RAccumulator::new(0),
-            records_done: self.records_done,
-            record_open: self.record_open,
-        };
-        let Some((u, y)) = probe.prepare_primed(u, y)? else {
+        let Some((u, y)) = self.deviations(u, y)? else {
             return Ok(RegressionPiece {
                 rows: PieceRows::Empty,
                 count: 0,
@@ -358,27 +359,6 @@ impl OutputErrorStream {
             count,
             params: self.params.total,
         })
-    }
-
-    /// [`prepare`](Self::prepare) for a stream whose rows are already
-    /// chosen elsewhere (no scale choice).
-    fn prepare_primed(
-        &mut self,
-        u: &DMatrix<f64>,
-        y: &DMatrix<f64>,
-    ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
-        crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
-        crate::error::check_data("u", u)?;
-        if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
-            return Err(crate::error::non_finite_at("y", y, i));
-        }
-        if u.nrows() == 0 {
-            return Ok(None);
-        }
-        Ok(Some(match &self.opts.operating_point {
-            Some(op) => op.to_deviations(u, y)?,
-            None => (u.clone(), y.clone()),
-        }))
     }
 
     /// Adds the rows of shards scanned apart ([`scan_apart`](Self::scan_apart),
