@@ -121,6 +121,22 @@ pub enum Error {
         /// Which quantity.
         what: &'static str,
     },
+    /// A multisine whose harmonics times computed samples exceed the work
+    /// limit (one period, or the whole signal when it is shorter, is
+    /// computed harmonic by harmonic).
+    #[error(
+        "a multisine of {harmonics} harmonics over {samples} computed samples needs {work} cosine evaluations, more than the limit of {max}; use fewer harmonics or a shorter period"
+    )]
+    TooManyHarmonics {
+        /// Harmonics requested.
+        harmonics: u128,
+        /// Samples computed (one period, or the signal when shorter).
+        samples: u128,
+        /// Their product.
+        work: u128,
+        /// The limit, [`crate::MAX_SIGNAL_ENTRIES`] × 16.
+        max: u128,
+    },
     /// A requested signal would not fit in memory.
     #[error(
         "the signal would have {samples} entries, more than the limit of {max}; generate it in blocks with `InversePrbs::iter` or `generate`"

@@ -229,6 +229,7 @@ pub fn multisine(len: usize, options: &MultisineOptions) -> Result<Vec<f64>> {
             period: p,
         });
     }
+    check_work((last - first + 1) as u128, len, p)?;
     let harmonics: Vec<usize> = (first..=last).collect();
     Ok(schroeder(len, options.amplitude, p, &harmonics))
 }
@@ -276,7 +277,33 @@ pub fn multisine_harmonics(
             period,
         });
     }
+    check_work(harmonics.len() as u128, len, period)?;
     Ok(schroeder(len, amplitude, period, harmonics))
+}
+
+/// [`Error::TooLong`] for more than [`crate::MAX_SIGNAL_ENTRIES`] samples,
+/// [`Error::TooManyHarmonics`] when `harmonics` × the computed samples
+/// (min(P, len)) exceed 16 × that limit: checked before anything is
+/// allocated.
+fn check_work(harmonics: u128, len: usize, period: usize) -> Result<()> {
+    let max = crate::MAX_SIGNAL_ENTRIES;
+    if len as u128 > max {
+        return Err(Error::TooLong {
+            samples: len as u128,
+            max,
+        });
+    }
+    let samples = period.min(len) as u128;
+    let work = harmonics.saturating_mul(samples);
+    if work > 16 * max {
+        return Err(Error::TooManyHarmonics {
+            harmonics,
+            samples,
+            work,
+            max: 16 * max,
+        });
+    }
+    Ok(())
 }
 
 /// The multisine of [`multisine_harmonics`] on validated harmonics.
@@ -284,7 +311,8 @@ fn schroeder(len: usize, amplitude: f64, p: usize, harmonics: &[usize]) -> Vec<f
     let k = harmonics.len() as f64;
     let c = amplitude * (2.0 / k).sqrt();
     let pi = std::f64::consts::PI;
-    let one: Vec<f64> = (0..p)
+    // One period, or the whole signal when it is shorter.
+    let one: Vec<f64> = (0..p.min(len))
         .map(|t| {
             harmonics
                 .iter()
@@ -301,6 +329,30 @@ fn schroeder(len: usize, amplitude: f64, p: usize, harmonics: &[usize]) -> Vec<f
         })
         .collect();
     (0..len).map(|t| one[t % p]).collect()
+}
+
+#[cfg(test)]
+mod limits {
+    use super::*;
+
+    #[test]
+    fn huge_periods_are_errors_not_aborts() {
+        let o = MultisineOptions {
+            period: 1 << 40,
+            ..Default::default()
+        };
+        assert!(matches!(
+            multisine(100, &o),
+            Err(Error::TooManyHarmonics { .. })
+        ));
+        // A short signal of a long period computes only its own samples.
+        let h = multisine_harmonics(100, 1.0, 1 << 40, &[1, 2, 3]).unwrap();
+        assert_eq!(h.len(), 100);
+        assert!(matches!(
+            multisine_harmonics(1 << 30, 1.0, 64, &[1]),
+            Err(Error::TooLong { .. })
+        ));
+    }
 }
 
 #[cfg(test)]

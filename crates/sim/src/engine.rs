@@ -192,6 +192,12 @@ impl Engine {
             .map(|h| h.0)
             .chain(sampling.iter().map(|s| s.0))
             .fold(k_rate.0, lcm);
+        if frame > crate::MAX_PATTERN_PERIOD {
+            return Err(Error::PatternTooLong {
+                frame: frame as u64,
+                max: crate::MAX_PATTERN_PERIOD,
+            });
+        }
         let k_exec: Vec<bool> = (0..frame).map(|ph| ph % k_rate.0 == k_rate.1).collect();
         let mut start_mask = vec![false; frame * nu];
         let mut sample_mask = vec![false; frame * ny];
@@ -1142,11 +1148,13 @@ pub(crate) fn gcd(a: usize, b: usize) -> usize {
     if b == 0 { a } else { gcd(b, a % b) }
 }
 
+/// Least common multiple, saturating at `usize::MAX` (a pattern that long
+/// is refused by [`Engine::new`]).
 pub(crate) fn lcm(a: usize, b: usize) -> usize {
     if a == 0 || b == 0 {
         a.max(b)
     } else {
-        a / gcd(a, b) * b
+        (a / gcd(a, b)).saturating_mul(b)
     }
 }
 

@@ -193,6 +193,16 @@ pub enum Error {
     /// An excitation has no samples.
     #[error("excitation is empty")]
     EmptyExcitation,
+    /// The sampling/hold pattern repeats too rarely to tabulate.
+    #[error(
+        "the sampling/hold pattern repeats every {frame} samples (the least common multiple of the input holds, output periods and controller period), more than the limit of {max}; choose holds and periods with a smaller common multiple"
+    )]
+    PatternTooLong {
+        /// The pattern's period (saturated at u64::MAX).
+        frame: u64,
+        /// The limit, [`crate::MAX_PATTERN_PERIOD`].
+        max: usize,
+    },
     /// A combination of options that the chosen loop structure does not support.
     #[error("unsupported: {what}")]
     Unsupported {

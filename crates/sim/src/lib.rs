@@ -92,6 +92,11 @@ pub mod plants;
 mod simulator;
 mod steady;
 
+/// Longest period of the sampling/hold pattern (the least common multiple
+/// of input holds, output periods and the controller period) the simulator
+/// tabulates: 2^24 phases (its masks take O(period × channels) memory).
+pub const MAX_PATTERN_PERIOD: usize = 1 << 24;
+
 pub use error::{Error, Result};
 pub use model::{Controller, Delays, Plant, WholeLoop, closed_loop};
 pub use noise::{NoiseLevel, NoiseSpec, SnrDefinition};

@@ -242,3 +242,27 @@ fn inferential_model_must_fit() {
         Err(Error::Unsupported { .. })
     ));
 }
+
+/// Holds and periods whose common multiple is astronomically large (here
+/// 2^40 and 3): a named error before the pattern is tabulated, never an
+/// allocation failure.
+#[test]
+fn pattern_with_a_huge_common_multiple_is_refused() {
+    let sim = Simulator::open_loop(plant2x2())
+        .with_inputs(vec![
+            InputChannel::new("u1", 1 << 40),
+            InputChannel::new("u2", 1),
+        ])
+        .unwrap()
+        .with_outputs(vec![
+            OutputChannel::new("y1", 3, 0),
+            OutputChannel::new("y2", 1, 0),
+        ])
+        .unwrap();
+    let r = sim.simulate(&Excitation::input(DMatrix::zeros(10, 2)));
+    assert!(
+        matches!(r, Err(Error::PatternTooLong { .. })),
+        "{:?}",
+        r.err()
+    );
+}
