@@ -72,10 +72,12 @@ def cli_run(cli: str, paths: list[pathlib.Path], out: pathlib.Path) -> tuple[flo
     for p in paths:
         cmd += ["--data", str(p)]
     t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, capture_output=True)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
-    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    return wall, rss
+    if status != 0:
+        raise RuntimeError(f"{cmd}: {proc.stderr.read().decode() if proc.stderr else status}")
+    return wall, usage.ru_maxrss / 1024
 
 
 def peak_rss_mb() -> float:

@@ -95,6 +95,26 @@ def _columns(block: np.ndarray, cols: Sequence[int], name: str) -> np.ndarray:
     return np.ascontiguousarray(out, dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class _FileShard:
+    """A shard file, read inside each task that uses it (so a worker holds
+    one shard per running task, not every shard it was given)."""
+
+    path: str
+    inputs: tuple[Any, ...]
+    outputs: tuple[Any, ...]
+
+    def load(self) -> tuple[Any, Any]:
+        if self.path.endswith(".npy"):
+            return _load_npy(self.path, self.inputs, self.outputs)
+        return _load_parquet(self.path, self.inputs, self.outputs)
+
+
+def _data(shard: Any) -> tuple[Any, Any]:
+    """The (u, y) of a shard: a file read now, or a computed block."""
+    return shard.load() if isinstance(shard, _FileShard) else shard
+
+
 def _load_npy(path: str, inputs: Sequence[int], outputs: Sequence[int]) -> tuple[Any, Any]:
     a = np.load(path, mmap_mode="r")
     return _columns(a, inputs, "inputs"), _columns(a, outputs, "outputs")
@@ -162,15 +182,10 @@ def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list[Any]:
             raise LiftedError("the list of shard files is empty")
         paths = [os.fspath(p) for p in data]
         ins, outs = _index_list(inputs, "inputs"), _index_list(outputs, "outputs")
-        out = []
         for p in paths:
-            if p.endswith(".npy"):
-                out.append(delayed(_load_npy)(p, ins, outs))
-            elif p.endswith((".parquet", ".pq")):
-                out.append(delayed(_load_parquet)(p, ins, outs))
-            else:
+            if not p.endswith((".npy", ".parquet", ".pq")):
                 raise LiftedError(f"shard {p!r}: only .npy and .parquet files are read")
-        return out
+        return [_FileShard(p, tuple(ins), tuple(outs)) for p in paths]
     # dask DataFrame (has .to_delayed and .columns) or dask array.
     if hasattr(data, "columns") and hasattr(data, "to_delayed"):
         ins, outs = _index_list(inputs, "inputs"), _index_list(outputs, "outputs")
@@ -192,28 +207,28 @@ def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list[Any]:
 # ---------------------------------------------------------------- tasks
 
 
-def _plan(shard: tuple[Any, Any], past: int, future: int, remove_means: bool, rows: int) -> bytes:
-    u, y = shard
+def _plan(shard: Any, past: int, future: int, remove_means: bool, rows: int) -> bytes:
+    u, y = _data(shard)
     return _lifted.partial_plan(u[:rows], y[:rows], past=past, future=future, remove_means=remove_means)
 
 
-def _compress(plan: bytes, shard: tuple[Any, Any], threads: int) -> bytes:
-    u, y = shard
+def _compress(plan: bytes, shard: Any, threads: int) -> bytes:
+    u, y = _data(shard)
     return _lifted.partial_compress(plan, u, y, threads=threads)
 
 
-def _prime(state: bytes, shard: tuple[Any, Any], rows: int) -> bytes:
-    u, y = shard
+def _prime(state: bytes, shard: Any, rows: int) -> bytes:
+    u, y = _data(shard)
     return _lifted.regression_prime(state, u[:rows], y[:rows])
 
 
-def _advance(state: bytes, shard: tuple[Any, Any]) -> bytes:
-    u, y = shard
+def _advance(state: bytes, shard: Any) -> bytes:
+    u, y = _data(shard)
     return _lifted.regression_advance(state, u, y)
 
 
-def _scan(state: bytes, shard: tuple[Any, Any]) -> bytes:
-    u, y = shard
+def _scan(state: bytes, shard: Any) -> bytes:
+    u, y = _data(shard)
     return _lifted.regression_scan(state, u, y)
 
 
