@@ -492,6 +492,17 @@ fn studio_refuses_foreign_requests_and_keeps_its_state() {
     assert_eq!(id.status, 200, "{}", id.body);
     let model = st.call("GET", "/api/model", "", b"");
     assert_eq!(model.status, 200, "{}", model.body);
+    // The closed-loop methods without an instrument (issue 27) run too.
+    for m in ["pbsid", "ssarx"] {
+        let r =
+            st.identify(&json!({"inputs": ["u1"], "outputs": ["y1"], "method": m, "order": "2"}));
+        assert_eq!(r.status, 200, "{m}: {}", r.body);
+        assert!(r.body.contains(m), "{m}: {}", r.body);
+    }
+    let id = st.identify(&n4sid("2"));
+    assert_eq!(id.status, 200, "{}", id.body);
+    let model = st.call("GET", "/api/model", "", b"");
+    assert_eq!(model.status, 200, "{}", model.body);
     let other = record(400, 1);
     let t = st.token.clone();
     let tok = t.as_str();
