@@ -11,6 +11,20 @@
 //!   simulation from x₀ — the cost a step-response or simulation-fit user
 //!   cares about, consistent in open loop whatever the noise colour.
 //!
+//! **Closed loop.** The prediction-error cost with K free is the direct
+//! method (Ljung 1999, §13.4): consistent on closed-loop data without an
+//! instrument when the true system, noise included, is an innovations model
+//! of the chosen order n — the noise filter shares the plant's poles
+//! (ARMAX-like). Noise with dynamics of its own (a coloured disturbance
+//! with other poles) lies outside an order-n innovations model of the plant
+//! alone, and the feedback then carries the misfit into the plant estimate:
+//! refine at the order of plant and noise together (as the predictor-based
+//! [`crate::pbsid_identify`] identifies them), or use an instrument
+//! ([`crate::iv_identify`]). No separate noise-model order is offered: in
+//! state space the noise shares the state, so "a noise model of its own"
+//! is the same as a larger n. The output-error cost is biased in closed
+//! loop (the noise reaches the input through the controller).
+//!
 //! Multirate records: y holds NaN where an output is not sampled; the cost
 //! uses only the measured samples while the model stays at the fast rate
 //! (the predictor corrects with the measured outputs only).

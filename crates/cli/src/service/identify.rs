@@ -608,6 +608,13 @@ fn output_weighting(w: &[f64], outputs: usize) -> CliResult<Option<DMatrix<f64>>
 /// `--refine`: prediction-error or output-error refinement of the model on
 /// the (detrended) records, measured samples only; the report goes to
 /// `diagnostics.refinement` and, for `pem`, the Kalman gain is replaced.
+/// What the refinement's noise model is, and when it is consistent under
+/// feedback (written to the diagnostics with every refinement).
+const PEM_NOISE_MODEL: [&str; 2] = [
+    "innovations form of the model's own order (Kalman gain K free; the direct prediction-error method): consistent on closed-loop data when the noise is the output of an innovations model of that order (its dynamics those of the plant, as in ARMAX); noise with dynamics of its own needs the order of plant and noise together (e.g. --method pbsid at that order) or an instrument (--method iv)",
+    "none (output-error cost): consistent in open loop only; under feedback the noise reaches the input and the estimate is biased",
+];
+
 fn refine(
     a: &IdentifyArgs,
     model: StateSpace,
@@ -644,6 +651,10 @@ fn refine(
         obj.insert(
             "refinement".into(),
             serde_json::to_value(&fit.report).unwrap_or(serde_json::Value::Null),
+        );
+        obj.insert(
+            "refinement_noise_model".into(),
+            json!(PEM_NOISE_MODEL[usize::from(cost == PemCost::OutputError)]),
         );
     }
     if fit.report.kept == Kept::Refined && cost == PemCost::Prediction {
