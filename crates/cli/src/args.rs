@@ -547,6 +547,11 @@ pub struct IdentifyArgs {
     /// Largest number of refinement iterations.
     #[arg(long, default_value_t = 100)]
     pub refine_iterations: usize,
+    /// Bound on the refinement's work in floating-point operations (iterations × the cost of
+    /// one; ≈ 4e9 per second per core). Large records reach it before convergence: the model
+    /// then carries a warning; raise it to let the iterations finish.
+    #[arg(long, default_value_t = 2e10)]
+    pub refine_max_work: f64,
     /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
     /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
     /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's

@@ -640,13 +640,32 @@ fn refine(
     } else {
         Feedthrough::Free
     };
+    if !(a.refine_max_work.is_finite() && a.refine_max_work > 0.0) {
+        return Err(input(format!(
+            "--refine-max-work must be a positive number of operations, got {}",
+            a.refine_max_work
+        )));
+    }
     let opts = PemOptions {
         cost,
         feedthrough,
         max_iterations: a.refine_iterations,
+        max_work: a.refine_max_work,
         ..Default::default()
     };
     let fit = refine_pem(&model, kalman_gain.as_ref(), &records, &[], &opts).ctx("--refine")?;
+    if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
+        (fit.report.iteration_cap, fit.report.termination)
+        && let Some(obj) = diagnostics.as_object_mut()
+    {
+        let warnings = obj.entry("warnings").or_insert_with(|| json!([]));
+        if let Some(w) = warnings.as_array_mut() {
+            w.push(json!(format!(
+                "--refine stopped by its work bound after {cap} iterations (--refine-max-work {:.1e} operations), before convergence: raise --refine-max-work for this record",
+                a.refine_max_work
+            )));
+        }
+    }
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert(
             "refinement".into(),
