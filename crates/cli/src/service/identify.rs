@@ -872,6 +872,48 @@ fn stream_file(
     })
 }
 
+/// Largest record (bytes of its input and output samples) the first pass of
+/// a streamed identification keeps for the second, instead of reading the
+/// files again: 64 MiB (1e6 samples of 2 inputs and 2 outputs take 32 MB),
+/// so memory stays bounded whatever the record length.
+const KEEP_MAX_BYTES: usize = 64 << 20;
+
+/// The blocks of the first pass, while they fit in [`KEEP_MAX_BYTES`]
+/// (`None` once they do not: the second pass reads the files again).
+struct KeptBlocks {
+    blocks: Option<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
+    bytes: usize,
+    limit: usize,
+}
+
+impl Default for KeptBlocks {
+    fn default() -> Self {
+        KeptBlocks::with_limit(KEEP_MAX_BYTES)
+    }
+}
+
+impl KeptBlocks {
+    fn with_limit(limit: usize) -> Self {
+        KeptBlocks {
+            blocks: Some(Vec::new()),
+            bytes: 0,
+            limit,
+        }
+    }
+
+    fn keep(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) {
+        let Some(blocks) = self.blocks.as_mut() else {
+            return;
+        };
+        self.bytes += (u.len() + y.len()) * std::mem::size_of::<f64>();
+        if self.bytes > self.limit {
+            self.blocks = None;
+        } else {
+            blocks.push((u.clone(), y.clone()));
+        }
+    }
+}
+
 /// [`stream_file`] over the files of one record in order (`--concat`; one
 /// file otherwise): the rows of all files, the sample period of the first
 /// (the others must agree), the pass stopped at a multirate file.
@@ -977,24 +1019,29 @@ fn identify_streaming(
         threads: 0,
         ..Default::default()
     };
-    let first_pass = |compression: Compression| -> CliResult<Option<(StreamedSubspace, FilePass)>> {
-        let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
-        let pass = stream_files(paths, spec, |u, y| sid.push(u, y).ctx(&what))?;
-        if pass.multirate {
-            return Ok(None);
-        }
-        match sid.finish_subspace() {
-            Ok(first) => Ok(Some((first, pass))),
-            Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
-                if compression != Compression::Qr =>
-            {
-                Ok(None)
+    let first_pass =
+        |compression: Compression| -> CliResult<Option<(StreamedSubspace, FilePass, KeptBlocks)>> {
+            let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
+            let mut kept = KeptBlocks::default();
+            let pass = stream_files(paths, spec, |u, y| {
+                kept.keep(u, y);
+                sid.push(u, y).ctx(&what)
+            })?;
+            if pass.multirate {
+                return Ok(None);
             }
-            Err(e) => Err(input(format!("{what}: {e}"))),
-        }
-    };
+            match sid.finish_subspace() {
+                Ok(first) => Ok(Some((first, pass, kept))),
+                Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
+                    if compression != Compression::Qr =>
+                {
+                    Ok(None)
+                }
+                Err(e) => Err(input(format!("{what}: {e}"))),
+            }
+        };
     let t_total = std::time::Instant::now();
-    let (first, pass) = match first_pass(Compression::Auto)? {
+    let (first, pass, kept) = match first_pass(Compression::Auto)? {
         Some(r) => r,
         None => match first_pass(Compression::Qr)? {
             Some(r) => r,
@@ -1003,7 +1050,7 @@ fn identify_streaming(
     };
     let read_s = t_total.elapsed().as_secs_f64();
     let fit = if first.wants_second_pass() {
-        second_pass(paths, spec, first, &what)?
+        second_pass(paths, spec, first, kept, &what)?
     } else {
         first.into_model()
     };
@@ -1060,13 +1107,24 @@ fn second_pass(
     paths: &[String],
     spec: &DataSpec,
     first: StreamedSubspace,
+    kept: KeptBlocks,
     what: &str,
 ) -> CliResult<SubspaceModel> {
     let mut bd = match first.regression() {
         Ok(bd) => bd,
         Err(e) => return Ok(with_fallback(first.into_model(), &e)),
     };
-    stream_files(paths, spec, |u, y| bd.push(u, y).ctx(what))?;
+    match kept.blocks {
+        // The first pass kept the (small) record: no second read.
+        Some(blocks) => {
+            for (u, y) in &blocks {
+                bd.push(u, y).ctx(what)?;
+            }
+        }
+        None => {
+            stream_files(paths, spec, |u, y| bd.push(u, y).ctx(what))?;
+        }
+    }
     first.finish(bd).map_err(|e| input(format!("{what}: {e}")))
 }
 
@@ -1182,4 +1240,26 @@ pub fn require_stable(model: &StateSpace) -> CliResult<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod kept_tests {
+    use super::*;
+
+    #[test]
+    fn the_first_pass_keeps_blocks_up_to_its_limit_only() {
+        let (u, y) = (DMatrix::zeros(10, 2), DMatrix::zeros(10, 2));
+        // 320 bytes per block.
+        let mut k = KeptBlocks::with_limit(700);
+        k.keep(&u, &y);
+        k.keep(&u, &y);
+        assert_eq!(k.blocks.as_ref().map(Vec::len), Some(2));
+        k.keep(&u, &y);
+        assert!(
+            k.blocks.is_none(),
+            "over the limit: the files are read again"
+        );
+        k.keep(&u, &y);
+        assert!(k.blocks.is_none());
+    }
 }
