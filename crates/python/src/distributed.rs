@@ -32,12 +32,10 @@ fn options(
 ) -> PyResult<SubspaceOptions> {
     Ok(SubspaceOptions {
         method: Method::parse(method, "method")?,
-        order: match opt_count(order, "order")? {
-            Some(n) => OrderSelection::Fixed(n),
-            None => OrderSelection::Gap {
-                max: count(max_order, "max_order")?,
-            },
-        },
+        order: crate::identify::order_of(
+            opt_count(order, "order")?,
+            count(max_order, "max_order")?,
+        ),
         past: count(past, "past")?,
         future: count(future, "future")?,
         remove_means,

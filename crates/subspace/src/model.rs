@@ -6,6 +6,7 @@ use lifted_lti::{OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use crate::error::Result;
 use crate::hankel::CompressionReport;
 use crate::options::Method;
 use crate::order::OrderReport;
@@ -133,4 +134,24 @@ pub struct Experiment<'a> {
     pub u: &'a DMatrix<f64>,
     /// Outputs, one row per sample.
     pub y: &'a DMatrix<f64>,
+}
+
+/// `op` with the constant output offsets the (B, D, x₀) regression estimated
+/// per record (the O(1/N) constant the deviations of a response that started
+/// at rest keep) folded into y₀, weighted by the records' `lengths`; `op`
+/// itself without offsets.
+pub(crate) fn fold_output_offsets(
+    op: &OperatingPoint,
+    lengths: &[usize],
+    offsets: &[DVector<f64>],
+) -> Result<OperatingPoint> {
+    let total: usize = lengths.iter().sum();
+    let mut y0 = op.y0.clone();
+    for (len, c) in lengths.iter().zip(offsets) {
+        let w = *len as f64 / total.max(1) as f64;
+        for (v, ci) in y0.iter_mut().zip(c.iter()) {
+            *v += w * ci;
+        }
+    }
+    Ok(OperatingPoint::new(op.u0.clone(), y0)?)
 }

@@ -217,9 +217,11 @@ impl CompressionPlan {
         stream.set_centering(self.remove_means);
         stream.set_reference(self.reference.clone());
         stream.push(u.as_view(), y.as_view())?;
-        let piece = stream
-            .take_piece()
-            .expect("the correlation engine keeps lag sums");
+        // The correlation engine always keeps lag sums; the QR has none.
+        let piece = stream.take_piece().ok_or(Error::InvalidOption {
+            what: "compression",
+            reason: "partial compressions need the correlation route".into(),
+        })?;
         Ok(RecordPiece {
             plan: self.clone(),
             piece,

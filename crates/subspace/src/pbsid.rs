@@ -121,7 +121,7 @@ use crate::engine::remove_means;
 use crate::error::{Error, Result};
 use crate::hankel::{Compression, CompressionReport, HankelLayout, compress};
 use crate::model::Experiment;
-use crate::numerics::{Scale, pow4_scale_counted, spectral_radius};
+use crate::numerics::{Scale, pow4_scale_counted, spectral_radius, vstack};
 use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
@@ -424,20 +424,8 @@ impl Rows<'_> {
         let parts: Vec<DMatrix<f64>> = (from..to)
             .flat_map(|lag| [self.u(lag), self.y(lag)])
             .collect();
-        vstack(&parts)
+        vstack(&parts.iter().collect::<Vec<_>>())
     }
-}
-
-fn vstack(parts: &[DMatrix<f64>]) -> DMatrix<f64> {
-    let nr: usize = parts.iter().map(|p| p.nrows()).sum();
-    let nc = parts.first().map_or(0, |p| p.ncols());
-    let mut out = DMatrix::zeros(nr, nc);
-    let mut r = 0;
-    for p in parts {
-        out.rows_mut(r, p.nrows()).copy_from(p);
-        r += p.nrows();
-    }
-    out
 }
 
 /// Least squares min‖T − Θ R‖_F over rows of the compressed data
@@ -468,7 +456,7 @@ fn regress_masked(
         return Ok((theta, DMatrix::zeros(ny, nu), res));
     }
     if mask.iter().all(|&m| m) {
-        let (theta, res) = regress(target, &vstack(&[base.clone(), u.clone()]))?;
+        let (theta, res) = regress(target, &vstack(&[base, u]))?;
         let nb = base.nrows();
         return Ok((
             theta.columns(0, nb).into_owned(),
@@ -482,8 +470,8 @@ fn regress_masked(
     let mut res = DMatrix::zeros(ny, target.ncols());
     for i in 0..ny {
         let free: Vec<usize> = (0..nu).filter(|&j| mask[(i, j)]).collect();
-        let mut parts = vec![base.clone()];
-        parts.extend(free.iter().map(|&j| u.rows(j, 1).into_owned()));
+        let rows_u: Vec<DMatrix<f64>> = free.iter().map(|&j| u.rows(j, 1).into_owned()).collect();
+        let parts: Vec<&DMatrix<f64>> = std::iter::once(base).chain(&rows_u).collect();
         let (th, r) = regress(&target.rows(i, 1).into_owned(), &vstack(&parts))?;
         theta.row_mut(i).copy_from(&th.columns(0, nb));
         for (c, &j) in free.iter().enumerate() {
@@ -576,7 +564,7 @@ fn gamma_k(
                 let base = if j == 0 {
                     zp.clone()
                 } else {
-                    vstack(&[zp.clone(), rows.z(0, j as isize)])
+                    vstack(&[&zp, &rows.z(0, j as isize)])
                 };
                 let (theta, _, _) =
                     regress_masked(&rows.y(j as isize), &base, &rows.u(j as isize), mask)?;
@@ -754,7 +742,7 @@ fn identify_as_given(
     // Step 4, eq. (7).
     let u0 = rows.u(0);
     let (c, d, e) = regress_masked(&rows.y(0), &x_now, &u0, &mask)?;
-    let (abk, _) = regress(&x_next, &vstack(&[x_now, u0, e.clone()]))?;
+    let (abk, _) = regress(&x_next, &vstack(&[&x_now, &u0, &e]))?;
     let a = abk.columns(0, n).into_owned();
     let b = abk.columns(n, nu).into_owned();
     let kg = abk.columns(n + nu, ny).into_owned();

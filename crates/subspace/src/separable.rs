@@ -23,7 +23,7 @@ use crate::checks::{thread_count, validate_on};
 use crate::engine::{OwnedRecords, compressed, from_factor, records_of, remove_means};
 use crate::error::{Error, Result};
 use crate::hankel::{HankelFactor, HankelLayout};
-use crate::model::{Experiment, SubspaceModel};
+use crate::model::{Experiment, SubspaceModel, fold_output_offsets};
 use crate::numerics::Scale;
 use crate::options::{Method, SubspaceOptions};
 
@@ -31,6 +31,15 @@ use crate::options::{Method, SubspaceOptions};
 enum Records<'a> {
     Borrowed(Vec<Experiment<'a>>),
     Centred(OwnedRecords),
+}
+
+impl Records<'_> {
+    fn experiments(&self) -> Vec<Experiment<'_>> {
+        match self {
+            Records::Borrowed(e) => e.clone(),
+            Records::Centred(c) => c.iter().map(|(u, y)| Experiment { u, y }).collect(),
+        }
+    }
 }
 
 /// Step 1 of the identification, kept for any number of fits: the
@@ -72,13 +81,7 @@ impl<'a> CompressedData<'a> {
         } else {
             (None, Records::Borrowed(experiments.to_vec()))
         };
-        let (layout, factor, scale) = match &records {
-            Records::Borrowed(e) => compressed(e, opts)?,
-            Records::Centred(c) => {
-                let e: Vec<Experiment<'_>> = c.iter().map(|(u, y)| Experiment { u, y }).collect();
-                compressed(&e, opts)?
-            }
-        };
+        let (layout, factor, scale) = compressed(&records.experiments(), opts)?;
         Ok(CompressedData {
             layout,
             factor,
@@ -152,42 +155,17 @@ impl<'a> CompressedData<'a> {
             });
         }
         crate::checks::check_options(self.layout.nu, self.layout.ny, opts)?;
-        let mut fit = match &self.records {
-            Records::Borrowed(e) => from_factor(
-                self.factor.clone(),
-                &self.layout,
-                opts,
-                Some(&records_of(e)),
-                self.scale,
-                self.compress_s,
-            )?,
-            Records::Centred(c) => {
-                let e: Vec<Experiment<'_>> = c.iter().map(|(u, y)| Experiment { u, y }).collect();
-                from_factor(
-                    self.factor.clone(),
-                    &self.layout,
-                    opts,
-                    Some(&records_of(&e)),
-                    self.scale,
-                    self.compress_s,
-                )?
-            }
-        };
+        let mut fit = from_factor(
+            self.factor.clone(),
+            &self.layout,
+            opts,
+            Some(&records_of(&self.records.experiments())),
+            self.scale,
+            self.compress_s,
+        )?;
         if let Some(op) = &self.operating_point {
-            // The output-error regression estimated the constant each
-            // record's deviations keep (O(1/N) after a start at rest): y₀
-            // absorbs their sample-weighted mean.
-            let mut y0 = op.y0.clone();
-            if !fit.output_offsets.is_empty() {
-                let total: usize = self.lengths.iter().sum();
-                for (len, c) in self.lengths.iter().zip(&fit.output_offsets) {
-                    let w = *len as f64 / total as f64;
-                    for (v, ci) in y0.iter_mut().zip(c.iter()) {
-                        *v += w * ci;
-                    }
-                }
-            }
-            fit.operating_point = Some(OperatingPoint::new(op.u0.clone(), y0)?);
+            fit.operating_point =
+                Some(fold_output_offsets(op, &self.lengths, &fit.output_offsets)?);
         }
         Ok(fit)
     }

@@ -11,7 +11,7 @@ use crate::checks::{check_data_on, check_options, check_record_shape, thread_cou
 use crate::engine::{Factored, Fit, NoisePart, from_factor_parts, need_records, noise_part};
 use crate::error::{Error, Result};
 use crate::hankel::{HankelFactor, HankelLayout, HankelStream};
-use crate::model::{BdRoute, SubspaceModel};
+use crate::model::{BdRoute, SubspaceModel, fold_output_offsets};
 use crate::numerics::{Scale, pow4_scale};
 use crate::options::{BdEstimate, SubspaceOptions, SystemEstimate};
 use crate::regress::InitialState;
@@ -385,18 +385,8 @@ impl StreamedSubspace {
         model.diagnostics.bd_route = BdRoute::OutputError;
         model.diagnostics.profile.estimate_s += t0.elapsed().as_secs_f64();
         model.x0 = fit.x0;
-        if let Some(op) = model.operating_point.as_mut()
-            && !fit.offsets.is_empty()
-        {
-            let total: usize = record_samples.iter().sum();
-            let mut y0 = op.y0.clone();
-            for (len, c) in record_samples.iter().zip(&fit.offsets) {
-                let w = *len as f64 / total.max(1) as f64;
-                for (v, ci) in y0.iter_mut().zip(c.iter()) {
-                    *v += w * ci;
-                }
-            }
-            *op = OperatingPoint::new(op.u0.clone(), y0)?;
+        if let Some(op) = model.operating_point.as_mut() {
+            *op = fold_output_offsets(op, &record_samples, &fit.offsets)?;
         }
         model.output_offsets = fit.offsets;
         Ok(model)
