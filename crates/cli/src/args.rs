@@ -555,9 +555,10 @@ pub struct IdentifyArgs {
     /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
     /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
     /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's
-    /// stabilised shift invariance, eigenvalues inside the circle) and B, D are fitted to it;
-    /// `--refine` keeps its iterates stable. A model still unstable is an error naming its
-    /// spectral radius.
+    /// stabilised shift invariance, eigenvalues inside the circle), B, D are fitted to it, and
+    /// the model is then refined by the prediction-error method (or the `--refine` cost) with
+    /// every iterate stable, which brings it back to the data; `diagnostics.stable_route` says
+    /// what was done. A model still unstable is an error naming its spectral radius.
     #[arg(long)]
     pub stable: bool,
     /// Output model file (JSON).
