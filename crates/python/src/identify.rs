@@ -18,7 +18,7 @@ use crate::choices::Choice;
 use crate::convert::{Int, count, opt_count};
 use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
-use crate::{dataset, records};
+use crate::{dataset, records, to_py};
 
 /// Order selection: fixed `order`, else the singular-value gap up to `max_order`.
 pub(crate) fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
