@@ -35,6 +35,10 @@ pub struct Pass {
     pub multirate: bool,
 }
 
+/// What a pass delivers its blocks to: (u block, y block), rows of
+/// samples, in record order.
+pub type BlockSink<'a> = dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> Result<()> + 'a;
+
 /// A single record read in blocks, as often as the streamed route needs.
 pub trait RecordSource {
     /// Numbers of inputs and outputs of the record.
@@ -43,10 +47,7 @@ pub trait RecordSource {
     /// One pass over the record in order: blocks of rows, (u block,
     /// y block), to `push`; stops (and says so) at the first row with an
     /// output not sampled. Errors of `push` are returned as they are.
-    fn pass(
-        &mut self,
-        push: &mut dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> Result<()>,
-    ) -> Result<Pass>;
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass>;
 
     /// The whole record in memory (for the refinement).
     fn load(&mut self) -> Result<Dataset>;

@@ -6,8 +6,8 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_workflow::{
-    Detrend, Error, Estimator, Method, Order, OrderCriterion, Pass, Record, RecordSource, Refine,
-    WorkflowOptions, identify, identify_streamed,
+    BlockSink, Detrend, Error, Estimator, Method, Order, OrderCriterion, Pass, Record,
+    RecordSource, Refine, WorkflowOptions, identify, identify_streamed,
 };
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
@@ -101,10 +101,7 @@ impl RecordSource for Blocks {
         (self.u.ncols(), self.y.ncols())
     }
 
-    fn pass(
-        &mut self,
-        push: &mut dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> lifted_workflow::Result<()>,
-    ) -> lifted_workflow::Result<Pass> {
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> lifted_workflow::Result<Pass> {
         self.passes += 1;
         let n = self.u.nrows();
         let mut k = 0;

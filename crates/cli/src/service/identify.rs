@@ -14,8 +14,8 @@
 
 use lifted_lti::{Dataset, ModelFile, StateSpace};
 use lifted_workflow::{
-    BdRoute, Detrend, Estimator, Method, Order, OrderCriterion, Pass, Record, RecordSource, Refine,
-    WorkflowOptions,
+    BdRoute, BlockSink, Detrend, Estimator, Method, Order, OrderCriterion, Pass, Record,
+    RecordSource, Refine, WorkflowOptions,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
@@ -359,10 +359,7 @@ impl RecordSource for FileSource<'_> {
         (self.spec.inputs.len(), self.spec.outputs.len())
     }
 
-    fn pass(
-        &mut self,
-        push: &mut dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> lifted_workflow::Result<()>,
-    ) -> lifted_workflow::Result<Pass> {
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> lifted_workflow::Result<Pass> {
         stream_files(self.paths, self.spec, push)
     }
 
@@ -391,7 +388,7 @@ fn source_error(e: CliError) -> lifted_workflow::Error {
 fn stream_file(
     path: &str,
     spec: &DataSpec,
-    push: &mut dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> lifted_workflow::Result<()>,
+    push: &mut BlockSink<'_>,
 ) -> lifted_workflow::Result<Pass> {
     let (n_u, n_y) = (spec.inputs.len(), spec.outputs.len());
     let wanted: Vec<&String> = spec.inputs.iter().chain(&spec.outputs).collect();
@@ -452,7 +449,7 @@ fn stream_file(
 fn stream_files(
     paths: &[String],
     spec: &DataSpec,
-    push: &mut dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> lifted_workflow::Result<()>,
+    push: &mut BlockSink<'_>,
 ) -> lifted_workflow::Result<Pass> {
     let mut total = Pass {
         rows: 0,
