@@ -108,7 +108,7 @@ pub fn identify_named(
     let ts = sets[0].ts();
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
-        m if m.is_subspace() && multirate => routes::multirate(id, &sets)?,
+        m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
         m if m.is_subspace() => {
             let (fit, d) = routes::subspace(opts, &sets, inner_means)?;
             if inner_means {
@@ -135,7 +135,7 @@ pub fn identify_named(
         _ => {
             let instruments: Vec<Option<&DMatrix<f64>>> =
                 records.iter().map(|r| r.instrument.as_ref()).collect();
-            routes::iv(id, &sets, &instruments, instrument_names, multirate)?
+            routes::iv(opts, &sets, &instruments, instrument_names, multirate)?
         }
     };
     let RouteFit {
@@ -147,13 +147,7 @@ pub fn identify_named(
         order,
         suggested_order,
     } = fit;
-    let (model, mut diagnostics) = refine(
-        &opts.refinement,
-        model,
-        diagnostics,
-        &sets,
-        &mut kalman_gain,
-    )?;
+    let (model, mut diagnostics) = refine(opts, model, diagnostics, &sets, &mut kalman_gain)?;
     if opts.validation.require_stable {
         require_stable(&model)?;
     }

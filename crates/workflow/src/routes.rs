@@ -24,6 +24,7 @@ use crate::options::{
     BdRoute, Estimator, IdentificationOptions, Method, Order, OrderCriterion, WorkflowOptions,
     gap_only,
 };
+use crate::refine::stabilized_start;
 
 /// What a route gives: the model, the diagnostics entry, the Kalman gain,
 /// and what the front ends show besides.
@@ -129,6 +130,7 @@ pub(crate) fn subspace(
     remove_means: bool,
 ) -> Result<(SubspaceModel, serde_json::Value)> {
     let id = &opts.identification;
+    let stable = stabilized_start(opts);
     let ts = sets[0].ts();
     let sub = SubspaceOptions {
         method: method_of(id.method),
@@ -140,7 +142,7 @@ pub(crate) fn subspace(
         bd: bd_of(id.bd),
         remove_means,
         noise_model: id.noise_model,
-        enforce_stability: id.stable,
+        enforce_stability: stable,
         ts,
         threads: id.threads.unwrap_or(1),
         ..Default::default()
@@ -254,7 +256,9 @@ fn select(
 
 /// Multirate N4SID/MOESP/CVA: lifting, causal lifted subspace
 /// identification, fast-model extraction (thesis chs. 4–5).
-pub(crate) fn multirate(id: &IdentificationOptions, sets: &[Dataset]) -> Result<RouteFit> {
+pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
     gap_only(id)?;
     let data = single(sets, "multirate identification")?;
     let opts = ProcedureOptions {
@@ -264,7 +268,7 @@ pub(crate) fn multirate(id: &IdentificationOptions, sets: &[Dataset]) -> Result<
             past: id.horizon.unwrap_or(10),
             future: id.horizon.unwrap_or(10),
             system: system_of(id.estimator),
-            enforce_stability: id.stable,
+            enforce_stability: stable,
             ..Default::default()
         },
         extraction: ExtractOptions {
@@ -348,12 +352,14 @@ pub(crate) fn pbsid(
 /// the inputs, the open-loop case); `names`: the instrument columns' names
 /// for the diagnostics (empty: the inputs).
 pub(crate) fn iv(
-    id: &IdentificationOptions,
+    opts: &WorkflowOptions,
     sets: &[Dataset],
     instruments: &[Option<&DMatrix<f64>>],
     names: &[String],
     multirate: bool,
 ) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
     let order = order_of(id);
     if multirate {
         gap_only(id)?;
@@ -364,17 +370,17 @@ pub(crate) fn iv(
             .flatten()
             .cloned()
             .unwrap_or_else(|| data.u().clone());
-        let opts = LiftedIvOptions {
+        let lopts = LiftedIvOptions {
             order,
             alpha: id.horizon.unwrap_or(6),
-            enforce_stability: id.stable,
+            enforce_stability: stable,
             extraction: ExtractOptions {
                 fallback_without_root: true,
                 ..Default::default()
             },
             ..Default::default()
         };
-        let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &opts)
+        let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
             .ctx("multirate IV identification")?;
         let n = fit.fast.order();
         let suggested = lifted_subspace::gap_order(&fit.singular_values, id.max_order);
@@ -390,11 +396,11 @@ pub(crate) fn iv(
             suggested,
         ));
     }
-    let opts = IvOptions {
+    let iopts = IvOptions {
         order,
         order_criterion: criterion_of(id.order_criterion),
         alpha: id.horizon.unwrap_or(8),
-        enforce_stability: id.stable,
+        enforce_stability: stable,
         ts: sets[0].ts(),
         ..Default::default()
     };
@@ -407,10 +413,11 @@ pub(crate) fn iv(
             instrument: *f,
         })
         .collect();
-    let fit = iv_identify(&exps, &opts).ctx("IV identification")?;
+    let fit = iv_identify(&exps, &iopts).ctx("IV identification")?;
     let dg = &fit.diagnostics;
     let d = json!({
         "route": "single-rate instrumental-variable subspace identification",
+        "stabilized": dg.stabilized,
         "instrument": if names.is_empty() { json!("inputs") } else { json!(names) },
         "horizons": [dg.horizons.0, dg.horizons.1],
         "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),
@@ -456,6 +463,7 @@ fn output_weighting(w: &[f64], outputs: usize) -> Result<Option<DMatrix<f64>>> {
 /// record per input.
 pub(crate) fn qmarkov(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
     let id = &opts.identification;
+    let stable = stabilized_start(opts);
     let prbs_order = id
         .prbs_order
         .unwrap_or(QMarkovOptions::default().prbs_order);
@@ -483,7 +491,7 @@ pub(crate) fn qmarkov(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteF
         prbs_order,
         amplitudes: id.amplitude.map(|x| vec![x; sets[0].n_inputs()]),
         record,
-        enforce_stability: id.stable,
+        enforce_stability: stable,
         ..Default::default()
     };
     let model = QMarkov::new(qopts)

@@ -19,7 +19,7 @@ use crate::error::{Context, Error, Result};
 use crate::options::{Detrend, OrderCriterion, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::deviations;
-use crate::refine::refine;
+use crate::refine::{refine, refinement_cost, stabilized_start};
 use crate::routes::{bd_of, criterion_of, method_of, order_of, system_of};
 use crate::validate::{finish_file, require_stable};
 
@@ -149,7 +149,7 @@ pub fn identify_streamed(
         bd: bd_of(id.bd),
         remove_means: opts.data.detrend != Detrend::None,
         noise_model: id.noise_model,
-        enforce_stability: id.stable,
+        enforce_stability: stabilized_start(opts),
         ts: 1.0,
         compression,
         // The machine's threads by default (results depend on the count
@@ -212,14 +212,16 @@ pub fn identify_streamed(
         "single-rate subspace identification, streamed in blocks",
     );
     let mut kalman_gain = fit.kalman_gain.clone();
-    let (model, mut d) = if opts.refinement.refine == crate::Refine::None {
-        (model, d)
+    let (model, mut d) = if refinement_cost(opts, &d).is_none() {
+        // No refinement: `refine` only records a stable identification's
+        // route.
+        refine(opts, model, d, &[], &mut kalman_gain)?
     } else {
         // The refinement starts from the model above, on the record in
         // memory (deviations from the model's operating point).
         let record = source.load()?;
         let set = deviations(&record, fit.operating_point.as_ref())?;
-        refine(&opts.refinement, model, d, &[set], &mut kalman_gain)?
+        refine(opts, model, d, &[set], &mut kalman_gain)?
     };
     if opts.validation.require_stable {
         require_stable(&model)?;
