@@ -126,6 +126,42 @@ impl Choice for MpcKind {
     const NAMES: &'static [(&'static str, Self)] = &[("gpc", MpcKind::Gpc), ("dmc", MpcKind::Dmc)];
 }
 
+impl Choice for lifted_workflow::OrderCriterion {
+    const WHAT: &'static str = "order criterion";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("validation", Self::Validation),
+        ("gap", Self::Gap),
+        ("svc", Self::Svc),
+        ("aic", Self::Aic),
+        ("aicc", Self::Aicc),
+        ("bic", Self::Bic),
+    ];
+}
+
+impl Choice for lifted_workflow::BdRoute {
+    const WHAT: &'static str = "(B, D) route";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("auto", Self::Auto),
+        ("output_error", Self::OutputError),
+        ("projection", Self::Projection),
+    ];
+}
+
+impl Choice for lifted_workflow::Detrend {
+    const WHAT: &'static str = "detrend";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("none", Self::None),
+        ("mean", Self::Mean),
+        ("linear", Self::Linear),
+    ];
+}
+
+impl Choice for lifted_workflow::Refine {
+    const WHAT: &'static str = "refinement";
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("none", Self::None), ("pem", Self::Pem), ("oe", Self::Oe)];
+}
+
 /// Every option type and its names, for `lifted._lifted._choices()` (the
 /// test that keeps the `Literal` aliases in step).
 pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
@@ -139,5 +175,9 @@ pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
         ("Feedback", names::<Feedback>()),
         ("C2dMethod", names::<Discretization>()),
         ("MpcKind", names::<MpcKind>()),
+        ("OrderCriterion", names::<lifted_workflow::OrderCriterion>()),
+        ("BdRoute", names::<lifted_workflow::BdRoute>()),
+        ("Detrend", names::<lifted_workflow::Detrend>()),
+        ("Refine", names::<lifted_workflow::Refine>()),
     ]
 }

@@ -574,6 +574,40 @@ impl Classify for lifted_multirate::Error {
     }
 }
 
+impl Classify for lifted_workflow::Error {
+    fn classify(&self, f: &mut Fields<'_>) -> Kind {
+        use lifted_workflow::Error as E;
+        match self {
+            // The workflow's option names are the keyword arguments of
+            // `identify`.
+            E::InvalidOption { option, .. } => {
+                f.set("argument", *option);
+                Kind::Argument
+            }
+            // The class and fields of the layer below.
+            E::Step { source, .. } => {
+                let s: &(dyn std::error::Error + 'static) = source.as_ref();
+                if let Some(e) = s.downcast_ref::<lifted_subspace::Error>() {
+                    e.classify(f)
+                } else if let Some(e) = s.downcast_ref::<lifted_lti::Error>() {
+                    e.classify(f)
+                } else if let Some(e) = s.downcast_ref::<lifted_lti::DataError>() {
+                    e.classify(f)
+                } else if let Some(e) = s.downcast_ref::<lifted_multirate::Error>() {
+                    e.classify(f)
+                } else if let Some(e) = s.downcast_ref::<lifted_qmarkov::Error>() {
+                    e.classify(f)
+                } else if let Some(e) = s.downcast_ref::<lifted_prbs::Error>() {
+                    e.classify(f)
+                } else {
+                    Kind::Base
+                }
+            }
+            _ => Kind::Base,
+        }
+    }
+}
+
 impl Classify for lifted_prbs::Error {
     fn classify(&self, f: &mut Fields<'_>) -> Kind {
         use lifted_prbs::Error as E;

@@ -1,18 +1,24 @@
-//! Binding of the default identification route, `lifted_subspace::identify`
-//! (N4SID, MOESP, CVA on one record or several). The model it returns
-//! carries the operating point (the means removed from the records) and the
-//! Kalman gain of the noise model, exactly as the CLI's model file does.
+//! Binding of the identification workflow (`lifted_workflow`, the layer the
+//! CLI and the studio call too): N4SID, MOESP, CVA on one record or several,
+//! with the CLI's defaults (held-out structure selection, means removed, an
+//! optional PEM/OE refinement). The model it returns carries the operating
+//! point (the means removed from the records) and the Kalman gain of the
+//! noise model, exactly as the CLI's model file does; the same data and
+//! options give the same model as `lifted identify`.
 
 use lifted_linalg::budget::resolve_threads;
-use lifted_subspace::{Experiment, Method, OrderSelection, SubspaceOptions, SystemEstimate};
+use lifted_subspace::{Experiment, Method, OrderSelection, SystemEstimate};
+use lifted_workflow::{
+    BdRoute, Detrend, Estimator, Order, OrderCriterion, Record, Refine, WorkflowOptions,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
 use crate::convert::{Int, count, opt_count};
-use crate::errors::err;
+use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
-use crate::{records, to_py};
+use crate::{dataset, records, to_py};
 
 /// Order selection: fixed `order`, else the singular-value gap up to `max_order`.
 pub(crate) fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
@@ -22,17 +28,49 @@ pub(crate) fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection
     }
 }
 
-/// Subspace identification (lifted_subspace::identify) from one or several
+/// The one horizon of the workflow from `horizon` and the older `past` /
+/// `future` (each, when given, must agree with the others).
+fn horizon_of(
+    horizon: Option<usize>,
+    past: Option<usize>,
+    future: Option<usize>,
+) -> PyResult<Option<usize>> {
+    let mut h = horizon;
+    for (name, v) in [("past", past), ("future", future)] {
+        match (h, v) {
+            (Some(a), Some(b)) if a != b => {
+                return Err(arg_error(
+                    name,
+                    format!(
+                        "{b} differs from the horizon {a}: the workflow takes one horizon \
+                         (past = future), give `horizon`"
+                    ),
+                ));
+            }
+            (None, Some(b)) => h = Some(b),
+            _ => {}
+        }
+    }
+    Ok(h)
+}
+
+/// Identification through the workflow layer (`lifted_workflow::identify`,
+/// the layer of `lifted identify` and the studio) from one or several
 /// records (`us`, `ys`: lists of N×m and N×p arrays). Keyword defaults are
-/// those of `SubspaceOptions`; `threads` is capped at the machine's
-/// available parallelism (0 = all cores). Returns a dict: model (with its
-/// operating point and Kalman gain), kalman_gain, x0, u0/y0 (means
-/// removed), singular_values, order, suggested_order, method, threads (the
-/// count used), model_json (the CLI's model file). `system`: None (the
-/// library's default `SystemEstimate`), "shift" or "states".
+/// the workflow's (those of `lifted identify`): the horizon, the (A, C)
+/// route and the order chosen by the held-out simulation fit when not
+/// given, means removed, (B, D, x₀) by output-error least squares, no
+/// refinement. `threads` is capped at the machine's available parallelism
+/// (0 = all cores). Returns a dict: model (with its operating point and
+/// Kalman gain), kalman_gain, x0, u0/y0 (means removed), singular_values,
+/// order, suggested_order, method, threads (the count used), model_json
+/// (the CLI's model file without channel names), diagnostics_json (the
+/// model file's diagnostics).
 #[pyfunction]
-#[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10, past=10, future=10,
-    remove_means=true, noise_model=true, enforce_stability=false, dt=1.0, threads=1, system=None))]
+#[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10,
+    order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
+    detrend="mean", remove_means=true, noise_model=true, enforce_stability=false, refine="none",
+    refine_iterations=100, refine_max_work=2e10, dt=1.0, threads=1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -41,43 +79,109 @@ pub(crate) fn identify<'py>(
     method: &str,
     order: Option<Int>,
     max_order: Int,
-    past: Int,
-    future: Int,
+    order_criterion: &str,
+    horizon: Option<Int>,
+    past: Option<Int>,
+    future: Option<Int>,
+    system: Option<&str>,
+    bd: &str,
+    detrend: &str,
     remove_means: bool,
     noise_model: bool,
     enforce_stability: bool,
+    refine: &str,
+    refine_iterations: Int,
+    refine_max_work: f64,
     dt: f64,
     threads: Int,
-    system: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = Method::parse(method, "method")?;
-    let system = match system {
-        None => SystemEstimate::default(),
-        Some(s) => SystemEstimate::parse(s, "system")?,
+    let estimator = match system {
+        None => Estimator::Auto,
+        Some(s) => match SystemEstimate::parse(s, "system")? {
+            SystemEstimate::ShiftInvariance => Estimator::Shift,
+            SystemEstimate::StateSequence => Estimator::States,
+        },
     };
+    let mut detrend = Detrend::parse(detrend, "detrend")?;
+    if !remove_means {
+        if detrend == Detrend::Linear {
+            return Err(arg_error(
+                "remove_means",
+                "False (no offsets removed) contradicts detrend='linear'",
+            ));
+        }
+        detrend = Detrend::None;
+    }
     let (u, y) = records(&us, &ys)?;
+    for (u, y) in u.iter().zip(&y) {
+        // The subspace layer's own check and message (the sample and
+        // channel of the first NaN or infinity).
+        for (what, m) in [("u", u), ("y", y)] {
+            if let Some(i) = lifted_linalg::first_non_finite(m.as_slice()) {
+                return Err(err(lifted_subspace::Error::NonFinite {
+                    what,
+                    row: i % m.nrows().max(1),
+                    col: i / m.nrows().max(1),
+                }));
+            }
+        }
+    }
     let threads = resolve_threads(count(threads, "threads")?);
-    let opts = SubspaceOptions {
-        method,
-        order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
-        past: count(past, "past")?,
-        future: count(future, "future")?,
-        remove_means,
-        noise_model,
-        enforce_stability,
-        ts: dt,
-        threads,
-        system,
-        ..Default::default()
+    let mut opts = WorkflowOptions::default();
+    opts.data.detrend = detrend;
+    let id = &mut opts.identification;
+    id.method = match method {
+        Method::Moesp => lifted_workflow::Method::Moesp,
+        Method::Cva => lifted_workflow::Method::Cva,
+        _ => lifted_workflow::Method::N4sid,
     };
+    id.order = match opt_count(order, "order")? {
+        Some(n) => Order::Fixed(n),
+        None => Order::Auto,
+    };
+    id.max_order = count(max_order, "max_order")?;
+    id.order_criterion = OrderCriterion::parse(order_criterion, "order_criterion")?;
+    id.horizon = horizon_of(
+        opt_count(horizon, "horizon")?,
+        opt_count(past, "past")?,
+        opt_count(future, "future")?,
+    )?;
+    id.estimator = estimator;
+    id.bd = BdRoute::parse(bd, "bd")?;
+    id.noise_model = noise_model;
+    id.stable = enforce_stability;
+    id.threads = Some(threads);
+    opts.refinement.refine = Refine::parse(refine, "refine")?;
+    opts.refinement.iterations = count(refine_iterations, "refine_iterations")?;
+    opts.refinement.max_work = refine_max_work;
+    let sets = u
+        .into_iter()
+        .zip(y)
+        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
+        .collect::<PyResult<Vec<_>>>()?;
     let fit = py
-        .detach(move || {
-            let ex: Vec<Experiment<'_>> =
-                u.iter().zip(&y).map(|(u, y)| Experiment { u, y }).collect();
-            lifted_subspace::identify(&ex, &opts)
-        })
+        .detach(move || lifted_workflow::identify(&sets, &opts))
         .map_err(err)?;
-    fit_dict(py, &fit, Method::name_of(&method), threads)
+    let name = Method::name_of(&method);
+    let f = &fit.file;
+    let kalman_gain = f.kalman_gain_matrix();
+    let out = dict_of(
+        py,
+        FitParts {
+            model: &f.model,
+            kalman_gain: kalman_gain.as_ref(),
+            x0: &fit.x0,
+            operating_point: f.operating_point.as_ref(),
+            singular_values: &fit.singular_values,
+            order: fit.order,
+            suggested_order: fit.suggested_order,
+        },
+        name,
+        threads,
+    )?;
+    out.set_item("diagnostics_json", f.diagnostics.to_string())?;
+    Ok(out)
 }
 
 /// Predictor-based subspace identification (lifted_subspace::pbsid_identify:

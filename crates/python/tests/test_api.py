@@ -84,7 +84,8 @@ def test_literal_aliases_match_the_extension() -> None:
     for alias, names in parsed.items():
         assert list(typing.get_args(getattr(lifted, alias))) == names, alias
     assert set(parsed) == {
-        "SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind"
+        "SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind",
+        "OrderCriterion", "BdRoute", "Detrend", "Refine",
     }
 
 
@@ -99,6 +100,11 @@ def test_literal_aliases_match_the_extension() -> None:
                                               np.zeros((1, 0)), 0.05, 0.5), feedback=v)),
         ("C2dMethod", lambda v, p, u, y: lifted.StateSpace(-1.0, 1, 1, 0).c2d(0.1, method=v)),
         ("MpcKind", lambda v, p, u, y: lifted.Mpc(p, v)),
+        ("OrderCriterion", lambda v, p, u, y: lifted.n4sid(u, y, order_criterion=v, horizon=5, max_order=4)),
+        ("BdRoute", lambda v, p, u, y: lifted.n4sid(u, y, order=2, horizon=5, system="shift", bd=v)),
+        ("Detrend", lambda v, p, u, y: lifted.n4sid(u, y, order=2, horizon=5, system="shift", detrend=v)),
+        ("Refine", lambda v, p, u, y: lifted.n4sid(u, y, order=2, horizon=5, system="shift", refine=v,
+                                                    refine_iterations=2)),
     ],
 )
 def test_every_literal_is_accepted_and_nothing_else(alias, call, plant, record) -> None:

@@ -15,6 +15,7 @@ processes can too.
 
 from __future__ import annotations
 
+import json
 from typing import Any, Sequence
 
 import numpy as np
@@ -58,7 +59,18 @@ from ._results import (
     SubspaceFit,
     Validation,
 )
-from ._types import C2dMethod, Feedback, MpcKind, PbsidVariant, SubspaceMethod, SystemEstimate
+from ._types import (
+    BdRoute,
+    C2dMethod,
+    Detrend,
+    Feedback,
+    MpcKind,
+    OrderCriterion,
+    PbsidVariant,
+    Refine,
+    SubspaceMethod,
+    SystemEstimate,
+)
 
 __all__ = [
     "__version__",
@@ -87,6 +99,10 @@ __all__ = [
     "Feedback",
     "C2dMethod",
     "MpcKind",
+    "OrderCriterion",
+    "BdRoute",
+    "Detrend",
+    "Refine",
     "prbs",
     "inverse_prbs",
     "design",
@@ -197,34 +213,67 @@ def identify(
     *,
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    system: SystemEstimate | None = None,
+    bd: BdRoute = "auto",
+    detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
+    refine: Refine = "none",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
-    system: SystemEstimate | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP or CVA) of one record or several.
 
     ``u`` and ``y`` are arrays (N x m, N x p; anything numpy reads, a 1-D
     array is one channel) or lists of such arrays (several experiments).
-    Defaults are those of ``lifted_subspace::SubspaceOptions``: automatic
-    order by the singular-value gap up to ``max_order``, horizons 10/10,
-    means removed, noise model estimated, ``dt`` = 1 s. ``system`` is None
-    (the library's default), "shift" or "states"; ``threads`` the
-    correlation-kernel threads (0 = all cores; capped at the machine's
-    available parallelism, the count used is ``fit.threads``).
+
+    The call goes through the identification workflow that ``lifted
+    identify`` and ``lifted studio`` use (the Rust crate
+    ``lifted-workflow``), with the same defaults, so the same data and
+    options give the same model as the command line:
+
+    * ``order`` None: chosen from the data by ``order_criterion`` up to
+      ``max_order``; the default ``"validation"`` picks the order, the
+      horizon (when ``horizon`` is None: among 5, 10, 15, 20, 30) and the
+      (A, C) route (when ``system`` is None) by the simulation fit on the
+      held-out last third of the record. ``"gap"``, ``"svc"``, ``"aic"``,
+      ``"aicc"``, ``"bic"``: the other rules (``lifted identify
+      --order-criterion``), with horizon 10 unless given.
+    * ``horizon``: past = future block rows (``past``/``future`` are its
+      older spelling; given together they must agree).
+    * ``system``: ``"shift"`` or ``"states"`` (None: chosen as above, else
+      shift invariance); ``bd``: the (B, D, x0) route.
+    * ``detrend``: ``"mean"`` (the means removed and stored as the model's
+      operating point), ``"none"`` or ``"linear"``; ``remove_means=False``
+      is ``detrend="none"``.
+    * ``refine``: ``"pem"`` or ``"oe"`` refines the model from exactly the
+      identified one (``refine_iterations``, ``refine_max_work``).
+    * ``enforce_stability``: the stabilised estimate (``--stable``).
+    * ``threads``: the correlation-kernel threads (0 = all cores; capped at
+      the machine's available parallelism, the count used is
+      ``fit.threads``).
 
     Returns a :class:`SubspaceFit`; its ``model`` carries the operating point
     (the means removed) and the Kalman gain, so ``validate(fit.model, u, y)``
-    and ``simulate(fit.model, u)`` work on plant values.
+    and ``simulate(fit.model, u)`` work on plant values; ``diagnostics`` is
+    the model file's diagnostics (route, structure selection, refinement,
+    stability, warnings).
     """
     us, ys = _records(u, y)
     d = _identify(
-        us, ys, method, order, max_order, past, future, remove_means, noise_model,
-        enforce_stability, dt, threads, system,
+        us, ys, method, order=order, max_order=max_order, order_criterion=order_criterion,
+        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
+        remove_means=remove_means, noise_model=noise_model,
+        enforce_stability=enforce_stability, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+        threads=threads,
     )
     return _subspace_fit(d)
 
@@ -243,6 +292,7 @@ def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:
         method=d["method"],
         threads=d["threads"],
         model_json=d["model_json"],
+        diagnostics=json.loads(d["diagnostics_json"]) if "diagnostics_json" in d else {},
     )
 
 
@@ -284,20 +334,30 @@ def n4sid(
     *,
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    system: SystemEstimate | None = None,
+    bd: BdRoute = "auto",
+    detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
+    refine: Refine = "none",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
-    system: SystemEstimate | None = None,
 ) -> SubspaceFit:
     """:func:`identify` with ``method="n4sid"``."""
     return identify(
-        u, y, "n4sid", order=order, max_order=max_order, past=past, future=future,
+        u, y, "n4sid", order=order, max_order=max_order, order_criterion=order_criterion,
+        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
-        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+        enforce_stability=enforce_stability, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+        threads=threads,
     )
 
 
@@ -307,20 +367,30 @@ def moesp(
     *,
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    system: SystemEstimate | None = None,
+    bd: BdRoute = "auto",
+    detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
+    refine: Refine = "none",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
-    system: SystemEstimate | None = None,
 ) -> SubspaceFit:
     """:func:`identify` with ``method="moesp"``."""
     return identify(
-        u, y, "moesp", order=order, max_order=max_order, past=past, future=future,
+        u, y, "moesp", order=order, max_order=max_order, order_criterion=order_criterion,
+        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
-        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+        enforce_stability=enforce_stability, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+        threads=threads,
     )
 
 
@@ -330,20 +400,30 @@ def cva(
     *,
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    system: SystemEstimate | None = None,
+    bd: BdRoute = "auto",
+    detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
+    refine: Refine = "none",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
-    system: SystemEstimate | None = None,
 ) -> SubspaceFit:
     """:func:`identify` with ``method="cva"``."""
     return identify(
-        u, y, "cva", order=order, max_order=max_order, past=past, future=future,
+        u, y, "cva", order=order, max_order=max_order, order_criterion=order_criterion,
+        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
-        enforce_stability=enforce_stability, dt=dt, threads=threads, system=system,
+        enforce_stability=enforce_stability, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+        threads=threads,
     )
 
 

@@ -11,10 +11,14 @@ import numpy as np
 import numpy.typing as npt
 
 from lifted._types import (
+    BdRoute,
     C2dMethod,
+    Detrend,
     Feedback,
     MpcKind,
+    OrderCriterion,
     PbsidVariant,
+    Refine,
     SubspaceMethod,
     SystemEstimate,
 )
@@ -260,14 +264,21 @@ def identify(
     method: SubspaceMethod = "n4sid",
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    system: SystemEstimate | None = None,
+    bd: BdRoute = "auto",
+    detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
+    refine: Refine = "none",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
-    system: SystemEstimate | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

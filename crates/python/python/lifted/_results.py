@@ -74,6 +74,7 @@ class SubspaceFit(_Result):
     method: str
     threads: int
     model_json: str
+    diagnostics: dict[str, Any]
 
     _shown = ("method", "order", "suggested_order", "model")
 

@@ -10,7 +10,18 @@ from __future__ import annotations
 
 from typing import Literal
 
-__all__ = ["SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind"]
+__all__ = [
+    "SubspaceMethod",
+    "SystemEstimate",
+    "PbsidVariant",
+    "Feedback",
+    "C2dMethod",
+    "MpcKind",
+    "OrderCriterion",
+    "BdRoute",
+    "Detrend",
+    "Refine",
+]
 
 #: Weighting of the subspace identification (``identify(method=...)``).
 SubspaceMethod = Literal["n4sid", "moesp", "cva"]
@@ -28,3 +39,13 @@ Feedback = Literal["fast", "hold_last"]
 C2dMethod = Literal["zoh", "foh", "tustin"]
 #: Receding-horizon law of ``Mpc``: state-space MPC or DMC.
 MpcKind = Literal["gpc", "dmc"]
+#: Rule of an automatic order (``identify(order_criterion=...)``, the CLI's
+#: ``--order-criterion``): held-out simulation fit (with the horizon and the
+#: (A, C) route), the singular-value gap, Bauer's SVC, AIC, AICc, BIC.
+OrderCriterion = Literal["validation", "gap", "svc", "aic", "aicc", "bic"]
+#: Route of (B, D, x0) after (A, C) (``identify(bd=...)``, ``--bd``).
+BdRoute = Literal["auto", "output_error", "projection"]
+#: Offsets removed before the identification (``identify(detrend=...)``).
+Detrend = Literal["none", "mean", "linear"]
+#: Refinement after the identification (``identify(refine=...)``).
+Refine = Literal["none", "pem", "oe"]

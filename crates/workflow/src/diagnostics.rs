@@ -1,0 +1,136 @@
+//! The diagnostics JSON of a run: the entries every route writes (order
+//! selection, subspace fit, run facts). Same keys as the `lifted identify`
+//! model file has always carried.
+
+use lifted_subspace::{OrderReport, SubspaceModel, SystemEstimate};
+use nalgebra::DMatrix;
+use serde_json::json;
+
+/// The order-selection entry: what the values are, the values, the order
+/// used and the suggested one.
+pub(crate) fn order_json(
+    kind: &str,
+    values: &[f64],
+    order: usize,
+    suggested: usize,
+) -> serde_json::Value {
+    json!({"kind": kind, "values": values, "order": order, "suggested_order": suggested})
+}
+
+/// Name of an (A, C) route in the diagnostics.
+pub(crate) fn system_name(s: SystemEstimate) -> &'static str {
+    match s {
+        SystemEstimate::ShiftInvariance => "shift invariance",
+        SystemEstimate::StateSequence => "state sequences",
+    }
+}
+
+/// The order-selection rule's values per order (orders 1, 2, …) and choice.
+pub(crate) fn criterion_json(r: &OrderReport) -> serde_json::Value {
+    let values: Vec<Option<f64>> = r
+        .values
+        .iter()
+        .map(|v| v.is_finite().then_some(*v))
+        .collect();
+    json!({"criterion": format!("{:?}", r.criterion), "values": values, "selected": r.selected})
+}
+
+/// Rows of a matrix (JSON arrays).
+pub(crate) fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
+
+/// Diagnostics of a subspace fit: horizons, order selection, compression
+/// used and the per-phase times (under "phases", merged into "profile" by
+/// [`add_run_facts`]).
+pub(crate) fn subspace_json(fit: &SubspaceModel, route: &str) -> serde_json::Value {
+    let dg = &fit.diagnostics;
+    json!({
+        "route": route,
+        "bd_route": dg.bd_route.name(),
+        "fallbacks": dg.fallbacks,
+        "stabilized": dg.stabilized,
+        "horizons": [dg.horizons.0, dg.horizons.1],
+        "hankel_columns": dg.columns,
+        "kalman_gain": fit.kalman_gain.as_ref().map(rows),
+        "order_selection": order_json("singular values of W1 Φ W2", &dg.singular_values, dg.order, dg.suggested_order),
+        "order_criterion": criterion_json(&dg.order_selection),
+        "compression": {
+            "used": format!("{:?}", dg.compression.used),
+            "rcond": dg.compression.rcond,
+            "fallback": dg.compression.fallback,
+        },
+        "phases": {
+            "compress_s": dg.profile.compress_s,
+            "svd_s": dg.profile.svd_s,
+            "estimate_s": dg.profile.estimate_s,
+        },
+    })
+}
+
+/// The diagnostics entry of a PBSID identification.
+pub(crate) fn pbsid_json(fit: &lifted_subspace::PbsidModel) -> serde_json::Value {
+    let dg = &fit.diagnostics;
+    json!({
+        "route": format!("single-rate predictor-based subspace identification ({})", dg.variant.name()),
+        "horizons": [dg.horizons.0, dg.horizons.1],
+        "past_selection": dg.past_selection.iter().map(|(p, v)| json!({"past": p, "aic": v})).collect::<Vec<_>>(),
+        "hankel_columns": dg.columns,
+        "kalman_gain": rows(&fit.kalman_gain),
+        "innovation_covariance": rows(&fit.innovation_covariance),
+        "predictor_spectral_radius": dg.predictor_spectral_radius,
+        "order_selection": order_json("singular values of the predictor-based Γ_f K_p", &dg.singular_values, dg.order, dg.suggested_order),
+        "compression": {
+            "used": format!("{:?}", dg.compression.used),
+            "rcond": dg.compression.rcond,
+            "fallback": dg.compression.fallback,
+        },
+        "notes": dg.notes,
+    })
+}
+
+/// Adds the facts of the run to the diagnostics: sample count, base
+/// period, output periods, and the wall time per phase under "profile":
+/// reading the data (`read_s`, when the workflow read them itself), the
+/// whole identification, and a method's own phases (moved there from
+/// "phases"). The caller adds what only it knows (the CLI: the data files
+/// and its reading time).
+pub(crate) fn add_run_facts(
+    diagnostics: &mut serde_json::Value,
+    samples: usize,
+    ts: f64,
+    output_periods: &[usize],
+    read_s: Option<f64>,
+    identify_s: f64,
+) {
+    let Some(obj) = diagnostics.as_object_mut() else {
+        return;
+    };
+    let mut profile = json!({ "identify_s": identify_s });
+    if let (Some(p), Some(r)) = (profile.as_object_mut(), read_s) {
+        p.insert("read_s".into(), json!(r));
+    }
+    if let (Some(p), Some(phases)) = (profile.as_object_mut(), obj.remove("phases"))
+        && let Some(ph) = phases.as_object()
+    {
+        for (k, v) in ph {
+            p.insert(k.clone(), v.clone());
+        }
+    }
+    obj.insert("profile".into(), profile);
+    obj.insert("samples".into(), json!(samples));
+    obj.insert("base_period".into(), json!(ts));
+    obj.insert("output_periods".into(), json!(output_periods));
+}
+
+/// Appends a warning to the diagnostics' `warnings` list.
+pub(crate) fn push_warning(diagnostics: &mut serde_json::Value, warning: String) {
+    if let Some(obj) = diagnostics.as_object_mut() {
+        let warnings = obj.entry("warnings").or_insert_with(|| json!([]));
+        if let Some(w) = warnings.as_array_mut() {
+            w.push(json!(warning));
+        }
+    }
+}

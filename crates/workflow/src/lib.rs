@@ -1,0 +1,99 @@
+//! # lifted-workflow
+//!
+//! The identification workflow shared by every front end of Lifted — the
+//! `lifted` command, `lifted studio` and the Python package — so that the
+//! same data and the same options give the same model everywhere. The
+//! front ends only parse their input into a [`WorkflowOptions`] and records,
+//! call this crate, and print.
+//!
+//! ## Stages
+//!
+//! A run ([`identify`] on records in memory, [`identify_streamed`] on one
+//! record read in blocks) goes through:
+//!
+//! 1. **Data and preprocessing** ([`DataOptions`]): the offsets removed
+//!    (per-channel means, or least-squares lines), stored with the model as
+//!    its operating point (u₀, y₀), so the model maps u − u₀ to y − y₀.
+//!    Single-rate N4SID/MOESP/CVA remove the means inside the
+//!    identification, where the output-error regression of (B, D, x₀) also
+//!    estimates the constant offset a response that started at rest keeps.
+//! 2. **Identification** ([`IdentificationOptions`]): the route the method
+//!    and the data call for — single-rate weighted subspace identification
+//!    (N4SID, MOESP, CVA: the oblique projection O_f = Y_f /_{U_f} W_p,
+//!    the SVD of W₁ O_f W₂ = U S Vᵀ, Γ = U₁ S₁^{1/2}, then (A, C) from the
+//!    shift invariance Γ↑ A = Γ↓ and (B, D, x₀) by output-error least
+//!    squares; Van Overschee & De Moor 1996, ch. 4), the lifted multirate
+//!    route with fast-model extraction (thesis chs. 4–5), the weighted
+//!    q-Markov Cover (Zhu 2000), PBSID/SSARX (Chiuso 2007, Jansson 2003)
+//!    and IV subspace (thesis ch. 7). Under the default order rule
+//!    ([`OrderCriterion::Validation`]) the horizon s, the (A, C) route and
+//!    the order n of a single-rate subspace identification not given are
+//!    chosen by the simulation fit on held-out data
+//!    (`lifted_subspace::select_structure`: identified on the first two
+//!    thirds, scored on the last third with x₀ estimated).
+//! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the
+//!    one-step prediction error (the innovations form, K free) or on the
+//!    simulation error, from exactly the identified model; the refined
+//!    model is kept only if its simulation fit is at least as good.
+//! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
+//!    always written to the diagnostics (`stability`), an unstable model
+//!    carrying a warning that names it; optionally an error instead.
+//!
+//! The result, [`Identified`], holds the model file the CLI writes
+//! (`lifted_lti::ModelFile`: model, operating point, Kalman gain, the
+//! diagnostics JSON with the route, the order and structure selection, the
+//! refinement report, the stability and the per-phase profile) and the
+//! initial states and singular values the Python package returns.
+//!
+//! ## Records
+//!
+//! In memory, a [`Record`] is a `lifted_lti::Dataset` (with the IV
+//! instrument columns when used). A record too large for memory is read in
+//! blocks from a [`RecordSource`] (the CLI's CSV / `.npy` reader; shards of
+//! one record): two passes, O(((m + l) s)² + block) memory whatever its
+//! length ([`identify_streamed`], module [`stream`]).
+//!
+//! ## Example
+//!
+//! ```
+//! use lifted_lti::Dataset;
+//! use lifted_workflow::{Order, Record, WorkflowOptions, identify};
+//! use nalgebra::DMatrix;
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // y(k+1) = 0.8 y(k) + u(k) driven by a ±1 sequence, 400 samples.
+//! let n = 400;
+//! let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+//! let mut y = DMatrix::zeros(n, 1);
+//! for k in 1..n {
+//!     y[(k, 0)] = 0.8 * y[(k - 1, 0)] + u[(k - 1, 0)];
+//! }
+//! let mut opts = WorkflowOptions::default();
+//! opts.identification.order = Order::Fixed(1);
+//! let fit = identify(&[Record::new(Dataset::single_rate(1.0, u, y)?)], &opts)?;
+//! let a = fit.file.model.a()[(0, 0)];
+//! assert!((a - 0.8).abs() < 1e-6);
+//! # Ok(())
+//! # }
+//! ```
+
+mod diagnostics;
+mod error;
+mod options;
+mod pipeline;
+mod preprocess;
+mod refine;
+mod routes;
+pub mod stream;
+mod validate;
+
+pub use error::{Error, Result};
+pub use options::{
+    BdRoute, DataOptions, Detrend, Estimator, IdentificationOptions, Method, Order, OrderCriterion,
+    Refine, RefinementOptions, ValidationOptions, WorkflowOptions,
+};
+pub use pipeline::{Identified, Record, identify, identify_named};
+pub use preprocess::{detrend_sets, deviations};
+pub use refine::refine;
+pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
+pub use validate::{require_stable, spectral_radius, unstable_warning};

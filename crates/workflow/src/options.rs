@@ -1,0 +1,360 @@
+//! The options of a workflow run: one serde-able type with a section per
+//! stage (data and preprocessing → identification → refinement →
+//! validation). Every front end (the `lifted` command, the studio, the
+//! Python package) builds this type and nothing else, so the same options
+//! give the same model everywhere. Defaults are those of `lifted identify`.
+
+use serde::{Deserialize, Serialize};
+
+/// Everything a workflow run needs besides the data.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct WorkflowOptions {
+    /// Data layout and preprocessing (offsets, input hold).
+    pub data: DataOptions,
+    /// The identification method and its structure (order, horizon, routes).
+    pub identification: IdentificationOptions,
+    /// The refinement after the identification (none by default).
+    pub refinement: RefinementOptions,
+    /// What the run checks of its model before returning it.
+    pub validation: ValidationOptions,
+}
+
+/// Data layout and preprocessing.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DataOptions {
+    /// Offsets removed before the identification (default
+    /// [`Detrend::Mean`]); the means are stored with the model as its
+    /// operating point.
+    pub detrend: Detrend,
+    /// Input hold n_r in base periods (q-Markov: the PRBS hold). Default 1.
+    pub hold: usize,
+}
+
+impl Default for DataOptions {
+    fn default() -> Self {
+        DataOptions {
+            detrend: Detrend::Mean,
+            hold: 1,
+        }
+    }
+}
+
+/// Offset handling before the identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Detrend {
+    /// The data as they are.
+    None,
+    /// Each channel's mean removed (over its sampled values; default).
+    /// Single-rate N4SID/MOESP/CVA remove it inside the identification, so
+    /// the output-error regression also estimates the constant a response
+    /// that started at rest keeps.
+    #[default]
+    Mean,
+    /// A least-squares straight line removed from each channel (in memory
+    /// only: never streamed).
+    Linear,
+}
+
+/// Identification methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Weighted multirate q-Markov Cover (Zhu 2000): one inverse-PRBS
+    /// record per input.
+    Qmarkov,
+    /// N4SID (subspace, W1 = W2 = I; default).
+    #[default]
+    N4sid,
+    /// MOESP (subspace).
+    Moesp,
+    /// CVA (subspace, canonical correlations).
+    Cva,
+    /// Instrumental-variable subspace (thesis ch. 7), open or closed loop.
+    Iv,
+    /// Predictor-based subspace (PBSID-opt, Chiuso 2007).
+    Pbsid,
+    /// SSARX (Jansson 2003).
+    Ssarx,
+}
+
+impl Method {
+    /// Lower-case name (the model file's `method`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Qmarkov => "qmarkov",
+            Method::N4sid => "n4sid",
+            Method::Moesp => "moesp",
+            Method::Cva => "cva",
+            Method::Iv => "iv",
+            Method::Pbsid => "pbsid",
+            Method::Ssarx => "ssarx",
+        }
+    }
+
+    /// Whether this is one of the weighted subspace methods N4SID, MOESP,
+    /// CVA.
+    pub fn is_subspace(self) -> bool {
+        matches!(self, Method::N4sid | Method::Moesp | Method::Cva)
+    }
+}
+
+/// The model order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Order {
+    /// Chosen from the data by [`IdentificationOptions::order_criterion`]
+    /// up to [`IdentificationOptions::max_order`] (default).
+    #[default]
+    Auto,
+    /// This order (at least 1).
+    Fixed(usize),
+}
+
+/// Rule of an automatic order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OrderCriterion {
+    /// Simulation fit on held-out data (the last third of the record), the
+    /// horizon and the (A, C) route chosen the same way when they are not
+    /// given (single-rate N4SID, MOESP, CVA; default). The other routes use
+    /// the singular-value gap; a record too large to select on is streamed
+    /// with Bauer's SVC.
+    #[default]
+    Validation,
+    /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.
+    Gap,
+    /// Bauer's singular value criterion on the canonical correlations.
+    Svc,
+    /// Akaike's information criterion on the simulation error.
+    Aic,
+    /// Small-sample corrected AIC.
+    Aicc,
+    /// Bayesian (Schwarz) information criterion.
+    Bic,
+}
+
+/// Route from the subspace to (A, C).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Estimator {
+    /// Chosen by the held-out simulation fit (single-rate N4SID, MOESP,
+    /// CVA under [`OrderCriterion::Validation`]); shift invariance
+    /// elsewhere (default).
+    #[default]
+    Auto,
+    /// Shift invariance of the extended observability matrix (consistent).
+    Shift,
+    /// Least squares on the estimated state sequences.
+    States,
+}
+
+/// Route of (B, D, x₀) after (A, C).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BdRoute {
+    /// Output-error least squares on the data; the projection only when A
+    /// is too unstable for the regression over the record (default).
+    #[default]
+    Auto,
+    /// Output-error least squares on the data, always.
+    OutputError,
+    /// The projection on the compressed data (one pass over a file).
+    Projection,
+}
+
+/// The identification stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct IdentificationOptions {
+    /// The method (default [`Method::N4sid`]).
+    pub method: Method,
+    /// The order (default [`Order::Auto`]).
+    pub order: Order,
+    /// Largest order an automatic order considers. Default 10.
+    pub max_order: usize,
+    /// Rule of an automatic order (default [`OrderCriterion::Validation`]).
+    pub order_criterion: OrderCriterion,
+    /// Horizon: past = future block rows of the subspace methods (default:
+    /// chosen with the order by the held-out fit among 5, 10, 15, 20, 30,
+    /// else 10), α of IV (default 8; multirate IV 6), the past horizon of
+    /// PBSID/SSARX (default: Akaike's choice; the future is min(p, 10)).
+    pub horizon: Option<usize>,
+    /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
+    pub estimator: Estimator,
+    /// (B, D, x₀) route of the subspace methods (default [`BdRoute::Auto`]).
+    pub bd: BdRoute,
+    /// Offer a stable model instead of an unstable one (Maciejowski's
+    /// stabilised shift invariance; the refinement keeps its iterates
+    /// stable). Default false.
+    pub stable: bool,
+    /// Estimate the Kalman gain of the innovations form (single-rate
+    /// subspace methods). Default true.
+    pub noise_model: bool,
+    /// Threads of the correlation kernel and the modal regression of the
+    /// single-rate subspace methods (0: the machine's; results depend on
+    /// the count through rounding only). Default `None`: 1 in memory, the
+    /// machine's on a streamed record.
+    pub threads: Option<usize>,
+    /// q-Markov: number q of Markov/covariance parameters matched (default
+    /// 60, capped below n_r m).
+    pub q: Option<usize>,
+    /// q-Markov: PRBS order n of the excitation (default 8).
+    pub prbs_order: Option<u32>,
+    /// q-Markov: PRBS magnitude a (default: read from the data).
+    pub amplitude: Option<f64>,
+    /// q-Markov: diagonal output weighting Q of eq. (III-6), one positive
+    /// value for every output or one per output (empty: the identity).
+    pub output_weight: Vec<f64>,
+}
+
+impl Default for IdentificationOptions {
+    fn default() -> Self {
+        IdentificationOptions {
+            method: Method::N4sid,
+            order: Order::Auto,
+            max_order: 10,
+            order_criterion: OrderCriterion::Validation,
+            horizon: None,
+            estimator: Estimator::Auto,
+            bd: BdRoute::Auto,
+            stable: false,
+            noise_model: true,
+            threads: None,
+            q: None,
+            prbs_order: None,
+            amplitude: None,
+            output_weight: Vec::new(),
+        }
+    }
+}
+
+/// Refinement cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Refine {
+    /// No refinement (default).
+    #[default]
+    None,
+    /// Prediction-error method: one-step prediction error, Kalman gain
+    /// estimated.
+    Pem,
+    /// Output-error method: simulation error.
+    Oe,
+}
+
+/// The refinement stage (Levenberg–Marquardt from the identified model,
+/// measured samples only; the refined model is kept only if its simulation
+/// fit on the record is at least as good).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RefinementOptions {
+    /// The cost (default [`Refine::None`]: no refinement).
+    pub refine: Refine,
+    /// Largest number of iterations. Default 100.
+    pub iterations: usize,
+    /// Bound on the work in floating-point operations. Default 2e10.
+    pub max_work: f64,
+}
+
+impl Default for RefinementOptions {
+    fn default() -> Self {
+        RefinementOptions {
+            refine: Refine::None,
+            iterations: 100,
+            max_work: 2e10,
+        }
+    }
+}
+
+/// The validation stage: the model's stability is always measured and
+/// written to the diagnostics (an unstable model carries a warning naming
+/// ρ(A)); these options make the run fail instead.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ValidationOptions {
+    /// Fail unless every pole is strictly inside the unit circle (the CLI's
+    /// `--stable` sets it with [`IdentificationOptions::stable`]). Default
+    /// false.
+    pub require_stable: bool,
+}
+
+impl WorkflowOptions {
+    /// Checks the options that do not depend on the data, naming the first
+    /// bad one.
+    pub fn check(&self) -> crate::Result<()> {
+        use crate::Error;
+        let id = &self.identification;
+        if let Order::Fixed(0) = id.order {
+            return Err(Error::option(
+                "order",
+                "expected a positive integer or automatic",
+            ));
+        }
+        if id.order == Order::Auto && id.max_order == 0 {
+            return Err(Error::option("max_order", "must be at least 1"));
+        }
+        let r = &self.refinement;
+        if r.refine != Refine::None && r.iterations == 0 {
+            return Err(Error::option(
+                "refine_iterations",
+                "0: the refinement needs at least one iteration (or no refinement)",
+            ));
+        }
+        if r.refine != Refine::None && !(r.max_work.is_finite() && r.max_work > 0.0) {
+            return Err(Error::option(
+                "refine_max_work",
+                format!(
+                    "must be a positive number of operations, got {}",
+                    r.max_work
+                ),
+            ));
+        }
+        if id.method == Method::Qmarkov {
+            gap_only(id)?;
+        }
+        if !id.output_weight.is_empty() && id.method != Method::Qmarkov {
+            return Err(Error::option(
+                "output_weight",
+                "only used with the qmarkov method",
+            ));
+        }
+        if id.stable && matches!(id.method, Method::Pbsid | Method::Ssarx) {
+            return Err(Error::option(
+                "stable",
+                "not available with the pbsid or ssarx methods (A comes from the \
+                 state-sequence regression, with no stabilised variant)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether the set-up leaves the structure (horizon, (A, C) route,
+    /// order) of a single-rate N4SID/MOESP/CVA to the held-out validation:
+    /// [`OrderCriterion::Validation`] with any of them not given.
+    pub fn wants_selection(&self) -> bool {
+        let id = &self.identification;
+        id.method.is_subspace()
+            && id.order_criterion == OrderCriterion::Validation
+            && (id.horizon.is_none() || id.estimator == Estimator::Auto || id.order == Order::Auto)
+    }
+}
+
+/// Fails unless the order rule is the gap (the routes without the other
+/// rules: q-Markov, the multirate routes, PBSID/SSARX).
+pub(crate) fn gap_only(id: &IdentificationOptions) -> crate::Result<()> {
+    if matches!(
+        id.order_criterion,
+        OrderCriterion::Gap | OrderCriterion::Validation
+    ) {
+        Ok(())
+    } else {
+        Err(crate::Error::option(
+            "order_criterion",
+            "applies to single-rate n4sid, moesp, cva and iv; \
+             q-Markov and the multirate routes use the singular-value gap",
+        ))
+    }
+}

@@ -1,0 +1,172 @@
+//! The pipeline on records in memory: preprocessing → identification (the
+//! route the method and the data call for) → refinement → validation.
+
+use lifted_lti::{Dataset, ModelFile, OperatingPoint};
+use nalgebra::{DMatrix, DVector};
+
+use crate::diagnostics::add_run_facts;
+use crate::error::{Error, Result};
+use crate::options::{Detrend, Method, WorkflowOptions};
+use crate::preprocess::{detrend_sets, deviations};
+use crate::refine::refine;
+use crate::routes::{self, RouteFit};
+use crate::validate::{finish_file, require_stable};
+
+/// One record (experiment) in memory, with its instrument columns for the
+/// IV method.
+#[derive(Debug, Clone)]
+pub struct Record {
+    /// The data set (inputs, outputs, base period, output sampling).
+    pub data: Dataset,
+    /// The instrument columns, N × n_u (IV only; `None`: the inputs).
+    pub instrument: Option<DMatrix<f64>>,
+}
+
+impl Record {
+    /// A record without instrument.
+    pub fn new(data: Dataset) -> Self {
+        Record {
+            data,
+            instrument: None,
+        }
+    }
+}
+
+/// What a workflow run gives: the model file (model, operating point,
+/// Kalman gain, diagnostics) and what the front ends show besides.
+#[derive(Debug, Clone)]
+pub struct Identified {
+    /// The model file: the model (deviations from the operating point), the
+    /// operating point, the Kalman gain and the diagnostics JSON (route,
+    /// order selection, structure selection, refinement, stability,
+    /// warnings, profile).
+    pub file: ModelFile,
+    /// The identification's initial state per record (of the deviation
+    /// record; before any refinement). Empty on the routes without it
+    /// (multirate, q-Markov, a streamed record).
+    pub x0: Vec<DVector<f64>>,
+    /// The values the order was chosen from (singular values, or the Λ
+    /// diagonal of the q-Markov Cover).
+    pub singular_values: Vec<f64>,
+    /// The identification's order.
+    pub order: usize,
+    /// The order the singular values suggest.
+    pub suggested_order: usize,
+}
+
+/// Names of the instrument columns written to the IV diagnostics (empty:
+/// the inputs). A front end that reads named columns passes them with
+/// [`identify_named`].
+const NO_NAMES: &[String] = &[];
+
+/// Runs the workflow on records in memory: [`identify_named`] without
+/// instrument names.
+pub fn identify(records: &[Record], opts: &WorkflowOptions) -> Result<Identified> {
+    identify_named(records, opts, NO_NAMES)
+}
+
+/// Runs the workflow on records in memory: the preprocessing
+/// (`opts.data.detrend`; single-rate N4SID/MOESP/CVA remove the means
+/// inside the identification), the identification route of
+/// `opts.identification.method` (multirate records take the lifted routes),
+/// the refinement (`opts.refinement`, on the detrended records), and the
+/// validation (stability in the diagnostics, `opts.validation`).
+/// `instrument_names`: the IV instrument columns' names for the
+/// diagnostics.
+///
+/// Errors: [`Error::InvalidOption`] naming an option that is invalid or
+/// does not apply to the records, [`Error::Data`], [`Error::Step`] with the
+/// failing step's error.
+pub fn identify_named(
+    records: &[Record],
+    opts: &WorkflowOptions,
+    instrument_names: &[String],
+) -> Result<Identified> {
+    opts.check()?;
+    let id = &opts.identification;
+    if records.is_empty() {
+        return Err(Error::Data("no data record".into()));
+    }
+    let with_instruments = records.iter().any(|r| r.instrument.is_some());
+    if with_instruments && id.method != Method::Iv {
+        return Err(Error::option("instrument", "only used with the iv method"));
+    }
+    let t_identify = std::time::Instant::now();
+    let raw: Vec<Dataset> = records.iter().map(|r| r.data.clone()).collect();
+    let multirate = raw.iter().any(|d| !d.is_single_rate());
+    let subspace_single_rate = !multirate && id.method.is_subspace();
+    // Single-rate N4SID/MOESP/CVA remove the means inside the
+    // identification (as the streamed route does: the output-error
+    // regression then also estimates the constant a response that started
+    // at rest keeps); the other routes take the detrended records.
+    let inner_means = subspace_single_rate && opts.data.detrend == Detrend::Mean;
+    let (mut operating_point, mut sets): (Option<OperatingPoint>, Vec<Dataset>) = if inner_means {
+        (None, raw)
+    } else {
+        detrend_sets(raw, opts.data.detrend)?
+    };
+    let ts = sets[0].ts();
+    let fit: RouteFit = match id.method {
+        Method::Qmarkov => routes::qmarkov(opts, &sets)?,
+        m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
+        m if m.is_subspace() => {
+            let (fit, d) = routes::subspace(opts, &sets, inner_means)?;
+            if inner_means {
+                // The refinement and the stored model see deviations from
+                // the identification's operating point.
+                sets = sets
+                    .iter()
+                    .map(|r| deviations(r, fit.operating_point.as_ref()))
+                    .collect::<Result<_>>()?;
+                operating_point = fit.operating_point.clone();
+            }
+            let dg = &fit.diagnostics;
+            RouteFit {
+                singular_values: dg.singular_values.clone(),
+                order: dg.order,
+                suggested_order: dg.suggested_order,
+                kalman_gain: fit.kalman_gain,
+                x0: fit.x0,
+                model: fit.model,
+                diagnostics: d,
+            }
+        }
+        Method::Pbsid | Method::Ssarx => routes::pbsid(id, &sets, multirate)?,
+        _ => {
+            let instruments: Vec<Option<&DMatrix<f64>>> =
+                records.iter().map(|r| r.instrument.as_ref()).collect();
+            routes::iv(opts, &sets, &instruments, instrument_names, multirate)?
+        }
+    };
+    let RouteFit {
+        model,
+        diagnostics,
+        mut kalman_gain,
+        x0,
+        singular_values,
+        order,
+        suggested_order,
+    } = fit;
+    let (model, mut diagnostics) = refine(opts, model, diagnostics, &sets, &mut kalman_gain)?;
+    if opts.validation.require_stable {
+        require_stable(&model)?;
+    }
+    let identify_s = t_identify.elapsed().as_secs_f64();
+    let periods: Vec<usize> = sets[0].outputs().iter().map(|c| c.period).collect();
+    let samples = sets.iter().map(Dataset::len).sum::<usize>();
+    add_run_facts(&mut diagnostics, samples, ts, &periods, None, identify_s);
+    let file = finish_file(
+        ModelFile::new(model)
+            .with_method(id.method.name())
+            .with_diagnostics(diagnostics),
+        operating_point,
+        kalman_gain.as_ref(),
+    )?;
+    Ok(Identified {
+        file,
+        x0,
+        singular_values,
+        order,
+        suggested_order,
+    })
+}

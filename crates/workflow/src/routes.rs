@@ -1,0 +1,516 @@
+//! The identification routes on records in memory: single-rate
+//! N4SID/MOESP/CVA (with the held-out structure selection), multirate
+//! lifted subspace, q-Markov Cover, PBSID/SSARX and IV (single-rate and
+//! multirate). Each returns the model, its diagnostics entry and what the
+//! front ends show besides (initial states, singular values).
+
+use lifted_lti::{Dataset, Identifier, StateSpace};
+use lifted_multirate::{
+    ExtractOptions, LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions,
+    identify_lifted_iv, identify_multirate,
+};
+use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
+use lifted_subspace::{
+    BdEstimate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
+    OrderSelection, StructureOptions, SubspaceModel, SubspaceOptions, SystemEstimate, identify,
+    iv_identify, select_structure,
+};
+use nalgebra::{DMatrix, DVector};
+use serde_json::json;
+
+use crate::diagnostics::{criterion_json, order_json, pbsid_json, system_name};
+use crate::error::{Context, Error, Result};
+use crate::options::{
+    BdRoute, Estimator, IdentificationOptions, Method, Order, OrderCriterion, WorkflowOptions,
+    gap_only,
+};
+use crate::refine::stabilized_start;
+
+/// What a route gives: the model, the diagnostics entry, the Kalman gain,
+/// and what the front ends show besides.
+pub(crate) struct RouteFit {
+    pub model: StateSpace,
+    pub diagnostics: serde_json::Value,
+    pub kalman_gain: Option<DMatrix<f64>>,
+    pub x0: Vec<DVector<f64>>,
+    pub singular_values: Vec<f64>,
+    pub order: usize,
+    pub suggested_order: usize,
+}
+
+impl RouteFit {
+    fn plain(
+        model: StateSpace,
+        diagnostics: serde_json::Value,
+        sv: &[f64],
+        suggested: usize,
+    ) -> Self {
+        let order = model.order();
+        RouteFit {
+            model,
+            diagnostics,
+            kalman_gain: None,
+            x0: Vec::new(),
+            singular_values: sv.to_vec(),
+            order,
+            suggested_order: suggested,
+        }
+    }
+}
+
+/// The subspace crate's order selection for the options.
+pub(crate) fn order_of(id: &IdentificationOptions) -> OrderSelection {
+    match id.order {
+        Order::Fixed(n) => OrderSelection::Fixed(n),
+        Order::Auto => OrderSelection::Gap { max: id.max_order },
+    }
+}
+
+/// The subspace crate's method.
+pub(crate) fn method_of(m: Method) -> lifted_subspace::Method {
+    match m {
+        Method::Moesp => lifted_subspace::Method::Moesp,
+        Method::Cva => lifted_subspace::Method::Cva,
+        _ => lifted_subspace::Method::N4sid,
+    }
+}
+
+/// The subspace crate's (A, C) route.
+pub(crate) fn system_of(e: Estimator) -> SystemEstimate {
+    match e {
+        Estimator::Auto | Estimator::Shift => SystemEstimate::ShiftInvariance,
+        Estimator::States => SystemEstimate::StateSequence,
+    }
+}
+
+/// The subspace crate's (B, D) route.
+pub(crate) fn bd_of(b: BdRoute) -> BdEstimate {
+    match b {
+        BdRoute::Auto => BdEstimate::Auto,
+        BdRoute::OutputError => BdEstimate::OutputError,
+        BdRoute::Projection => BdEstimate::Projection,
+    }
+}
+
+/// The subspace crate's rule for the order criterion (the held-out
+/// validation runs before the identification, which then gets a fixed
+/// order: the gap stands for it).
+pub(crate) fn criterion_of(c: OrderCriterion) -> SubCriterion {
+    match c {
+        OrderCriterion::Validation | OrderCriterion::Gap => SubCriterion::Gap,
+        OrderCriterion::Svc => SubCriterion::Svc,
+        OrderCriterion::Aic => SubCriterion::Aic,
+        OrderCriterion::Aicc => SubCriterion::Aicc,
+        OrderCriterion::Bic => SubCriterion::Bic,
+    }
+}
+
+/// The one record of a route that takes one.
+fn single<'a>(sets: &'a [Dataset], what: &str) -> Result<&'a Dataset> {
+    match sets {
+        [one] => Ok(one),
+        _ => Err(Error::Data(format!(
+            "{what} takes one data file (got {}); concatenate the records",
+            sets.len()
+        ))),
+    }
+}
+
+/// Most candidates of the structure ranking identified on the whole
+/// records while looking for a stable model.
+const STABLE_TRIES: usize = 6;
+
+/// Single-rate N4SID/MOESP/CVA on records in memory: the held-out
+/// structure selection when the options leave the structure to it
+/// ([`WorkflowOptions::wants_selection`]), else the options' structure.
+/// `remove_means`: the means are removed inside the identification.
+pub(crate) fn subspace(
+    opts: &WorkflowOptions,
+    sets: &[Dataset],
+    remove_means: bool,
+) -> Result<(SubspaceModel, serde_json::Value)> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
+    let ts = sets[0].ts();
+    let sub = SubspaceOptions {
+        method: method_of(id.method),
+        order: order_of(id),
+        order_criterion: criterion_of(id.order_criterion),
+        past: id.horizon.unwrap_or(10),
+        future: id.horizon.unwrap_or(10),
+        system: system_of(id.estimator),
+        bd: bd_of(id.bd),
+        remove_means,
+        noise_model: id.noise_model,
+        enforce_stability: stable,
+        ts,
+        threads: id.threads.unwrap_or(1),
+        ..Default::default()
+    };
+    let exps: Vec<Experiment<'_>> = sets
+        .iter()
+        .map(|d| Experiment { u: d.u(), y: d.y() })
+        .collect();
+    let what = format!("{} identification", sub.method.name());
+    let (fit, structure) = if opts.wants_selection() {
+        let (fit, d) = select(id, &exps, sub)?;
+        (fit, Some(d))
+    } else {
+        (identify(&exps, &sub).ctx(&what)?, None)
+    };
+    let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
+    if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
+        obj.insert("structure_selection".into(), st);
+    }
+    Ok((fit, d))
+}
+
+/// The model of the structure chosen by cross-validated simulation fit for
+/// `opts` on the records ([`select_structure`]), identified on the whole
+/// records, and the diagnostics entry. When the chosen structure's model is
+/// unstable on the whole records, the next candidates of the ranking are
+/// tried (up to [`STABLE_TRIES`]) and the first stable one is kept (the
+/// diagnostics say so); a selection that fails keeps `opts` (horizon 10,
+/// shift invariance, the singular-value gap) and says why.
+fn select(
+    id: &IdentificationOptions,
+    exps: &[Experiment<'_>],
+    opts: SubspaceOptions,
+) -> Result<(SubspaceModel, serde_json::Value)> {
+    let what = format!("{} identification", opts.method.name());
+    let sel_opts = StructureOptions {
+        horizons: id.horizon.map(|h| vec![h]).unwrap_or_default(),
+        systems: match id.estimator {
+            Estimator::Auto => Vec::new(),
+            e => vec![system_of(e)],
+        },
+        max_order: id.max_order.max(1),
+        ..Default::default()
+    };
+    let sel = match select_structure(exps, &opts, &sel_opts) {
+        Ok(sel) => sel,
+        Err(e) => {
+            let fit = identify(exps, &opts).ctx(&what)?;
+            let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, singular-value gap", opts.past)});
+            return Ok((fit, d));
+        }
+    };
+    let candidates: Vec<serde_json::Value> = sel
+        .candidates
+        .iter()
+        .map(|c| {
+            json!({"horizon": c.horizon, "system": system_name(c.system),
+                   "order": c.order, "fit": c.fit})
+        })
+        .collect();
+    let mut tried = Vec::new();
+    let mut first_fit = None;
+    for c in sel
+        .ranking(sel_opts.tolerance)
+        .into_iter()
+        .take(STABLE_TRIES)
+    {
+        let o = SubspaceOptions {
+            past: c.horizon,
+            future: c.horizon,
+            system: c.system,
+            order: OrderSelection::Fixed(c.order),
+            ..opts.clone()
+        };
+        let fit = match identify(exps, &o) {
+            Ok(fit) => fit,
+            Err(e) => {
+                tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "error": e.to_string()}));
+                continue;
+            }
+        };
+        let stable = fit.diagnostics.spectral_radius < 1.0;
+        let d = json!({
+            "criterion": "simulation fit on the held-out last third of the record (x0 estimated), the structure identified on the first two thirds",
+            "horizon": c.horizon,
+            "system": system_name(c.system),
+            "order": c.order,
+            "held_out_fit": c.fit,
+            "folds": sel.folds,
+            "unstable_on_whole_record": tried,
+            "candidates": candidates,
+        });
+        if stable {
+            return Ok((fit, d));
+        }
+        tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "spectral_radius": fit.diagnostics.spectral_radius}));
+        if first_fit.is_none() {
+            first_fit = Some((fit, d));
+        }
+    }
+    // No stable model among the tries: the first choice, unstable (the
+    // validation stage warns).
+    match first_fit {
+        Some(r) => Ok(r),
+        None => Err(Error::Data(format!(
+            "{what}: no candidate structure could be identified on the whole record ({})",
+            serde_json::Value::Array(tried)
+        ))),
+    }
+}
+
+/// Multirate N4SID/MOESP/CVA: lifting, causal lifted subspace
+/// identification, fast-model extraction (thesis chs. 4–5).
+pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
+    gap_only(id)?;
+    let data = single(sets, "multirate identification")?;
+    let opts = ProcedureOptions {
+        identification: LiftedIdOptions {
+            method: method_of(id.method),
+            order: order_of(id),
+            past: id.horizon.unwrap_or(10),
+            future: id.horizon.unwrap_or(10),
+            system: system_of(id.estimator),
+            enforce_stability: stable,
+            ..Default::default()
+        },
+        extraction: ExtractOptions {
+            fallback_without_root: true,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
+    let n = fit.fast.order();
+    let sv = &fit.lifted.singular_values;
+    let suggested = lifted_subspace::gap_order(sv, id.max_order);
+    let d = json!({
+        "route": "multirate: lifting, causal lifted subspace identification, fast-model extraction",
+        "extraction": {
+            "method": format!("{:?}", fit.extraction.method),
+            "input_residual": fit.extraction.input_residual,
+            "fallback": fit.extraction.fallback,
+        },
+        "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
+        "lifting_period": fit.lifting.period(),
+        "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
+    });
+    Ok(RouteFit::plain(fit.fast, d, sv, suggested))
+}
+
+/// PBSID / SSARX on single-rate records.
+pub(crate) fn pbsid(
+    id: &IdentificationOptions,
+    sets: &[Dataset],
+    multirate: bool,
+) -> Result<RouteFit> {
+    if multirate {
+        return Err(Error::option(
+            "method",
+            "pbsid and ssarx need single-rate records (every output sampled at every \
+             instant); use n4sid, moesp, cva or iv for multirate data",
+        ));
+    }
+    gap_only(id)?;
+    if id.stable {
+        return Err(Error::option(
+            "stable",
+            "not available with the pbsid or ssarx methods (A comes from the \
+             state-sequence regression, with no stabilised variant)",
+        ));
+    }
+    let past = id.horizon;
+    let opts = lifted_subspace::PbsidOptions {
+        variant: if id.method == Method::Ssarx {
+            lifted_subspace::PbsidVariant::Ssarx
+        } else {
+            lifted_subspace::PbsidVariant::Optimized
+        },
+        order: order_of(id),
+        past,
+        future: past.map_or(10, |p| p.min(10)),
+        ts: sets[0].ts(),
+        ..Default::default()
+    };
+    let exps: Vec<Experiment<'_>> = sets
+        .iter()
+        .map(|d| Experiment { u: d.u(), y: d.y() })
+        .collect();
+    let what = format!("{} identification", opts.variant.name());
+    let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
+    let dg = &fit.diagnostics;
+    Ok(RouteFit {
+        model: fit.model.clone(),
+        diagnostics: pbsid_json(&fit),
+        kalman_gain: Some(fit.kalman_gain.clone()),
+        x0: fit.x0.clone(),
+        singular_values: dg.singular_values.clone(),
+        order: dg.order,
+        suggested_order: dg.suggested_order,
+    })
+}
+
+/// IV subspace identification (single-rate, or lifted IV on a multirate
+/// record); `instruments[k]`: the instrument columns of record k (`None`:
+/// the inputs, the open-loop case); `names`: the instrument columns' names
+/// for the diagnostics (empty: the inputs).
+pub(crate) fn iv(
+    opts: &WorkflowOptions,
+    sets: &[Dataset],
+    instruments: &[Option<&DMatrix<f64>>],
+    names: &[String],
+    multirate: bool,
+) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
+    let order = order_of(id);
+    if multirate {
+        gap_only(id)?;
+        let data = single(sets, "multirate IV identification")?;
+        let f = instruments
+            .first()
+            .copied()
+            .flatten()
+            .cloned()
+            .unwrap_or_else(|| data.u().clone());
+        let lopts = LiftedIvOptions {
+            order,
+            alpha: id.horizon.unwrap_or(6),
+            enforce_stability: stable,
+            extraction: ExtractOptions {
+                fallback_without_root: true,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
+            .ctx("multirate IV identification")?;
+        let n = fit.fast.order();
+        let suggested = lifted_subspace::gap_order(&fit.singular_values, id.max_order);
+        let d = json!({
+            "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
+            "instrument": names,
+            "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
+        });
+        return Ok(RouteFit::plain(
+            fit.fast,
+            d,
+            &fit.singular_values,
+            suggested,
+        ));
+    }
+    let iopts = IvOptions {
+        order,
+        order_criterion: criterion_of(id.order_criterion),
+        alpha: id.horizon.unwrap_or(8),
+        enforce_stability: stable,
+        ts: sets[0].ts(),
+        ..Default::default()
+    };
+    let exps: Vec<IvExperiment<'_>> = sets
+        .iter()
+        .zip(instruments)
+        .map(|(d, f)| IvExperiment {
+            u: d.u(),
+            y: d.y(),
+            instrument: *f,
+        })
+        .collect();
+    let fit = iv_identify(&exps, &iopts).ctx("IV identification")?;
+    let dg = &fit.diagnostics;
+    let d = json!({
+        "route": "single-rate instrumental-variable subspace identification",
+        "stabilized": dg.stabilized,
+        "instrument": if names.is_empty() { json!("inputs") } else { json!(names) },
+        "horizons": [dg.horizons.0, dg.horizons.1],
+        "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),
+        "order_criterion": criterion_json(&dg.order_selection),
+    });
+    Ok(RouteFit {
+        model: fit.model,
+        diagnostics: d,
+        kalman_gain: None,
+        x0: fit.x0.clone(),
+        singular_values: dg.singular_values.clone(),
+        order: dg.order,
+        suggested_order: dg.suggested_order,
+    })
+}
+
+/// The diagonal Q of the q-Markov output weighting: one value for every
+/// output or one per output, each positive and finite.
+fn output_weighting(w: &[f64], outputs: usize) -> Result<Option<DMatrix<f64>>> {
+    if w.is_empty() {
+        return Ok(None);
+    }
+    if let Some(bad) = w.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        return Err(Error::option(
+            "output_weight",
+            format!("{bad}: the weights must be positive and finite"),
+        ));
+    }
+    let diag: Vec<f64> = match w.len() {
+        1 => vec![w[0]; outputs],
+        n if n == outputs => w.to_vec(),
+        n => {
+            return Err(Error::option(
+                "output_weight",
+                format!("{n} values for {outputs} outputs (give one, or one per output)"),
+            ));
+        }
+    };
+    Ok(Some(DMatrix::from_diagonal(&DVector::from_vec(diag))))
+}
+
+/// The weighted multirate q-Markov Cover (Zhu 2000), one inverse-PRBS
+/// record per input.
+pub(crate) fn qmarkov(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let stable = stabilized_start(opts);
+    let prbs_order = id
+        .prbs_order
+        .unwrap_or(QMarkovOptions::default().prbs_order);
+    let m = lifted_prbs::period(prbs_order).ctx("prbs_order")? as usize;
+    let hold = opts.data.hold.max(1);
+    let period = 2 * hold * m;
+    let len = sets[0].len();
+    let record = if len == period {
+        RecordMode::OnePeriod
+    } else {
+        RecordMode::LastPeriod
+    };
+    let q = id.q.unwrap_or(60.min(hold * m - 1));
+    let (order, max_auto_order) = match order_of(id) {
+        OrderSelection::Fixed(n) => (Some(n), id.max_order),
+        OrderSelection::Gap { max } => (None, max),
+    };
+    let output_weighting = output_weighting(&id.output_weight, sets[0].n_outputs())?;
+    let qopts = QMarkovOptions {
+        q,
+        output_weighting,
+        order,
+        max_auto_order,
+        hold,
+        prbs_order,
+        amplitudes: id.amplitude.map(|x| vec![x; sets[0].n_inputs()]),
+        record,
+        enforce_stability: stable,
+        ..Default::default()
+    };
+    let model = QMarkov::new(qopts)
+        .identify(sets)
+        .ctx("q-Markov Cover identification")?;
+    let dg = &model.diagnostics;
+    let d = json!({
+        "route": "weighted multirate q-Markov Cover (Zhu 2000)",
+        "q": q,
+        "hold": hold,
+        "prbs_order": prbs_order,
+        "cover": format!("{:?}", dg.cover),
+        "markov_error": dg.markov_error,
+        "covariance_error": dg.covariance_error,
+        "stable": dg.stable,
+        "spectral_radius": dg.spectral_radius,
+        "stabilized_from": dg.stabilized_from,
+        "order_selection": order_json("eigenvalues of D_q (Λ diagonal)", &dg.eigenvalues, dg.order, dg.suggested_order),
+    });
+    let (eig, suggested) = (dg.eigenvalues.clone(), dg.suggested_order);
+    Ok(RouteFit::plain(model.model, d, &eig, suggested))
+}

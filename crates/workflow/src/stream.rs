@@ -1,0 +1,309 @@
+//! The streamed route: single-rate N4SID / MOESP / CVA of one record read
+//! in blocks from a [`RecordSource`] (a file, shards of one record), in two
+//! passes. The first pass pushes the blocks to
+//! `lifted_subspace::StreamingIdentifier` (the Hankel compression, then
+//! (A, C)); the second feeds the output-error (B, D, x₀) regression
+//! (`StreamedSubspace::regression`), so the model is the one the in-memory
+//! identification gives and memory is O(((m + l) s)² + block) whatever the
+//! record length. The first pass keeps the blocks of a record of up to
+//! [`KEEP_MAX_BYTES`] for the second instead of reading the source again.
+
+use lifted_lti::{Dataset, ModelFile, StateSpace};
+use lifted_subspace::{
+    Compression, StreamedSubspace, StreamingIdentifier, SubspaceModel, SubspaceOptions,
+};
+use nalgebra::DMatrix;
+
+use crate::diagnostics::{add_run_facts, subspace_json};
+use crate::error::{Context, Error, Result};
+use crate::options::{Detrend, OrderCriterion, WorkflowOptions};
+use crate::pipeline::Identified;
+use crate::preprocess::deviations;
+use crate::refine::{refine, refinement_cost, stabilized_start};
+use crate::routes::{bd_of, criterion_of, method_of, order_of, system_of};
+use crate::validate::{finish_file, require_stable};
+
+/// What a pass over a record source saw.
+#[derive(Debug, Clone, Copy)]
+pub struct Pass {
+    /// Rows delivered.
+    pub rows: usize,
+    /// Base period of the record.
+    pub ts: f64,
+    /// The record turned out multirate (an output not sampled at every
+    /// instant): the pass stopped, the caller loads the record whole.
+    pub multirate: bool,
+}
+
+/// What a pass delivers its blocks to: (u block, y block), rows of
+/// samples, in record order.
+pub type BlockSink<'a> = dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> Result<()> + 'a;
+
+/// A single record read in blocks, as often as the streamed route needs.
+pub trait RecordSource {
+    /// Numbers of inputs and outputs of the record.
+    fn channels(&self) -> (usize, usize);
+
+    /// One pass over the record in order: blocks of rows, (u block,
+    /// y block), to `push`; stops (and says so) at the first row with an
+    /// output not sampled. Errors of `push` are returned as they are.
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass>;
+
+    /// The whole record in memory (for the refinement).
+    fn load(&mut self) -> Result<Dataset>;
+}
+
+/// Whether the options allow the streamed route at all: a single-rate
+/// subspace method, an order rule that needs no simulation of candidates
+/// on the records (not AIC-type), no trend removal, no input hold. The
+/// caller adds what depends on its data (one record, no declared output
+/// periods, no instruments, and not small enough for the held-out
+/// selection when [`WorkflowOptions::wants_selection`]).
+pub fn streamable(opts: &WorkflowOptions) -> bool {
+    let id = &opts.identification;
+    id.method.is_subspace()
+        && !matches!(
+            id.order_criterion,
+            OrderCriterion::Aic | OrderCriterion::Aicc | OrderCriterion::Bic
+        )
+        && opts.data.detrend != Detrend::Linear
+        && opts.data.hold <= 1
+}
+
+/// Largest record (bytes of its input and output samples) the first pass of
+/// a streamed identification keeps for the second, instead of reading the
+/// source again: 64 MiB (1e6 samples of 2 inputs and 2 outputs take 32 MB),
+/// so memory stays bounded whatever the record length.
+pub const KEEP_MAX_BYTES: usize = 64 << 20;
+
+/// The blocks of the first pass, while they fit in their limit (`None`
+/// once they do not: the second pass reads the source again).
+struct KeptBlocks {
+    blocks: Option<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
+    bytes: usize,
+    limit: usize,
+}
+
+impl KeptBlocks {
+    fn with_limit(limit: usize) -> Self {
+        KeptBlocks {
+            blocks: Some(Vec::new()),
+            bytes: 0,
+            limit,
+        }
+    }
+
+    fn keep(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) {
+        let Some(blocks) = self.blocks.as_mut() else {
+            return;
+        };
+        self.bytes += (u.len() + y.len()) * std::mem::size_of::<f64>();
+        if self.bytes > self.limit {
+            self.blocks = None;
+        } else {
+            blocks.push((u.clone(), y.clone()));
+        }
+    }
+}
+
+/// Runs the workflow on a record read in blocks from `source` (see the
+/// module docs). The structure is the options' (horizon 10 unless given,
+/// shift invariance unless given; an automatic order under
+/// [`OrderCriterion::Validation`] by Bauer's SVC: the record is too large
+/// for the held-out selection). If the fast correlation compression is
+/// rejected as ill-conditioned, the record is read again with the R-only QR
+/// compression (reported in the diagnostics). The refinement then refines
+/// this model on the record loaded in memory, so it starts from exactly
+/// the model the plain identification gives.
+///
+/// Returns `None` when the options do not allow the route ([`streamable`])
+/// or the record turns out multirate: the caller then loads it whole and
+/// calls [`crate::identify`].
+pub fn identify_streamed(
+    source: &mut dyn RecordSource,
+    opts: &WorkflowOptions,
+) -> Result<Option<Identified>> {
+    opts.check()?;
+    if !streamable(opts) {
+        return Ok(None);
+    }
+    let id = &opts.identification;
+    let (n_u, n_y) = source.channels();
+    if n_u == 0 || n_y == 0 {
+        return Ok(None); // the in-memory route reports the missing columns
+    }
+    let what = format!("{} identification", method_of(id.method).name());
+    // Too large a record for the held-out selection: horizon 10, shift
+    // invariance, and Bauer's SVC for an automatic order.
+    let criterion = match id.order_criterion {
+        OrderCriterion::Validation => lifted_subspace::OrderCriterion::Svc,
+        c => criterion_of(c),
+    };
+    let opts_with = |compression: Compression| SubspaceOptions {
+        method: method_of(id.method),
+        order: order_of(id),
+        order_criterion: criterion,
+        past: id.horizon.unwrap_or(10),
+        future: id.horizon.unwrap_or(10),
+        system: system_of(id.estimator),
+        bd: bd_of(id.bd),
+        remove_means: opts.data.detrend != Detrend::None,
+        noise_model: id.noise_model,
+        enforce_stability: stabilized_start(opts),
+        ts: 1.0,
+        compression,
+        // The machine's threads by default (results depend on the count
+        // through rounding only): the correlation kernel and the second
+        // pass's modal regression.
+        threads: id.threads.unwrap_or(0),
+        ..Default::default()
+    };
+    let mut first_pass =
+        |compression: Compression| -> Result<Option<(StreamedSubspace, Pass, KeptBlocks)>> {
+            let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
+            let mut kept = KeptBlocks::with_limit(KEEP_MAX_BYTES);
+            let pass = source.pass(&mut |u, y| {
+                kept.keep(u, y);
+                sid.push(u, y).ctx(&what)
+            })?;
+            if pass.multirate {
+                return Ok(None);
+            }
+            match sid.finish_subspace() {
+                Ok(first) => Ok(Some((first, pass, kept))),
+                Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
+                    if compression != Compression::Qr =>
+                {
+                    Ok(None)
+                }
+                Err(e) => Err(Error::Step {
+                    what: what.clone(),
+                    source: Box::new(e),
+                }),
+            }
+        };
+    let t_total = std::time::Instant::now();
+    let (first, pass, kept) = match first_pass(Compression::Auto)? {
+        Some(r) => r,
+        None => match first_pass(Compression::Qr)? {
+            Some(r) => r,
+            None => return Ok(None),
+        },
+    };
+    let read_s = t_total.elapsed().as_secs_f64();
+    let fit = if first.wants_second_pass() {
+        second_pass(source, first, kept, &what)?
+    } else {
+        first.into_model()
+    };
+    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
+    let (ts, n_rows) = (pass.ts, pass.rows);
+    let m = &fit.model;
+    let model = StateSpace::new(
+        m.a().clone(),
+        m.b().clone(),
+        m.c().clone(),
+        m.d().clone(),
+        Some(ts),
+    )
+    .ctx("identify")?;
+    let d = subspace_json(
+        &fit,
+        "single-rate subspace identification, streamed in blocks",
+    );
+    let mut kalman_gain = fit.kalman_gain.clone();
+    let (model, mut d) = if refinement_cost(opts, &d).is_none() {
+        // No refinement: `refine` only records a stable identification's
+        // route.
+        refine(opts, model, d, &[], &mut kalman_gain)?
+    } else {
+        // The refinement starts from the model above, on the record in
+        // memory (deviations from the model's operating point).
+        let record = source.load()?;
+        let set = deviations(&record, fit.operating_point.as_ref())?;
+        refine(opts, model, d, &[set], &mut kalman_gain)?
+    };
+    if opts.validation.require_stable {
+        require_stable(&model)?;
+    }
+    // Reading and compressing overlap: blocks are compressed as they are read.
+    add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
+    let dg = &fit.diagnostics;
+    let file = finish_file(
+        ModelFile::new(model)
+            .with_method(id.method.name())
+            .with_diagnostics(d),
+        fit.operating_point.clone(),
+        kalman_gain.as_ref(),
+    )?;
+    Ok(Some(Identified {
+        file,
+        x0: fit.x0.clone(),
+        singular_values: dg.singular_values.clone(),
+        order: dg.order,
+        suggested_order: dg.suggested_order,
+    }))
+}
+
+/// The second pass of the streamed identification: the record read again
+/// (or the kept blocks) into the output-error (B, D, x₀) regression for the
+/// first pass's (A, C). A regression that cannot run (A too unstable for
+/// the record, regressors rank deficient) keeps the one-pass model and says
+/// so in its fallbacks.
+fn second_pass(
+    source: &mut dyn RecordSource,
+    first: StreamedSubspace,
+    kept: KeptBlocks,
+    what: &str,
+) -> Result<SubspaceModel> {
+    let mut bd = match first.regression() {
+        Ok(bd) => bd,
+        Err(e) => return Ok(with_fallback(first.into_model(), &e)),
+    };
+    match kept.blocks {
+        // The first pass kept the (small) record: no second read.
+        Some(blocks) => {
+            for (u, y) in &blocks {
+                bd.push(u, y).ctx(what)?;
+            }
+        }
+        None => {
+            source.pass(&mut |u, y| bd.push(u, y).ctx(what))?;
+        }
+    }
+    first.finish(bd).map_err(|e| Error::Step {
+        what: what.to_string(),
+        source: Box::new(e),
+    })
+}
+
+/// The one-pass model with a note of why the output-error (B, D) was not
+/// used.
+fn with_fallback(mut fit: SubspaceModel, e: &lifted_subspace::Error) -> SubspaceModel {
+    fit.diagnostics.fallbacks.push(format!(
+        "(B, D) from the projection on the compressed data: the output-error regression was refused ({e})"
+    ));
+    fit
+}
+
+#[cfg(test)]
+mod kept_tests {
+    use super::*;
+
+    #[test]
+    fn the_first_pass_keeps_blocks_up_to_its_limit_only() {
+        let (u, y) = (DMatrix::zeros(10, 2), DMatrix::zeros(10, 2));
+        // 320 bytes per block.
+        let mut k = KeptBlocks::with_limit(700);
+        k.keep(&u, &y);
+        k.keep(&u, &y);
+        assert_eq!(k.blocks.as_ref().map(Vec::len), Some(2));
+        k.keep(&u, &y);
+        assert!(
+            k.blocks.is_none(),
+            "over the limit: the sources are read again"
+        );
+        k.keep(&u, &y);
+        assert!(k.blocks.is_none());
+    }
+}

@@ -1,0 +1,82 @@
+//! The validation stage of a run: the model's stability, always measured
+//! and written to the diagnostics (`stability`: stable, spectral radius;
+//! an unstable model carries a warning naming ρ(A)), and the model file
+//! assembled with its operating point and Kalman gain.
+
+use lifted_lti::{ModelFile, OperatingPoint, StateSpace};
+use nalgebra::DMatrix;
+use serde_json::json;
+
+use crate::diagnostics::push_warning;
+use crate::error::{Context, Error, Result};
+
+/// Spectral radius ρ(A) of a model (0 for a static gain).
+pub fn spectral_radius(model: &StateSpace) -> Result<f64> {
+    if model.order() == 0 {
+        return Ok(0.0);
+    }
+    Ok(model
+        .poles()
+        .ctx("poles of the model")?
+        .iter()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max))
+}
+
+/// The warning printed and stored for an unstable model.
+pub fn unstable_warning(rho: f64) -> String {
+    format!(
+        "the identified model is unstable: spectral radius rho(A) = {rho:.6} >= 1; its simulation diverges, so simulation fits are not meaningful (try a lower order, --stable, or --refine pem)"
+    )
+}
+
+/// Fails unless every pole of the model is strictly inside the unit circle
+/// (the stabilised estimates guarantee it up to rounding); the error names
+/// the spectral radius.
+pub fn require_stable(model: &StateSpace) -> Result<()> {
+    let rho = spectral_radius(model)?;
+    if rho >= 1.0 {
+        return Err(Error::option(
+            "stable",
+            format!(
+                "no stable estimate could be had, the model's spectral radius is {rho:.6}              (lower the order or lengthen the record)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Adds `stability` ({stable, spectral_radius}) to the diagnostics and, for
+/// an unstable model, the warning under `warnings`.
+fn add_stability(file: &mut ModelFile) -> Result<()> {
+    let rho = spectral_radius(&file.model)?;
+    let stable = rho < 1.0;
+    if let Some(obj) = file.diagnostics.as_object_mut() {
+        obj.insert(
+            "stability".into(),
+            json!({"stable": stable, "spectral_radius": rho}),
+        );
+    }
+    if !stable {
+        push_warning(&mut file.diagnostics, unstable_warning(rho));
+    }
+    Ok(())
+}
+
+/// Adds the operating point and the Kalman gain (when present) to a model
+/// file, and its stability to the diagnostics.
+pub(crate) fn finish_file(
+    mut file: ModelFile,
+    operating_point: Option<OperatingPoint>,
+    kalman_gain: Option<&DMatrix<f64>>,
+) -> Result<ModelFile> {
+    add_stability(&mut file)?;
+    let file = match operating_point {
+        Some(op) => file.with_operating_point(op).ctx("operating point")?,
+        None => file,
+    };
+    match kalman_gain {
+        Some(k) => file.with_kalman_gain(k).ctx("Kalman gain"),
+        None => Ok(file),
+    }
+}

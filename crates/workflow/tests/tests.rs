@@ -1,0 +1,250 @@
+//! The workflow crate's integration tests: the default options recover a
+//! known plant; the streamed route (a record read in blocks) gives the
+//! in-memory route's model; the refinement starts from exactly the plain
+//! identification's model; options round-trip through JSON; bad options
+//! are named.
+
+use lifted_lti::{Dataset, StateSpace};
+use lifted_workflow::{
+    BlockSink, Detrend, Error, Estimator, Method, Order, OrderCriterion, Pass, Record,
+    RecordSource, Refine, WorkflowOptions, identify, identify_streamed,
+};
+use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// 2 inputs, 2 outputs, order 3: poles 0.9 and 0.7 ± 0.3j.
+fn plant() -> StateSpace {
+    let a = DMatrix::from_row_slice(3, 3, &[0.9, 0.0, 0.0, 0.0, 0.7, -0.3, 0.0, 0.3, 0.7]);
+    let b = DMatrix::from_row_slice(3, 2, &[1.0, 0.2, -0.5, 1.0, 0.3, 0.7]);
+    let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.5, -0.3, 0.0, 0.7, 0.4]);
+    let d = DMatrix::from_row_slice(2, 2, &[0.1, 0.0, 0.0, 0.2]);
+    StateSpace::new(a, b, c, d, Some(1.0)).expect("plant")
+}
+
+/// A record of `n` samples: random binary inputs around 0.3, the plant's
+/// response plus white noise (σ = `noise`) around the offsets (2, −1).
+fn record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let g = plant();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u = DMatrix::from_fn(
+        n,
+        2,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -0.7 } else { 1.3 }
+        },
+    );
+    let mut x = DVector::zeros(3);
+    let mut y = DMatrix::zeros(n, 2);
+    for k in 0..n {
+        let uk = u.row(k).transpose();
+        let yk = g.c() * &x + g.d() * &uk;
+        for j in 0..2 {
+            let e: f64 = rng.random::<f64>() - 0.5;
+            y[(k, j)] = yk[j] + [2.0, -1.0][j] + noise * 12f64.sqrt() * e;
+        }
+        x = g.a() * &x + g.b() * &uk;
+    }
+    (u, y)
+}
+
+fn dataset(u: &DMatrix<f64>, y: &DMatrix<f64>) -> Dataset {
+    Dataset::single_rate(1.0, u.clone(), y.clone()).expect("dataset")
+}
+
+/// Sorted pole moduli and arguments of a model.
+fn poles(m: &StateSpace) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = m
+        .poles()
+        .expect("poles")
+        .iter()
+        .map(|z| (z.norm(), z.arg().abs()))
+        .collect();
+    p.sort_by(|a, b| a.partial_cmp(b).expect("finite"));
+    p
+}
+
+#[test]
+fn default_options_recover_the_plant() {
+    let (u, y) = record(3000, 0.02, 1);
+    let fit =
+        identify(&[Record::new(dataset(&u, &y))], &WorkflowOptions::default()).expect("identify");
+    let m = &fit.file.model;
+    assert_eq!(m.order(), 3, "{}", fit.file.diagnostics);
+    // 3000 samples at σ = 0.02 against unit-size outputs: the poles are
+    // within 0.01 (a wrong order or route misses by ≥ 0.1).
+    let want = poles(&plant());
+    for (got, want) in poles(m).iter().zip(&want) {
+        assert!((got.0 - want.0).abs() < 0.01, "{got:?} vs {want:?}");
+        assert!((got.1 - want.1).abs() < 0.01, "{got:?} vs {want:?}");
+    }
+    let d = &fit.file.diagnostics;
+    assert!(d["structure_selection"]["horizon"].is_u64(), "{d}");
+    assert_eq!(d["stability"]["stable"], true);
+    let op = fit.file.operating_point.as_ref().expect("operating point");
+    // The offsets (2, −1) plus the plant's mean response to the 0.3 input mean.
+    assert!(op.y0.iter().all(|v| v.is_finite()));
+    assert_eq!(fit.x0.len(), 1);
+    assert_eq!(fit.order, 3);
+}
+
+/// The record of a test served in blocks of 700 rows, as a file reader
+/// would.
+struct Blocks {
+    u: DMatrix<f64>,
+    y: DMatrix<f64>,
+    passes: usize,
+}
+
+impl RecordSource for Blocks {
+    fn channels(&self) -> (usize, usize) {
+        (self.u.ncols(), self.y.ncols())
+    }
+
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> lifted_workflow::Result<Pass> {
+        self.passes += 1;
+        let n = self.u.nrows();
+        let mut k = 0;
+        while k < n {
+            let r = 700.min(n - k);
+            push(
+                &self.u.rows(k, r).into_owned(),
+                &self.y.rows(k, r).into_owned(),
+            )?;
+            k += r;
+        }
+        Ok(Pass {
+            rows: n,
+            ts: 1.0,
+            multirate: false,
+        })
+    }
+
+    fn load(&mut self) -> lifted_workflow::Result<Dataset> {
+        Ok(dataset(&self.u, &self.y))
+    }
+}
+
+#[test]
+fn the_streamed_route_gives_the_in_memory_model() {
+    let (u, y) = record(5000, 0.05, 2);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.identification.order_criterion = OrderCriterion::Gap;
+    opts.identification.threads = Some(1);
+    let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
+    let mut src = Blocks {
+        u: u.clone(),
+        y: y.clone(),
+        passes: 0,
+    };
+    let streamed = identify_streamed(&mut src, &opts)
+        .expect("streamed")
+        .expect("a single-rate record streams");
+    // One pass: the first pass kept the small record for the regression.
+    assert_eq!(src.passes, 1);
+    // Same estimator on the same samples; the compressions differ in their
+    // summation order (blocks of 700 against the in-memory chunks), so the
+    // models agree to rounding amplified by the SVD: 1e-8 on the frequency
+    // response (a lost block or a different (B, D) route moves it ≥ 1e-4).
+    let (a, b) = (&mem.file.model, &streamed.file.model);
+    let w = [0.0, 0.3, 1.0, 2.5];
+    let (ga, gb) = (a.freqresp(&w).expect("G"), b.freqresp(&w).expect("G"));
+    for (k, (p, q)) in ga.iter().zip(&gb).enumerate() {
+        let err = (p - q).iter().map(|z| z.norm()).fold(0.0, f64::max);
+        let scale = p.iter().map(|z| z.norm()).fold(1.0, f64::max);
+        assert!(err < 1e-8 * scale, "w = {}: {err}", w[k]);
+    }
+    let (oa, ob) = (
+        mem.file.operating_point.as_ref().expect("op"),
+        streamed.file.operating_point.as_ref().expect("op"),
+    );
+    for (p, q) in oa.y0.iter().zip(&ob.y0) {
+        assert!((p - q).abs() < 1e-9, "{p} vs {q}");
+    }
+}
+
+#[test]
+fn the_refinement_starts_from_the_plain_model() {
+    let (u, y) = record(1500, 0.1, 3);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    let plain = identify(&[Record::new(dataset(&u, &y))], &opts).expect("plain");
+    opts.refinement.refine = Refine::Pem;
+    let refined = identify(&[Record::new(dataset(&u, &y))], &opts).expect("refined");
+    let report = &refined.file.diagnostics["refinement"];
+    // The report's initial cost is that of the plain model on the same
+    // deviations: refining it again from its own start reproduces it.
+    assert!(report.is_object(), "{}", refined.file.diagnostics);
+    // Same structure selected, same start.
+    assert_eq!(
+        plain.file.diagnostics["structure_selection"]["horizon"],
+        refined.file.diagnostics["structure_selection"]["horizon"]
+    );
+    assert_eq!(plain.singular_values, refined.singular_values);
+    assert_eq!(plain.x0, refined.x0);
+    assert_eq!(plain.file.operating_point, refined.file.operating_point);
+}
+
+#[test]
+fn options_round_trip_through_json_and_default_when_absent() {
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Cva;
+    o.identification.order = Order::Fixed(4);
+    o.data.detrend = Detrend::Linear;
+    o.refinement.refine = Refine::Oe;
+    let text = serde_json::to_string(&o).expect("json");
+    let back: WorkflowOptions = serde_json::from_str(&text).expect("parse");
+    assert_eq!(back, o);
+    let partial: WorkflowOptions =
+        serde_json::from_str(r#"{"identification": {"method": "moesp"}}"#).expect("parse");
+    assert_eq!(partial.identification.method, Method::Moesp);
+    assert_eq!(partial.identification.max_order, 10);
+    assert_eq!(partial.data, WorkflowOptions::default().data);
+}
+
+#[test]
+fn bad_options_are_named() {
+    let (u, y) = record(400, 0.1, 4);
+    let rec = [Record::new(dataset(&u, &y))];
+    let named = |o: &WorkflowOptions| match identify(&rec, o) {
+        Err(Error::InvalidOption { option, .. }) => option,
+        other => panic!("expected an invalid option, got {other:?}"),
+    };
+    let mut o = WorkflowOptions::default();
+    o.identification.order = Order::Fixed(0);
+    assert_eq!(named(&o), "order");
+    let mut o = WorkflowOptions::default();
+    o.refinement.refine = Refine::Pem;
+    o.refinement.iterations = 0;
+    assert_eq!(named(&o), "refine_iterations");
+    let mut o = WorkflowOptions::default();
+    o.refinement.refine = Refine::Oe;
+    o.refinement.max_work = f64::NAN;
+    assert_eq!(named(&o), "refine_max_work");
+    let mut o = WorkflowOptions::default();
+    o.identification.output_weight = vec![2.0];
+    assert_eq!(named(&o), "output_weight");
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Pbsid;
+    o.identification.stable = true;
+    assert_eq!(named(&o), "stable");
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Qmarkov;
+    o.identification.order_criterion = OrderCriterion::Aic;
+    assert_eq!(named(&o), "order_criterion");
+    let with_instrument = [Record {
+        data: dataset(&u, &y),
+        instrument: Some(u.clone()),
+    }];
+    match identify(&with_instrument, &WorkflowOptions::default()) {
+        Err(Error::InvalidOption { option, .. }) => assert_eq!(option, "instrument"),
+        other => panic!("{other:?}"),
+    }
+    match identify(&[], &WorkflowOptions::default()) {
+        Err(Error::Data(m)) => assert!(m.contains("no data"), "{m}"),
+        other => panic!("{other:?}"),
+    }
+}
