@@ -107,6 +107,31 @@ fn run_lifted(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Runs the command line the page shows (`lifted identify … --data NAME
+/// … --out model.json`) with the record at `data` and the model file to
+/// `out`. The studio quotes a word only when it holds a character outside
+/// `[A-Za-z0-9-_=.,/:+]`; the test records need no quotes.
+fn run_command_line(command: &str, data: &Path, out: &Path) {
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(words.first(), Some(&"lifted"), "{command}");
+    assert!(!command.contains('\''), "{command}");
+    let mut args: Vec<String> = Vec::new();
+    let mut it = words[1..].iter();
+    while let Some(w) = it.next() {
+        args.push(w.to_string());
+        if *w == "--data" || *w == "--out" {
+            it.next();
+            args.push(
+                if *w == "--data" { data } else { out }
+                    .display()
+                    .to_string(),
+            );
+        }
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run_lifted(&args);
+}
+
 #[test]
 fn session_identifies_like_the_command() {
     let dir = tmp("session");
@@ -130,28 +155,79 @@ fn session_identifies_like_the_command() {
     let path = dir.join("rec.csv");
     std::fs::write(&path, &csv).unwrap();
     let out = dir.join("cli.json");
-    let p = path.display().to_string();
-    let o = out.display().to_string();
-    run_lifted(&[
-        "identify",
-        "--method",
-        "n4sid",
-        "--data",
-        &p,
-        "--inputs",
-        "u1",
-        "--outputs",
-        "y1",
-        "--order",
-        "2",
-        "--out",
-        &o,
-    ]);
+    run_command_line(&two.command, &path, &out);
     let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let studio: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
     assert_eq!(comparable(cli), comparable(studio));
     let report = s.report(None).unwrap();
     assert!(report.contains("<svg") && report.contains("rec.csv"));
+    s.close();
+}
+
+/// Issue 28: the parsed record and the subspace compression are kept
+/// between slider moves (no new read, no new compression), made again when
+/// the horizon or the detrending changes, and every model so made is the
+/// one the page's command line writes (mean removal and no detrending,
+/// N4SID and MOESP, fixed orders).
+#[test]
+fn session_keeps_the_record_and_the_compression_between_orders() {
+    let dir = tmp("cache");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(2000, 1);
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    let path = dir.join("rec.csv");
+    std::fs::write(&path, &csv).unwrap();
+    let mut r = request("2");
+    let first = s.identify(&r).unwrap();
+    assert_eq!(s.cache_counts(), (1, 1));
+    // The options that keep the command on the in-memory route are explicit.
+    for w in ["--horizon 10", "--estimator shift", "--output-period y1=1"] {
+        assert!(first.command.contains(w), "{w} missing: {}", first.command);
+    }
+    assert_eq!(
+        (first.horizon, first.estimator.as_deref()),
+        (Some(10), Some("shift"))
+    );
+    for order in ["3", "1", "2", "4"] {
+        r.order = Some(order.into());
+        s.identify(&r).unwrap();
+    }
+    assert_eq!(
+        s.cache_counts(),
+        (1, 1),
+        "a slider move read or compressed again"
+    );
+    // The view reads the channels once (without the explicit output
+    // periods), then neither it nor a move reads again.
+    s.view(&r).unwrap();
+    s.identify(&r).unwrap();
+    s.view(&r).unwrap();
+    assert_eq!(s.cache_counts(), (2, 1));
+    r.horizon = Some(8);
+    s.identify(&r).unwrap();
+    assert_eq!(s.cache_counts(), (2, 2), "a new horizon compresses again");
+    let cases = [
+        ("n4sid", None, "3"),
+        ("moesp", Some("none"), "2"),
+        ("n4sid", Some("none"), "2"),
+    ];
+    for (method, detrend, order) in cases {
+        r.method = Some(method.into());
+        r.detrend = detrend.map(String::from);
+        r.order = Some(order.into());
+        let id = s.identify(&r).unwrap();
+        let out = dir.join(format!("cli-{method}-{order}.json"));
+        run_command_line(&id.command, &path, &out);
+        let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let studio: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+        assert_eq!(comparable(cli), comparable(studio), "{}", id.command);
+    }
+    // No detrending: one compression more (the method is not part of it).
+    assert_eq!(s.cache_counts(), (2, 3));
+    // A new record starts over.
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    s.identify(&r).unwrap();
+    assert_eq!(s.cache_counts(), (3, 4));
     s.close();
 }
 

@@ -121,6 +121,7 @@
 //! | `500` | a bug inside the studio (the server keeps running; the session is reset) |
 
 mod api;
+mod cached;
 mod session;
 
 use std::io::Write;

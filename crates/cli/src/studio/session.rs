@@ -22,7 +22,8 @@ use crate::service::figures::{
 use crate::service::identify::{require_stable, run_identification};
 use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
-use crate::table::{DataSpec, header, load, parse_periods, read_raw};
+use crate::studio::cached::{self, Cache, in_memory_route};
+use crate::table::{DataSpec, header, parse_periods, read_raw};
 
 /// Largest upload accepted (bytes).
 pub const MAX_UPLOAD: usize = 1 << 30;
@@ -105,6 +106,10 @@ pub struct DataInfo {
     pub rows: usize,
     /// Base period (time column, else 1).
     pub ts: f64,
+    /// Whether the file has a time column (`t` or `time`); without one the
+    /// base period is the page's field (1 s when empty, `--ts 1` on the
+    /// command line).
+    pub has_time: bool,
     /// The columns other than the time column.
     pub columns: Vec<ColumnInfo>,
     /// Columns proposed as inputs (complete columns named u…/r…, else the first complete one).
@@ -213,6 +218,13 @@ pub struct Identified {
     pub poles: Vec<(f64, f64)>,
     /// The figures.
     pub figures: Figures,
+    /// The subspace horizon the model was identified with (chosen by the
+    /// held-out selection for order `auto`, else the request's), when the
+    /// route has one: the page keeps it for the slider's numeric orders.
+    pub horizon: Option<usize>,
+    /// The (A, C) route of a subspace model (`shift` or `states`), chosen
+    /// or requested, as `--estimator` spells it.
+    pub estimator: Option<String>,
     /// Wall time of identify + validate + figures, milliseconds.
     pub elapsed_ms: f64,
 }
@@ -245,6 +257,8 @@ pub struct Session {
     record: Option<Record>,
     /// The last [`KEPT_MODELS`] identifications, oldest first.
     models: Vec<Last>,
+    /// The parsed record and the compressed data of the last requests.
+    cache: Cache,
 }
 
 /// `bytes` random bytes from the operating system's CSPRNG, as hex.
@@ -351,6 +365,7 @@ impl Session {
             dir,
             record: None,
             models: Vec::new(),
+            cache: Cache::default(),
         })
     }
 
@@ -371,6 +386,7 @@ impl Session {
     pub fn reset(&mut self) {
         self.record = None;
         self.models.clear();
+        self.cache.clear();
         if let Ok(entries) = std::fs::read_dir(&self.dir) {
             for e in entries.flatten() {
                 if !e.file_name().to_string_lossy().starts_with("upload-") {
@@ -440,6 +456,7 @@ impl Session {
                     info: info.clone(),
                 });
                 self.models.clear();
+                self.cache.clear();
                 if let Some(old) = old {
                     let _ = std::fs::remove_dir_all(old.folder);
                 }
@@ -480,15 +497,16 @@ impl Session {
 
     fn inspect(&self, name: &str, path: &Path) -> CliResult<DataInfo> {
         let p = path.display().to_string();
-        let cols: Vec<String> = header(&p, &[])?
-            .into_iter()
-            .filter(|h| !h.eq_ignore_ascii_case("t") && !h.eq_ignore_ascii_case("time"))
-            .collect();
+        let all = header(&p, &[])?;
+        let is_time = |h: &String| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time");
+        let has_time = all.iter().any(is_time);
+        let cols: Vec<String> = all.into_iter().filter(|h| !is_time(h)).collect();
         if cols.is_empty() {
             return Err(input(format!("{name}: the file has no data columns")));
         }
         let wanted: Vec<&String> = cols.iter().collect();
-        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), None)?;
+        // Without a time column the base period is the page's (1 s here).
+        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), (!has_time).then_some(1.0))?;
         if raw.rows == 0 {
             return Err(input(format!(
                 "{name}: the file has a header but no data rows"
@@ -553,6 +571,7 @@ impl Session {
             name: name.to_string(),
             rows: raw.rows,
             ts: raw.ts,
+            has_time,
             columns,
             suggested_inputs: inputs,
             suggested_outputs: outputs,
@@ -575,14 +594,20 @@ impl Session {
         })
     }
 
-    fn load(&self, r: &Request) -> CliResult<Dataset> {
+    /// The record read with the request's channels (read once per
+    /// selection: [`Cache`]).
+    fn load(&mut self, r: &Request) -> CliResult<&Dataset> {
+        let spec = Self::spec(r)?;
         let rec = self.record()?;
-        let data = load(&rec.path.display().to_string(), &Self::spec(r)?);
-        data.map(|l| l.data).map_err(|e| self.plain(e))
+        let (path, folder) = (rec.path.display().to_string(), rec.folder.clone());
+        match self.cache.loaded(&path, &spec) {
+            Ok(l) => Ok(&l.data),
+            Err(e) => Err(plain_in(&folder, e)),
+        }
     }
 
     /// The selected channels with their rates and plots.
-    pub fn view(&self, r: &Request) -> CliResult<View> {
+    pub fn view(&mut self, r: &Request) -> CliResult<View> {
         self.check_sizes(r)?;
         let data = self.load(r)?;
         let n = data.len();
@@ -686,27 +711,84 @@ impl Session {
         }
     }
 
-    /// The model file of a request, as `lifted identify` writes it.
-    fn model_file(&self, r: &Request) -> CliResult<ModelFile> {
+    /// The model file of a request, as `lifted identify` writes it: from
+    /// the kept record and compression when the command takes the
+    /// in-memory subspace route ([`cached`]), else by the command's own
+    /// identification.
+    fn model_file(&mut self, r: &Request) -> CliResult<ModelFile> {
         let rec = self.record()?;
-        let a = Self::identify_args(r, &rec.path.display().to_string())?;
-        let file = run_identification(&a).map_err(|e| self.plain(e))?;
+        let path = rec.path.display().to_string();
+        let a = Self::identify_args(r, &path)?;
+        let spec = Self::spec(r)?;
+        let in_memory = r.instrument.is_empty() && {
+            let data = self.load(r)?;
+            in_memory_route(&a, &spec, data)
+        };
+        let file = if in_memory {
+            cached::model_file(&mut self.cache, &a, &spec)
+        } else {
+            run_identification(&a)
+        };
+        let file = file.map_err(|e| self.plain(e))?;
         if a.stable {
             require_stable(&file.model)?;
         }
         Ok(file)
     }
 
+    /// The request with the options the page leaves to the defaults made
+    /// explicit where that keeps the command on the studio's fast route
+    /// (the command line shown then takes the same route, see [`cached`]):
+    /// for a numeric order of single-rate N4SID/MOESP/CVA, the horizon
+    /// (10), the (A, C) route (shift invariance) and, when no output period
+    /// is declared, period 1 for every output (the record's complete
+    /// columns: the command then identifies in memory, not streamed); for
+    /// a record without a time column, the base period (1 s).
+    pub fn explicit(&self, r: &Request) -> CliResult<Request> {
+        let rec = self.record()?;
+        let mut r = r.clone();
+        if r.ts.is_none() && !rec.info.has_time {
+            r.ts = Some(1.0);
+        }
+        let subspace = matches!(
+            r.method.as_deref().unwrap_or("n4sid"),
+            "n4sid" | "moesp" | "cva"
+        );
+        let numeric = r
+            .order
+            .as_deref()
+            .is_some_and(|o| o.trim().parse::<usize>().is_ok_and(|n| n > 0));
+        let complete = |name: &String| {
+            rec.info
+                .columns
+                .iter()
+                .any(|c| &c.name == name && c.samples == rec.info.rows)
+        };
+        let single_rate = r.outputs.iter().all(complete) && r.hold.unwrap_or(1) <= 1;
+        let default_rule = r
+            .order_criterion
+            .as_deref()
+            .is_none_or(|c| c.eq_ignore_ascii_case("validation"));
+        if subspace && numeric && single_rate && default_rule && r.instrument.is_empty() {
+            r.horizon.get_or_insert(10);
+            r.estimator.get_or_insert_with(|| "shift".into());
+            if r.output_period.is_empty() {
+                r.output_period = r.outputs.iter().map(|o| format!("{o}=1")).collect();
+            }
+        }
+        Ok(r)
+    }
+
     /// The record of a request checked against a model file, as `lifted
     /// validate --detrend auto` does.
     fn validated(
-        &self,
+        &mut self,
         file: &ModelFile,
         r: &Request,
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
-        let rec = self.record()?;
-        let data = self.load(r)?;
-        let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &rec.name)?;
+        let name = self.record()?.name.clone();
+        let data = self.load(r)?.clone();
+        let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &name)?;
         let shortest = data
             .outputs()
             .iter()
@@ -714,7 +796,11 @@ impl Session {
             .min()
             .unwrap_or(0);
         let lags = LAGS.min(shortest.saturating_sub(1) / 4).max(1);
-        let v = validate_model(&file, &data, lags, &rec.name)?;
+        // The page shows the simulation fits and the residual tests; the
+        // k-step prediction fits (the report's) are left out here.
+        let mut shown = file.clone();
+        shown.kalman_gain = None;
+        let v = validate_model(&shown, &data, lags, &name)?;
         Ok((file, data, v))
     }
 
@@ -793,6 +879,7 @@ impl Session {
     fn identified(&mut self, r: &Request) -> CliResult<Identified> {
         let start = Instant::now();
         self.check_sizes(r)?;
+        let r = &self.explicit(r)?;
         let rec = self.record()?;
         let words = Self::identify_words(r, &rec.name, "model.json");
         let command = std::iter::once("lifted".to_string())
@@ -859,8 +946,27 @@ impl Session {
                 independent: o.independent,
             })
             .collect();
+        let chosen = file.diagnostics.get("structure_selection");
+        let horizon = chosen
+            .and_then(|c| c.get("horizon"))
+            .and_then(serde_json::Value::as_u64)
+            .map(|h| h as usize)
+            .or(r.horizon);
+        let estimator = chosen
+            .and_then(|c| c.get("system"))
+            .and_then(|s| s.as_str())
+            .map(|s| {
+                if s.starts_with("shift") {
+                    "shift".to_string()
+                } else {
+                    "states".to_string()
+                }
+            })
+            .or_else(|| r.estimator.clone());
         let out = Identified {
             seq: r.seq,
+            horizon,
+            estimator,
             stable,
             spectral_radius: v.spectral_radius.is_finite().then_some(v.spectral_radius),
             command,
@@ -915,11 +1021,19 @@ impl Session {
 
     /// The report page of the model of request `seq` (the last model
     /// without one) on the record.
-    pub fn report(&self, seq: Option<u64>) -> CliResult<String> {
+    pub fn report(&mut self, seq: Option<u64>) -> CliResult<String> {
         let last = self.last(seq)?;
-        let rec = self.record()?;
-        let (file, data, v) = self.validated(&last.file, &last.request)?;
-        render(&file, &data, &v, "model.json (lifted studio)", &rec.name)
+        let (file, request) = (last.file.clone(), last.request.clone());
+        let name = self.record()?.name.clone();
+        let (file, data, v) = self.validated(&file, &request)?;
+        render(&file, &data, &v, "model.json (lifted studio)", &name)
+    }
+
+    /// Records parsed and subspace compressions made by the studio's own
+    /// route since the session began ([`cached`]); identifications by the
+    /// command's route read the file themselves and are not counted.
+    pub fn cache_counts(&self) -> (usize, usize) {
+        self.cache.counts()
     }
 
     /// The uploaded record's description, if any.
