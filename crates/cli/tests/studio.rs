@@ -1687,3 +1687,185 @@ fn studio_keeps_a_session_per_tab() {
     st.stop("TERM");
     assert!(!st.scratch.exists());
 }
+
+/// A record without a time column (`u1,y1`), `n` samples of the plant.
+fn untimed_record(n: usize) -> String {
+    let timed = record(n, 1);
+    let mut out = String::from("u1,y1\n");
+    for line in timed.lines().skip(1) {
+        let (_, rest) = line.split_once(',').unwrap();
+        out += rest;
+        out.push('\n');
+    }
+    out
+}
+
+/// Points of the `<polyline>`s and `<path>`s of an SVG document (a rough
+/// count: the numbers after `points="`/`d="` over 2).
+fn drawn_points(svg: &str) -> usize {
+    let mut n = 0;
+    for key in ["points=\"", " d=\""] {
+        for part in svg.split(key).skip(1) {
+            let body = part.split('"').next().unwrap_or("");
+            n += body
+                .split(|c: char| c == ' ' || c == ',' || c.is_ascii_alphabetic())
+                .filter(|w| !w.is_empty())
+                .count()
+                / 2;
+        }
+    }
+    n
+}
+
+async fn element_shot(c: &Client, css: &str, dir: &Path, name: &str) {
+    let e = c.find(Locator::Css(css)).await.expect("element");
+    let png = e.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join(name), png).unwrap();
+}
+
+/// Issue 28, the ident workbench in Chromium: a record without a time
+/// column loads (the base period is the page's field, `--ts 1` on the
+/// command line); the residual auto- and cross-correlation plots with
+/// their 99 % bands, the data's empirical frequency response (Welch) on
+/// the Bode plot, the model's matrices and transfer function are shown;
+/// the order slider keeps the structure the automatic order chose, and
+/// the model saved equals the one the page's command line writes; the
+/// time plots zoom (wheel, the numeric fields) and pan (drag) with at most
+/// a few thousand points drawn for 40 000 samples, and come back whole
+/// (double-click). Screenshots `w*.png` in `target/studio-screenshots/`.
+#[test]
+fn studio_workbench_in_headless_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("workbench");
+    let rec = dir.join("untimed.csv");
+    let n = 40_000;
+    std::fs::write(&rec, untimed_record(n)).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let (command, model) = rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        assert_eq!(status(&c, "csp").await, 0);
+        assert_eq!(status(&c, "jserrors").await, 0);
+        let ts_hint = js(&c, "return document.getElementById('ts').placeholder;").await;
+        assert_eq!(ts_hint.as_str(), Some("1 (no time column)"));
+        assert!(text(&c, "#data-name").await.contains("no time column"));
+        assert!(text(&c, "#command").await.contains("--ts 1"));
+        // Residual plots with bands, Welch on the Bode plot, the model.
+        let res = html(&c, "fig-residuals").await;
+        assert!(res.contains("residual autocorrelation"), "{}", &res[..res.len().min(300)]);
+        assert!(res.contains("cross-correlation") && res.contains("99 % bound"));
+        assert!(html(&c, "fig-bode").await.contains("(data, Welch)"));
+        let tables = js(&c, "return document.querySelectorAll('#matrices table').length;").await;
+        assert!(tables.as_u64().unwrap_or(0) >= 4, "matrices: {tables}");
+        let tf = text(&c, "#tfs").await;
+        assert!(tf.contains("y1 ← u1") && tf.contains('z'), "{tf}");
+        // Whole record: min/max decimated, not 40 000 points a curve.
+        let whole = html(&c, "fig-outputs").await;
+        let pts = drawn_points(&whole);
+        assert!(pts > 500 && pts < 6000, "{pts} points drawn");
+        element_shot(&c, "#io-block", &shots, "w1-untimed-whole.png").await;
+        element_shot(&c, "#response-block", &shots, "w2-response-residuals-model.png").await;
+
+        // Order 2 on the slider: the automatic order's structure kept and
+        // made explicit on the command line.
+        let slider = c.find(Locator::Id("order-slider")).await.unwrap();
+        slider.send_keys(&Key::Home.to_string()).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        slider.send_keys(&Key::Right.to_string()).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        assert_eq!(text(&c, "#order-value").await, "2");
+        let command = text(&c, "#command").await;
+        for w in ["--order 2", "--horizon", "--estimator", "--output-period y1=1", "--ts 1"] {
+            assert!(command.contains(w), "{w} missing: {command}");
+        }
+        let model = c
+            .execute_async(
+                "const done = arguments[arguments.length - 1]; fetch(document.getElementById('save-model').href).then(r => r.text()).then(done);",
+                vec![],
+            )
+            .await
+            .unwrap();
+
+        // Zoom in with the wheel at the middle of the outputs plot.
+        let views = status(&c, "view").await;
+        js(
+            &c,
+            "const s = document.querySelector('#fig-outputs svg'); const r = s.getBoundingClientRect();
+             s.parentElement.dispatchEvent(new WheelEvent('wheel', {deltaY: -100, clientX: r.left + r.width / 2,
+               clientY: r.top + r.height / 2, bubbles: true, cancelable: true})); return 0;",
+        )
+        .await;
+        let t = Instant::now();
+        while status(&c, "view").await <= views || status(&c, "busy").await == 1 {
+            assert!(t.elapsed() < Duration::from_secs(30), "no zoomed view");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let t0: f64 = js(&c, "return Number(document.getElementById('win-t0').value);").await.as_f64().unwrap();
+        let t1: f64 = js(&c, "return Number(document.getElementById('win-t1').value);").await.as_f64().unwrap();
+        let whole_end = (n - 1) as f64;
+        // Half the record around its middle (the plot area's centre is
+        // the middle of the padded axis, i.e. of the record).
+        assert!(t0 > 0.2 * whole_end && t1 < 0.8 * whole_end && t1 > t0, "window {t0}..{t1}");
+        assert!(((t1 - t0) - 0.5 * whole_end).abs() < 0.02 * whole_end, "window {t0}..{t1}");
+        let zoomed = html(&c, "fig-outputs").await;
+        assert_ne!(zoomed, whole);
+        // The numeric fields: a 200 s window, every sample drawn.
+        set_field(&c, "win-t0", "1000").await;
+        set_field(&c, "win-t1", "1200").await;
+        let views = status(&c, "view").await;
+        c.find(Locator::Id("win-apply")).await.unwrap().click().await.unwrap();
+        let t = Instant::now();
+        while status(&c, "view").await <= views || status(&c, "busy").await == 1 {
+            assert!(t.elapsed() < Duration::from_secs(30), "no view of the window");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let narrow = html(&c, "fig-outputs").await;
+        let pts = drawn_points(&narrow);
+        assert!(pts >= 200, "{pts} points in a 200-sample window");
+        wait_identified(&c, g).await;
+        element_shot(&c, "#io-block", &shots, "w3-window-1000-1200.png").await;
+        element_shot(&c, "#fig-response", &shots, "w4-response-window.png").await;
+        // Drag to the right by a quarter of the plot: the window moves back
+        // in time by about a quarter of its span (1.1 × 200 / 4 = 55 s).
+        js(
+            &c,
+            "const d = document.getElementById('fig-outputs'); const s = d.querySelector('svg');
+             const r = s.getBoundingClientRect(); const y = r.top + r.height / 2;
+             d.dispatchEvent(new MouseEvent('mousedown', {button: 0, clientX: r.left + r.width / 2, clientY: y, bubbles: true}));
+             window.dispatchEvent(new MouseEvent('mouseup', {button: 0, clientX: r.left + r.width * 0.75 + 0 * 1, clientY: y, bubbles: true}));
+             return 0;",
+        )
+        .await;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        wait_settled(&c).await;
+        let p0: f64 = js(&c, "return Number(document.getElementById('win-t0').value);").await.as_f64().unwrap();
+        let shift = 1000.0 - p0;
+        assert!(shift > 30.0 && shift < 80.0, "pan by {shift} s");
+        // Double-click: the whole record again.
+        js(&c, "document.getElementById('fig-outputs').dispatchEvent(new MouseEvent('dblclick', {bubbles: true})); return 0;").await;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        wait_settled(&c).await;
+        assert_eq!(js(&c, "return document.getElementById('win-t0').value;").await.as_str(), Some(""));
+        assert_eq!(status(&c, "jserrors").await, 0);
+        assert_eq!(status(&c, "csp").await, 0);
+        c.close().await.unwrap();
+        (command, model.as_str().unwrap_or("").to_string())
+    });
+    let out = dir.join("cli.json");
+    run_command_line(&command, &rec, &out);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
+    assert_eq!(comparable(cli), comparable(page));
+}

@@ -32,6 +32,7 @@
 //! IV, PBSID, multirate records, `--detrend linear`, `--refine`) goes
 //! through `service::identify::run_identification` as the command does.
 
+use lifted_lti::spectral::{FrequencyResponse, SpectralOptions, welch};
 use lifted_lti::{Dataset, ModelFile, OperatingPoint};
 use lifted_subspace::{
     BdEstimate, CompressedData, Experiment, Method, OrderCriterion, OrderReport, OrderSelection,
@@ -55,6 +56,9 @@ pub struct Cache {
     compressed: Option<(String, CompressedData<'static>)>,
     reads: usize,
     compressions: usize,
+    /// Welch's estimate of the last record's frequency response, with the
+    /// key of the data it was made from.
+    spectral: Option<(String, FrequencyResponse)>,
 }
 
 /// Parsed selections kept: the page's view (channels only) and its
@@ -76,6 +80,35 @@ impl Cache {
     pub fn clear(&mut self) {
         self.data.clear();
         self.compressed = None;
+        self.spectral = None;
+    }
+
+    /// Welch's estimate of the frequency response of `data` (default
+    /// segments, [`lifted_lti::spectral::welch`]), made once per record
+    /// and channel selection; `None` when the record is too short or the
+    /// estimate fails (the Bode plot then shows the model alone).
+    pub fn spectral(&mut self, data: &Dataset) -> Option<&FrequencyResponse> {
+        // The selection and the record's size and sums identify the data
+        // (a new record or selection clears or changes them).
+        let sums: Vec<u64> = data
+            .u()
+            .column_iter()
+            .chain(data.y().column_iter())
+            .map(|c| c.iter().sum::<f64>().to_bits())
+            .collect();
+        let names: Vec<&str> = data
+            .inputs()
+            .iter()
+            .map(|c| c.name.as_str())
+            .chain(data.outputs().iter().map(|c| c.name.as_str()))
+            .collect();
+        let key = format!("{names:?}|{}|{}|{sums:?}", data.len(), data.ts());
+        if self.spectral.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.spectral = None;
+            let g = welch(data.u(), data.y(), data.ts(), &SpectralOptions::default()).ok()?;
+            self.spectral = Some((key, g));
+        }
+        self.spectral.as_ref().map(|(_, g)| g)
     }
 
     /// The record `path` read with `spec` (read once per specification).

@@ -16,8 +16,8 @@ use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
 use crate::plot::svg;
 use crate::service::figures::{
-    bode_grid, bode_plots, excitation_plot, order_plot, outputs_plot, pz_plot, response_error_plot,
-    response_plot, stack_svgs, step_plot,
+    add_empirical, bode_grid, bode_plots, excitation_plot_in, order_plot, outputs_plot_in, pz_plot,
+    residual_plots, response_error_plot_in, response_plot_in, stack_svgs, step_plot,
 };
 use crate::service::identify::{require_stable, run_identification};
 use crate::service::report::render;
@@ -84,6 +84,9 @@ pub struct Request {
     /// `lifted identify`): echoed in the answer, and the key under which
     /// the model is kept for `GET /api/model?seq=`.
     pub seq: Option<u64>,
+    /// The time window `[t0, t1]` (seconds) of the time plots: the page's
+    /// zoom (not an option of `lifted identify`; absent: the whole record).
+    pub window: Option<[f64; 2]>,
 }
 
 /// One column of an uploaded record.
@@ -177,6 +180,36 @@ pub struct Fit {
     pub independent: bool,
 }
 
+/// The model's matrices, one inner vector per row.
+#[derive(Debug, Clone, Serialize)]
+pub struct Matrices {
+    /// A (n × n).
+    pub a: Vec<Vec<f64>>,
+    /// B (n × m).
+    pub b: Vec<Vec<f64>>,
+    /// C (p × n).
+    pub c: Vec<Vec<f64>>,
+    /// D (p × m).
+    pub d: Vec<Vec<f64>>,
+    /// The Kalman gain K (n × p) of the innovations form, when the route
+    /// gives one.
+    pub k: Option<Vec<Vec<f64>>>,
+}
+
+/// One channel's transfer function G_ij(z) = num(z)/den(z) (positive
+/// powers of z, minimal realisation of the channel).
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelTf {
+    /// Output name.
+    pub output: String,
+    /// Input name.
+    pub input: String,
+    /// Numerator, as text (`0.5 z - 0.2`).
+    pub num: String,
+    /// Denominator, as text.
+    pub den: String,
+}
+
 /// The figures of an identification, as SVG documents.
 #[derive(Debug, Clone, Serialize)]
 pub struct Figures {
@@ -186,9 +219,14 @@ pub struct Figures {
     pub response: Vec<String>,
     /// Per output: response error.
     pub error: Vec<String>,
+    /// Per output: residual autocorrelation over the cross-correlation
+    /// with the inputs, with the 99 % bands (the tests of `lifted
+    /// validate`).
+    pub residuals: Vec<String>,
     /// Step response.
     pub step: String,
-    /// Bode magnitude over phase.
+    /// Bode magnitude over phase, with the empirical response of the
+    /// data (Welch's estimate) as markers for a single-rate record.
     pub bode: String,
     /// Pole-zero map.
     pub pz: String,
@@ -225,6 +263,13 @@ pub struct Identified {
     /// The (A, C) route of a subspace model (`shift` or `states`), chosen
     /// or requested, as `--estimator` spells it.
     pub estimator: Option<String>,
+    /// The model's matrices.
+    pub matrices: Matrices,
+    /// The transfer function of each channel (empty, with a note in
+    /// `transfer_note`, when the conversion fails).
+    pub transfer_functions: Vec<ChannelTf>,
+    /// Why there are no transfer functions, if so.
+    pub transfer_note: Option<String>,
     /// Wall time of identify + validate + figures, milliseconds.
     pub elapsed_ms: f64,
 }
@@ -332,6 +377,44 @@ fn safe_name(name: &str) -> String {
     let skip = s.chars().count().saturating_sub(100);
     let s: String = s.chars().skip(skip).collect();
     if s.is_empty() { "data.csv".into() } else { s }
+}
+
+/// The zoom window of a request, checked: finite, t0 < t1.
+fn window_of(r: &Request) -> CliResult<Option<(f64, f64)>> {
+    match r.window {
+        None => Ok(None),
+        Some([a, b]) if a.is_finite() && b.is_finite() && a < b => Ok(Some((a, b))),
+        Some([a, b]) => Err(input(format!(
+            "window [{a}, {b}]: a time window is two finite times t0 < t1 in seconds"
+        ))),
+    }
+}
+
+/// A matrix as rows.
+fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
+}
+
+/// Each channel's transfer function (`StateSpace::to_tf`), or why not.
+fn channel_tfs(model: &lifted_lti::StateSpace) -> (Vec<ChannelTf>, Option<String>) {
+    let tf = match model.to_tf(&Default::default()) {
+        Ok(tf) => tf,
+        Err(e) => return (Vec::new(), Some(format!("no transfer function: {e}"))),
+    };
+    let var = if model.ts().is_some() { "z" } else { "s" };
+    let (un, yn) = crate::service::models::channel_names(model);
+    let mut out = Vec::new();
+    for (i, y) in yn.iter().enumerate().take(tf.n_outputs()) {
+        for (j, u) in un.iter().enumerate().take(tf.n_inputs()) {
+            out.push(ChannelTf {
+                output: y.clone(),
+                input: u.clone(),
+                num: tf.num(i, j).display_with(var),
+                den: tf.den(i, j).display_with(var),
+            });
+        }
+    }
+    (out, None)
 }
 
 /// Quotes a command-line word for a POSIX shell when needed.
@@ -609,6 +692,8 @@ impl Session {
     /// The selected channels with their rates and plots.
     pub fn view(&mut self, r: &Request) -> CliResult<View> {
         self.check_sizes(r)?;
+        let r = &self.explicit(r)?;
+        let window = window_of(r)?;
         let data = self.load(r)?;
         let n = data.len();
         let inputs = data
@@ -634,8 +719,8 @@ impl Session {
             ts: data.ts(),
             inputs,
             outputs,
-            inputs_svg: svg(&excitation_plot(&data, &r.inputs), 900, 240)?,
-            outputs_svg: svg(&outputs_plot(&data), 900, 240)?,
+            inputs_svg: svg(&excitation_plot_in(data, &r.inputs, window), 900, 240)?,
+            outputs_svg: svg(&outputs_plot_in(data, window), 900, 240)?,
         })
     }
 
@@ -894,18 +979,37 @@ impl Session {
         let n = data.len();
         let mut response = Vec::new();
         let mut error = Vec::new();
+        let window = window_of(r)?;
+        let mut residuals = Vec::new();
         for o in &v.outputs {
-            response.push(svg(&response_plot(o, ts, n, v.stable()), 900, 260)?);
-            error.push(svg(&response_error_plot(o, ts), 900, 160)?);
+            response.push(svg(
+                &response_plot_in(o, ts, n, v.stable(), window),
+                900,
+                260,
+            )?);
+            error.push(svg(&response_error_plot_in(o, ts, window), 900, 160)?);
+            let (auto, cross) = residual_plots(o, &r.inputs);
+            residuals.push(stack_svgs(
+                &svg(&auto, 450, 220)?,
+                &svg(&cross, 450, 220)?,
+                450,
+                220,
+            ));
         }
         let omega = bode_grid(model, None, None, 200)?;
-        let (mag, ph) = bode_plots(model, &omega)?;
+        let (mut mag, mut ph) = bode_plots(model, &omega)?;
+        if data.is_single_rate()
+            && let Some(g) = self.cache.spectral(&data)
+        {
+            add_empirical(&mut mag, &mut ph, g, model);
+        }
         let figures = Figures {
             order: order_plot(&file.diagnostics)
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
             response,
             error,
+            residuals,
             step: svg(&step_plot(model)?, 560, 280)?,
             bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
             pz: svg(&pz_plot(model)?, 380, 440)?,
@@ -963,7 +1067,17 @@ impl Session {
                 }
             })
             .or_else(|| r.estimator.clone());
+        let (transfer_functions, transfer_note) = channel_tfs(model);
         let out = Identified {
+            matrices: Matrices {
+                a: rows_of(model.a()),
+                b: rows_of(model.b()),
+                c: rows_of(model.c()),
+                d: rows_of(model.d()),
+                k: file.kalman_gain.clone(),
+            },
+            transfer_functions,
+            transfer_note,
             seq: r.seq,
             horizon,
             estimator,

@@ -35,6 +35,9 @@ const state = {
   views: 0,          // completed channel views
   failed: 0,         // failed calls
   csp: 0,            // content-security-policy violations seen
+  window: null,      // the time plots' zoom [t0, t1] in seconds (null: whole record)
+  extent: null,      // the whole record [0, (N - 1) T]
+  structure: {},     // horizon and (A, C) route the last automatic order used
 };
 
 function showError(msg) {
@@ -141,6 +144,7 @@ function request(withOrder) {
   if (hold !== null) r.hold = hold;
   const periods = listOf($("output-period").value);
   if (periods.length) r.output_period = periods;
+  if (state.window) r.window = state.window;
   if (!withOrder) return r;
   const method = $("method").value;
   r.method = method;
@@ -158,6 +162,12 @@ function request(withOrder) {
   } else {
     const h = num("horizon", true, 1);
     if (h !== null) r.horizon = h;
+    // A numeric order keeps the structure the automatic order chose (the
+    // server makes it explicit on the command line).
+    if (state.order !== "auto" && method !== "iv") {
+      if (h === null && state.structure.horizon) r.horizon = state.structure.horizon;
+      if (state.structure.estimator) r.estimator = state.structure.estimator;
+    }
   }
   if (method === "iv") {
     const f = listOf($("instrument").value);
@@ -227,7 +237,7 @@ function setSaves(enabled, seq) {
 // disables the Save links: after a failed identification nothing of the
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
-  for (const id of ["fig-order", "fits", "poles", "fig-response", "fig-error", "fig-step", "fig-bode", "fig-pz"]) {
+  for (const id of ["fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
     $(id).replaceChildren();
   }
   $("stability").hidden = true;
@@ -261,8 +271,13 @@ function channelBoxes(info) {
 function setup(info) {
   state.info = info;
   state.order = "auto";
-  $("data-name").textContent = info.name + ": " + info.rows + " rows, T = " + info.ts + " s, columns " +
-    info.columns.map((c) => c.name).join(", ");
+  state.window = null;
+  state.structure = {};
+  fillWindow();
+  $("ts").placeholder = info.has_time ? "from t column" : "1 (no time column)";
+  $("data-name").textContent = info.name + ": " + info.rows + " rows, " +
+    (info.has_time ? "T = " + info.ts + " s" : "no time column (base period: the T field, 1 s if empty)") +
+    ", columns " + info.columns.map((c) => c.name).join(", ");
   channelBoxes(info);
   clearIdentified();
   schedule({ view: true, identify: true });
@@ -284,6 +299,7 @@ async function loadFile(file) {
 }
 
 function renderView(v) {
+  state.extent = [0, Math.max(v.rows - 1, 1) * v.ts];
   $("fig-inputs").innerHTML = v.inputs_svg;
   $("fig-outputs").innerHTML = v.outputs_svg;
   const rows = [];
@@ -305,6 +321,28 @@ function renderPoles(poles) {
     return li;
   });
   $("poles").replaceChildren(...items);
+}
+
+// A matrix as a table of numbers (4 significant digits), captioned.
+function matrixTable(name, rows) {
+  const t = el("table");
+  t.appendChild(el("caption", name + " (" + rows.length + " × " + (rows[0] ? rows[0].length : 0) + ")"));
+  for (const r of rows) {
+    const tr = el("tr");
+    for (const x of r) tr.appendChild(el("td", typeof x === "number" ? x.toPrecision(4) : String(x)));
+    t.appendChild(tr);
+  }
+  return t;
+}
+
+function renderModel(r) {
+  const m = r.matrices;
+  const tables = [matrixTable("A", m.a), matrixTable("B", m.b), matrixTable("C", m.c), matrixTable("D", m.d)];
+  if (m.k) tables.push(matrixTable("K", m.k));
+  $("matrices").replaceChildren(...tables);
+  const rows = r.transfer_functions.map((g) => [g.output + " ← " + g.input, g.num, g.den]);
+  if (r.transfer_note) rows.push([r.transfer_note, "", ""]);
+  fillTable($("tfs"), ["channel", "numerator", "denominator"], rows);
 }
 
 // Puts an identification's answer on the page. The slider is never moved
@@ -352,6 +390,9 @@ function renderIdentified(r) {
   renderPoles(r.poles || []);
   $("fig-response").innerHTML = r.figures.response.join("");
   $("fig-error").innerHTML = r.figures.error.join("");
+  $("fig-residuals").innerHTML = r.figures.residuals.join("");
+  renderModel(r);
+  if (state.order === "auto") state.structure = { horizon: r.horizon, estimator: r.estimator };
   $("fig-step").innerHTML = r.figures.step;
   $("fig-bode").innerHTML = r.figures.bode;
   $("fig-pz").innerHTML = r.figures.pz;
@@ -411,7 +452,89 @@ async function run(job) {
   if (next) run(next);
 }
 
+// The zoom fields show the window (empty: whole record).
+function fillWindow() {
+  $("win-t0").value = state.window ? String(+state.window[0].toPrecision(6)) : "";
+  $("win-t1").value = state.window ? String(+state.window[1].toPrecision(6)) : "";
+}
+
+// Sets the time plots' window (null: the whole record), clamped to the
+// record, and redraws the time plots (and the model's, if shown).
+function setWindow(w) {
+  const ext = state.extent;
+  if (w && ext) {
+    let [a, b] = w;
+    const span = Math.max(b - a, 1e-12);
+    if (a < ext[0]) [a, b] = [ext[0], ext[0] + span];
+    if (b > ext[1]) [a, b] = [Math.max(ext[0], ext[1] - span), ext[1]];
+    w = a <= ext[0] && b >= ext[1] ? null : [a, b];
+  }
+  state.window = w;
+  fillWindow();
+  schedule({ view: true, identify: state.shown > 0 });
+}
+
+// Where the pointer is on a time plot, as a time: the plot area of the
+// server's figures spans x = 70 … W − 10 of a W pixels wide SVG, over the
+// window padded by 5 % on each side (crate::plot).
+function timeAt(svg, clientX) {
+  const rect = svg.getBoundingClientRect();
+  const w = Number(svg.getAttribute("width")) || rect.width;
+  const px = (clientX - rect.left) * (w / rect.width);
+  const f = Math.min(1, Math.max(0, (px - 70) / (w - 80)));
+  const [a, b] = state.window || state.extent;
+  const d = b - a;
+  return a - 0.05 * d + f * 1.1 * d;
+}
+
+function wireZoom(div) {
+  div.addEventListener("wheel", (e) => {
+    const svg = div.querySelector("svg");
+    if (!svg || !state.extent) return;
+    e.preventDefault();
+    const t = timeAt(svg, e.clientX);
+    const [a, b] = state.window || state.extent;
+    const k = e.deltaY < 0 ? 0.5 : 2;
+    setWindow([t - (t - a) * k, t + (b - t) * k]);
+  }, { passive: false });
+  let drag = null;
+  div.addEventListener("mousedown", (e) => {
+    const svg = div.querySelector("svg");
+    if (!svg || !state.extent || e.button !== 0) return;
+    e.preventDefault();
+    drag = { x: e.clientX, t: timeAt(svg, e.clientX), svg };
+    div.classList.add("dragging");
+  });
+  window.addEventListener("mouseup", (e) => {
+    if (!drag) return;
+    const d = drag;
+    drag = null;
+    div.classList.remove("dragging");
+    if (Math.abs(e.clientX - d.x) < 3) return;
+    const shift = d.t - timeAt(d.svg, e.clientX);
+    const [a, b] = state.window || state.extent;
+    setWindow([a + shift, b + shift]);
+  });
+  div.addEventListener("dblclick", () => setWindow(null));
+}
+
 function wire() {
+  document.querySelectorAll(".timeplot").forEach(wireZoom);
+  $("win-apply").addEventListener("click", () => {
+    clearError();
+    try {
+      const a = num("win-t0", false);
+      const b = num("win-t1", false);
+      if (a === null && b === null) return setWindow(null);
+      const ext = state.extent || [0, 0];
+      const w = [a === null ? ext[0] : a, b === null ? ext[1] : b];
+      if (!(w[0] < w[1])) throw new Error("Time window: the start must be before the end");
+      setWindow(w);
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("win-reset").addEventListener("click", () => setWindow(null));
   // A Save link without a model does nothing, whatever the CSS.
   for (const id of ["save-model", "save-report"]) {
     $(id).addEventListener("click", (e) => {
