@@ -1869,3 +1869,130 @@ fn studio_workbench_in_headless_chromium() {
     let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
     assert_eq!(comparable(cli), comparable(page));
 }
+
+/// Issue 28, the rest of the workbench in Chromium: a validation record of
+/// its own; the model board (keep two models, the fit table on the
+/// validation record, the overlaid simulated outputs, step responses and
+/// Bode plots, save a kept model = the model its command line writes,
+/// remove one); the order criterion's curve (AIC); PEM refinement; delay
+/// estimation. Screenshots `b*.png` in `target/studio-screenshots/`.
+#[test]
+fn studio_board_and_tools_in_headless_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("board");
+    let rec = dir.join("est.csv");
+    std::fs::write(&rec, record(4000, 1)).unwrap();
+    let val = dir.join("val.csv");
+    let other: Vec<f64> = binary_input(4777).split_off(777);
+    std::fs::write(&val, record_of(&other, 1)).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let (command, model) = rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        // The validation record: the fits are computed on it.
+        let vfile = c.find(Locator::Id("val-file")).await.unwrap();
+        vfile.send_keys(&val.display().to_string()).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        let t = Instant::now();
+        while !text(&c, "#val-name").await.contains("val.csv") {
+            assert!(t.elapsed() < Duration::from_secs(20), "no validation record");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        // Keep the automatic order's model, then order 1's.
+        let boards = status(&c, "board").await;
+        c.find(Locator::Id("keep")).await.unwrap().click().await.unwrap();
+        let t = Instant::now();
+        while status(&c, "board").await <= boards {
+            assert!(t.elapsed() < Duration::from_secs(20), "no board");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let slider = c.find(Locator::Id("order-slider")).await.unwrap();
+        slider.send_keys(&Key::Home.to_string()).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        let boards = status(&c, "board").await;
+        c.find(Locator::Id("keep")).await.unwrap().click().await.unwrap();
+        let t = Instant::now();
+        while status(&c, "board").await <= boards {
+            assert!(t.elapsed() < Duration::from_secs(20), "no board");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        assert_eq!(text(&c, "#board-data").await, "val.csv");
+        let rows = js(&c, "return document.querySelectorAll('#board tr').length;").await;
+        assert_eq!(rows.as_u64(), Some(3), "header and two models");
+        let resp = html(&c, "board-response").await;
+        assert!(resp.contains("#1") && resp.contains("#2") && resp.contains("measured"));
+        assert!(html(&c, "board-step").await.contains("#2"));
+        assert!(html(&c, "board-bode").await.contains("#1"));
+        // Model #2 (order 1) fits the validation record worse than #1.
+        let fits = js(
+            &c,
+            "return Array.from(document.querySelectorAll('#board tr')).slice(1).map(r => Number(r.children[2].textContent));",
+        )
+        .await;
+        let fits: Vec<f64> = fits.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert!(fits[0] > 95.0 && fits[0] > fits[1] + 5.0, "fits {fits:?}");
+        element_shot(&c, "#board-block", &shots, "b1-board-two-models.png").await;
+        // Save #1: the model its command line writes.
+        let command = js(&c, "return document.querySelector('#board tr:nth-child(2) code').textContent;").await;
+        let model = c
+            .execute_async(
+                "const done = arguments[arguments.length - 1]; fetch(document.querySelector('#board tr:nth-child(2) a').href).then(r => r.text()).then(done);",
+                vec![],
+            )
+            .await
+            .unwrap();
+        // Remove #2.
+        let boards = status(&c, "board").await;
+        js(&c, "document.querySelectorAll('#board tr')[2].querySelector('button').click(); return 0;").await;
+        let t = Instant::now();
+        while status(&c, "board").await <= boards {
+            assert!(t.elapsed() < Duration::from_secs(20), "no board after remove");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let rows = js(&c, "return document.querySelectorAll('#board tr').length;").await;
+        assert_eq!(rows.as_u64(), Some(2));
+        // The AIC curve over the orders.
+        c.execute("const s = document.getElementById('order-criterion'); s.value = 'aic'; s.dispatchEvent(new Event('change')); return 0;", vec![]).await.unwrap();
+        let g = wait_identified(&c, g).await;
+        let crit = html(&c, "fig-criterion").await;
+        assert!(crit.contains("Order criterion: Aic"), "{}", &crit[..crit.len().min(200)]);
+        assert!(text(&c, "#command").await.contains("--order-criterion aic"));
+        // PEM refinement of the shown model.
+        c.find(Locator::Id("refine")).await.unwrap().click().await.unwrap();
+        wait_identified(&c, g).await;
+        assert!(text(&c, "#command").await.contains("--refine pem"));
+        assert!(text(&c, "#refinement").await.starts_with("PEM refinement:"));
+        // Delays.
+        c.find(Locator::Id("delay")).await.unwrap().click().await.unwrap();
+        let t = Instant::now();
+        while status(&c, "delays").await == 0 {
+            assert!(t.elapsed() < Duration::from_secs(20), "no delays");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let d = text(&c, "#delays").await;
+        assert!(d.contains("u1 → y1"), "{d}");
+        element_shot(&c, "#method-block", &shots, "b2-criterion-refine-delays.png").await;
+        element_shot(&c, "#order-block", &shots, "b3-order-criterion.png").await;
+        assert_eq!(status(&c, "jserrors").await, 0);
+        assert_eq!(status(&c, "csp").await, 0);
+        c.close().await.unwrap();
+        (command.as_str().unwrap_or("").to_string(), model.as_str().unwrap_or("").to_string())
+    });
+    let out = dir.join("cli.json");
+    run_command_line(&command, &rec, &out);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
+    assert_eq!(comparable(cli), comparable(page));
+}

@@ -537,6 +537,89 @@ pub fn response_error_plot_in(o: &OutputValidation, ts: f64, window: Window) -> 
     }
 }
 
+/// The order criterion's values per order from the model file's
+/// diagnostics (`order_criterion`: AIC, AICc, BIC, SVC or the gap, orders
+/// 1, 2, …), the selected order marked; `None` when the route reports
+/// none.
+pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
+    let oc = diag.get("order_criterion")?;
+    let name = oc.get("criterion")?.as_str()?.to_string();
+    let values: Vec<f64> = oc
+        .get("values")?
+        .as_array()?
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    if values.iter().all(|v| !v.is_finite()) {
+        return None;
+    }
+    let x: Vec<f64> = (1..=values.len()).map(|i| i as f64).collect();
+    // An unstable candidate's simulation error can be orders of magnitude
+    // above the rest: the frame holds the values up to 1.5 × the spread of
+    // the lower three quarters, the others are named in a note.
+    let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    finite.sort_by(f64::total_cmp);
+    let lo = finite[0];
+    let q3 = finite[(3 * (finite.len() - 1)) / 4];
+    let top = finite
+        .iter()
+        .copied()
+        .filter(|v| *v <= lo + 1.5 * (q3 - lo).max(lo.abs() * 1e-9))
+        .fold(lo, f64::max);
+    let beyond: Vec<String> = values
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_finite() && **v > top)
+        .map(|(i, v)| format!("order {}: {v:.4e}", i + 1))
+        .collect();
+    let pad = 0.08 * (top - lo).max(lo.abs() * 1e-6).max(1e-12);
+    let mut plot = Plot {
+        title: format!("Order criterion: {name} per order"),
+        x_label: "order n".into(),
+        y_label: name.clone(),
+        series: vec![Series::points(name, x, values, Marker::Dot)],
+        ..Default::default()
+    };
+    if let Some(n) = oc.get("selected").and_then(serde_json::Value::as_u64) {
+        plot.vlines
+            .push((n as f64, format!("its choice: order {n}")));
+    }
+    if !beyond.is_empty() {
+        plot.frame = Some([0.5, values.len() as f64 + 0.5, lo - pad, top + pad]);
+        plot.notes
+            .push(format!("beyond the frame: {}", beyond.join(", ")));
+    }
+    Some(plot)
+}
+
+/// One plot of the series of several, each series' name prefixed with
+/// its plot's label (`#3 n4sid n=2: y1_from_u1`): the overlaid responses
+/// of the model board. Axes and decades of the first plot.
+pub fn overlay(title: &str, plots: Vec<(String, Plot)>) -> Plot {
+    let mut out = Plot {
+        title: title.into(),
+        ..Default::default()
+    };
+    for (k, (label, p)) in plots.into_iter().enumerate() {
+        if k == 0 {
+            out.x_label = p.x_label.clone();
+            out.y_label = p.y_label.clone();
+            out.log_x = p.log_x;
+            out.vlines = p.vlines.clone();
+        }
+        let single = p.series.len() == 1;
+        for mut s in p.series {
+            s.name = if single {
+                label.clone()
+            } else {
+                format!("{label}: {}", s.name)
+            };
+            out.series.push(s);
+        }
+    }
+    out
+}
+
 /// Stems (τ, 0)–(τ, r) of correlations `r` at lags `lags`, as one line
 /// broken by NaN.
 fn stems(lags: impl Iterator<Item = f64>, r: &[f64]) -> (Vec<f64>, Vec<f64>) {

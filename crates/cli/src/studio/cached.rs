@@ -63,8 +63,9 @@ pub struct Cache {
 
 /// Parsed selections kept: the page's view (channels only) and its
 /// identification (with the explicit output periods of
-/// `Session::explicit`) read the same columns with two specifications.
-const KEPT_RECORDS: usize = 2;
+/// `Session::explicit`) read the same columns with two specifications, and
+/// a validation record a third.
+const KEPT_RECORDS: usize = 3;
 
 /// The key of a data specification (its fields, exactly: a base period
 /// is compared by its bits through `Debug`, which prints f64 exactly).

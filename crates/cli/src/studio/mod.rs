@@ -121,6 +121,7 @@
 //! | `500` | a bug inside the studio (the server keeps running; the session is reset) |
 
 mod api;
+mod board;
 mod cached;
 mod session;
 
@@ -131,9 +132,10 @@ pub use api::{
     Access, MAX_JSON, MAX_SESSIONS, SECURITY_HEADERS, SESSION_HEADER, Sessions, TOKEN_HEADER, lock,
     router,
 };
+pub use board::{BoardEntry, BoardRequest, BoardView, MAX_BOARD};
 pub use session::{
-    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, KEPT_MODELS, MAX_UPLOAD,
-    MAX_WORK_BYTES, OrderSelection, Request, Session, View,
+    Channel, ChannelTf, ColumnInfo, DataInfo, Delays, Figures, Fit, Identified, KEPT_MODELS,
+    MAX_UPLOAD, MAX_WORK_BYTES, Matrices, OrderSelection, PairDelay, Request, Session, View,
 };
 
 use crate::error::{CliResult, input};

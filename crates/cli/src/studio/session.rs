@@ -16,12 +16,14 @@ use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
 use crate::plot::svg;
 use crate::service::figures::{
-    add_empirical, bode_grid, bode_plots, excitation_plot_in, order_plot, outputs_plot_in, pz_plot,
-    residual_plots, response_error_plot_in, response_plot_in, stack_svgs, step_plot,
+    add_empirical, bode_grid, bode_plots, criterion_plot, excitation_plot_in, order_plot,
+    outputs_plot_in, pz_plot, residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
+    step_plot,
 };
 use crate::service::identify::{require_stable, run_identification};
 use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
+use crate::studio::board::Pinned;
 use crate::studio::cached::{self, Cache, in_memory_route};
 use crate::table::{DataSpec, header, parse_periods, read_raw};
 
@@ -84,6 +86,9 @@ pub struct Request {
     /// `lifted identify`): echoed in the answer, and the key under which
     /// the model is kept for `GET /api/model?seq=`.
     pub seq: Option<u64>,
+    /// `pem` or `oe`: refine the model (Levenberg–Marquardt on the
+    /// prediction or simulation error, `lifted identify --refine`).
+    pub refine: Option<String>,
     /// The time window `[t0, t1]` (seconds) of the time plots: the page's
     /// zoom (not an option of `lifted identify`; absent: the whole record).
     pub window: Option<[f64; 2]>,
@@ -230,6 +235,9 @@ pub struct Figures {
     pub bode: String,
     /// Pole-zero map.
     pub pz: String,
+    /// The order criterion's values per order (AIC, SVC, …, chosen order
+    /// marked), when the route reports them.
+    pub criterion: Option<String>,
 }
 
 /// The answer to an identification.
@@ -270,6 +278,10 @@ pub struct Identified {
     pub transfer_functions: Vec<ChannelTf>,
     /// Why there are no transfer functions, if so.
     pub transfer_note: Option<String>,
+    /// The refinement's report (`--refine`), when there was one.
+    pub refinement: Option<serde_json::Value>,
+    /// The record the fits and residuals are computed on.
+    pub validation_data: String,
     /// Wall time of identify + validate + figures, milliseconds.
     pub elapsed_ms: f64,
 }
@@ -279,6 +291,45 @@ struct Last {
     seq: Option<u64>,
     file: ModelFile,
     request: Request,
+    command: String,
+}
+
+/// Lifted lags of the delay estimate (`lifted delay --lags` default).
+const DELAY_LAGS: usize = 8;
+/// Significance of the delay estimate in standard errors (`lifted delay
+/// --sigmas` default).
+const DELAY_SIGMAS: f64 = 3.0;
+
+/// One input-output pair's delay interval (`lifted delay --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct PairDelay {
+    /// Input name.
+    pub input: String,
+    /// Output name.
+    pub output: String,
+    /// The input's hold m (base periods).
+    pub hold: usize,
+    /// The output's period n (base periods).
+    pub period: usize,
+    /// d_c ∈ [lower, upper) in base periods, when the pair gave one.
+    pub interval: Option<[i64; 2]>,
+    /// The same in seconds.
+    pub interval_s: Option<[f64; 2]>,
+    /// Why the pair gave none.
+    pub failure: Option<String>,
+}
+
+/// The delays of the record's pairs.
+#[derive(Debug, Clone, Serialize)]
+pub struct Delays {
+    /// Base period, seconds.
+    pub base_period: f64,
+    /// Lifted lags of the estimate.
+    pub lags: usize,
+    /// Significance in standard errors.
+    pub sigmas: f64,
+    /// One entry per input-output pair.
+    pub pairs: Vec<PairDelay>,
 }
 
 /// Models kept per session: the page may save any of its last few answers
@@ -304,6 +355,13 @@ pub struct Session {
     models: Vec<Last>,
     /// The parsed record and the compressed data of the last requests.
     cache: Cache,
+    /// A validation record of its own (else the models are validated on
+    /// the estimation record).
+    validation: Option<Record>,
+    /// The model board, oldest first.
+    pub(crate) board: Vec<Pinned>,
+    /// The last id given to a model on the board.
+    pub(crate) board_ids: u64,
 }
 
 /// `bytes` random bytes from the operating system's CSPRNG, as hex.
@@ -381,7 +439,12 @@ fn safe_name(name: &str) -> String {
 
 /// The zoom window of a request, checked: finite, t0 < t1.
 fn window_of(r: &Request) -> CliResult<Option<(f64, f64)>> {
-    match r.window {
+    window_of_pair(r.window)
+}
+
+/// A zoom window `[t0, t1]`, checked: finite, t0 < t1.
+pub(crate) fn window_of_pair(w: Option<[f64; 2]>) -> CliResult<Option<(f64, f64)>> {
+    match w {
         None => Ok(None),
         Some([a, b]) if a.is_finite() && b.is_finite() && a < b => Ok(Some((a, b))),
         Some([a, b]) => Err(input(format!(
@@ -449,6 +512,9 @@ impl Session {
             record: None,
             models: Vec::new(),
             cache: Cache::default(),
+            validation: None,
+            board: Vec::new(),
+            board_ids: 0,
         })
     }
 
@@ -468,7 +534,9 @@ impl Session {
     /// upload folders go (the sessions of other tabs may live beside them).
     pub fn reset(&mut self) {
         self.record = None;
+        self.validation = None;
         self.models.clear();
+        self.board.clear();
         self.cache.clear();
         if let Ok(entries) = std::fs::read_dir(&self.dir) {
             for e in entries.flatten() {
@@ -680,10 +748,17 @@ impl Session {
     /// The record read with the request's channels (read once per
     /// selection: [`Cache`]).
     fn load(&mut self, r: &Request) -> CliResult<&Dataset> {
-        let spec = Self::spec(r)?;
         let rec = self.record()?;
         let (path, folder) = (rec.path.display().to_string(), rec.folder.clone());
-        match self.cache.loaded(&path, &spec) {
+        self.load_from(&path, &folder, r)
+    }
+
+    /// The file `path` (in the upload folder `folder`) read with the
+    /// request's channels, through the [`Cache`].
+    fn load_from(&mut self, path: &str, folder: &Path, r: &Request) -> CliResult<&Dataset> {
+        let spec = Self::spec(r)?;
+        let folder = folder.to_path_buf();
+        match self.cache.loaded(path, &spec) {
             Ok(l) => Ok(&l.data),
             Err(e) => Err(plain_in(&folder, e)),
         }
@@ -763,6 +838,7 @@ impl Session {
             ("detrend", r.detrend.clone()),
             ("estimator", r.estimator.clone()),
             ("order-criterion", r.order_criterion.clone()),
+            ("refine", r.refine.clone()),
         ] {
             if let Some(v) = v {
                 opt(flag, v);
@@ -850,11 +926,7 @@ impl Session {
                 .any(|c| &c.name == name && c.samples == rec.info.rows)
         };
         let single_rate = r.outputs.iter().all(complete) && r.hold.unwrap_or(1) <= 1;
-        let default_rule = r
-            .order_criterion
-            .as_deref()
-            .is_none_or(|c| c.eq_ignore_ascii_case("validation"));
-        if subspace && numeric && single_rate && default_rule && r.instrument.is_empty() {
+        if subspace && numeric && single_rate && r.instrument.is_empty() && r.refine.is_none() {
             r.horizon.get_or_insert(10);
             r.estimator.get_or_insert_with(|| "shift".into());
             if r.output_period.is_empty() {
@@ -866,13 +938,19 @@ impl Session {
 
     /// The record of a request checked against a model file, as `lifted
     /// validate --detrend auto` does.
-    fn validated(
+    pub(crate) fn validated(
         &mut self,
         file: &ModelFile,
         r: &Request,
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
-        let name = self.record()?.name.clone();
-        let data = self.load(r)?.clone();
+        let name = self.validation_name()?;
+        let data = match &self.validation {
+            Some(v) => {
+                let (path, folder) = (v.path.display().to_string(), v.folder.clone());
+                self.load_from(&path, &folder, r)?.clone()
+            }
+            None => self.load(r)?.clone(),
+        };
         let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &name)?;
         let shortest = data
             .outputs()
@@ -1013,6 +1091,9 @@ impl Session {
             step: svg(&step_plot(model)?, 560, 280)?,
             bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
             pz: svg(&pz_plot(model)?, 380, 440)?,
+            criterion: criterion_plot(&file.diagnostics)
+                .map(|p| svg(&p, 560, 280))
+                .transpose()?,
         };
         let order_selection = file.diagnostics.get("order_selection").map(|os| {
             let values = os
@@ -1078,6 +1159,8 @@ impl Session {
             },
             transfer_functions,
             transfer_note,
+            refinement: file.diagnostics.get("refinement").cloned(),
+            validation_data: self.validation_name()?,
             seq: r.seq,
             horizon,
             estimator,
@@ -1099,6 +1182,7 @@ impl Session {
             seq: r.seq,
             file,
             request: r.clone(),
+            command: out.command.clone(),
         });
         Ok(out)
     }
@@ -1141,6 +1225,111 @@ impl Session {
         let name = self.record()?.name.clone();
         let (file, data, v) = self.validated(&file, &request)?;
         render(&file, &data, &v, "model.json (lifted studio)", &name)
+    }
+
+    /// The model of identify request `seq`, its request and command line
+    /// (for the board).
+    pub(crate) fn kept_model(&self, seq: u64) -> CliResult<(ModelFile, Request, String)> {
+        let last = self.last(Some(seq))?;
+        Ok((
+            last.file.clone(),
+            last.request.clone(),
+            last.command.clone(),
+        ))
+    }
+
+    /// The name of the record the models are validated on: the validation
+    /// record when one is loaded, else the estimation record.
+    pub fn validation_name(&self) -> CliResult<String> {
+        match &self.validation {
+            Some(v) => Ok(v.name.clone()),
+            None => Ok(self.record()?.name.clone()),
+        }
+    }
+
+    /// Reads the record staged at `path` (in `folder`, from
+    /// [`Session::staging`]) as the validation record: once it reads whole
+    /// it replaces the previous validation record (the estimation record,
+    /// the models and the board stay); else `folder` is removed and nothing
+    /// changes. The channels are checked when a model is validated on it.
+    pub fn adopt_validation(&mut self, folder: PathBuf, path: PathBuf) -> CliResult<DataInfo> {
+        self.record()?;
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "validation.csv".into());
+        match self.inspect(&name, &path) {
+            Ok(info) => {
+                let old = self.validation.replace(Record {
+                    name,
+                    folder,
+                    path,
+                    info: info.clone(),
+                });
+                if let Some(old) = old {
+                    let _ = std::fs::remove_dir_all(old.folder);
+                }
+                Ok(info)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&folder);
+                Err(plain_in(&folder, e))
+            }
+        }
+    }
+
+    /// Stores and reads an uploaded validation record ([`Session::adopt_validation`]).
+    pub fn upload_validation(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
+        let (folder, path) = self.staging(name)?;
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
+        }
+        self.adopt_validation(folder, path)
+    }
+
+    /// Drops the validation record (the models are validated on the
+    /// estimation record again).
+    pub fn clear_validation(&mut self) {
+        if let Some(v) = self.validation.take() {
+            let _ = std::fs::remove_dir_all(v.folder);
+        }
+    }
+
+    /// The validation record's description, if any.
+    pub fn validation_info(&self) -> Option<&DataInfo> {
+        self.validation.as_ref().map(|r| &r.info)
+    }
+
+    /// The delay interval of every input-output pair of the record with
+    /// the request's channels (thesis §4.4 per pair, as `lifted delay`
+    /// with its defaults: 8 lifted lags, 3σ).
+    pub fn delays(&mut self, r: &Request) -> CliResult<Delays> {
+        self.check_sizes(r)?;
+        let r = &self.explicit(r)?;
+        let data = self.load(r)?;
+        let ts = data.ts();
+        let pairs = lifted_multirate::estimate_delays(data, DELAY_LAGS, DELAY_SIGMAS)
+            .map_err(|e| input(format!("delay estimation: {e}")))?;
+        Ok(Delays {
+            base_period: ts,
+            lags: DELAY_LAGS,
+            sigmas: DELAY_SIGMAS,
+            pairs: pairs
+                .iter()
+                .map(|p| PairDelay {
+                    input: r.inputs.get(p.input).cloned().unwrap_or_default(),
+                    output: r.outputs.get(p.output).cloned().unwrap_or_default(),
+                    hold: p.hold,
+                    period: p.period,
+                    interval: p.interval.map(|iv| [iv.lower, iv.upper]),
+                    interval_s: p
+                        .interval
+                        .map(|iv| [iv.lower as f64 * ts, iv.upper as f64 * ts]),
+                    failure: p.failure.clone(),
+                })
+                .collect(),
+        })
     }
 
     /// Records parsed and subspace compressions made by the studio's own

@@ -38,6 +38,9 @@ const state = {
   window: null,      // the time plots' zoom [t0, t1] in seconds (null: whole record)
   extent: null,      // the whole record [0, (N - 1) T]
   structure: {},     // horizon and (A, C) route the last automatic order used
+  refineOnce: false, // the next identification refines (PEM)
+  boardSelected: [], // ids of the board's models drawn in its overlays
+  boards: 0,         // board answers shown
 };
 
 function showError(msg) {
@@ -150,6 +153,7 @@ function request(withOrder) {
   r.method = method;
   r.order = String(state.order);
   r.detrend = $("detrend").value;
+  if (state.refineOnce) r.refine = "pem";
   if ($("stable").checked) r.stable = true;
   if (method === "qmarkov") {
     const n = num("prbs-order", true, 2);
@@ -162,6 +166,8 @@ function request(withOrder) {
   } else {
     const h = num("horizon", true, 1);
     if (h !== null) r.horizon = h;
+    const crit = $("order-criterion").value;
+    if (crit !== "validation" && method !== "pbsid" && method !== "ssarx") r.order_criterion = crit;
     // A numeric order keeps the structure the automatic order chose (the
     // server makes it explicit on the command line).
     if (state.order !== "auto" && method !== "iv") {
@@ -219,6 +225,8 @@ function fillTable(table, head, rows) {
 // is shown, to that very model (its request's sequence number `seq`); else
 // no href, aria-disabled, and clicks ignored.
 function setSaves(enabled, seq) {
+  $("refine").disabled = !enabled;
+  $("keep").disabled = !enabled;
   for (const id of ["save-model", "save-report"]) {
     const a = $(id);
     if (enabled) {
@@ -237,7 +245,8 @@ function setSaves(enabled, seq) {
 // disables the Save links: after a failed identification nothing of the
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
-  for (const id of ["fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
+  $("refinement").textContent = "";
+  for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
     $(id).replaceChildren();
   }
   $("stability").hidden = true;
@@ -270,6 +279,8 @@ function channelBoxes(info) {
 
 function setup(info) {
   state.info = info;
+  $("delay").disabled = false;
+  $("delays").replaceChildren();
   state.order = "auto";
   state.window = null;
   state.structure = {};
@@ -391,7 +402,13 @@ function renderIdentified(r) {
   $("fig-response").innerHTML = r.figures.response.join("");
   $("fig-error").innerHTML = r.figures.error.join("");
   $("fig-residuals").innerHTML = r.figures.residuals.join("");
+  $("fig-criterion").innerHTML = r.figures.criterion || "";
   renderModel(r);
+  const ref = r.refinement;
+  $("refinement").textContent = ref
+    ? "PEM refinement: " + ref.iterations + " iterations, cost " + fixed(ref.initial_cost, 6) + " → " +
+      fixed(ref.final_cost, 6) + " (" + ref.termination + "; " + (ref.kept === "Refined" ? "refined model kept" : "initial model kept") + ")"
+    : "";
   if (state.order === "auto") state.structure = { horizon: r.horizon, estimator: r.estimator };
   $("fig-step").innerHTML = r.figures.step;
   $("fig-bode").innerHTML = r.figures.bode;
@@ -429,6 +446,7 @@ async function run(job) {
     if (job.identify) {
       setStatus("identifying…");
       const req = request(true);
+      state.refineOnce = false;
       state.seq += 1;
       req.seq = state.seq;
       const r = await call("/api/identify", JSON.stringify(req));
@@ -518,8 +536,115 @@ function wireZoom(div) {
   div.addEventListener("dblclick", () => setWindow(null));
 }
 
+// The board's answer: the fit table (a checkbox per model to overlay it,
+// its Save link and a Remove button) and the overlays of the ticked ones.
+function renderBoard(b) {
+  $("board-data").textContent = b.data;
+  state.boardSelected = b.entries.filter((e) => e.selected).map((e) => e.id);
+  const outputs = [];
+  for (const e of b.entries) for (const [o] of e.fits) if (!outputs.includes(o)) outputs.push(o);
+  const rows = b.entries.map((e) => {
+    const tick = el("td");
+    const cb = document.createElement("input");
+    cb.type = "checkbox";
+    cb.checked = e.selected;
+    cb.dataset.id = String(e.id);
+    cb.addEventListener("change", () => {
+      const sel = state.boardSelected.filter((x) => x !== e.id);
+      if (cb.checked) sel.push(e.id);
+      boardCall({ selected: sel });
+    });
+    tick.appendChild(cb);
+    const fits = outputs.map((o) => {
+      const f = e.fits.find((x) => x[0] === o);
+      const c = el("td", !f ? "–" : e.stable ? fixed(f[1], 2) : "n/a: unstable", "num");
+      return c;
+    });
+    const save = el("td");
+    const a = el("a", "save", "button");
+    a.href = "/api/model?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&board=" + e.id;
+    a.setAttribute("download", "model-" + e.id + ".json");
+    save.appendChild(a);
+    const rm = el("td");
+    const b2 = el("button", "remove");
+    b2.type = "button";
+    b2.addEventListener("click", () => boardCall({ remove: e.id, selected: state.boardSelected.filter((x) => x !== e.id) }));
+    rm.appendChild(b2);
+    const cmd = el("td");
+    cmd.appendChild(el("code", e.command));
+    return [tick, e.label, ...fits, save, rm, cmd];
+  });
+  fillTable($("board"), ["show", "model", ...outputs.map((o) => "fit % " + o), "", "", "command"], rows);
+  $("board-response").innerHTML = b.response.join("");
+  $("board-step").innerHTML = b.step || "";
+  $("board-bode").innerHTML = b.bode || "";
+  state.boards += 1;
+  $("status").dataset.board = String(state.boards);
+}
+
+async function boardCall(body) {
+  clearError();
+  try {
+    if (state.window) body.window = state.window;
+    renderBoard(await call("/api/board", JSON.stringify(body)));
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
+async function loadValidation(file) {
+  clearError();
+  try {
+    const buf = await file.arrayBuffer();
+    const info = await call("/api/data?role=validation&name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
+    $("val-name").textContent = "Models are validated on " + info.name + " (" + info.rows + " rows).";
+    $("val-clear").disabled = false;
+    schedule({ identify: true });
+    boardCall({ selected: state.boardSelected });
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
 function wire() {
   document.querySelectorAll(".timeplot").forEach(wireZoom);
+  $("val-file").addEventListener("change", (e) => {
+    if (e.target.files.length) loadValidation(e.target.files[0]);
+  });
+  $("val-clear").addEventListener("click", async () => {
+    try {
+      await call("/api/validation/clear", "{}");
+      $("val-name").textContent = "Models are validated on the estimation record.";
+      $("val-clear").disabled = true;
+      schedule({ identify: true });
+      boardCall({ selected: state.boardSelected });
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("refine").addEventListener("click", () => {
+    state.refineOnce = true;
+    schedule({ identify: true });
+  });
+  $("keep").addEventListener("click", () => {
+    const sel = state.boardSelected.slice();
+    boardCall({ add: state.shown, selected: sel });
+  });
+  $("delay").addEventListener("click", async () => {
+    clearError();
+    try {
+      const d = await call("/api/delay", JSON.stringify(request(false)));
+      const rows = d.pairs.map((p) => [
+        p.input + " → " + p.output,
+        p.interval ? "[" + p.interval[0] + ", " + p.interval[1] + ")" : "–",
+        p.interval_s ? "[" + p.interval_s[0] + ", " + p.interval_s[1] + ") s" : p.failure || "",
+      ]);
+      fillTable($("delays"), ["pair", "delay d (T)", "delay (s) / why none"], rows);
+      $("status").dataset.delays = String(Number($("status").dataset.delays || "0") + 1);
+    } catch (e) {
+      showError(e.message);
+    }
+  });
   $("win-apply").addEventListener("click", () => {
     clearError();
     try {
@@ -582,7 +707,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "order-criterion"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });
