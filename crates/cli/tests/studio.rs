@@ -1996,3 +1996,97 @@ fn studio_board_and_tools_in_headless_chromium() {
     let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
     assert_eq!(comparable(cli), comparable(page));
 }
+
+/// Issue 28: estimation and validation rows of the record, by the numeric
+/// fields and by dragging on the input plot: the model is identified on
+/// the estimation rows (their file is the command line's `--data` and the
+/// page's "Save estimation data"), checked on the validation rows, and
+/// equals the model that command writes on the downloaded rows; the
+/// ranges are marked on the time plots; a range outside the record is a
+/// named error. Screenshot `r1-ranges.png`.
+#[test]
+fn studio_time_ranges_in_headless_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("ranges");
+    let rec = dir.join("rec.csv");
+    std::fs::write(&rec, record(4000, 1)).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let (command, model, rows) = rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_identified(&c, 0).await;
+        // The fields: 0 … 200 s to estimate, 200 … 399.9 s to validate
+        // (T = 0.1 s: rows 0 … 2000 and 2000 … 3999).
+        for (id, v) in [("est-t0", "0"), ("est-t1", "200"), ("vr-t0", "200"), ("vr-t1", "399.9")] {
+            c.execute(&format!("document.getElementById('{id}').value = '{v}'; return 0;"), vec![]).await.unwrap();
+        }
+        c.find(Locator::Id("ranges-apply")).await.unwrap().click().await.unwrap();
+        let g = wait_identified(&c, g).await;
+        let command = text(&c, "#command").await;
+        assert!(command.contains("--data rec_rows0-2001.csv"), "{command}");
+        assert_eq!(text(&c, "#validation-data").await, "rec_rows2000-4000.csv");
+        assert!(html(&c, "fig-inputs").await.contains("estimation rows 0 … 200 s"));
+        // Drag on the input plot from a quarter to a half of its width:
+        // the estimation rows follow.
+        c.execute("document.querySelector('input[name=drag][value=estimation]').click(); return 0;", vec![]).await.unwrap();
+        js(
+            &c,
+            "const d = document.getElementById('fig-inputs'); const s = d.querySelector('svg');
+             const r = s.getBoundingClientRect(); const y = r.top + r.height / 2;
+             d.dispatchEvent(new MouseEvent('mousedown', {button: 0, clientX: r.left + r.width * 0.25, clientY: y, bubbles: true}));
+             window.dispatchEvent(new MouseEvent('mouseup', {button: 0, clientX: r.left + r.width * 0.5, clientY: y, bubbles: true}));
+             return 0;",
+        )
+        .await;
+        wait_identified(&c, g).await;
+        wait_settled(&c).await;
+        let t0: f64 = js(&c, "return Number(document.getElementById('est-t0').value);").await.as_f64().unwrap();
+        let t1: f64 = js(&c, "return Number(document.getElementById('est-t1').value);").await.as_f64().unwrap();
+        // x = 0.25 W and 0.5 W (W = 900) on the plot area 70 … 890 over
+        // the axis padded by 5 %, −20 … 420 s: about 63 s and 184 s.
+        assert!((t0 - 63.0).abs() < 10.0 && (t1 - 184.0).abs() < 10.0, "{t0} … {t1}");
+        let command = text(&c, "#command").await;
+        assert!(command.contains("--data rec_rows"), "{command}");
+        element_shot(&c, "#io-block", &shots, "r1-ranges.png").await;
+        let fetch = |id: &str| {
+            format!("const done = arguments[arguments.length - 1]; fetch(document.getElementById('{id}').href).then(r => r.text()).then(done);")
+        };
+        let model = c.execute_async(&fetch("save-model"), vec![]).await.unwrap();
+        let rows = c.execute_async(&fetch("save-data"), vec![]).await.unwrap();
+        // A range outside the record: a named error.
+        for (id, v) in [("est-t0", "100"), ("est-t1", "9000")] {
+            c.execute(&format!("document.getElementById('{id}').value = '{v}'; return 0;"), vec![]).await.unwrap();
+        }
+        let failed = status(&c, "failed").await;
+        c.find(Locator::Id("ranges-apply")).await.unwrap().click().await.unwrap();
+        wait_failed(&c, failed).await;
+        let err = page_error(&c).await;
+        assert!(err.contains("estimation range") && err.contains("outside the record"), "{err}");
+        assert_eq!(status(&c, "jserrors").await, 0);
+        c.close().await.unwrap();
+        (
+            command,
+            model.as_str().unwrap_or("").to_string(),
+            rows.as_str().unwrap_or("").to_string(),
+        )
+    });
+    assert!(rows.starts_with("t,u1,y1\n"));
+    let slice = dir.join("slice.csv");
+    std::fs::write(&slice, &rows).unwrap();
+    let out = dir.join("cli.json");
+    run_command_line(&command, &slice, &out);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
+    assert_eq!(comparable(cli), comparable(page));
+}

@@ -577,7 +577,7 @@ pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
         title: format!("Order criterion: {name} per order"),
         x_label: "order n".into(),
         y_label: name.clone(),
-        series: vec![Series::points(name, x, values, Marker::Dot)],
+        series: vec![Series::points(name, x, values.clone(), Marker::Dot)],
         ..Default::default()
     };
     if let Some(n) = oc.get("selected").and_then(serde_json::Value::as_u64) {

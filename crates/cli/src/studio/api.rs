@@ -374,6 +374,7 @@ pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
         .route("/api/validation/clear", post(clear_validation))
         .route("/api/model", get(model))
         .route("/api/report", get(report))
+        .route("/api/estimation-data", get(estimation_data))
         .fallback(|| async { error(StatusCode::NOT_FOUND, "no such page or call") })
         .layer(DefaultBodyLimit::max(MAX_JSON))
         .layer(middleware::from_fn_with_state(app.clone(), guard))
@@ -717,6 +718,33 @@ async fn model(State(app): State<App>, Query(q): Query<CallQuery>, headers: Head
     .await
     {
         Ok(j) => download(j, "application/json", "model.json"),
+        Err(e) => e,
+    }
+}
+
+/// `GET /api/estimation-data[?seq=N]`: the data file the command line of
+/// model N names (the record, or the rows of its estimation range).
+async fn estimation_data(
+    State(app): State<App>,
+    Query(q): Query<CallQuery>,
+    headers: HeaderMap,
+) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
+    match with_session(h.session, move |s| s.estimation_data(q.seq)).await {
+        Ok((name, text)) => (
+            [
+                (header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()),
+                (
+                    header::CONTENT_DISPOSITION,
+                    format!("attachment; filename=\"{name}\""),
+                ),
+            ],
+            text,
+        )
+            .into_response(),
         Err(e) => e,
     }
 }

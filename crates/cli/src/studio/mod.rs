@@ -123,6 +123,7 @@
 mod api;
 mod board;
 mod cached;
+pub mod ranges;
 mod session;
 
 use std::io::Write;

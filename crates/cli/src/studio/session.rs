@@ -25,6 +25,7 @@ use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
 use crate::studio::board::Pinned;
 use crate::studio::cached::{self, Cache, in_memory_route};
+use crate::studio::ranges;
 use crate::table::{DataSpec, header, parse_periods, read_raw};
 
 /// Largest upload accepted (bytes).
@@ -86,6 +87,12 @@ pub struct Request {
     /// `lifted identify`): echoed in the answer, and the key under which
     /// the model is kept for `GET /api/model?seq=`.
     pub seq: Option<u64>,
+    /// The rows of the estimation record to identify on, `[t0, t1]` in
+    /// seconds (absent: all); see [`crate::studio::ranges`].
+    pub estimation_range: Option<[f64; 2]>,
+    /// The rows of the validation data (the validation record, else the
+    /// estimation record) the model is checked on, `[t0, t1]` seconds.
+    pub validation_range: Option<[f64; 2]>,
     /// `pem` or `oe`: refine the model (Levenberg–Marquardt on the
     /// prediction or simulation error, `lifted identify --refine`).
     pub refine: Option<String>,
@@ -292,6 +299,9 @@ struct Last {
     file: ModelFile,
     request: Request,
     command: String,
+    /// The data file of the command line (the record, or the file of its
+    /// estimation range) and its path.
+    data: (String, PathBuf),
 }
 
 /// Lifted lags of the delay estimate (`lifted delay --lags` default).
@@ -435,6 +445,43 @@ fn safe_name(name: &str) -> String {
     let skip = s.chars().count().saturating_sub(100);
     let s: String = s.chars().skip(skip).collect();
     if s.is_empty() { "data.csv".into() } else { s }
+}
+
+/// A time plot with the request's estimation and validation ranges marked:
+/// a pair of vertical lines at each range's ends, one series per range
+/// (its own colour and dash pattern, named in the legend).
+fn marked(mut p: crate::plot::Plot, r: &Request) -> crate::plot::Plot {
+    let (lo, hi) = p
+        .series
+        .iter()
+        .flat_map(|s| s.y.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if lo > hi {
+        return p;
+    }
+    let short = |x: f64| {
+        let t = format!("{x:.6}");
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    for (what, range) in [
+        ("estimation", r.estimation_range),
+        ("validation", r.validation_range),
+    ] {
+        if let Some([a, b]) = range
+            && a.is_finite()
+            && b.is_finite()
+        {
+            p.series.push(crate::plot::Series::line(
+                format!("{what} rows {} … {} s", short(a), short(b)),
+                vec![a, a, f64::NAN, b, b],
+                vec![lo, hi, f64::NAN, lo, hi],
+            ));
+        }
+    }
+    p
 }
 
 /// The zoom window of a request, checked: finite, t0 < t1.
@@ -794,8 +841,12 @@ impl Session {
             ts: data.ts(),
             inputs,
             outputs,
-            inputs_svg: svg(&excitation_plot_in(data, &r.inputs, window), 900, 240)?,
-            outputs_svg: svg(&outputs_plot_in(data, window), 900, 240)?,
+            inputs_svg: svg(
+                &marked(excitation_plot_in(data, &r.inputs, window), r),
+                900,
+                240,
+            )?,
+            outputs_svg: svg(&marked(outputs_plot_in(data, window), r), 900, 240)?,
         })
     }
 
@@ -877,8 +928,8 @@ impl Session {
     /// in-memory subspace route ([`cached`]), else by the command's own
     /// identification.
     fn model_file(&mut self, r: &Request) -> CliResult<ModelFile> {
-        let rec = self.record()?;
-        let path = rec.path.display().to_string();
+        let (_, path) = self.estimation_source(r)?;
+        let path = path.display().to_string();
         let a = Self::identify_args(r, &path)?;
         let spec = Self::spec(r)?;
         let in_memory = r.instrument.is_empty() && {
@@ -943,14 +994,10 @@ impl Session {
         file: &ModelFile,
         r: &Request,
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
-        let name = self.validation_name()?;
-        let data = match &self.validation {
-            Some(v) => {
-                let (path, folder) = (v.path.display().to_string(), v.folder.clone());
-                self.load_from(&path, &folder, r)?.clone()
-            }
-            None => self.load(r)?.clone(),
-        };
+        let (name, path, folder) = self.validation_source(r)?;
+        let data = self
+            .load_from(&path.display().to_string(), &folder, r)?
+            .clone();
         let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &name)?;
         let shortest = data
             .outputs()
@@ -1043,8 +1090,8 @@ impl Session {
         let start = Instant::now();
         self.check_sizes(r)?;
         let r = &self.explicit(r)?;
-        let rec = self.record()?;
-        let words = Self::identify_words(r, &rec.name, "model.json");
+        let (data_name, data_path) = self.estimation_source(r)?;
+        let words = Self::identify_words(r, &data_name, "model.json");
         let command = std::iter::once("lifted".to_string())
             .chain(words)
             .map(|w| shell_word(&w))
@@ -1160,7 +1207,7 @@ impl Session {
             transfer_functions,
             transfer_note,
             refinement: file.diagnostics.get("refinement").cloned(),
-            validation_data: self.validation_name()?,
+            validation_data: self.validation_source(r)?.0,
             seq: r.seq,
             horizon,
             estimator,
@@ -1183,6 +1230,7 @@ impl Session {
             file,
             request: r.clone(),
             command: out.command.clone(),
+            data: (data_name, data_path),
         });
         Ok(out)
     }
@@ -1225,6 +1273,65 @@ impl Session {
         let name = self.record()?.name.clone();
         let (file, data, v) = self.validated(&file, &request)?;
         render(&file, &data, &v, "model.json (lifted studio)", &name)
+    }
+
+    /// The file of the rows of `range` of the record `src` (written once,
+    /// [`ranges::slice_file`]), aligned to the frame of the request's
+    /// outputs and hold; `what` names the range in errors.
+    fn range_file(
+        &self,
+        src: &Record,
+        range: [f64; 2],
+        r: &Request,
+        what: &str,
+    ) -> CliResult<(String, PathBuf)> {
+        let ts = r.ts.unwrap_or(src.info.ts);
+        let periods = src
+            .info
+            .columns
+            .iter()
+            .filter(|c| r.outputs.contains(&c.name))
+            .filter_map(|c| c.period);
+        let align = ranges::frame(periods, r.hold.unwrap_or(1));
+        let (k0, k1) = ranges::rows_of_range(range, ts, src.info.rows, align, what)?;
+        ranges::slice_file(&src.path, &src.folder, &src.name, k0, k1)
+    }
+
+    /// The data a request validates on: the validation record (else the
+    /// estimation record), or the file of its validation range; its name,
+    /// path and upload folder.
+    fn validation_source(&self, r: &Request) -> CliResult<(String, PathBuf, PathBuf)> {
+        let src = match &self.validation {
+            Some(v) => v,
+            None => self.record()?,
+        };
+        match r.validation_range {
+            Some(range) => {
+                let (name, path) = self.range_file(src, range, r, "validation range")?;
+                Ok((name, path, src.folder.clone()))
+            }
+            None => Ok((src.name.clone(), src.path.clone(), src.folder.clone())),
+        }
+    }
+
+    /// The data file a request identifies on: the record, or the file of
+    /// its estimation range; its name (for the command line) and path.
+    pub fn estimation_source(&self, r: &Request) -> CliResult<(String, PathBuf)> {
+        let rec = self.record()?;
+        match r.estimation_range {
+            Some(range) => self.range_file(rec, range, r, "estimation range"),
+            None => Ok((rec.name.clone(), rec.path.clone())),
+        }
+    }
+
+    /// The data file of the model of request `seq` (the record or the rows
+    /// of its estimation range) and its name, for download.
+    pub fn estimation_data(&self, seq: Option<u64>) -> CliResult<(String, String)> {
+        let last = self.last(seq)?;
+        let (name, path) = &last.data;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| input(format!("cannot read {name}: {e}")))?;
+        Ok((name.clone(), text))
     }
 
     /// The model of identify request `seq`, its request and command line

@@ -41,6 +41,7 @@ const state = {
   refineOnce: false, // the next identification refines (PEM)
   boardSelected: [], // ids of the board's models drawn in its overlays
   boards: 0,         // board answers shown
+  ranges: { estimation: null, validation: null }, // [t0, t1] seconds, null: all rows
 };
 
 function showError(msg) {
@@ -148,6 +149,8 @@ function request(withOrder) {
   const periods = listOf($("output-period").value);
   if (periods.length) r.output_period = periods;
   if (state.window) r.window = state.window;
+  if (state.ranges.estimation) r.estimation_range = state.ranges.estimation;
+  if (state.ranges.validation) r.validation_range = state.ranges.validation;
   if (!withOrder) return r;
   const method = $("method").value;
   r.method = method;
@@ -227,7 +230,7 @@ function fillTable(table, head, rows) {
 function setSaves(enabled, seq) {
   $("refine").disabled = !enabled;
   $("keep").disabled = !enabled;
-  for (const id of ["save-model", "save-report"]) {
+  for (const id of ["save-model", "save-report", "save-data"]) {
     const a = $(id);
     if (enabled) {
       a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&seq=" + seq;
@@ -277,8 +280,39 @@ function channelBoxes(info) {
   fill("outputs-box", "Outputs", info.suggested_outputs);
 }
 
+// The range fields show the ranges (empty: all rows).
+function fillRanges() {
+  const put = (id, v) => { $(id).value = v === null ? "" : String(+v.toPrecision(6)); };
+  const e = state.ranges.estimation;
+  const v = state.ranges.validation;
+  put("est-t0", e ? e[0] : null);
+  put("est-t1", e ? e[1] : null);
+  put("vr-t0", v ? v[0] : null);
+  put("vr-t1", v ? v[1] : null);
+}
+
+function setRanges(est, val) {
+  state.ranges = { estimation: est, validation: val };
+  fillRanges();
+  schedule({ view: true, identify: true });
+}
+
+// A range from two fields: null when both are empty; an open end is the
+// record's.
+function rangeOf(a, b, what) {
+  const t0 = num(a, false);
+  const t1 = num(b, false);
+  if (t0 === null && t1 === null) return null;
+  const ext = state.extent || [0, 0];
+  const r = [t0 === null ? ext[0] : t0, t1 === null ? ext[1] : t1];
+  if (!(r[0] < r[1])) throw new Error(what + ": the start must be before the end");
+  return r;
+}
+
 function setup(info) {
   state.info = info;
+  state.ranges = { estimation: null, validation: null };
+  fillRanges();
   $("delay").disabled = false;
   $("delays").replaceChildren();
   state.order = "auto";
@@ -414,6 +448,7 @@ function renderIdentified(r) {
   $("fig-bode").innerHTML = r.figures.bode;
   $("fig-pz").innerHTML = r.figures.pz;
   $("command").textContent = r.command;
+  $("validation-data").textContent = r.validation_data;
   state.shown = r.seq;
   setSaves(true, r.seq);
   state.generation += 1;
@@ -529,6 +564,16 @@ function wireZoom(div) {
     drag = null;
     div.classList.remove("dragging");
     if (Math.abs(e.clientX - d.x) < 3) return;
+    const mode = (document.querySelector('input[name="drag"]:checked') || {}).value;
+    if (mode === "estimation" || mode === "validation") {
+      const t1 = timeAt(d.svg, e.clientX);
+      const ext = state.extent;
+      const r = [Math.max(ext[0], Math.min(d.t, t1)), Math.min(ext[1], Math.max(d.t, t1))];
+      const next = Object.assign({}, state.ranges);
+      next[mode] = r;
+      setRanges(next.estimation, next.validation);
+      return;
+    }
     const shift = d.t - timeAt(d.svg, e.clientX);
     const [a, b] = state.window || state.extent;
     setWindow([a + shift, b + shift]);
@@ -660,8 +705,17 @@ function wire() {
     }
   });
   $("win-reset").addEventListener("click", () => setWindow(null));
+  $("ranges-apply").addEventListener("click", () => {
+    clearError();
+    try {
+      setRanges(rangeOf("est-t0", "est-t1", "Estimation rows"), rangeOf("vr-t0", "vr-t1", "Validation rows"));
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("ranges-clear").addEventListener("click", () => setRanges(null, null));
   // A Save link without a model does nothing, whatever the CSS.
-  for (const id of ["save-model", "save-report"]) {
+  for (const id of ["save-model", "save-report", "save-data"]) {
     $(id).addEventListener("click", (e) => {
       if (e.currentTarget.getAttribute("aria-disabled") === "true") e.preventDefault();
     });
