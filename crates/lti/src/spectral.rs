@@ -39,18 +39,12 @@ use num_complex::Complex64;
 use crate::{Error, Result};
 
 /// Options of [`welch`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SpectralOptions {
     /// Segment length L, a power of two ≥ 8; 0 (the default) chooses the
     /// largest power of two ≤ N/8 (at least 8 segments with the 50 %
     /// overlap), between 16 and 1024.
     pub segment: usize,
-}
-
-impl Default for SpectralOptions {
-    fn default() -> Self {
-        SpectralOptions { segment: 0 }
-    }
 }
 
 /// An empirical frequency response: Ĝ at each frequency.
@@ -252,7 +246,7 @@ pub fn welch(
         .map(|(su, syu)| {
             // A bin without input power gives no estimate.
             let scale = (0..m).map(|a| su[(a, a)].re).fold(0.0, f64::max);
-            if !(scale > 0.0) {
+            if scale <= 0.0 || scale.is_nan() {
                 return nan.clone();
             }
             match su.try_inverse() {

@@ -718,9 +718,9 @@ pub fn add_empirical(
         .filter(|&k| lw[k] >= lo && lw[k] <= hi)
         .collect();
     let x: Vec<f64> = keep.iter().map(|&k| lw[k]).collect();
-    for i in 0..m.n_outputs().min(yn.len()) {
-        for j in 0..m.n_inputs().min(un.len()) {
-            let label = format!("{} ← {} (data, Welch)", yn[i], un[j]);
+    for (i, y) in yn.iter().enumerate().take(m.n_outputs()) {
+        for (j, u) in un.iter().enumerate().take(m.n_inputs()) {
+            let label = format!("{y} ← {u} (data, Welch)");
             let mags = g.magnitude(i, j);
             let phs = g.phase_deg(i, j);
             let db: Vec<f64> = keep

@@ -96,15 +96,26 @@
 //! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB, with the page's sequence number `seq`) | [`Identified`]: `seq` echoed, equivalent command line, order, stability (`stable`, `spectral_radius`), order-selection values, fit % per output (`null` with `stable: false` for an unstable model), poles, SVG figures |
 //! | `GET /api/model[?seq=N]` | – | – | the model of request N (the last model without `seq`) as the model-file JSON of `lifted identify` |
 //! | `GET /api/report[?seq=N]` | – | – | the HTML report of `lifted report` for that model |
+//! | `POST /api/data?name=F&role=validation` | as above | the validation record's bytes | its [`DataInfo`]; the fits, residuals and the board are then computed on it |
+//! | `POST /api/validation/clear` | `application/json` | – | `null`; models are validated on the estimation record again |
+//! | `POST /api/board` | `application/json` | [`BoardRequest`] (keep the model of request `add`, remove `remove`, overlay `selected`) | [`BoardView`]: fit table over the kept models, overlaid outputs, steps, Bode |
+//! | `POST /api/delay` | `application/json` | [`Request`] (channels) | [`Delays`]: `lifted delay`'s interval per input-output pair |
+//! | `GET /api/model?board=ID` | – | – | a kept model's model file |
+//! | `GET /api/estimation-data[?seq=N]` | – | – | the CSV file the command line of model N names (the record, or the rows of its estimation range) |
 //! | `GET /api/health` | – | – | `ok` (no token needed) |
 //!
 //! A [`Request`]'s fields are the options of `lifted identify`, with the
 //! same names and defaults (`inputs`, `outputs`, `ts`, `hold`,
 //! `output_period`, `method`, `order`, `max_order`, `horizon`, `q`,
 //! `prbs_order`, `amplitude`, `output_weight`, `instrument`, `detrend`,
-//! `estimator`, `order_criterion`, `stable`); they are handed to the
+//! `estimator`, `order_criterion`, `stable`, `refine`); they are handed to the
 //! command's own option parser, so the saved model equals the one
-//! `lifted identify` writes with the same options. A failed identification
+//! `lifted identify` writes with the same options. Besides them: `seq`,
+//! `window` (the time plots' zoom, seconds), `estimation_range` and
+//! `validation_range` (rows of the record, seconds: [`ranges`]). The
+//! parsed record and the subspace compression are kept between requests
+//! (`cached`), so a move of the order slider costs neither a read nor a
+//! compression. A failed identification
 //! leaves no model (`GET /api/model` then answers `400`).
 //!
 //! # Errors

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
-use crate::plot::svg;
+use crate::plot::{Plot, svg};
 use crate::service::figures::{
     add_empirical, bode_grid, bode_plots, criterion_plot, excitation_plot_in, order_plot,
     outputs_plot_in, pz_plot, residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
@@ -950,7 +950,7 @@ impl Session {
 
     /// The request with the options the page leaves to the defaults made
     /// explicit where that keeps the command on the studio's fast route
-    /// (the command line shown then takes the same route, see [`cached`]):
+    /// (the command line shown then takes the same route, see the module `cached`):
     /// for a numeric order of single-rate N4SID/MOESP/CVA, the horizon
     /// (10), the (A, C) route (shift invariance) and, when no output period
     /// is declared, period 1 for every output (the record's complete
@@ -1098,8 +1098,34 @@ impl Session {
             .collect::<Vec<_>>()
             .join(" ");
         let file = self.model_file(r)?;
-        let (_, data, v) = self.validated(&file, r)?;
         let model = &file.model;
+        // The model's own figures (step, pole-zero map, Bode curves,
+        // transfer functions) on a second thread while the model is
+        // validated on the record (simulation and residual tests).
+        type ModelFigures = (
+            String,
+            String,
+            (Plot, Plot),
+            (Vec<ChannelTf>, Option<String>),
+        );
+        let (validated, drawn) = std::thread::scope(|scope| {
+            let drawn = scope.spawn(|| -> CliResult<ModelFigures> {
+                let omega = bode_grid(model, None, None, 200)?;
+                Ok((
+                    svg(&step_plot(model)?, 560, 280)?,
+                    svg(&pz_plot(model)?, 380, 440)?,
+                    bode_plots(model, &omega)?,
+                    channel_tfs(model),
+                ))
+            });
+            let validated = self.validated(&file, r);
+            let drawn = drawn
+                .join()
+                .unwrap_or_else(|_| Err(input("internal: drawing the model's figures failed")));
+            (validated, drawn)
+        });
+        let (_, data, v) = validated?;
+        let (step, pz, (mut mag, mut ph), (transfer_functions, transfer_note)) = drawn?;
         let ts = data.ts();
         let n = data.len();
         let mut response = Vec::new();
@@ -1121,8 +1147,6 @@ impl Session {
                 220,
             ));
         }
-        let omega = bode_grid(model, None, None, 200)?;
-        let (mut mag, mut ph) = bode_plots(model, &omega)?;
         if data.is_single_rate()
             && let Some(g) = self.cache.spectral(&data)
         {
@@ -1135,9 +1159,9 @@ impl Session {
             response,
             error,
             residuals,
-            step: svg(&step_plot(model)?, 560, 280)?,
+            step,
             bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
-            pz: svg(&pz_plot(model)?, 380, 440)?,
+            pz,
             criterion: criterion_plot(&file.diagnostics)
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
@@ -1195,7 +1219,6 @@ impl Session {
                 }
             })
             .or_else(|| r.estimator.clone());
-        let (transfer_functions, transfer_note) = channel_tfs(model);
         let out = Identified {
             matrices: Matrices {
                 a: rows_of(model.a()),
@@ -1440,7 +1463,7 @@ impl Session {
     }
 
     /// Records parsed and subspace compressions made by the studio's own
-    /// route since the session began ([`cached`]); identifications by the
+    /// route since the session began (the module `cached`); identifications by the
     /// command's route read the file themselves and are not counted.
     pub fn cache_counts(&self) -> (usize, usize) {
         self.cache.counts()
