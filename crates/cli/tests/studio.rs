@@ -197,11 +197,22 @@ fn session_keeps_the_record_and_the_compression_between_orders() {
         (1, 1),
         "a slider move read or compressed again"
     );
-    // The view reads the channels once (without the explicit output
-    // periods), then neither it nor a move reads again.
+    // The view of the same request reads nothing (the same explicit
+    // options), nor does a move after it.
     s.view(&r).unwrap();
     s.identify(&r).unwrap();
     s.view(&r).unwrap();
+    assert_eq!(s.cache_counts(), (1, 1));
+    // The page's view (channels only) reads the columns once more (without
+    // the explicit output periods), once.
+    let channels = Request {
+        inputs: r.inputs.clone(),
+        outputs: r.outputs.clone(),
+        ..Default::default()
+    };
+    s.view(&channels).unwrap();
+    s.identify(&r).unwrap();
+    s.view(&channels).unwrap();
     assert_eq!(s.cache_counts(), (2, 1));
     r.horizon = Some(8);
     s.identify(&r).unwrap();

@@ -952,7 +952,7 @@ impl Session {
     /// explicit where that keeps the command on the studio's fast route
     /// (the command line shown then takes the same route, see the module `cached`):
     /// for a numeric order of single-rate N4SID/MOESP/CVA, the horizon
-    /// (10), the (A, C) route (shift invariance) and, when no output period
+    /// (10, or the least that holds the order), the (A, C) route (shift invariance) and, when no output period
     /// is declared, period 1 for every output (the record's complete
     /// columns: the command then identifies in memory, not streamed); for
     /// a record without a time column, the base period (1 s).
@@ -978,7 +978,15 @@ impl Session {
         };
         let single_rate = r.outputs.iter().all(complete) && r.hold.unwrap_or(1) <= 1;
         if subspace && numeric && single_rate && r.instrument.is_empty() && r.refine.is_none() {
-            r.horizon.get_or_insert(10);
+            // The command's default horizon 10, or the least one that holds
+            // the order ((i − 1) n_y ≥ n).
+            let n = r
+                .order
+                .as_deref()
+                .and_then(|o| o.trim().parse::<usize>().ok())
+                .unwrap_or(1);
+            let ny = r.outputs.len().max(1);
+            r.horizon.get_or_insert(10.max(n.div_ceil(ny) + 1));
             r.estimator.get_or_insert_with(|| "shift".into());
             if r.output_period.is_empty() {
                 r.output_period = r.outputs.iter().map(|o| format!("{o}=1")).collect();
@@ -1090,6 +1098,7 @@ impl Session {
         let start = Instant::now();
         self.check_sizes(r)?;
         let r = &self.explicit(r)?;
+        self.check_sizes(r)?;
         let (data_name, data_path) = self.estimation_source(r)?;
         let words = Self::identify_words(r, &data_name, "model.json");
         let command = std::iter::once("lifted".to_string())

@@ -173,8 +173,12 @@ function request(withOrder) {
     if (crit !== "validation" && method !== "pbsid" && method !== "ssarx") r.order_criterion = crit;
     // A numeric order keeps the structure the automatic order chose (the
     // server makes it explicit on the command line).
+    // A horizon i holds orders up to (i − 1) n_y: a larger order takes
+    // the server's default horizon instead.
     if (state.order !== "auto" && method !== "iv") {
-      if (h === null && state.structure.horizon) r.horizon = state.structure.horizon;
+      const hz = state.structure.horizon;
+      const ny = Math.max(1, r.outputs.length);
+      if (h === null && hz && state.order <= (hz - 1) * ny) r.horizon = hz;
       if (state.structure.estimator) r.estimator = state.structure.estimator;
     }
   }
