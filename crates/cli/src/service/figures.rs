@@ -538,12 +538,19 @@ pub fn response_error_plot_in(o: &OutputValidation, ts: f64, window: Window) -> 
 }
 
 /// The order criterion's values per order from the model file's
-/// diagnostics (`order_criterion`: AIC, AICc, BIC, SVC or the gap, orders
-/// 1, 2, …), the selected order marked; `None` when the route reports
-/// none.
+/// diagnostics (`order_criterion`: AIC, AICc, BIC or SVC, orders 1, 2, …),
+/// the selected order marked; `None` when the route reports none or the
+/// rule is the singular-value gap (the order-selection plot shows it).
+/// For AIC, AICc and BIC a value far above the others (an unstable
+/// candidate's simulation error) is left outside the frame and named in a
+/// note.
 pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
     let oc = diag.get("order_criterion")?;
     let name = oc.get("criterion")?.as_str()?.to_string();
+    // The gap is the order-selection plot's singular values already.
+    if name == "Gap" {
+        return None;
+    }
     let values: Vec<f64> = oc
         .get("values")?
         .as_array()?
@@ -566,10 +573,11 @@ pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
         .copied()
         .filter(|v| *v <= lo + 1.5 * (q3 - lo).max(lo.abs() * 1e-9))
         .fold(lo, f64::max);
+    let minimised = matches!(name.as_str(), "Aic" | "Aicc" | "Bic");
     let beyond: Vec<String> = values
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.is_finite() && **v > top)
+        .filter(|(_, v)| minimised && v.is_finite() && **v > top)
         .map(|(i, v)| format!("order {}: {v:.4e}", i + 1))
         .collect();
     let pad = 0.08 * (top - lo).max(lo.abs() * 1e-6).max(1e-12);
@@ -738,6 +746,22 @@ pub fn add_empirical(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_criterion_curve_frames_the_reasonable_values() {
+        // AIC per order with an unstable order 4 (1e6): framed without it,
+        // named in a note; the gap gives no curve (the singular values do).
+        let d = serde_json::json!({"order_criterion": {"criterion": "Aic",
+            "values": [10.0, -50.0, -48.0, 1e6], "selected": 2}});
+        let p = super::criterion_plot(&d).unwrap();
+        let [_, _, y0, y1] = p.frame.unwrap();
+        assert!(y0 < -50.0 && y1 > 10.0 && y1 < 100.0, "{y0} … {y1}");
+        assert!(p.notes[0].contains("order 4"), "{:?}", p.notes);
+        assert_eq!(p.vlines[0].0, 2.0);
+        let gap = serde_json::json!({"order_criterion": {"criterion": "Gap",
+            "values": [1.0, 4.0], "selected": 2}});
+        assert!(super::criterion_plot(&gap).is_none());
+    }
+
     #[test]
     fn min_max_decimation_keeps_every_peak_and_honours_the_window() {
         // 1e5 samples of a slow sine with one spike: 2000 points at most,
