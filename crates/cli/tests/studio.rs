@@ -164,6 +164,90 @@ fn session_identifies_like_the_command() {
     s.close();
 }
 
+/// The records of a 2-input, 1-output plant y = 0.5/(z − 0.7) u1 +
+/// 0.3/(z + 0.4) u2 for q-Markov: one file per input, the other input 0,
+/// each a PRBS of order 6 held one sample (four periods).
+fn per_input_records() -> [String; 2] {
+    let prbs = InversePrbs::new(&InversePrbsOptions {
+        order: 6,
+        amplitude: 1.0,
+        hold: 1,
+        taps: None,
+    })
+    .unwrap();
+    let u = prbs.generate(4 * prbs.period() as usize);
+    let file = |which: usize| {
+        let (mut x1, mut x2) = (0.0f64, 0.0f64);
+        let mut out = String::from("t,u1,u2,y1\n");
+        for (k, &v) in u.iter().enumerate() {
+            let (u1, u2) = if which == 0 { (v, 0.0) } else { (0.0, v) };
+            let e = 0.002 * ((k as f64 * 1.618_034).fract() - 0.5);
+            out += &format!("{},{u1},{u2},{:.9}\n", k as f64 * 0.1, x1 + x2 + e);
+            (x1, x2) = (0.7 * x1 + 0.5 * u1, -0.4 * x2 + 0.3 * u2);
+        }
+        out
+    };
+    [file(0), file(1)]
+}
+
+/// Issue 28: q-Markov on one file per input: the record and a further
+/// experiment are both `--data` of the command line, and the model equals
+/// the one that command writes; a new record drops the experiment.
+#[test]
+fn session_takes_one_file_per_input_for_q_markov() {
+    let dir = tmp("per-input");
+    let mut s = Session::new(&dir).unwrap();
+    let [a, b] = per_input_records();
+    s.upload("u1.csv", a.as_bytes()).unwrap();
+    s.upload_experiment("u2.csv", b.as_bytes()).unwrap();
+    assert_eq!(s.experiments_info().len(), 1);
+    let r = Request {
+        inputs: vec!["u1".into(), "u2".into()],
+        outputs: vec!["y1".into()],
+        method: Some("qmarkov".into()),
+        order: Some("2".into()),
+        prbs_order: Some(6),
+        q: Some(20),
+        ..Default::default()
+    };
+    let id = s.identify(&r).unwrap();
+    assert!(
+        id.command.contains("--data u1.csv --data u2.csv"),
+        "{}",
+        id.command
+    );
+    std::fs::write(dir.join("u1.csv"), &a).unwrap();
+    std::fs::write(dir.join("u2.csv"), &b).unwrap();
+    let out = dir.join("cli.json");
+    let mut args: Vec<String> = Vec::new();
+    let words: Vec<&str> = id.command.split_whitespace().skip(1).collect();
+    let mut it = words.iter();
+    while let Some(w) = it.next() {
+        args.push(w.to_string());
+        if *w == "--data" || *w == "--out" {
+            let v = it.next().unwrap();
+            args.push(
+                if *w == "--data" {
+                    dir.join(v)
+                } else {
+                    out.clone()
+                }
+                .display()
+                .to_string(),
+            );
+        }
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run_lifted(&args);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let studio: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+    assert_eq!(comparable(cli), comparable(studio));
+    // Without the second file the cover has one file for two inputs.
+    s.upload("u1.csv", a.as_bytes()).unwrap();
+    assert!(s.experiments_info().is_empty());
+    s.close();
+}
+
 /// Issue 28: the parsed record and the subspace compression are kept
 /// between slider moves (no new read, no new compression), made again when
 /// the horizon or the detrending changes, and every model so made is the
@@ -2100,4 +2184,64 @@ fn studio_time_ranges_in_headless_chromium() {
     let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let page: Value = serde_json::from_str(&model).expect("the saved model is JSON");
     assert_eq!(comparable(cli), comparable(page));
+}
+
+/// Issue 28: the page's "More experiments" picker: q-Markov on one file
+/// per input, both files on the command line. Screenshot
+/// `e1-experiments.png`.
+#[test]
+fn studio_takes_one_file_per_input_in_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("per-input-browser");
+    let [a, b] = per_input_records();
+    let (fa, fb) = (dir.join("u1.csv"), dir.join("u2.csv"));
+    std::fs::write(&fa, a).unwrap();
+    std::fs::write(&fb, b).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&fa.display().to_string()).await.unwrap();
+        // N4SID on the first file alone (u2 ≡ 0) fails: a named error.
+        let f = wait_failed(&c, 0).await;
+        assert!(page_error(&c).await.contains("persistently exciting"));
+        c.execute(
+            "document.getElementById('prbs-order').value = '6';
+             const m = document.getElementById('method'); m.value = 'qmarkov';
+             m.dispatchEvent(new Event('change')); return 0;",
+            vec![],
+        )
+        .await
+        .unwrap();
+        // q-Markov with one file for two inputs: refused, named.
+        wait_failed(&c, f).await;
+        let exp = c.find(Locator::Id("exp-file")).await.unwrap();
+        exp.send_keys(&fb.display().to_string()).await.unwrap();
+        let t = Instant::now();
+        while status(&c, "generation").await == 0 || status(&c, "busy").await == 1 {
+            assert!(
+                t.elapsed() < Duration::from_secs(30),
+                "no model: {}",
+                page_error(&c).await
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let command = text(&c, "#command").await;
+        assert!(command.contains("--data u1.csv --data u2.csv"), "{command}");
+        assert!(command.contains("--method qmarkov"), "{command}");
+        assert!(text(&c, "#exp-names").await.contains("u2.csv"));
+        element_shot(&c, "#load-block", &shots, "e1-experiments.png").await;
+        assert_eq!(status(&c, "jserrors").await, 0);
+        c.close().await.unwrap();
+    });
 }

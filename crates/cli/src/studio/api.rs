@@ -372,6 +372,7 @@ pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
         .route("/api/board", post(board))
         .route("/api/delay", post(delay))
         .route("/api/validation/clear", post(clear_validation))
+        .route("/api/experiments/clear", post(clear_experiments))
         .route("/api/model", get(model))
         .route("/api/report", get(report))
         .route("/api/estimation-data", get(estimation_data))
@@ -578,13 +579,17 @@ async fn upload(
         Ok(h) => h,
         Err(e) => return e,
     };
-    let validation = match q.role.as_deref() {
-        None | Some("estimation") => false,
-        Some("validation") => true,
+    let role = match q.role.as_deref() {
+        None | Some("estimation") => 0,
+        Some("validation") => 1,
+        Some("experiment") => 2,
         Some(other) => {
             return error(
                 StatusCode::BAD_REQUEST,
-                format!("role '{other}': an upload is the 'estimation' or the 'validation' record"),
+                format!(
+                    "role '{other}': an upload is the 'estimation' or the 'validation' record, \
+                     or a further 'experiment'"
+                ),
             );
         }
     };
@@ -598,12 +603,10 @@ async fn upload(
         return res;
     }
     json_answer(
-        with_session(h.session, move |s| {
-            if validation {
-                s.adopt_validation(folder, path)
-            } else {
-                s.adopt(folder, path)
-            }
+        with_session(h.session, move |s| match role {
+            1 => s.adopt_validation(folder, path),
+            2 => s.adopt_experiment(folder, path),
+            _ => s.adopt(folder, path),
         })
         .await,
     )
@@ -682,6 +685,20 @@ async fn clear_validation(State(app): State<App>, headers: HeaderMap) -> Respons
         Ok(h) => json_answer(
             with_session(h.session, |s| {
                 s.clear_validation();
+                Ok(serde_json::Value::Null)
+            })
+            .await,
+        ),
+        Err(e) => e,
+    }
+}
+
+/// `POST /api/experiments/clear`: drop the further experiments.
+async fn clear_experiments(State(app): State<App>, headers: HeaderMap) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => json_answer(
+            with_session(h.session, |s| {
+                s.clear_experiments();
                 Ok(serde_json::Value::Null)
             })
             .await,

@@ -97,6 +97,8 @@
 //! | `GET /api/model[?seq=N]` | – | – | the model of request N (the last model without `seq`) as the model-file JSON of `lifted identify` |
 //! | `GET /api/report[?seq=N]` | – | – | the HTML report of `lifted report` for that model |
 //! | `POST /api/data?name=F&role=validation` | as above | the validation record's bytes | its [`DataInfo`]; the fits, residuals and the board are then computed on it |
+//! | `POST /api/data?name=F&role=experiment` | as above | a further estimation record (q-Markov: one file per input, in input order) | its [`DataInfo`]; each is a `--data` of the command after the record |
+//! | `POST /api/experiments/clear` | `application/json` | – | `null`; the record alone again |
 //! | `POST /api/validation/clear` | `application/json` | – | `null`; models are validated on the estimation record again |
 //! | `POST /api/board` | `application/json` | [`BoardRequest`] (keep the model of request `add`, remove `remove`, overlay `selected`) | [`BoardView`]: fit table over the kept models, overlaid outputs, steps, Bode |
 //! | `POST /api/delay` | `application/json` | [`Request`] (channels) | [`Delays`]: `lifted delay`'s interval per input-output pair |
@@ -147,7 +149,8 @@ pub use api::{
 pub use board::{BoardEntry, BoardRequest, BoardView, MAX_BOARD};
 pub use session::{
     Channel, ChannelTf, ColumnInfo, DataInfo, Delays, Figures, Fit, Identified, KEPT_MODELS,
-    MAX_UPLOAD, MAX_WORK_BYTES, Matrices, OrderSelection, PairDelay, Request, Session, View,
+    MAX_EXPERIMENTS, MAX_UPLOAD, MAX_WORK_BYTES, Matrices, OrderSelection, PairDelay, Request,
+    Session, View,
 };
 
 use crate::error::{CliResult, input};

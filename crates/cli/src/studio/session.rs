@@ -304,6 +304,10 @@ struct Last {
     data: (String, PathBuf),
 }
 
+/// Data files of one identification at most (the record and the further
+/// experiments).
+pub const MAX_EXPERIMENTS: usize = 16;
+
 /// Lifted lags of the delay estimate (`lifted delay --lags` default).
 const DELAY_LAGS: usize = 8;
 /// Significance of the delay estimate in standard errors (`lifted delay
@@ -368,6 +372,9 @@ pub struct Session {
     /// A validation record of its own (else the models are validated on
     /// the estimation record).
     validation: Option<Record>,
+    /// Further estimation records after the first (q-Markov: one file per
+    /// input), each a `--data` of the command.
+    experiments: Vec<Record>,
     /// The model board, oldest first.
     pub(crate) board: Vec<Pinned>,
     /// The last id given to a model on the board.
@@ -560,6 +567,7 @@ impl Session {
             models: Vec::new(),
             cache: Cache::default(),
             validation: None,
+            experiments: Vec::new(),
             board: Vec::new(),
             board_ids: 0,
         })
@@ -582,6 +590,7 @@ impl Session {
     pub fn reset(&mut self) {
         self.record = None;
         self.validation = None;
+        self.experiments.clear();
         self.models.clear();
         self.board.clear();
         self.cache.clear();
@@ -655,6 +664,8 @@ impl Session {
                 });
                 self.models.clear();
                 self.cache.clear();
+                // The further experiments belonged to the old record.
+                self.clear_experiments();
                 if let Some(old) = old {
                     let _ = std::fs::remove_dir_all(old.folder);
                 }
@@ -851,7 +862,7 @@ impl Session {
     }
 
     /// The `lifted identify` arguments of a request (without `lifted`).
-    fn identify_words(r: &Request, data: &str, out: &str) -> Vec<String> {
+    fn identify_words(r: &Request, data: &[String], out: &str) -> Vec<String> {
         let mut w: Vec<String> = vec!["identify".into()];
         // A value that starts with '-' is attached (`--flag=-1`): clap
         // would take it for an option.
@@ -864,7 +875,9 @@ impl Session {
             }
         };
         opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
-        opt("data", data.into());
+        for d in data {
+            opt("data", d.clone());
+        }
         opt("inputs", r.inputs.join(","));
         opt("outputs", r.outputs.join(","));
         if let Some(ts) = r.ts {
@@ -911,7 +924,7 @@ impl Session {
     }
 
     /// The request parsed by the command's own option parser.
-    fn identify_args(r: &Request, data: &str) -> CliResult<IdentifyArgs> {
+    fn identify_args(r: &Request, data: &[String]) -> CliResult<IdentifyArgs> {
         let words = Self::identify_words(r, data, "model.json");
         let argv = std::iter::once("lifted".to_string()).chain(words);
         match Cli::try_parse_from(argv) {
@@ -928,9 +941,12 @@ impl Session {
     /// in-memory subspace route ([`cached`]), else by the command's own
     /// identification.
     fn model_file(&mut self, r: &Request) -> CliResult<ModelFile> {
-        let (_, path) = self.estimation_source(r)?;
-        let path = path.display().to_string();
-        let a = Self::identify_args(r, &path)?;
+        let paths: Vec<String> = self
+            .estimation_sources(r)?
+            .into_iter()
+            .map(|(_, p)| p.display().to_string())
+            .collect();
+        let a = Self::identify_args(r, &paths)?;
         let spec = Self::spec(r)?;
         let in_memory = r.instrument.is_empty() && {
             let data = self.load(r)?;
@@ -1100,7 +1116,12 @@ impl Session {
         let r = &self.explicit(r)?;
         self.check_sizes(r)?;
         let (data_name, data_path) = self.estimation_source(r)?;
-        let words = Self::identify_words(r, &data_name, "model.json");
+        let names: Vec<String> = self
+            .estimation_sources(r)?
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect();
+        let words = Self::identify_words(r, &names, "model.json");
         let command = std::iter::once("lifted".to_string())
             .chain(words)
             .map(|w| shell_word(&w))
@@ -1354,6 +1375,81 @@ impl Session {
             Some(range) => self.range_file(rec, range, r, "estimation range"),
             None => Ok((rec.name.clone(), rec.path.clone())),
         }
+    }
+
+    /// Every data file a request identifies on: [`Session::estimation_source`]
+    /// and the further experiments (q-Markov: one file per input, in input
+    /// order), each `--data` of the command line.
+    pub fn estimation_sources(&self, r: &Request) -> CliResult<Vec<(String, PathBuf)>> {
+        let mut all = vec![self.estimation_source(r)?];
+        all.extend(
+            self.experiments
+                .iter()
+                .map(|e| (e.name.clone(), e.path.clone())),
+        );
+        Ok(all)
+    }
+
+    /// Reads the record staged at `path` (in `folder`) as a further
+    /// experiment (appended; the estimation record stays the first `--data`).
+    /// A file that does not read whole is removed and nothing changes.
+    ///
+    /// Errors: no estimation record yet, [`MAX_EXPERIMENTS`] already, the
+    /// reader's error.
+    pub fn adopt_experiment(&mut self, folder: PathBuf, path: PathBuf) -> CliResult<DataInfo> {
+        let full = self.record().err().or_else(|| {
+            (self.experiments.len() + 1 >= MAX_EXPERIMENTS).then(|| {
+                input(format!(
+                    "at most {MAX_EXPERIMENTS} data files per identification"
+                ))
+            })
+        });
+        if let Some(e) = full {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(e);
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment.csv".into());
+        match self.inspect(&name, &path) {
+            Ok(info) => {
+                self.experiments.push(Record {
+                    name,
+                    folder,
+                    path,
+                    info: info.clone(),
+                });
+                Ok(info)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&folder);
+                Err(plain_in(&folder, e))
+            }
+        }
+    }
+
+    /// Stores and reads an uploaded further experiment
+    /// ([`Session::adopt_experiment`]).
+    pub fn upload_experiment(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
+        let (folder, path) = self.staging(name)?;
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
+        }
+        self.adopt_experiment(folder, path)
+    }
+
+    /// Drops the further experiments.
+    pub fn clear_experiments(&mut self) {
+        for e in self.experiments.drain(..) {
+            let _ = std::fs::remove_dir_all(e.folder);
+        }
+    }
+
+    /// The further experiments' descriptions.
+    pub fn experiments_info(&self) -> Vec<DataInfo> {
+        self.experiments.iter().map(|e| e.info.clone()).collect()
     }
 
     /// The data file of the model of request `seq` (the record or the rows

@@ -42,6 +42,7 @@ const state = {
   boardSelected: [], // ids of the board's models drawn in its overlays
   boards: 0,         // board answers shown
   ranges: { estimation: null, validation: null }, // [t0, t1] seconds, null: all rows
+  experiments: [],   // names of the further experiments
 };
 
 function showError(msg) {
@@ -315,6 +316,10 @@ function rangeOf(a, b, what) {
 
 function setup(info) {
   state.info = info;
+  // A new record drops the further experiments (the server does too).
+  state.experiments = [];
+  $("exp-names").textContent = "The record alone.";
+  $("exp-clear").disabled = true;
   state.ranges = { estimation: null, validation: null };
   fillRanges();
   $("delay").disabled = false;
@@ -641,6 +646,26 @@ async function boardCall(body) {
   }
 }
 
+// Further experiments: appended in the order chosen (q-Markov: one file
+// per input, in input order), each a --data of the command after the record.
+async function addExperiments(files) {
+  clearError();
+  try {
+    for (const file of files) {
+      const buf = await file.arrayBuffer();
+      await call("/api/data?role=experiment&name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
+      state.experiments.push(file.name);
+    }
+  } catch (e) {
+    showError(e.message);
+  }
+  $("exp-names").textContent = state.experiments.length
+    ? "The record, then " + state.experiments.join(", ") + "."
+    : "The record alone.";
+  $("exp-clear").disabled = state.experiments.length === 0;
+  schedule({ identify: true });
+}
+
 async function loadValidation(file) {
   clearError();
   try {
@@ -659,6 +684,20 @@ function wire() {
   document.querySelectorAll(".timeplot").forEach(wireZoom);
   $("val-file").addEventListener("change", (e) => {
     if (e.target.files.length) loadValidation(e.target.files[0]);
+  });
+  $("exp-file").addEventListener("change", (e) => {
+    if (e.target.files.length) addExperiments(Array.from(e.target.files));
+  });
+  $("exp-clear").addEventListener("click", async () => {
+    try {
+      await call("/api/experiments/clear", "{}");
+      state.experiments = [];
+      $("exp-names").textContent = "The record alone.";
+      $("exp-clear").disabled = true;
+      schedule({ identify: true });
+    } catch (e) {
+      showError(e.message);
+    }
   });
   $("val-clear").addEventListener("click", async () => {
     try {
