@@ -248,6 +248,85 @@ fn session_takes_one_file_per_input_for_q_markov() {
     s.close();
 }
 
+/// The board through the session: keep by sequence number, a named error
+/// for an unknown request or model, fits on the validation record, a kept
+/// model whose channels a new record lacks stays (without fits), and its
+/// model file is the one kept.
+#[test]
+fn session_board_keeps_compares_and_removes() {
+    use lifted_cli::studio::BoardRequest;
+    let dir = tmp("board-session");
+    let mut s = Session::new(&dir).unwrap();
+    s.upload("rec.csv", record(2000, 1).as_bytes()).unwrap();
+    let mut r = request("2");
+    r.seq = Some(1);
+    s.identify(&r).unwrap();
+    r.order = Some("1".into());
+    r.seq = Some(2);
+    s.identify(&r).unwrap();
+    let e = s
+        .board(&BoardRequest {
+            add: Some(99),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(e.to_string().contains("no model of request 99"), "{e}");
+    for seq in [1, 2] {
+        s.board(&BoardRequest {
+            add: Some(seq),
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    let other: Vec<f64> = binary_input(2333).split_off(333);
+    s.upload_validation("val.csv", record_of(&other, 1).as_bytes())
+        .unwrap();
+    let b = s
+        .board(&BoardRequest {
+            selected: vec![1, 2],
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(b.data, "val.csv");
+    assert_eq!(b.entries.len(), 2);
+    let fit = |i: usize| b.entries[i].fits[0].1.unwrap();
+    assert!(
+        fit(0) > 95.0 && fit(0) > fit(1) + 5.0,
+        "{} {}",
+        fit(0),
+        fit(1)
+    );
+    assert_eq!(b.response.len(), 1);
+    assert!(b.step.is_some() && b.bode.is_some());
+    let kept: Value = serde_json::from_str(&s.board_model_json(1).unwrap()).unwrap();
+    assert_eq!(kept["a"].as_array().unwrap().len(), 2, "the order-2 model");
+    let e = s
+        .board(&BoardRequest {
+            remove: Some(7),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(e.to_string().contains("no model #7"), "{e}");
+    // A record without y1: the kept models stay, without fits.
+    s.clear_validation();
+    s.upload(
+        "other.csv",
+        b"t,u1,z\n0,1,2\n0.1,-1,3\n0.2,1,4\n".as_slice(),
+    )
+    .unwrap();
+    let b = s.board(&BoardRequest::default()).unwrap();
+    assert_eq!(b.entries.len(), 2);
+    assert!(b.entries[0].fits.is_empty() && b.entries[0].label.contains("not on this data"));
+    let b = s
+        .board(&BoardRequest {
+            remove: Some(1),
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(b.entries.len(), 1);
+    s.close();
+}
+
 /// Issue 28: the parsed record and the subspace compression are kept
 /// between slider moves (no new read, no new compression), made again when
 /// the horizon or the detrending changes, and every model so made is the

@@ -166,7 +166,22 @@ impl Session {
         let mut models = Vec::new();
         for (id, label, command, file, request) in pinned {
             let shown = selected.contains(&id);
-            let (_, data, v) = self.validated(&file, &request)?;
+            // A model whose channels the current data lack stays on the
+            // board, without fits.
+            let (data, v) = match self.validated(&file, &request) {
+                Ok((_, data, v)) => (data, v),
+                Err(e) => {
+                    entries.push(BoardEntry {
+                        id,
+                        label: format!("{label} (not on this data: {e})"),
+                        command,
+                        stable: file.model.is_stable(0.0).unwrap_or(false),
+                        fits: Vec::new(),
+                        selected: false,
+                    });
+                    continue;
+                }
+            };
             let stable = v.stable();
             let fits = v
                 .outputs
