@@ -15,6 +15,7 @@
 //! | [`StateSpace::freqresp`], [`StateSpace::bode`], [`StateSpace::h2_norm`], [`StateSpace::hinf_norm`] | frequency domain and norms |
 //! | [`series`], [`parallel`], [`feedback`], [`append`], [`StateSpace::inverse`] | interconnections (MIMO) |
 //! | [`StateSpace::minreal`], [`StateSpace::balanced_truncation`] | reduction (staircase; square-root balanced truncation) |
+//! | [`spectral::welch`] | empirical frequency response from data (Welch's averaged periodograms, Ĝ = Φ̂_yu Φ̂_u⁻¹) |
 //!
 //! # Conventions (used by every Lifted crate)
 //!
@@ -83,6 +84,7 @@ pub mod poly;
 mod predict;
 mod reduce;
 mod response;
+pub mod spectral;
 mod ss;
 mod tf;
 pub mod validation;

@@ -170,6 +170,30 @@ impl<'a> CompressedData<'a> {
         Ok(fit)
     }
 
+    /// The same compressed data owning its records (a copy of them when
+    /// they were borrowed, i.e. without mean removal), so that it can be
+    /// kept beyond the records' lifetime (the studio keeps one between two
+    /// moves of its order slider). Every fit is unchanged: the copies hold
+    /// the same values.
+    pub fn into_owned(self) -> CompressedData<'static> {
+        let records = match self.records {
+            Records::Borrowed(e) => {
+                Records::Centred(e.iter().map(|e| (e.u.clone(), e.y.clone())).collect())
+            }
+            Records::Centred(c) => Records::Centred(c),
+        };
+        CompressedData {
+            layout: self.layout,
+            factor: self.factor,
+            scale: self.scale,
+            operating_point: self.operating_point,
+            records,
+            lengths: self.lengths,
+            opts: self.opts,
+            compress_s: self.compress_s,
+        }
+    }
+
     /// The records the compression was made from (centred when means were
     /// removed), for refinements on the same data.
     pub fn records(&self) -> Vec<(&DMatrix<f64>, &DMatrix<f64>)> {

@@ -292,21 +292,84 @@ pub fn stack_svgs(top: &str, bottom: &str, w: u32, h: u32) -> String {
     )
 }
 
-/// Most points drawn per time series (longer records are decimated by a
-/// stride; the page stays small).
-pub const MAX_POINTS: usize = 4000;
+/// Most points drawn per time series: a longer record (or the part of it
+/// in a zoom window) is reduced to the smallest and the largest value of
+/// each of `MAX_POINTS / 2` equal buckets, in time order (min/max
+/// decimation: every peak survives, and a 1e6-sample record costs 2000
+/// points, not a solid band of 1e6).
+pub const MAX_POINTS: usize = 2000;
 
-fn stride(n: usize) -> usize {
-    n.div_ceil(MAX_POINTS).max(1)
+/// A time window `[t0, t1]` in seconds (zoom), `None` for the whole record.
+pub type Window = Option<(f64, f64)>;
+
+/// The index range of the samples of `t` (increasing) inside `window`,
+/// with one sample more on each side so that lines reach the window's
+/// edges.
+fn window_range(t: &[f64], window: Window) -> std::ops::Range<usize> {
+    match window {
+        Some((a, b)) if a < b => {
+            let lo = t.partition_point(|v| *v < a).saturating_sub(1);
+            let hi = (t.partition_point(|v| *v <= b) + 1).min(t.len());
+            lo..hi.max(lo)
+        }
+        _ => 0..t.len(),
+    }
 }
 
-/// Every k-th point of (t, y), k chosen so that at most [`MAX_POINTS`] remain.
+/// The points of (t, y) to draw: those in `window` (all with `None`),
+/// min/max decimated to at most [`MAX_POINTS`]. A bucket without a finite
+/// value gives one NaN point (a break in the line). O(len).
+pub fn decimate_in(t: &[f64], y: &[f64], window: Window) -> (Vec<f64>, Vec<f64>) {
+    let n = t.len().min(y.len());
+    let r = window_range(&t[..n], window);
+    let (t, y) = (&t[r.clone()], &y[r]);
+    let n = t.len();
+    if n <= MAX_POINTS {
+        return (t.to_vec(), y.to_vec());
+    }
+    let buckets = MAX_POINTS / 2;
+    let (mut tt, mut yy) = (
+        Vec::with_capacity(MAX_POINTS),
+        Vec::with_capacity(MAX_POINTS),
+    );
+    for b in 0..buckets {
+        let (lo, hi) = (b * n / buckets, (b + 1) * n / buckets);
+        let mut lowest: Option<usize> = None;
+        let mut highest: Option<usize> = None;
+        for k in lo..hi {
+            if !y[k].is_finite() {
+                continue;
+            }
+            if lowest.is_none_or(|i| y[k] < y[i]) {
+                lowest = Some(k);
+            }
+            if highest.is_none_or(|i| y[k] > y[i]) {
+                highest = Some(k);
+            }
+        }
+        match (lowest, highest) {
+            (Some(i), Some(j)) => {
+                for k in if i == j {
+                    vec![i]
+                } else {
+                    vec![i.min(j), i.max(j)]
+                } {
+                    tt.push(t[k]);
+                    yy.push(y[k]);
+                }
+            }
+            _ => {
+                tt.push(t[lo]);
+                yy.push(f64::NAN);
+            }
+        }
+    }
+    (tt, yy)
+}
+
+/// [`decimate_in`] over the whole record.
 pub fn decimate(t: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let s = stride(t.len());
-    (
-        t.iter().step_by(s).copied().collect(),
-        y.iter().step_by(s).copied().collect(),
-    )
+    decimate_in(t, y, None)
 }
 
 /// The order-selection plot from the model file's diagnostics, if present.
@@ -347,6 +410,11 @@ pub fn order_plot(diag: &serde_json::Value) -> Option<Plot> {
 
 /// The measured inputs of a record against time, one line per input.
 pub fn excitation_plot(data: &Dataset, names: &[String]) -> Plot {
+    excitation_plot_in(data, names, None)
+}
+
+/// [`excitation_plot`] over a time window (zoom).
+pub fn excitation_plot_in(data: &Dataset, names: &[String], window: Window) -> Plot {
     let ts = data.ts();
     let t: Vec<f64> = (0..data.len()).map(|k| k as f64 * ts).collect();
     let mut plot = Plot {
@@ -357,7 +425,7 @@ pub fn excitation_plot(data: &Dataset, names: &[String]) -> Plot {
     };
     for (j, name) in names.iter().enumerate().take(data.n_inputs()) {
         let u: Vec<f64> = data.u().column(j).iter().copied().collect();
-        let (tt, uu) = decimate(&t, &u);
+        let (tt, uu) = decimate_in(&t, &u, window);
         plot.series.push(Series::line(name.clone(), tt, uu));
     }
     plot
@@ -366,6 +434,11 @@ pub fn excitation_plot(data: &Dataset, names: &[String]) -> Plot {
 /// The measured outputs of a record: one series per output, a line for a
 /// fast output and markers at the sampling instants of a slow one.
 pub fn outputs_plot(data: &Dataset) -> Plot {
+    outputs_plot_in(data, None)
+}
+
+/// [`outputs_plot`] over a time window (zoom).
+pub fn outputs_plot_in(data: &Dataset, window: Window) -> Plot {
     let ts = data.ts();
     let mut plot = Plot {
         title: "Output signals (slow outputs: markers at their samples)".into(),
@@ -378,7 +451,7 @@ pub fn outputs_plot(data: &Dataset) -> Plot {
             .filter(|k| data.y()[(*k, i)].is_finite())
             .map(|k| (k as f64 * ts, data.y()[(k, i)]))
             .unzip();
-        let (t, y) = decimate(&t, &y);
+        let (t, y) = decimate_in(&t, &y, window);
         let label = if ch.period > 1 {
             format!("{} (every {} samples)", ch.name, ch.period)
         } else {
@@ -398,10 +471,21 @@ pub fn outputs_plot(data: &Dataset) -> Plot {
 /// length and `ts` its base period. The title gives the fit only for a
 /// `stable` model with finite residuals ("fit n/a: unstable" otherwise).
 pub fn response_plot(o: &OutputValidation, ts: f64, n: usize, stable: bool) -> Plot {
+    response_plot_in(o, ts, n, stable, None)
+}
+
+/// [`response_plot`] over a time window (zoom).
+pub fn response_plot_in(
+    o: &OutputValidation,
+    ts: f64,
+    n: usize,
+    stable: bool,
+    window: Window,
+) -> Plot {
     let t: Vec<f64> = (0..o.simulated.len()).map(|k| k as f64 * ts).collect();
     let mt: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
-    let (mt, my) = decimate(&mt, &o.measured);
-    let (st, sy) = decimate(&t, &o.simulated);
+    let (mt, my) = decimate_in(&mt, &o.measured, window);
+    let (st, sy) = decimate_in(&t, &o.simulated, window);
     let slow = o.samples < n;
     Plot {
         title: if !o.residual_finite {
@@ -431,6 +515,11 @@ pub fn response_plot(o: &OutputValidation, ts: f64, n: usize, stable: bool) -> P
 
 /// The response error y − ŷ of one output at its sampling instants.
 pub fn response_error_plot(o: &OutputValidation, ts: f64) -> Plot {
+    response_error_plot_in(o, ts, None)
+}
+
+/// [`response_error_plot`] over a time window (zoom).
+pub fn response_error_plot_in(o: &OutputValidation, ts: f64, window: Window) -> Plot {
     let t: Vec<f64> = o.instants.iter().map(|&k| k as f64 * ts).collect();
     let e: Vec<f64> = o
         .instants
@@ -438,7 +527,7 @@ pub fn response_error_plot(o: &OutputValidation, ts: f64) -> Plot {
         .zip(&o.measured)
         .map(|(&k, y)| y - o.simulated.get(k).copied().unwrap_or(f64::NAN))
         .collect();
-    let (t, e) = decimate(&t, &e);
+    let (t, e) = decimate_in(&t, &e, window);
     Plot {
         title: format!("{}: response error y − ŷ", o.name),
         x_label: "t [s]".into(),
@@ -448,8 +537,259 @@ pub fn response_error_plot(o: &OutputValidation, ts: f64) -> Plot {
     }
 }
 
+/// The order criterion's values per order from the model file's
+/// diagnostics (`order_criterion`: AIC, AICc, BIC or SVC, orders 1, 2, …),
+/// the selected order marked; `None` when the route reports none or the
+/// rule is the singular-value gap (the order-selection plot shows it).
+/// For AIC, AICc and BIC a value far above the others (an unstable
+/// candidate's simulation error) is left outside the frame and named in a
+/// note.
+pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
+    let oc = diag.get("order_criterion")?;
+    let name = oc.get("criterion")?.as_str()?.to_string();
+    // The gap is the order-selection plot's singular values already.
+    if name == "Gap" {
+        return None;
+    }
+    let values: Vec<f64> = oc
+        .get("values")?
+        .as_array()?
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    if values.iter().all(|v| !v.is_finite()) {
+        return None;
+    }
+    let x: Vec<f64> = (1..=values.len()).map(|i| i as f64).collect();
+    // An unstable candidate's simulation error can be orders of magnitude
+    // above the rest: the frame holds the values up to 1.5 × the spread of
+    // the lower three quarters, the others are named in a note.
+    let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    finite.sort_by(f64::total_cmp);
+    let lo = finite[0];
+    let q3 = finite[(3 * (finite.len() - 1)) / 4];
+    let top = finite
+        .iter()
+        .copied()
+        .filter(|v| *v <= lo + 1.5 * (q3 - lo).max(lo.abs() * 1e-9))
+        .fold(lo, f64::max);
+    let minimised = matches!(name.as_str(), "Aic" | "Aicc" | "Bic");
+    let beyond: Vec<String> = values
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| minimised && v.is_finite() && **v > top)
+        .map(|(i, v)| format!("order {}: {v:.4e}", i + 1))
+        .collect();
+    let pad = 0.08 * (top - lo).max(lo.abs() * 1e-6).max(1e-12);
+    let mut plot = Plot {
+        title: format!("Order criterion: {name} per order"),
+        x_label: "order n".into(),
+        y_label: name.clone(),
+        series: vec![Series::points(name, x, values.clone(), Marker::Dot)],
+        ..Default::default()
+    };
+    if let Some(n) = oc.get("selected").and_then(serde_json::Value::as_u64) {
+        plot.vlines
+            .push((n as f64, format!("its choice: order {n}")));
+    }
+    if !beyond.is_empty() {
+        plot.frame = Some([0.5, values.len() as f64 + 0.5, lo - pad, top + pad]);
+        plot.notes
+            .push(format!("beyond the frame: {}", beyond.join(", ")));
+    }
+    Some(plot)
+}
+
+/// One plot of the series of several, each series' name prefixed with
+/// its plot's label (`#3 n4sid n=2: y1_from_u1`): the overlaid responses
+/// of the model board. Axes and decades of the first plot.
+pub fn overlay(title: &str, plots: Vec<(String, Plot)>) -> Plot {
+    let mut out = Plot {
+        title: title.into(),
+        ..Default::default()
+    };
+    for (k, (label, p)) in plots.into_iter().enumerate() {
+        if k == 0 {
+            out.x_label = p.x_label.clone();
+            out.y_label = p.y_label.clone();
+            out.log_x = p.log_x;
+            out.vlines = p.vlines.clone();
+        }
+        let single = p.series.len() == 1;
+        for mut s in p.series {
+            s.name = if single {
+                label.clone()
+            } else {
+                format!("{label}: {}", s.name)
+            };
+            out.series.push(s);
+        }
+    }
+    out
+}
+
+/// Stems (τ, 0)–(τ, r) of correlations `r` at lags `lags`, as one line
+/// broken by NaN.
+fn stems(lags: impl Iterator<Item = f64>, r: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for (t, v) in lags.zip(r) {
+        x.extend([t, t, f64::NAN]);
+        y.extend([0.0, *v, f64::NAN]);
+    }
+    (x, y)
+}
+
+/// The band ±`bound` over [a, b], as one line broken by NaN.
+fn band(a: f64, b: f64, bound: f64) -> Series {
+    Series::line(
+        "99 % bound ±2.576/√N",
+        vec![a, b, f64::NAN, a, b],
+        vec![bound, bound, f64::NAN, -bound, -bound],
+    )
+}
+
+/// The residual tests of one output (`lifted validate`'s): the normalised
+/// autocorrelation r_e(τ)/r_e(0), τ = 1…M, and the cross-correlation with
+/// each input, τ = −M…M, as stems with the 99 % band ±2.576/√N (dashed).
+/// A value outside the band counts against whiteness (independence).
+pub fn residual_plots(o: &OutputValidation, inputs: &[String]) -> (Plot, Plot) {
+    let m = o.auto.len() as f64;
+    let (x, y) = stems((1..=o.auto.len()).map(|t| t as f64), &o.auto);
+    let auto = Plot {
+        title: format!(
+            "{}: residual autocorrelation ({})",
+            o.name,
+            if o.white { "white" } else { "not white" }
+        ),
+        x_label: "lag τ [samples]".into(),
+        y_label: "r_e(τ)/r_e(0)".into(),
+        series: vec![
+            Series::line("r_e(τ)/r_e(0)", x, y),
+            band(0.5, m + 0.5, o.bound),
+        ],
+        ..Default::default()
+    };
+    let mut cross = Plot {
+        title: format!(
+            "{}: residual–input cross-correlation ({})",
+            o.name,
+            if o.independent {
+                "independent"
+            } else {
+                "not independent"
+            }
+        ),
+        x_label: "lag τ [samples]".into(),
+        y_label: "r_eu(τ)".into(),
+        ..Default::default()
+    };
+    let mut lines = Vec::new();
+    for (j, c) in o.cross.iter().enumerate() {
+        let half = (c.len() / 2) as f64;
+        let (x, y) = stems((0..c.len()).map(|t| t as f64 - half), c);
+        let name = inputs
+            .get(j)
+            .cloned()
+            .unwrap_or_else(|| format!("u{}", j + 1));
+        lines.push(Series::line(format!("e, {name}"), x, y));
+    }
+    let half = o.cross.first().map_or(0.0, |c| (c.len() / 2) as f64);
+    // The stems first (the first input's solid), the band after them.
+    cross.series.extend(lines);
+    cross.series.push(band(-half - 0.5, half + 0.5, o.bound));
+    (auto, cross)
+}
+
+/// Adds the empirical frequency response `g` (Welch's estimate from the
+/// data, [`lifted_lti::spectral::welch`]) to Bode plots made by
+/// [`bode_plots`] for the same channels: one dotted series of markers per
+/// channel pair ("… (data)"), within the plots' frequency range.
+pub fn add_empirical(
+    mag: &mut Plot,
+    ph: &mut Plot,
+    g: &lifted_lti::spectral::FrequencyResponse,
+    m: &StateSpace,
+) {
+    let (un, yn) = channel_names(m);
+    let (lo, hi) = mag
+        .series
+        .first()
+        .map(|s| {
+            s.x.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                })
+        })
+        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    let lw: Vec<f64> = g.omega.iter().map(|w| w.log10()).collect();
+    let keep: Vec<usize> = (0..lw.len())
+        .filter(|&k| lw[k] >= lo && lw[k] <= hi)
+        .collect();
+    let x: Vec<f64> = keep.iter().map(|&k| lw[k]).collect();
+    for (i, y) in yn.iter().enumerate().take(m.n_outputs()) {
+        for (j, u) in un.iter().enumerate().take(m.n_inputs()) {
+            let label = format!("{y} ← {u} (data, Welch)");
+            let mags = g.magnitude(i, j);
+            let phs = g.phase_deg(i, j);
+            let db: Vec<f64> = keep
+                .iter()
+                .map(|&k| 20.0 * mags[k].max(1e-300).log10())
+                .collect();
+            let deg: Vec<f64> = keep.iter().map(|&k| phs[k]).collect();
+            mag.series
+                .push(Series::points(label.clone(), x.clone(), db, Marker::Dot));
+            ph.series
+                .push(Series::points(label, x.clone(), deg, Marker::Dot));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_criterion_curve_frames_the_reasonable_values() {
+        // AIC per order with an unstable order 4 (1e6): framed without it,
+        // named in a note; the gap gives no curve (the singular values do).
+        let d = serde_json::json!({"order_criterion": {"criterion": "Aic",
+            "values": [10.0, -50.0, -48.0, 1e6], "selected": 2}});
+        let p = super::criterion_plot(&d).unwrap();
+        let [_, _, y0, y1] = p.frame.unwrap();
+        assert!(y0 < -50.0 && y1 > 10.0 && y1 < 100.0, "{y0} … {y1}");
+        assert!(p.notes[0].contains("order 4"), "{:?}", p.notes);
+        assert_eq!(p.vlines[0].0, 2.0);
+        let gap = serde_json::json!({"order_criterion": {"criterion": "Gap",
+            "values": [1.0, 4.0], "selected": 2}});
+        assert!(super::criterion_plot(&gap).is_none());
+    }
+
+    #[test]
+    fn min_max_decimation_keeps_every_peak_and_honours_the_window() {
+        // 1e5 samples of a slow sine with one spike: 2000 points at most,
+        // the spike and the extremes kept.
+        let n = 100_000;
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+        let mut y: Vec<f64> = t.iter().map(|t| (0.05 * t).sin()).collect();
+        y[54_321] = 7.0;
+        let (tt, yy) = super::decimate(&t, &y);
+        assert!(tt.len() <= super::MAX_POINTS && tt.len() > super::MAX_POINTS / 2);
+        assert!(yy.contains(&7.0));
+        let lo = yy.iter().copied().fold(f64::INFINITY, f64::min);
+        let true_lo = y.iter().copied().fold(f64::INFINITY, f64::min);
+        assert_eq!(lo, true_lo);
+        assert!(tt.windows(2).all(|w| w[0] <= w[1]), "time order");
+        // A window of 10 s: its 1000 samples (+ one each side), undecimated.
+        let (tw, _) = super::decimate_in(&t, &y, Some((100.0, 110.0)));
+        assert_eq!(tw.len(), 1003);
+        assert!(tw[0] < 100.0 && *tw.last().unwrap() > 110.0);
+        // A bucket without finite values breaks the line.
+        let mut gap = y.clone();
+        for v in &mut gap[..1000] {
+            *v = f64::NAN;
+        }
+        let (_, yg) = super::decimate(&t, &gap);
+        assert!(yg[0].is_nan());
+    }
+
     use super::*;
 
     #[test]

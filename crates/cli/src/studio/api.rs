@@ -369,8 +369,13 @@ pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
         .route("/api/data", post(upload).get(data_info))
         .route("/api/view", post(view))
         .route("/api/identify", post(identify))
+        .route("/api/board", post(board))
+        .route("/api/delay", post(delay))
+        .route("/api/validation/clear", post(clear_validation))
+        .route("/api/experiments/clear", post(clear_experiments))
         .route("/api/model", get(model))
         .route("/api/report", get(report))
+        .route("/api/estimation-data", get(estimation_data))
         .fallback(|| async { error(StatusCode::NOT_FOUND, "no such page or call") })
         .layer(DefaultBodyLimit::max(MAX_JSON))
         .layer(middleware::from_fn_with_state(app.clone(), guard))
@@ -508,6 +513,10 @@ struct CallQuery {
     name: Option<String>,
     seq: Option<u64>,
     session: Option<String>,
+    /// `validation`: the upload is the validation record.
+    role: Option<String>,
+    /// A model of the board (`GET /api/model?board=ID`).
+    board: Option<u64>,
 }
 
 /// The session of a call: `X-Lifted-Session`, else `?session=`, else the
@@ -570,6 +579,20 @@ async fn upload(
         Ok(h) => h,
         Err(e) => return e,
     };
+    let role = match q.role.as_deref() {
+        None | Some("estimation") => 0,
+        Some("validation") => 1,
+        Some("experiment") => 2,
+        Some(other) => {
+            return error(
+                StatusCode::BAD_REQUEST,
+                format!(
+                    "role '{other}': an upload is the 'estimation' or the 'validation' record, \
+                     or a further 'experiment'"
+                ),
+            );
+        }
+    };
     let name = q.name.unwrap_or_else(|| "data.csv".into());
     let (folder, path) = match staging(&h.dir, &name) {
         Ok(fp) => fp,
@@ -579,7 +602,14 @@ async fn upload(
         let _ = std::fs::remove_dir_all(&folder);
         return res;
     }
-    json_answer(with_session(h.session, move |s| s.adopt(folder, path)).await)
+    json_answer(
+        with_session(h.session, move |s| match role {
+            1 => s.adopt_validation(folder, path),
+            2 => s.adopt_experiment(folder, path),
+            _ => s.adopt(folder, path),
+        })
+        .await,
+    )
 }
 
 async fn data_info(
@@ -587,8 +617,18 @@ async fn data_info(
     Query(q): Query<CallQuery>,
     headers: HeaderMap,
 ) -> Response {
+    let validation = q.role.as_deref() == Some("validation");
     match session_of(&app, &headers, &q).await {
-        Ok(h) => json_answer(with_session(h.session, |s| Ok(s.data_info().cloned())).await),
+        Ok(h) => json_answer(
+            with_session(h.session, move |s| {
+                Ok(if validation {
+                    s.validation_info().cloned()
+                } else {
+                    s.data_info().cloned()
+                })
+            })
+            .await,
+        ),
         Err(e) => e,
     }
 }
@@ -607,6 +647,62 @@ async fn identify(State(app): State<App>, headers: HeaderMap, body: Bytes) -> Re
         Ok(h) => {
             json_answer(with_session(h.session, move |s| s.identify(&parse_request(&body)?)).await)
         }
+        Err(e) => e,
+    }
+}
+
+/// `POST /api/board`: keep, remove and show the models of the board.
+async fn board(State(app): State<App>, headers: HeaderMap, body: Bytes) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => json_answer(
+            with_session(h.session, move |s| {
+                let b: crate::studio::BoardRequest = if body.iter().all(u8::is_ascii_whitespace) {
+                    Default::default()
+                } else {
+                    serde_json::from_slice(&body).map_err(|e| input(format!("board: {e}")))?
+                };
+                s.board(&b)
+            })
+            .await,
+        ),
+        Err(e) => e,
+    }
+}
+
+/// `POST /api/delay`: the delay interval of every pair of the channels.
+async fn delay(State(app): State<App>, headers: HeaderMap, body: Bytes) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => {
+            json_answer(with_session(h.session, move |s| s.delays(&parse_request(&body)?)).await)
+        }
+        Err(e) => e,
+    }
+}
+
+/// `POST /api/validation/clear`: drop the validation record.
+async fn clear_validation(State(app): State<App>, headers: HeaderMap) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => json_answer(
+            with_session(h.session, |s| {
+                s.clear_validation();
+                Ok(serde_json::Value::Null)
+            })
+            .await,
+        ),
+        Err(e) => e,
+    }
+}
+
+/// `POST /api/experiments/clear`: drop the further experiments.
+async fn clear_experiments(State(app): State<App>, headers: HeaderMap) -> Response {
+    match session_of(&app, &headers, &CallQuery::default()).await {
+        Ok(h) => json_answer(
+            with_session(h.session, |s| {
+                s.clear_experiments();
+                Ok(serde_json::Value::Null)
+            })
+            .await,
+        ),
         Err(e) => e,
     }
 }
@@ -631,8 +727,41 @@ async fn model(State(app): State<App>, Query(q): Query<CallQuery>, headers: Head
         Ok(h) => h,
         Err(e) => return e,
     };
-    match with_session(h.session, move |s| s.model_json(q.seq)).await {
+    let board = q.board;
+    match with_session(h.session, move |s| match board {
+        Some(id) => s.board_model_json(id),
+        None => s.model_json(q.seq),
+    })
+    .await
+    {
         Ok(j) => download(j, "application/json", "model.json"),
+        Err(e) => e,
+    }
+}
+
+/// `GET /api/estimation-data[?seq=N]`: the data file the command line of
+/// model N names (the record, or the rows of its estimation range).
+async fn estimation_data(
+    State(app): State<App>,
+    Query(q): Query<CallQuery>,
+    headers: HeaderMap,
+) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
+    match with_session(h.session, move |s| s.estimation_data(q.seq)).await {
+        Ok((name, text)) => (
+            [
+                (header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()),
+                (
+                    header::CONTENT_DISPOSITION,
+                    format!("attachment; filename=\"{name}\""),
+                ),
+            ],
+            text,
+        )
+            .into_response(),
         Err(e) => e,
     }
 }

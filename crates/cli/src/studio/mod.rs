@@ -96,15 +96,28 @@
 //! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB, with the page's sequence number `seq`) | [`Identified`]: `seq` echoed, equivalent command line, order, stability (`stable`, `spectral_radius`), order-selection values, fit % per output (`null` with `stable: false` for an unstable model), poles, SVG figures |
 //! | `GET /api/model[?seq=N]` | – | – | the model of request N (the last model without `seq`) as the model-file JSON of `lifted identify` |
 //! | `GET /api/report[?seq=N]` | – | – | the HTML report of `lifted report` for that model |
+//! | `POST /api/data?name=F&role=validation` | as above | the validation record's bytes | its [`DataInfo`]; the fits, residuals and the board are then computed on it |
+//! | `POST /api/data?name=F&role=experiment` | as above | a further estimation record (q-Markov: one file per input, in input order) | its [`DataInfo`]; each is a `--data` of the command after the record |
+//! | `POST /api/experiments/clear` | `application/json` | – | `null`; the record alone again |
+//! | `POST /api/validation/clear` | `application/json` | – | `null`; models are validated on the estimation record again |
+//! | `POST /api/board` | `application/json` | [`BoardRequest`] (keep the model of request `add`, remove `remove`, overlay `selected`) | [`BoardView`]: fit table over the kept models, overlaid outputs, steps, Bode |
+//! | `POST /api/delay` | `application/json` | [`Request`] (channels) | [`Delays`]: `lifted delay`'s interval per input-output pair |
+//! | `GET /api/model?board=ID` | – | – | a kept model's model file |
+//! | `GET /api/estimation-data[?seq=N]` | – | – | the CSV file the command line of model N names (the record, or the rows of its estimation range) |
 //! | `GET /api/health` | – | – | `ok` (no token needed) |
 //!
 //! A [`Request`]'s fields are the options of `lifted identify`, with the
 //! same names and defaults (`inputs`, `outputs`, `ts`, `hold`,
 //! `output_period`, `method`, `order`, `max_order`, `horizon`, `q`,
 //! `prbs_order`, `amplitude`, `output_weight`, `instrument`, `detrend`,
-//! `estimator`, `order_criterion`, `stable`); they are handed to the
+//! `estimator`, `order_criterion`, `stable`, `refine`); they are handed to the
 //! command's own option parser, so the saved model equals the one
-//! `lifted identify` writes with the same options. A failed identification
+//! `lifted identify` writes with the same options. Besides them: `seq`,
+//! `window` (the time plots' zoom, seconds), `estimation_range` and
+//! `validation_range` (rows of the record, seconds: [`ranges`]). The
+//! parsed record and the subspace compression are kept between requests
+//! (`cached`), so a move of the order slider costs neither a read nor a
+//! compression. A failed identification
 //! leaves no model (`GET /api/model` then answers `400`).
 //!
 //! # Errors
@@ -121,6 +134,9 @@
 //! | `500` | a bug inside the studio (the server keeps running; the session is reset) |
 
 mod api;
+mod board;
+mod cached;
+pub mod ranges;
 mod session;
 
 use std::io::Write;
@@ -130,9 +146,11 @@ pub use api::{
     Access, MAX_JSON, MAX_SESSIONS, SECURITY_HEADERS, SESSION_HEADER, Sessions, TOKEN_HEADER, lock,
     router,
 };
+pub use board::{BoardEntry, BoardRequest, BoardView, MAX_BOARD};
 pub use session::{
-    Channel, ColumnInfo, DataInfo, Figures, Fit, Identified, KEPT_MODELS, MAX_UPLOAD,
-    MAX_WORK_BYTES, OrderSelection, Request, Session, View,
+    Channel, ChannelTf, ColumnInfo, DataInfo, Delays, Figures, Fit, Identified, KEPT_MODELS,
+    MAX_EXPERIMENTS, MAX_UPLOAD, MAX_WORK_BYTES, Matrices, OrderSelection, PairDelay, Request,
+    Session, View,
 };
 
 use crate::error::{CliResult, input};

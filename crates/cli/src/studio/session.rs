@@ -14,15 +14,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
-use crate::plot::svg;
+use crate::plot::{Plot, svg};
 use crate::service::figures::{
-    bode_grid, bode_plots, excitation_plot, order_plot, outputs_plot, pz_plot, response_error_plot,
-    response_plot, stack_svgs, step_plot,
+    add_empirical, bode_grid, bode_plots, criterion_plot, excitation_plot_in, order_plot,
+    outputs_plot_in, pz_plot, residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
+    step_plot,
 };
 use crate::service::identify::{require_stable, run_identification};
 use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
-use crate::table::{DataSpec, header, load, parse_periods, read_raw};
+use crate::studio::board::Pinned;
+use crate::studio::cached::{self, Cache, in_memory_route};
+use crate::studio::ranges;
+use crate::table::{DataSpec, header, parse_periods, read_raw};
 
 /// Largest upload accepted (bytes).
 pub const MAX_UPLOAD: usize = 1 << 30;
@@ -83,6 +87,18 @@ pub struct Request {
     /// `lifted identify`): echoed in the answer, and the key under which
     /// the model is kept for `GET /api/model?seq=`.
     pub seq: Option<u64>,
+    /// The rows of the estimation record to identify on, `[t0, t1]` in
+    /// seconds (absent: all); see [`crate::studio::ranges`].
+    pub estimation_range: Option<[f64; 2]>,
+    /// The rows of the validation data (the validation record, else the
+    /// estimation record) the model is checked on, `[t0, t1]` seconds.
+    pub validation_range: Option<[f64; 2]>,
+    /// `pem` or `oe`: refine the model (Levenberg–Marquardt on the
+    /// prediction or simulation error, `lifted identify --refine`).
+    pub refine: Option<String>,
+    /// The time window `[t0, t1]` (seconds) of the time plots: the page's
+    /// zoom (not an option of `lifted identify`; absent: the whole record).
+    pub window: Option<[f64; 2]>,
 }
 
 /// One column of an uploaded record.
@@ -105,6 +121,10 @@ pub struct DataInfo {
     pub rows: usize,
     /// Base period (time column, else 1).
     pub ts: f64,
+    /// Whether the file has a time column (`t` or `time`); without one the
+    /// base period is the page's field (1 s when empty, `--ts 1` on the
+    /// command line).
+    pub has_time: bool,
     /// The columns other than the time column.
     pub columns: Vec<ColumnInfo>,
     /// Columns proposed as inputs (complete columns named u…/r…, else the first complete one).
@@ -172,6 +192,36 @@ pub struct Fit {
     pub independent: bool,
 }
 
+/// The model's matrices, one inner vector per row.
+#[derive(Debug, Clone, Serialize)]
+pub struct Matrices {
+    /// A (n × n).
+    pub a: Vec<Vec<f64>>,
+    /// B (n × m).
+    pub b: Vec<Vec<f64>>,
+    /// C (p × n).
+    pub c: Vec<Vec<f64>>,
+    /// D (p × m).
+    pub d: Vec<Vec<f64>>,
+    /// The Kalman gain K (n × p) of the innovations form, when the route
+    /// gives one.
+    pub k: Option<Vec<Vec<f64>>>,
+}
+
+/// One channel's transfer function G_ij(z) = num(z)/den(z) (positive
+/// powers of z, minimal realisation of the channel).
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelTf {
+    /// Output name.
+    pub output: String,
+    /// Input name.
+    pub input: String,
+    /// Numerator, as text (`0.5 z - 0.2`).
+    pub num: String,
+    /// Denominator, as text.
+    pub den: String,
+}
+
 /// The figures of an identification, as SVG documents.
 #[derive(Debug, Clone, Serialize)]
 pub struct Figures {
@@ -181,12 +231,20 @@ pub struct Figures {
     pub response: Vec<String>,
     /// Per output: response error.
     pub error: Vec<String>,
+    /// Per output: residual autocorrelation over the cross-correlation
+    /// with the inputs, with the 99 % bands (the tests of `lifted
+    /// validate`).
+    pub residuals: Vec<String>,
     /// Step response.
     pub step: String,
-    /// Bode magnitude over phase.
+    /// Bode magnitude over phase, with the empirical response of the
+    /// data (Welch's estimate) as markers for a single-rate record.
     pub bode: String,
     /// Pole-zero map.
     pub pz: String,
+    /// The order criterion's values per order (AIC, SVC, …, chosen order
+    /// marked), when the route reports them.
+    pub criterion: Option<String>,
 }
 
 /// The answer to an identification.
@@ -213,6 +271,24 @@ pub struct Identified {
     pub poles: Vec<(f64, f64)>,
     /// The figures.
     pub figures: Figures,
+    /// The subspace horizon the model was identified with (chosen by the
+    /// held-out selection for order `auto`, else the request's), when the
+    /// route has one: the page keeps it for the slider's numeric orders.
+    pub horizon: Option<usize>,
+    /// The (A, C) route of a subspace model (`shift` or `states`), chosen
+    /// or requested, as `--estimator` spells it.
+    pub estimator: Option<String>,
+    /// The model's matrices.
+    pub matrices: Matrices,
+    /// The transfer function of each channel (empty, with a note in
+    /// `transfer_note`, when the conversion fails).
+    pub transfer_functions: Vec<ChannelTf>,
+    /// Why there are no transfer functions, if so.
+    pub transfer_note: Option<String>,
+    /// The refinement's report (`--refine`), when there was one.
+    pub refinement: Option<serde_json::Value>,
+    /// The record the fits and residuals are computed on.
+    pub validation_data: String,
     /// Wall time of identify + validate + figures, milliseconds.
     pub elapsed_ms: f64,
 }
@@ -222,6 +298,52 @@ struct Last {
     seq: Option<u64>,
     file: ModelFile,
     request: Request,
+    command: String,
+    /// The data file of the command line (the record, or the file of its
+    /// estimation range) and its path.
+    data: (String, PathBuf),
+}
+
+/// Data files of one identification at most (the record and the further
+/// experiments).
+pub const MAX_EXPERIMENTS: usize = 16;
+
+/// Lifted lags of the delay estimate (`lifted delay --lags` default).
+const DELAY_LAGS: usize = 8;
+/// Significance of the delay estimate in standard errors (`lifted delay
+/// --sigmas` default).
+const DELAY_SIGMAS: f64 = 3.0;
+
+/// One input-output pair's delay interval (`lifted delay --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct PairDelay {
+    /// Input name.
+    pub input: String,
+    /// Output name.
+    pub output: String,
+    /// The input's hold m (base periods).
+    pub hold: usize,
+    /// The output's period n (base periods).
+    pub period: usize,
+    /// d_c ∈ [lower, upper) in base periods, when the pair gave one.
+    pub interval: Option<[i64; 2]>,
+    /// The same in seconds.
+    pub interval_s: Option<[f64; 2]>,
+    /// Why the pair gave none.
+    pub failure: Option<String>,
+}
+
+/// The delays of the record's pairs.
+#[derive(Debug, Clone, Serialize)]
+pub struct Delays {
+    /// Base period, seconds.
+    pub base_period: f64,
+    /// Lifted lags of the estimate.
+    pub lags: usize,
+    /// Significance in standard errors.
+    pub sigmas: f64,
+    /// One entry per input-output pair.
+    pub pairs: Vec<PairDelay>,
 }
 
 /// Models kept per session: the page may save any of its last few answers
@@ -245,6 +367,18 @@ pub struct Session {
     record: Option<Record>,
     /// The last [`KEPT_MODELS`] identifications, oldest first.
     models: Vec<Last>,
+    /// The parsed record and the compressed data of the last requests.
+    cache: Cache,
+    /// A validation record of its own (else the models are validated on
+    /// the estimation record).
+    validation: Option<Record>,
+    /// Further estimation records after the first (q-Markov: one file per
+    /// input), each a `--data` of the command.
+    experiments: Vec<Record>,
+    /// The model board, oldest first.
+    pub(crate) board: Vec<Pinned>,
+    /// The last id given to a model on the board.
+    pub(crate) board_ids: u64,
 }
 
 /// `bytes` random bytes from the operating system's CSPRNG, as hex.
@@ -320,6 +454,86 @@ fn safe_name(name: &str) -> String {
     if s.is_empty() { "data.csv".into() } else { s }
 }
 
+/// A time plot with the request's estimation and validation ranges marked:
+/// a pair of vertical lines at each range's ends, one series per range
+/// (its own colour and dash pattern, named in the legend).
+fn marked(mut p: crate::plot::Plot, r: &Request) -> crate::plot::Plot {
+    let (lo, hi) = p
+        .series
+        .iter()
+        .flat_map(|s| s.y.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if lo > hi {
+        return p;
+    }
+    let short = |x: f64| {
+        let t = format!("{x:.6}");
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    for (what, range) in [
+        ("estimation", r.estimation_range),
+        ("validation", r.validation_range),
+    ] {
+        if let Some([a, b]) = range
+            && a.is_finite()
+            && b.is_finite()
+        {
+            p.series.push(crate::plot::Series::line(
+                format!("{what} rows {} … {} s", short(a), short(b)),
+                vec![a, a, f64::NAN, b, b],
+                vec![lo, hi, f64::NAN, lo, hi],
+            ));
+        }
+    }
+    p
+}
+
+/// The zoom window of a request, checked: finite, t0 < t1.
+fn window_of(r: &Request) -> CliResult<Option<(f64, f64)>> {
+    window_of_pair(r.window)
+}
+
+/// A zoom window `[t0, t1]`, checked: finite, t0 < t1.
+pub(crate) fn window_of_pair(w: Option<[f64; 2]>) -> CliResult<Option<(f64, f64)>> {
+    match w {
+        None => Ok(None),
+        Some([a, b]) if a.is_finite() && b.is_finite() && a < b => Ok(Some((a, b))),
+        Some([a, b]) => Err(input(format!(
+            "window [{a}, {b}]: a time window is two finite times t0 < t1 in seconds"
+        ))),
+    }
+}
+
+/// A matrix as rows.
+fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
+}
+
+/// Each channel's transfer function (`StateSpace::to_tf`), or why not.
+fn channel_tfs(model: &lifted_lti::StateSpace) -> (Vec<ChannelTf>, Option<String>) {
+    let tf = match model.to_tf(&Default::default()) {
+        Ok(tf) => tf,
+        Err(e) => return (Vec::new(), Some(format!("no transfer function: {e}"))),
+    };
+    let var = if model.ts().is_some() { "z" } else { "s" };
+    let (un, yn) = crate::service::models::channel_names(model);
+    let mut out = Vec::new();
+    for (i, y) in yn.iter().enumerate().take(tf.n_outputs()) {
+        for (j, u) in un.iter().enumerate().take(tf.n_inputs()) {
+            out.push(ChannelTf {
+                output: y.clone(),
+                input: u.clone(),
+                num: tf.num(i, j).display_with(var),
+                den: tf.den(i, j).display_with(var),
+            });
+        }
+    }
+    (out, None)
+}
+
 /// Quotes a command-line word for a POSIX shell when needed.
 fn shell_word(w: &str) -> String {
     if !w.is_empty()
@@ -351,6 +565,11 @@ impl Session {
             dir,
             record: None,
             models: Vec::new(),
+            cache: Cache::default(),
+            validation: None,
+            experiments: Vec::new(),
+            board: Vec::new(),
+            board_ids: 0,
         })
     }
 
@@ -370,7 +589,11 @@ impl Session {
     /// upload folders go (the sessions of other tabs may live beside them).
     pub fn reset(&mut self) {
         self.record = None;
+        self.validation = None;
+        self.experiments.clear();
         self.models.clear();
+        self.board.clear();
+        self.cache.clear();
         if let Ok(entries) = std::fs::read_dir(&self.dir) {
             for e in entries.flatten() {
                 if !e.file_name().to_string_lossy().starts_with("upload-") {
@@ -440,6 +663,9 @@ impl Session {
                     info: info.clone(),
                 });
                 self.models.clear();
+                self.cache.clear();
+                // The further experiments belonged to the old record.
+                self.clear_experiments();
                 if let Some(old) = old {
                     let _ = std::fs::remove_dir_all(old.folder);
                 }
@@ -480,15 +706,16 @@ impl Session {
 
     fn inspect(&self, name: &str, path: &Path) -> CliResult<DataInfo> {
         let p = path.display().to_string();
-        let cols: Vec<String> = header(&p, &[])?
-            .into_iter()
-            .filter(|h| !h.eq_ignore_ascii_case("t") && !h.eq_ignore_ascii_case("time"))
-            .collect();
+        let all = header(&p, &[])?;
+        let is_time = |h: &String| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time");
+        let has_time = all.iter().any(is_time);
+        let cols: Vec<String> = all.into_iter().filter(|h| !is_time(h)).collect();
         if cols.is_empty() {
             return Err(input(format!("{name}: the file has no data columns")));
         }
         let wanted: Vec<&String> = cols.iter().collect();
-        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), None)?;
+        // Without a time column the base period is the page's (1 s here).
+        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), (!has_time).then_some(1.0))?;
         if raw.rows == 0 {
             return Err(input(format!(
                 "{name}: the file has a header but no data rows"
@@ -553,6 +780,7 @@ impl Session {
             name: name.to_string(),
             rows: raw.rows,
             ts: raw.ts,
+            has_time,
             columns,
             suggested_inputs: inputs,
             suggested_outputs: outputs,
@@ -575,15 +803,30 @@ impl Session {
         })
     }
 
-    fn load(&self, r: &Request) -> CliResult<Dataset> {
+    /// The record read with the request's channels (read once per
+    /// selection: [`Cache`]).
+    fn load(&mut self, r: &Request) -> CliResult<&Dataset> {
         let rec = self.record()?;
-        let data = load(&rec.path.display().to_string(), &Self::spec(r)?);
-        data.map(|l| l.data).map_err(|e| self.plain(e))
+        let (path, folder) = (rec.path.display().to_string(), rec.folder.clone());
+        self.load_from(&path, &folder, r)
+    }
+
+    /// The file `path` (in the upload folder `folder`) read with the
+    /// request's channels, through the [`Cache`].
+    fn load_from(&mut self, path: &str, folder: &Path, r: &Request) -> CliResult<&Dataset> {
+        let spec = Self::spec(r)?;
+        let folder = folder.to_path_buf();
+        match self.cache.loaded(path, &spec) {
+            Ok(l) => Ok(&l.data),
+            Err(e) => Err(plain_in(&folder, e)),
+        }
     }
 
     /// The selected channels with their rates and plots.
-    pub fn view(&self, r: &Request) -> CliResult<View> {
+    pub fn view(&mut self, r: &Request) -> CliResult<View> {
         self.check_sizes(r)?;
+        let r = &self.explicit(r)?;
+        let window = window_of(r)?;
         let data = self.load(r)?;
         let n = data.len();
         let inputs = data
@@ -609,13 +852,17 @@ impl Session {
             ts: data.ts(),
             inputs,
             outputs,
-            inputs_svg: svg(&excitation_plot(&data, &r.inputs), 900, 240)?,
-            outputs_svg: svg(&outputs_plot(&data), 900, 240)?,
+            inputs_svg: svg(
+                &marked(excitation_plot_in(data, &r.inputs, window), r),
+                900,
+                240,
+            )?,
+            outputs_svg: svg(&marked(outputs_plot_in(data, window), r), 900, 240)?,
         })
     }
 
     /// The `lifted identify` arguments of a request (without `lifted`).
-    fn identify_words(r: &Request, data: &str, out: &str) -> Vec<String> {
+    fn identify_words(r: &Request, data: &[String], out: &str) -> Vec<String> {
         let mut w: Vec<String> = vec!["identify".into()];
         // A value that starts with '-' is attached (`--flag=-1`): clap
         // would take it for an option.
@@ -628,7 +875,9 @@ impl Session {
             }
         };
         opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
-        opt("data", data.into());
+        for d in data {
+            opt("data", d.clone());
+        }
         opt("inputs", r.inputs.join(","));
         opt("outputs", r.outputs.join(","));
         if let Some(ts) = r.ts {
@@ -653,6 +902,7 @@ impl Session {
             ("detrend", r.detrend.clone()),
             ("estimator", r.estimator.clone()),
             ("order-criterion", r.order_criterion.clone()),
+            ("refine", r.refine.clone()),
         ] {
             if let Some(v) = v {
                 opt(flag, v);
@@ -674,7 +924,7 @@ impl Session {
     }
 
     /// The request parsed by the command's own option parser.
-    fn identify_args(r: &Request, data: &str) -> CliResult<IdentifyArgs> {
+    fn identify_args(r: &Request, data: &[String]) -> CliResult<IdentifyArgs> {
         let words = Self::identify_words(r, data, "model.json");
         let argv = std::iter::once("lifted".to_string()).chain(words);
         match Cli::try_parse_from(argv) {
@@ -686,27 +936,93 @@ impl Session {
         }
     }
 
-    /// The model file of a request, as `lifted identify` writes it.
-    fn model_file(&self, r: &Request) -> CliResult<ModelFile> {
-        let rec = self.record()?;
-        let a = Self::identify_args(r, &rec.path.display().to_string())?;
-        let file = run_identification(&a).map_err(|e| self.plain(e))?;
+    /// The model file of a request, as `lifted identify` writes it: from
+    /// the kept record and compression when the command takes the
+    /// in-memory subspace route ([`cached`]), else by the command's own
+    /// identification.
+    fn model_file(&mut self, r: &Request) -> CliResult<ModelFile> {
+        let paths: Vec<String> = self
+            .estimation_sources(r)?
+            .into_iter()
+            .map(|(_, p)| p.display().to_string())
+            .collect();
+        let a = Self::identify_args(r, &paths)?;
+        let spec = Self::spec(r)?;
+        let in_memory = r.instrument.is_empty() && {
+            let data = self.load(r)?;
+            in_memory_route(&a, &spec, data)
+        };
+        let file = if in_memory {
+            cached::model_file(&mut self.cache, &a, &spec)
+        } else {
+            run_identification(&a)
+        };
+        let file = file.map_err(|e| self.plain(e))?;
         if a.stable {
             require_stable(&file.model)?;
         }
         Ok(file)
     }
 
+    /// The request with the options the page leaves to the defaults made
+    /// explicit where that keeps the command on the studio's fast route
+    /// (the command line shown then takes the same route, see the module `cached`):
+    /// for a numeric order of single-rate N4SID/MOESP/CVA, the horizon
+    /// (10, or the least that holds the order), the (A, C) route (shift invariance) and, when no output period
+    /// is declared, period 1 for every output (the record's complete
+    /// columns: the command then identifies in memory, not streamed); for
+    /// a record without a time column, the base period (1 s).
+    pub fn explicit(&self, r: &Request) -> CliResult<Request> {
+        let rec = self.record()?;
+        let mut r = r.clone();
+        if r.ts.is_none() && !rec.info.has_time {
+            r.ts = Some(1.0);
+        }
+        let subspace = matches!(
+            r.method.as_deref().unwrap_or("n4sid"),
+            "n4sid" | "moesp" | "cva"
+        );
+        let numeric = r
+            .order
+            .as_deref()
+            .is_some_and(|o| o.trim().parse::<usize>().is_ok_and(|n| n > 0));
+        let complete = |name: &String| {
+            rec.info
+                .columns
+                .iter()
+                .any(|c| &c.name == name && c.samples == rec.info.rows)
+        };
+        let single_rate = r.outputs.iter().all(complete) && r.hold.unwrap_or(1) <= 1;
+        if subspace && numeric && single_rate && r.instrument.is_empty() && r.refine.is_none() {
+            // The command's default horizon 10, or the least one that holds
+            // the order ((i − 1) n_y ≥ n).
+            let n = r
+                .order
+                .as_deref()
+                .and_then(|o| o.trim().parse::<usize>().ok())
+                .unwrap_or(1);
+            let ny = r.outputs.len().max(1);
+            r.horizon.get_or_insert(10.max(n.div_ceil(ny) + 1));
+            r.estimator.get_or_insert_with(|| "shift".into());
+            if r.output_period.is_empty() {
+                r.output_period = r.outputs.iter().map(|o| format!("{o}=1")).collect();
+            }
+        }
+        Ok(r)
+    }
+
     /// The record of a request checked against a model file, as `lifted
     /// validate --detrend auto` does.
-    fn validated(
-        &self,
+    pub(crate) fn validated(
+        &mut self,
         file: &ModelFile,
         r: &Request,
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
-        let rec = self.record()?;
-        let data = self.load(r)?;
-        let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &rec.name)?;
+        let (name, path, folder) = self.validation_source(r)?;
+        let data = self
+            .load_from(&path.display().to_string(), &folder, r)?
+            .clone();
+        let (file, data) = with_detrend(file.clone(), data, DetrendArg::Auto, &name)?;
         let shortest = data
             .outputs()
             .iter()
@@ -714,7 +1030,11 @@ impl Session {
             .min()
             .unwrap_or(0);
         let lags = LAGS.min(shortest.saturating_sub(1) / 4).max(1);
-        let v = validate_model(&file, &data, lags, &rec.name)?;
+        // The page shows the simulation fits and the residual tests; the
+        // k-step prediction fits (the report's) are left out here.
+        let mut shown = file.clone();
+        shown.kalman_gain = None;
+        let v = validate_model(&shown, &data, lags, &name)?;
         Ok((file, data, v))
     }
 
@@ -793,35 +1113,88 @@ impl Session {
     fn identified(&mut self, r: &Request) -> CliResult<Identified> {
         let start = Instant::now();
         self.check_sizes(r)?;
-        let rec = self.record()?;
-        let words = Self::identify_words(r, &rec.name, "model.json");
+        let r = &self.explicit(r)?;
+        self.check_sizes(r)?;
+        let (data_name, data_path) = self.estimation_source(r)?;
+        let names: Vec<String> = self
+            .estimation_sources(r)?
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect();
+        let words = Self::identify_words(r, &names, "model.json");
         let command = std::iter::once("lifted".to_string())
             .chain(words)
             .map(|w| shell_word(&w))
             .collect::<Vec<_>>()
             .join(" ");
         let file = self.model_file(r)?;
-        let (_, data, v) = self.validated(&file, r)?;
         let model = &file.model;
+        // The model's own figures (step, pole-zero map, Bode curves,
+        // transfer functions) on a second thread while the model is
+        // validated on the record (simulation and residual tests).
+        type ModelFigures = (
+            String,
+            String,
+            (Plot, Plot),
+            (Vec<ChannelTf>, Option<String>),
+        );
+        let (validated, drawn) = std::thread::scope(|scope| {
+            let drawn = scope.spawn(|| -> CliResult<ModelFigures> {
+                let omega = bode_grid(model, None, None, 200)?;
+                Ok((
+                    svg(&step_plot(model)?, 560, 280)?,
+                    svg(&pz_plot(model)?, 380, 440)?,
+                    bode_plots(model, &omega)?,
+                    channel_tfs(model),
+                ))
+            });
+            let validated = self.validated(&file, r);
+            let drawn = drawn
+                .join()
+                .unwrap_or_else(|_| Err(input("internal: drawing the model's figures failed")));
+            (validated, drawn)
+        });
+        let (_, data, v) = validated?;
+        let (step, pz, (mut mag, mut ph), (transfer_functions, transfer_note)) = drawn?;
         let ts = data.ts();
         let n = data.len();
         let mut response = Vec::new();
         let mut error = Vec::new();
+        let window = window_of(r)?;
+        let mut residuals = Vec::new();
         for o in &v.outputs {
-            response.push(svg(&response_plot(o, ts, n, v.stable()), 900, 260)?);
-            error.push(svg(&response_error_plot(o, ts), 900, 160)?);
+            response.push(svg(
+                &response_plot_in(o, ts, n, v.stable(), window),
+                900,
+                260,
+            )?);
+            error.push(svg(&response_error_plot_in(o, ts, window), 900, 160)?);
+            let (auto, cross) = residual_plots(o, &r.inputs);
+            residuals.push(stack_svgs(
+                &svg(&auto, 450, 220)?,
+                &svg(&cross, 450, 220)?,
+                450,
+                220,
+            ));
         }
-        let omega = bode_grid(model, None, None, 200)?;
-        let (mag, ph) = bode_plots(model, &omega)?;
+        if data.is_single_rate()
+            && let Some(g) = self.cache.spectral(&data)
+        {
+            add_empirical(&mut mag, &mut ph, g, model);
+        }
         let figures = Figures {
             order: order_plot(&file.diagnostics)
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
             response,
             error,
-            step: svg(&step_plot(model)?, 560, 280)?,
+            residuals,
+            step,
             bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
-            pz: svg(&pz_plot(model)?, 380, 440)?,
+            pz,
+            criterion: criterion_plot(&file.diagnostics)
+                .map(|p| svg(&p, 560, 280))
+                .transpose()?,
         };
         let order_selection = file.diagnostics.get("order_selection").map(|os| {
             let values = os
@@ -859,8 +1232,38 @@ impl Session {
                 independent: o.independent,
             })
             .collect();
+        let chosen = file.diagnostics.get("structure_selection");
+        let horizon = chosen
+            .and_then(|c| c.get("horizon"))
+            .and_then(serde_json::Value::as_u64)
+            .map(|h| h as usize)
+            .or(r.horizon);
+        let estimator = chosen
+            .and_then(|c| c.get("system"))
+            .and_then(|s| s.as_str())
+            .map(|s| {
+                if s.starts_with("shift") {
+                    "shift".to_string()
+                } else {
+                    "states".to_string()
+                }
+            })
+            .or_else(|| r.estimator.clone());
         let out = Identified {
+            matrices: Matrices {
+                a: rows_of(model.a()),
+                b: rows_of(model.b()),
+                c: rows_of(model.c()),
+                d: rows_of(model.d()),
+                k: file.kalman_gain.clone(),
+            },
+            transfer_functions,
+            transfer_note,
+            refinement: file.diagnostics.get("refinement").cloned(),
+            validation_data: self.validation_source(r)?.0,
             seq: r.seq,
+            horizon,
+            estimator,
             stable,
             spectral_radius: v.spectral_radius.is_finite().then_some(v.spectral_radius),
             command,
@@ -879,6 +1282,8 @@ impl Session {
             seq: r.seq,
             file,
             request: r.clone(),
+            command: out.command.clone(),
+            data: (data_name, data_path),
         });
         Ok(out)
     }
@@ -915,11 +1320,258 @@ impl Session {
 
     /// The report page of the model of request `seq` (the last model
     /// without one) on the record.
-    pub fn report(&self, seq: Option<u64>) -> CliResult<String> {
+    pub fn report(&mut self, seq: Option<u64>) -> CliResult<String> {
         let last = self.last(seq)?;
+        let (file, request) = (last.file.clone(), last.request.clone());
+        let name = self.record()?.name.clone();
+        let (file, data, v) = self.validated(&file, &request)?;
+        render(&file, &data, &v, "model.json (lifted studio)", &name)
+    }
+
+    /// The file of the rows of `range` of the record `src` (written once,
+    /// [`ranges::slice_file`]), aligned to the frame of the request's
+    /// outputs and hold; `what` names the range in errors.
+    fn range_file(
+        &self,
+        src: &Record,
+        range: [f64; 2],
+        r: &Request,
+        what: &str,
+    ) -> CliResult<(String, PathBuf)> {
+        let ts = r.ts.unwrap_or(src.info.ts);
+        let periods = src
+            .info
+            .columns
+            .iter()
+            .filter(|c| r.outputs.contains(&c.name))
+            .filter_map(|c| c.period);
+        let align = ranges::frame(periods, r.hold.unwrap_or(1));
+        let (k0, k1) = ranges::rows_of_range(range, ts, src.info.rows, align, what)?;
+        ranges::slice_file(&src.path, &src.folder, &src.name, k0, k1)
+    }
+
+    /// The data a request validates on: the validation record (else the
+    /// estimation record), or the file of its validation range; its name,
+    /// path and upload folder.
+    fn validation_source(&self, r: &Request) -> CliResult<(String, PathBuf, PathBuf)> {
+        let src = match &self.validation {
+            Some(v) => v,
+            None => self.record()?,
+        };
+        match r.validation_range {
+            Some(range) => {
+                let (name, path) = self.range_file(src, range, r, "validation range")?;
+                Ok((name, path, src.folder.clone()))
+            }
+            None => Ok((src.name.clone(), src.path.clone(), src.folder.clone())),
+        }
+    }
+
+    /// The data file a request identifies on: the record, or the file of
+    /// its estimation range; its name (for the command line) and path.
+    pub fn estimation_source(&self, r: &Request) -> CliResult<(String, PathBuf)> {
         let rec = self.record()?;
-        let (file, data, v) = self.validated(&last.file, &last.request)?;
-        render(&file, &data, &v, "model.json (lifted studio)", &rec.name)
+        match r.estimation_range {
+            Some(range) => self.range_file(rec, range, r, "estimation range"),
+            None => Ok((rec.name.clone(), rec.path.clone())),
+        }
+    }
+
+    /// Every data file a request identifies on: [`Session::estimation_source`]
+    /// and the further experiments (q-Markov: one file per input, in input
+    /// order), each `--data` of the command line.
+    pub fn estimation_sources(&self, r: &Request) -> CliResult<Vec<(String, PathBuf)>> {
+        let mut all = vec![self.estimation_source(r)?];
+        all.extend(
+            self.experiments
+                .iter()
+                .map(|e| (e.name.clone(), e.path.clone())),
+        );
+        Ok(all)
+    }
+
+    /// Reads the record staged at `path` (in `folder`) as a further
+    /// experiment (appended; the estimation record stays the first `--data`).
+    /// A file that does not read whole is removed and nothing changes.
+    ///
+    /// Errors: no estimation record yet, [`MAX_EXPERIMENTS`] already, the
+    /// reader's error.
+    pub fn adopt_experiment(&mut self, folder: PathBuf, path: PathBuf) -> CliResult<DataInfo> {
+        let full = self.record().err().or_else(|| {
+            (self.experiments.len() + 1 >= MAX_EXPERIMENTS).then(|| {
+                input(format!(
+                    "at most {MAX_EXPERIMENTS} data files per identification"
+                ))
+            })
+        });
+        if let Some(e) = full {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(e);
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment.csv".into());
+        match self.inspect(&name, &path) {
+            Ok(info) => {
+                self.experiments.push(Record {
+                    name,
+                    folder,
+                    path,
+                    info: info.clone(),
+                });
+                Ok(info)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&folder);
+                Err(plain_in(&folder, e))
+            }
+        }
+    }
+
+    /// Stores and reads an uploaded further experiment
+    /// ([`Session::adopt_experiment`]).
+    pub fn upload_experiment(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
+        let (folder, path) = self.staging(name)?;
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
+        }
+        self.adopt_experiment(folder, path)
+    }
+
+    /// Drops the further experiments.
+    pub fn clear_experiments(&mut self) {
+        for e in self.experiments.drain(..) {
+            let _ = std::fs::remove_dir_all(e.folder);
+        }
+    }
+
+    /// The further experiments' descriptions.
+    pub fn experiments_info(&self) -> Vec<DataInfo> {
+        self.experiments.iter().map(|e| e.info.clone()).collect()
+    }
+
+    /// The data file of the model of request `seq` (the record or the rows
+    /// of its estimation range) and its name, for download.
+    pub fn estimation_data(&self, seq: Option<u64>) -> CliResult<(String, String)> {
+        let last = self.last(seq)?;
+        let (name, path) = &last.data;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| input(format!("cannot read {name}: {e}")))?;
+        Ok((name.clone(), text))
+    }
+
+    /// The model of identify request `seq`, its request and command line
+    /// (for the board).
+    pub(crate) fn kept_model(&self, seq: u64) -> CliResult<(ModelFile, Request, String)> {
+        let last = self.last(Some(seq))?;
+        Ok((
+            last.file.clone(),
+            last.request.clone(),
+            last.command.clone(),
+        ))
+    }
+
+    /// The name of the record the models are validated on: the validation
+    /// record when one is loaded, else the estimation record.
+    pub fn validation_name(&self) -> CliResult<String> {
+        match &self.validation {
+            Some(v) => Ok(v.name.clone()),
+            None => Ok(self.record()?.name.clone()),
+        }
+    }
+
+    /// Reads the record staged at `path` (in `folder`, from
+    /// [`Session::staging`]) as the validation record: once it reads whole
+    /// it replaces the previous validation record (the estimation record,
+    /// the models and the board stay); else `folder` is removed and nothing
+    /// changes. The channels are checked when a model is validated on it.
+    pub fn adopt_validation(&mut self, folder: PathBuf, path: PathBuf) -> CliResult<DataInfo> {
+        self.record()?;
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "validation.csv".into());
+        match self.inspect(&name, &path) {
+            Ok(info) => {
+                let old = self.validation.replace(Record {
+                    name,
+                    folder,
+                    path,
+                    info: info.clone(),
+                });
+                if let Some(old) = old {
+                    let _ = std::fs::remove_dir_all(old.folder);
+                }
+                Ok(info)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&folder);
+                Err(plain_in(&folder, e))
+            }
+        }
+    }
+
+    /// Stores and reads an uploaded validation record ([`Session::adopt_validation`]).
+    pub fn upload_validation(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
+        let (folder, path) = self.staging(name)?;
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
+        }
+        self.adopt_validation(folder, path)
+    }
+
+    /// Drops the validation record (the models are validated on the
+    /// estimation record again).
+    pub fn clear_validation(&mut self) {
+        if let Some(v) = self.validation.take() {
+            let _ = std::fs::remove_dir_all(v.folder);
+        }
+    }
+
+    /// The validation record's description, if any.
+    pub fn validation_info(&self) -> Option<&DataInfo> {
+        self.validation.as_ref().map(|r| &r.info)
+    }
+
+    /// The delay interval of every input-output pair of the record with
+    /// the request's channels (thesis §4.4 per pair, as `lifted delay`
+    /// with its defaults: 8 lifted lags, 3σ).
+    pub fn delays(&mut self, r: &Request) -> CliResult<Delays> {
+        self.check_sizes(r)?;
+        let r = &self.explicit(r)?;
+        let data = self.load(r)?;
+        let ts = data.ts();
+        let pairs = lifted_multirate::estimate_delays(data, DELAY_LAGS, DELAY_SIGMAS)
+            .map_err(|e| input(format!("delay estimation: {e}")))?;
+        Ok(Delays {
+            base_period: ts,
+            lags: DELAY_LAGS,
+            sigmas: DELAY_SIGMAS,
+            pairs: pairs
+                .iter()
+                .map(|p| PairDelay {
+                    input: r.inputs.get(p.input).cloned().unwrap_or_default(),
+                    output: r.outputs.get(p.output).cloned().unwrap_or_default(),
+                    hold: p.hold,
+                    period: p.period,
+                    interval: p.interval.map(|iv| [iv.lower, iv.upper]),
+                    interval_s: p
+                        .interval
+                        .map(|iv| [iv.lower as f64 * ts, iv.upper as f64 * ts]),
+                    failure: p.failure.clone(),
+                })
+                .collect(),
+        })
+    }
+
+    /// Records parsed and subspace compressions made by the studio's own
+    /// route since the session began (the module `cached`); identifications by the
+    /// command's route read the file themselves and are not counted.
+    pub fn cache_counts(&self) -> (usize, usize) {
+        self.cache.counts()
     }
 
     /// The uploaded record's description, if any.

@@ -35,6 +35,14 @@ const state = {
   views: 0,          // completed channel views
   failed: 0,         // failed calls
   csp: 0,            // content-security-policy violations seen
+  window: null,      // the time plots' zoom [t0, t1] in seconds (null: whole record)
+  extent: null,      // the whole record [0, (N - 1) T]
+  structure: {},     // horizon and (A, C) route the last automatic order used
+  refineOnce: false, // the next identification refines (PEM)
+  boardSelected: [], // ids of the board's models drawn in its overlays
+  boards: 0,         // board answers shown
+  ranges: { estimation: null, validation: null }, // [t0, t1] seconds, null: all rows
+  experiments: [],   // names of the further experiments
 };
 
 function showError(msg) {
@@ -141,11 +149,15 @@ function request(withOrder) {
   if (hold !== null) r.hold = hold;
   const periods = listOf($("output-period").value);
   if (periods.length) r.output_period = periods;
+  if (state.window) r.window = state.window;
+  if (state.ranges.estimation) r.estimation_range = state.ranges.estimation;
+  if (state.ranges.validation) r.validation_range = state.ranges.validation;
   if (!withOrder) return r;
   const method = $("method").value;
   r.method = method;
   r.order = String(state.order);
   r.detrend = $("detrend").value;
+  if (state.refineOnce) r.refine = "pem";
   if ($("stable").checked) r.stable = true;
   if (method === "qmarkov") {
     const n = num("prbs-order", true, 2);
@@ -158,6 +170,18 @@ function request(withOrder) {
   } else {
     const h = num("horizon", true, 1);
     if (h !== null) r.horizon = h;
+    const crit = $("order-criterion").value;
+    if (crit !== "validation" && method !== "pbsid" && method !== "ssarx") r.order_criterion = crit;
+    // A numeric order keeps the structure the automatic order chose (the
+    // server makes it explicit on the command line).
+    // A horizon i holds orders up to (i − 1) n_y: a larger order takes
+    // the server's default horizon instead.
+    if (state.order !== "auto" && method !== "iv") {
+      const hz = state.structure.horizon;
+      const ny = Math.max(1, r.outputs.length);
+      if (h === null && hz && state.order <= (hz - 1) * ny) r.horizon = hz;
+      if (state.structure.estimator) r.estimator = state.structure.estimator;
+    }
   }
   if (method === "iv") {
     const f = listOf($("instrument").value);
@@ -209,7 +233,9 @@ function fillTable(table, head, rows) {
 // is shown, to that very model (its request's sequence number `seq`); else
 // no href, aria-disabled, and clicks ignored.
 function setSaves(enabled, seq) {
-  for (const id of ["save-model", "save-report"]) {
+  $("refine").disabled = !enabled;
+  $("keep").disabled = !enabled;
+  for (const id of ["save-model", "save-report", "save-data"]) {
     const a = $(id);
     if (enabled) {
       a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&seq=" + seq;
@@ -227,7 +253,8 @@ function setSaves(enabled, seq) {
 // disables the Save links: after a failed identification nothing of the
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
-  for (const id of ["fig-order", "fits", "poles", "fig-response", "fig-error", "fig-step", "fig-bode", "fig-pz"]) {
+  $("refinement").textContent = "";
+  for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
     $(id).replaceChildren();
   }
   $("stability").hidden = true;
@@ -258,11 +285,53 @@ function channelBoxes(info) {
   fill("outputs-box", "Outputs", info.suggested_outputs);
 }
 
+// The range fields show the ranges (empty: all rows).
+function fillRanges() {
+  const put = (id, v) => { $(id).value = v === null ? "" : String(+v.toPrecision(6)); };
+  const e = state.ranges.estimation;
+  const v = state.ranges.validation;
+  put("est-t0", e ? e[0] : null);
+  put("est-t1", e ? e[1] : null);
+  put("vr-t0", v ? v[0] : null);
+  put("vr-t1", v ? v[1] : null);
+}
+
+function setRanges(est, val) {
+  state.ranges = { estimation: est, validation: val };
+  fillRanges();
+  schedule({ view: true, identify: true });
+}
+
+// A range from two fields: null when both are empty; an open end is the
+// record's.
+function rangeOf(a, b, what) {
+  const t0 = num(a, false);
+  const t1 = num(b, false);
+  if (t0 === null && t1 === null) return null;
+  const ext = state.extent || [0, 0];
+  const r = [t0 === null ? ext[0] : t0, t1 === null ? ext[1] : t1];
+  if (!(r[0] < r[1])) throw new Error(what + ": the start must be before the end");
+  return r;
+}
+
 function setup(info) {
   state.info = info;
+  // A new record drops the further experiments (the server does too).
+  state.experiments = [];
+  $("exp-names").textContent = "The record alone.";
+  $("exp-clear").disabled = true;
+  state.ranges = { estimation: null, validation: null };
+  fillRanges();
+  $("delay").disabled = false;
+  $("delays").replaceChildren();
   state.order = "auto";
-  $("data-name").textContent = info.name + ": " + info.rows + " rows, T = " + info.ts + " s, columns " +
-    info.columns.map((c) => c.name).join(", ");
+  state.window = null;
+  state.structure = {};
+  fillWindow();
+  $("ts").placeholder = info.has_time ? "from t column" : "1 (no time column)";
+  $("data-name").textContent = info.name + ": " + info.rows + " rows, " +
+    (info.has_time ? "T = " + info.ts + " s" : "no time column (base period: the T field, 1 s if empty)") +
+    ", columns " + info.columns.map((c) => c.name).join(", ");
   channelBoxes(info);
   clearIdentified();
   schedule({ view: true, identify: true });
@@ -284,6 +353,7 @@ async function loadFile(file) {
 }
 
 function renderView(v) {
+  state.extent = [0, Math.max(v.rows - 1, 1) * v.ts];
   $("fig-inputs").innerHTML = v.inputs_svg;
   $("fig-outputs").innerHTML = v.outputs_svg;
   const rows = [];
@@ -305,6 +375,28 @@ function renderPoles(poles) {
     return li;
   });
   $("poles").replaceChildren(...items);
+}
+
+// A matrix as a table of numbers (4 significant digits), captioned.
+function matrixTable(name, rows) {
+  const t = el("table");
+  t.appendChild(el("caption", name + " (" + rows.length + " × " + (rows[0] ? rows[0].length : 0) + ")"));
+  for (const r of rows) {
+    const tr = el("tr");
+    for (const x of r) tr.appendChild(el("td", typeof x === "number" ? x.toPrecision(4) : String(x)));
+    t.appendChild(tr);
+  }
+  return t;
+}
+
+function renderModel(r) {
+  const m = r.matrices;
+  const tables = [matrixTable("A", m.a), matrixTable("B", m.b), matrixTable("C", m.c), matrixTable("D", m.d)];
+  if (m.k) tables.push(matrixTable("K", m.k));
+  $("matrices").replaceChildren(...tables);
+  const rows = r.transfer_functions.map((g) => [g.output + " ← " + g.input, g.num, g.den]);
+  if (r.transfer_note) rows.push([r.transfer_note, "", ""]);
+  fillTable($("tfs"), ["channel", "numerator", "denominator"], rows);
 }
 
 // Puts an identification's answer on the page. The slider is never moved
@@ -352,10 +444,20 @@ function renderIdentified(r) {
   renderPoles(r.poles || []);
   $("fig-response").innerHTML = r.figures.response.join("");
   $("fig-error").innerHTML = r.figures.error.join("");
+  $("fig-residuals").innerHTML = r.figures.residuals.join("");
+  $("fig-criterion").innerHTML = r.figures.criterion || "";
+  renderModel(r);
+  const ref = r.refinement;
+  $("refinement").textContent = ref
+    ? "PEM refinement: " + ref.iterations + " iterations, cost " + fixed(ref.initial_cost, 6) + " → " +
+      fixed(ref.final_cost, 6) + " (" + ref.termination + "; " + (ref.kept === "Refined" ? "refined model kept" : "initial model kept") + ")"
+    : "";
+  if (state.order === "auto") state.structure = { horizon: r.horizon, estimator: r.estimator };
   $("fig-step").innerHTML = r.figures.step;
   $("fig-bode").innerHTML = r.figures.bode;
   $("fig-pz").innerHTML = r.figures.pz;
   $("command").textContent = r.command;
+  $("validation-data").textContent = r.validation_data;
   state.shown = r.seq;
   setSaves(true, r.seq);
   state.generation += 1;
@@ -388,6 +490,7 @@ async function run(job) {
     if (job.identify) {
       setStatus("identifying…");
       const req = request(true);
+      state.refineOnce = false;
       state.seq += 1;
       req.seq = state.seq;
       const r = await call("/api/identify", JSON.stringify(req));
@@ -411,9 +514,251 @@ async function run(job) {
   if (next) run(next);
 }
 
+// The zoom fields show the window (empty: whole record).
+function fillWindow() {
+  $("win-t0").value = state.window ? String(+state.window[0].toPrecision(6)) : "";
+  $("win-t1").value = state.window ? String(+state.window[1].toPrecision(6)) : "";
+}
+
+// Sets the time plots' window (null: the whole record), clamped to the
+// record, and redraws the time plots (and the model's, if shown).
+function setWindow(w) {
+  const ext = state.extent;
+  if (w && ext) {
+    let [a, b] = w;
+    const span = Math.max(b - a, 1e-12);
+    if (a < ext[0]) [a, b] = [ext[0], ext[0] + span];
+    if (b > ext[1]) [a, b] = [Math.max(ext[0], ext[1] - span), ext[1]];
+    w = a <= ext[0] && b >= ext[1] ? null : [a, b];
+  }
+  state.window = w;
+  fillWindow();
+  schedule({ view: true, identify: state.shown > 0 });
+}
+
+// Where the pointer is on a time plot, as a time: the plot area of the
+// server's figures spans x = 70 … W − 10 of a W pixels wide SVG, over the
+// window padded by 5 % on each side (crate::plot).
+function timeAt(svg, clientX) {
+  const rect = svg.getBoundingClientRect();
+  const w = Number(svg.getAttribute("width")) || rect.width;
+  const px = (clientX - rect.left) * (w / rect.width);
+  const f = Math.min(1, Math.max(0, (px - 70) / (w - 80)));
+  const [a, b] = state.window || state.extent;
+  const d = b - a;
+  return a - 0.05 * d + f * 1.1 * d;
+}
+
+function wireZoom(div) {
+  div.addEventListener("wheel", (e) => {
+    const svg = div.querySelector("svg");
+    if (!svg || !state.extent) return;
+    e.preventDefault();
+    const t = timeAt(svg, e.clientX);
+    const [a, b] = state.window || state.extent;
+    const k = e.deltaY < 0 ? 0.5 : 2;
+    setWindow([t - (t - a) * k, t + (b - t) * k]);
+  }, { passive: false });
+  let drag = null;
+  div.addEventListener("mousedown", (e) => {
+    const svg = div.querySelector("svg");
+    if (!svg || !state.extent || e.button !== 0) return;
+    e.preventDefault();
+    drag = { x: e.clientX, t: timeAt(svg, e.clientX), svg };
+    div.classList.add("dragging");
+  });
+  window.addEventListener("mouseup", (e) => {
+    if (!drag) return;
+    const d = drag;
+    drag = null;
+    div.classList.remove("dragging");
+    if (Math.abs(e.clientX - d.x) < 3) return;
+    const mode = (document.querySelector('input[name="drag"]:checked') || {}).value;
+    if (mode === "estimation" || mode === "validation") {
+      const t1 = timeAt(d.svg, e.clientX);
+      const ext = state.extent;
+      const r = [Math.max(ext[0], Math.min(d.t, t1)), Math.min(ext[1], Math.max(d.t, t1))];
+      const next = Object.assign({}, state.ranges);
+      next[mode] = r;
+      setRanges(next.estimation, next.validation);
+      return;
+    }
+    const shift = d.t - timeAt(d.svg, e.clientX);
+    const [a, b] = state.window || state.extent;
+    setWindow([a + shift, b + shift]);
+  });
+  div.addEventListener("dblclick", () => setWindow(null));
+}
+
+// The board's answer: the fit table (a checkbox per model to overlay it,
+// its Save link and a Remove button) and the overlays of the ticked ones.
+function renderBoard(b) {
+  $("board-data").textContent = b.data;
+  state.boardSelected = b.entries.filter((e) => e.selected).map((e) => e.id);
+  const outputs = [];
+  for (const e of b.entries) for (const [o] of e.fits) if (!outputs.includes(o)) outputs.push(o);
+  const rows = b.entries.map((e) => {
+    const tick = el("td");
+    const cb = document.createElement("input");
+    cb.type = "checkbox";
+    cb.checked = e.selected;
+    cb.dataset.id = String(e.id);
+    cb.addEventListener("change", () => {
+      const sel = state.boardSelected.filter((x) => x !== e.id);
+      if (cb.checked) sel.push(e.id);
+      boardCall({ selected: sel });
+    });
+    tick.appendChild(cb);
+    const fits = outputs.map((o) => {
+      const f = e.fits.find((x) => x[0] === o);
+      const c = el("td", !f ? "–" : e.stable ? fixed(f[1], 2) : "n/a: unstable", "num");
+      return c;
+    });
+    const save = el("td");
+    const a = el("a", "save", "button");
+    a.href = "/api/model?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&board=" + e.id;
+    a.setAttribute("download", "model-" + e.id + ".json");
+    save.appendChild(a);
+    const rm = el("td");
+    const b2 = el("button", "remove");
+    b2.type = "button";
+    b2.addEventListener("click", () => boardCall({ remove: e.id, selected: state.boardSelected.filter((x) => x !== e.id) }));
+    rm.appendChild(b2);
+    const cmd = el("td");
+    cmd.appendChild(el("code", e.command));
+    return [tick, e.label, ...fits, save, rm, cmd];
+  });
+  fillTable($("board"), ["show", "model", ...outputs.map((o) => "fit % " + o), "", "", "command"], rows);
+  $("board-response").innerHTML = b.response.join("");
+  $("board-step").innerHTML = b.step || "";
+  $("board-bode").innerHTML = b.bode || "";
+  state.boards += 1;
+  $("status").dataset.board = String(state.boards);
+}
+
+async function boardCall(body) {
+  clearError();
+  try {
+    if (state.window) body.window = state.window;
+    renderBoard(await call("/api/board", JSON.stringify(body)));
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
+// Further experiments: appended in the order chosen (q-Markov: one file
+// per input, in input order), each a --data of the command after the record.
+async function addExperiments(files) {
+  clearError();
+  try {
+    for (const file of files) {
+      const buf = await file.arrayBuffer();
+      await call("/api/data?role=experiment&name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
+      state.experiments.push(file.name);
+    }
+  } catch (e) {
+    showError(e.message);
+  }
+  $("exp-names").textContent = state.experiments.length
+    ? "The record, then " + state.experiments.join(", ") + "."
+    : "The record alone.";
+  $("exp-clear").disabled = state.experiments.length === 0;
+  schedule({ identify: true });
+}
+
+async function loadValidation(file) {
+  clearError();
+  try {
+    const buf = await file.arrayBuffer();
+    const info = await call("/api/data?role=validation&name=" + encodeURIComponent(file.name), buf, "application/octet-stream");
+    $("val-name").textContent = "Models are validated on " + info.name + " (" + info.rows + " rows).";
+    $("val-clear").disabled = false;
+    schedule({ identify: true });
+    boardCall({ selected: state.boardSelected });
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
 function wire() {
+  document.querySelectorAll(".timeplot").forEach(wireZoom);
+  $("val-file").addEventListener("change", (e) => {
+    if (e.target.files.length) loadValidation(e.target.files[0]);
+  });
+  $("exp-file").addEventListener("change", (e) => {
+    if (e.target.files.length) addExperiments(Array.from(e.target.files));
+  });
+  $("exp-clear").addEventListener("click", async () => {
+    try {
+      await call("/api/experiments/clear", "{}");
+      state.experiments = [];
+      $("exp-names").textContent = "The record alone.";
+      $("exp-clear").disabled = true;
+      schedule({ identify: true });
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("val-clear").addEventListener("click", async () => {
+    try {
+      await call("/api/validation/clear", "{}");
+      $("val-name").textContent = "Models are validated on the estimation record.";
+      $("val-clear").disabled = true;
+      schedule({ identify: true });
+      boardCall({ selected: state.boardSelected });
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("refine").addEventListener("click", () => {
+    state.refineOnce = true;
+    schedule({ identify: true });
+  });
+  $("keep").addEventListener("click", () => {
+    const sel = state.boardSelected.slice();
+    boardCall({ add: state.shown, selected: sel });
+  });
+  $("delay").addEventListener("click", async () => {
+    clearError();
+    try {
+      const d = await call("/api/delay", JSON.stringify(request(false)));
+      const rows = d.pairs.map((p) => [
+        p.input + " → " + p.output,
+        p.interval ? "[" + p.interval[0] + ", " + p.interval[1] + ")" : "–",
+        p.interval_s ? "[" + p.interval_s[0] + ", " + p.interval_s[1] + ") s" : p.failure || "",
+      ]);
+      fillTable($("delays"), ["pair", "delay d (T)", "delay (s) / why none"], rows);
+      $("status").dataset.delays = String(Number($("status").dataset.delays || "0") + 1);
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("win-apply").addEventListener("click", () => {
+    clearError();
+    try {
+      const a = num("win-t0", false);
+      const b = num("win-t1", false);
+      if (a === null && b === null) return setWindow(null);
+      const ext = state.extent || [0, 0];
+      const w = [a === null ? ext[0] : a, b === null ? ext[1] : b];
+      if (!(w[0] < w[1])) throw new Error("Time window: the start must be before the end");
+      setWindow(w);
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("win-reset").addEventListener("click", () => setWindow(null));
+  $("ranges-apply").addEventListener("click", () => {
+    clearError();
+    try {
+      setRanges(rangeOf("est-t0", "est-t1", "Estimation rows"), rangeOf("vr-t0", "vr-t1", "Validation rows"));
+    } catch (e) {
+      showError(e.message);
+    }
+  });
+  $("ranges-clear").addEventListener("click", () => setRanges(null, null));
   // A Save link without a model does nothing, whatever the CSS.
-  for (const id of ["save-model", "save-report"]) {
+  for (const id of ["save-model", "save-report", "save-data"]) {
     $(id).addEventListener("click", (e) => {
       if (e.currentTarget.getAttribute("aria-disabled") === "true") e.preventDefault();
     });
@@ -459,7 +804,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "order-criterion"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });
