@@ -77,6 +77,7 @@
 //! # }
 //! ```
 
+mod cache;
 mod diagnostics;
 mod error;
 mod options;
@@ -92,7 +93,8 @@ pub use options::{
     BdRoute, DataOptions, Detrend, Estimator, IdentificationOptions, Method, Order, OrderCriterion,
     Refine, RefinementOptions, ValidationOptions, WorkflowOptions,
 };
-pub use pipeline::{Identified, Record, identify, identify_named};
+pub use cache::SubspaceCache;
+pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{detrend_sets, deviations};
 pub use refine::refine;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};

@@ -4,6 +4,7 @@
 use lifted_lti::{Dataset, ModelFile, OperatingPoint};
 use nalgebra::{DMatrix, DVector};
 
+use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::options::{Detrend, Method, WorkflowOptions};
@@ -82,6 +83,30 @@ pub fn identify_named(
     opts: &WorkflowOptions,
     instrument_names: &[String],
 ) -> Result<Identified> {
+    run(records, opts, instrument_names, None)
+}
+
+/// [`identify_named`] with step 1 of the single-rate subspace route kept in
+/// `cache` between calls ([`SubspaceCache`]): the same model bit for bit,
+/// without a new compression when the records and the compression options
+/// are those of the previous call (a new order, method or (B, D) route).
+///
+/// Errors: those of [`identify_named`].
+pub fn identify_cached(
+    records: &[Record],
+    opts: &WorkflowOptions,
+    instrument_names: &[String],
+    cache: &mut SubspaceCache,
+) -> Result<Identified> {
+    run(records, opts, instrument_names, Some(cache))
+}
+
+fn run(
+    records: &[Record],
+    opts: &WorkflowOptions,
+    instrument_names: &[String],
+    cache: Option<&mut SubspaceCache>,
+) -> Result<Identified> {
     opts.check()?;
     let id = &opts.identification;
     if records.is_empty() {
@@ -110,7 +135,7 @@ pub fn identify_named(
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
         m if m.is_subspace() => {
-            let (fit, d) = routes::subspace(opts, &sets, inner_means)?;
+            let (fit, d) = routes::subspace(opts, &sets, inner_means, cache)?;
             if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.

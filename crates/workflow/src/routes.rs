@@ -18,6 +18,7 @@ use lifted_subspace::{
 use nalgebra::{DMatrix, DVector};
 use serde_json::json;
 
+use crate::cache::SubspaceCache;
 use crate::diagnostics::{criterion_json, order_json, pbsid_json, system_name};
 use crate::error::{Context, Error, Result};
 use crate::options::{
@@ -128,6 +129,7 @@ pub(crate) fn subspace(
     opts: &WorkflowOptions,
     sets: &[Dataset],
     remove_means: bool,
+    cache: Option<&mut SubspaceCache>,
 ) -> Result<(SubspaceModel, serde_json::Value)> {
     let id = &opts.identification;
     let stable = stabilized_start(opts);
@@ -156,7 +158,11 @@ pub(crate) fn subspace(
         let (fit, d) = select(id, &exps, sub)?;
         (fit, Some(d))
     } else {
-        (identify(&exps, &sub).ctx(&what)?, None)
+        let fit = match cache {
+            Some(c) => c.identify(&exps, &sub, &what)?,
+            None => identify(&exps, &sub).ctx(&what)?,
+        };
+        (fit, None)
     };
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {

@@ -239,6 +239,70 @@ fn small_enough_to_select(paths: &[String]) -> bool {
 /// memory ([`lifted_workflow::identify_named`]). The model carries the
 /// column names; the diagnostics the data files and the reading time.
 pub fn identify_files(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<ModelFile> {
+    identify_files_with(files, opts, &mut NoKeeping)
+}
+
+/// Where [`identify_files_with`] gets the parsed records of its in-memory
+/// route and keeps step 1 of the subspace identification: a front end that
+/// refits the same files many times (the studio) keeps both between calls;
+/// [`identify_files`] reads the files every time and keeps nothing.
+pub trait RecordKeeper {
+    /// The record of `path` read with `spec`.
+    fn loaded(&mut self, path: &str, spec: &DataSpec) -> CliResult<Loaded>;
+    /// The compression kept between calls, if any.
+    fn subspace_cache(&mut self) -> Option<&mut lifted_workflow::SubspaceCache>;
+}
+
+/// Reads every time, keeps nothing.
+struct NoKeeping;
+
+impl RecordKeeper for NoKeeping {
+    fn loaded(&mut self, path: &str, spec: &DataSpec) -> CliResult<Loaded> {
+        load(path, spec)
+    }
+    fn subspace_cache(&mut self) -> Option<&mut lifted_workflow::SubspaceCache> {
+        None
+    }
+}
+
+/// The data specification of `files` with the hold of `opts`.
+pub fn spec_of(files: &DataFiles, opts: &WorkflowOptions) -> DataSpec {
+    DataSpec {
+        inputs: files.inputs.clone(),
+        outputs: files.outputs.clone(),
+        extra: files.instruments.clone(),
+        ts: files.ts,
+        hold: opts.data.hold,
+        periods: files.output_periods.clone(),
+        columns: files.columns.clone(),
+    }
+}
+
+/// Whether [`identify_files`] takes the streamed route (one record read in
+/// blocks, two passes) for `files` and `opts`; otherwise it reads the
+/// records whole and runs the workflow on them in memory.
+pub fn streams(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<bool> {
+    let paths = crate::shards::expand(&files.paths)?;
+    Ok(streams_paths(files, opts, &paths))
+}
+
+fn streams_paths(files: &DataFiles, opts: &WorkflowOptions, paths: &[String]) -> bool {
+    lifted_workflow::streamable(opts)
+        && !(opts.wants_selection() && small_enough_to_select(paths))
+        && (paths.len() == 1 || files.concat)
+        && files.output_periods.is_empty()
+        && opts.data.hold <= 1
+        && files.instruments.is_empty()
+}
+
+/// [`identify_files`] with the records of the in-memory route read through
+/// `keeper` and step 1 of its subspace identification kept there
+/// ([`lifted_workflow::identify_cached`]): the same model file, bit for bit.
+pub fn identify_files_with(
+    files: &DataFiles,
+    opts: &WorkflowOptions,
+    keeper: &mut dyn RecordKeeper,
+) -> CliResult<ModelFile> {
     let paths = crate::shards::expand(&files.paths)?;
     let method = opts.identification.method;
     if files.concat && method == Method::Qmarkov {
@@ -254,15 +318,7 @@ pub fn identify_files(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<Mo
     if files.inputs.is_empty() || files.outputs.is_empty() {
         return Err(input("at least one input and one output column are needed"));
     }
-    let spec = DataSpec {
-        inputs: files.inputs.clone(),
-        outputs: files.outputs.clone(),
-        extra: extra.clone(),
-        ts: files.ts,
-        hold: opts.data.hold,
-        periods: files.output_periods.clone(),
-        columns: files.columns.clone(),
-    };
+    let spec = spec_of(files, opts);
     spec.check_selection()?;
     if !extra.is_empty() && extra.len() != spec.inputs.len() {
         return Err(input(format!(
@@ -271,13 +327,7 @@ pub fn identify_files(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<Mo
             spec.inputs.len()
         )));
     }
-    let stream = lifted_workflow::streamable(opts)
-        && !(opts.wants_selection() && small_enough_to_select(&paths))
-        && (paths.len() == 1 || files.concat)
-        && spec.periods.is_empty()
-        && spec.hold <= 1
-        && spec.extra.is_empty();
-    if stream {
+    if streams_paths(files, opts, &paths) {
         let mut source = FileSource {
             paths: &paths,
             spec: &spec,
@@ -291,7 +341,7 @@ pub fn identify_files(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<Mo
     let t_read = std::time::Instant::now();
     let mut loaded: Vec<Loaded> = paths
         .iter()
-        .map(|p| load(p, &spec))
+        .map(|p| keeper.loaded(p, &spec))
         .collect::<CliResult<_>>()?;
     if files.concat {
         loaded = vec![crate::shards::join(loaded, &paths)?];
@@ -304,7 +354,11 @@ pub fn identify_files(files: &DataFiles, opts: &WorkflowOptions) -> CliResult<Mo
             instrument: (!extra.is_empty()).then_some(l.extra),
         })
         .collect();
-    let fit = lifted_workflow::identify_named(&records, opts, &extra).map_err(cli_error)?;
+    let fit = match keeper.subspace_cache() {
+        Some(cache) => lifted_workflow::identify_cached(&records, opts, &extra, cache),
+        None => lifted_workflow::identify_named(&records, opts, &extra),
+    }
+    .map_err(cli_error)?;
     finish(fit.file, &spec, &paths, Some(read_s))
 }
 

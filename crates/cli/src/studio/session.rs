@@ -20,11 +20,13 @@ use crate::service::figures::{
     outputs_plot_in, pz_plot, residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
     step_plot,
 };
-use crate::service::identify::{require_stable, run_identification};
+use crate::service::identify::{
+    files_from_args, identify_files_with, options_from_args, require_stable,
+};
 use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
 use crate::studio::board::Pinned;
-use crate::studio::cached::{self, Cache, in_memory_route};
+use crate::studio::cached::Cache;
 use crate::studio::ranges;
 use crate::table::{DataSpec, header, parse_periods, read_raw};
 
@@ -936,10 +938,9 @@ impl Session {
         }
     }
 
-    /// The model file of a request, as `lifted identify` writes it: from
-    /// the kept record and compression when the command takes the
-    /// in-memory subspace route ([`cached`]), else by the command's own
-    /// identification.
+    /// The model file of a request, as `lifted identify` writes it: the
+    /// command's own identification, with the record and the compression of
+    /// its in-memory route kept between requests ([`Cache`]).
     fn model_file(&mut self, r: &Request) -> CliResult<ModelFile> {
         let paths: Vec<String> = self
             .estimation_sources(r)?
@@ -947,17 +948,9 @@ impl Session {
             .map(|(_, p)| p.display().to_string())
             .collect();
         let a = Self::identify_args(r, &paths)?;
-        let spec = Self::spec(r)?;
-        let in_memory = r.instrument.is_empty() && {
-            let data = self.load(r)?;
-            in_memory_route(&a, &spec, data)
-        };
-        let file = if in_memory {
-            cached::model_file(&mut self.cache, &a, &spec)
-        } else {
-            run_identification(&a)
-        };
-        let file = file.map_err(|e| self.plain(e))?;
+        let (files, opts) = (files_from_args(&a)?, options_from_args(&a)?);
+        let file = identify_files_with(&files, &opts, &mut self.cache)
+            .map_err(|e| self.plain(e))?;
         if a.stable {
             require_stable(&file.model)?;
         }

@@ -1,0 +1,96 @@
+//! Step 1 of a subspace identification kept between runs on the same
+//! records, for front ends that refit one record many times (the studio's
+//! order slider): [`identify_cached`] equals [`crate::identify_named`]
+//! exactly, but a single-rate N4SID/MOESP/CVA run without the held-out
+//! structure selection takes its compressed data
+//! ([`lifted_subspace::CompressedData`]: means removed, scaled,
+//! block-Hankel factor, O(N (n_u + n_y)² s)) from the cache when the records
+//! and what the compression depends on (horizon, mean removal, compression
+//! kind, block size, threads) are those of the previous run, so a new order
+//! costs O(k³) and the (B, D, x₀) regression instead of O(N) work more.
+//! `CompressedData::identify` is how `lifted_subspace::identify` itself
+//! runs, so the cached model is bit for bit the uncached one.
+
+use lifted_subspace::{CompressedData, Experiment, SubspaceModel, SubspaceOptions};
+
+use crate::error::{Context, Result};
+
+/// The compressed data of the last run (see the [module docs](self)).
+#[derive(Default)]
+pub struct SubspaceCache {
+    kept: Option<(String, CompressedData<'static>)>,
+    compressions: usize,
+}
+
+impl std::fmt::Debug for SubspaceCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SubspaceCache")
+            .field("kept", &self.kept.as_ref().map(|(k, _)| k))
+            .field("compressions", &self.compressions)
+            .finish()
+    }
+}
+
+impl SubspaceCache {
+    /// Compressions made since the cache was created (a refit of a kept
+    /// compression makes none).
+    pub fn compressions(&self) -> usize {
+        self.compressions
+    }
+
+    /// Forgets the kept compression.
+    pub fn clear(&mut self) {
+        self.kept = None;
+    }
+
+    /// `lifted_subspace::identify(exps, sub)`, from the kept compression
+    /// when it was made from the same records with the same compression
+    /// options.
+    pub(crate) fn identify(
+        &mut self,
+        exps: &[Experiment<'_>],
+        sub: &SubspaceOptions,
+        what: &str,
+    ) -> Result<SubspaceModel> {
+        let key = key_of(exps, sub);
+        if self.kept.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.kept = None;
+            let c = CompressedData::new(exps, sub).ctx(what)?.into_owned();
+            self.compressions += 1;
+            self.kept = Some((key, c));
+        }
+        match &self.kept {
+            Some((_, c)) => c.identify(sub).ctx(what),
+            None => lifted_subspace::identify(exps, sub).ctx(what),
+        }
+    }
+}
+
+/// What the compression depends on: the records (their sizes and the bits
+/// of every column's sum, O(N) additions — a changed sample changes a sum
+/// but for a cancellation that rounding makes practically impossible to
+/// meet by accident) and the compression options.
+fn key_of(exps: &[Experiment<'_>], sub: &SubspaceOptions) -> String {
+    let records: Vec<(usize, Vec<u64>)> = exps
+        .iter()
+        .map(|e| {
+            let sums = e
+                .u
+                .column_iter()
+                .chain(e.y.column_iter())
+                .map(|c| {
+                    c.iter()
+                        .enumerate()
+                        .map(|(i, v)| v * (1.0 + i as f64 * 1e-7))
+                        .sum::<f64>()
+                        .to_bits()
+                })
+                .collect();
+            (e.u.nrows(), sums)
+        })
+        .collect();
+    format!(
+        "{records:?}|{}|{}|{}|{:?}|{}|{}",
+        sub.past, sub.future, sub.remove_means, sub.compression, sub.chunk_rows, sub.threads
+    )
+}
