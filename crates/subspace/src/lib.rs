@@ -165,7 +165,9 @@ pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify,
 };
-pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
+pub use refine::{
+    Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, Termination, refine_pem,
+};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
