@@ -20,12 +20,12 @@ struct Directions {
     ny: usize,
     /// Directions (columns of the basis).
     np: usize,
-    /// [δA_i δB_i δK_i] stacked: (n·np) × (n + n_u + n_y), column-major,
-    /// row i·n + r.
+    /// [δA_i δB_i δK_i]: per column of z = [x̂; u; e] an n × np block,
+    /// state-major (entry r·np + i: state r, direction i).
     m: Vec<f64>,
-    /// [δC_i δD_i] stacked: (n_y·np) × (n + n_u), column-major, row i·n_y + o.
+    /// [δC_i δD_i]: per column of [x̂; u] an n_y × np block, output-major.
     mc: Vec<f64>,
-    /// δx₀ per record: n × np, column-major.
+    /// δx₀ per record: n × np, state-major.
     s0: Vec<Vec<f64>>,
     /// Per column of `m`: the directions [lo, hi) outside which it is
     /// zero (directions of a few blocks of θ force few columns).
@@ -34,13 +34,13 @@ struct Directions {
     mc_span: Vec<(usize, usize)>,
 }
 
-/// Per column of a stacked (rows·np) × cols matrix: the directions
+/// Per block of `cols` rows × np blocks (row-major): the directions
 /// [lo, hi) outside which it is zero.
 fn spans(m: &[f64], rows: usize, np: usize, cols: usize) -> Vec<(usize, usize)> {
     (0..cols)
         .map(|col| {
             let block = &m[col * rows * np..(col + 1) * rows * np];
-            let nz = |i: &usize| block[i * rows..(i + 1) * rows].iter().any(|&v| v != 0.0);
+            let nz = |i: &usize| (0..rows).any(|r| block[r * np + i] != 0.0);
             match (0..np).find(nz) {
                 Some(lo) => (lo, (0..np).rev().find(nz).map_or(lo, |hi| hi + 1)),
                 None => (0, 0),
@@ -60,7 +60,7 @@ impl Directions {
             let dir = Point::unpack(&basis.column(i).into_owned(), lay);
             for col in 0..mz {
                 for r in 0..n {
-                    m[col * n * np + i * n + r] = if col < n {
+                    m[col * n * np + r * np + i] = if col < n {
                         dir.a[(r, col)]
                     } else if col < n + nu {
                         dir.b[(r, col - n)]
@@ -71,7 +71,7 @@ impl Directions {
             }
             for col in 0..mcz {
                 for o in 0..ny {
-                    mc[col * ny * np + i * ny + o] = if col < n {
+                    mc[col * ny * np + o * np + i] = if col < n {
                         dir.c[(o, col)]
                     } else {
                         dir.d[(o, col - n)]
@@ -79,7 +79,9 @@ impl Directions {
                 }
             }
             for (s, x) in s0.iter_mut().zip(&dir.x0) {
-                s[i * n..(i + 1) * n].copy_from_slice(x.as_slice());
+                for (r, &v) in x.iter().enumerate() {
+                    s[r * np + i] = v;
+                }
             }
         }
         let m_span = spans(&m, n, np, mz);
@@ -172,21 +174,27 @@ fn sweep(
     let mut next = vec![0.0; n];
     let mut f = vec![0.0; n * np];
     let mut g = vec![0.0; ny * np];
-    let mut de = vec![0.0; ny];
+    let mut de = vec![0.0; ny * width];
     let mut sn = vec![0.0; s.len()];
     for t in range {
         predictor_step(p, gain, rec, t, x, &mut z, &mut meas, &mut next);
+        let nmeas = meas.iter().filter(|&&m| m).count();
         // z holds the pre-step state x̂(t); the forcing terms use it.
+        // Every operation below is an axpy over the directions (state-
+        // and output-major layouts), so it vectorises.
         f.fill(0.0);
         for (col, &zc) in z.iter().enumerate() {
             let (lo, hi) = dirs.m_span[col];
             if zc != 0.0 && hi > lo {
                 let at = col * n * np;
-                for (fi, mi) in f[lo * n..hi * n]
-                    .iter_mut()
-                    .zip(&dirs.m[at + lo * n..at + hi * n])
-                {
-                    *fi += mi * zc;
+                for r in 0..n {
+                    let row = at + r * np;
+                    for (fi, mi) in f[r * np + lo..r * np + hi]
+                        .iter_mut()
+                        .zip(&dirs.m[row + lo..row + hi])
+                    {
+                        *fi += mi * zc;
+                    }
                 }
             }
         }
@@ -195,69 +203,76 @@ fn sweep(
             let (lo, hi) = dirs.mc_span[col];
             if zc != 0.0 && hi > lo {
                 let at = col * ny * np;
-                for (gi, mi) in g[lo * ny..hi * ny]
-                    .iter_mut()
-                    .zip(&dirs.mc[at + lo * ny..at + hi * ny])
-                {
-                    *gi += mi * zc;
+                for o in 0..ny {
+                    let row = at + o * np;
+                    for (gi, mi) in g[o * np + lo..o * np + hi]
+                        .iter_mut()
+                        .zip(&dirs.mc[row + lo..row + hi])
+                    {
+                        *gi += mi * zc;
+                    }
                 }
             }
         }
-        let nmeas = meas.iter().filter(|&&m| m).count();
-        let base = match sink.as_deref_mut() {
-            Some(sk) if nmeas > 0 => Some(sk.reserve(nmeas)?),
-            _ => None,
-        };
-        for i in 0..width {
-            let si = &s[i * n..(i + 1) * n];
-            for o in 0..ny {
-                de[o] = if meas[o] {
-                    let mut cs = if i < np { g[i * ny + o] } else { 0.0 };
-                    for (j, sj) in si.iter().enumerate() {
-                        cs += c[o + j * ny] * sj;
-                    }
-                    -cs
-                } else {
-                    0.0
-                };
-            }
-            let out = &mut sn[i * n..(i + 1) * n];
-            if i < np {
-                out.copy_from_slice(&f[i * n..(i + 1) * n]);
-            } else {
+        // δe = −(C s + δC x̂ + δD u) on the measured outputs (n_y × width).
+        for o in 0..ny {
+            let out = &mut de[o * width..(o + 1) * width];
+            if !meas[o] {
                 out.fill(0.0);
+                continue;
             }
-            for (j, &sj) in si.iter().enumerate() {
-                for (or, ar) in out.iter_mut().zip(&a[j * n..(j + 1) * n]) {
-                    *or += ar * sj;
+            out[..np].copy_from_slice(&g[o * np..(o + 1) * np]);
+            out[np..].fill(0.0);
+            for j in 0..n {
+                let coj = c[o + j * ny];
+                if coj != 0.0 {
+                    for (dv, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
+                        *dv += coj * sv;
+                    }
+                }
+            }
+            for dv in out.iter_mut() {
+                *dv = -*dv;
+            }
+        }
+        // s(t+1) = A s + forcing + K δe (n × width).
+        for r in 0..n {
+            let out = &mut sn[r * width..(r + 1) * width];
+            out[..np].copy_from_slice(&f[r * np..(r + 1) * np]);
+            out[np..].fill(0.0);
+            for j in 0..n {
+                let arj = a[r + j * n];
+                if arj != 0.0 {
+                    for (ov, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
+                        *ov += arj * sv;
+                    }
                 }
             }
             if gain {
-                for (o, &d) in de.iter().enumerate() {
-                    if d != 0.0 {
-                        for (or, kr) in out.iter_mut().zip(&k[o * n..(o + 1) * n]) {
-                            *or += kr * d;
+                for o in 0..ny {
+                    let kro = k[r + o * n];
+                    if kro != 0.0 && meas[o] {
+                        for (ov, dv) in out.iter_mut().zip(&de[o * width..(o + 1) * width]) {
+                            *ov += kro * dv;
                         }
                     }
                 }
             }
-            if let (Some(at), Some(sk)) = (base, sink.as_deref_mut()) {
-                let w = sk.width;
-                let mut row = at;
-                for o in 0..ny {
-                    if meas[o] {
-                        sk.buf[row * w + i] = weights[o] * de[o];
-                        row += 1;
-                    }
-                }
-            }
         }
-        if let (Some(at), Some(sk)) = (base, sink.as_deref_mut()) {
+        if let Some(sk) = sink.as_deref_mut()
+            && nmeas > 0
+        {
+            let at = sk.reserve(nmeas)?;
             let w = sk.width;
             let mut row = at;
             for o in 0..ny {
                 if meas[o] {
-                    sk.buf[row * w + np] = weights[o] * z[n + nu + o];
+                    let wo = weights[o];
+                    let dst = &mut sk.buf[row * w..(row + 1) * w];
+                    for (dv, sv) in dst[..np].iter_mut().zip(&de[o * width..o * width + np]) {
+                        *dv = wo * sv;
+                    }
+                    dst[np] = wo * z[n + nu + o];
                     row += 1;
                 }
             }
@@ -364,9 +379,12 @@ pub(super) fn jacobian_r(
             let dirs = &dirs;
             run_parallel(threads, chained.clone(), &|i: usize| {
                 let rg = &ranges[i];
-                let mut s = vec![0.0; n * (np + n)];
+                // n × (np + n), state-major: the last n columns start
+                // as the identity and carry the transition Ψ.
+                let w = np + n;
+                let mut s = vec![0.0; n * w];
                 for j in 0..n {
-                    s[(np + j) * n + j] = 1.0;
+                    s[j * w + np + j] = 1.0;
                 }
                 let mut x = rg.x.clone();
                 sweep(
@@ -384,15 +402,17 @@ pub(super) fn jacobian_r(
             })?
         };
         for (&i, end) in chained.iter().zip(ends) {
-            // s_next = S_part + Ψ s_start.
-            let start = ranges[i].s.clone();
-            let mut s = end[..n * np].to_vec();
-            let psi = &end[n * np..];
-            for col in 0..np {
+            // s_next = S_part + Ψ s_start (state-major, rows of np + n).
+            let start = &ranges[i].s;
+            let w = np + n;
+            let mut s = vec![0.0; n * np];
+            for r in 0..n {
+                let out = &mut s[r * np..(r + 1) * np];
+                out.copy_from_slice(&end[r * w..r * w + np]);
                 for j in 0..n {
-                    let v = start[col * n + j];
-                    for r in 0..n {
-                        s[col * n + r] += psi[j * n + r] * v;
+                    let psi = end[r * w + np + j];
+                    for (ov, sv) in out.iter_mut().zip(&start[j * np..(j + 1) * np]) {
+                        *ov += psi * sv;
                     }
                 }
             }
