@@ -100,13 +100,20 @@ impl Directions {
     }
 }
 
-/// Rows of [J | e] in a row-major block, folded into an R-only QR when full.
+/// Samples per block of the Hessian subsample ([`jacobian_r`]'s `stride`).
+pub(super) const HESSIAN_BLOCK: usize = 256;
+
+/// Rows of [J | e] in a row-major block, folded into an R-only QR when
+/// full, and the sums Jᵀe, eᵀe of all rows offered (also those left out
+/// of the QR by a Hessian subsample).
 struct RowSink {
     width: usize,
     cap: usize,
     rows: usize,
     buf: Vec<f64>,
     acc: lifted_linalg::RAccumulator,
+    /// [Jᵀe; eᵀe] over every row.
+    grad: Vec<f64>,
 }
 
 impl RowSink {
@@ -118,6 +125,7 @@ impl RowSink {
             rows: 0,
             buf: vec![0.0; cap * width],
             acc: lifted_linalg::RAccumulator::new(width),
+            grad: vec![0.0; width],
         }
     }
 
@@ -141,9 +149,9 @@ impl RowSink {
         Ok(at)
     }
 
-    fn finish(mut self) -> Result<DMatrix<f64>> {
+    fn finish(mut self) -> Result<(DMatrix<f64>, Vec<f64>)> {
         self.flush()?;
-        Ok(self.acc.r())
+        Ok((self.acc.r(), self.grad))
     }
 }
 
@@ -164,6 +172,7 @@ fn sweep(
     x: &mut [f64],
     s: &mut Vec<f64>,
     mut sink: Option<&mut RowSink>,
+    stride: usize,
 ) -> Result<()> {
     let (n, nu, ny, np) = (dirs.n, dirs.nu, dirs.ny, dirs.np);
     let width = s.len() / n.max(1);
@@ -262,6 +271,13 @@ fn sweep(
         if let Some(sk) = sink.as_deref_mut()
             && nmeas > 0
         {
+            // Hessian subsample: the head of the record (its transient)
+            // whole, then one block in `stride`, scaled by √stride.
+            let (keep, scale) = if stride <= 1 || t < stride * HESSIAN_BLOCK {
+                (true, 1.0)
+            } else {
+                ((t / HESSIAN_BLOCK) % stride == 0, (stride as f64).sqrt())
+            };
             let at = sk.reserve(nmeas)?;
             let w = sk.width;
             let mut row = at;
@@ -273,8 +289,23 @@ fn sweep(
                         *dv = wo * sv;
                     }
                     dst[np] = wo * z[n + nu + o];
+                    if stride > 1 {
+                        let (buf, grad) = (&mut sk.buf, &mut sk.grad);
+                        let dst = &mut buf[row * w..(row + 1) * w];
+                        let e = dst[np];
+                        for (gv, rv) in grad.iter_mut().zip(dst.iter()) {
+                            *gv += rv * e;
+                        }
+                        if keep {
+                            dst.iter_mut().for_each(|v| *v *= scale);
+                        }
+                    }
                     row += 1;
                 }
+            }
+            if !keep {
+                // Offered to the gradient only: give the rows back.
+                sk.rows -= nmeas;
             }
         }
         std::mem::swap(s, &mut sn);
@@ -318,7 +349,13 @@ pub(super) const MIN_RANGE: usize = 2048;
 /// R of the QR of [J | e] ((p+1) × (p+1), zero rows appended when fewer
 /// rows were seen), J = ∂e/∂β the analytic Jacobian of the scaled
 /// residuals along the columns of `basis` (module docs), with each record
-/// split over `threads` ranges.
+/// split over `threads` ranges. With `stride` > 1 the QR takes a Hessian
+/// subsample: the first `stride` × [`HESSIAN_BLOCK`] samples of each
+/// record (their transient) whole, then one block of [`HESSIAN_BLOCK`]
+/// samples in `stride`, scaled by √stride (so R₁₁ᵀR₁₁ estimates JᵀJ
+/// without bias); the last column is then r̃ with R₁₁ᵀr̃ = Jᵀe summed over
+/// every row, and ρ² = eᵀe − ‖r̃‖². Blocks are chosen by absolute sample
+/// index, so the thread count still changes the result by rounding only.
 pub(super) fn jacobian_r(
     p: &Point,
     basis: &DMatrix<f64>,
@@ -327,6 +364,7 @@ pub(super) fn jacobian_r(
     weights: &[f64],
     gain: bool,
     threads: usize,
+    stride: usize,
 ) -> Result<DMatrix<f64>> {
     let (n, nu, ny) = (p.a.nrows(), p.b.ncols(), p.c.nrows());
     let dirs = Directions::new(basis, lay);
@@ -397,6 +435,7 @@ pub(super) fn jacobian_r(
                     &mut x,
                     &mut s,
                     None,
+                    1,
                 )?;
                 Ok(s)
             })?
@@ -437,18 +476,44 @@ pub(super) fn jacobian_r(
                 &mut x,
                 &mut s,
                 Some(&mut sink),
+                stride,
             )?;
-            Ok(sink.finish()?.as_slice().to_vec())
+            let (r, grad) = sink.finish()?;
+            let mut out = r.as_slice().to_vec();
+            out.extend(grad);
+            Ok(out)
         })?
     };
     let mut acc = lifted_linalg::RAccumulator::new(np + 1);
+    let mut grad = vec![0.0; np + 1];
     for r in rs {
+        let (r, g) = r.split_at(r.len() - (np + 1));
+        for (gv, v) in grad.iter_mut().zip(g) {
+            *gv += v;
+        }
         let rows = r.len() / (np + 1);
-        acc.push_rows(&DMatrix::from_column_slice(rows, np + 1, &r))?;
+        acc.push_rows(&DMatrix::from_column_slice(rows, np + 1, r))?;
     }
     let r = acc.r();
     let mut out = DMatrix::zeros(np + 1, np + 1);
     out.view_mut((0, 0), (r.nrows(), np + 1)).copy_from(&r);
+    if stride > 1 {
+        // R₁₁ from the subsample; r̃ with R₁₁ᵀ r̃ = Jᵀe over all rows (the
+        // Gauss–Newton model ½‖R₁₁δ + r̃‖² has the exact gradient), and
+        // ρ² = eᵀe − ‖r̃‖².
+        let r11 = out.view((0, 0), (np, np)).upper_triangle();
+        let g = nalgebra::DVector::from_column_slice(&grad[..np]);
+        let rt = r11
+            .transpose()
+            .solve_lower_triangular(&g)
+            .filter(|v| v.iter().all(|x| x.is_finite()))
+            .ok_or(Error::InvalidOption {
+                what: "PEM Hessian subsample",
+                reason: "its triangular factor is singular".into(),
+            })?;
+        out.view_mut((0, np), (np, 1)).copy_from(&rt);
+        out[(np, np)] = (grad[np] - rt.norm_squared()).max(0.0).sqrt();
+    }
     Ok(out)
 }
 
@@ -580,7 +645,7 @@ mod tests {
             .unwrap();
             let e = cost_of(&p).unwrap();
             let jfd = jacobian_fd(&theta, &basis, &lay, &e, &cost_of);
-            let raug = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, 1).unwrap();
+            let raug = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, 1, 1).unwrap();
             let (g, h) = normal_terms(&raug);
             let gfd = jfd.transpose() * &e;
             let hfd = jfd.transpose() * &jfd;
@@ -613,10 +678,10 @@ mod tests {
                 lifted_linalg::RankTolerance::Default,
             )
             .unwrap();
-            let one = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, 1).unwrap();
+            let one = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, 1, 1).unwrap();
             let (g1, h1) = normal_terms(&one);
             for threads in [2, 3, 4] {
-                let many = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, threads).unwrap();
+                let many = jacobian_r(&p, &basis, &lay, &recs, &weights, gain, threads, 1).unwrap();
                 let (g, h) = normal_terms(&many);
                 let eg = (&g - &g1).norm() / g1.norm();
                 let eh = rel(&h, &h1);

@@ -51,6 +51,7 @@ pub(super) fn minimise(
                     prob.weights,
                     prob.gain,
                     prob.threads,
+                    1,
                 ) else {
                     termination = Termination::NoProgress;
                     break;

@@ -388,6 +388,7 @@ pub fn refine_pem(
         samples,
         measured,
         threads,
+        hessian_stride: 1,
     };
     // Work of one iteration on the whole records: more than the bound is
     // an error before anything runs.
@@ -494,6 +495,7 @@ pub fn refine_pem(
         threads,
         measured,
         samples,
+        hessian_stride: 1,
     };
     let outcome = match opts.method {
         PemMethod::Joint => {

@@ -18,6 +18,9 @@ pub(super) struct Problem<'a, 'r> {
     pub(super) measured: usize,
     /// Time steps of `records`.
     pub(super) samples: usize,
+    /// Hessian subsample of the variable-projection Jacobians (1 = all
+    /// rows; [`super::jacobian`]).
+    pub(super) hessian_stride: usize,
 }
 
 impl Problem<'_, '_> {

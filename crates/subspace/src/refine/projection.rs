@@ -126,6 +126,7 @@ fn solve_linear(
         prob.weights,
         prob.gain,
         prob.threads,
+        prob.hessian_stride,
     )
     .ok()?;
     let pl = lin.ncols();
@@ -160,6 +161,7 @@ pub(super) fn minimise(
         samples: prob.samples,
         measured: prob.measured,
         threads: prob.threads,
+        hessian_stride: prob.hessian_stride,
     };
     let work = ProjectionWork::new(&sizes, pl, nl_idx.len());
     // θ in predictor coordinates; `outcome.point` holds the model.
@@ -203,12 +205,15 @@ pub(super) fn minimise(
                     prob.weights,
                     prob.gain,
                     prob.threads,
+                    prob.hessian_stride,
                 ) else {
                     outcome.termination = Termination::NoProgress;
                     break;
                 };
                 let (np, pa) = (all.ncols(), basis.ncols());
-                if !beta_solved {
+                // With a Hessian subsample the linear solves are inexact:
+                // β is then corrected at every Jacobian.
+                if !beta_solved || prob.hessian_stride > 1 {
                     beta_solved = true;
                     let r11 = raug.view((0, 0), (pl, pl)).into_owned();
                     let r1 = raug.view((0, np), (pl, 1)).column(0).into_owned();

@@ -14,6 +14,9 @@ pub(super) struct Sizes {
     pub(super) measured: usize,
     /// Threads of the Jacobian (> 1: the recursion runs twice).
     pub(super) threads: usize,
+    /// Hessian subsample: about one measured row in this many enters the
+    /// QR.
+    pub(super) hessian_stride: usize,
 }
 
 impl Sizes {
@@ -26,7 +29,7 @@ impl Sizes {
         let (n, nu, ny, w) = (self.n as f64, self.nu as f64, self.ny as f64, width as f64);
         let runs = if self.threads > 1 { 2.0 } else { 1.0 };
         runs * 2.0 * w * self.samples as f64 * n * (n + nu + ny)
-            + 2.0 * (w + 1.0).powi(2) * self.measured as f64
+            + 2.0 * (w + 1.0).powi(2) * self.measured as f64 / self.hessian_stride.max(1) as f64
     }
 
     /// One run of the predictor (≈ 2·n·(n + n_u + n_y) flops per sample).
