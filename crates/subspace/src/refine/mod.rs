@@ -30,15 +30,77 @@
 //! (the predictor corrects with the measured outputs only).
 //!
 //! Each output's residuals are divided by the standard deviation of its
-//! measured samples (units do not matter). Parameterisation: all entries of
-//! (A, B, C, K, x₀ per record) and the free entries of D (the feedthrough
-//! mask), with **data-driven local coordinates** (McKelvey, Helmersson &
-//! Ribarits 2004): the similarity transformations x → (I + T)x leave the
-//! cost unchanged and span an n²-dimensional tangent space at the current
-//! model; every Levenberg–Marquardt step is taken in its orthogonal
-//! complement (an orthonormal basis recomputed at each accepted iterate),
-//! so the Gauss–Newton matrix is not singular along the similarity
-//! directions.
+//! measured samples (units do not matter); the cost is V = ‖e‖²/M over the
+//! M measured samples.
+//!
+//! **Variable projection** ([`PemMethod::VariableProjection`], the
+//! default; Golub & Pereyra 1973, 2003; Kaufman 1975). In predictor form
+//!
+//! x̂(t+1) = Ā x̂ + B̄ u + K y,  ŷ = C x̂ + D u,  Ā = A − KC, B̄ = B − KD, (1)
+//!
+//! the residuals e = y − ŷ are, for fixed α = (Ā, C), **affine** in
+//! β = (B̄, free D, K, x₀ per record) (for the output error K = 0 and
+//! Ā = A: β = (B, D, x₀)). So V(α, β) is minimised over β exactly, by
+//! one least-squares solve, at every α, and the iterations run on the
+//! projected cost V(α, β̂(α)) alone: n² + n n_y parameters instead of
+//! n² + n(n_u + 2n_y) + n_y n_u + n·records. This removes the valley
+//! along which B (and K) trade off against A that made the joint
+//! iterations converge linearly (Sjöberg & Viberg 1997 for the
+//! conditioning argument; Ljung 1999, §10.2 for the Gauss–Newton
+//! iterations of prediction-error methods). Each iteration:
+//!
+//! 1. the Jacobians J_β, J_α of e along the columns of the identity of β
+//!    and of the local coordinates of α (below), by the sensitivity
+//!    recursion, streamed into the R-only QR of [J_β J_α | e]:
+//!    R = [R₁₁ R₁₂ r₁; 0 R₂₂ r₂; 0 0 ρ];
+//! 2. Kaufman's step: R₂₂ is the R of P⊥J_α (J_α projected off the
+//!    columns of J_β) and r₂ = P⊥e restricted to them, so the
+//!    Levenberg–Marquardt step on α solves [R₂₂; √λ D] δ = [−r₂; 0]
+//!    with D² = diag(R₂₂ᵀR₂₂) (Marquardt's scaling, λ from 1e-3, ÷3 on
+//!    success, ×4 on failure);
+//! 3. at the trial α + δ, β̂ is solved for (a Jacobian pass along β only,
+//!    one Gauss–Newton step, exact since e is affine in β) and the trial
+//!    kept when V decreases;
+//! 4. stop when the full Gauss–Newton step predicts a relative decrease
+//!    ‖r₂‖²/‖e‖² below [`PemOptions::expected_decrease_tolerance`] (the
+//!    expected-improvement test of MATLAB's `ssest`), an accepted step
+//!    lowers V by less than [`PemOptions::cost_tolerance`], the step or
+//!    the gradient R₁₂ᵀr₁ + R₂₂ᵀr₂ is below its tolerance, or the work
+//!    bound is reached.
+//!
+//! The model (1) is mapped back by A = Ā + KC, B = B̄ + KD, and its
+//! directions by the derivative δA = δĀ + δK C + K δC,
+//! δB = δB̄ + δK D + K δD, which is what the sensitivity recursion
+//! below is given. Parameterising the innovations form by Ā instead of A
+//! is what makes K a linear parameter; before (A, C, K as the nonlinear
+//! part) the prediction cost still converged linearly.
+//!
+//! **Warm stages** ([`PemOptions::warm_start_samples`], default 5 000).
+//! When the records are long, the iterations first run on their leading
+//! parts (5 000 samples, then 20× more, … while a part is less than half
+//! the records), each to a loose tolerance (1e-6) from where the previous
+//! one stopped: a part's optimum is within its estimation error of the
+//! next one's, so each stage needs one to three iterations. On the whole
+//! records after a warm stage, the Gauss–Newton matrix is estimated from
+//! a **Hessian subsample** (every sample of the first 256·s of each record,
+//! which hold the x₀ transient, then one block of 256 samples in s, rows
+//! scaled by √s, s = samples / 100 000), while the gradient Jᵀe uses
+//! every sample: with R₁₁ from the subsample, r̃ solves R₁₁ᵀr̃ = Jᵀe, so
+//! the model ½‖R₁₁δ + r̃‖² has the exact gradient and a Hessian with
+//! relative error O(√(p/10⁵)) (the contraction factor of the iterations
+//! there); β is then re-corrected at every Jacobian.
+//!
+//! **Local coordinates** (McKelvey, Helmersson & Ribarits 2004, "Data
+//! driven local coordinates for multivariable linear systems"): the
+//! similarity transformations x → (I + T)x leave the cost unchanged and
+//! span an n²-dimensional tangent space at the current model
+//! (TĀ − ĀT, −CT on α); every step is taken in its orthogonal complement
+//! (an orthonormal basis recomputed at each accepted iterate), so the
+//! Gauss–Newton matrix is not singular along the similarity directions.
+//! [`PemMethod::Joint`], the method before variable projection, iterates
+//! on all of (A, B, C, D, K, x₀) in those coordinates (the tangent then
+//! includes TB, TK, Tx₀) with the same step and stopping rules (the
+//! expected-decrease test excepted).
 //!
 //! **Analytic Jacobian.** Along a basis direction β_i the model moves by
 //! (δA, δB, δC, δD, δK, δx₀) (linear in β), and the state sensitivity
@@ -46,13 +108,14 @@
 //! δe(t) = −(C s + δC x̂ + δD u) on the measured outputs,
 //! s(t+1) = A s + δA x̂ + δB u + δK e + K δe = (A − K_m C_m) s + forcing,
 //! s(0) = δx₀ (K = 0 for the output error; K_m, C_m the measured outputs'
-//! columns and rows). All p directions run together as an n × p matrix.
-//! The rows of [J | e] are streamed in blocks into an R-only QR
+//! columns and rows). All p directions run together as an n × p matrix,
+//! stored state-major so that every operation of a time step is an axpy
+//! over the directions; the forcing of a column of [x̂; u; e] touches only
+//! the directions that have it (a B̄ entry forces one input column, x₀
+//! none). The rows of [J | e] are streamed in blocks into an R-only QR
 //! (`lifted_linalg::RAccumulator`), so memory is O(p²), not O(M p), and
-//! JᵀJ is never formed: the Levenberg–Marquardt step solves
-//! [R₁₁; √λ D] δ = [−r; 0] by a second small QR, with D² = diag(JᵀJ)
-//! (the squared column norms of R₁₁, floored at 1e-10 of the largest;
-//! Marquardt's scaling, λ dimensionless from 1e-3) and r = Qᵀe.
+//! JᵀJ is never formed; the step's small system [R; √λ D] δ = [−r; 0] is
+//! solved by a second small QR.
 //!
 //! **Threads** ([`PemOptions::threads`]): each record is split into
 //! contiguous ranges. A serial predictor pass gives x̂ at each range start;
@@ -60,23 +123,30 @@
 //! and the n × n transition of A − K_m C_m over the range, which chain
 //! serially into the exact sensitivities at every range start; a second
 //! parallel pass forms the rows and each range's R, and the R's are
-//! stacked and reduced in range order. The result depends on the thread
+//! stacked and reduced in range order. The Hessian subsample picks its
+//! blocks by absolute sample index. The result depends on the thread
 //! count through rounding only.
 //!
-//! Cost per iteration: O(M · p · n (n + n_u + n_y)) for the sensitivities
-//! and O(M · p²) for the QR, for p local coordinates (about
-//! n(n_u + 2 n_y) + n_y n_u plus n per record) and M measured samples,
-//! plus O(p³) per trial step; with threads the sensitivity recursion runs
-//! twice over all but the last range of each record.
+//! **Cost** (the work model of [`PemOptions::max_work`] and
+//! [`pem_work_estimate`]): one Jacobian pass along w directions costs
+//! ≈ 2·w·N·n(n + n_u + n_y) flops for the sensitivities (twice with
+//! threads) and 2(w + 1)²·M for the QR (M/s rows with a Hessian
+//! subsample); a variable-projection iteration is one pass along all
+//! p_β + p_α directions plus, per trial, one along the p_β linear ones and
+//! a predictor run, plus the SVD of the similarity tangent
+//! (4·len·n⁴ + 4·len³/3). Measured on one core of the 2-core bench
+//! machine (`benches/benches/pem.rs`): 3×2, order 6, N = 2e4 converges
+//! in about 6 iterations; 2×2, order 4, N = 1e6 in two warm stages and
+//! two whole-record iterations (`crates/subspace/README.md`).
 //!
 //! Bounds, checked before anything is formed: at most one free parameter
 //! per two measured output samples ([`Error::TooManyParameters`]), the
 //! memory of the local coordinates and the Jacobian within the budget of
-//! `lifted_linalg::budget`, and `max_iterations` × the cost of one
-//! iteration (the null space of the n²-column similarity tangent,
-//! O(len · n⁴ + len³), dominates for large n) within
-//! [`PemOptions::max_work`]: fewer iterations when it allows fewer, an
-//! error when it does not allow one.
+//! `lifted_linalg::budget`, and one iteration on the whole records within
+//! [`PemOptions::max_work`] ([`Error::TooMuchWork`] otherwise). The work
+//! of every pass is booked as it runs; the iterations stop when the next
+//! one would exceed the bound ([`PemReport::iteration_cap`] then says how
+//! many ran).
 //!
 //! An iterate whose A (or A − KC for the prediction cost) has spectral
 //! radius ≥ 1 is rejected like a cost increase, so a stable start stays
@@ -180,12 +250,14 @@ pub struct PemOptions {
     /// Stop when ‖Jᵀe‖∞ falls below this times the cost. Default 1e-10.
     pub gradient_tolerance: f64,
     /// Bound on the work of the whole refinement, in floating-point
-    /// operations of the cost model of the module docs
-    /// (`max_iterations` × the cost of one iteration). When the bound
-    /// allows fewer iterations than `max_iterations` they are capped and
-    /// [`PemReport::iteration_cap`] says so; when it does not allow one,
-    /// [`Error::TooMuchWork`]. Default 2e10 (a few seconds: ≈ 4e9 of
-    /// these operations per second were measured on one core).
+    /// operations of the cost model of the module docs (see also
+    /// [`pem_work_estimate`]). The work of every pass is booked as it
+    /// runs; when the next Jacobian or trial would exceed the bound the
+    /// iterations stop and [`PemReport::iteration_cap`] says so (the
+    /// joint method books a fixed figure per iteration instead); when one
+    /// iteration on the whole records exceeds it, [`Error::TooMuchWork`].
+    /// Default 2e10 (a few seconds: ≈ 4e9 of these operations per second
+    /// were measured on one core).
     pub max_work: f64,
     /// [`PemMethod::VariableProjection`] stops when the Gauss–Newton step
     /// at an iterate predicts a relative cost decrease below this (the
@@ -196,13 +268,14 @@ pub struct PemOptions {
     pub expected_decrease_tolerance: f64,
     /// Iteration scheme. Default [`PemMethod::VariableProjection`].
     pub method: PemMethod,
-    /// Warm start of [`PemMethod::VariableProjection`]: when the records
+    /// Warm stages of [`PemMethod::VariableProjection`]: when the records
     /// hold more than twice this many samples, the iterations first run
-    /// on their leading parts (this many samples in all) to a relative
-    /// cost decrease of 1e-6, then finish on the whole records; 0 = never.
-    /// Default 20 000 (the leading part's optimum is then within its
-    /// estimation error, O(1/√20 000), of the whole records' one, where
-    /// one or two iterations finish).
+    /// on their leading parts (this many samples in all, then 20× more,
+    /// … while a part is less than half the records), each to a relative
+    /// cost decrease of 1e-6, then finish on the whole records with a
+    /// Hessian subsample (module docs); 0 = never. Default 5 000 (on the
+    /// bench cases the first stage takes about five cheap iterations and
+    /// every later one two or three).
     pub warm_start_samples: usize,
     /// Threads for the Jacobian (contiguous ranges of each record, std
     /// scoped threads; results depend on the count through rounding only);
@@ -228,11 +301,30 @@ impl Default for PemOptions {
     }
 }
 
+/// The method [`refine_pem`] runs: [`PemMethod::Joint`] for the
+/// prediction cost on records with unmeasured outputs (multirate), where
+/// the predictor's transition A − K_m C_m changes with the measured set m
+/// and the residuals are therefore not affine in K at fixed (A − KC, C),
+/// so variable projection in predictor coordinates does not apply;
+/// `opts.method` otherwise.
+fn effective_method(opts: &PemOptions, records: &[Record<'_>]) -> PemMethod {
+    let unmeasured = records.iter().any(|r| r.y.iter().any(|v| v.is_nan()));
+    if opts.cost == PemCost::Prediction && unmeasured {
+        PemMethod::Joint
+    } else {
+        opts.method
+    }
+}
+
 /// What the refinement did.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PemReport {
     /// Cost used.
     pub cost: PemCost,
+    /// Method run (the joint one for the prediction cost on multirate
+    /// records, whatever [`PemOptions::method`] asked).
+    #[serde(default)]
+    pub method: PemMethod,
     /// LM iterations run (accepted and rejected steps).
     pub iterations: usize,
     /// Accepted steps.
@@ -249,9 +341,9 @@ pub struct PemReport {
     /// re-estimated, on the validation records or else the estimation
     /// records) of the start and of the refined model.
     pub judged: (f64, f64),
-    /// The iteration limit used when [`PemOptions::max_work`] lowered
-    /// `max_iterations` (the work bound, not convergence, may then have
-    /// stopped the iterations); `None` when it did not.
+    /// The iterations run when [`PemOptions::max_work`] stopped them
+    /// before `max_iterations` (the work bound, not convergence, then
+    /// stopped the refinement); `None` when it did not.
     #[serde(default)]
     pub iteration_cap: Option<usize>,
     /// ρ(A) of the given start when it was unstable: the refinement then
@@ -316,9 +408,9 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
 /// [`Error::InvalidOption`] (a continuous model, bad tolerances),
 /// [`Error::NotExciting`] when fewer measured samples than parameters,
 /// [`Error::TooManyParameters`] when more than one free parameter per two
-/// measured samples, [`Error::TooMuchWork`] when one iteration exceeds
-/// [`PemOptions::max_work`] (fewer affordable iterations than
-/// `max_iterations` cap them, see [`PemReport::iteration_cap`]),
+/// measured samples, [`Error::TooMuchWork`] when one iteration on the
+/// whole records exceeds [`PemOptions::max_work`] (a bound reached later
+/// stops the iterations, see [`PemReport::iteration_cap`]),
 /// [`lifted_linalg::Error::TooLarge`] (wrapped) beyond the memory budget,
 /// [`Error::Unstable`] when the start is unstable and defective (no
 /// eigenbasis to stabilise it in) or its stabilised predictor is unstable for the chosen cost
@@ -354,6 +446,7 @@ pub fn refine_pem(
     }
     let (n, nu, ny) = (initial.order(), initial.n_inputs(), initial.n_outputs());
     let gain = opts.cost == PemCost::Prediction;
+    let method = effective_method(opts, records);
     let mask = opts.feedthrough.mask(ny, nu)?;
     let d_free: Vec<(usize, usize)> = (0..ny)
         .flat_map(|o| (0..nu).map(move |j| (o, j)))
@@ -392,7 +485,7 @@ pub fn refine_pem(
     };
     // Work of one iteration on the whole records: more than the bound is
     // an error before anything runs.
-    let per_iteration = match opts.method {
+    let per_iteration = match method {
         PemMethod::Joint => {
             crate::budget::pem_flops_per_iteration(n, nu, ny, lay.len(), samples, measured)
         }
@@ -497,7 +590,7 @@ pub fn refine_pem(
         samples,
         hessian_stride: 1,
     };
-    let outcome = match opts.method {
+    let outcome = match method {
         PemMethod::Joint => {
             joint::minimise(&whole, &start, e0, &limits, per_iteration, &mut account)?
         }
@@ -555,6 +648,7 @@ pub fn refine_pem(
         x0: best.x0,
         report: PemReport {
             cost: opts.cost,
+            method,
             iterations,
             accepted,
             initial_cost,
@@ -565,5 +659,116 @@ pub fn refine_pem(
             iteration_cap,
             stabilized_start,
         },
+    })
+}
+
+/// The predicted work of [`refine_pem`] in the units of
+/// [`PemOptions::max_work`] (floating-point operations of the cost model
+/// in the module docs), from the sizes alone.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PemWorkEstimate {
+    /// One iteration on the whole records (a Jacobian along every
+    /// direction and one trial): [`refine_pem`] refuses to start when it
+    /// exceeds [`PemOptions::max_work`].
+    pub per_iteration: f64,
+    /// A typical whole refinement from a subspace start: for
+    /// [`PemMethod::VariableProjection`] six Jacobians and eight trials
+    /// on the first (or only) stage, three Jacobians and two trials on
+    /// every later warm stage and on the whole records (with the Hessian
+    /// subsample), as measured on the bench cases
+    /// (`benches/benches/pem.rs`); for [`PemMethod::Joint`] 45 iterations
+    /// (where the default work bound stopped it on the 3×2 bench case).
+    /// Capped at [`PemOptions::max_work`].
+    pub typical: f64,
+    /// Warm stages before the whole records.
+    pub warm_stages: usize,
+}
+
+/// Predicts the work of [`refine_pem`] for a model of `initial`'s sizes
+/// on `records` with `opts`, without running it: a caller can compare it
+/// with the subspace step's `compression_flops` (the diagnostics of
+/// [`crate::identify`]) to decide whether the refinement pays.
+///
+/// Errors: those of [`refine_pem`]'s input checks ([`Error::NoData`],
+/// [`Error::DimensionMismatch`], [`Error::NonFinite`], a bad
+/// feedthrough mask).
+pub fn pem_work_estimate(
+    initial: &StateSpace,
+    records: &[Record<'_>],
+    opts: &PemOptions,
+) -> Result<PemWorkEstimate> {
+    let measured = check_records(initial, records)?;
+    let (n, nu, ny) = (initial.order(), initial.n_inputs(), initial.n_outputs());
+    let mask = opts.feedthrough.mask(ny, nu)?;
+    let lay = Layout {
+        n,
+        nu,
+        ny,
+        records: records.len(),
+        gain: opts.cost == PemCost::Prediction,
+        d_free: (0..ny)
+            .flat_map(|o| (0..nu).map(move |j| (o, j)))
+            .filter(|&(o, j)| mask[(o, j)])
+            .collect(),
+    };
+    let samples: usize = records.iter().map(|r| r.u.nrows()).sum();
+    let threads = crate::checks::thread_count(opts.threads);
+    let sizes = |samples: usize, measured: usize, hessian_stride: usize| work::Sizes {
+        n,
+        nu,
+        ny,
+        samples,
+        measured,
+        threads,
+        hessian_stride,
+    };
+    let (linear, nonlinear) = (lay.linear_indices().len(), lay.nonlinear_indices().len());
+    let whole = sizes(samples, measured, 1);
+    Ok(match effective_method(opts, records) {
+        PemMethod::Joint => {
+            let per =
+                crate::budget::pem_flops_per_iteration(n, nu, ny, lay.len(), samples, measured);
+            PemWorkEstimate {
+                per_iteration: per,
+                typical: (45.0 * per).min(opts.max_work),
+                warm_stages: 0,
+            }
+        }
+        PemMethod::VariableProjection => {
+            let per = work::ProjectionWork::new(&whole, linear, nonlinear);
+            let rows_per_sample = measured as f64 / samples.max(1) as f64;
+            let mut typical = 0.0;
+            let mut stages = 0;
+            let mut size = opts.warm_start_samples;
+            while size > 0 && size.saturating_mul(2) < samples {
+                let m = (size as f64 * rows_per_sample) as usize;
+                let stride = if stages == 0 {
+                    1
+                } else {
+                    (size / warm::HESSIAN_SAMPLES).max(1)
+                };
+                let w = work::ProjectionWork::new(&sizes(size, m, stride), linear, nonlinear);
+                typical += if stages == 0 {
+                    6.0 * w.jacobian + 8.0 * w.trial
+                } else {
+                    3.0 * w.jacobian + 2.0 * w.trial
+                };
+                stages += 1;
+                size = size.saturating_mul(warm::STAGE_GROWTH);
+            }
+            typical += if stages == 0 {
+                6.0 * per.jacobian + 8.0 * per.trial
+            } else {
+                let stride = (samples / warm::HESSIAN_SAMPLES).max(1);
+                let w =
+                    work::ProjectionWork::new(&sizes(samples, measured, stride), linear, nonlinear);
+                3.0 * w.jacobian + 2.0 * w.trial
+            };
+            PemWorkEstimate {
+                per_iteration: per.iteration(),
+                typical: typical.min(opts.max_work),
+                warm_stages: stages,
+            }
+        }
     })
 }
