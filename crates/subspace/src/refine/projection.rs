@@ -184,9 +184,14 @@ pub(super) fn minimise(
     let mut lambda = 1e-3;
     // Local coordinates of (A, C, K), and R₂₂, r₂ (Kaufman's projected
     // Jacobian and residual) of the QR of [J_β J_α | e].
-    let mut current: Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)> = None;
+    // With a Hessian subsample (the whole records after a warm start) a
+    // trial takes β from the Gauss–Newton model, δβ = −R₁₁⁻¹R₁₂δα, and is
+    // judged by one predictor run instead of a least-squares pass; β is
+    // re-solved at the next Jacobian.
+    let model_beta = prob.hessian_stride > 1;
+    let mut current: Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>, DMatrix<f64>)> = None;
     while outcome.iterations < limits.max_iterations {
-        let (basis, r22, r2) = match current {
+        let (basis, r22, r2, beta_of_alpha) = match current {
             Some(ref c) => c,
             None => {
                 if !account.spend(work.jacobian) {
@@ -252,10 +257,26 @@ pub(super) fn minimise(
                     outcome.termination = Termination::CostConverged;
                     break;
                 }
-                current.insert((basis, r22, r2))
+                // −R₁₁⁻¹R₁₂: the β step of the Gauss–Newton model per unit
+                // step in α (used with a Hessian subsample only).
+                let beta_of_alpha = if model_beta {
+                    raug.view((0, 0), (pl, pl))
+                        .upper_triangle()
+                        .solve_upper_triangular(&(-r12.into_owned()))
+                        .filter(|m| m.iter().all(|v| v.is_finite()))
+                        .unwrap_or_else(|| DMatrix::zeros(0, 0))
+                } else {
+                    DMatrix::zeros(0, 0)
+                };
+                current.insert((basis, r22, r2, beta_of_alpha))
             }
         };
-        if !account.spend(work.trial) {
+        let by_model = beta_of_alpha.nrows() == pl && pl > 0;
+        if !account.spend(if by_model {
+            work.model_trial
+        } else {
+            work.trial
+        }) {
             break;
         }
         outcome.iterations += 1;
@@ -266,9 +287,15 @@ pub(super) fn minimise(
         };
         let trial_theta = &theta + basis * &step;
         let trial = to_model(&Point::unpack(&trial_theta, lay));
-        let solved = admissible(&trial, prob.gain)
-            .then(|| solve_linear(prob, &trial_theta, &lin))
-            .flatten();
+        let solved = if !admissible(&trial, prob.gain) {
+            None
+        } else if by_model {
+            let t = &trial_theta + &lin * (beta_of_alpha * &step);
+            let p = to_model(&Point::unpack(&t, lay));
+            prob.residuals(&p).map(|te| (t, p, te))
+        } else {
+            solve_linear(prob, &trial_theta, &lin)
+        };
         match solved {
             Some((t, p, te)) if mean_square(&te) < outcome.cost => {
                 let new_cost = mean_square(&te);

@@ -57,6 +57,9 @@ pub(super) struct ProjectionWork {
     /// the trial (a Jacobian pass over their directions only) and its
     /// residuals.
     pub(super) trial: f64,
+    /// One trial with β from the Gauss–Newton model (Hessian subsample):
+    /// the LM solve and a predictor run.
+    pub(super) model_trial: f64,
 }
 
 impl ProjectionWork {
@@ -69,6 +72,7 @@ impl ProjectionWork {
             trial: sizes.jacobian_pass(linear)
                 + sizes.residual_pass()
                 + 4.0 * (pn.powi(3) + pl.powi(3)),
+            model_trial: sizes.residual_pass() + 4.0 * pn.powi(3) + 2.0 * pl * pl * pn,
         }
     }
 
