@@ -489,12 +489,20 @@ pub fn refine_pem(
         PemMethod::Joint => {
             crate::budget::pem_flops_per_iteration(n, nu, ny, lay.len(), samples, measured)
         }
-        PemMethod::VariableProjection => work::ProjectionWork::new(
-            &sizes,
-            lay.linear_indices().len(),
-            lay.nonlinear_indices().len(),
-        )
-        .iteration(),
+        PemMethod::VariableProjection => {
+            // After warm stages the whole records take the Hessian
+            // subsample and model-β trials.
+            let warmed = !warm::stage_sizes(samples, opts.warm_start_samples).is_empty();
+            let w = work::ProjectionWork::new(
+                &work::Sizes {
+                    hessian_stride: warm::whole_stride(samples, warmed),
+                    ..sizes
+                },
+                lay.linear_indices().len(),
+                lay.nonlinear_indices().len(),
+            );
+            w.jacobian + if warmed { w.model_trial } else { w.trial }
+        }
     };
     if per_iteration > opts.max_work {
         return Err(Error::TooMuchWork {
@@ -662,6 +670,16 @@ pub fn refine_pem(
     })
 }
 
+/// (Jacobians, trials) of a typical first (or only) stage of variable
+/// projection from a subspace start: the largest counts measured by
+/// `benches/examples/pem_cost.rs` (up to 22 iterations in all, most of
+/// them on the first stage).
+const FIRST_STAGE: (f64, f64) = (16.0, 20.0);
+
+/// (Jacobians, trials) of a later warm stage or of the whole records
+/// after warm stages (two or three iterations measured).
+const LATER_STAGE: (f64, f64) = (3.0, 3.0);
+
 /// The predicted work of [`refine_pem`] in the units of
 /// [`PemOptions::max_work`] (floating-point operations of the cost model
 /// in the module docs), from the sizes alone.
@@ -672,13 +690,13 @@ pub struct PemWorkEstimate {
     /// exceeds [`PemOptions::max_work`].
     pub per_iteration: f64,
     /// A typical whole refinement from a subspace start: for
-    /// [`PemMethod::VariableProjection`] six Jacobians and eight trials
-    /// on the first (or only) stage, three Jacobians and two trials on
-    /// every later warm stage and on the whole records (with the Hessian
-    /// subsample), as measured on the bench cases
-    /// (`benches/benches/pem.rs`); for [`PemMethod::Joint`] 45 iterations
-    /// (where the default work bound stopped it on the 3×2 bench case).
-    /// Capped at [`PemOptions::max_work`].
+    /// [`PemMethod::VariableProjection`] 16 Jacobians and 20 trials on the
+    /// first (or only) stage, three of each on every later warm stage and
+    /// on the whole records (with the Hessian subsample), the largest
+    /// counts measured by `benches/examples/pem_cost.rs`; for
+    /// [`PemMethod::Joint`] 45 iterations (where the default work bound
+    /// stopped it on the 3×2 bench case). Capped at
+    /// [`PemOptions::max_work`].
     pub typical: f64,
     /// Warm stages before the whole records.
     pub warm_stages: usize,
@@ -723,7 +741,6 @@ pub fn pem_work_estimate(
         hessian_stride,
     };
     let (linear, nonlinear) = (lay.linear_indices().len(), lay.nonlinear_indices().len());
-    let whole = sizes(samples, measured, 1);
     Ok(match effective_method(opts, records) {
         PemMethod::Joint => {
             let per =
@@ -735,39 +752,33 @@ pub fn pem_work_estimate(
             }
         }
         PemMethod::VariableProjection => {
-            let per = work::ProjectionWork::new(&whole, linear, nonlinear);
+            let stages = warm::stage_sizes(samples, opts.warm_start_samples);
             let rows_per_sample = measured as f64 / samples.max(1) as f64;
             let mut typical = 0.0;
-            let mut stages = 0;
-            let mut size = opts.warm_start_samples;
-            while size > 0 && size.saturating_mul(2) < samples {
+            for (i, &size) in stages.iter().enumerate() {
                 let m = (size as f64 * rows_per_sample) as usize;
-                let stride = if stages == 0 {
-                    1
-                } else {
-                    (size / warm::HESSIAN_SAMPLES).max(1)
-                };
+                let stride = warm::whole_stride(size, i > 0);
                 let w = work::ProjectionWork::new(&sizes(size, m, stride), linear, nonlinear);
-                typical += if stages == 0 {
-                    6.0 * w.jacobian + 8.0 * w.trial
+                typical += if i == 0 {
+                    FIRST_STAGE.0 * w.jacobian + FIRST_STAGE.1 * w.trial
                 } else {
-                    3.0 * w.jacobian + 2.0 * w.trial
+                    LATER_STAGE.0 * w.jacobian + LATER_STAGE.1 * w.trial
                 };
-                stages += 1;
-                size = size.saturating_mul(warm::STAGE_GROWTH);
             }
-            typical += if stages == 0 {
-                6.0 * per.jacobian + 8.0 * per.trial
+            let warmed = !stages.is_empty();
+            let stride = warm::whole_stride(samples, warmed);
+            let w = work::ProjectionWork::new(&sizes(samples, measured, stride), linear, nonlinear);
+            let per = w.jacobian + if warmed { w.model_trial } else { w.trial };
+            typical += if warmed {
+                LATER_STAGE.0 * w.jacobian + LATER_STAGE.1 * w.model_trial
             } else {
-                let stride = (samples / warm::HESSIAN_SAMPLES).max(1);
-                let w =
-                    work::ProjectionWork::new(&sizes(samples, measured, stride), linear, nonlinear);
-                3.0 * w.jacobian + 2.0 * w.trial
+                FIRST_STAGE.0 * w.jacobian + FIRST_STAGE.1 * w.trial
             };
+            let warm_stages = stages.len();
             PemWorkEstimate {
-                per_iteration: per.iteration(),
+                per_iteration: per,
                 typical: typical.min(opts.max_work),
-                warm_stages: stages,
+                warm_stages,
             }
         }
     })

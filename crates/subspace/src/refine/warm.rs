@@ -109,15 +109,34 @@ pub(super) fn minimise(
     // start this close to the optimum is estimated from a subsample of
     // about HESSIAN_SAMPLES samples; the gradient uses every sample.
     let whole = Problem {
-        hessian_stride: if warmed {
-            (whole.samples / HESSIAN_SAMPLES).max(1)
-        } else {
-            1
-        },
+        hessian_stride: whole_stride(whole.samples, warmed),
         ..*whole
     };
     let mut out = projection::minimise(&whole, &from, &rest, account)?;
     out.iterations += iterations;
     out.accepted += accepted;
     Ok(out)
+}
+
+/// Stages run before the whole records of `samples` samples
+/// ([`minimise`]'s rule, without the check that a stage supports the
+/// parameters).
+pub(super) fn stage_sizes(samples: usize, warm_samples: usize) -> Vec<usize> {
+    let mut sizes = Vec::new();
+    let mut size = warm_samples;
+    while size > 0 && size.saturating_mul(2) < samples {
+        sizes.push(size);
+        size = size.saturating_mul(STAGE_GROWTH);
+    }
+    sizes
+}
+
+/// The Hessian stride on the whole records of `samples` samples after
+/// warm stages (1 without them).
+pub(super) fn whole_stride(samples: usize, warmed: bool) -> usize {
+    if warmed {
+        (samples / HESSIAN_SAMPLES).max(1)
+    } else {
+        1
+    }
 }

@@ -75,9 +75,4 @@ impl ProjectionWork {
             model_trial: sizes.residual_pass() + 4.0 * pn.powi(3) + 2.0 * pl * pl * pn,
         }
     }
-
-    /// One iteration that is accepted: a Jacobian and a trial.
-    pub(super) fn iteration(&self) -> f64 {
-        self.jacobian + self.trial
-    }
 }
