@@ -276,7 +276,10 @@ fn sweep(
             let (keep, scale) = if stride <= 1 || t < stride * HESSIAN_BLOCK {
                 (true, 1.0)
             } else {
-                ((t / HESSIAN_BLOCK) % stride == 0, (stride as f64).sqrt())
+                (
+                    (t / HESSIAN_BLOCK).is_multiple_of(stride),
+                    (stride as f64).sqrt(),
+                )
             };
             let at = sk.reserve(nmeas)?;
             let w = sk.width;
@@ -356,6 +359,7 @@ pub(super) const MIN_RANGE: usize = 2048;
 /// without bias); the last column is then r̃ with R₁₁ᵀr̃ = Jᵀe summed over
 /// every row, and ρ² = eᵀe − ‖r̃‖². Blocks are chosen by absolute sample
 /// index, so the thread count still changes the result by rounding only.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn jacobian_r(
     p: &Point,
     basis: &DMatrix<f64>,

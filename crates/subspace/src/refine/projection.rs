@@ -140,6 +140,11 @@ fn solve_linear(
     Some((theta, p, e))
 }
 
+/// What an accepted iterate's Jacobian leaves for its trials: the local
+/// basis of α (embedded in θ), Kaufman's R₂₂ and r₂, and −R₁₁⁻¹R₁₂ (empty
+/// unless a Hessian subsample is used).
+type Step = (DMatrix<f64>, DMatrix<f64>, DVector<f64>, DMatrix<f64>);
+
 /// Minimises the projected cost from `start` (its (A, C, K); β is solved
 /// for first). Every Jacobian and trial books its flops in `account`; the
 /// iterations stop when it refuses them.
@@ -189,7 +194,7 @@ pub(super) fn minimise(
     // judged by one predictor run instead of a least-squares pass; β is
     // re-solved at the next Jacobian.
     let model_beta = prob.hessian_stride > 1;
-    let mut current: Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>, DMatrix<f64>)> = None;
+    let mut current: Option<Step> = None;
     while outcome.iterations < limits.max_iterations {
         let (basis, r22, r2, beta_of_alpha) = match current {
             Some(ref c) => c,
