@@ -45,9 +45,10 @@
 //! projected cost V(α, β̂(α)) alone: n² + n n_y parameters instead of
 //! n² + n(n_u + 2n_y) + n_y n_u + n·records. This removes the valley
 //! along which B (and K) trade off against A that made the joint
-//! iterations converge linearly (Sjöberg & Viberg 1997 for the
-//! conditioning argument; Ljung 1999, §10.2 for the Gauss–Newton
-//! iterations of prediction-error methods). Each iteration:
+//! iterations converge linearly (Ruhe & Wedin 1980 compare the
+//! convergence of the reduced and the joint Gauss–Newton iterations;
+//! Ljung 1999, §10.2 for the Gauss–Newton iterations of prediction-error
+//! methods). Each iteration:
 //!
 //! 1. the Jacobians J_β, J_α of e along the columns of the identity of β
 //!    and of the local coordinates of α (below), by the sensitivity
@@ -148,6 +149,21 @@
 //! one would exceed the bound ([`PemReport::iteration_cap`] then says how
 //! many ran).
 //!
+//! References: G. H. Golub, V. Pereyra, "The differentiation of
+//! pseudo-inverses and nonlinear least squares problems whose variables
+//! separate", SIAM J. Numer. Anal. 10 (1973) 413–432; G. H. Golub,
+//! V. Pereyra, "Separable nonlinear least squares: the variable
+//! projection method and its applications", Inverse Problems 19 (2003)
+//! R1–R26; L. Kaufman, "A variable projection method for solving
+//! separable nonlinear least squares problems", BIT 15 (1975) 49–57;
+//! A. Ruhe, P.-Å. Wedin, "Algorithms for separable nonlinear least squares
+//! problems", SIAM Review 22 (1980) 318–337; L. Ljung, *System
+//! Identification: Theory for the User*, 2nd ed., 1999, ch. 10 (and
+//! §13.4 for closed loop); T. McKelvey, A. Helmersson, T. Ribarits, "Data
+//! driven local coordinates for multivariable linear systems and their
+//! application to system identification", Automatica 40 (2004)
+//! 1629–1635.
+//!
 //! An iterate whose A (or A − KC for the prediction cost) has spectral
 //! radius ≥ 1 is rejected like a cost increase, so a stable start stays
 //! stable; an unstable start is first stabilised (its unstable eigenvalues
@@ -220,15 +236,18 @@ pub enum Kept {
 /// How [`refine_pem`] iterates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum PemMethod {
-    /// Variable projection (default): B, the free D and x₀ solved for by
-    /// least squares at every (A, C, K), Levenberg–Marquardt on (A, C, K)
-    /// in local coordinates with Kaufman's Jacobian, after a warm start on
-    /// the leading part of long records (module docs).
+    /// Variable projection (default): B − KD, the free D, K and x₀ solved
+    /// for by least squares at every (A − KC, C), Levenberg–Marquardt on
+    /// (A − KC, C) in local coordinates with Kaufman's Jacobian, after warm
+    /// stages on the leading parts of long records (module docs). The
+    /// prediction cost on records with unmeasured outputs runs
+    /// [`PemMethod::Joint`] instead ([`PemReport::method`]).
     #[default]
     VariableProjection,
-    /// Levenberg–Marquardt on all parameters together (the method before
-    /// 2026-11-26; slower on the cost valley of B and A, kept for
-    /// comparison).
+    /// Levenberg–Marquardt on all parameters (A, B, C, D, K, x₀) together
+    /// (the method before 2026-11-26: linear convergence along the valley
+    /// where B and K trade off against A; kept for multirate prediction
+    /// and for comparison).
     Joint,
 }
 

@@ -1,10 +1,12 @@
-//! Variable projection (Golub & Pereyra 1973; Kaufman 1975): for fixed
-//! (A, C, K) the residuals are affine in the linear parameters
-//! β = (B, free D, x₀), so β is eliminated by an exact least-squares solve
-//! and Levenberg–Marquardt runs on (A, C, K) alone, in the local
-//! coordinates of their similarity orbit, with Kaufman's Jacobian
-//! P⊥ ∂e/∂α (the columns of ∂e/∂α projected off those of ∂e/∂β). Module
-//! docs of [`super`] for the equations.
+//! Variable projection (Golub & Pereyra 1973; Kaufman 1975) in predictor
+//! coordinates: for fixed α = (Ā, C), Ā = A − KC, the residuals are
+//! affine in the linear parameters β = (B̄ = B − KD, free D, K, x₀), so β
+//! is eliminated by an exact least-squares solve and Levenberg–Marquardt
+//! runs on α alone, in the local coordinates of its similarity orbit,
+//! with Kaufman's Jacobian P⊥ ∂e/∂α (the columns of ∂e/∂α projected off
+//! those of ∂e/∂β). θ is kept in predictor coordinates (Ā and B̄ in the
+//! places of A and B of the model's layout); [`to_model`] maps it back.
+//! Module docs of [`super`] for the equations.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -94,7 +96,7 @@ fn unit_columns(len: usize, idx: &[usize]) -> DMatrix<f64> {
     m
 }
 
-/// Local coordinates of (A, C, K) at `p`: an orthonormal basis of the
+/// Local coordinates of α = (Ā, C) at `p` (predictor coordinates): an orthonormal basis of the
 /// orthogonal complement of the similarity tangent restricted to the
 /// nonlinear parameters, embedded in θ (len × p_α).
 fn nonlinear_basis(p: &Point, lay: &Layout, nl: &[usize]) -> Result<DMatrix<f64>> {
@@ -145,7 +147,7 @@ fn solve_linear(
 /// unless a Hessian subsample is used).
 type Step = (DMatrix<f64>, DMatrix<f64>, DVector<f64>, DMatrix<f64>);
 
-/// Minimises the projected cost from `start` (its (A, C, K); β is solved
+/// Minimises the projected cost from `start` (its α; β is solved
 /// for first). Every Jacobian and trial books its flops in `account`; the
 /// iterations stop when it refuses them.
 pub(super) fn minimise(
@@ -182,12 +184,12 @@ pub(super) fn minimise(
     };
     let mut theta = start_theta;
     let mut e = prob.residuals(start).unwrap_or_else(|| DVector::zeros(0));
-    // β is brought to its optimum for the start's (A, C, K) from the first
+    // β is brought to its optimum for the start's α from the first
     // Jacobian (its R₁₁, r₁: exact, the residuals being affine in β); after
     // that every accepted trial has it at its optimum.
     let mut beta_solved = false;
     let mut lambda = 1e-3;
-    // Local coordinates of (A, C, K), and R₂₂, r₂ (Kaufman's projected
+    // Local coordinates of α, and R₂₂, r₂ (Kaufman's projected
     // Jacobian and residual) of the QR of [J_β J_α | e].
     // With a Hessian subsample (the whole records after a warm start) a
     // trial takes β from the Gauss–Newton model, δβ = −R₁₁⁻¹R₁₂δα, and is

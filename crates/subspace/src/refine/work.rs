@@ -47,8 +47,8 @@ pub(super) fn tangent_basis(n: usize, len: usize) -> f64 {
 }
 
 /// Work of the variable-projection iterations on data of `sizes`, with
-/// `linear` parameters (B, free D, x₀) eliminated and `nonlinear` ones
-/// (A, C, K) iterated on.
+/// `linear` parameters (B̄, free D, K, x₀) eliminated and `nonlinear`
+/// ones (Ā, C) iterated on.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ProjectionWork {
     /// The basis and the Jacobian of all directions at an accepted iterate.
