@@ -138,6 +138,11 @@ fn solve_linear(
     let delta = lm_step(&r11, &r1, LINEAR_DAMPING, &colsq)?;
     let theta = theta + lin * delta;
     let p = to_model(&Point::unpack(&theta, lay));
+    // K is among the linear parameters and A = Ā + KC moves with it: the
+    // solved model must be admissible too.
+    if !admissible(&p, prob.gain) {
+        return None;
+    }
     let e = prob.residuals(&p)?;
     Some((theta, p, e))
 }
@@ -233,7 +238,8 @@ pub(super) fn minimise(
                     if let Some(delta) = lm_step(&r11, &r1, LINEAR_DAMPING, &colsq) {
                         let t = &theta + &lin * delta;
                         let p = to_model(&Point::unpack(&t, lay));
-                        if let Some(te) = prob.residuals(&p)
+                        if admissible(&p, prob.gain)
+                            && let Some(te) = prob.residuals(&p)
                             && mean_square(&te) <= outcome.cost
                         {
                             // r₂ and R₂₂ are those of the projected cost at
@@ -299,7 +305,10 @@ pub(super) fn minimise(
         } else if by_model {
             let t = &trial_theta + &lin * (beta_of_alpha * &step);
             let p = to_model(&Point::unpack(&t, lay));
-            prob.residuals(&p).map(|te| (t, p, te))
+            admissible(&p, prob.gain)
+                .then(|| prob.residuals(&p))
+                .flatten()
+                .map(|te| (t, p, te))
         } else {
             solve_linear(prob, &trial_theta, &lin)
         };
