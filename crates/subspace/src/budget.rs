@@ -355,8 +355,10 @@ mod tests {
         // Room for a few iterations only: capped, and the report says so.
         let m = model(2);
         let per = pem_flops_per_iteration(2, 2, 2, 4 + 4 + 4 + 4 + 4 + 2, 600, 1200);
+        // (The joint method books this per-iteration figure.)
         let few = PemOptions {
             max_work: 3.5 * per,
+            method: crate::PemMethod::Joint,
             ..Default::default()
         };
         let fit = refine_pem(&m, None, &recs, &[], &few).unwrap();

@@ -9,7 +9,8 @@
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
 //! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
-//! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemFit`], [`PemReport`]) | prediction-error or output-error refinement of a model by Levenberg–Marquardt in data-driven local coordinates; multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result |
+//! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemMethod`], [`PemFit`], [`PemReport`]) | prediction-error or output-error refinement of a model by variable projection (B, D, K, x₀ solved for, Levenberg–Marquardt on the predictor's Ā, C in data-driven local coordinates, warm stages on long records); multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result |
+//! | [`pem_work_estimate`] ([`PemWorkEstimate`]) | the refinement's predicted work, in the units of its work bound, before running it |
 //! | [`StreamingIdentifier`], [`StreamedSubspace`] | the same identification from data fed in blocks, memory independent of N: one pass ((B, D) by the projection) or two passes ((B, D, x₀) by the output-error regression of a second pass, equal to [`identify`] in memory up to rounding) |
 //! | [`OutputErrorStream`] ([`OutputErrorStreamOptions`]) | the output-error (B, D, x₀) regression fed in blocks (the second pass) |
 //! | [`select_structure`] ([`StructureOptions`], [`StructureSelection`], [`Candidate`]) | horizon, (A, C) route and order chosen by the simulation fit on held-out data (the default of the `lifted` command) |
@@ -165,7 +166,10 @@ pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify,
 };
-pub use refine::{Kept, PemCost, PemFit, PemOptions, PemReport, Termination, refine_pem};
+pub use refine::{
+    Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
+    pem_work_estimate, refine_pem,
+};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
     estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,

@@ -106,6 +106,12 @@ fn multirate_records_use_the_measured_samples_only() {
     let after = freq_error(&fit.model, &g);
     assert!(after < 0.5 * freq_error(&start, &g), "{after}");
     assert!(fit.model.ts() == Some(1.0));
+    // The predictor's transition changes with the measured outputs, so the
+    // prediction cost runs the joint method there.
+    assert_eq!(fit.report.method, PemMethod::Joint);
+    let fit = refine_pem(&start, None, &rec, &[], &opts(PemCost::OutputError)).unwrap();
+    assert_eq!(fit.report.method, PemMethod::VariableProjection);
+    assert!(freq_error(&fit.model, &g) < 0.5 * freq_error(&start, &g));
 }
 
 #[test]
@@ -291,5 +297,139 @@ fn rejected_inputs_are_named() {
             &zero_iter
         ),
         Err(Error::InvalidOption { .. })
+    ));
+}
+
+/// Variable projection and the joint iterations minimise the same cost:
+/// from the same start they stop at the same cost, to the tolerance of
+/// the stopping rules (a relative 1e-6: `expected_decrease_tolerance`; the
+/// joint method, whose convergence is linear, is given 400 iterations and
+/// a cost tolerance of 1e-12 to get there).
+#[test]
+fn variable_projection_and_joint_reach_the_same_optimum() {
+    let (g, u, y) = plant_and_data(4000, 13);
+    let start = perturbed(&g, 0.05);
+    let rec = [Record {
+        u: &u,
+        y: &y,
+        instrument: None,
+    }];
+    for cost in [PemCost::Prediction, PemCost::OutputError] {
+        let vp = refine_pem(&start, None, &rec, &[], &opts(cost)).unwrap();
+        let joint = refine_pem(
+            &start,
+            None,
+            &rec,
+            &[],
+            &PemOptions {
+                method: PemMethod::Joint,
+                max_iterations: 400,
+                cost_tolerance: 1e-12,
+                ..opts(cost)
+            },
+        )
+        .unwrap();
+        assert_eq!(vp.report.method, PemMethod::VariableProjection);
+        assert_eq!(joint.report.method, PemMethod::Joint);
+        let (a, b) = (vp.report.final_cost, joint.report.final_cost);
+        assert!(
+            (a - b).abs() <= 1e-6 * b,
+            "{cost:?}: projection {a:.12e}, joint {b:.12e}"
+        );
+        // Same model to the resolution of the cost (frequency responses
+        // within 1e-3 of each other; the noise-free responses differ by
+        // 0.05 at the start).
+        let d = freq_error(&vp.model, &joint.model);
+        assert!(d < 1e-3, "{cost:?}: models differ by {d}");
+        assert!(vp.report.iterations < joint.report.iterations);
+    }
+}
+
+/// On a long record the warm stages (5 000 samples, then 100 000) and the
+/// Hessian subsample on the whole record (stride 2 at 250 000 samples)
+/// end at the optimum of the iterations on the whole record from the
+/// start: costs within the relative 1e-6 of the stopping rule.
+#[test]
+fn warm_stages_reach_the_whole_record_optimum() {
+    let (g, u, y) = plant_and_data(250_000, 17);
+    let start = perturbed(&g, 0.05);
+    let rec = [Record {
+        u: &u,
+        y: &y,
+        instrument: None,
+    }];
+    for cost in [PemCost::Prediction, PemCost::OutputError] {
+        let warm = refine_pem(&start, None, &rec, &[], &opts(cost)).unwrap();
+        let cold = refine_pem(
+            &start,
+            None,
+            &rec,
+            &[],
+            &PemOptions {
+                warm_start_samples: 0,
+                ..opts(cost)
+            },
+        )
+        .unwrap();
+        let (a, b) = (warm.report.final_cost, cold.report.final_cost);
+        assert!(
+            (a - b).abs() <= 1e-6 * b,
+            "{cost:?}: warm {a:.12e}, cold {b:.12e}"
+        );
+        assert_eq!(warm.report.iteration_cap, None);
+        assert_eq!(
+            pem_work_estimate(&start, &rec, &opts(cost))
+                .unwrap()
+                .warm_stages,
+            2
+        );
+    }
+}
+
+/// The work bound stops the variable-projection iterations (and the
+/// report says after how many), refuses a refinement whose first
+/// iteration does not fit, and `pem_work_estimate` predicts both figures.
+#[test]
+fn the_work_bound_stops_variable_projection() {
+    let (g, u, y) = plant_and_data(4000, 19);
+    let start = perturbed(&g, 0.05);
+    let rec = [Record {
+        u: &u,
+        y: &y,
+        instrument: None,
+    }];
+    let base = opts(PemCost::Prediction);
+    let est = pem_work_estimate(&start, &rec, &base).unwrap();
+    assert!(est.per_iteration > 0.0 && est.typical >= est.per_iteration);
+    assert_eq!(est.warm_stages, 0);
+    let free = refine_pem(&start, None, &rec, &[], &base).unwrap();
+    assert!(free.report.iterations > 2, "{:?}", free.report);
+    let capped = refine_pem(
+        &start,
+        None,
+        &rec,
+        &[],
+        &PemOptions {
+            max_work: 2.5 * est.per_iteration,
+            ..base.clone()
+        },
+    )
+    .unwrap();
+    let cap = capped.report.iteration_cap.expect("stopped by the bound");
+    assert!((1..=3).contains(&cap), "{:?}", capped.report);
+    assert_eq!(capped.report.termination, Termination::MaxIterations);
+    assert!(capped.report.final_cost < capped.report.initial_cost);
+    assert!(matches!(
+        refine_pem(
+            &start,
+            None,
+            &rec,
+            &[],
+            &PemOptions {
+                max_work: 0.5 * est.per_iteration,
+                ..base
+            },
+        ),
+        Err(Error::TooMuchWork { .. })
     ));
 }

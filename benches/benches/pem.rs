@@ -1,0 +1,94 @@
+//! Criterion bench of the prediction-error refinement (`refine_pem`) on
+//! the two cases of issue 27: a 3-input 2-output plant of order 6 with
+//! N = 2e4 samples, and a 2×2 plant of order 4 with N = 1e6. Each case
+//! runs the default method (variable projection in predictor
+//! coordinates, warm start on long records) and the joint
+//! Levenberg–Marquardt of before (`PemMethod::Joint`), both with the
+//! default options (prediction cost, work bound 2e10) and D = 0, from the
+//! same start: the plant with A shrunk and B grown by 3 %. The final costs
+//! are printed once per case so that the runs can be compared.
+//!
+//! `cargo bench -p lifted-benches --bench pem`
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use lifted_lti::StateSpace;
+use lifted_subspace::{Feedthrough, PemMethod, PemOptions, Record, refine_pem};
+use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A stable order-`n` plant with `nu` inputs and `ny` outputs (poles 0.95,
+/// 0.9, 0.8, 0.6, −0.4, 0.3 with 0.1 couplings, seeded B and C), its record
+/// (binary input, uniform output noise of width 0.1, seeded) and the start.
+fn case(n: usize, nu: usize, ny: usize, len: usize) -> (StateSpace, DMatrix<f64>, DMatrix<f64>) {
+    let poles = [0.95, 0.9, 0.8, 0.6, -0.4, 0.3];
+    let mut rng = ChaCha8Rng::seed_from_u64(27);
+    let mut a = DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| poles[i]));
+    for i in 0..n - 1 {
+        a[(i, i + 1)] = 0.1;
+    }
+    let b = DMatrix::from_fn(n, nu, |_, _| rng.random::<f64>() - 0.5);
+    let c = DMatrix::from_fn(ny, n, |_, _| rng.random::<f64>() - 0.5);
+    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0)).expect("valid model");
+    let u = DMatrix::from_fn(
+        len,
+        nu,
+        |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 },
+    );
+    let mut y = g.lsim(&u, None, None).expect("simulation").y;
+    y.iter_mut()
+        .for_each(|v| *v += 0.1 * (rng.random::<f64>() - 0.5));
+    let start = StateSpace::new(
+        g.a() * 0.97,
+        g.b() * 1.03,
+        g.c().clone(),
+        g.d().clone(),
+        Some(1.0),
+    )
+    .expect("valid model");
+    (start, u, y)
+}
+
+fn bench_pem(c: &mut Criterion) {
+    let mut group = c.benchmark_group("refine_pem");
+    group.sample_size(10);
+    for &(n, nu, ny, len) in &[(6usize, 3usize, 2usize, 20_000usize), (4, 2, 2, 1_000_000)] {
+        let (start, u, y) = case(n, nu, ny, len);
+        let rec = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        for (name, method) in [
+            ("variable_projection", PemMethod::VariableProjection),
+            ("joint", PemMethod::Joint),
+        ] {
+            let opts = PemOptions {
+                feedthrough: Feedthrough::Zero,
+                method,
+                ..Default::default()
+            };
+            let r = refine_pem(&start, None, &rec, &[], &opts)
+                .expect("refine")
+                .report;
+            println!(
+                "{name} {nu}x{ny} order {n} N = {len}: {} iterations ({} accepted), cost {:.6e} → {:.9e}, {:?}, work cap {:?}",
+                r.iterations,
+                r.accepted,
+                r.initial_cost,
+                r.final_cost,
+                r.termination,
+                r.iteration_cap
+            );
+            group.bench_with_input(
+                BenchmarkId::new(format!("{name}/{nu}x{ny}_order{n}"), len),
+                &len,
+                |b, _| b.iter(|| refine_pem(&start, None, &rec, &[], &opts).expect("refine")),
+            );
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_pem);
+criterion_main!(benches);

@@ -1,0 +1,248 @@
+//! The parameter vector θ of the model (A, B, C, D, K, x₀), its layout, and the predictor that gives the scaled residuals.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::numerics::spectral_radius;
+use crate::regress::Record;
+
+/// The parameter vector θ and its layout.
+#[derive(Debug, Clone)]
+pub(super) struct Layout {
+    pub(super) n: usize,
+    pub(super) nu: usize,
+    pub(super) ny: usize,
+    pub(super) records: usize,
+    pub(super) gain: bool,
+    /// Free D entries (output, input).
+    pub(super) d_free: Vec<(usize, usize)>,
+}
+
+impl Layout {
+    pub(super) fn len(&self) -> usize {
+        let (n, nu, ny) = (self.n, self.nu, self.ny);
+        n * n
+            + n * nu
+            + ny * n
+            + self.d_free.len()
+            + if self.gain { n * ny } else { 0 }
+            + self.records * n
+    }
+}
+
+/// Model matrices and initial states as one value.
+#[derive(Debug, Clone)]
+pub(super) struct Point {
+    pub(super) a: DMatrix<f64>,
+    pub(super) b: DMatrix<f64>,
+    pub(super) c: DMatrix<f64>,
+    pub(super) d: DMatrix<f64>,
+    pub(super) k: DMatrix<f64>,
+    pub(super) x0: Vec<DVector<f64>>,
+}
+
+impl Point {
+    pub(super) fn pack(&self, lay: &Layout) -> DVector<f64> {
+        let mut v = Vec::with_capacity(lay.len());
+        v.extend(self.a.iter());
+        v.extend(self.b.iter());
+        v.extend(self.c.iter());
+        v.extend(lay.d_free.iter().map(|&(o, j)| self.d[(o, j)]));
+        if lay.gain {
+            v.extend(self.k.iter());
+        }
+        for x in &self.x0 {
+            v.extend(x.iter());
+        }
+        DVector::from_vec(v)
+    }
+
+    pub(super) fn unpack(theta: &DVector<f64>, lay: &Layout) -> Point {
+        let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+        let mut at = 0;
+        let mut take = |rows: usize, cols: usize| {
+            let m = DMatrix::from_column_slice(rows, cols, &theta.as_slice()[at..at + rows * cols]);
+            at += rows * cols;
+            m
+        };
+        let a = take(n, n);
+        let b = take(n, nu);
+        let c = take(ny, n);
+        let dv = take(lay.d_free.len(), 1);
+        let mut d = DMatrix::zeros(ny, nu);
+        for (i, &(o, j)) in lay.d_free.iter().enumerate() {
+            d[(o, j)] = dv[(i, 0)];
+        }
+        let k = if lay.gain {
+            take(n, ny)
+        } else {
+            DMatrix::zeros(n, ny)
+        };
+        let x0 = (0..lay.records)
+            .map(|_| take(n, 1).column(0).into_owned())
+            .collect();
+        Point { a, b, c, d, k, x0 }
+    }
+
+    /// Tangent directions of the similarity x → (I + T)x at this point, one
+    /// column per elementary T = e_i e_jᵀ (D and nothing else fixed).
+    pub(super) fn similarity_tangent(&self, lay: &Layout) -> DMatrix<f64> {
+        let n = lay.n;
+        let mut q = DMatrix::zeros(lay.len(), n * n);
+        for i in 0..n {
+            for j in 0..n {
+                let mut t = DMatrix::zeros(n, n);
+                t[(i, j)] = 1.0;
+                let dir = Point {
+                    a: &t * &self.a - &self.a * &t,
+                    b: &t * &self.b,
+                    c: -(&self.c * &t),
+                    d: DMatrix::zeros(lay.ny, lay.nu),
+                    k: &t * &self.k,
+                    x0: self.x0.iter().map(|x| &t * x).collect(),
+                };
+                q.column_mut(j * n + i).copy_from(&dir.pack(lay));
+            }
+        }
+        q
+    }
+}
+
+/// Scaled residuals of all records (measured samples only); `None` when
+/// the predictor or simulation is unstable or overflows.
+pub(super) fn residuals(
+    p: &Point,
+    records: &[Record<'_>],
+    weights: &[f64],
+    gain: bool,
+    total: usize,
+) -> Option<DVector<f64>> {
+    let mut out = Vec::with_capacity(total);
+    let (n, nu, ny) = (p.a.nrows(), p.b.ncols(), p.c.nrows());
+    let mut z = vec![0.0; n + nu + ny];
+    let mut next = vec![0.0; n];
+    let mut meas = vec![false; ny];
+    for (r, rec) in records.iter().enumerate() {
+        let mut x = p.x0[r].as_slice().to_vec();
+        for t in 0..rec.u.nrows() {
+            predictor_step(p, gain, rec, t, &mut x, &mut z, &mut meas, &mut next);
+            for o in 0..ny {
+                if meas[o] {
+                    out.push(z[n + nu + o] * weights[o]);
+                }
+            }
+        }
+    }
+    let v = DVector::from_vec(out);
+    v.iter().all(|e| e.is_finite()).then_some(v)
+}
+
+/// One step of the predictor (simulation when `gain` is false) at time
+/// `t`: fills z = [x̂; u; e_m] (e_m the residuals of the measured outputs,
+/// 0 for the others), `meas` (which outputs are measured) and advances x̂,
+/// using `next` as workspace. O(n (n + n_u + n_y)), no allocation.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn predictor_step(
+    p: &Point,
+    gain: bool,
+    rec: &Record<'_>,
+    t: usize,
+    x: &mut [f64],
+    z: &mut [f64],
+    meas: &mut [bool],
+    next: &mut [f64],
+) {
+    let (n, nu, ny) = (p.a.nrows(), p.b.ncols(), p.c.nrows());
+    let (a, b, c, d, k) = (
+        p.a.as_slice(),
+        p.b.as_slice(),
+        p.c.as_slice(),
+        p.d.as_slice(),
+        p.k.as_slice(),
+    );
+    z[..n].copy_from_slice(x);
+    for j in 0..nu {
+        z[n + j] = rec.u[(t, j)];
+    }
+    for o in 0..ny {
+        let yo = rec.y[(t, o)];
+        meas[o] = !yo.is_nan();
+        z[n + nu + o] = if meas[o] {
+            let mut yhat = 0.0;
+            for i in 0..n {
+                yhat += c[o + i * ny] * x[i];
+            }
+            for j in 0..nu {
+                yhat += d[o + j * ny] * z[n + j];
+            }
+            yo - yhat
+        } else {
+            0.0
+        };
+    }
+    next.fill(0.0);
+    for i in 0..n {
+        let xi = x[i];
+        for (nr, ar) in next.iter_mut().zip(&a[i * n..(i + 1) * n]) {
+            *nr += ar * xi;
+        }
+    }
+    for j in 0..nu {
+        let uj = z[n + j];
+        for (nr, br) in next.iter_mut().zip(&b[j * n..(j + 1) * n]) {
+            *nr += br * uj;
+        }
+    }
+    if gain {
+        for o in 0..ny {
+            let eo = z[n + nu + o];
+            if eo != 0.0 {
+                for (nr, kr) in next.iter_mut().zip(&k[o * n..(o + 1) * n]) {
+                    *nr += kr * eo;
+                }
+            }
+        }
+    }
+    x.copy_from_slice(next);
+}
+
+/// Mean of the squared entries.
+pub(super) fn mean_square(e: &DVector<f64>) -> f64 {
+    e.norm_squared() / e.len().max(1) as f64
+}
+
+/// Is the iterate admissible: a stable simulation (ρ(A) < 1) and, for the
+/// prediction cost, a stable predictor (ρ(A − KC) < 1)? A refinement never
+/// turns a stable model unstable.
+pub(super) fn admissible(p: &Point, gain: bool) -> bool {
+    let stable_a = spectral_radius(&p.a).is_ok_and(|r| r < 1.0);
+    if !gain {
+        return stable_a;
+    }
+    stable_a && spectral_radius(&(&p.a - &p.k * &p.c)).is_ok_and(|r| r < 1.0)
+}
+
+/// Largest modulus of an eigenvalue of an unstable start moved inside the
+/// unit circle ([`lifted_linalg::reflect_into_unit_disc`]).
+pub(super) const STABILIZED_START_RADIUS: f64 = 0.999;
+
+/// 1/std of each output's measured samples over the records (1 for a
+/// constant output).
+pub(super) fn output_weights(records: &[Record<'_>], ny: usize) -> Vec<f64> {
+    (0..ny)
+        .map(|o| {
+            let vals: Vec<f64> = records
+                .iter()
+                .flat_map(|r| {
+                    r.y.column(o)
+                        .iter()
+                        .copied()
+                        .filter(|v| !v.is_nan())
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            let m = vals.iter().sum::<f64>() / vals.len().max(1) as f64;
+            let var = vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / vals.len().max(1) as f64;
+            if var > 0.0 { 1.0 / var.sqrt() } else { 1.0 }
+        })
+        .collect()
+}
