@@ -3857,7 +3857,7 @@ mod refine_work {
             })
         };
         let mut capped = base.to_vec();
-        capped.extend(["--refine-max-work", "1e6"]);
+        capped.extend(["--refine-max-work", "3e6"]);
         ok(&capped);
         let f = ModelFile::read(&out).unwrap();
         assert!(warned(&f), "{}", f.diagnostics);
