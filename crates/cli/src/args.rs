@@ -393,7 +393,11 @@ pub enum BdArg {
 /// Refinement after the identification (`--refine`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum RefineArg {
-    /// No refinement (default).
+    /// The prediction-error refinement where it pays (default): when its predicted work is at
+    /// most 4e9 operations (about 1 s) or the record has fewer than 10 000 samples, and the
+    /// estimate is stable; `diagnostics.refinement_decision` says what was decided and why.
+    Auto,
+    /// No refinement.
     None,
     /// Prediction-error method: one-step prediction error, Kalman gain estimated.
     Pem,
@@ -542,7 +546,8 @@ pub struct IdentifyArgs {
     /// Refine the identified model by Levenberg–Marquardt on the prediction error (`pem`) or
     /// the simulation error (`oe`); multirate records use their measured samples only. The
     /// refined model is kept only if its simulation fit on the record is at least as good.
-    #[arg(long, value_enum, default_value_t = RefineArg::None)]
+    /// Default `auto`: the prediction error where it pays (see `auto`), `none` to skip it.
+    #[arg(long, value_enum, default_value_t = RefineArg::Auto)]
     pub refine: RefineArg,
     /// Largest number of refinement iterations.
     #[arg(long, default_value_t = 100)]

@@ -3963,6 +3963,8 @@ mod stable_close {
             "10",
             "--estimator",
             "shift",
+            "--refine",
+            "none",
             "--out",
             &out,
         ];
@@ -3980,6 +3982,11 @@ mod stable_close {
             let f = ModelFile::read(&out).unwrap();
             let m = f.model.clone();
             let (e_plain, e_stable) = (fr_error(&plain), fr_error(&m));
+            eprintln!(
+                "seed {seed}: rho {:.4}, FR error unconstrained {e_plain:.4}, --stable {e_stable:.4} ({})",
+                rho(&plain),
+                f.diagnostics["stable_route"]
+            );
             assert!(rho(&m) < 1.0, "seed {seed}: rho {}", rho(&m));
             assert!(
                 f.diagnostics["stable_route"].is_string(),

@@ -158,8 +158,12 @@ impl Choice for lifted_workflow::Detrend {
 
 impl Choice for lifted_workflow::Refine {
     const WHAT: &'static str = "refinement";
-    const NAMES: &'static [(&'static str, Self)] =
-        &[("none", Self::None), ("pem", Self::Pem), ("oe", Self::Oe)];
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("auto", Self::Auto),
+        ("none", Self::None),
+        ("pem", Self::Pem),
+        ("oe", Self::Oe),
+    ];
 }
 
 /// Every option type and its names, for `lifted._lifted._choices()` (the

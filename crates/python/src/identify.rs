@@ -59,8 +59,8 @@ fn horizon_of(
 /// records (`us`, `ys`: lists of N×m and N×p arrays). Keyword defaults are
 /// the workflow's (those of `lifted identify`): the horizon, the (A, C)
 /// route and the order chosen by the held-out simulation fit when not
-/// given, means removed, (B, D, x₀) by output-error least squares, no
-/// refinement. `threads` is capped at the machine's available parallelism
+/// given, means removed, (B, D, x₀) by output-error least squares, the
+/// prediction-error refinement where it pays (`refine="auto"`). `threads` is capped at the machine's available parallelism
 /// (0 = all cores). Returns a dict: model (with its operating point and
 /// Kalman gain), kalman_gain, x0, u0/y0 (means removed), singular_values,
 /// order, suggested_order, method, threads (the count used), model_json
@@ -69,7 +69,7 @@ fn horizon_of(
 #[pyfunction]
 #[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10,
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
-    detrend="mean", remove_means=true, noise_model=true, enforce_stability=false, refine="none",
+    detrend="mean", remove_means=true, noise_model=true, enforce_stability=false, refine="auto",
     refine_iterations=100, refine_max_work=2e10, dt=1.0, threads=1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(

@@ -168,7 +168,7 @@ pub use pbsid::{
 };
 pub use refine::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
-    pem_work_estimate, refine_pem,
+    pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
 };
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,

@@ -74,18 +74,17 @@ fn key_of(exps: &[Experiment<'_>], sub: &SubspaceOptions) -> String {
     let records: Vec<(usize, Vec<u64>)> = exps
         .iter()
         .map(|e| {
-            let sums = e
-                .u
-                .column_iter()
-                .chain(e.y.column_iter())
-                .map(|c| {
-                    c.iter()
-                        .enumerate()
-                        .map(|(i, v)| v * (1.0 + i as f64 * 1e-7))
-                        .sum::<f64>()
-                        .to_bits()
-                })
-                .collect();
+            let sums =
+                e.u.column_iter()
+                    .chain(e.y.column_iter())
+                    .map(|c| {
+                        c.iter()
+                            .enumerate()
+                            .map(|(i, v)| v * (1.0 + i as f64 * 1e-7))
+                            .sum::<f64>()
+                            .to_bits()
+                    })
+                    .collect();
             (e.u.nrows(), sums)
         })
         .collect();

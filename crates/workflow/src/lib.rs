@@ -88,12 +88,12 @@ mod routes;
 pub mod stream;
 mod validate;
 
+pub use cache::SubspaceCache;
 pub use error::{Error, Result};
 pub use options::{
     BdRoute, DataOptions, Detrend, Estimator, IdentificationOptions, Method, Order, OrderCriterion,
     Refine, RefinementOptions, ValidationOptions, WorkflowOptions,
 };
-pub use cache::SubspaceCache;
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{detrend_sets, deviations};
 pub use refine::refine;

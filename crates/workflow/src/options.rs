@@ -235,8 +235,14 @@ impl Default for IdentificationOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Refine {
-    /// No refinement (default).
+    /// The prediction-error refinement where it pays (default): run when
+    /// its predicted work (`lifted_subspace::pem_work_estimate`, the
+    /// typical count) is at most [`AUTO_REFINE_WORK`] or the records are
+    /// shorter than [`AUTO_REFINE_SAMPLES`] and the estimate is stable;
+    /// `diagnostics.refinement_decision` says what was decided and why.
     #[default]
+    Auto,
+    /// No refinement.
     None,
     /// Prediction-error method: one-step prediction error, Kalman gain
     /// estimated.
@@ -245,13 +251,31 @@ pub enum Refine {
     Oe,
 }
 
+/// Work (floating-point operations of the work bound's cost model) up to
+/// which [`Refine::Auto`] refines: 4e9, about one second on one core of
+/// the benchmark machine (≈ 4e9 such operations per second were measured).
+/// By `benches/examples/pem_cost.rs` (table in `benches/README.md`, "PEM
+/// against the subspace step") this refines 2×2 models of order 4 up to
+/// N ≈ 1e5 and 3×2 models of order 6 up to a few 1e4 samples, and skips the
+/// long records, where the refinement costs seconds and the subspace
+/// estimate is already close to efficient.
+pub const AUTO_REFINE_WORK: f64 = 4e9;
+
+/// Records (samples, all records together) below which [`Refine::Auto`]
+/// always refines (when the estimate is stable): on short records the
+/// subspace estimate is furthest from the prediction-error optimum, and the
+/// refinement costs well under a second at the orders the held-out
+/// selection picks.
+pub const AUTO_REFINE_SAMPLES: usize = 10_000;
+
 /// The refinement stage (Levenberg–Marquardt from the identified model,
 /// measured samples only; the refined model is kept only if its simulation
 /// fit on the record is at least as good).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RefinementOptions {
-    /// The cost (default [`Refine::None`]: no refinement).
+    /// The cost (default [`Refine::Auto`]: the prediction error where it
+    /// pays).
     pub refine: Refine,
     /// Largest number of iterations. Default 100.
     pub iterations: usize,
@@ -262,7 +286,7 @@ pub struct RefinementOptions {
 impl Default for RefinementOptions {
     fn default() -> Self {
         RefinementOptions {
-            refine: Refine::None,
+            refine: Refine::Auto,
             iterations: 100,
             max_work: 2e10,
         }
@@ -297,7 +321,7 @@ impl WorkflowOptions {
             return Err(Error::option("max_order", "must be at least 1"));
         }
         let r = &self.refinement;
-        if r.refine != Refine::None && r.iterations == 0 {
+        if matches!(r.refine, Refine::Pem | Refine::Oe) && r.iterations == 0 {
             return Err(Error::option(
                 "refine_iterations",
                 "0: the refinement needs at least one iteration (or no refinement)",

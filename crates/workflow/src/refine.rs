@@ -9,13 +9,17 @@
 //! it back to the data; `diagnostics.stable_route` says what was done.
 
 use lifted_lti::{Dataset, StateSpace};
-use lifted_subspace::{Feedthrough, Kept, PemCost, PemOptions, Record, refine_pem};
+use lifted_subspace::{
+    Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, pem_work_estimate,
+    pem_work_estimate_of_sizes, refine_pem,
+};
 use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::diagnostics::push_warning;
 use crate::error::{Context, Result};
-use crate::options::{Refine, WorkflowOptions};
+use crate::options::{AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, Refine, WorkflowOptions};
+use crate::validate::spectral_radius;
 
 /// What the refinement's noise model is, and when it is consistent under
 /// feedback (written to the diagnostics with every refinement).
@@ -37,7 +41,7 @@ const PEM_NOISE_MODEL: [&str; 2] = [
 /// exactly the model the plain identification gives whenever that model is
 /// stable.
 pub(crate) fn stabilized_start(opts: &WorkflowOptions) -> bool {
-    opts.identification.stable || opts.refinement.refine != Refine::None
+    opts.identification.stable || matches!(opts.refinement.refine, Refine::Pem | Refine::Oe)
 }
 
 /// `diagnostics.stable_route` of a stable identification: [not needed,
@@ -80,15 +84,128 @@ pub(crate) fn refinement_cost(
         Refine::None => (opts.identification.stable
             && diagnostics.as_object().is_some_and(was_stabilized))
         .then_some(PemCost::Prediction),
+        Refine::Auto => Some(PemCost::Prediction),
     }
+}
+
+/// Whether [`Refine::Auto`] refines `model` on records of `samples`
+/// samples whose predicted refinement work is `work` (`None`: not
+/// predicted), and why (for `diagnostics.refinement_decision`).
+pub(crate) fn auto_decision(
+    model: &StateSpace,
+    samples: usize,
+    work: Option<f64>,
+) -> (bool, String) {
+    let rho = spectral_radius(model).unwrap_or(f64::INFINITY);
+    if rho >= 1.0 {
+        return (
+            false,
+            format!(
+                "not refined: the estimate is unstable (rho(A) = {rho:.4}); --refine pem refines from its zero-padded-shift re-estimate, --stable too"
+            ),
+        );
+    }
+    let Some(work) = work else {
+        return (false, "not refined: its work could not be predicted".into());
+    };
+    if work <= AUTO_REFINE_WORK || samples < AUTO_REFINE_SAMPLES {
+        (
+            true,
+            format!(
+                "refined by the prediction error: predicted work {work:.2e} operations (refined by default up to {AUTO_REFINE_WORK:.0e}, or always below {AUTO_REFINE_SAMPLES} samples)"
+            ),
+        )
+    } else {
+        (
+            false,
+            format!(
+                "not refined: predicted work {work:.2e} operations on {samples} samples is more than the default's {AUTO_REFINE_WORK:.0e} (about 1 s); --refine pem refines anyway"
+            ),
+        )
+    }
+}
+
+/// [`auto_decision`] for a record read in blocks, from its size alone
+/// (before it is loaded for the refinement).
+pub(crate) fn auto_decision_of_size(
+    opts: &WorkflowOptions,
+    model: &StateSpace,
+    samples: usize,
+) -> (bool, String) {
+    let work = pem_work_estimate_of_sizes(
+        model,
+        &[samples],
+        &pem_options(opts, model, PemCost::Prediction, false),
+    )
+    .ok()
+    .map(|w| w.typical);
+    auto_decision(model, samples, work)
+}
+
+/// The refinement's options for `cost` on `model`. From a start the route
+/// had to stabilise (`stabilized`: the zero-padded shift, far from the
+/// optimum, its poles pulled inwards) the joint iterations on (A, B, C, D,
+/// K, x₀) are used: variable projection re-solves K at every step, so A =
+/// Ā + KC moves with it and steps towards the stability boundary are
+/// rejected; on the first record of `tests.rs::stable_close` (2×2, N =
+/// 3000, order 6) both ran their 100 iterations, the joint ones to a lower
+/// cost (2.33e-3 against 2.45e-3) and an FR error against the truth of
+/// 0.036 against 0.146 (the unconstrained estimate's: 0.095).
+fn pem_options(
+    opts: &WorkflowOptions,
+    model: &StateSpace,
+    cost: PemCost,
+    stabilized: bool,
+) -> PemOptions {
+    let method = if stabilized {
+        PemMethod::Joint
+    } else {
+        PemMethod::VariableProjection
+    };
+    let feedthrough = if model.d().iter().all(|&v| v == 0.0) {
+        Feedthrough::Zero
+    } else {
+        Feedthrough::Free
+    };
+    PemOptions {
+        feedthrough,
+        max_iterations: opts.refinement.iterations,
+        max_work: opts.refinement.max_work,
+        cost,
+        method,
+        ..Default::default()
+    }
+}
+
+/// No refinement: the model and diagnostics as given, with a stable
+/// identification's route recorded.
+fn unrefined(
+    opts: &WorkflowOptions,
+    model: StateSpace,
+    mut diagnostics: serde_json::Value,
+) -> Result<(StateSpace, serde_json::Value)> {
+    if opts.identification.stable
+        && let Some(obj) = diagnostics.as_object_mut()
+    {
+        let route = if was_stabilized(obj) {
+            STABLE_ROUTE[1]
+        } else if obj.contains_key("stabilized") || obj.contains_key("stabilized_from") {
+            STABLE_ROUTE[0]
+        } else {
+            STABLE_ROUTE[5]
+        };
+        obj.insert("stable_route".into(), json!(route));
+    }
+    Ok((model, diagnostics))
 }
 
 /// Refines `model` (and `kalman_gain`) on `sets` per the refinement options
 /// (and, for a stable identification whose estimate had to be stabilised,
 /// by the prediction error: see [`IdentificationOptions::stable`](crate::IdentificationOptions::stable));
-/// returns the model kept and the diagnostics with the refinement's report
-/// and, for a stable identification, `stable_route`. No refinement: the
-/// model and diagnostics as given (`sets` is not read).
+/// returns the model kept and the diagnostics with the refinement's report,
+/// [`Refine::Auto`]'s decision (`refinement_decision`) and, for a stable
+/// identification, `stable_route`. No refinement: the model and diagnostics
+/// as given (`sets` is not read).
 pub fn refine(
     opts: &WorkflowOptions,
     model: StateSpace,
@@ -98,19 +215,36 @@ pub fn refine(
 ) -> Result<(StateSpace, serde_json::Value)> {
     let stable = opts.identification.stable;
     let Some(cost) = refinement_cost(opts, &diagnostics) else {
-        if stable && let Some(obj) = diagnostics.as_object_mut() {
-            let route = if was_stabilized(obj) {
-                STABLE_ROUTE[1]
-            } else if obj.contains_key("stabilized") || obj.contains_key("stabilized_from") {
-                STABLE_ROUTE[0]
-            } else {
-                STABLE_ROUTE[5]
-            };
-            obj.insert("stable_route".into(), json!(route));
-        }
-        return Ok((model, diagnostics));
+        return unrefined(opts, model, diagnostics);
     };
-    let polish = opts.refinement.refine == Refine::None;
+    let records: Vec<Record<'_>> = sets
+        .iter()
+        .map(|d| Record {
+            u: d.u(),
+            y: d.y(),
+            instrument: None,
+        })
+        .collect();
+    let stabilized = diagnostics.as_object().is_some_and(was_stabilized);
+    let pem = pem_options(opts, &model, cost, stabilized);
+    if opts.refinement.refine == Refine::Auto && !(stable && stabilized) {
+        let samples = sets.iter().map(Dataset::len).sum();
+        let work = if records.is_empty() {
+            None
+        } else {
+            pem_work_estimate(&model, &records, &pem)
+                .ok()
+                .map(|w| w.typical)
+        };
+        let (go, why) = auto_decision(&model, samples, work);
+        if let Some(obj) = diagnostics.as_object_mut() {
+            obj.insert("refinement_decision".into(), json!(why));
+        }
+        if !go {
+            return unrefined(opts, model, diagnostics);
+        }
+    }
+    let polish = matches!(opts.refinement.refine, Refine::None | Refine::Auto);
     // (Zero iterations with a refinement asked for are refused by
     // `WorkflowOptions::check`.)
     let opts = &opts.refinement;
@@ -123,26 +257,6 @@ pub fn refine(
             ),
         ));
     }
-    let records: Vec<Record<'_>> = sets
-        .iter()
-        .map(|d| Record {
-            u: d.u(),
-            y: d.y(),
-            instrument: None,
-        })
-        .collect();
-    let feedthrough = if model.d().iter().all(|&v| v == 0.0) {
-        Feedthrough::Zero
-    } else {
-        Feedthrough::Free
-    };
-    let pem = PemOptions {
-        cost,
-        feedthrough,
-        max_iterations: opts.iterations,
-        max_work: opts.max_work,
-        ..Default::default()
-    };
     let fit = refine_pem(&model, kalman_gain.as_ref(), &records, &[], &pem).ctx("refine")?;
     if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)

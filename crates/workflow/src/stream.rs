@@ -16,10 +16,10 @@ use nalgebra::DMatrix;
 
 use crate::diagnostics::{add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
-use crate::options::{Detrend, OrderCriterion, WorkflowOptions};
+use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::deviations;
-use crate::refine::{refine, refinement_cost, stabilized_start};
+use crate::refine::{auto_decision_of_size, refine, refinement_cost, stabilized_start};
 use crate::routes::{bd_of, criterion_of, method_of, order_of, system_of};
 use crate::validate::{finish_file, require_stable};
 
@@ -207,15 +207,27 @@ pub fn identify_streamed(
         Some(ts),
     )
     .ctx("identify")?;
-    let d = subspace_json(
+    let mut d = subspace_json(
         &fit,
         "single-rate subspace identification, streamed in blocks",
     );
     let mut kalman_gain = fit.kalman_gain.clone();
-    let (model, mut d) = if refinement_cost(opts, &d).is_none() {
+    // The default refinement decides from the record's size before the
+    // record is loaded for it.
+    let stabilized = d.get("stabilized") == Some(&serde_json::json!(true));
+    let auto_skips = opts.refinement.refine == Refine::Auto && !(id.stable && stabilized) && {
+        let (go, why) = auto_decision_of_size(opts, &model, n_rows);
+        if let Some(obj) = d.as_object_mut() {
+            obj.insert("refinement_decision".into(), serde_json::json!(why));
+        }
+        !go
+    };
+    let (model, mut d) = if refinement_cost(opts, &d).is_none() || auto_skips {
         // No refinement: `refine` only records a stable identification's
         // route.
-        refine(opts, model, d, &[], &mut kalman_gain)?
+        let mut none = opts.clone();
+        none.refinement.refine = Refine::None;
+        refine(&none, model, d, &[], &mut kalman_gain)?
     } else {
         // The refinement starts from the model above, on the record in
         // memory (deviations from the model's operating point).

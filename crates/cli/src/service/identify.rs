@@ -155,6 +155,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     id.amplitude = a.amplitude;
     id.output_weight = a.output_weight.clone();
     o.refinement.refine = match a.refine {
+        RefineArg::Auto => Refine::Auto,
         RefineArg::None => Refine::None,
         RefineArg::Pem => Refine::Pem,
         RefineArg::Oe => Refine::Oe,

@@ -949,8 +949,8 @@ impl Session {
             .collect();
         let a = Self::identify_args(r, &paths)?;
         let (files, opts) = (files_from_args(&a)?, options_from_args(&a)?);
-        let file = identify_files_with(&files, &opts, &mut self.cache)
-            .map_err(|e| self.plain(e))?;
+        let file =
+            identify_files_with(&files, &opts, &mut self.cache).map_err(|e| self.plain(e))?;
         if a.stable {
             require_stable(&file.model)?;
         }

@@ -223,7 +223,7 @@ def identify(
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
-    refine: Refine = "none",
+    refine: Refine = "auto",
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,
@@ -253,8 +253,11 @@ def identify(
     * ``detrend``: ``"mean"`` (the means removed and stored as the model's
       operating point), ``"none"`` or ``"linear"``; ``remove_means=False``
       is ``detrend="none"``.
-    * ``refine``: ``"pem"`` or ``"oe"`` refines the model from exactly the
-      identified one (``refine_iterations``, ``refine_max_work``).
+    * ``refine``: ``"auto"`` (default) refines by the prediction error where
+      it pays (predicted work at most 4e9 operations, about 1 s, or fewer than
+      10 000 samples, and a stable estimate; ``diagnostics["refinement_decision"]``
+      says why), ``"none"`` never, ``"pem"`` or ``"oe"`` always, from exactly
+      the identified model (``refine_iterations``, ``refine_max_work``).
     * ``enforce_stability``: the stabilised estimate (``--stable``).
     * ``threads``: the correlation-kernel threads (0 = all cores; capped at
       the machine's available parallelism, the count used is
@@ -344,7 +347,7 @@ def n4sid(
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
-    refine: Refine = "none",
+    refine: Refine = "auto",
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,
@@ -377,7 +380,7 @@ def moesp(
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
-    refine: Refine = "none",
+    refine: Refine = "auto",
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,
@@ -410,7 +413,7 @@ def cva(
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
-    refine: Refine = "none",
+    refine: Refine = "auto",
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,

@@ -274,7 +274,7 @@ def identify(
     remove_means: bool = True,
     noise_model: bool = True,
     enforce_stability: bool = False,
-    refine: Refine = "none",
+    refine: Refine = "auto",
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,

@@ -48,4 +48,4 @@ BdRoute = Literal["auto", "output_error", "projection"]
 #: Offsets removed before the identification (``identify(detrend=...)``).
 Detrend = Literal["none", "mean", "linear"]
 #: Refinement after the identification (``identify(refine=...)``).
-Refine = Literal["none", "pem", "oe"]
+Refine = Literal["auto", "none", "pem", "oe"]

@@ -735,20 +735,63 @@ pub fn pem_work_estimate(
     opts: &PemOptions,
 ) -> Result<PemWorkEstimate> {
     let measured = check_records(initial, records)?;
+    let samples: usize = records.iter().map(|r| r.u.nrows()).sum();
+    estimate_of_sizes(
+        initial,
+        samples,
+        measured,
+        records.len(),
+        effective_method(opts, records),
+        opts,
+    )
+}
+
+/// [`pem_work_estimate`] from the sizes alone, for records of `samples`
+/// samples each with every output measured (single rate): a caller that
+/// streams a record can decide before it loads it.
+///
+/// Errors: [`Error::NoData`] for no record or an empty one, a bad
+/// feedthrough mask.
+pub fn pem_work_estimate_of_sizes(
+    initial: &StateSpace,
+    samples: &[usize],
+    opts: &PemOptions,
+) -> Result<PemWorkEstimate> {
+    if samples.is_empty() || samples.contains(&0) {
+        return Err(Error::NoData);
+    }
+    let total: usize = samples.iter().sum();
+    estimate_of_sizes(
+        initial,
+        total,
+        total * initial.n_outputs(),
+        samples.len(),
+        opts.method,
+        opts,
+    )
+}
+
+fn estimate_of_sizes(
+    initial: &StateSpace,
+    samples: usize,
+    measured: usize,
+    n_records: usize,
+    method: PemMethod,
+    opts: &PemOptions,
+) -> Result<PemWorkEstimate> {
     let (n, nu, ny) = (initial.order(), initial.n_inputs(), initial.n_outputs());
     let mask = opts.feedthrough.mask(ny, nu)?;
     let lay = Layout {
         n,
         nu,
         ny,
-        records: records.len(),
+        records: n_records,
         gain: opts.cost == PemCost::Prediction,
         d_free: (0..ny)
             .flat_map(|o| (0..nu).map(move |j| (o, j)))
             .filter(|&(o, j)| mask[(o, j)])
             .collect(),
     };
-    let samples: usize = records.iter().map(|r| r.u.nrows()).sum();
     let threads = crate::checks::thread_count(opts.threads);
     let sizes = |samples: usize, measured: usize, hessian_stride: usize| work::Sizes {
         n,
@@ -760,7 +803,7 @@ pub fn pem_work_estimate(
         hessian_stride,
     };
     let (linear, nonlinear) = (lay.linear_indices().len(), lay.nonlinear_indices().len());
-    Ok(match effective_method(opts, records) {
+    Ok(match method {
         PemMethod::Joint => {
             let per =
                 crate::budget::pem_flops_per_iteration(n, nu, ny, lay.len(), samples, measured);
