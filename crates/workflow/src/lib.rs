@@ -34,7 +34,10 @@
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the
 //!    one-step prediction error (the innovations form, K free) or on the
 //!    simulation error, from exactly the identified model; the refined
-//!    model is kept only if its simulation fit is at least as good.
+//!    model is kept only if its simulation fit is at least as good. By
+//!    default ([`Refine::Auto`]) the prediction-error refinement runs where
+//!    it pays: predicted work at most [`AUTO_REFINE_WORK`] or fewer than
+//!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate.
 //! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
 //!    always written to the diagnostics (`stability`), an unstable model
 //!    carrying a warning that names it; optionally an error instead.
@@ -91,8 +94,9 @@ mod validate;
 pub use cache::SubspaceCache;
 pub use error::{Error, Result};
 pub use options::{
-    BdRoute, DataOptions, Detrend, Estimator, IdentificationOptions, Method, Order, OrderCriterion,
-    Refine, RefinementOptions, ValidationOptions, WorkflowOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, BdRoute, DataOptions, Detrend, Estimator,
+    IdentificationOptions, Method, Order, OrderCriterion, Refine, RefinementOptions,
+    ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{detrend_sets, deviations};

@@ -904,7 +904,12 @@ impl Session {
             ("detrend", r.detrend.clone()),
             ("estimator", r.estimator.clone()),
             ("order-criterion", r.order_criterion.clone()),
-            ("refine", r.refine.clone()),
+            // The page refines only on its PEM button: a slider move stays a
+            // subspace fit (the command's default, `auto`, would refine).
+            (
+                "refine",
+                Some(r.refine.clone().unwrap_or_else(|| "none".into())),
+            ),
         ] {
             if let Some(v) = v {
                 opt(flag, v);
