@@ -78,7 +78,7 @@ def test_sharded_record_equals_one_process(client, tmp_path: pathlib.Path) -> No
         paths.append(p)
     options = dict(method="n4sid", order=4, past=10, future=10)
     dist = lifted_dask.identify(paths, inputs=[0, 1], outputs=[2, 3], client=client, **options)
-    one = lifted.identify(u, y, **options, system="shift")
+    one = lifted.identify(u, y, **options, system="shift", refine="none")
     # Same data, same estimator: the compression differs only in the
     # summation order and the centring reference (first 65536 samples vs
     # the whole record), the regression only in its block boundaries, so
@@ -104,7 +104,7 @@ def test_dask_array_input_agrees_with_files(client) -> None:
     fit = lifted_dask.identify(u=du, y=dy, order=4, client=client)
     # lifted.dask's structure (horizon 10, shift invariance) given to the
     # in-memory call, which would otherwise select its own.
-    one = lifted.identify(u, y, order=4, horizon=10, system="shift")
+    one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
     both = da.from_array(np.hstack([u, y]), chunks=(70_000, 4))
     fit2 = lifted_dask.identify(both, inputs=2, outputs=[2, 3], order=4, client=client)
@@ -147,7 +147,7 @@ def test_parquet_shards_and_dataframe(client, tmp_path: pathlib.Path) -> None:
         p = tmp_path / f"part-{k}.parquet"
         frame.iloc[part].to_parquet(p)
         paths.append(p)
-    one = lifted.identify(u, y, order=4, horizon=10, system="shift")
+    one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
     fit = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4, client=client)
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
     ddf = dd.from_pandas(frame, npartitions=4)

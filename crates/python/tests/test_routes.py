@@ -27,8 +27,12 @@ def write_csv(path: pathlib.Path, dt: float, u: np.ndarray, y: np.ndarray) -> No
 
 
 def cli_poles(args: list[str]) -> np.ndarray:
+    """Poles of `lifted identify ARGS` without refinement (these Python
+    routes call the library's identification alone; the CLI's default,
+    --refine auto, would refine)."""
     out = pathlib.Path(args[args.index("--out") + 1])
-    subprocess.run([str(cli()), "identify", *args], check=True, capture_output=True)
+    subprocess.run([str(cli()), "identify", *args, "--refine", "none"], check=True,
+                   capture_output=True)
     m = lifted.StateSpace.from_json(out.read_text())
     return np.sort_complex(m.poles())
 
