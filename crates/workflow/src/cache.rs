@@ -15,7 +15,10 @@ use lifted_subspace::{CompressedData, Experiment, SubspaceModel, SubspaceOptions
 
 use crate::error::{Context, Result};
 
-/// The compressed data of the last run (see the [module docs](self)).
+/// The compressed data of the last run, reused by [`crate::identify_cached`] when the records
+/// and the compression options (horizon, mean removal, compression kind, block size,
+/// threads) are those of that run: a new order then costs O(k³) and the (B, D, x₀)
+/// regression, and gives the uncached model bit for bit.
 #[derive(Default)]
 pub struct SubspaceCache {
     kept: Option<(String, CompressedData<'static>)>,

@@ -7,7 +7,8 @@
 use lifted_lti::{Dataset, StateSpace};
 use lifted_workflow::{
     BlockSink, Detrend, Error, Estimator, Method, Order, OrderCriterion, Pass, Record,
-    RecordSource, Refine, WorkflowOptions, identify, identify_streamed,
+    RecordSource, Refine, SubspaceCache, WorkflowOptions, identify, identify_cached,
+    identify_streamed,
 };
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
@@ -171,6 +172,7 @@ fn the_refinement_starts_from_the_plain_model() {
     let (u, y) = record(1500, 0.1, 3);
     let mut opts = WorkflowOptions::default();
     opts.identification.order = Order::Fixed(3);
+    opts.refinement.refine = Refine::None;
     let plain = identify(&[Record::new(dataset(&u, &y))], &opts).expect("plain");
     opts.refinement.refine = Refine::Pem;
     let refined = identify(&[Record::new(dataset(&u, &y))], &opts).expect("refined");
@@ -247,4 +249,64 @@ fn bad_options_are_named() {
         Err(Error::Data(m)) => assert!(m.contains("no data"), "{m}"),
         other => panic!("{other:?}"),
     }
+}
+
+#[test]
+fn the_cache_gives_the_uncached_model_without_a_new_compression() {
+    let (u, y) = record(4000, 0.1, 5);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut cache = SubspaceCache::default();
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.refinement.refine = Refine::None;
+    for (i, (method, n)) in [(Method::N4sid, 2), (Method::N4sid, 3), (Method::Moesp, 4)]
+        .into_iter()
+        .enumerate()
+    {
+        opts.identification.method = method;
+        opts.identification.order = Order::Fixed(n);
+        let cached = identify_cached(&records, &opts, &[], &mut cache).expect("cached");
+        let plain = identify(&records, &opts).expect("plain");
+        // Bit for bit: the cached route is how the uncached one runs.
+        assert_eq!(cached.file.model, plain.file.model, "{method:?} n = {n}");
+        assert_eq!(cached.file.kalman_gain, plain.file.kalman_gain);
+        assert_eq!(cached.x0, plain.x0);
+        // One compression for the three fits.
+        assert_eq!(cache.compressions(), 1, "fit {i}");
+    }
+    // A new horizon or new data compress again.
+    opts.identification.horizon = Some(8);
+    identify_cached(&records, &opts, &[], &mut cache).expect("new horizon");
+    assert_eq!(cache.compressions(), 2);
+    let (u2, y2) = record(4000, 0.1, 6);
+    identify_cached(&[Record::new(dataset(&u2, &y2))], &opts, &[], &mut cache).expect("new data");
+    assert_eq!(cache.compressions(), 3);
+}
+
+#[test]
+fn the_default_refines_short_records_and_says_so() {
+    let (u, y) = record(3000, 0.1, 7);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    let auto = identify(&records, &opts).expect("auto");
+    let d = &auto.file.diagnostics;
+    // Fewer than 1e4 samples and a stable estimate: refined by PEM.
+    assert!(
+        d["refinement_decision"]
+            .as_str()
+            .is_some_and(|s| s.starts_with("refined by the prediction error")),
+        "{d}"
+    );
+    assert_eq!(d["refinement"]["cost"], serde_json::json!("Prediction"));
+    // The same run with `Refine::Pem` asked explicitly gives the same model.
+    opts.refinement.refine = Refine::Pem;
+    let pem = identify(&records, &opts).expect("pem");
+    assert_eq!(auto.file.model, pem.file.model);
+    // `Refine::None`: no refinement, no decision.
+    opts.refinement.refine = Refine::None;
+    let none = identify(&records, &opts).expect("none");
+    assert!(none.file.diagnostics.get("refinement").is_none());
+    assert!(none.file.diagnostics.get("refinement_decision").is_none());
 }
