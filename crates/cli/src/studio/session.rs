@@ -633,17 +633,23 @@ impl Session {
         staging(&self.dir, name)
     }
 
+    /// `bytes` written to a new staging folder under `name`: (folder,
+    /// file); the folder is removed again when the write fails.
+    fn stage(&self, name: &str, bytes: &[u8]) -> CliResult<(PathBuf, PathBuf)> {
+        let (folder, path) = self.staging(name)?;
+        if let Err(e) = std::fs::write(&path, bytes) {
+            let _ = std::fs::remove_dir_all(&folder);
+            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
+        }
+        Ok((folder, path))
+    }
+
     /// Stores an uploaded CSV and checks every cell with the command's
     /// reader (the same one-line errors as the CLI); the record replaces
     /// the previous one only once it has been read whole (a bad file leaves
     /// the loaded record and the last model as they were).
     pub fn upload(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
-        let (folder, path) = self.staging(name)?;
-        let safe = safe_name(name);
-        if let Err(e) = std::fs::write(&path, bytes) {
-            let _ = std::fs::remove_dir_all(&folder);
-            return Err(input(format!("cannot store {safe}: {e}")));
-        }
+        let (folder, path) = self.stage(name, bytes)?;
         self.adopt(folder, path)
     }
 
@@ -1430,11 +1436,7 @@ impl Session {
     /// Stores and reads an uploaded further experiment
     /// ([`Session::adopt_experiment`]).
     pub fn upload_experiment(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
-        let (folder, path) = self.staging(name)?;
-        if let Err(e) = std::fs::write(&path, bytes) {
-            let _ = std::fs::remove_dir_all(&folder);
-            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
-        }
+        let (folder, path) = self.stage(name, bytes)?;
         self.adopt_experiment(folder, path)
     }
 
@@ -1513,11 +1515,7 @@ impl Session {
 
     /// Stores and reads an uploaded validation record ([`Session::adopt_validation`]).
     pub fn upload_validation(&mut self, name: &str, bytes: &[u8]) -> CliResult<DataInfo> {
-        let (folder, path) = self.staging(name)?;
-        if let Err(e) = std::fs::write(&path, bytes) {
-            let _ = std::fs::remove_dir_all(&folder);
-            return Err(input(format!("cannot store {}: {e}", safe_name(name))));
-        }
+        let (folder, path) = self.stage(name, bytes)?;
         self.adopt_validation(folder, path)
     }
 
