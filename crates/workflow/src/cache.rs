@@ -69,30 +69,25 @@ impl SubspaceCache {
     }
 }
 
-/// What the compression depends on: the records (their sizes and the bits
-/// of every column's sum, O(N) additions — a changed sample changes a sum
-/// but for a cancellation that rounding makes practically impossible to
-/// meet by accident) and the compression options.
+/// What the compression depends on: the records (their sizes and a hash
+/// of the bits of every sample, O(N)) and the compression options.
 fn key_of(exps: &[Experiment<'_>], sub: &SubspaceOptions) -> String {
-    let records: Vec<(usize, Vec<u64>)> = exps
-        .iter()
-        .map(|e| {
-            let sums =
-                e.u.column_iter()
-                    .chain(e.y.column_iter())
-                    .map(|c| {
-                        c.iter()
-                            .enumerate()
-                            .map(|(i, v)| v * (1.0 + i as f64 * 1e-7))
-                            .sum::<f64>()
-                            .to_bits()
-                    })
-                    .collect();
-            (e.u.nrows(), sums)
-        })
-        .collect();
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for e in exps {
+        (e.u.nrows(), e.u.ncols(), e.y.ncols()).hash(&mut h);
+        for v in e.u.iter().chain(e.y.iter()) {
+            v.to_bits().hash(&mut h);
+        }
+    }
     format!(
-        "{records:?}|{}|{}|{}|{:?}|{}|{}",
-        sub.past, sub.future, sub.remove_means, sub.compression, sub.chunk_rows, sub.threads
+        "{:016x}|{}|{}|{}|{:?}|{}|{}",
+        h.finish(),
+        sub.past,
+        sub.future,
+        sub.remove_means,
+        sub.compression,
+        sub.chunk_rows,
+        sub.threads
     )
 }

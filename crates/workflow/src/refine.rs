@@ -125,21 +125,43 @@ pub(crate) fn auto_decision(
     }
 }
 
-/// [`auto_decision`] for a record read in blocks, from its size alone
-/// (before it is loaded for the refinement).
-pub(crate) fn auto_decision_of_size(
+/// Whether [`Refine::Auto`] decides for `model` here: the default setting,
+/// unless a stable identification's stabilised estimate is to be polished
+/// (which always runs).
+pub(crate) fn auto_decides(opts: &WorkflowOptions, diagnostics: &serde_json::Value) -> bool {
+    opts.refinement.refine == Refine::Auto
+        && !(opts.identification.stable && diagnostics.as_object().is_some_and(was_stabilized))
+}
+
+/// [`Refine::Auto`]'s decision for `model` on records of `samples` samples
+/// (`work`: the predicted work of the refinement with the given options,
+/// asked only when the decision is made), recorded in
+/// `diagnostics.refinement_decision`; true when the refinement runs (always
+/// for the other settings).
+pub(crate) fn auto_allows(
     opts: &WorkflowOptions,
     model: &StateSpace,
+    diagnostics: &mut serde_json::Value,
     samples: usize,
-) -> (bool, String) {
-    let work = pem_work_estimate_of_sizes(
-        model,
-        &[samples],
-        &pem_options(opts, model, PemCost::Prediction, false),
-    )
-    .ok()
-    .map(|w| w.typical);
-    auto_decision(model, samples, work)
+    work: impl FnOnce(&PemOptions) -> Option<f64>,
+) -> bool {
+    if !auto_decides(opts, diagnostics) {
+        return true;
+    }
+    let pem = pem_options(opts, model, PemCost::Prediction, false);
+    let (go, why) = auto_decision(model, samples, work(&pem));
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert("refinement_decision".into(), json!(why));
+    }
+    go
+}
+
+/// The predicted work of a refinement on one record of `samples` samples,
+/// all outputs measured (a record read in blocks, before it is loaded).
+pub(crate) fn work_of_size(model: &StateSpace, samples: usize, pem: &PemOptions) -> Option<f64> {
+    pem_work_estimate_of_sizes(model, &[samples], pem)
+        .ok()
+        .map(|w| w.typical)
 }
 
 /// The refinement's options for `cost` on `model`. From a start the route
@@ -227,22 +249,15 @@ pub fn refine(
         .collect();
     let stabilized = diagnostics.as_object().is_some_and(was_stabilized);
     let pem = pem_options(opts, &model, cost, stabilized);
-    if opts.refinement.refine == Refine::Auto && !(stable && stabilized) {
-        let samples = sets.iter().map(Dataset::len).sum();
-        let work = if records.is_empty() {
-            None
-        } else {
-            pem_work_estimate(&model, &records, &pem)
-                .ok()
-                .map(|w| w.typical)
-        };
-        let (go, why) = auto_decision(&model, samples, work);
-        if let Some(obj) = diagnostics.as_object_mut() {
-            obj.insert("refinement_decision".into(), json!(why));
-        }
-        if !go {
-            return unrefined(opts, model, diagnostics);
-        }
+    let samples = sets.iter().map(Dataset::len).sum();
+    let allowed = auto_allows(opts, &model, &mut diagnostics, samples, |p| {
+        (!records.is_empty())
+            .then(|| pem_work_estimate(&model, &records, p).ok())
+            .flatten()
+            .map(|w| w.typical)
+    });
+    if !allowed {
+        return unrefined(opts, model, diagnostics);
     }
     let polish = matches!(opts.refinement.refine, Refine::None | Refine::Auto);
     // (Zero iterations with a refinement asked for are refused by

@@ -19,7 +19,9 @@ use crate::error::{Context, Error, Result};
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::deviations;
-use crate::refine::{auto_decision_of_size, refine, refinement_cost, stabilized_start};
+use crate::refine::{
+    auto_allows, auto_decides, refine, refinement_cost, stabilized_start, work_of_size,
+};
 use crate::routes::{bd_of, criterion_of, method_of, order_of, system_of};
 use crate::validate::{finish_file, require_stable};
 
@@ -213,16 +215,13 @@ pub fn identify_streamed(
     );
     let mut kalman_gain = fit.kalman_gain.clone();
     // The default refinement decides from the record's size before the
-    // record is loaded for it.
-    let stabilized = d.get("stabilized") == Some(&serde_json::json!(true));
-    let auto_skips = opts.refinement.refine == Refine::Auto && !(id.stable && stabilized) && {
-        let (go, why) = auto_decision_of_size(opts, &model, n_rows);
-        if let Some(obj) = d.as_object_mut() {
-            obj.insert("refinement_decision".into(), serde_json::json!(why));
-        }
-        !go
-    };
-    let (model, mut d) = if refinement_cost(opts, &d).is_none() || auto_skips {
+    // record is loaded for it (and the refinement below then runs as
+    // decided, `Refine::Pem`).
+    let decided = auto_decides(opts, &d);
+    let allowed = auto_allows(opts, &model, &mut d, n_rows, |p| {
+        work_of_size(&model, n_rows, p)
+    });
+    let (model, mut d) = if refinement_cost(opts, &d).is_none() || !allowed {
         // No refinement: `refine` only records a stable identification's
         // route.
         let mut none = opts.clone();
@@ -233,7 +232,11 @@ pub fn identify_streamed(
         // memory (deviations from the model's operating point).
         let record = source.load()?;
         let set = deviations(&record, fit.operating_point.as_ref())?;
-        refine(opts, model, d, &[set], &mut kalman_gain)?
+        let mut run = opts.clone();
+        if decided {
+            run.refinement.refine = Refine::Pem;
+        }
+        refine(&run, model, d, &[set], &mut kalman_gain)?
     };
     if opts.validation.require_stable {
         require_stable(&model)?;
