@@ -350,7 +350,8 @@ pub enum FeedbackArg {
 /// Order-selection rules (`--order-criterion`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CriterionArg {
-    /// Simulation fit on held-out data (the last third of the record), with the horizon and
+    /// Simulation fit on held-out data (each of six blocks held out once for records up to
+    /// 2e4 samples, else the last third of the record), with the horizon and
     /// the (A, C) route chosen the same way when they are not given (single-rate N4SID, MOESP,
     /// CVA; default). The other routes use the singular-value gap.
     Validation,

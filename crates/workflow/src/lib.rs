@@ -29,8 +29,10 @@
 //!    ([`OrderCriterion::Validation`]) the horizon s, the (A, C) route and
 //!    the order n of a single-rate subspace identification not given are
 //!    chosen by the simulation fit on held-out data
-//!    (`lifted_subspace::select_structure`: identified on the first two
-//!    thirds, scored on the last third with x₀ estimated).
+//!    (`lifted_subspace::select_structure`: up to 2e4 samples, six
+//!    blocks each held out once and the structure identified on the other
+//!    five; longer records identified on the first two thirds and scored
+//!    on the last third; x₀ of each held-out block estimated).
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the
 //!    one-step prediction error (the innovations form, K free) or on the
 //!    simulation error, from exactly the identified model; the refined

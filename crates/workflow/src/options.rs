@@ -117,7 +117,8 @@ pub enum Order {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum OrderCriterion {
-    /// Simulation fit on held-out data (the last third of the record), the
+    /// Simulation fit on held-out data (six blocks each held out once up
+    /// to 2e4 samples, else the last third of the record), the
     /// horizon and the (A, C) route chosen the same way when they are not
     /// given (single-rate N4SID, MOESP, CVA; default). The other routes use
     /// the singular-value gap; a record too large to select on is streamed

@@ -231,8 +231,16 @@ fn select(
             }
         };
         let stable = fit.diagnostics.spectral_radius < 1.0;
+        let criterion = if sel.folds > 1 {
+            format!(
+                "blocked cross-validation: simulation fit (x0 estimated) on each of {} contiguous blocks held out once, the structure identified on the others; mean over the blocks",
+                sel.folds
+            )
+        } else {
+            "simulation fit on the held-out last third of the record (x0 estimated), the structure identified on the first two thirds".to_string()
+        };
         let d = json!({
-            "criterion": "simulation fit on the held-out last third of the record (x0 estimated), the structure identified on the first two thirds",
+            "criterion": criterion,
             "horizon": c.horizon,
             "system": system_name(c.system),
             "order": c.order,
