@@ -38,7 +38,8 @@
 //!    simulation error, from exactly the identified model; the refined
 //!    model is kept only if its simulation fit is at least as good. By
 //!    default ([`Refine::Auto`]) the prediction-error refinement runs where
-//!    it pays: predicted work at most [`AUTO_REFINE_WORK`] or fewer than
+//!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
+//!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than
 //!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate.
 //! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
 //!    always written to the diagnostics (`stability`), an unstable model
@@ -96,8 +97,8 @@ mod validate;
 pub use cache::SubspaceCache;
 pub use error::{Error, Result};
 pub use options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, BdRoute, DataOptions, Detrend, Estimator,
-    IdentificationOptions, Method, Order, OrderCriterion, Refine, RefinementOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
+    Estimator, IdentificationOptions, Method, Order, OrderCriterion, Refine, RefinementOptions,
     ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};

@@ -18,7 +18,9 @@ use serde_json::json;
 
 use crate::diagnostics::push_warning;
 use crate::error::{Context, Result};
-use crate::options::{AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, Refine, WorkflowOptions};
+use crate::options::{
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, Refine, WorkflowOptions,
+};
 use crate::validate::spectral_radius;
 
 /// What the refinement's noise model is, and when it is consistent under
@@ -94,7 +96,7 @@ pub(crate) fn refinement_cost(
 pub(crate) fn auto_decision(
     model: &StateSpace,
     samples: usize,
-    work: Option<f64>,
+    work: Option<(f64, PemMethod)>,
 ) -> (bool, String) {
     let rho = spectral_radius(model).unwrap_or(f64::INFINITY);
     if rho >= 1.0 {
@@ -105,21 +107,27 @@ pub(crate) fn auto_decision(
             ),
         );
     }
-    let Some(work) = work else {
+    let Some((work, method)) = work else {
         return (false, "not refined: its work could not be predicted".into());
     };
-    if work <= AUTO_REFINE_WORK || samples < AUTO_REFINE_SAMPLES {
+    // About one second of either method (their operations run at
+    // different rates).
+    let (limit, what) = match method {
+        PemMethod::Joint => (AUTO_REFINE_WORK_JOINT, " (joint iterations: multirate)"),
+        PemMethod::VariableProjection => (AUTO_REFINE_WORK, ""),
+    };
+    if work <= limit || samples < AUTO_REFINE_SAMPLES {
         (
             true,
             format!(
-                "refined by the prediction error: predicted work {work:.2e} operations (refined by default up to {AUTO_REFINE_WORK:.0e}, or always below {AUTO_REFINE_SAMPLES} samples)"
+                "refined by the prediction error: predicted work {work:.2e} operations{what} (refined by default up to {limit:.0e}, or always below {AUTO_REFINE_SAMPLES} samples)"
             ),
         )
     } else {
         (
             false,
             format!(
-                "not refined: predicted work {work:.2e} operations on {samples} samples is more than the default's {AUTO_REFINE_WORK:.0e} (about 1 s); --refine pem refines anyway"
+                "not refined: predicted work {work:.2e} operations{what} on {samples} samples is more than the default's {limit:.0e} (about 1 s); --refine pem refines anyway"
             ),
         )
     }
@@ -143,7 +151,7 @@ pub(crate) fn auto_allows(
     model: &StateSpace,
     diagnostics: &mut serde_json::Value,
     samples: usize,
-    work: impl FnOnce(&PemOptions) -> Option<f64>,
+    work: impl FnOnce(&PemOptions) -> Option<(f64, PemMethod)>,
 ) -> bool {
     if !auto_decides(opts, diagnostics) {
         return true;
@@ -158,10 +166,14 @@ pub(crate) fn auto_allows(
 
 /// The predicted work of a refinement on one record of `samples` samples,
 /// all outputs measured (a record read in blocks, before it is loaded).
-pub(crate) fn work_of_size(model: &StateSpace, samples: usize, pem: &PemOptions) -> Option<f64> {
+pub(crate) fn work_of_size(
+    model: &StateSpace,
+    samples: usize,
+    pem: &PemOptions,
+) -> Option<(f64, PemMethod)> {
     pem_work_estimate_of_sizes(model, &[samples], pem)
         .ok()
-        .map(|w| w.typical)
+        .map(|w| (w.typical, pem.method))
 }
 
 /// The refinement's options for `cost` on `model`. From a start the route
@@ -254,7 +266,7 @@ pub fn refine(
         (!records.is_empty())
             .then(|| pem_work_estimate(&model, &records, p).ok())
             .flatten()
-            .map(|w| w.typical)
+            .map(|w| (w.typical, w.method))
     });
     if !allowed {
         return unrefined(opts, model, diagnostics);

@@ -310,3 +310,94 @@ fn the_default_refines_short_records_and_says_so() {
     assert!(none.file.diagnostics.get("refinement").is_none());
     assert!(none.file.diagnostics.get("refinement_decision").is_none());
 }
+
+/// The multirate case of issue 26: 2×2, poles 0.95 ± 0.1j, 0.85 and 0.7,
+/// y₁ measured every 3 and y₂ every 5 samples (lifting period 15), 3e4
+/// samples of random binary input, output noise 10 % of each output's
+/// standard deviation. The fast pole 0.7 lifts to 0.7¹⁵ ≈ 0.005, which
+/// noise can push below zero (no principal 15-th root): every method must
+/// still identify, and the default refinement (the joint iterations of the
+/// prediction cost, about 1e-1 s here) must run and bring every method to
+/// the truth.
+#[test]
+fn the_multirate_issue_case_identifies_with_every_method() {
+    use lifted_lti::{InputChannel, OutputChannel};
+    let a = DMatrix::from_row_slice(
+        4,
+        4,
+        &[
+            0.95, 0.1, 0.0, 0.0, //
+            -0.1, 0.95, 0.0, 0.0, //
+            0.0, 0.0, 0.85, 0.0, //
+            0.0, 0.0, 0.0, 0.7,
+        ],
+    );
+    let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.2, 0.3, 0.8, 0.5, -0.6, 0.4, 1.0]);
+    let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 0.6, 0.3, 0.2, 0.7, -0.4, 0.9]);
+    let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("plant");
+    let n = 30_000;
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let u = DMatrix::from_fn(
+        n,
+        2,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+        },
+    );
+    let clean = truth.lsim(&u, None, None).expect("lsim").y;
+    let mut y = clean.clone();
+    for j in 0..2 {
+        let col = clean.column(j);
+        let sd = (col.iter().map(|v| v * v).sum::<f64>() / n as f64
+            - (col.sum() / n as f64).powi(2))
+        .sqrt();
+        let period = [3, 5][j];
+        for k in 0..n {
+            // Uniform noise of standard deviation 0.1 sd.
+            let e = (rng.random::<f64>() - 0.5) * 12f64.sqrt();
+            y[(k, j)] = if k % period == 0 {
+                clean[(k, j)] + 0.1 * sd * e
+            } else {
+                f64::NAN
+            };
+        }
+    }
+    let data = Dataset::new(
+        1.0,
+        u,
+        y,
+        vec![InputChannel::new("u1", 1), InputChannel::new("u2", 1)],
+        vec![
+            OutputChannel::new("y1", 3, 0),
+            OutputChannel::new("y2", 5, 0),
+        ],
+    )
+    .expect("dataset");
+    let omega: Vec<f64> = (0..200)
+        .map(|i| 1e-3 + i as f64 * (std::f64::consts::PI / 200.0))
+        .collect();
+    let want = truth.freqresp(&omega).expect("truth");
+    for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.method = method;
+        opts.identification.order = Order::Fixed(4);
+        let fit = identify(&[Record::new(data.clone())], &opts).expect("identify");
+        let d = &fit.file.diagnostics;
+        let decision = d["refinement_decision"].as_str().unwrap_or_default();
+        assert!(
+            decision.starts_with("refined") && decision.contains("joint"),
+            "{method:?}: {decision}"
+        );
+        let got = fit.file.model.freqresp(&omega).expect("model");
+        let (mut num, mut den) = (0.0, 0.0);
+        for (g, w) in got.iter().zip(&want) {
+            num += (g - w).norm_squared();
+            den += w.norm_squared();
+        }
+        let err = (num / den).sqrt();
+        // The issue's bound. Measured 0.003–0.004 with the refinement
+        // (seeds 0–2 of the Python version of this case); without it CVA
+        // gave 0.059–0.089 at this noise level.
+        assert!(err < 0.06, "{method:?}: FR error {err}: {d}");
+    }
+}

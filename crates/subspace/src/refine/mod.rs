@@ -719,6 +719,11 @@ pub struct PemWorkEstimate {
     pub typical: f64,
     /// Warm stages before the whole records.
     pub warm_stages: usize,
+    /// The method the estimate is for: [`PemOptions::method`], or the
+    /// joint iterations that the prediction cost takes on records with
+    /// unmeasured samples (their operations run at a different rate).
+    #[serde(default)]
+    pub method: PemMethod,
 }
 
 /// Predicts the work of [`refine_pem`] for a model of `initial`'s sizes
@@ -811,6 +816,7 @@ fn estimate_of_sizes(
                 per_iteration: per,
                 typical: (45.0 * per).min(opts.max_work),
                 warm_stages: 0,
+                method,
             }
         }
         PemMethod::VariableProjection => {
@@ -841,6 +847,7 @@ fn estimate_of_sizes(
                 per_iteration: per,
                 typical: typical.min(opts.max_work),
                 warm_stages,
+                method,
             }
         }
     })
