@@ -27,7 +27,7 @@
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
 //! | [`mod@cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
-//! | [`budget`] | [`budget::MemoryBudget`], [`budget::Size`], [`budget::resolve_threads`] | memory budget (half the physical memory, `LIFTED_MEMORY_LIMIT`), checked byte arithmetic, thread-count cap | O(1) |
+//! | [`budget`] | [`budget::MemoryBudget`], [`budget::Size`], [`budget::resolve_threads`], [`budget::available_cores`] | memory budget (half the physical memory, `LIFTED_MEMORY_LIMIT`), checked byte arithmetic, thread-count cap | O(1) |
 //! | [`warm`] | [`warm_up`], [`pin_parallelism`] | faer's one-time set-up on a background thread; faer's global parallelism pinned so its solvers start no idle thread pool | O(1) |
 //!
 //! Numerical notes from the reproduction spec (Part C, Pitfalls 1–2): SVD

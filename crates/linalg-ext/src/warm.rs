@@ -65,9 +65,7 @@ pub fn pin_parallelism() {
             .ok()
             .and_then(|v| v.trim().parse::<usize>().ok())
             .filter(|&n| n > 0);
-        let threads = from_env.unwrap_or_else(|| {
-            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-        });
+        let threads = from_env.unwrap_or_else(crate::budget::available_cores);
         faer::set_global_parallelism(faer::Par::rayon(threads));
     });
 }

@@ -146,9 +146,7 @@ pub(super) fn scan_csv(
     let threads = match mode.threads {
         Some(n) => n,
         None if meta.is_some_and(|m| m.len() >= MIN_BLOCKS * mode.block as u64) => {
-            std::thread::available_parallelism()
-                .map_or(1, std::num::NonZero::get)
-                .min(MAX_THREADS)
+            lifted_linalg::budget::available_cores().min(MAX_THREADS)
         }
         None => 1,
     };
