@@ -20,7 +20,6 @@ from lifted._types import (
     OrderCriterion,
     PbsidVariant,
     Refine,
-    SubspaceMethod,
     SystemEstimate,
 )
 
@@ -402,7 +401,7 @@ def partial_close(piece: bytes) -> bytes: ...
 def partial_merge(first: bytes, second: bytes) -> bytes: ...
 def partial_identify(
     records: bytes,
-    method: SubspaceMethod = "n4sid",
+    method: str = "n4sid",
     order: int | None = None,
     max_order: int = 10,
     past: int = 10,
