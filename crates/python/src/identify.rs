@@ -147,6 +147,7 @@ pub(crate) fn identify<'py>(
 /// The records of `us`, `ys` with every value finite (the subspace layer's
 /// check and message: the sample and channel of the first NaN or
 /// infinity).
+#[allow(clippy::type_complexity)]
 pub(crate) fn finite_records(
     us: &[Bound<'_, PyAny>],
     ys: &[Bound<'_, PyAny>],

@@ -307,12 +307,6 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         },
         ..Default::default()
     };
-    if id.instrument_past.is_some() {
-        return Err(Error::option(
-            "instrument_past",
-            "only used with the iv method",
-        ));
-    }
     let fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
     let n = fit.fast.order();
     let sv = &fit.lifted.singular_values;
@@ -440,6 +434,7 @@ pub(crate) fn iv(
         let d = json!({
             "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
             "instrument": names,
+            "lifting_period": lifting_period,
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
         });
         let details = RouteDetails {
