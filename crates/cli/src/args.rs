@@ -512,6 +512,17 @@ pub struct IdentifyArgs {
     /// files up to 16 MiB, else 10), α (IV, default 8).
     #[arg(long)]
     pub horizon: Option<usize>,
+    /// PBSID/SSARX: future horizon f (default min(p, 10) with the past horizon p = --horizon,
+    /// 10 when the past horizon is Akaike's choice).
+    #[arg(long)]
+    pub future: Option<usize>,
+    /// PBSID/SSARX: estimate a direct feedthrough D (default: D = 0, the closed-loop default,
+    /// since an estimated D is biased when the controller reacts within the sample).
+    #[arg(long)]
+    pub feedthrough: bool,
+    /// IV: past instrument block rows α_p (default 2α).
+    #[arg(long)]
+    pub instrument_past: Option<usize>,
     /// q-Markov: number q of Markov/covariance parameters matched (default 60, capped below n_r m).
     #[arg(long)]
     pub q: Option<usize>,
@@ -521,9 +532,10 @@ pub struct IdentifyArgs {
     /// q-Markov: PRBS order n of the excitation.
     #[arg(long)]
     pub prbs_order: Option<u32>,
-    /// q-Markov: PRBS magnitude a (default: read from the data).
-    #[arg(long)]
-    pub amplitude: Option<f64>,
+    /// q-Markov: PRBS magnitude a, one value for every input or one per input (default: read
+    /// from the data).
+    #[arg(long, value_delimiter = ',')]
+    pub amplitude: Vec<f64>,
     /// q-Markov: diagonal output weighting Q of eq. (III-6), one positive value for every
     /// output or one per output (default: the identity).
     #[arg(long, value_delimiter = ',')]

@@ -38,17 +38,6 @@ pub(crate) trait Choice: Sized + Clone + 'static {
                 )
             })
     }
-
-    /// The name of `value` (the first entry that equals it).
-    fn name_of(value: &Self) -> &'static str
-    where
-        Self: PartialEq,
-    {
-        Self::NAMES
-            .iter()
-            .find(|(_, v)| v == value)
-            .map_or("?", |(n, _)| n)
-    }
 }
 
 impl Choice for Method {
@@ -57,6 +46,18 @@ impl Choice for Method {
         ("n4sid", Method::N4sid),
         ("moesp", Method::Moesp),
         ("cva", Method::Cva),
+    ];
+}
+
+impl Choice for lifted_workflow::Method {
+    const WHAT: &'static str = "identification method";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("n4sid", Self::N4sid),
+        ("moesp", Self::Moesp),
+        ("cva", Self::Cva),
+        ("pbsid", Self::Pbsid),
+        ("ssarx", Self::Ssarx),
+        ("iv", Self::Iv),
     ];
 }
 
@@ -174,6 +175,7 @@ pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
     }
     vec![
         ("SubspaceMethod", names::<Method>()),
+        ("IdentifyMethod", names::<lifted_workflow::Method>()),
         ("SystemEstimate", names::<SystemEstimate>()),
         ("PbsidVariant", names::<PbsidVariant>()),
         ("Feedback", names::<Feedback>()),

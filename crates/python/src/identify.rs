@@ -7,10 +7,11 @@
 //! options give the same model as `lifted identify`.
 
 use lifted_linalg::budget::resolve_threads;
-use lifted_subspace::{Experiment, Method, OrderSelection, SystemEstimate};
+use lifted_subspace::{Experiment, OrderSelection, SystemEstimate};
 use lifted_workflow::{
     BdRoute, Detrend, Estimator, Order, OrderCriterion, Record, Refine, WorkflowOptions,
 };
+use nalgebra::DMatrix;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -30,7 +31,7 @@ pub(crate) fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection
 
 /// The one horizon of the workflow from `horizon` and the older `past` /
 /// `future` (each, when given, must agree with the others).
-fn horizon_of(
+pub(crate) fn horizon_of(
     horizon: Option<usize>,
     past: Option<usize>,
     future: Option<usize>,
@@ -60,12 +61,12 @@ fn horizon_of(
 /// the workflow's (those of `lifted identify`): the horizon, the (A, C)
 /// route and the order chosen by the held-out simulation fit when not
 /// given, means removed, (B, D, x₀) by output-error least squares, the
-/// prediction-error refinement where it pays (`refine="auto"`). `threads` is capped at the machine's available parallelism
-/// (0 = all cores). Returns a dict: model (with its operating point and
-/// Kalman gain), kalman_gain, x0, u0/y0 (means removed), singular_values,
-/// order, suggested_order, method, threads (the count used), model_json
-/// (the CLI's model file without channel names), diagnostics_json (the
-/// model file's diagnostics).
+/// prediction-error refinement where it pays (`refine="auto"`). `method`
+/// also takes "pbsid", "ssarx" (`horizon`/`past`: their past horizon,
+/// `future`: their future horizon) and "iv" (the inputs as instruments: the
+/// open-loop case; `lifted.iv` takes instruments). `threads` is capped at
+/// the machine's available parallelism (0 = all cores). Returns the dict of
+/// [`identified_dict`].
 #[pyfunction]
 #[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10,
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
@@ -95,7 +96,7 @@ pub(crate) fn identify<'py>(
     dt: f64,
     threads: Int,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let method = Method::parse(method, "method")?;
+    let method = lifted_workflow::Method::parse(method, "method")?;
     let estimator = match system {
         None => Estimator::Auto,
         Some(s) => match SystemEstimate::parse(s, "system")? {
@@ -103,69 +104,138 @@ pub(crate) fn identify<'py>(
             SystemEstimate::StateSequence => Estimator::States,
         },
     };
-    let mut detrend = Detrend::parse(detrend, "detrend")?;
-    if !remove_means {
-        if detrend == Detrend::Linear {
-            return Err(arg_error(
-                "remove_means",
-                "False (no offsets removed) contradicts detrend='linear'",
-            ));
-        }
-        detrend = Detrend::None;
-    }
-    let (u, y) = records(&us, &ys)?;
-    for (u, y) in u.iter().zip(&y) {
-        // The subspace layer's own check and message (the sample and
-        // channel of the first NaN or infinity).
-        for (what, m) in [("u", u), ("y", y)] {
-            if let Some(i) = lifted_linalg::first_non_finite(m.as_slice()) {
-                return Err(err(lifted_subspace::Error::NonFinite {
-                    what,
-                    row: i % m.nrows().max(1),
-                    col: i / m.nrows().max(1),
-                }));
-            }
-        }
-    }
+    let (u, y) = finite_records(&us, &ys)?;
     let threads = resolve_threads(count(threads, "threads")?);
     let mut opts = WorkflowOptions::default();
-    opts.data.detrend = detrend;
+    opts.data.detrend = detrend_of(detrend, remove_means)?;
     let id = &mut opts.identification;
-    id.method = match method {
-        Method::Moesp => lifted_workflow::Method::Moesp,
-        Method::Cva => lifted_workflow::Method::Cva,
-        _ => lifted_workflow::Method::N4sid,
-    };
-    id.order = match opt_count(order, "order")? {
-        Some(n) => Order::Fixed(n),
-        None => Order::Auto,
-    };
+    id.method = method;
+    id.order = order_choice(order)?;
     id.max_order = count(max_order, "max_order")?;
     id.order_criterion = OrderCriterion::parse(order_criterion, "order_criterion")?;
-    id.horizon = horizon_of(
+    let (horizon, past, future) = (
         opt_count(horizon, "horizon")?,
         opt_count(past, "past")?,
         opt_count(future, "future")?,
-    )?;
+    );
+    if matches!(
+        method,
+        lifted_workflow::Method::Pbsid | lifted_workflow::Method::Ssarx
+    ) {
+        // The past horizon (`horizon` or its spelling `past`) and the
+        // future horizon of the predictor-based methods.
+        id.horizon = horizon_of(horizon, past, None)?;
+        id.future = future;
+    } else {
+        id.horizon = horizon_of(horizon, past, future)?;
+    }
     id.estimator = estimator;
     id.bd = BdRoute::parse(bd, "bd")?;
     id.noise_model = noise_model;
     id.stable = enforce_stability;
     id.threads = Some(threads);
-    opts.refinement.refine = Refine::parse(refine, "refine")?;
-    opts.refinement.iterations = count(refine_iterations, "refine_iterations")?;
-    opts.refinement.max_work = refine_max_work;
+    refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     let sets = u
         .into_iter()
         .zip(y)
         .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
         .collect::<PyResult<Vec<_>>>()?;
-    let fit = py
-        .detach(move || lifted_workflow::identify(&sets, &opts))
-        .map_err(err)?;
-    let name = Method::name_of(&method);
+    let fit = run(py, sets, opts)?;
+    identified_dict(py, &fit, threads)
+}
+
+/// The records of `us`, `ys` with every value finite (the subspace layer's
+/// check and message: the sample and channel of the first NaN or
+/// infinity).
+#[allow(clippy::type_complexity)]
+pub(crate) fn finite_records(
+    us: &[Bound<'_, PyAny>],
+    ys: &[Bound<'_, PyAny>],
+) -> PyResult<(Vec<DMatrix<f64>>, Vec<DMatrix<f64>>)> {
+    let (u, y) = records(us, ys)?;
+    for (u, y) in u.iter().zip(&y) {
+        for (what, m) in [("u", u), ("y", y)] {
+            finite(what, m)?;
+        }
+    }
+    Ok((u, y))
+}
+
+/// Fails on the first NaN or infinity of `m` (`what`: "u" or "y").
+pub(crate) fn finite(what: &'static str, m: &DMatrix<f64>) -> PyResult<()> {
+    match lifted_linalg::first_non_finite(m.as_slice()) {
+        Some(i) => Err(err(lifted_subspace::Error::NonFinite {
+            what,
+            row: i % m.nrows().max(1),
+            col: i / m.nrows().max(1),
+        })),
+        None => Ok(()),
+    }
+}
+
+/// The workflow's offsets from `detrend` and the older `remove_means`
+/// (False is `detrend="none"`).
+pub(crate) fn detrend_of(detrend: &str, remove_means: bool) -> PyResult<Detrend> {
+    let detrend = Detrend::parse(detrend, "detrend")?;
+    if remove_means {
+        return Ok(detrend);
+    }
+    if detrend == Detrend::Linear {
+        return Err(arg_error(
+            "remove_means",
+            "False (no offsets removed) contradicts detrend='linear'",
+        ));
+    }
+    Ok(Detrend::None)
+}
+
+/// The workflow's order from the `order` keyword (None: automatic).
+pub(crate) fn order_choice(order: Option<Int>) -> PyResult<Order> {
+    Ok(match opt_count(order, "order")? {
+        Some(n) => Order::Fixed(n),
+        None => Order::Auto,
+    })
+}
+
+/// The refinement keywords (`refine`, `refine_iterations`,
+/// `refine_max_work`) into the workflow options.
+pub(crate) fn refinement(
+    opts: &mut WorkflowOptions,
+    refine: &str,
+    iterations: Int,
+    max_work: f64,
+) -> PyResult<()> {
+    opts.refinement.refine = Refine::parse(refine, "refine")?;
+    opts.refinement.iterations = count(iterations, "refine_iterations")?;
+    opts.refinement.max_work = max_work;
+    Ok(())
+}
+
+/// Runs the workflow on the records without the GIL.
+pub(crate) fn run(
+    py: Python<'_>,
+    records: Vec<Record>,
+    opts: WorkflowOptions,
+) -> PyResult<lifted_workflow::Identified> {
+    py.detach(move || lifted_workflow::identify(&records, &opts))
+        .map_err(err)
+}
+
+/// The dict of a workflow run: model (with its operating point and Kalman
+/// gain), kalman_gain, x0, u0/y0 (the offsets removed), singular_values,
+/// order, suggested_order, method, threads (the count used), model_json
+/// (the CLI's model file without channel names), diagnostics_json (the
+/// model file's diagnostics), and the route's details: lifted and
+/// lifting_period (multirate routes; None elsewhere), markov_data and
+/// markov_model (q-Markov Cover; empty elsewhere).
+pub(crate) fn identified_dict<'py>(
+    py: Python<'py>,
+    fit: &lifted_workflow::Identified,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
     let f = &fit.file;
     let kalman_gain = f.kalman_gain_matrix();
+    let name = f.method.as_deref().unwrap_or("?");
     let out = dict_of(
         py,
         FitParts {
@@ -181,17 +251,28 @@ pub(crate) fn identify<'py>(
         threads,
     )?;
     out.set_item("diagnostics_json", f.diagnostics.to_string())?;
+    let details = &fit.details;
+    out.set_item("lifted", details.lifted.clone().map(PyStateSpace::wrap))?;
+    out.set_item("lifting_period", details.lifting_period)?;
+    let mats = |ms: &[DMatrix<f64>]| ms.iter().map(|m| to_py(py, m)).collect::<Vec<_>>();
+    out.set_item("markov_data", mats(&details.markov_data))?;
+    out.set_item("markov_model", mats(&details.markov_model))?;
     Ok(out)
 }
 
-/// Predictor-based subspace identification (lifted_subspace::pbsid_identify:
-/// PBSID-opt, row-wise PBSID or SSARX), consistent on closed-loop records
-/// without an external excitation. `past` None: chosen by Akaike's
-/// criterion on the VARX predictor (up to 30); `feedthrough` false: no D
-/// (the closed-loop default). Returns the dict of `identify`.
+/// Predictor-based subspace identification through the workflow layer
+/// (`lifted identify --method pbsid|ssarx`): PBSID-opt or SSARX, consistent
+/// on closed-loop records without an external excitation. `past` None:
+/// chosen by Akaike's criterion on the VARX predictor (up to 30); `future`
+/// None: min(past, 10); `feedthrough` false: no D (the closed-loop
+/// default). Row-wise PBSID (`variant="pbsid_rowwise"`) is not a workflow
+/// method: it calls `lifted_subspace::pbsid_identify` directly (means
+/// removed unless `detrend="none"`, no refinement). Returns the dict of
+/// [`identified_dict`].
 #[pyfunction]
-#[pyo3(signature = (us, ys, variant="pbsid", order=None, max_order=10, past=None, future=10,
-    feedthrough=false, remove_means=true, dt=1.0, threads=1))]
+#[pyo3(signature = (us, ys, variant="pbsid", order=None, max_order=10, past=None, future=None,
+    feedthrough=false, detrend="mean", remove_means=true, refine="auto", refine_iterations=100,
+    refine_max_work=2e10, dt=1.0, threads=1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn pbsid<'py>(
     py: Python<'py>,
@@ -201,26 +282,100 @@ pub(crate) fn pbsid<'py>(
     order: Option<Int>,
     max_order: Int,
     past: Option<Int>,
-    future: Int,
+    future: Option<Int>,
     feedthrough: bool,
+    detrend: &str,
     remove_means: bool,
+    refine: &str,
+    refine_iterations: Int,
+    refine_max_work: f64,
     dt: f64,
     threads: Int,
 ) -> PyResult<Bound<'py, PyDict>> {
     let variant = lifted_subspace::PbsidVariant::parse(variant, "variant")?;
-    let (u, y) = records(&us, &ys)?;
     let threads = resolve_threads(count(threads, "threads")?);
+    let detrend = detrend_of(detrend, remove_means)?;
+    let method = match variant {
+        lifted_subspace::PbsidVariant::Optimized => lifted_workflow::Method::Pbsid,
+        lifted_subspace::PbsidVariant::Ssarx => lifted_workflow::Method::Ssarx,
+        _ => {
+            return rowwise(
+                py,
+                (&us, &ys),
+                (order, max_order, past, future),
+                feedthrough,
+                detrend,
+                refine,
+                dt,
+                threads,
+            );
+        }
+    };
+    let (u, y) = finite_records(&us, &ys)?;
+    let mut opts = WorkflowOptions::default();
+    opts.data.detrend = detrend;
+    let id = &mut opts.identification;
+    id.method = method;
+    id.order = order_choice(order)?;
+    id.max_order = count(max_order, "max_order")?;
+    id.horizon = opt_count(past, "past")?;
+    id.future = opt_count(future, "future")?;
+    id.feedthrough = feedthrough;
+    id.threads = Some(threads);
+    refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
+    let sets = u
+        .into_iter()
+        .zip(y)
+        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
+        .collect::<PyResult<Vec<_>>>()?;
+    let fit = run(py, sets, opts)?;
+    identified_dict(py, &fit, threads)
+}
+
+/// Row-wise PBSID, which the workflow does not offer: the library route
+/// directly (`lifted_subspace::pbsid_identify`), means removed unless
+/// `detrend` is none, no refinement.
+#[allow(clippy::too_many_arguments)]
+fn rowwise<'py>(
+    py: Python<'py>,
+    (us, ys): (&[Bound<'py, PyAny>], &[Bound<'py, PyAny>]),
+    (order, max_order, past, future): (Option<Int>, Int, Option<Int>, Option<Int>),
+    feedthrough: bool,
+    detrend: Detrend,
+    refine: &str,
+    dt: f64,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    if detrend == Detrend::Linear {
+        return Err(arg_error(
+            "detrend",
+            "'linear' is not available with variant='pbsid_rowwise' (not a workflow method: \
+             the means are removed or not)",
+        ));
+    }
+    if !matches!(
+        Refine::parse(refine, "refine")?,
+        Refine::Auto | Refine::None
+    ) {
+        return Err(arg_error(
+            "refine",
+            "variant='pbsid_rowwise' is not a workflow method and is not refined; use \
+             variant='pbsid' or 'ssarx' for a refined model",
+        ));
+    }
+    let (u, y) = records(us, ys)?;
+    let past = opt_count(past, "past")?;
     let opts = lifted_subspace::PbsidOptions {
-        variant,
+        variant: lifted_subspace::PbsidVariant::RowWise,
         order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
-        past: opt_count(past, "past")?,
-        future: count(future, "future")?,
+        past,
+        future: opt_count(future, "future")?.unwrap_or(past.map_or(10, |p| p.min(10))),
         feedthrough: if feedthrough {
             lifted_subspace::Feedthrough::Free
         } else {
             lifted_subspace::Feedthrough::Zero
         },
-        remove_means,
+        remove_means: detrend == Detrend::Mean,
         ts: dt,
         threads,
         ..Default::default()
@@ -232,9 +387,8 @@ pub(crate) fn pbsid<'py>(
             lifted_subspace::pbsid_identify(&ex, &opts)
         })
         .map_err(err)?;
-    let name = lifted_subspace::PbsidVariant::name_of(&variant);
     let d = &fit.diagnostics;
-    dict_of(
+    let out = dict_of(
         py,
         FitParts {
             model: &fit.model,
@@ -245,9 +399,15 @@ pub(crate) fn pbsid<'py>(
             order: d.order,
             suggested_order: d.suggested_order,
         },
-        name,
+        "pbsid_rowwise",
         threads,
-    )
+    )?;
+    let diagnostics = serde_json::json!({
+        "route": "row-wise PBSID (lifted_subspace::pbsid_identify directly: not a workflow method, no refinement)",
+        "order_selection": {"singular_values": d.singular_values, "order": d.order, "suggested_order": d.suggested_order},
+    });
+    out.set_item("diagnostics_json", diagnostics.to_string())?;
+    Ok(out)
 }
 
 /// What the result dict of a subspace-type fit is made of.

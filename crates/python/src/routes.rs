@@ -1,35 +1,35 @@
-//! Bindings of the other identification routes: closed-loop IV subspace
-//! (lifted-subspace, thesis ch. 7), the weighted multirate q-Markov Cover
-//! (lifted-qmarkov, Zhu 2000) and multirate lifted identification
-//! (lifted-multirate, thesis chs. 4–5, and its IV variant of §7.8.2).
-//! Conversions only; every call releases the GIL.
+//! Bindings of the other identification routes, through the workflow layer
+//! (`lifted_workflow::identify`, the layer of `lifted identify` and the
+//! studio) with its defaults: closed-loop IV subspace (thesis ch. 7,
+//! `lifted identify --method iv --instrument …`), the weighted multirate
+//! q-Markov Cover (Zhu 2000, `--method qmarkov`, one record per input) and
+//! multirate lifted identification (thesis chs. 4–5 and the lifted IV of
+//! §7.8.2: a record whose outputs are sampled at multiples of the base
+//! period). Conversions only; every call releases the GIL.
 
-use lifted_lti::Identifier;
-use lifted_multirate::{
-    LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions, identify_lifted_iv,
-    identify_multirate,
-};
-use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
-use lifted_subspace::{IvExperiment, IvOptions, Method};
+use lifted_workflow::{Method, Record, WorkflowOptions};
 use nalgebra::DMatrix;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
 use crate::convert::{Int, count, counts, opt_count, record, small};
-use crate::errors::{err, lifted_error};
-use crate::identify::order_of;
-use crate::statespace::PyStateSpace;
-use crate::{dataset, records, to_py};
+use crate::dataset;
+use crate::errors::{arg_error, err, lifted_error};
+use crate::identify::{
+    detrend_of, finite, finite_records, identified_dict, order_choice, refinement, run,
+};
 
-/// Closed-loop instrumental-variable subspace identification (thesis ch. 7,
-/// `lifted_subspace::iv_identify`) of one record or several: `us`, `ys`,
-/// `instruments` lists of arrays (N×m, N×p, N×m; an instrument None uses u,
-/// the open-loop case). Returns model, x0, singular_values, order,
-/// suggested_order, stabilized, method, model_json.
+/// Closed-loop instrumental-variable subspace identification (thesis ch. 7)
+/// of one record or several through the workflow (`lifted identify --method
+/// iv`): `us`, `ys`, `instruments` lists of arrays (N×m, N×p, N×m; an
+/// instrument None uses u, the open-loop case). `alpha` None: the
+/// workflow's α (8); `alpha_p` None: 2α. Returns the dict of
+/// `identified_dict` and `stabilized`.
 #[pyfunction]
-#[pyo3(signature = (us, ys, instruments, order=None, max_order=10, alpha=8, alpha_p=None,
-    enforce_stability=false, require_stable=false, dt=1.0))]
+#[pyo3(signature = (us, ys, instruments, order=None, max_order=10, alpha=None, alpha_p=None,
+    order_criterion="validation", detrend="mean", remove_means=true, enforce_stability=false,
+    require_stable=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn iv<'py>(
     py: Python<'py>,
@@ -38,10 +38,16 @@ pub(crate) fn iv<'py>(
     instruments: Vec<Option<Bound<'py, PyAny>>>,
     order: Option<Int>,
     max_order: Int,
-    alpha: Int,
+    alpha: Option<Int>,
     alpha_p: Option<Int>,
+    order_criterion: &str,
+    detrend: &str,
+    remove_means: bool,
     enforce_stability: bool,
     require_stable: bool,
+    refine: &str,
+    refine_iterations: Int,
+    refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     if us.len() != instruments.len() {
@@ -51,7 +57,7 @@ pub(crate) fn iv<'py>(
             instruments.len()
         )));
     }
-    let (u, y) = records(&us, &ys)?;
+    let (u, y) = finite_records(&us, &ys)?;
     let many = instruments.len() > 1;
     let f = instruments
         .iter()
@@ -65,127 +71,130 @@ pub(crate) fn iv<'py>(
             f.as_ref().map(|f| record(f, &name)).transpose()
         })
         .collect::<PyResult<Vec<Option<DMatrix<f64>>>>>()?;
-    let opts = IvOptions {
-        order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
-        alpha: count(alpha, "alpha")?,
-        alpha_p: opt_count(alpha_p, "alpha_p")?,
-        enforce_stability,
-        require_stable,
-        ts: dt,
-        ..Default::default()
-    };
-    let fit = py
-        .detach(move || {
-            let ex: Vec<IvExperiment<'_>> = u
-                .iter()
-                .zip(&y)
-                .zip(&f)
-                .map(|((u, y), f)| IvExperiment {
-                    u,
-                    y,
-                    instrument: f.as_ref(),
-                })
-                .collect();
-            lifted_subspace::iv_identify(&ex, &opts)
+    let mut opts = WorkflowOptions::default();
+    opts.data.detrend = detrend_of(detrend, remove_means)?;
+    let id = &mut opts.identification;
+    id.method = Method::Iv;
+    id.order = order_choice(order)?;
+    id.max_order = count(max_order, "max_order")?;
+    id.order_criterion =
+        lifted_workflow::OrderCriterion::parse(order_criterion, "order_criterion")?;
+    id.horizon = opt_count(alpha, "alpha")?;
+    id.instrument_past = opt_count(alpha_p, "alpha_p")?;
+    id.stable = enforce_stability;
+    opts.validation.require_stable = require_stable;
+    refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
+    let sets = u
+        .into_iter()
+        .zip(y)
+        .zip(f)
+        .map(|((u, y), f)| {
+            dataset(dt, u, y, None, None).map(|data| Record {
+                data,
+                instrument: f,
+            })
         })
-        .map_err(err)?;
-    let d = PyDict::new(py);
-    let model = PyStateSpace::wrap(fit.model.clone());
-    d.set_item("model_json", model.to_json_with(Some("iv"))?)?;
-    d.set_item("model", model)?;
-    let x0: Vec<Vec<f64>> = fit.x0.iter().map(|x| x.as_slice().to_vec()).collect();
-    d.set_item("x0", x0)?;
-    let dg = &fit.diagnostics;
-    d.set_item("singular_values", dg.singular_values.clone())?;
-    d.set_item("order", dg.order)?;
-    d.set_item("suggested_order", dg.suggested_order)?;
-    d.set_item("stabilized", dg.stabilized)?;
-    d.set_item("method", "iv")?;
+        .collect::<PyResult<Vec<_>>>()?;
+    let fit = run(py, sets, opts)?;
+    let stabilized = fit.file.diagnostics.get("stabilized") == Some(&true.into());
+    let d = identified_dict(py, &fit, 1)?;
+    d.set_item("stabilized", stabilized)?;
     Ok(d)
 }
 
 /// Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS
 /// experiments, one per input channel (`us[l]` N×m with only column l
-/// non-zero, `ys[l]` N×p, every output sampled every base period).
-/// Returns model, eigenvalues (diag Λ of III-25, the order-selection plot),
-/// order, suggested_order, markov_data, markov_model (lists of p×m arrays),
-/// markov_error, covariance_error, cover ("Exact"/"LeastSquares"), stable,
-/// spectral_radius, stabilized_from, model_json.
+/// non-zero, `ys[l]` N×p, every output sampled every base period), through
+/// the workflow (`lifted identify --method qmarkov`). `q` None: 60 capped
+/// below n_r m; `prbs_order` None: 8; `amplitudes` None: read from the
+/// data (one value: every input). The record mode follows the record
+/// length (one PRBS period, else its last period); `last_period` False
+/// insists on one period. Returns the dict of `identified_dict`.
 #[pyfunction]
-#[pyo3(signature = (us, ys, q=60, order=None, max_order=20, hold=1, prbs_order=8,
-    amplitudes=None, last_period=false, enforce_stability=false, require_stable=true, dt=1.0))]
+#[pyo3(signature = (us, ys, q=None, order=None, max_order=10, hold=1, prbs_order=None,
+    amplitudes=None, last_period=None, output_weight=None, detrend="mean", remove_means=true,
+    enforce_stability=false, require_stable=false, refine="auto", refine_iterations=100,
+    refine_max_work=2e10, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn qmarkov<'py>(
     py: Python<'py>,
     us: Vec<Bound<'py, PyAny>>,
     ys: Vec<Bound<'py, PyAny>>,
-    q: Int,
+    q: Option<Int>,
     order: Option<Int>,
     max_order: Int,
     hold: Int,
-    prbs_order: Int,
+    prbs_order: Option<Int>,
     amplitudes: Option<Vec<f64>>,
-    last_period: bool,
+    last_period: Option<bool>,
+    output_weight: Option<Vec<f64>>,
+    detrend: &str,
+    remove_means: bool,
     enforce_stability: bool,
     require_stable: bool,
+    refine: &str,
+    refine_iterations: Int,
+    refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (u, y) = records(&us, &ys)?;
+    let (u, y) = finite_records(&us, &ys)?;
+    let hold = count(hold, "hold")?;
+    let prbs_order = prbs_order.map(|n| small(n, "prbs_order")).transpose()?;
+    if last_period == Some(false) {
+        let n = prbs_order.unwrap_or(lifted_qmarkov::QMarkovOptions::default().prbs_order);
+        let m = lifted_prbs::period(n).map_err(err)? as usize;
+        let period = 2 * hold.max(1) * m;
+        if let Some(len) = u.iter().map(DMatrix::nrows).find(|&l| l != period) {
+            return Err(arg_error(
+                "last_period",
+                format!(
+                    "False asks for records of one PRBS period ({period} samples), got {len}; \
+                     None or True uses the last period of a longer record"
+                ),
+            ));
+        }
+    }
+    let mut opts = WorkflowOptions::default();
+    opts.data.detrend = detrend_of(detrend, remove_means)?;
+    opts.data.hold = hold;
+    let id = &mut opts.identification;
+    id.method = Method::Qmarkov;
+    id.order = order_choice(order)?;
+    id.max_order = count(max_order, "max_order")?;
+    id.q = opt_count(q, "q")?;
+    id.prbs_order = prbs_order;
+    match amplitudes.as_deref() {
+        None | Some([]) => {}
+        Some([one]) => id.amplitude = Some(*one),
+        Some(many) => id.amplitudes = many.to_vec(),
+    }
+    id.output_weight = output_weight.unwrap_or_default();
+    id.stable = enforce_stability;
+    opts.validation.require_stable = require_stable;
+    refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     let sets = u
         .into_iter()
         .zip(y)
-        .map(|(u, y)| dataset(dt, u, y, None, None))
+        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
         .collect::<PyResult<Vec<_>>>()?;
-    let opts = QMarkovOptions {
-        q: count(q, "q")?,
-        order: opt_count(order, "order")?,
-        max_auto_order: count(max_order, "max_order")?,
-        hold: count(hold, "hold")?,
-        prbs_order: small(prbs_order, "prbs_order")?,
-        amplitudes,
-        record: if last_period {
-            RecordMode::LastPeriod
-        } else {
-            RecordMode::OnePeriod
-        },
-        enforce_stability,
-        require_stable,
-        ..Default::default()
-    };
-    let id = py
-        .detach(move || QMarkov::new(opts).identify(&sets))
-        .map_err(err)?;
-    let dg = &id.diagnostics;
-    let d = PyDict::new(py);
-    let model = PyStateSpace::wrap(id.model.clone());
-    d.set_item("model_json", model.to_json_with(Some("qmarkov"))?)?;
-    d.set_item("model", model)?;
-    d.set_item("eigenvalues", dg.eigenvalues.clone())?;
-    d.set_item("order", dg.order)?;
-    d.set_item("suggested_order", dg.suggested_order)?;
-    let mats = |ms: &[DMatrix<f64>]| ms.iter().map(|m| to_py(py, m)).collect::<Vec<_>>();
-    d.set_item("markov_data", mats(&dg.markov_data))?;
-    d.set_item("markov_model", mats(&dg.markov_model))?;
-    d.set_item("markov_error", dg.markov_error)?;
-    d.set_item("covariance_error", dg.covariance_error)?;
-    d.set_item("cover", format!("{:?}", dg.cover))?;
-    d.set_item("stable", dg.stable)?;
-    d.set_item("spectral_radius", dg.spectral_radius)?;
-    d.set_item("stabilized_from", dg.stabilized_from)?;
-    d.set_item("method", "qmarkov")?;
-    Ok(d)
+    let fit = run(py, sets, opts)?;
+    identified_dict(py, &fit, 1)
 }
 
-/// Multirate identification from one record: `u` (N×m, input i held
+/// Multirate identification from one record through the workflow (`lifted
+/// identify` on a record with output periods): `u` (N×m, input i held
 /// `holds[i]` samples), `y` (N×p, NaN where output i is not sampled; it is
-/// sampled every `periods[i]` samples from sample 0). Lifting, causal lifted
-/// subspace identification (or lifted IV with `instrument`, N×m), fast-model
-/// extraction. Returns fast (the model at the base period dt), lifted,
-/// lifting_period, singular_values, order, model_json.
+/// sampled every `periods[i]` samples from sample 0). Lifting, causal
+/// lifted subspace identification (or lifted IV with `instrument`, N×m, or
+/// `method="iv"`), fast-model extraction, then the workflow's refinement.
+/// `horizon` (or `past`/`future`, which must agree with it): the subspace
+/// horizon (default 10); `alpha`: the IV horizon (default 6). Returns the
+/// dict of `identified_dict`.
 #[pyfunction]
 #[pyo3(signature = (u, y, periods, holds=None, instrument=None, method="n4sid", order=None,
-    max_order=10, past=10, future=10, alpha=6, enforce_stability=false, require_stable=true,
-    dt=1.0))]
+    max_order=10, horizon=None, past=None, future=None, alpha=None, alpha_p=None,
+    detrend="mean", remove_means=true, enforce_stability=false, require_stable=false,
+    refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn multirate<'py>(
     py: Python<'py>,
@@ -197,81 +206,60 @@ pub(crate) fn multirate<'py>(
     method: &str,
     order: Option<Int>,
     max_order: Int,
-    past: Int,
-    future: Int,
-    alpha: Int,
+    horizon: Option<Int>,
+    past: Option<Int>,
+    future: Option<Int>,
+    alpha: Option<Int>,
+    alpha_p: Option<Int>,
+    detrend: &str,
+    remove_means: bool,
     enforce_stability: bool,
     require_stable: bool,
+    refine: &str,
+    refine_iterations: Int,
+    refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let method = Method::parse(method, "method")?;
+    let mut method = Method::parse(method, "method")?;
     let periods = counts(&periods, "periods")?;
     let holds = holds.map(|h| counts(&h, "holds")).transpose()?;
-    let (past, future) = (count(past, "past")?, count(future, "future")?);
-    let alpha = count(alpha, "alpha")?;
-    let data = dataset(
-        dt,
-        record(u, "u")?,
-        record(y, "y")?,
-        holds.as_deref(),
-        Some(&periods),
-    )?;
+    let u = record(u, "u")?;
+    finite("u", &u)?;
+    let data = dataset(dt, u, record(y, "y")?, holds.as_deref(), Some(&periods))?;
     let f = instrument.map(|f| record(f, "instrument")).transpose()?;
-    let order = order_of(opt_count(order, "order")?, count(max_order, "max_order")?);
-    let d = PyDict::new(py);
-    let (fast, lifted, sv, period, name) = match f {
-        Some(f) => {
-            let opts = LiftedIvOptions {
-                order,
-                alpha,
-                enforce_stability,
-                require_stable,
-                ..Default::default()
-            };
-            let fit = py
-                .detach(|| identify_lifted_iv(&data, &f, Ordering::ChannelMajor, &opts))
-                .map_err(err)?;
-            let period =
-                lifted_multirate::MultirateLifting::from_dataset(&data, Ordering::ChannelMajor)
-                    .map_err(err)?
-                    .period();
-            (fit.fast, fit.lifted, fit.singular_values, period, "iv")
-        }
-        None => {
-            let opts = ProcedureOptions {
-                identification: LiftedIdOptions {
-                    method,
-                    order,
-                    past,
-                    future,
-                    enforce_stability,
-                    require_stable,
-                    ..Default::default()
-                },
-                require_stable,
-                ..Default::default()
-            };
-            let fit = py
-                .detach(|| identify_multirate(&data, None, &opts))
-                .map_err(err)?;
-            let period = fit.lifting.period();
-            let name = Method::name_of(&method);
-            (
-                fit.fast,
-                fit.lifted.model,
-                fit.lifted.singular_values,
-                period,
-                name,
-            )
-        }
+    if f.is_some() {
+        method = Method::Iv;
+    }
+    let mut opts = WorkflowOptions::default();
+    opts.data.detrend = detrend_of(detrend, remove_means)?;
+    // The CLI's `--hold` (one hold for every input) sets the data's hold
+    // too.
+    if let Some([first, rest @ ..]) = holds.as_deref()
+        && rest.iter().all(|h| h == first)
+    {
+        opts.data.hold = *first;
+    }
+    let id = &mut opts.identification;
+    id.method = method;
+    id.order = order_choice(order)?;
+    id.max_order = count(max_order, "max_order")?;
+    id.horizon = if method == Method::Iv {
+        opt_count(alpha, "alpha")?
+    } else {
+        crate::identify::horizon_of(
+            opt_count(horizon, "horizon")?,
+            opt_count(past, "past")?,
+            opt_count(future, "future")?,
+        )?
     };
-    d.set_item("order", fast.order())?;
-    let fast = PyStateSpace::wrap(fast);
-    d.set_item("model_json", fast.to_json_with(Some(name))?)?;
-    d.set_item("fast", fast)?;
-    d.set_item("lifted", PyStateSpace::wrap(lifted))?;
-    d.set_item("lifting_period", period)?;
-    d.set_item("singular_values", sv)?;
-    d.set_item("method", name)?;
-    Ok(d)
+    id.instrument_past = opt_count(alpha_p, "alpha_p")?;
+    id.stable = enforce_stability;
+    opts.validation.require_stable = require_stable;
+    refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
+    let sets = vec![Record {
+        data,
+        instrument: f,
+    }];
+    let fit = run(py, sets, opts)?;
+    identified_dict(py, &fit, 1)
 }

@@ -84,15 +84,26 @@ def test_literal_aliases_match_the_extension() -> None:
     for alias, names in parsed.items():
         assert list(typing.get_args(getattr(lifted, alias))) == names, alias
     assert set(parsed) == {
-        "SubspaceMethod", "SystemEstimate", "PbsidVariant", "Feedback", "C2dMethod", "MpcKind",
-        "OrderCriterion", "BdRoute", "Detrend", "Refine",
+        "SubspaceMethod", "IdentifyMethod", "SystemEstimate", "PbsidVariant", "Feedback",
+        "C2dMethod", "MpcKind", "OrderCriterion", "BdRoute", "Detrend", "Refine",
     }
+
+
+def _partial(v: str, u: np.ndarray, y: np.ndarray) -> object:
+    """The streamed (lifted.dask) route's identification step, which takes a
+    SubspaceMethod."""
+    from lifted import _lifted as ext
+
+    plan = ext.partial_plan(u, y, 5, 5)
+    records = ext.partial_close(ext.partial_compress(plan, u, y))
+    return ext.partial_identify(records, v, order=2, past=5, future=5)
 
 
 @pytest.mark.parametrize(
     ("alias", "call"),
     [
-        ("SubspaceMethod", lambda v, p, u, y: lifted.identify(u, y, v, order=2)),
+        ("SubspaceMethod", lambda v, p, u, y: _partial(v, u, y)),
+        ("IdentifyMethod", lambda v, p, u, y: lifted.identify(u, y, v, order=2)),
         ("SystemEstimate", lambda v, p, u, y: lifted.n4sid(u, y, order=2, system=v)),
         ("PbsidVariant", lambda v, p, u, y: lifted.pbsid(u, y, v, order=2)),
         ("Feedback", lambda v, p, u, y: lifted.simulate_experiment(

@@ -81,7 +81,7 @@ def test_identify_bad_input(record: tuple[np.ndarray, np.ndarray]) -> None:
     bad[10, 0] = np.inf
     with pytest.raises(lifted.LiftedError):
         lifted.n4sid(u, bad, order=2)
-    with pytest.raises(lifted.LiftedError, match="unknown subspace method"):
+    with pytest.raises(lifted.LiftedError, match="unknown identification method"):
         lifted.identify(u, y, "magic")
     with pytest.raises(lifted.LiftedError, match="unknown system estimate"):
         lifted.identify(u, y, system="magic")

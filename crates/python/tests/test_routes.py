@@ -27,9 +27,9 @@ def write_csv(path: pathlib.Path, dt: float, u: np.ndarray, y: np.ndarray) -> No
 
 
 def cli_poles(args: list[str]) -> np.ndarray:
-    """Poles of `lifted identify ARGS` without refinement (these Python
-    routes call the library's identification alone; the CLI's default,
-    --refine auto, would refine)."""
+    """Poles of `lifted identify ARGS` without refinement (the Python calls
+    below pass refine="none" too: these tests check the identification
+    routes against known plants, the refinement has tests of its own)."""
     out = pathlib.Path(args[args.index("--out") + 1])
     subprocess.run([str(cli()), "identify", *args, "--refine", "none"], check=True,
                    capture_output=True)
@@ -43,7 +43,7 @@ def true_poles(plant: lifted.StateSpace) -> np.ndarray:
 
 def test_iv_open_loop_equals_the_cli(tmp_path, plant, record) -> None:
     u, y = record
-    fit = lifted.iv(u, y, order=2, alpha=8, dt=0.5)
+    fit = lifted.iv(u, y, order=2, alpha=8, detrend="none", refine="none", dt=0.5)
     assert fit["order"] == 2 and fit["method"] == "iv"
     data = tmp_path / "rec.csv"
     write_csv(data, 0.5, u, y)
@@ -73,7 +73,7 @@ def test_qmarkov_equals_the_cli_and_recovers_the_plant(tmp_path, plant) -> None:
     # 2.4e-2 and 6.6e-3); bounds 1e-2 and 5e-3.
     u = lifted.inverse_prbs(8, amplitude=1.0, periods=1, seed=1).reshape(-1, 1)
     y, _ = lifted.simulate(plant, u)
-    fit = lifted.qmarkov(u, y, q=20, order=2, prbs_order=8, dt=0.5)
+    fit = lifted.qmarkov(u, y, q=20, order=2, prbs_order=8, refine="none", dt=0.5)
     assert fit["order"] == 2 and fit["stable"] and fit["stabilized_from"] is None
     assert len(fit["markov_data"]) == 20 and fit["markov_data"][0].shape == (1, 1)
     assert fit["markov_error"] < 1e-2
@@ -90,7 +90,8 @@ def test_multirate_equals_the_cli_and_recovers_the_fast_plant(tmp_path, plant) -
     u = lifted.rbs(3000, seed=5).reshape(-1, 1)
     y, _ = lifted.simulate(plant, u)
     y[np.arange(3000) % 3 != 0] = np.nan
-    fit = lifted.multirate(u, y, [3], order=2, past=5, future=5, dt=0.5)
+    fit = lifted.multirate(u, y, [3], order=2, past=5, future=5, detrend="none", refine="none",
+                           dt=0.5)
     assert fit["lifting_period"] == 3 and fit["fast"].dt == 0.5
     got = np.sort_complex(fit["fast"].poles())
     np.testing.assert_allclose(got, true_poles(plant), atol=1e-6)
@@ -131,7 +132,7 @@ def test_routes_reject_bad_input(plant, record) -> None:
         lifted.iv(u, y, np.ones((10, 1)))  # instrument length
     with pytest.raises(lifted.LiftedError, match="periods"):
         lifted.multirate(u, y, [3, 3])
-    with pytest.raises(lifted.LiftedError, match="unknown subspace method"):
+    with pytest.raises(lifted.LiftedError, match="unknown identification method"):
         lifted.multirate(u, y, [1], method="magic")
     with pytest.raises(lifted.LiftedError):
         lifted.qmarkov(u, y, q=20, prbs_order=7)  # not an inverse-PRBS record

@@ -104,5 +104,6 @@ pub use options::{
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{detrend_sets, deviations};
 pub use refine::refine;
+pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
 pub use validate::{require_stable, spectral_radius, unstable_warning};

@@ -183,6 +183,19 @@ pub struct IdentificationOptions {
     /// else 10), α of IV (default 8; multirate IV 6), the past horizon of
     /// PBSID/SSARX (default: Akaike's choice; the future is min(p, 10)).
     pub horizon: Option<usize>,
+    /// PBSID/SSARX: the future horizon f (default min(p, 10) with the past
+    /// horizon p, 10 when p is Akaike's choice). Other methods: not used
+    /// (an error when given).
+    pub future: Option<usize>,
+    /// IV (single-rate and multirate): past instrument block rows α_p
+    /// (default 2α, erratum L-16). Other methods: not used (an error when
+    /// given).
+    pub instrument_past: Option<usize>,
+    /// PBSID/SSARX: estimate a direct feedthrough D (default false: D = 0,
+    /// the closed-loop default, since an estimated D is biased when the
+    /// controller reacts within the sample). Other methods: not used (an
+    /// error when set).
+    pub feedthrough: bool,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,
     /// (B, D, x₀) route of the subspace methods (default [`BdRoute::Auto`]).
@@ -206,6 +219,9 @@ pub struct IdentificationOptions {
     pub prbs_order: Option<u32>,
     /// q-Markov: PRBS magnitude a (default: read from the data).
     pub amplitude: Option<f64>,
+    /// q-Markov: PRBS magnitude per input (empty: [`Self::amplitude`] for
+    /// every input). Not together with `amplitude`.
+    pub amplitudes: Vec<f64>,
     /// q-Markov: diagonal output weighting Q of eq. (III-6), one positive
     /// value for every output or one per output (empty: the identity).
     pub output_weight: Vec<f64>,
@@ -219,6 +235,9 @@ impl Default for IdentificationOptions {
             max_order: 10,
             order_criterion: OrderCriterion::Validation,
             horizon: None,
+            future: None,
+            instrument_past: None,
+            feedthrough: false,
             estimator: Estimator::Auto,
             bd: BdRoute::Auto,
             stable: false,
@@ -227,6 +246,7 @@ impl Default for IdentificationOptions {
             q: None,
             prbs_order: None,
             amplitude: None,
+            amplitudes: Vec::new(),
             output_weight: Vec::new(),
         }
     }
@@ -356,7 +376,49 @@ impl WorkflowOptions {
                 "only used with the qmarkov method",
             ));
         }
-        if id.stable && matches!(id.method, Method::Pbsid | Method::Ssarx) {
+        let pbsid = matches!(id.method, Method::Pbsid | Method::Ssarx);
+        if id.future.is_some() && !pbsid {
+            return Err(Error::option(
+                "future",
+                "only used with the pbsid and ssarx methods (the others take one horizon)",
+            ));
+        }
+        if id.feedthrough && !pbsid {
+            return Err(Error::option(
+                "feedthrough",
+                "only used with the pbsid and ssarx methods",
+            ));
+        }
+        if id.instrument_past.is_some() && id.method != Method::Iv {
+            return Err(Error::option(
+                "instrument_past",
+                "only used with the iv method",
+            ));
+        }
+        if matches!(id.future, Some(0)) || matches!(id.instrument_past, Some(0)) {
+            let name = if id.future == Some(0) {
+                "future"
+            } else {
+                "instrument_past"
+            };
+            return Err(Error::option(name, "must be at least 1"));
+        }
+        if !id.amplitudes.is_empty() {
+            if id.method != Method::Qmarkov {
+                return Err(Error::option(
+                    "amplitudes",
+                    "only used with the qmarkov method",
+                ));
+            }
+            if id.amplitude.is_some() {
+                return Err(Error::option(
+                    "amplitudes",
+                    "give one magnitude for every input (amplitude) or one per input \
+                     (amplitudes), not both",
+                ));
+            }
+        }
+        if id.stable && pbsid {
             return Err(Error::option(
                 "stable",
                 "not available with the pbsid or ssarx methods (A comes from the \

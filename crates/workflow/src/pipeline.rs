@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::options::{Detrend, Method, WorkflowOptions};
 use crate::preprocess::{detrend_sets, deviations};
 use crate::refine::refine;
-use crate::routes::{self, RouteFit};
+use crate::routes::{self, RouteDetails, RouteFit};
 use crate::validate::{finish_file, require_stable};
 
 /// One record (experiment) in memory, with its instrument columns for the
@@ -53,6 +53,10 @@ pub struct Identified {
     pub order: usize,
     /// The order the singular values suggest.
     pub suggested_order: usize,
+    /// What the route gives besides (the lifted model of a multirate
+    /// route, the Markov parameters of the q-Markov Cover); empty on the
+    /// other routes and on a streamed record.
+    pub details: RouteDetails,
 }
 
 /// Names of the instrument columns written to the IV diagnostics (empty:
@@ -150,6 +154,7 @@ fn run(
                 singular_values: dg.singular_values.clone(),
                 order: dg.order,
                 suggested_order: dg.suggested_order,
+                details: routes::RouteDetails::default(),
                 kalman_gain: fit.kalman_gain,
                 x0: fit.x0,
                 model: fit.model,
@@ -171,6 +176,7 @@ fn run(
         singular_values,
         order,
         suggested_order,
+        details,
     } = fit;
     let (model, mut diagnostics) = refine(opts, model, diagnostics, &sets, &mut kalman_gain)?;
     if opts.validation.require_stable {
@@ -193,5 +199,6 @@ fn run(
         singular_values,
         order,
         suggested_order,
+        details,
     })
 }

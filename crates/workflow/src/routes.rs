@@ -37,6 +37,24 @@ pub(crate) struct RouteFit {
     pub singular_values: Vec<f64>,
     pub order: usize,
     pub suggested_order: usize,
+    pub details: RouteDetails,
+}
+
+/// What some routes give besides the model, for the front ends that show
+/// it (the Python package's result objects): empty on the other routes.
+#[derive(Debug, Clone, Default)]
+pub struct RouteDetails {
+    /// Multirate routes: the lifted model the fast model was extracted
+    /// from (before any refinement of the fast model).
+    pub lifted: Option<StateSpace>,
+    /// Multirate routes: the lifting period (base periods).
+    pub lifting_period: Option<usize>,
+    /// q-Markov Cover: the Markov parameters estimated from the data,
+    /// `H_0 … H_{q−1}`.
+    pub markov_data: Vec<DMatrix<f64>>,
+    /// q-Markov Cover: the Markov parameters of the identified cover (before
+    /// any refinement).
+    pub markov_model: Vec<DMatrix<f64>>,
 }
 
 impl RouteFit {
@@ -55,7 +73,13 @@ impl RouteFit {
             singular_values: sv.to_vec(),
             order,
             suggested_order: suggested,
+            details: RouteDetails::default(),
         }
+    }
+
+    fn with_details(mut self, details: RouteDetails) -> Self {
+        self.details = details;
+        self
     }
 }
 
@@ -306,7 +330,12 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         "lifting_period": fit.lifting.period(),
         "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
     });
-    Ok(RouteFit::plain(fit.fast, d, sv, suggested))
+    let details = RouteDetails {
+        lifted: Some(fit.lifted.model.clone()),
+        lifting_period: Some(fit.lifting.period()),
+        ..Default::default()
+    };
+    Ok(RouteFit::plain(fit.fast, d, sv, suggested).with_details(details))
 }
 
 /// PBSID / SSARX on single-rate records.
@@ -339,8 +368,14 @@ pub(crate) fn pbsid(
         },
         order: order_of(id),
         past,
-        future: past.map_or(10, |p| p.min(10)),
+        future: id.future.unwrap_or(past.map_or(10, |p| p.min(10))),
+        feedthrough: if id.feedthrough {
+            lifted_subspace::Feedthrough::Free
+        } else {
+            lifted_subspace::Feedthrough::Zero
+        },
         ts: sets[0].ts(),
+        threads: id.threads.unwrap_or(1),
         ..Default::default()
     };
     let exps: Vec<Experiment<'_>> = sets
@@ -358,6 +393,7 @@ pub(crate) fn pbsid(
         singular_values: dg.singular_values.clone(),
         order: dg.order,
         suggested_order: dg.suggested_order,
+        details: RouteDetails::default(),
     })
 }
 
@@ -387,6 +423,7 @@ pub(crate) fn iv(
         let lopts = LiftedIvOptions {
             order,
             alpha: id.horizon.unwrap_or(6),
+            alpha_p: id.instrument_past,
             enforce_stability: stable,
             extraction: ExtractOptions {
                 fallback_without_root: true,
@@ -396,24 +433,32 @@ pub(crate) fn iv(
         };
         let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
             .ctx("multirate IV identification")?;
+        let lifting_period =
+            lifted_multirate::MultirateLifting::from_dataset(data, Ordering::ChannelMajor)
+                .ctx("multirate IV identification")?
+                .period();
         let n = fit.fast.order();
         let suggested = lifted_subspace::gap_order(&fit.singular_values, id.max_order);
         let d = json!({
             "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
             "instrument": names,
+            "lifting_period": lifting_period,
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
         });
-        return Ok(RouteFit::plain(
-            fit.fast,
-            d,
-            &fit.singular_values,
-            suggested,
-        ));
+        let details = RouteDetails {
+            lifted: Some(fit.lifted.clone()),
+            lifting_period: Some(lifting_period),
+            ..Default::default()
+        };
+        return Ok(
+            RouteFit::plain(fit.fast, d, &fit.singular_values, suggested).with_details(details),
+        );
     }
     let iopts = IvOptions {
         order,
         order_criterion: criterion_of(id.order_criterion),
         alpha: id.horizon.unwrap_or(8),
+        alpha_p: id.instrument_past,
         enforce_stability: stable,
         ts: sets[0].ts(),
         ..Default::default()
@@ -445,6 +490,7 @@ pub(crate) fn iv(
         singular_values: dg.singular_values.clone(),
         order: dg.order,
         suggested_order: dg.suggested_order,
+        details: RouteDetails::default(),
     })
 }
 
@@ -503,7 +549,7 @@ pub(crate) fn qmarkov(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteF
         max_auto_order,
         hold,
         prbs_order,
-        amplitudes: id.amplitude.map(|x| vec![x; sets[0].n_inputs()]),
+        amplitudes: amplitudes(id, sets[0].n_inputs())?,
         record,
         enforce_stability: stable,
         ..Default::default()
@@ -526,5 +572,37 @@ pub(crate) fn qmarkov(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteF
         "order_selection": order_json("eigenvalues of D_q (Λ diagonal)", &dg.eigenvalues, dg.order, dg.suggested_order),
     });
     let (eig, suggested) = (dg.eigenvalues.clone(), dg.suggested_order);
-    Ok(RouteFit::plain(model.model, d, &eig, suggested))
+    let details = RouteDetails {
+        markov_data: dg.markov_data.clone(),
+        markov_model: dg.markov_model.clone(),
+        ..Default::default()
+    };
+    Ok(RouteFit::plain(model.model, d, &eig, suggested).with_details(details))
+}
+
+/// The PRBS magnitudes of the q-Markov Cover: one per input, from
+/// `amplitudes` (one per input) or `amplitude` (every input); `None`: read
+/// from the data.
+fn amplitudes(id: &IdentificationOptions, inputs: usize) -> Result<Option<Vec<f64>>> {
+    let values = match (&id.amplitudes[..], id.amplitude) {
+        ([], None) => return Ok(None),
+        ([], Some(a)) => vec![a; inputs],
+        (a, _) if a.len() == inputs => a.to_vec(),
+        (a, _) => {
+            return Err(Error::option(
+                "amplitudes",
+                format!(
+                    "{} values for {inputs} inputs (give one per input)",
+                    a.len()
+                ),
+            ));
+        }
+    };
+    if let Some(bad) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        return Err(Error::option(
+            "amplitude",
+            format!("{bad}: the PRBS magnitude must be positive and finite"),
+        ));
+    }
+    Ok(Some(values))
 }

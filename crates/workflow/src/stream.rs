@@ -257,6 +257,7 @@ pub fn identify_streamed(
         singular_values: dg.singular_values.clone(),
         order: dg.order,
         suggested_order: dg.suggested_order,
+        details: crate::RouteDetails::default(),
     }))
 }
 

@@ -2,7 +2,8 @@
 //! known plant; the streamed route (a record read in blocks) gives the
 //! in-memory route's model; the refinement starts from exactly the plain
 //! identification's model; options round-trip through JSON; bad options
-//! are named.
+//! are named; the per-method options (PBSID's future horizon and
+//! feedthrough, IV's past instrument rows) reach their routes.
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_workflow::{
@@ -237,6 +238,24 @@ fn bad_options_are_named() {
     o.identification.method = Method::Qmarkov;
     o.identification.order_criterion = OrderCriterion::Aic;
     assert_eq!(named(&o), "order_criterion");
+    // The options of one method refused with the others.
+    let mut o = WorkflowOptions::default();
+    o.identification.future = Some(5);
+    assert_eq!(named(&o), "future");
+    let mut o = WorkflowOptions::default();
+    o.identification.feedthrough = true;
+    assert_eq!(named(&o), "feedthrough");
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Pbsid;
+    o.identification.instrument_past = Some(12);
+    assert_eq!(named(&o), "instrument_past");
+    let mut o = WorkflowOptions::default();
+    o.identification.amplitudes = vec![1.0, 2.0];
+    assert_eq!(named(&o), "amplitudes");
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Pbsid;
+    o.identification.future = Some(0);
+    assert_eq!(named(&o), "future");
     let with_instrument = [Record {
         data: dataset(&u, &y),
         instrument: Some(u.clone()),
@@ -400,4 +419,41 @@ fn the_multirate_issue_case_identifies_with_every_method() {
         // gave 0.059–0.089 at this noise level.
         assert!(err < 0.06, "{method:?}: FR error {err}: {d}");
     }
+}
+
+#[test]
+fn the_per_method_options_reach_their_routes() {
+    // Each option changes the model of its method (a route that dropped it
+    // would give the default's model bit for bit); PBSID's feedthrough
+    // gives a nonzero D, its default none.
+    let (u, y) = record(2000, 0.05, 7);
+    let rec = [Record::new(dataset(&u, &y))];
+    let fit = |o: &WorkflowOptions| identify(&rec, o).expect("identify").file.model;
+    let mut base = WorkflowOptions::default();
+    base.identification.order = Order::Fixed(3);
+    base.identification.horizon = Some(12);
+    base.refinement.refine = Refine::None;
+    for method in [Method::Pbsid, Method::Ssarx] {
+        let mut o = base.clone();
+        o.identification.method = method;
+        let plain = fit(&o);
+        assert!(
+            plain.d().iter().all(|&v| v == 0.0),
+            "{method:?}: D = 0 by default"
+        );
+        let mut f = o.clone();
+        f.identification.future = Some(5);
+        assert_ne!(fit(&f).a(), plain.a(), "{method:?}: future");
+        let mut d = o.clone();
+        d.identification.feedthrough = true;
+        assert!(
+            fit(&d).d().iter().any(|&v| v != 0.0),
+            "{method:?}: feedthrough"
+        );
+    }
+    let mut o = base.clone();
+    o.identification.method = Method::Iv;
+    let plain = fit(&o);
+    o.identification.instrument_past = Some(30);
+    assert_ne!(fit(&o).a(), plain.a(), "instrument_past");
 }

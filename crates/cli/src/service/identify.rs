@@ -152,7 +152,14 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     id.stable = a.stable;
     id.q = a.q;
     id.prbs_order = a.prbs_order;
-    id.amplitude = a.amplitude;
+    match a.amplitude[..] {
+        [] => {}
+        [one] => id.amplitude = Some(one),
+        ref many => id.amplitudes = many.to_vec(),
+    }
+    id.future = a.future;
+    id.feedthrough = a.feedthrough;
+    id.instrument_past = a.instrument_past;
     id.output_weight = a.output_weight.clone();
     o.refinement.refine = match a.refine {
         RefineArg::Auto => Refine::Auto,
@@ -266,14 +273,24 @@ impl RecordKeeper for NoKeeping {
     }
 }
 
-/// The data specification of `files` with the hold of `opts`.
+/// The data specification of `files` with the hold of `opts`. The
+/// q-Markov hold n_r is the PRBS's, which the route takes from the options
+/// and not from the records: its records are read with every input held
+/// one base period, so a shifted inverse PRBS (e.g. `lifted.inverse_prbs`
+/// with a seed, whose hold blocks need not start at sample 0) is read as
+/// the Python package reads it instead of refused as a broken hold.
 pub fn spec_of(files: &DataFiles, opts: &WorkflowOptions) -> DataSpec {
+    let hold = if opts.identification.method == Method::Qmarkov {
+        1
+    } else {
+        opts.data.hold
+    };
     DataSpec {
         inputs: files.inputs.clone(),
         outputs: files.outputs.clone(),
         extra: files.instruments.clone(),
         ts: files.ts,
-        hold: opts.data.hold,
+        hold,
         periods: files.output_periods.clone(),
         columns: files.columns.clone(),
     }

@@ -64,6 +64,7 @@ from ._types import (
     C2dMethod,
     Detrend,
     Feedback,
+    IdentifyMethod,
     MpcKind,
     OrderCriterion,
     PbsidVariant,
@@ -94,6 +95,7 @@ __all__ = [
     "OutputValidation",
     "Experiment",
     "SubspaceMethod",
+    "IdentifyMethod",
     "PbsidVariant",
     "SystemEstimate",
     "Feedback",
@@ -209,7 +211,7 @@ def simulate_experiment(
 def identify(
     u: Any,
     y: Any,
-    method: SubspaceMethod = "n4sid",
+    method: IdentifyMethod = "n4sid",
     *,
     order: int | None = None,
     max_order: int = 10,
@@ -229,7 +231,8 @@ def identify(
     dt: float = 1.0,
     threads: int = 1,
 ) -> SubspaceFit:
-    """Subspace identification (N4SID, MOESP or CVA) of one record or several.
+    """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
+    of one record or several.
 
     ``u`` and ``y`` are arrays (N x m, N x p; anything numpy reads, a 1-D
     array is one channel) or lists of such arrays (several experiments).
@@ -242,8 +245,10 @@ def identify(
     * ``order`` None: chosen from the data by ``order_criterion`` up to
       ``max_order``; the default ``"validation"`` picks the order, the
       horizon (when ``horizon`` is None: among 5, 10, 15, 20, 30) and the
-      (A, C) route (when ``system`` is None) by the simulation fit on the
-      held-out last third of the record. ``"gap"``, ``"svc"``, ``"aic"``,
+      (A, C) route (when ``system`` is None) by the simulation fit on
+      held-out data: six blocks each held out once (blocked
+      cross-validation) for records up to 2e4 samples, else the last third
+      of the record. ``"gap"``, ``"svc"``, ``"aic"``,
       ``"aicc"``, ``"bic"``: the other rules (``lifted identify
       --order-criterion``), with horizon 10 unless given.
     * ``horizon``: past = future block rows (``past``/``future`` are its
@@ -259,6 +264,15 @@ def identify(
       says why), ``"none"`` never, ``"pem"`` or ``"oe"`` always, from exactly
       the identified model (``refine_iterations``, ``refine_max_work``).
     * ``enforce_stability``: the stabilised estimate (``--stable``).
+    * ``method="pbsid"`` / ``"ssarx"``: the predictor-based closed-loop
+      methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past
+      horizon, None: Akaike's choice; ``future`` their future horizon, None:
+      min(past, 10); no D; ``order_criterion`` only ``"validation"`` or
+      ``"gap"``, both the singular-value gap). ``method="iv"``: the
+      instrumental-variable subspace method with the inputs as instruments
+      (open loop; :func:`iv` takes a closed loop's instruments; ``horizon``
+      is its alpha, default 8). ``system``, ``bd`` and ``noise_model``
+      apply to N4SID, MOESP and CVA only.
     * ``threads``: the correlation-kernel threads (0 = all cores; capped at
       the machine's available parallelism, the count used is
       ``fit.threads``).
@@ -307,27 +321,49 @@ def pbsid(
     order: int | None = None,
     max_order: int = 10,
     past: int | None = None,
-    future: int = 10,
+    future: int | None = None,
     feedthrough: bool = False,
+    detrend: Detrend = "mean",
     remove_means: bool = True,
+    refine: Refine = "auto",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
 ) -> SubspaceFit:
     """Predictor-based subspace identification for closed-loop records
-    without an external excitation (``lifted_subspace::pbsid_identify``):
-    PBSID-opt (Chiuso 2007, default), row-wise PBSID, or SSARX (Jansson
-    2003); the CLI's ``lifted identify --method pbsid`` / ``ssarx``.
+    without an external excitation: PBSID-opt (Chiuso 2007, default) or
+    SSARX (Jansson 2003), through the identification workflow of ``lifted
+    identify --method pbsid`` / ``ssarx`` with its defaults (same data and
+    options, same model), and row-wise PBSID.
 
     ``u``, ``y`` as for :func:`identify` (the plant's input and output as
-    logged; the reference is not needed). ``past`` None chooses the past
-    horizon by Akaike's criterion on the high-order predictor (up to 30);
-    ``feedthrough`` False (no D) is the closed-loop default, since an
+    logged; the reference is not needed). ``past`` (the CLI's
+    ``--horizon``) None chooses the past horizon by Akaike's criterion on
+    the high-order predictor (up to 30); ``future`` (``--future``) None is
+    min(past, 10) (10 with Akaike's past); ``feedthrough`` False (no D,
+    ``--feedthrough`` to estimate it) is the closed-loop default, since an
     estimated D is biased when the controller reacts within the sample.
+    ``detrend`` / ``remove_means`` and ``refine`` (default ``"auto"``: the
+    prediction-error refinement where it pays), ``refine_iterations``,
+    ``refine_max_work`` as for :func:`identify`.
+
+    ``variant="pbsid_rowwise"`` is not a workflow (CLI) method: it calls the
+    library route ``lifted_subspace::pbsid_identify`` directly (means
+    removed unless ``detrend="none"``, no refinement: ``refine`` must be
+    ``"auto"`` or ``"none"``).
+
     Returns a :class:`SubspaceFit` whose model carries the operating point
-    and the Kalman gain of the innovation model.
+    and the Kalman gain of the innovation model, and the model file's
+    ``diagnostics``.
     """
     us, ys = _records(u, y)
-    d = _pbsid(us, ys, variant, order, max_order, past, future, feedthrough, remove_means, dt, threads)
+    d = _pbsid(
+        us, ys, variant, order=order, max_order=max_order, past=past, future=future,
+        feedthrough=feedthrough, detrend=detrend, remove_means=remove_means, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+        threads=threads,
+    )
     return _subspace_fit(d)
 
 
@@ -437,20 +473,35 @@ def iv(
     *,
     order: int | None = None,
     max_order: int = 10,
-    alpha: int = 8,
+    alpha: int | None = None,
     alpha_p: int | None = None,
+    order_criterion: OrderCriterion = "validation",
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
     enforce_stability: bool = False,
     require_stable: bool = False,
+    refine: Refine = "auto",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
 ) -> IvFit:
     """Instrumental-variable subspace identification, open or closed loop
-    (thesis ch. 7, ``lifted_subspace::iv_identify``).
+    (thesis ch. 7), through the identification workflow of ``lifted
+    identify --method iv --instrument ...`` with its defaults (same data and
+    options, same model).
 
     ``instrument`` (N x m, per record when ``u`` is a list) is the external
     excitation of a closed loop (the dither at the plant input or the
-    set-point), independent of the noise; None uses ``u`` (open loop).
-    ``alpha`` future block rows, ``alpha_p`` past instrument rows (None: 2
-    alpha, erratum L-16). Defaults are ``IvOptions``'. Returns an
+    set-point; the CLI's ``--instrument`` columns), independent of the
+    noise; None uses ``u`` (open loop). ``alpha`` future block rows
+    (``--horizon``, None: 8), ``alpha_p`` past instrument rows
+    (``--instrument-past``, None: 2 alpha, erratum L-16). ``order_criterion``
+    ``"validation"`` (the default, here the singular-value gap) or ``"gap"``,
+    ``"svc"``, ``"aic"``, ``"aicc"``, ``"bic"``. ``detrend`` / ``remove_means``,
+    ``enforce_stability`` (the stabilised estimate), ``refine`` (default
+    ``"auto"``), ``refine_iterations``, ``refine_max_work`` as for
+    :func:`identify`; ``require_stable`` fails on an unstable model (else it
+    is returned with a warning in ``diagnostics``). Returns an
     :class:`IvFit`.
     """
     us, ys = _records(u, y)
@@ -463,7 +514,12 @@ def iv(
         fs = list(instrument)
     else:
         fs = [instrument]
-    d = _iv(us, ys, fs, order, max_order, alpha, alpha_p, enforce_stability, require_stable, dt)
+    d = _iv(
+        us, ys, fs, order=order, max_order=max_order, alpha=alpha, alpha_p=alpha_p,
+        order_criterion=order_criterion, detrend=detrend, remove_means=remove_means,
+        enforce_stability=enforce_stability, require_stable=require_stable, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+    )
     return IvFit(
         model=d["model"],
         x0=[np.asarray(x, dtype=np.float64) for x in d["x0"]],
@@ -473,6 +529,7 @@ def iv(
         stabilized=d["stabilized"],
         method=d["method"],
         model_json=d["model_json"],
+        diagnostics=json.loads(d["diagnostics_json"]),
     )
 
 
@@ -480,50 +537,82 @@ def qmarkov(
     u: Any,
     y: Any,
     *,
-    q: int = 60,
+    q: int | None = None,
     order: int | None = None,
-    max_order: int = 20,
+    max_order: int = 10,
     hold: int = 1,
-    prbs_order: int = 8,
-    amplitudes: Sequence[float] | None = None,
-    last_period: bool = False,
+    prbs_order: int | None = None,
+    amplitudes: float | Sequence[float] | None = None,
+    last_period: bool | None = None,
+    output_weight: float | Sequence[float] | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
     enforce_stability: bool = False,
-    require_stable: bool = True,
+    require_stable: bool = False,
+    refine: Refine = "auto",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
 ) -> QMarkovFit:
-    """Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS tests.
+    """Weighted multirate q-Markov Cover (Zhu 2000) from inverse-PRBS tests,
+    through the identification workflow of ``lifted identify --method
+    qmarkov`` (one data file per input) with its defaults (same data and
+    options, same model).
 
     One experiment per input channel: ``u[l]`` (N x m, only column l
     non-zero, e.g. from :func:`inverse_prbs`) and ``y[l]`` (N x p); a single
-    array pair is one experiment of a single-input plant. ``hold`` is n_r,
-    ``prbs_order`` the m-sequence order, ``q`` the number of Markov and
-    covariance parameters matched, ``order`` r (None: largest gap of diag
-    Lambda up to ``max_order``). ``last_period`` uses the last PRBS period of
-    a longer record. Defaults are ``QMarkovOptions``'. Returns a
-    :class:`QMarkovFit`.
+    array pair is one experiment of a single-input plant. ``hold`` is n_r
+    (``--hold``), ``prbs_order`` the m-sequence order (``--prbs-order``,
+    None: 8), ``q`` the number of Markov and covariance parameters matched
+    (``--q``, None: 60 capped below n_r m), ``order`` r (None: largest gap
+    of diag Lambda up to ``max_order``), ``amplitudes`` the PRBS magnitude,
+    one value or one per input (``--amplitude``, None: read from the data),
+    ``output_weight`` the diagonal output weighting Q (``--output-weight``,
+    None: the identity). A record of one PRBS period is used as it is, a
+    longer one by its last period (``last_period=False`` insists on one
+    period, ``True`` or None accept both). ``detrend`` / ``remove_means``,
+    ``refine`` (default ``"auto"``), ``refine_iterations``,
+    ``refine_max_work`` as for :func:`identify`; ``enforce_stability``
+    stabilises an unstable cover (the q-Markov route itself refuses an
+    unstable cover otherwise); ``require_stable`` fails on an unstable
+    final model. Returns a :class:`QMarkovFit`.
     """
     us, ys = _records(u, y)
     d = _qmarkov(
-        us, ys, q, order, max_order, hold, prbs_order,
-        None if amplitudes is None else [float(a) for a in amplitudes],
-        last_period, enforce_stability, require_stable, dt,
+        us, ys, q=q, order=order, max_order=max_order, hold=hold, prbs_order=prbs_order,
+        amplitudes=_floats(amplitudes), last_period=last_period,
+        output_weight=_floats(output_weight), detrend=detrend, remove_means=remove_means,
+        enforce_stability=enforce_stability, require_stable=require_stable, refine=refine,
+        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
     )
+    diagnostics = json.loads(d["diagnostics_json"])
+    stability = diagnostics.get("stability", {})
     return QMarkovFit(
         model=d["model"],
-        eigenvalues=np.asarray(d["eigenvalues"], dtype=np.float64),
+        eigenvalues=np.asarray(d["singular_values"], dtype=np.float64),
         order=d["order"],
         suggested_order=d["suggested_order"],
         markov_data=d["markov_data"],
         markov_model=d["markov_model"],
-        markov_error=d["markov_error"],
-        covariance_error=d["covariance_error"],
-        cover=d["cover"],
-        stable=d["stable"],
-        spectral_radius=d["spectral_radius"],
-        stabilized_from=d["stabilized_from"],
+        markov_error=diagnostics["markov_error"],
+        covariance_error=diagnostics["covariance_error"],
+        cover=diagnostics["cover"],
+        stable=bool(stability.get("stable", diagnostics.get("stable"))),
+        spectral_radius=float(stability.get("spectral_radius", diagnostics.get("spectral_radius"))),
+        stabilized_from=diagnostics.get("stabilized_from"),
         method=d["method"],
         model_json=d["model_json"],
+        diagnostics=diagnostics,
     )
+
+
+def _floats(x: float | Sequence[float] | None) -> list[float] | None:
+    """One number or a sequence of numbers as a list of floats (None stays)."""
+    if x is None:
+        return None
+    if np.ndim(x) == 0:
+        return [float(x)]  # type: ignore[arg-type]
+    return [float(v) for v in x]  # type: ignore[union-attr]
 
 
 def multirate(
@@ -533,39 +622,63 @@ def multirate(
     *,
     holds: Sequence[int] | None = None,
     instrument: npt.ArrayLike | None = None,
-    method: SubspaceMethod = "n4sid",
+    method: IdentifyMethod = "n4sid",
     order: int | None = None,
     max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
-    alpha: int = 6,
+    horizon: int | None = None,
+    past: int | None = None,
+    future: int | None = None,
+    alpha: int | None = None,
+    alpha_p: int | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
     enforce_stability: bool = False,
-    require_stable: bool = True,
+    require_stable: bool = False,
+    refine: Refine = "auto",
+    refine_iterations: int = 100,
+    refine_max_work: float = 2e10,
     dt: float = 1.0,
 ) -> MultirateFit:
     """Multirate identification (thesis chs. 4-5): lifting, causal lifted
-    subspace identification, fast-model extraction.
+    subspace identification, fast-model extraction, through the
+    identification workflow that ``lifted identify`` runs on a record with
+    output periods (``--output-period``), with its defaults (same data and
+    options, same model).
 
     ``y`` (N x p) has NaN where output i is not sampled; it is sampled every
     ``periods[i]`` base periods from sample 0; input i is held ``holds[i]``
-    samples (default 1). With ``instrument`` (N x m, the closed-loop dither)
-    the lifted IV route of thesis section 7.8.2 is used (``alpha`` block rows).
-    ``enforce_stability`` re-estimates an unstable lifted A by the
-    zero-padded shift. Returns a :class:`MultirateFit`.
+    samples (default 1). ``method`` ``"n4sid"``, ``"moesp"`` or ``"cva"``
+    with ``horizon`` block rows (``past``/``future`` its older spelling,
+    which must agree; None: 10); with ``instrument`` (N x m, the closed-loop
+    dither; the CLI's ``--instrument``) or ``method="iv"`` the lifted IV
+    route of thesis section 7.8.2 (``alpha`` block rows, None: 6;
+    ``alpha_p`` past instrument rows). ``enforce_stability`` re-estimates
+    an unstable lifted A by the zero-padded shift; ``require_stable`` fails
+    on an unstable model (else it carries a warning in ``diagnostics``).
+    ``detrend`` / ``remove_means``, ``refine`` (default ``"auto"``: the fast
+    model refined by the prediction error on the measured samples where it
+    pays), ``refine_iterations``, ``refine_max_work`` as for
+    :func:`identify`. A record whose periods and holds are all 1 takes the
+    single-rate route (``lifted`` is then the model, ``lifting_period`` 1).
+    Returns a :class:`MultirateFit`.
     """
     d = _multirate(
-        u, y, list(periods), None if holds is None else list(holds),
-        instrument, method, order, max_order, past, future, alpha,
-        enforce_stability, require_stable, dt,
+        u, y, list(periods), holds=None if holds is None else list(holds),
+        instrument=instrument, method=method, order=order, max_order=max_order,
+        horizon=horizon, past=past, future=future, alpha=alpha, alpha_p=alpha_p,
+        detrend=detrend, remove_means=remove_means, enforce_stability=enforce_stability,
+        require_stable=require_stable, refine=refine, refine_iterations=refine_iterations,
+        refine_max_work=refine_max_work, dt=dt,
     )
     return MultirateFit(
-        fast=d["fast"],
-        lifted=d["lifted"],
-        lifting_period=d["lifting_period"],
+        fast=d["model"],
+        lifted=d["model"] if d["lifted"] is None else d["lifted"],
+        lifting_period=1 if d["lifting_period"] is None else d["lifting_period"],
         singular_values=np.asarray(d["singular_values"], dtype=np.float64),
         order=d["order"],
         method=d["method"],
         model_json=d["model_json"],
+        diagnostics=json.loads(d["diagnostics_json"]),
     )
 
 

@@ -55,7 +55,8 @@ class _Result:
 
 @dataclass(frozen=True, eq=False, repr=False)
 class SubspaceFit(_Result):
-    """Result of :func:`lifted.identify` (N4SID, MOESP, CVA).
+    """Result of :func:`lifted.identify` (N4SID, MOESP, CVA, PBSID, SSARX,
+    IV) and :func:`lifted.pbsid`.
 
     ``model`` carries the operating point (``u0``, ``y0``: the means removed
     from the records, None with ``remove_means=False``) and the Kalman gain
@@ -81,7 +82,12 @@ class SubspaceFit(_Result):
 
 @dataclass(frozen=True, eq=False, repr=False)
 class IvFit(_Result):
-    """Result of :func:`lifted.iv` (closed-loop instrumental-variable subspace)."""
+    """Result of :func:`lifted.iv` (closed-loop instrumental-variable subspace).
+
+    ``model`` carries the operating point (the offsets removed) and, when
+    the prediction-error refinement was kept, its Kalman gain;
+    ``diagnostics`` is the model file's diagnostics.
+    """
 
     model: StateSpace
     x0: list[FloatArray]
@@ -91,13 +97,20 @@ class IvFit(_Result):
     stabilized: bool
     method: str
     model_json: str
+    diagnostics: dict[str, Any]
 
     _shown = ("method", "order", "suggested_order", "stabilized", "model")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
 class QMarkovFit(_Result):
-    """Result of :func:`lifted.qmarkov` (weighted multirate q-Markov Cover)."""
+    """Result of :func:`lifted.qmarkov` (weighted multirate q-Markov Cover).
+
+    ``markov_model``, ``markov_error``, ``covariance_error`` and ``cover``
+    describe the identified cover (before any refinement); ``stable`` and
+    ``spectral_radius`` the model returned; ``diagnostics`` is the model
+    file's diagnostics.
+    """
 
     model: StateSpace
     eigenvalues: FloatArray
@@ -113,6 +126,7 @@ class QMarkovFit(_Result):
     stabilized_from: float | None
     method: str
     model_json: str
+    diagnostics: dict[str, Any]
 
     _shown = ("method", "order", "cover", "stable", "model")
 
@@ -120,7 +134,9 @@ class QMarkovFit(_Result):
 @dataclass(frozen=True, eq=False, repr=False)
 class MultirateFit(_Result):
     """Result of :func:`lifted.multirate`: the fast model at the base period
-    (``fast``, also ``model``) and the lifted model it was extracted from."""
+    (``fast``, also ``model``; after the workflow's refinement, with the
+    operating point) and the lifted model it was extracted from;
+    ``diagnostics`` is the model file's diagnostics."""
 
     fast: StateSpace
     lifted: StateSpace
@@ -129,6 +145,7 @@ class MultirateFit(_Result):
     order: int
     method: str
     model_json: str
+    diagnostics: dict[str, Any]
 
     _shown = ("method", "order", "lifting_period", "fast")
 

@@ -12,6 +12,7 @@ from typing import Literal
 
 __all__ = [
     "SubspaceMethod",
+    "IdentifyMethod",
     "SystemEstimate",
     "PbsidVariant",
     "Feedback",
@@ -23,8 +24,12 @@ __all__ = [
     "Refine",
 ]
 
-#: Weighting of the subspace identification (``identify(method=...)``).
+#: Weighting of the subspace identification (``lifted.dask.identify(method=...)``).
 SubspaceMethod = Literal["n4sid", "moesp", "cva"]
+#: Identification method of the workflow (``identify(method=...)``, the
+#: CLI's ``--method``): the subspace methods, the predictor-based PBSID-opt
+#: and SSARX, and instrumental-variable subspace.
+IdentifyMethod = Literal["n4sid", "moesp", "cva", "pbsid", "ssarx", "iv"]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on
 #: the estimated state sequence.
