@@ -135,12 +135,7 @@ pub(crate) fn identify<'py>(
     id.stable = enforce_stability;
     id.threads = Some(threads);
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
-    let sets = u
-        .into_iter()
-        .zip(y)
-        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
-        .collect::<PyResult<Vec<_>>>()?;
-    let fit = run(py, sets, opts)?;
+    let fit = run(py, single_rate(dt, u, y)?, opts)?;
     identified_dict(py, &fit, threads)
 }
 
@@ -209,6 +204,18 @@ pub(crate) fn refinement(
     opts.refinement.iterations = count(iterations, "refine_iterations")?;
     opts.refinement.max_work = max_work;
     Ok(())
+}
+
+/// Single-rate records (channels u1…, y1…) of the sample period `dt`.
+pub(crate) fn single_rate(
+    dt: f64,
+    u: Vec<DMatrix<f64>>,
+    y: Vec<DMatrix<f64>>,
+) -> PyResult<Vec<Record>> {
+    u.into_iter()
+        .zip(y)
+        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
+        .collect()
 }
 
 /// Runs the workflow on the records without the GIL.
@@ -323,12 +330,7 @@ pub(crate) fn pbsid<'py>(
     id.feedthrough = feedthrough;
     id.threads = Some(threads);
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
-    let sets = u
-        .into_iter()
-        .zip(y)
-        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
-        .collect::<PyResult<Vec<_>>>()?;
-    let fit = run(py, sets, opts)?;
+    let fit = run(py, single_rate(dt, u, y)?, opts)?;
     identified_dict(py, &fit, threads)
 }
 

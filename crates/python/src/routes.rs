@@ -17,7 +17,7 @@ use crate::convert::{Int, count, counts, opt_count, record, small};
 use crate::dataset;
 use crate::errors::{arg_error, err, lifted_error};
 use crate::identify::{
-    detrend_of, finite, finite_records, identified_dict, order_choice, refinement, run,
+    detrend_of, finite, finite_records, identified_dict, order_choice, refinement, run, single_rate,
 };
 
 /// Closed-loop instrumental-variable subspace identification (thesis ch. 7)
@@ -172,12 +172,7 @@ pub(crate) fn qmarkov<'py>(
     id.stable = enforce_stability;
     opts.validation.require_stable = require_stable;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
-    let sets = u
-        .into_iter()
-        .zip(y)
-        .map(|(u, y)| dataset(dt, u, y, None, None).map(Record::new))
-        .collect::<PyResult<Vec<_>>>()?;
-    let fit = run(py, sets, opts)?;
+    let fit = run(py, single_rate(dt, u, y)?, opts)?;
     identified_dict(py, &fit, 1)
 }
 
