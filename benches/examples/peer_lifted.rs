@@ -197,7 +197,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     // As the `lifted` command does first thing: faer's one-time set-up on
     // a background thread while the arguments and the file are read (see
     // lifted_linalg::warm_up; identify and StreamingIdentifier::new call it
-    // too, but later).
+    // too, but later), and the allocator's thresholds as the command sets
+    // them (lifted_linalg::malloc).
+    lifted_linalg::malloc::tune_malloc();
     lifted_linalg::warm_up();
     let a = parse_args()?;
     let t_start = Instant::now();

@@ -75,6 +75,8 @@ fn run(cli: Cli) -> CliResult<()> {
 }
 
 fn main() -> ExitCode {
+    // Working matrices from the heap instead of fresh mmaps (glibc).
+    lifted_linalg::malloc::tune_malloc();
     // faer's one-time set-up runs while the arguments and data are read.
     lifted_linalg::warm_up();
     // A bug below must not print a Rust backtrace: one line, exit code 2.

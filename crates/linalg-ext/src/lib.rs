@@ -28,6 +28,7 @@
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
 //! | [`mod@cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
 //! | [`budget`] | [`budget::MemoryBudget`], [`budget::Size`], [`budget::resolve_threads`], [`budget::available_cores`] | memory budget (half the physical memory, `LIFTED_MEMORY_LIMIT`), checked byte arithmetic, thread-count cap | O(1) |
+//! | [`malloc`] | [`malloc::tune_malloc`] | glibc's mmap/trim thresholds raised for executables, so k×k working matrices reuse heap pages | O(1) |
 //! | [`warm`] | [`warm_up`], [`pin_parallelism`] | faer's one-time set-up on a background thread; faer's global parallelism pinned so its solvers start no idle thread pool | O(1) |
 //!
 //! Numerical notes from the reproduction spec (Part C, Pitfalls 1–2): SVD
@@ -79,6 +80,7 @@ pub mod extremes;
 pub mod kernels;
 pub mod lstsq;
 pub mod lyapunov;
+pub mod malloc;
 pub mod matfun;
 pub mod product;
 pub mod qr;
