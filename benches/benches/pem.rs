@@ -13,31 +13,12 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lifted_lti::StateSpace;
 use lifted_subspace::{Feedthrough, PemMethod, PemOptions, Record, refine_pem};
-use nalgebra::{DMatrix, DVector};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use nalgebra::DMatrix;
 
-/// A stable order-`n` plant with `nu` inputs and `ny` outputs (poles 0.95,
-/// 0.9, 0.8, 0.6, −0.4, 0.3 with 0.1 couplings, seeded B and C), its record
-/// (binary input, uniform output noise of width 0.1, seeded) and the start.
+/// The plant and record of [`lifted_benches::pem_case`] and a start near
+/// the plant (A × 0.97, B × 1.03).
 fn case(n: usize, nu: usize, ny: usize, len: usize) -> (StateSpace, DMatrix<f64>, DMatrix<f64>) {
-    let poles = [0.95, 0.9, 0.8, 0.6, -0.4, 0.3];
-    let mut rng = ChaCha8Rng::seed_from_u64(27);
-    let mut a = DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| poles[i]));
-    for i in 0..n - 1 {
-        a[(i, i + 1)] = 0.1;
-    }
-    let b = DMatrix::from_fn(n, nu, |_, _| rng.random::<f64>() - 0.5);
-    let c = DMatrix::from_fn(ny, n, |_, _| rng.random::<f64>() - 0.5);
-    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0)).expect("valid model");
-    let u = DMatrix::from_fn(
-        len,
-        nu,
-        |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 },
-    );
-    let mut y = g.lsim(&u, None, None).expect("simulation").y;
-    y.iter_mut()
-        .for_each(|v| *v += 0.1 * (rng.random::<f64>() - 0.5));
+    let (g, u, y) = lifted_benches::pem_case(n, nu, ny, len);
     let start = StateSpace::new(
         g.a() * 0.97,
         g.b() * 1.03,

@@ -12,35 +12,10 @@
 
 use std::time::Instant;
 
-use lifted_lti::StateSpace;
 use lifted_subspace::{
     Experiment, Feedthrough, OrderSelection, PemOptions, Record, SubspaceOptions, identify,
     pem_work_estimate, refine_pem,
 };
-use nalgebra::{DMatrix, DVector};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
-fn data(n: usize, nu: usize, ny: usize, len: usize) -> (DMatrix<f64>, DMatrix<f64>) {
-    let poles = [0.95, 0.9, 0.8, 0.6, -0.4, 0.3];
-    let mut rng = ChaCha8Rng::seed_from_u64(27);
-    let mut a = DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| poles[i]));
-    for i in 0..n - 1 {
-        a[(i, i + 1)] = 0.1;
-    }
-    let b = DMatrix::from_fn(n, nu, |_, _| rng.random::<f64>() - 0.5);
-    let c = DMatrix::from_fn(ny, n, |_, _| rng.random::<f64>() - 0.5);
-    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0)).expect("valid model");
-    let u = DMatrix::from_fn(
-        len,
-        nu,
-        |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 },
-    );
-    let mut y = g.lsim(&u, None, None).expect("simulation").y;
-    y.iter_mut()
-        .for_each(|v| *v += 0.1 * (rng.random::<f64>() - 0.5));
-    (u, y)
-}
 
 fn main() {
     let lens: Vec<usize> = std::env::args()
@@ -58,7 +33,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &(nu, ny, n) in &[(1usize, 1usize, 2usize), (2, 2, 4), (3, 2, 6)] {
         for &len in &lens {
-            let (u, y) = data(n, nu, ny, len);
+            let (_, u, y) = lifted_benches::pem_case(n, nu, ny, len);
             let sopts = SubspaceOptions {
                 order: OrderSelection::Fixed(n),
                 ..Default::default()

@@ -1,15 +1,11 @@
 //! Criterion benches of the subspace engine: N = 1e4, 1e5, 1e6 samples,
 //! SISO and 2x2, order 4, horizons p = f = 20 (N4SID). Peak memory is
-//! measured separately by `examples/peak_memory.rs`. Group `refine_pem`:
-//! prediction-error refinement (analytic Jacobian, QR-based LM) of a
-//! perturbed start, 3×2 order 6 at N = 2e4 and 2×2 order 4 at N = 1e6.
+//! measured separately by `examples/peak_memory.rs`. The prediction-error
+//! refinement's bench is `cargo bench -p lifted-benches --bench pem`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lifted_lti::StateSpace;
-use lifted_subspace::{
-    Experiment, Feedthrough, OrderSelection, PemOptions, Record, SubspaceOptions, identify,
-    refine_pem,
-};
+use lifted_subspace::{Experiment, OrderSelection, SubspaceOptions, identify};
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -51,66 +47,5 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-/// A stable order-`n` plant with `nu` inputs and `ny` outputs (fixed
-/// poles, seeded B, C), its record (binary input, white output noise 0.1,
-/// seeded) and a start with A shrunk and B grown by 3 %.
-fn pem_case(
-    n: usize,
-    nu: usize,
-    ny: usize,
-    len: usize,
-) -> (StateSpace, DMatrix<f64>, DMatrix<f64>) {
-    let poles = [0.95, 0.9, 0.8, 0.6, -0.4, 0.3];
-    let mut rng = ChaCha8Rng::seed_from_u64(27);
-    let mut a = DMatrix::from_diagonal(&nalgebra::DVector::from_fn(n, |i, _| poles[i]));
-    // A mild coupling keeps the plant non-diagonal.
-    for i in 0..n - 1 {
-        a[(i, i + 1)] = 0.1;
-    }
-    let b = DMatrix::from_fn(n, nu, |_, _| rng.random::<f64>() - 0.5);
-    let c = DMatrix::from_fn(ny, n, |_, _| rng.random::<f64>() - 0.5);
-    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0)).expect("valid model");
-    let u = DMatrix::from_fn(
-        len,
-        nu,
-        |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 },
-    );
-    let mut y = g.lsim(&u, None, None).expect("simulation").y;
-    y.iter_mut()
-        .for_each(|v| *v += 0.1 * (rng.random::<f64>() - 0.5));
-    let start = StateSpace::new(
-        g.a() * 0.97,
-        g.b() * 1.03,
-        g.c().clone(),
-        g.d().clone(),
-        Some(1.0),
-    )
-    .expect("valid model");
-    (start, u, y)
-}
-
-fn bench_pem(c: &mut Criterion) {
-    let mut group = c.benchmark_group("refine_pem");
-    group.sample_size(10);
-    let opts = PemOptions {
-        feedthrough: Feedthrough::Zero,
-        ..Default::default()
-    };
-    for &(n, nu, ny, len) in &[(6usize, 3usize, 2usize, 20_000usize), (4, 2, 2, 1_000_000)] {
-        let (start, u, y) = pem_case(n, nu, ny, len);
-        let rec = [Record {
-            u: &u,
-            y: &y,
-            instrument: None,
-        }];
-        group.bench_with_input(
-            BenchmarkId::new(format!("{nu}x{ny}_order{n}"), len),
-            &len,
-            |b, _| b.iter(|| refine_pem(&start, None, &rec, &[], &opts).expect("refine")),
-        );
-    }
-    group.finish();
-}
-
-criterion_group!(benches, bench, bench_pem);
+criterion_group!(benches, bench);
 criterion_main!(benches);
