@@ -117,7 +117,6 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::checks::{thread_count, validate_on};
-use crate::engine::remove_means;
 use crate::error::{Error, Result};
 use crate::hankel::{Compression, CompressionReport, HankelLayout, compress};
 use crate::model::Experiment;
@@ -125,6 +124,7 @@ use crate::numerics::{Scale, pow4_scale_counted, spectral_radius, vstack};
 use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
+use crate::records::remove_means;
 use crate::regress::{Feedthrough, InitialState, Record, estimate_x0};
 
 /// How the product Γ_f K_p of step 2 is estimated (module docs).

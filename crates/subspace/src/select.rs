@@ -45,8 +45,8 @@ use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::engine::models_of_orders;
 use crate::error::{Error, Result};
+use crate::fit::models_of_orders;
 use crate::model::Experiment;
 use crate::options::{OrderSelection, SubspaceOptions, SystemEstimate};
 use crate::regress::{Record, estimate_x0};

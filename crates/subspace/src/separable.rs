@@ -20,12 +20,13 @@ use nalgebra::DMatrix;
 use std::time::Instant;
 
 use crate::checks::{thread_count, validate_on};
-use crate::engine::{OwnedRecords, compressed, from_factor, records_of, remove_means};
 use crate::error::{Error, Result};
+use crate::fit::from_factor;
 use crate::hankel::{HankelFactor, HankelLayout};
 use crate::model::{Experiment, SubspaceModel, fold_output_offsets};
 use crate::numerics::Scale;
 use crate::options::{Method, SubspaceOptions};
+use crate::records::{OwnedRecords, compressed, records_of, remove_means};
 
 /// The records as given, or their centred copies.
 enum Records<'a> {
@@ -120,7 +121,7 @@ impl<'a> CompressedData<'a> {
             method,
             ..self.opts.clone()
         };
-        crate::engine::weighted_singular_values(&self.factor.l, self.layout, &opts, self.scale)
+        crate::fit::weighted_singular_values(&self.factor.l, self.layout, &opts, self.scale)
     }
 
     /// Steps 2–5 with `opts`: the model [`crate::identify`] returns for the

@@ -1,0 +1,105 @@
+//! The experiments as the subspace routes take them: owned copies less
+//! their means, regression records, and step 1 of [`crate::identify`] (the
+//! checks, the data scales and the compressed Hankel factor).
+
+use lifted_lti::OperatingPoint;
+
+use nalgebra::DMatrix;
+
+use crate::checks::{check_options, thread_count, validate, validate_shapes};
+use crate::error::{Error, Result};
+use crate::hankel::{HankelFactor, HankelLayout, compress};
+use crate::model::Experiment;
+use crate::numerics::{Scale, pow4_scale_counted};
+use crate::options::SubspaceOptions;
+use crate::regress::Record;
+
+/// Records as owned (u, y) pairs.
+pub(crate) type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
+
+/// The pooled per-channel means of the records and the records less them.
+/// O(N (n_u + n_y)) time and a copy of the data.
+pub(crate) fn remove_means(
+    experiments: &[Experiment<'_>],
+) -> Result<(OperatingPoint, OwnedRecords)> {
+    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
+    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
+    let op = OperatingPoint::means(&us, &ys)?;
+    let centered = experiments
+        .iter()
+        .map(|e| op.to_deviations(e.u, e.y))
+        .collect::<lifted_lti::Result<Vec<_>>>()?;
+    Ok((op, centered))
+}
+
+/// Step 1 of [`crate::identify`] on records already scanned (or centred from
+/// scanned ones): the shape and option checks, the horizon against the
+/// records (J ≥ k Hankel columns), the data scales and the compressed
+/// factor of the scaled data.
+pub(crate) fn compressed(
+    experiments: &[Experiment<'_>],
+    opts: &SubspaceOptions,
+) -> Result<(HankelLayout, HankelFactor, Scale)> {
+    let (nu, ny, total) = validate_shapes(experiments)?;
+    let layout = check_options(nu, ny, opts)?;
+    let (p, f, k) = (layout.past, layout.future, layout.nrows());
+    let columns: usize = experiments
+        .iter()
+        .map(|e| layout.columns(e.u.nrows()))
+        .sum();
+    if columns < k {
+        // J ≥ k columns are needed for a full-rank k×k factor.
+        let min_samples = k + (p + f - 1) * experiments.len();
+        return Err(Error::HorizonTooLong {
+            past: p,
+            future: f,
+            n_samples: total,
+            min_samples,
+        });
+    }
+    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+        experiments.iter().map(|e| (e.u, e.y)).collect();
+    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
+    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
+    let ((su, finite_u), (sy, finite_y)) = (pow4_scale_counted(&us), pow4_scale_counted(&ys));
+    if finite_u + finite_y < total * (nu + ny) {
+        // A non-finite entry the caller's scan could not see (a centred
+        // copy overflowed): the full scan names it.
+        validate(experiments)?;
+    }
+    let scale = Scale { u: su, y: sy };
+    let factor = compress(
+        &recs,
+        &layout,
+        opts.compression,
+        opts.chunk_rows,
+        thread_count(opts.threads),
+        scale,
+        opts.remove_means,
+    )?;
+    Ok((layout, factor, scale))
+}
+
+/// The experiments as regression records (no instrument).
+pub(crate) fn records_of<'a>(experiments: &[Experiment<'a>]) -> Vec<Record<'a>> {
+    experiments
+        .iter()
+        .map(|e| Record {
+            u: e.u,
+            y: e.y,
+            instrument: None,
+        })
+        .collect()
+}
+
+/// The data records when they are available (in-memory identification),
+/// else an error naming the option that needs them (streaming).
+pub(crate) fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<&'r [Record<'a>]> {
+    records.ok_or_else(|| Error::InvalidOption {
+        what: "system",
+        reason: "streaming identification keeps only the compressed data: (B, D) by output-error \
+                 regression (BdEstimate::OutputError) needs the records; use BdEstimate::Projection \
+                 or Auto"
+            .into(),
+    })
+}
