@@ -127,6 +127,7 @@
 mod bd_stream;
 mod budget;
 mod checks;
+mod crossval;
 mod engine;
 pub mod error;
 mod fit;
@@ -153,6 +154,7 @@ mod wire;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
+pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};

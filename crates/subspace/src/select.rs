@@ -41,15 +41,14 @@
 //! route), O(N (n_u + n_y)² s), then per order O(k³) and the (B, D, x₀)
 //! regression O(N q²), and a simulation of the held-out block, O(N n²).
 
-use lifted_lti::StateSpace;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
+use crate::crossval::{Folds, floored, held_out_fit, usable};
 use crate::error::{Error, Result};
 use crate::fit::models_of_orders;
 use crate::model::Experiment;
 use crate::options::{OrderSelection, SubspaceOptions, SystemEstimate};
-use crate::regress::{Record, estimate_x0};
 
 /// Options of [`select_structure`]. `Default` gives the values documented
 /// per field.
@@ -184,42 +183,10 @@ pub fn select_structure(
     // identifies) for blocked cross-validation, whose estimation pieces are
     // 5/6 of a short record and whose score averages six held-out blocks.
     let column_factor = if forward { 3 } else { 1 };
-    let fold_ids: Vec<usize> = if forward {
-        vec![k_folds - 1]
-    } else {
-        (0..k_folds).collect()
-    };
-    // Fold boundaries per record: block b of a record of length n is
-    // rows b n / K .. (b + 1) n / K.
-    let bounds = |n: usize, b: usize| (b * n / k_folds, (b + 1) * n / k_folds);
-    // Estimation pieces of fold f: the runs of consecutive blocks ≠ f.
-    let pieces = |f: usize| -> Vec<(usize, usize, usize)> {
-        let mut out = Vec::new();
-        for (r, e) in experiments.iter().enumerate() {
-            let n = e.u.nrows();
-            if f > 0 {
-                out.push((r, 0, bounds(n, f).0));
-            }
-            if f + 1 < k_folds {
-                out.push((r, bounds(n, f).1, n));
-            }
-        }
-        out
-    };
+    let fold_layout = Folds::new(experiments, k_folds, forward);
     // Hankel columns of the fold with the fewest at horizon s (pieces too
     // short for the horizon are left out of that fold's estimation).
-    let columns_of = |s: usize| -> usize {
-        fold_ids
-            .iter()
-            .map(|&f| {
-                pieces(f)
-                    .into_iter()
-                    .map(|(_, a, b)| (b - a + 1).saturating_sub(2 * s))
-                    .sum::<usize>()
-            })
-            .min()
-            .unwrap_or(0)
-    };
+    let columns_of = |s: usize| fold_layout.columns(s);
     let search = total <= opts.search_samples;
     let horizons: Vec<usize> = if !opts.horizons.is_empty() {
         opts.horizons.clone()
@@ -233,11 +200,7 @@ pub fn select_structure(
     // too noisy to rank structures.
     let columns_at = columns_of;
     // Estimation samples of the smallest fold (for the error message).
-    let shortest = fold_ids
-        .iter()
-        .map(|&f| pieces(f).iter().map(|(_, a, b)| b - a).sum::<usize>())
-        .min()
-        .unwrap_or(0);
+    let shortest = fold_layout.shortest();
     if !opts.horizons.is_empty() {
         // Horizons given by the caller are kept or refused, never replaced.
         let given: Vec<usize> = horizons
@@ -305,31 +268,7 @@ pub fn select_structure(
     };
     // The estimation pieces and held-out blocks of every fold (copies:
     // O(K N (n_u + n_y)) memory for records of at most `search_samples`).
-    let slice = |r: usize, a: usize, b: usize| {
-        let e = &experiments[r];
-        (
-            e.u.rows(a, b - a).into_owned(),
-            e.y.rows(a, b - a).into_owned(),
-        )
-    };
-    let folds: Vec<(OwnedRecords, OwnedRecords)> = fold_ids
-        .iter()
-        .map(|&f| {
-            let est = pieces(f)
-                .into_iter()
-                .map(|(r, a, b)| slice(r, a, b))
-                .collect();
-            let held = experiments
-                .iter()
-                .enumerate()
-                .map(|(r, e)| {
-                    let (a, b) = bounds(e.u.nrows(), f);
-                    slice(r, a, b)
-                })
-                .collect();
-            (est, held)
-        })
-        .collect();
+    let folds = fold_layout.split();
     let mut candidates = Vec::new();
     for &s in &horizons {
         for &system in &systems {
@@ -345,11 +284,7 @@ pub fn select_structure(
             for (est, held) in &folds {
                 // Pieces too short for the horizon are left out (they
                 // add no Hankel column).
-                let exps: Vec<Experiment<'_>> = est
-                    .iter()
-                    .filter(|(u, _)| u.nrows() > 2 * s)
-                    .map(|(u, y)| Experiment { u, y })
-                    .collect();
+                let exps = usable(est, s);
                 let (op, models) = models_of_orders(&exps, &o, cap).unwrap_or((None, Vec::new()));
                 let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
                     held.iter().map(|(u, y)| (u, y)).collect();
@@ -363,11 +298,8 @@ pub fn select_structure(
             }
             for (i, &n) in orders.iter().enumerate() {
                 let any = fits[i].iter().any(Option::is_some);
-                let mean = fits[i]
-                    .iter()
-                    .map(|f| f.unwrap_or(FAILED_FOLD).max(FAILED_FOLD))
-                    .sum::<f64>()
-                    / fold_ids.len() as f64;
+                let mean = fits[i].iter().map(|&f| floored(f)).sum::<f64>()
+                    / fold_layout.held_out.len() as f64;
                 candidates.push(Candidate {
                     horizon: s,
                     system,
@@ -392,7 +324,7 @@ pub fn select_structure(
         order: 0,
         fit: best,
         candidates,
-        folds: fold_ids.len(),
+        folds: fold_layout.held_out.len(),
     };
     let chosen = sel
         .ranking(opts.tolerance)
@@ -443,76 +375,10 @@ impl StructureSelection {
     }
 }
 
-/// The score of a fold without a stable model (and the floor of every
-/// fold's fit, so that one diverging fold does not swamp the mean).
-const FAILED_FOLD: f64 = -100.0;
-
-/// Records as owned (u, y) pairs.
-type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
-
-/// Simulation fit (percent, mean over outputs and records) of `model` on
-/// the held-out parts, deviations from the estimation part's operating
-/// point, x₀ of each part by least squares; `None` for an unstable model
-/// or a failed simulation.
-fn held_out_fit(
-    model: &StateSpace,
-    op: Option<&lifted_lti::OperatingPoint>,
-    held: &[(&DMatrix<f64>, &DMatrix<f64>)],
-) -> Option<f64> {
-    let rho = model
-        .poles()
-        .ok()?
-        .iter()
-        .map(|p| p.norm())
-        .fold(0.0, f64::max);
-    if rho.is_nan() || rho >= 1.0 {
-        return None;
-    }
-    let dev: Vec<(DMatrix<f64>, DMatrix<f64>)> = held
-        .iter()
-        .map(|(u, y)| match op {
-            Some(op) => op.to_deviations(u, y).ok(),
-            None => Some(((*u).clone(), (*y).clone())),
-        })
-        .collect::<Option<_>>()?;
-    let recs: Vec<Record<'_>> = dev
-        .iter()
-        .map(|(u, y)| Record {
-            u,
-            y,
-            instrument: None,
-        })
-        .collect();
-    let x0: Vec<DVector<f64>> =
-        estimate_x0(model.a(), model.b(), model.c(), model.d(), &recs).ok()?;
-    let (mut sum, mut count) = (0.0, 0usize);
-    for ((u, y), x) in dev.iter().zip(&x0) {
-        if u.nrows() < 2 {
-            continue;
-        }
-        let yh = model.lsim(u, Some(x), None).ok()?.y;
-        for o in 0..y.ncols() {
-            let col = y.column(o);
-            let mean = col.mean();
-            let den = col.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
-            let num = col
-                .iter()
-                .zip(yh.column(o).iter())
-                .map(|(a, b)| (a - b).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            if den > 0.0 && num.is_finite() {
-                sum += 100.0 * (1.0 - num / den);
-                count += 1;
-            }
-        }
-    }
-    (count > 0).then(|| sum / count as f64)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DVector;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 

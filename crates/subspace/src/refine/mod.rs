@@ -300,6 +300,11 @@ pub struct PemOptions {
     /// scoped threads; results depend on the count through rounding only);
     /// 1 = single-threaded, 0 = all available cores. Default 1.
     pub threads: usize,
+    /// Return the refined model even when the start simulates the judged
+    /// records better ([`PemReport::judged`] still gives both errors): for
+    /// a caller that judges the two itself, e.g. on held-out data
+    /// ([`crate::cross_validate_refinement`]). Default false.
+    pub keep_refined: bool,
 }
 
 impl Default for PemOptions {
@@ -316,6 +321,7 @@ impl Default for PemOptions {
             method: PemMethod::VariableProjection,
             warm_start_samples: 5_000,
             threads: 1,
+            keep_refined: false,
         }
     }
 }
@@ -371,6 +377,12 @@ pub struct PemReport {
     /// for a stable start.
     #[serde(default)]
     pub stabilized_start: Option<f64>,
+    /// The refined realization had drifted (‖A‖_F above 10 √n for a
+    /// stable A: coordinates, not dynamics, grown by the iterations) and
+    /// was brought to its balanced realization — the same transfer
+    /// functions of input and innovations, better conditioned (Moore 1981).
+    #[serde(default)]
+    pub balanced: bool,
 }
 
 /// A refined model.
@@ -638,6 +650,11 @@ pub fn refine_pem(
         accepted,
         termination,
     } = outcome;
+    // A drifted realization is balanced (same model, conditioned).
+    let (point, balanced) = match point.drifted().then(|| point.balanced()).flatten() {
+        Some(b) => (b, true),
+        None => (point, false),
+    };
     // Keep the better of the start and the refined model, judged by the
     // simulation error (x₀ re-estimated, K unused) on the validation records
     // or, without them, on the estimation records.
@@ -663,7 +680,7 @@ pub fn refine_pem(
         residuals(&sim, judged_on, &w, false, count).map_or(f64::INFINITY, |v| mean_square(&v))
     };
     let (j0, j1) = (judge(&start), judge(&point));
-    let (best, kept) = if j1 <= j0 {
+    let (best, kept) = if j1 <= j0 || opts.keep_refined {
         (point, Kept::Refined)
     } else {
         (start, Kept::Initial)
@@ -685,6 +702,7 @@ pub fn refine_pem(
             judged: (j0, j1),
             iteration_cap,
             stabilized_start,
+            balanced,
         },
     })
 }

@@ -246,3 +246,132 @@ pub(super) fn output_weights(records: &[Record<'_>], ny: usize) -> Vec<f64> {
         })
         .collect()
 }
+
+/// ‖A‖_F above this times √n marks a drifted realization of a stable
+/// model (a Schur-stable A whose entries are that large is far from normal:
+/// its coordinates, not its dynamics, have grown), which
+/// [`Point::balanced`] brings back.
+pub(super) const DRIFTED_NORM: f64 = 10.0;
+
+impl Point {
+    /// Whether the realization of a stable point has drifted (‖A‖_F >
+    /// [`DRIFTED_NORM`] √n): the local coordinates of the iterations follow
+    /// the data, not the conditioning, and on short records a refinement
+    /// can end in a realization with entries of 1e4 whose simulation then
+    /// loses digits (and whose x₀ regression fails its growth check).
+    pub(super) fn drifted(&self) -> bool {
+        let n = self.a.nrows();
+        n > 0 && self.a.norm() > DRIFTED_NORM * (n as f64).sqrt()
+    }
+
+    /// The same model in its balanced realization (Moore 1981): the
+    /// controllability Gramian of (A, [B K]) and the observability Gramian
+    /// of (A, C) equal and diagonal, so the input–output and prediction
+    /// behaviour is unchanged (B, K, x₀ → T⁻¹ ·, C → C T). `None` when A is
+    /// not stable or the realization is not minimal to working precision
+    /// (a Hankel singular value below 1e-12 of the largest). O(n³).
+    pub(super) fn balanced(&self) -> Option<Point> {
+        use lifted_linalg::{SortOrder, dlyap, svd, sym_eig};
+        let n = self.a.nrows();
+        if n == 0 || !spectral_radius(&self.a).is_ok_and(|r| r < 1.0) {
+            return None;
+        }
+        let mut bk = DMatrix::zeros(n, self.b.ncols() + self.k.ncols());
+        bk.columns_mut(0, self.b.ncols()).copy_from(&self.b);
+        bk.columns_mut(self.b.ncols(), self.k.ncols())
+            .copy_from(&self.k);
+        let p = dlyap(&self.a, &(&bk * bk.transpose())).ok()?;
+        let q = dlyap(&self.a.transpose(), &(self.c.transpose() * &self.c)).ok()?;
+        // Factors L with L Lᵀ = M from the eigendecompositions (rounding
+        // negatives clipped).
+        let factor = |m: &DMatrix<f64>| -> Option<DMatrix<f64>> {
+            let e = sym_eig(m, SortOrder::Descending).ok()?;
+            let mut l = e.vectors;
+            for (j, &lam) in e.values.iter().enumerate() {
+                l.column_mut(j).scale_mut(lam.max(0.0).sqrt());
+            }
+            Some(l)
+        };
+        let (lp, lq) = (factor(&p)?, factor(&q)?);
+        let f = svd(&(lq.transpose() * &lp)).ok()?;
+        let largest = f.s.iter().copied().fold(0.0, f64::max);
+        if f.s.len() < n || f.s.iter().any(|&s| s.is_nan() || s <= 1e-12 * largest) {
+            return None;
+        }
+        let root = DVector::from_iterator(n, f.s.iter().map(|s| 1.0 / s.sqrt()));
+        let sinv = DMatrix::from_diagonal(&root);
+        let tr = &lp * &f.v * &sinv;
+        let tl = &sinv * f.u.transpose() * lq.transpose();
+        let out = Point {
+            a: &tl * &self.a * &tr,
+            b: &tl * &self.b,
+            c: &self.c * &tr,
+            d: self.d.clone(),
+            k: &tl * &self.k,
+            x0: self.x0.iter().map(|x| &tl * x).collect(),
+        };
+        let finite = out
+            .a
+            .iter()
+            .chain(out.b.iter())
+            .chain(out.c.iter())
+            .all(|v| v.is_finite());
+        finite.then_some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// (C Aᵏ B, C Aᵏ K, C Aᵏ x₀) for k < 20: what a similarity leaves
+    /// unchanged.
+    fn markov(p: &Point) -> Vec<f64> {
+        let mut out = Vec::new();
+        let mut ak = DMatrix::identity(p.a.nrows(), p.a.nrows());
+        for _ in 0..20 {
+            let cak = &p.c * &ak;
+            out.extend((&cak * &p.b).iter());
+            out.extend((&cak * &p.k).iter());
+            out.extend((&cak * &p.x0[0]).iter());
+            ak = &ak * &p.a;
+        }
+        out
+    }
+
+    #[test]
+    fn a_drifted_realization_is_balanced_to_the_same_model() {
+        let good = Point {
+            a: DMatrix::from_row_slice(2, 2, &[0.9, 0.2, -0.2, 0.9]),
+            b: DMatrix::from_row_slice(2, 1, &[1.0, 0.5]),
+            c: DMatrix::from_row_slice(1, 2, &[0.3, 0.4]),
+            d: DMatrix::zeros(1, 1),
+            k: DMatrix::from_row_slice(2, 1, &[0.1, -0.2]),
+            x0: vec![DVector::from_row_slice(&[1.0, -1.0])],
+        };
+        assert!(!good.drifted());
+        // Coordinates x = T z with T of condition ≈ 1e8.
+        let t = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-4]);
+        let ti = t.clone().try_inverse().unwrap();
+        let drifted = Point {
+            a: &ti * &good.a * &t,
+            b: &ti * &good.b,
+            c: &good.c * &t,
+            d: good.d.clone(),
+            k: &ti * &good.k,
+            x0: vec![&ti * &good.x0[0]],
+        };
+        assert!(drifted.drifted(), "{}", drifted.a);
+        let bal = drifted.balanced().unwrap();
+        assert!(!bal.drifted(), "{}", bal.a);
+        for (x, y) in markov(&good).iter().zip(markov(&bal)) {
+            assert!((x - y).abs() < 1e-6 * (1.0 + x.abs()), "{x} vs {y}");
+        }
+        // Not for an unstable A.
+        let unstable = Point {
+            a: DMatrix::from_row_slice(2, 2, &[1.1, 0.0, 0.0, 0.5]),
+            ..good
+        };
+        assert!(unstable.balanced().is_none());
+    }
+}
