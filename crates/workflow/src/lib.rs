@@ -36,7 +36,11 @@
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the
 //!    one-step prediction error (the innovations form, K free) or on the
 //!    simulation error, from exactly the identified model; the refined
-//!    model is kept only if its simulation fit is at least as good. By
+//!    model is kept only if its simulation fit is at least as good — on
+//!    six held-out blocks for single-rate N4SID/MOESP/CVA records of up to
+//!    [`REFINE_CHECK_SAMPLES`] samples when they differ by more than
+//!    [`REFINE_CHECK_MARGIN`] points (each block's subspace model and its
+//!    refinement fitted to the other five), else on the records. By
 //!    default ([`Refine::Auto`]) the prediction-error refinement runs where
 //!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
 //!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than
@@ -98,12 +102,13 @@ pub use cache::SubspaceCache;
 pub use error::{Error, Result};
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
-    Estimator, IdentificationOptions, Method, Order, OrderCriterion, Refine, RefinementOptions,
-    ValidationOptions, WorkflowOptions,
+    Estimator, IdentificationOptions, Method, Order, OrderCriterion, REFINE_CHECK_MARGIN,
+    REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine, RefinementOptions, ValidationOptions,
+    WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{detrend_sets, deviations};
-pub use refine::refine;
+pub use refine::{HeldOutCheck, refine};
 pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
 pub use validate::{require_stable, spectral_radius, unstable_warning};

@@ -7,9 +7,9 @@ use nalgebra::{DMatrix, DVector};
 use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
-use crate::options::{Detrend, Method, WorkflowOptions};
+use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{detrend_sets, deviations};
-use crate::refine::refine;
+use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
 use crate::validate::{finish_file, require_stable};
 
@@ -135,19 +135,30 @@ fn run(
         detrend_sets(raw, opts.data.detrend)?
     };
     let ts = sets[0].ts();
+    // The records and options of a single-rate subspace identification, for
+    // the held-out check of its refinement.
+    let mut check: Option<(Vec<Dataset>, lifted_subspace::SubspaceOptions)> = None;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
         m if m.is_subspace() => {
-            let (fit, d) = routes::subspace(opts, &sets, inner_means, cache)?;
-            if inner_means {
+            let (fit, d, used) = routes::subspace(opts, &sets, inner_means, cache)?;
+            let route_sets = if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.
-                sets = sets
+                let dev = sets
                     .iter()
                     .map(|r| deviations(r, fit.operating_point.as_ref()))
                     .collect::<Result<_>>()?;
                 operating_point = fit.operating_point.clone();
+                std::mem::replace(&mut sets, dev)
+            } else if sets.iter().map(Dataset::len).sum::<usize>() <= REFINE_CHECK_SAMPLES {
+                sets.clone()
+            } else {
+                Vec::new()
+            };
+            if !route_sets.is_empty() {
+                check = Some((route_sets, used));
             }
             let dg = &fit.diagnostics;
             RouteFit {
@@ -178,7 +189,11 @@ fn run(
         suggested_order,
         details,
     } = fit;
-    let (model, mut diagnostics) = refine(opts, model, diagnostics, &sets, &mut kalman_gain)?;
+    let check = check
+        .as_ref()
+        .map(|(sets, options)| HeldOutCheck { sets, options });
+    let (model, mut diagnostics) =
+        refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
     if opts.validation.require_stable {
         require_stable(&model)?;
     }

@@ -10,8 +10,8 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::{
-    Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, pem_work_estimate,
-    pem_work_estimate_of_sizes, refine_pem,
+    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, SubspaceOptions,
+    cross_validate_refinement, pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
@@ -19,7 +19,8 @@ use serde_json::json;
 use crate::diagnostics::push_warning;
 use crate::error::{Context, Result};
 use crate::options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, Refine, WorkflowOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, REFINE_CHECK_MARGIN,
+    REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine, WorkflowOptions,
 };
 use crate::validate::spectral_radius;
 
@@ -233,6 +234,54 @@ fn unrefined(
     Ok((model, diagnostics))
 }
 
+/// Blocks of the held-out check of a refinement.
+const CHECK_BLOCKS: usize = 6;
+
+/// The records and options of a single-rate N4SID / MOESP / CVA
+/// identification, for the held-out check of its refinement
+/// (`lifted_subspace::cross_validate_refinement`).
+#[derive(Debug, Clone, Copy)]
+pub struct HeldOutCheck<'a> {
+    /// The records as the identification took them (before the deviations
+    /// from its operating point, when it removed the means itself).
+    pub sets: &'a [Dataset],
+    /// The options that give the model on them (the order fixed).
+    pub options: &'a SubspaceOptions,
+}
+
+/// How the refinement is judged: on held-out blocks when `check` is given,
+/// the records are short enough, the start is stable and not a stabilised
+/// re-estimate, and six fold refinements are predicted to cost at most
+/// [`REFINE_CHECK_WORK`]; `Err(reason)` otherwise (`None`: nothing to say,
+/// no check offered).
+fn check_applies<'a>(
+    check: Option<HeldOutCheck<'a>>,
+    model: &StateSpace,
+    stabilized: bool,
+    records: &[Record<'_>],
+    pem: &PemOptions,
+) -> Option<std::result::Result<HeldOutCheck<'a>, String>> {
+    let check = check?;
+    let samples: usize = check.sets.iter().map(Dataset::len).sum();
+    if samples > REFINE_CHECK_SAMPLES {
+        return Some(Err(format!(
+            "{samples} samples: records of more than {REFINE_CHECK_SAMPLES} are judged on themselves"
+        )));
+    }
+    if stabilized || spectral_radius(model).map_or(true, |r| r >= 1.0) {
+        return Some(Err("the start was unstable or stabilised".into()));
+    }
+    let work = pem_work_estimate(model, records, pem)
+        .map(|w| w.typical * CHECK_BLOCKS as f64 * 5.0 / 6.0)
+        .unwrap_or(f64::INFINITY);
+    if work > REFINE_CHECK_WORK {
+        return Some(Err(format!(
+            "the {CHECK_BLOCKS} fold refinements would cost {work:.2e} operations, more than {REFINE_CHECK_WORK:.0e}"
+        )));
+    }
+    Some(Ok(check))
+}
+
 /// Refines `model` (and `kalman_gain`) on `sets` per the refinement options
 /// (and, for a stable identification whose estimate had to be stabilised,
 /// by the prediction error: see [`IdentificationOptions::stable`](crate::IdentificationOptions::stable));
@@ -240,12 +289,20 @@ fn unrefined(
 /// [`Refine::Auto`]'s decision (`refinement_decision`) and, for a stable
 /// identification, `stable_route`. No refinement: the model and diagnostics
 /// as given (`sets` is not read).
+///
+/// The refined model is kept when it simulates better than the start: on
+/// held-out blocks when `check` gives the records and options of a
+/// single-rate subspace identification of up to [`REFINE_CHECK_SAMPLES`]
+/// samples ([`HeldOutCheck`]; six blocks, each fold's subspace model and its
+/// refinement scored on the block it was not fitted to), else on `sets`.
+/// `diagnostics.refinement_judge` says which, with the held-out fits.
 pub fn refine(
     opts: &WorkflowOptions,
     model: StateSpace,
     mut diagnostics: serde_json::Value,
     sets: &[Dataset],
     kalman_gain: &mut Option<DMatrix<f64>>,
+    check: Option<HeldOutCheck<'_>>,
 ) -> Result<(StateSpace, serde_json::Value)> {
     let stable = opts.identification.stable;
     let Some(cost) = refinement_cost(opts, &diagnostics) else {
@@ -284,7 +341,83 @@ pub fn refine(
             ),
         ));
     }
-    let fit = refine_pem(&model, kalman_gain.as_ref(), &records, &[], &pem).ctx("refine")?;
+    let held_out = check_applies(check, &model, stabilized, &records, &pem);
+    let fit = match held_out {
+        Some(Ok(check)) => {
+            let exps: Vec<Experiment<'_>> = check
+                .sets
+                .iter()
+                .map(|d| Experiment { u: d.u(), y: d.y() })
+                .collect();
+            let whole = PemOptions {
+                keep_refined: true,
+                ..pem.clone()
+            };
+            let mut fit =
+                refine_pem(&model, kalman_gain.as_ref(), &records, &[], &whole).ctx("refine")?;
+            let judged = cross_validate_refinement(&exps, check.options, &pem, CHECK_BLOCKS);
+            let in_sample = fit.report.judged.1 <= fit.report.judged.0;
+            let (keep, judge) = match &judged {
+                // Blocks that do not tell the two apart (means within the
+                // margin, a median block that disagrees, every fold failed
+                // for both) say nothing: the records decide.
+                Ok(c) => {
+                    let verdict = c.verdict(REFINE_CHECK_MARGIN);
+                    let decides = verdict.is_some();
+                    let rule = if decides {
+                        format!(
+                            "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block)",
+                            c.folds
+                        )
+                    } else {
+                        format!(
+                            "simulation error on the records (x0 estimated): the held-out blocks do not tell the two apart (mean fits within {REFINE_CHECK_MARGIN} points, or the median block disagrees with the mean)"
+                        )
+                    };
+                    (
+                        verdict.unwrap_or(in_sample),
+                        json!({
+                            "rule": rule,
+                            "decided_by": if decides { "held-out blocks" } else { "records" },
+                            "held_out": c,
+                        }),
+                    )
+                }
+                Err(e) => (
+                    in_sample,
+                    json!({
+                        "rule": format!("simulation error on the records (x0 estimated): no held-out check ({e})"),
+                        "decided_by": "records",
+                    }),
+                ),
+            };
+            if let Some(obj) = diagnostics.as_object_mut() {
+                obj.insert("refinement_judge".into(), judge);
+            }
+            if !keep {
+                fit.model = model.clone();
+                fit.kalman_gain = kalman_gain.clone();
+                fit.report.kept = Kept::Initial;
+            }
+            fit
+        }
+        other => {
+            let why = match other {
+                Some(Err(why)) => format!(": {why}"),
+                _ => String::new(),
+            };
+            if let Some(obj) = diagnostics.as_object_mut() {
+                obj.insert(
+                    "refinement_judge".into(),
+                    json!({
+                        "rule": format!("simulation error on the records (x0 estimated){why}"),
+                        "decided_by": "records",
+                    }),
+                );
+            }
+            refine_pem(&model, kalman_gain.as_ref(), &records, &[], &pem).ctx("refine")?
+        }
+    };
     if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)
     {

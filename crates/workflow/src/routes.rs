@@ -149,12 +149,14 @@ const STABLE_TRIES: usize = 6;
 /// structure selection when the options leave the structure to it
 /// ([`WorkflowOptions::wants_selection`]), else the options' structure.
 /// `remove_means`: the means are removed inside the identification.
+/// Returns the model, its diagnostics and the subspace options that give it
+/// on these records (the structure chosen, the order fixed).
 pub(crate) fn subspace(
     opts: &WorkflowOptions,
     sets: &[Dataset],
     remove_means: bool,
     cache: Option<&mut SubspaceCache>,
-) -> Result<(SubspaceModel, serde_json::Value)> {
+) -> Result<(SubspaceModel, serde_json::Value, SubspaceOptions)> {
     let id = &opts.identification;
     let stable = stabilized_start(opts);
     let ts = sets[0].ts();
@@ -178,21 +180,25 @@ pub(crate) fn subspace(
         .map(|d| Experiment { u: d.u(), y: d.y() })
         .collect();
     let what = format!("{} identification", sub.method.name());
-    let (fit, structure) = if opts.wants_selection() {
-        let (fit, d) = select(id, &exps, sub)?;
-        (fit, Some(d))
+    let (fit, structure, used) = if opts.wants_selection() {
+        let (fit, d, used) = select(id, &exps, sub)?;
+        (fit, Some(d), used)
     } else {
         let fit = match cache {
             Some(c) => c.identify(&exps, &sub, &what)?,
             None => identify(&exps, &sub).ctx(&what)?,
         };
-        (fit, None)
+        (fit, None, sub)
+    };
+    let used = SubspaceOptions {
+        order: OrderSelection::Fixed(fit.diagnostics.order),
+        ..used
     };
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
-    Ok((fit, d))
+    Ok((fit, d, used))
 }
 
 /// The model of the structure chosen by cross-validated simulation fit for
@@ -201,12 +207,13 @@ pub(crate) fn subspace(
 /// unstable on the whole records, the next candidates of the ranking are
 /// tried (up to [`STABLE_TRIES`]) and the first stable one is kept (the
 /// diagnostics say so); a selection that fails keeps `opts` (horizon 10,
-/// shift invariance, the singular-value gap) and says why.
+/// shift invariance, the singular-value gap) and says why. Also returns the
+/// options of the model's identification.
 fn select(
     id: &IdentificationOptions,
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
-) -> Result<(SubspaceModel, serde_json::Value)> {
+) -> Result<(SubspaceModel, serde_json::Value, SubspaceOptions)> {
     let what = format!("{} identification", opts.method.name());
     let sel_opts = StructureOptions {
         horizons: id.horizon.map(|h| vec![h]).unwrap_or_default(),
@@ -222,7 +229,7 @@ fn select(
         Err(e) => {
             let fit = identify(exps, &opts).ctx(&what)?;
             let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, singular-value gap", opts.past)});
-            return Ok((fit, d));
+            return Ok((fit, d, opts));
         }
     };
     let candidates: Vec<serde_json::Value> = sel
@@ -274,11 +281,11 @@ fn select(
             "candidates": candidates,
         });
         if stable {
-            return Ok((fit, d));
+            return Ok((fit, d, o));
         }
         tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "spectral_radius": fit.diagnostics.spectral_radius}));
         if first_fit.is_none() {
-            first_fit = Some((fit, d));
+            first_fit = Some((fit, d, o));
         }
     }
     // No stable model among the tries: the first choice, unstable (the

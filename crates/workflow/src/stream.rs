@@ -226,7 +226,7 @@ pub fn identify_streamed(
         // route.
         let mut none = opts.clone();
         none.refinement.refine = Refine::None;
-        refine(&none, model, d, &[], &mut kalman_gain)?
+        refine(&none, model, d, &[], &mut kalman_gain, None)?
     } else {
         // The refinement starts from the model above, on the record in
         // memory (deviations from the model's operating point).
@@ -236,7 +236,7 @@ pub fn identify_streamed(
         if decided {
             run.refinement.refine = Refine::Pem;
         }
-        refine(&run, model, d, &[set], &mut kalman_gain)?
+        refine(&run, model, d, &[set], &mut kalman_gain, None)?
     };
     if opts.validation.require_stable {
         require_stable(&model)?;

@@ -457,3 +457,69 @@ fn the_per_method_options_reach_their_routes() {
     o.identification.instrument_past = Some(30);
     assert_ne!(fit(&o).a(), plain.a(), "instrument_past");
 }
+
+/// 1 input, 1 output, poles 0.9 ± 0.2j, white-noise input, output noise
+/// of standard deviation `noise` (output RMS ≈ 0.6).
+fn siso_record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let a = DMatrix::from_row_slice(2, 2, &[0.9, 0.2, -0.2, 0.9]);
+    let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.5]);
+    let c = DMatrix::from_row_slice(1, 2, &[0.3, 0.4]);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut g = || -> f64 { 12f64.sqrt() * (rng.random::<f64>() - 0.5) };
+    let u = DMatrix::from_fn(n, 1, |_, _| g());
+    let mut y = DMatrix::zeros(n, 1);
+    let mut x = DVector::zeros(2);
+    for t in 0..n {
+        y[(t, 0)] = (&c * &x)[0] + noise * g();
+        x = &a * &x + &b * u.row(t).transpose();
+    }
+    (u, y)
+}
+
+#[test]
+fn the_refinement_is_judged_on_held_out_blocks() {
+    // Heavy output noise and a short horizon: the subspace models of the
+    // six folds are poor, their refinements near the noise floor, so the
+    // held-out blocks decide (by far more than the 3-point margin) and the
+    // refinement is kept.
+    let (u, y) = siso_record(1200, 0.5, 2);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(2);
+    opts.identification.horizon = Some(3);
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    let j = &d["refinement_judge"];
+    assert_eq!(j["decided_by"], serde_json::json!("held-out blocks"), "{d}");
+    let held = &j["held_out"];
+    let (i, r) = (
+        held["initial_fit"].as_f64().unwrap(),
+        held["refined_fit"].as_f64().unwrap(),
+    );
+    assert!(r > i + 20.0, "{held}");
+    assert_eq!(held["folds"], serde_json::json!(6));
+    assert_eq!(d["refinement"]["kept"], serde_json::json!("Refined"), "{d}");
+
+    // A quiet record: both fit the held-out blocks alike (within the
+    // margin), the records decide, and the check's numbers are still shown.
+    let (u, y) = record(3000, 0.1, 7);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    let fit = identify(&records, &opts).expect("identify");
+    let j = &fit.file.diagnostics["refinement_judge"];
+    assert_eq!(j["decided_by"], serde_json::json!("records"), "{j}");
+    let held = &j["held_out"];
+    let gap = held["initial_fit"].as_f64().unwrap() - held["refined_fit"].as_f64().unwrap();
+    assert!(gap.abs() <= 3.0, "{j}");
+
+    // Beyond 2e4 samples the records decide without a check.
+    let (u, y) = record(20_001, 0.1, 8);
+    let records = [Record::new(dataset(&u, &y))];
+    opts.refinement.refine = Refine::Pem;
+    let fit = identify(&records, &opts).expect("identify");
+    let j = &fit.file.diagnostics["refinement_judge"];
+    assert_eq!(j["decided_by"], serde_json::json!("records"), "{j}");
+    assert!(j["rule"].as_str().unwrap().contains("20000"), "{j}");
+    assert!(j.get("held_out").is_none(), "{j}");
+}
