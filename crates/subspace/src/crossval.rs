@@ -274,7 +274,7 @@ impl RefinementCheck {
 /// generator at order 9: 73.9 → 44.3 % validation fit) and drops it where
 /// it predicts them better (the heating rig at order 2: 79.7 → 89.4 %);
 /// the held-out comparison ranks both right (`benches/README.md`,
-/// "Keeping the refinement by cross-validation").
+/// "Keeping the refinement by held-out fit").
 ///
 /// Cost: `blocks` subspace identifications and refinements of 5/6 of the
 /// records, plus a simulation per fold.
