@@ -2147,7 +2147,10 @@ fn studio_board_and_tools_in_headless_chromium() {
         c.find(Locator::Id("refine")).await.unwrap().click().await.unwrap();
         wait_identified(&c, g).await;
         assert!(text(&c, "#command").await.contains("--refine pem"));
-        assert!(text(&c, "#refinement").await.starts_with("PEM refinement:"));
+        let refinement = text(&c, "#refinement").await;
+        assert!(refinement.starts_with("PEM refinement:"), "{refinement}");
+        // How the refinement was judged is shown with it.
+        assert!(refinement.contains("decided on"), "{refinement}");
         // Delays.
         c.find(Locator::Id("delay")).await.unwrap().click().await.unwrap();
         let t = Instant::now();

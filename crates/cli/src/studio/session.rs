@@ -287,7 +287,8 @@ pub struct Identified {
     pub transfer_functions: Vec<ChannelTf>,
     /// Why there are no transfer functions, if so.
     pub transfer_note: Option<String>,
-    /// The refinement's report (`--refine`), when there was one.
+    /// The refinement's report (`--refine`), when there was one, with how
+    /// it was judged (`judge`: `diagnostics.refinement_judge`).
     pub refinement: Option<serde_json::Value>,
     /// The record the fits and residuals are computed on.
     pub validation_data: String,
@@ -1263,7 +1264,15 @@ impl Session {
             },
             transfer_functions,
             transfer_note,
-            refinement: file.diagnostics.get("refinement").cloned(),
+            refinement: file.diagnostics.get("refinement").cloned().map(|mut r| {
+                // How it was judged (held-out blocks or the record).
+                if let (Some(obj), Some(j)) =
+                    (r.as_object_mut(), file.diagnostics.get("refinement_judge"))
+                {
+                    obj.insert("judge".into(), j.clone());
+                }
+                r
+            }),
             validation_data: self.validation_source(r)?.0,
             seq: r.seq,
             horizon,

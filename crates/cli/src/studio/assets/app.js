@@ -447,10 +447,16 @@ function renderIdentified(r) {
   $("fig-residuals").innerHTML = r.figures.residuals.join("");
   $("fig-criterion").innerHTML = r.figures.criterion || "";
   renderModel(r);
+  const judgeText = (j) => {
+    if (!j) return "";
+    const h = j.held_out;
+    const fits = h ? ": held-out fit " + fixed(h.initial_fit, 1) + " % → " + fixed(h.refined_fit, 1) + " % over " + h.folds + " blocks" : "";
+    return j.decided_by === "held-out blocks" ? ", decided on held-out blocks" + fits : ", decided on the record" + fits;
+  };
   const ref = r.refinement;
   $("refinement").textContent = ref
     ? "PEM refinement: " + ref.iterations + " iterations, cost " + fixed(ref.initial_cost, 6) + " → " +
-      fixed(ref.final_cost, 6) + " (" + ref.termination + "; " + (ref.kept === "Refined" ? "refined model kept" : "initial model kept") + ")"
+      fixed(ref.final_cost, 6) + " (" + ref.termination + "; " + (ref.kept === "Refined" ? "refined model kept" : "initial model kept") + judgeText(ref.judge) + ")"
     : "";
   if (state.order === "auto") state.structure = { horizon: r.horizon, estimator: r.estimator };
   $("fig-step").innerHTML = r.figures.step;
