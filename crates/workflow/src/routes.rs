@@ -145,6 +145,32 @@ fn single<'a>(sets: &'a [Dataset], what: &str) -> Result<&'a Dataset> {
 /// records while looking for a stable model.
 const STABLE_TRIES: usize = 6;
 
+/// The subspace options of the workflow options for records in memory of
+/// period `ts` (the options' structure: horizon 10 and the gap rule unless
+/// given); `remove_means`: the means are removed inside the identification.
+pub(crate) fn subspace_options(
+    opts: &WorkflowOptions,
+    ts: f64,
+    remove_means: bool,
+) -> SubspaceOptions {
+    let id = &opts.identification;
+    SubspaceOptions {
+        method: method_of(id.method),
+        order: order_of(id),
+        order_criterion: criterion_of(id.order_criterion),
+        past: id.horizon.unwrap_or(10),
+        future: id.horizon.unwrap_or(10),
+        system: system_of(id.estimator),
+        bd: bd_of(id.bd),
+        remove_means,
+        noise_model: id.noise_model,
+        enforce_stability: stabilized_start(opts),
+        ts,
+        threads: id.threads.unwrap_or(1),
+        ..Default::default()
+    }
+}
+
 /// Single-rate N4SID/MOESP/CVA on records in memory: the held-out
 /// structure selection when the options leave the structure to it
 /// ([`WorkflowOptions::wants_selection`]), else the options' structure.
@@ -158,23 +184,7 @@ pub(crate) fn subspace(
     cache: Option<&mut SubspaceCache>,
 ) -> Result<(SubspaceModel, serde_json::Value, SubspaceOptions)> {
     let id = &opts.identification;
-    let stable = stabilized_start(opts);
-    let ts = sets[0].ts();
-    let sub = SubspaceOptions {
-        method: method_of(id.method),
-        order: order_of(id),
-        order_criterion: criterion_of(id.order_criterion),
-        past: id.horizon.unwrap_or(10),
-        future: id.horizon.unwrap_or(10),
-        system: system_of(id.estimator),
-        bd: bd_of(id.bd),
-        remove_means,
-        noise_model: id.noise_model,
-        enforce_stability: stable,
-        ts,
-        threads: id.threads.unwrap_or(1),
-        ..Default::default()
-    };
+    let sub = subspace_options(opts, sets[0].ts(), remove_means);
     let exps: Vec<Experiment<'_>> = sets
         .iter()
         .map(|d| Experiment { u: d.u(), y: d.y() })

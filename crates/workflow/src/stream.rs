@@ -10,19 +10,22 @@
 
 use lifted_lti::{Dataset, ModelFile, StateSpace};
 use lifted_subspace::{
-    Compression, StreamedSubspace, StreamingIdentifier, SubspaceModel, SubspaceOptions,
+    Compression, OrderSelection, StreamedSubspace, StreamingIdentifier, SubspaceModel,
+    SubspaceOptions,
 };
 use nalgebra::DMatrix;
 
 use crate::diagnostics::{add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
+use crate::options::REFINE_CHECK_SAMPLES;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::deviations;
 use crate::refine::{
-    auto_allows, auto_decides, refine, refinement_cost, stabilized_start, work_of_size,
+    HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
+    work_of_size,
 };
-use crate::routes::{bd_of, criterion_of, method_of, order_of, system_of};
+use crate::routes::{bd_of, criterion_of, method_of, order_of, subspace_options, system_of};
 use crate::validate::{finish_file, require_stable};
 
 /// What a pass over a record source saw.
@@ -236,7 +239,20 @@ pub fn identify_streamed(
         if decided {
             run.refinement.refine = Refine::Pem;
         }
-        refine(&run, model, d, &[set], &mut kalman_gain, None)?
+        // A short record (structure given, so streamed) is judged as the
+        // in-memory route judges it: on held-out blocks of the record as
+        // the identification took it.
+        let check_opts = SubspaceOptions {
+            order: OrderSelection::Fixed(fit.diagnostics.order),
+            past: fit.diagnostics.horizons.0,
+            future: fit.diagnostics.horizons.1,
+            ..subspace_options(opts, record.ts(), opts.data.detrend != Detrend::None)
+        };
+        let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
+            sets: std::slice::from_ref(&record),
+            options: &check_opts,
+        });
+        refine(&run, model, d, &[set], &mut kalman_gain, check)?
     };
     if opts.validation.require_stable {
         require_stable(&model)?;
