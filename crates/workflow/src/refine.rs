@@ -282,6 +282,75 @@ fn check_applies<'a>(
     Some(Ok(check))
 }
 
+/// The refinement of `model` kept or dropped by the held-out check
+/// (`lifted_subspace::cross_validate_refinement`) when its blocks tell the
+/// two apart, else by the simulation error on `records`; the judgement goes
+/// to `diagnostics.refinement_judge`.
+fn refine_judged_on_blocks(
+    model: &StateSpace,
+    kalman_gain: &Option<DMatrix<f64>>,
+    records: &[Record<'_>],
+    pem: &PemOptions,
+    check: HeldOutCheck<'_>,
+    diagnostics: &mut serde_json::Value,
+) -> Result<lifted_subspace::PemFit> {
+    let exps: Vec<Experiment<'_>> = check
+        .sets
+        .iter()
+        .map(|d| Experiment { u: d.u(), y: d.y() })
+        .collect();
+    let whole = PemOptions {
+        keep_refined: true,
+        ..pem.clone()
+    };
+    let mut fit = refine_pem(model, kalman_gain.as_ref(), records, &[], &whole).ctx("refine")?;
+    let judged = cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS);
+    let in_sample = fit.report.judged.1 <= fit.report.judged.0;
+    let (keep, judge) = match &judged {
+        // Blocks that do not tell the two apart (means within the
+        // margin, a median block that disagrees, every fold failed
+        // for both) say nothing: the records decide.
+        Ok(c) => {
+            let verdict = c.verdict(REFINE_CHECK_MARGIN);
+            let decides = verdict.is_some();
+            let rule = if decides {
+                format!(
+                    "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block)",
+                    c.folds
+                )
+            } else {
+                format!(
+                    "simulation error on the records (x0 estimated): the held-out blocks do not tell the two apart (mean fits within {REFINE_CHECK_MARGIN} points, or the median block disagrees with the mean)"
+                )
+            };
+            (
+                verdict.unwrap_or(in_sample),
+                json!({
+                    "rule": rule,
+                    "decided_by": if decides { "held-out blocks" } else { "records" },
+                    "held_out": c,
+                }),
+            )
+        }
+        Err(e) => (
+            in_sample,
+            json!({
+                "rule": format!("simulation error on the records (x0 estimated): no held-out check ({e})"),
+                "decided_by": "records",
+            }),
+        ),
+    };
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert("refinement_judge".into(), judge);
+    }
+    if !keep {
+        fit.model = model.clone();
+        fit.kalman_gain = kalman_gain.clone();
+        fit.report.kept = Kept::Initial;
+    }
+    Ok(fit)
+}
+
 /// Refines `model` (and `kalman_gain`) on `sets` per the refinement options
 /// (and, for a stable identification whose estimate had to be stabilised,
 /// by the prediction error: see [`IdentificationOptions::stable`](crate::IdentificationOptions::stable));
@@ -344,62 +413,7 @@ pub fn refine(
     let held_out = check_applies(check, &model, stabilized, &records, &pem);
     let fit = match held_out {
         Some(Ok(check)) => {
-            let exps: Vec<Experiment<'_>> = check
-                .sets
-                .iter()
-                .map(|d| Experiment { u: d.u(), y: d.y() })
-                .collect();
-            let whole = PemOptions {
-                keep_refined: true,
-                ..pem.clone()
-            };
-            let mut fit =
-                refine_pem(&model, kalman_gain.as_ref(), &records, &[], &whole).ctx("refine")?;
-            let judged = cross_validate_refinement(&exps, check.options, &pem, CHECK_BLOCKS);
-            let in_sample = fit.report.judged.1 <= fit.report.judged.0;
-            let (keep, judge) = match &judged {
-                // Blocks that do not tell the two apart (means within the
-                // margin, a median block that disagrees, every fold failed
-                // for both) say nothing: the records decide.
-                Ok(c) => {
-                    let verdict = c.verdict(REFINE_CHECK_MARGIN);
-                    let decides = verdict.is_some();
-                    let rule = if decides {
-                        format!(
-                            "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block)",
-                            c.folds
-                        )
-                    } else {
-                        format!(
-                            "simulation error on the records (x0 estimated): the held-out blocks do not tell the two apart (mean fits within {REFINE_CHECK_MARGIN} points, or the median block disagrees with the mean)"
-                        )
-                    };
-                    (
-                        verdict.unwrap_or(in_sample),
-                        json!({
-                            "rule": rule,
-                            "decided_by": if decides { "held-out blocks" } else { "records" },
-                            "held_out": c,
-                        }),
-                    )
-                }
-                Err(e) => (
-                    in_sample,
-                    json!({
-                        "rule": format!("simulation error on the records (x0 estimated): no held-out check ({e})"),
-                        "decided_by": "records",
-                    }),
-                ),
-            };
-            if let Some(obj) = diagnostics.as_object_mut() {
-                obj.insert("refinement_judge".into(), judge);
-            }
-            if !keep {
-                fit.model = model.clone();
-                fit.kalman_gain = kalman_gain.clone();
-                fit.report.kept = Kept::Initial;
-            }
-            fit
+            refine_judged_on_blocks(&model, kalman_gain, &records, &pem, check, &mut diagnostics)?
         }
         other => {
             let why = match other {
