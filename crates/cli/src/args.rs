@@ -498,7 +498,8 @@ pub struct IdentifyArgs {
     /// Model order n, or `auto` (largest gap of the singular values / Λ diagonal).
     #[arg(long, default_value = "auto")]
     pub order: String,
-    /// Largest order considered by `auto`.
+    /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
+    /// to the largest order the records and horizon identify).
     #[arg(long, default_value_t = 10)]
     pub max_order: usize,
     /// Rule of `--order auto` (subspace and single-rate IV methods): the

@@ -190,15 +190,34 @@ pub(crate) fn subspace(
         .map(|d| Experiment { u: d.u(), y: d.y() })
         .collect();
     let what = format!("{} identification", sub.method.name());
+    let mut capped_search = None;
     let (fit, structure, used) = if opts.wants_selection() {
         let (fit, d, used) = select(id, &exps, sub)?;
         (fit, Some(d), used)
     } else {
-        let fit = match cache {
-            Some(c) => c.identify(&exps, &sub, &what)?,
-            None => identify(&exps, &sub).ctx(&what)?,
+        let mut cache = cache;
+        let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
+            Some(c) => c.identify(&exps, o, &what),
+            None => identify(&exps, o).ctx(&what),
         };
-        (fit, None, sub)
+        match run(&sub) {
+            Ok(fit) => (fit, None, sub),
+            Err(e) => match supported_cap(&e, &sub) {
+                // An automatic order's search bound (--max-order, default
+                // 10) beyond what the records or horizon identify: searched
+                // up to the largest supported order instead, with a warning.
+                Some(max) => {
+                    let capped = SubspaceOptions {
+                        order: OrderSelection::Gap { max },
+                        ..sub
+                    };
+                    let fit = run(&capped)?;
+                    capped_search = Some((order_of(id), max));
+                    (fit, None, capped)
+                }
+                None => return Err(e),
+            },
+        }
     };
     let used = SubspaceOptions {
         order: OrderSelection::Fixed(fit.diagnostics.order),
@@ -208,7 +227,36 @@ pub(crate) fn subspace(
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
+    if let Some((OrderSelection::Gap { max: asked }, max)) = capped_search {
+        crate::diagnostics::push_warning(
+            &mut d,
+            format!(
+                "orders above {max} are not identifiable from these records with this horizon and order criterion: the automatic order searched 1..={max} instead of 1..={asked} (--max-order)"
+            ),
+        );
+    }
     Ok((fit, d, used))
+}
+
+/// The largest order the records support when `e` refused an automatic
+/// order's search bound (`lifted_subspace::Error::OrderTooLarge` for the
+/// bound itself, with a supported order of at least 1); `None` for any
+/// other error or a fixed order.
+fn supported_cap(e: &Error, sub: &SubspaceOptions) -> Option<usize> {
+    let OrderSelection::Gap { max: asked } = sub.order else {
+        return None;
+    };
+    let Error::Step { source, .. } = e else {
+        return None;
+    };
+    match source.downcast_ref::<lifted_subspace::Error>() {
+        Some(lifted_subspace::Error::OrderTooLarge { order, max })
+            if *order == asked && (1..asked).contains(max) =>
+        {
+            Some(*max)
+        }
+        _ => None,
+    }
 }
 
 /// The model of the structure chosen by cross-validated simulation fit for

@@ -523,3 +523,28 @@ fn the_refinement_is_judged_on_held_out_blocks() {
     assert!(j["rule"].as_str().unwrap().contains("20000"), "{j}");
     assert!(j.get("held_out").is_none(), "{j}");
 }
+
+#[test]
+fn an_order_search_beyond_the_data_is_capped_with_a_warning() {
+    // 60 samples of a 2×2 record, horizon 3: AIC needs K(n) + 1 < N with
+    // K(n) = n(n_y + n_u) + 4 (D) + n (x₀) = 5n + 4, so at most order 10
+    // would need 55 < 60 — but the horizon identifies at most
+    // (f − 1) n_y = 4 states: the default search bound 10 is capped to 4.
+    let (u, y) = record(60, 0.1, 9);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order_criterion = OrderCriterion::Aic;
+    opts.identification.horizon = Some(3);
+    opts.refinement.refine = Refine::None;
+    let fit = identify(&records, &opts).expect("capped search");
+    let warnings = fit.file.diagnostics["warnings"].to_string();
+    assert!(
+        warnings.contains("searched 1..=4 instead of 1..=10"),
+        "{warnings}"
+    );
+    assert!((1..=4).contains(&fit.order), "{}", fit.order);
+    // A fixed order beyond the data stays an error naming the limit.
+    opts.identification.order = Order::Fixed(6);
+    let err = identify(&records, &opts).unwrap_err().to_string();
+    assert!(err.contains("1..=4"), "{err}");
+}
