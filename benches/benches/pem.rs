@@ -18,7 +18,7 @@ use nalgebra::DMatrix;
 /// The plant and record of [`lifted_benches::pem_case`] and a start near
 /// the plant (A × 0.97, B × 1.03).
 fn case(n: usize, nu: usize, ny: usize, len: usize) -> (StateSpace, DMatrix<f64>, DMatrix<f64>) {
-    let (g, u, y) = lifted_benches::pem_case(n, nu, ny, len);
+    let (g, u, y) = lifted_benches::pem_case(n, nu, ny, len).expect("bench plant");
     let start = StateSpace::new(
         g.a() * 0.97,
         g.b() * 1.03,

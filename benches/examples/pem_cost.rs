@@ -33,7 +33,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &(nu, ny, n) in &[(1usize, 1usize, 2usize), (2, 2, 4), (3, 2, 6)] {
         for &len in &lens {
-            let (_, u, y) = lifted_benches::pem_case(n, nu, ny, len);
+            let (_, u, y) = lifted_benches::pem_case(n, nu, ny, len).expect("bench plant");
             let sopts = SubspaceOptions {
                 order: OrderSelection::Fixed(n),
                 ..Default::default()

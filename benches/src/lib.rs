@@ -63,14 +63,26 @@ pub fn peer_data(n: usize, noise_std: f64, seed: u64) -> (DMatrix<f64>, DMatrix<
 /// `ny` outputs (poles 0.95, 0.9, 0.8, 0.6, −0.4, 0.3 taken in order, 0.1
 /// couplings on the superdiagonal, seeded B and C uniform in [−0.5, 0.5)),
 /// `len` samples of a random binary ±1 input and its response with uniform
-/// output noise of width 0.1 (seed 27). `n` at most 6. Returns (plant, u, y).
+/// output noise of width 0.1 (seed 27). Returns (plant, u, y).
+///
+/// Errors: `n` above 6 (there are six poles) or a plant the state-space
+/// checks refuse ([`lifted_lti::Error`]).
 pub fn pem_case(
     n: usize,
     nu: usize,
     ny: usize,
     len: usize,
-) -> (StateSpace, DMatrix<f64>, DMatrix<f64>) {
+) -> lifted_lti::Result<(StateSpace, DMatrix<f64>, DMatrix<f64>)> {
     let poles = [0.95, 0.9, 0.8, 0.6, -0.4, 0.3];
+    if n > poles.len() {
+        return Err(lifted_lti::Error::InvalidArgument {
+            what: "n",
+            reason: format!(
+                "the PEM bench plant has at most {} states, got {n}",
+                poles.len()
+            ),
+        });
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(27);
     let mut a = DMatrix::from_diagonal(&nalgebra::DVector::from_fn(n, |i, _| poles[i]));
     for i in 0..n.saturating_sub(1) {
@@ -78,14 +90,14 @@ pub fn pem_case(
     }
     let b = DMatrix::from_fn(n, nu, |_, _| rng.random::<f64>() - 0.5);
     let c = DMatrix::from_fn(ny, n, |_, _| rng.random::<f64>() - 0.5);
-    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0)).expect("valid model");
+    let g = StateSpace::new(a, b, c, DMatrix::zeros(ny, nu), Some(1.0))?;
     let u = DMatrix::from_fn(
         len,
         nu,
         |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 },
     );
-    let mut y = g.lsim(&u, None, None).expect("simulation").y;
+    let mut y = g.lsim(&u, None, None)?.y;
     y.iter_mut()
         .for_each(|v| *v += 0.1 * (rng.random::<f64>() - 0.5));
-    (g, u, y)
+    Ok((g, u, y))
 }

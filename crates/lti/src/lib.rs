@@ -98,7 +98,7 @@ pub use identify::{Identified, Identifier};
 pub use model_file::{ModelFile, ModelFileError};
 pub use operating_point::OperatingPoint;
 pub use poly::{Poly, cancel_common_roots};
-pub use reduce::MinrealOptions;
+pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;
 pub use tf::{FeedbackSign, SisoTf, TransferFunction};

@@ -160,6 +160,36 @@ impl StateSpace {
         }
     }
 
+    /// The square-root balancing transformation: Gramian factors P = L_P
+    /// L_Pᵀ, Q = L_Q L_Qᵀ (from symmetric eigendecompositions, negative
+    /// rounding eigenvalues clipped to 0), SVD L_Qᵀ L_P = U Σ Vᵀ; returns
+    /// (T_l, T_r, σ) with T_r = L_P V Σ^{-1/2}, T_l = Σ^{-1/2} Uᵀ L_Qᵀ over
+    /// the nonzero Hankel singular values σ (descending, all n of them in
+    /// `hsv`), so that (T_l A T_r, T_l B, C T_r, D) is balanced and, for a
+    /// minimal model, T_l = T_r⁻¹. Requires stability. O(n³).
+    ///
+    /// Errors: [`Error::Unstable`].
+    pub fn balancing(&self) -> Result<Balancing> {
+        let p = self.controllability_gramian()?;
+        let q = self.observability_gramian()?;
+        let lp = sym_factor(&p)?;
+        let lq = sym_factor(&q)?;
+        let (u, s, v) = la::svd(&(lq.transpose() * &lp))?;
+        let nonzero = s
+            .iter()
+            .filter(|&&x| x > f64::EPSILON * s.first().copied().unwrap_or(0.0))
+            .count();
+        let sinv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            nonzero,
+            s.iter().take(nonzero).map(|x| 1.0 / x.sqrt()),
+        ));
+        Ok(Balancing {
+            right: &lp * v.columns(0, nonzero) * &sinv,
+            left: &sinv * u.columns(0, nonzero).transpose() * lq.transpose(),
+            hsv: s,
+        })
+    }
+
     /// Balanced truncation to `order` states by the square-root method:
     /// Gramian factors P = L_P L_Pᵀ, Q = L_Q L_Qᵀ (from symmetric
     /// eigendecompositions, negative rounding eigenvalues clipped to 0), SVD
@@ -171,27 +201,20 @@ impl StateSpace {
     /// Errors: [`Error::Unstable`], `order` larger than the number of
     /// nonzero Hankel singular values ([`Error::InvalidArgument`]).
     pub fn balanced_truncation(&self, order: usize) -> Result<(StateSpace, Vec<f64>)> {
-        let p = self.controllability_gramian()?;
-        let q = self.observability_gramian()?;
-        let lp = sym_factor(&p)?;
-        let lq = sym_factor(&q)?;
-        let (u, s, v) = la::svd(&(lq.transpose() * &lp))?;
-        let nonzero = s
-            .iter()
-            .filter(|&&x| x > f64::EPSILON * s.first().copied().unwrap_or(0.0))
-            .count();
+        let Balancing {
+            left,
+            right,
+            hsv: s,
+        } = self.balancing()?;
+        let nonzero = right.ncols();
         if order > nonzero {
             return Err(Error::InvalidArgument {
                 what: "order",
                 reason: format!("{order} exceeds the {nonzero} nonzero Hankel singular values"),
             });
         }
-        let sinv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
-            order,
-            s.iter().take(order).map(|x| 1.0 / x.sqrt()),
-        ));
-        let tr = &lp * v.columns(0, order) * &sinv;
-        let tl = &sinv * u.columns(0, order).transpose() * lq.transpose();
+        let tr = right.columns(0, order).into_owned();
+        let tl = left.rows(0, order).into_owned();
         let red = StateSpace::from_parts(
             &tl * self.a() * &tr,
             &tl * self.b(),
@@ -201,6 +224,17 @@ impl StateSpace {
         );
         Ok((red, s))
     }
+}
+
+/// The square-root balancing transformation of [`StateSpace::balancing`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Balancing {
+    /// T_l (r×n, r = the number of nonzero Hankel singular values).
+    pub left: DMatrix<f64>,
+    /// T_r (n×r).
+    pub right: DMatrix<f64>,
+    /// All n Hankel singular values, descending.
+    pub hsv: Vec<f64>,
 }
 
 /// L with L Lᵀ = M for symmetric PSD M, from the eigendecomposition.

@@ -269,39 +269,35 @@ impl Point {
     /// of (A, C) equal and diagonal, so the input–output and prediction
     /// behaviour is unchanged (B, K, x₀ → T⁻¹ ·, C → C T). `None` when A is
     /// not stable or the realization is not minimal to working precision
-    /// (a Hankel singular value below 1e-12 of the largest). O(n³).
+    /// (a Hankel singular value below 1e-12 of the largest). The transform
+    /// is `lifted_lti::StateSpace::balancing` of (A, [B K], C). O(n³).
     pub(super) fn balanced(&self) -> Option<Point> {
-        use lifted_linalg::{SortOrder, dlyap, svd, sym_eig};
         let n = self.a.nrows();
         if n == 0 || !spectral_radius(&self.a).is_ok_and(|r| r < 1.0) {
             return None;
         }
-        let mut bk = DMatrix::zeros(n, self.b.ncols() + self.k.ncols());
+        let inputs = self.b.ncols() + self.k.ncols();
+        let mut bk = DMatrix::zeros(n, inputs);
         bk.columns_mut(0, self.b.ncols()).copy_from(&self.b);
         bk.columns_mut(self.b.ncols(), self.k.ncols())
             .copy_from(&self.k);
-        let p = dlyap(&self.a, &(&bk * bk.transpose())).ok()?;
-        let q = dlyap(&self.a.transpose(), &(self.c.transpose() * &self.c)).ok()?;
-        // Factors L with L Lᵀ = M from the eigendecompositions (rounding
-        // negatives clipped).
-        let factor = |m: &DMatrix<f64>| -> Option<DMatrix<f64>> {
-            let e = sym_eig(m, SortOrder::Descending).ok()?;
-            let mut l = e.vectors;
-            for (j, &lam) in e.values.iter().enumerate() {
-                l.column_mut(j).scale_mut(lam.max(0.0).sqrt());
-            }
-            Some(l)
-        };
-        let (lp, lq) = (factor(&p)?, factor(&q)?);
-        let f = svd(&(lq.transpose() * &lp)).ok()?;
-        let largest = f.s.iter().copied().fold(0.0, f64::max);
-        if f.s.len() < n || f.s.iter().any(|&s| s.is_nan() || s <= 1e-12 * largest) {
+        let pair = lifted_lti::StateSpace::new(
+            self.a.clone(),
+            bk,
+            self.c.clone(),
+            DMatrix::zeros(self.c.nrows(), inputs),
+            Some(1.0),
+        )
+        .ok()?;
+        let lifted_lti::Balancing {
+            left: tl,
+            right: tr,
+            hsv,
+        } = pair.balancing().ok()?;
+        let largest = hsv.iter().copied().fold(0.0, f64::max);
+        if tr.ncols() < n || hsv.iter().any(|&s| s.is_nan() || s <= 1e-12 * largest) {
             return None;
         }
-        let root = DVector::from_iterator(n, f.s.iter().map(|s| 1.0 / s.sqrt()));
-        let sinv = DMatrix::from_diagonal(&root);
-        let tr = &lp * &f.v * &sinv;
-        let tl = &sinv * f.u.transpose() * lq.transpose();
         let out = Point {
             a: &tl * &self.a * &tr,
             b: &tl * &self.b,
