@@ -102,8 +102,19 @@ impl<'e, 'a> Folds<'e, 'a> {
     }
 
     /// Copies of the estimation pieces and held-out blocks of every fold:
-    /// O(K N (n_u + n_y)) memory.
-    pub(crate) fn split(&self) -> Vec<(OwnedRecords, OwnedRecords)> {
+    /// O(K N (n_u + n_y)) memory, checked against the memory budget first
+    /// (`lifted_linalg::budget::MemoryBudget`).
+    pub(crate) fn split(&self) -> Result<Vec<(OwnedRecords, OwnedRecords)>> {
+        // Every fold holds a whole copy of the records (pieces + block).
+        let values: usize = self
+            .experiments
+            .iter()
+            .map(|e| e.u.len().saturating_add(e.y.len()))
+            .fold(0usize, usize::saturating_add);
+        lifted_linalg::budget::MemoryBudget::default().check(
+            "the cross-validation folds (a copy of the records per fold)",
+            lifted_linalg::budget::Size::f64s(values).times(self.held_out.len()),
+        )?;
         let slice = |r: usize, a: usize, b: usize| {
             let e = &self.experiments[r];
             (
@@ -111,7 +122,8 @@ impl<'e, 'a> Folds<'e, 'a> {
                 e.y.rows(a, b - a).into_owned(),
             )
         };
-        self.held_out
+        Ok(self
+            .held_out
             .iter()
             .map(|&f| {
                 let est = self
@@ -130,7 +142,7 @@ impl<'e, 'a> Folds<'e, 'a> {
                     .collect();
                 (est, held)
             })
-            .collect()
+            .collect())
     }
 }
 
@@ -281,7 +293,8 @@ impl RefinementCheck {
 ///
 /// Errors: [`Error::InvalidOption`] for fewer than 2 or more than 10
 /// blocks or an order that is not fixed; [`Error::HorizonTooLong`] when no
-/// fold can be identified.
+/// fold can be identified; [`Error::Linalg`] (`TooLarge`) when a copy of
+/// the records per fold exceeds the memory budget.
 pub fn cross_validate_refinement(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
@@ -308,7 +321,7 @@ pub fn cross_validate_refinement(
         ..pem.clone()
     };
     let mut per_fold = Vec::new();
-    for (est, held) in folds.split() {
+    for (est, held) in folds.split()? {
         let exps = usable(&est, s);
         let Ok(fit) = crate::identify(&exps, opts) else {
             continue;
@@ -395,7 +408,7 @@ mod tests {
         let (u, y) = record(600, 0.1, 1);
         let exps = [Experiment { u: &u, y: &y }];
         let folds = Folds::new(&exps, 6, false);
-        for (f, (est, held)) in folds.split().iter().enumerate() {
+        for (f, (est, held)) in folds.split().unwrap().iter().enumerate() {
             // Held out: block f (100 samples); estimation: the rest, in at
             // most two pieces.
             assert_eq!(held[0].0.nrows(), 100);

@@ -150,7 +150,8 @@ pub struct StructureSelection {
 /// when the records are too short for any candidate horizon;
 /// [`Error::InvalidOption`] for a hold-out fraction outside (0, 0.9];
 /// [`Error::Unstable`] when no candidate gives a stable model (the
-/// caller then keeps its defaults).
+/// caller then keeps its defaults); [`Error::Linalg`] (`TooLarge`) when a
+/// copy of the records per fold exceeds the memory budget.
 pub fn select_structure(
     experiments: &[Experiment<'_>],
     base: &SubspaceOptions,
@@ -268,7 +269,7 @@ pub fn select_structure(
     };
     // The estimation pieces and held-out blocks of every fold (copies:
     // O(K N (n_u + n_y)) memory for records of at most `search_samples`).
-    let folds = fold_layout.split();
+    let folds = fold_layout.split()?;
     let mut candidates = Vec::new();
     for &s in &horizons {
         for &system in &systems {
