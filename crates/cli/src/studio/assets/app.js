@@ -450,7 +450,7 @@ function renderIdentified(r) {
   const judgeText = (j) => {
     if (!j) return "";
     const h = j.held_out;
-    const fits = h ? ": held-out fit " + fixed(h.initial_fit, 1) + " % → " + fixed(h.refined_fit, 1) + " % over " + h.folds + " blocks" : "";
+    const fits = h ? " (held-out fit over " + h.folds + " blocks: subspace model " + fixed(h.initial_fit, 1) + " %, refined " + fixed(h.refined_fit, 1) + " %)" : "";
     return j.decided_by === "held-out blocks" ? ", decided on held-out blocks" + fits : ", decided on the record" + fits;
   };
   const ref = r.refinement;
