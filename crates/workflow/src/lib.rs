@@ -32,7 +32,12 @@
 //!    (`lifted_subspace::select_structure`: up to 2e4 samples, six
 //!    blocks each held out once and the structure identified on the other
 //!    five; longer records identified on the first two thirds and scored
-//!    on the last third; x₀ of each held-out block estimated).
+//!    on the last third; x₀ of each held-out block estimated). When the
+//!    model will be refined and the records are short enough for the
+//!    refinement's held-out check, the best three orders are compared by
+//!    the held-out fit of the model each delivers (its refinement where the
+//!    blocks prefer it), so the order is chosen for the model the user gets
+//!    (`structure_selection.refined_shortlist`).
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the
 //!    one-step prediction error (the innovations form, K free) or on the
 //!    simulation error, from exactly the identified model; the refined
@@ -95,6 +100,7 @@ mod pipeline;
 mod preprocess;
 mod refine;
 mod routes;
+mod shortlist;
 pub mod stream;
 mod validate;
 

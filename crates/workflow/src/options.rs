@@ -120,9 +120,13 @@ pub enum OrderCriterion {
     /// Simulation fit on held-out data (six blocks each held out once up
     /// to 2e4 samples, else the last third of the record), the
     /// horizon and the (A, C) route chosen the same way when they are not
-    /// given (single-rate N4SID, MOESP, CVA; default). The other routes use
-    /// the singular-value gap; a record too large to select on is streamed
-    /// with Bauer's SVC.
+    /// given (single-rate N4SID, MOESP, CVA; default). When the records
+    /// are refined and short enough for the held-out check of a refinement
+    /// ([`REFINE_CHECK_SAMPLES`]), the best three orders are then compared
+    /// by the held-out fit of the model each delivers (its refinement where
+    /// the blocks prefer it; `structure_selection.refined_shortlist`). The
+    /// other routes use the singular-value gap; a record too large to
+    /// select on is streamed with Bauer's SVC.
     #[default]
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.

@@ -137,12 +137,22 @@ fn run(
     let ts = sets[0].ts();
     // The records and options of a single-rate subspace identification, for
     // the held-out check of its refinement.
-    let mut check: Option<(Vec<Dataset>, lifted_subspace::SubspaceOptions)> = None;
+    type Check = (
+        Vec<Dataset>,
+        lifted_subspace::SubspaceOptions,
+        Option<lifted_subspace::RefinementCheck>,
+    );
+    let mut check: Option<Check> = None;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
         m if m.is_subspace() => {
-            let (fit, d, used) = routes::subspace(opts, &sets, inner_means, cache)?;
+            let routes::SubspaceRoute {
+                fit,
+                diagnostics: d,
+                used,
+                check: known,
+            } = routes::subspace(opts, &sets, inner_means, cache)?;
             let route_sets = if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.
@@ -158,7 +168,7 @@ fn run(
                 Vec::new()
             };
             if !route_sets.is_empty() {
-                check = Some((route_sets, used));
+                check = Some((route_sets, used, known));
             }
             let dg = &fit.diagnostics;
             RouteFit {
@@ -189,9 +199,11 @@ fn run(
         suggested_order,
         details,
     } = fit;
-    let check = check
-        .as_ref()
-        .map(|(sets, options)| HeldOutCheck { sets, options });
+    let check = check.as_ref().map(|(sets, options, known)| HeldOutCheck {
+        sets,
+        options,
+        known: known.as_ref(),
+    });
     let (model, mut diagnostics) =
         refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
     if opts.validation.require_stable {

@@ -10,8 +10,9 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::{
-    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, SubspaceOptions,
-    cross_validate_refinement, pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
+    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, RefinementCheck,
+    SubspaceOptions, cross_validate_refinement, pem_work_estimate, pem_work_estimate_of_sizes,
+    refine_pem,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
@@ -186,7 +187,7 @@ pub(crate) fn work_of_size(
 /// 3000, order 6) both ran their 100 iterations, the joint ones to a lower
 /// cost (2.33e-3 against 2.45e-3) and an FR error against the truth of
 /// 0.036 against 0.146 (the unconstrained estimate's: 0.095).
-fn pem_options(
+pub(crate) fn pem_options(
     opts: &WorkflowOptions,
     model: &StateSpace,
     cost: PemCost,
@@ -235,7 +236,7 @@ fn unrefined(
 }
 
 /// Blocks of the held-out check of a refinement.
-const CHECK_BLOCKS: usize = 6;
+pub(crate) const CHECK_BLOCKS: usize = 6;
 
 /// The records and options of a single-rate N4SID / MOESP / CVA
 /// identification, for the held-out check of its refinement
@@ -247,6 +248,10 @@ pub struct HeldOutCheck<'a> {
     pub sets: &'a [Dataset],
     /// The options that give the model on them (the order fixed).
     pub options: &'a SubspaceOptions,
+    /// The check already computed for these records and options (an
+    /// automatic order chosen by the refined models' held-out fits):
+    /// used instead of computing it again.
+    pub known: Option<&'a RefinementCheck>,
 }
 
 /// How the refinement is judged: on held-out blocks when `check` is given,
@@ -304,7 +309,10 @@ fn refine_judged_on_blocks(
         ..pem.clone()
     };
     let mut fit = refine_pem(model, kalman_gain.as_ref(), records, &[], &whole).ctx("refine")?;
-    let judged = cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS);
+    let judged = match check.known {
+        Some(c) => Ok(c.clone()),
+        None => cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS),
+    };
     let in_sample = fit.report.judged.1 <= fit.report.judged.0;
     let (keep, judge) = match &judged {
         // Blocks that do not tell the two apart (means within the

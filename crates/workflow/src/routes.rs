@@ -11,9 +11,9 @@ use lifted_multirate::{
 };
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
-    BdEstimate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
-    OrderSelection, StructureOptions, SubspaceModel, SubspaceOptions, SystemEstimate, identify,
-    iv_identify, select_structure,
+    BdEstimate, Candidate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
+    OrderSelection, PemCost, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
+    SystemEstimate, identify, iv_identify, select_structure,
 };
 use nalgebra::{DMatrix, DVector};
 use serde_json::json;
@@ -26,6 +26,7 @@ use crate::options::{
     gap_only,
 };
 use crate::refine::stabilized_start;
+use crate::shortlist::{Entry, SHORTLIST};
 
 /// What a route gives: the model, the diagnostics entry, the Kalman gain,
 /// and what the front ends show besides.
@@ -171,18 +172,30 @@ pub(crate) fn subspace_options(
     }
 }
 
+/// What the single-rate subspace route gives: the model, its diagnostics,
+/// the subspace options that give it on these records (the structure
+/// chosen, the order fixed) and, when an automatic order was chosen by the
+/// refined models' held-out fits ([`crate::shortlist`]), the held-out
+/// check of its refinement.
+pub(crate) struct SubspaceRoute {
+    pub fit: SubspaceModel,
+    pub diagnostics: serde_json::Value,
+    pub used: SubspaceOptions,
+    pub check: Option<RefinementCheck>,
+}
+
 /// Single-rate N4SID/MOESP/CVA on records in memory: the held-out
 /// structure selection when the options leave the structure to it
-/// ([`WorkflowOptions::wants_selection`]), else the options' structure.
-/// `remove_means`: the means are removed inside the identification.
-/// Returns the model, its diagnostics and the subspace options that give it
-/// on these records (the structure chosen, the order fixed).
+/// ([`WorkflowOptions::wants_selection`]; an automatic order of a run that
+/// refines short records is then judged by its refined models,
+/// [`crate::shortlist`]), else the options' structure. `remove_means`: the
+/// means are removed inside the identification.
 pub(crate) fn subspace(
     opts: &WorkflowOptions,
     sets: &[Dataset],
     remove_means: bool,
     cache: Option<&mut SubspaceCache>,
-) -> Result<(SubspaceModel, serde_json::Value, SubspaceOptions)> {
+) -> Result<SubspaceRoute> {
     let id = &opts.identification;
     let sub = subspace_options(opts, sets[0].ts(), remove_means);
     let exps: Vec<Experiment<'_>> = sets
@@ -191,8 +204,12 @@ pub(crate) fn subspace(
         .collect();
     let what = format!("{} identification", sub.method.name());
     let mut capped_search = None;
+    let samples = sets.iter().map(Dataset::len).sum();
+    let mut known = None;
     let (fit, structure, used) = if opts.wants_selection() {
-        let (fit, d, used) = select(id, &exps, sub)?;
+        let shortlist = crate::shortlist::cost(opts, samples).map(|c| (opts, c));
+        let (fit, d, used, check) = select(id, &exps, sub, shortlist)?;
+        known = check;
         (fit, Some(d), used)
     } else {
         let mut cache = cache;
@@ -235,7 +252,12 @@ pub(crate) fn subspace(
             ),
         );
     }
-    Ok((fit, d, used))
+    Ok(SubspaceRoute {
+        fit,
+        diagnostics: d,
+        used,
+        check: known,
+    })
 }
 
 /// The largest order the records support when `e` refused an automatic
@@ -267,11 +289,16 @@ fn supported_cap(e: &Error, sub: &SubspaceOptions) -> Option<usize> {
 /// diagnostics say so); a selection that fails keeps `opts` (horizon 10,
 /// shift invariance, the singular-value gap) and says why. Also returns the
 /// options of the model's identification.
+///
+/// `shortlist`: the workflow options and refinement cost when an automatic
+/// order is to be judged by its refined models ([`crate::shortlist`]); the
+/// check of the order chosen is then returned too.
 fn select(
     id: &IdentificationOptions,
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
-) -> Result<(SubspaceModel, serde_json::Value, SubspaceOptions)> {
+    shortlist: Option<(&WorkflowOptions, PemCost)>,
+) -> Result<Selected> {
     let what = format!("{} identification", opts.method.name());
     let sel_opts = StructureOptions {
         horizons: id.horizon.map(|h| vec![h]).unwrap_or_default(),
@@ -287,7 +314,7 @@ fn select(
         Err(e) => {
             let fit = identify(exps, &opts).ctx(&what)?;
             let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, singular-value gap", opts.past)});
-            return Ok((fit, d, opts));
+            return Ok((fit, d, opts, None));
         }
     };
     let candidates: Vec<serde_json::Value> = sel
@@ -300,18 +327,9 @@ fn select(
         .collect();
     let mut tried = Vec::new();
     let mut first_fit = None;
-    for c in sel
-        .ranking(sel_opts.tolerance)
-        .into_iter()
-        .take(STABLE_TRIES)
-    {
-        let o = SubspaceOptions {
-            past: c.horizon,
-            future: c.horizon,
-            system: c.system,
-            order: OrderSelection::Fixed(c.order),
-            ..opts.clone()
-        };
+    let ranking = sel.ranking(sel_opts.tolerance);
+    for (rank, c) in ranking.iter().enumerate().take(STABLE_TRIES) {
+        let o = structure_options(&opts, c);
         let fit = match identify(exps, &o) {
             Ok(fit) => fit,
             Err(e) => {
@@ -339,11 +357,30 @@ fn select(
             "candidates": candidates,
         });
         if stable {
-            return Ok((fit, d, o));
+            return Ok(match shortlist {
+                Some((wf, cost)) => {
+                    let first = Entry {
+                        options: o,
+                        candidate: c.clone(),
+                        fit,
+                    };
+                    judged(
+                        wf,
+                        exps,
+                        &opts,
+                        &ranking[rank + 1..],
+                        first,
+                        d,
+                        cost,
+                        sel_opts.tolerance,
+                    )
+                }
+                None => (fit, d, o, None),
+            });
         }
         tried.push(json!({"horizon": c.horizon, "system": system_name(c.system), "order": c.order, "spectral_radius": fit.diagnostics.spectral_radius}));
         if first_fit.is_none() {
-            first_fit = Some((fit, d, o));
+            first_fit = Some((fit, d, o, None));
         }
     }
     // No stable model among the tries: the first choice, unstable (the
@@ -355,6 +392,93 @@ fn select(
             serde_json::Value::Array(tried)
         ))),
     }
+}
+
+/// What [`select`] gives: the model, the structure-selection diagnostics,
+/// the options of the model's identification and the held-out check of an
+/// order chosen by its refined models.
+type Selected = (
+    SubspaceModel,
+    serde_json::Value,
+    SubspaceOptions,
+    Option<RefinementCheck>,
+);
+
+/// The options of candidate `c` (horizon, (A, C) route, order fixed) on
+/// top of `base`.
+fn structure_options(base: &SubspaceOptions, c: &Candidate) -> SubspaceOptions {
+    SubspaceOptions {
+        past: c.horizon,
+        future: c.horizon,
+        system: c.system,
+        order: OrderSelection::Fixed(c.order),
+        ..base.clone()
+    }
+}
+
+/// The selection's choice `first` and the next orders of the ranking
+/// (`rest`, after the choice), their models on the whole records, judged by
+/// the held-out fits of their refinements ([`crate::shortlist`]); the
+/// structure-selection diagnostics `d` then name the order chosen and the
+/// shortlist (or why it was not judged).
+#[allow(clippy::too_many_arguments)]
+fn judged(
+    wf: &WorkflowOptions,
+    exps: &[Experiment<'_>],
+    base: &SubspaceOptions,
+    rest: &[Candidate],
+    first: Entry,
+    mut d: serde_json::Value,
+    cost: PemCost,
+    tolerance: f64,
+) -> Selected {
+    let mut entries = vec![first];
+    let mut identified = 0;
+    for c in rest {
+        if entries.len() >= SHORTLIST || identified >= SHORTLIST + STABLE_TRIES {
+            break;
+        }
+        if entries.iter().any(|e| e.candidate.order == c.order) {
+            continue;
+        }
+        let o = structure_options(base, c);
+        identified += 1;
+        // A structure unstable or stabilised on the whole records is not
+        // one the selection would deliver: the next of the ranking.
+        if let Ok(fit) = identify(exps, &o)
+            && fit.diagnostics.spectral_radius < 1.0
+            && !fit.diagnostics.stabilized
+        {
+            entries.push(Entry {
+                options: o,
+                candidate: c.clone(),
+                fit,
+            });
+        }
+    }
+    let entry = match crate::shortlist::judge(wf, exps, &entries, cost, tolerance) {
+        Ok(choice) => {
+            let e = entries.swap_remove(choice.index);
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert("horizon".into(), json!(e.candidate.horizon));
+                obj.insert("system".into(), json!(system_name(e.candidate.system)));
+                obj.insert("order".into(), json!(e.candidate.order));
+                obj.insert("held_out_fit".into(), json!(e.candidate.fit));
+                obj.insert("refined_shortlist".into(), choice.diagnostics);
+            }
+            return (e.fit, d, e.options, Some(choice.check));
+        }
+        Err(why) => {
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert(
+                    "refined_shortlist".into(),
+                    json!({"skipped": format!("the selection's order stands: {why}")}),
+                );
+            }
+            entries.swap_remove(0)
+        }
+    };
+    (entry.fit, d, entry.options, None)
 }
 
 /// Multirate N4SID/MOESP/CVA: lifting, causal lifted subspace

@@ -251,6 +251,7 @@ pub fn identify_streamed(
         let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
             sets: std::slice::from_ref(&record),
             options: &check_opts,
+            known: None,
         });
         refine(&run, model, d, &[set], &mut kalman_gain, check)?
     };

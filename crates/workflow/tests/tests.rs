@@ -548,3 +548,73 @@ fn an_order_search_beyond_the_data_is_capped_with_a_warning() {
     let err = identify(&records, &opts).unwrap_err().to_string();
     assert!(err.contains("1..=4"), "{err}");
 }
+
+#[test]
+fn an_automatic_order_is_judged_by_its_refined_models() {
+    // A short noisy record (refined by default, held-out check): the best
+    // orders of the selection are scored by the held-out fit of the model
+    // each would deliver, and the order chosen follows the rule.
+    let (u, y) = record(1500, 0.3, 11);
+    let records = [Record::new(dataset(&u, &y))];
+    let fit = identify(&records, &WorkflowOptions::default()).expect("identify");
+    let d = &fit.file.diagnostics;
+    let sel = &d["structure_selection"];
+    let short = &sel["refined_shortlist"];
+    let rows = short["candidates"].as_array().expect("shortlist");
+    assert!(rows.len() >= 2, "{short}");
+    let orders: Vec<u64> = rows.iter().map(|r| r["order"].as_u64().unwrap()).collect();
+    let mut distinct = orders.clone();
+    distinct.dedup();
+    distinct.sort_unstable();
+    distinct.dedup();
+    assert_eq!(
+        distinct.len(),
+        orders.len(),
+        "one structure per order: {short}"
+    );
+    // The smallest order within the selection's tolerance (0.5 points) of
+    // the best score.
+    let score = |r: &serde_json::Value| r["score"].as_f64().unwrap();
+    let best = rows.iter().map(score).fold(f64::NEG_INFINITY, f64::max);
+    let want = rows
+        .iter()
+        .filter(|r| score(r) >= best - 0.5)
+        .map(|r| r["order"].as_u64().unwrap())
+        .min()
+        .unwrap();
+    assert_eq!(short["order"].as_u64(), Some(want), "{short}");
+    assert_eq!(fit.order as u64, want);
+    assert_eq!(sel["order"].as_u64(), Some(want));
+    // The chosen order's check judged its refinement (not computed again).
+    let chosen = rows
+        .iter()
+        .find(|r| r["order"].as_u64() == Some(want))
+        .unwrap();
+    let held = &d["refinement_judge"]["held_out"];
+    assert_eq!(held["initial_fit"], chosen["held_out_subspace"], "{d}");
+    assert_eq!(held["refined_fit"], chosen["held_out_refined"], "{d}");
+
+    // The same structure given: the check computed afresh gives the same
+    // numbers and the same model, bit for bit.
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(want as usize);
+    opts.identification.horizon = Some(chosen["horizon"].as_u64().unwrap() as usize);
+    opts.identification.estimator = match chosen["system"].as_str().unwrap() {
+        "shift invariance" => Estimator::Shift,
+        _ => Estimator::States,
+    };
+    let again = identify(&records, &opts).expect("fixed structure");
+    let d2 = &again.file.diagnostics;
+    assert!(d2.get("structure_selection").is_none(), "{d2}");
+    assert_eq!(d2["refinement_judge"]["held_out"], *held);
+    assert_eq!(again.file.model.a(), fit.file.model.a());
+    assert_eq!(again.file.model.b(), fit.file.model.b());
+
+    // No refinement: the selection's order stands, no shortlist.
+    let mut opts = WorkflowOptions::default();
+    opts.refinement.refine = Refine::None;
+    let plain = identify(&records, &opts).expect("no refinement");
+    let sel = &plain.file.diagnostics["structure_selection"];
+    assert!(sel.get("refined_shortlist").is_none(), "{sel}");
+    assert_eq!(sel["order"].as_u64(), Some(plain.order as u64));
+}

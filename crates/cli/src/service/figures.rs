@@ -545,6 +545,9 @@ pub fn response_error_plot_in(o: &OutputValidation, ts: f64, window: Window) -> 
 /// candidate's simulation error) is left outside the frame and named in a
 /// note.
 pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
+    if let Some(p) = held_out_plot(diag) {
+        return Some(p);
+    }
     let oc = diag.get("order_criterion")?;
     let name = oc.get("criterion")?.as_str()?.to_string();
     // The gap is the order-selection plot's singular values already.
@@ -596,6 +599,94 @@ pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
         plot.frame = Some([0.5, values.len() as f64 + 0.5, lo - pad, top + pad]);
         plot.notes
             .push(format!("beyond the frame: {}", beyond.join(", ")));
+    }
+    Some(plot)
+}
+
+/// Points of held-out fit below the best at which the curve's frame stops
+/// (a fold without a stable model counts as −100 %, which would flatten
+/// the rest).
+const HELD_OUT_SPAN: f64 = 100.0;
+
+/// The held-out selection's curve: the best held-out simulation fit of each
+/// order's structures (`structure_selection.candidates`), the scores of the
+/// refined shortlist (the held-out fit of the model each shortlisted order
+/// delivers) when there is one, and the order chosen; `None` without a
+/// structure selection.
+fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
+    let sel = diag.get("structure_selection")?;
+    let mut best: std::collections::BTreeMap<u64, f64> = Default::default();
+    for c in sel.get("candidates")?.as_array()? {
+        let (Some(n), Some(f)) = (
+            c.get("order").and_then(serde_json::Value::as_u64),
+            c.get("fit").and_then(serde_json::Value::as_f64),
+        ) else {
+            continue;
+        };
+        let e = best.entry(n).or_insert(f64::NEG_INFINITY);
+        *e = e.max(f);
+    }
+    if best.is_empty() {
+        return None;
+    }
+    let mut series = vec![Series::points(
+        "subspace models (best structure of each order)",
+        best.keys().map(|&n| n as f64).collect(),
+        best.values().copied().collect(),
+        Marker::Dot,
+    )];
+    let shortlist: Vec<(f64, f64)> = sel
+        .get("refined_shortlist")
+        .and_then(|s| s.get("candidates"))
+        .and_then(|c| c.as_array())
+        .map(|rows| {
+            rows.iter()
+                .filter_map(|r| Some((r.get("order")?.as_f64()?, r.get("score")?.as_f64()?)))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut notes = Vec::new();
+    if !shortlist.is_empty() {
+        notes.push(
+            "rings: refinement-check blocks (unidentifiable folds left out; dots count them as -100 %)"
+                .to_string(),
+        );
+        series.push(Series::points(
+            "the model each shortlisted order delivers (refined where the blocks prefer it)",
+            shortlist.iter().map(|p| p.0).collect(),
+            shortlist.iter().map(|p| p.1).collect(),
+            Marker::Ring,
+        ));
+    }
+    let all: Vec<f64> = best
+        .values()
+        .copied()
+        .chain(shortlist.iter().map(|p| p.1))
+        .collect();
+    let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut plot = Plot {
+        title: "Held-out simulation fit per order".into(),
+        x_label: "order n".into(),
+        y_label: "held-out fit (%)".into(),
+        series,
+        notes,
+        ..Default::default()
+    };
+    if let Some(n) = sel.get("order").and_then(serde_json::Value::as_u64) {
+        plot.vlines.push((n as f64, format!("chosen: order {n}")));
+    }
+    if lo < hi - HELD_OUT_SPAN {
+        let floor = hi - HELD_OUT_SPAN;
+        let below: Vec<String> = best
+            .iter()
+            .filter(|(_, f)| **f < floor)
+            .map(|(n, f)| format!("order {n}: {f:.1} %"))
+            .collect();
+        let last = best.keys().next_back().copied().unwrap_or(1) as f64;
+        plot.frame = Some([0.5, last + 0.5, floor - 3.0, hi + 3.0]);
+        plot.notes
+            .push(format!("below the frame: {}", below.join(", ")));
     }
     Some(plot)
 }
@@ -760,6 +851,31 @@ mod tests {
         let gap = serde_json::json!({"order_criterion": {"criterion": "Gap",
             "values": [1.0, 4.0], "selected": 2}});
         assert!(super::criterion_plot(&gap).is_none());
+    }
+
+    #[test]
+    fn the_held_out_curve_shows_the_best_structure_per_order_and_the_shortlist() {
+        // Two structures of order 1 (the better is shown), an order 3 far
+        // below (framed out, named), the shortlist's scores as a second
+        // series, the chosen order marked.
+        let d = serde_json::json!({"structure_selection": {"order": 2,
+            "candidates": [
+                {"order": 1, "horizon": 5, "fit": 50.0},
+                {"order": 1, "horizon": 10, "fit": 60.0},
+                {"order": 2, "horizon": 5, "fit": 80.0},
+                {"order": 3, "horizon": 5, "fit": -100.0},
+                {"order": 4, "horizon": 5, "fit": null}],
+            "refined_shortlist": {"candidates": [
+                {"order": 2, "score": 85.0}, {"order": 1, "score": 70.0}]}},
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
+        let p = super::criterion_plot(&d).unwrap();
+        assert_eq!(p.series[0].x, vec![1.0, 2.0, 3.0]);
+        assert_eq!(p.series[0].y, vec![60.0, 80.0, -100.0]);
+        assert_eq!(p.series[1].y, vec![85.0, 70.0]);
+        assert_eq!(p.vlines[0].0, 2.0);
+        let [_, _, y0, y1] = p.frame.unwrap();
+        assert!(y0 > -100.0 && y0 < 60.0 && y1 > 85.0, "{y0} … {y1}");
+        assert!(p.notes[1].contains("order 3: -100.0"), "{:?}", p.notes);
     }
 
     #[test]

@@ -248,7 +248,10 @@ def identify(
       (A, C) route (when ``system`` is None) by the simulation fit on
       held-out data: six blocks each held out once (blocked
       cross-validation) for records up to 2e4 samples, else the last third
-      of the record. ``"gap"``, ``"svc"``, ``"aic"``,
+      of the record; when the model is refined and the record is short
+      enough for the refinement's held-out check, the best three orders are
+      compared by the held-out fit of the model each delivers
+      (``diagnostics["structure_selection"]["refined_shortlist"]``). ``"gap"``, ``"svc"``, ``"aic"``,
       ``"aicc"``, ``"bic"``: the other rules (``lifted identify
       --order-criterion``), with horizon 10 unless given.
     * ``horizon``: past = future block rows (``past``/``future`` are its
