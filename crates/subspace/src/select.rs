@@ -23,7 +23,9 @@
 //! [`StructureOptions::forward`] false, blocked as above. A fold's
 //! score is the simulation fit on the held-out block, with
 //! the block's initial state estimated by least squares (the way a
-//! validation record is scored): fit = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), averaged
+//! validation record is scored) and the error scaled by Akaike's FPE
+//! factor for the n parameters x₀ fits to the block
+//! (`crossval::held_out_fit`): fit = 100 (1 − c ‖y − ŷ‖/‖y − ȳ‖), averaged
 //! over the outputs and records. The score is the mean over the folds, a
 //! fold with no stable model counting as −100 %. The selection is the
 //! smallest order, then the shortest horizon, within

@@ -323,7 +323,7 @@ fn refine_judged_on_blocks(
             let decides = verdict.is_some();
             let rule = if decides {
                 format!(
-                    "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block)",
+                    "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block, its n parameters charged by the FPE factor)",
                     c.folds
                 )
             } else {

@@ -340,11 +340,11 @@ fn select(
         let stable = fit.diagnostics.spectral_radius < 1.0;
         let criterion = if sel.folds > 1 {
             format!(
-                "blocked cross-validation: simulation fit (x0 estimated) on each of {} contiguous blocks held out once, the structure identified on the others; mean over the blocks",
+                "blocked cross-validation: simulation fit (x0 estimated, its n parameters charged by the FPE factor) on each of {} contiguous blocks held out once, the structure identified on the others; mean over the blocks",
                 sel.folds
             )
         } else {
-            "simulation fit on the held-out last third of the record (x0 estimated), the structure identified on the first two thirds".to_string()
+            "simulation fit on the held-out last third of the record (x0 estimated, its n parameters charged by the FPE factor), the structure identified on the first two thirds".to_string()
         };
         let d = json!({
             "criterion": criterion,
