@@ -12,7 +12,7 @@ use lifted_multirate::{
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
     BdEstimate, Candidate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
-    OrderSelection, PemCost, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
+    OrderSelection, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
     SystemEstimate, identify, iv_identify, select_structure,
 };
 use nalgebra::{DMatrix, DVector};
@@ -26,7 +26,7 @@ use crate::options::{
     gap_only,
 };
 use crate::refine::stabilized_start;
-use crate::shortlist::{Entry, SHORTLIST};
+use crate::shortlist::{self, Entry, Judge, SHORTLIST};
 
 /// What a route gives: the model, the diagnostics entry, the Kalman gain,
 /// and what the front ends show besides.
@@ -207,8 +207,8 @@ pub(crate) fn subspace(
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
     let (fit, structure, used) = if opts.wants_selection() {
-        let shortlist = crate::shortlist::cost(opts, samples).map(|c| (opts, c));
-        let (fit, d, used, check) = select(id, &exps, sub, shortlist)?;
+        let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
+        let (fit, d, used, check) = select(id, &exps, sub, judge)?;
         known = check;
         (fit, Some(d), used)
     } else {
@@ -290,14 +290,14 @@ fn supported_cap(e: &Error, sub: &SubspaceOptions) -> Option<usize> {
 /// shift invariance, the singular-value gap) and says why. Also returns the
 /// options of the model's identification.
 ///
-/// `shortlist`: the workflow options and refinement cost when an automatic
-/// order is to be judged by its refined models ([`crate::shortlist`]); the
-/// check of the order chosen is then returned too.
+/// `judge`: given when an automatic order is to be judged by its refined
+/// models ([`crate::shortlist`]); the check of the order chosen is then
+/// returned too.
 fn select(
     id: &IdentificationOptions,
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
-    shortlist: Option<(&WorkflowOptions, PemCost)>,
+    judge: Option<Judge<'_>>,
 ) -> Result<Selected> {
     let what = format!("{} identification", opts.method.name());
     let sel_opts = StructureOptions {
@@ -357,23 +357,14 @@ fn select(
             "candidates": candidates,
         });
         if stable {
-            return Ok(match shortlist {
-                Some((wf, cost)) => {
+            return Ok(match judge {
+                Some(judge) => {
                     let first = Entry {
                         options: o,
                         candidate: c.clone(),
                         fit,
                     };
-                    judged(
-                        wf,
-                        exps,
-                        &opts,
-                        &ranking[rank + 1..],
-                        first,
-                        d,
-                        cost,
-                        sel_opts.tolerance,
-                    )
+                    judged(judge, exps, &opts, &ranking[rank + 1..], first, d)
                 }
                 None => (fit, d, o, None),
             });
@@ -421,16 +412,13 @@ fn structure_options(base: &SubspaceOptions, c: &Candidate) -> SubspaceOptions {
 /// the held-out fits of their refinements ([`crate::shortlist`]); the
 /// structure-selection diagnostics `d` then name the order chosen and the
 /// shortlist (or why it was not judged).
-#[allow(clippy::too_many_arguments)]
 fn judged(
-    wf: &WorkflowOptions,
+    judge: Judge<'_>,
     exps: &[Experiment<'_>],
     base: &SubspaceOptions,
     rest: &[Candidate],
     first: Entry,
     mut d: serde_json::Value,
-    cost: PemCost,
-    tolerance: f64,
 ) -> Selected {
     let mut entries = vec![first];
     let mut identified = 0;
@@ -456,7 +444,7 @@ fn judged(
             });
         }
     }
-    let entry = match crate::shortlist::judge(wf, exps, &entries, cost, tolerance) {
+    let entry = match shortlist::judge(judge, exps, &entries) {
         Ok(choice) => {
             let e = entries.swap_remove(choice.index);
             if let Some(obj) = d.as_object_mut() {

@@ -59,6 +59,16 @@ pub(crate) struct Entry {
     pub fit: SubspaceModel,
 }
 
+/// How the shortlist is judged: the run's options, the refinement cost and
+/// the points of held-out fit within which the smaller order is preferred
+/// (the structure selection's tolerance).
+#[derive(Clone, Copy)]
+pub(crate) struct Judge<'a> {
+    pub options: &'a WorkflowOptions,
+    pub cost: PemCost,
+    pub tolerance: f64,
+}
+
 /// The order chosen from the shortlist: its index, the check that scored
 /// it (reused to judge its refinement) and the diagnostics entry.
 pub(crate) struct Choice {
@@ -67,18 +77,28 @@ pub(crate) struct Choice {
     pub diagnostics: serde_json::Value,
 }
 
-/// The refinement cost of the run when the shortlist applies: the order
-/// automatic, a refinement that runs on a stable start (the default, or
-/// `--refine pem|oe`), records of at most [`REFINE_CHECK_SAMPLES`] samples.
-pub(crate) fn cost(opts: &WorkflowOptions, samples: usize) -> Option<PemCost> {
+/// The judge of the run when the shortlist applies: the order automatic,
+/// a refinement that runs on a stable start (the default, or `--refine
+/// pem|oe`), records of at most [`REFINE_CHECK_SAMPLES`] samples;
+/// `tolerance` as [`Judge::tolerance`].
+pub(crate) fn judge_of(
+    opts: &WorkflowOptions,
+    samples: usize,
+    tolerance: f64,
+) -> Option<Judge<'_>> {
     if opts.identification.order != Order::Auto || samples > REFINE_CHECK_SAMPLES {
         return None;
     }
-    match opts.refinement.refine {
-        Refine::Auto | Refine::Pem => Some(PemCost::Prediction),
-        Refine::Oe => Some(PemCost::OutputError),
-        Refine::None => None,
-    }
+    let cost = match opts.refinement.refine {
+        Refine::Auto | Refine::Pem => PemCost::Prediction,
+        Refine::Oe => PemCost::OutputError,
+        Refine::None => return None,
+    };
+    Some(Judge {
+        options: opts,
+        cost,
+        tolerance,
+    })
 }
 
 /// What the check of one entry would cost, or why the entry cannot be
@@ -122,16 +142,18 @@ fn score(check: &RefinementCheck) -> (f64, &'static str) {
 }
 
 /// Judges `entries` (the selection's ranking order, the selection's choice
-/// first) on the records; `tolerance`: points within which the smaller
-/// order is preferred. `Err(reason)` when the shortlist cannot be judged
+/// first) on the records. `Err(reason)` when the shortlist cannot be judged
 /// (the selection's choice then stands).
 pub(crate) fn judge(
-    opts: &WorkflowOptions,
+    judge: Judge<'_>,
     exps: &[Experiment<'_>],
     entries: &[Entry],
-    cost: PemCost,
-    tolerance: f64,
 ) -> std::result::Result<Choice, String> {
+    let Judge {
+        options: opts,
+        cost,
+        tolerance,
+    } = judge;
     let sizes: Vec<usize> = exps.iter().map(|e| e.u.nrows()).collect();
     // The entries whose checks fit in the work bound, in ranking order.
     let mut total = 0.0;
