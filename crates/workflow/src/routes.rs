@@ -208,9 +208,34 @@ pub(crate) fn subspace(
     let mut known = None;
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
-        let (fit, d, used, check) = select(id, &exps, sub, judge)?;
+        // A refinement's stabilised start (`--refine pem|oe` without
+        // `--stable`) must not change the structure: the selection runs as
+        // the plain identification's, and only an unstable choice is then
+        // re-estimated by the zero-padded shift, so the refinement starts
+        // from exactly the model `--refine none` writes whenever that model
+        // is stable.
+        let plain = SubspaceOptions {
+            enforce_stability: id.stable,
+            ..sub.clone()
+        };
+        let (fit, d, used, check) = select(id, &exps, plain, judge)?;
         known = check;
-        (fit, Some(d), used)
+        if sub.enforce_stability
+            && !used.enforce_stability
+            && fit.diagnostics.spectral_radius >= 1.0
+        {
+            let stabilized = SubspaceOptions {
+                enforce_stability: true,
+                ..used
+            };
+            (
+                identify(&exps, &stabilized).ctx(&what)?,
+                Some(d),
+                stabilized,
+            )
+        } else {
+            (fit, Some(d), used)
+        }
     } else {
         let mut cache = cache;
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
