@@ -211,7 +211,10 @@ fn the_refinement_starts_from_the_plain_model() {
         assert_eq!(plain.order, refined.order, "seed {seed}");
         if plain.file.diagnostics["stability"]["stable"] == true {
             assert_eq!(plain.x0, refined.x0, "seed {seed}");
-            assert_eq!(plain.singular_values, refined.singular_values, "seed {seed}");
+            assert_eq!(
+                plain.singular_values, refined.singular_values,
+                "seed {seed}"
+            );
         }
     }
 }
