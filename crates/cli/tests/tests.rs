@@ -662,6 +662,7 @@ mod use_models {
             "excitation",
             "fit-y1",
             "order-selection",
+            "order-criterion",
             "step",
             "bode-magnitude",
             "bode-phase",

@@ -8,7 +8,8 @@ use lifted_lti::{Dataset, ModelFile};
 use crate::error::CliResult;
 use crate::html::{esc, figure, html_table, page};
 use crate::service::figures::{
-    bode_grid, bode_plots, excitation_plot, order_plot, pz_plot, response_plot, step_plot,
+    bode_grid, bode_plots, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot,
+    step_plot,
 };
 use crate::service::models::channel_names;
 use crate::service::validation::{TABLE_HEADER, Validation, table_rows, unstable_note};
@@ -80,6 +81,15 @@ pub fn render(
             )?
         }
         None => body += "<p>The model file carries no order-selection data.</p>\n",
+    }
+    if let Some(p) = criterion_plot(&file.diagnostics) {
+        body += &figure(
+            "order-criterion",
+            "The order rule's values per order: for the default rule the held-out simulation fit of the best structure of each order, with the held-out fit of the model each shortlisted order delivers (refined where the held-out blocks prefer it); the vertical line marks the order chosen.",
+            &p,
+            700,
+            340,
+        )?;
     }
 
     body += "<h2>Step response</h2>\n";
