@@ -120,11 +120,11 @@ use crate::checks::{thread_count, validate_on};
 use crate::error::{Error, Result};
 use crate::hankel::{Compression, CompressionReport, HankelLayout, compress};
 use crate::model::Experiment;
-use crate::numerics::{Scale, pow4_scale_counted, spectral_radius, vstack};
+use crate::numerics::{spectral_radius, vstack};
 use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
-use crate::records::remove_means;
+use crate::records::{data_scale, remove_means};
 use crate::regress::{Feedthrough, InitialState, Record, estimate_x0};
 
 /// How the product Γ_f K_p of step 2 is estimated (module docs).
@@ -669,12 +669,7 @@ fn identify_as_given(
         });
     }
     let mask = opts.feedthrough.mask(ny, nu)?;
-    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
-    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
-    let scale = Scale {
-        u: pow4_scale_counted(&us).0,
-        y: pow4_scale_counted(&ys).0,
-    };
+    let scale = data_scale(experiments).0;
     let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
         experiments.iter().map(|e| (e.u, e.y)).collect();
     let factor = compress(

@@ -59,15 +59,12 @@ pub(crate) fn compressed(
     }
     let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
         experiments.iter().map(|e| (e.u, e.y)).collect();
-    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
-    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
-    let ((su, finite_u), (sy, finite_y)) = (pow4_scale_counted(&us), pow4_scale_counted(&ys));
-    if finite_u + finite_y < total * (nu + ny) {
+    let (scale, finite) = data_scale(experiments);
+    if finite < total * (nu + ny) {
         // A non-finite entry the caller's scan could not see (a centred
         // copy overflowed): the full scan names it.
         validate(experiments)?;
     }
-    let scale = Scale { u: su, y: sy };
     let factor = compress(
         &recs,
         &layout,
@@ -78,6 +75,16 @@ pub(crate) fn compressed(
         opts.remove_means,
     )?;
     Ok((layout, factor, scale))
+}
+
+/// The power-of-4 scales of the experiments' inputs and outputs
+/// (`numerics::pow4_scale_counted`), and how many of their entries are
+/// finite.
+pub(crate) fn data_scale(experiments: &[Experiment<'_>]) -> (Scale, usize) {
+    let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
+    let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
+    let ((u, finite_u), (y, finite_y)) = (pow4_scale_counted(&us), pow4_scale_counted(&ys));
+    (Scale { u, y }, finite_u + finite_y)
 }
 
 /// The experiments as regression records (no instrument).
