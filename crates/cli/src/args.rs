@@ -354,8 +354,9 @@ pub enum CriterionArg {
     /// 2e4 samples, else the last third of the record), with the horizon and
     /// the (A, C) route chosen the same way when they are not given (single-rate N4SID, MOESP,
     /// CVA; default); on refined records of up to 2e4 samples the best three orders are then
-    /// compared by the held-out fit of the model each delivers (refinement included). The other
-    /// routes use the singular-value gap.
+    /// compared by the held-out fit of the model each delivers (refinement included). Records
+    /// too short for any held-out block at the horizon get the order by AICc on the
+    /// output-error fits of the whole record. The other routes use the singular-value gap.
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.
     Gap,

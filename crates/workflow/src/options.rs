@@ -124,9 +124,12 @@ pub enum OrderCriterion {
     /// are refined and short enough for the held-out check of a refinement
     /// ([`REFINE_CHECK_SAMPLES`]), the best three orders are then compared
     /// by the held-out fit of the model each delivers (its refinement where
-    /// the blocks prefer it; `structure_selection.refined_shortlist`). The
-    /// other routes use the singular-value gap; a record too large to
-    /// select on is streamed with Bauer's SVC.
+    /// the blocks prefer it; `structure_selection.refined_shortlist`).
+    /// Records too short for any held-out block at the horizon get the
+    /// order by AICc on the output-error fits of the whole records
+    /// (SIPPY's definition, x₀ counted). The other routes use the
+    /// singular-value gap; a record too large to select on is streamed
+    /// with Bauer's SVC.
     #[default]
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.

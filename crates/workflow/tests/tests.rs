@@ -646,3 +646,36 @@ fn an_automatic_order_is_judged_by_its_refined_models() {
     assert!(sel.get("refined_shortlist").is_none(), "{sel}");
     assert_eq!(sel["order"].as_u64(), Some(plain.order as u64));
 }
+
+#[test]
+fn a_record_too_short_for_held_out_blocks_gets_its_order_by_aicc() {
+    // 60 samples at horizon 5: no fold of six blocks has the Hankel
+    // columns the horizon needs, so no structure is selected on held-out
+    // blocks; the automatic order is then the AICc minimiser on the
+    // output-error fits of the whole record (not the singular-value gap).
+    let (u, y) = record(60, 0.02, 3);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(5);
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    let why = d["structure_selection"]["error"]
+        .as_str()
+        .expect("no selection");
+    assert!(why.contains("AICc"), "{why}");
+    let crit = &d["order_criterion"];
+    assert_eq!(crit["criterion"], "Aicc", "{crit}");
+    let values: Vec<f64> = crit["values"]
+        .as_array()
+        .expect("values")
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::INFINITY))
+        .collect();
+    let argmin = 1
+        + (0..values.len())
+            .min_by(|&a, &b| values[a].total_cmp(&values[b]))
+            .expect("orders");
+    assert_eq!(fit.order, argmin, "{crit}");
+    // The plant's order at this noise level (σ = 0.02 on unit outputs).
+    assert_eq!(fit.order, 3, "{crit}");
+}
