@@ -335,7 +335,7 @@ pub fn cross_validate_refinement(
             reason: "the refinement check needs the fixed order of the model it checks".into(),
         });
     }
-    crate::checks::validate(experiments)?;
+    let (nu, ny, _) = crate::checks::validate(experiments)?;
     let folds = Folds::new(experiments, blocks, false);
     let s = opts.past.max(opts.future);
     let pem = PemOptions {
@@ -372,11 +372,14 @@ pub fn cross_validate_refinement(
         per_fold.push((initial, refined));
     }
     if per_fold.is_empty() {
+        // What a fold of two pieces per record needs at this horizon (the
+        // Hankel rows plus p + f − 1 samples per piece, as `identify`).
+        let (p, f) = (opts.past, opts.future);
         return Err(Error::HorizonTooLong {
-            past: opts.past,
-            future: opts.future,
+            past: p,
+            future: f,
             n_samples: folds.shortest(),
-            min_samples: (opts.past + opts.future) * 2,
+            min_samples: (p + f) * (nu + ny) + (p + f - 1) * 2 * experiments.len(),
         });
     }
     let count = per_fold.len() as f64;
