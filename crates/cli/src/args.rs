@@ -484,8 +484,9 @@ pub struct DataArgs {
 /// `lifted identify`.
 #[derive(Debug, Args, Clone)]
 pub struct IdentifyArgs {
-    /// Identification method.
-    #[arg(long, value_enum)]
+    /// Identification method (default n4sid, as the workflow's and the Python package's
+    /// default).
+    #[arg(long, value_enum, default_value = "n4sid")]
     pub method: MethodArg,
     /// Data file, CSV or .npy (see --columns); repeat for several experiments (q-Markov: one file per input channel, in input order). A `*` or `?` in the file name is expanded to the matching files in name order (quote it: `--data 'hist-*.npy'`).
     #[arg(long, required = true)]
@@ -806,9 +807,32 @@ pub struct ValidateArgs {
     /// record's own means/trends; `none` uses the data as they are.
     #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
     pub detrend: DetrendArg,
+    /// Initial state of the simulation.
+    #[arg(long, value_enum, default_value_t = InitialStateArg::Estimate)]
+    pub initial_state: InitialStateArg,
     /// Memory budget.
     #[command(flatten)]
     pub resources: ResourceArgs,
+}
+
+/// Initial state of a validation's simulation (`--initial-state`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum InitialStateArg {
+    /// The x₀ that fits the record best in least squares (as MATLAB's `compare`; default):
+    /// a slow plant's transient from rest would otherwise dominate the fit.
+    Estimate,
+    /// Start from rest (x₀ = 0).
+    Zero,
+}
+
+impl InitialStateArg {
+    /// The validation's initial condition.
+    pub fn condition(self) -> lifted_lti::InitialCondition {
+        match self {
+            InitialStateArg::Estimate => lifted_lti::InitialCondition::Estimate,
+            InitialStateArg::Zero => lifted_lti::InitialCondition::Zero,
+        }
+    }
 }
 
 /// Conversion targets.
@@ -958,6 +982,9 @@ pub struct ReportArgs {
     /// Offsets, as in `validate --detrend`.
     #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
     pub detrend: DetrendArg,
+    /// Initial state of the simulation, as in `validate --initial-state`.
+    #[arg(long, value_enum, default_value_t = InitialStateArg::Estimate)]
+    pub initial_state: InitialStateArg,
     /// Output HTML file.
     #[arg(long)]
     pub out: String,

@@ -34,6 +34,23 @@ impl StateSpace {
         y: &DMatrix<f64>,
         horizon: usize,
     ) -> Result<DMatrix<f64>> {
+        self.predict_from(k_gain, u, y, horizon, None)
+    }
+
+    /// [`StateSpace::predict`] from the initial state `x0` (zero when
+    /// `None`): the predictor's state at t = 0 is x₀.
+    ///
+    /// Errors: those of [`StateSpace::predict`], and
+    /// [`Error::DimensionMismatch`] when x₀ does not have n entries or
+    /// [`Error::Linalg`] when it is not finite.
+    pub fn predict_from(
+        &self,
+        k_gain: &DMatrix<f64>,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        horizon: usize,
+        x0: Option<&DVector<f64>>,
+    ) -> Result<DMatrix<f64>> {
         if self.ts().is_none() {
             return Err(Error::NotDiscrete { what: "prediction" });
         }
@@ -75,7 +92,23 @@ impl StateSpace {
         let ut = u.transpose();
         // xp column t = x̂(t|t−1), t = 0 … N−1.
         let mut xp = DMatrix::zeros(n, len);
-        let mut x = DVector::zeros(n);
+        let mut x = match x0 {
+            Some(x0) => {
+                if x0.len() != n {
+                    return Err(Error::DimensionMismatch {
+                        what: "initial state",
+                        expected: format!("{n}"),
+                        got: format!("{}", x0.len()),
+                    });
+                }
+                la::check_finite(
+                    "initial state",
+                    &DMatrix::from_column_slice(n, 1, x0.as_slice()),
+                )?;
+                x0.clone()
+            }
+            None => DVector::zeros(n),
+        };
         let mut next = DVector::zeros(n);
         let mut yhat = DVector::zeros(ny);
         for t in 0..len {

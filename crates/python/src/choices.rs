@@ -167,6 +167,12 @@ impl Choice for lifted_workflow::Refine {
     ];
 }
 
+impl Choice for lifted_lti::InitialCondition {
+    const WHAT: &'static str = "initial state";
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("estimate", Self::Estimate), ("zero", Self::Zero)];
+}
+
 /// Every option type and its names, for `lifted._lifted._choices()` (the
 /// test that keeps the `Literal` aliases in step).
 pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
@@ -185,5 +191,6 @@ pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
         ("BdRoute", names::<lifted_workflow::BdRoute>()),
         ("Detrend", names::<lifted_workflow::Detrend>()),
         ("Refine", names::<lifted_workflow::Refine>()),
+        ("InitialState", names::<lifted_lti::InitialCondition>()),
     ]
 }

@@ -5,6 +5,7 @@ use lifted_lti::{ValidationOptions, validate as run};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::choices::Choice;
 use crate::convert::{Int, Vector, count, counts, matrix, record};
 use crate::dataset;
 use crate::errors::{err, lifted_error};
@@ -17,10 +18,12 @@ use crate::statespace::PyStateSpace;
 /// white, independent, simulated. The model's operating point and Kalman
 /// gain are used (as the CLI's `lifted validate --model`); `u0`, `y0` and
 /// `kalman_gain` replace them when given. A continuous model is
-/// discretised (ZOH) at `dt`; a discrete one runs at its own period.
+/// discretised (ZOH) at `dt`; a discrete one runs at its own period. The
+/// simulation (and the predictor) start from the least-squares x₀
+/// (`initial_state="estimate"`, returned as `x0`) or from rest (`"zero"`).
 #[pyfunction]
 #[pyo3(signature = (model, u, y, periods=None, lags=20, kalman_gain=None, u0=None, y0=None,
-    horizons=vec![1, 5], dt=None))]
+    horizons=vec![1, 5], dt=None, initial_state="estimate"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn validate<'py>(
     py: Python<'py>,
@@ -34,7 +37,9 @@ pub(crate) fn validate<'py>(
     y0: Option<&Bound<'py, PyAny>>,
     horizons: Vec<Int>,
     dt: Option<f64>,
+    initial_state: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let initial_state = lifted_lti::InitialCondition::parse(initial_state, "initial_state")?;
     let m = &model.inner;
     let ts = match (m.ts(), dt) {
         (Some(t), None) => t,
@@ -79,6 +84,7 @@ pub(crate) fn validate<'py>(
         operating_point,
         kalman_gain,
         horizons: counts(&horizons, "horizons")?,
+        initial_state,
     };
     let model = m.clone();
     let v = py.detach(move || run(&model, &data, &opts)).map_err(err)?;
@@ -106,5 +112,10 @@ pub(crate) fn validate<'py>(
     out.set_item("stable", v.stable())?;
     out.set_item("horizons", v.horizons)?;
     out.set_item("spectral_radius", v.spectral_radius)?;
+    out.set_item(
+        "x0",
+        v.x0.as_ref()
+            .map(|x| x.iter().copied().collect::<Vec<f64>>()),
+    )?;
     Ok(out)
 }

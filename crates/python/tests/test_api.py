@@ -85,7 +85,7 @@ def test_literal_aliases_match_the_extension() -> None:
         assert list(typing.get_args(getattr(lifted, alias))) == names, alias
     assert set(parsed) == {
         "SubspaceMethod", "IdentifyMethod", "SystemEstimate", "PbsidVariant", "Feedback",
-        "C2dMethod", "MpcKind", "OrderCriterion", "BdRoute", "Detrend", "Refine",
+        "C2dMethod", "MpcKind", "OrderCriterion", "BdRoute", "Detrend", "Refine", "InitialState",
     }
 
 
@@ -116,6 +116,8 @@ def _partial(v: str, u: np.ndarray, y: np.ndarray) -> object:
         ("Detrend", lambda v, p, u, y: lifted.n4sid(u, y, order=2, horizon=5, system="shift", detrend=v)),
         ("Refine", lambda v, p, u, y: lifted.n4sid(u, y, order=2, horizon=5, system="shift", refine=v,
                                                     refine_iterations=2)),
+        ("InitialState", lambda v, p, u, y: lifted.validate(
+            lifted.StateSpace(0.5, 1.0, 1.0, 0.0, 1.0), u[:, :1], y[:, :1], initial_state=v)),
     ],
 )
 def test_every_literal_is_accepted_and_nothing_else(alias, call, plant, record) -> None:

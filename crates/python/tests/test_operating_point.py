@@ -80,6 +80,30 @@ def test_validate_uses_the_operating_point_like_the_cli(offset_record, tmp_path)
     assert same.outputs[0].fit == pytest.approx(o.fit, abs=1e-12)
 
 
+def test_validate_estimates_the_initial_state_like_the_cli(plant, tmp_path) -> None:
+    """A record that starts away from rest: validate fits it from the
+    least-squares x0 (recovering the state it started from), as the CLI
+    does; from rest the transient costs fit."""
+    u = lifted.gbn(300, amplitude=1.0, switch_probability=0.3, seed=3).reshape(-1, 1)
+    x0 = np.array([4.0, -2.0])
+    y, _ = lifted.simulate(plant, u, x0)
+    v = lifted.validate(plant, u, y)
+    assert v.x0 is not None
+    np.testing.assert_allclose(v.x0, x0, atol=1e-8)
+    assert v.outputs[0].fit == pytest.approx(100.0, abs=1e-6)
+    rest = lifted.validate(plant, u, y, initial_state="zero")
+    assert rest.x0 is None and rest.outputs[0].fit < 99.0
+    data, model = tmp_path / "rec.csv", tmp_path / "m.json"
+    write_csv(data, 0.5, u, y)
+    model.write_text(plant.to_json())
+    # (a model without an operating point: the record as it is, as here)
+    out = subprocess.run([str(cli()), "validate", "--model", str(model), "--data", str(data),
+                          "--detrend", "none"], check=True, capture_output=True, text=True).stdout
+    row = next(line for line in out.splitlines() if line.startswith("y1 "))
+    # the CLI prints two decimals
+    assert float(row.split()[1]) == pytest.approx(v.outputs[0].fit, abs=0.005 + 1e-9)
+
+
 def test_simulate_applies_the_operating_point_like_the_cli(offset_record, tmp_path) -> None:
     u, y = offset_record
     fit = lifted.n4sid(u, y, order=2, dt=0.5)

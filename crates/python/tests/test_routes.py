@@ -105,11 +105,13 @@ def test_multirate_equals_the_cli_and_recovers_the_fast_plant(tmp_path, plant) -
 
 def test_validate_fits_and_residual_tests(plant, record) -> None:
     u, y = record
-    v = lifted.validate(plant, u, y, lags=10)
+    v = lifted.validate(plant, u, y, lags=10, initial_state="zero")
     (o,) = v["outputs"]
     yhat, _ = lifted.simulate(plant, u)
     fit = 100 * (1 - np.linalg.norm(y - yhat) / np.linalg.norm(y - y.mean()))
     assert o["fit"] == pytest.approx(fit, abs=1e-9)
+    # from the least-squares x0 (the default) the fit can only be higher
+    assert lifted.validate(plant, u, y, lags=10).outputs[0].fit >= fit - 1e-9
     assert o["white"] and o["independent"]  # the residual is the white noise
     assert len(o["auto"]) == 10 and len(o["cross"][0]) == 21
     assert v["horizons"] == []

@@ -12,12 +12,20 @@ use lifted_cli::terminal::print_table;
 /// `lifted validate`.
 pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
     let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
-    let v = validate_model(&file, &data, a.lags, &a.data)?;
+    let v = validate_model(&file, &data, a.lags, a.initial_state.condition(), &a.data)?;
     let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
     print_table(&TABLE_HEADER, &rows);
     println!(
         "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
         v.lags
+    );
+    println!(
+        "{}",
+        if v.x0.is_some() {
+            "(simulated from the initial state fitted to the record by least squares; --initial-state zero starts from rest)"
+        } else {
+            "(simulated from rest)"
+        }
     );
     if let Some(note) = unstable_note(&v) {
         eprintln!("warning: {note}");

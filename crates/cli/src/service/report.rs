@@ -60,8 +60,9 @@ pub fn render(
         body += &figure(
             &format!("fit-{}", o.name),
             &format!(
-                "Output {}: measurement and the model's simulated response from rest.",
-                o.name
+                "Output {}: measurement and the model's simulated response {}.",
+                o.name,
+                start_of(v)
             ),
             &plot,
             900,
@@ -142,8 +143,19 @@ pub fn render(
     }
     body += &html_table(&TABLE_HEADER, &rows, Some(6));
     body += &format!(
-        "<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖) with ŷ simulated from rest; residual autocorrelation over τ = 1…{0} and input–residual cross-correlation over τ = −{0}…{0}, 99 % bound ±2.576/√N.</p>\n",
-        v.lags
+        "<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖) with ŷ simulated {1}; residual autocorrelation over τ = 1…{0} and input–residual cross-correlation over τ = −{0}…{0}, 99 % bound ±2.576/√N.</p>\n",
+        v.lags,
+        start_of(v)
     );
     Ok(page("Lifted identification report", &body))
+}
+
+/// Where the simulation started: "from the initial state fitted by least
+/// squares" or "from rest".
+fn start_of(v: &Validation) -> &'static str {
+    if v.x0.is_some() {
+        "from the initial state fitted to the record by least squares"
+    } else {
+        "from rest"
+    }
 }

@@ -19,7 +19,7 @@
 //! lie outside the bound. O(N (n² + M)) per output.
 
 use lifted_lti::data::Detrend;
-use lifted_lti::{Dataset, ModelFile, ValidationOptions, validate};
+use lifted_lti::{Dataset, InitialCondition, ModelFile, ValidationOptions, validate};
 
 use crate::args::DetrendArg;
 use crate::error::{CliResult, Context, input};
@@ -31,11 +31,13 @@ pub use lifted_lti::validation::Validation;
 
 /// Validates the model file's model, operating point and Kalman gain on
 /// `data` with `lifted_lti::validate` (the gain only when the model runs at
-/// the data's period as given); errors name the data file `path`.
+/// the data's period as given), the simulation from `initial_state`;
+/// errors name the data file `path`.
 pub fn validate_model(
     file: &ModelFile,
     data: &Dataset,
     lags: usize,
+    initial_state: InitialCondition,
     path: &str,
 ) -> CliResult<Validation> {
     let model = &file.model;
@@ -52,6 +54,7 @@ pub fn validate_model(
         lags,
         operating_point: file.operating_point.clone(),
         kalman_gain: file.kalman_gain_matrix(),
+        initial_state,
         ..Default::default()
     };
     validate(model, data, &opts).map_err(|e| match e {

@@ -181,7 +181,8 @@ pub struct OrderSelection {
 pub struct Fit {
     /// Output name.
     pub output: String,
-    /// Fit % (100 (1 − ‖y − ŷ‖/‖y − ȳ‖), simulated from rest); `null`
+    /// Fit % (100 (1 − ‖y − ŷ‖/‖y − ȳ‖), simulated from the initial state
+    /// fitted to the record by least squares); `null`
     /// when it is not meaningful: an unstable model (its simulation
     /// diverges), a non-finite residual or a constant output.
     pub fit: Option<f64>,
@@ -1039,7 +1040,13 @@ impl Session {
         // k-step prediction fits (the report's) are left out here.
         let mut shown = file.clone();
         shown.kalman_gain = None;
-        let v = validate_model(&shown, &data, lags, &name)?;
+        let v = validate_model(
+            &shown,
+            &data,
+            lags,
+            lifted_lti::InitialCondition::Estimate,
+            &name,
+        )?;
         Ok((file, data, v))
     }
 

@@ -65,6 +65,7 @@ from ._types import (
     Detrend,
     Feedback,
     IdentifyMethod,
+    InitialState,
     MpcKind,
     OrderCriterion,
     PbsidVariant,
@@ -105,6 +106,7 @@ __all__ = [
     "BdRoute",
     "Detrend",
     "Refine",
+    "InitialState",
     "prbs",
     "inverse_prbs",
     "design",
@@ -702,6 +704,7 @@ def validate(
     y0: npt.ArrayLike | None = None,
     horizons: Sequence[int] = (1, 5),
     dt: float | None = None,
+    initial_state: InitialState = "estimate",
 ) -> Validation:
     """Validation of ``model`` on a record (``lifted_lti::validate``, the CLI's
     ``validate``): per output the simulation fit (%), k-step-ahead prediction
@@ -712,12 +715,15 @@ def validate(
     ``lifted validate --model`` uses the model file's; ``u0``, ``y0`` and
     ``kalman_gain`` replace them when given (``model.with_operating_point()``
     drops the operating point). ``y`` may have NaN at unsampled instants
-    (``periods`` per output). Returns a :class:`Validation`.
+    (``periods`` per output). The simulation and the predictor start from
+    the initial state that fits the record best in least squares
+    (``initial_state="estimate"``, as MATLAB's ``compare``; returned as
+    ``x0``) or from rest (``"zero"``). Returns a :class:`Validation`.
     """
     d = _validate(
         model, u, y,
         None if periods is None else list(periods),
-        lags, kalman_gain, u0, y0, list(horizons), dt,
+        lags, kalman_gain, u0, y0, list(horizons), dt, initial_state,
     )
     outputs = [
         OutputValidation(
@@ -740,6 +746,7 @@ def validate(
         horizons=d["horizons"],
         stable=d["stable"],
         spectral_radius=d["spectral_radius"],
+        x0=None if d["x0"] is None else np.asarray(d["x0"], dtype=np.float64),
     )
 
 

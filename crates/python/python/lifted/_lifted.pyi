@@ -381,6 +381,7 @@ def validate(
     y0: npt.ArrayLike | None = None,
     horizons: list[int] = ...,  # [1, 5]
     dt: float | None = None,
+    initial_state: str = "estimate",
 ) -> dict[str, Any]: ...
 def _choices() -> list[tuple[str, list[str]]]: ...
 

@@ -182,6 +182,9 @@ class Validation(_Result):
     horizons: list[int]
     stable: bool
     spectral_radius: float
+    #: The initial state the simulation started from when it was estimated
+    #: (``initial_state="estimate"`` on a stable model); ``None`` for rest.
+    x0: FloatArray | None = None
 
     _shown = ("outputs", "horizons", "stable")
 

@@ -22,6 +22,7 @@ __all__ = [
     "BdRoute",
     "Detrend",
     "Refine",
+    "InitialState",
 ]
 
 #: Weighting of the subspace identification (``lifted.dask.identify(method=...)``).
@@ -54,3 +55,6 @@ BdRoute = Literal["auto", "output_error", "projection"]
 Detrend = Literal["none", "mean", "linear"]
 #: Refinement after the identification (``identify(refine=...)``).
 Refine = Literal["auto", "none", "pem", "oe"]
+#: Initial state of a validation's simulation (``validate(initial_state=...)``,
+#: the CLI's ``--initial-state``): least squares on the record, or rest.
+InitialState = Literal["estimate", "zero"]
