@@ -630,6 +630,45 @@ mod use_models {
         let row = table.lines().find(|l| l.starts_with("y1")).unwrap();
         let fit: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
         assert!(fit > 95.0, "{table}");
+        assert!(table.contains("initial state fitted"), "{table}");
+        // From rest: the table says so, and the fit is at most the fitted
+        // x0's (least squares over x0 includes x0 = 0).
+        let rest = ok(&[
+            "validate",
+            "--model",
+            &model,
+            "--data",
+            &val,
+            "--initial-state",
+            "zero",
+        ]);
+        assert!(rest.contains("(simulated from rest)"), "{rest}");
+        let row = rest.lines().find(|l| l.starts_with("y1")).unwrap();
+        let from_rest: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
+        assert!(from_rest <= fit + 0.005, "{rest}");
+        // The method defaults to N4SID, as in the workflow and Python.
+        let default = p(&d, "default.json");
+        ok(&[
+            "identify",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--out",
+            &default,
+        ]);
+        let a: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+        let b: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&default).unwrap()).unwrap();
+        assert_eq!(
+            (&a["method"], &a["a"], &a["b"]),
+            (&b["method"], &b["a"], &b["b"])
+        );
         let msg = fails(
             &[
                 "validate",
