@@ -62,3 +62,28 @@ pub(crate) fn lyap(a: &DMatrix<f64>, q: &DMatrix<f64>) -> Result<DMatrix<f64>> {
 pub(crate) fn dlyap(a: &DMatrix<f64>, q: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(lifted_linalg::dlyap(a, q)?)
 }
+
+/// The initial state `x0` checked for `n` finite entries (named "x0"), or
+/// zeros when `None`. O(n).
+///
+/// Errors: [`crate::Error::DimensionMismatch`], [`crate::Error::Linalg`]
+/// for a non-finite entry.
+pub(crate) fn initial_state(
+    x0: Option<&nalgebra::DVector<f64>>,
+    n: usize,
+) -> Result<nalgebra::DVector<f64>> {
+    match x0 {
+        Some(v) => {
+            if v.len() != n {
+                return Err(crate::Error::DimensionMismatch {
+                    what: "x0",
+                    expected: format!("{n} entries"),
+                    got: format!("{}", v.len()),
+                });
+            }
+            check_finite("x0", &DMatrix::from_column_slice(n, 1, v.as_slice()))?;
+            Ok(v.clone())
+        }
+        None => Ok(nalgebra::DVector::zeros(n)),
+    }
+}

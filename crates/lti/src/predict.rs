@@ -92,23 +92,7 @@ impl StateSpace {
         let ut = u.transpose();
         // xp column t = x̂(t|t−1), t = 0 … N−1.
         let mut xp = DMatrix::zeros(n, len);
-        let mut x = match x0 {
-            Some(x0) => {
-                if x0.len() != n {
-                    return Err(Error::DimensionMismatch {
-                        what: "initial state",
-                        expected: format!("{n}"),
-                        got: format!("{}", x0.len()),
-                    });
-                }
-                la::check_finite(
-                    "initial state",
-                    &DMatrix::from_column_slice(n, 1, x0.as_slice()),
-                )?;
-                x0.clone()
-            }
-            None => DVector::zeros(n),
-        };
+        let mut x = la::initial_state(x0, n)?;
         let mut next = DVector::zeros(n);
         let mut yhat = DVector::zeros(ny);
         for t in 0..len {

@@ -37,21 +37,7 @@ impl StateSpace {
         la::check_cols("u", u, self.n_inputs())?;
         la::check_finite("u", u)?;
         let n = self.order();
-        let x0 = match x0 {
-            Some(v) => {
-                if v.len() != n {
-                    return Err(Error::DimensionMismatch {
-                        what: "x0",
-                        expected: format!("{n} entries"),
-                        got: format!("{}", v.len()),
-                    });
-                }
-                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
-                la::check_finite("x0", &vm)?;
-                v.clone()
-            }
-            None => DVector::zeros(n),
-        };
+        let x0 = la::initial_state(x0, n)?;
         let sys = match (self.ts(), dt) {
             (Some(_), None) => std::borrow::Cow::Borrowed(self),
             (Some(t), Some(d)) => {
