@@ -358,8 +358,14 @@ impl PatternAcc {
         };
         narrow.flush()?;
         let rn = narrow.acc.r();
+        // Rows the factor of all the rows has: min(rows, q). The narrow
+        // factor has at most q − n; when fewer than n rows came before the
+        // free response died out, zero rows make up the difference (the
+        // consumers read a q-row R once there were q rows; the x₀ columns
+        // are then rank deficient, as on the direct route).
+        let width = self.acc.ncols();
+        let want = (self.acc.rows_seen() + narrow.acc.rows_seen()).min(width);
         if rn.nrows() > 0 {
-            let width = self.acc.ncols();
             let full = DMatrix::from_fn(rn.nrows(), width, |i, j| {
                 if j < x0 {
                     rn[(i, j)]
@@ -370,6 +376,10 @@ impl PatternAcc {
                 }
             });
             self.acc.push_rows(&full)?;
+        }
+        let have = self.acc.r().nrows();
+        if have < want {
+            self.acc.push_rows(&DMatrix::zeros(want - have, width))?;
         }
         Ok(())
     }
@@ -1044,6 +1054,63 @@ mod tests {
                         assert!((&fast.b - &b).norm() < 0.02 * b.norm());
                     }
                 }
+            }
+        }
+    }
+
+    /// A free response that dies out before n rows (modes 1e-40, 0, 0):
+    /// the factor still has q rows (fuzzing found an R of fewer rows than
+    /// the regression reads, a panic); both routes agree on (B, D) and on
+    /// whether x₀ is identifiable.
+    #[test]
+    fn a_free_response_gone_within_n_rows_keeps_the_full_factor() {
+        let a = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(&[1e-40, 0.0, 0.0]));
+        let b = DMatrix::from_row_slice(3, 1, &[1.0, 0.5, -0.3]);
+        let c = DMatrix::from_row_slice(1, 3, &[1.0, 1.0, 0.5]);
+        let n = 300;
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let u = DMatrix::from_fn(n, 1, |_, _| if rng.random::<bool>() { 1.0 } else { -1.0 });
+        let mut x = nalgebra::DVector::zeros(3);
+        let mut y = DMatrix::zeros(n, 1);
+        for t in 0..n {
+            y[(t, 0)] = (&c * &x)[0] + 0.2 * u[(t, 0)];
+            x = &a * &x + &b * u.row(t).transpose();
+        }
+        let recs = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        for offsets in [false, true] {
+            let run = |allow_modal| {
+                let route = Route {
+                    offsets,
+                    allow_modal,
+                    threads: 1,
+                };
+                output_error_route(
+                    &a,
+                    &c,
+                    &recs,
+                    &Feedthrough::Free,
+                    InitialState::Estimate,
+                    route,
+                )
+            };
+            match (run(true), run(false)) {
+                (Ok(fast), Ok(slow)) => {
+                    assert!((&fast.b - &slow.b).norm() <= 1e-8 * (1.0 + slow.b.norm()));
+                    assert!((&fast.d - &slow.d).norm() <= 1e-8 * (1.0 + slow.d.norm()));
+                }
+                // x₀ of a state gone after one step is not identifiable:
+                // both refuse (their numerical rank counts may differ by
+                // the 1e-40 entry only the direct route keeps).
+                (Err(e), Err(f)) => {
+                    for m in [e.to_string(), f.to_string()] {
+                        assert!(m.contains("rank deficient"), "{m}");
+                    }
+                }
+                (f, s) => panic!("modal {f:?} against direct {s:?}"),
             }
         }
     }
