@@ -451,11 +451,13 @@ fn subspace_of<'l>(
 /// order's regression only through the model's own deviations, so the
 /// caller compares deviations from it). For the structure selection of
 /// [`crate::select_structure`]: one O(N) compression, then per order
-/// O(k³) plus the (B, D, x₀) regression O(N q²).
+/// O(k³) plus the (B, D, x₀) regression O(N q²). `only`: fit that order
+/// alone (a fixed order's selection; the other entries stay `None`).
 pub(crate) fn models_of_orders(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
     cap: usize,
+    only: Option<usize>,
 ) -> Result<(Option<OperatingPoint>, Vec<Option<StateSpace>>)> {
     validate_on(experiments, thread_count(opts.threads))?;
     let (op, owned) = if opts.remove_means {
@@ -475,6 +477,9 @@ pub(crate) fn models_of_orders(
     let cap = cap.min(sub.s.len()).min((layout.future - 1) * ny);
     let models = (1..=cap)
         .map(|n| {
+            if only.is_some_and(|m| m != n) {
+                return None;
+            }
             fit_order(&sub, n, opts, Some(&records), scale)
                 .ok()
                 .and_then(|f| StateSpace::new(f.a, f.b, f.c, f.d, Some(opts.ts)).ok())

@@ -288,7 +288,8 @@ pub fn select_structure(
                 // Pieces too short for the horizon are left out (they
                 // add no Hankel column).
                 let exps = usable(est, s);
-                let (op, models) = models_of_orders(&exps, &o, cap).unwrap_or((None, Vec::new()));
+                let (op, models) =
+                    models_of_orders(&exps, &o, cap, fixed).unwrap_or((None, Vec::new()));
                 let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
                     held.iter().map(|(u, y)| (u, y)).collect();
                 for (i, &n) in orders.iter().enumerate() {
