@@ -378,7 +378,9 @@ fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<D
     let mut acc = lifted_linalg::RAccumulator::new(n + 1);
     let mut block = DMatrix::zeros(X0_BLOCK, n + 1);
     let mut used = 0;
+    // C Aᵏ and the next one in two buffers (no allocation per sample).
     let mut ca = m.c().clone_owned();
+    let mut next = ca.clone();
     for k in 0..y.nrows() {
         if ca.amax() <= DECAYED * scale {
             break;
@@ -402,7 +404,8 @@ fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<D
                 used = 0;
             }
         }
-        ca = &ca * m.a();
+        next.gemm(1.0, &ca, m.a(), 0.0);
+        std::mem::swap(&mut ca, &mut next);
     }
     if used > 0 {
         acc.push_rows(&block.rows(0, used).into_owned())?;
@@ -419,16 +422,20 @@ fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<D
 /// O(K n_y n).
 fn free_response(m: &StateSpace, x0: &DVector<f64>, sim: &mut DMatrix<f64>) {
     let scale = m.c().amax() * x0.amax();
+    // x(k), x(k + 1) and C x(k) in preallocated buffers.
     let mut x = x0.clone();
+    let mut next = x0.clone();
+    let mut yk = DVector::zeros(sim.ncols());
     for k in 0..sim.nrows() {
-        let yk = m.c() * &x;
+        yk.gemv(1.0, m.c(), &x, 0.0);
         if yk.amax() <= DECAYED * scale && x.amax() <= DECAYED * x0.amax() {
             break;
         }
         for o in 0..sim.ncols() {
             sim[(k, o)] += yk[o];
         }
-        x = m.a() * &x;
+        next.gemv(1.0, m.a(), &x, 0.0);
+        std::mem::swap(&mut x, &mut next);
     }
 }
 

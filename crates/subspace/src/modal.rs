@@ -377,7 +377,8 @@ impl PatternAcc {
             });
             self.acc.push_rows(&full)?;
         }
-        let have = self.acc.r().nrows();
+        // R has min(rows pushed, q) rows (no copy of it to count them).
+        let have = self.acc.rows_seen().min(width);
         if have < want {
             self.acc.push_rows(&DMatrix::zeros(want - have, width))?;
         }
