@@ -23,8 +23,9 @@ Tools:
   in-memory route, (B, D, x0) by output-error least squares instead of the streamed
   route's Γ⊥ projection) and `--method n4sid --horizon 20` (SIPPY's f = p);
 * SIPPY (sippy-unipi): N4SID, MOESP, CVA, PARSIM-K with SS_fixed_order = n,
-  SS_f = SS_p = 20 (SIPPY's defaults; a record may set "horizon", used then by
-  SIPPY's f = p and lifted's --horizon alike),
+  SS_f = SS_p = 20 (SIPPY's defaults; a record may set "sippy_horizon", SIPPY's
+  f = p where its default is too long for the record; lifted always runs its own
+  default horizon, which adapts to the record),
   other options at SIPPY's defaults (SS_D_required=False: D = 0);
 * Octave (optional, if `octave-cli` with the control package is found):
   `n4sid(iddata(y, u, ts), n)` (SLICOT IB01AD/BD, default s = min(2n, n+10)).
@@ -386,8 +387,8 @@ def main():
         (ue, ye, uv, yv), N = load_record(rec, args.data_dir)
         m, p = ue.shape[1], ye.shape[1]
         orders = rec["orders"]
-        horizon = rec.get("horizon", 20)
-        base = ["--horizon", str(rec["horizon"])] if "horizon" in rec else []
+        horizon = rec.get("sippy_horizon", 20)
+        base = []
         print(f"## {rec['name']}  {m}x{p}  N={N}  orders {orders}", file=sys.stderr)
         with tempfile.TemporaryDirectory(prefix=f"realdata_{rec['name']}_") as wd:
             csv = os.path.join(wd, "est.csv")
@@ -397,7 +398,7 @@ def main():
             oct_res = run_octave(octave, wd, ue, ye, rec["ts"], orders, args.octave_cap) if octave else {}
             for order in orders:
                 row = {"record": rec["name"], "m": m, "p": p, "N": N, "order": order,
-                       "sippy_horizon": horizon, "lifted_horizon": rec.get("horizon", "default"), "lifted": {}, "sippy": {}, "octave": None}
+                       "sippy_horizon": horizon, "lifted_horizon": "default", "lifted": {}, "sippy": {}, "octave": None}
                 for meth in LIFTED_METHODS:
                     row["lifted"][meth] = run_lifted(args.lifted_cli, wd, csv, m, p, meth, order, [],
                                                      args.lifted_timeout, uv, yv, base)

@@ -127,7 +127,9 @@ pub enum OrderCriterion {
     /// the blocks prefer it; `structure_selection.refined_shortlist`).
     /// Records too short for any held-out block at the horizon get the
     /// order by AICc on the output-error fits of the whole records
-    /// (SIPPY's definition, x₀ counted). The other routes use the
+    /// (SIPPY's definition, x₀ counted), and, when they are too short for
+    /// the default horizon 10 too, the horizon of smallest AICc among
+    /// those they support. The other routes use the
     /// singular-value gap; a record too large to select on is streamed
     /// with Bauer's SVC.
     #[default]
@@ -187,7 +189,8 @@ pub struct IdentificationOptions {
     pub order_criterion: OrderCriterion,
     /// Horizon: past = future block rows of the subspace methods (default:
     /// chosen with the order by the held-out fit among 5, 10, 15, 20, 30,
-    /// else 10), α of IV (default 8; multirate IV 6), the past horizon of
+    /// else 10; records too short for held-out blocks and for horizon 10:
+    /// the horizon of smallest AICc among those they support), α of IV (default 8; multirate IV 6), the past horizon of
     /// PBSID/SSARX (default: Akaike's choice; the future is min(p, 10)).
     pub horizon: Option<usize>,
     /// PBSID/SSARX: the future horizon f (default min(p, 10) with the past

@@ -204,6 +204,7 @@ pub(crate) fn subspace(
         .collect();
     let what = format!("{} identification", sub.method.name());
     let mut capped_search = None;
+    let mut short_horizon = None;
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
     let (fit, structure, used) = if opts.wants_selection() {
@@ -237,6 +238,20 @@ pub(crate) fn subspace(
             (fit, Some(d), used)
         }
     } else {
+        // A record too short for the default horizon (and no horizon
+        // given): the longest it supports instead of a refusal.
+        let default = sub.past;
+        let sub = match longest_horizon(&exps, default) {
+            Some(s) if id.horizon.is_none() && s < default => {
+                short_horizon = Some((default, s));
+                SubspaceOptions {
+                    past: s,
+                    future: s,
+                    ..sub
+                }
+            }
+            _ => sub,
+        };
         let mut cache = cache;
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
             Some(c) => c.identify(&exps, o, &what),
@@ -268,6 +283,14 @@ pub(crate) fn subspace(
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
+    }
+    if let Some((default, s)) = short_horizon {
+        crate::diagnostics::push_warning(
+            &mut d,
+            format!(
+                "the default horizon {default} is too long for these records (fewer Hankel columns than rows): horizon {s}, the longest they support (--horizon sets it)"
+            ),
+        );
     }
     if let Some((OrderSelection::Gap { max: asked }, max)) = capped_search {
         crate::diagnostics::push_warning(
@@ -337,7 +360,7 @@ fn select(
     let sel = match select_structure(exps, &opts, &sel_opts) {
         Ok(sel) => sel,
         Err(e) => {
-            let (fit, rule, opts) = unselected(exps, opts, &what)?;
+            let (fit, rule, opts) = unselected(exps, opts, &what, id.horizon.is_some())?;
             let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, {rule}", opts.past)});
             return Ok((fit, d, opts, None));
         }
@@ -422,7 +445,130 @@ fn select(
 /// 3/5/8 listed in `benches/README.md`). An automatic search above the
 /// largest order AICc can count parameters for is capped there; when AICc
 /// fails altogether the singular-value gap decides.
+///
+/// A record too short for the default horizon itself (`horizon_given`
+/// false, J < k Hankel columns at p = f = 10: 45 samples of 5 inputs and 3
+/// outputs need 179) is not refused: every horizon s = 2, 3, … the records
+/// support is tried and the one whose model has the smallest AICc at the
+/// order (the automatic one, or the order given) is kept, so the horizon is
+/// chosen from the data by the same criterion as the order. O(s_max) of the
+/// fits above; only records of a few hundred samples get here.
 fn unselected(
+    exps: &[Experiment<'_>],
+    opts: SubspaceOptions,
+    what: &str,
+    horizon_given: bool,
+) -> Result<(SubspaceModel, String, SubspaceOptions)> {
+    let default = opts.past.max(opts.future);
+    let short = if horizon_given {
+        None
+    } else {
+        longest_horizon(exps, default).filter(|&s| s < default)
+    };
+    let Some(s_max) = short else {
+        let (fit, rule, used) = unselected_at(exps, opts, what)?;
+        return Ok((fit, rule.to_string(), used));
+    };
+    let fixed = match opts.order {
+        OrderSelection::Fixed(n) => Some(n),
+        OrderSelection::Gap { .. } => None,
+    };
+    // (AICc at the order, horizon, the fit and options of that horizon)
+    let mut best: Option<(f64, usize, SubspaceModel, SubspaceOptions)> = None;
+    let mut scores = Vec::new();
+    for s in 2..=s_max {
+        let at = SubspaceOptions {
+            past: s,
+            future: s,
+            ..opts.clone()
+        };
+        // A fixed order is scored by AICc's value at that order (the
+        // same parameter count at every horizon: the simulation error
+        // decides); an automatic one by the value at the order chosen.
+        let scored = match fixed {
+            Some(n) => {
+                let search = SubspaceOptions {
+                    order: OrderSelection::Gap { max: n },
+                    order_criterion: SubCriterion::Aicc,
+                    ..at.clone()
+                };
+                identify(exps, &search).ok().and_then(|f| {
+                    let v = *f.diagnostics.order_selection.values.get(n - 1)?;
+                    Some((v, identify(exps, &at).ok()?, at))
+                })
+            }
+            None => unselected_at(exps, at, what).ok().and_then(|(f, _, used)| {
+                let r = &f.diagnostics.order_selection;
+                let v = (r.criterion == SubCriterion::Aicc)
+                    .then(|| r.values.get(f.diagnostics.order - 1).copied())
+                    .flatten()?;
+                Some((v, f, used))
+            }),
+        };
+        scores.push(
+            json!({"horizon": s, "aicc": scored.as_ref().map(|x| x.0).filter(|v| v.is_finite())}),
+        );
+        if let Some((v, f, used)) = scored
+            && v.is_finite()
+            && best.as_ref().is_none_or(|b| v < b.0)
+        {
+            best = Some((v, s, f, used));
+        }
+    }
+    match best {
+        Some((_, s, fit, used)) => {
+            let order_rule = if fixed.is_some() {
+                "the order given"
+            } else {
+                "order by AICc on the output-error fits of the whole records"
+            };
+            Ok((
+                fit,
+                format!(
+                    "{order_rule}; the default horizon {default} is too long for these records: horizon {s} by AICc among 2..={s_max} ({})",
+                    serde_json::Value::Array(scores)
+                ),
+                used,
+            ))
+        }
+        // No horizon gave a finite AICc: the longest the records support.
+        None => {
+            let at = SubspaceOptions {
+                past: s_max,
+                future: s_max,
+                ..opts
+            };
+            let (fit, rule, used) = unselected_at(exps, at, what)?;
+            Ok((
+                fit,
+                format!(
+                    "{rule}; the default horizon {default} is too long for these records: the longest they support, {s_max}"
+                ),
+                used,
+            ))
+        }
+    }
+}
+
+/// The longest horizon s ≤ `max` (p = f = s, s ≥ 2) for which the records
+/// give at least as many Hankel columns as the data matrix has rows
+/// (Σ (N_e − 2s + 1) ≥ 2s(n_u + n_y), the condition of
+/// `lifted_subspace::identify`); `None` when not even s = 2 fits. O(max ·
+/// records).
+fn longest_horizon(exps: &[Experiment<'_>], max: usize) -> Option<usize> {
+    let first = exps.first()?;
+    let width = first.u.ncols() + first.y.ncols();
+    (2..=max).rev().find(|&s| {
+        let columns: usize = exps
+            .iter()
+            .map(|e| (e.u.nrows() + 1).saturating_sub(2 * s))
+            .sum();
+        columns >= 2 * s * width
+    })
+}
+
+/// [`unselected`] at the options' horizon.
+fn unselected_at(
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
     what: &str,

@@ -679,3 +679,62 @@ fn a_record_too_short_for_held_out_blocks_gets_its_order_by_aicc() {
     // The plant's order at this noise level (σ = 0.02 on unit outputs).
     assert_eq!(fit.order, 3, "{crit}");
 }
+
+#[test]
+fn a_record_too_short_for_the_default_horizon_gets_one_it_supports() {
+    // 45 samples of 6 inputs (the plant's 2 and 4 it does not respond to)
+    // and 2 outputs: horizon 10 needs 179 samples (J ≥ k Hankel columns)
+    // and no fold of six blocks has the columns of horizon 2, so neither
+    // the default nor the held-out selection applies. The horizon is then
+    // chosen by AICc among those the record supports (here only 2) instead
+    // of refusing the record, for an automatic and a fixed order alike.
+    // Before, both were refused: "horizons past 10 + future 10 too long
+    // for 45 samples".
+    let (u2, y) = record(45, 0.02, 5);
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let u = DMatrix::from_fn(45, 6, |i, j| {
+        if j < 2 {
+            u2[(i, j)]
+        } else if rng.random::<f64>() < 0.5 {
+            -1.0
+        } else {
+            1.0
+        }
+    });
+    let records = [Record::new(dataset(&u, &y))];
+    for order in [Order::Auto, Order::Fixed(2)] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.order = order;
+        let fit = identify(&records, &opts).expect("identify");
+        let d = &fit.file.diagnostics;
+        assert_eq!(d["horizons"], serde_json::json!([2, 2]), "{order:?}");
+        let why = d["structure_selection"]["error"]
+            .as_str()
+            .expect("no selection");
+        assert!(
+            why.contains("the default horizon 10 is too long for these records: horizon 2"),
+            "{why}"
+        );
+        if order == Order::Fixed(2) {
+            // (order 3 needs horizon 3: n ≤ 2 at s = 2 with 2 outputs)
+            assert_eq!(fit.order, 2);
+        }
+        // A horizon given by the caller is kept: refused when too long.
+        opts.identification.horizon = Some(10);
+        let e = identify(&records, &opts).expect_err("horizon 10 on 45 samples");
+        assert!(e.to_string().contains("179"), "{e}");
+    }
+    // Another order rule (no held-out selection): the longest horizon the
+    // record supports, with a warning.
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order_criterion = OrderCriterion::Aicc;
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["horizons"], serde_json::json!([2, 2]));
+    assert!(
+        d["warnings"]
+            .to_string()
+            .contains("the default horizon 10 is too long"),
+        "{d}"
+    );
+}
