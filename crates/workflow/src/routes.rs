@@ -239,9 +239,11 @@ pub(crate) fn subspace(
         }
     } else {
         // A record too short for the default horizon (and no horizon
-        // given): the longest it supports instead of a refusal.
+        // given): the longest it supports instead of a refusal (horizon 2,
+        // whose error names the fewest samples any horizon needs, when
+        // none fits).
         let default = sub.past;
-        let sub = match longest_horizon(&exps, default) {
+        let sub = match Some(longest_horizon(&exps, default).unwrap_or(2)) {
             Some(s) if id.horizon.is_none() && s < default => {
                 short_horizon = Some((default, s));
                 SubspaceOptions {
@@ -463,7 +465,9 @@ fn unselected(
     let short = if horizon_given {
         None
     } else {
-        longest_horizon(exps, default).filter(|&s| s < default)
+        // (2 when none fits: the error then names the fewest samples any
+        // horizon needs)
+        Some(longest_horizon(exps, default).unwrap_or(2)).filter(|&s| s < default)
     };
     let Some(s_max) = short else {
         let (fit, rule, used) = unselected_at(exps, opts, what)?;

@@ -737,4 +737,18 @@ fn a_record_too_short_for_the_default_horizon_gets_one_it_supports() {
             .contains("the default horizon 10 is too long"),
         "{d}"
     );
+    // Too short for any horizon: the error names the smallest one and the
+    // samples it needs (2 s (n_u + n_y) + 2 s − 1 = 35), not horizon 10's.
+    let (u, y) = (u.rows(0, 30).into_owned(), y.rows(0, 30).into_owned());
+    let records = [Record::new(dataset(&u, &y))];
+    for criterion in [OrderCriterion::Validation, OrderCriterion::Aicc] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.order_criterion = criterion;
+        let e = identify(&records, &opts).expect_err("30 samples");
+        assert!(
+            e.to_string().contains("past 2 + future 2")
+                && e.to_string().contains("at least 35 samples"),
+            "{e}"
+        );
+    }
 }
