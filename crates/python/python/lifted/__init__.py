@@ -246,7 +246,9 @@ def identify(
 
     * ``order`` None: chosen from the data by ``order_criterion`` up to
       ``max_order``; the default ``"validation"`` picks the order, the
-      horizon (when ``horizon`` is None: among 5, 10, 15, 20, 30) and the
+      horizon (when ``horizon`` is None: among 5, 10, 15, 20, 30; a record
+      too short for held-out blocks and for horizon 10: the horizon of
+      smallest AICc among those it supports) and the
       (A, C) route (when ``system`` is None) by the simulation fit on
       held-out data: six blocks each held out once (blocked
       cross-validation) for records up to 2e4 samples, else the last third
@@ -255,7 +257,8 @@ def identify(
       compared by the held-out fit of the model each delivers
       (``diagnostics["structure_selection"]["refined_shortlist"]``). ``"gap"``, ``"svc"``, ``"aic"``,
       ``"aicc"``, ``"bic"``: the other rules (``lifted identify
-      --order-criterion``), with horizon 10 unless given.
+      --order-criterion``), with horizon 10 unless given (the longest the
+      record supports when it is too short for 10).
     * ``horizon``: past = future block rows (``past``/``future`` are its
       older spelling; given together they must agree).
     * ``system``: ``"shift"`` or ``"states"`` (None: chosen as above, else
