@@ -12,7 +12,7 @@ use lifted_multirate::{
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
     BdEstimate, Candidate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
-    OrderSelection, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
+    OrderReport, OrderSelection, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
     SystemEstimate, identify, iv_identify, select_structure,
 };
 use nalgebra::{DMatrix, DVector};
@@ -453,8 +453,12 @@ fn select(
 /// outputs need 179) is not refused: every horizon s = 2, 3, … the records
 /// support is tried and the one whose model has the smallest AICc at the
 /// order (the automatic one, or the order given) is kept, so the horizon is
-/// chosen from the data by the same criterion as the order. O(s_max) of the
-/// fits above; only records of a few hundred samples get here.
+/// chosen from the data by the same criterion as the order.
+///
+/// As in [`select`], an unstable choice gives way to the next of the AICc
+/// ranking (up to [`STABLE_TRIES`] models) and is kept only when none of
+/// them is stable. O(s_max + [`STABLE_TRIES`]) AICc searches and fits;
+/// only records too short for held-out blocks get here.
 fn unselected(
     exps: &[Experiment<'_>],
     opts: SubspaceOptions,
@@ -462,96 +466,166 @@ fn unselected(
     horizon_given: bool,
 ) -> Result<(SubspaceModel, String, SubspaceOptions)> {
     let default = opts.past.max(opts.future);
+    // (2 when none fits: the error then names the fewest samples any
+    // horizon needs)
     let short = if horizon_given {
         None
     } else {
-        // (2 when none fits: the error then names the fewest samples any
-        // horizon needs)
         Some(longest_horizon(exps, default).unwrap_or(2)).filter(|&s| s < default)
-    };
-    let Some(s_max) = short else {
-        let (fit, rule, used) = unselected_at(exps, opts, what)?;
-        return Ok((fit, rule.to_string(), used));
     };
     let fixed = match opts.order {
         OrderSelection::Fixed(n) => Some(n),
         OrderSelection::Gap { .. } => None,
     };
-    // (AICc at the order, horizon, the fit and options of that horizon)
-    let mut best: Option<(f64, usize, SubspaceModel, SubspaceOptions)> = None;
+    let searched = matches!(opts.order, OrderSelection::Gap { .. })
+        && opts.order_criterion == SubCriterion::Gap;
+    if short.is_none() && !searched {
+        let rule = if fixed.is_some() {
+            "the order given"
+        } else {
+            "singular-value gap"
+        };
+        return Ok((identify(exps, &opts).ctx(what)?, rule.to_string(), opts));
+    }
+    let at = |s: usize| SubspaceOptions {
+        past: s,
+        future: s,
+        ..opts.clone()
+    };
+    let horizons: Vec<usize> = match short {
+        Some(s_max) => (2..=s_max).collect(),
+        None => vec![opts.past],
+    };
+    // (AICc, horizon, order) of every model scored, and the best value
+    // per horizon for the diagnostics.
+    let mut ranked: Vec<(f64, usize, usize)> = Vec::new();
     let mut scores = Vec::new();
-    for s in 2..=s_max {
-        let at = SubspaceOptions {
-            past: s,
-            future: s,
-            ..opts.clone()
+    let mut reports = Vec::new();
+    for &s in &horizons {
+        let report = aicc_report(exps, &at(s), fixed.unwrap_or(0), what);
+        let values = report
+            .as_ref()
+            .map(|r| r.values.clone())
+            .unwrap_or_default();
+        reports.push((s, report));
+        let orders: Vec<usize> = match fixed {
+            Some(n) => vec![n],
+            None => (1..=values.len()).collect(),
         };
-        // A fixed order is scored by AICc's value at that order (the
-        // same parameter count at every horizon: the simulation error
-        // decides); an automatic one by the value at the order chosen.
-        let scored = match fixed {
-            Some(n) => {
-                let search = SubspaceOptions {
-                    order: OrderSelection::Gap { max: n },
-                    order_criterion: SubCriterion::Aicc,
-                    ..at.clone()
-                };
-                identify(exps, &search).ok().and_then(|f| {
-                    let v = *f.diagnostics.order_selection.values.get(n - 1)?;
-                    Some((v, identify(exps, &at).ok()?, at))
-                })
+        let mut best = f64::INFINITY;
+        for n in orders {
+            if let Some(&v) = values.get(n - 1).filter(|v| v.is_finite()) {
+                ranked.push((v, s, n));
+                best = best.min(v);
             }
-            None => unselected_at(exps, at, what).ok().and_then(|(f, _, used)| {
-                let r = &f.diagnostics.order_selection;
-                let v = (r.criterion == SubCriterion::Aicc)
-                    .then(|| r.values.get(f.diagnostics.order - 1).copied())
-                    .flatten()?;
-                Some((v, f, used))
-            }),
+        }
+        scores.push(json!({"horizon": s, "aicc": best.is_finite().then_some(best)}));
+    }
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut first = None;
+    let mut passed_over = Vec::new();
+    for &(_, s, n) in ranked.iter().take(STABLE_TRIES) {
+        // The order fixed (and the gap standing for the criterion, as
+        // after a selection): a re-identification gives this model again.
+        let used = SubspaceOptions {
+            order: OrderSelection::Fixed(n),
+            order_criterion: SubCriterion::Gap,
+            ..at(s)
         };
-        scores.push(
-            json!({"horizon": s, "aicc": scored.as_ref().map(|x| x.0).filter(|v| v.is_finite())}),
-        );
-        if let Some((v, f, used)) = scored
-            && v.is_finite()
-            && best.as_ref().is_none_or(|b| v < b.0)
-        {
-            best = Some((v, s, f, used));
+        let Ok(mut fit) = identify(exps, &used) else {
+            continue;
+        };
+        // The AICc curve of the horizon stays in the diagnostics.
+        if let Some((_, Some(r))) = reports.iter().find(|(h, _)| *h == s) {
+            fit.diagnostics.order_selection = r.clone();
+        }
+        let rho = fit.diagnostics.spectral_radius;
+        if rho < 1.0 {
+            first = Some((fit, s, used));
+            break;
+        }
+        passed_over.push(json!({"horizon": s, "order": n, "spectral_radius": rho}));
+        if first.is_none() {
+            first = Some((fit, s, used));
         }
     }
-    match best {
-        Some((_, s, fit, used)) => {
-            let order_rule = if fixed.is_some() {
-                "the order given"
-            } else {
-                "order by AICc on the output-error fits of the whole records"
-            };
-            Ok((
-                fit,
-                format!(
-                    "{order_rule}; the default horizon {default} is too long for these records: horizon {s} by AICc among 2..={s_max} ({})",
-                    serde_json::Value::Array(scores)
+    let order_rule = if fixed.is_some() {
+        "the order given"
+    } else {
+        "order by AICc on the output-error fits of the whole records"
+    };
+    let unstable = if passed_over.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; unstable, passed over for the next of the AICc ranking: {}",
+            serde_json::Value::Array(passed_over)
+        )
+    };
+    match (first, short) {
+        (Some((fit, s, used)), Some(s_max)) => Ok((
+            fit,
+            format!(
+                "{order_rule}; the default horizon {default} is too long for these records: horizon {s} by AICc among 2..={s_max} ({}){unstable}",
+                serde_json::Value::Array(scores)
+            ),
+            used,
+        )),
+        (Some((fit, _, used)), None) => Ok((fit, format!("{order_rule}{unstable}"), used)),
+        // No model scored: the gap at the horizon (the longest the records
+        // support when the default is too long), whose error names what
+        // the records lack.
+        (None, short) => {
+            let o = at(short.unwrap_or(opts.past));
+            let rule = match (fixed, short) {
+                (Some(_), None) => "the order given".to_string(),
+                (Some(_), Some(s)) => format!(
+                    "the order given; the default horizon {default} is too long for these records: the longest they support, {s}"
                 ),
-                used,
-            ))
-        }
-        // No horizon gave a finite AICc: the longest the records support.
-        None => {
-            let at = SubspaceOptions {
-                past: s_max,
-                future: s_max,
-                ..opts
-            };
-            let (fit, rule, used) = unselected_at(exps, at, what)?;
-            Ok((
-                fit,
-                format!(
-                    "{rule}; the default horizon {default} is too long for these records: the longest they support, {s_max}"
+                (None, None) => "singular-value gap".to_string(),
+                (None, Some(s)) => format!(
+                    "singular-value gap; the default horizon {default} is too long for these records: the longest they support, {s}"
                 ),
-                used,
-            ))
+            };
+            Ok((identify(exps, &o).ctx(what)?, rule, o))
         }
     }
+}
+
+/// AICc (SIPPY's definition, x₀ counted) of the output-error fits of orders
+/// 1, 2, … at the options' horizon: up to `n` when `n` > 0 (a fixed
+/// order), else up to the options' automatic bound, capped at the largest
+/// order AICc can count parameters for. `None` when the search fails. One
+/// identification with every order fitted and simulated.
+fn aicc_report(
+    exps: &[Experiment<'_>],
+    opts: &SubspaceOptions,
+    n: usize,
+    what: &str,
+) -> Option<OrderReport> {
+    let max = match (n, opts.order) {
+        (0, OrderSelection::Gap { max }) => max,
+        (0, OrderSelection::Fixed(k)) => k,
+        (n, _) => n,
+    };
+    let search = SubspaceOptions {
+        order: OrderSelection::Gap { max },
+        order_criterion: SubCriterion::Aicc,
+        ..opts.clone()
+    };
+    let run = |o: &SubspaceOptions| identify(exps, o).ctx(what);
+    let fit = match run(&search) {
+        Ok(fit) => Some(fit),
+        Err(e) if n == 0 => supported_cap(&e, &search).and_then(|max| {
+            run(&SubspaceOptions {
+                order: OrderSelection::Gap { max },
+                ..search.clone()
+            })
+            .ok()
+        }),
+        Err(_) => None,
+    };
+    fit.map(|f| f.diagnostics.order_selection)
 }
 
 /// The longest horizon s ≤ `max` (p = f = s, s ≥ 2) for which the records
@@ -569,57 +643,6 @@ fn longest_horizon(exps: &[Experiment<'_>], max: usize) -> Option<usize> {
             .sum();
         columns >= 2 * s * width
     })
-}
-
-/// [`unselected`] at the options' horizon.
-fn unselected_at(
-    exps: &[Experiment<'_>],
-    opts: SubspaceOptions,
-    what: &str,
-) -> Result<(SubspaceModel, &'static str, SubspaceOptions)> {
-    let gap = "singular-value gap";
-    if !matches!(opts.order, OrderSelection::Gap { .. })
-        || opts.order_criterion != SubCriterion::Gap
-    {
-        let rule = if matches!(opts.order, OrderSelection::Fixed(_)) {
-            "the order given"
-        } else {
-            gap
-        };
-        return Ok((identify(exps, &opts).ctx(what)?, rule, opts));
-    }
-    let aicc = SubspaceOptions {
-        order_criterion: SubCriterion::Aicc,
-        ..opts.clone()
-    };
-    let run = |o: &SubspaceOptions| identify(exps, o).ctx(what);
-    let tried = match run(&aicc) {
-        Err(e) => supported_cap(&e, &aicc).and_then(|max| {
-            let capped = SubspaceOptions {
-                order: OrderSelection::Gap { max },
-                ..aicc.clone()
-            };
-            run(&capped).ok().map(|fit| (fit, capped))
-        }),
-        Ok(fit) => Some((fit, aicc)),
-    };
-    match tried {
-        // The order fixed (and the gap standing for the criterion, as after
-        // a selection): a re-identification gives this model again.
-        Some((fit, used)) => {
-            let used = SubspaceOptions {
-                order: OrderSelection::Fixed(fit.diagnostics.order),
-                order_criterion: SubCriterion::Gap,
-                ..used
-            };
-            Ok((
-                fit,
-                "order by AICc on the output-error fits of the whole records",
-                used,
-            ))
-        }
-        None => Ok((identify(exps, &opts).ctx(what)?, gap, opts)),
-    }
 }
 
 /// What [`select`] gives: the model, the structure-selection diagnostics,

@@ -752,3 +752,52 @@ fn a_record_too_short_for_the_default_horizon_gets_one_it_supports() {
         );
     }
 }
+
+#[test]
+fn an_unstable_aicc_choice_gives_way_to_the_next_stable_order() {
+    // The plant with its slow pole at 0.98, 50 samples, horizon 5: no
+    // held-out block fits, AICc ranks order 2 first, but its model has
+    // ρ(A) = 1.02; the next of the ranking, order 3 (the plant's), is
+    // stable and kept, and the diagnostics say what was passed over.
+    // (Before, the unstable order-2 model was returned.)
+    let a = DMatrix::from_row_slice(3, 3, &[0.98, 0.0, 0.0, 0.0, 0.7, -0.3, 0.0, 0.3, 0.7]);
+    let g = plant();
+    let g =
+        StateSpace::new(a, g.b().clone(), g.c().clone(), g.d().clone(), Some(1.0)).expect("plant");
+    let n = 50;
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let u = DMatrix::from_fn(
+        n,
+        2,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -0.7 } else { 1.3 }
+        },
+    );
+    let mut x = DVector::zeros(3);
+    let mut y = DMatrix::zeros(n, 2);
+    for k in 0..n {
+        let uk = u.row(k).transpose();
+        let yk = g.c() * &x + g.d() * &uk;
+        for j in 0..2 {
+            y[(k, j)] = yk[j] + 0.1 * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
+        }
+        x = g.a() * &x + g.b() * &uk;
+    }
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(5);
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    let why = d["structure_selection"]["error"]
+        .as_str()
+        .expect("no selection");
+    assert!(why.contains("passed over"), "{why}");
+    assert_eq!(fit.order, 3, "{why}");
+    assert!(
+        d["stability"]["stable"].as_bool().expect("stability"),
+        "{d}"
+    );
+    // The AICc curve stays in the diagnostics, its minimiser order 2.
+    assert_eq!(d["order_criterion"]["criterion"], "Aicc", "{d}");
+    assert_eq!(d["order_criterion"]["selected"], 2, "{d}");
+}
