@@ -363,7 +363,20 @@ fn select(
         Ok(sel) => sel,
         Err(e) => {
             let (fit, rule, opts) = unselected(exps, opts, &what, id.horizon.is_some())?;
-            let d = json!({"error": format!("no structure selected by cross-validation ({e}); horizon {}, shift invariance, {rule}", opts.past)});
+            // Too short for the folds: say so (the error's sample counts
+            // are those of one fold's estimation pieces, not the record's).
+            let why = match e {
+                lifted_subspace::Error::HorizonTooLong { .. } => format!(
+                    "the records are too short for {} held-out blocks at {}",
+                    sel_opts.blocked_folds,
+                    match id.horizon {
+                        Some(h) => format!("horizon {h}"),
+                        None => "any horizon".into(),
+                    }
+                ),
+                e => e.to_string(),
+            };
+            let d = json!({"error": format!("no structure selected by cross-validation ({why}); horizon {}, shift invariance, {rule}", opts.past)});
             return Ok((fit, d, opts, None));
         }
     };
