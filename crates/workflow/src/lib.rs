@@ -95,6 +95,7 @@
 mod cache;
 mod diagnostics;
 mod error;
+mod excitation;
 mod options;
 mod pipeline;
 mod preprocess;

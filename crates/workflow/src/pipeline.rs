@@ -7,6 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
+use crate::excitation::InputSpread;
 use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
@@ -87,7 +88,7 @@ pub fn identify_named(
     opts: &WorkflowOptions,
     instrument_names: &[String],
 ) -> Result<Identified> {
-    run(records, opts, instrument_names, None)
+    run_named(records, opts, instrument_names, None)
 }
 
 /// [`identify_named`] with step 1 of the single-rate subspace route kept in
@@ -102,7 +103,22 @@ pub fn identify_cached(
     instrument_names: &[String],
     cache: &mut SubspaceCache,
 ) -> Result<Identified> {
-    run(records, opts, instrument_names, Some(cache))
+    run_named(records, opts, instrument_names, Some(cache))
+}
+
+/// [`run`], its refusal of non-exciting inputs naming the constant ones
+/// ([`crate::excitation`]).
+fn run_named(
+    records: &[Record],
+    opts: &WorkflowOptions,
+    instrument_names: &[String],
+    cache: Option<&mut SubspaceCache>,
+) -> Result<Identified> {
+    run(records, opts, instrument_names, cache).map_err(|e| {
+        let n_u = records.first().map_or(0, |r| r.data.n_inputs());
+        let spread = InputSpread::of(n_u, records.iter().map(|r| r.data.u()));
+        crate::excitation::named(e, &spread)
+    })
 }
 
 fn run(

@@ -17,6 +17,7 @@ use nalgebra::DMatrix;
 
 use crate::diagnostics::{add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
+use crate::excitation::InputSpread;
 use crate::options::REFINE_CHECK_SAMPLES;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
@@ -167,8 +168,10 @@ pub fn identify_streamed(
         |compression: Compression| -> Result<Option<(StreamedSubspace, Pass, KeptBlocks)>> {
             let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
             let mut kept = KeptBlocks::with_limit(KEEP_MAX_BYTES);
+            let mut spread = InputSpread::new(n_u);
             let pass = source.pass(&mut |u, y| {
                 kept.keep(u, y);
+                spread.push(u);
                 sid.push(u, y).ctx(&what)
             })?;
             if pass.multirate {
@@ -181,10 +184,13 @@ pub fn identify_streamed(
                 {
                     Ok(None)
                 }
-                Err(e) => Err(Error::Step {
-                    what: what.clone(),
-                    source: Box::new(e),
-                }),
+                Err(e) => Err(crate::excitation::named(
+                    Error::Step {
+                        what: what.clone(),
+                        source: Box::new(e),
+                    },
+                    &spread,
+                )),
             }
         };
     let t_total = std::time::Instant::now();

@@ -801,3 +801,20 @@ fn an_unstable_aicc_choice_gives_way_to_the_next_stable_order() {
     assert_eq!(d["order_criterion"]["criterion"], "Aicc", "{d}");
     assert_eq!(d["order_criterion"]["selected"], 2, "{d}");
 }
+
+#[test]
+fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
+    // A set-point logged as a second input: the subspace step refuses the
+    // inputs as not persistently exciting; the refusal names the column.
+    let (u, y) = record(400, 0.02, 8);
+    let u = DMatrix::from_fn(400, 2, |i, j| if j == 0 { u[(i, 0)] } else { 0.5 });
+    let records = [Record::new(dataset(&u, &y))];
+    let e = identify(&records, &WorkflowOptions::default()).expect_err("constant input");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("input 2 (always 0.5) is constant")
+            && msg.contains("not persistently exciting"),
+        "{msg}"
+    );
+    assert!(matches!(e, Error::Data(_)), "{e:?}");
+}
