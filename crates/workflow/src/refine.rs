@@ -10,9 +10,9 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::{
-    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, Record, RefinementCheck,
-    SubspaceOptions, cross_validate_refinement, pem_work_estimate, pem_work_estimate_of_sizes,
-    refine_pem,
+    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, PemWorkEstimate, Record,
+    RefinementCheck, SubspaceOptions, cross_validate_refinement, pem_work_estimate,
+    pem_work_estimate_of_sizes, refine_pem,
 };
 use nalgebra::DMatrix;
 use serde_json::json;
@@ -94,11 +94,15 @@ pub(crate) fn refinement_cost(
 
 /// Whether [`Refine::Auto`] refines `model` on records of `samples`
 /// samples whose predicted refinement work is `work` (`None`: not
-/// predicted), and why (for `diagnostics.refinement_decision`).
+/// predicted) under the work bound `max_work` of the refinement options,
+/// and why (for `diagnostics.refinement_decision`). One iteration over
+/// the bound is never started (`refine_pem` would refuse it: the default
+/// must not turn a model it could give into an error).
 pub(crate) fn auto_decision(
     model: &StateSpace,
     samples: usize,
-    work: Option<(f64, PemMethod)>,
+    work: Option<PemWorkEstimate>,
+    max_work: f64,
 ) -> (bool, String) {
     let rho = spectral_radius(model).unwrap_or(f64::INFINITY);
     if rho >= 1.0 {
@@ -109,9 +113,23 @@ pub(crate) fn auto_decision(
             ),
         );
     }
-    let Some((work, method)) = work else {
+    let Some(PemWorkEstimate {
+        typical: work,
+        per_iteration,
+        method,
+        ..
+    }) = work
+    else {
         return (false, "not refined: its work could not be predicted".into());
     };
+    if per_iteration > max_work {
+        return (
+            false,
+            format!(
+                "not refined: one iteration would need about {per_iteration:.2e} operations, more than the refinement's work bound {max_work:.2e} (--refine-max-work); --refine pem with a larger bound refines anyway"
+            ),
+        );
+    }
     // About one second of either method (their operations run at
     // different rates).
     let (limit, what) = match method {
@@ -153,13 +171,13 @@ pub(crate) fn auto_allows(
     model: &StateSpace,
     diagnostics: &mut serde_json::Value,
     samples: usize,
-    work: impl FnOnce(&PemOptions) -> Option<(f64, PemMethod)>,
+    work: impl FnOnce(&PemOptions) -> Option<PemWorkEstimate>,
 ) -> bool {
     if !auto_decides(opts, diagnostics) {
         return true;
     }
     let pem = pem_options(opts, model, PemCost::Prediction, false);
-    let (go, why) = auto_decision(model, samples, work(&pem));
+    let (go, why) = auto_decision(model, samples, work(&pem), pem.max_work);
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("refinement_decision".into(), json!(why));
     }
@@ -172,10 +190,13 @@ pub(crate) fn work_of_size(
     model: &StateSpace,
     samples: usize,
     pem: &PemOptions,
-) -> Option<(f64, PemMethod)> {
+) -> Option<PemWorkEstimate> {
     pem_work_estimate_of_sizes(model, &[samples], pem)
         .ok()
-        .map(|w| (w.typical, pem.method))
+        .map(|w| PemWorkEstimate {
+            method: pem.method,
+            ..w
+        })
 }
 
 /// The refinement's options for `cost` on `model`. From a start the route
@@ -400,7 +421,6 @@ pub fn refine(
         (!records.is_empty())
             .then(|| pem_work_estimate(&model, &records, p).ok())
             .flatten()
-            .map(|w| (w.typical, w.method))
     });
     if !allowed {
         return unrefined(opts, model, diagnostics);

@@ -120,6 +120,9 @@ fn check_work(
             PemMethod::VariableProjection => AUTO_REFINE_WORK,
             PemMethod::Joint => return Err("its refinement would use joint iterations".into()),
         };
+        if work.per_iteration > pem.max_work {
+            return Err("one iteration of its refinement is over the work bound".into());
+        }
         if work.typical > limit && samples >= AUTO_REFINE_SAMPLES {
             return Err("it would not be refined by default (predicted work)".into());
         }

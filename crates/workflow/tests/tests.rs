@@ -818,3 +818,24 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
     );
     assert!(matches!(e, Error::Data(_)), "{e:?}");
 }
+
+#[test]
+fn the_default_refinement_skips_a_refinement_over_the_work_bound() {
+    // One PEM iteration over the work bound: `--refine pem` refuses it,
+    // but the default (`auto`) must still give the identified model (it
+    // refused the whole identification before: `lifted identify --order
+    // 50` on 3750 samples).
+    let (u, y) = record(400, 0.02, 9);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    opts.refinement.max_work = 1e4;
+    let fit = identify(&records, &opts).expect("identify");
+    let why = fit.file.diagnostics["refinement_decision"]
+        .as_str()
+        .expect("decision");
+    assert!(why.contains("not refined: one iteration"), "{why}");
+    opts.refinement.refine = Refine::Pem;
+    let e = identify(&records, &opts).expect_err("--refine pem over the bound");
+    assert!(e.to_string().contains("more than the bound"), "{e}");
+}
