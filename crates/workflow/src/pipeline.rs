@@ -115,6 +115,9 @@ fn run_named(
     cache: Option<&mut SubspaceCache>,
 ) -> Result<Identified> {
     run(records, opts, instrument_names, cache).map_err(|e| {
+        if !crate::excitation::refuses_inputs(&e) {
+            return e;
+        }
         let n_u = records.first().map_or(0, |r| r.data.n_inputs());
         let spread = InputSpread::of(n_u, records.iter().map(|r| r.data.u()));
         crate::excitation::named(e, &spread)

@@ -168,10 +168,8 @@ pub fn identify_streamed(
         |compression: Compression| -> Result<Option<(StreamedSubspace, Pass, KeptBlocks)>> {
             let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
             let mut kept = KeptBlocks::with_limit(KEEP_MAX_BYTES);
-            let mut spread = InputSpread::new(n_u);
             let pass = source.pass(&mut |u, y| {
                 kept.keep(u, y);
-                spread.push(u);
                 sid.push(u, y).ctx(&what)
             })?;
             if pass.multirate {
@@ -184,22 +182,31 @@ pub fn identify_streamed(
                 {
                     Ok(None)
                 }
-                Err(e) => Err(crate::excitation::named(
-                    Error::Step {
-                        what: what.clone(),
-                        source: Box::new(e),
-                    },
-                    &spread,
-                )),
+                Err(e) => Err(Error::Step {
+                    what: what.clone(),
+                    source: Box::new(e),
+                }),
             }
         };
     let t_total = std::time::Instant::now();
-    let (first, pass, kept) = match first_pass(Compression::Auto)? {
-        Some(r) => r,
-        None => match first_pass(Compression::Qr)? {
-            Some(r) => r,
-            None => return Ok(None),
-        },
+    let first = first_pass(Compression::Auto).and_then(|r| match r {
+        Some(r) => Ok(Some(r)),
+        None => first_pass(Compression::Qr),
+    });
+    let (first, pass, kept) = match first {
+        Ok(Some(r)) => r,
+        Ok(None) => return Ok(None),
+        // A refusal of the inputs: one more pass finds the inputs to name
+        // (only then: the reading pass stays as lean as it was).
+        Err(e) if crate::excitation::refuses_inputs(&e) => {
+            let mut spread = InputSpread::new(n_u);
+            source.pass(&mut |u, _| {
+                spread.push(u);
+                Ok(())
+            })?;
+            return Err(crate::excitation::named(e, &spread));
+        }
+        Err(e) => return Err(e),
     };
     let read_s = t_total.elapsed().as_secs_f64();
     let fit = if first.wants_second_pass() {

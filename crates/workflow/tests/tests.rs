@@ -817,6 +817,33 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
         "{msg}"
     );
     assert!(matches!(e, Error::Data(_)), "{e:?}");
+    // Read in blocks (a file too large for memory), the same message after
+    // one more pass; the fixed-order streamed set-up of
+    // `the_streamed_route_gives_the_in_memory_model`.
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.identification.order_criterion = OrderCriterion::Gap;
+    let mut src = Blocks {
+        u: u.clone(),
+        y: y.clone(),
+        passes: 0,
+    };
+    let e = identify_streamed(&mut src, &opts).expect_err("constant input, streamed");
+    assert!(
+        e.to_string().contains("input 2 (always 0.5) is constant"),
+        "{e}"
+    );
+    // Two inputs tied together: named as a group.
+    let tied = DMatrix::from_fn(400, 2, |i, j| u[(i, 0)] * if j == 0 { 1.0 } else { -3.0 });
+    let mut src = Blocks {
+        u: tied,
+        y,
+        passes: 0,
+    };
+    let e = identify_streamed(&mut src, &opts).expect_err("tied inputs, streamed");
+    assert!(e.to_string().contains("inputs 1, 2 move together"), "{e}");
 }
 
 #[test]
