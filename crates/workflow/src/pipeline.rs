@@ -106,6 +106,29 @@ pub fn identify_cached(
     run_named(records, opts, instrument_names, Some(cache))
 }
 
+/// The outputs (0-based) whose every measured value over the records is
+/// the same, with that value. O(N n_y).
+fn constant_outputs(records: &[Record]) -> Vec<(usize, f64)> {
+    let n_y = records.first().map_or(0, |r| r.data.y().ncols());
+    let mut out = Vec::new();
+    'outputs: for j in 0..n_y {
+        let mut first = None;
+        for r in records {
+            for &v in r.data.y().column(j).iter().filter(|v| v.is_finite()) {
+                match first {
+                    None => first = Some(v),
+                    Some(f) if f != v => continue 'outputs,
+                    Some(_) => {}
+                }
+            }
+        }
+        if let Some(f) = first {
+            out.push((j, f));
+        }
+    }
+    out
+}
+
 /// [`run`], its refusal of non-exciting inputs naming the constant ones
 /// ([`crate::excitation`]).
 fn run_named(
@@ -232,6 +255,15 @@ fn run(
     let periods: Vec<usize> = sets[0].outputs().iter().map(|c| c.period).collect();
     let samples = sets.iter().map(Dataset::len).sum::<usize>();
     add_run_facts(&mut diagnostics, samples, ts, &periods, None, identify_s);
+    for (j, v) in constant_outputs(records) {
+        crate::diagnostics::push_warning(
+            &mut diagnostics,
+            format!(
+                "output {} is constant over the records (always {v}): there is nothing to identify for it (its fit is not defined and its noise model is singular, so no prediction fits); remove it from the outputs",
+                j + 1
+            ),
+        );
+    }
     let file = finish_file(
         ModelFile::new(model)
             .with_method(id.method.name())

@@ -866,3 +866,18 @@ fn the_default_refinement_skips_a_refinement_over_the_work_bound() {
     let e = identify(&records, &opts).expect_err("--refine pem over the bound");
     assert!(e.to_string().contains("more than the bound"), "{e}");
 }
+
+#[test]
+fn a_constant_output_is_identified_with_a_warning() {
+    // A stuck sensor: the model is still given for the other output, with
+    // a warning naming the constant one.
+    let (u, y) = record(400, 0.02, 10);
+    let y = DMatrix::from_fn(400, 2, |i, j| if j == 0 { y[(i, 0)] } else { 2.0 });
+    let fit =
+        identify(&[Record::new(dataset(&u, &y))], &WorkflowOptions::default()).expect("identify");
+    let w = fit.file.diagnostics["warnings"].to_string();
+    assert!(
+        w.contains("output 2 is constant over the records (always 2)"),
+        "{w}"
+    );
+}

@@ -492,6 +492,11 @@ pub fn response_plot_in(
             format!("{}: measured vs simulated (simulation diverges)", o.name)
         } else if !stable {
             format!("{}: measured vs simulated (fit n/a: unstable)", o.name)
+        } else if o.fit.is_nan() {
+            format!(
+                "{}: measured vs simulated (fit n/a: constant output)",
+                o.name
+            )
         } else {
             format!(
                 "{}: measured vs simulated (fit {} %)",

@@ -78,12 +78,16 @@ fn max_abs(v: &[f64]) -> f64 {
 }
 
 /// The fit column: "n/a: unstable" for an unstable model (its simulation
-/// diverges), else the percentage.
+/// diverges), "n/a: constant output" for an output that never moves on
+/// these data (the fit's denominator ‖y − ȳ‖ is zero), else the
+/// percentage.
 pub fn fit_cell(v: &Validation, fit: f64) -> String {
-    if v.stable() {
-        crate::shown::percent(fit)
-    } else {
+    if !v.stable() {
         "n/a: unstable".to_string()
+    } else if fit.is_nan() {
+        "n/a: constant output".to_string()
+    } else {
+        crate::shown::percent(fit)
     }
 }
 
@@ -100,13 +104,15 @@ pub fn unstable_note(v: &Validation) -> Option<String> {
 /// Rows of the validation table: output, fit, 1- and 5-step prediction
 /// fits, samples, max |r_e|, max |r_eu|, bound, white, independent. An
 /// unstable model's fit reads "n/a: unstable"; residual tests on
-/// non-finite residuals read "n/a".
+/// non-finite residuals, or on the residuals of an output that never moves
+/// (nothing to test), read "n/a".
 pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
     v.outputs
         .iter()
         .map(|o| {
+            let constant = o.residual_finite && o.fit.is_nan();
             let test = |passed: bool| {
-                if !o.residual_finite {
+                if !o.residual_finite || constant {
                     "n/a"
                 } else if passed {
                     "yes"
@@ -119,6 +125,7 @@ pub fn table_rows(v: &Validation) -> Vec<[String; 10]> {
             let pred = |i: usize| {
                 o.prediction_fits
                     .get(i)
+                    .filter(|f| !f.is_nan())
                     .map_or("n/a".to_string(), |f| crate::shown::percent(*f))
             };
             [
