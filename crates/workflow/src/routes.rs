@@ -749,6 +749,9 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     let stable = stabilized_start(opts);
     gap_only(id)?;
     let data = single(sets, "multirate identification")?;
+    // An unstable estimate is returned (the validation stage warns), not
+    // refused: the library's default refusal is the thesis' experiment's
+    // (spec A3.9), not a user's.
     let opts = ProcedureOptions {
         identification: LiftedIdOptions {
             method: method_of(id.method),
@@ -757,15 +760,50 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             future: id.horizon.unwrap_or(10),
             system: system_of(id.estimator),
             enforce_stability: stable,
+            require_stable: false,
             ..Default::default()
         },
         extraction: ExtractOptions {
             fallback_without_root: true,
             ..Default::default()
         },
+        require_stable: false,
         ..Default::default()
     };
-    let fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
+    let mut fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
+    // An automatic order whose fast model is unstable gives way to the next
+    // orders of the singular-value gap's ranking (up to STABLE_TRIES), as
+    // the single-rate selection does; the first stable one is kept, else
+    // the gap's choice (unstable, warned).
+    let mut passed_over = Vec::new();
+    if let OrderSelection::Gap { max } = opts.identification.order {
+        let rho = |m: &StateSpace| crate::validate::spectral_radius(m).unwrap_or(f64::INFINITY);
+        if rho(&fit.fast) >= 1.0 {
+            passed_over.push(json!({"order": fit.fast.order(), "spectral_radius": rho(&fit.fast)}));
+            for n in gap_ranking(&fit.lifted.singular_values, max)
+                .into_iter()
+                .filter(|&n| n != fit.fast.order())
+                .take(STABLE_TRIES - 1)
+            {
+                let at = ProcedureOptions {
+                    identification: LiftedIdOptions {
+                        order: OrderSelection::Fixed(n),
+                        ..opts.identification.clone()
+                    },
+                    ..opts.clone()
+                };
+                let Ok(other) = identify_multirate(data, None, &at) else {
+                    continue;
+                };
+                let r = rho(&other.fast);
+                if r < 1.0 {
+                    fit = other;
+                    break;
+                }
+                passed_over.push(json!({"order": n, "spectral_radius": r}));
+            }
+        }
+    }
     let n = fit.fast.order();
     let sv = &fit.lifted.singular_values;
     let suggested = lifted_subspace::gap_order(sv, id.max_order);
@@ -780,12 +818,39 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         "lifting_period": fit.lifting.period(),
         "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
     });
+    let mut d = d;
+    if !passed_over.is_empty()
+        && let Some(obj) = d.as_object_mut()
+    {
+        let kept = if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
+            format!("order {n}, the first stable one of the singular-value gap's ranking")
+        } else {
+            format!("order {n}, the gap's choice: no stable model among the tries")
+        };
+        obj.insert(
+            "unstable_orders_passed_over".into(),
+            json!({"tried": passed_over, "kept": kept}),
+        );
+    }
     let details = RouteDetails {
         lifted: Some(fit.lifted.model.clone()),
         lifting_period: Some(fit.lifting.period()),
         ..Default::default()
     };
     Ok(RouteFit::plain(fit.fast, d, sv, suggested).with_details(details))
+}
+
+/// Orders 1..=`max` (below the number of singular values) ranked by the
+/// gap ln(σ_n/σ_{n+1}), largest first. O(max log max).
+fn gap_ranking(sv: &[f64], max: usize) -> Vec<usize> {
+    let top = max.min(sv.len().saturating_sub(1));
+    let gap = |n: usize| {
+        let (a, b) = (sv[n - 1], sv[n]);
+        if b > 0.0 { (a / b).ln() } else { f64::INFINITY }
+    };
+    let mut orders: Vec<usize> = (1..=top).collect();
+    orders.sort_by(|&x, &y| gap(y).total_cmp(&gap(x)));
+    orders
 }
 
 /// PBSID / SSARX on single-rate records.

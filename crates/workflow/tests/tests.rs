@@ -881,3 +881,67 @@ fn a_constant_output_is_identified_with_a_warning() {
         "{w}"
     );
 }
+
+/// A multirate record (y₁ every sample, y₂ every 3) of a lightly damped
+/// second-order plant with outputs of very different scales: the
+/// singular-value gap of the lifted step picks its largest order (10), whose
+/// extracted fast model is unstable. The default (automatic order) must
+/// still give a model, the first stable one of the gap's ranking, and say
+/// what it passed over; before, the route refused with "extracted fast
+/// model is unstable".
+#[test]
+fn a_multirate_automatic_order_passes_over_unstable_orders() {
+    use lifted_lti::{InputChannel, OutputChannel};
+    let a = DMatrix::from_row_slice(2, 2, &[0.78, 0.14, -0.37, 0.92]);
+    let b = DMatrix::from_row_slice(2, 1, &[0.062, 0.097]);
+    let c = DMatrix::from_row_slice(2, 2, &[0.0122, -0.004, -2.82, 0.48]);
+    let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 1), Some(1.0)).expect("plant");
+    let n = 6000;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let u = DMatrix::from_fn(
+        n,
+        1,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+        },
+    );
+    let clean = truth.lsim(&u, None, None).expect("lsim").y;
+    let mut y = clean.clone();
+    for j in 0..2 {
+        let col = clean.column(j);
+        let sd = (col.iter().map(|v| v * v).sum::<f64>() / n as f64
+            - (col.sum() / n as f64).powi(2))
+        .sqrt();
+        let period = [1, 3][j];
+        for k in 0..n {
+            let e = (rng.random::<f64>() - 0.5) * 12f64.sqrt();
+            y[(k, j)] = if k % period == 0 {
+                clean[(k, j)] + 0.1 * sd * e
+            } else {
+                f64::NAN
+            };
+        }
+    }
+    let data = Dataset::new(
+        1.0,
+        u,
+        y,
+        vec![InputChannel::new("u1", 1)],
+        vec![
+            OutputChannel::new("y1", 1, 0),
+            OutputChannel::new("y2", 3, 0),
+        ],
+    )
+    .expect("dataset");
+    let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["stability"]["stable"], true, "{d}");
+    let passed = &d["unstable_orders_passed_over"];
+    assert!(
+        passed["kept"]
+            .as_str()
+            .is_some_and(|k| k.contains("the first stable one")),
+        "{d}"
+    );
+    assert_eq!(fit.order, 2, "{d}");
+}
