@@ -1025,6 +1025,26 @@ fn csv_io(e: csv::Error) -> DataError {
     }
 }
 
+/// The base period of a uniformly spaced time column from its first and
+/// last instants over `rows` rows: (t_last − t₀)/(rows − 1), snapped to the
+/// nearest number of 12 significant digits when it lies within 1e-14 of it
+/// (relative: rounding of the division, not a different period), so that a column written in decimals (0, 0.1, …, 599.9)
+/// gives 0.1 and not 0.09999999999999999 whatever its length. O(1).
+pub fn period_from_times(t0: f64, t_last: f64, rows: usize) -> f64 {
+    snap_period((t_last - t0) / (rows.max(2) - 1) as f64)
+}
+
+/// `ts` snapped to the nearest number of 12 significant digits when it lies
+/// within 1e-14 of it (relative): the rounding of a product or quotient of
+/// decimal periods (0.1 · 3 = 0.30000000000000004, 0.3 / 3 =
+/// 0.09999999999999999) undone, any other period kept. O(1).
+pub fn snap_period(ts: f64) -> f64 {
+    match format!("{ts:.11e}").parse::<f64>() {
+        Ok(snapped) if (snapped - ts).abs() <= 1e-14 * ts.abs() => snapped,
+        _ => ts,
+    }
+}
+
 fn infer_ts(times: &[f64]) -> DataResult<f64> {
     if times.len() < 2 {
         return Err(DataError::CsvLayout {
@@ -1034,7 +1054,7 @@ fn infer_ts(times: &[f64]) -> DataResult<f64> {
         });
     }
     let n = times.len();
-    let ts = (times[n - 1] - times[0]) / (n - 1) as f64;
+    let ts = period_from_times(times[0], times[n - 1], n);
     if !(ts.is_finite() && ts > 0.0) {
         return Err(DataError::InvalidSamplePeriod { ts });
     }
@@ -1197,6 +1217,19 @@ pub fn unlift_signal(x: &DMatrix<f64>, n: usize, channels: usize) -> DataResult<
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_decimal_time_column_gives_its_decimal_period() {
+        // (599.9 − 0)/5999 is 0.09999999999999999 in binary.
+        assert_eq!(period_from_times(0.0, 599.9, 6000), 0.1);
+        assert_eq!(period_from_times(0.0, 59.9, 600), 0.1);
+        assert_eq!(period_from_times(1.0, 3.5, 6), 0.5);
+        // A period that is not a short decimal is kept as computed.
+        let third = period_from_times(0.0, 1.0, 4);
+        assert_eq!(third, 1.0 / 3.0);
+        assert_eq!(snap_period(0.1 * 3.0), 0.3);
+        assert_eq!(snap_period(0.3 / 3.0), 0.1);
+    }
 
     fn mr() -> Dataset {
         // 12 samples, input held 3, output 1 fast, output 2 every 4 at offset 1.

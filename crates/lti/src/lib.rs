@@ -90,7 +90,10 @@ mod tf;
 pub mod validation;
 
 pub use connect::{append, feedback, parallel, series};
-pub use data::{DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel};
+pub use data::{
+    DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, period_from_times,
+    snap_period,
+};
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};
 pub use freq::{Bode, HinfNorm, HinfOptions};

@@ -298,7 +298,7 @@ fn extract_with(
         what: "fast-model extraction",
         reason: "the lifted model must be discrete".into(),
     })?;
-    let ts = ts_l / lay.q as f64;
+    let ts = lifted_lti::snap_period(ts_l / lay.q as f64);
     if opts.method == ExtractionMethod::Polyphase {
         return extract_polyphase(lifted, lifting, &lay, ts, opts);
     }

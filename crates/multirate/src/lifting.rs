@@ -557,7 +557,7 @@ impl MultirateLifting {
             u: self.lift_inputs(&u)?,
             y: self.lift_outputs(&y)?,
             lifting: self.clone(),
-            ts: data.ts() * self.period as f64,
+            ts: lifted_lti::snap_period(data.ts() * self.period as f64),
         })
     }
 

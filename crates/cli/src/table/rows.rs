@@ -78,7 +78,7 @@ impl RowCheck {
                         "{path}: one row: give the base period with --ts"
                     )));
                 }
-                let ts = (self.t_last - self.t0) / (rows - 1) as f64;
+                let ts = lifted_lti::period_from_times(self.t0, self.t_last, rows);
                 if !(ts.is_finite() && ts > 0.0) {
                     return Err(input(format!(
                         "{path}: the time column does not increase: give --ts"
