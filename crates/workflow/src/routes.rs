@@ -239,12 +239,12 @@ pub(crate) fn subspace(
         }
     } else {
         // A record too short for the default horizon (and no horizon
-        // given): the longest it supports instead of a refusal (horizon 2,
-        // whose error names the fewest samples any horizon needs, when
-        // none fits).
+        // given): the longest it supports instead of a refusal (the
+        // shortest that identifies the order, whose error names the fewest
+        // samples needed, when none fits).
         let default = sub.past;
-        let sub = match Some(longest_horizon(&exps, default).unwrap_or(2)) {
-            Some(s) if id.horizon.is_none() && s < default => {
+        let sub = match short_horizons(&exps, &sub) {
+            Some((_, s)) if id.horizon.is_none() => {
                 short_horizon = Some((default, s));
                 SubspaceOptions {
                     past: s,
@@ -479,12 +479,10 @@ fn unselected(
     horizon_given: bool,
 ) -> Result<(SubspaceModel, String, SubspaceOptions)> {
     let default = opts.past.max(opts.future);
-    // (2 when none fits: the error then names the fewest samples any
-    // horizon needs)
     let short = if horizon_given {
         None
     } else {
-        Some(longest_horizon(exps, default).unwrap_or(2)).filter(|&s| s < default)
+        short_horizons(exps, &opts)
     };
     let fixed = match opts.order {
         OrderSelection::Fixed(n) => Some(n),
@@ -506,7 +504,7 @@ fn unselected(
         ..opts.clone()
     };
     let horizons: Vec<usize> = match short {
-        Some(s_max) => (2..=s_max).collect(),
+        Some((s_min, s_max)) => (s_min..=s_max).collect(),
         None => vec![opts.past],
     };
     // (AICc, horizon, order) of every model scored, and the best value
@@ -575,7 +573,7 @@ fn unselected(
             serde_json::Value::Array(passed_over)
         )
     };
-    match (first, short) {
+    match (first, short.map(|(_, s_max)| s_max)) {
         (Some((fit, s, used)), Some(s_max)) => Ok((
             fit,
             format!(
@@ -639,6 +637,25 @@ fn aicc_report(
         Err(_) => None,
     };
     fit.map(|f| f.diagnostics.order_selection)
+}
+
+/// When the records are too short for the options' horizon: the shortest
+/// horizon s_min that identifies the options' order (s ≥ 2, and (s − 1) n_y
+/// ≥ n for a fixed order n) and the longest they support, at least s_min
+/// (s_min itself when none fits: its error then names the fewest samples
+/// the order needs). `None` when the options' horizon fits. O(horizon ·
+/// records).
+fn short_horizons(exps: &[Experiment<'_>], opts: &SubspaceOptions) -> Option<(usize, usize)> {
+    let default = opts.past.max(opts.future);
+    let ny = exps.first().map_or(1, |e| e.y.ncols().max(1));
+    let s_min = match opts.order {
+        OrderSelection::Fixed(n) => (n.div_ceil(ny) + 1).max(2),
+        OrderSelection::Gap { .. } => 2,
+    };
+    let s_max = longest_horizon(exps, default)
+        .filter(|&s| s >= s_min)
+        .unwrap_or(s_min);
+    (s_max < default).then_some((s_min, s_max))
 }
 
 /// The longest horizon s ≤ `max` (p = f = s, s ≥ 2) for which the records

@@ -751,6 +751,16 @@ fn a_record_too_short_for_the_default_horizon_gets_one_it_supports() {
             "{e}"
         );
     }
+    // A fixed order names the shortest horizon that identifies it (order
+    // 3 with 2 outputs: horizon 3, 2·3·8 + 5 = 53 samples), not an order
+    // bound of horizon 2.
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    let e = identify(&records, &opts).expect_err("30 samples, order 3");
+    assert!(
+        e.to_string().contains("past 3 + future 3") && e.to_string().contains("at least 53"),
+        "{e}"
+    );
 }
 
 #[test]
