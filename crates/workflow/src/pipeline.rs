@@ -129,7 +129,7 @@ fn constant_outputs(records: &[Record]) -> Vec<(usize, f64)> {
     out
 }
 
-/// [`run`], its refusal of non-exciting inputs naming the constant ones
+/// [`run`], its refusal of non-exciting inputs naming the constant or tied ones
 /// ([`crate::excitation`]).
 fn run_named(
     records: &[Record],

@@ -358,6 +358,53 @@ fn the_default_refines_short_records_and_says_so() {
     assert!(none.file.diagnostics.get("refinement_decision").is_none());
 }
 
+/// A multirate record of `truth` driven by `n` samples of random binary
+/// input (seed `seed`): output j measured every `periods[j]` samples (phase
+/// 0), with uniform noise of 10 % of its standard deviation, NaN between.
+fn multirate_record(truth: &StateSpace, n: usize, periods: &[usize], seed: u64) -> Dataset {
+    use lifted_lti::{InputChannel, OutputChannel};
+    let (n_u, n_y) = (truth.n_inputs(), truth.n_outputs());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u = DMatrix::from_fn(
+        n,
+        n_u,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+        },
+    );
+    let clean = truth.lsim(&u, None, None).expect("lsim").y;
+    let mut y = clean.clone();
+    for (j, &period) in periods.iter().enumerate().take(n_y) {
+        let col = clean.column(j);
+        let sd = (col.iter().map(|v| v * v).sum::<f64>() / n as f64
+            - (col.sum() / n as f64).powi(2))
+        .sqrt();
+        for k in 0..n {
+            // Uniform noise of standard deviation 0.1 sd.
+            let e = (rng.random::<f64>() - 0.5) * 12f64.sqrt();
+            y[(k, j)] = if k % period == 0 {
+                clean[(k, j)] + 0.1 * sd * e
+            } else {
+                f64::NAN
+            };
+        }
+    }
+    Dataset::new(
+        1.0,
+        u,
+        y,
+        (1..=n_u)
+            .map(|i| InputChannel::new(&format!("u{i}"), 1))
+            .collect(),
+        periods
+            .iter()
+            .enumerate()
+            .map(|(j, &p)| OutputChannel::new(&format!("y{}", j + 1), p, 0))
+            .collect(),
+    )
+    .expect("dataset")
+}
+
 /// The multirate case of issue 26: 2×2, poles 0.95 ± 0.1j, 0.85 and 0.7,
 /// y₁ measured every 3 and y₂ every 5 samples (lifting period 15), 3e4
 /// samples of random binary input, output noise 10 % of each output's
@@ -368,7 +415,6 @@ fn the_default_refines_short_records_and_says_so() {
 /// the truth.
 #[test]
 fn the_multirate_issue_case_identifies_with_every_method() {
-    use lifted_lti::{InputChannel, OutputChannel};
     let a = DMatrix::from_row_slice(
         4,
         4,
@@ -382,44 +428,7 @@ fn the_multirate_issue_case_identifies_with_every_method() {
     let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.2, 0.3, 0.8, 0.5, -0.6, 0.4, 1.0]);
     let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 0.6, 0.3, 0.2, 0.7, -0.4, 0.9]);
     let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("plant");
-    let n = 30_000;
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let u = DMatrix::from_fn(
-        n,
-        2,
-        |_, _| {
-            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
-        },
-    );
-    let clean = truth.lsim(&u, None, None).expect("lsim").y;
-    let mut y = clean.clone();
-    for j in 0..2 {
-        let col = clean.column(j);
-        let sd = (col.iter().map(|v| v * v).sum::<f64>() / n as f64
-            - (col.sum() / n as f64).powi(2))
-        .sqrt();
-        let period = [3, 5][j];
-        for k in 0..n {
-            // Uniform noise of standard deviation 0.1 sd.
-            let e = (rng.random::<f64>() - 0.5) * 12f64.sqrt();
-            y[(k, j)] = if k % period == 0 {
-                clean[(k, j)] + 0.1 * sd * e
-            } else {
-                f64::NAN
-            };
-        }
-    }
-    let data = Dataset::new(
-        1.0,
-        u,
-        y,
-        vec![InputChannel::new("u1", 1), InputChannel::new("u2", 1)],
-        vec![
-            OutputChannel::new("y1", 3, 0),
-            OutputChannel::new("y2", 5, 0),
-        ],
-    )
-    .expect("dataset");
+    let data = multirate_record(&truth, 30_000, &[3, 5], 7);
     let omega: Vec<f64> = (0..200)
         .map(|i| 1e-3 + i as f64 * (std::f64::consts::PI / 200.0))
         .collect();
@@ -901,48 +910,11 @@ fn a_constant_output_is_identified_with_a_warning() {
 /// model is unstable".
 #[test]
 fn a_multirate_automatic_order_passes_over_unstable_orders() {
-    use lifted_lti::{InputChannel, OutputChannel};
     let a = DMatrix::from_row_slice(2, 2, &[0.78, 0.14, -0.37, 0.92]);
     let b = DMatrix::from_row_slice(2, 1, &[0.062, 0.097]);
     let c = DMatrix::from_row_slice(2, 2, &[0.0122, -0.004, -2.82, 0.48]);
     let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 1), Some(1.0)).expect("plant");
-    let n = 6000;
-    let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let u = DMatrix::from_fn(
-        n,
-        1,
-        |_, _| {
-            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
-        },
-    );
-    let clean = truth.lsim(&u, None, None).expect("lsim").y;
-    let mut y = clean.clone();
-    for j in 0..2 {
-        let col = clean.column(j);
-        let sd = (col.iter().map(|v| v * v).sum::<f64>() / n as f64
-            - (col.sum() / n as f64).powi(2))
-        .sqrt();
-        let period = [1, 3][j];
-        for k in 0..n {
-            let e = (rng.random::<f64>() - 0.5) * 12f64.sqrt();
-            y[(k, j)] = if k % period == 0 {
-                clean[(k, j)] + 0.1 * sd * e
-            } else {
-                f64::NAN
-            };
-        }
-    }
-    let data = Dataset::new(
-        1.0,
-        u,
-        y,
-        vec![InputChannel::new("u1", 1)],
-        vec![
-            OutputChannel::new("y1", 1, 0),
-            OutputChannel::new("y2", 3, 0),
-        ],
-    )
-    .expect("dataset");
+    let data = multirate_record(&truth, 6000, &[1, 3], 3);
     let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
     let d = &fit.file.diagnostics;
     assert_eq!(d["stability"]["stable"], true, "{d}");
