@@ -394,12 +394,12 @@ fn multirate_record(truth: &StateSpace, n: usize, periods: &[usize], seed: u64) 
         u,
         y,
         (1..=n_u)
-            .map(|i| InputChannel::new(&format!("u{i}"), 1))
+            .map(|i| InputChannel::new(format!("u{i}"), 1))
             .collect(),
         periods
             .iter()
             .enumerate()
-            .map(|(j, &p)| OutputChannel::new(&format!("y{}", j + 1), p, 0))
+            .map(|(j, &p)| OutputChannel::new(format!("y{}", j + 1), p, 0))
             .collect(),
     )
     .expect("dataset")
