@@ -769,12 +769,20 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     // An unstable estimate is returned (the validation stage warns), not
     // refused: the library's default refusal is the thesis' experiment's
     // (spec A3.9), not a user's.
+    // A record too short for the default horizon (in lifted frames): the
+    // longest it supports, with a warning (the refusal named horizon 10
+    // otherwise: 6000 samples of a 2×2 record lifted by 15 are 400 frames
+    // of 38 values, horizon 5 at most).
+    let horizon = match id.horizon {
+        Some(h) => h,
+        None => lifted_horizon(data, 10).unwrap_or(10),
+    };
     let opts = ProcedureOptions {
         identification: LiftedIdOptions {
             method: method_of(id.method),
             order: order_of(id),
-            past: id.horizon.unwrap_or(10),
-            future: id.horizon.unwrap_or(10),
+            past: horizon,
+            future: horizon,
             system: system_of(id.estimator),
             enforce_stability: stable,
             require_stable: false,
@@ -787,6 +795,32 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         require_stable: false,
         ..Default::default()
     };
+    // The default automatic order: by the held-out fit of the last third
+    // (when the record allows it), else the singular-value gap.
+    let held_out = match (opts.identification.order, id.order_criterion) {
+        (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
+            held_out_orders(data, &opts, max)
+        }
+        _ => None,
+    };
+    if let Some(sel) = &held_out {
+        for &(n, _) in sel.ranking.iter().take(STABLE_TRIES) {
+            let at = ProcedureOptions {
+                identification: LiftedIdOptions {
+                    order: OrderSelection::Fixed(n),
+                    ..opts.identification.clone()
+                },
+                ..opts.clone()
+            };
+            let Ok(fit) = identify_multirate(data, None, &at) else {
+                continue;
+            };
+            if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
+                let route = multirate_fit(fit, id, Some(sel.diagnostics(n)), Vec::new());
+                return Ok(with_short_horizon(route, id, horizon));
+            }
+        }
+    }
     let mut fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
     // An automatic order whose fast model is unstable gives way to the next
     // orders of the singular-value gap's ranking (up to STABLE_TRIES), as
@@ -821,6 +855,183 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             }
         }
     }
+    let structure = held_out.map(|sel| {
+        let mut d = sel.diagnostics(fit.fast.order());
+        if let Some(obj) = d.as_object_mut() {
+            obj.insert(
+                "note".into(),
+                json!("no order of the held-out ranking gave a stable model on the whole record: the singular-value gap decided"),
+            );
+        }
+        d
+    });
+    let route = multirate_fit(fit, id, structure, passed_over);
+    Ok(with_short_horizon(route, id, horizon))
+}
+
+/// `route` with a warning when the default horizon was shortened to
+/// `horizon` for the record's lifted frames.
+fn with_short_horizon(mut route: RouteFit, id: &IdentificationOptions, horizon: usize) -> RouteFit {
+    if id.horizon.is_none() && horizon < 10 {
+        crate::diagnostics::push_warning(
+            &mut route.diagnostics,
+            format!(
+                "the default horizon 10 is too long for this record's lifted frames: horizon {horizon}, the longest it supports (--horizon sets it)"
+            ),
+        );
+    }
+    route
+}
+
+/// The longest horizon s ≤ `max` (s ≥ 2) for which the record lifted by
+/// its frame period J gives at least as many Hankel columns as rows:
+/// F − 2s + 1 ≥ 2s(m̄ + p̄), F = ⌊N/J⌋ frames of m̄ = Σ J/m_c inputs and
+/// p̄ = Σ J/J_o outputs (`lifted_subspace::identify` on the lifted data);
+/// `None` when `max` fits, 2 when none does (its refusal then names the
+/// fewest frames any horizon needs). O(max).
+fn lifted_horizon(data: &Dataset, max: usize) -> Option<usize> {
+    let j = data.frame_period().max(1);
+    let frames = data.len() / j;
+    let width: usize = data
+        .inputs()
+        .iter()
+        .map(|c| j / c.hold.max(1))
+        .sum::<usize>()
+        + data
+            .outputs()
+            .iter()
+            .map(|c| j / c.period.max(1))
+            .sum::<usize>();
+    let fits = |s: usize| (frames + 1).saturating_sub(2 * s) >= 2 * s * width;
+    if fits(max) {
+        return None;
+    }
+    Some((2..max).rev().find(|&s| fits(s)).unwrap_or(2))
+}
+
+/// The held-out order choice of the multirate route: orders ranked by the
+/// simulation fit on the last third of the record of the model identified
+/// on the first two thirds (best first, an order within the tolerance of a
+/// better one above it when it is smaller), and the curve.
+struct HeldOutOrders {
+    ranking: Vec<(usize, f64)>,
+    curve: Vec<serde_json::Value>,
+    split: usize,
+}
+
+impl HeldOutOrders {
+    /// The `structure_selection` entry of the diagnostics, order `n` kept.
+    fn diagnostics(&self, n: usize) -> serde_json::Value {
+        json!({
+            "criterion": format!(
+                "simulation fit (x0 estimated, mean over the outputs' measured samples) on the held-out samples {}.. of the model identified on the samples before, for orders 1..={}; the smallest order within {} points of the best, the next of the ranking when its model on the whole record is unstable",
+                self.split,
+                self.curve.len(),
+                StructureOptions::default().tolerance
+            ),
+            "order": n,
+            "candidates": self.curve,
+        })
+    }
+}
+
+/// Records up to this many base samples get the held-out order choice on
+/// the multirate route (one multirate identification per candidate order).
+const MULTIRATE_SELECTION_SAMPLES: usize = 200_000;
+
+/// The multirate route's held-out order ranking for an automatic order up
+/// to `max` ([`HeldOutOrders`]): the record cut at a frame boundary near
+/// two thirds, every order identified on the first part (the route's other
+/// options) and simulated on the rest from its least-squares x₀. `None`
+/// when the record is longer than [`MULTIRATE_SELECTION_SAMPLES`], too
+/// short for the cut, or no order could be scored. O(max) multirate
+/// identifications of 2N/3 samples.
+fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Option<HeldOutOrders> {
+    let n = data.len();
+    let frame = data.frame_period().max(1);
+    if n > MULTIRATE_SELECTION_SAMPLES {
+        return None;
+    }
+    let split = (2 * n / 3) / frame * frame;
+    if split == 0 || split >= n {
+        return None;
+    }
+    let (est, val) = (data.slice(0..split).ok()?, data.slice(split..n).ok()?);
+    // The horizon the estimation part supports when the route's is too
+    // long for it (two thirds of the frames).
+    let mut opts = opts.clone();
+    let h = opts.identification.past;
+    if let Some(s) = lifted_horizon(&est, h) {
+        opts.identification.past = s;
+        opts.identification.future = s;
+    }
+    let vopts = lifted_lti::ValidationOptions {
+        lags: 1,
+        horizons: Vec::new(),
+        ..Default::default()
+    };
+    let mut scored = Vec::new();
+    let mut curve = Vec::new();
+    for order in 1..=max.max(1) {
+        let at = ProcedureOptions {
+            identification: LiftedIdOptions {
+                order: OrderSelection::Fixed(order),
+                ..opts.identification.clone()
+            },
+            ..opts.clone()
+        };
+        let fit = identify_multirate(&est, None, &at).ok().and_then(|m| {
+            if crate::validate::spectral_radius(&m.fast).is_ok_and(|r| r < 1.0) {
+                let v = lifted_lti::validate(&m.fast, &val, &vopts).ok()?;
+                let fits: Vec<f64> = v.outputs.iter().map(|o| o.fit).collect();
+                let mean = fits.iter().sum::<f64>() / fits.len().max(1) as f64;
+                mean.is_finite().then_some(mean)
+            } else {
+                None
+            }
+        });
+        curve.push(json!({"order": order, "fit": fit}));
+        if let Some(f) = fit {
+            scored.push((order, f));
+        }
+    }
+    if scored.is_empty() {
+        return None;
+    }
+    // Best first, with the parsimony of the single-rate selection: the
+    // smallest order within the tolerance of the best leads.
+    let tolerance = StructureOptions::default().tolerance;
+    let best = scored
+        .iter()
+        .map(|&(_, f)| f)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut ranking = scored.clone();
+    ranking.sort_by(|a, b| b.1.total_cmp(&a.1));
+    if let Some(pos) = ranking
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.1 >= best - tolerance)
+        .min_by_key(|(_, c)| c.0)
+        .map(|(i, _)| i)
+    {
+        let lead = ranking.remove(pos);
+        ranking.insert(0, lead);
+    }
+    Some(HeldOutOrders {
+        ranking,
+        curve,
+        split,
+    })
+}
+
+/// The route's fit with its diagnostics: the extraction, the lifting
+/// period, the singular values and what chose the order.
+fn multirate_fit(
+    fit: lifted_multirate::MultirateModel,
+    id: &IdentificationOptions,
+    structure: Option<serde_json::Value>,
+    passed_over: Vec<serde_json::Value>,
+) -> RouteFit {
     let n = fit.fast.order();
     let sv = &fit.lifted.singular_values;
     let suggested = lifted_subspace::gap_order(sv, id.max_order);
@@ -849,12 +1060,15 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             json!({"tried": passed_over, "kept": kept}),
         );
     }
+    if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
+        obj.insert("structure_selection".into(), st);
+    }
     let details = RouteDetails {
         lifted: Some(fit.lifted.model.clone()),
         lifting_period: Some(fit.lifting.period()),
         ..Default::default()
     };
-    Ok(RouteFit::plain(fit.fast, d, sv, suggested).with_details(details))
+    RouteFit::plain(fit.fast, d, sv, suggested).with_details(details)
 }
 
 /// Orders 1..=`max` (below the number of singular values) ranked by the

@@ -252,7 +252,9 @@ def identify(
       (A, C) route (when ``system`` is None) by the simulation fit on
       held-out data: six blocks each held out once (blocked
       cross-validation) for records up to 2e4 samples, else the last third
-      of the record; when the model is refined and the record is short
+      of the record (multirate records of up to 2e5 samples: the order
+      alone, by the fit on the last third); when the model is refined and
+      the record is short
       enough for the refinement's held-out check, the best three orders are
       compared by the held-out fit of the model each delivers
       (``diagnostics["structure_selection"]["refined_shortlist"]``). ``"gap"``, ``"svc"``, ``"aic"``,
