@@ -805,14 +805,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     };
     if let Some(sel) = &held_out {
         for &(n, _) in sel.ranking.iter().take(STABLE_TRIES) {
-            let at = ProcedureOptions {
-                identification: LiftedIdOptions {
-                    order: OrderSelection::Fixed(n),
-                    ..opts.identification.clone()
-                },
-                ..opts.clone()
-            };
-            let Ok(fit) = identify_multirate(data, None, &at) else {
+            let Ok(fit) = identify_multirate(data, None, &at_order(&opts, n)) else {
                 continue;
             };
             if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
@@ -836,14 +829,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
                 .filter(|&n| n != fit.fast.order())
                 .take(STABLE_TRIES - 1)
             {
-                let at = ProcedureOptions {
-                    identification: LiftedIdOptions {
-                        order: OrderSelection::Fixed(n),
-                        ..opts.identification.clone()
-                    },
-                    ..opts.clone()
-                };
-                let Ok(other) = identify_multirate(data, None, &at) else {
+                let Ok(other) = identify_multirate(data, None, &at_order(&opts, n)) else {
                     continue;
                 };
                 let r = rho(&other.fast);
@@ -973,23 +959,18 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
     let mut scored = Vec::new();
     let mut curve = Vec::new();
     for order in 1..=max.max(1) {
-        let at = ProcedureOptions {
-            identification: LiftedIdOptions {
-                order: OrderSelection::Fixed(order),
-                ..opts.identification.clone()
-            },
-            ..opts.clone()
-        };
-        let fit = identify_multirate(&est, None, &at).ok().and_then(|m| {
-            if crate::validate::spectral_radius(&m.fast).is_ok_and(|r| r < 1.0) {
-                let v = lifted_lti::validate(&m.fast, &val, &vopts).ok()?;
-                let fits: Vec<f64> = v.outputs.iter().map(|o| o.fit).collect();
-                let mean = fits.iter().sum::<f64>() / fits.len().max(1) as f64;
-                mean.is_finite().then_some(mean)
-            } else {
-                None
-            }
-        });
+        let fit = identify_multirate(&est, None, &at_order(&opts, order))
+            .ok()
+            .and_then(|m| {
+                if crate::validate::spectral_radius(&m.fast).is_ok_and(|r| r < 1.0) {
+                    let v = lifted_lti::validate(&m.fast, &val, &vopts).ok()?;
+                    let fits: Vec<f64> = v.outputs.iter().map(|o| o.fit).collect();
+                    let mean = fits.iter().sum::<f64>() / fits.len().max(1) as f64;
+                    mean.is_finite().then_some(mean)
+                } else {
+                    None
+                }
+            });
         curve.push(json!({"order": order, "fit": fit}));
         if let Some(f) = fit {
             scored.push((order, f));
@@ -1022,6 +1003,17 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
         curve,
         split,
     })
+}
+
+/// `opts` with the lifted model's order fixed at `n`.
+fn at_order(opts: &ProcedureOptions, n: usize) -> ProcedureOptions {
+    ProcedureOptions {
+        identification: LiftedIdOptions {
+            order: OrderSelection::Fixed(n),
+            ..opts.identification.clone()
+        },
+        ..opts.clone()
+    }
 }
 
 /// The route's fit with its diagnostics: the extraction, the lifting

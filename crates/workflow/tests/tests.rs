@@ -27,7 +27,17 @@ fn plant() -> StateSpace {
 /// A record of `n` samples: random binary inputs around 0.3, the plant's
 /// response plus white noise (σ = `noise`) around the offsets (2, −1).
 fn record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
-    let g = plant();
+    record_of(&plant(), n, noise, seed, [2.0, -1.0])
+}
+
+/// [`record`] of the 2×2 model `g` around the output offsets `offsets`.
+fn record_of(
+    g: &StateSpace,
+    n: usize,
+    noise: f64,
+    seed: u64,
+    offsets: [f64; 2],
+) -> (DMatrix<f64>, DMatrix<f64>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let u = DMatrix::from_fn(
         n,
@@ -43,7 +53,7 @@ fn record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
         let yk = g.c() * &x + g.d() * &uk;
         for j in 0..2 {
             let e: f64 = rng.random::<f64>() - 0.5;
-            y[(k, j)] = yk[j] + [2.0, -1.0][j] + noise * 12f64.sqrt() * e;
+            y[(k, j)] = yk[j] + offsets[j] + noise * 12f64.sqrt() * e;
         }
         x = g.a() * &x + g.b() * &uk;
     }
@@ -405,16 +415,9 @@ fn multirate_record(truth: &StateSpace, n: usize, periods: &[usize], seed: u64) 
     .expect("dataset")
 }
 
-/// The multirate case of issue 26: 2×2, poles 0.95 ± 0.1j, 0.85 and 0.7,
-/// y₁ measured every 3 and y₂ every 5 samples (lifting period 15), 3e4
-/// samples of random binary input, output noise 10 % of each output's
-/// standard deviation. The fast pole 0.7 lifts to 0.7¹⁵ ≈ 0.005, which
-/// noise can push below zero (no principal 15-th root): every method must
-/// still identify, and the default refinement (the joint iterations of the
-/// prediction cost, about 1e-1 s here) must run and bring every method to
-/// the truth.
-#[test]
-fn the_multirate_issue_case_identifies_with_every_method() {
+/// The plant of the issue's multirate case: 2×2, poles 0.95 ± 0.1j, 0.85
+/// and 0.7.
+fn issue_plant() -> StateSpace {
     let a = DMatrix::from_row_slice(
         4,
         4,
@@ -427,12 +430,37 @@ fn the_multirate_issue_case_identifies_with_every_method() {
     );
     let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.2, 0.3, 0.8, 0.5, -0.6, 0.4, 1.0]);
     let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 0.6, 0.3, 0.2, 0.7, -0.4, 0.9]);
-    let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("plant");
-    let data = multirate_record(&truth, 30_000, &[3, 5], 7);
+    StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("plant")
+}
+
+/// Relative frequency-response error ‖G − G₀‖/‖G₀‖ of `model` against
+/// `truth` over 200 frequencies in (0, π).
+fn fr_error(model: &StateSpace, truth: &StateSpace) -> f64 {
     let omega: Vec<f64> = (0..200)
         .map(|i| 1e-3 + i as f64 * (std::f64::consts::PI / 200.0))
         .collect();
     let want = truth.freqresp(&omega).expect("truth");
+    let got = model.freqresp(&omega).expect("model");
+    let (mut num, mut den) = (0.0, 0.0);
+    for (g, w) in got.iter().zip(&want) {
+        num += (g - w).norm_squared();
+        den += w.norm_squared();
+    }
+    (num / den).sqrt()
+}
+
+/// The multirate case of issue 26: 2×2, poles 0.95 ± 0.1j, 0.85 and 0.7,
+/// y₁ measured every 3 and y₂ every 5 samples (lifting period 15), 3e4
+/// samples of random binary input, output noise 10 % of each output's
+/// standard deviation. The fast pole 0.7 lifts to 0.7¹⁵ ≈ 0.005, which
+/// noise can push below zero (no principal 15-th root): every method must
+/// still identify, and the default refinement (the joint iterations of the
+/// prediction cost, about 1e-1 s here) must run and bring every method to
+/// the truth.
+#[test]
+fn the_multirate_issue_case_identifies_with_every_method() {
+    let truth = issue_plant();
+    let data = multirate_record(&truth, 30_000, &[3, 5], 7);
     for method in [Method::N4sid, Method::Moesp, Method::Cva] {
         let mut opts = WorkflowOptions::default();
         opts.identification.method = method;
@@ -444,13 +472,7 @@ fn the_multirate_issue_case_identifies_with_every_method() {
             decision.starts_with("refined") && decision.contains("joint"),
             "{method:?}: {decision}"
         );
-        let got = fit.file.model.freqresp(&omega).expect("model");
-        let (mut num, mut den) = (0.0, 0.0);
-        for (g, w) in got.iter().zip(&want) {
-            num += (g - w).norm_squared();
-            den += w.norm_squared();
-        }
-        let err = (num / den).sqrt();
+        let err = fr_error(&fit.file.model, &truth);
         // The issue's bound. Measured 0.003–0.004 with the refinement
         // (seeds 0–2 of the Python version of this case); without it CVA
         // gave 0.059–0.089 at this noise level.
@@ -466,19 +488,7 @@ fn the_multirate_issue_case_identifies_with_every_method() {
 /// held-out fit: the plant's 4.
 #[test]
 fn a_short_multirate_record_gets_its_horizon_and_order_from_the_data() {
-    let a = DMatrix::from_row_slice(
-        4,
-        4,
-        &[
-            0.95, 0.1, 0.0, 0.0, //
-            -0.1, 0.95, 0.0, 0.0, //
-            0.0, 0.0, 0.85, 0.0, //
-            0.0, 0.0, 0.0, 0.7,
-        ],
-    );
-    let b = DMatrix::from_row_slice(4, 2, &[1.0, 0.2, 0.3, 0.8, 0.5, -0.6, 0.4, 1.0]);
-    let c = DMatrix::from_row_slice(2, 4, &[1.0, 0.0, 0.6, 0.3, 0.2, 0.7, -0.4, 0.9]);
-    let truth = StateSpace::new(a, b, c, DMatrix::zeros(2, 2), Some(1.0)).expect("plant");
+    let truth = issue_plant();
     let data = multirate_record(&truth, 6000, &[3, 5], 1);
     let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
     let d = &fit.file.diagnostics;
@@ -489,18 +499,8 @@ fn a_short_multirate_record_gets_its_horizon_and_order_from_the_data() {
             .contains("horizon 5, the longest it supports"),
         "{d}"
     );
-    let omega: Vec<f64> = (0..200)
-        .map(|i| 1e-3 + i as f64 * (std::f64::consts::PI / 200.0))
-        .collect();
-    let want = truth.freqresp(&omega).expect("truth");
-    let got = fit.file.model.freqresp(&omega).expect("model");
-    let (mut num, mut den) = (0.0, 0.0);
-    for (g, w) in got.iter().zip(&want) {
-        num += (g - w).norm_squared();
-        den += w.norm_squared();
-    }
     // Measured 0.0086 (the gap's order 2: 0.23).
-    let err = (num / den).sqrt();
+    let err = fr_error(&fit.file.model, &truth);
     assert!(err < 0.06, "FR error {err}: {d}");
 }
 
@@ -829,25 +829,7 @@ fn an_unstable_aicc_choice_gives_way_to_the_next_stable_order() {
     let g = plant();
     let g =
         StateSpace::new(a, g.b().clone(), g.c().clone(), g.d().clone(), Some(1.0)).expect("plant");
-    let n = 50;
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let u = DMatrix::from_fn(
-        n,
-        2,
-        |_, _| {
-            if rng.random::<f64>() < 0.5 { -0.7 } else { 1.3 }
-        },
-    );
-    let mut x = DVector::zeros(3);
-    let mut y = DMatrix::zeros(n, 2);
-    for k in 0..n {
-        let uk = u.row(k).transpose();
-        let yk = g.c() * &x + g.d() * &uk;
-        for j in 0..2 {
-            y[(k, j)] = yk[j] + 0.1 * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
-        }
-        x = g.a() * &x + g.b() * &uk;
-    }
+    let (u, y) = record_of(&g, 50, 0.1, 7, [0.0, 0.0]);
     let records = [Record::new(dataset(&u, &y))];
     let mut opts = WorkflowOptions::default();
     opts.identification.horizon = Some(5);
