@@ -283,7 +283,7 @@ fn sampling(
         let sampled = k % period == first;
         if sampled && v.is_nan() {
             return Err(input(format!(
-                "{path}: {}, column '{name}': empty cell at a sampling instant of period {period}",
+                "{path}: {}, column '{name}': empty cell at a sampling instant of period {period} (an output is sampled every P instants from its first sample; isolated missing values are not supported: fill them, e.g. by interpolation, or cut the record there)",
                 at(k)
             )));
         }
