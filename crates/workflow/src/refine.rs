@@ -406,6 +406,22 @@ pub fn refine(
     let Some(cost) = refinement_cost(opts, &diagnostics) else {
         return unrefined(opts, model, diagnostics);
     };
+    // A model at another period than the records (a multirate fast model
+    // left at its input hold period) would be fitted to the wrong steps.
+    if let (Some(t), Some(d)) = (model.ts(), sets.first())
+        && (t - d.ts()).abs() > 1e-9 * d.ts()
+    {
+        if let Some(obj) = diagnostics.as_object_mut() {
+            obj.insert(
+                "refinement_decision".into(),
+                json!(format!(
+                    "not refined: the model's period {t} s is not the records' base period {} s",
+                    d.ts()
+                )),
+            );
+        }
+        return unrefined(opts, model, diagnostics);
+    }
     let records: Vec<Record<'_>> = sets
         .iter()
         .map(|d| Record {

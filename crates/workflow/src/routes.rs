@@ -809,7 +809,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
                 continue;
             };
             if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
-                let route = multirate_fit(fit, id, Some(sel.diagnostics(n)), Vec::new());
+                let route = multirate_fit(fit, id, data.ts(), Some(sel.diagnostics(n)), Vec::new());
                 return Ok(with_short_horizon(route, id, horizon));
             }
         }
@@ -851,7 +851,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         }
         d
     });
-    let route = multirate_fit(fit, id, structure, passed_over);
+    let route = multirate_fit(fit, id, data.ts(), structure, passed_over);
     Ok(with_short_horizon(route, id, horizon))
 }
 
@@ -963,7 +963,8 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
             .ok()
             .and_then(|m| {
                 if crate::validate::spectral_radius(&m.fast).is_ok_and(|r| r < 1.0) {
-                    let v = lifted_lti::validate(&m.fast, &val, &vopts).ok()?;
+                    let fast = at_base_period(&m.fast, val.ts()).ok()?;
+                    let v = lifted_lti::validate(&fast, &val, &vopts).ok()?;
                     let fits: Vec<f64> = v.outputs.iter().map(|o| o.fit).collect();
                     let mean = fits.iter().sum::<f64>() / fits.len().max(1) as f64;
                     mean.is_finite().then_some(mean)
@@ -1005,6 +1006,21 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
     })
 }
 
+/// `fast` at the base period `ts`: itself when it is at `ts` (or
+/// continuous), else its ZOH equivalent at `ts` (d2c at its own period,
+/// c2d at `ts`: exact for a plant whose input is held over its period).
+/// Errors: the d2c's (an eigenvalue on the closed negative real axis has no
+/// continuous equivalent). O(n³).
+fn at_base_period(fast: &StateSpace, ts: f64) -> std::result::Result<StateSpace, String> {
+    match fast.ts() {
+        Some(t) if (t - ts).abs() > 1e-9 * ts => fast
+            .d2c()
+            .and_then(|c| c.c2d(ts, &lifted_lti::C2dOptions::default()))
+            .map_err(|e| e.to_string()),
+        _ => Ok(fast.clone()),
+    }
+}
+
 /// `opts` with the lifted model's order fixed at `n`.
 fn at_order(opts: &ProcedureOptions, n: usize) -> ProcedureOptions {
     ProcedureOptions {
@@ -1019,11 +1035,27 @@ fn at_order(opts: &ProcedureOptions, n: usize) -> ProcedureOptions {
 /// The route's fit with its diagnostics: the extraction, the lifting
 /// period, the singular values and what chose the order.
 fn multirate_fit(
-    fit: lifted_multirate::MultirateModel,
+    mut fit: lifted_multirate::MultirateModel,
     id: &IdentificationOptions,
+    ts: f64,
     structure: Option<serde_json::Value>,
     passed_over: Vec<serde_json::Value>,
 ) -> RouteFit {
+    // The extraction gives the fast model at the inputs' hold period hT
+    // (thesis §4.6); the refinement, the validation and the model file
+    // work at the record's base period T.
+    let hold_period = fit.fast.ts().filter(|&t| (t - ts).abs() > 1e-9 * ts);
+    let conversion = hold_period.map(|t| match at_base_period(&fit.fast, ts) {
+        Ok(m) => {
+            fit.fast = m;
+            Ok(format!(
+                "the fast model extracted at the input hold period {t} s, converted to the base period {ts} s (ZOH: d2c at {t} s, c2d at {ts} s)"
+            ))
+        }
+        Err(e) => Err(format!(
+            "the fast model is at the input hold period {t} s, not the record's base period {ts} s: it has no ZOH model at {ts} s ({e}); it is not refined, and validating it needs data at {t} s"
+        )),
+    });
     let n = fit.fast.order();
     let sv = &fit.lifted.singular_values;
     let suggested = lifted_subspace::gap_order(sv, id.max_order);
@@ -1054,6 +1086,15 @@ fn multirate_fit(
     }
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
+    }
+    match conversion {
+        Some(Ok(note)) => {
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert("base_period_conversion".into(), json!(note));
+            }
+        }
+        Some(Err(w)) => crate::diagnostics::push_warning(&mut d, w),
+        None => {}
     }
     let details = RouteDetails {
         lifted: Some(fit.lifted.model.clone()),
