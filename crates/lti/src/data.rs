@@ -789,9 +789,20 @@ impl Dataset {
         header.extend(self.outputs.iter().map(|c| label(&c.name, &c.unit)));
         wr.write_record(&header).map_err(csv_io)?;
         let mut row: Vec<String> = Vec::with_capacity(header.len());
+        // Times as decimals (0.3, not 0.30000000000000004, at T = 0.1 s):
+        // k/f for an integer rate f = 1/T (one division), else k·T snapped.
+        let rate = 1.0 / self.ts;
+        let whole = rate.round();
+        let time = |k: usize| {
+            if whole >= 1.0 && (rate - whole).abs() <= 1e-12 * whole {
+                k as f64 / whole
+            } else {
+                snap_period(k as f64 * self.ts)
+            }
+        };
         for k in 0..self.len() {
             row.clear();
-            row.push(format!("{}", k as f64 * self.ts));
+            row.push(format!("{}", time(k)));
             row.extend((0..self.n_inputs()).map(|i| format!("{}", self.u[(k, i)])));
             row.extend((0..self.n_outputs()).map(|i| {
                 let v = self.y[(k, i)];
@@ -1229,6 +1240,15 @@ mod tests {
         assert_eq!(third, 1.0 / 3.0);
         assert_eq!(snap_period(0.1 * 3.0), 0.3);
         assert_eq!(snap_period(0.3 / 3.0), 0.1);
+        // Written times are decimals too, at an integer rate or not.
+        for (ts, want) in [(0.1, "0.3,"), (0.08, "0.24,")] {
+            let d =
+                Dataset::single_rate(ts, DMatrix::zeros(4, 1), DMatrix::zeros(4, 1)).expect("data");
+            let mut out = Vec::new();
+            d.to_csv_writer(&mut out).expect("csv");
+            let text = String::from_utf8(out).expect("utf8");
+            assert!(text.contains(&format!("\n{want}")), "{text}");
+        }
     }
 
     fn mr() -> Dataset {
