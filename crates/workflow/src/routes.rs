@@ -958,7 +958,16 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
     };
     let mut scored = Vec::new();
     let mut curve = Vec::new();
-    for order in 1..=max.max(1) {
+    // Orders above (f − 1) p̄ (p̄ lifted outputs per frame) are not
+    // identifiable at the horizon: not tried (`max` may be anything the
+    // caller gave).
+    let frame_outputs: usize = data.outputs().iter().map(|c| frame / c.period.max(1)).sum();
+    let identifiable = opts
+        .identification
+        .future
+        .saturating_sub(1)
+        .saturating_mul(frame_outputs);
+    for order in 1..=max.min(identifiable).max(1) {
         let fit = identify_multirate(&est, None, &at_order(&opts, order))
             .ok()
             .and_then(|m| {

@@ -999,6 +999,14 @@ fn a_multirate_automatic_order_is_chosen_on_held_out_data_and_stable() {
     assert_eq!(curve.len(), 10, "{d}");
     // The held-out fit of order 2 is high (10 % noise: about 90 %).
     assert!(curve[1]["fit"].as_f64().is_some_and(|f| f > 80.0), "{d}");
+    // Any bound the caller gives is cut at the identifiable orders,
+    // (f − 1) p̄ = 9 · 4 here (it ran an identification per order up to
+    // 1e6: found by fuzzing, 28 s on a 300-row record).
+    let mut opts = WorkflowOptions::default();
+    opts.identification.max_order = 1_000_000;
+    let fit = identify(&records, &opts).expect("identify");
+    let curve = &fit.file.diagnostics["structure_selection"]["candidates"];
+    assert_eq!(curve.as_array().map(Vec::len), Some(36), "{curve}");
     // The gap asked for: its unstable choice is passed over.
     let mut opts = WorkflowOptions::default();
     opts.identification.order_criterion = OrderCriterion::Gap;
