@@ -766,6 +766,19 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     let stable = stabilized_start(opts);
     gap_only(id)?;
     let data = single(sets, "multirate identification")?;
+    // The lifting reads C at frame time 0: a record whose slow outputs (or
+    // held inputs) do not start on its first sample is identified from the
+    // first instant where all of them do (the model is the same; the
+    // refinement and the validation use the whole record).
+    let start = aligned_start(data);
+    let aligned;
+    let data = match start {
+        Some(s) if s > 0 => {
+            aligned = data.slice(s..data.len()).ctx("multirate identification")?;
+            &aligned
+        }
+        _ => data,
+    };
     // An unstable estimate is returned (the validation stage warns), not
     // refused: the library's default refusal is the thesis' experiment's
     // (spec A3.9), not a user's.
@@ -810,7 +823,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             };
             if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
                 let route = multirate_fit(fit, id, data.ts(), Some(sel.diagnostics(n)), Vec::new());
-                return Ok(with_short_horizon(route, id, horizon));
+                return Ok(with_short_horizon(route, id, horizon, start));
             }
         }
     }
@@ -852,12 +865,37 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         d
     });
     let route = multirate_fit(fit, id, data.ts(), structure, passed_over);
-    Ok(with_short_horizon(route, id, horizon))
+    Ok(with_short_horizon(route, id, horizon, start))
+}
+
+/// The first instant s < J (the frame period) at which every output is
+/// sampled and every held input starts a block, so that the record from s
+/// on has all phases 0; `None` when there is none (phases that never meet,
+/// e.g. two outputs of period 2 at phases 0 and 1). O(J · channels).
+fn aligned_start(data: &Dataset) -> Option<usize> {
+    (0..data.frame_period().max(1)).find(|&s| {
+        data.outputs().iter().all(|c| c.is_sampled(s))
+            && data.inputs().iter().all(|c| c.is_block_start(s))
+    })
 }
 
 /// `route` with a warning when the default horizon was shortened to
-/// `horizon` for the record's lifted frames.
-fn with_short_horizon(mut route: RouteFit, id: &IdentificationOptions, horizon: usize) -> RouteFit {
+/// `horizon` for the record's lifted frames, and a note when the lifting
+/// started at sample `start` > 0.
+fn with_short_horizon(
+    mut route: RouteFit,
+    id: &IdentificationOptions,
+    horizon: usize,
+    start: Option<usize>,
+) -> RouteFit {
+    if let (Some(s), Some(obj)) = (start.filter(|&s| s > 0), route.diagnostics.as_object_mut()) {
+        obj.insert(
+            "lifting_start".into(),
+            json!(format!(
+                "the lifting starts at sample {s}, the first instant at which every output is sampled and every held input starts a block (the extraction reads C at frame time 0); the refinement and the validation use the whole record"
+            )),
+        );
+    }
     if id.horizon.is_none() && horizon < 10 {
         crate::diagnostics::push_warning(
             &mut route.diagnostics,

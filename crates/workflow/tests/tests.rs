@@ -547,6 +547,30 @@ fn a_held_input_record_gives_a_model_at_the_base_period() {
     assert!(err < 0.06, "FR error {err}: {d}");
 }
 
+/// A multirate record that does not start on a sample of its slow outputs
+/// (y₁ every 3 from sample 2, y₂ every 5 from sample 4: the lab analyser
+/// started later than the logger). The extraction reads C at frame time 0,
+/// so the route refused it ("output 0 is not sampled at frame time 0");
+/// the lifting now starts at the first instant both are sampled (14), and
+/// the model is the plant's.
+#[test]
+fn a_multirate_record_starting_between_slow_samples_is_identified() {
+    let truth = issue_plant();
+    let whole = multirate_record(&truth, 6001, &[3, 5], 1, 6);
+    let data = whole.slice(1..6001).expect("slice");
+    assert_eq!(data.outputs()[0].offset, 2);
+    let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert!(
+        d["lifting_start"]
+            .as_str()
+            .is_some_and(|s| s.contains("starts at sample 14")),
+        "{d}"
+    );
+    let err = fr_error(&fit.file.model, &truth);
+    assert!(err < 0.06, "FR error {err}: {d}");
+}
+
 #[test]
 fn the_per_method_options_reach_their_routes() {
     // Each option changes the model of its method (a route that dropped it
