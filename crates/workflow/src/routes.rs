@@ -868,12 +868,13 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     Ok(with_short_horizon(route, id, horizon, start))
 }
 
-/// The first instant s < J (the frame period) at which every output is
-/// sampled and every held input starts a block, so that the record from s
-/// on has all phases 0; `None` when there is none (phases that never meet,
-/// e.g. two outputs of period 2 at phases 0 and 1). O(J · channels).
+/// The first instant s < min(J, N) (J the frame period, N the record's
+/// length) at which every output is sampled and every held input starts a
+/// block, so that the record from s on has all phases 0; `None` when there
+/// is none (phases that never meet, e.g. two outputs of period 2 at phases
+/// 0 and 1). O(min(J, N) · channels).
 fn aligned_start(data: &Dataset) -> Option<usize> {
-    (0..data.frame_period().max(1)).find(|&s| {
+    (0..data.frame_period().max(1).min(data.len())).find(|&s| {
         data.outputs().iter().all(|c| c.is_sampled(s))
             && data.inputs().iter().all(|c| c.is_block_start(s))
     })
@@ -1431,4 +1432,43 @@ fn amplitudes(id: &IdentificationOptions, inputs: usize) -> Result<Option<Vec<f6
         ));
     }
     Ok(Some(values))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lifted_lti::{InputChannel, OutputChannel};
+
+    fn record(periods: &[(usize, usize)], n: usize) -> Dataset {
+        let y = DMatrix::from_fn(n, periods.len(), |k, j| {
+            let (p, o) = periods[j];
+            if k % p == o { 1.0 } else { f64::NAN }
+        });
+        Dataset::new(
+            1.0,
+            DMatrix::zeros(n, 1),
+            y,
+            vec![InputChannel::new("u", 1)],
+            periods
+                .iter()
+                .enumerate()
+                .map(|(j, &(p, o))| OutputChannel::new(format!("y{j}"), p, o))
+                .collect(),
+        )
+        .expect("record")
+    }
+
+    #[test]
+    fn the_lifting_starts_where_every_phase_meets() {
+        // y₁ every 3 from 2, y₂ every 5 from 4: 14 ≡ 2 (mod 3) ≡ 4 (mod 5).
+        assert_eq!(aligned_start(&record(&[(3, 2), (5, 4)], 60)), Some(14));
+        assert_eq!(aligned_start(&record(&[(1, 0), (3, 0)], 60)), Some(0));
+        // Phases that never meet, and a frame longer than the record: the
+        // search stops at the record's end.
+        assert_eq!(aligned_start(&record(&[(2, 0), (2, 1)], 60)), None);
+        assert_eq!(
+            aligned_start(&record(&[(999_983, 3), (999_979, 5)], 10)),
+            None
+        );
+    }
 }
