@@ -146,6 +146,7 @@ mod pbsid;
 mod predictor_regress;
 mod projection;
 mod records;
+pub use records::longest_horizon;
 mod refine;
 mod regress;
 mod select;

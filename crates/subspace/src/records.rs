@@ -80,6 +80,25 @@ pub(crate) fn compressed(
 /// The power-of-4 scales of the experiments' inputs and outputs
 /// (`numerics::pow4_scale_counted`), and how many of their entries are
 /// finite.
+/// The longest horizon s ≤ `max` (past = future = s, s ≥ 2) for which
+/// records of `lengths` samples of `width` = n_u + n_y channels give a
+/// block-Hankel data matrix with at least as many columns as rows (J ≥ k,
+/// the condition [`crate::identify`] checks before compressing); `None`
+/// when not even s = 2 does. For lifted records pass the frame counts and
+/// the lifted widths. O(max · records).
+pub fn longest_horizon(lengths: &[usize], width: usize, max: usize) -> Option<usize> {
+    (2..=max).rev().find(|&s| {
+        let layout = HankelLayout {
+            past: s,
+            future: s,
+            nu: width,
+            ny: 0,
+        };
+        let columns: usize = lengths.iter().map(|&n| layout.columns(n)).sum();
+        columns >= layout.nrows()
+    })
+}
+
 pub(crate) fn data_scale(experiments: &[Experiment<'_>]) -> (Scale, usize) {
     let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
     let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();
@@ -109,4 +128,35 @@ pub(crate) fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<
                  or Auto"
             .into(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_longest_horizon_is_the_last_with_as_many_columns_as_rows() {
+        // 45 samples of 8 channels: s = 2 gives 42 columns for 32 rows,
+        // s = 3 gives 40 for 48.
+        assert_eq!(longest_horizon(&[45], 8, 10), Some(2));
+        // 2 channels, 1000 samples: horizon 10 fits (981 ≥ 80).
+        assert_eq!(longest_horizon(&[1000], 2, 10), Some(10));
+        // Columns add over records: two of 30 samples of 8 channels give
+        // 2 · 25 = 50 columns for 48 rows at s = 3 (one alone: 25).
+        assert_eq!(longest_horizon(&[30, 30], 8, 10), Some(3));
+        assert_eq!(longest_horizon(&[30], 8, 10), None);
+        assert_eq!(longest_horizon(&[28], 7, 10), None);
+        // And it is the condition identify checks.
+        let (u, y) = (DMatrix::zeros(45, 5), DMatrix::zeros(45, 3));
+        let e = [Experiment { u: &u, y: &y }];
+        let three = SubspaceOptions {
+            past: 3,
+            future: 3,
+            ..Default::default()
+        };
+        assert!(matches!(
+            compressed(&e, &three),
+            Err(Error::HorizonTooLong { .. })
+        ));
+    }
 }

@@ -658,21 +658,12 @@ fn short_horizons(exps: &[Experiment<'_>], opts: &SubspaceOptions) -> Option<(us
     (s_max < default).then_some((s_min, s_max))
 }
 
-/// The longest horizon s ≤ `max` (p = f = s, s ≥ 2) for which the records
-/// give at least as many Hankel columns as the data matrix has rows
-/// (Σ (N_e − 2s + 1) ≥ 2s(n_u + n_y), the condition of
-/// `lifted_subspace::identify`); `None` when not even s = 2 fits. O(max ·
-/// records).
+/// The longest horizon s ≤ `max` the records support
+/// ([`lifted_subspace::longest_horizon`]); `None` when not even s = 2 fits.
 fn longest_horizon(exps: &[Experiment<'_>], max: usize) -> Option<usize> {
     let first = exps.first()?;
-    let width = first.u.ncols() + first.y.ncols();
-    (2..=max).rev().find(|&s| {
-        let columns: usize = exps
-            .iter()
-            .map(|e| (e.u.nrows() + 1).saturating_sub(2 * s))
-            .sum();
-        columns >= 2 * s * width
-    })
+    let lengths: Vec<usize> = exps.iter().map(|e| e.u.nrows()).collect();
+    lifted_subspace::longest_horizon(&lengths, first.u.ncols() + first.y.ncols(), max)
 }
 
 /// What [`select`] gives: the model, the structure-selection diagnostics,
@@ -908,6 +899,16 @@ fn with_short_horizon(
     route
 }
 
+/// The lifted inputs m̄ = Σ J/m_c and outputs p̄ = Σ J/J_o per frame of
+/// the record's frame period J. O(channels).
+fn lifted_widths(data: &Dataset) -> (usize, usize) {
+    let j = data.frame_period().max(1);
+    (
+        data.inputs().iter().map(|c| j / c.hold.max(1)).sum(),
+        data.outputs().iter().map(|c| j / c.period.max(1)).sum(),
+    )
+}
+
 /// The longest horizon s ≤ `max` (s ≥ 2) for which the record lifted by
 /// its frame period J gives at least as many Hankel columns as rows:
 /// F − 2s + 1 ≥ 2s(m̄ + p̄), F = ⌊N/J⌋ frames of m̄ = Σ J/m_c inputs and
@@ -915,23 +916,12 @@ fn with_short_horizon(
 /// `None` when `max` fits, 2 when none does (its refusal then names the
 /// fewest frames any horizon needs). O(max).
 fn lifted_horizon(data: &Dataset, max: usize) -> Option<usize> {
-    let j = data.frame_period().max(1);
-    let frames = data.len() / j;
-    let width: usize = data
-        .inputs()
-        .iter()
-        .map(|c| j / c.hold.max(1))
-        .sum::<usize>()
-        + data
-            .outputs()
-            .iter()
-            .map(|c| j / c.period.max(1))
-            .sum::<usize>();
-    let fits = |s: usize| (frames + 1).saturating_sub(2 * s) >= 2 * s * width;
-    if fits(max) {
-        return None;
+    let frames = data.len() / data.frame_period().max(1);
+    let (m_bar, p_bar) = lifted_widths(data);
+    match lifted_subspace::longest_horizon(&[frames], m_bar + p_bar, max) {
+        Some(s) if s == max => None,
+        s => Some(s.unwrap_or(2)),
     }
-    Some((2..max).rev().find(|&s| fits(s)).unwrap_or(2))
 }
 
 /// The held-out order choice of the multirate route: orders ranked by the
@@ -1000,7 +990,7 @@ fn held_out_orders(data: &Dataset, opts: &ProcedureOptions, max: usize) -> Optio
     // Orders above (f − 1) p̄ (p̄ lifted outputs per frame) are not
     // identifiable at the horizon: not tried (`max` may be anything the
     // caller gave).
-    let frame_outputs: usize = data.outputs().iter().map(|c| frame / c.period.max(1)).sum();
+    let (_, frame_outputs) = lifted_widths(data);
     let identifiable = opts
         .identification
         .future
