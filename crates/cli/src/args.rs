@@ -501,7 +501,8 @@ pub struct IdentifyArgs {
     /// Columns and layout.
     #[command(flatten)]
     pub columns: DataArgs,
-    /// Model order n, or `auto` (largest gap of the singular values / Λ diagonal).
+    /// Model order n, or `auto`: chosen from the data by the rule of --order-criterion (default:
+    /// simulation fit on held-out blocks).
     #[arg(long, default_value = "auto")]
     pub order: String,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
@@ -509,9 +510,10 @@ pub struct IdentifyArgs {
     #[arg(long, default_value_t = 10)]
     pub max_order: usize,
     /// Rule of `--order auto` (subspace and single-rate IV methods): the
-    /// largest singular-value gap, Bauer's SVC, or AIC / AICc / BIC on the
-    /// simulation error (SIPPY's definitions). The values per order are
-    /// written to the diagnostics either way.
+    /// simulation fit on held-out data (default), the largest singular-value
+    /// gap, Bauer's SVC, or AIC / AICc / BIC on the simulation error (SIPPY's
+    /// definitions). The values per order are written to the diagnostics
+    /// either way.
     #[arg(long, value_enum, default_value_t = CriterionArg::Validation)]
     pub order_criterion: CriterionArg,
     /// Horizon i: past = future block rows (subspace: by default chosen with the order by the

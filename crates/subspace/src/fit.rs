@@ -450,15 +450,19 @@ fn subspace_of<'l>(
 /// `opts.remove_means` (returned; y₀ includes the output offsets of each
 /// order's regression only through the model's own deviations, so the
 /// caller compares deviations from it). For the structure selection of
-/// [`crate::select_structure`]: one O(N) compression, then per order
-/// O(k³) plus the (B, D, x₀) regression O(N q²). `only`: fit that order
-/// alone (a fixed order's selection; the other entries stay `None`).
+/// [`crate::select_structure`]: one O(N) compression and one weighted SVD
+/// (O(k³)) shared by every route of `systems` (the (A, C) route acts only
+/// after the SVD), then per route and order O(k³) plus the (B, D, x₀)
+/// regression O(N q²). `only`: fit that order alone (a fixed order's
+/// selection; the other entries stay `None`). The models are returned per
+/// entry of `systems`, in its order (`opts.system` is not used).
 pub(crate) fn models_of_orders(
     experiments: &[Experiment<'_>],
     opts: &SubspaceOptions,
+    systems: &[SystemEstimate],
     cap: usize,
     only: Option<usize>,
-) -> Result<(Option<OperatingPoint>, Vec<Option<StateSpace>>)> {
+) -> Result<(Option<OperatingPoint>, Vec<Vec<Option<StateSpace>>>)> {
     validate_on(experiments, thread_count(opts.threads))?;
     let (op, owned) = if opts.remove_means {
         let (op, c) = remove_means(experiments)?;
@@ -475,14 +479,23 @@ pub(crate) fn models_of_orders(
     let records = records_of(&exps);
     let sub = subspace_of(&factor.l, layout, opts)?;
     let cap = cap.min(sub.s.len()).min((layout.future - 1) * ny);
-    let models = (1..=cap)
-        .map(|n| {
-            if only.is_some_and(|m| m != n) {
-                return None;
-            }
-            fit_order(&sub, n, opts, Some(&records), scale)
-                .ok()
-                .and_then(|f| StateSpace::new(f.a, f.b, f.c, f.d, Some(opts.ts)).ok())
+    let models = systems
+        .iter()
+        .map(|&system| {
+            let o = SubspaceOptions {
+                system,
+                ..opts.clone()
+            };
+            (1..=cap)
+                .map(|n| {
+                    if only.is_some_and(|m| m != n) {
+                        return None;
+                    }
+                    fit_order(&sub, n, &o, Some(&records), scale)
+                        .ok()
+                        .and_then(|f| StateSpace::new(f.a, f.b, f.c, f.d, Some(o.ts)).ok())
+                })
+                .collect()
         })
         .collect();
     Ok((op, models))

@@ -120,6 +120,11 @@ pub struct Candidate {
     /// the mean over outputs and records; a fold without a stable model
     /// counts as −100); `None` when no fold gave a stable model.
     pub fit: Option<f64>,
+    /// The fit of each held-out fold (percent, floored at −100 like the
+    /// mean; a fold without a stable model counts as −100), in fold order:
+    /// the spread behind the mean.
+    #[serde(default)]
+    pub fold_fits: Vec<f64>,
 }
 
 /// Result of [`select_structure`].
@@ -274,32 +279,36 @@ pub fn select_structure(
     let folds = fold_layout.split()?;
     let mut candidates = Vec::new();
     for &s in &horizons {
-        for &system in &systems {
-            let o = SubspaceOptions {
-                past: s,
-                future: s,
-                system,
-                order: OrderSelection::Fixed(1),
-                ..base.clone()
-            };
-            // fits[order index][fold]
-            let mut fits: Vec<Vec<Option<f64>>> = vec![Vec::new(); orders.len()];
-            for (est, held) in &folds {
-                // Pieces too short for the horizon are left out (they
-                // add no Hankel column).
-                let exps = usable(est, s);
-                let (op, models) =
-                    models_of_orders(&exps, &o, cap, fixed).unwrap_or((None, Vec::new()));
-                let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
-                    held.iter().map(|(u, y)| (u, y)).collect();
+        let o = SubspaceOptions {
+            past: s,
+            future: s,
+            order: OrderSelection::Fixed(1),
+            ..base.clone()
+        };
+        // fits[route index][order index][fold]: one compression and SVD
+        // per fold serve every route.
+        let mut fits: Vec<Vec<Vec<Option<f64>>>> =
+            vec![vec![Vec::new(); orders.len()]; systems.len()];
+        for (est, held) in &folds {
+            // Pieces too short for the horizon are left out (they add no
+            // Hankel column).
+            let exps = usable(est, s);
+            let (op, models) =
+                models_of_orders(&exps, &o, &systems, cap, fixed).unwrap_or((None, Vec::new()));
+            let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+                held.iter().map(|(u, y)| (u, y)).collect();
+            for (r, route) in fits.iter_mut().enumerate() {
                 for (i, &n) in orders.iter().enumerate() {
                     let fit = models
-                        .get(n - 1)
+                        .get(r)
+                        .and_then(|m| m.get(n - 1))
                         .and_then(Option::as_ref)
                         .and_then(|m| held_out_fit(m, op.as_ref(), &held));
-                    fits[i].push(fit);
+                    route[i].push(fit);
                 }
             }
+        }
+        for (&system, fits) in systems.iter().zip(&fits) {
             for (i, &n) in orders.iter().enumerate() {
                 let any = fits[i].iter().any(Option::is_some);
                 let mean = fits[i].iter().map(|&f| floored(f)).sum::<f64>()
@@ -309,6 +318,7 @@ pub fn select_structure(
                     system,
                     order: n,
                     fit: any.then_some(mean),
+                    fold_fits: fits[i].iter().map(|&f| floored(f)).collect(),
                 });
             }
         }
@@ -430,6 +440,37 @@ mod tests {
         assert!(sel.fit > 90.0, "{sel:?}");
         // Every (horizon, route, order) candidate is scored.
         assert_eq!(sel.candidates.len(), 2 * 2 * 6);
+        // Each score is the mean of its six held-out blocks' fits, which
+        // are reported (the spread behind the mean).
+        for c in &sel.candidates {
+            assert_eq!(c.fold_fits.len(), 6, "{c:?}");
+            if let Some(fit) = c.fit {
+                let mean = c.fold_fits.iter().sum::<f64>() / 6.0;
+                approx::assert_relative_eq!(fit, mean, epsilon = 1e-9);
+            }
+        }
+        // The routes share one compression per fold: the scores are those
+        // of separate selections restricted to one route.
+        for system in [
+            SystemEstimate::ShiftInvariance,
+            SystemEstimate::StateSequence,
+        ] {
+            let one = select_structure(
+                &exps,
+                &base(),
+                &StructureOptions {
+                    systems: vec![system],
+                    ..opts.clone()
+                },
+            )
+            .unwrap();
+            let shared: Vec<&Candidate> = sel
+                .candidates
+                .iter()
+                .filter(|c| c.system == system)
+                .collect();
+            assert_eq!(one.candidates.iter().collect::<Vec<_>>(), shared);
+        }
     }
 
     #[test]

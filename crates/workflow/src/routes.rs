@@ -385,7 +385,7 @@ fn select(
         .iter()
         .map(|c| {
             json!({"horizon": c.horizon, "system": system_name(c.system),
-                   "order": c.order, "fit": c.fit})
+                   "order": c.order, "fit": c.fit, "fold_fits": c.fold_fits})
         })
         .collect();
     let mut tried = Vec::new();
