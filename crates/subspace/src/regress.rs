@@ -849,9 +849,19 @@ pub(crate) fn estimate_x0(
         let mut x = DVector::zeros(n);
         let mut cat = c.clone();
         let c_norm = c.norm();
+        // Work vectors, reused every sample (the products are the same
+        // gemm calls as `&c * &x` etc., so the result is unchanged).
+        let nu = rec.u.ncols();
+        let mut ut = DVector::zeros(nu);
+        let (mut cx, mut du) = (DVector::zeros(ny), DVector::zeros(ny));
+        let (mut ax, mut bu) = (DVector::zeros(n), DVector::zeros(n));
+        let mut cat_next = DMatrix::zeros(ny, n);
         for t in 0..rec.u.nrows() {
-            let ut = rec.u.row(t).transpose() * iu;
-            let yh = &c * &x + &d * &ut;
+            for j in 0..nu {
+                ut[j] = rec.u[(t, j)] * iu;
+            }
+            cx.gemm(1.0, &c, &x, 0.0);
+            du.gemm(1.0, &d, &ut, 0.0);
             for o in 0..ny {
                 let yv = rec.y[(t, o)] * iy;
                 if yv.is_nan() {
@@ -860,15 +870,20 @@ pub(crate) fn estimate_x0(
                 for s in 0..n {
                     block[(used, s)] = cat[(o, s)];
                 }
-                block[(used, n)] = yv - yh[o];
+                block[(used, n)] = yv - (cx[o] + du[o]);
                 used += 1;
                 if used == BLOCK {
                     acc.push_rows(&block)?;
                     used = 0;
                 }
             }
-            x = a * x + &b * ut;
-            cat = &cat * a;
+            ax.gemm(1.0, a, &x, 0.0);
+            bu.gemm(1.0, &b, &ut, 0.0);
+            for s in 0..n {
+                x[s] = ax[s] + bu[s];
+            }
+            cat_next.gemm(1.0, &cat, a, 0.0);
+            std::mem::swap(&mut cat, &mut cat_next);
             // Rows with C Aᵗ = 0 carry no information on x₀ (they only add to
             // the residual norm, which is not used): stop once C Aᵗ is below
             // rounding level, O(log ε / log ρ(A)) samples instead of N. For
