@@ -621,6 +621,9 @@ const HELD_OUT_SPAN: f64 = 100.0;
 fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
     let sel = diag.get("structure_selection")?;
     let mut best: std::collections::BTreeMap<u64, f64> = Default::default();
+    // The standard error over the held-out blocks of each order's best
+    // structure (when its per-block fits are reported).
+    let mut spread: std::collections::BTreeMap<u64, f64> = Default::default();
     for c in sel.get("candidates")?.as_array()? {
         let (Some(n), Some(f)) = (
             c.get("order").and_then(serde_json::Value::as_u64),
@@ -629,7 +632,22 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
             continue;
         };
         let e = best.entry(n).or_insert(f64::NEG_INFINITY);
-        *e = e.max(f);
+        if f > *e {
+            *e = f;
+            match c
+                .get("fold_fits")
+                .and_then(serde_json::Value::as_array)
+                .map(|v| {
+                    v.iter()
+                        .filter_map(serde_json::Value::as_f64)
+                        .collect::<Vec<f64>>()
+                })
+                .and_then(|v| standard_error(&v))
+            {
+                Some(se) => spread.insert(n, se),
+                None => spread.remove(&n),
+            };
+        }
     }
     if best.is_empty() {
         return None;
@@ -670,6 +688,30 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
         .collect();
     let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+    if !spread.is_empty() {
+        // Vertical bars mean ± one standard error, one polyline broken by
+        // NaN; kept within the span the frame shows.
+        let floor = hi - HELD_OUT_SPAN;
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for (&n, &se) in &spread {
+            let m = best[&n];
+            if m < floor {
+                continue;
+            }
+            x.extend([n as f64, n as f64, f64::NAN]);
+            y.extend([(m - se).max(floor), m + se, f64::NAN]);
+        }
+        notes.push(
+            "bars: ± one standard error of the mean over the held-out blocks (orders whose bars overlap are not told apart by the data)"
+                .to_string(),
+        );
+        series.push(Series {
+            name: "± one standard error over the blocks".into(),
+            x,
+            y,
+            marker: Marker::Line,
+        });
+    }
     let mut plot = Plot {
         title: "Held-out simulation fit per order".into(),
         x_label: "order n".into(),
@@ -694,6 +736,18 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
             .push(format!("below the frame: {}", below.join(", ")));
     }
     Some(plot)
+}
+
+/// The standard error of the mean of `v` (sample standard deviation over
+/// √len); `None` for fewer than two values.
+fn standard_error(v: &[f64]) -> Option<f64> {
+    if v.len() < 2 {
+        return None;
+    }
+    let k = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / k;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    Some((var / k).sqrt())
 }
 
 /// One plot of the series of several, each series' name prefixed with
@@ -881,6 +935,28 @@ mod tests {
         let [_, _, y0, y1] = p.frame.unwrap();
         assert!(y0 > -100.0 && y0 < 60.0 && y1 > 85.0, "{y0} … {y1}");
         assert!(p.notes[1].contains("order 3: -100.0"), "{:?}", p.notes);
+        // No per-block fits: no bars.
+        assert_eq!(p.series.len(), 2);
+    }
+
+    #[test]
+    fn the_held_out_curve_carries_the_blocks_standard_error() {
+        // Order 1's better structure has blocks 58, 62 (mean 60, SE 2);
+        // order 2 blocks 70, 90 (mean 80, SE 10).
+        let d = serde_json::json!({"structure_selection": {"order": 2,
+            "candidates": [
+                {"order": 1, "horizon": 5, "fit": 50.0, "fold_fits": [40.0, 60.0]},
+                {"order": 1, "horizon": 10, "fit": 60.0, "fold_fits": [58.0, 62.0]},
+                {"order": 2, "horizon": 5, "fit": 80.0, "fold_fits": [70.0, 90.0]}]},
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
+        let p = super::criterion_plot(&d).unwrap();
+        let bars = p.series.last().unwrap();
+        assert_eq!(bars.marker, Marker::Line);
+        assert_eq!(bars.x[..2], [1.0, 1.0]);
+        assert_eq!(bars.y[..2], [58.0, 62.0]);
+        assert!(bars.y[2].is_nan());
+        assert_eq!(bars.y[3..5], [70.0, 90.0]);
+        assert!(p.notes.iter().any(|n| n.contains("standard error")));
     }
 
     #[test]
