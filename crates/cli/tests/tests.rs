@@ -591,6 +591,31 @@ mod identification {
             "fast model at the base period"
         );
         assert_eq!(f.diagnostics["output_periods"][0], 3);
+
+        // A logger that stops between slow samples: 3002 rows, the output
+        // every 3 (its last sample at row 3000). The record is read as it is
+        // (it used to be refused: "period 3 does not divide 3002 rows"), the
+        // lifting drops the incomplete last frame, validation uses every row.
+        let data = p(&d, "mr_odd.csv");
+        simulate(&data, rbs(3002, 5), 3, 1000.0, 4);
+        let out = p(&d, "mr_odd.json");
+        ok(&[
+            "identify",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--order",
+            "2",
+            "--out",
+            &out,
+        ]);
+        let f = check_model(&out, 0.03);
+        assert_eq!(f.diagnostics["output_periods"][0], 3);
+        let v = ok(&["validate", "--model", &out, "--data", &data]);
+        assert!(v.contains("1001"), "1001 slow samples validated: {v}");
     }
 }
 
@@ -1922,19 +1947,6 @@ mod bad_input {
         let f = write(&d, "header_only.csv", "t,u1,y1\n");
         let e = identify(&f, &[]);
         assert!(e.contains("no data rows"), "{e}");
-
-        // 10 rows, output sampled every 3: 3 does not divide 10
-        let mut text = String::from("t,u1,y1\n");
-        for k in 0..10 {
-            let y = if k % 3 == 0 { "1.5" } else { "" };
-            text += &format!("{},{},{y}\n", k as f64 * 0.1, (k % 2) as f64);
-        }
-        let f = write(&d, "period.csv", &text);
-        let e = identify(&f, &["--output-period", "y1=3"]);
-        assert!(
-            e.contains("period.csv") && e.contains("does not divide"),
-            "{e}"
-        );
 
         // order above what the horizon allows
         let (id, _) = single_rate_data(&d);

@@ -210,11 +210,6 @@ pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
         let col = &mut cols[n_in + o];
         let declared = spec.periods.iter().find(|(n, _)| n == name).map(|p| p.1);
         let (period, offset) = sampling(path, name, col, declared, is_npy(path))?;
-        if rows % period != 0 {
-            return Err(input(format!(
-                "{path}: output '{name}' has period {period}, which does not divide the record length {rows} rows (trim the file to a multiple of {period} rows)"
-            )));
-        }
         outputs.push(OutputChannel::new(name.clone(), period, offset));
     }
     let hold = spec.hold.max(1);
