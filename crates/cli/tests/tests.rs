@@ -1948,6 +1948,22 @@ mod bad_input {
         let e = identify(&f, &[]);
         assert!(e.contains("no data rows"), "{e}");
 
+        // An output first sampled two periods after the start (an analyser
+        // started late): the message says where and what to cut.
+        let mut text = String::from("t,u1,y1\n");
+        for k in 0..30 {
+            let y = if k >= 7 && k % 3 == 1 { "1.5" } else { "" };
+            text += &format!("{},{},{y}\n", k as f64 * 0.1, (k % 2) as f64);
+        }
+        let f = write(&d, "late.csv", &text);
+        let e = identify(&f, &[]);
+        assert!(
+            e.contains("late.csv")
+                && e.contains("first sample is missing")
+                && e.contains("cut the rows before line 9"),
+            "{e}"
+        );
+
         // order above what the horizon allows
         let (id, _) = single_rate_data(&d);
         let e = identify(&id, &["--order", "50", "--horizon", "4"]);

@@ -270,8 +270,10 @@ fn sampling(
     };
     if first >= period {
         return Err(input(format!(
-            "{path}: {}, column '{name}': first sample is missing (period {period})",
-            at(first - 1)
+            "{path}: {}, column '{name}': first sample is missing (period {period}): the column's first value is at {}, {first} rows after the start; an output must be sampled within its first period (an analyser started after the logger?): cut the rows before {}",
+            at(first - 1),
+            at(first),
+            at(first)
         )));
     }
     for (k, v) in col.iter().enumerate() {
