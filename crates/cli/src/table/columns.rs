@@ -101,21 +101,41 @@ pub(super) fn column_indices(
     wanted
         .iter()
         .map(|name| {
-            header.iter().position(|h| h == *name).ok_or_else(|| {
-                input(format!(
-                    "{}: header has no column '{}' (columns: {})",
-                    shown(path),
-                    shown(name),
-                    shown_list(header)
-                ))
-            })
+            // The exact name, else a header cell `name [unit]` (the form
+            // lifted's own CSV files write units in).
+            let exact = header.iter().position(|h| h == *name);
+            exact
+                .or_else(|| header.iter().position(|h| bare_name(h) == name.as_str()))
+                .ok_or_else(|| {
+                    input(format!(
+                        "{}: header has no column '{}' (columns: {})",
+                        shown(path),
+                        shown(name),
+                        shown_list(header)
+                    ))
+                })
         })
         .collect()
 }
 
-/// The index of the time column `t`/`time` (any case) of a header.
+/// The index of the time column `t`/`time` (any case, with or without a
+/// unit: `t [s]`) of a header.
 pub(crate) fn time_column(header: &[String]) -> Option<usize> {
-    header
-        .iter()
-        .position(|h| h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time"))
+    header.iter().position(|h| {
+        let h = bare_name(h);
+        h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time")
+    })
+}
+
+/// A header cell without a trailing unit in brackets: `y1 [degC]` → `y1`
+/// (the cell itself when it has none).
+pub(crate) fn bare_name(h: &str) -> &str {
+    match h
+        .trim_end()
+        .strip_suffix(']')
+        .and_then(|r| r.rsplit_once(" ["))
+    {
+        Some((name, _)) if !name.trim().is_empty() => name.trim_end(),
+        _ => h,
+    }
 }

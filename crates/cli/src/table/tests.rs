@@ -581,6 +581,26 @@ fn quotes_blank_lines_and_crlf() {
     assert_eq!(v[2], [1e5, 3.0]);
 }
 
+#[test]
+fn header_units_are_not_part_of_the_name() {
+    use super::columns::bare_name;
+    // lifted writes `name [unit]` headers; `--inputs u1` selects them, and
+    // `t [s]` is the time column (its 0.5 s spacing is the base period).
+    let text = "t [s],u1 [V],y1 [degC]\n0,1,2\n0.5,3,4\n";
+    let path = file("units.csv", text.as_bytes());
+    let (rows, ts, seen) = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap();
+    assert_eq!((rows, f64::from_bits(ts)), (2, 0.5));
+    assert_eq!(seen[1], [3.0f64.to_bits(), 4.0f64.to_bits()]);
+    // The exact name wins over a bare one; names without a unit stay.
+    assert_eq!(bare_name("y1 [degC]"), "y1");
+    assert_eq!(bare_name("flow [m3/h] "), "flow");
+    assert_eq!(bare_name("[x]"), "[x]");
+    assert_eq!(bare_name("y[1]"), "y[1]");
+    let header: Vec<String> = ["y1 [V]", "y1"].iter().map(|s| s.to_string()).collect();
+    let y1 = "y1".to_string();
+    assert_eq!(column_indices("F", &header, &[&y1]).unwrap(), [1]);
+}
+
 thread_local! {
     /// Rows the parallel reader has read with its sequential reader on
     /// this thread (the others came from blocks).
