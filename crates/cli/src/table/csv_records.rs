@@ -227,12 +227,95 @@ impl std::io::Read for FileAt<'_> {
 }
 
 /// Opens a CSV file and reads its header row (which must name the columns,
-/// not hold numbers).
-pub(super) fn open_csv(path: &str, block: usize) -> CliResult<(CsvReader<File>, Vec<String>)> {
+/// not hold numbers). A file separated by `;` or tabs is read through
+/// [`Mapped`] (see [`separator`]).
+pub(super) fn open_csv(
+    path: &str,
+    block: usize,
+) -> CliResult<(CsvReader<Mapped<File>>, Vec<String>)> {
+    let sep = separator(path)?;
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
-    let mut rd = CsvReader::new(file, block);
+    let mut rd = CsvReader::new(Mapped::new(file, sep), block);
     let header = read_header(path, &mut rd)?;
     Ok((rd, header))
+}
+
+/// The separator of a CSV file whose header row has no comma but has `;`
+/// or a tab (`;` first): the exports of spreadsheets set to a decimal
+/// comma (`t;u1;y1` / `0,5;1,25;…`) and of loggers writing tab-separated
+/// text. `None`: commas (the default, and the fast path's), and any file
+/// that is not a regular file (a pipe is read once). Reads the first
+/// 64 KiB at most.
+pub(super) fn separator(path: &str) -> CliResult<Option<u8>> {
+    use std::io::Read;
+    let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
+    // A pipe cannot be read twice: commas.
+    if !file.metadata().is_ok_and(|m| m.is_file()) {
+        return Ok(None);
+    }
+    let mut head = Vec::with_capacity(1 << 16);
+    file.take(1 << 16)
+        .read_to_end(&mut head)
+        .ctx(format!("cannot read data file {path}"))?;
+    let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);
+    // The header: the first line with anything but blanks.
+    let Some(line) = text
+        .split(|&b| b == b'\n')
+        .find(|l| l.iter().any(|b| !b.is_ascii_whitespace()))
+    else {
+        return Ok(None);
+    };
+    let (mut quoted, mut commas, mut semis, mut tabs) = (false, 0, 0, 0);
+    for &b in line {
+        match b {
+            b'"' => quoted = !quoted,
+            b',' if !quoted => commas += 1,
+            b';' if !quoted => semis += 1,
+            b'\t' if !quoted => tabs += 1,
+            _ => {}
+        }
+    }
+    Ok(match (commas, semis, tabs) {
+        (0, s, _) if s > 0 => Some(b';'),
+        (0, 0, t) if t > 0 => Some(b'\t'),
+        _ => None,
+    })
+}
+
+/// A reader that maps the bytes of a `;`- or tab-separated file to the
+/// comma-separated form the readers parse: the separator becomes `,` and
+/// a comma (in such files a decimal comma) becomes `.`. One byte for one,
+/// so offsets and line numbers are those of the file. `None`: unchanged.
+pub(super) struct Mapped<R> {
+    inner: R,
+    table: Option<Box<[u8; 256]>>,
+}
+
+impl<R> Mapped<R> {
+    pub(super) fn new(inner: R, separator: Option<u8>) -> Self {
+        let table = separator.map(|sep| {
+            let mut t = Box::new([0u8; 256]);
+            for (i, v) in t.iter_mut().enumerate() {
+                *v = i as u8;
+            }
+            t[usize::from(b',')] = b'.';
+            t[usize::from(sep)] = b',';
+            t
+        });
+        Mapped { inner, table }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for Mapped<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(out)?;
+        if let Some(t) = &self.table {
+            for b in &mut out[..n] {
+                *b = t[usize::from(*b)];
+            }
+        }
+        Ok(n)
+    }
 }
 
 /// Reads the header row of a CSV file at the start of `rd`.

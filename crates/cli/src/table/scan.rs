@@ -155,8 +155,17 @@ pub(super) fn scan_csv(
         visit,
     };
     let wants_time = sink.check.wants_time();
+    // A `;`- or tab-separated file: read sequentially through the byte map
+    // (the parallel blocks read the file's own bytes).
+    let sep = separator(path)?;
     // Blocks are read at offsets: a regular file only.
-    let has_time = if mode.fast && threads >= 2 && regular {
+    let has_time = if sep.is_some() {
+        let mut rd = CsvReader::new(Mapped::new(&file, sep), mode.block);
+        let header = read_header(path, &mut rd)?;
+        let lay = Layout::new(path, header, wanted, may_be_empty, wants_time)?;
+        scan_sequential(&mut rd, &lay, mode.fast, &mut sink)?;
+        lay.time_col.is_some()
+    } else if mode.fast && threads >= 2 && regular {
         // A small buffer: it holds the start of the first block, and the
         // lines the fast path does not take.
         let mut rd = CsvReader::new(FileAt { file: &file, at: 0 }, mode.block.min(1 << 16));

@@ -601,6 +601,48 @@ fn header_units_are_not_part_of_the_name() {
     assert_eq!(column_indices("F", &header, &[&y1]).unwrap(), [1]);
 }
 
+#[test]
+fn semicolon_and_tab_separated_files_read_as_the_comma_file() {
+    // A spreadsheet export with decimal commas, a tab-separated logger
+    // file and the comma file: the same rows, period and messages (line
+    // numbers of the file itself).
+    let comma = "t,u1,y1\n0,1.5,\n0.25,-2,3.75\n0.5,1e3,4\n";
+    let semi = "\u{feff}t;u1;y1\r\n0;1,5;\r\n0,25;-2;3,75\r\n0,5;1e3;4\r\n";
+    let tab = "t\tu1\ty1\n0\t1.5\t\n0.25\t-2\t3.75\n0.5\t1e3\t4\n";
+    let want = run(
+        &file("c.csv", comma.as_bytes()),
+        &["u1", "y1"],
+        1..2,
+        None,
+        None,
+    )
+    .unwrap();
+    for (name, text) in [("s.csv", semi), ("tab.csv", tab)] {
+        let path = file(name, text.as_bytes());
+        assert!(separator(&path).unwrap().is_some(), "{name}");
+        for mode in [
+            Some(Mode::default()),
+            Some(sequential()),
+            Some(parallel(2, 8)),
+        ] {
+            assert_eq!(
+                run(&path, &["u1", "y1"], 1..2, None, mode).unwrap(),
+                want,
+                "{name}"
+            );
+        }
+    }
+    let path = file("c2.csv", comma.as_bytes());
+    assert_eq!(separator(&path).unwrap(), None);
+    // A bad cell is located in the file as it is.
+    let path = file("s_bad.csv", "t;u1;y1\n0;1;2\n1;x;3\n".as_bytes());
+    let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
+    assert_eq!(
+        e.replace(&path, "F"),
+        "F: line 3, column 'u1': cannot parse 'x' as a number"
+    );
+}
+
 thread_local! {
     /// Rows the parallel reader has read with its sequential reader on
     /// this thread (the others came from blocks).
