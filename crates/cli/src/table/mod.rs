@@ -34,6 +34,7 @@ mod rows;
 mod scan;
 #[cfg(test)]
 mod tests;
+mod timestamps;
 
 use std::fmt::Display;
 use std::fs::File;

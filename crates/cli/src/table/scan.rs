@@ -59,6 +59,8 @@ pub(super) struct Layout<'a> {
     pub(super) from: Vec<usize>,
     pub(super) time_slot: Option<usize>,
     pub(super) needed: usize,
+    /// The first time stamp when the time column holds dates and times.
+    pub(super) epoch: super::timestamps::Epoch,
 }
 
 impl<'a> Layout<'a> {
@@ -104,6 +106,7 @@ impl<'a> Layout<'a> {
             from,
             time_slot,
             needed,
+            epoch: Default::default(),
         })
     }
 }
@@ -241,9 +244,30 @@ pub(super) fn read_one<R: std::io::Read>(
     }
     let mut t = f64::NAN;
     if let Some(tc) = lay.read_time {
-        t = cell_value(path, line, &lay.header[tc], rd.field(tc), false)?;
+        t = time_value(lay, line, &lay.header[tc], rd.field(tc))?;
     }
     Ok(Step::Row(line, t))
+}
+
+/// The time column's cell of line `line`: seconds, or an ISO 8601 date and
+/// time read as seconds after the file's first stamp
+/// ([`super::timestamps`]); the messages of [`cell_value`] otherwise, a
+/// cell that is neither saying which forms are read. O(cell).
+fn time_value(lay: &Layout, line: u64, column: &str, cell: &[u8]) -> CliResult<f64> {
+    let path = lay.path;
+    cell_value(path, line, column, cell, false).or_else(|e| {
+        let text = std::str::from_utf8(cell).unwrap_or("").trim();
+        if text.is_empty() || text.parse::<f64>().is_ok() {
+            return Err(e);
+        }
+        match super::timestamps::epoch_nanos(text) {
+            Some(nanos) => Ok(lay.epoch.seconds(nanos)),
+            None => Err(input(format!(
+                "{path}: line {line}, column '{column}': cannot parse '{}' as a time (seconds, or an ISO 8601 date and time such as 2026-11-26T10:00:00.5)",
+                shown(text)
+            ))),
+        }
+    })
 }
 
 /// Reads the rows after the header on the calling thread, line by line.

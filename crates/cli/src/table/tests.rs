@@ -643,6 +643,42 @@ fn semicolon_and_tab_separated_files_read_as_the_comma_file() {
     );
 }
 
+#[test]
+fn iso_time_stamps_give_the_base_period() {
+    // A historian's export: stamps every 0.5 s across midnight, in every
+    // read mode the rows and T = 0.5 s of the file in seconds.
+    let secs = "t,u1,y1\n0,1,2\n0.5,3,4\n1,5,6\n1.5,7,8\n";
+    let want = run(
+        &file("secs.csv", secs.as_bytes()),
+        &["u1", "y1"],
+        1..2,
+        None,
+        None,
+    )
+    .unwrap();
+    let stamps = "time,u1,y1\n2026-11-26T23:59:59,1,2\n2026-11-26 23:59:59.5,3,4\n\
+                  2026-11-27T00:00:00Z,5,6\n2026-11-27T00:00:00.500,7,8\n";
+    let path = file("stamps.csv", stamps.as_bytes());
+    for mode in [
+        Some(Mode::default()),
+        Some(sequential()),
+        Some(parallel(2, 16)),
+    ] {
+        assert_eq!(run(&path, &["u1", "y1"], 1..2, None, mode).unwrap(), want);
+    }
+    // A stamp off the spacing, and a cell that is no time.
+    let jitter = stamps.replace("00:00:00Z", "00:00:00.2Z");
+    let path = file("jitter.csv", jitter.as_bytes());
+    let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
+    assert!(
+        e.contains("line 4, column 'time'") && e.contains("uniform spacing"),
+        "{e}"
+    );
+    let path = file("bad_time.csv", "t,u1,y1\n0,1,2\n1 s,3,4\n".as_bytes());
+    let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
+    assert!(e.contains("cannot parse '1 s' as a time"), "{e}");
+}
+
 thread_local! {
     /// Rows the parallel reader has read with its sequential reader on
     /// this thread (the others came from blocks).
