@@ -31,7 +31,10 @@
 //!
 //! Each output's residuals are divided by the standard deviation of its
 //! measured samples (units do not matter); the cost is V = ‖e‖²/M over the
-//! M measured samples.
+//! M measured samples. The iterations themselves run on the outputs so
+//! divided (the rows of C and D and the columns of K scaled to match, and
+//! scaled back at the end), so that their absolute step and gradient
+//! tolerances mean the same in any output units.
 //!
 //! **Variable projection** ([`PemMethod::VariableProjection`], the
 //! default; Golub & Pereyra 1973, 2003; Kaufman 1975). In predictor form
@@ -398,6 +401,14 @@ pub struct PemFit {
     pub report: PemReport,
 }
 
+/// `set` with the outputs `ys` (one per record, in order).
+fn with_outputs<'a>(set: &[Record<'a>], ys: &'a [DMatrix<f64>]) -> Vec<Record<'a>> {
+    set.iter()
+        .zip(ys)
+        .map(|(r, y)| Record { y, ..*r })
+        .collect()
+}
+
 fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
     if records.is_empty() {
         return Err(Error::NoData);
@@ -476,6 +487,38 @@ pub fn refine_pem(
         check_records(initial, validation)?;
     }
     let (n, nu, ny) = (initial.order(), initial.n_inputs(), initial.n_outputs());
+    // The iterations run on outputs divided by their standard deviations
+    // (C, D rows and K columns scaled to match, undone at the end): the
+    // step and gradient tolerances are absolute, and outputs in small units
+    // (1e-6: a record in metres of a micrometre motion) stopped the
+    // iterations where the same record in micrometres converged.
+    let out_scale: Vec<f64> = output_weights(records, ny)
+        .iter()
+        .map(|w| {
+            if w.is_finite() && *w > 0.0 {
+                1.0 / w
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let scaled_y = |set: &[Record<'_>]| -> Vec<DMatrix<f64>> {
+        set.iter()
+            .map(|r| {
+                let mut y = r.y.clone();
+                for (o, s) in out_scale.iter().enumerate() {
+                    y.column_mut(o).iter_mut().for_each(|v| *v /= s);
+                }
+                y
+            })
+            .collect()
+    };
+    let (y_est, y_val) = (scaled_y(records), scaled_y(validation));
+    let (records, validation) = (
+        with_outputs(records, &y_est),
+        with_outputs(validation, &y_val),
+    );
+    let (records, validation) = (records.as_slice(), validation.as_slice());
     let gain = opts.cost == PemCost::Prediction;
     let method = effective_method(opts, records);
     let mask = opts.feedthrough.mask(ny, nu)?;
@@ -564,10 +607,16 @@ pub fn refine_pem(
             }
         }
     }
+    let (mut c0, mut k0) = (initial.c().clone(), k0);
+    for (o, s) in out_scale.iter().enumerate() {
+        c0.row_mut(o).iter_mut().for_each(|v| *v /= s);
+        d0.row_mut(o).iter_mut().for_each(|v| *v /= s);
+        k0.column_mut(o).iter_mut().for_each(|v| *v *= s);
+    }
     let mut start = Point {
         a: initial.a().clone(),
         b: initial.b().clone(),
-        c: initial.c().clone(),
+        c: c0,
         d: d0,
         k: k0,
         x0: Vec::new(),
@@ -680,11 +729,17 @@ pub fn refine_pem(
         residuals(&sim, judged_on, &w, false, count).map_or(f64::INFINITY, |v| mean_square(&v))
     };
     let (j0, j1) = (judge(&start), judge(&point));
-    let (best, kept) = if j1 <= j0 || opts.keep_refined {
+    let (mut best, kept) = if j1 <= j0 || opts.keep_refined {
         (point, Kept::Refined)
     } else {
         (start, Kept::Initial)
     };
+    // Back to the outputs' units.
+    for (o, s) in out_scale.iter().enumerate() {
+        best.c.row_mut(o).iter_mut().for_each(|v| *v *= s);
+        best.d.row_mut(o).iter_mut().for_each(|v| *v *= s);
+        best.k.column_mut(o).iter_mut().for_each(|v| *v /= s);
+    }
     let model = StateSpace::new(best.a, best.b, best.c, best.d, Some(ts))?;
     Ok(PemFit {
         model,

@@ -89,6 +89,56 @@ fn a_similarity_transform_of_the_start_gives_the_same_model() {
 }
 
 #[test]
+fn output_units_do_not_change_the_refinement() {
+    // The same record with its outputs in units 1e6 times larger (metres
+    // for a micrometre motion): the same cost path and the same model up to
+    // the units. The iterations used to stop at the start there (1 step of
+    // 23 accepted on a first-order record, cost unchanged).
+    let (g, u, y) = plant_and_data(3000, 9);
+    let start = perturbed(&g, 0.05);
+    let small_y = &y * 1e-6;
+    let small_start = StateSpace::new(
+        start.a().clone(),
+        start.b().clone(),
+        start.c() * 1e-6,
+        start.d() * 1e-6,
+        Some(1.0),
+    )
+    .unwrap();
+    for cost in [PemCost::OutputError, PemCost::Prediction] {
+        let rec = [Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        }];
+        let small = [Record {
+            u: &u,
+            y: &small_y,
+            instrument: None,
+        }];
+        let a = refine_pem(&start, None, &rec, &[], &opts(cost)).unwrap();
+        let b = refine_pem(&small_start, None, &small, &[], &opts(cost)).unwrap();
+        assert_eq!(a.report.kept, Kept::Refined, "{cost:?}");
+        assert_eq!(b.report.kept, Kept::Refined, "{cost:?}");
+        approx::assert_relative_eq!(
+            a.report.final_cost,
+            b.report.final_cost,
+            max_relative = 1e-8
+        );
+        let back = StateSpace::new(
+            b.model.a().clone(),
+            b.model.b().clone(),
+            b.model.c() * 1e6,
+            b.model.d() * 1e6,
+            Some(1.0),
+        )
+        .unwrap();
+        let d = freq_error(&a.model, &back);
+        assert!(d < 1e-6, "{cost:?}: models differ by {d}");
+    }
+}
+
+#[test]
 fn multirate_records_use_the_measured_samples_only() {
     let (g, u, mut y) = plant_and_data(5000, 7);
     for t in 0..y.nrows() {
