@@ -2880,7 +2880,35 @@ mod trust {
             order: OrderSelection::Fixed(3),
             ..Default::default()
         };
-        let mem = identify(&[Experiment { u: &u, y: &y }], &opts).unwrap();
+        // The workflow identifies on channels divided by their standard
+        // deviations (over the first 1e4 rows: all 6000 here) and brings the
+        // model back to the data's units; the library is given the same.
+        let sd = |m: &DMatrix<f64>| -> Vec<f64> {
+            (0..m.ncols())
+                .map(|c| {
+                    let col = m.column(c);
+                    let mean = col.mean();
+                    (col.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / col.len() as f64).sqrt()
+                })
+                .collect()
+        };
+        let (su, sy) = (sd(&u), sd(&y));
+        let us = DMatrix::from_fn(u.nrows(), 2, |k, j| u[(k, j)] / su[j]);
+        let ys = DMatrix::from_fn(y.nrows(), 2, |k, j| y[(k, j)] / sy[j]);
+        let mut mem = identify(&[Experiment { u: &us, y: &ys }], &opts).unwrap();
+        let m = &mem.model;
+        mem.model = StateSpace::new(
+            m.a().clone(),
+            DMatrix::from_fn(3, 2, |i, j| m.b()[(i, j)] / su[j]),
+            DMatrix::from_fn(2, 3, |i, j| m.c()[(i, j)] * sy[i]),
+            DMatrix::from_fn(2, 2, |i, j| m.d()[(i, j)] * sy[i] / su[j]),
+            m.ts(),
+        )
+        .unwrap();
+        if let Some(op) = mem.operating_point.as_mut() {
+            op.u0.iter_mut().zip(&su).for_each(|(v, s)| *v *= s);
+            op.y0.iter_mut().zip(&sy).for_each(|(v, s)| *v *= s);
+        }
         // The same model: Markov parameters (D, CB, CAB, …) and poles to
         // 1e-10 (compared as invariants: the state basis may differ by a
         // diagonal scaling where the data scales do).

@@ -367,19 +367,44 @@ const X0_BLOCK: usize = 256;
 
 /// The least-squares x₀ of the free response C Aᵏ x₀ against the residual
 /// of the zero-state simulation `sim` (plant units) at every measured
-/// sample of `data`, by an R-only QR of [C Aᵏ | y − ŷ] accumulated over the
-/// samples until C Aᵏ has decayed (the later rows add nothing on x₀) and the
+/// sample of `data`, each output's rows divided by its standard deviation
+/// (as the fit is: the x₀ does not depend on the outputs' units, and an
+/// output logged in large units does not take the whole fit), by an
+/// R-only QR of [W C Aᵏ | W (y − ŷ)] accumulated over the samples until
+/// W C Aᵏ has decayed (the later rows add nothing on x₀) and the
 /// minimum-norm least-squares solution on R (an unobservable direction gets
 /// 0). O(K n_y n²).
 fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<DVector<f64>> {
     let (n, ny) = (m.order(), m.n_outputs());
     let y = data.y();
-    let scale = m.c().amax();
+    // W: 1 / the standard deviation of each output's measured samples.
+    let weights: Vec<f64> = (0..ny)
+        .map(|o| {
+            let vals: Vec<f64> = y
+                .column(o)
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .collect();
+            let k = vals.len().max(1) as f64;
+            let mean = vals.iter().sum::<f64>() / k;
+            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / k).sqrt();
+            if sd.is_finite() && sd > 0.0 {
+                1.0 / sd
+            } else {
+                1.0
+            }
+        })
+        .collect();
     let mut acc = lifted_linalg::RAccumulator::new(n + 1);
     let mut block = DMatrix::zeros(X0_BLOCK, n + 1);
     let mut used = 0;
-    // C Aᵏ and the next one in two buffers (no allocation per sample).
+    // W C Aᵏ and the next one in two buffers (no allocation per sample).
     let mut ca = m.c().clone_owned();
+    for (o, w) in weights.iter().enumerate() {
+        ca.row_mut(o).iter_mut().for_each(|v| *v *= w);
+    }
+    let scale = ca.amax();
     let mut next = ca.clone();
     for k in 0..y.nrows() {
         if ca.amax() <= DECAYED * scale {
@@ -390,7 +415,7 @@ fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<D
             if !v.is_finite() {
                 continue;
             }
-            let r = v - sim[(k, o)];
+            let r = (v - sim[(k, o)]) * weights[o];
             if !r.is_finite() {
                 continue;
             }
@@ -560,6 +585,43 @@ mod tests {
             // The transient 3·0.98ᵏ against a forced response of about
             // ±0.1/(1 − 0.98) = ±5 at most: tens of points lost.
             assert!(v0.outputs[0].fit < 80.0, "{}", v0.outputs[0].fit);
+        }
+    }
+
+    #[test]
+    fn the_fits_do_not_depend_on_the_outputs_units() {
+        // One slow state seen by two outputs, a model whose second output
+        // gain is wrong (so x₀ is a compromise between the outputs), on a
+        // record from x(0) = 4; then the same with output 2 in units 1e6
+        // times larger: the same fits. Unweighted, the x₀ followed the
+        // large output alone and output 1's fit changed.
+        let model = |c2: f64, scale: f64| {
+            StateSpace::new(
+                DMatrix::from_element(1, 1, 0.98),
+                DMatrix::from_element(1, 1, 0.05),
+                DMatrix::from_row_slice(2, 1, &[1.0, c2 * scale]),
+                DMatrix::zeros(2, 1),
+                Some(1.0),
+            )
+            .unwrap()
+        };
+        let n = 400;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+        let x0 = DVector::from_element(1, 4.0);
+        let fits = |scale: f64| {
+            let y = model(-0.4, scale).lsim(&u, Some(&x0), None).unwrap().y;
+            let d = Dataset::single_rate(1.0, u.clone(), y).unwrap();
+            let v = validate(&model(-0.8, scale), &d, &ValidationOptions::default()).unwrap();
+            [v.outputs[0].fit, v.outputs[1].fit]
+        };
+        let (f1, f2) = (fits(1.0), fits(1e6));
+        for k in 0..2 {
+            assert!(
+                (f1[k] - f2[k]).abs() < 1e-6,
+                "output {k}: {} vs {}",
+                f1[k],
+                f2[k]
+            );
         }
     }
 

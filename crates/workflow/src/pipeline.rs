@@ -9,7 +9,7 @@ use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
 use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
-use crate::preprocess::{detrend_sets, deviations};
+use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
 use crate::validate::{finish_file, require_stable};
@@ -176,6 +176,15 @@ fn run(
     } else {
         detrend_sets(raw, opts.data.detrend)?
     };
+    // Single-rate routes (subspace, predictor-based, IV) identify on
+    // channels of unit standard deviation, so that the model does not
+    // depend on the units (preprocess::ChannelScales); the multirate and
+    // q-Markov routes take the records as they are (a PRBS amplitude and
+    // the lifted model are in the data's units).
+    let scales = (!multirate && id.method != Method::Qmarkov).then(|| ChannelScales::of(&sets));
+    if let Some(sc) = &scales {
+        sets = sets.iter().map(|d| sc.apply(d)).collect::<Result<_>>()?;
+    }
     let ts = sets[0].ts();
     // The records and options of a single-rate subspace identification, for
     // the held-out check of its refinement.
@@ -248,6 +257,18 @@ fn run(
     });
     let (model, mut diagnostics) =
         refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
+    // Back to the data's units (an operating point from the detrending is
+    // in them already; one from inside the identification is not).
+    let model = match &scales {
+        Some(sc) => {
+            kalman_gain = kalman_gain.map(|k| sc.gain(&k));
+            if inner_means {
+                operating_point = operating_point.map(|op| sc.operating_point(&op));
+            }
+            sc.model(&model)?
+        }
+        None => model,
+    };
     if opts.validation.require_stable {
         require_stable(&model)?;
     }

@@ -2,7 +2,7 @@
 //! stored with the model), and a record less an operating point.
 
 use lifted_lti::data::Detrend as LtiDetrend;
-use lifted_lti::{Dataset, OperatingPoint};
+use lifted_lti::{Dataset, OperatingPoint, StateSpace};
 use nalgebra::DMatrix;
 
 use crate::error::{Context, Result};
@@ -39,5 +39,125 @@ pub fn deviations(data: &Dataset, op: Option<&OperatingPoint>) -> Result<Dataset
                 .ctx("operating point")
         }
         None => Ok(data.clone()),
+    }
+}
+
+/// Per-channel scales: the standard deviation of each input and output
+/// over the first [`SCALE_ROWS`] rows of the first record (measured
+/// samples only; 1 for a constant channel). The single-rate routes identify on the channels divided by
+/// them and the model is brought back to the data's units
+/// ([`ChannelScales::model`]), so the result does not depend on the units
+/// a channel is logged in: N4SID's and MOESP's projections weight the
+/// outputs by their units, and a 3×3 evaporator record with channels in
+/// units 1e-7 … 1e6 apart got order 2 and validation fits 19/1/47 % where
+/// the same record got order 8 and 48/58/41 %.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ChannelScales {
+    /// Input scales s_u.
+    pub u: Vec<f64>,
+    /// Output scales s_y.
+    pub y: Vec<f64>,
+}
+
+/// Rows of the first record the channel scales are taken from
+/// ([`ChannelScales::of`]): the streamed route knows them after its first
+/// blocks, before it compresses anything, and the in-memory routes take
+/// the same rows so that both give the same model.
+pub(crate) const SCALE_ROWS: usize = 10_000;
+
+impl ChannelScales {
+    /// The scales of `sets`: the standard deviations over the first
+    /// [`SCALE_ROWS`] rows of the first record (all of it when shorter).
+    /// O(min(N, SCALE_ROWS) (n_u + n_y)).
+    pub(crate) fn of(sets: &[Dataset]) -> Self {
+        match sets.first() {
+            Some(d) => {
+                let rows = d.len().min(SCALE_ROWS);
+                Self::of_rows(&d.u().rows(0, rows), &d.y().rows(0, rows))
+            }
+            None => ChannelScales {
+                u: Vec::new(),
+                y: Vec::new(),
+            },
+        }
+    }
+
+    /// The standard deviation of each column of `u` and `y` (finite
+    /// values only; 1 for a constant or empty column).
+    pub(crate) fn of_rows<S1, S2>(
+        u: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S1>,
+        y: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S2>,
+    ) -> Self
+    where
+        S1: nalgebra::storage::Storage<f64, nalgebra::Dyn, nalgebra::Dyn>,
+        S2: nalgebra::storage::Storage<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    {
+        fn std<'a>(vals: impl Iterator<Item = &'a f64>) -> f64 {
+            let vals: Vec<f64> = vals.copied().filter(|v| v.is_finite()).collect();
+            let n = vals.len().max(1) as f64;
+            let mean = vals.iter().sum::<f64>() / n;
+            let s = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+            if s.is_finite() && s > 0.0 { s } else { 1.0 }
+        }
+        ChannelScales {
+            u: (0..u.ncols()).map(|c| std(u.column(c).iter())).collect(),
+            y: (0..y.ncols()).map(|c| std(y.column(c).iter())).collect(),
+        }
+    }
+
+    /// Blocks (u, y) with every channel divided by its scale.
+    pub(crate) fn apply_block(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let mut u = u.clone();
+        for (c, s) in self.u.iter().enumerate() {
+            u.column_mut(c).iter_mut().for_each(|v| *v /= s);
+        }
+        let mut y = y.clone();
+        for (c, s) in self.y.iter().enumerate() {
+            y.column_mut(c).iter_mut().for_each(|v| *v /= s);
+        }
+        (u, y)
+    }
+
+    /// The record with every channel divided by its scale (holds and
+    /// output sampling kept). O(N (n_u + n_y)).
+    pub(crate) fn apply(&self, d: &Dataset) -> Result<Dataset> {
+        let (u, y) = self.apply_block(d.u(), d.y());
+        Dataset::new(d.ts(), u, y, d.inputs().to_vec(), d.outputs().to_vec()).ctx("channel scaling")
+    }
+
+    /// A model of the scaled channels in the data's units: B S_u⁻¹,
+    /// S_y C, S_y D S_u⁻¹ (A and the state unchanged).
+    pub(crate) fn model(&self, m: &StateSpace) -> Result<StateSpace> {
+        let (mut b, mut c, mut d) = (m.b().clone(), m.c().clone(), m.d().clone());
+        for (j, s) in self.u.iter().enumerate() {
+            b.column_mut(j).iter_mut().for_each(|v| *v /= s);
+            d.column_mut(j).iter_mut().for_each(|v| *v /= s);
+        }
+        for (o, s) in self.y.iter().enumerate() {
+            c.row_mut(o).iter_mut().for_each(|v| *v *= s);
+            d.row_mut(o).iter_mut().for_each(|v| *v *= s);
+        }
+        StateSpace::new(m.a().clone(), b, c, d, m.ts()).ctx("channel scaling")
+    }
+
+    /// A Kalman gain of the scaled outputs in the data's units: K S_y⁻¹.
+    pub(crate) fn gain(&self, k: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut k = k.clone();
+        for (o, s) in self.y.iter().enumerate() {
+            k.column_mut(o).iter_mut().for_each(|v| *v /= s);
+        }
+        k
+    }
+
+    /// An operating point of the scaled channels in the data's units.
+    pub(crate) fn operating_point(&self, op: &OperatingPoint) -> OperatingPoint {
+        OperatingPoint {
+            u0: op.u0.iter().zip(&self.u).map(|(v, s)| v * s).collect(),
+            y0: op.y0.iter().zip(&self.y).map(|(v, s)| v * s).collect(),
+        }
     }
 }

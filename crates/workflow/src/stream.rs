@@ -21,7 +21,7 @@ use crate::excitation::InputSpread;
 use crate::options::REFINE_CHECK_SAMPLES;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
-use crate::preprocess::deviations;
+use crate::preprocess::{ChannelScales, SCALE_ROWS, deviations};
 use crate::refine::{
     HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
     work_of_size,
@@ -126,13 +126,20 @@ impl KeptBlocks {
 /// or the record turns out multirate: the caller then loads it whole and
 /// calls [`crate::identify`].
 pub fn identify_streamed(
-    source: &mut dyn RecordSource,
+    raw: &mut dyn RecordSource,
     opts: &WorkflowOptions,
 ) -> Result<Option<Identified>> {
     opts.check()?;
     if !streamable(opts) {
         return Ok(None);
     }
+    // The channels divided by their scales, as the in-memory routes take
+    // them (preprocess::ChannelScales): the same model from both.
+    let mut scaled = ScaledSource {
+        inner: raw,
+        scales: None,
+    };
+    let source = &mut scaled;
     let id = &opts.identification;
     let (n_u, n_y) = source.channels();
     if n_u == 0 || n_y == 0 {
@@ -200,7 +207,7 @@ pub fn identify_streamed(
         // (only then: the reading pass stays as lean as it was).
         Err(e) if crate::excitation::refuses_inputs(&e) => {
             let mut spread = InputSpread::new(n_u);
-            source.pass(&mut |u, _| {
+            source.inner.pass(&mut |u, _| {
                 spread.push(u);
                 Ok(())
             })?;
@@ -268,6 +275,17 @@ pub fn identify_streamed(
         });
         refine(&run, model, d, &[set], &mut kalman_gain, check)?
     };
+    // Back to the data's units.
+    let sc = source.scales.clone().unwrap_or_else(|| ChannelScales {
+        u: vec![1.0; n_u],
+        y: vec![1.0; n_y],
+    });
+    let model = sc.model(&model)?;
+    let kalman_gain = kalman_gain.map(|k| sc.gain(&k));
+    let operating_point = fit
+        .operating_point
+        .as_ref()
+        .map(|op| sc.operating_point(op));
     if opts.validation.require_stable {
         require_stable(&model)?;
     }
@@ -278,7 +296,7 @@ pub fn identify_streamed(
         ModelFile::new(model)
             .with_method(id.method.name())
             .with_diagnostics(d),
-        fit.operating_point.clone(),
+        operating_point,
         kalman_gain.as_ref(),
     )?;
     Ok(Some(Identified {
@@ -289,6 +307,90 @@ pub fn identify_streamed(
         suggested_order: dg.suggested_order,
         details: crate::RouteDetails::default(),
     }))
+}
+
+/// A record source whose channels are divided by the channel scales
+/// ([`ChannelScales::of`]: the first [`SCALE_ROWS`] rows). The first pass
+/// holds its blocks back until it has seen those rows (or the record's
+/// end), then delivers them and the rest scaled; later passes and
+/// [`RecordSource::load`] use the same scales.
+struct ScaledSource<'s> {
+    inner: &'s mut dyn RecordSource,
+    scales: Option<ChannelScales>,
+}
+
+impl ScaledSource<'_> {
+    /// The scales of the first [`SCALE_ROWS`] rows of `held`.
+    fn scales_of(held: &[(DMatrix<f64>, DMatrix<f64>)], n_u: usize, n_y: usize) -> ChannelScales {
+        let rows = held
+            .iter()
+            .map(|(u, _)| u.nrows())
+            .sum::<usize>()
+            .min(SCALE_ROWS);
+        let (mut u, mut y) = (DMatrix::zeros(rows, n_u), DMatrix::zeros(rows, n_y));
+        let mut at = 0;
+        for (bu, by) in held {
+            let take = bu.nrows().min(rows - at);
+            u.rows_mut(at, take).copy_from(&bu.rows(0, take));
+            y.rows_mut(at, take).copy_from(&by.rows(0, take));
+            at += take;
+            if at == rows {
+                break;
+            }
+        }
+        ChannelScales::of_rows(&u, &y)
+    }
+}
+
+impl RecordSource for ScaledSource<'_> {
+    fn channels(&self) -> (usize, usize) {
+        self.inner.channels()
+    }
+
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
+        let (n_u, n_y) = self.inner.channels();
+        let mut held: Vec<(DMatrix<f64>, DMatrix<f64>)> = Vec::new();
+        let mut rows = 0;
+        let scales = &mut self.scales;
+        let pass = self.inner.pass(&mut |u, y| {
+            if let Some(sc) = scales.as_ref() {
+                let (u, y) = sc.apply_block(u, y);
+                return push(&u, &y);
+            }
+            held.push((u.clone(), y.clone()));
+            rows += u.nrows();
+            if rows >= SCALE_ROWS {
+                let sc = Self::scales_of(&held, n_u, n_y);
+                for (u, y) in held.drain(..) {
+                    let (u, y) = sc.apply_block(&u, &y);
+                    push(&u, &y)?;
+                }
+                *scales = Some(sc);
+            }
+            Ok(())
+        })?;
+        if !held.is_empty() && !pass.multirate {
+            // A record shorter than SCALE_ROWS: its scales, then its blocks.
+            let sc = Self::scales_of(&held, n_u, n_y);
+            for (u, y) in held.drain(..) {
+                let (u, y) = sc.apply_block(&u, &y);
+                push(&u, &y)?;
+            }
+            self.scales = Some(sc);
+        }
+        Ok(pass)
+    }
+
+    fn load(&mut self) -> Result<Dataset> {
+        let d = self.inner.load()?;
+        let sc = match &self.scales {
+            Some(sc) => sc.clone(),
+            None => ChannelScales::of(std::slice::from_ref(&d)),
+        };
+        let out = sc.apply(&d)?;
+        self.scales = Some(sc);
+        Ok(out)
+    }
 }
 
 /// The second pass of the streamed identification: the record read again
