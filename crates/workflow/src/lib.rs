@@ -17,6 +17,13 @@
 //!    Single-rate N4SID/MOESP/CVA remove the means inside the
 //!    identification, where the output-error regression of (B, D, x₀) also
 //!    estimates the constant offset a response that started at rest keeps.
+//!    The single-rate routes (subspace, PBSID/SSARX, IV) then work on every
+//!    channel divided by its standard deviation over the first 10⁴ rows of
+//!    the first record, and the model, K and the operating point are brought
+//!    back to the data's units, so the model does not depend on the units a
+//!    channel is logged in (N4SID's and MOESP's projections weight the
+//!    outputs by them); the multirate and q-Markov routes take the data as
+//!    they are.
 //! 2. **Identification** ([`IdentificationOptions`]): the route the method
 //!    and the data call for — single-rate weighted subspace identification
 //!    (N4SID, MOESP, CVA: the oblique projection O_f = Y_f /_{U_f} W_p,
