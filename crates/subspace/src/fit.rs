@@ -445,6 +445,10 @@ fn subspace_of<'l>(
     })
 }
 
+/// The models of orders 1..=`cap` of one (A, C) route (`None` where the
+/// fit failed).
+pub(crate) type RouteModels = Vec<Option<StateSpace>>;
+
 /// The model of every order 1..=`cap` (`None` where the fit failed) from
 /// one compression of the records, with the operating point removed when
 /// `opts.remove_means` (returned; y₀ includes the output offsets of each
@@ -462,7 +466,7 @@ pub(crate) fn models_of_orders(
     systems: &[SystemEstimate],
     cap: usize,
     only: Option<usize>,
-) -> Result<(Option<OperatingPoint>, Vec<Vec<Option<StateSpace>>>)> {
+) -> Result<(Option<OperatingPoint>, Vec<RouteModels>)> {
     validate_on(experiments, thread_count(opts.threads))?;
     let (op, owned) = if opts.remove_means {
         let (op, c) = remove_means(experiments)?;
