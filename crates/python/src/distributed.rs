@@ -83,6 +83,18 @@ pub fn partial_plan<'py>(
     Ok(PyBytes::new(py, &bytes))
 }
 
+/// The channel scales the workflow identifies with
+/// (`lifted_workflow::ChannelScales`): the standard deviation of each
+/// column of `u` and `y` over their first `SCALE_ROWS` (1e4) rows; returns
+/// (input scales, output scales).
+#[pyfunction]
+pub fn channel_scales(u: Bound<'_, PyAny>, y: Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<f64>)> {
+    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let rows = u.nrows().min(y.nrows()).min(lifted_workflow::SCALE_ROWS);
+    let s = lifted_workflow::ChannelScales::of_rows(&u.rows(0, rows), &y.rows(0, rows));
+    Ok((s.u, s.y))
+}
+
 fn plan_of(bytes: &[u8]) -> PyResult<CompressionPlan> {
     CompressionPlan::from_bytes(bytes).map_err(err)
 }
@@ -338,12 +350,16 @@ impl PyFirstPass {
 
     /// The identified model: with `stream` (the regression state after the
     /// second pass over every record) the output-error (B, D, x₀), else the
-    /// one-pass model. Returns the dict of `identify`.
-    #[pyo3(signature = (stream=None))]
+    /// one-pass model; with `input_scales`/`output_scales` (the records were
+    /// divided by them, `channel_scales`) brought back to the data's units.
+    /// Returns the dict of `identify`.
+    #[pyo3(signature = (stream=None, input_scales=None, output_scales=None))]
     fn finish<'py>(
         &mut self,
         py: Python<'py>,
         stream: Option<&[u8]>,
+        input_scales: Option<Vec<f64>>,
+        output_scales: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let first = self
             .inner
@@ -356,6 +372,35 @@ impl PyFirstPass {
                 None => Ok(first.into_model()),
             })
             .map_err(err)?;
+        let mut fit = fit;
+        if input_scales.is_some() || output_scales.is_some() {
+            let sc = lifted_workflow::ChannelScales {
+                u: input_scales.unwrap_or_else(|| vec![1.0; fit.model.n_inputs()]),
+                y: output_scales.unwrap_or_else(|| vec![1.0; fit.model.n_outputs()]),
+            };
+            if sc.u.len() != fit.model.n_inputs() || sc.y.len() != fit.model.n_outputs() {
+                return Err(lifted_error(format!(
+                    "channel scales: {} input and {} output scales for a model of {} inputs and {} outputs",
+                    sc.u.len(),
+                    sc.y.len(),
+                    fit.model.n_inputs(),
+                    fit.model.n_outputs()
+                )));
+            }
+            if sc
+                .u
+                .iter()
+                .chain(&sc.y)
+                .any(|s| !(s.is_finite() && *s > 0.0))
+            {
+                return Err(lifted_error("channel scales must be finite and positive"));
+            }
+            fit.model = sc
+                .model(&fit.model)
+                .map_err(|e| lifted_error(e.to_string()))?;
+            fit.kalman_gain = fit.kalman_gain.map(|k| sc.gain(&k));
+            fit.operating_point = fit.operating_point.map(|op| sc.operating_point(&op));
+        }
         let threads = fit.diagnostics.compression.threads;
         crate::identify::fit_dict(py, &fit, &self.method, threads)
     }

@@ -156,6 +156,7 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_choices, m)?)?;
     m.add_class::<distributed::PyFirstPass>()?;
     m.add_function(wrap_pyfunction!(distributed::partial_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(distributed::channel_scales, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::partial_compress, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::partial_append, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::partial_close, m)?)?;

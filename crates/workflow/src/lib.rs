@@ -121,7 +121,7 @@ pub use options::{
     WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
-pub use preprocess::{detrend_sets, deviations};
+pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};
 pub use refine::{HeldOutCheck, refine};
 pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};

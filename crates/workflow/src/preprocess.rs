@@ -52,7 +52,7 @@ pub fn deviations(data: &Dataset, op: Option<&OperatingPoint>) -> Result<Dataset
 /// units 1e-7 … 1e6 apart got order 2 and validation fits 19/1/47 % where
 /// the same record got order 8 and 48/58/41 %.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct ChannelScales {
+pub struct ChannelScales {
     /// Input scales s_u.
     pub u: Vec<f64>,
     /// Output scales s_y.
@@ -62,14 +62,15 @@ pub(crate) struct ChannelScales {
 /// Rows of the first record the channel scales are taken from
 /// ([`ChannelScales::of`]): the streamed route knows them after its first
 /// blocks, before it compresses anything, and the in-memory routes take
-/// the same rows so that both give the same model.
-pub(crate) const SCALE_ROWS: usize = 10_000;
+/// the same rows so that both give the same model (and so do the sharded
+/// identifications of the Python package's `lifted.dask`).
+pub const SCALE_ROWS: usize = 10_000;
 
 impl ChannelScales {
     /// The scales of `sets`: the standard deviations over the first
     /// [`SCALE_ROWS`] rows of the first record (all of it when shorter).
     /// O(min(N, SCALE_ROWS) (n_u + n_y)).
-    pub(crate) fn of(sets: &[Dataset]) -> Self {
+    pub fn of(sets: &[Dataset]) -> Self {
         match sets.first() {
             Some(d) => {
                 let rows = d.len().min(SCALE_ROWS);
@@ -84,7 +85,7 @@ impl ChannelScales {
 
     /// The standard deviation of each column of `u` and `y` (finite
     /// values only; 1 for a constant or empty column).
-    pub(crate) fn of_rows<S1, S2>(
+    pub fn of_rows<S1, S2>(
         u: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S1>,
         y: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S2>,
     ) -> Self
@@ -106,11 +107,7 @@ impl ChannelScales {
     }
 
     /// Blocks (u, y) with every channel divided by its scale.
-    pub(crate) fn apply_block(
-        &self,
-        u: &DMatrix<f64>,
-        y: &DMatrix<f64>,
-    ) -> (DMatrix<f64>, DMatrix<f64>) {
+    pub fn apply_block(&self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
         let mut u = u.clone();
         for (c, s) in self.u.iter().enumerate() {
             u.column_mut(c).iter_mut().for_each(|v| *v /= s);
@@ -124,14 +121,14 @@ impl ChannelScales {
 
     /// The record with every channel divided by its scale (holds and
     /// output sampling kept). O(N (n_u + n_y)).
-    pub(crate) fn apply(&self, d: &Dataset) -> Result<Dataset> {
+    pub fn apply(&self, d: &Dataset) -> Result<Dataset> {
         let (u, y) = self.apply_block(d.u(), d.y());
         Dataset::new(d.ts(), u, y, d.inputs().to_vec(), d.outputs().to_vec()).ctx("channel scaling")
     }
 
     /// A model of the scaled channels in the data's units: B S_u⁻¹,
     /// S_y C, S_y D S_u⁻¹ (A and the state unchanged).
-    pub(crate) fn model(&self, m: &StateSpace) -> Result<StateSpace> {
+    pub fn model(&self, m: &StateSpace) -> Result<StateSpace> {
         let (mut b, mut c, mut d) = (m.b().clone(), m.c().clone(), m.d().clone());
         for (j, s) in self.u.iter().enumerate() {
             b.column_mut(j).iter_mut().for_each(|v| *v /= s);
@@ -145,7 +142,7 @@ impl ChannelScales {
     }
 
     /// A Kalman gain of the scaled outputs in the data's units: K S_y⁻¹.
-    pub(crate) fn gain(&self, k: &DMatrix<f64>) -> DMatrix<f64> {
+    pub fn gain(&self, k: &DMatrix<f64>) -> DMatrix<f64> {
         let mut k = k.clone();
         for (o, s) in self.y.iter().enumerate() {
             k.column_mut(o).iter_mut().for_each(|v| *v /= s);
@@ -154,7 +151,7 @@ impl ChannelScales {
     }
 
     /// An operating point of the scaled channels in the data's units.
-    pub(crate) fn operating_point(&self, op: &OperatingPoint) -> OperatingPoint {
+    pub fn operating_point(&self, op: &OperatingPoint) -> OperatingPoint {
         OperatingPoint {
             u0: op.u0.iter().zip(&self.u).map(|(v, s)| v * s).collect(),
             y0: op.y0.iter().zip(&self.y).map(|(v, s)| v * s).collect(),

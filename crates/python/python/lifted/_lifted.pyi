@@ -41,6 +41,7 @@ __all__ = [
     "WorkBudgetError",
     "__version__",
     "_choices",
+    "channel_scales",
     "design",
     "gbn",
     "identify",
@@ -391,8 +392,14 @@ def _choices() -> list[tuple[str, list[str]]]: ...
 class FirstPass:
     def wants_second_pass(self) -> bool: ...
     def regression(self) -> bytes: ...
-    def finish(self, stream: bytes | None = None) -> dict[str, Any]: ...
+    def finish(
+        self,
+        stream: bytes | None = None,
+        input_scales: list[float] | None = None,
+        output_scales: list[float] | None = None,
+    ) -> dict[str, Any]: ...
 
+def channel_scales(u: npt.ArrayLike, y: npt.ArrayLike) -> tuple[list[float], list[float]]: ...
 def partial_plan(
     u: npt.ArrayLike, y: npt.ArrayLike, past: int = 10, future: int = 10, remove_means: bool = True
 ) -> bytes: ...

@@ -112,7 +112,51 @@ class _FileShard:
 
 def _data(shard: Any) -> tuple[Any, Any]:
     """The (u, y) of a shard: a file read now, or a computed block."""
-    return shard.load() if isinstance(shard, _FileShard) else shard
+    return shard.load() if isinstance(shard, (_FileShard, _Scaled)) else shard
+
+
+@dataclass(frozen=True)
+class _Scaled:
+    """A shard whose channels are divided by the record's channel scales
+    (the workflow's, ``lifted._lifted.channel_scales``: what
+    :func:`lifted.identify` divides by, so both give the same model)."""
+
+    shard: Any
+    su: tuple[float, ...]
+    sy: tuple[float, ...]
+
+    def load(self) -> tuple[Any, Any]:
+        return _scale_pair(_data(self.shard), self.su, self.sy)
+
+
+def _scale_pair(pair: tuple[Any, Any], su: tuple[float, ...], sy: tuple[float, ...]) -> tuple[Any, Any]:
+    """A computed block (u, y) divided by the channel scales."""
+    u, y = pair
+    return np.asarray(u, dtype=np.float64) / np.asarray(su), np.asarray(y, dtype=np.float64) / np.asarray(sy)
+
+
+def _head(shard: Any, rows: int) -> tuple[Any, Any]:
+    """The first ``rows`` samples of a shard (u, y)."""
+    u, y = _data(shard)
+    return np.asarray(u[:rows], dtype=np.float64), np.asarray(y[:rows], dtype=np.float64)
+
+
+def _channel_scales(shards: list[Any], client: Any) -> tuple[list[float], list[float]]:
+    """The record's channel scales from its first 1e4 samples (across the
+    first shards when they are shorter)."""
+    delayed = _dask()
+    need = 10_000
+    us: list[Any] = []
+    ys: list[Any] = []
+    for s in shards:
+        (head,) = _compute(client, delayed(_head)(s, need))
+        us.append(head[0])
+        ys.append(head[1])
+        need -= len(head[0])
+        if need <= 0:
+            break
+    su, sy = _lifted.channel_scales(np.vstack(us), np.vstack(ys))
+    return list(su), list(sy)
 
 
 def _load_npy(path: str, inputs: Sequence[int], outputs: Sequence[int]) -> tuple[Any, Any]:
@@ -300,13 +344,25 @@ def identify(
     indices, or ``inputs=m`` for the first m columns), a dask DataFrame
     (``inputs``/``outputs`` column names), or a list of ``.npy`` (indices)
     / Parquet (names) files in record order; or ``u=``, ``y=`` dask arrays
-    chunked along samples. The data scale and centring reference come from
+    chunked along samples. As :func:`lifted.identify` does, every channel is
+    divided by its standard deviation over the record's first 1e4 samples
+    and the model returned in the data's units (so both give the same
+    model, whatever the channels' units); the centring reference comes from
     the first ``plan_rows`` samples. ``threads`` per task (0: all cores of
     the worker). Returns a :class:`lifted.SubspaceFit`, as :func:`lifted.identify`.
     """
     client = _client(client)
     delayed = _dask()
-    shards = _shards(data, u, y, inputs, outputs)
+    raw = _shards(data, u, y, inputs, outputs)
+    # Channels divided by their scales, as lifted.identify does; the model
+    # comes back in the data's units.
+    su, sy = _channel_scales(raw, client)
+    shards = [
+        _Scaled(s, tuple(su), tuple(sy))
+        if isinstance(s, _FileShard)
+        else delayed(_scale_pair)(s, tuple(su), tuple(sy))
+        for s in raw
+    ]
     records = _compress_shards(shards, past, future, remove_means, threads, plan_rows, client)
     first = _lifted.partial_identify(
         records,
@@ -321,7 +377,7 @@ def identify(
         threads=threads,
     )
     if not first.wants_second_pass():
-        return _subspace_fit(first.finish())
+        return _subspace_fit(first.finish(input_scales=su, output_scales=sy))
     # Second pass, parallel: the regressor recursions' state goes from
     # shard to shard (cheap: filtering only), each shard's rows are scanned
     # from its state on its worker, and the R factors merge in a tree.
@@ -334,7 +390,7 @@ def identify(
     merged = _tree(pieces, _lifted.regression_merge)
     final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
     (final,) = _compute(client, final)
-    return _subspace_fit(first.finish(final))
+    return _subspace_fit(first.finish(final, input_scales=su, output_scales=sy))
 
 
 # ---------------------------------------------------------------- many loops
