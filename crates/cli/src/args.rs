@@ -357,8 +357,9 @@ pub enum CriterionArg {
     /// compared by the held-out fit of the model each delivers (refinement included). Records
     /// too short for any held-out block at the horizon get the order by AICc on the
     /// output-error fits of the whole record. Multirate N4SID/MOESP/CVA records of up to 2e5
-    /// samples: the order of the best simulation fit on the last third, the model identified on
-    /// the first two thirds. The other routes use the singular-value gap.
+    /// samples: every order identified on the first two thirds and simulated on the last third,
+    /// then the smallest orders near the best (and the best) judged by their models refined on
+    /// the first two thirds (unless --refine none). The other routes use the singular-value gap.
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.
     Gap,

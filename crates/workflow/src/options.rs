@@ -130,9 +130,13 @@ pub enum OrderCriterion {
     /// (SIPPY's definition, x₀ counted), and, when they are too short for
     /// the default horizon 10 too, the horizon of smallest AICc among
     /// those they support. Multirate N4SID/MOESP/CVA records of up to 2e5
-    /// samples: the order of the best simulation fit on the last third of
-    /// the record (the smallest within 0.5 points), the model identified on
-    /// the first two thirds (`structure_selection`). The other routes use
+    /// samples: every order identified on the first two thirds of the
+    /// record and simulated on the last third; the three smallest orders
+    /// within 5 points of the best and the best are then refined on the
+    /// first two thirds (about 2 s of work at most; not with
+    /// [`Refine::None`]) and the smallest within 0.5 points of the best
+    /// refined score is kept (`structure_selection.refined_shortlist`;
+    /// without the shortlist, of the unrefined scores). The other routes use
     /// the singular-value gap; a record too large to select on is streamed
     /// with Bauer's SVC.
     #[default]
