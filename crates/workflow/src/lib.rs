@@ -17,13 +17,14 @@
 //!    Single-rate N4SID/MOESP/CVA remove the means inside the
 //!    identification, where the output-error regression of (B, D, x₀) also
 //!    estimates the constant offset a response that started at rest keeps.
-//!    The single-rate routes (subspace, PBSID/SSARX, IV) then work on every
-//!    channel divided by its standard deviation over the first 10⁴ rows of
-//!    the first record, and the model, K and the operating point are brought
-//!    back to the data's units, so the model does not depend on the units a
+//!    Every route but the q-Markov Cover (subspace, multirate, PBSID/SSARX,
+//!    IV) then works on every channel divided by its standard deviation
+//!    over the first 10⁴ rows of the first record, and the model, K, the
+//!    operating point and a multirate route's lifted model are brought back
+//!    to the data's units, so the model does not depend on the units a
 //!    channel is logged in (N4SID's and MOESP's projections weight the
-//!    outputs by them); the multirate and q-Markov routes take the data as
-//!    they are.
+//!    outputs by them); the q-Markov Cover takes the data as they are (its
+//!    PRBS amplitudes are in the data's units).
 //! 2. **Identification** ([`IdentificationOptions`]): the route the method
 //!    and the data call for — single-rate weighted subspace identification
 //!    (N4SID, MOESP, CVA: the oblique projection O_f = Y_f /_{U_f} W_p,

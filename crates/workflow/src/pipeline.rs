@@ -176,12 +176,11 @@ fn run(
     } else {
         detrend_sets(raw, opts.data.detrend)?
     };
-    // Single-rate routes (subspace, predictor-based, IV) identify on
-    // channels of unit standard deviation, so that the model does not
-    // depend on the units (preprocess::ChannelScales); the multirate and
-    // q-Markov routes take the records as they are (a PRBS amplitude and
-    // the lifted model are in the data's units).
-    let scales = (!multirate && id.method != Method::Qmarkov).then(|| ChannelScales::of(&sets));
+    // Every route but the q-Markov Cover (whose PRBS amplitudes are in the
+    // data's units) identifies on channels of unit standard deviation, so
+    // that the model does not depend on the units
+    // (preprocess::ChannelScales).
+    let scales = (id.method != Method::Qmarkov).then(|| ChannelScales::of(&sets));
     if let Some(sc) = &scales {
         sets = sets.iter().map(|d| sc.apply(d)).collect::<Result<_>>()?;
     }
@@ -248,7 +247,7 @@ fn run(
         singular_values,
         order,
         suggested_order,
-        details,
+        mut details,
     } = fit;
     let check = check.as_ref().map(|(sets, options, known)| HeldOutCheck {
         sets,
@@ -264,6 +263,9 @@ fn run(
             kalman_gain = kalman_gain.map(|k| sc.gain(&k));
             if inner_means {
                 operating_point = operating_point.map(|op| sc.operating_point(&op));
+            }
+            if let (Some(lifted), Some((ins, outs))) = (&details.lifted, &details.lifted_channels) {
+                details.lifted = Some(sc.lifted_model(lifted, ins, outs)?);
             }
             sc.model(&model)?
         }

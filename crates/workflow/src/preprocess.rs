@@ -5,7 +5,7 @@ use lifted_lti::data::Detrend as LtiDetrend;
 use lifted_lti::{Dataset, OperatingPoint, StateSpace};
 use nalgebra::DMatrix;
 
-use crate::error::{Context, Result};
+use crate::error::{Context, Error, Result};
 use crate::options::Detrend;
 
 /// The pooled per-channel means of the records (the operating point stored
@@ -44,8 +44,9 @@ pub fn deviations(data: &Dataset, op: Option<&OperatingPoint>) -> Result<Dataset
 
 /// Per-channel scales: the standard deviation of each input and output
 /// over the first [`SCALE_ROWS`] rows of the first record (measured
-/// samples only; 1 for a constant channel). The single-rate routes identify on the channels divided by
-/// them and the model is brought back to the data's units
+/// samples only; 1 for a constant channel). Every route but the q-Markov
+/// Cover identifies on the channels divided by them and the model is
+/// brought back to the data's units
 /// ([`ChannelScales::model`]), so the result does not depend on the units
 /// a channel is logged in: N4SID's and MOESP's projections weight the
 /// outputs by their units, and a 3×3 evaporator record with channels in
@@ -137,6 +138,32 @@ impl ChannelScales {
         for (o, s) in self.y.iter().enumerate() {
             c.row_mut(o).iter_mut().for_each(|v| *v *= s);
             d.row_mut(o).iter_mut().for_each(|v| *v *= s);
+        }
+        StateSpace::new(m.a().clone(), b, c, d, m.ts()).ctx("channel scaling")
+    }
+
+    /// A lifted model of the scaled channels in the data's units: lifted
+    /// input j is channel `inputs[j]` of the record, lifted output i
+    /// channel `outputs[i]` (`RouteDetails::lifted_channels`).
+    pub fn lifted_model(
+        &self,
+        m: &StateSpace,
+        inputs: &[usize],
+        outputs: &[usize],
+    ) -> Result<StateSpace> {
+        let (mut b, mut c, mut d) = (m.b().clone(), m.c().clone(), m.d().clone());
+        let su = |j: usize| inputs.get(j).and_then(|&c| self.u.get(c)).copied();
+        let sy = |i: usize| outputs.get(i).and_then(|&c| self.y.get(c)).copied();
+        for j in 0..b.ncols() {
+            let s = su(j).ok_or_else(|| Error::Data(format!("lifted input {j} has no channel")))?;
+            b.column_mut(j).iter_mut().for_each(|v| *v /= s);
+            d.column_mut(j).iter_mut().for_each(|v| *v /= s);
+        }
+        for i in 0..c.nrows() {
+            let s =
+                sy(i).ok_or_else(|| Error::Data(format!("lifted output {i} has no channel")))?;
+            c.row_mut(i).iter_mut().for_each(|v| *v *= s);
+            d.row_mut(i).iter_mut().for_each(|v| *v *= s);
         }
         StateSpace::new(m.a().clone(), b, c, d, m.ts()).ctx("channel scaling")
     }

@@ -51,6 +51,10 @@ pub struct RouteDetails {
     pub lifted: Option<StateSpace>,
     /// Multirate routes: the lifting period (base periods).
     pub lifting_period: Option<usize>,
+    /// Multirate routes: the record's channel behind each lifted input and
+    /// each lifted output (in the lifted model's column / row order), so
+    /// that the lifted model can be put in the data's units.
+    pub lifted_channels: Option<(Vec<usize>, Vec<usize>)>,
     /// q-Markov Cover: the Markov parameters estimated from the data,
     /// `H_0 … H_{q−1}`.
     pub markov_data: Vec<DMatrix<f64>>,
@@ -1247,9 +1251,18 @@ fn multirate_fit(
     let details = RouteDetails {
         lifted: Some(fit.lifted.model.clone()),
         lifting_period: Some(fit.lifting.period()),
+        lifted_channels: Some(slot_channels(&fit.lifting)),
         ..Default::default()
     };
     RouteFit::plain(fit.fast, d, sv, suggested).with_details(details)
+}
+
+/// The record's channel behind each lifted input and output of `lifting`.
+fn slot_channels(lifting: &lifted_multirate::MultirateLifting) -> (Vec<usize>, Vec<usize>) {
+    (
+        lifting.input_slots().iter().map(|s| s.channel).collect(),
+        lifting.output_slots().iter().map(|s| s.channel).collect(),
+    )
 }
 
 /// Orders 1..=`max` (below the number of singular values) ranked by the
@@ -1360,10 +1373,10 @@ pub(crate) fn iv(
         };
         let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
             .ctx("multirate IV identification")?;
-        let lifting_period =
+        let lifting =
             lifted_multirate::MultirateLifting::from_dataset(data, Ordering::ChannelMajor)
-                .ctx("multirate IV identification")?
-                .period();
+                .ctx("multirate IV identification")?;
+        let lifting_period = lifting.period();
         let n = fit.fast.order();
         let suggested = lifted_subspace::gap_order(&fit.singular_values, id.max_order);
         let d = json!({
@@ -1375,6 +1388,7 @@ pub(crate) fn iv(
         let details = RouteDetails {
             lifted: Some(fit.lifted.clone()),
             lifting_period: Some(lifting_period),
+            lifted_channels: Some(slot_channels(&lifting)),
             ..Default::default()
         };
         return Ok(
