@@ -212,6 +212,22 @@ pub enum DataError {
     },
 }
 
+/// The scale of a channel: the (population) standard deviation of its
+/// finite values, or 1 when it has none or they are all equal. Used to put
+/// channels in comparable units (the workflow's channel scaling, the
+/// per-output weights of the validation's x₀ and of the PEM cost). O(len).
+pub fn channel_scale<'a>(values: impl IntoIterator<Item = &'a f64>) -> f64 {
+    let vals: Vec<f64> = values
+        .into_iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let n = vals.len().max(1) as f64;
+    let mean = vals.iter().sum::<f64>() / n;
+    let s = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    if s.is_finite() && s > 0.0 { s } else { 1.0 }
+}
+
 /// Result alias of the data layer.
 pub type DataResult<T> = std::result::Result<T, DataError>;
 
@@ -1227,6 +1243,15 @@ pub fn unlift_signal(x: &DMatrix<f64>, n: usize, channels: usize) -> DataResult<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_channel_scale_is_its_standard_deviation_or_one() {
+        assert_eq!(channel_scale(&[0.0, 4.0]), 2.0);
+        // Unsampled (NaN) cells are left out; a constant or empty channel is 1.
+        assert_eq!(channel_scale(&[0.0, f64::NAN, 4.0]), 2.0);
+        assert_eq!(channel_scale(&[3.5, 3.5]), 1.0);
+        assert_eq!(channel_scale(&[]), 1.0);
+    }
     use proptest::prelude::*;
 
     #[test]

@@ -379,22 +379,7 @@ fn initial_state(m: &StateSpace, data: &Dataset, sim: &DMatrix<f64>) -> Result<D
     let y = data.y();
     // W: 1 / the standard deviation of each output's measured samples.
     let weights: Vec<f64> = (0..ny)
-        .map(|o| {
-            let vals: Vec<f64> = y
-                .column(o)
-                .iter()
-                .copied()
-                .filter(|v| v.is_finite())
-                .collect();
-            let k = vals.len().max(1) as f64;
-            let mean = vals.iter().sum::<f64>() / k;
-            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / k).sqrt();
-            if sd.is_finite() && sd > 0.0 {
-                1.0 / sd
-            } else {
-                1.0
-            }
-        })
+        .map(|o| 1.0 / crate::data::channel_scale(y.column(o).iter()))
         .collect();
     let mut acc = lifted_linalg::RAccumulator::new(n + 1);
     let mut block = DMatrix::zeros(X0_BLOCK, n + 1);

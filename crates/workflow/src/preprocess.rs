@@ -94,16 +94,14 @@ impl ChannelScales {
         S1: nalgebra::storage::Storage<f64, nalgebra::Dyn, nalgebra::Dyn>,
         S2: nalgebra::storage::Storage<f64, nalgebra::Dyn, nalgebra::Dyn>,
     {
-        fn std<'a>(vals: impl Iterator<Item = &'a f64>) -> f64 {
-            let vals: Vec<f64> = vals.copied().filter(|v| v.is_finite()).collect();
-            let n = vals.len().max(1) as f64;
-            let mean = vals.iter().sum::<f64>() / n;
-            let s = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
-            if s.is_finite() && s > 0.0 { s } else { 1.0 }
-        }
+        use lifted_lti::data::channel_scale;
         ChannelScales {
-            u: (0..u.ncols()).map(|c| std(u.column(c).iter())).collect(),
-            y: (0..y.ncols()).map(|c| std(y.column(c).iter())).collect(),
+            u: (0..u.ncols())
+                .map(|c| channel_scale(u.column(c).iter()))
+                .collect(),
+            y: (0..y.ncols())
+                .map(|c| channel_scale(y.column(c).iter()))
+                .collect(),
         }
     }
 

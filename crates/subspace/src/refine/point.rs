@@ -230,19 +230,13 @@ pub(super) const STABILIZED_START_RADIUS: f64 = 0.999;
 pub(super) fn output_weights(records: &[Record<'_>], ny: usize) -> Vec<f64> {
     (0..ny)
         .map(|o| {
-            let vals: Vec<f64> = records
-                .iter()
-                .flat_map(|r| {
-                    r.y.column(o)
-                        .iter()
-                        .copied()
-                        .filter(|v| !v.is_nan())
-                        .collect::<Vec<_>>()
-                })
-                .collect();
-            let m = vals.iter().sum::<f64>() / vals.len().max(1) as f64;
-            let var = vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / vals.len().max(1) as f64;
-            if var > 0.0 { 1.0 / var.sqrt() } else { 1.0 }
+            // Column o of each record (column-major storage).
+            let column = |r: &Record<'_>| {
+                let n = r.y.nrows();
+                r.y.as_slice()[o * n..(o + 1) * n].to_vec()
+            };
+            let vals: Vec<f64> = records.iter().flat_map(column).collect();
+            1.0 / lifted_lti::data::channel_scale(&vals)
         })
         .collect()
 }
