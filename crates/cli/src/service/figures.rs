@@ -670,12 +670,28 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
         .unwrap_or_default();
     let mut notes = Vec::new();
     if !shortlist.is_empty() {
-        notes.push(
-            "rings: refinement-check blocks (unidentifiable folds left out; dots count them as -100 %)"
-                .to_string(),
-        );
+        // The single-rate shortlist scores each order on six blocks (the
+        // subspace model or its refinement, `scored_by`); the multirate one
+        // scores the refined model on the last third.
+        let blocks = sel
+            .get("refined_shortlist")
+            .and_then(|s| s.get("candidates"))
+            .and_then(|c| c.as_array())
+            .is_some_and(|rows| rows.iter().any(|r| r.get("scored_by").is_some()));
+        let (note, name) = if blocks {
+            (
+                "rings: refinement-check blocks (unidentifiable folds left out; dots count them as -100 %)",
+                "the model each shortlisted order delivers (refined where the blocks prefer it)",
+            )
+        } else {
+            (
+                "rings: each shortlisted order's model refined on the first two thirds, scored on the last third",
+                "the refined model of each shortlisted order",
+            )
+        };
+        notes.push(note.to_string());
         series.push(Series::points(
-            "the model each shortlisted order delivers (refined where the blocks prefer it)",
+            name,
             shortlist.iter().map(|p| p.0).collect(),
             shortlist.iter().map(|p| p.1).collect(),
             Marker::Ring,
@@ -937,6 +953,23 @@ mod tests {
         assert!(p.notes[1].contains("order 3: -100.0"), "{:?}", p.notes);
         // No per-block fits: no bars.
         assert_eq!(p.series.len(), 2);
+    }
+
+    #[test]
+    fn a_multirate_shortlist_is_named_for_what_scored_it() {
+        let d = serde_json::json!({"structure_selection": {"order": 4,
+            "candidates": [{"order": 3, "fit": 85.0}, {"order": 4, "fit": 84.0}],
+            "refined_shortlist": {"candidates": [
+                {"order": 3, "score": 88.0}, {"order": 4, "score": 90.0}]}},
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
+        let p = super::criterion_plot(&d).unwrap();
+        assert_eq!(p.series[1].y, vec![88.0, 90.0]);
+        assert!(
+            p.series[1].name.contains("refined model"),
+            "{}",
+            p.series[1].name
+        );
+        assert!(p.notes[0].contains("last third"), "{:?}", p.notes);
     }
 
     #[test]
