@@ -359,7 +359,9 @@ pub enum CriterionArg {
     /// output-error fits of the whole record. Multirate N4SID/MOESP/CVA records of up to 2e5
     /// samples: every order identified on the first two thirds and simulated on the last third,
     /// then the smallest orders near the best (and the best) judged by their models refined on
-    /// the first two thirds (unless --refine none). The other routes use the singular-value gap.
+    /// the first two thirds (unless --refine none). PBSID and SSARX: the order by the same
+    /// held-out fit at the past horizon of the whole record. The other routes use the
+    /// singular-value gap.
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.
     Gap,

@@ -143,6 +143,7 @@ mod options;
 mod order;
 mod partial;
 mod pbsid;
+mod pbsid_order;
 mod predictor_regress;
 mod projection;
 mod records;
@@ -172,6 +173,7 @@ pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify,
 };
+pub use pbsid_order::{OrderCandidate, PbsidOrderSelection, select_pbsid_order};
 pub use refine::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,

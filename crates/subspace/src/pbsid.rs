@@ -118,9 +118,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::checks::{thread_count, validate_on};
 use crate::error::{Error, Result};
-use crate::hankel::{Compression, CompressionReport, HankelLayout, compress};
+use crate::hankel::{Compression, CompressionReport, HankelFactor, HankelLayout, compress};
 use crate::model::Experiment;
-use crate::numerics::{spectral_radius, vstack};
+use crate::numerics::{Scale, spectral_radius, vstack};
 use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
@@ -609,212 +609,289 @@ fn identify_as_given(
     ny: usize,
     total: usize,
 ) -> Result<PbsidModel> {
-    let nz = nu + ny;
-    let f = opts.future;
-    // The optimised variant reads z(t−p) … z(t) only (the VARX and the
-    // shifted state window), the row-wise one and SSARX z(t−p) … z(t+f−1).
-    let f_layout = match opts.variant {
-        PbsidVariant::Optimized => 1,
-        PbsidVariant::RowWise | PbsidVariant::Ssarx => f,
-    };
-    let records = experiments.len();
-    // Hankel columns a record of n samples gives for a span of s samples.
-    let columns_for = |s: usize| -> usize {
-        experiments
-            .iter()
-            .map(|e| (e.u.nrows() + 1).saturating_sub(s))
-            .sum()
-    };
-    // The largest past horizon: the given one, or max_past lowered until
-    // the records give SAMPLES_PER_VARX_PARAMETER columns per regressor
-    // (the row-wise variant's last regression has (p + f) n_z of them).
-    let regressors = |p: usize| match opts.variant {
-        PbsidVariant::Optimized | PbsidVariant::Ssarx => p * nz + nu,
-        PbsidVariant::RowWise => (p + f) * nz,
-    };
-    let max_past = match opts.past {
-        Some(p) => p,
-        None => {
-            // No more lags than samples (also keeps the sums below from
-            // overflowing for an absurd max_past).
-            let mut p = opts.max_past.min(total);
-            while p > f && columns_for(p + f_layout) < SAMPLES_PER_VARX_PARAMETER * regressors(p) {
-                p -= 1;
-            }
-            p
-        }
-    };
-    crate::budget::check_hankel(
-        max_past,
-        f_layout,
-        nu,
-        ny,
-        opts.compression,
-        opts.chunk_rows,
-    )?;
-    let layout = HankelLayout {
-        past: max_past,
-        future: f_layout,
-        nu,
-        ny,
-    };
-    let k = layout.nrows();
-    let columns = columns_for(max_past + f_layout);
-    if columns < k {
-        return Err(Error::HorizonTooLong {
-            past: max_past,
-            future: f,
-            n_samples: total,
-            min_samples: k + (max_past + f_layout - 1) * records,
-        });
-    }
-    let mask = opts.feedthrough.mask(ny, nu)?;
-    let scale = data_scale(experiments).0;
-    let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
-        experiments.iter().map(|e| (e.u, e.y)).collect();
-    let factor = compress(
-        &recs,
-        &layout,
-        opts.compression,
-        opts.chunk_rows,
-        thread_count(opts.threads),
-        scale,
-        opts.remove_means,
-    )?;
-    let rows = Rows {
-        l: &factor.l,
-        layout,
-        columns,
-    };
-    let (p, past_selection) = choose_past(&rows, opts, &mask, max_past)?;
-    let mut notes = Vec::new();
-    if opts.past.is_none() && p == max_past && max_past > f {
-        notes.push(format!(
-            "Akaike's criterion chose the largest past horizon considered ({p}): a longer one \
-             (PbsidOptions::max_past, or a fixed past) may fit the predictor better"
-        ));
-    }
-    let zp = rows.z(-(p as isize), 0);
-    check_independent("past inputs and outputs (the VARX regressor Z_p)", &zp)?;
-
-    // Steps 2–3.
-    let (gk, weight) = gamma_k(&rows, p, f, opts.variant, &mask)?;
-    // The weighted map W₁ Γ̂K̂ = R⁻ᵀ Γ̂K̂ (SSARX) whose SVD gives the states.
-    let gk = match weight {
-        Some(rt) => lifted_linalg::solve(&rt, &gk)?,
-        None => gk,
-    };
-    let weighted = &gk * &zp;
-    let (uw, sv) = lifted_linalg::svd_left(&weighted)?;
-    let sv: Vec<f64> = sv.iter().cloned().collect();
-    let max_order = (f * ny).min(p * nz);
-    let cap = match opts.order {
-        OrderSelection::Gap { max } => max.min(max_order),
-        OrderSelection::Fixed(_) => max_order.min(10),
-    };
-    let report = OrderReport::new(OrderCriterion::Gap, gap_values(&sv, cap.max(1)));
-    let suggested = report.selected;
+    let prepared = Prepared::new(experiments, opts, nu, ny, total)?;
     let n = match opts.order {
         OrderSelection::Fixed(n) => n,
-        OrderSelection::Gap { .. } => suggested,
+        OrderSelection::Gap { .. } => prepared.report.selected,
     };
-    let floor = sv.first().copied().unwrap_or(0.0) * f64::EPSILON * sv.len() as f64;
-    let supported = sv.iter().filter(|&&s| s > floor).count().min(max_order);
-    if n == 0 || n > supported {
-        return Err(Error::OrderTooLarge {
-            order: n,
-            max: supported,
-        });
-    }
-    // Eq. (6): S = Σ_n^{−1/2} U_nᵀ Γ̂K̂.
-    let mut s = uw.columns(0, n).transpose() * &gk;
-    for (i, v) in sv.iter().take(n).enumerate() {
-        s.row_mut(i).scale_mut(1.0 / v.sqrt());
-    }
-    let x_now = &s * &zp;
-    let x_next = &s * rows.z(-(p as isize) + 1, 1);
+    prepared.at_order(experiments, opts, n)
+}
 
-    // Step 4, eq. (7).
-    let u0 = rows.u(0);
-    let (c, d, e) = regress_masked(&rows.y(0), &x_now, &u0, &mask)?;
-    let (abk, _) = regress(&x_next, &vstack(&[&x_now, &u0, &e]))?;
-    let a = abk.columns(0, n).into_owned();
-    let b = abk.columns(n, nu).into_owned();
-    let kg = abk.columns(n + nu, ny).into_owned();
-    let re = &e * e.transpose();
+/// Steps 1–3 of [`pbsid_identify`] on records as given (means already
+/// handled): the compressed factor, the past horizon, Γ̂K̂ and its SVD,
+/// which every order shares ([`Prepared::at_order`] finishes one order).
+pub(crate) struct Prepared {
+    factor: HankelFactor,
+    layout: HankelLayout,
+    /// Hankel columns J of the factor.
+    columns: usize,
+    /// The past horizon p used and Akaike's values (automatic p).
+    pub(crate) past: usize,
+    past_selection: Vec<(usize, f64)>,
+    /// Γ̂K̂ (weighted for SSARX) and the left singular vectors and values of
+    /// Γ̂K̂ L_P.
+    gk: DMatrix<f64>,
+    uw: DMatrix<f64>,
+    sv: Vec<f64>,
+    /// The gap rule's report over orders up to the cap.
+    report: OrderReport,
+    /// The largest order these singular values identify.
+    pub(crate) supported: usize,
+    mask: DMatrix<bool>,
+    scale: Scale,
+    notes: Vec<String>,
+}
 
-    // Original units: B = B̃/s_u, C = s_y C̃, D = s_y D̃/s_u, K = K̃/s_y.
-    let (b, c, d) = scale.unscale(b, c, d);
-    let kg = kg / scale.y;
-    let re = re * (scale.y * scale.y);
-    let a_pred = &a - &kg * &c;
-    let rho_pred = spectral_radius(&a_pred)?;
-    let truncation = rho_pred.powi(p as i32);
-    if truncation > TRUNCATION_NOTE {
-        notes.push(format!(
-            "past horizon p = {p} is short for the predictor: ρ(A − KC)^p = {truncation:.2e} \
-             (the neglected term of the state estimate); a longer past horizon reduces the bias"
-        ));
-    }
-    let recs: Vec<Record<'_>> = experiments
-        .iter()
-        .map(|e| Record {
-            u: e.u,
-            y: e.y,
-            instrument: None,
-        })
-        .collect();
-    let mut step5 = false;
-    let (a, b, d, kg, re, x0) = if opts.predictor_regression && rho_pred < 1.0 {
-        // Step 5 (eq. 8); its x₀ is the predictor's, which also serves the
-        // simulation (the same state at t = 0).
-        let with_x0 = opts.initial_state == InitialState::Estimate;
-        let fit = predictor_regression(&a_pred, &c, &mask, &recs, with_x0)?;
-        step5 = true;
-        let x0 = match opts.initial_state {
-            InitialState::Estimate => fit.x0,
-            InitialState::Zero => vec![DVector::zeros(n); records],
+impl Prepared {
+    pub(crate) fn new(
+        experiments: &[Experiment<'_>],
+        opts: &PbsidOptions,
+        nu: usize,
+        ny: usize,
+        total: usize,
+    ) -> Result<Prepared> {
+        let nz = nu + ny;
+        let f = opts.future;
+        // The optimised variant reads z(t−p) … z(t) only (the VARX and the
+        // shifted state window), the row-wise one and SSARX z(t−p) … z(t+f−1).
+        let f_layout = match opts.variant {
+            PbsidVariant::Optimized => 1,
+            PbsidVariant::RowWise | PbsidVariant::Ssarx => f,
         };
-        (fit.a, fit.b, fit.d, fit.k, fit.innovation_covariance, x0)
-    } else {
-        if opts.predictor_regression {
+        let records = experiments.len();
+        // Hankel columns a record of n samples gives for a span of s samples.
+        let columns_for = |s: usize| -> usize {
+            experiments
+                .iter()
+                .map(|e| (e.u.nrows() + 1).saturating_sub(s))
+                .sum()
+        };
+        // The largest past horizon: the given one, or max_past lowered until
+        // the records give SAMPLES_PER_VARX_PARAMETER columns per regressor
+        // (the row-wise variant's last regression has (p + f) n_z of them).
+        let regressors = |p: usize| match opts.variant {
+            PbsidVariant::Optimized | PbsidVariant::Ssarx => p * nz + nu,
+            PbsidVariant::RowWise => (p + f) * nz,
+        };
+        let max_past = match opts.past {
+            Some(p) => p,
+            None => {
+                // No more lags than samples (also keeps the sums below from
+                // overflowing for an absurd max_past).
+                let mut p = opts.max_past.min(total);
+                while p > f
+                    && columns_for(p + f_layout) < SAMPLES_PER_VARX_PARAMETER * regressors(p)
+                {
+                    p -= 1;
+                }
+                p
+            }
+        };
+        crate::budget::check_hankel(
+            max_past,
+            f_layout,
+            nu,
+            ny,
+            opts.compression,
+            opts.chunk_rows,
+        )?;
+        let layout = HankelLayout {
+            past: max_past,
+            future: f_layout,
+            nu,
+            ny,
+        };
+        let k = layout.nrows();
+        let columns = columns_for(max_past + f_layout);
+        if columns < k {
+            return Err(Error::HorizonTooLong {
+                past: max_past,
+                future: f,
+                n_samples: total,
+                min_samples: k + (max_past + f_layout - 1) * records,
+            });
+        }
+        let mask = opts.feedthrough.mask(ny, nu)?;
+        let scale = data_scale(experiments).0;
+        let recs: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
+            experiments.iter().map(|e| (e.u, e.y)).collect();
+        let factor = compress(
+            &recs,
+            &layout,
+            opts.compression,
+            opts.chunk_rows,
+            thread_count(opts.threads),
+            scale,
+            opts.remove_means,
+        )?;
+        let rows = Rows {
+            l: &factor.l,
+            layout,
+            columns,
+        };
+        let (p, past_selection) = choose_past(&rows, opts, &mask, max_past)?;
+        let mut notes = Vec::new();
+        if opts.past.is_none() && p == max_past && max_past > f {
             notes.push(format!(
-                "the predictor regression (step 5) was skipped: A − KC is not stable \
-                 (spectral radius {rho_pred:.4}); (B, K) from the state-sequence regression"
+                "Akaike's criterion chose the largest past horizon considered ({p}): a longer one \
+                 (PbsidOptions::max_past, or a fixed past) may fit the predictor better"
             ));
         }
-        let x0 = match opts.initial_state {
-            // An unstable A: estimate_x0 reads the window where C Aᵗ has
-            // not yet grown past MAX_REGRESSOR_GROWTH.
-            InitialState::Estimate => estimate_x0(&a, &b, &c, &d, &recs)?,
-            InitialState::Zero => vec![DVector::zeros(n); records],
+        let zp = rows.z(-(p as isize), 0);
+        check_independent("past inputs and outputs (the VARX regressor Z_p)", &zp)?;
+
+        // Steps 2–3.
+        let (gk, weight) = gamma_k(&rows, p, f, opts.variant, &mask)?;
+        // The weighted map W₁ Γ̂K̂ = R⁻ᵀ Γ̂K̂ (SSARX) whose SVD gives the states.
+        let gk = match weight {
+            Some(rt) => lifted_linalg::solve(&rt, &gk)?,
+            None => gk,
         };
-        (a, b, d, kg, re, x0)
-    };
-    let rho = spectral_radius(&a)?;
-    let model = StateSpace::new(a, b, c, d, Some(opts.ts))?;
-    Ok(PbsidModel {
-        model,
-        kalman_gain: kg,
-        innovation_covariance: re,
-        x0,
-        operating_point: None,
-        diagnostics: PbsidDiagnostics {
-            variant: opts.variant,
-            singular_values: sv,
-            order: n,
-            suggested_order: suggested,
-            order_selection: report,
-            horizons: (p, f),
-            past_selection,
+        let weighted = &gk * &zp;
+        let (uw, sv) = lifted_linalg::svd_left(&weighted)?;
+        let sv: Vec<f64> = sv.iter().cloned().collect();
+        let max_order = (f * ny).min(p * nz);
+        let cap = match opts.order {
+            OrderSelection::Gap { max } => max.min(max_order),
+            OrderSelection::Fixed(_) => max_order.min(10),
+        };
+        let report = OrderReport::new(OrderCriterion::Gap, gap_values(&sv, cap.max(1)));
+        let floor = sv.first().copied().unwrap_or(0.0) * f64::EPSILON * sv.len() as f64;
+        let supported = sv.iter().filter(|&&s| s > floor).count().min(max_order);
+        Ok(Prepared {
+            factor,
+            layout,
             columns,
-            compression: factor.report,
-            spectral_radius: rho,
-            predictor_spectral_radius: rho_pred,
-            predictor_regression: step5,
+            past: p,
+            past_selection,
+            gk,
+            uw,
+            sv,
+            report,
+            supported,
+            mask,
+            scale,
             notes,
-        },
-    })
+        })
+    }
+
+    /// Steps 3–5 at order n on the records the factor was built from.
+    /// O(k² n) for the state estimates, then step 5's
+    /// O(N (n_y q² + n³ n_z)).
+    pub(crate) fn at_order(
+        &self,
+        experiments: &[Experiment<'_>],
+        opts: &PbsidOptions,
+        n: usize,
+    ) -> Result<PbsidModel> {
+        if n == 0 || n > self.supported {
+            return Err(Error::OrderTooLarge {
+                order: n,
+                max: self.supported,
+            });
+        }
+        let (p, f) = (self.past, opts.future);
+        let (nu, ny) = (self.layout.nu, self.layout.ny);
+        let records = experiments.len();
+        let rows = Rows {
+            l: &self.factor.l,
+            layout: self.layout,
+            columns: self.columns,
+        };
+        let zp = rows.z(-(p as isize), 0);
+        let mask = &self.mask;
+        let scale = self.scale;
+        let mut notes = self.notes.clone();
+        // Eq. (6): S = Σ_n^{−1/2} U_nᵀ Γ̂K̂.
+        let mut s = self.uw.columns(0, n).transpose() * &self.gk;
+        for (i, v) in self.sv.iter().take(n).enumerate() {
+            s.row_mut(i).scale_mut(1.0 / v.sqrt());
+        }
+        let x_now = &s * &zp;
+        let x_next = &s * rows.z(-(p as isize) + 1, 1);
+
+        // Step 4, eq. (7).
+        let u0 = rows.u(0);
+        let (c, d, e) = regress_masked(&rows.y(0), &x_now, &u0, mask)?;
+        let (abk, _) = regress(&x_next, &vstack(&[&x_now, &u0, &e]))?;
+        let a = abk.columns(0, n).into_owned();
+        let b = abk.columns(n, nu).into_owned();
+        let kg = abk.columns(n + nu, ny).into_owned();
+        let re = &e * e.transpose();
+
+        // Original units: B = B̃/s_u, C = s_y C̃, D = s_y D̃/s_u, K = K̃/s_y.
+        let (b, c, d) = scale.unscale(b, c, d);
+        let kg = kg / scale.y;
+        let re = re * (scale.y * scale.y);
+        let a_pred = &a - &kg * &c;
+        let rho_pred = spectral_radius(&a_pred)?;
+        let truncation = rho_pred.powi(p as i32);
+        if truncation > TRUNCATION_NOTE {
+            notes.push(format!(
+                "past horizon p = {p} is short for the predictor: ρ(A − KC)^p = {truncation:.2e} \
+                 (the neglected term of the state estimate); a longer past horizon reduces the bias"
+            ));
+        }
+        let recs: Vec<Record<'_>> = experiments
+            .iter()
+            .map(|e| Record {
+                u: e.u,
+                y: e.y,
+                instrument: None,
+            })
+            .collect();
+        let mut step5 = false;
+        let (a, b, d, kg, re, x0) = if opts.predictor_regression && rho_pred < 1.0 {
+            // Step 5 (eq. 8); its x₀ is the predictor's, which also serves the
+            // simulation (the same state at t = 0).
+            let with_x0 = opts.initial_state == InitialState::Estimate;
+            let fit = predictor_regression(&a_pred, &c, mask, &recs, with_x0)?;
+            step5 = true;
+            let x0 = match opts.initial_state {
+                InitialState::Estimate => fit.x0,
+                InitialState::Zero => vec![DVector::zeros(n); records],
+            };
+            (fit.a, fit.b, fit.d, fit.k, fit.innovation_covariance, x0)
+        } else {
+            if opts.predictor_regression {
+                notes.push(format!(
+                    "the predictor regression (step 5) was skipped: A − KC is not stable \
+                     (spectral radius {rho_pred:.4}); (B, K) from the state-sequence regression"
+                ));
+            }
+            let x0 = match opts.initial_state {
+                // An unstable A: estimate_x0 reads the window where C Aᵗ has
+                // not yet grown past MAX_REGRESSOR_GROWTH.
+                InitialState::Estimate => estimate_x0(&a, &b, &c, &d, &recs)?,
+                InitialState::Zero => vec![DVector::zeros(n); records],
+            };
+            (a, b, d, kg, re, x0)
+        };
+        let rho = spectral_radius(&a)?;
+        let model = StateSpace::new(a, b, c, d, Some(opts.ts))?;
+        Ok(PbsidModel {
+            model,
+            kalman_gain: kg,
+            innovation_covariance: re,
+            x0,
+            operating_point: None,
+            diagnostics: PbsidDiagnostics {
+                variant: opts.variant,
+                singular_values: self.sv.clone(),
+                order: n,
+                suggested_order: self.report.selected,
+                order_selection: self.report.clone(),
+                horizons: (p, f),
+                past_selection: self.past_selection.clone(),
+                columns: self.columns,
+                compression: self.factor.report.clone(),
+                spectral_radius: rho,
+                predictor_spectral_radius: rho_pred,
+                predictor_regression: step5,
+                notes,
+            },
+        })
+    }
 }
 
 /// ρ(Ã)^p above which the diagnostics note that the past horizon is short

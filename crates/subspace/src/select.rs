@@ -360,33 +360,48 @@ impl StructureSelection {
     /// whose model of it on the whole records turns out unstable takes the
     /// next.
     pub fn ranking(&self, tolerance: f64) -> Vec<Candidate> {
-        let best = self
-            .candidates
-            .iter()
-            .filter_map(|c| c.fit)
-            .fold(f64::NEG_INFINITY, f64::max);
-        let key = |c: &Candidate| {
-            (
-                c.order,
-                c.horizon,
-                c.system != SystemEstimate::ShiftInvariance,
-            )
-        };
-        let (mut near, mut far): (Vec<Candidate>, Vec<Candidate>) = self
-            .candidates
-            .iter()
-            .filter(|c| c.fit.is_some())
-            .cloned()
-            .partition(|c| c.fit.is_some_and(|f| f >= best - tolerance));
-        near.sort_by_key(key);
-        far.sort_by(|a, b| {
-            b.fit
-                .unwrap_or(f64::NEG_INFINITY)
-                .total_cmp(&a.fit.unwrap_or(f64::NEG_INFINITY))
-        });
-        near.extend(far);
-        near
+        parsimonious(
+            &self.candidates,
+            |c| c.fit,
+            |c| {
+                (
+                    c.order,
+                    c.horizon,
+                    c.system != SystemEstimate::ShiftInvariance,
+                )
+            },
+            tolerance,
+        )
     }
+}
+
+/// The scored `items` in the order of preference of a held-out selection:
+/// those within `tolerance` points of the best score sorted by `key` (the
+/// simplest first: parsimony), then the others by decreasing score; items
+/// without a score are left out. O(m log m) for m items.
+pub(crate) fn parsimonious<T: Clone, K: Ord>(
+    items: &[T],
+    score: impl Fn(&T) -> Option<f64>,
+    key: impl Fn(&T) -> K,
+    tolerance: f64,
+) -> Vec<T> {
+    let best = items
+        .iter()
+        .filter_map(&score)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let (mut near, mut far): (Vec<T>, Vec<T>) = items
+        .iter()
+        .filter(|c| score(c).is_some())
+        .cloned()
+        .partition(|c| score(c).is_some_and(|f| f >= best - tolerance));
+    near.sort_by_key(|c| key(c));
+    far.sort_by(|a, b| {
+        score(b)
+            .unwrap_or(f64::NEG_INFINITY)
+            .total_cmp(&score(a).unwrap_or(f64::NEG_INFINITY))
+    });
+    near.extend(far);
+    near
 }
 
 #[cfg(test)]

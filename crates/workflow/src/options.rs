@@ -136,9 +136,12 @@ pub enum OrderCriterion {
     /// first two thirds (about 2 s of work at most; not with
     /// [`Refine::None`]) and the smallest within 0.5 points of the best
     /// refined score is kept (`structure_selection.refined_shortlist`;
-    /// without the shortlist, of the unrefined scores). The other routes use
-    /// the singular-value gap; a record too large to select on is streamed
-    /// with Bauer's SVC.
+    /// without the shortlist, of the unrefined scores). PBSID and SSARX:
+    /// the order by the same held-out fit at the whole record's past
+    /// horizon (`lifted_subspace::select_pbsid_order`; records too short
+    /// for the blocks: the singular-value gap). The other routes (IV,
+    /// q-Markov) use the singular-value gap; a record too large to select
+    /// on is streamed with Bauer's SVC.
     #[default]
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.

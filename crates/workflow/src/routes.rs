@@ -1323,11 +1323,23 @@ pub(crate) fn pbsid(
         .map(|d| Experiment { u: d.u(), y: d.y() })
         .collect();
     let what = format!("{} identification", opts.variant.name());
-    let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
+    let (fit, structure) =
+        if id.order == Order::Auto && id.order_criterion == OrderCriterion::Validation {
+            pbsid_selected(&exps, &opts, &what)?
+        } else {
+            (
+                lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?,
+                None,
+            )
+        };
     let dg = &fit.diagnostics;
+    let mut diagnostics = pbsid_json(&fit);
+    if let (Some(obj), Some(st)) = (diagnostics.as_object_mut(), structure) {
+        obj.insert("structure_selection".into(), st);
+    }
     Ok(RouteFit {
         model: fit.model.clone(),
-        diagnostics: pbsid_json(&fit),
+        diagnostics,
         kalman_gain: Some(fit.kalman_gain.clone()),
         x0: fit.x0.clone(),
         singular_values: dg.singular_values.clone(),
@@ -1335,6 +1347,90 @@ pub(crate) fn pbsid(
         suggested_order: dg.suggested_order,
         details: RouteDetails::default(),
     })
+}
+
+/// PBSID / SSARX with the order chosen by held-out simulation fit
+/// ([`lifted_subspace::select_pbsid_order`]: the folds, score and parsimony
+/// rule of the N4SID/MOESP/CVA structure selection, at the whole record's
+/// past horizon) and the `structure_selection` diagnostics entry. The
+/// ranking's first order whose model on the whole records is stable is
+/// kept (at most [`STABLE_TRIES`] tried; none stable: the first, which the
+/// validation stage flags). Records too short for the folds, or without a
+/// stable model on any fold, get the singular-value gap, and the entry says
+/// why.
+fn pbsid_selected(
+    exps: &[Experiment<'_>],
+    opts: &lifted_subspace::PbsidOptions,
+    what: &str,
+) -> Result<(lifted_subspace::PbsidModel, Option<serde_json::Value>)> {
+    let structure = StructureOptions::default();
+    let sel = match lifted_subspace::select_pbsid_order(exps, opts, &structure) {
+        Ok(sel) => sel,
+        Err(e) => {
+            let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
+            let note = json!({"error": format!(
+                "no order selected on held-out blocks ({e}); order {} by the singular-value gap",
+                fit.diagnostics.order
+            )});
+            return Ok((fit, Some(note)));
+        }
+    };
+    let criterion = if sel.folds > 1 {
+        format!(
+            "blocked cross-validation: simulation fit (x0 estimated, its n parameters charged by the FPE factor) on each of {} contiguous blocks held out once, the order identified on the others at the whole record's past horizon {}; mean over the blocks",
+            sel.folds, sel.past
+        )
+    } else {
+        format!(
+            "simulation fit on the held-out last third of the record (x0 estimated, its n parameters charged by the FPE factor), the order identified on the first two thirds at the whole record's past horizon {}",
+            sel.past
+        )
+    };
+    let candidates: Vec<serde_json::Value> = sel
+        .candidates
+        .iter()
+        .map(|c| json!({"horizon": sel.past, "order": c.order, "fit": c.fit, "fold_fits": c.fold_fits}))
+        .collect();
+    let mut tried = Vec::new();
+    let mut first = None;
+    for c in sel.ranking(structure.tolerance).iter().take(STABLE_TRIES) {
+        let o = lifted_subspace::PbsidOptions {
+            order: OrderSelection::Fixed(c.order),
+            past: Some(sel.past),
+            ..opts.clone()
+        };
+        let fit = match lifted_subspace::pbsid_identify(exps, &o) {
+            Ok(fit) => fit,
+            Err(e) => {
+                tried.push(json!({"order": c.order, "error": e.to_string()}));
+                continue;
+            }
+        };
+        let rho = fit.diagnostics.spectral_radius;
+        let d = json!({
+            "criterion": criterion,
+            "horizon": sel.past,
+            "order": c.order,
+            "held_out_fit": c.fit,
+            "folds": sel.folds,
+            "unstable_on_whole_record": tried,
+            "candidates": candidates,
+        });
+        if rho < 1.0 {
+            return Ok((fit, Some(d)));
+        }
+        tried.push(json!({"order": c.order, "spectral_radius": rho}));
+        if first.is_none() {
+            first = Some((fit, Some(d)));
+        }
+    }
+    match first {
+        Some(r) => Ok(r),
+        None => Err(Error::Data(format!(
+            "{what}: no order of the held-out ranking could be identified on the whole record ({})",
+            serde_json::Value::Array(tried)
+        ))),
+    }
 }
 
 /// IV subspace identification (single-rate, or lifted IV on a multirate

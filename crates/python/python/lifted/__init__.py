@@ -282,8 +282,9 @@ def identify(
     * ``method="pbsid"`` / ``"ssarx"``: the predictor-based closed-loop
       methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past
       horizon, None: Akaike's choice; ``future`` their future horizon, None:
-      min(past, 10); no D; ``order_criterion`` only ``"validation"`` or
-      ``"gap"``, both the singular-value gap). ``method="iv"``: the
+      min(past, 10); no D; ``order_criterion`` only ``"validation"``, the
+      order by the held-out fit as above at the past horizon of the whole
+      record, or ``"gap"``, the singular-value gap). ``method="iv"``: the
       instrumental-variable subspace method with the inputs as instruments
       (open loop; :func:`iv` takes a closed loop's instruments; ``horizon``
       is its alpha, default 8). ``system``, ``bd`` and ``noise_model``
@@ -359,6 +360,11 @@ def pbsid(
     min(past, 10) (10 with Akaike's past); ``feedthrough`` False (no D,
     ``--feedthrough`` to estimate it) is the closed-loop default, since an
     estimated D is biased when the controller reacts within the sample.
+    ``order`` None: the order of best held-out simulation fit up to
+    ``max_order`` (six blocks each held out once, at the past horizon of
+    the whole record, as :func:`identify`'s default;
+    ``diagnostics["structure_selection"]``; the singular-value gap for
+    records too short for the blocks and for ``"pbsid_rowwise"``).
     ``detrend`` / ``remove_means`` and ``refine`` (default ``"auto"``: the
     prediction-error refinement where it pays), ``refine_iterations``,
     ``refine_max_work`` as for :func:`identify`.
