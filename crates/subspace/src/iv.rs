@@ -17,6 +17,7 @@ use crate::options::OrderSelection;
 use crate::order::{
     OrderCriterion, OrderReport, gap_values, information_criterion_values, simulation_error,
 };
+use crate::predictor_regress::predictor_regression;
 use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
 
 /// One record for [`iv_identify`].
@@ -97,6 +98,10 @@ pub struct IvDiagnostics {
     pub stabilized: bool,
     /// Singular values of Γ_R (multirate one-step formula only).
     pub gamma_r_singular_values: Vec<f64>,
+    /// Why (B, D, x₀) did not come from the output-error regression, when
+    /// they did not (an A too unstable for it: the one-step predictor
+    /// regression instead, which also moves A); `None` otherwise.
+    pub bd_fallback: Option<String>,
 }
 
 /// An IV-identified model.
@@ -293,61 +298,161 @@ fn check_ts(ts: f64) -> Result<()> {
 /// criterion's `max` above (α − 1)n_y), [`Error::InvalidOption`]
 /// ([`OrderCriterion::Svc`]), [`Error::Unstable`] with `require_stable`,
 /// [`Error::UnstableEstimate`] when the estimated A is so unstable that the
-/// (B, D, x₀) regression over the record cannot be computed (very low SNR;
-/// raised right after A is estimated, before the regression).
+/// output-error regression over the record cannot be computed and the
+/// one-step predictor regression that then takes its place fails too
+/// ((A, C) not detectable). An A too unstable for the output-error
+/// regression otherwise gets (B, D, x₀) and a re-estimated A from that
+/// predictor regression ([`IvDiagnostics::bd_fallback`] says so).
 pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result<IvModel> {
-    let first = experiments.first().ok_or(Error::NoData)?;
-    let (nu, ny) = (first.u.ncols(), first.y.ncols());
-    check_ts(opts.ts)?;
-    let alpha = opts.alpha;
-    let alpha_p = opts.alpha_p.unwrap_or(alpha.saturating_mul(2));
-    check_horizons(alpha, alpha_p)?;
-    // The (u, y) records are checked as for `identify`; then the instruments.
-    let records: Vec<Experiment<'_>> = experiments
-        .iter()
-        .map(|e| Experiment { u: e.u, y: e.y })
-        .collect();
-    validate(&records)?;
-    for e in experiments {
-        if let Some(f) = e.instrument {
-            check_instrument(f, e.u)?;
-        }
-    }
-    if opts.order_criterion == OrderCriterion::Svc {
-        return Err(Error::InvalidOption {
-            what: "order_criterion",
-            reason: "SVC is defined on canonical correlations, which the IV method does not compute; use Gap, Aic, Aicc or Bic".into(),
-        });
-    }
-    let max_order = (alpha - 1).saturating_mul(ny);
-    check_order(opts.order, opts.order_criterion, max_order)?;
-    let recs: Vec<_> = experiments
-        .iter()
-        .map(|e| (e.u, e.y, e.instrument.unwrap_or(e.u)))
-        .collect();
-    let scale = Scale {
-        u: pow4_scale(&recs.iter().map(|r| r.0).collect::<Vec<_>>()),
-        y: pow4_scale(&recs.iter().map(|r| r.1).collect::<Vec<_>>()),
+    let prep = IvPrepared::new(experiments, opts)?;
+    let (nu, ny) = (prep.nu, prep.ny);
+    let fit = |n: usize| prep.output_error(n, opts);
+    let records = &prep.records;
+    let cap = candidate_orders(opts.order, prep.max_order);
+    let mut fits = Vec::new();
+    let values = if opts.order_criterion.needs_models() {
+        prep.sub.check(cap, prep.alpha, ny)?;
+        let (values, models) = information_criterion_values(
+            opts.order_criterion,
+            cap,
+            records,
+            (ny, nu),
+            &opts.feedthrough,
+            opts.initial_state,
+            fit,
+            |(a, c, bd, _)| simulation_error(a, &bd.b, c, &bd.d, records, &bd.x0),
+        )?;
+        fits = models;
+        values
+    } else {
+        gap_values(&prep.sub.s, cap.min(prep.sub.s.len()))
     };
-    let z_scale = pow4_scale(&recs.iter().map(|r| r.2).collect::<Vec<_>>());
-    let sub = iv_subspace(&recs, alpha, alpha_p, scale, z_scale)?;
-    let records: Vec<Record<'_>> = experiments
-        .iter()
-        .map(|e| Record {
-            u: e.u,
-            y: e.y,
-            instrument: e.instrument,
+    let suggested = OrderReport::new(
+        OrderCriterion::Gap,
+        gap_values(&prep.sub.s, cap.min(prep.sub.s.len())),
+    )
+    .selected;
+    let order_selection = OrderReport::new(opts.order_criterion, values);
+    let n = match opts.order {
+        OrderSelection::Fixed(n) => n,
+        OrderSelection::Gap { .. } => order_selection.selected,
+    };
+    let ((a, c, bd, stabilized), bd_fallback) = match n
+        .checked_sub(1)
+        .and_then(|i| fits.get_mut(i))
+        .and_then(Option::take)
+    {
+        Some(fit) => (fit, None),
+        None => prep.model(n, opts)?,
+    };
+    let sv_unit = prep.scale.y * prep.z_scale;
+    Ok(IvModel {
+        model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
+        x0: bd.x0,
+        diagnostics: IvDiagnostics {
+            singular_values: prep.sub.s.iter().map(|v| v * sv_unit).collect(),
+            order: n,
+            suggested_order: suggested,
+            order_selection,
+            horizons: (prep.alpha, prep.alpha_p),
+            columns: prep.sub.columns,
+            stabilized,
+            gamma_r_singular_values: Vec::new(),
+            bd_fallback,
+        },
+    })
+}
+
+/// A model of [`IvPrepared::output_error`]: (A, C, (B, D, x₀), A
+/// re-estimated to be stable).
+type IvFit = (DMatrix<f64>, DMatrix<f64>, BdFit, bool);
+
+/// The checked records and the IV subspace of [`iv_identify`], from which
+/// the model of any order follows (the held-out order selection fits every
+/// order of a fold from one of these).
+pub(crate) struct IvPrepared<'r> {
+    sub: IvSubspace,
+    scale: Scale,
+    z_scale: f64,
+    records: Vec<Record<'r>>,
+    closed_loop: bool,
+    alpha: usize,
+    alpha_p: usize,
+    nu: usize,
+    ny: usize,
+    /// (α − 1) n_y.
+    pub(crate) max_order: usize,
+}
+
+impl<'r> IvPrepared<'r> {
+    /// The checks of [`iv_identify`] and the IV subspace (eqs. 7.20–7.23).
+    pub(crate) fn new(experiments: &[IvExperiment<'r>], opts: &IvOptions) -> Result<Self> {
+        let first = experiments.first().ok_or(Error::NoData)?;
+        let (nu, ny) = (first.u.ncols(), first.y.ncols());
+        check_ts(opts.ts)?;
+        let alpha = opts.alpha;
+        let alpha_p = opts.alpha_p.unwrap_or(alpha.saturating_mul(2));
+        check_horizons(alpha, alpha_p)?;
+        // The (u, y) records are checked as for `identify`; then the instruments.
+        let plain: Vec<Experiment<'_>> = experiments
+            .iter()
+            .map(|e| Experiment { u: e.u, y: e.y })
+            .collect();
+        validate(&plain)?;
+        for e in experiments {
+            if let Some(f) = e.instrument {
+                check_instrument(f, e.u)?;
+            }
+        }
+        if opts.order_criterion == OrderCriterion::Svc {
+            return Err(Error::InvalidOption {
+                what: "order_criterion",
+                reason: "SVC is defined on canonical correlations, which the IV method does not compute; use Gap, Aic, Aicc or Bic".into(),
+            });
+        }
+        let max_order = (alpha - 1).saturating_mul(ny);
+        check_order(opts.order, opts.order_criterion, max_order)?;
+        let recs: Vec<_> = experiments
+            .iter()
+            .map(|e| (e.u, e.y, e.instrument.unwrap_or(e.u)))
+            .collect();
+        let scale = Scale {
+            u: pow4_scale(&recs.iter().map(|r| r.0).collect::<Vec<_>>()),
+            y: pow4_scale(&recs.iter().map(|r| r.1).collect::<Vec<_>>()),
+        };
+        let z_scale = pow4_scale(&recs.iter().map(|r| r.2).collect::<Vec<_>>());
+        let sub = iv_subspace(&recs, alpha, alpha_p, scale, z_scale)?;
+        let records: Vec<Record<'r>> = experiments
+            .iter()
+            .map(|e| Record {
+                u: e.u,
+                y: e.y,
+                instrument: e.instrument,
+            })
+            .collect();
+        let closed_loop = experiments.iter().any(|e| e.instrument.is_some());
+        Ok(IvPrepared {
+            sub,
+            scale,
+            z_scale,
+            records,
+            closed_loop,
+            alpha,
+            alpha_p,
+            nu,
+            ny,
+            max_order,
         })
-        .collect();
-    let closed_loop = experiments.iter().any(|e| e.instrument.is_some());
-    // The IV model of order n in original units: A, C by shift invariance
-    // (C of the scaled data times s_y), then (B, D, x₀) from the records;
-    // an unstable A is rejected here (require_stable) or by the regression
-    // (UnstableEstimate) before any simulation.
-    let fit = |n: usize| -> Result<(DMatrix<f64>, DMatrix<f64>, BdFit, bool)> {
-        sub.check(n, alpha, ny)?;
-        let (a, c, stabilized) = ac_from_gamma(&sub.gamma(n), ny, opts.enforce_stability)?;
-        let c = c * scale.y;
+    }
+
+    /// A and C of order n in original units by shift invariance (C of the
+    /// scaled data times s_y); an unstable A is refused with
+    /// `require_stable`.
+    fn ac(&self, n: usize, opts: &IvOptions) -> Result<(DMatrix<f64>, DMatrix<f64>, bool)> {
+        self.sub.check(n, self.alpha, self.ny)?;
+        let (a, c, stabilized) =
+            ac_from_gamma(&self.sub.gamma(n), self.ny, opts.enforce_stability)?;
+        let c = c * self.scale.y;
         if opts.require_stable {
             let rho = spectral_radius(&a)?;
             if rho >= 1.0 {
@@ -356,65 +461,108 @@ pub fn iv_identify(experiments: &[IvExperiment<'_>], opts: &IvOptions) -> Result
                 });
             }
         }
-        let bd = if closed_loop {
-            estimate_bd_iv(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+        Ok((a, c, stabilized))
+    }
+
+    /// The model of order n with (B, D, x₀) by the output-error regression
+    /// (least squares in open loop, IV with instruments filtered from f in
+    /// closed loop); an A too unstable for it is
+    /// [`Error::UnstableEstimate`], raised before the regression.
+    fn output_error(&self, n: usize, opts: &IvOptions) -> Result<IvFit> {
+        let (a, c, stabilized) = self.ac(n, opts)?;
+        let bd = if self.closed_loop {
+            estimate_bd_iv(&a, &c, &self.records, &opts.feedthrough, opts.initial_state)?
         } else {
-            estimate_bd(&a, &c, &records, &opts.feedthrough, opts.initial_state)?
+            estimate_bd(&a, &c, &self.records, &opts.feedthrough, opts.initial_state)?
         };
         Ok((a, c, bd, stabilized))
-    };
-    let cap = candidate_orders(opts.order, max_order);
-    let mut fits = Vec::new();
-    let values = if opts.order_criterion.needs_models() {
-        sub.check(cap, alpha, ny)?;
-        let (values, models) = information_criterion_values(
-            opts.order_criterion,
-            cap,
-            &records,
-            (ny, nu),
-            &opts.feedthrough,
-            opts.initial_state,
-            fit,
-            |(a, c, bd, _)| simulation_error(a, &bd.b, c, &bd.d, &records, &bd.x0),
-        )?;
-        fits = models;
-        values
+    }
+
+    /// The model of order n: [`IvPrepared::output_error`], or, when A is
+    /// too unstable for the output-error regression over the records,
+    /// (A, B, D, x₀) by the one-step predictor regression
+    /// ([`predictor_form`]) with the reason, so that the unstable model
+    /// comes back (the caller warns) rather than no model.
+    pub(crate) fn model(&self, n: usize, opts: &IvOptions) -> Result<(IvFit, Option<String>)> {
+        match self.output_error(n, opts) {
+            Ok(fit) => Ok((fit, None)),
+            Err(
+                e @ Error::UnstableEstimate {
+                    spectral_radius,
+                    samples,
+                    growth,
+                    ..
+                },
+            ) => {
+                let (a, c, stabilized) = self.ac(n, opts)?;
+                let (a, bd) = predictor_form(&a, &c, &self.records, opts).map_err(|_| e)?;
+                let why = format!(
+                    "the IV estimate of A is unstable (spectral radius {spectral_radius:.6}): an output-error regression over {samples} samples would grow by {growth:.1e}; (B, D, x0) and A = Ã + K C instead by the one-step predictor regression, Ã = A − K₀C with a stabilising observer gain K₀ and C fixed, K re-estimated"
+                );
+                Ok(((a, c, bd, stabilized), Some(why)))
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The largest order the IV subspace identifies: (α − 1) n_y, at most
+    /// the number of singular values of R₂₂.
+    pub(crate) fn supported(&self) -> usize {
+        self.max_order.min(self.sub.s.len())
+    }
+
+    /// The model of order n as a [`StateSpace`] of period `opts.ts`.
+    pub(crate) fn state_space(&self, n: usize, opts: &IvOptions) -> Result<StateSpace> {
+        let ((a, c, bd, _), _) = self.model(n, opts)?;
+        Ok(StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?)
+    }
+}
+
+/// (A, B, D, x₀) of an IV model whose A is too unstable for the
+/// output-error regression over the records: with Ã = A − K₀C for the
+/// observer gain K₀ of the Riccati equation with unit weights (stable
+/// whenever (A, C) is detectable), (B̃, K, D, x₀) by the linear one-step
+/// predictor regression (`crate::predictor_regress`, PBSID's step 5: its
+/// regressors are filtered by the stable Ã, so they do not grow, and it
+/// stays consistent in closed loop), then A = Ã + K C and B = B̃ + K D.
+/// A moves from the IV estimate by (K − K₀) C. O(n³) for the Riccati
+/// equation, then the regression's O(N (n_y q² + n³ n_z)).
+fn predictor_form(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    records: &[Record<'_>],
+    opts: &IvOptions,
+) -> Result<(DMatrix<f64>, BdFit)> {
+    let (n, ny) = (a.nrows(), c.nrows());
+    let nu = records.first().map_or(0, |r| r.u.ncols());
+    let k0 = lifted_linalg::dare(
+        &a.transpose(),
+        &c.transpose(),
+        &DMatrix::identity(n, n),
+        &DMatrix::identity(ny, ny),
+        None,
+    )?
+    .k
+    .transpose();
+    let a_pred = a - &k0 * c;
+    let mask = opts.feedthrough.mask(ny, nu)?;
+    let with_x0 = opts.initial_state == InitialState::Estimate;
+    let fit = predictor_regression(&a_pred, c, &mask, records, with_x0)?;
+    let x0 = if with_x0 {
+        fit.x0
     } else {
-        gap_values(&sub.s, cap.min(sub.s.len()))
+        vec![nalgebra::DVector::zeros(n); records.len()]
     };
-    let suggested = OrderReport::new(
-        OrderCriterion::Gap,
-        gap_values(&sub.s, cap.min(sub.s.len())),
-    )
-    .selected;
-    let order_selection = OrderReport::new(opts.order_criterion, values);
-    let n = match opts.order {
-        OrderSelection::Fixed(n) => n,
-        OrderSelection::Gap { .. } => order_selection.selected,
-    };
-    let (a, c, bd, stabilized) = match n
-        .checked_sub(1)
-        .and_then(|i| fits.get_mut(i))
-        .and_then(Option::take)
-    {
-        Some(f) => f,
-        None => fit(n)?,
-    };
-    let sv_unit = scale.y * z_scale;
-    Ok(IvModel {
-        model: StateSpace::new(a, bd.b, c, bd.d, Some(opts.ts))?,
-        x0: bd.x0,
-        diagnostics: IvDiagnostics {
-            singular_values: sub.s.iter().map(|v| v * sv_unit).collect(),
-            order: n,
-            suggested_order: suggested,
-            order_selection,
-            horizons: (alpha, alpha_p),
-            columns: sub.columns,
-            stabilized,
-            gamma_r_singular_values: Vec::new(),
+    let offsets = vec![nalgebra::DVector::zeros(ny); records.len()];
+    Ok((
+        fit.a,
+        BdFit {
+            b: fit.b,
+            d: fit.d,
+            x0,
+            offsets,
         },
-    })
+    ))
 }
 
 /// Options of [`iv_multirate_fast`].
@@ -614,6 +762,7 @@ pub fn iv_multirate_fast(
             columns: sub.columns,
             stabilized: false,
             gamma_r_singular_values: sv,
+            bd_fallback: None,
         },
     })
 }

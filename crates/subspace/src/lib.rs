@@ -133,7 +133,9 @@ mod engine;
 pub mod error;
 mod fit;
 mod hankel;
+mod held_out_order;
 mod iv;
+mod iv_order;
 mod lagged;
 mod modal;
 mod model;
@@ -161,10 +163,12 @@ pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
+pub use held_out_order::{HeldOutOrder, OrderCandidate};
 pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
     iv_multirate_fast,
 };
+pub use iv_order::select_iv_order;
 pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
 pub use options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 pub use order::{OrderCriterion, OrderReport, gap_order};
@@ -173,7 +177,7 @@ pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify,
 };
-pub use pbsid_order::{OrderCandidate, PbsidOrderSelection, select_pbsid_order};
+pub use pbsid_order::select_pbsid_order;
 pub use refine::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,

@@ -33,56 +33,16 @@
 //! O(N (n_y q² + n³ n_z)), and a simulation of the held-out block O(N n²).
 
 use nalgebra::DMatrix;
-use serde::{Deserialize, Serialize};
 
 use crate::checks::validate;
-use crate::crossval::{Folds, floored, held_out_fit};
-use crate::error::{Error, Result};
+use crate::crossval::held_out_fit;
+use crate::error::Result;
+use crate::held_out_order::{HeldOutOrder, held_out_order};
 use crate::model::Experiment;
 use crate::options::OrderSelection;
 use crate::pbsid::{PbsidOptions, PbsidVariant, Prepared};
 use crate::records::remove_means;
-use crate::select::{StructureOptions, parsimonious};
-
-/// One order scored on the held-out blocks.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OrderCandidate {
-    /// Order n.
-    pub order: usize,
-    /// Held-out simulation fit in percent (mean over the folds; a fold
-    /// without a stable model counts as −100); `None` when no fold gave a
-    /// stable model.
-    pub fit: Option<f64>,
-    /// The fit of each held-out fold (floored at −100 like the mean), in
-    /// fold order.
-    pub fold_fits: Vec<f64>,
-}
-
-/// Result of [`select_pbsid_order`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PbsidOrderSelection {
-    /// The past horizon p every fold used (chosen on the whole records).
-    pub past: usize,
-    /// The order chosen (the first of [`PbsidOrderSelection::ranking`]).
-    pub order: usize,
-    /// Its held-out fit (percent).
-    pub fit: f64,
-    /// Every order with its score (the curve shown by the front ends).
-    pub candidates: Vec<OrderCandidate>,
-    /// Folds scored (1: the last block held out; more: blocked
-    /// cross-validation).
-    pub folds: usize,
-}
-
-impl PbsidOrderSelection {
-    /// The scored orders in the order of preference: those within
-    /// `tolerance` points of the best by increasing order, then the others
-    /// by decreasing score. The first is the selection; a caller whose
-    /// model of it on the whole records is unstable takes the next.
-    pub fn ranking(&self, tolerance: f64) -> Vec<OrderCandidate> {
-        parsimonious(&self.candidates, |c| c.fit, |c| c.order, tolerance)
-    }
-}
+use crate::select::StructureOptions;
 
 /// Chooses the order of [`crate::pbsid_identify`] by held-out simulation
 /// fit (module docs). `opts` gives the variant, horizons, feedthrough and
@@ -93,29 +53,17 @@ impl PbsidOrderSelection {
 /// `order = Fixed(order)` and `past = Some(past)`.
 ///
 /// Errors: those of [`crate::pbsid_identify`] on the whole records;
-/// [`Error::InvalidOption`] for a fold count outside 2..=10;
-/// [`Error::HorizonTooLong`] when no fold's estimation part supports the
-/// past horizon; [`Error::Unstable`] when no order gives a stable model on
-/// any fold; [`Error::Linalg`] (`TooLarge`) when a copy of the records per
+/// [`crate::Error::InvalidOption`] for a fold count outside 2..=10;
+/// [`crate::Error::HorizonTooLong`] when no fold's estimation part supports the
+/// past horizon; [`crate::Error::Unstable`] when no order gives a stable model on
+/// any fold; [`crate::Error::Linalg`] (`TooLarge`) when a copy of the records per
 /// fold exceeds the memory budget.
 pub fn select_pbsid_order(
     experiments: &[Experiment<'_>],
     opts: &PbsidOptions,
     structure: &StructureOptions,
-) -> Result<PbsidOrderSelection> {
+) -> Result<HeldOutOrder> {
     let (nu, ny, total) = validate(experiments)?;
-    let blocked = total <= structure.blocked_samples;
-    let (k_folds, forward) = if blocked {
-        (structure.blocked_folds, false)
-    } else {
-        (structure.folds, structure.forward)
-    };
-    if !(2..=10).contains(&k_folds) {
-        return Err(Error::InvalidOption {
-            what: "folds",
-            reason: format!("2 to 10 cross-validation blocks, got {k_folds}"),
-        });
-    }
     // The past horizon of the whole records (as pbsid_identify chooses it).
     let whole = prepared(experiments, opts, nu, ny, total)?;
     let past = whole.past;
@@ -137,81 +85,35 @@ pub fn select_pbsid_order(
             PbsidVariant::Optimized => 1,
             PbsidVariant::RowWise | PbsidVariant::Ssarx => opts.future,
         };
-    let layout = Folds::new(experiments, k_folds, forward);
-    let folds = layout.split()?;
-    // fits[order index][fold]
-    let mut fits: Vec<Vec<Option<f64>>> = vec![Vec::with_capacity(folds.len()); orders.len()];
-    let mut any_fold = false;
-    for (est, held) in &folds {
-        let exps: Vec<Experiment<'_>> = est
-            .iter()
-            .filter(|(u, _)| u.nrows() >= span)
-            .map(|(u, y)| Experiment { u, y })
-            .collect();
-        let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = held.iter().map(|(u, y)| (u, y)).collect();
-        let fold = if exps.is_empty() {
-            None
-        } else {
+    held_out_order(
+        experiments,
+        &orders,
+        structure,
+        (past, span),
+        |est, held| {
+            let exps: Vec<Experiment<'_>> = est
+                .iter()
+                .filter(|(u, _)| u.nrows() >= span)
+                .map(|(u, y)| Experiment { u, y })
+                .collect();
+            if exps.is_empty() {
+                return None;
+            }
             let samples = exps.iter().map(|e| e.u.nrows()).sum();
-            fold_models(&exps, &fold_opts, nu, ny, samples).ok()
-        };
-        any_fold |= fold.is_some();
-        let scored: Vec<Option<f64>> = match &fold {
-            None => vec![None; orders.len()],
-            Some((op, prep, recs)) => {
-                let centred: Vec<Experiment<'_>> =
-                    recs.iter().map(|(u, y)| Experiment { u, y }).collect();
+            let (op, prep, recs) = fold_models(&exps, &fold_opts, nu, ny, samples).ok()?;
+            let centred: Vec<Experiment<'_>> =
+                recs.iter().map(|(u, y)| Experiment { u, y }).collect();
+            Some(
                 orders
                     .iter()
                     .map(|&n| {
                         let model = prep.at_order(&centred, &fold_opts, n).ok()?;
-                        held_out_fit(&model.model, op.as_ref(), &held)
+                        held_out_fit(&model.model, op.as_ref(), held)
                     })
-                    .collect()
-            }
-        };
-        for (route, fit) in fits.iter_mut().zip(scored) {
-            route.push(fit);
-        }
-    }
-    if !any_fold {
-        return Err(Error::HorizonTooLong {
-            past,
-            future: opts.future,
-            n_samples: layout.shortest(),
-            min_samples: span.saturating_mul(2),
-        });
-    }
-    let candidates: Vec<OrderCandidate> = orders
-        .iter()
-        .zip(&fits)
-        .map(|(&order, f)| {
-            let fold_fits: Vec<f64> = f.iter().map(|&v| floored(v)).collect();
-            let mean = fold_fits.iter().sum::<f64>() / fold_fits.len().max(1) as f64;
-            OrderCandidate {
-                order,
-                fit: f.iter().any(Option::is_some).then_some(mean),
-                fold_fits,
-            }
-        })
-        .collect();
-    let mut sel = PbsidOrderSelection {
-        past,
-        order: 0,
-        fit: f64::NAN,
-        candidates,
-        folds: layout.held_out.len(),
-    };
-    let chosen = sel
-        .ranking(structure.tolerance)
-        .into_iter()
-        .next()
-        .ok_or(Error::Unstable {
-            spectral_radius: f64::NAN,
-        })?;
-    sel.order = chosen.order;
-    sel.fit = chosen.fit.unwrap_or(f64::NAN);
-    Ok(sel)
+                    .collect(),
+            )
+        },
+    )
 }
 
 /// Steps 1–3 on records as `pbsid_identify` treats them (means removed
@@ -265,6 +167,7 @@ fn fold_models(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Error;
     use crate::pbsid::pbsid_identify;
     use nalgebra::DVector;
     use rand::SeedableRng;
@@ -324,7 +227,7 @@ mod tests {
         assert!(at(2) < at(4) - 5.0, "{sel:?}");
         // The past horizon is the whole record's Akaike choice.
         let whole = pbsid_identify(&exps, &opts).unwrap();
-        assert_eq!(sel.past, whole.diagnostics.horizons.0);
+        assert_eq!(sel.horizon, whole.diagnostics.horizons.0);
     }
 
     #[test]

@@ -138,8 +138,9 @@ pub enum OrderCriterion {
     /// refined score is kept (`structure_selection.refined_shortlist`;
     /// without the shortlist, of the unrefined scores). PBSID and SSARX:
     /// the order by the same held-out fit at the whole record's past
-    /// horizon (`lifted_subspace::select_pbsid_order`; records too short
-    /// for the blocks: the singular-value gap). The other routes (IV,
+    /// horizon (`lifted_subspace::select_pbsid_order`), single-rate IV at
+    /// its α (`lifted_subspace::select_iv_order`; records too short for the
+    /// blocks: the singular-value gap). The other routes (multirate IV,
     /// q-Markov) use the singular-value gap; a record too large to select
     /// on is streamed with Bauer's SVC.
     #[default]

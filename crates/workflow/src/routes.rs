@@ -1352,19 +1352,16 @@ pub(crate) fn pbsid(
 /// PBSID / SSARX with the order chosen by held-out simulation fit
 /// ([`lifted_subspace::select_pbsid_order`]: the folds, score and parsimony
 /// rule of the N4SID/MOESP/CVA structure selection, at the whole record's
-/// past horizon) and the `structure_selection` diagnostics entry. The
-/// ranking's first order whose model on the whole records is stable is
-/// kept (at most [`STABLE_TRIES`] tried; none stable: the first, which the
-/// validation stage flags). Records too short for the folds, or without a
-/// stable model on any fold, get the singular-value gap, and the entry says
-/// why.
+/// past horizon) and the `structure_selection` diagnostics entry
+/// ([`held_out_choice`]). Records too short for the folds, or without a
+/// stable model on any fold, get the singular-value gap, and the entry
+/// says why.
 fn pbsid_selected(
     exps: &[Experiment<'_>],
     opts: &lifted_subspace::PbsidOptions,
     what: &str,
 ) -> Result<(lifted_subspace::PbsidModel, Option<serde_json::Value>)> {
-    let structure = StructureOptions::default();
-    let sel = match lifted_subspace::select_pbsid_order(exps, opts, &structure) {
+    let sel = match lifted_subspace::select_pbsid_order(exps, opts, &StructureOptions::default()) {
         Ok(sel) => sel,
         Err(e) => {
             let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
@@ -1375,41 +1372,69 @@ fn pbsid_selected(
             return Ok((fit, Some(note)));
         }
     };
+    let (fit, d) = held_out_choice(
+        &sel,
+        &format!("the whole record's past horizon {}", sel.horizon),
+        |n| {
+            let o = lifted_subspace::PbsidOptions {
+                order: OrderSelection::Fixed(n),
+                past: Some(sel.horizon),
+                ..opts.clone()
+            };
+            lifted_subspace::pbsid_identify(exps, &o).map_err(|e| e.to_string())
+        },
+        |fit| fit.diagnostics.spectral_radius,
+        what,
+    )?;
+    Ok((fit, Some(d)))
+}
+
+/// The model of the first order of a held-out ranking (`sel`) whose model
+/// on the whole records (`identify_at(n)`) is stable — at most
+/// [`STABLE_TRIES`] tried; none stable: the first, which the validation
+/// stage flags — and the `structure_selection` diagnostics entry (the
+/// criterion, the order, its held-out fit, every candidate with its
+/// per-block fits, the orders passed over). `horizon`: how the folds' horizon was set.
+fn held_out_choice<M>(
+    sel: &lifted_subspace::HeldOutOrder,
+    horizon: &str,
+    identify_at: impl Fn(usize) -> std::result::Result<M, String>,
+    spectral_radius: impl Fn(&M) -> f64,
+    what: &str,
+) -> Result<(M, serde_json::Value)> {
     let criterion = if sel.folds > 1 {
         format!(
-            "blocked cross-validation: simulation fit (x0 estimated, its n parameters charged by the FPE factor) on each of {} contiguous blocks held out once, the order identified on the others at the whole record's past horizon {}; mean over the blocks",
-            sel.folds, sel.past
+            "blocked cross-validation: simulation fit (x0 estimated, its n parameters charged by the FPE factor) on each of {} contiguous blocks held out once, the order identified on the others at {horizon}; mean over the blocks",
+            sel.folds
         )
     } else {
         format!(
-            "simulation fit on the held-out last third of the record (x0 estimated, its n parameters charged by the FPE factor), the order identified on the first two thirds at the whole record's past horizon {}",
-            sel.past
+            "simulation fit on the held-out last third of the record (x0 estimated, its n parameters charged by the FPE factor), the order identified on the first two thirds at {horizon}"
         )
     };
     let candidates: Vec<serde_json::Value> = sel
         .candidates
         .iter()
-        .map(|c| json!({"horizon": sel.past, "order": c.order, "fit": c.fit, "fold_fits": c.fold_fits}))
+        .map(|c| json!({"horizon": sel.horizon, "order": c.order, "fit": c.fit, "fold_fits": c.fold_fits}))
         .collect();
     let mut tried = Vec::new();
     let mut first = None;
-    for c in sel.ranking(structure.tolerance).iter().take(STABLE_TRIES) {
-        let o = lifted_subspace::PbsidOptions {
-            order: OrderSelection::Fixed(c.order),
-            past: Some(sel.past),
-            ..opts.clone()
-        };
-        let fit = match lifted_subspace::pbsid_identify(exps, &o) {
+    for c in sel
+        .ranking(StructureOptions::default().tolerance)
+        .iter()
+        .take(STABLE_TRIES)
+    {
+        let fit = match identify_at(c.order) {
             Ok(fit) => fit,
             Err(e) => {
-                tried.push(json!({"order": c.order, "error": e.to_string()}));
+                tried.push(json!({"order": c.order, "error": e}));
                 continue;
             }
         };
-        let rho = fit.diagnostics.spectral_radius;
+        let rho = spectral_radius(&fit);
         let d = json!({
             "criterion": criterion,
-            "horizon": sel.past,
+            "horizon": sel.horizon,
             "order": c.order,
             "held_out_fit": c.fit,
             "folds": sel.folds,
@@ -1417,20 +1442,19 @@ fn pbsid_selected(
             "candidates": candidates,
         });
         if rho < 1.0 {
-            return Ok((fit, Some(d)));
+            return Ok((fit, d));
         }
         tried.push(json!({"order": c.order, "spectral_radius": rho}));
         if first.is_none() {
-            first = Some((fit, Some(d)));
+            first = Some((fit, d));
         }
     }
-    match first {
-        Some(r) => Ok(r),
-        None => Err(Error::Data(format!(
+    first.ok_or_else(|| {
+        Error::Data(format!(
             "{what}: no order of the held-out ranking could be identified on the whole record ({})",
             serde_json::Value::Array(tried)
-        ))),
-    }
+        ))
+    })
 }
 
 /// IV subspace identification (single-rate, or lifted IV on a multirate
@@ -1509,16 +1533,60 @@ pub(crate) fn iv(
             instrument: *f,
         })
         .collect();
-    let fit = iv_identify(&exps, &iopts).ctx("IV identification")?;
+    let what = "IV identification";
+    let (fit, structure) = if id.order == Order::Auto
+        && id.order_criterion == OrderCriterion::Validation
+    {
+        match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
+            Ok(sel) => {
+                let (fit, d) = held_out_choice(
+                    &sel,
+                    &format!("alpha = {}", sel.horizon),
+                    |n| {
+                        let o = IvOptions {
+                            order: OrderSelection::Fixed(n),
+                            ..iopts.clone()
+                        };
+                        iv_identify(&exps, &o).map_err(|e| e.to_string())
+                    },
+                    |fit| crate::validate::spectral_radius(&fit.model).unwrap_or(f64::INFINITY),
+                    what,
+                )?;
+                (fit, Some(d))
+            }
+            Err(e) => {
+                let fit = iv_identify(&exps, &iopts).ctx(what)?;
+                let note = json!({"error": format!(
+                    "no order selected on held-out blocks ({e}); order {} by the singular-value gap",
+                    fit.diagnostics.order
+                )});
+                (fit, Some(note))
+            }
+        }
+    } else {
+        (iv_identify(&exps, &iopts).ctx(what)?, None)
+    };
     let dg = &fit.diagnostics;
     let d = json!({
         "route": "single-rate instrumental-variable subspace identification",
+        "bd_route": if dg.bd_fallback.is_some() {
+            "one-step predictor regression (A re-estimated with it)"
+        } else if names.is_empty() {
+            "output-error least squares on the data"
+        } else {
+            "output-error instrumental variables on the data"
+        },
+        "fallbacks": dg.bd_fallback.iter().collect::<Vec<_>>(),
         "stabilized": dg.stabilized,
         "instrument": if names.is_empty() { json!("inputs") } else { json!(names) },
         "horizons": [dg.horizons.0, dg.horizons.1],
         "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),
         "order_criterion": criterion_json(&dg.order_selection),
     });
+    let mut d = d;
+    if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
+        obj.insert("structure_selection".into(), st);
+    }
     Ok(RouteFit {
         model: fit.model,
         diagnostics: d,

@@ -287,7 +287,8 @@ def identify(
       record, or ``"gap"``, the singular-value gap). ``method="iv"``: the
       instrumental-variable subspace method with the inputs as instruments
       (open loop; :func:`iv` takes a closed loop's instruments; ``horizon``
-      is its alpha, default 8). ``system``, ``bd`` and ``noise_model``
+      is its alpha, default 8; its automatic order by the held-out fit
+      too). ``system``, ``bd`` and ``noise_model``
       apply to N4SID, MOESP and CVA only.
     * ``threads``: the correlation-kernel threads (0 = all cores; capped at
       the machine's available parallelism, the count used is
@@ -517,8 +518,11 @@ def iv(
     noise; None uses ``u`` (open loop). ``alpha`` future block rows
     (``--horizon``, None: 8), ``alpha_p`` past instrument rows
     (``--instrument-past``, None: 2 alpha, erratum L-16). ``order_criterion``
-    ``"validation"`` (the default, here the singular-value gap) or ``"gap"``,
-    ``"svc"``, ``"aic"``, ``"aicc"``, ``"bic"``. ``detrend`` / ``remove_means``,
+    ``"validation"`` (the default: with ``order`` None, the order of best
+    held-out simulation fit, six blocks each held out once,
+    ``diagnostics["structure_selection"]``; the gap for multirate records
+    and records too short for the blocks) or ``"gap"``, ``"aic"``,
+    ``"aicc"``, ``"bic"``. ``detrend`` / ``remove_means``,
     ``enforce_stability`` (the stabilised estimate), ``refine`` (default
     ``"auto"``), ``refine_iterations``, ``refine_max_work`` as for
     :func:`identify`; ``require_stable`` fails on an unstable model (else it
