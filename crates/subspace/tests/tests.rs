@@ -868,10 +868,14 @@ mod compression {
 /// RBS ±1 dither at the plant input, variance SNR of spec §0, α = 8,
 /// α_p = 16, order 2, N = 3000 — the set-up of `lifted-tests` A3.9
 /// `regime`): the IV estimate of A is unstable on some seeds and the
-/// (B, D, x₀) regression over the record cannot be computed. These seeds
-/// failed with "faer singular_values did not converge after 0 iterations",
-/// `RankDeficient { "B/D regressor" }` or `NonFinite { "block" }` before;
-/// now they report `UnstableEstimate` before the regression runs.
+/// output-error (B, D, x₀) regression over the record cannot be computed.
+/// These seeds failed with "faer singular_values did not converge after 0
+/// iterations", `RankDeficient { "B/D regressor" }` or `NonFinite {
+/// "block" }`, then with `UnstableEstimate` before the regression ran; now
+/// (B, D, x₀) and A come from the one-step predictor regression, whose
+/// regressors a stabilising observer filters, and the model comes back
+/// with the reason in `bd_fallback`. The plant is 0.5/(5s + 1) with one
+/// sample of delay: poles 0.819 and 0.
 mod extreme_snr {
     use lifted_prbs::{RandomBinaryOptions, random_binary};
     use lifted_sim::plants::chapter7_siso;
@@ -926,21 +930,45 @@ mod extreme_snr {
         }
     }
 
+    /// The fallback names the unstable IV estimate (ρ above `rho_min`) and
+    /// its growth over the 3000 samples, and the model's slow pole is the
+    /// plant's 0.819 within `tol`.
+    fn assert_predictor_fallback(fit: &IvModel, rho_min: f64, tol: f64) {
+        let note = fit.diagnostics.bd_fallback.as_deref().unwrap_or_default();
+        assert!(note.contains("IV estimate of A is unstable"), "{note}");
+        assert!(note.contains("over 3000 samples"), "{note}");
+        let rho: f64 = note
+            .split("spectral radius ")
+            .nth(1)
+            .and_then(|s| s.split(')').next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0.0);
+        assert!(rho > rho_min, "{note}");
+        let slow = fit
+            .model
+            .poles()
+            .unwrap()
+            .iter()
+            .map(|p| p.norm())
+            .fold(0.0, f64::max);
+        assert!((slow - 0.819).abs() < tol, "{slow} {note}");
+    }
+
     /// var-SNR 0.25, seed 5012: IV with the dither as instrument. Before:
-    /// `Linalg(NoConvergence { "faer singular_values" })`; A has ρ = 1.0699
-    /// (ρ^2999 ≈ 1e88).
+    /// `Linalg(NoConvergence { "faer singular_values" })`, then
+    /// `UnstableEstimate`: A has ρ = 1.0699 (ρ^2999 ≈ 1e88). The predictor
+    /// regression's model has its slow pole at 0.829.
     #[test]
-    fn closed_loop_iv_with_unstable_a_names_the_cause() {
+    fn closed_loop_iv_with_unstable_a_gets_the_predictor_form() {
         let (u, y, f) = record(0.25, 5012);
         let rec = [IvExperiment {
             u: &u,
             y: &y,
             instrument: Some(&f),
         }];
-        let err = iv_identify(&rec, &options()).unwrap_err();
-        assert_unstable_estimate(&err, "IV regression", 1.06);
-        assert!(err.to_string().contains("estimated A is unstable"), "{err}");
-        // require_stable reports the same A as Error::Unstable first.
+        let fit = iv_identify(&rec, &options()).unwrap();
+        assert_predictor_fallback(&fit, 1.06, 0.03);
+        // require_stable reports the IV estimate of A as Error::Unstable.
         let strict = IvOptions {
             require_stable: true,
             ..options()
@@ -954,6 +982,7 @@ mod extreme_snr {
         };
         let fit = iv_identify(&rec, &fixed).unwrap();
         assert!(fit.diagnostics.stabilized);
+        assert!(fit.diagnostics.bd_fallback.is_none());
         assert!(fit.model.poles().unwrap().iter().all(|p| p.norm() < 1.0));
     }
 
@@ -962,29 +991,36 @@ mod extreme_snr {
     /// needed 5 }`, which was really ρ = 1.0217 (ρ^2999 ≈ 1e28).
     #[test]
     fn open_loop_iv_rank_deficiency_was_an_unstable_a() {
-        let err = open_loop_iv_error(0.25, 5012);
-        assert_unstable_estimate(&err, "output-error regression", 1.02);
+        let fit = open_loop_iv(0.25, 5012);
+        assert_predictor_fallback(&fit, 1.02, 0.1);
     }
 
-    /// The error of the §7.3 IV method (u as instrument) on one record.
-    fn open_loop_iv_error(snr: f64, seed: u64) -> Error {
+    /// The §7.3 IV method (u as instrument) on one record.
+    fn open_loop_iv(snr: f64, seed: u64) -> IvModel {
         let (u, y, _) = record(snr, seed);
         let rec = [IvExperiment {
             u: &u,
             y: &y,
             instrument: None,
         }];
-        iv_identify(&rec, &options()).unwrap_err()
+        iv_identify(&rec, &options()).unwrap()
     }
 
     /// var-SNR 0.025, seed 5003, u as instrument: before
     /// `Linalg(NonFinite { "block", row 475 })` (the regressors overflowed;
     /// ρ = 1.325, ρ^2999 = ∞ in f64).
     #[test]
-    fn overflowing_regressors_are_reported_as_an_unstable_a() {
-        let err = open_loop_iv_error(0.025, 5003);
-        assert_unstable_estimate(&err, "output-error regression", 1.3);
-        assert!(matches!(err, Error::UnstableEstimate { growth, .. } if growth.is_infinite()));
+    fn overflowing_regressors_are_avoided_by_the_predictor_form() {
+        let fit = open_loop_iv(0.025, 5003);
+        assert!(
+            fit.diagnostics
+                .bd_fallback
+                .as_deref()
+                .is_some_and(|n| n.contains("grow by inf")),
+            "{:?}",
+            fit.diagnostics.bd_fallback
+        );
+        assert_predictor_fallback(&fit, 1.3, 0.1);
     }
 
     /// The public regressions `estimate_bd` and `estimate_bd_iv` (also used
