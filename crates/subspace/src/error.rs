@@ -110,7 +110,10 @@ pub enum Error {
     /// A matrix that must have full column rank is rank deficient, e.g. Γ_R
     /// of the one-step multirate formula (7.27) when (C₂, A) is not
     /// observable (erratum L-18).
-    #[error("{what} is rank deficient: numerical rank {rank}, {needed} needed")]
+    #[error(
+        "{what} is rank deficient: numerical rank {rank}, {needed} needed{}",
+        rank_hint(what)
+    )]
     RankDeficient {
         /// Which matrix.
         what: &'static str,
@@ -189,6 +192,17 @@ pub enum Error {
 /// Result alias of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// What a user can do about a rank-deficient `what` (empty when nothing
+/// general applies).
+fn rank_hint(what: &str) -> &'static str {
+    match what {
+        "B/D regressor" | "B/D instrument matrix" => {
+            " (the input does not tell the model's modes apart: too few changes of the input (e.g. a few steps), or modes it does not excite; a lower order or a richer excitation)"
+        }
+        _ => "",
+    }
+}
+
 /// [`Error::RankDeficient`] for `what` when `rank < needed`.
 pub(crate) fn check_rank(what: &'static str, rank: usize, needed: usize) -> Result<()> {
     if rank < needed {
@@ -222,5 +236,40 @@ pub(crate) fn non_finite_at(what: &'static str, m: &nalgebra::DMatrix<f64>, i: u
         what,
         row: i % m.nrows(),
         col: i / m.nrows(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rank_deficient_regressor_says_what_to_do() {
+        let e = Error::RankDeficient {
+            what: "B/D regressor",
+            rank: 5,
+            needed: 9,
+        };
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with(
+                "B/D regressor is rank deficient: numerical rank 5, 9 needed (the input"
+            ),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("a lower order or a richer excitation"),
+            "{msg}"
+        );
+        // Other matrices keep the plain message.
+        let e = Error::RankDeficient {
+            what: "Γ_R",
+            rank: 2,
+            needed: 3,
+        };
+        assert_eq!(
+            e.to_string(),
+            "Γ_R is rank deficient: numerical rank 2, 3 needed"
+        );
     }
 }
