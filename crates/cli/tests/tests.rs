@@ -1900,6 +1900,30 @@ mod bad_input {
         fails(&args, 2)
     }
 
+    /// Without `--inputs`/`--outputs` the message lists the file's columns
+    /// and, for u…/y… names, the flags that name them (it said only
+    /// "--inputs NAME[,NAME…] is required").
+    #[test]
+    fn missing_channel_flags_list_the_files_columns() {
+        let d = tmp("bad_channels");
+        let f = write(&d, "named.csv", "t,u1,u2 [V],y1,y2\n0,1,2,3,4\n1,1,2,3,4\n");
+        let out = p(&d, "m.json");
+        let e = fails(&["identify", "--data", &f, "--out", &out], 2);
+        assert!(e.contains("--inputs NAME[,NAME…] is required"), "{e}");
+        assert!(e.contains("its columns: u1, u2 [V], y1, y2"), "{e}");
+        assert!(e.contains("e.g. --inputs u1,u2 --outputs y1,y2"), "{e}");
+        let e = fails(
+            &["identify", "--data", &f, "--inputs", "u1", "--out", &out],
+            2,
+        );
+        assert!(e.contains("--outputs NAME[,NAME…] is required"), "{e}");
+        // Other names: the columns, no guess.
+        let g = write(&d, "other.csv", "time,flow,level\n0,1,2\n1,1,2\n");
+        let e = fails(&["identify", "--data", &g, "--out", &out], 2);
+        assert!(e.contains("its columns: flow, level"), "{e}");
+        assert!(!e.contains("e.g."), "{e}");
+    }
+
     #[test]
     fn each_bad_input_is_one_line_with_exit_code_2() {
         let d = tmp("bad");

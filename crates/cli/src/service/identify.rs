@@ -173,14 +173,60 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     Ok(o)
 }
 
+/// The message for a missing `--inputs`/`--outputs` (`flag`): the first
+/// data file's columns when its header can be read, and the command line
+/// for them when the names follow the u…/y… convention.
+fn missing_channels(flag: &str, a: &IdentifyArgs) -> String {
+    let plain = format!("{flag} NAME[,NAME…] is required");
+    let Some(path) = a.data.first() else {
+        return plain;
+    };
+    let columns = a.columns.columns.as_deref().map(names).unwrap_or_default();
+    let Ok(header) = crate::table::header(path, &columns) else {
+        return plain;
+    };
+    let time = crate::table::time_column(&header);
+    let cols: Vec<&String> = header
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != time)
+        .map(|(_, h)| h)
+        .collect();
+    let like = |prefix: char| -> Vec<&str> {
+        cols.iter()
+            .map(|h| crate::table::bare_name(h))
+            .filter(|n| {
+                let mut ch = n.chars();
+                ch.next().is_some_and(|c| c.eq_ignore_ascii_case(&prefix))
+                    && ch.as_str().chars().all(|c| c.is_ascii_digit() || c == '_')
+            })
+            .collect()
+    };
+    let (us, ys) = (like('u'), like('y'));
+    let example = if !us.is_empty() && !ys.is_empty() {
+        format!(
+            "; e.g. --inputs {} --outputs {}",
+            us.join(","),
+            ys.join(",")
+        )
+    } else {
+        String::new()
+    };
+    let list: Vec<&str> = cols.iter().map(|h| h.as_str()).collect();
+    format!(
+        "{plain}: name the input and output columns of {path} (its columns: {}){example}",
+        list.join(", ")
+    )
+}
+
 /// The data files of `lifted identify`'s arguments.
 pub fn files_from_args(a: &IdentifyArgs) -> CliResult<DataFiles> {
     let c = &a.columns;
     if c.inputs.is_none() {
-        return Err(input("--inputs NAME[,NAME…] is required"));
+        return Err(input(missing_channels("--inputs", a)));
     }
     if c.outputs.is_none() {
-        return Err(input("--outputs NAME[,NAME…] is required"));
+        return Err(input(missing_channels("--outputs", a)));
     }
     Ok(DataFiles {
         paths: a.data.clone(),
