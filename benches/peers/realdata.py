@@ -15,8 +15,12 @@ way, by this script:
   a failed or timed-out run as "failed" / "timeout".
 
 Tools:
-* lifted: `$LIFTED_CLI identify --method {n4sid,moesp,cva} --order n --detrend none`
-  (CLI default horizon): these three make the "best lifted" of the summary counts;
+* lifted: `$LIFTED_CLI identify --method {n4sid,moesp,cva} --order n` (CLI defaults:
+  horizon, detrending — the means removed inside the identification, the model's
+  operating point applied when it is scored, as `lifted validate` does;
+  `--lifted-detrend-none` runs `--detrend none` on the centred file instead, the
+  protocol of the tables before 2026-11-27): these three make the "best lifted" of
+  the summary counts;
   `--method n4sid --refine pem` (time limited); `--method n4sid --order auto` (the
   chosen order is recorded). Two diagnostic variants, outside the counts: the three
   methods with the file given twice (`--data est.csv --data est.csv`: the CLI's
@@ -49,6 +53,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LIFTED_METHODS = ["n4sid", "moesp", "cva"]
+# --lifted-detrend-none: lifted runs `--detrend none` (set by main()).
+DETREND_NONE = False
 SIPPY_METHODS = ["N4SID", "MOESP", "CVA", "PARSIM-K"]
 THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "MKL_NUM_THREADS": "1", "RAYON_NUM_THREADS": "1"}
@@ -154,7 +160,8 @@ def run_lifted(cli, workdir, csv, m, p, method, order, extra_args, timeout, u, y
     cmd = [cli, "identify", "--method", method] + data + [
            "--inputs", ",".join(f"u{i + 1}" for i in range(m)),
            "--outputs", ",".join(f"y{i + 1}" for i in range(p)),
-           "--order", str(order), "--detrend", "none", "--out", out] + extra_args
+           "--order", str(order)] + (["--detrend", "none"] if DETREND_NONE else []) + [
+           "--out", out] + extra_args
     t0 = time.perf_counter()
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
@@ -166,9 +173,14 @@ def run_lifted(cli, workdir, csv, m, p, method, order, extra_args, timeout, u, y
         return {"fit": None, "status": "failed", "seconds": secs,
                 "error": (r.stderr or r.stdout).strip()[-600:]}
     mats, diag, op = read_model(out)
-    res = scored(mats, u, y, {"seconds": secs})
-    if op:  # not expected with --detrend none (the data are centred before they are written)
+    if op:
+        # The model is of deviations from its operating point (the default
+        # detrending): scored as `lifted validate` scores it, u − u0 in, y0 added.
+        res = scored(mats, u - np.asarray(op["u0"], dtype=float),
+                     y - np.asarray(op["y0"], dtype=float), {"seconds": secs})
         res["operating_point"] = op
+    else:
+        res = scored(mats, u, y, {"seconds": secs})
     res["diagnostics"] = diag
     if r.stderr.strip():
         res["stderr"] = r.stderr.strip()[-600:]
@@ -338,6 +350,8 @@ def main():
     ap.add_argument("--sippy-cap", type=int, default=120, help="seconds per SIPPY (method, order) run")
     ap.add_argument("--octave-cap", type=int, default=120, help="seconds per Octave n4sid run")
     ap.add_argument("--no-octave", action="store_true")
+    ap.add_argument("--lifted-detrend-none", action="store_true",
+                    help="run lifted with --detrend none on the centred file (the protocol before 2026-11-27)")
     ap.add_argument("--from-json", help="print the table of a saved --json run instead of running")
     ap.add_argument("--no-sippy", action="store_true")
     # internal: the SIPPY worker process
@@ -346,6 +360,8 @@ def main():
     ap.add_argument("--horizon", type=int, default=20, help=argparse.SUPPRESS)
     ap.add_argument("--cap", type=int, default=120, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    global DETREND_NONE
+    DETREND_NONE = args.lifted_detrend_none
 
     if args.sippy_worker:
         sippy_worker(args.sippy_worker, [int(o) for o in args.orders.split(",")], args.horizon, args.cap)
@@ -370,6 +386,7 @@ def main():
     octave = None if args.no_octave else octave_available()
     version = subprocess.run([args.lifted_cli, "--version"], capture_output=True, text=True).stdout.strip()
     meta = {"date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "lifted_cli": args.lifted_cli,
+            "lifted_detrend": "none" if DETREND_NONE else "default (means removed inside, operating point scored)",
             "lifted_version": version, "octave": octave, "numpy": np.__version__,
             "sippy_horizon_default": 20, "pem_timeout": args.pem_timeout, "sippy_cap": args.sippy_cap,
             "horizon_variant": args.horizon_variant}
