@@ -77,17 +77,7 @@ pub(crate) fn held_out_order(
     mut fold: impl FnMut(&OwnedRecords, &[(&DMatrix<f64>, &DMatrix<f64>)]) -> Option<Vec<Option<f64>>>,
 ) -> Result<HeldOutOrder> {
     let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
-    let (k_folds, forward) = if total <= structure.blocked_samples {
-        (structure.blocked_folds, false)
-    } else {
-        (structure.folds, structure.forward)
-    };
-    if !(2..=10).contains(&k_folds) {
-        return Err(Error::InvalidOption {
-            what: "folds",
-            reason: format!("2 to 10 cross-validation blocks, got {k_folds}"),
-        });
-    }
+    let (k_folds, forward) = structure.scheme(total)?;
     let layout = Folds::new(experiments, k_folds, forward);
     let folds = layout.split()?;
     // fits[order index][fold]

@@ -225,7 +225,10 @@ mod tests {
         };
         assert!(matches!(
             select_iv_order(&exps, &opts, &bad),
-            Err(Error::InvalidOption { what: "folds", .. })
+            Err(Error::InvalidOption {
+                what: "blocked_folds",
+                ..
+            })
         ));
     }
 }

@@ -65,7 +65,7 @@ pub fn select_pbsid_order(
 ) -> Result<HeldOutOrder> {
     let (nu, ny, total) = validate(experiments)?;
     // The past horizon of the whole records (as pbsid_identify chooses it).
-    let whole = prepared(experiments, opts, nu, ny, total)?;
+    let (_, whole, _) = fold_models(experiments, opts, nu, ny, total)?;
     let past = whole.past;
     let (orders, cap): (Vec<usize>, usize) = match opts.order {
         OrderSelection::Fixed(n) => (vec![n], n),
@@ -116,26 +116,10 @@ pub fn select_pbsid_order(
     )
 }
 
-/// Steps 1–3 on records as `pbsid_identify` treats them (means removed
-/// first unless `opts.remove_means` is false).
-fn prepared(
-    experiments: &[Experiment<'_>],
-    opts: &PbsidOptions,
-    nu: usize,
-    ny: usize,
-    total: usize,
-) -> Result<Prepared> {
-    if !opts.remove_means {
-        return Prepared::new(experiments, opts, nu, ny, total);
-    }
-    let (_, centered) = remove_means(experiments)?;
-    let exps: Vec<Experiment<'_>> = centered.iter().map(|(u, y)| Experiment { u, y }).collect();
-    Prepared::new(&exps, opts, nu, ny, total)
-}
-
-/// A fold's estimation part ready for every order: its operating point
-/// (when the means are removed), steps 1–3, and the records the orders are
-/// finished on (centred when the means are removed).
+/// Records ready for every order, as `pbsid_identify` treats them: their
+/// operating point (when the means are removed), steps 1–3, and the records
+/// the orders are finished on (centred when the means are removed; a copy
+/// otherwise).
 type Fold = (
     Option<lifted_lti::OperatingPoint>,
     Prepared,
@@ -248,7 +232,10 @@ mod tests {
         };
         assert!(matches!(
             select_pbsid_order(&exps, &opts, &bad),
-            Err(Error::InvalidOption { what: "folds", .. })
+            Err(Error::InvalidOption {
+                what: "blocked_folds",
+                ..
+            })
         ));
     }
 }

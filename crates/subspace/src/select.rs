@@ -91,6 +91,35 @@ pub struct StructureOptions {
     pub search_samples: usize,
 }
 
+impl StructureOptions {
+    /// The blocks and the hold-out scheme for records of `total` samples:
+    /// blocked cross-validation over [`StructureOptions::blocked_folds`]
+    /// blocks up to [`StructureOptions::blocked_samples`] samples (every
+    /// block held out once), else [`StructureOptions::folds`] blocks with
+    /// [`StructureOptions::forward`]. [`Error::InvalidOption`] for a count
+    /// outside 2..=10.
+    pub(crate) fn scheme(&self, total: usize) -> Result<(usize, bool)> {
+        if !(2..=10).contains(&self.folds) {
+            return Err(Error::InvalidOption {
+                what: "folds",
+                reason: format!("2 to 10 cross-validation folds, got {}", self.folds),
+            });
+        }
+        let (k_folds, forward) = if total <= self.blocked_samples {
+            (self.blocked_folds, false)
+        } else {
+            (self.folds, self.forward)
+        };
+        if !(2..=10).contains(&k_folds) {
+            return Err(Error::InvalidOption {
+                what: "blocked_folds",
+                reason: format!("2 to 10 cross-validation blocks, got {k_folds}"),
+            });
+        }
+        Ok((k_folds, forward))
+    }
+}
+
 impl Default for StructureOptions {
     fn default() -> Self {
         StructureOptions {
@@ -164,27 +193,8 @@ pub fn select_structure(
     base: &SubspaceOptions,
     opts: &StructureOptions,
 ) -> Result<StructureSelection> {
-    if !(2..=10).contains(&opts.folds) {
-        return Err(Error::InvalidOption {
-            what: "folds",
-            reason: format!("2 to 10 cross-validation folds, got {}", opts.folds),
-        });
-    }
     let (nu, ny, total) = crate::checks::validate(experiments)?;
-    // Short records: blocked cross-validation (every block held out once);
-    // longer ones: the options' scheme.
-    let blocked = total <= opts.blocked_samples;
-    let (k_folds, forward) = if blocked {
-        (opts.blocked_folds, false)
-    } else {
-        (opts.folds, opts.forward)
-    };
-    if !(2..=10).contains(&k_folds) {
-        return Err(Error::InvalidOption {
-            what: "blocked_folds",
-            reason: format!("2 to 10 cross-validation blocks, got {k_folds}"),
-        });
-    }
+    let (k_folds, forward) = opts.scheme(total)?;
     // Hankel columns J per column of k = 2 s (n_u + n_y) that a horizon
     // needs in every fold's estimation pieces: 3 for forward validation (a
     // third of the record held out once), 1 (J ≥ k, the least that
