@@ -360,8 +360,8 @@ pub enum CriterionArg {
     /// samples: every order identified on the first two thirds and simulated on the last third,
     /// then the smallest orders near the best (and the best) judged by their models refined on
     /// the first two thirds (unless --refine none). PBSID and SSARX: the order by the same
-    /// held-out fit at the past horizon of the whole record; single-rate IV at its alpha. The
-    /// other routes (multirate IV, q-Markov) use the singular-value gap.
+    /// held-out fit at the past horizon of the whole record; single-rate IV at its alpha;
+    /// multirate IV as the multirate subspace methods. q-Markov uses the singular-value gap.
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.
     Gap,

@@ -140,9 +140,10 @@ pub enum OrderCriterion {
     /// the order by the same held-out fit at the whole record's past
     /// horizon (`lifted_subspace::select_pbsid_order`), single-rate IV at
     /// its α (`lifted_subspace::select_iv_order`; records too short for the
-    /// blocks: the singular-value gap). The other routes (multirate IV,
-    /// q-Markov) use the singular-value gap; a record too large to select
-    /// on is streamed with Bauer's SVC.
+    /// blocks: the singular-value gap), multirate IV as the multirate
+    /// subspace routes (the last third, the refined shortlist). The
+    /// q-Markov Cover uses the singular-value gap; a record too large to
+    /// select on is streamed with Bauer's SVC.
     #[default]
     Validation,
     /// Largest gap ln(σ_n/σ_{n+1}) of the singular values.

@@ -809,7 +809,26 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
     // (when the record allows it), else the singular-value gap.
     let held_out = match (opts.identification.order, id.order_criterion) {
         (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
-            held_out_orders(data, &opts, max, wf)
+            // Orders above (f − 1) p̄ (p̄ lifted outputs per frame) are not
+            // identifiable at the horizon: not tried (`max` may be anything
+            // the caller gave).
+            let (_, frame_outputs) = lifted_widths(data);
+            let identifiable = opts
+                .identification
+                .future
+                .saturating_sub(1)
+                .saturating_mul(frame_outputs);
+            let fit_at = |est: &Dataset, n: usize| {
+                // The horizon the estimation part supports when the
+                // route's is too long for it (two thirds of the frames).
+                let mut o = at_order(&opts, n);
+                if let Some(s) = lifted_horizon(est, o.identification.past) {
+                    o.identification.past = s;
+                    o.identification.future = s;
+                }
+                identify_multirate(est, None, &o).ok().map(|m| m.fast)
+            };
+            held_out_orders(data, max.min(identifiable), fit_at, wf)
         }
         _ => None,
     };
@@ -963,17 +982,18 @@ impl HeldOutOrders {
 /// the multirate route (one multirate identification per candidate order).
 const MULTIRATE_SELECTION_SAMPLES: usize = 200_000;
 
-/// The multirate route's held-out order ranking for an automatic order up
+/// The multirate routes' held-out order ranking for an automatic order up
 /// to `max` ([`HeldOutOrders`]): the record cut at a frame boundary near
-/// two thirds, every order identified on the first part (the route's other
-/// options) and simulated on the rest from its least-squares x₀. `None`
+/// two thirds, every order identified on the first part (`fit_at(part,
+/// n)`: the route's fast model of order n, `None` when it fails) and
+/// simulated on the rest from its least-squares x₀. `None`
 /// when the record is longer than [`MULTIRATE_SELECTION_SAMPLES`], too
 /// short for the cut, or no order could be scored. O(max) multirate
 /// identifications of 2N/3 samples.
 fn held_out_orders(
     data: &Dataset,
-    opts: &ProcedureOptions,
     max: usize,
+    fit_at: impl Fn(&Dataset, usize) -> Option<StateSpace>,
     wf: &WorkflowOptions,
 ) -> Option<HeldOutOrders> {
     let n = data.len();
@@ -986,14 +1006,6 @@ fn held_out_orders(
         return None;
     }
     let (est, val) = (data.slice(0..split).ok()?, data.slice(split..n).ok()?);
-    // The horizon the estimation part supports when the route's is too
-    // long for it (two thirds of the frames).
-    let mut opts = opts.clone();
-    let h = opts.identification.past;
-    if let Some(s) = lifted_horizon(&est, h) {
-        opts.identification.past = s;
-        opts.identification.future = s;
-    }
     let vopts = lifted_lti::ValidationOptions {
         lags: 1,
         horizons: Vec::new(),
@@ -1003,27 +1015,16 @@ fn held_out_orders(
     let mut curve = Vec::new();
     // The fast model (at the base period) of each scored order.
     let mut models: Vec<(usize, StateSpace)> = Vec::new();
-    // Orders above (f − 1) p̄ (p̄ lifted outputs per frame) are not
-    // identifiable at the horizon: not tried (`max` may be anything the
-    // caller gave).
-    let (_, frame_outputs) = lifted_widths(data);
-    let identifiable = opts
-        .identification
-        .future
-        .saturating_sub(1)
-        .saturating_mul(frame_outputs);
-    for order in 1..=max.min(identifiable).max(1) {
-        let fit = identify_multirate(&est, None, &at_order(&opts, order))
-            .ok()
-            .and_then(|m| {
-                if crate::validate::spectral_radius(&m.fast).is_ok_and(|r| r < 1.0) {
-                    let fast = at_base_period(&m.fast, val.ts()).ok()?;
-                    let mean = held_out_mean(&fast, &val, &vopts)?;
-                    Some((mean, fast))
-                } else {
-                    None
-                }
-            });
+    for order in 1..=max.max(1) {
+        let fit = fit_at(&est, order).and_then(|m| {
+            if crate::validate::spectral_radius(&m).is_ok_and(|r| r < 1.0) {
+                let fast = at_base_period(&m, val.ts()).ok()?;
+                let mean = held_out_mean(&fast, &val, &vopts)?;
+                Some((mean, fast))
+            } else {
+                None
+            }
+        });
         curve.push(json!({"order": order, "fit": fit.as_ref().map(|f| f.0)}));
         if let Some((f, fast)) = fit {
             scored.push((order, f));
@@ -1491,8 +1492,53 @@ pub(crate) fn iv(
             },
             ..Default::default()
         };
-        let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
-            .ctx("multirate IV identification")?;
+        // The default automatic order: by the held-out fit of the last
+        // third (as the multirate subspace route), else the gap.
+        let held_out = match (order, id.order_criterion) {
+            (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
+                let fit_at = |est: &Dataset, n: usize| {
+                    let o = LiftedIvOptions {
+                        order: OrderSelection::Fixed(n),
+                        alpha: iv_alpha_for(est, lopts.alpha, lopts.alpha_p),
+                        ..lopts.clone()
+                    };
+                    let f_est = f.rows(0, est.len().min(f.nrows())).into_owned();
+                    identify_lifted_iv(est, &f_est, Ordering::ChannelMajor, &o)
+                        .ok()
+                        .map(|m| m.fast)
+                };
+                held_out_orders(data, max, fit_at, opts)
+            }
+            _ => None,
+        };
+        let chosen = held_out.as_ref().and_then(|sel| {
+            sel.ranking.iter().take(STABLE_TRIES).find_map(|&(n, _)| {
+                let o = LiftedIvOptions {
+                    order: OrderSelection::Fixed(n),
+                    ..lopts.clone()
+                };
+                let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &o).ok()?;
+                crate::validate::spectral_radius(&fit.fast)
+                    .is_ok_and(|r| r < 1.0)
+                    .then_some(fit)
+            })
+        });
+        let from_ranking = chosen.is_some();
+        let fit = match chosen {
+            Some(fit) => fit,
+            None => identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
+                .ctx("multirate IV identification")?,
+        };
+        let structure = held_out.as_ref().map(|sel| {
+            let mut d = sel.diagnostics(fit.fast.order());
+            if !from_ranking && let Some(obj) = d.as_object_mut() {
+                obj.insert(
+                    "note".into(),
+                    json!("no order of the held-out ranking gave a stable model on the whole record: the singular-value gap decided"),
+                );
+            }
+            d
+        });
         let lifting =
             lifted_multirate::MultirateLifting::from_dataset(data, Ordering::ChannelMajor)
                 .ctx("multirate IV identification")?;
@@ -1505,6 +1551,10 @@ pub(crate) fn iv(
             "lifting_period": lifting_period,
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
         });
+        let mut d = d;
+        if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
+            obj.insert("structure_selection".into(), st);
+        }
         let details = RouteDetails {
             lifted: Some(fit.lifted.clone()),
             lifting_period: Some(lifting_period),
@@ -1597,6 +1647,22 @@ pub(crate) fn iv(
         suggested_order: dg.suggested_order,
         details: RouteDetails::default(),
     })
+}
+
+/// The largest α ≤ `alpha` (at least 2) for which the lifted IV method has
+/// the Hankel columns it needs on `data` lifted by its frame period: F −
+/// α − α_p + 1 ≥ max(α_p m̄, α (m̄ + p̄)) for F frames of m̄ lifted inputs
+/// (and instruments) and p̄ lifted outputs, α_p = `alpha_p` or 2α
+/// (`lifted_multirate` IV's default). The held-out part of a record
+/// (two thirds of its frames) may not support the route's α. O(alpha).
+fn iv_alpha_for(data: &Dataset, alpha: usize, alpha_p: Option<usize>) -> usize {
+    let frames = data.len() / data.frame_period().max(1);
+    let (mb, pb) = lifted_widths(data);
+    let fits = |a: usize| {
+        let ap = alpha_p.unwrap_or(2 * a);
+        (frames + 1).saturating_sub(a + ap) >= (ap * mb).max(a * (mb + pb))
+    };
+    (2..=alpha.max(2)).rev().find(|&a| fits(a)).unwrap_or(2)
 }
 
 /// The diagonal Q of the q-Markov output weighting: one value for every

@@ -1368,3 +1368,37 @@ fn an_unstable_plant_in_a_loop_comes_back_from_the_iv_route() {
     assert_eq!(d["stability"]["stable"], false, "{d}");
     assert!(d["warnings"].to_string().contains("unstable"), "{d}");
 }
+
+/// The multirate IV route's automatic order: the singular-value gap of the
+/// lifted R₂₂ chose order 2 on the issue's plant (FR error ≈ 0.2 against
+/// the truth on three records of 6000 and 3e4 samples); now the held-out
+/// fit of the last third, as the multirate subspace route (on 6000 samples
+/// at a shorter α for the first two thirds, which do not support α = 6).
+#[test]
+fn the_multirate_iv_route_chooses_its_order_on_held_out_data() {
+    let truth = issue_plant();
+    let data = multirate_record(&truth, 6000, &[3, 5], 1, 3);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.method = Method::Iv;
+    let fit = identify(&[Record::new(data.clone())], &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    let sel = &d["structure_selection"];
+    assert_eq!(sel["order"].as_u64(), Some(fit.order as u64), "{d}");
+    assert_eq!(fit.order, 4, "{d}");
+    assert!(
+        sel["candidates"].as_array().is_some_and(|c| c.len() == 10),
+        "{d}"
+    );
+    let err = fr_error(&fit.file.model, &truth);
+    // The issue's multirate bound.
+    assert!(err < 0.06, "FR error {err}: {d}");
+    // The gap rule, still there on request, misses it on this record.
+    opts.identification.order_criterion = OrderCriterion::Gap;
+    let gap = identify(&[Record::new(data)], &opts).expect("identify");
+    let gap_err = fr_error(&gap.file.model, &truth);
+    assert!(
+        gap.order < 4 && gap_err > 0.1,
+        "order {} FR error {gap_err}",
+        gap.order
+    );
+}

@@ -520,8 +520,9 @@ def iv(
     (``--instrument-past``, None: 2 alpha, erratum L-16). ``order_criterion``
     ``"validation"`` (the default: with ``order`` None, the order of best
     held-out simulation fit, six blocks each held out once,
-    ``diagnostics["structure_selection"]``; the gap for multirate records
-    and records too short for the blocks) or ``"gap"``, ``"aic"``,
+    ``diagnostics["structure_selection"]``; multirate records: the fit on
+    the last third, as the multirate subspace methods; the gap for records
+    too short for the blocks) or ``"gap"``, ``"aic"``,
     ``"aicc"``, ``"bic"``. ``detrend`` / ``remove_means``,
     ``enforce_stability`` (the stabilised estimate), ``refine`` (default
     ``"auto"``), ``refine_iterations``, ``refine_max_work`` as for
