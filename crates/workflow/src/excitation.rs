@@ -167,9 +167,14 @@ pub(crate) fn refuses_inputs(e: &Error) -> bool {
     let Error::Step { source, .. } = e else {
         return false;
     };
+    // The subspace methods' input rows ("u"), PBSID/SSARX's past data
+    // (inputs and outputs) and the IV method's instrument rows (the inputs
+    // in open loop): a constant or tied input makes each of them rank
+    // deficient. When no input is, the refusal is returned as it is.
     matches!(
         source.downcast_ref::<lifted_subspace::Error>(),
-        Some(lifted_subspace::Error::NotExciting { what: "u", .. })
+        Some(lifted_subspace::Error::NotExciting { what, .. })
+            if *what == "u" || *what == "instrument" || what.starts_with("past inputs and outputs")
     )
 }
 

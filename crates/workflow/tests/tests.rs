@@ -941,6 +941,21 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
         "{msg}"
     );
     assert!(matches!(e, Error::Data(_)), "{e:?}");
+    // The predictor-based and IV routes refuse the same record through
+    // their own regressors (the VARX past, the instrument rows): the same
+    // column is named (they gave only "… is not persistently exciting:
+    // numerical rank r, k needed").
+    for method in [Method::Pbsid, Method::Ssarx, Method::Iv] {
+        let mut o = WorkflowOptions::default();
+        o.identification.method = method;
+        let e = identify(&records, &o).expect_err("constant input");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("input 2 (always 0.5) is constant")
+                && msg.contains("not persistently exciting"),
+            "{method:?}: {msg}"
+        );
+    }
     // Read in blocks (a file too large for memory), the same message after
     // one more pass; the fixed-order streamed set-up of
     // `the_streamed_route_gives_the_in_memory_model`.
