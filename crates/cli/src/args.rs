@@ -526,7 +526,8 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub horizon: Option<usize>,
     /// PBSID/SSARX: future horizon f (default min(p, 10) with the past horizon p = --horizon,
-    /// 10 when the past horizon is Akaike's choice).
+    /// 10 when the past horizon is Akaike's choice, or the longest a record too short for 10
+    /// supports, with a warning).
     #[arg(long)]
     pub future: Option<usize>,
     /// PBSID/SSARX: estimate a direct feedthrough D (default: D = 0, the closed-loop default,

@@ -175,7 +175,7 @@ pub use order::{OrderCriterion, OrderReport, gap_order};
 pub use partial::{CompressedRecords, CompressionPlan, RecordPiece};
 pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
-    pbsid_identify,
+    pbsid_identify, pbsid_longest_future,
 };
 pub use pbsid_order::select_pbsid_order;
 pub use refine::{

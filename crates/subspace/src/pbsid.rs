@@ -617,6 +617,31 @@ fn identify_as_given(
     prepared.at_order(experiments, opts, n)
 }
 
+/// The longest future horizon f ≤ `max` with which [`pbsid_identify`]
+/// (past horizon chosen automatically, at least f) has the Hankel columns
+/// it needs on records of `lengths` samples with `nu` inputs and `ny`
+/// outputs: Σ (N_r + 1 − s) ≥ s (n_u + n_y) for the span s = f + 1
+/// (PBSID-opt) or 2f (row-wise, SSARX) at p = f; `None` when not even f = 1
+/// fits. A caller with a record too short for the default future horizon
+/// 10 uses it instead of a refusal. O(max · records).
+pub fn pbsid_longest_future(
+    lengths: &[usize],
+    nu: usize,
+    ny: usize,
+    variant: PbsidVariant,
+    max: usize,
+) -> Option<usize> {
+    let nz = nu + ny;
+    (1..=max).rev().find(|&f| {
+        let span = f + match variant {
+            PbsidVariant::Optimized => 1,
+            PbsidVariant::RowWise | PbsidVariant::Ssarx => f,
+        };
+        let columns: usize = lengths.iter().map(|&n| (n + 1).saturating_sub(span)).sum();
+        columns >= span.saturating_mul(nz)
+    })
+}
+
 /// Steps 1–3 of [`pbsid_identify`] on records as given (means already
 /// handled): the compressed factor, the past horizon, Γ̂K̂ and its SVD,
 /// which every order shares ([`Prepared::at_order`] finishes one order).

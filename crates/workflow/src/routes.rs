@@ -1301,15 +1301,31 @@ pub(crate) fn pbsid(
         ));
     }
     let past = id.horizon;
+    let variant = if id.method == Method::Ssarx {
+        lifted_subspace::PbsidVariant::Ssarx
+    } else {
+        lifted_subspace::PbsidVariant::Optimized
+    };
+    // A record too short for the default future horizon 10 (neither
+    // horizon given): the longest it supports, with a warning, as the
+    // other subspace routes do (it was refused: "horizons past 10 +
+    // future 10 too long for 45 samples").
+    let default_future = past.map_or(10, |p| p.min(10));
+    let future = match (id.future, past) {
+        (Some(f), _) => f,
+        (None, Some(_)) => default_future,
+        (None, None) => {
+            let lengths: Vec<usize> = sets.iter().map(Dataset::len).collect();
+            let (nu, ny) = (sets[0].n_inputs(), sets[0].n_outputs());
+            lifted_subspace::pbsid_longest_future(&lengths, nu, ny, variant, default_future)
+                .unwrap_or(default_future)
+        }
+    };
     let opts = lifted_subspace::PbsidOptions {
-        variant: if id.method == Method::Ssarx {
-            lifted_subspace::PbsidVariant::Ssarx
-        } else {
-            lifted_subspace::PbsidVariant::Optimized
-        },
+        variant,
         order: order_of(id),
         past,
-        future: id.future.unwrap_or(past.map_or(10, |p| p.min(10))),
+        future,
         feedthrough: if id.feedthrough {
             lifted_subspace::Feedthrough::Free
         } else {
@@ -1337,6 +1353,14 @@ pub(crate) fn pbsid(
     let mut diagnostics = pbsid_json(&fit);
     if let (Some(obj), Some(st)) = (diagnostics.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
+    }
+    if future < default_future && id.future.is_none() && past.is_none() {
+        crate::diagnostics::push_warning(
+            &mut diagnostics,
+            format!(
+                "the default future horizon {default_future} is too long for these records (fewer Hankel columns than rows): future horizon {future}, the longest they support (--future sets it)"
+            ),
+        );
     }
     Ok(RouteFit {
         model: fit.model.clone(),

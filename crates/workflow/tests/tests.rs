@@ -1417,3 +1417,30 @@ fn the_multirate_iv_route_chooses_its_order_on_held_out_data() {
         gap.order
     );
 }
+
+/// PBSID/SSARX on a record too short for the default future horizon 10
+/// (30 samples of 2 inputs and 2 outputs): refused before ("horizons past
+/// 10 + future 10 too long for 30 samples"); now the longest future
+/// horizon the record supports, with a warning, as the other subspace
+/// routes do — and a given horizon is still refused.
+#[test]
+fn a_record_too_short_for_the_default_future_horizon_gets_one_it_supports() {
+    let (u, y) = record(30, 0.05, 9);
+    let rec = [Record::new(dataset(&u, &y))];
+    for (method, f) in [(Method::Pbsid, 5), (Method::Ssarx, 3)] {
+        let mut o = WorkflowOptions::default();
+        o.identification.method = method;
+        let fit = identify(&rec, &o).expect("identify");
+        let d = &fit.file.diagnostics;
+        assert_eq!(d["horizons"][1].as_u64(), Some(f), "{method:?}: {d}");
+        assert!(
+            d["warnings"]
+                .to_string()
+                .contains(&format!("future horizon {f}, the longest they support")),
+            "{method:?}: {d}"
+        );
+        let mut given = o.clone();
+        given.identification.future = Some(10);
+        assert!(identify(&rec, &given).is_err(), "{method:?}");
+    }
+}

@@ -358,7 +358,8 @@ def pbsid(
     logged; the reference is not needed). ``past`` (the CLI's
     ``--horizon``) None chooses the past horizon by Akaike's criterion on
     the high-order predictor (up to 30); ``future`` (``--future``) None is
-    min(past, 10) (10 with Akaike's past); ``feedthrough`` False (no D,
+    min(past, 10) (10 with Akaike's past, or the longest a record too
+    short for 10 supports, with a warning); ``feedthrough`` False (no D,
     ``--feedthrough`` to estimate it) is the closed-loop default, since an
     estimated D is biased when the controller reacts within the sample.
     ``order`` None: the order of best held-out simulation fit up to
