@@ -522,7 +522,7 @@ pub struct IdentifyArgs {
     /// Horizon i: past = future block rows (subspace: by default chosen with the order by the
     /// held-out simulation fit among 5, 10, 15, 20, 30 for records up to 2e5 samples and data
     /// files up to 16 MiB, else 10; a record too short for held-out blocks and for horizon 10
-    /// gets the horizon with the smallest AICc among those it supports), α (IV, default 8).
+    /// gets the horizon with the smallest AICc among those it supports), α (IV, default 8, or the longest a record too short for 8 supports, with a warning).
     #[arg(long)]
     pub horizon: Option<usize>,
     /// PBSID/SSARX: future horizon f (default min(p, 10) with the past horizon p = --horizon,

@@ -1523,7 +1523,7 @@ pub(crate) fn iv(
                 let fit_at = |est: &Dataset, n: usize| {
                     let o = LiftedIvOptions {
                         order: OrderSelection::Fixed(n),
-                        alpha: iv_alpha_for(est, lopts.alpha, lopts.alpha_p),
+                        alpha: iv_alpha_for(&[est], lopts.alpha, lopts.alpha_p),
                         ..lopts.clone()
                     };
                     let f_est = f.rows(0, est.len().min(f.nrows())).into_owned();
@@ -1589,10 +1589,17 @@ pub(crate) fn iv(
             RouteFit::plain(fit.fast, d, &fit.singular_values, suggested).with_details(details),
         );
     }
+    // A record too short for the default α = 8 (no horizon given): the
+    // longest α it supports, with a warning (it was refused: "horizons past
+    // 16 + future 8 too long for 45 samples").
+    let alpha = match id.horizon {
+        Some(a) => a,
+        None => iv_alpha_for(&sets.iter().collect::<Vec<_>>(), 8, id.instrument_past),
+    };
     let iopts = IvOptions {
         order,
         order_criterion: criterion_of(id.order_criterion),
-        alpha: id.horizon.unwrap_or(8),
+        alpha,
         alpha_p: id.instrument_past,
         enforce_stability: stable,
         ts: sets[0].ts(),
@@ -1661,6 +1668,14 @@ pub(crate) fn iv(
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
+    if alpha < 8 && id.horizon.is_none() {
+        crate::diagnostics::push_warning(
+            &mut d,
+            format!(
+                "the default alpha 8 is too long for these records (fewer Hankel columns than instrument rows): alpha {alpha}, the longest they support (--horizon sets it)"
+            ),
+        );
+    }
     Ok(RouteFit {
         model: fit.model,
         diagnostics: d,
@@ -1673,18 +1688,25 @@ pub(crate) fn iv(
     })
 }
 
-/// The largest α ≤ `alpha` (at least 2) for which the lifted IV method has
-/// the Hankel columns it needs on `data` lifted by its frame period: F −
-/// α − α_p + 1 ≥ max(α_p m̄, α (m̄ + p̄)) for F frames of m̄ lifted inputs
-/// (and instruments) and p̄ lifted outputs, α_p = `alpha_p` or 2α
-/// (`lifted_multirate` IV's default). The held-out part of a record
-/// (two thirds of its frames) may not support the route's α. O(alpha).
-fn iv_alpha_for(data: &Dataset, alpha: usize, alpha_p: Option<usize>) -> usize {
-    let frames = data.len() / data.frame_period().max(1);
-    let (mb, pb) = lifted_widths(data);
+/// The largest α ≤ `alpha` (at least 2) for which the IV method has the
+/// Hankel columns it needs on `sets`, each lifted by its frame period (1
+/// for a single-rate record): Σ (F − α − α_p + 1) ≥ max(α_p m̄, α (m̄ + p̄))
+/// over records of F frames of m̄ (lifted) inputs — the instrument's width —
+/// and p̄ outputs, α_p = `alpha_p` or 2α (the IV methods' default). The
+/// held-out part of a multirate record (two thirds of its frames), or a
+/// short record, may not support the route's α. O(alpha · records).
+fn iv_alpha_for(sets: &[&Dataset], alpha: usize, alpha_p: Option<usize>) -> usize {
+    let Some(first) = sets.first() else {
+        return alpha;
+    };
+    let (mb, pb) = lifted_widths(first);
     let fits = |a: usize| {
         let ap = alpha_p.unwrap_or(2 * a);
-        (frames + 1).saturating_sub(a + ap) >= (ap * mb).max(a * (mb + pb))
+        let columns: usize = sets
+            .iter()
+            .map(|d| (d.len() / d.frame_period().max(1) + 1).saturating_sub(a + ap))
+            .sum();
+        columns >= (ap * mb).max(a * (mb + pb))
     };
     (2..=alpha.max(2)).rev().find(|&a| fits(a)).unwrap_or(2)
 }

@@ -1419,10 +1419,11 @@ fn the_multirate_iv_route_chooses_its_order_on_held_out_data() {
 }
 
 /// PBSID/SSARX on a record too short for the default future horizon 10
-/// (30 samples of 2 inputs and 2 outputs): refused before ("horizons past
-/// 10 + future 10 too long for 30 samples"); now the longest future
-/// horizon the record supports, with a warning, as the other subspace
-/// routes do — and a given horizon is still refused.
+/// (30 samples of 2 inputs and 2 outputs), and IV on one too short for its
+/// default α = 8: refused before ("horizons past 10 + future 10 too long
+/// for 30 samples"); now the longest horizon the record supports, with a
+/// warning, as the other subspace routes do — and a given horizon is still
+/// refused.
 #[test]
 fn a_record_too_short_for_the_default_future_horizon_gets_one_it_supports() {
     let (u, y) = record(30, 0.05, 9);
@@ -1443,4 +1444,19 @@ fn a_record_too_short_for_the_default_future_horizon_gets_one_it_supports() {
         given.identification.future = Some(10);
         assert!(identify(&rec, &given).is_err(), "{method:?}");
     }
+    // The IV method's α (default 8) likewise: 31 − 3α ≥ 4α columns at
+    // α_p = 2α, so α = 4.
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Iv;
+    let fit = identify(&rec, &o).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["horizons"][0].as_u64(), Some(4), "{d}");
+    assert!(
+        d["warnings"]
+            .to_string()
+            .contains("alpha 4, the longest they support"),
+        "{d}"
+    );
+    o.identification.horizon = Some(8);
+    assert!(identify(&rec, &o).is_err());
 }

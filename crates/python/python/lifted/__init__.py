@@ -517,7 +517,8 @@ def iv(
     excitation of a closed loop (the dither at the plant input or the
     set-point; the CLI's ``--instrument`` columns), independent of the
     noise; None uses ``u`` (open loop). ``alpha`` future block rows
-    (``--horizon``, None: 8), ``alpha_p`` past instrument rows
+    (``--horizon``, None: 8, or the longest a record too short for 8
+    supports, with a warning), ``alpha_p`` past instrument rows
     (``--instrument-past``, None: 2 alpha, erratum L-16). ``order_criterion``
     ``"validation"`` (the default: with ``order`` None, the order of best
     held-out simulation fit, six blocks each held out once,
