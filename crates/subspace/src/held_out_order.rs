@@ -63,18 +63,19 @@ impl HeldOutOrder {
 /// extra columns, such as an instrument, that `fold` splits off) and
 /// chooses among them. `fold(est, held)` fits the orders on a fold's
 /// estimation pieces and returns each one's held-out fit on the held-out
-/// parts, or `None` when the fold cannot be identified at all. Errors:
-/// [`Error::InvalidOption`] for a fold count outside 2..=10,
-/// [`Error::HorizonTooLong`] (with `horizon`, `span`) when no fold could be
-/// identified, [`Error::Unstable`] when no order gave a stable model,
+/// parts, or the error that refused the fold's identification. Errors:
+/// [`Error::InvalidOption`] for a fold count outside 2..=10, the first
+/// fold's refusal when no fold could be identified (e.g.
+/// [`Error::HorizonTooLong`] naming the fold's samples),
+/// [`Error::Unstable`] when no order gave a stable model,
 /// [`Error::Linalg`] (`TooLarge`) when the folds' copies exceed the
 /// memory budget.
 pub(crate) fn held_out_order(
     experiments: &[Experiment<'_>],
     orders: &[usize],
     structure: &StructureOptions,
-    (horizon, span): (usize, usize),
-    mut fold: impl FnMut(&OwnedRecords, &[(&DMatrix<f64>, &DMatrix<f64>)]) -> Option<Vec<Option<f64>>>,
+    horizon: usize,
+    mut fold: impl FnMut(&OwnedRecords, &[(&DMatrix<f64>, &DMatrix<f64>)]) -> Result<Vec<Option<f64>>>,
 ) -> Result<HeldOutOrder> {
     let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
     let (k_folds, forward) = structure.scheme(total)?;
@@ -83,22 +84,25 @@ pub(crate) fn held_out_order(
     // fits[order index][fold]
     let mut fits: Vec<Vec<Option<f64>>> = vec![Vec::with_capacity(folds.len()); orders.len()];
     let mut any_fold = false;
+    let mut refusal = None;
     for (est, held) in &folds {
         let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = held.iter().map(|(u, y)| (u, y)).collect();
-        let scored = fold(est, &held);
-        any_fold |= scored.is_some();
-        let scored = scored.unwrap_or_else(|| vec![None; orders.len()]);
+        let scored = match fold(est, &held) {
+            Ok(scored) => {
+                any_fold = true;
+                scored
+            }
+            Err(e) => {
+                refusal.get_or_insert(e);
+                vec![None; orders.len()]
+            }
+        };
         for (per_order, fit) in fits.iter_mut().zip(scored) {
             per_order.push(fit);
         }
     }
     if !any_fold {
-        return Err(Error::HorizonTooLong {
-            past: horizon,
-            future: horizon,
-            n_samples: layout.shortest(),
-            min_samples: span.saturating_mul(2),
-        });
+        return Err(refusal.unwrap_or(Error::NoData));
     }
     let candidates: Vec<OrderCandidate> = orders
         .iter()
@@ -130,4 +134,20 @@ pub(crate) fn held_out_order(
     sel.order = chosen.order;
     sel.fit = chosen.fit.unwrap_or(f64::NAN);
     Ok(sel)
+}
+
+/// The refusal of a fold whose estimation pieces are all shorter than the
+/// `needed` samples one Hankel column of horizons (`past`, `future`) spans
+/// ([`Error::HorizonTooLong`] naming its longest piece).
+pub(crate) fn short_fold(
+    est: &OwnedRecords,
+    (past, future): (usize, usize),
+    needed: usize,
+) -> Error {
+    Error::HorizonTooLong {
+        past,
+        future,
+        n_samples: est.iter().map(|(u, _)| u.nrows()).max().unwrap_or(0),
+        min_samples: needed,
+    }
 }

@@ -27,7 +27,7 @@ use nalgebra::DMatrix;
 
 use crate::crossval::held_out_fit;
 use crate::error::Result;
-use crate::held_out_order::{HeldOutOrder, held_out_order};
+use crate::held_out_order::{HeldOutOrder, held_out_order, short_fold};
 use crate::iv::{IvExperiment, IvOptions, IvPrepared};
 use crate::model::Experiment;
 use crate::options::OrderSelection;
@@ -97,7 +97,7 @@ pub fn select_iv_order(
         .collect();
     let joined: Vec<Experiment<'_>> = joined.iter().map(|(u, y)| Experiment { u, y }).collect();
     let span = alpha + alpha_p;
-    held_out_order(&joined, &orders, structure, (alpha, span), |est, held| {
+    held_out_order(&joined, &orders, structure, alpha, |est, held| {
         let parts: Vec<(DMatrix<f64>, DMatrix<f64>, &DMatrix<f64>)> = est
             .iter()
             .filter(|(u, _)| u.nrows() > span)
@@ -110,7 +110,7 @@ pub fn select_iv_order(
             })
             .collect();
         if parts.is_empty() {
-            return None;
+            return Err(short_fold(est, (alpha_p, alpha), span + 1));
         }
         let exps: Vec<IvExperiment<'_>> = parts
             .iter()
@@ -120,22 +120,20 @@ pub fn select_iv_order(
                 instrument: closed_loop.then_some(f),
             })
             .collect();
-        let prep = IvPrepared::new(&exps, &fold_opts).ok()?;
+        let prep = IvPrepared::new(&exps, &fold_opts)?;
         let held_u: Vec<DMatrix<f64>> = held
             .iter()
             .map(|(uf, _)| uf.columns(0, nu).into_owned())
             .collect();
         let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> =
             held_u.iter().zip(held).map(|(u, (_, y))| (u, *y)).collect();
-        Some(
-            orders
-                .iter()
-                .map(|&n| {
-                    let model = prep.state_space(n, &fold_opts).ok()?;
-                    held_out_fit(&model, None, &held)
-                })
-                .collect(),
-        )
+        Ok(orders
+            .iter()
+            .map(|&n| {
+                let model = prep.state_space(n, &fold_opts).ok()?;
+                held_out_fit(&model, None, &held)
+            })
+            .collect())
     })
 }
 

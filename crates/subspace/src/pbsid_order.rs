@@ -37,7 +37,7 @@ use nalgebra::DMatrix;
 use crate::checks::validate;
 use crate::crossval::held_out_fit;
 use crate::error::Result;
-use crate::held_out_order::{HeldOutOrder, held_out_order};
+use crate::held_out_order::{HeldOutOrder, held_out_order, short_fold};
 use crate::model::Experiment;
 use crate::options::OrderSelection;
 use crate::pbsid::{PbsidOptions, PbsidVariant, Prepared};
@@ -85,35 +85,26 @@ pub fn select_pbsid_order(
             PbsidVariant::Optimized => 1,
             PbsidVariant::RowWise | PbsidVariant::Ssarx => opts.future,
         };
-    held_out_order(
-        experiments,
-        &orders,
-        structure,
-        (past, span),
-        |est, held| {
-            let exps: Vec<Experiment<'_>> = est
-                .iter()
-                .filter(|(u, _)| u.nrows() >= span)
-                .map(|(u, y)| Experiment { u, y })
-                .collect();
-            if exps.is_empty() {
-                return None;
-            }
-            let samples = exps.iter().map(|e| e.u.nrows()).sum();
-            let (op, prep, recs) = fold_models(&exps, &fold_opts, nu, ny, samples).ok()?;
-            let centred: Vec<Experiment<'_>> =
-                recs.iter().map(|(u, y)| Experiment { u, y }).collect();
-            Some(
-                orders
-                    .iter()
-                    .map(|&n| {
-                        let model = prep.at_order(&centred, &fold_opts, n).ok()?;
-                        held_out_fit(&model.model, op.as_ref(), held)
-                    })
-                    .collect(),
-            )
-        },
-    )
+    held_out_order(experiments, &orders, structure, past, |est, held| {
+        let exps: Vec<Experiment<'_>> = est
+            .iter()
+            .filter(|(u, _)| u.nrows() >= span)
+            .map(|(u, y)| Experiment { u, y })
+            .collect();
+        if exps.is_empty() {
+            return Err(short_fold(est, (past, opts.future), span));
+        }
+        let samples = exps.iter().map(|e| e.u.nrows()).sum();
+        let (op, prep, recs) = fold_models(&exps, &fold_opts, nu, ny, samples)?;
+        let centred: Vec<Experiment<'_>> = recs.iter().map(|(u, y)| Experiment { u, y }).collect();
+        Ok(orders
+            .iter()
+            .map(|&n| {
+                let model = prep.at_order(&centred, &fold_opts, n).ok()?;
+                held_out_fit(&model.model, op.as_ref(), held)
+            })
+            .collect())
+    })
 }
 
 /// Records ready for every order, as `pbsid_identify` treats them: their

@@ -1389,9 +1389,51 @@ fn pbsid_selected(
     let sel = match lifted_subspace::select_pbsid_order(exps, opts, &StructureOptions::default()) {
         Ok(sel) => sel,
         Err(e) => {
-            let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
+            // The singular-value gap decides; an unstable choice gives way
+            // to the next orders of the gap's ranking (up to STABLE_TRIES),
+            // as on the multirate route.
+            let mut fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
+            let mut passed_over = Vec::new();
+            if let OrderSelection::Gap { max } = opts.order
+                && fit.diagnostics.spectral_radius >= 1.0
+            {
+                passed_over.push(json!({"order": fit.diagnostics.order, "spectral_radius": fit.diagnostics.spectral_radius}));
+                for n in gap_ranking(&fit.diagnostics.singular_values, max)
+                    .into_iter()
+                    .filter(|&n| n != fit.diagnostics.order)
+                    .take(STABLE_TRIES - 1)
+                {
+                    let o = lifted_subspace::PbsidOptions {
+                        order: OrderSelection::Fixed(n),
+                        ..opts.clone()
+                    };
+                    let Ok(other) = lifted_subspace::pbsid_identify(exps, &o) else {
+                        continue;
+                    };
+                    let rho = other.diagnostics.spectral_radius;
+                    if rho < 1.0 {
+                        fit = other;
+                        break;
+                    }
+                    passed_over.push(json!({"order": n, "spectral_radius": rho}));
+                }
+            }
+            let passed = match (
+                passed_over.is_empty(),
+                fit.diagnostics.spectral_radius < 1.0,
+            ) {
+                (true, _) => String::new(),
+                (false, true) => format!(
+                    " ranking (the orders before it unstable, passed over: {})",
+                    serde_json::Value::Array(passed_over)
+                ),
+                (false, false) => format!(
+                    "; no stable model among the gap ranking's first orders: {}",
+                    serde_json::Value::Array(passed_over)
+                ),
+            };
             let note = json!({"error": format!(
-                "no order selected on held-out blocks ({e}); order {} by the singular-value gap",
+                "no order selected on held-out blocks ({e}); order {} by the singular-value gap{passed}",
                 fit.diagnostics.order
             )});
             return Ok((fit, Some(note)));
