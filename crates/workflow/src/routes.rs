@@ -1389,53 +1389,26 @@ fn pbsid_selected(
     let sel = match lifted_subspace::select_pbsid_order(exps, opts, &StructureOptions::default()) {
         Ok(sel) => sel,
         Err(e) => {
-            // The singular-value gap decides; an unstable choice gives way
-            // to the next orders of the gap's ranking (up to STABLE_TRIES),
-            // as on the multirate route.
-            let mut fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
-            let mut passed_over = Vec::new();
-            if let OrderSelection::Gap { max } = opts.order
-                && fit.diagnostics.spectral_radius >= 1.0
-            {
-                passed_over.push(json!({"order": fit.diagnostics.order, "spectral_radius": fit.diagnostics.spectral_radius}));
-                for n in gap_ranking(&fit.diagnostics.singular_values, max)
-                    .into_iter()
-                    .filter(|&n| n != fit.diagnostics.order)
-                    .take(STABLE_TRIES - 1)
-                {
+            let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
+            let max = match opts.order {
+                OrderSelection::Gap { max } => max,
+                OrderSelection::Fixed(n) => n,
+            };
+            let sv = fit.diagnostics.singular_values.clone();
+            let (fit, note) = gap_fallback(
+                fit,
+                &e.to_string(),
+                &sv,
+                max,
+                |m| (m.diagnostics.order, m.diagnostics.spectral_radius),
+                |n| {
                     let o = lifted_subspace::PbsidOptions {
                         order: OrderSelection::Fixed(n),
                         ..opts.clone()
                     };
-                    let Ok(other) = lifted_subspace::pbsid_identify(exps, &o) else {
-                        continue;
-                    };
-                    let rho = other.diagnostics.spectral_radius;
-                    if rho < 1.0 {
-                        fit = other;
-                        break;
-                    }
-                    passed_over.push(json!({"order": n, "spectral_radius": rho}));
-                }
-            }
-            let passed = match (
-                passed_over.is_empty(),
-                fit.diagnostics.spectral_radius < 1.0,
-            ) {
-                (true, _) => String::new(),
-                (false, true) => format!(
-                    " ranking (the orders before it unstable, passed over: {})",
-                    serde_json::Value::Array(passed_over)
-                ),
-                (false, false) => format!(
-                    "; no stable model among the gap ranking's first orders: {}",
-                    serde_json::Value::Array(passed_over)
-                ),
-            };
-            let note = json!({"error": format!(
-                "no order selected on held-out blocks ({e}); order {} by the singular-value gap{passed}",
-                fit.diagnostics.order
-            )});
+                    lifted_subspace::pbsid_identify(exps, &o).ok()
+                },
+            );
             return Ok((fit, Some(note)));
         }
     };
@@ -1522,6 +1495,59 @@ fn held_out_choice<M>(
             serde_json::Value::Array(tried)
         ))
     })
+}
+
+/// The model of the singular-value gap when no order could be chosen on
+/// held-out blocks (`why`): `first` (the gap's choice), or, when it is
+/// unstable, the first stable one of the next orders of the gap's ranking
+/// of `sv` up to `max` (at most [`STABLE_TRIES`] in all; `identify_at(n)`,
+/// `order_rho(model)` = its order and spectral radius), as on the
+/// multirate route; and the `structure_selection` note saying so.
+fn gap_fallback<M>(
+    first: M,
+    why: &str,
+    sv: &[f64],
+    max: usize,
+    order_rho: impl Fn(&M) -> (usize, f64),
+    identify_at: impl Fn(usize) -> Option<M>,
+) -> (M, serde_json::Value) {
+    let (gap_order, rho) = order_rho(&first);
+    let mut fit = first;
+    let mut passed_over = Vec::new();
+    if rho >= 1.0 {
+        passed_over.push(json!({"order": gap_order, "spectral_radius": rho}));
+        for n in gap_ranking(sv, max)
+            .into_iter()
+            .filter(|&n| n != gap_order)
+            .take(STABLE_TRIES - 1)
+        {
+            let Some(other) = identify_at(n) else {
+                continue;
+            };
+            let (_, r) = order_rho(&other);
+            if r < 1.0 {
+                fit = other;
+                break;
+            }
+            passed_over.push(json!({"order": n, "spectral_radius": r}));
+        }
+    }
+    let (order, rho) = order_rho(&fit);
+    let passed = match (passed_over.is_empty(), rho < 1.0) {
+        (true, _) => String::new(),
+        (false, true) => format!(
+            " ranking (the orders before it unstable, passed over: {})",
+            serde_json::Value::Array(passed_over)
+        ),
+        (false, false) => format!(
+            "; no stable model among the gap ranking's first orders: {}",
+            serde_json::Value::Array(passed_over)
+        ),
+    };
+    let note = json!({"error": format!(
+        "no order selected on held-out blocks ({why}); order {order} by the singular-value gap{passed}"
+    )});
+    (fit, note)
 }
 
 /// IV subspace identification (single-rate, or lifted IV on a multirate
@@ -1657,38 +1683,56 @@ pub(crate) fn iv(
         })
         .collect();
     let what = "IV identification";
-    let (fit, structure) = if id.order == Order::Auto
-        && id.order_criterion == OrderCriterion::Validation
-    {
-        match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
-            Ok(sel) => {
-                let (fit, d) = held_out_choice(
-                    &sel,
-                    &format!("alpha = {}", sel.horizon),
-                    |n| {
-                        let o = IvOptions {
-                            order: OrderSelection::Fixed(n),
-                            ..iopts.clone()
-                        };
-                        iv_identify(&exps, &o).map_err(|e| e.to_string())
-                    },
-                    |fit| crate::validate::spectral_radius(&fit.model).unwrap_or(f64::INFINITY),
-                    what,
-                )?;
-                (fit, Some(d))
+    let (fit, structure) =
+        if id.order == Order::Auto && id.order_criterion == OrderCriterion::Validation {
+            match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
+                Ok(sel) => {
+                    let (fit, d) = held_out_choice(
+                        &sel,
+                        &format!("alpha = {}", sel.horizon),
+                        |n| {
+                            let o = IvOptions {
+                                order: OrderSelection::Fixed(n),
+                                ..iopts.clone()
+                            };
+                            iv_identify(&exps, &o).map_err(|e| e.to_string())
+                        },
+                        |fit| crate::validate::spectral_radius(&fit.model).unwrap_or(f64::INFINITY),
+                        what,
+                    )?;
+                    (fit, Some(d))
+                }
+                Err(e) => {
+                    let fit = iv_identify(&exps, &iopts).ctx(what)?;
+                    let max = match iopts.order {
+                        OrderSelection::Gap { max } => max,
+                        OrderSelection::Fixed(n) => n,
+                    };
+                    let sv = fit.diagnostics.singular_values.clone();
+                    let (fit, note) = gap_fallback(
+                        fit,
+                        &e.to_string(),
+                        &sv,
+                        max,
+                        |m| {
+                            let rho =
+                                crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
+                            (m.diagnostics.order, rho)
+                        },
+                        |n| {
+                            let o = IvOptions {
+                                order: OrderSelection::Fixed(n),
+                                ..iopts.clone()
+                            };
+                            iv_identify(&exps, &o).ok()
+                        },
+                    );
+                    (fit, Some(note))
+                }
             }
-            Err(e) => {
-                let fit = iv_identify(&exps, &iopts).ctx(what)?;
-                let note = json!({"error": format!(
-                    "no order selected on held-out blocks ({e}); order {} by the singular-value gap",
-                    fit.diagnostics.order
-                )});
-                (fit, Some(note))
-            }
-        }
-    } else {
-        (iv_identify(&exps, &iopts).ctx(what)?, None)
-    };
+        } else {
+            (iv_identify(&exps, &iopts).ctx(what)?, None)
+        };
     let dg = &fit.diagnostics;
     let d = json!({
         "route": "single-rate instrumental-variable subspace identification",
