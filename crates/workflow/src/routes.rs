@@ -1390,16 +1390,12 @@ fn pbsid_selected(
         Ok(sel) => sel,
         Err(e) => {
             let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
-            let max = match opts.order {
-                OrderSelection::Gap { max } => max,
-                OrderSelection::Fixed(n) => n,
-            };
             let sv = fit.diagnostics.singular_values.clone();
             let (fit, note) = gap_fallback(
                 fit,
                 &e.to_string(),
                 &sv,
-                max,
+                opts.order,
                 |m| (m.diagnostics.order, m.diagnostics.spectral_radius),
                 |n| {
                     let o = lifted_subspace::PbsidOptions {
@@ -1500,17 +1496,22 @@ fn held_out_choice<M>(
 /// The model of the singular-value gap when no order could be chosen on
 /// held-out blocks (`why`): `first` (the gap's choice), or, when it is
 /// unstable, the first stable one of the next orders of the gap's ranking
-/// of `sv` up to `max` (at most [`STABLE_TRIES`] in all; `identify_at(n)`,
-/// `order_rho(model)` = its order and spectral radius), as on the
-/// multirate route; and the `structure_selection` note saying so.
+/// of `sv` up to the search bound of `order` (at most [`STABLE_TRIES`] in
+/// all; `identify_at(n)`, `order_rho(model)` = its order and spectral
+/// radius), as on the multirate route; and the `structure_selection` note
+/// saying so.
 fn gap_fallback<M>(
     first: M,
     why: &str,
     sv: &[f64],
-    max: usize,
+    order: OrderSelection,
     order_rho: impl Fn(&M) -> (usize, f64),
     identify_at: impl Fn(usize) -> Option<M>,
 ) -> (M, serde_json::Value) {
+    let max = match order {
+        OrderSelection::Gap { max } => max,
+        OrderSelection::Fixed(n) => n,
+    };
     let (gap_order, rho) = order_rho(&first);
     let mut fit = first;
     let mut passed_over = Vec::new();
@@ -1704,16 +1705,12 @@ pub(crate) fn iv(
                 }
                 Err(e) => {
                     let fit = iv_identify(&exps, &iopts).ctx(what)?;
-                    let max = match iopts.order {
-                        OrderSelection::Gap { max } => max,
-                        OrderSelection::Fixed(n) => n,
-                    };
                     let sv = fit.diagnostics.singular_values.clone();
                     let (fit, note) = gap_fallback(
                         fit,
                         &e.to_string(),
                         &sv,
-                        max,
+                        iopts.order,
                         |m| {
                             let rho =
                                 crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
