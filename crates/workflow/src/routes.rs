@@ -379,7 +379,7 @@ fn select(
                         None => "any horizon".into(),
                     }
                 ),
-                e => e.to_string(),
+                e => held_out_refusal(&e),
             };
             let d = json!({"error": format!("no structure selected by cross-validation ({why}); horizon {}, shift invariance, {rule}", opts.past)});
             return Ok((fit, d, opts, None));
@@ -1393,7 +1393,7 @@ fn pbsid_selected(
             let sv = fit.diagnostics.singular_values.clone();
             let (fit, note) = gap_fallback(
                 fit,
-                &e.to_string(),
+                &held_out_refusal(&e),
                 &sv,
                 opts.order,
                 |m| (m.diagnostics.order, m.diagnostics.spectral_radius),
@@ -1491,6 +1491,19 @@ fn held_out_choice<M>(
             serde_json::Value::Array(tried)
         ))
     })
+}
+
+/// Why a held-out selection chose nothing, in words: its refusal, except
+/// that "no stable model on any block" (`Error::Unstable` without a
+/// spectral radius) is said as such instead of "identified A is unstable:
+/// spectral radius NaN".
+fn held_out_refusal(e: &lifted_subspace::Error) -> String {
+    match e {
+        lifted_subspace::Error::Unstable { spectral_radius } if spectral_radius.is_nan() => {
+            "no candidate gave a stable model on any held-out block (an unstable plant held by a loop, for one, cannot be scored by simulation)".into()
+        }
+        e => e.to_string(),
+    }
 }
 
 /// The model of the singular-value gap when no order could be chosen on
@@ -1708,7 +1721,7 @@ pub(crate) fn iv(
                     let sv = fit.diagnostics.singular_values.clone();
                     let (fit, note) = gap_fallback(
                         fit,
-                        &e.to_string(),
+                        &held_out_refusal(&e),
                         &sv,
                         iopts.order,
                         |m| {
