@@ -192,6 +192,26 @@ pub enum Error {
 /// Result alias of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// The `what` of [`Error::NotExciting`] for the subspace methods' input
+/// rows.
+pub const INPUT_ROWS: &str = "u";
+/// The `what` of [`Error::NotExciting`] for the IV method's instrument rows.
+pub const INSTRUMENT_ROWS: &str = "instrument";
+/// The `what` of [`Error::NotExciting`] for PBSID/SSARX's past data.
+pub const VARX_REGRESSOR: &str = "past inputs and outputs (the VARX regressor Z_p)";
+
+impl Error {
+    /// Whether this is a refusal of data whose rows built from the inputs
+    /// are not persistently exciting — the subspace methods' input rows,
+    /// the IV method's instrument rows (the inputs in open loop),
+    /// PBSID/SSARX's past data — which a constant or tied input column
+    /// causes (a caller can then look for one and name it).
+    pub fn refuses_input_excitation(&self) -> bool {
+        matches!(self, Error::NotExciting { what, .. }
+            if [INPUT_ROWS, INSTRUMENT_ROWS, VARX_REGRESSOR].contains(what))
+    }
+}
+
 /// What a user can do about a rank-deficient `what` (empty when nothing
 /// general applies).
 fn rank_hint(what: &str) -> &'static str {

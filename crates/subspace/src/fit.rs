@@ -416,7 +416,11 @@ fn subspace_of<'l>(
     // Persistent excitation: the input rows [U_f; U_p] must have full rank.
     let nu_rows = (layout.past + layout.future) * layout.nu;
     let projector = Projector::new(l, layout)?;
-    check_exciting("u", projector.input_rank(1e-10)?, nu_rows)?;
+    check_exciting(
+        crate::error::INPUT_ROWS,
+        projector.input_rank(1e-10)?,
+        nu_rows,
+    )?;
     // Φ = 𝓜 W_p with W_p = [U_p; Y_p], consecutive rows of L (a view).
     let (map, map_triangular) = projector.oblique_map()?;
     let wp_rows = layout.up().start..layout.yp().end;

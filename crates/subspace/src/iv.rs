@@ -172,11 +172,8 @@ fn iv_subspace(
     let rows_z = alpha_p.saturating_mul(nz);
     let total: usize = recs.iter().map(|r| r.0.nrows()).sum();
     let span = alpha.saturating_add(alpha_p);
-    let available: usize = recs
-        .iter()
-        .map(|r| (r.0.nrows() + 1).saturating_sub(span))
-        .sum();
-    if available < rows_z.max(rows_h) {
+    let lengths: Vec<usize> = recs.iter().map(|r| r.0.nrows()).collect();
+    if !iv_fits(&lengths, (nu, ny, nz), alpha, alpha_p) {
         return Err(Error::HorizonTooLong {
             past: alpha_p,
             future: alpha,
@@ -222,9 +219,13 @@ fn iv_subspace(
         }
         columns += j;
     }
-    debug_assert_eq!(columns, available);
+    debug_assert_eq!(columns, iv_columns(&lengths, span));
     m /= columns as f64;
-    check_exciting("instrument", numerical_rank(&zz, 1e-10)?, rows_z)?;
+    check_exciting(
+        crate::error::INSTRUMENT_ROWS,
+        numerical_rank(&zz, 1e-10)?,
+        rows_z,
+    )?;
     let r = qr_r(&m.transpose())?;
     let l = r.transpose();
     let cols_l = l.ncols();
@@ -244,6 +245,44 @@ fn iv_subspace(
         rows_z,
         un,
     })
+}
+
+/// Hankel columns of records of `lengths` samples for a span of `span`
+/// samples (α + α_p).
+fn iv_columns(lengths: &[usize], span: usize) -> usize {
+    lengths.iter().map(|&n| (n + 1).saturating_sub(span)).sum()
+}
+
+/// Whether records of `lengths` samples with (n_u, n_y, n_z) channels
+/// give the IV subspace the columns it needs at (α, α_p): at least as many
+/// as the instrument rows α_p n_z and the data rows α (n_u + n_y).
+fn iv_fits(
+    lengths: &[usize],
+    (nu, ny, nz): (usize, usize, usize),
+    alpha: usize,
+    alpha_p: usize,
+) -> bool {
+    let rows = alpha_p
+        .saturating_mul(nz)
+        .max(alpha.saturating_mul(nu + ny));
+    iv_columns(lengths, alpha.saturating_add(alpha_p)) >= rows
+}
+
+/// The largest α ≤ `max` (at least 2) for which [`iv_identify`] has the
+/// Hankel columns it needs on records of `lengths` samples with `nu`
+/// inputs, `ny` outputs and `nz` instrument channels, α_p = `alpha_p` or
+/// its default 2α; `None` when not even α = 2 fits. A caller with a record
+/// too short for the default α uses it instead of a refusal (the workflow
+/// also for a multirate record's lifted frames). O(max · records).
+pub fn iv_longest_alpha(
+    lengths: &[usize],
+    (nu, ny, nz): (usize, usize, usize),
+    max: usize,
+    alpha_p: Option<usize>,
+) -> Option<usize> {
+    (2..=max.max(2))
+        .rev()
+        .find(|&a| iv_fits(lengths, (nu, ny, nz), a, alpha_p.unwrap_or(2 * a)))
 }
 
 fn check_horizons(alpha: usize, alpha_p: usize) -> Result<()> {

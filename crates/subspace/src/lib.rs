@@ -166,7 +166,7 @@ pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFa
 pub use held_out_order::{HeldOutOrder, OrderCandidate};
 pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
-    iv_multirate_fast,
+    iv_longest_alpha, iv_multirate_fast,
 };
 pub use iv_order::select_iv_order;
 pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};

@@ -763,7 +763,7 @@ impl Prepared {
             ));
         }
         let zp = rows.z(-(p as isize), 0);
-        check_independent("past inputs and outputs (the VARX regressor Z_p)", &zp)?;
+        check_independent(crate::error::VARX_REGRESSOR, &zp)?;
 
         // Steps 2–3.
         let (gk, weight) = gamma_k(&rows, p, f, opts.variant, &mask)?;

@@ -167,15 +167,13 @@ pub(crate) fn refuses_inputs(e: &Error) -> bool {
     let Error::Step { source, .. } = e else {
         return false;
     };
-    // The subspace methods' input rows ("u"), PBSID/SSARX's past data
-    // (inputs and outputs) and the IV method's instrument rows (the inputs
-    // in open loop): a constant or tied input makes each of them rank
-    // deficient. When no input is, the refusal is returned as it is.
-    matches!(
-        source.downcast_ref::<lifted_subspace::Error>(),
-        Some(lifted_subspace::Error::NotExciting { what, .. })
-            if *what == "u" || *what == "instrument" || what.starts_with("past inputs and outputs")
-    )
+    // A constant or tied input makes the subspace methods' input rows,
+    // PBSID/SSARX's past data and the IV method's instrument rows (the
+    // inputs in open loop) rank deficient; when no input is, `named`
+    // returns the refusal as it is.
+    source
+        .downcast_ref::<lifted_subspace::Error>()
+        .is_some_and(lifted_subspace::Error::refuses_input_excitation)
 }
 
 /// `e` itself, or, when it is a subspace identification's refusal of

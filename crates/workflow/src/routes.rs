@@ -1602,14 +1602,18 @@ pub(crate) fn iv(
         // third (as the multirate subspace route), else the gap.
         let held_out = match (order, id.order_criterion) {
             (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
+                // The estimation part's instrument rows, copied once for
+                // every order (the part is the same for all).
+                let f_est = std::cell::OnceCell::new();
                 let fit_at = |est: &Dataset, n: usize| {
                     let o = LiftedIvOptions {
                         order: OrderSelection::Fixed(n),
                         alpha: iv_alpha_for(&[est], lopts.alpha, lopts.alpha_p),
                         ..lopts.clone()
                     };
-                    let f_est = f.rows(0, est.len().min(f.nrows())).into_owned();
-                    identify_lifted_iv(est, &f_est, Ordering::ChannelMajor, &o)
+                    let f_est =
+                        f_est.get_or_init(|| f.rows(0, est.len().min(f.nrows())).into_owned());
+                    identify_lifted_iv(est, f_est, Ordering::ChannelMajor, &o)
                         .ok()
                         .map(|m| m.fast)
                 };
@@ -1786,25 +1790,21 @@ pub(crate) fn iv(
 
 /// The largest α ≤ `alpha` (at least 2) for which the IV method has the
 /// Hankel columns it needs on `sets`, each lifted by its frame period (1
-/// for a single-rate record): Σ (F − α − α_p + 1) ≥ max(α_p m̄, α (m̄ + p̄))
-/// over records of F frames of m̄ (lifted) inputs — the instrument's width —
-/// and p̄ outputs, α_p = `alpha_p` or 2α (the IV methods' default). The
-/// held-out part of a multirate record (two thirds of its frames), or a
-/// short record, may not support the route's α. O(alpha · records).
+/// for a single-rate record; `lifted_subspace::iv_longest_alpha` on the
+/// frame counts and lifted widths, the instrument as wide as the inputs),
+/// α_p = `alpha_p` or 2α. The held-out part of a multirate record (two
+/// thirds of its frames), or a short record, may not support the route's
+/// α. O(alpha · records).
 fn iv_alpha_for(sets: &[&Dataset], alpha: usize, alpha_p: Option<usize>) -> usize {
     let Some(first) = sets.first() else {
         return alpha;
     };
     let (mb, pb) = lifted_widths(first);
-    let fits = |a: usize| {
-        let ap = alpha_p.unwrap_or(2 * a);
-        let columns: usize = sets
-            .iter()
-            .map(|d| (d.len() / d.frame_period().max(1) + 1).saturating_sub(a + ap))
-            .sum();
-        columns >= (ap * mb).max(a * (mb + pb))
-    };
-    (2..=alpha.max(2)).rev().find(|&a| fits(a)).unwrap_or(2)
+    let frames: Vec<usize> = sets
+        .iter()
+        .map(|d| d.len() / d.frame_period().max(1))
+        .collect();
+    lifted_subspace::iv_longest_alpha(&frames, (mb, pb, mb), alpha, alpha_p).unwrap_or(2)
 }
 
 /// The diagonal Q of the q-Markov output weighting: one value for every
