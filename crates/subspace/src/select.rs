@@ -280,15 +280,20 @@ pub fn select_structure(
         OrderSelection::Fixed(n) => (n, Some(n)),
         OrderSelection::Gap { max } => (max.min(opts.max_order).max(1), None),
     };
-    let orders: Vec<usize> = match fixed {
-        Some(n) => vec![n],
-        None => (1..=cap).collect(),
+    // Orders above (s − 1) n_y are not identifiable at horizon s: not
+    // tried (`cap` may be anything the caller gave, up to usize::MAX).
+    let orders_at = |s: usize| -> Vec<usize> {
+        match fixed {
+            Some(n) => vec![n],
+            None => (1..=cap.min(s.saturating_sub(1).saturating_mul(ny)).max(1)).collect(),
+        }
     };
     // The estimation pieces and held-out blocks of every fold (copies:
     // O(K N (n_u + n_y)) memory for records of at most `search_samples`).
     let folds = fold_layout.split()?;
     let mut candidates = Vec::new();
     for &s in &horizons {
+        let orders = orders_at(s);
         let o = SubspaceOptions {
             past: s,
             future: s,
@@ -463,8 +468,9 @@ mod tests {
         // held-out fit near the noise floor (noise/RMS ≈ 5 % → fit ≈ 95).
         assert_eq!(sel.order, 3, "{sel:?}");
         assert!(sel.fit > 90.0, "{sel:?}");
-        // Every (horizon, route, order) candidate is scored.
-        assert_eq!(sel.candidates.len(), 2 * 2 * 6);
+        // Every (horizon, route, order) candidate is scored, the orders up
+        // to 6 that the horizon identifies ((s − 1) n_y: 4 at s = 5).
+        assert_eq!(sel.candidates.len(), 2 * (4 + 6));
         // Each score is the mean of its six held-out blocks' fits, which
         // are reported (the spread behind the mean).
         for c in &sel.candidates {
@@ -496,6 +502,29 @@ mod tests {
                 .collect();
             assert_eq!(one.candidates.iter().collect::<Vec<_>>(), shared);
         }
+    }
+
+    #[test]
+    fn a_maximum_order_beyond_the_identifiable_tries_only_the_identifiable() {
+        // The caller's maximum may be anything (the CLI's --max-order takes
+        // up to 1e6; here usize::MAX): orders above (s − 1) n_y at horizon
+        // s have no model and are not candidates (they were: a candidate
+        // list of 310 011 orders per horizon and route took 24 s).
+        let (u, y) = record(1200, 4);
+        let exps = [Experiment { u: &u, y: &y }];
+        let opts = StructureOptions {
+            horizons: vec![5, 10],
+            max_order: usize::MAX,
+            ..Default::default()
+        };
+        let huge = SubspaceOptions {
+            order: OrderSelection::Gap { max: usize::MAX },
+            ..Default::default()
+        };
+        let sel = select_structure(&exps, &huge, &opts).unwrap();
+        // (5 − 1)·1 + (10 − 1)·1 orders on each of the two routes.
+        assert_eq!(sel.candidates.len(), 2 * (4 + 9), "{sel:?}");
+        assert_eq!(sel.order, 3, "{sel:?}");
     }
 
     #[test]

@@ -1617,7 +1617,12 @@ pub(crate) fn iv(
                         .ok()
                         .map(|m| m.fast)
                 };
-                held_out_orders(data, max, fit_at, opts)
+                // Orders above (α − 1) p̄ (p̄ lifted outputs per frame)
+                // are not identifiable: not tried (`max` may be anything
+                // the caller gave).
+                let (_, frame_outputs) = lifted_widths(data);
+                let identifiable = lopts.alpha.saturating_sub(1).saturating_mul(frame_outputs);
+                held_out_orders(data, max.min(identifiable), fit_at, opts)
             }
             _ => None,
         };
