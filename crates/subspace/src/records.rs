@@ -77,17 +77,16 @@ pub(crate) fn compressed(
     Ok((layout, factor, scale))
 }
 
-/// The power-of-4 scales of the experiments' inputs and outputs
-/// (`numerics::pow4_scale_counted`), and how many of their entries are
-/// finite.
 /// The longest horizon s ≤ `max` (past = future = s, s ≥ 2) for which
 /// records of `lengths` samples of `width` = n_u + n_y channels give a
 /// block-Hankel data matrix with at least as many columns as rows (J ≥ k,
 /// the condition [`crate::identify`] checks before compressing); `None`
 /// when not even s = 2 does. For lifted records pass the frame counts and
-/// the lifted widths. O(max · records).
+/// the lifted widths. O(min(max, N) · records) for records of at most N
+/// samples (a record gives no column at 2s > N, so `max` may be anything).
 pub fn longest_horizon(lengths: &[usize], width: usize, max: usize) -> Option<usize> {
-    (2..=max).rev().find(|&s| {
+    let top = max.min(lengths.iter().copied().max().unwrap_or(0) / 2);
+    (2..=top).rev().find(|&s| {
         let layout = HankelLayout {
             past: s,
             future: s,
@@ -99,6 +98,9 @@ pub fn longest_horizon(lengths: &[usize], width: usize, max: usize) -> Option<us
     })
 }
 
+/// The power-of-4 scales of the experiments' inputs and outputs
+/// (`numerics::pow4_scale_counted`), and how many of their entries are
+/// finite.
 pub(crate) fn data_scale(experiments: &[Experiment<'_>]) -> (Scale, usize) {
     let us: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.u).collect();
     let ys: Vec<&DMatrix<f64>> = experiments.iter().map(|e| e.y).collect();

@@ -811,11 +811,14 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
             // Orders above (f − 1) p̄ (p̄ lifted outputs per frame) are not
             // identifiable at the horizon: not tried (`max` may be anything
-            // the caller gave).
+            // the caller gave). f: the horizon, or the longest the record
+            // supports when a given one is longer (the parts are fitted at
+            // what they support; a horizon of 963 001 on 100 frames tried
+            // as many orders, each a failed identification).
             let (_, frame_outputs) = lifted_widths(data);
-            let identifiable = opts
-                .identification
-                .future
+            let future = opts.identification.future;
+            let identifiable = lifted_horizon(data, future)
+                .unwrap_or(future)
                 .saturating_sub(1)
                 .saturating_mul(frame_outputs);
             let fit_at = |est: &Dataset, n: usize| {
