@@ -1405,6 +1405,34 @@ fn the_multirate_iv_route_chooses_its_order_on_held_out_data() {
     );
 }
 
+/// A maximum order far beyond the identifiable (`--max-order` takes up to
+/// 1e6): the multirate routes' held-out curves list only the orders the
+/// horizon identifies, (f − 1) p̄ for p̄ lifted outputs per frame (here
+/// 5 + 3 = 8); the loop ran to the given maximum, one failed
+/// identification per order (a fuzz input hung there).
+#[test]
+fn the_multirate_held_out_orders_stop_at_the_identifiable() {
+    let truth = issue_plant();
+    let data = multirate_record(&truth, 6000, &[3, 5], 1, 5);
+    for method in [Method::N4sid, Method::Iv] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.method = method;
+        opts.identification.max_order = 1_000_000;
+        opts.refinement.refine = Refine::None;
+        let fit = identify(&[Record::new(data.clone())], &opts).expect("identify");
+        let d = &fit.file.diagnostics;
+        let candidates = d["structure_selection"]["candidates"]
+            .as_array()
+            .map_or(0, Vec::len);
+        // The horizon (N4SID: the longest 400 frames support, ≤ 10; IV:
+        // α = 6) bounds the orders: at most (10 − 1)·8 = 72.
+        assert!(
+            (1..=72).contains(&candidates),
+            "{method:?}: {candidates} {d}"
+        );
+    }
+}
+
 /// PBSID/SSARX on a record too short for the default future horizon 10
 /// (30 samples of 2 inputs and 2 outputs), and IV on one too short for its
 /// default α = 8: refused before ("horizons past 10 + future 10 too long
