@@ -574,7 +574,8 @@ pub struct IdentifyArgs {
     /// the simulation error (`oe`); multirate records use their measured samples only. The
     /// refined model is kept only if its simulation fit is at least as good: on six held-out
     /// blocks when they tell the two apart by more than 3 points (single-rate N4SID/MOESP/CVA records of up
-    /// to 2e4 samples), else on the record; `diagnostics.refinement_judge` says which.
+    /// to 2e4 samples; when they do not, the subspace model stays), else on the record;
+    /// `diagnostics.refinement_judge` says which.
     /// Default `auto`: the prediction error where it pays (see `auto`), `none` to skip it.
     #[arg(long, value_enum, default_value_t = RefineArg::Auto)]
     pub refine: RefineArg,

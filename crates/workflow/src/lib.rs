@@ -53,7 +53,8 @@
 //!    six held-out blocks for single-rate N4SID/MOESP/CVA records of up to
 //!    [`REFINE_CHECK_SAMPLES`] samples when they differ by more than
 //!    [`REFINE_CHECK_MARGIN`] points (each block's subspace model and its
-//!    refinement fitted to the other five), else on the records. By
+//!    refinement fitted to the other five; closer calls keep the subspace
+//!    model), else (longer records, costly checks) on the records. By
 //!    default ([`Refine::Auto`]) the prediction-error refinement runs where
 //!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
 //!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than
@@ -123,7 +124,7 @@ pub use options::{
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};
-pub use refine::{HeldOutCheck, refine};
+pub use refine::{HeldOutCheck, JUDGE_HELD_OUT, JUDGE_NOT_TOLD_APART, JUDGE_RECORDS, refine};
 pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
 pub use validate::{require_stable, spectral_radius, unstable_warning};

@@ -661,17 +661,29 @@ fn the_refinement_is_judged_on_held_out_blocks() {
     assert_eq!(d["refinement"]["kept"], serde_json::json!("Refined"), "{d}");
 
     // A quiet record: both fit the held-out blocks alike (within the
-    // margin), the records decide, and the check's numbers are still shown.
+    // margin): no held-out evidence for the refinement, so the subspace
+    // model stays (the records, which the refinement was fitted to, no
+    // longer decide), and the check's numbers are still shown.
     let (u, y) = record(3000, 0.1, 7);
     let records = [Record::new(dataset(&u, &y))];
     let mut opts = WorkflowOptions::default();
     opts.identification.order = Order::Fixed(3);
     let fit = identify(&records, &opts).expect("identify");
-    let j = &fit.file.diagnostics["refinement_judge"];
-    assert_eq!(j["decided_by"], serde_json::json!("records"), "{j}");
+    let d = &fit.file.diagnostics;
+    let j = &d["refinement_judge"];
+    assert_eq!(
+        j["decided_by"],
+        serde_json::json!(lifted_workflow::JUDGE_NOT_TOLD_APART),
+        "{j}"
+    );
     let held = &j["held_out"];
     let gap = held["initial_fit"].as_f64().unwrap() - held["refined_fit"].as_f64().unwrap();
     assert!(gap.abs() <= 3.0, "{j}");
+    assert_eq!(d["refinement"]["kept"], serde_json::json!("Initial"), "{d}");
+    let mut plain = opts.clone();
+    plain.refinement.refine = Refine::None;
+    let unrefined = identify(&records, &plain).expect("identify");
+    assert_eq!(fit.file.model, unrefined.file.model);
 
     // Beyond 2e4 samples the records decide without a check.
     let (u, y) = record(20_001, 0.1, 8);

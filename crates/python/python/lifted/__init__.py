@@ -276,8 +276,9 @@ def identify(
       refined model is kept when it simulates at least as well: on six
       held-out blocks for single-rate N4SID/MOESP/CVA records of up to 2e4
       samples when they tell the two apart (mean fits more than 3 points
-      apart, the median block agreeing), else on the records
-      (``diagnostics["refinement_judge"]``).
+      apart, the median block agreeing; when they do not, the subspace
+      model stays), else (longer records, costly checks, multirate records)
+      on the records (``diagnostics["refinement_judge"]``).
     * ``enforce_stability``: the stabilised estimate (``--stable``).
     * ``method="pbsid"`` / ``"ssarx"``: the predictor-based closed-loop
       methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past

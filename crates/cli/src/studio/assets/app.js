@@ -451,7 +451,9 @@ function renderIdentified(r) {
     if (!j) return "";
     const h = j.held_out;
     const fits = h ? " (held-out fit over " + h.folds + " blocks: subspace model " + fixed(h.initial_fit, 1) + " %, refined " + fixed(h.refined_fit, 1) + " %)" : "";
-    return j.decided_by === "held-out blocks" ? ", decided on held-out blocks" + fits : ", decided on the record" + fits;
+    if (j.decided_by === "held-out blocks") return ", decided on held-out blocks" + fits;
+    if (j.decided_by === "held-out blocks: not told apart") return ", the held-out blocks do not tell the two apart" + fits;
+    return ", decided on the record" + fits;
   };
   const ref = r.refinement;
   $("refinement").textContent = ref
