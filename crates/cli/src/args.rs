@@ -447,6 +447,11 @@ pub enum MethodArg {
     /// SSARX (Jansson 2003), the predictor-based method with a canonical-correlation
     /// step: closed-loop data without an instrument; horizons as pbsid.
     Ssarx,
+    /// Row-wise PBSID (Chiuso & Picci 2005), the predictor-based method that regresses the
+    /// future outputs one block row at a time: closed-loop data without an instrument;
+    /// horizons as pbsid.
+    #[value(name = "pbsid-rowwise")]
+    PbsidRowwise,
 }
 
 impl MethodArg {
@@ -460,6 +465,7 @@ impl MethodArg {
             MethodArg::Iv => "iv",
             MethodArg::Pbsid => "pbsid",
             MethodArg::Ssarx => "ssarx",
+            MethodArg::PbsidRowwise => "pbsid_rowwise",
         }
     }
 }

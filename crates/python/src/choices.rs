@@ -57,6 +57,7 @@ impl Choice for lifted_workflow::Method {
         ("cva", Self::Cva),
         ("pbsid", Self::Pbsid),
         ("ssarx", Self::Ssarx),
+        ("pbsid_rowwise", Self::PbsidRowwise),
         ("iv", Self::Iv),
     ];
 }

@@ -7,7 +7,7 @@
 //! options give the same model as `lifted identify`.
 
 use lifted_linalg::budget::resolve_threads;
-use lifted_subspace::{Experiment, OrderSelection, SystemEstimate};
+use lifted_subspace::{OrderSelection, SystemEstimate};
 use lifted_workflow::{
     BdRoute, Detrend, Estimator, Order, OrderCriterion, Record, Refine, WorkflowOptions,
 };
@@ -118,10 +118,7 @@ pub(crate) fn identify<'py>(
         opt_count(past, "past")?,
         opt_count(future, "future")?,
     );
-    if matches!(
-        method,
-        lifted_workflow::Method::Pbsid | lifted_workflow::Method::Ssarx
-    ) {
+    if method.is_predictor_based() {
         // The past horizon (`horizon` or its spelling `past`) and the
         // future horizon of the predictor-based methods.
         id.horizon = horizon_of(horizon, past, None)?;
@@ -268,14 +265,12 @@ pub(crate) fn identified_dict<'py>(
 }
 
 /// Predictor-based subspace identification through the workflow layer
-/// (`lifted identify --method pbsid|ssarx`): PBSID-opt or SSARX, consistent
+/// (`lifted identify --method pbsid|ssarx|pbsid-rowwise`): PBSID-opt or SSARX, consistent
 /// on closed-loop records without an external excitation. `past` None:
 /// chosen by Akaike's criterion on the VARX predictor (up to 30); `future`
 /// None: min(past, 10); `feedthrough` false: no D (the closed-loop
-/// default). Row-wise PBSID (`variant="pbsid_rowwise"`) is not a workflow
-/// method: it calls `lifted_subspace::pbsid_identify` directly (means
-/// removed unless `detrend="none"`, no refinement). Returns the dict of
-/// [`identified_dict`].
+/// default); row-wise PBSID (`variant="pbsid_rowwise"`, `--method
+/// pbsid-rowwise`) likewise. Returns the dict of [`identified_dict`].
 #[pyfunction]
 #[pyo3(signature = (us, ys, variant="pbsid", order=None, max_order=10, past=None, future=None,
     feedthrough=false, detrend="mean", remove_means=true, refine="auto", refine_iterations=100,
@@ -305,18 +300,7 @@ pub(crate) fn pbsid<'py>(
     let method = match variant {
         lifted_subspace::PbsidVariant::Optimized => lifted_workflow::Method::Pbsid,
         lifted_subspace::PbsidVariant::Ssarx => lifted_workflow::Method::Ssarx,
-        _ => {
-            return rowwise(
-                py,
-                (&us, &ys),
-                (order, max_order, past, future),
-                feedthrough,
-                detrend,
-                refine,
-                dt,
-                threads,
-            );
-        }
+        lifted_subspace::PbsidVariant::RowWise => lifted_workflow::Method::PbsidRowwise,
     };
     let (u, y) = finite_records(&us, &ys)?;
     let mut opts = WorkflowOptions::default();
@@ -332,84 +316,6 @@ pub(crate) fn pbsid<'py>(
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     let fit = run(py, single_rate(dt, u, y)?, opts)?;
     identified_dict(py, &fit, threads)
-}
-
-/// Row-wise PBSID, which the workflow does not offer: the library route
-/// directly (`lifted_subspace::pbsid_identify`), means removed unless
-/// `detrend` is none, no refinement.
-#[allow(clippy::too_many_arguments)]
-fn rowwise<'py>(
-    py: Python<'py>,
-    (us, ys): (&[Bound<'py, PyAny>], &[Bound<'py, PyAny>]),
-    (order, max_order, past, future): (Option<Int>, Int, Option<Int>, Option<Int>),
-    feedthrough: bool,
-    detrend: Detrend,
-    refine: &str,
-    dt: f64,
-    threads: usize,
-) -> PyResult<Bound<'py, PyDict>> {
-    if detrend == Detrend::Linear {
-        return Err(arg_error(
-            "detrend",
-            "'linear' is not available with variant='pbsid_rowwise' (not a workflow method: \
-             the means are removed or not)",
-        ));
-    }
-    if !matches!(
-        Refine::parse(refine, "refine")?,
-        Refine::Auto | Refine::None
-    ) {
-        return Err(arg_error(
-            "refine",
-            "variant='pbsid_rowwise' is not a workflow method and is not refined; use \
-             variant='pbsid' or 'ssarx' for a refined model",
-        ));
-    }
-    let (u, y) = records(us, ys)?;
-    let past = opt_count(past, "past")?;
-    let opts = lifted_subspace::PbsidOptions {
-        variant: lifted_subspace::PbsidVariant::RowWise,
-        order: order_of(opt_count(order, "order")?, count(max_order, "max_order")?),
-        past,
-        future: opt_count(future, "future")?.unwrap_or(past.map_or(10, |p| p.min(10))),
-        feedthrough: if feedthrough {
-            lifted_subspace::Feedthrough::Free
-        } else {
-            lifted_subspace::Feedthrough::Zero
-        },
-        remove_means: detrend == Detrend::Mean,
-        ts: dt,
-        threads,
-        ..Default::default()
-    };
-    let fit = py
-        .detach(move || {
-            let ex: Vec<Experiment<'_>> =
-                u.iter().zip(&y).map(|(u, y)| Experiment { u, y }).collect();
-            lifted_subspace::pbsid_identify(&ex, &opts)
-        })
-        .map_err(err)?;
-    let d = &fit.diagnostics;
-    let out = dict_of(
-        py,
-        FitParts {
-            model: &fit.model,
-            kalman_gain: Some(&fit.kalman_gain),
-            x0: &fit.x0,
-            operating_point: fit.operating_point.as_ref(),
-            singular_values: &d.singular_values,
-            order: d.order,
-            suggested_order: d.suggested_order,
-        },
-        "pbsid_rowwise",
-        threads,
-    )?;
-    let diagnostics = serde_json::json!({
-        "route": "row-wise PBSID (lifted_subspace::pbsid_identify directly: not a workflow method, no refinement)",
-        "order_selection": {"singular_values": d.singular_values, "order": d.order, "suggested_order": d.suggested_order},
-    });
-    out.set_item("diagnostics_json", diagnostics.to_string())?;
-    Ok(out)
 }
 
 /// What the result dict of a subspace-type fit is made of.

@@ -213,6 +213,11 @@ CLOSED_CASES: list[tuple[str, list[str], Any]] = [
      lambda u, y, r: lifted.identify(u, y, "pbsid", order=3, refine="oe", dt=TS)),
     ("ssarx through identify", ["--method", "ssarx", "--order", "3", "--horizon", "8"],
      lambda u, y, r: lifted.identify(u, y, "ssarx", order=3, horizon=8, dt=TS)),
+    ("row-wise pbsid defaults", ["--method", "pbsid-rowwise"],
+     lambda u, y, r: lifted.pbsid(u, y, "pbsid_rowwise", dt=TS)),
+    ("row-wise pbsid through identify, refine pem",
+     ["--method", "pbsid-rowwise", "--order", "3", "--refine", "pem"],
+     lambda u, y, r: lifted.identify(u, y, "pbsid_rowwise", order=3, refine="pem", dt=TS)),
     ("iv with the set-point as instrument", ["--method", "iv", "--instrument", "r1,r2"],
      lambda u, y, r: lifted.iv(u, y, r, dt=TS)),
     ("iv order 3, alpha 6, alpha_p 10, refine pem",
@@ -348,8 +353,6 @@ def test_new_options_are_refused_where_they_do_not_apply(
         lifted.identify(u, y, "n4sid", order=3, past=10, future=5)
     with pytest.raises(lifted.ArgumentError, match="stable"):
         lifted.identify(u, y, "pbsid", order=3, enforce_stability=True)
-    with pytest.raises(lifted.ArgumentError, match="refine"):
-        lifted.pbsid(u, y, "pbsid_rowwise", order=3, refine="pem")
     with pytest.raises(lifted.ArgumentError, match="last_period"):
         us, ys = qmarkov_records(1)
         lifted.qmarkov([np.vstack([u, u]) for u in us], [np.vstack([y, y]) for y in ys],

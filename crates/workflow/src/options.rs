@@ -78,6 +78,10 @@ pub enum Method {
     Pbsid,
     /// SSARX (Jansson 2003).
     Ssarx,
+    /// Row-wise PBSID (Chiuso & Picci 2005): the predictor-based method
+    /// whose future outputs are regressed one block row at a time.
+    #[serde(rename = "pbsid_rowwise")]
+    PbsidRowwise,
 }
 
 impl Method {
@@ -91,7 +95,16 @@ impl Method {
             Method::Iv => "iv",
             Method::Pbsid => "pbsid",
             Method::Ssarx => "ssarx",
+            Method::PbsidRowwise => "pbsid_rowwise",
         }
+    }
+
+    /// Whether this is one of the predictor-based methods (PBSID-opt,
+    /// SSARX, row-wise PBSID): closed-loop records without an instrument,
+    /// a past and a future horizon, D = 0 unless a feedthrough is asked
+    /// for.
+    pub fn is_predictor_based(self) -> bool {
+        matches!(self, Method::Pbsid | Method::Ssarx | Method::PbsidRowwise)
     }
 
     /// Whether this is one of the weighted subspace methods N4SID, MOESP,
@@ -434,7 +447,7 @@ impl WorkflowOptions {
                 "only used with the qmarkov method",
             ));
         }
-        let pbsid = matches!(id.method, Method::Pbsid | Method::Ssarx);
+        let pbsid = id.method.is_predictor_based();
         if id.future.is_some() && !pbsid {
             return Err(Error::option(
                 "future",

@@ -232,7 +232,9 @@ fn run(
                 diagnostics: d,
             }
         }
-        Method::Pbsid | Method::Ssarx => routes::pbsid(id, &sets, multirate)?,
+        Method::Pbsid | Method::Ssarx | Method::PbsidRowwise => {
+            routes::pbsid(id, &sets, multirate)?
+        }
         _ => {
             let instruments: Vec<Option<&DMatrix<f64>>> =
                 records.iter().map(|r| r.instrument.as_ref()).collect();

@@ -1304,10 +1304,10 @@ pub(crate) fn pbsid(
         ));
     }
     let past = id.horizon;
-    let variant = if id.method == Method::Ssarx {
-        lifted_subspace::PbsidVariant::Ssarx
-    } else {
-        lifted_subspace::PbsidVariant::Optimized
+    let variant = match id.method {
+        Method::Ssarx => lifted_subspace::PbsidVariant::Ssarx,
+        Method::PbsidRowwise => lifted_subspace::PbsidVariant::RowWise,
+        _ => lifted_subspace::PbsidVariant::Optimized,
     };
     // A record too short for the default future horizon 10 (neither
     // horizon given): the longest it supports, with a warning, as the

@@ -1244,6 +1244,8 @@ fn the_predictor_based_routes_choose_their_order_on_held_out_blocks() {
     // (simulation fit 75.1 % on a fresh record); the held-out fit chooses
     // order 3 (95.7 %), as on real records where the gap chose order 1 on
     // 9 of 17 (benches/README.md). (SSARX's gap finds 3 on this record.)
+    // Row-wise PBSID (whose Python route took the gap before it became a
+    // workflow method) likewise.
     let (u, y) = distributed_record(2000, 3);
     let (uv, yv) = distributed_record(2000, 2);
     let rec = [Record::new(dataset(&u, &y))];
@@ -1258,7 +1260,7 @@ fn the_predictor_based_routes_choose_their_order_on_held_out_blocks() {
             .outputs[0]
             .fit
     };
-    for method in [Method::Pbsid, Method::Ssarx] {
+    for method in [Method::Pbsid, Method::Ssarx, Method::PbsidRowwise] {
         let mut o = WorkflowOptions::default();
         o.identification.method = method;
         o.refinement.refine = Refine::None;

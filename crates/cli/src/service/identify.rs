@@ -127,6 +127,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Iv => Method::Iv,
         MethodArg::Pbsid => Method::Pbsid,
         MethodArg::Ssarx => Method::Ssarx,
+        MethodArg::PbsidRowwise => Method::PbsidRowwise,
     };
     id.order = parse_order(&a.order, a.max_order)?;
     id.max_order = a.max_order;

@@ -280,7 +280,7 @@ def identify(
       model stays), else (longer records, costly checks, multirate records)
       on the records (``diagnostics["refinement_judge"]``).
     * ``enforce_stability``: the stabilised estimate (``--stable``).
-    * ``method="pbsid"`` / ``"ssarx"``: the predictor-based closed-loop
+    * ``method="pbsid"`` / ``"ssarx"`` / ``"pbsid_rowwise"``: the predictor-based closed-loop
       methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past
       horizon, None: Akaike's choice; ``future`` their future horizon, None:
       min(past, 10); no D; ``order_criterion`` only ``"validation"``, the
@@ -352,8 +352,9 @@ def pbsid(
     """Predictor-based subspace identification for closed-loop records
     without an external excitation: PBSID-opt (Chiuso 2007, default) or
     SSARX (Jansson 2003), through the identification workflow of ``lifted
-    identify --method pbsid`` / ``ssarx`` with its defaults (same data and
-    options, same model), and row-wise PBSID.
+    identify --method pbsid`` / ``ssarx`` / ``pbsid-rowwise`` with its
+    defaults (same data and options, same model): ``variant`` ``"pbsid"``,
+    ``"ssarx"`` or ``"pbsid_rowwise"`` (row-wise PBSID, Chiuso & Picci 2005).
 
     ``u``, ``y`` as for :func:`identify` (the plant's input and output as
     logged; the reference is not needed). ``past`` (the CLI's
@@ -367,15 +368,10 @@ def pbsid(
     ``max_order`` (six blocks each held out once, at the past horizon of
     the whole record, as :func:`identify`'s default;
     ``diagnostics["structure_selection"]``; the singular-value gap for
-    records too short for the blocks and for ``"pbsid_rowwise"``).
+    records too short for the blocks).
     ``detrend`` / ``remove_means`` and ``refine`` (default ``"auto"``: the
     prediction-error refinement where it pays), ``refine_iterations``,
     ``refine_max_work`` as for :func:`identify`.
-
-    ``variant="pbsid_rowwise"`` is not a workflow (CLI) method: it calls the
-    library route ``lifted_subspace::pbsid_identify`` directly (means
-    removed unless ``detrend="none"``, no refinement: ``refine`` must be
-    ``"auto"`` or ``"none"``).
 
     Returns a :class:`SubspaceFit` whose model carries the operating point
     and the Kalman gain of the innovation model, and the model file's

@@ -30,7 +30,7 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: Identification method of the workflow (``identify(method=...)``, the
 #: CLI's ``--method``): the subspace methods, the predictor-based PBSID-opt
 #: and SSARX, and instrumental-variable subspace.
-IdentifyMethod = Literal["n4sid", "moesp", "cva", "pbsid", "ssarx", "iv"]
+IdentifyMethod = Literal["n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv"]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on
 #: the estimated state sequence.

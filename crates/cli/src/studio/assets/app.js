@@ -171,7 +171,7 @@ function request(withOrder) {
     const h = num("horizon", true, 1);
     if (h !== null) r.horizon = h;
     const crit = $("order-criterion").value;
-    if (crit !== "validation" && method !== "pbsid" && method !== "ssarx") r.order_criterion = crit;
+    if (crit !== "validation" && method !== "pbsid" && method !== "ssarx" && method !== "pbsid-rowwise") r.order_criterion = crit;
     // A numeric order keeps the structure the automatic order chose (the
     // server makes it explicit on the command line).
     // A horizon i holds orders up to (i − 1) n_y: a larger order takes
