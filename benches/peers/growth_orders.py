@@ -41,8 +41,8 @@ def main():
             y = y + 0.1 * y.std(0) * v / v.std(0)
             np.savetxt(csv, np.column_stack([u, y]), delimiter=",", header="u1,u2,y1,y2",
                        comments="", fmt="%.10g")
-            for method in ("pbsid", "ssarx", "iv", "n4sid"):
-                extra = ["--feedthrough"] if method in ("pbsid", "ssarx") else []
+            for method in ("pbsid", "ssarx", "pbsid-rowwise", "iv", "n4sid"):
+                extra = ["--feedthrough"] if method in ("pbsid", "ssarx", "pbsid-rowwise") else []
                 t0 = time.time()
                 r = subprocess.run([cli, "identify", "--method", method, "--data", csv,
                                     "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1",
