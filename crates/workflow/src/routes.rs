@@ -815,12 +815,9 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             // supports when a given one is longer (the parts are fitted at
             // what they support; a horizon of 963 001 on 100 frames tried
             // as many orders, each a failed identification).
-            let (_, frame_outputs) = lifted_widths(data);
             let future = opts.identification.future;
-            let identifiable = lifted_horizon(data, future)
-                .unwrap_or(future)
-                .saturating_sub(1)
-                .saturating_mul(frame_outputs);
+            let identifiable =
+                lifted_max_order(data, lifted_horizon(data, future).unwrap_or(future));
             let fit_at = |est: &Dataset, n: usize| {
                 // The horizon the estimation part supports when the
                 // route's is too long for it (two thirds of the frames).
@@ -935,6 +932,14 @@ fn lifted_widths(data: &Dataset) -> (usize, usize) {
         data.inputs().iter().map(|c| j / c.hold.max(1)).sum(),
         data.outputs().iter().map(|c| j / c.period.max(1)).sum(),
     )
+}
+
+/// The largest order a lifted identification of `data` at future horizon
+/// f identifies: (f − 1) p̄, p̄ the lifted outputs per frame
+/// ([`lifted_widths`]); saturating, for any f a caller gives.
+fn lifted_max_order(data: &Dataset, future: usize) -> usize {
+    let (_, frame_outputs) = lifted_widths(data);
+    future.saturating_sub(1).saturating_mul(frame_outputs)
 }
 
 /// The longest horizon s ≤ `max` (s ≥ 2) for which the record lifted by
@@ -1623,9 +1628,12 @@ pub(crate) fn iv(
                 // Orders above (α − 1) p̄ (p̄ lifted outputs per frame)
                 // are not identifiable: not tried (`max` may be anything
                 // the caller gave).
-                let (_, frame_outputs) = lifted_widths(data);
-                let identifiable = lopts.alpha.saturating_sub(1).saturating_mul(frame_outputs);
-                held_out_orders(data, max.min(identifiable), fit_at, opts)
+                held_out_orders(
+                    data,
+                    max.min(lifted_max_order(data, lopts.alpha)),
+                    fit_at,
+                    opts,
+                )
             }
             _ => None,
         };
