@@ -441,8 +441,9 @@ pub enum MethodArg {
     /// Instrumental-variable subspace (thesis ch. 7), open or closed loop.
     Iv,
     /// Predictor-based subspace (PBSID-opt, Chiuso 2007): closed-loop data without an
-    /// instrument; --horizon sets the past horizon p (default: Akaike's choice up to 30),
-    /// the future horizon is min(p, 10).
+    /// instrument; --horizon sets the past horizon p (default: Akaike's choice up to 30,
+    /// shortened with a note where the past outputs are linearly dependent given the
+    /// past inputs), the future horizon is min(p, 10).
     Pbsid,
     /// SSARX (Jansson 2003), the predictor-based method with a canonical-correlation
     /// step: closed-loop data without an instrument; horizons as pbsid.

@@ -197,8 +197,11 @@ pub type Result<T> = std::result::Result<T, Error>;
 pub const INPUT_ROWS: &str = "u";
 /// The `what` of [`Error::NotExciting`] for the IV method's instrument rows.
 pub const INSTRUMENT_ROWS: &str = "instrument";
-/// The `what` of [`Error::NotExciting`] for PBSID/SSARX's past data.
-pub const VARX_REGRESSOR: &str = "past inputs and outputs (the VARX regressor Z_p)";
+/// The `what` of [`Error::NotExciting`] for PBSID/SSARX's past inputs.
+pub const VARX_REGRESSOR: &str = "past inputs (the input rows of the VARX regressor Z_p)";
+/// The `what` of [`Error::NotExciting`] for PBSID/SSARX's past inputs and
+/// outputs together (inputs tied to the outputs).
+pub const VARX_PAST: &str = "past inputs and outputs (the VARX regressor Z_p; past outputs linearly dependent given the past inputs, e.g. a noise-free combination of outputs, need a shorter past horizon: leave it automatic to get the longest that works)";
 
 impl Error {
     /// Whether this is a refusal of data whose rows built from the inputs
@@ -208,7 +211,7 @@ impl Error {
     /// causes (a caller can then look for one and name it).
     pub fn refuses_input_excitation(&self) -> bool {
         matches!(self, Error::NotExciting { what, .. }
-            if [INPUT_ROWS, INSTRUMENT_ROWS, VARX_REGRESSOR].contains(what))
+            if [INPUT_ROWS, INSTRUMENT_ROWS, VARX_REGRESSOR, VARX_PAST].contains(what))
     }
 }
 

@@ -38,6 +38,17 @@ pub struct HeldOutOrder {
     /// The horizon every fold used: PBSID's past horizon p (chosen on the
     /// whole records), the IV method's α.
     pub horizon: usize,
+    /// PBSID/SSARX: the future horizon f every fold used (the options'
+    /// one, or shorter with the past when the whole records' past outputs
+    /// are linearly dependent); the caller identifies the whole records
+    /// with it. The IV method: its α, as `horizon`.
+    #[serde(default)]
+    pub future: usize,
+    /// What the preparation of the whole records noted about the horizons
+    /// (PBSID/SSARX: a past horizon shortened, Akaike's choice at its
+    /// bound); the caller adds them to the model's notes.
+    #[serde(default)]
+    pub notes: Vec<String>,
     /// The order chosen (the first of [`HeldOutOrder::ranking`]).
     pub order: usize,
     /// Its held-out fit (percent).
@@ -119,6 +130,8 @@ pub(crate) fn held_out_order(
         .collect();
     let mut sel = HeldOutOrder {
         horizon,
+        future: horizon,
+        notes: Vec::new(),
         order: 0,
         fit: f64::NAN,
         candidates,

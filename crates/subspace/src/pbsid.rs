@@ -173,7 +173,11 @@ pub struct PbsidOptions {
     /// J ln det Σ̂_e(p) + 2 p n_y n_z of the VARX (3) among
     /// f ≤ p ≤ `max_past` (Chiuso 2007, §6), with `max_past` lowered so
     /// that the record has at least [`SAMPLES_PER_VARX_PARAMETER`] Hankel
-    /// columns per regressor.
+    /// columns per regressor, and shortened — the future horizon with it,
+    /// to at most p — to the longest p whose Z_p has full row rank when the
+    /// past outputs are linearly dependent given the past inputs (an output
+    /// that is a noise-free combination of the others), with a note. A
+    /// given p with a rank-deficient Z_p is refused.
     pub past: Option<usize>,
     /// Largest past horizon of the automatic choice. Default 30.
     pub max_past: usize,
@@ -530,6 +534,73 @@ fn choose_past(
     Ok((best, values))
 }
 
+/// The horizons (p, f) the identification uses, given the past horizon `p`
+/// chosen for `opts`: (p, `opts.future`) when the VARX regressor Z_p has
+/// full row rank. The past inputs must be persistently exciting
+/// ([`Error::NotExciting`] with [`crate::error::VARX_REGRESSOR`]). Past
+/// outputs that are linearly dependent given the past inputs — an output
+/// that is a noise-free combination of the others and the inputs (a
+/// computed or duplicated channel), or noise-free data — make Z_p rank
+/// deficient from some number of lags on: an automatic past horizon
+/// (`opts.past` None) is then shortened to the longest s with a full-rank
+/// Z_s, the future horizon to at most s, with a note; a given past horizon,
+/// or data whose Z_s is deficient even at one lag (an input tied to the
+/// outputs, as under a static feedback without excitation), is refused
+/// ([`Error::NotExciting`] with [`crate::error::VARX_PAST`]). Z_s is a
+/// block of rows of Z_{s+1}, so a deficient Z_s makes every longer one
+/// deficient: the search goes down from p. O(p) rank computations of at
+/// most p n_z × k matrices.
+fn full_rank_past(
+    rows: &Rows<'_>,
+    opts: &PbsidOptions,
+    p: usize,
+    notes: &mut Vec<String>,
+) -> Result<(usize, usize)> {
+    let past_u = vstack(
+        &(-(p as isize)..0)
+            .map(|lag| rows.u(lag))
+            .collect::<Vec<_>>()
+            .iter()
+            .collect::<Vec<_>>(),
+    );
+    check_independent(crate::error::VARX_REGRESSOR, &past_u)?;
+    let rank_at = |s: usize| -> Result<usize> {
+        Ok(lifted_linalg::rank(
+            &rows.z(-(s as isize), 0),
+            lifted_linalg::RankTolerance::Default,
+        )?)
+    };
+    let nz = rows.layout.nu + rows.layout.ny;
+    let rank = rank_at(p)?;
+    if rank == p * nz {
+        return Ok((p, opts.future));
+    }
+    let refuse = || {
+        crate::error::check_exciting(crate::error::VARX_PAST, rank, p * nz)
+            .map(|_| (p, opts.future))
+    };
+    if opts.past.is_some() {
+        return refuse();
+    }
+    let mut longest = None;
+    for s in (1..p).rev() {
+        if rank_at(s)? == s * nz {
+            longest = Some(s);
+            break;
+        }
+    }
+    let Some(s) = longest else {
+        return refuse();
+    };
+    let f = opts.future.min(s);
+    notes.push(format!(
+        "the past outputs are linearly dependent given the past inputs from {} lags on (the VARX regressor has numerical rank {rank} of {} at p = {p}): an output that is a noise-free combination of the others and the inputs, or noise-free data? The horizons are shortened to p = {s}, f = {f}, the longest with a full-rank regressor",
+        s + 1,
+        p * nz
+    ));
+    Ok((s, f))
+}
+
 /// Γ̂K̂ (f n_y × p n_z, columns z(t−p) … z(t−1)) of the chosen variant
 /// and, for SSARX, the lower-triangular Rᵀ whose inverse is the row weight
 /// W₁ of its SVD (the CCA weight; None = I).
@@ -653,6 +724,9 @@ pub(crate) struct Prepared {
     /// The past horizon p used and Akaike's values (automatic p).
     pub(crate) past: usize,
     past_selection: Vec<(usize, f64)>,
+    /// The future horizon f used (`opts.future`, or shorter with the past
+    /// when the past outputs are linearly dependent: [`full_rank_past`]).
+    pub(crate) future: usize,
     /// Γ̂K̂ (weighted for SSARX) and the left singular vectors and values of
     /// Γ̂K̂ L_P.
     gk: DMatrix<f64>,
@@ -664,7 +738,7 @@ pub(crate) struct Prepared {
     pub(crate) supported: usize,
     mask: DMatrix<bool>,
     scale: Scale,
-    notes: Vec<String>,
+    pub(crate) notes: Vec<String>,
 }
 
 impl Prepared {
@@ -762,8 +836,8 @@ impl Prepared {
                  (PbsidOptions::max_past, or a fixed past) may fit the predictor better"
             ));
         }
+        let (p, f) = full_rank_past(&rows, opts, p, &mut notes)?;
         let zp = rows.z(-(p as isize), 0);
-        check_independent(crate::error::VARX_REGRESSOR, &zp)?;
 
         // Steps 2–3.
         let (gk, weight) = gamma_k(&rows, p, f, opts.variant, &mask)?;
@@ -789,6 +863,7 @@ impl Prepared {
             columns,
             past: p,
             past_selection,
+            future: f,
             gk,
             uw,
             sv,
@@ -815,7 +890,7 @@ impl Prepared {
                 max: self.supported,
             });
         }
-        let (p, f) = (self.past, opts.future);
+        let (p, f) = (self.past, self.future);
         let (nu, ny) = (self.layout.nu, self.layout.ny);
         let records = experiments.len();
         let rows = Rows {

@@ -50,7 +50,8 @@ use crate::select::StructureOptions;
 /// capped by `structure.max_order`) or, when fixed, the only candidate.
 /// Only `structure`'s fold layout, `max_order` and `tolerance` are used.
 /// The caller then identifies on the whole records with
-/// `order = Fixed(order)` and `past = Some(past)`.
+/// `order = Fixed(order)`, `past = Some(horizon)` and `future = future`
+/// of the result.
 ///
 /// Errors: those of [`crate::pbsid_identify`] on the whole records;
 /// [`crate::Error::InvalidOption`] for a fold count outside 2..=10;
@@ -76,6 +77,7 @@ pub fn select_pbsid_order(
     };
     let fold_opts = PbsidOptions {
         past: Some(past),
+        future: whole.future,
         order: OrderSelection::Gap { max: cap },
         ..opts.clone()
     };
@@ -83,16 +85,16 @@ pub fn select_pbsid_order(
     let span = past
         + match opts.variant {
             PbsidVariant::Optimized => 1,
-            PbsidVariant::RowWise | PbsidVariant::Ssarx => opts.future,
+            PbsidVariant::RowWise | PbsidVariant::Ssarx => whole.future,
         };
-    held_out_order(experiments, &orders, structure, past, |est, held| {
+    let mut sel = held_out_order(experiments, &orders, structure, past, |est, held| {
         let exps: Vec<Experiment<'_>> = est
             .iter()
             .filter(|(u, _)| u.nrows() >= span)
             .map(|(u, y)| Experiment { u, y })
             .collect();
         if exps.is_empty() {
-            return Err(short_fold(est, (past, opts.future), span));
+            return Err(short_fold(est, (past, whole.future), span));
         }
         let samples = exps.iter().map(|e| e.u.nrows()).sum();
         let (op, prep, recs) = fold_models(&exps, &fold_opts, nu, ny, samples)?;
@@ -104,7 +106,10 @@ pub fn select_pbsid_order(
                 held_out_fit(&model.model, op.as_ref(), held)
             })
             .collect())
-    })
+    })?;
+    sel.future = whole.future;
+    sel.notes = whole.notes.clone();
+    Ok(sel)
 }
 
 /// Records ready for every order, as `pbsid_identify` treats them: their

@@ -1416,13 +1416,14 @@ fn pbsid_selected(
             return Ok((fit, Some(note)));
         }
     };
-    let (fit, d) = held_out_choice(
+    let (mut fit, d) = held_out_choice(
         &sel,
         &format!("the whole record's past horizon {}", sel.horizon),
         |n| {
             let o = lifted_subspace::PbsidOptions {
                 order: OrderSelection::Fixed(n),
                 past: Some(sel.horizon),
+                future: sel.future,
                 ..opts.clone()
             };
             lifted_subspace::pbsid_identify(exps, &o).map_err(|e| e.to_string())
@@ -1430,6 +1431,14 @@ fn pbsid_selected(
         |fit| fit.diagnostics.spectral_radius,
         what,
     )?;
+    // The whole records' notes on the horizons (a past shortened for
+    // linearly dependent past outputs), which the identification at the
+    // fixed past does not repeat.
+    for note in &sel.notes {
+        if !fit.diagnostics.notes.contains(note) {
+            fit.diagnostics.notes.insert(0, note.clone());
+        }
+    }
     Ok((fit, Some(d)))
 }
 

@@ -1592,3 +1592,58 @@ fn an_unstable_plant_in_a_loop_gets_its_order_from_the_gap() {
         );
     }
 }
+
+/// PBSID/SSARX on a record whose second output is a noise-free
+/// combination of the first and the state (y1 = x1 + e, y2 = x2 − e): the
+/// automatic order and past horizon identify it at the shortened
+/// horizons (past outputs linearly dependent from three lags on), and the
+/// model's notes say why (before: refused, "the VARX regressor Z_p is not
+/// persistently exciting: numerical rank 32, 40 needed").
+#[test]
+fn predictor_methods_shorten_the_past_for_tied_outputs() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let n = 300;
+    let (mut u, mut y) = (DMatrix::zeros(n, 2), DMatrix::zeros(n, 2));
+    let (mut x1, mut x2) = (0.0f64, 0.0f64);
+    for t in 0..n {
+        let u1 = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let u2 = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let e = 0.01 * rng.random::<f64>();
+        u[(t, 0)] = u1;
+        u[(t, 1)] = u2;
+        y[(t, 0)] = x1 + e;
+        y[(t, 1)] = x2 - e;
+        x1 = 0.8 * x1 + 0.5 * u1;
+        x2 = 0.5 * x2 + 0.3 * u2 + 0.2 * u1;
+    }
+    let rec = [Record::new(dataset(&u, &y))];
+    for method in [Method::Pbsid, Method::Ssarx, Method::PbsidRowwise] {
+        let mut o = WorkflowOptions::default();
+        o.identification.method = method;
+        o.refinement.refine = Refine::None;
+        let fit = identify(&rec, &o).expect("identify");
+        let d = &fit.file.diagnostics;
+        assert_eq!(fit.order, 2, "{method:?}: {d}");
+        assert_eq!(d["structure_selection"]["horizon"], 2, "{method:?}: {d}");
+        let notes = d["notes"].as_array().expect("notes");
+        assert!(
+            notes.iter().any(|n| n
+                .as_str()
+                .is_some_and(|s| s.contains("shortened to p = 2, f = 2"))),
+            "{method:?}: {d}"
+        );
+        let mut poles: Vec<f64> = fit
+            .file
+            .model
+            .poles()
+            .expect("poles")
+            .iter()
+            .map(|p| p.re)
+            .collect();
+        poles.sort_by(f64::total_cmp);
+        assert!(
+            (poles[0] - 0.5).abs() < 0.01 && (poles[1] - 0.8).abs() < 0.01,
+            "{method:?}: {poles:?}"
+        );
+    }
+}

@@ -359,7 +359,10 @@ def pbsid(
     ``u``, ``y`` as for :func:`identify` (the plant's input and output as
     logged; the reference is not needed). ``past`` (the CLI's
     ``--horizon``) None chooses the past horizon by Akaike's criterion on
-    the high-order predictor (up to 30); ``future`` (``--future``) None is
+    the high-order predictor (up to 30; shortened, past and future, with a
+    note in ``diagnostics["notes"]``, where the past outputs are linearly
+    dependent given the past inputs, e.g. an output that is a noise-free
+    combination of the others); ``future`` (``--future``) None is
     min(past, 10) (10 with Akaike's past, or the longest a record too
     short for 10 supports, with a warning); ``feedthrough`` False (no D,
     ``--feedthrough`` to estimate it) is the closed-loop default, since an

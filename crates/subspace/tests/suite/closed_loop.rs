@@ -482,3 +482,110 @@ fn pbsid_merges_records() {
     assert_eq!(two.x0.len(), 2);
     assert!(two.x0[1].norm() > 0.0);
 }
+
+/// A 2×2 record whose second output is a noise-free combination of the
+/// first, the state and nothing else: y1 = x1 + e, y2 = x2 − e (the same
+/// measurement noise with opposite signs, so y1 + y2 = x1 + x2 exactly),
+/// with first-order states x1 (pole 0.8) and x2 (pole 0.5) driven by
+/// random binary inputs.
+fn tied_outputs(n: usize, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let (mut u, mut y) = (DMatrix::zeros(n, 2), DMatrix::zeros(n, 2));
+    let (mut x1, mut x2) = (0.0f64, 0.0f64);
+    for t in 0..n {
+        let u1 = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let u2 = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let e = 0.01 * rng.random::<f64>();
+        u[(t, 0)] = u1;
+        u[(t, 1)] = u2;
+        y[(t, 0)] = x1 + e;
+        y[(t, 1)] = x2 - e;
+        x1 = 0.8 * x1 + 0.5 * u1;
+        x2 = 0.5 * x2 + 0.3 * u2 + 0.2 * u1;
+    }
+    (u, y)
+}
+
+/// Past outputs that are linearly dependent given the past inputs (an
+/// output that is a noise-free combination of the others, as a computed
+/// or duplicated channel) make the VARX regressor rank deficient beyond
+/// two lags here: an automatic past horizon is shortened to the longest
+/// full-rank one, with a note, and every variant finds the plant's poles
+/// (before: refused, "numerical rank 32, 40 needed"); a given past
+/// horizon is refused with the remedy named, and inputs tied to the
+/// outputs at every lag stay refused (`pbsid_rejects_bad_input`).
+#[test]
+fn linearly_dependent_past_outputs_shorten_an_automatic_past() {
+    let (u, y) = tied_outputs(300, 5);
+    let exp = [Experiment { u: &u, y: &y }];
+    let truth = StateSpace::new(
+        DMatrix::from_row_slice(2, 2, &[0.8, 0.0, 0.0, 0.5]),
+        DMatrix::from_row_slice(2, 2, &[0.5, 0.0, 0.2, 0.3]),
+        DMatrix::identity(2, 2),
+        DMatrix::zeros(2, 2),
+        Some(1.0),
+    )
+    .unwrap();
+    for variant in [
+        PbsidVariant::Optimized,
+        PbsidVariant::RowWise,
+        PbsidVariant::Ssarx,
+    ] {
+        let opts = PbsidOptions {
+            variant,
+            order: OrderSelection::Fixed(2),
+            ..Default::default()
+        };
+        let fit = pbsid_identify(&exp, &opts).unwrap();
+        // Z_s has full rank up to s = 2 lags (two states, y1 + y2 = x1 + x2
+        // is free over two samples, determined by them and the inputs
+        // from the third on).
+        assert_eq!(fit.diagnostics.horizons, (2, 2), "{variant:?}");
+        assert!(
+            fit.diagnostics
+                .notes
+                .iter()
+                .any(|n| n.contains("shortened to p = 2, f = 2")),
+            "{:?}",
+            fit.diagnostics.notes
+        );
+        // The noise is 1 % of the outputs' spread: poles within 0.01.
+        let err = pole_error(&truth, &fit.model);
+        assert!(err < 0.01, "{variant:?}: pole error {err}");
+        // The held-out order search runs at the shortened horizons and
+        // finds the plant's order.
+        let sel = select_pbsid_order(
+            &exp,
+            &PbsidOptions {
+                variant,
+                ..Default::default()
+            },
+            &StructureOptions::default(),
+        )
+        .unwrap();
+        assert_eq!((sel.horizon, sel.future, sel.order), (2, 2, 2), "{sel:?}");
+        assert!(sel.notes.iter().any(|n| n.contains("shortened")));
+    }
+    // A given past horizon is kept, so refused, with the remedy named.
+    let e = pbsid_identify(
+        &exp,
+        &PbsidOptions {
+            past: Some(10),
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::NotExciting {
+                rank: 32,
+                needed: 40,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("shorter past horizon"), "{e}");
+}
