@@ -8,6 +8,7 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
+use crate::noise_gain;
 use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
@@ -217,6 +218,24 @@ fn run(
             } else {
                 Vec::new()
             };
+            // The subspace step's Kalman gain checked on the records
+            // against a second estimate (noise_gain): the one that
+            // predicts better is kept.
+            let mut d = d;
+            let kalman_gain = if sets.iter().all(|r| r.y().iter().all(|v| v.is_finite())) {
+                let (k, route) = noise_gain::checked_gain(
+                    &fit.model,
+                    fit.kalman_gain.as_ref(),
+                    &sets,
+                    used.past,
+                );
+                if let Some(obj) = d.as_object_mut() {
+                    obj.insert("kalman_gain_route".into(), route);
+                }
+                k
+            } else {
+                fit.kalman_gain
+            };
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
             }
@@ -226,7 +245,7 @@ fn run(
                 order: dg.order,
                 suggested_order: dg.suggested_order,
                 details: routes::RouteDetails::default(),
-                kalman_gain: fit.kalman_gain,
+                kalman_gain,
                 x0: fit.x0,
                 model: fit.model,
                 diagnostics: d,
