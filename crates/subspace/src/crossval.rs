@@ -366,7 +366,17 @@ pub fn cross_validate_refinement(
             .collect();
         let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = held.iter().map(|(u, y)| (u, y)).collect();
         let initial = held_out_fit(&fit.model, op, &held);
-        let refined = refine_pem(&fit.model, fit.kalman_gain.as_ref(), &recs, &[], &pem)
+        // The refinement starts from the gain the whole records' model
+        // would get (the workflow checks the subspace step's gain on the
+        // records first: `check_kalman_gain`).
+        let exps_dev: Vec<Experiment<'_>> = dev.iter().map(|(u, y)| Experiment { u, y }).collect();
+        let (gain, _) = crate::check_kalman_gain(
+            &fit.model,
+            fit.kalman_gain.as_ref(),
+            &exps_dev,
+            fit.diagnostics.horizons.0,
+        );
+        let refined = refine_pem(&fit.model, gain.as_ref(), &recs, &[], &pem)
             .ok()
             .and_then(|r| held_out_fit(&r.model, op, &held));
         per_fold.push((initial, refined));

@@ -19,6 +19,7 @@
 //! | [`CompressionPlan`], [`RecordPiece`], [`CompressedRecords`], [`RegressionPiece`] | one record compressed in pieces on several machines: pieces concatenate associatively, closed records add, both passes (compression, (B, D, x₀) rows) merge; CBOR bytes to cross processes (the `lifted.dask` package) |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | the compression kernel alone on the raw data (no scaling or centring; benchmarks): correlation/Cholesky or QR |
 //! | [`estimate_bd`], [`estimate_bd_with_offsets`], [`estimate_bd_iv`] ([`Feedthrough`], [`InitialState`], [`MAX_REGRESSOR_GROWTH`]) | (B, D, x₀) for given (A, C) by least squares or instrumental variables, masked D, NaN (unsampled) outputs skipped; an A too unstable for the record is [`Error::UnstableEstimate`] |
+//! | [`check_kalman_gain`] ([`GainCheck`]) | the subspace step's Kalman gain checked on the records: it, a regression on VARX innovations and K = 0 scored by the one-step prediction error, the best refined by Levenberg–Marquardt over K with (A, B, C, D) fixed (the `lifted` command's default for single-rate subspace models) |
 //! | [`structured_state_lstsq`] | the causality-structured least squares of thesis §4.5 (eqs. 4.17–4.19) |
 //! | [`iv_identify`] ([`IvOptions`]) | instrumental-variable subspace identification, open loop (u as instrument, §7.3) or closed loop (external excitation f, §7.4) |
 //! | [`pbsid_identify`] ([`PbsidOptions`], [`PbsidModel`]) | predictor-based subspace identification (PBSID-opt, Chiuso 2007; row-wise PBSID; SSARX, Jansson 2003; [`PbsidVariant`]): consistent on closed-loop data without an instrument, on the same compressed lagged data, then (B, K, x₀) by the predictor regression on the records |
@@ -132,6 +133,7 @@ mod crossval;
 mod engine;
 pub mod error;
 mod fit;
+mod gain_check;
 mod hankel;
 mod held_out_order;
 mod iv;
@@ -162,6 +164,7 @@ pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
+pub use gain_check::{GainCheck, MINIMISE_WORK, VARX_WORK, check_kalman_gain};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use held_out_order::{HeldOutOrder, OrderCandidate};
 pub use iv::{

@@ -114,7 +114,6 @@ mod cache;
 mod diagnostics;
 mod error;
 mod excitation;
-mod noise_gain;
 mod options;
 mod pipeline;
 mod preprocess;

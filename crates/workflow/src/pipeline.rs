@@ -8,7 +8,6 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
-use crate::noise_gain;
 use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
@@ -219,23 +218,25 @@ fn run(
                 Vec::new()
             };
             // The subspace step's Kalman gain checked on the records
-            // against a second estimate (noise_gain): the one that
-            // predicts better is kept.
+            // (lifted_subspace::check_kalman_gain): the gain that predicts
+            // best is kept.
             let mut d = d;
-            let kalman_gain = if sets.iter().all(|r| r.y().iter().all(|v| v.is_finite())) {
-                let (k, route) = noise_gain::checked_gain(
-                    &fit.model,
-                    fit.kalman_gain.as_ref(),
-                    &sets,
-                    used.past,
+            let exps: Vec<lifted_subspace::Experiment<'_>> = sets
+                .iter()
+                .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
+                .collect();
+            let (kalman_gain, route) = lifted_subspace::check_kalman_gain(
+                &fit.model,
+                fit.kalman_gain.as_ref(),
+                &exps,
+                used.past,
+            );
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert(
+                    "kalman_gain_route".into(),
+                    serde_json::to_value(&route).unwrap_or_default(),
                 );
-                if let Some(obj) = d.as_object_mut() {
-                    obj.insert("kalman_gain_route".into(), route);
-                }
-                k
-            } else {
-                fit.kalman_gain
-            };
+            }
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
             }
