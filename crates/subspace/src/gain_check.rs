@@ -587,8 +587,14 @@ mod tests {
         let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.5]);
         let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.3, -0.2, 1.0]);
         let k = DMatrix::from_row_slice(2, 2, &[0.5, 0.1, 0.0, 0.4]);
-        let g = StateSpace::new(a.clone(), b.clone(), c.clone(), DMatrix::zeros(2, 1), Some(1.0))
-            .unwrap();
+        let g = StateSpace::new(
+            a.clone(),
+            b.clone(),
+            c.clone(),
+            DMatrix::zeros(2, 1),
+            Some(1.0),
+        )
+        .unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let mut draw = || -> f64 { StandardNormal.sample(&mut rng) };
         let u = DMatrix::from_fn(n, 1, |_, _| draw());
@@ -618,11 +624,18 @@ mod tests {
             let (k, report) = check_kalman_gain(&g, Some(&start), &exps, 10);
             let k = k.expect("gain");
             assert!((&k - &k_true).amax() < 0.05, "{k} {report:?}");
-            assert!(report.used.starts_with("prediction-error minimisation"), "{report:?}");
+            assert!(
+                report.used.starts_with("prediction-error minimisation"),
+                "{report:?}"
+            );
             let final_cost = report.final_cost.expect("cost");
-            for c in [report.riccati_cost, report.regression_cost, report.zero_cost]
-                .into_iter()
-                .flatten()
+            for c in [
+                report.riccati_cost,
+                report.regression_cost,
+                report.zero_cost,
+            ]
+            .into_iter()
+            .flatten()
             {
                 assert!(final_cost <= c + 1e-12, "{report:?}");
             }
