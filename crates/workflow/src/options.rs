@@ -344,6 +344,15 @@ pub const AUTO_REFINE_SAMPLES: usize = 10_000;
 /// [`REFINE_CHECK_WORK`].
 pub const REFINE_CHECK_SAMPLES: usize = 20_000;
 
+/// Records of up to this many samples in all get their single-rate
+/// subspace model's Kalman gain checked on them
+/// (`lifted_subspace::check_kalman_gain`), in memory and streamed alike
+/// (the streamed route loads such a record for it), so both give the same
+/// model; longer records keep the subspace step's gain (a check would
+/// need passes over the file that the streamed route's budget does not
+/// have). The bound of the held-out structure search.
+pub const GAIN_CHECK_SAMPLES: usize = 200_000;
+
 /// Points of mean held-out fit by which the refined model must beat the
 /// subspace model (or lose to it), with the median block agreeing, for the
 /// held-out check to decide (`lifted_subspace::RefinementCheck::verdict`):

@@ -8,7 +8,7 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
-use crate::options::{Detrend, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
+use crate::options::{Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
@@ -221,22 +221,7 @@ fn run(
             // (lifted_subspace::check_kalman_gain): the gain that predicts
             // best is kept.
             let mut d = d;
-            let exps: Vec<lifted_subspace::Experiment<'_>> = sets
-                .iter()
-                .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
-                .collect();
-            let (kalman_gain, route) = lifted_subspace::check_kalman_gain(
-                &fit.model,
-                fit.kalman_gain.as_ref(),
-                &exps,
-                used.past,
-            );
-            if let Some(obj) = d.as_object_mut() {
-                obj.insert(
-                    "kalman_gain_route".into(),
-                    serde_json::to_value(&route).unwrap_or_default(),
-                );
-            }
+            let kalman_gain = checked_gain(&fit.model, fit.kalman_gain, &sets, used.past, &mut d);
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
             }
@@ -324,4 +309,35 @@ fn run(
         suggested_order,
         details,
     })
+}
+
+/// The Kalman gain of a single-rate subspace model on `sets` (deviations
+/// from its operating point, as the identification took them): checked on
+/// the records (`lifted_subspace::check_kalman_gain`, the report in
+/// `diagnostics.kalman_gain_route`) when they hold at most
+/// [`GAIN_CHECK_SAMPLES`] samples, else the subspace step's gain. The
+/// in-memory and the streamed route both call it.
+pub(crate) fn checked_gain(
+    model: &lifted_lti::StateSpace,
+    gain: Option<DMatrix<f64>>,
+    sets: &[Dataset],
+    past: usize,
+    diagnostics: &mut serde_json::Value,
+) -> Option<DMatrix<f64>> {
+    let samples: usize = sets.iter().map(Dataset::len).sum();
+    if samples > GAIN_CHECK_SAMPLES {
+        return gain;
+    }
+    let exps: Vec<lifted_subspace::Experiment<'_>> = sets
+        .iter()
+        .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
+        .collect();
+    let (checked, report) = lifted_subspace::check_kalman_gain(model, gain.as_ref(), &exps, past);
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert(
+            "kalman_gain_route".into(),
+            serde_json::to_value(&report).unwrap_or_default(),
+        );
+    }
+    checked
 }

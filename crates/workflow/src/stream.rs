@@ -18,9 +18,9 @@ use nalgebra::DMatrix;
 use crate::diagnostics::{add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
-use crate::options::REFINE_CHECK_SAMPLES;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
-use crate::pipeline::Identified;
+use crate::options::{GAIN_CHECK_SAMPLES, REFINE_CHECK_SAMPLES};
+use crate::pipeline::{Identified, checked_gain};
 use crate::preprocess::{ChannelScales, SCALE_ROWS, deviations};
 use crate::refine::{
     HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
@@ -244,36 +244,57 @@ pub fn identify_streamed(
     let allowed = auto_allows(opts, &model, &mut d, n_rows, |p| {
         work_of_size(&model, n_rows, p)
     });
-    let (model, mut d) = if refinement_cost(opts, &d).is_none() || !allowed {
-        // No refinement: `refine` only records a stable identification's
-        // route.
-        let mut none = opts.clone();
-        none.refinement.refine = Refine::None;
-        refine(&none, model, d, &[], &mut kalman_gain, None)?
-    } else {
-        // The refinement starts from the model above, on the record in
-        // memory (deviations from the model's operating point).
+    let refines = refinement_cost(opts, &d).is_some() && allowed;
+    // The record in memory (and its deviations from the model's operating
+    // point) when the gain is checked on it or the model refined on it.
+    let loaded = if refines || n_rows <= GAIN_CHECK_SAMPLES {
         let record = source.load()?;
         let set = deviations(&record, fit.operating_point.as_ref())?;
-        let mut run = opts.clone();
-        if decided {
-            run.refinement.refine = Refine::Pem;
+        Some((record, set))
+    } else {
+        None
+    };
+    if let Some((_, set)) = &loaded {
+        // As the in-memory route: the same gain from the same record.
+        kalman_gain = checked_gain(
+            &model,
+            kalman_gain,
+            std::slice::from_ref(set),
+            fit.diagnostics.horizons.0,
+            &mut d,
+        );
+    }
+    let (model, mut d) = match loaded {
+        Some((record, set)) if refines => {
+            // The refinement starts from the model above, on the record in
+            // memory (deviations from the model's operating point).
+            let mut run = opts.clone();
+            if decided {
+                run.refinement.refine = Refine::Pem;
+            }
+            // A short record (structure given, so streamed) is judged as the
+            // in-memory route judges it: on held-out blocks of the record as
+            // the identification took it.
+            let check_opts = SubspaceOptions {
+                order: OrderSelection::Fixed(fit.diagnostics.order),
+                past: fit.diagnostics.horizons.0,
+                future: fit.diagnostics.horizons.1,
+                ..subspace_options(opts, record.ts(), opts.data.detrend != Detrend::None)
+            };
+            let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
+                sets: std::slice::from_ref(&record),
+                options: &check_opts,
+                known: None,
+            });
+            refine(&run, model, d, &[set], &mut kalman_gain, check)?
         }
-        // A short record (structure given, so streamed) is judged as the
-        // in-memory route judges it: on held-out blocks of the record as
-        // the identification took it.
-        let check_opts = SubspaceOptions {
-            order: OrderSelection::Fixed(fit.diagnostics.order),
-            past: fit.diagnostics.horizons.0,
-            future: fit.diagnostics.horizons.1,
-            ..subspace_options(opts, record.ts(), opts.data.detrend != Detrend::None)
-        };
-        let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
-            sets: std::slice::from_ref(&record),
-            options: &check_opts,
-            known: None,
-        });
-        refine(&run, model, d, &[set], &mut kalman_gain, check)?
+        _ => {
+            // No refinement: `refine` only records a stable
+            // identification's route.
+            let mut none = opts.clone();
+            none.refinement.refine = Refine::None;
+            refine(&none, model, d, &[], &mut kalman_gain, None)?
+        }
     };
     // Back to the data's units.
     let sc = source.scales.clone().unwrap_or_else(|| ChannelScales {
