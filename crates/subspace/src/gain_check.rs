@@ -505,6 +505,9 @@ fn free_response_fit(
     err: &DMatrix<f64>,
 ) -> Result<DVector<f64>, String> {
     let (n, ny, len) = (m.nrows(), c.nrows(), err.nrows());
+    if len == 0 || n == 0 {
+        return Ok(DVector::zeros(n));
+    }
     let span = if rho > 0.0 {
         ((1e-12f64).ln() / rho.ln()).ceil().min(len as f64) as usize
     } else {
