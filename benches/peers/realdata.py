@@ -353,6 +353,9 @@ def main():
     ap.add_argument("--json", help="write every number to this JSON file")
     ap.add_argument("--md", help="also write the markdown table to this file")
     ap.add_argument("--records", help="comma-separated subset of record names")
+    ap.add_argument("--all-orders", type=int, metavar="K",
+                    help="run every tool at every order 1..K instead of the manifest's orders "
+                         "(benches/README.md, 'Every order 1-10 beside the peers': K = 10)")
     ap.add_argument("--lifted-timeout", type=int, default=120, help="seconds per lifted subspace run")
     ap.add_argument("--pem-timeout", type=int, default=120, help="seconds per lifted --refine pem run")
     ap.add_argument("--no-pem", action="store_true", help="skip the --refine pem variant")
@@ -418,7 +421,7 @@ def main():
         global VALIDATION_OWN
         VALIDATION_OWN = (uv - uv.mean(axis=0), yv - yv.mean(axis=0))
         m, p = ue.shape[1], ye.shape[1]
-        orders = rec["orders"]
+        orders = list(range(1, args.all_orders + 1)) if args.all_orders else rec["orders"]
         horizon = rec.get("sippy_horizon", 20)
         base = []
         print(f"## {rec['name']}  {m}x{p}  N={N}  orders {orders}", file=sys.stderr)
