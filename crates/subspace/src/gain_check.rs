@@ -366,7 +366,11 @@ fn regression_gain(
             total as f64 * cols(p) * cols(p) <= VARX_WORK && shortest > p + 10 * (p * nz + nu)
         })
         .ok_or_else(|| "the records are too short for a VARX".to_string())?;
-    let innovations = varx_innovations(sets, order)?;
+    // u(t) among the regressors only for a model with a direct
+    // feedthrough: under a controller reacting within the sample it would
+    // carry the innovation into the regression.
+    let direct = model.d().iter().any(|v| *v != 0.0);
+    let innovations = varx_innovations(sets, order, direct)?;
     let a = model.a();
     let c = model.c();
     let mut targets = Vec::with_capacity(sets.len());
@@ -392,15 +396,20 @@ fn regression_gain(
 }
 
 /// The one-step prediction errors of a VARX of order `p` fitted to all
-/// records together by least squares (y(t) on z(t−1) … z(t−p) and u(t)):
-/// per record, the N − p estimates ê(p) … ê(N−1). The regressor rows are
-/// folded block by block into the R factor of [X | Y] (memory
-/// O(w²) for w = p n_z + n_u regressors), the coefficients solved from it,
-/// and the residuals formed in a second pass.
-fn varx_innovations(sets: &[Experiment<'_>], p: usize) -> Result<Vec<DMatrix<f64>>, String> {
+/// records together by least squares (y(t) on z(t−1) … z(t−p), and u(t)
+/// when `direct`): per record, the N − p estimates ê(p) … ê(N−1). The
+/// regressor rows are folded block by block into the R factor of [X | Y]
+/// (memory O(w²) for w ≤ p n_z + n_u regressors), the coefficients solved
+/// from it, and the residuals formed in a second pass.
+fn varx_innovations(
+    sets: &[Experiment<'_>],
+    p: usize,
+    direct: bool,
+) -> Result<Vec<DMatrix<f64>>, String> {
     let (nu, ny) = (sets[0].u.ncols(), sets[0].y.ncols());
     let nz = nu + ny;
-    let width = p * nz + nu;
+    let nd = if direct { nu } else { 0 };
+    let width = p * nz + nd;
     // Row t of record d: [z(t−1) … z(t−p), u(t) | y(t)].
     let fill = |d: &Experiment<'_>, t: usize, row: &mut [f64]| {
         let (u, y) = (d.u, d.y);
@@ -413,7 +422,7 @@ fn varx_innovations(sets: &[Experiment<'_>], p: usize) -> Result<Vec<DMatrix<f64
                 row[base + nu + j] = y[(t - lag, j)];
             }
         }
-        for j in 0..nu {
+        for j in 0..nd {
             row[p * nz + j] = u[(t, j)];
         }
         for j in 0..ny {

@@ -52,7 +52,10 @@
 //!    error, and the best is refined by Levenberg–Marquardt over K alone
 //!    (A, B, C, D fixed, A − K C stable), so that the one-step predictor
 //!    never predicts worse than the simulation on the records
-//!    (`kalman_gain_route`; on the DaISy CD-player arm the Riccati gain's
+//!    (`kalman_gain_route`; records of up to [`GAIN_CHECK_SAMPLES`]
+//!    samples, in memory and streamed alike; the single-rate IV route,
+//!    which has no noise model of its own, gets its gain the same way from
+//!    the regression or K = 0; on the DaISy CD-player arm the Riccati gain's
 //!    one-step fit was 64–67 % on the validation half against the
 //!    simulation's 72–82 %, now 89 %).
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the

@@ -243,7 +243,17 @@ fn run(
         _ => {
             let instruments: Vec<Option<&DMatrix<f64>>> =
                 records.iter().map(|r| r.instrument.as_ref()).collect();
-            routes::iv(opts, &sets, &instruments, instrument_names, multirate)?
+            let mut fit = routes::iv(opts, &sets, &instruments, instrument_names, multirate)?;
+            if !multirate {
+                // The IV route gives no noise model: the gain of the
+                // regression on VARX innovations or K = 0, refined over K
+                // on the records (its VARX order α), so that its model
+                // predicts as the subspace routes' do.
+                let alpha = fit.diagnostics["horizons"][0].as_u64().unwrap_or(8) as usize;
+                fit.kalman_gain =
+                    checked_gain(&fit.model, None, &sets, alpha, &mut fit.diagnostics);
+            }
+            fit
         }
     };
     let RouteFit {

@@ -1686,6 +1686,22 @@ fn the_kalman_gain_predicts_at_least_as_well_as_the_simulation() {
         final_cost <= route["zero_cost"].as_f64().expect("zero") + 1e-12,
         "{route}"
     );
+    // The IV route, which has no noise model of its own, gets the checked
+    // gain as well (from the regression or K = 0).
+    let mut iv = o.clone();
+    iv.identification.method = Method::Iv;
+    let iv_fit = identify(&[Record::new(dataset(&u, &y))], &iv).expect("identify");
+    assert!(
+        iv_fit.file.kalman_gain_matrix().is_some(),
+        "{}",
+        iv_fit.file.diagnostics
+    );
+    for (sim, one_step) in validate(&iv_fit.file, &uf, &yf) {
+        assert!(
+            one_step > sim - 0.2,
+            "IV: one-step {one_step}, simulation {sim}"
+        );
+    }
     for (sim, one_step) in validate(&fit.file, &uf, &yf) {
         assert!(
             one_step > sim - 0.2,
