@@ -1530,7 +1530,7 @@ fn studio_refuses_another_origin_in_chromium_and_works_under_its_policy() {
         let e = page_error(&c).await;
         assert!(e.starts_with("horizon 100000 is too large for rec.csv"), "{e}");
         assert!(saves_disabled(&c).await);
-        for id in ["fig-response", "fig-step", "fig-bode", "fig-pz", "fits"] {
+        for id in ["fig-response", "fig-step", "fig-bode", "fig-pz", "fits", "gain"] {
             assert_eq!(html(&c, id).await, "", "{id} kept the previous model");
         }
         // A click on the disabled link goes nowhere.
@@ -1542,10 +1542,14 @@ fn studio_refuses_another_origin_in_chromium_and_works_under_its_policy() {
             .unwrap();
         assert_eq!(c.current_url().await.unwrap().as_str(), page_url);
 
-        // A sensible horizon again: a model, its figures and Save links.
+        // A sensible horizon again: a model, its figures and Save links;
+        // the fit table has the one-step prediction column of the model's
+        // checked Kalman gain, which the page names.
         set_field(&c, "horizon", "12").await;
         wait_identified(&c, g).await;
         assert!(html(&c, "fig-pz").await.contains("<svg"));
+        assert!(html(&c, "fits").await.contains("fit % (1-step)"));
+        assert!(html(&c, "gain").await.starts_with("Kalman gain: "));
         assert!(!saves_disabled(&c).await);
         assert_eq!(status(&c, "csp").await, 0, "{}", page_error(&c).await);
         let png = c.screenshot().await.expect("screenshot");

@@ -193,6 +193,10 @@ pub struct Fit {
     pub white: bool,
     /// Whether the residual is independent of the inputs.
     pub independent: bool,
+    /// One-step prediction fit % with the model's Kalman gain (the
+    /// predictor started from the simulation's initial state); `null`
+    /// without a gain or when the simulation fit is not meaningful.
+    pub one_step: Option<f64>,
 }
 
 /// The model's matrices, one inner vector per row.
@@ -291,6 +295,9 @@ pub struct Identified {
     /// The refinement's report (`--refine`), when there was one, with how
     /// it was judged (`judge`: `diagnostics.refinement_judge`).
     pub refinement: Option<serde_json::Value>,
+    /// How the Kalman gain was made (`diagnostics.kalman_gain_route`), when
+    /// it was checked on the records.
+    pub gain: Option<serde_json::Value>,
     /// The record the fits and residuals are computed on.
     pub validation_data: String,
     /// Wall time of identify + validate + figures, milliseconds.
@@ -1036,12 +1043,10 @@ impl Session {
             .min()
             .unwrap_or(0);
         let lags = LAGS.min(shortest.saturating_sub(1) / 4).max(1);
-        // The page shows the simulation fits and the residual tests; the
-        // k-step prediction fits (the report's) are left out here.
-        let mut shown = file.clone();
-        shown.kalman_gain = None;
+        // The page shows the simulation fits, the residual tests (on the
+        // simulation's residuals) and the one-step prediction fits.
         let v = validate_model(
-            &shown,
+            &file,
             &data,
             lags,
             lifted_lti::InitialCondition::Estimate,
@@ -1242,6 +1247,11 @@ impl Session {
                 stable,
                 white: o.white,
                 independent: o.independent,
+                one_step: o
+                    .prediction_fits
+                    .first()
+                    .copied()
+                    .filter(|f| stable && o.residual_finite && f.is_finite()),
             })
             .collect();
         let chosen = file.diagnostics.get("structure_selection");
@@ -1280,6 +1290,7 @@ impl Session {
                 }
                 r
             }),
+            gain: file.diagnostics.get("kalman_gain_route").cloned(),
             validation_data: self.validation_source(r)?.0,
             seq: r.seq,
             horizon,

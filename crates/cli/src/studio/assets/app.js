@@ -254,6 +254,7 @@ function setSaves(enabled, seq) {
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
   $("refinement").textContent = "";
+  $("gain").textContent = "";
   for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
     $(id).replaceChildren();
   }
@@ -425,13 +426,28 @@ function renderIdentified(r) {
   } else {
     $("fig-order").replaceChildren(el("p", "This route gives no order-selection values.", "note"));
   }
+  // The one-step column only for a model with a Kalman gain.
+  const oneStep = r.fits.some((f) => f.one_step !== null && f.one_step !== undefined);
   const fits = r.fits.map((f) => {
     const text = f.stable === false ? "n/a: unstable" : fixed(f.fit, 2);
     const fit = el("td", text, "fit");
     fit.dataset.output = f.output;
-    return [f.output, fit, f.white ? "yes" : "no", f.independent ? "yes" : "no"];
+    const row = [f.output, fit];
+    if (oneStep) row.push(f.stable === false ? "n/a: unstable" : fixed(f.one_step, 2));
+    return row.concat([f.white ? "yes" : "no", f.independent ? "yes" : "no"]);
   });
-  fillTable($("fits"), ["output", "fit % (simulation)", "white residual", "independent of u"], fits);
+  const head = ["output", "fit % (simulation)"];
+  if (oneStep) head.push("fit % (1-step)");
+  fillTable($("fits"), head.concat(["white residual", "independent of u"]), fits);
+  const gain = r.gain;
+  const known = (x) => x !== null && x !== undefined;
+  $("gain").textContent = gain
+    ? "Kalman gain: " + gain.used + "." + (known(gain.final_cost)
+      ? " One-step prediction error on the records " + fixed(gain.final_cost, 5) +
+        (known(gain.riccati_cost) ? "; with the subspace step's gain " + fixed(gain.riccati_cost, 5) : "") +
+        (known(gain.zero_cost) ? "; with none (the simulation) " + fixed(gain.zero_cost, 5) : "") + "."
+      : "")
+    : "";
   const stab = $("stability");
   if (r.stable === false) {
     stab.textContent = "Unstable model: spectral radius ρ(A) = " + fixed(r.spectral_radius, 4, "∞") +
