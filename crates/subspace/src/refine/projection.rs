@@ -283,10 +283,14 @@ pub(super) fn minimise(
                     outcome.termination = Termination::GradientConverged;
                     break;
                 }
-                // A full Gauss–Newton step would lower the cost by ‖r₂‖²
-                // (R₂₂ square): when that is below the tolerance of the
-                // cost, no step can be worth its work.
-                if r2.norm_squared() <= limits.expected_decrease_tolerance * e.norm_squared() {
+                // A full Gauss–Newton step would lower the cost by
+                // ‖r₁‖² + ‖r₂‖² (R₂₂ square; r₁ ≈ 0 when β is at its
+                // optimum, but not when its solve was held back at the
+                // stability boundary): when that is below the tolerance of
+                // the cost, no step can be worth its work.
+                if r1.norm_squared() + r2.norm_squared()
+                    <= limits.expected_decrease_tolerance * e.norm_squared()
+                {
                     outcome.termination = Termination::CostConverged;
                     break;
                 }
