@@ -222,8 +222,12 @@ mod tests {
         matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. }))
     }
 
+    /// Horizons beyond memory: the streamed entry, which has no record
+    /// yet, is refused by the budget (naming the size and the override);
+    /// the entries that have the records refuse a horizon that is also
+    /// too long for them by their length first (the more direct reason).
     #[test]
-    fn horizon_beyond_memory_is_too_large_on_every_subspace_entry() {
+    fn horizon_beyond_memory_is_refused_on_every_subspace_entry() {
         let (u, y) = record();
         let exps = [Experiment { u: &u, y: &y }];
         let big = SubspaceOptions {
@@ -232,17 +236,18 @@ mod tests {
             future: 100_000,
             ..Default::default()
         };
+        let too_long = |e: &Error| matches!(e, Error::HorizonTooLong { n_samples: 600, .. });
         let e = identify(&exps, &big).unwrap_err();
+        assert!(too_long(&e), "{e}");
+        let e = StreamingIdentifier::new(2, 2, &big).err().unwrap();
         assert!(too_large(&e), "{e}");
         let msg = e.to_string();
         assert!(
             msg.contains("LIFTED_MEMORY_LIMIT") && msg.contains("TB"),
             "{msg}"
         );
-        let e = StreamingIdentifier::new(2, 2, &big).err().unwrap();
-        assert!(too_large(&e), "{e}");
         let e = compress_hankel(&exps, 100_000, 100_000, Compression::Auto, 1).unwrap_err();
-        assert!(too_large(&e), "{e}");
+        assert!(too_long(&e), "{e}");
         // Overflowing horizons: a size error, never a wrapped product.
         let huge = SubspaceOptions {
             past: usize::MAX / 2,
@@ -250,7 +255,7 @@ mod tests {
             ..big.clone()
         };
         let e = identify(&exps, &huge).unwrap_err();
-        assert!(too_large(&e), "{e}");
+        assert!(too_long(&e), "{e}");
         let e = StreamingIdentifier::new(2, 2, &huge).err().unwrap();
         assert!(too_large(&e), "{e}");
         // The same record with horizons it supports is identified.

@@ -123,6 +123,39 @@ pub(crate) fn check_instrument(f: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<()>
     check_data("instrument", f)
 }
 
+/// [`Error::HorizonTooLong`] when `experiments` give fewer Hankel columns
+/// than the k = (p + f)(n_u + n_y) rows of horizons (p, f). Checked before
+/// the memory budget ([`check_options`]), so that a horizon both too long
+/// for the records and too large for memory is refused for the first
+/// reason, which names the records' length. Saturating arithmetic;
+/// horizons that [`check_options`] refuses (p = 0, f < 2) pass here.
+pub(crate) fn check_length(
+    experiments: &[Experiment<'_>],
+    past: usize,
+    future: usize,
+    nu: usize,
+    ny: usize,
+) -> Result<()> {
+    if past == 0 || future < 2 {
+        return Ok(());
+    }
+    let span = past.saturating_add(future);
+    let k = span.saturating_mul(nu + ny);
+    let columns: usize = experiments
+        .iter()
+        .map(|e| (e.u.nrows() + 1).saturating_sub(span))
+        .sum();
+    if columns < k {
+        return Err(Error::HorizonTooLong {
+            past,
+            future,
+            n_samples: experiments.iter().map(|e| e.u.nrows()).sum(),
+            min_samples: k.saturating_add((span - 1).saturating_mul(experiments.len())),
+        });
+    }
+    Ok(())
+}
+
 /// Checks horizons, sample period and a fixed order; returns the Hankel layout.
 pub(crate) fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Result<HankelLayout> {
     let (p, f) = (opts.past, opts.future);

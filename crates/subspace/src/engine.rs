@@ -40,6 +40,7 @@ pub fn compress_hankel(
         order: OrderSelection::Gap { max: 1 },
         ..Default::default()
     };
+    crate::checks::check_length(experiments, past, future, nu, ny)?;
     let layout = check_options(nu, ny, &opts)?;
     let columns: usize = experiments
         .iter()

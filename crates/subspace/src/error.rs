@@ -213,6 +213,13 @@ impl Error {
         matches!(self, Error::NotExciting { what, .. }
             if [INPUT_ROWS, INSTRUMENT_ROWS, VARX_REGRESSOR, VARX_PAST].contains(what))
     }
+
+    /// Whether this is the memory budget's refusal of a working matrix
+    /// (`lifted_linalg::Error::TooLarge`), which a caller streaming a
+    /// record meets before it knows the record's length.
+    pub fn exceeds_memory_budget(&self) -> bool {
+        matches!(self, Error::Linalg(lifted_linalg::Error::TooLarge { .. }))
+    }
 }
 
 /// What a user can do about a rank-deficient `what` (empty when nothing

@@ -41,6 +41,7 @@ pub(crate) fn compressed(
     opts: &SubspaceOptions,
 ) -> Result<(HankelLayout, HankelFactor, Scale)> {
     let (nu, ny, total) = validate_shapes(experiments)?;
+    crate::checks::check_length(experiments, opts.past, opts.future, nu, ny)?;
     let layout = check_options(nu, ny, opts)?;
     let (p, f, k) = (layout.past, layout.future, layout.nrows());
     let columns: usize = experiments

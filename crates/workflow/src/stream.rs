@@ -213,6 +213,30 @@ pub fn identify_streamed(
             })?;
             return Err(crate::excitation::named(e, &spread));
         }
+        // The memory budget refuses the horizons before the record's
+        // length is known; a record too short for them anyway is the more
+        // direct thing to say: one more pass counts its rows (only then).
+        Err(e) if exceeds_budget(&e) => {
+            let (p, f) = (id.horizon.unwrap_or(10), id.horizon.unwrap_or(10));
+            let mut rows = 0usize;
+            source.inner.pass(&mut |u, _| {
+                rows += u.nrows();
+                Ok(())
+            })?;
+            let min_samples = (p + f).saturating_mul(n_u + n_y).saturating_add(p + f - 1);
+            if rows < min_samples {
+                return Err(Error::Step {
+                    what,
+                    source: Box::new(lifted_subspace::Error::HorizonTooLong {
+                        past: p,
+                        future: f,
+                        n_samples: rows,
+                        min_samples,
+                    }),
+                });
+            }
+            return Err(e);
+        }
         Err(e) => return Err(e),
     };
     let read_s = t_total.elapsed().as_secs_f64();
@@ -475,4 +499,14 @@ mod kept_tests {
         k.keep(&u, &y);
         assert!(k.blocks.is_none());
     }
+}
+
+/// Whether `e` is a subspace identification's refusal by the memory budget.
+fn exceeds_budget(e: &Error) -> bool {
+    let Error::Step { source, .. } = e else {
+        return false;
+    };
+    source
+        .downcast_ref::<lifted_subspace::Error>()
+        .is_some_and(lifted_subspace::Error::exceeds_memory_budget)
 }
