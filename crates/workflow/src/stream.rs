@@ -479,6 +479,16 @@ fn with_fallback(mut fit: SubspaceModel, e: &lifted_subspace::Error) -> Subspace
     fit
 }
 
+/// Whether `e` is a subspace identification's refusal by the memory budget.
+fn exceeds_budget(e: &Error) -> bool {
+    let Error::Step { source, .. } = e else {
+        return false;
+    };
+    source
+        .downcast_ref::<lifted_subspace::Error>()
+        .is_some_and(lifted_subspace::Error::exceeds_memory_budget)
+}
+
 #[cfg(test)]
 mod kept_tests {
     use super::*;
@@ -499,14 +509,4 @@ mod kept_tests {
         k.keep(&u, &y);
         assert!(k.blocks.is_none());
     }
-}
-
-/// Whether `e` is a subspace identification's refusal by the memory budget.
-fn exceeds_budget(e: &Error) -> bool {
-    let Error::Step { source, .. } = e else {
-        return false;
-    };
-    source
-        .downcast_ref::<lifted_subspace::Error>()
-        .is_some_and(lifted_subspace::Error::exceeds_memory_budget)
 }
