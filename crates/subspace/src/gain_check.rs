@@ -40,7 +40,8 @@
 use lifted_lti::StateSpace;
 
 use crate::model::Experiment;
-use crate::regress::{Feedthrough, InitialState, Record, estimate_bd};
+use crate::numerics::spectral_radius;
+use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -246,11 +247,7 @@ fn minimise(
     let eval = |theta: &DVector<f64>| -> Option<(f64, DMatrix<f64>)> {
         let k = gain(theta);
         let m = model.a() - &k * model.c();
-        let rho = lifted_linalg::eigenvalues(&m)
-            .ok()?
-            .iter()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max);
+        let rho = spectral_radius(&m).ok()?;
         if rho >= 1.0 {
             return None;
         }
@@ -474,9 +471,9 @@ fn varx_innovations(
 }
 
 /// The initial state of each record that `lifted validate` simulates
-/// from: least squares on the free response C Aᵗ x₀ of the simulation
-/// error (over the samples where ρ(A)ᵗ ≥ 1e-12); zero for an unstable or
-/// static model. The one-step predictor starts from it, as in
+/// from: the least-squares x₀ of the simulation error
+/// ([`crate::regress::estimate_x0`]); zero for an unstable model, as
+/// `validate` does. The one-step predictor starts from it, as in
 /// `lifted_lti::validate`, so the cost minimised is the one the
 /// validation reports.
 fn simulation_states(
@@ -487,54 +484,20 @@ fn simulation_states(
     let rho = if n == 0 {
         0.0
     } else {
-        lifted_linalg::eigenvalues(model.a())
-            .map_err(|e| e.to_string())?
-            .iter()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max)
+        spectral_radius(model.a()).map_err(|e| e.to_string())?
     };
-    sets.iter()
-        .map(|d| {
-            if n == 0 || rho >= 1.0 {
-                return Ok(DVector::zeros(n));
-            }
-            let sim = model.lsim(d.u, None, None).map_err(|e| e.to_string())?;
-            let err = d.y - sim.y;
-            free_response_fit(model.a(), model.c(), rho, &err)
+    if n == 0 || rho >= 1.0 {
+        return Ok(vec![DVector::zeros(n); sets.len()]);
+    }
+    let recs: Vec<Record<'_>> = sets
+        .iter()
+        .map(|d| Record {
+            u: d.u,
+            y: d.y,
+            instrument: None,
         })
-        .collect()
-}
-
-/// x₀ minimising ‖e(t) − C Mᵗ x₀‖ over the samples where ρᵗ ≥ 1e-12 (ρ the
-/// spectral radius of M): O(T n_y n²) for those T samples.
-fn free_response_fit(
-    m: &DMatrix<f64>,
-    c: &DMatrix<f64>,
-    rho: f64,
-    err: &DMatrix<f64>,
-) -> Result<DVector<f64>, String> {
-    let (n, ny, len) = (m.nrows(), c.nrows(), err.nrows());
-    if len == 0 || n == 0 {
-        return Ok(DVector::zeros(n));
-    }
-    let span = if rho > 0.0 {
-        ((1e-12f64).ln() / rho.ln()).ceil().min(len as f64) as usize
-    } else {
-        1
-    }
-    .clamp(1, len);
-    let mut phi = DMatrix::zeros(span * ny, n);
-    let mut target = DMatrix::zeros(span * ny, 1);
-    let mut p = c.clone();
-    for t in 0..span {
-        phi.rows_mut(t * ny, ny).copy_from(&p);
-        for o in 0..ny {
-            target[(t * ny + o, 0)] = err[(t, o)];
-        }
-        p = &p * m;
-    }
-    let x0 = lifted_linalg::lstsq(&phi, &target).map_err(|e| e.to_string())?;
-    Ok(x0.column(0).into_owned())
+        .collect();
+    estimate_x0(model.a(), model.b(), model.c(), model.d(), &recs).map_err(|e| e.to_string())
 }
 
 /// The one-step prediction error of gain `k` on `sets`, the predictor
@@ -550,11 +513,7 @@ fn prediction_cost(
 ) -> Result<f64, String> {
     let ny = model.n_outputs();
     let m = model.a() - k * model.c();
-    let rho = lifted_linalg::eigenvalues(&m)
-        .map_err(|e| e.to_string())?
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max);
+    let rho = spectral_radius(&m).map_err(|e| e.to_string())?;
     if rho >= 1.0 {
         return Err(format!("A − K C is not stable (spectral radius {rho:.4})"));
     }
