@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use super::Termination;
 use super::jacobian::jacobian_r;
 use super::lm::lm_step;
-use super::point::{Point, admissible, mean_square};
+use super::point::{Point, admissible, mean_square, step_is_small};
 use super::problem::{Limits, Outcome, Problem, WorkAccount};
 use crate::error::Result;
 
@@ -91,7 +91,8 @@ pub(super) fn minimise(
             Some(te) if mean_square(&te) < cost => {
                 let new_cost = mean_square(&te);
                 let rel = (cost - new_cost) / cost.max(f64::MIN_POSITIVE);
-                let small_step = step.norm() <= limits.step_tolerance * (1.0 + theta.norm());
+                let small_step =
+                    step_is_small(&(basis * &step), &theta, lay, limits.step_tolerance);
                 theta = trial_theta;
                 point = trial;
                 e = te;

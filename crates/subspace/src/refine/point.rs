@@ -27,6 +27,40 @@ impl Layout {
             + if self.gain { n * ny } else { 0 }
             + self.records * n
     }
+
+    /// Length of the model's part of θ (A, B, C, free D, K), before the
+    /// initial states.
+    pub(super) fn model_len(&self) -> usize {
+        self.len() - self.records * self.n
+    }
+}
+
+/// The step test of the iterations: `delta` (in θ's coordinates) is below
+/// `tol` (1 + ‖θ_b‖) in every block b of θ — the model's parameters and
+/// each record's initial state — not in one norm over all. An initial
+/// state the records hardly determine (a fast mode whose free response is
+/// over before the first measured sample of a multirate record) can be
+/// 1e7 where the model's entries are of order 1, and one norm over both
+/// stopped the iterations after two steps as converged (issue 26, the
+/// multirate record starting between slow samples: cost 1.5e-2 where
+/// 1.0e-2 is reached).
+pub(super) fn step_is_small(
+    delta: &DVector<f64>,
+    theta: &DVector<f64>,
+    lay: &Layout,
+    tol: f64,
+) -> bool {
+    let model = lay.model_len();
+    let blocks = std::iter::once((0, model))
+        .chain((0..lay.records).map(|r| (model + r * lay.n, lay.n)))
+        .filter(|&(_, len)| len > 0);
+    for (at, len) in blocks {
+        let step = delta.rows(at, len).norm();
+        if step > tol * (1.0 + theta.rows(at, len).norm()) {
+            return false;
+        }
+    }
+    true
 }
 
 /// Model matrices and initial states as one value.
@@ -363,5 +397,36 @@ mod tests {
             ..good
         };
         assert!(unstable.balanced().is_none());
+    }
+
+    #[test]
+    fn a_large_initial_state_does_not_make_a_step_small() {
+        // n = 2, one input, one output, K and D free, one record: the
+        // model's 11 entries of order 1, x₀ of order 1e7.
+        let lay = Layout {
+            n: 2,
+            nu: 1,
+            ny: 1,
+            records: 1,
+            gain: true,
+            d_free: vec![(0, 0)],
+        };
+        assert_eq!(lay.model_len(), 11);
+        let mut theta = DVector::from_element(lay.len(), 0.5);
+        theta[11] = 1.2e7;
+        theta[12] = -3.0e6;
+        // A step of 1e-6 in the model's entries: not small against them
+        // (the one norm over θ, ≈ 1.2e7, called it small at 1e-10).
+        let mut delta = DVector::zeros(lay.len());
+        delta[0] = 1e-6;
+        assert!(delta.norm() <= 1e-10 * (1.0 + theta.norm()));
+        assert!(!step_is_small(&delta, &theta, &lay, 1e-10));
+        // Small in every block: small.
+        delta[0] = 1e-12;
+        delta[11] = 1e-4;
+        assert!(step_is_small(&delta, &theta, &lay, 1e-10));
+        // A large step in x₀ alone is not small either.
+        delta[11] = 1e-1;
+        assert!(!step_is_small(&delta, &theta, &lay, 1e-10));
     }
 }

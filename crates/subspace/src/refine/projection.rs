@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, DVector};
 use super::Termination;
 use super::jacobian::jacobian_r;
 use super::lm::lm_step;
-use super::point::{Layout, Point, admissible, mean_square};
+use super::point::{Layout, Point, admissible, mean_square, step_is_small};
 use super::problem::{Limits, Outcome, Problem, WorkAccount};
 use super::work::{ProjectionWork, Sizes};
 use crate::error::Result;
@@ -340,7 +340,8 @@ pub(super) fn minimise(
             Some((t, p, te)) if mean_square(&te) < outcome.cost => {
                 let new_cost = mean_square(&te);
                 let rel = (outcome.cost - new_cost) / outcome.cost.max(f64::MIN_POSITIVE);
-                let small_step = step.norm() <= limits.step_tolerance * (1.0 + theta.norm());
+                let small_step =
+                    step_is_small(&(basis * &step), &theta, lay, limits.step_tolerance);
                 theta = t;
                 outcome.point = p;
                 e = te;
