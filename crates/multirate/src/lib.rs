@@ -86,7 +86,8 @@ pub use delay::{
 };
 pub use error::{Error, Result};
 pub use extract::{
-    ExtractOptions, ExtractionDiagnostics, ExtractionMethod, FastModel, InputMatrix, extract_fast,
+    ExtractOptions, ExtractionCandidate, ExtractionDiagnostics, ExtractionMethod, FastModel,
+    InputMatrix, RESPONSE_FRAMES, extract_fast,
 };
 pub use identify::{
     DelayHandling, LiftedFit, LiftedIdOptions, LiftedIvModel, LiftedIvOptions, MultirateModel,

@@ -6,6 +6,30 @@ use lifted_subspace::{OrderReport, SubspaceModel, SystemEstimate};
 use nalgebra::DMatrix;
 use serde_json::json;
 
+/// `diagnostics.extraction` of a multirate route: the extraction kept,
+/// its consistency with the lifted model and the methods compared.
+pub(crate) fn extraction_json(e: &lifted_multirate::ExtractionDiagnostics) -> serde_json::Value {
+    let compared: Vec<serde_json::Value> = e
+        .comparison
+        .iter()
+        .map(|c| {
+            json!({
+                "method": format!("{:?}", c.method),
+                "lifted_response_error": c.lifted_response_error,
+                "failure": c.failure,
+            })
+        })
+        .collect();
+    json!({
+        "method": format!("{:?}", e.method),
+        "input_residual": e.input_residual,
+        "lifted_response_error": e.lifted_response_error,
+        "comparison": compared,
+        "rule": "the extraction (matrix root, controllability, eigenvalue; thesis §4.6) whose lifting reproduces the lifted model best: relative error of the Markov parameters of the outputs at frame time 0",
+        "fallback": e.fallback,
+    })
+}
+
 /// The order-selection entry: what the values are, the values, the order
 /// used and the suggested one.
 pub(crate) fn order_json(

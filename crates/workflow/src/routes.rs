@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::json;
 
 use crate::cache::SubspaceCache;
-use crate::diagnostics::{criterion_json, order_json, pbsid_json, system_name};
+use crate::diagnostics::{criterion_json, extraction_json, order_json, pbsid_json, system_name};
 use crate::error::{Context, Error, Result};
 use crate::options::{
     AUTO_REFINE_WORK_JOINT, BdRoute, Estimator, IdentificationOptions, Method, Order,
@@ -798,8 +798,12 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             require_stable: false,
             ..Default::default()
         },
+        // The extraction whose lifting reproduces the lifted model best
+        // (root, controllability, eigenvalue; the root alone amplifies
+        // the noise of Ā's small eigenvalues).
         extraction: ExtractOptions {
             fallback_without_root: true,
+            best_of_methods: true,
             ..Default::default()
         },
         require_stable: false,
@@ -1222,11 +1226,7 @@ fn multirate_fit(
     let suggested = lifted_subspace::gap_order(sv, id.max_order);
     let d = json!({
         "route": "multirate: lifting, causal lifted subspace identification, fast-model extraction",
-        "extraction": {
-            "method": format!("{:?}", fit.extraction.method),
-            "input_residual": fit.extraction.input_residual,
-            "fallback": fit.extraction.fallback,
-        },
+        "extraction": extraction_json(&fit.extraction),
         "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
         "lifting_period": fit.lifting.period(),
         "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
@@ -1611,6 +1611,7 @@ pub(crate) fn iv(
             enforce_stability: stable,
             extraction: ExtractOptions {
                 fallback_without_root: true,
+                best_of_methods: true,
                 ..Default::default()
             },
             ..Default::default()
@@ -1682,6 +1683,8 @@ pub(crate) fn iv(
         let suggested = lifted_subspace::gap_order(&fit.singular_values, id.max_order);
         let d = json!({
             "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
+            "extraction": extraction_json(&fit.extraction),
+            "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
             "instrument": names,
             "lifting_period": lifting_period,
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),

@@ -503,6 +503,36 @@ fn the_multirate_issue_case_identifies_with_every_method() {
     }
 }
 
+/// The issue's multirate case without the refinement (`--refine none`):
+/// the fast model is the extraction's alone. The matrix root of the
+/// estimated lifted A amplifies the noise of its small eigenvalues
+/// (0.7¹⁵ ≈ 0.005, 0.85¹⁵ ≈ 0.09); the route now keeps the extraction
+/// whose lifting reproduces the lifted model best (root, controllability
+/// or eigenvalue), which was the closest to the plant in every case
+/// measured. FR errors, seeds 0–5, three weightings: at most 0.030 (the
+/// root alone: CVA 0.038 / 0.059 / 0.059 on seeds 0, 2, 3, and 0.074 on a
+/// record of Gaussian noise through the CLI, above the issue's 0.06). The
+/// bound 0.045 lies between the two.
+#[test]
+fn the_multirate_issue_case_extracts_without_the_refinement() {
+    let truth = issue_plant();
+    for seed in 0..6 {
+        let data = multirate_record(&truth, 30_000, &[3, 5], 1, seed);
+        for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+            let mut opts = WorkflowOptions::default();
+            opts.identification.method = method;
+            opts.identification.order = Order::Fixed(4);
+            opts.refinement.refine = Refine::None;
+            let fit = identify(&[Record::new(data.clone())], &opts).expect("identify");
+            let d = &fit.file.diagnostics;
+            let compared = d["extraction"]["comparison"].as_array().map_or(0, Vec::len);
+            assert_eq!(compared, 3, "{method:?}: {d}");
+            let err = fr_error(&fit.file.model, &truth);
+            assert!(err < 0.045, "seed {seed} {method:?}: FR error {err}: {d}");
+        }
+    }
+}
+
 /// The plant of the issue's multirate case on 6000 samples (400 frames of
 /// the lifting period 15): horizon 10 is too long for the lifted record
 /// (the route refused it: "at least 779 samples needed"), and the
