@@ -31,7 +31,10 @@
 //!    the SVD of W₁ O_f W₂ = U S Vᵀ, Γ = U₁ S₁^{1/2}, then (A, C) from the
 //!    shift invariance Γ↑ A = Γ↓ and (B, D, x₀) by output-error least
 //!    squares; Van Overschee & De Moor 1996, ch. 4), the lifted multirate
-//!    route with fast-model extraction (thesis chs. 4–5), the weighted
+//!    route with fast-model extraction (thesis chs. 4–5; records of inputs
+//!    held one sample also start from the single-rate model of the record
+//!    with its slow outputs interpolated, the start that fits the measured
+//!    samples better after the refinement kept: `multirate_start`), the weighted
 //!    q-Markov Cover (Zhu 2000), PBSID/SSARX (Chiuso 2007, Jansson 2003)
 //!    and IV subspace (thesis ch. 7). Under the default order rule
 //!    ([`OrderCriterion::Validation`]) the horizon s, the (A, C) route and
@@ -117,6 +120,7 @@ mod cache;
 mod diagnostics;
 mod error;
 mod excitation;
+mod multirate_start;
 mod options;
 mod pipeline;
 mod preprocess;
@@ -128,6 +132,7 @@ mod validate;
 
 pub use cache::SubspaceCache;
 pub use error::{Error, Result};
+pub use multirate_start::{MULTIRATE_START_SAMPLES, START_INTERPOLATED, START_LIFTED};
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
     Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order, OrderCriterion,

@@ -8,6 +8,7 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::add_run_facts;
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
+use crate::multirate_start;
 use crate::options::{Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
@@ -193,9 +194,31 @@ fn run(
         Option<lifted_subspace::RefinementCheck>,
     );
     let mut check: Option<Check> = None;
+    let mut alternative: Option<std::result::Result<lifted_lti::StateSpace, String>> = None;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
-        m if m.is_subspace() && multirate => routes::multirate(opts, &sets)?,
+        m if m.is_subspace() && multirate => {
+            // A second start, the interpolated record's single-rate model
+            // (crate::multirate_start), when it applies; it identifies the
+            // record alone when the lifted route fails.
+            let second = multirate_start::applies(opts, &sets);
+            match routes::multirate(opts, &sets) {
+                Ok(fit) => {
+                    if second {
+                        alternative = Some(
+                            multirate_start::start(opts, &sets, Some(fit.model.order()))
+                                .map(|(m, _)| m)
+                                .map_err(|e| e.to_string()),
+                        );
+                    }
+                    fit
+                }
+                Err(e) if second => {
+                    multirate_start::instead_of_lifted(opts, &sets, &e).map_err(|_| e)?
+                }
+                Err(e) => return Err(e),
+            }
+        }
         m if m.is_subspace() => {
             let routes::SubspaceRoute {
                 fit,
@@ -271,8 +294,25 @@ fn run(
         options,
         known: known.as_ref(),
     });
-    let (model, mut diagnostics) =
-        refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
+    let (model, mut diagnostics) = match alternative {
+        Some(Ok(alt)) => {
+            multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt)?
+        }
+        Some(Err(why)) => {
+            let (model, mut d) = refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert(
+                    "multirate_start".into(),
+                    serde_json::json!({
+                        "kept": multirate_start::START_LIFTED,
+                        "note": format!("no interpolated start: {why}"),
+                    }),
+                );
+            }
+            (model, d)
+        }
+        None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
+    };
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {

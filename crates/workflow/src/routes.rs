@@ -64,7 +64,7 @@ pub struct RouteDetails {
 }
 
 impl RouteFit {
-    fn plain(
+    pub(crate) fn plain(
         model: StateSpace,
         diagnostics: serde_json::Value,
         sv: &[f64],
@@ -820,6 +820,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             // what they support; a horizon of 963 001 on 100 frames tried
             // as many orders, each a failed identification).
             let future = opts.identification.future;
+            let second_start = crate::multirate_start::applies(wf, std::slice::from_ref(data));
             let identifiable =
                 lifted_max_order(data, lifted_horizon(data, future).unwrap_or(future));
             let fit_at = |est: &Dataset, n: usize| {
@@ -830,7 +831,14 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
                     o.identification.past = s;
                     o.identification.future = s;
                 }
-                identify_multirate(est, None, &o).ok().map(|m| m.fast)
+                let lifted = identify_multirate(est, None, &o).ok().map(|m| m.fast);
+                if !second_start {
+                    return lifted;
+                }
+                // The interpolated record's model where it fits the
+                // part's measured samples better (crate::multirate_start).
+                let interp = crate::multirate_start::quick_start(wf, est, n).ok();
+                crate::multirate_start::better(lifted, interp, est)
             };
             held_out_orders(data, max.min(identifiable), fit_at, wf)
         }

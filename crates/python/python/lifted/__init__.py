@@ -672,7 +672,10 @@ def multirate(
     dt: float = 1.0,
 ) -> MultirateFit:
     """Multirate identification (thesis chs. 4-5): lifting, causal lifted
-    subspace identification, fast-model extraction, through the
+    subspace identification, fast-model extraction (and, for inputs held one
+    sample, a second start from the record with its slow outputs
+    interpolated, the better-fitting one kept: ``diagnostics
+    ["multirate_start"]``), through the
     identification workflow that ``lifted identify`` runs on a record with
     output periods (``--output-period``), with its defaults (same data and
     options, same model).
