@@ -213,7 +213,8 @@ fn run(
                     }
                     fit
                 }
-                Err(e) if second => {
+                // An option the multirate route refuses stays an error.
+                Err(e) if second && !matches!(e, Error::InvalidOption { .. }) => {
                     multirate_start::instead_of_lifted(opts, &sets, &e).map_err(|_| e)?
                 }
                 Err(e) => return Err(e),
