@@ -341,7 +341,7 @@ def test_multirate_equals_the_cli(
     doc = json.loads(text)
     assert fit.method == doc["method"]
     assert fit.lifting_period == 6 and fit.lifted.dt == 6 * TS
-    for key in ("order_selection", "refinement", "stability"):
+    for key in ("order_selection", "refinement", "stability", "extraction", "multirate_start"):
         assert fit.diagnostics.get(key) == doc["diagnostics"].get(key), (name, key)
 
 
