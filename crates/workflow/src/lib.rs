@@ -58,7 +58,9 @@
 //!    (`kalman_gain_route`; records of up to [`GAIN_CHECK_SAMPLES`]
 //!    samples, in memory and streamed alike; the single-rate IV route,
 //!    which has no noise model of its own, gets its gain the same way from
-//!    the regression or K = 0; on the DaISy CD-player arm the Riccati gain's
+//!    the regression or K = 0, and so does a multirate model the
+//!    refinement gave no gain, from K = 0 on the measured samples; on the
+//!    DaISy CD-player arm the Riccati gain's
 //!    one-step fit was 64–67 % on the validation half against the
 //!    simulation's 72–82 %, now 89 %).
 //! 3. **Refinement** ([`RefinementOptions`]): Levenberg–Marquardt on the

@@ -314,6 +314,19 @@ fn run(
         }
         None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
     };
+    // A multirate model that the refinement did not give a Kalman gain
+    // (not refined, or not by the prediction error): the gain checked on
+    // the measured samples from K = 0 (lifted_subspace::check_kalman_gain;
+    // the lifted routes estimate none).
+    if multirate
+        && kalman_gain.is_none()
+        && model
+            .ts()
+            .zip(sets.first())
+            .is_some_and(|(t, d)| (t - d.ts()).abs() <= 1e-9 * d.ts())
+    {
+        kalman_gain = checked_gain(&model, None, &sets, 0, &mut diagnostics);
+    }
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {
