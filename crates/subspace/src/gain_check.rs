@@ -561,33 +561,48 @@ fn prediction_cost(
     sets: &[Experiment<'_>],
     x0s: &[DVector<f64>],
 ) -> Result<f64, String> {
-    if sets.iter().any(|d| d.y.iter().any(|v| v.is_nan())) {
-        measured_prediction_cost(model, k, sets, x0s)
-    } else {
-        full_rate_prediction_cost(model, k, sets, x0s)
-    }
-}
-
-/// [`prediction_cost`] of records with output samples not measured
-/// (NaN): the predictor corrects with the outputs measured at each
-/// instant (the innovations of the others are taken as zero), and the
-/// errors and spreads are summed over the measured samples. O(N n²).
-fn measured_prediction_cost(
-    model: &StateSpace,
-    k: &DMatrix<f64>,
-    sets: &[Experiment<'_>],
-    x0s: &[DVector<f64>],
-) -> Result<f64, String> {
     let ny = model.n_outputs();
     let m = model.a() - k * model.c();
     let rho = spectral_radius(&m).map_err(|e| e.to_string())?;
     if rho >= 1.0 {
         return Err(format!("A − K C is not stable (spectral radius {rho:.4})"));
     }
+    let (err, spread) = if sets.iter().any(|d| d.y.iter().any(|v| v.is_nan())) {
+        measured_errors(model, k, sets, x0s)
+    } else {
+        full_rate_errors(model, k, sets, x0s)?
+    };
+    let cost = err
+        .iter()
+        .zip(&spread)
+        .map(|(e, s)| if *s > 0.0 { e / s } else { 0.0 })
+        .sum::<f64>()
+        / ny as f64;
+    if cost.is_finite() {
+        Ok(cost)
+    } else {
+        Err("the prediction error is not finite".into())
+    }
+}
+
+/// Per output, the squared one-step errors and the squared deviations
+/// from the mean, summed over the records.
+type ErrorSums = (Vec<f64>, Vec<f64>);
+
+/// [`prediction_cost`]'s sums for records with output samples not
+/// measured (NaN): the predictor corrects with the outputs measured at
+/// each instant (the innovations of the others are taken as zero), and the
+/// sums run over the measured samples. O(N n²).
+fn measured_errors(
+    model: &StateSpace,
+    k: &DMatrix<f64>,
+    sets: &[Experiment<'_>],
+    x0s: &[DVector<f64>],
+) -> ErrorSums {
     let (a, b, c, d) = (model.a(), model.b(), model.c(), model.d());
+    let (n, nu, ny) = (model.order(), model.n_inputs(), model.n_outputs());
     let mut err = vec![0.0; ny];
     let mut spread = vec![0.0; ny];
-    let (n, nu) = (model.order(), model.n_inputs());
     let mut ut = DVector::zeros(nu);
     let (mut cx, mut du, mut eps) = (DVector::zeros(ny), DVector::zeros(ny), DVector::zeros(ny));
     let (mut ax, mut bu, mut ke) = (DVector::zeros(n), DVector::zeros(n), DVector::zeros(n));
@@ -618,17 +633,7 @@ fn measured_prediction_cost(
             }
         }
     }
-    let cost = err
-        .iter()
-        .zip(&spread)
-        .map(|(e, s)| if *s > 0.0 { e / s } else { 0.0 })
-        .sum::<f64>()
-        / ny as f64;
-    if cost.is_finite() {
-        Ok(cost)
-    } else {
-        Err("the prediction error is not finite".into())
-    }
+    (err, spread)
 }
 
 /// The mean of each output over its measured (non-NaN) samples.
@@ -644,19 +649,15 @@ fn measured_means(y: &DMatrix<f64>) -> Vec<f64> {
         .collect()
 }
 
-/// [`prediction_cost`] of records with every output measured.
-fn full_rate_prediction_cost(
+/// [`prediction_cost`]'s sums for records with every output measured
+/// (`StateSpace::predict_from`).
+fn full_rate_errors(
     model: &StateSpace,
     k: &DMatrix<f64>,
     sets: &[Experiment<'_>],
     x0s: &[DVector<f64>],
-) -> Result<f64, String> {
+) -> Result<ErrorSums, String> {
     let ny = model.n_outputs();
-    let m = model.a() - k * model.c();
-    let rho = spectral_radius(&m).map_err(|e| e.to_string())?;
-    if rho >= 1.0 {
-        return Err(format!("A − K C is not stable (spectral radius {rho:.4})"));
-    }
     let mut err = vec![0.0; ny];
     let mut spread = vec![0.0; ny];
     for (d, x0) in sets.iter().zip(x0s) {
@@ -672,17 +673,7 @@ fn full_rate_prediction_cost(
             }
         }
     }
-    let cost = err
-        .iter()
-        .zip(&spread)
-        .map(|(e, s)| if *s > 0.0 { e / s } else { 0.0 })
-        .sum::<f64>()
-        / ny as f64;
-    if cost.is_finite() {
-        Ok(cost)
-    } else {
-        Err("the prediction error is not finite".into())
-    }
+    Ok((err, spread))
 }
 
 #[cfg(test)]
