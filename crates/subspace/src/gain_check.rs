@@ -539,14 +539,7 @@ fn simulation_states(
     if n == 0 || rho >= 1.0 {
         return Ok(vec![DVector::zeros(n); sets.len()]);
     }
-    let recs: Vec<Record<'_>> = sets
-        .iter()
-        .map(|d| Record {
-            u: d.u,
-            y: d.y,
-            instrument: None,
-        })
-        .collect();
+    let recs = crate::records::records_of(sets);
     estimate_x0(model.a(), model.b(), model.c(), model.d(), &recs).map_err(|e| e.to_string())
 }
 

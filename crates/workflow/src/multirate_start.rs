@@ -139,14 +139,7 @@ pub(crate) fn start(
 /// non-causal FIR, which has no poles of its own). The model as it was
 /// when the regression fails.
 fn refit_bd(model: StateSpace, sets: &[Dataset]) -> StateSpace {
-    let records: Vec<lifted_subspace::Record<'_>> = sets
-        .iter()
-        .map(|d| lifted_subspace::Record {
-            u: d.u(),
-            y: d.y(),
-            instrument: None,
-        })
-        .collect();
+    let records = crate::refine::records_of(sets);
     let feedthrough = if model.d().iter().all(|v| *v == 0.0) {
         lifted_subspace::Feedthrough::Zero
     } else {
@@ -236,10 +229,16 @@ pub(crate) fn instead_of_lifted(
 /// samples (x₀ estimated); `None` when it is not finite (an unstable or
 /// failed model).
 fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
+    // The simulation fit only: no k-step predictions, one residual lag.
+    let opts = ValidationOptions {
+        lags: 1,
+        horizons: Vec::new(),
+        ..Default::default()
+    };
     let mut total = 0.0;
     let mut count = 0;
     for d in sets {
-        let v = validate(model, d, &ValidationOptions::default()).ok()?;
+        let v = validate(model, d, &opts).ok()?;
         for o in &v.outputs {
             total += o.fit;
             count += 1;

@@ -256,6 +256,18 @@ fn unrefined(
     Ok((model, diagnostics))
 }
 
+/// The data sets as the subspace crate's regression records (no
+/// instrument).
+pub(crate) fn records_of(sets: &[Dataset]) -> Vec<Record<'_>> {
+    sets.iter()
+        .map(|d| Record {
+            u: d.u(),
+            y: d.y(),
+            instrument: None,
+        })
+        .collect()
+}
+
 /// Blocks of the held-out check of a refinement.
 pub(crate) const CHECK_BLOCKS: usize = 6;
 
@@ -442,14 +454,7 @@ pub fn refine(
         }
         return unrefined(opts, model, diagnostics);
     }
-    let records: Vec<Record<'_>> = sets
-        .iter()
-        .map(|d| Record {
-            u: d.u(),
-            y: d.y(),
-            instrument: None,
-        })
-        .collect();
+    let records = records_of(sets);
     let stabilized = diagnostics.as_object().is_some_and(was_stabilized);
     let pem = pem_options(opts, &model, cost, stabilized);
     let samples = sets.iter().map(Dataset::len).sum();
