@@ -606,7 +606,10 @@ pub struct IdentifyArgs {
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,
-    /// Print the wall time of each phase (read, compress, SVD, estimate).
+    /// Print the wall time of each phase (read, compress, SVD, estimate; the
+    /// whole subspace step with its structure selection, the streamed
+    /// route's second pass, the multirate second start, the Kalman-gain check
+    /// and the refinement when they ran).
     #[arg(long)]
     pub profile: bool,
     /// Memory budget.

@@ -349,18 +349,38 @@ mod identification {
             "estimate",
             "identify (total)",
             "compression:",
+            // The stages after the subspace step (a short record: its gain
+            // checked, the default refinement run).
+            "Kalman gain",
+            "refinement",
         ] {
             assert!(s.contains(phase), "missing {phase}: {s}");
         }
         // The same timings are kept in the model file's diagnostics.
         let f = ModelFile::read(&out).expect("model file");
         let prof = &f.diagnostics["profile"];
-        for key in ["read_s", "compress_s", "svd_s", "estimate_s", "identify_s"] {
+        for key in [
+            "read_s",
+            "compress_s",
+            "svd_s",
+            "estimate_s",
+            "kalman_gain_s",
+            "refine_s",
+            "identify_s",
+        ] {
             assert!(
                 prof[key].as_f64().is_some_and(|t| t >= 0.0),
                 "{key}: {prof}"
             );
         }
+        // The stages after the first pass are within the identification's
+        // time (the whole run after reading), not outside it.
+        let stages: f64 = ["second_pass_s", "kalman_gain_s", "refine_s"]
+            .iter()
+            .filter_map(|k| prof[*k].as_f64())
+            .sum();
+        let total = prof["identify_s"].as_f64().unwrap_or(0.0);
+        assert!(stages <= total, "{prof}");
     }
 
     #[test]

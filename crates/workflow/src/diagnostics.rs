@@ -149,6 +149,20 @@ pub(crate) fn add_run_facts(
     obj.insert("output_periods".into(), json!(output_periods));
 }
 
+/// Adds `secs` to the wall time of the phase `key` (seconds) in the
+/// diagnostics' `phases`, which [`add_run_facts`] merges into `profile`;
+/// a phase timed twice (the gain check of a multirate model) accumulates.
+pub(crate) fn add_phase(diagnostics: &mut serde_json::Value, key: &str, secs: f64) {
+    let Some(obj) = diagnostics.as_object_mut() else {
+        return;
+    };
+    let phases = obj.entry("phases").or_insert_with(|| json!({}));
+    if let Some(ph) = phases.as_object_mut() {
+        let before = ph.get(key).and_then(|v| v.as_f64()).unwrap_or(0.0);
+        ph.insert(key.into(), json!(before + secs));
+    }
+}
+
 /// Appends a warning to the diagnostics' `warnings` list.
 pub(crate) fn push_warning(diagnostics: &mut serde_json::Value, warning: String) {
     if let Some(obj) = diagnostics.as_object_mut() {

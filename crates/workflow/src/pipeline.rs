@@ -5,11 +5,13 @@ use lifted_lti::{Dataset, ModelFile, OperatingPoint};
 use nalgebra::{DMatrix, DVector};
 
 use crate::cache::SubspaceCache;
-use crate::diagnostics::add_run_facts;
+use crate::diagnostics::{add_phase, add_run_facts};
 use crate::error::{Error, Result};
 use crate::excitation::InputSpread;
 use crate::multirate_start;
-use crate::options::{Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, WorkflowOptions};
+use crate::options::{
+    Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, Refine, WorkflowOptions,
+};
 use crate::preprocess::{ChannelScales, detrend_sets, deviations};
 use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
@@ -204,11 +206,18 @@ fn run(
             let second = multirate_start::applies(opts, &sets);
             match routes::multirate(opts, &sets) {
                 Ok(fit) => {
+                    let mut fit = fit;
                     if second {
+                        let t = std::time::Instant::now();
                         alternative = Some(
                             multirate_start::start(opts, &sets, Some(fit.model.order()))
                                 .map(|(m, _)| m)
                                 .map_err(|e| e.to_string()),
+                        );
+                        add_phase(
+                            &mut fit.diagnostics,
+                            "multirate_start_s",
+                            t.elapsed().as_secs_f64(),
                         );
                     }
                     fit
@@ -221,6 +230,7 @@ fn run(
             }
         }
         m if m.is_subspace() => {
+            let t_subspace = std::time::Instant::now();
             let routes::SubspaceRoute {
                 fit,
                 diagnostics: d,
@@ -245,6 +255,7 @@ fn run(
             // (lifted_subspace::check_kalman_gain): the gain that predicts
             // best is kept.
             let mut d = d;
+            add_phase(&mut d, "subspace_s", t_subspace.elapsed().as_secs_f64());
             let kalman_gain = checked_gain(&fit.model, fit.kalman_gain, &sets, used.past, &mut d);
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
@@ -295,6 +306,7 @@ fn run(
         options,
         known: known.as_ref(),
     });
+    let t_refine = std::time::Instant::now();
     let (model, mut diagnostics) = match alternative {
         Some(Ok(alt)) => {
             multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt)?
@@ -314,6 +326,13 @@ fn run(
         }
         None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
     };
+    if opts.refinement.refine != Refine::None {
+        add_phase(
+            &mut diagnostics,
+            "refine_s",
+            t_refine.elapsed().as_secs_f64(),
+        );
+    }
     // A multirate model that the refinement did not give a Kalman gain
     // (not refined, or not by the prediction error): the gain checked on
     // the measured samples from K = 0 (lifted_subspace::check_kalman_gain;
@@ -396,7 +415,9 @@ pub(crate) fn checked_gain(
         .iter()
         .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
         .collect();
+    let t = std::time::Instant::now();
     let (checked, report) = lifted_subspace::check_kalman_gain(model, gain.as_ref(), &exps, past);
+    add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert(
             "kalman_gain_route".into(),

@@ -15,7 +15,7 @@ use lifted_subspace::{
 };
 use nalgebra::DMatrix;
 
-use crate::diagnostics::{add_run_facts, subspace_json};
+use crate::diagnostics::{add_phase, add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
@@ -240,12 +240,14 @@ pub fn identify_streamed(
         Err(e) => return Err(e),
     };
     let read_s = t_total.elapsed().as_secs_f64();
-    let fit = if first.wants_second_pass() {
+    let t_second = std::time::Instant::now();
+    let second = first.wants_second_pass();
+    let fit = if second {
         second_pass(source, first, kept, &what)?
     } else {
         first.into_model()
     };
-    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
+    let second_pass_s = t_second.elapsed().as_secs_f64();
     let (ts, n_rows) = (pass.ts, pass.rows);
     let m = &fit.model;
     let model = StateSpace::new(
@@ -260,6 +262,9 @@ pub fn identify_streamed(
         &fit,
         "single-rate subspace identification, streamed in blocks",
     );
+    if second {
+        add_phase(&mut d, "second_pass_s", second_pass_s);
+    }
     let mut kalman_gain = fit.kalman_gain.clone();
     // The default refinement decides from the record's size before the
     // record is loaded for it (and the refinement below then runs as
@@ -288,6 +293,7 @@ pub fn identify_streamed(
             &mut d,
         );
     }
+    let t_refine = std::time::Instant::now();
     let (model, mut d) = match loaded {
         Some((record, set)) if refines => {
             // The refinement starts from the model above, on the record in
@@ -310,7 +316,9 @@ pub fn identify_streamed(
                 options: &check_opts,
                 known: None,
             });
-            refine(&run, model, d, &[set], &mut kalman_gain, check)?
+            let (model, mut d) = refine(&run, model, d, &[set], &mut kalman_gain, check)?;
+            add_phase(&mut d, "refine_s", t_refine.elapsed().as_secs_f64());
+            (model, d)
         }
         _ => {
             // No refinement: `refine` only records a stable
@@ -334,7 +342,9 @@ pub fn identify_streamed(
     if opts.validation.require_stable {
         require_stable(&model)?;
     }
-    // Reading and compressing overlap: blocks are compressed as they are read.
+    // Reading and compressing overlap: blocks are compressed as they are
+    // read; the identification's time is everything after the first pass.
+    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
     add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
     let dg = &fit.diagnostics;
     let file = finish_file(

@@ -46,11 +46,18 @@ fn print_profile(diagnostics: &serde_json::Value) {
     let Some(p) = diagnostics.get("profile").and_then(|p| p.as_object()) else {
         return;
     };
+    // The compress/svd/estimate rows are the final fit's; the subspace row
+    // also counts the structure selection's fits before it.
     let phases = [
         ("read", "read_s"),
         ("compress", "compress_s"),
         ("svd", "svd_s"),
         ("estimate", "estimate_s"),
+        ("subspace (all)", "subspace_s"),
+        ("second pass", "second_pass_s"),
+        ("multirate start", "multirate_start_s"),
+        ("Kalman gain", "kalman_gain_s"),
+        ("refinement", "refine_s"),
         ("identify (total)", "identify_s"),
     ];
     println!("phase              wall time");
