@@ -457,40 +457,49 @@ fn varx_innovations(
     let nz = nu + ny;
     let nd = if direct { nu } else { 0 };
     let width = p * nz + nd;
-    // Row t of record d: [z(t−1) … z(t−p), u(t) | y(t)].
-    let fill = |d: &Experiment<'_>, t: usize, row: &mut [f64]| {
+    // Rows t0 … t0 + rows − 1 of record d into block rows at … at + rows − 1:
+    // row t is [z(t−1) … z(t−p), u(t) | y(t)], filled a column segment at a
+    // time (contiguous copies of the column-major records).
+    let fill = |d: &Experiment<'_>, t0: usize, rows: usize, block: &mut DMatrix<f64>, at: usize| {
         let (u, y) = (d.u, d.y);
         for lag in 1..=p {
             let base = (lag - 1) * nz;
             for j in 0..nu {
-                row[base + j] = u[(t - lag, j)];
+                block
+                    .view_mut((at, base + j), (rows, 1))
+                    .copy_from(&u.view((t0 - lag, j), (rows, 1)));
             }
             for j in 0..ny {
-                row[base + nu + j] = y[(t - lag, j)];
+                block
+                    .view_mut((at, base + nu + j), (rows, 1))
+                    .copy_from(&y.view((t0 - lag, j), (rows, 1)));
             }
         }
         for j in 0..nd {
-            row[p * nz + j] = u[(t, j)];
+            block
+                .view_mut((at, p * nz + j), (rows, 1))
+                .copy_from(&u.view((t0, j), (rows, 1)));
         }
         for j in 0..ny {
-            row[width + j] = y[(t, j)];
+            block
+                .view_mut((at, width + j), (rows, 1))
+                .copy_from(&y.view((t0, j), (rows, 1)));
         }
     };
     let mut acc = lifted_linalg::RAccumulator::new(width + ny);
     let mut block = DMatrix::zeros(BLOCK_ROWS, width + ny);
-    let mut row = vec![0.0; width + ny];
     let mut filled = 0;
     for d in sets {
-        for t in p..d.u.nrows() {
+        let mut t = p;
+        while t < d.u.nrows() {
             if filled == BLOCK_ROWS {
                 acc.push_rows(&block).map_err(|e| e.to_string())?;
                 filled = 0;
             }
-            fill(d, t, &mut row);
-            for (c, v) in row.iter().enumerate() {
-                block[(filled, c)] = *v;
-            }
-            filled += 1;
+            let take = (BLOCK_ROWS - filled).min(d.u.nrows() - t);
+            fill(d, t, take, &mut block, filled);
+            filled += take;
+            t += take;
         }
     }
     acc.push_rows(&block.rows(0, filled).into_owned())
@@ -504,16 +513,19 @@ fn varx_innovations(
         &r.view((0, width), (width, ny)).into_owned(),
     )
     .map_err(|e| format!("the VARX failed ({e})"))?;
+    // The residuals block by block: ê = y − [z(t−1) … z(t−p), u(t)] θ.
     let mut out = Vec::with_capacity(sets.len());
     for d in sets {
         let len = d.u.nrows() - p;
         let mut e = DMatrix::zeros(len, ny);
-        for t in p..d.u.nrows() {
-            fill(d, t, &mut row);
-            for j in 0..ny {
-                let fitted: f64 = (0..width).map(|c| row[c] * theta[(c, j)]).sum();
-                e[(t - p, j)] = row[width + j] - fitted;
-            }
+        let mut t = p;
+        while t < d.u.nrows() {
+            let take = BLOCK_ROWS.min(d.u.nrows() - t);
+            fill(d, t, take, &mut block, 0);
+            let mut rows = e.view_mut((t - p, 0), (take, ny));
+            rows.copy_from(&block.view((0, width), (take, ny)));
+            rows.gemm(-1.0, &block.view((0, 0), (take, width)), &theta, 1.0);
+            t += take;
         }
         out.push(e);
     }
