@@ -156,6 +156,21 @@ pub(crate) fn auto_decision(
 /// Whether [`Refine::Auto`] decides for `model` here: the default setting,
 /// unless a stable identification's stabilised estimate is to be polished
 /// (which always runs).
+/// Whether `e` is a refinement the records cannot support: too few
+/// measured samples for its parameters.
+fn unsupported_by_data(e: &crate::Error) -> bool {
+    let crate::Error::Step { source, .. } = e else {
+        return false;
+    };
+    matches!(
+        source.downcast_ref::<lifted_subspace::Error>(),
+        Some(
+            lifted_subspace::Error::NotExciting { .. }
+                | lifted_subspace::Error::TooManyParameters { .. }
+        )
+    )
+}
+
 pub(crate) fn auto_decides(opts: &WorkflowOptions, diagnostics: &serde_json::Value) -> bool {
     opts.refinement.refine == Refine::Auto
         && !(opts.identification.stable && diagnostics.as_object().is_some_and(was_stabilized))
@@ -467,6 +482,8 @@ pub fn refine(
         return unrefined(opts, model, diagnostics);
     }
     let polish = matches!(opts.refinement.refine, Refine::None | Refine::Auto);
+    let decided = auto_decides(opts, &diagnostics);
+    let wf = opts;
     // (Zero iterations with a refinement asked for are refused by
     // `WorkflowOptions::check`.)
     let opts = &opts.refinement;
@@ -482,7 +499,7 @@ pub fn refine(
     let held_out = check_applies(check, &model, stabilized, &records, &pem);
     let fit = match held_out {
         Some(Ok(check)) => {
-            refine_judged_on_blocks(&model, kalman_gain, &records, &pem, check, &mut diagnostics)?
+            refine_judged_on_blocks(&model, kalman_gain, &records, &pem, check, &mut diagnostics)
         }
         other => {
             let why = match other {
@@ -498,8 +515,26 @@ pub fn refine(
                     }),
                 );
             }
-            refine_pem(&model, kalman_gain.as_ref(), &records, &[], &pem).ctx("refine")?
+            refine_pem(&model, kalman_gain.as_ref(), &records, &[], &pem).ctx("refine")
         }
+    };
+    let fit = match fit {
+        Ok(fit) => fit,
+        // The default refinement where the records cannot support its
+        // parameters (a short multirate record at a high order: 102
+        // measured samples for 112 parameters): the model stays as
+        // identified and says why; an asked-for refinement is an error.
+        Err(e) if decided && unsupported_by_data(&e) => {
+            if let Some(obj) = diagnostics.as_object_mut() {
+                obj.insert(
+                    "refinement_decision".into(),
+                    json!(format!("not refined: {e}")),
+                );
+                obj.remove("refinement_judge");
+            }
+            return unrefined(wf, model, diagnostics);
+        }
+        Err(e) => return Err(e),
     };
     if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)

@@ -2042,3 +2042,28 @@ fn the_kalman_gain_predicts_at_least_as_well_as_the_simulation() {
         );
     }
 }
+
+/// The default refinement on a record too short for its parameters (a
+/// short multirate record at a high order): the identified model is kept
+/// and the diagnostics say why, where the default used to fail the whole
+/// identification (the DaISy power plant with its outputs every third
+/// sample: 102 measured samples for 112 parameters). An asked-for
+/// refinement still refuses.
+#[test]
+fn the_default_refinement_steps_aside_when_the_record_cannot_support_it() {
+    let truth = flexible_plant();
+    let data = multirate_record(&truth, 120, &[3], 1, 2);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(6);
+    let fit = identify(&[Record::new(data.clone())], &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    let why = d["refinement_decision"].as_str().expect("decision");
+    assert!(why.starts_with("not refined: "), "{why}");
+    assert!(
+        why.contains("persistently exciting") || why.contains("parameters"),
+        "{why}"
+    );
+    assert_eq!(fit.file.model.order(), 6);
+    opts.refinement.refine = Refine::Pem;
+    assert!(identify(&[Record::new(data)], &opts).is_err());
+}
