@@ -359,7 +359,9 @@ pub enum CriterionArg {
     /// output-error fits of the whole record. Multirate N4SID/MOESP/CVA records of up to 2e5
     /// samples: every order identified on the first two thirds and simulated on the last third,
     /// then the smallest orders near the best (and the best) judged by their models refined on
-    /// the first two thirds (unless --refine none). PBSID and SSARX: the order by the same
+    /// the first two thirds (unless --refine none), with the orders whose start is unstable
+    /// there refined from their stabilised start (they lead only with a positive held-out fit
+    /// and a stable start on the whole record). PBSID and SSARX: the order by the same
     /// held-out fit at the past horizon of the whole record; single-rate IV at its alpha;
     /// multirate IV as the multirate subspace methods. q-Markov uses the singular-value gap.
     Validation,

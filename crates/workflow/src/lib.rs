@@ -34,7 +34,11 @@
 //!    route with fast-model extraction (thesis chs. 4–5; records of inputs
 //!    held one sample also start from the single-rate model of the record
 //!    with its slow outputs interpolated, the start that fits the measured
-//!    samples better after the refinement kept: `multirate_start`), the weighted
+//!    samples better after the refinement kept: `multirate_start`; their
+//!    automatic order is judged on the record's last third, an order whose
+//!    start is unstable on the first two thirds by its refinement from the
+//!    stabilised start — the flexible arm with its output every third
+//!    sample: order 3, fit −0.0 %, before; order 9, 97.3 %), the weighted
 //!    q-Markov Cover (Zhu 2000), PBSID/SSARX (Chiuso 2007, Jansson 2003)
 //!    and IV subspace (thesis ch. 7). Under the default order rule
 //!    ([`OrderCriterion::Validation`]) the horizon s, the (A, C) route and

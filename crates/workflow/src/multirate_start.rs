@@ -196,13 +196,15 @@ pub(crate) fn better(
 }
 
 /// The route's fit when the lifted route failed with `lifted_error`: the
-/// interpolated record's model (its own order selection), with a warning.
+/// interpolated record's model (at `order`, else its own order
+/// selection), with a warning.
 pub(crate) fn instead_of_lifted(
     opts: &WorkflowOptions,
     sets: &[Dataset],
     lifted_error: &Error,
+    order: Option<usize>,
 ) -> Result<RouteFit> {
-    let (model, mut d) = start(opts, sets, None)?;
+    let (model, mut d) = start(opts, sets, order)?;
     if let Some(obj) = d.as_object_mut() {
         obj.insert(
             "route".into(),

@@ -207,7 +207,10 @@ fn run(
             match routes::multirate(opts, &sets) {
                 Ok(fit) => {
                     let mut fit = fit;
-                    if second {
+                    // (A route that already took the interpolated start,
+                    // its lifted identification having failed, has no
+                    // second start to compare.)
+                    if second && fit.diagnostics.get("multirate_start").is_none() {
                         let t = std::time::Instant::now();
                         alternative = Some(
                             multirate_start::start(opts, &sets, Some(fit.model.order()))
@@ -224,7 +227,7 @@ fn run(
                 }
                 // An option the multirate route refuses stays an error.
                 Err(e) if second && !matches!(e, Error::InvalidOption { .. }) => {
-                    multirate_start::instead_of_lifted(opts, &sets, &e).map_err(|_| e)?
+                    multirate_start::instead_of_lifted(opts, &sets, &e, None).map_err(|_| e)?
                 }
                 Err(e) => return Err(e),
             }

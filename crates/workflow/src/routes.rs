@@ -840,11 +840,41 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
                 let interp = crate::multirate_start::quick_start(wf, est, n).ok();
                 crate::multirate_start::better(lifted, interp, est)
             };
-            held_out_orders(data, max.min(identifiable), fit_at, wf)
+            // Orders whose start is unstable on the first part are judged
+            // by their refinement when the second start can deliver them
+            // (the interpolated start is kept where it fits better).
+            held_out_orders(data, max.min(identifiable), fit_at, wf, second_start)
         }
         _ => None,
     };
     if let Some(sel) = &held_out {
+        // A lead judged by its refinement from an unstable start: kept when
+        // the interpolated start at its order is stable on the whole record
+        // (the pipeline then refines both starts and keeps the better;
+        // when the lifted route fails there, the interpolated start alone).
+        if let Some(n) = sel.lead_from_unstable
+            && let Ok((interp, _)) = crate::multirate_start::start(wf, sets, Some(n))
+            && crate::validate::spectral_radius(&interp).is_ok_and(|r| r < 1.0)
+        {
+            match identify_multirate(data, None, &at_order(&opts, n)) {
+                Ok(fit) => {
+                    let route =
+                        multirate_fit(fit, id, data.ts(), Some(sel.diagnostics(n)), Vec::new());
+                    return Ok(with_short_horizon(route, id, horizon, start));
+                }
+                Err(e) => {
+                    let e = Error::Step {
+                        what: "multirate identification".into(),
+                        source: Box::new(e),
+                    };
+                    let mut fit = crate::multirate_start::instead_of_lifted(wf, sets, &e, Some(n))?;
+                    if let Some(obj) = fit.diagnostics.as_object_mut() {
+                        obj.insert("structure_selection".into(), sel.diagnostics(n));
+                    }
+                    return Ok(fit);
+                }
+            }
+        }
         for &(n, _) in sel.ranking.iter().take(STABLE_TRIES) {
             let Ok(fit) = identify_multirate(data, None, &at_order(&opts, n)) else {
                 continue;
@@ -977,6 +1007,9 @@ struct HeldOutOrders {
     ranking: Vec<(usize, f64)>,
     curve: Vec<serde_json::Value>,
     split: usize,
+    /// The leading order when its start was unstable on the first part
+    /// and its refinement (from the stabilised start) scored best.
+    lead_from_unstable: Option<usize>,
     /// The refined shortlist's rule and scores, when it was judged.
     refined: Option<serde_json::Value>,
 }
@@ -1015,6 +1048,7 @@ fn held_out_orders(
     max: usize,
     fit_at: impl Fn(&Dataset, usize) -> Option<StateSpace>,
     wf: &WorkflowOptions,
+    judge_unstable: bool,
 ) -> Option<HeldOutOrders> {
     let n = data.len();
     let frame = data.frame_period().max(1);
@@ -1033,8 +1067,10 @@ fn held_out_orders(
     };
     let mut scored = Vec::new();
     let mut curve = Vec::new();
-    // The fast model (at the base period) of each scored order.
+    // The fast model (at the base period) of each scored order, and of
+    // each order whose start is unstable (judged by its refinement only).
     let mut models: Vec<(usize, StateSpace)> = Vec::new();
+    let mut unstable: Vec<(usize, StateSpace)> = Vec::new();
     for order in 1..=max.max(1) {
         let fit = fit_at(&est, order).and_then(|m| {
             if crate::validate::spectral_radius(&m).is_ok_and(|r| r < 1.0) {
@@ -1042,6 +1078,9 @@ fn held_out_orders(
                 let mean = held_out_mean(&fast, &val, &vopts)?;
                 Some((mean, fast))
             } else {
+                if judge_unstable && let Ok(fast) = at_base_period(&m, val.ts()) {
+                    unstable.push((order, fast));
+                }
                 None
             }
         });
@@ -1051,7 +1090,7 @@ fn held_out_orders(
             models.push((order, fast));
         }
     }
-    if scored.is_empty() {
+    if scored.is_empty() && unstable.is_empty() {
         return None;
     }
     // Best first, with the parsimony of the single-rate selection: the
@@ -1067,33 +1106,62 @@ fn held_out_orders(
     // in simulation while the frequency response drifts: the plant
     // at 15 000 samples scored 85.3 at order 4 and 89.6 at order 9, FR
     // errors 0.005 and 0.038).
-    let refined = refined_shortlist(&ranking, &models, &est, &val, &vopts, wf);
-    let (lead_scores, rule) = match &refined {
-        Some(r) => (r.iter().map(|e| (e.0, e.1)).collect::<Vec<_>>(), "refined"),
+    let refined = refined_shortlist(&ranking, &models, &unstable, &est, &val, &vopts, wf);
+    // An order whose start was unstable competes only when its refined
+    // model fits the held-out samples better than their mean (fit > 0):
+    // where every order fails there the part holds no evidence to prefer
+    // it, and the ranking stays the stable starts' (flutter's output every
+    // third sample: all orders below −30 held out).
+    let from_unstable = |o: usize| unstable.iter().any(|m| m.0 == o);
+    let usable = refined.as_ref().and_then(|r| {
+        let kept: Vec<(usize, f64)> = r
+            .iter()
+            .filter(|e| !from_unstable(e.0) || e.1 > 0.0)
+            .copied()
+            .collect();
+        (kept.len() >= 2 || kept.iter().any(|e| from_unstable(e.0))).then_some(kept)
+    });
+    let (lead_scores, rule) = match &usable {
+        Some(r) => (r.clone(), "refined"),
         None => (ranking.clone(), "subspace"),
     };
     let lead_best = lead_scores
         .iter()
         .map(|&(_, f)| f)
         .fold(f64::NEG_INFINITY, f64::max);
+    let mut lead_from_unstable = None;
     if let Some(lead_order) = lead_scores
         .iter()
         .filter(|c| c.1 >= lead_best - tolerance)
         .map(|c| c.0)
         .min()
-        && let Some(pos) = ranking.iter().position(|c| c.0 == lead_order)
     {
-        let lead = ranking.remove(pos);
-        ranking.insert(0, lead);
+        if let Some(pos) = ranking.iter().position(|c| c.0 == lead_order) {
+            let lead = ranking.remove(pos);
+            ranking.insert(0, lead);
+        } else {
+            // An order whose start was unstable on the first part, judged
+            // by its refinement alone.
+            let score = lead_scores
+                .iter()
+                .find(|c| c.0 == lead_order)
+                .map_or(lead_best, |c| c.1);
+            ranking.insert(0, (lead_order, score));
+            lead_from_unstable = Some(lead_order);
+        }
+    }
+    if ranking.is_empty() {
+        return None;
     }
     Some(HeldOutOrders {
         ranking,
         curve,
         split,
+        lead_from_unstable,
         refined: refined.map(|r| {
             json!({
                 "rule": format!(
-                    "the best {MULTIRATE_SHORTLIST} orders of the curve, each refined on the samples before {split} (the prediction cost) and scored on the rest; the smallest order within {tolerance} points of the best refined score leads (scores of the {rule} models)"
+                    "the best {MULTIRATE_SHORTLIST} orders of the curve and the orders whose start was unstable there, each refined on the samples before {split} (the prediction cost; an unstable start from its stabilised version) and scored on the rest; the smallest order within {tolerance} points of the best refined score leads (scores of the {rule} models)"
                 ),
                 "candidates": r.iter().map(|e| json!({"order": e.0, "score": e.1})).collect::<Vec<_>>(),
             })
@@ -1122,14 +1190,22 @@ fn held_out_mean(
 }
 
 /// The held-out fits of the refined models of the best
-/// [`MULTIRATE_SHORTLIST`] orders of `ranking` (`(order, fit)`), or `None`
-/// when the run does not refine (`--refine none`), fewer than two orders
-/// were refined, or the refinements together are predicted to cost more
-/// than two default refinements ([`AUTO_REFINE_WORK_JOINT`] each, about
-/// 2 s). O(shortlist) refinements of 2N/3 samples.
+/// [`MULTIRATE_SHORTLIST`] orders of `ranking` (`(order, fit)`), then of
+/// the orders whose start was `unstable` on the first part (refined from
+/// their stabilised start, `lifted_subspace::refine_pem`: the default
+/// refinement cannot reach them otherwise, and on a short record the
+/// well-fitting orders can be exactly those — the flexible arm's output
+/// every third sample: no start above order 3 stable on its first 339
+/// samples, order 9 refined scores 86 held out), as far as the work
+/// bound allows; or `None` when the run does not refine (`--refine
+/// none`), fewer than two orders were refined, or the refinements
+/// together are predicted to cost more than two default refinements
+/// ([`AUTO_REFINE_WORK_JOINT`] each, about 2 s). O(shortlist + unstable)
+/// refinements of 2N/3 samples.
 fn refined_shortlist(
     ranking: &[(usize, f64)],
     models: &[(usize, StateSpace)],
+    unstable: &[(usize, StateSpace)],
     est: &Dataset,
     val: &Dataset,
     vopts: &lifted_lti::ValidationOptions,
@@ -1148,21 +1224,28 @@ fn refined_shortlist(
     // The smallest orders within SHORTLIST_SPAN points of the best (the
     // unrefined curve flattens out past the true order while its level
     // keeps creeping up), then the best itself.
-    let best = ranking.first()?;
-    let mut near: Vec<usize> = ranking
-        .iter()
-        .filter(|c| c.1 >= best.1 - SHORTLIST_SPAN)
-        .map(|c| c.0)
-        .collect();
-    near.sort_unstable();
-    near.truncate(MULTIRATE_SHORTLIST);
-    if !near.contains(&best.0) {
-        near.push(best.0);
+    let mut near: Vec<usize> = Vec::new();
+    if let Some(best) = ranking.first() {
+        near = ranking
+            .iter()
+            .filter(|c| c.1 >= best.1 - SHORTLIST_SPAN)
+            .map(|c| c.0)
+            .collect();
+        near.sort_unstable();
+        near.truncate(MULTIRATE_SHORTLIST);
+        if !near.contains(&best.0) {
+            near.push(best.0);
+        }
     }
     let mut work = 0.0;
     let mut out = Vec::new();
-    for order in near {
-        let fast = &models.iter().find(|m| m.0 == order)?.1;
+    let candidates: Vec<&(usize, StateSpace)> = near
+        .iter()
+        .filter_map(|n| models.iter().find(|m| m.0 == *n))
+        .chain(unstable.iter())
+        .collect();
+    for (order, fast) in candidates {
+        let order = *order;
         let pem = crate::refine::pem_options(wf, fast, cost, false);
         let w = lifted_subspace::pem_work_estimate(fast, &records, &pem).ok()?;
         work += w.typical;
@@ -1651,6 +1734,7 @@ pub(crate) fn iv(
                     max.min(lifted_max_order(data, lopts.alpha)),
                     fit_at,
                     opts,
+                    false,
                 )
             }
             _ => None,
@@ -1992,5 +2076,70 @@ mod tests {
             aligned_start(&record(&[(999_983, 3), (999_979, 5)], 10)),
             None
         );
+    }
+
+    /// A second-order plant measured every third sample; `fit_at` gives a
+    /// poor first-order model at order 1 and the plant with its poles
+    /// pushed outside the unit circle at order 2 (an unstable start, as
+    /// short records give at the orders that fit): judged by its
+    /// refinement from the stabilised start, order 2 leads; without that,
+    /// order 1 is all there is.
+    #[test]
+    fn an_order_whose_start_is_unstable_is_judged_by_its_refinement() {
+        use rand::{RngExt, SeedableRng};
+        let a = DMatrix::from_row_slice(2, 2, &[1.6, -0.8, 1.0, 0.0]);
+        let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.0]);
+        let c = DMatrix::from_row_slice(1, 2, &[0.3, 0.2]);
+        let d = DMatrix::zeros(1, 1);
+        let plant =
+            StateSpace::new(a.clone(), b.clone(), c.clone(), d.clone(), Some(1.0)).expect("plant");
+        let n = 900;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let u = DMatrix::from_fn(
+            n,
+            1,
+            |_, _| {
+                if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+            },
+        );
+        let sim = plant.lsim(&u, None, None).expect("simulation").y;
+        let y = DMatrix::from_fn(n, 1, |k, _| {
+            if k % 3 == 0 {
+                sim[(k, 0)] + 0.02 * (rng.random::<f64>() - 0.5)
+            } else {
+                f64::NAN
+            }
+        });
+        let data = Dataset::new(
+            1.0,
+            u,
+            y,
+            vec![InputChannel::new("u", 1)],
+            vec![OutputChannel::new("y", 3, 0)],
+        )
+        .expect("record");
+        let first_order = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .expect("first order");
+        // Poles 0.8 ± 0.4j (|λ| = 0.894) scaled by 1.15: |λ| = 1.03.
+        let pushed = StateSpace::new(a * 1.15, b, c, d, Some(1.0)).expect("unstable start");
+        let fit_at = |_: &Dataset, order: usize| match order {
+            1 => Some(first_order.clone()),
+            2 => Some(pushed.clone()),
+            _ => None,
+        };
+        let wf = WorkflowOptions::default();
+        let judged = held_out_orders(&data, 2, fit_at, &wf, true).expect("ranking");
+        assert_eq!(judged.lead_from_unstable, Some(2), "{:?}", judged.ranking);
+        assert_eq!(judged.ranking[0].0, 2);
+        assert!(judged.ranking[0].1 > 90.0, "{:?}", judged.ranking);
+        let plain = held_out_orders(&data, 2, fit_at, &wf, false).expect("ranking");
+        assert_eq!(plain.lead_from_unstable, None);
+        assert_eq!(plain.ranking[0].0, 1);
     }
 }
