@@ -406,7 +406,9 @@ pub enum BdArg {
 pub enum RefineArg {
     /// The prediction-error refinement where it pays (default): when its predicted work is at
     /// most 4e9 operations (about 1 s; 8e9 for the joint iterations of multirate records) or the
-    /// record has fewer than 10 000 samples, and the estimate is stable; `diagnostics.refinement_decision` says what was decided and why.
+    /// record has fewer than 10 000 samples, and the estimate is stable (a record with too few
+    /// measured samples for its parameters keeps the identified model);
+    /// `diagnostics.refinement_decision` says what was decided and why.
     Auto,
     /// No refinement.
     None,
