@@ -224,7 +224,8 @@ pub(crate) fn subspace(
             enforce_stability: id.stable,
             ..sub.clone()
         };
-        let (fit, d, used, check) = select(id, &exps, plain, judge)?;
+        let (fit, d, used, check) = select(id, &exps, plain, judge)
+            .map_err(|e| order_beyond_the_records(e, id, &exps, &sub))?;
         known = check;
         if sub.enforce_stability
             && !used.enforce_stability
@@ -313,6 +314,51 @@ pub(crate) fn subspace(
         used,
         check: known,
     })
+}
+
+/// `e` said in terms of the order asked for when it is a fixed order's
+/// refusal for want of samples with the horizon left to the selection
+/// (which tried the shortest horizon that identifies the order): the
+/// order, the records' size and the largest order the longest horizon
+/// they support identifies (an identification at that horizon, O(N k²)),
+/// instead of horizons the user never set. Any other error as it is.
+fn order_beyond_the_records(
+    e: Error,
+    id: &crate::IdentificationOptions,
+    exps: &[Experiment<'_>],
+    sub: &SubspaceOptions,
+) -> Error {
+    let OrderSelection::Fixed(n) = sub.order else {
+        return e;
+    };
+    let too_long = |e: &Error| match e {
+        Error::Step { source, .. } => matches!(
+            source.downcast_ref::<lifted_subspace::Error>(),
+            Some(lifted_subspace::Error::HorizonTooLong { .. })
+        ),
+        _ => false,
+    };
+    if id.horizon.is_some() || !too_long(&e) || exps.is_empty() {
+        return e;
+    }
+    let (nu, ny) = (exps[0].u.ncols(), exps[0].y.ncols());
+    let lengths: Vec<usize> = exps.iter().map(|x| x.u.nrows()).collect();
+    let samples: usize = lengths.iter().sum();
+    let Some(s) = lifted_subspace::longest_horizon(&lengths, nu + ny, sub.past.max(2)) else {
+        return e;
+    };
+    let at = SubspaceOptions {
+        past: s,
+        future: s,
+        ..sub.clone()
+    };
+    let max = match identify(exps, &at) {
+        Err(lifted_subspace::Error::OrderTooLarge { max, .. }) if max < n => max,
+        _ => return e,
+    };
+    Error::Data(format!(
+        "order {n} is not identifiable from {samples} samples of {nu} input(s) and {ny} output(s) ({e}); at horizon {s}, the longest these records support, orders up to {max} are: give a lower --order or a longer record"
+    ))
 }
 
 /// The largest order the records support when `e` refused an automatic

@@ -2067,3 +2067,26 @@ fn the_default_refinement_steps_aside_when_the_record_cannot_support_it() {
     opts.refinement.refine = Refine::Pem;
     assert!(identify(&[Record::new(data)], &opts).is_err());
 }
+
+/// A fixed order the record is too short for, the horizon left to the
+/// selection: the refusal names the order and the largest order the
+/// record identifies, not the horizons the selection tried (the DaISy
+/// distillation column's 45 samples of 5 inputs and 3 outputs at order 4
+/// said "horizons past 3 + future 3 too long for 45 samples").
+#[test]
+fn an_order_beyond_a_short_record_is_named() {
+    let (u, y) = record(25, 0.01, 3);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(5);
+    let e = identify(&[Record::new(dataset(&u, &y))], &opts)
+        .expect_err("order 5 from 25 samples")
+        .to_string();
+    assert!(
+        e.contains("order 5 is not identifiable from 25 samples"),
+        "{e}"
+    );
+    assert!(e.contains("orders up to"), "{e}");
+    // An order the record supports still identifies.
+    opts.identification.order = Order::Fixed(2);
+    assert!(identify(&[Record::new(dataset(&u, &y))], &opts).is_ok());
+}
