@@ -1136,7 +1136,10 @@ fn held_out_orders(
             models.push((order, fast));
         }
     }
-    if scored.is_empty() && unstable.is_empty() {
+    // No stable start at any order: nothing on this part to compare the
+    // refinements with; the route's fallbacks decide (the gap, or the
+    // interpolated record's own selection when the lifted route fails).
+    if scored.is_empty() {
         return None;
     }
     // Best first, with the parsimony of the single-rate selection: the
