@@ -209,7 +209,7 @@ pub(crate) fn instead_of_lifted(
         obj.insert(
             "route".into(),
             json!(format!(
-                "multirate: {START_INTERPOLATED}, refined on the measured samples (the lifted route failed)"
+                "multirate: {START_INTERPOLATED}, then refined on the measured samples when the refinement runs (the lifted route failed)"
             )),
         );
         obj.insert(
@@ -220,7 +220,7 @@ pub(crate) fn instead_of_lifted(
     crate::diagnostics::push_warning(
         &mut d,
         format!(
-            "the lifted multirate route failed ({lifted_error}); the model starts from the single-rate subspace model of the record with its slow outputs interpolated, refined on the measured samples"
+            "the lifted multirate route failed ({lifted_error}); the model starts from the single-rate subspace model of the record with its slow outputs interpolated, refined on the measured samples when the refinement runs (diagnostics.refinement_decision)"
         ),
     );
     let order = model.order();
