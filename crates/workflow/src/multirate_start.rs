@@ -204,7 +204,17 @@ pub(crate) fn instead_of_lifted(
     lifted_error: &Error,
     order: Option<usize>,
 ) -> Result<RouteFit> {
-    let (model, mut d) = start(opts, sets, order)?;
+    let (model, d) = start(opts, sets, order)?;
+    Ok(interpolated_route(model, d, lifted_error))
+}
+
+/// [`instead_of_lifted`]'s fit from the interpolated start already made
+/// ([`start`]'s model and diagnostics).
+pub(crate) fn interpolated_route(
+    model: StateSpace,
+    mut d: serde_json::Value,
+    lifted_error: &Error,
+) -> RouteFit {
     if let Some(obj) = d.as_object_mut() {
         obj.insert(
             "route".into(),
@@ -224,7 +234,7 @@ pub(crate) fn instead_of_lifted(
         ),
     );
     let order = model.order();
-    Ok(RouteFit::plain(model, d, &[], order))
+    RouteFit::plain(model, d, &[], order)
 }
 
 /// Mean over the records and outputs of the simulation fit on the measured

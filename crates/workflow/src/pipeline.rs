@@ -205,18 +205,20 @@ fn run(
             // record alone when the lifted route fails.
             let second = multirate_start::applies(opts, &sets);
             match routes::multirate(opts, &sets) {
-                Ok(fit) => {
+                Ok((fit, made)) => {
                     let mut fit = fit;
                     // (A route that already took the interpolated start,
                     // its lifted identification having failed, has no
-                    // second start to compare.)
+                    // second start to compare; one that made the start
+                    // already hands it over.)
                     if second && fit.diagnostics.get("multirate_start").is_none() {
                         let t = std::time::Instant::now();
-                        alternative = Some(
-                            multirate_start::start(opts, &sets, Some(fit.model.order()))
+                        alternative = Some(match made {
+                            Some(m) => Ok(m),
+                            None => multirate_start::start(opts, &sets, Some(fit.model.order()))
                                 .map(|(m, _)| m)
                                 .map_err(|e| e.to_string()),
-                        );
+                        });
                         add_phase(
                             &mut fit.diagnostics,
                             "multirate_start_s",

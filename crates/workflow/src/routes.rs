@@ -802,8 +802,13 @@ fn judged(
 }
 
 /// Multirate N4SID/MOESP/CVA: lifting, causal lifted subspace
-/// identification, fast-model extraction (thesis chs. 4–5).
-pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+/// identification, fast-model extraction (thesis chs. 4–5). With the fit,
+/// the interpolated start at its order when the route has made it already
+/// (`crate::multirate_start::start`; the pipeline's second start).
+pub(crate) fn multirate(
+    opts: &WorkflowOptions,
+    sets: &[Dataset],
+) -> Result<(RouteFit, Option<StateSpace>)> {
     let wf = opts;
     let id = &opts.identification;
     let stable = stabilized_start(opts);
@@ -899,25 +904,25 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         // (the pipeline then refines both starts and keeps the better;
         // when the lifted route fails there, the interpolated start alone).
         if let Some(n) = sel.lead_from_unstable
-            && let Ok((interp, _)) = crate::multirate_start::start(wf, sets, Some(n))
+            && let Ok((interp, interp_d)) = crate::multirate_start::start(wf, sets, Some(n))
             && crate::validate::spectral_radius(&interp).is_ok_and(|r| r < 1.0)
         {
             match identify_multirate(data, None, &at_order(&opts, n)) {
                 Ok(fit) => {
                     let route =
                         multirate_fit(fit, id, data.ts(), Some(sel.diagnostics(n)), Vec::new());
-                    return Ok(with_short_horizon(route, id, horizon, start));
+                    return Ok((with_short_horizon(route, id, horizon, start), Some(interp)));
                 }
                 Err(e) => {
                     let e = Error::Step {
                         what: "multirate identification".into(),
                         source: Box::new(e),
                     };
-                    let mut fit = crate::multirate_start::instead_of_lifted(wf, sets, &e, Some(n))?;
+                    let mut fit = crate::multirate_start::interpolated_route(interp, interp_d, &e);
                     if let Some(obj) = fit.diagnostics.as_object_mut() {
                         obj.insert("structure_selection".into(), sel.diagnostics(n));
                     }
-                    return Ok(fit);
+                    return Ok((fit, None));
                 }
             }
         }
@@ -927,7 +932,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
             };
             if crate::validate::spectral_radius(&fit.fast).is_ok_and(|r| r < 1.0) {
                 let route = multirate_fit(fit, id, data.ts(), Some(sel.diagnostics(n)), Vec::new());
-                return Ok(with_short_horizon(route, id, horizon, start));
+                return Ok((with_short_horizon(route, id, horizon, start), None));
             }
         }
     }
@@ -969,7 +974,7 @@ pub(crate) fn multirate(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Rout
         d
     });
     let route = multirate_fit(fit, id, data.ts(), structure, passed_over);
-    Ok(with_short_horizon(route, id, horizon, start))
+    Ok((with_short_horizon(route, id, horizon, start), None))
 }
 
 /// The first instant s < min(J, N) (J the frame period, N the record's
