@@ -541,8 +541,9 @@ pub struct IdentifyArgs {
     /// supports, with a warning).
     #[arg(long)]
     pub future: Option<usize>,
-    /// PBSID/SSARX: estimate a direct feedthrough D (default: D = 0, the closed-loop default,
-    /// since an estimated D is biased when the controller reacts within the sample).
+    /// PBSID/SSARX and single-rate IV: estimate a direct feedthrough D (default: D = 0, the
+    /// closed-loop default, since an estimated D is biased when the controller reacts within the
+    /// sample).
     #[arg(long)]
     pub feedthrough: bool,
     /// IV: past instrument block rows α_p (default 2α).

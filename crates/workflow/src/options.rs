@@ -226,10 +226,11 @@ pub struct IdentificationOptions {
     /// (default 2α, erratum L-16). Other methods: not used (an error when
     /// given).
     pub instrument_past: Option<usize>,
-    /// PBSID/SSARX: estimate a direct feedthrough D (default false: D = 0,
-    /// the closed-loop default, since an estimated D is biased when the
-    /// controller reacts within the sample). Other methods: not used (an
-    /// error when set).
+    /// PBSID/SSARX and single-rate IV: estimate a direct feedthrough D
+    /// (default false: D = 0, the closed-loop default, since an estimated D
+    /// is biased when the controller reacts within the sample: the noise
+    /// reaches u in the same sample and D takes it). Other methods: not used
+    /// (an error when set).
     pub feedthrough: bool,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,
@@ -463,10 +464,10 @@ impl WorkflowOptions {
                 "only used with the pbsid and ssarx methods (the others take one horizon)",
             ));
         }
-        if id.feedthrough && !pbsid {
+        if id.feedthrough && !pbsid && id.method != Method::Iv {
             return Err(Error::option(
                 "feedthrough",
-                "only used with the pbsid and ssarx methods",
+                "only used with the pbsid, ssarx and iv methods",
             ));
         }
         if id.instrument_past.is_some() && id.method != Method::Iv {

@@ -1479,11 +1479,7 @@ pub(crate) fn pbsid(
         order: order_of(id),
         past,
         future,
-        feedthrough: if id.feedthrough {
-            lifted_subspace::Feedthrough::Free
-        } else {
-            lifted_subspace::Feedthrough::Zero
-        },
+        feedthrough: feedthrough_of(id),
         ts: sets[0].ts(),
         threads: id.threads.unwrap_or(1),
         ..Default::default()
@@ -1504,8 +1500,11 @@ pub(crate) fn pbsid(
         };
     let dg = &fit.diagnostics;
     let mut diagnostics = pbsid_json(&fit);
-    if let (Some(obj), Some(st)) = (diagnostics.as_object_mut(), structure) {
-        obj.insert("structure_selection".into(), st);
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert("feedthrough".into(), feedthrough_json(id));
+        if let Some(st) = structure {
+            obj.insert("structure_selection".into(), st);
+        }
     }
     if future < default_future && id.future.is_none() && past.is_none() {
         crate::diagnostics::push_warning(
@@ -1730,6 +1729,25 @@ fn gap_fallback<M>(
 /// record); `instruments[k]`: the instrument columns of record k (`None`:
 /// the inputs, the open-loop case); `names`: the instrument columns' names
 /// for the diagnostics (empty: the inputs).
+/// The feedthrough of the closed-loop capable routes (PBSID/SSARX,
+/// single-rate IV): estimated only when asked for.
+fn feedthrough_of(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
+    if id.feedthrough {
+        lifted_subspace::Feedthrough::Free
+    } else {
+        lifted_subspace::Feedthrough::Zero
+    }
+}
+
+/// `diagnostics.feedthrough` of the closed-loop capable routes.
+fn feedthrough_json(id: &IdentificationOptions) -> serde_json::Value {
+    json!(if id.feedthrough {
+        "D estimated (feedthrough asked for)"
+    } else {
+        "D = 0 (the closed-loop default: an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
+    })
+}
+
 pub(crate) fn iv(
     opts: &WorkflowOptions,
     sets: &[Dataset],
@@ -1741,6 +1759,13 @@ pub(crate) fn iv(
     let stable = stabilized_start(opts);
     let order = order_of(id);
     if multirate {
+        if id.feedthrough {
+            return Err(Error::option(
+                "feedthrough",
+                "only used with single-rate records: the multirate IV estimates the lifted \
+                 feedthrough (the fast model's first Markov parameters) from its causal mask",
+            ));
+        }
         gap_only(id)?;
         let data = single(sets, "multirate IV identification")?;
         let f = instruments
@@ -1862,6 +1887,7 @@ pub(crate) fn iv(
         alpha,
         alpha_p: id.instrument_past,
         enforce_stability: stable,
+        feedthrough: feedthrough_of(id),
         ts: sets[0].ts(),
         ..Default::default()
     };
@@ -1933,6 +1959,7 @@ pub(crate) fn iv(
         },
         "fallbacks": dg.bd_fallback.iter().collect::<Vec<_>>(),
         "stabilized": dg.stabilized,
+        "feedthrough": feedthrough_json(id),
         "instrument": if names.is_empty() { json!("inputs") } else { json!(names) },
         "horizons": [dg.horizons.0, dg.horizons.1],
         "order_selection": order_json("singular values of R22", &dg.singular_values, dg.order, dg.suggested_order),

@@ -502,6 +502,7 @@ def iv(
     max_order: int = 10,
     alpha: int | None = None,
     alpha_p: int | None = None,
+    feedthrough: bool = False,
     order_criterion: OrderCriterion = "validation",
     detrend: Detrend = "mean",
     remove_means: bool = True,
@@ -523,7 +524,11 @@ def iv(
     noise; None uses ``u`` (open loop). ``alpha`` future block rows
     (``--horizon``, None: 8, or the longest a record too short for 8
     supports, with a warning), ``alpha_p`` past instrument rows
-    (``--instrument-past``, None: 2 alpha, erratum L-16). ``order_criterion``
+    (``--instrument-past``, None: 2 alpha, erratum L-16). ``feedthrough``
+    (``--feedthrough``) estimates a direct feedthrough D; the default
+    D = 0 is the closed-loop one (with a controller that reacts within the
+    sample the noise reaches u at once, and an estimated D takes it).
+    ``order_criterion``
     ``"validation"`` (the default: with ``order`` None, the order of best
     held-out simulation fit, six blocks each held out once,
     ``diagnostics["structure_selection"]``; multirate records: the fit on
@@ -548,8 +553,8 @@ def iv(
         fs = [instrument]
     d = _iv(
         us, ys, fs, order=order, max_order=max_order, alpha=alpha, alpha_p=alpha_p,
-        order_criterion=order_criterion, detrend=detrend, remove_means=remove_means,
-        enforce_stability=enforce_stability, require_stable=require_stable, refine=refine,
+        feedthrough=feedthrough, order_criterion=order_criterion, detrend=detrend,
+        remove_means=remove_means, enforce_stability=enforce_stability, require_stable=require_stable, refine=refine,
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
     )
     return IvFit(

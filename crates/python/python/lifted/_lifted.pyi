@@ -318,6 +318,7 @@ def iv(
     max_order: int = 10,
     alpha: int | None = None,
     alpha_p: int | None = None,
+    feedthrough: bool = False,
     order_criterion: OrderCriterion = "validation",
     detrend: Detrend = "mean",
     remove_means: bool = True,
