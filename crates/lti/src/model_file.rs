@@ -195,7 +195,7 @@ impl ModelFile {
     fn parse(s: &str, path: &str) -> Result<Self, ModelFileError> {
         let f: ModelFile = serde_json::from_str(s).map_err(|e| ModelFileError::Invalid {
             path: path.to_string(),
-            reason: e.to_string(),
+            reason: crate::ss::json_reason(&e),
         })?;
         if f.kind != STATE_SPACE_KIND {
             return Err(ModelFileError::UnsupportedKind {
@@ -344,6 +344,25 @@ mod tests {
         let bad_ts =
             r#"{"kind":"state_space","ts":-1.0,"a":[[0.5]],"b":[[1]],"c":[[1]],"d":[[0]]}"#;
         assert!(ModelFile::from_json(bad_ts).is_err());
+        // A dropped or misspelt `ts` is named (it loaded as continuous
+        // time); null is the continuous-time model.
+        let no_ts = r#"{"kind":"state_space","tS":0.1,"a":[[0.5]],"b":[[1]],"c":[[1]],"d":[[0]]}"#;
+        let e = ModelFile::from_json(no_ts).expect_err("no ts").to_string();
+        assert!(
+            e.contains("missing field `ts`") && e.contains("null for a continuous-time"),
+            "{e}"
+        );
+        let e = StateSpace::from_json(no_ts).expect_err("no ts").to_string();
+        assert!(e.contains("missing field `ts`"), "{e}");
+        let continuous =
+            r#"{"kind":"state_space","ts":null,"a":[[-0.5]],"b":[[1]],"c":[[1]],"d":[[0]]}"#;
+        assert_eq!(
+            ModelFile::from_json(continuous)
+                .expect("continuous")
+                .model
+                .ts(),
+            None
+        );
     }
 
     #[test]

@@ -199,7 +199,7 @@ impl StateSpace {
     /// Parses and validates a JSON model.
     pub fn from_json(s: &str) -> Result<Self> {
         serde_json::from_str(s).map_err(|e| Error::Json {
-            reason: e.to_string(),
+            reason: json_reason(&e),
         })
     }
 
@@ -278,11 +278,32 @@ struct SsRepr {
     b: Vec<Vec<f64>>,
     c: Vec<Vec<f64>>,
     d: Vec<Vec<f64>>,
+    // Required, null for a continuous-time model: a file whose `ts` was
+    // dropped or misspelt loaded as continuous time without a word.
+    #[serde(deserialize_with = "required_ts")]
     ts: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     input_names: Option<Vec<String>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     output_names: Option<Vec<String>>,
+}
+
+/// serde's message, with what a missing `ts` means.
+pub(crate) fn json_reason(e: &serde_json::Error) -> String {
+    let msg = e.to_string();
+    if msg.contains("missing field `ts`") {
+        format!("{msg} (the sample period in seconds, or null for a continuous-time model)")
+    } else {
+        msg
+    }
+}
+
+/// `ts` as written (a number, or null for continuous time); its absence is
+/// an error (serde's "missing field `ts`").
+fn required_ts<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<f64>, D::Error> {
+    Option::<f64>::deserialize(d)
 }
 
 fn rows_of(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
