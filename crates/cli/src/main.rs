@@ -80,6 +80,8 @@ fn main() -> ExitCode {
     // faer's one-time set-up runs while the arguments and data are read.
     lifted_linalg::warm_up();
     // A bug below must not print a Rust backtrace: one line, exit code 2.
+    // (Written without `eprintln!`, which panics on a closed stderr: a
+    // panic in the hook aborts the process.)
     std::panic::set_hook(Box::new(|info| {
         let msg = info
             .payload()
@@ -87,7 +89,7 @@ fn main() -> ExitCode {
             .map(|s| s.to_string())
             .or_else(|| info.payload().downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "unknown panic".into());
-        eprintln!("lifted: internal error: {msg}");
+        say(&format!("lifted: internal error: {msg}"));
     }));
     let cli = match Cli::try_parse() {
         Ok(c) => c,
@@ -109,12 +111,36 @@ fn main() -> ExitCode {
             }
         },
     };
+    if !matches!(cli.command, Command::Studio(_)) {
+        quiet_on_closed_pipe();
+    }
     match std::panic::catch_unwind(|| run(cli)) {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(e)) => {
-            eprintln!("lifted: {e}");
+            say(&format!("lifted: {e}"));
             ExitCode::from(e.exit_code())
         }
         Err(_) => ExitCode::from(2),
+    }
+}
+
+/// One line on stderr, nothing when stderr is closed.
+fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
+}
+
+/// A command whose output goes to a reader that stops early (`lifted
+/// analyze … | head -1`) ends as `cat` or `grep` do there: silently, by
+/// SIGPIPE, instead of failing on its next write ("failed printing to
+/// stdout: Broken pipe", or an abort when stderr was closed too). Not for
+/// the studio, whose server must outlive a browser that closes its socket.
+fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restores the default disposition of SIGPIPE (the Rust
+    // runtime set it to ignore) before any thread that writes is started;
+    // no handler is installed.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

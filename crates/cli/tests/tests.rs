@@ -4225,3 +4225,42 @@ mod constant_output {
         assert!(!y2.contains("yes") && !y2.contains("NaN"), "{table}");
     }
 }
+
+#[cfg(unix)]
+#[test]
+fn a_reader_that_stops_early_ends_the_command_quietly() {
+    // `lifted analyze … | head -1`: the command ended with "internal error:
+    // failed printing to stdout: Broken pipe" (exit 2), or aborted (134)
+    // when stderr went to the same closed pipe. Now as `cat`: by SIGPIPE,
+    // nothing on stderr.
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tmp("closed-pipe");
+    let model = p(&dir, "m.json");
+    std::fs::write(
+        &model,
+        r#"{"kind":"state_space","ts":1.0,"a":[[0.5,0.1],[0.0,0.3]],"b":[[1],[0.5]],"c":[[1,0]],"d":[[0]]}"#,
+    )
+    .unwrap();
+    for args in [
+        vec!["analyze", "--model", &model],
+        vec!["reproduce", "--list"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lifted"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("the binary runs");
+        // The reader goes away before the command writes (its start-up
+        // reads the model first); should it win the race, it exits 0.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("waits");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.is_empty(), "{args:?}: {err}");
+        assert!(
+            out.status.success() || out.status.signal() == Some(13),
+            "{args:?}: {:?}",
+            out.status
+        );
+    }
+}
