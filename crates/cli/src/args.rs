@@ -829,7 +829,9 @@ pub struct ValidateArgs {
     pub min_fit: Option<f64>,
     /// Offsets: `auto` applies the model file's operating point (y = y₀ + G(u − u₀)), or removes
     /// the record's means when the file has none; `mean`/`linear` compare deviations from the
-    /// record's own means/trends; `none` uses the data as they are.
+    /// record's own means/trends; `none` uses the data as they are (with the file's operating
+    /// point, as `auto`). A model identified with `--detrend none` states the origin as its
+    /// operating point, so `auto` scores it on the data as they are.
     #[arg(long, value_enum, default_value_t = DetrendArg::Auto)]
     pub detrend: DetrendArg,
     /// Initial state of the simulation.

@@ -56,8 +56,11 @@ def test_identified_model_carries_operating_point_and_gain(offset_record) -> Non
     # the model file round trip keeps both
     back = lifted.StateSpace.from_json(fit.model_json)
     assert back == m
-    # without means removed there is no operating point
-    assert lifted.n4sid(u, y, order=2, remove_means=False).model.u0 is None
+    # without means removed the model relates the data as they are: its
+    # operating point is the origin (validate then scores it on them)
+    raw = lifted.n4sid(u, y, order=2, remove_means=False).model
+    np.testing.assert_array_equal(raw.u0, [0.0])
+    np.testing.assert_array_equal(raw.y0, [0.0])
 
 
 def test_validate_uses_the_operating_point_like_the_cli(offset_record, tmp_path) -> None:

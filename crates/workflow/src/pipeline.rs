@@ -382,6 +382,8 @@ fn run(
             ),
         );
     }
+    let operating_point =
+        crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
     let file = finish_file(
         ModelFile::new(model)
             .with_method(id.method.name())

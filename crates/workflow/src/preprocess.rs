@@ -29,6 +29,26 @@ pub fn detrend_sets(
     Ok((Some(op), out))
 }
 
+/// The operating point a model file states: the one the identification
+/// used, or, for records taken as they are (`Detrend::None`), the origin —
+/// so that `validate` and the studio, which remove a record's own means
+/// from a model without one, score the model on the data it relates
+/// (a `--detrend none` model of the dryer record scored 91.9 % that way
+/// against 85.4 % on the data as they are).
+pub(crate) fn stated_operating_point(
+    op: Option<OperatingPoint>,
+    detrend: Detrend,
+    model: &StateSpace,
+) -> Result<Option<OperatingPoint>> {
+    match (op, detrend) {
+        (None, Detrend::None) => Ok(Some(
+            OperatingPoint::new(vec![0.0; model.n_inputs()], vec![0.0; model.n_outputs()])
+                .ctx("operating point")?,
+        )),
+        (op, _) => Ok(op),
+    }
+}
+
 /// A record less an operating point (the data the model's deviations are
 /// fitted to), or the record itself.
 pub fn deviations(data: &Dataset, op: Option<&OperatingPoint>) -> Result<Dataset> {

@@ -347,6 +347,8 @@ pub fn identify_streamed(
     let identify_s = t_total.elapsed().as_secs_f64() - read_s;
     add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
     let dg = &fit.diagnostics;
+    let operating_point =
+        crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
     let file = finish_file(
         ModelFile::new(model)
             .with_method(id.method.name())
