@@ -541,11 +541,13 @@ pub struct IdentifyArgs {
     /// supports, with a warning).
     #[arg(long)]
     pub future: Option<usize>,
-    /// PBSID/SSARX and single-rate IV: estimate a direct feedthrough D (default: D = 0, the
-    /// closed-loop default, since an estimated D is biased when the controller reacts within the
-    /// sample).
-    #[arg(long)]
-    pub feedthrough: bool,
+    /// Estimate a direct feedthrough D (`--feedthrough`, or `--feedthrough true`) or fix D = 0
+    /// (`--feedthrough false`: a strictly proper model, as `mpc` takes). Default: single-rate
+    /// N4SID, MOESP and CVA estimate it; PBSID/SSARX and single-rate IV do not (the closed-loop
+    /// default: an estimated D is biased when the controller reacts within the sample). Not
+    /// used with multirate records or qmarkov.
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    pub feedthrough: Option<bool>,
     /// IV: past instrument block rows α_p (default 2α).
     #[arg(long)]
     pub instrument_past: Option<usize>,

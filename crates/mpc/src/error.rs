@@ -35,7 +35,7 @@ pub enum Error {
         got: usize,
     },
     /// The model or plant must be strictly proper (D = 0), discrete, etc.
-    #[error("invalid model {what}: {reason}")]
+    #[error("{what}: {reason}")]
     InvalidModel {
         /// Which model.
         what: &'static str,

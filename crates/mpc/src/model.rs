@@ -14,7 +14,10 @@ pub(crate) fn check_model(what: &'static str, sys: &StateSpace) -> Result<(usize
     if sys.d().amax() != 0.0 {
         return Err(Error::InvalidModel {
             what,
-            reason: "must be strictly proper (D = 0): the thesis model P_T(q⁻¹) has a delay".into(),
+            reason: "must be strictly proper (D = 0; the thesis model P_T(q⁻¹) has a delay): \
+                     identify it with D fixed at zero (`lifted identify --feedthrough false`, \
+                     Python `feedthrough=False`)"
+                .into(),
         });
     }
     Ok((sys.n_outputs(), sys.n_inputs()))

@@ -64,14 +64,17 @@ pub(crate) fn horizon_of(
 /// prediction-error refinement where it pays (`refine="auto"`). `method`
 /// also takes "pbsid", "ssarx" (`horizon`/`past`: their past horizon,
 /// `future`: their future horizon) and "iv" (the inputs as instruments: the
-/// open-loop case; `lifted.iv` takes instruments). `threads` is capped at
+/// open-loop case; `lifted.iv` takes instruments). `feedthrough` None: the
+/// method's (N4SID/MOESP/CVA estimate D, the others not); False: D = 0.
+/// `threads` is capped at
 /// the machine's available parallelism (0 = all cores). Returns the dict of
 /// [`identified_dict`].
 #[pyfunction]
 #[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10,
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
-    detrend="mean", remove_means=true, noise_model=true, enforce_stability=false, refine="auto",
-    refine_iterations=100, refine_max_work=2e10, dt=1.0, threads=1))]
+    feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
+    enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
+    threads=1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -86,6 +89,7 @@ pub(crate) fn identify<'py>(
     future: Option<Int>,
     system: Option<&str>,
     bd: &str,
+    feedthrough: Option<bool>,
     detrend: &str,
     remove_means: bool,
     noise_model: bool,
@@ -128,6 +132,7 @@ pub(crate) fn identify<'py>(
     }
     id.estimator = estimator;
     id.bd = BdRoute::parse(bd, "bd")?;
+    id.feedthrough = feedthrough;
     id.noise_model = noise_model;
     id.stable = enforce_stability;
     id.threads = Some(threads);
@@ -268,12 +273,12 @@ pub(crate) fn identified_dict<'py>(
 /// (`lifted identify --method pbsid|ssarx|pbsid-rowwise`): PBSID-opt or SSARX, consistent
 /// on closed-loop records without an external excitation. `past` None:
 /// chosen by Akaike's criterion on the VARX predictor (up to 30); `future`
-/// None: min(past, 10); `feedthrough` false: no D (the closed-loop
+/// None: min(past, 10); `feedthrough` None or false: no D (the closed-loop
 /// default); row-wise PBSID (`variant="pbsid_rowwise"`, `--method
 /// pbsid-rowwise`) likewise. Returns the dict of [`identified_dict`].
 #[pyfunction]
 #[pyo3(signature = (us, ys, variant="pbsid", order=None, max_order=10, past=None, future=None,
-    feedthrough=false, detrend="mean", remove_means=true, refine="auto", refine_iterations=100,
+    feedthrough=None, detrend="mean", remove_means=true, refine="auto", refine_iterations=100,
     refine_max_work=2e10, dt=1.0, threads=1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn pbsid<'py>(
@@ -285,7 +290,7 @@ pub(crate) fn pbsid<'py>(
     max_order: Int,
     past: Option<Int>,
     future: Option<Int>,
-    feedthrough: bool,
+    feedthrough: Option<bool>,
     detrend: &str,
     remove_means: bool,
     refine: &str,

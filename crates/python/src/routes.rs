@@ -24,12 +24,12 @@ use crate::identify::{
 /// of one record or several through the workflow (`lifted identify --method
 /// iv`): `us`, `ys`, `instruments` lists of arrays (N×m, N×p, N×m; an
 /// instrument None uses u, the open-loop case). `alpha` None: the
-/// workflow's α (8); `alpha_p` None: 2α; `feedthrough` false: D = 0 (the
-/// closed-loop default). Returns the dict of `identified_dict` and
+/// workflow's α (8); `alpha_p` None: 2α; `feedthrough` None or false: D = 0
+/// (the closed-loop default). Returns the dict of `identified_dict` and
 /// `stabilized`.
 #[pyfunction]
 #[pyo3(signature = (us, ys, instruments, order=None, max_order=10, alpha=None, alpha_p=None,
-    feedthrough=false,
+    feedthrough=None,
     order_criterion="validation", detrend="mean", remove_means=true, enforce_stability=false,
     require_stable=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0))]
 #[allow(clippy::too_many_arguments)]
@@ -42,7 +42,7 @@ pub(crate) fn iv<'py>(
     max_order: Int,
     alpha: Option<Int>,
     alpha_p: Option<Int>,
-    feedthrough: bool,
+    feedthrough: Option<bool>,
     order_criterion: &str,
     detrend: &str,
     remove_means: bool,

@@ -55,6 +55,8 @@ CASES: list[tuple[str, list[str], dict[str, Any]]] = [
      {"detrend": "linear", "order": 3}),
     ("refine pem", ["--method", "n4sid", "--order", "3", "--refine", "pem"],
      {"order": 3, "refine": "pem"}),
+    ("D = 0", ["--method", "n4sid", "--order", "3", "--feedthrough", "false"],
+     {"order": 3, "feedthrough": False}),
 ]
 
 

@@ -226,12 +226,15 @@ pub struct IdentificationOptions {
     /// (default 2α, erratum L-16). Other methods: not used (an error when
     /// given).
     pub instrument_past: Option<usize>,
-    /// PBSID/SSARX and single-rate IV: estimate a direct feedthrough D
-    /// (default false: D = 0, the closed-loop default, since an estimated D
-    /// is biased when the controller reacts within the sample: the noise
-    /// reaches u in the same sample and D takes it). Other methods: not used
-    /// (an error when set).
-    pub feedthrough: bool,
+    /// Estimate a direct feedthrough D (`Some(true)`) or fix D = 0
+    /// (`Some(false)`); `None` the method's default: single-rate N4SID,
+    /// MOESP and CVA estimate it, PBSID/SSARX and single-rate IV do not
+    /// (the closed-loop default: an estimated D is biased when the
+    /// controller reacts within the sample, the noise reaching u in the
+    /// same sample). A strictly proper model (D = 0) is what MPC designs
+    /// take. Multirate records and the q-Markov Cover: not used (an error
+    /// when set).
+    pub feedthrough: Option<bool>,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,
     /// (B, D, x₀) route of the subspace methods (default [`BdRoute::Auto`]).
@@ -273,7 +276,7 @@ impl Default for IdentificationOptions {
             horizon: None,
             future: None,
             instrument_past: None,
-            feedthrough: false,
+            feedthrough: None,
             estimator: Estimator::Auto,
             bd: BdRoute::Auto,
             stable: false,
@@ -464,10 +467,10 @@ impl WorkflowOptions {
                 "only used with the pbsid and ssarx methods (the others take one horizon)",
             ));
         }
-        if id.feedthrough && !pbsid && id.method != Method::Iv {
+        if id.feedthrough.is_some() && id.method == Method::Qmarkov {
             return Err(Error::option(
                 "feedthrough",
-                "only used with the pbsid, ssarx and iv methods",
+                "not used by the qmarkov method (its D is the first Markov parameter)",
             ));
         }
         if id.instrument_past.is_some() && id.method != Method::Iv {

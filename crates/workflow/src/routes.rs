@@ -171,6 +171,7 @@ pub(crate) fn subspace_options(
         remove_means,
         noise_model: id.noise_model,
         enforce_stability: stabilized_start(opts),
+        feedthrough: subspace_feedthrough(id),
         ts,
         threads: id.threads.unwrap_or(1),
         ..Default::default()
@@ -811,6 +812,13 @@ pub(crate) fn multirate(
 ) -> Result<(RouteFit, Option<StateSpace>)> {
     let wf = opts;
     let id = &opts.identification;
+    if id.feedthrough.is_some() {
+        return Err(Error::option(
+            "feedthrough",
+            "only used with single-rate records: the multirate routes estimate the lifted \
+             feedthrough (the fast model's first Markov parameters) from their causal mask",
+        ));
+    }
     let stable = stabilized_start(opts);
     gap_only(id)?;
     let data = single(sets, "multirate identification")?;
@@ -1732,7 +1740,7 @@ fn gap_fallback<M>(
 /// The feedthrough of the closed-loop capable routes (PBSID/SSARX,
 /// single-rate IV): estimated only when asked for.
 fn feedthrough_of(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
-    if id.feedthrough {
+    if id.feedthrough == Some(true) {
         lifted_subspace::Feedthrough::Free
     } else {
         lifted_subspace::Feedthrough::Zero
@@ -1741,11 +1749,23 @@ fn feedthrough_of(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
 
 /// `diagnostics.feedthrough` of the closed-loop capable routes.
 fn feedthrough_json(id: &IdentificationOptions) -> serde_json::Value {
-    json!(if id.feedthrough {
-        "D estimated (feedthrough asked for)"
-    } else {
-        "D = 0 (the closed-loop default: an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
+    json!(match id.feedthrough {
+        Some(true) => "D estimated (feedthrough asked for)",
+        Some(false) => "D = 0 (asked for)",
+        None => {
+            "D = 0 (the closed-loop default: an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
+        }
     })
+}
+
+/// The feedthrough of the single-rate N4SID / MOESP / CVA routes:
+/// estimated unless D = 0 is asked for.
+pub(crate) fn subspace_feedthrough(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
+    if id.feedthrough == Some(false) {
+        lifted_subspace::Feedthrough::Zero
+    } else {
+        lifted_subspace::Feedthrough::Free
+    }
 }
 
 pub(crate) fn iv(
@@ -1759,7 +1779,7 @@ pub(crate) fn iv(
     let stable = stabilized_start(opts);
     let order = order_of(id);
     if multirate {
-        if id.feedthrough {
+        if id.feedthrough.is_some() {
             return Err(Error::option(
                 "feedthrough",
                 "only used with single-rate records: the multirate IV estimates the lifted \

@@ -291,7 +291,8 @@ fn bad_options_are_named() {
     o.identification.future = Some(5);
     assert_eq!(named(&o), "future");
     let mut o = WorkflowOptions::default();
-    o.identification.feedthrough = true;
+    o.identification.method = Method::Qmarkov;
+    o.identification.feedthrough = Some(false);
     assert_eq!(named(&o), "feedthrough");
     let mut o = WorkflowOptions::default();
     o.identification.method = Method::Pbsid;
@@ -917,7 +918,7 @@ fn the_per_method_options_reach_their_routes() {
             assert_ne!(fit(&f).a(), plain.a(), "{method:?}: future");
         }
         let mut d = o.clone();
-        d.identification.feedthrough = true;
+        d.identification.feedthrough = Some(true);
         assert!(
             fit(&d).d().iter().any(|&v| v != 0.0),
             "{method:?}: feedthrough"
@@ -928,6 +929,30 @@ fn the_per_method_options_reach_their_routes() {
     let plain = fit(&o);
     o.identification.instrument_past = Some(30);
     assert_ne!(fit(&o).a(), plain.a(), "instrument_past");
+    // N4SID, MOESP and CVA estimate D unless D = 0 is asked for (a strictly
+    // proper model, as the MPC designs take), in memory and streamed.
+    for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+        let mut o = base.clone();
+        o.identification.method = method;
+        assert!(fit(&o).d().iter().any(|&v| v != 0.0), "{method:?}: D");
+        o.identification.feedthrough = Some(false);
+        let zero = fit(&o);
+        assert!(zero.d().iter().all(|&v| v == 0.0), "{method:?}: D = 0");
+        let mut src = Blocks {
+            u: u.clone(),
+            y: y.clone(),
+            passes: 0,
+        };
+        let streamed = identify_streamed(&mut src, &o)
+            .expect("streamed")
+            .expect("a streamed model")
+            .file
+            .model;
+        assert!(
+            streamed.d().iter().all(|&v| v == 0.0),
+            "{method:?}: streamed D = 0"
+        );
+    }
 }
 
 /// A closed loop whose controller reacts within the sample: the plant
@@ -993,7 +1018,7 @@ fn the_closed_loop_iv_keeps_d_zero_unless_asked() {
         "{}",
         fit.file.diagnostics
     );
-    o.identification.feedthrough = true;
+    o.identification.feedthrough = Some(true);
     let free = identify(&rec, &o).expect("identify with D");
     assert!(free.file.model.d()[0] != 0.0);
 }

@@ -223,6 +223,7 @@ def identify(
     future: int | None = None,
     system: SystemEstimate | None = None,
     bd: BdRoute = "auto",
+    feedthrough: bool | None = None,
     detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
@@ -279,6 +280,10 @@ def identify(
       apart, the median block agreeing; when they do not, the subspace
       model stays), else (longer records, costly checks, multirate records)
       on the records (``diagnostics["refinement_judge"]``).
+    * ``feedthrough``: ``False`` fixes D = 0 (a strictly proper model, as
+      MPC designs take; ``--feedthrough false``), ``True`` estimates D;
+      None the method's default (N4SID/MOESP/CVA estimate it, PBSID/SSARX
+      and IV do not). Multirate records: not used.
     * ``enforce_stability``: the stabilised estimate (``--stable``).
     * ``method="pbsid"`` / ``"ssarx"`` / ``"pbsid_rowwise"``: the predictor-based closed-loop
       methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past
@@ -308,7 +313,8 @@ def identify(
     us, ys = _records(u, y)
     d = _identify(
         us, ys, method, order=order, max_order=max_order, order_criterion=order_criterion,
-        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
+        horizon=horizon, past=past, future=future, system=system, bd=bd,
+        feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
         enforce_stability=enforce_stability, refine=refine,
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
@@ -344,7 +350,7 @@ def pbsid(
     max_order: int = 10,
     past: int | None = None,
     future: int | None = None,
-    feedthrough: bool = False,
+    feedthrough: bool | None = None,
     detrend: Detrend = "mean",
     remove_means: bool = True,
     refine: Refine = "auto",
@@ -368,7 +374,7 @@ def pbsid(
     dependent given the past inputs, e.g. an output that is a noise-free
     combination of the others); ``future`` (``--future``) None is
     min(past, 10) (10 with Akaike's past, or the longest a record too
-    short for 10 supports, with a warning); ``feedthrough`` False (no D,
+    short for 10 supports, with a warning); ``feedthrough`` None or False (no D,
     ``--feedthrough`` to estimate it) is the closed-loop default, since an
     estimated D is biased when the controller reacts within the sample.
     ``order`` None: the order of best held-out simulation fit up to
@@ -406,6 +412,7 @@ def n4sid(
     future: int | None = None,
     system: SystemEstimate | None = None,
     bd: BdRoute = "auto",
+    feedthrough: bool | None = None,
     detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
@@ -419,7 +426,8 @@ def n4sid(
     """:func:`identify` with ``method="n4sid"``."""
     return identify(
         u, y, "n4sid", order=order, max_order=max_order, order_criterion=order_criterion,
-        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
+        horizon=horizon, past=past, future=future, system=system, bd=bd,
+        feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
         enforce_stability=enforce_stability, refine=refine,
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
@@ -439,6 +447,7 @@ def moesp(
     future: int | None = None,
     system: SystemEstimate | None = None,
     bd: BdRoute = "auto",
+    feedthrough: bool | None = None,
     detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
@@ -452,7 +461,8 @@ def moesp(
     """:func:`identify` with ``method="moesp"``."""
     return identify(
         u, y, "moesp", order=order, max_order=max_order, order_criterion=order_criterion,
-        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
+        horizon=horizon, past=past, future=future, system=system, bd=bd,
+        feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
         enforce_stability=enforce_stability, refine=refine,
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
@@ -472,6 +482,7 @@ def cva(
     future: int | None = None,
     system: SystemEstimate | None = None,
     bd: BdRoute = "auto",
+    feedthrough: bool | None = None,
     detrend: Detrend = "mean",
     remove_means: bool = True,
     noise_model: bool = True,
@@ -485,7 +496,8 @@ def cva(
     """:func:`identify` with ``method="cva"``."""
     return identify(
         u, y, "cva", order=order, max_order=max_order, order_criterion=order_criterion,
-        horizon=horizon, past=past, future=future, system=system, bd=bd, detrend=detrend,
+        horizon=horizon, past=past, future=future, system=system, bd=bd,
+        feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, noise_model=noise_model,
         enforce_stability=enforce_stability, refine=refine,
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
@@ -502,7 +514,7 @@ def iv(
     max_order: int = 10,
     alpha: int | None = None,
     alpha_p: int | None = None,
-    feedthrough: bool = False,
+    feedthrough: bool | None = None,
     order_criterion: OrderCriterion = "validation",
     detrend: Detrend = "mean",
     remove_means: bool = True,
