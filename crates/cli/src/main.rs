@@ -43,12 +43,59 @@ fn resources(c: &Command) -> Option<&ResourceArgs> {
     }
 }
 
+/// The files a command reads and the one it writes.
+fn files(c: &Command) -> (Vec<&str>, Option<&str>) {
+    fn one(s: &Option<String>) -> Vec<&str> {
+        s.iter().map(String::as_str).collect()
+    }
+    match c {
+        Command::Simulate(a) => (vec![&a.model, &a.input], Some(&a.out)),
+        Command::Identify(a) => (a.data.iter().map(String::as_str).collect(), Some(&a.out)),
+        Command::Closedloop(a) => {
+            let mut v = one(&a.h1);
+            v.extend(one(&a.h2));
+            v.extend(one(&a.controller));
+            (v, Some(&a.out))
+        }
+        Command::Mpc(a) => {
+            let mut v = vec![a.model.as_str()];
+            v.extend(one(&a.plant));
+            (v, Some(&a.out))
+        }
+        Command::Convert(a) => (vec![&a.model], a.out.as_deref()),
+        Command::Bode(a) => (vec![&a.model], a.out.as_deref()),
+        Command::Step(a) => (vec![&a.model], Some(&a.out)),
+        Command::Report(a) => (vec![&a.model, &a.data], Some(&a.out)),
+        _ => (Vec::new(), None),
+    }
+}
+
+/// Refuses an `--out` that names one of the command's own input files
+/// (`identify --data d.csv --out d.csv` replaced the data by the model).
+fn refuse_overwriting_inputs(c: &Command) -> CliResult<()> {
+    let (inputs, Some(out)) = files(c) else {
+        return Ok(());
+    };
+    let Ok(out_path) = std::fs::canonicalize(out) else {
+        return Ok(()); // not there yet: nothing to overwrite
+    };
+    for f in inputs {
+        if std::fs::canonicalize(f).is_ok_and(|p| p == out_path) {
+            return Err(error::input(format!(
+                "--out {out} is the input file {f}: writing it would destroy the input; give another --out"
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> CliResult<()> {
     // --memory-limit overrides LIFTED_MEMORY_LIMIT for every budget check
     // of this process (lifted_linalg::budget::MemoryBudget::default).
     if let Some(bytes) = resources(&cli.command).and_then(|r| r.memory_limit) {
         lifted_linalg::budget::MemoryBudget::set_process_default(bytes);
     }
+    refuse_overwriting_inputs(&cli.command)?;
     match cli.command {
         Command::Prbs(a) => signals::prbs(&a),
         Command::Rbs(a) => signals::rbs(&a),

@@ -4294,3 +4294,31 @@ fn a_reader_that_stops_early_ends_the_command_quietly() {
         );
     }
 }
+
+#[test]
+fn an_output_file_that_is_an_input_is_refused() {
+    // `identify --data d.csv --out d.csv` replaced the data by the model
+    // (exit 0); `report`/`mpc` likewise overwrote their inputs.
+    let dir = tmp("clobber");
+    let (data, _) = single_rate_data(&dir);
+    let before = std::fs::read(&data).unwrap();
+    let msg = fails(
+        &[
+            "identify", "--data", &data, "--inputs", "u1", "--outputs", "y1", "--out", &data,
+        ],
+        2,
+    );
+    assert!(msg.contains("is the input file"), "{msg}");
+    assert_eq!(std::fs::read(&data).unwrap(), before, "the data are kept");
+    let model = p(&dir, "m.json");
+    ok(&[
+        "identify", "--data", &data, "--inputs", "u1", "--outputs", "y1", "--order", "2",
+        "--out", &model,
+    ]);
+    let msg = fails(
+        &["report", "--model", &model, "--data", &data, "--out", &model],
+        2,
+    );
+    assert!(msg.contains("is the input file"), "{msg}");
+    ModelFile::read(&model).expect("the model is kept");
+}
