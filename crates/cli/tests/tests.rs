@@ -4304,7 +4304,15 @@ fn an_output_file_that_is_an_input_is_refused() {
     let before = std::fs::read(&data).unwrap();
     let msg = fails(
         &[
-            "identify", "--data", &data, "--inputs", "u1", "--outputs", "y1", "--out", &data,
+            "identify",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &data,
         ],
         2,
     );
@@ -4312,11 +4320,22 @@ fn an_output_file_that_is_an_input_is_refused() {
     assert_eq!(std::fs::read(&data).unwrap(), before, "the data are kept");
     let model = p(&dir, "m.json");
     ok(&[
-        "identify", "--data", &data, "--inputs", "u1", "--outputs", "y1", "--order", "2",
-        "--out", &model,
+        "identify",
+        "--data",
+        &data,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--order",
+        "2",
+        "--out",
+        &model,
     ]);
     let msg = fails(
-        &["report", "--model", &model, "--data", &data, "--out", &model],
+        &[
+            "report", "--model", &model, "--data", &data, "--out", &model,
+        ],
         2,
     );
     assert!(msg.contains("is the input file"), "{msg}");

@@ -539,11 +539,43 @@ pub fn refine(
     if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)
     {
+        let note = format!(
+            "the refinement stopped at its work bound after {cap} iterations (refine_max_work, --refine-max-work: {:.1e} operations), before convergence: raise it for this record",
+            opts.max_work
+        );
+        // The default refinement is an improvement where it pays, bounded by
+        // design: said in the diagnostics, not as a warning (a standard
+        // 4800-sample record printed it on every run).
+        if decided {
+            if let Some(obj) = diagnostics.as_object_mut() {
+                obj.insert("refinement_note".into(), json!(note));
+            }
+        } else {
+            push_warning(&mut diagnostics, note);
+        }
+    }
+    // A refinement asked for and not kept is said (the model written is the
+    // identified one, the same as without the refinement).
+    if !decided && fit.report.kept == Kept::Initial {
+        let why = match diagnostics
+            .get("refinement_judge")
+            .and_then(|j| j.get("decided_by"))
+            .and_then(|d| d.as_str())
+        {
+            Some(JUDGE_HELD_OUT) => ": it simulated held-out blocks worse",
+            Some(JUDGE_NOT_TOLD_APART) => {
+                ": its held-out blocks do not tell it from the identified model"
+            }
+            _ => ": it did not simulate the records better",
+        };
+        let cost_name = match cost {
+            PemCost::Prediction => "prediction-error (pem)",
+            PemCost::OutputError => "output-error (oe)",
+        };
         push_warning(
             &mut diagnostics,
             format!(
-                "--refine stopped by its work bound after {cap} iterations (--refine-max-work {:.1e} operations), before convergence: raise --refine-max-work for this record",
-                opts.max_work
+                "the {cost_name} refinement asked for was not kept{why}; the model written is the identified one (diagnostics.refinement_judge has the fits)"
             ),
         );
     }

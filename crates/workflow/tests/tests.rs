@@ -1042,6 +1042,36 @@ fn siso_record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) 
 }
 
 #[test]
+fn a_refinement_asked_for_and_not_kept_is_said() {
+    // `--refine oe` on a record the subspace model already fits to its
+    // noise: the held-out blocks do not tell the two apart, the identified
+    // model is written, and a warning says so (the command printed only
+    // "wrote m.json": the same model as `--refine none`, without a word).
+    let (u, y) = siso_record(1200, 0.01, 2);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(2);
+    opts.refinement.refine = Refine::Oe;
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["refinement"]["kept"], serde_json::json!("Initial"), "{d}");
+    let said = d["warnings"].as_array().is_some_and(|w| {
+        w.iter().any(|m| {
+            m.as_str()
+                .is_some_and(|m| m.contains("refinement asked for was not kept"))
+        })
+    });
+    assert!(said, "{d}");
+    // The default refinement steps aside without a warning.
+    opts.refinement.refine = Refine::Auto;
+    let d = identify(&records, &opts)
+        .expect("identify")
+        .file
+        .diagnostics;
+    assert!(!d.to_string().contains("asked for was not kept"), "{d}");
+}
+
+#[test]
 fn the_refinement_is_judged_on_held_out_blocks() {
     // Heavy output noise and a short horizon: the subspace models of the
     // six folds are poor, their refinements near the noise floor, so the
