@@ -312,12 +312,28 @@ impl PyStateSpace {
     }
 
     /// Frequency response at `omega` (rad/s): complex array (len(omega), p, m).
+    /// A discrete model's frequencies are at most the Nyquist frequency π/T
+    /// (above it the response repeats that of an alias, as `lifted bode`
+    /// refuses too).
     fn freqresp<'py>(
         &self,
         py: Python<'py>,
         omega: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray3<Complex64>>> {
         let w = vector(omega, "omega")?;
+        if let Some(ts) = self.inner.ts() {
+            let nyquist = std::f64::consts::PI / ts;
+            if let Some(bad) = w.iter().find(|&&v| v.abs() > nyquist * (1.0 + 1e-12)) {
+                return Err(crate::errors::arg_error(
+                    "omega",
+                    format!(
+                        "{bad} rad/s is above the Nyquist frequency π/T = {nyquist:.6} rad/s of \
+                         the discrete model (T = {ts} s): its response there repeats that of an \
+                         alias below π/T"
+                    ),
+                ));
+            }
+        }
         let s = self.inner.clone();
         let h = py.detach(move || s.freqresp(&w)).map_err(err)?;
         let (p, m) = (self.inner.n_outputs(), self.inner.n_inputs());

@@ -42,6 +42,16 @@ pub fn bode_grid(
         Some(ts) => std::f64::consts::PI / ts,
         None => 10.0 * fast,
     });
+    if let (Some(w), Some(ts)) = (wmax, m.ts())
+        && w > crate::service::analysis::nyquist(ts) * (1.0 + 1e-12)
+    {
+        return Err(input(format!(
+            "bode: --wmax {w} rad/s is above the Nyquist frequency π/T = {:.6} rad/s of the \
+             discrete model (T = {ts} s); a discrete model's response there repeats that of \
+             an alias below π/T (the default --wmax is π/T)",
+            crate::service::analysis::nyquist(ts)
+        )));
+    }
     let lo = wmin.unwrap_or((slow / 10.0).min(hi / 100.0));
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
         return Err(input(format!(
