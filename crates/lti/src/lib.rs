@@ -105,4 +105,6 @@ pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;
 pub use tf::{FeedbackSign, SisoTf, TransferFunction};
-pub use validation::{InitialCondition, OutputValidation, Validation, ValidationOptions, validate};
+pub use validation::{
+    InitialCondition, OutputValidation, Residual, Validation, ValidationOptions, validate,
+};

@@ -8,7 +8,12 @@
 //!   least squares (by default, as MATLAB's `compare`; a slow plant's
 //!   transient from x₀ = 0 would otherwise dominate the fit) or from zero
 //!   ([`InitialCondition`]);
-//! * whiteness: r_e(τ)/r_e(0), τ = 1…M, of the centred residual e = y − ŷ;
+//! * whiteness: r_e(τ)/r_e(0), τ = 1…M, of the centred residual e: the
+//!   one-step prediction error y − ŷ(k|k−1) of the model with its Kalman
+//!   gain (single-rate records; as MATLAB's `resid`: a model with a noise
+//!   model is judged by its innovations, which are white when it is
+//!   right), else the simulation error y − ŷ (an output-error model's
+//!   prediction error) — [`Validation::residual`] says which;
 //! * independence: r_eu(τ)/√(r_e(0) r_u(0)), τ = −M…M, per input;
 //! * both pass when at most max(1, ⌈len/100⌉) correlations leave the 99 %
 //!   band ±2.576/√N (N residual samples).
@@ -107,11 +112,32 @@ pub struct OutputValidation {
     pub simulated: Vec<f64>,
 }
 
+/// The residual the whiteness and independence tests are computed on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Residual {
+    /// The one-step prediction error with the model's Kalman gain.
+    OneStepPrediction,
+    /// The simulation error (no Kalman gain, or a multirate record).
+    Simulation,
+}
+
+impl Residual {
+    /// A short name: "one-step prediction" or "simulation".
+    pub fn name(self) -> &'static str {
+        match self {
+            Residual::OneStepPrediction => "one-step prediction",
+            Residual::Simulation => "simulation",
+        }
+    }
+}
+
 /// Validation of a model on a data set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Validation {
     /// Per output, in the data set's order.
     pub outputs: Vec<OutputValidation>,
+    /// The residual of the whiteness and independence tests.
+    pub residual: Residual,
     /// Lags M.
     pub lags: usize,
     /// Horizons of the prediction fits (empty when no gain was used).
@@ -268,6 +294,20 @@ pub fn validate(
             .collect::<Result<_>>()?,
         None => Vec::new(),
     };
+    // The tests' residual: the innovations of the model with its gain on a
+    // single-rate record, else the simulation error.
+    let one_step: Option<DMatrix<f64>> = match gain {
+        Some(k) if data.is_single_rate() => match opts.horizons.iter().position(|&h| h == 1) {
+            Some(i) => Some(predictions[i].clone()),
+            None => Some(op.add_output(&m.predict_from(k, &du, &dy, 1, x0.as_ref())?)?),
+        },
+        _ => None,
+    };
+    let residual = if one_step.is_some() {
+        Residual::OneStepPrediction
+    } else {
+        Residual::Simulation
+    };
     let lags = opts.lags;
     let mut outputs = Vec::with_capacity(data.n_outputs());
     for (o, ch) in data.outputs().iter().enumerate() {
@@ -283,7 +323,11 @@ pub fn validate(
             });
         }
         let yhat: Vec<f64> = idx.iter().map(|&k| sim[(k, o)]).collect();
-        let e: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+        let sim_error: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+        let e: Vec<f64> = match &one_step {
+            Some(p) => idx.iter().zip(&y).map(|(&k, a)| a - p[(k, o)]).collect(),
+            None => sim_error.clone(),
+        };
         let prediction_fits = predictions
             .iter()
             .map(|p| {
@@ -291,7 +335,8 @@ pub fn validate(
                 fit_percent(&y, &yp)
             })
             .collect();
-        let residual_finite = e.iter().all(|v| v.is_finite());
+        let residual_finite =
+            e.iter().all(|v| v.is_finite()) && sim_error.iter().all(|v| v.is_finite());
         let ec = centred(&e);
         let r0 = corr(&ec, &ec, 0);
         let auto: Vec<f64> = (1..=lags as i64)
@@ -347,6 +392,7 @@ pub fn validate(
     }
     Ok(Validation {
         outputs,
+        residual,
         spectral_radius,
         x0,
         lags,
@@ -631,6 +677,42 @@ mod tests {
         .unwrap();
         let w = validate(&wrong, &data(u, y, 1), &Default::default()).unwrap();
         assert!(w.outputs[0].fit < 90.0);
+    }
+
+    /// An innovations model, x⁺ = 0.8 x + u + 0.6 e, y = 0.5 x + e: with
+    /// its Kalman gain the tests run on the one-step prediction errors (the
+    /// innovations e: white, independent of u); without it on the
+    /// simulation error, the coloured noise (1 + 0.3 q⁻¹/(1 − 0.8 q⁻¹)) e,
+    /// which is not white. The tests ran on the simulation error with the
+    /// gain too, and a right model with its noise model never passed.
+    #[test]
+    fn a_model_with_its_gain_is_tested_on_its_innovations() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let n = 4000;
+        let mut g = || 12f64.sqrt() * (rng.random::<f64>() - 0.5);
+        let u = DMatrix::from_fn(n, 1, |_, _| g());
+        let e: Vec<f64> = (0..n).map(|_| 0.3 * g()).collect();
+        let (mut x, mut y) = (0.0, DMatrix::zeros(n, 1));
+        for k in 0..n {
+            y[(k, 0)] = 0.5 * x + e[k];
+            x = 0.8 * x + u[(k, 0)] + 0.6 * e[k];
+        }
+        let d = data(u, y, 1);
+        let with_gain = ValidationOptions {
+            kalman_gain: Some(DMatrix::from_element(1, 1, 0.6)),
+            ..Default::default()
+        };
+        let v = validate(&lag(), &d, &with_gain).unwrap();
+        assert_eq!(v.residual, Residual::OneStepPrediction);
+        assert!(
+            v.outputs[0].white && v.outputs[0].independent,
+            "{:?}",
+            v.outputs[0].auto
+        );
+        let v = validate(&lag(), &d, &ValidationOptions::default()).unwrap();
+        assert_eq!(v.residual, Residual::Simulation);
+        assert!(!v.outputs[0].white, "{:?}", v.outputs[0].auto);
     }
 
     /// Multirate: only the measured samples are compared.

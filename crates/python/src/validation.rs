@@ -109,6 +109,7 @@ pub(crate) fn validate<'py>(
         .collect::<PyResult<Vec<_>>>()?;
     out.set_item("outputs", rows)?;
     out.set_item("lags", v.lags)?;
+    out.set_item("residual", v.residual.name())?;
     out.set_item("stable", v.stable())?;
     out.set_item("horizons", v.horizons)?;
     out.set_item("spectral_radius", v.spectral_radius)?;

@@ -16,8 +16,9 @@ pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
     let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
     print_table(&TABLE_HEADER, &rows);
     println!(
-        "({} lags; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
-        v.lags
+        "({} lags of the {} residual; a test passes with at most ⌈1% of the lags⌉ outside the 99% bound ±2.576/√N)",
+        v.lags,
+        v.residual.name()
     );
     println!(
         "{}",

@@ -143,9 +143,10 @@ pub fn render(
     }
     body += &html_table(&TABLE_HEADER, &rows, Some(6));
     body += &format!(
-        "<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖) with ŷ simulated {1}; residual autocorrelation over τ = 1…{0} and input–residual cross-correlation over τ = −{0}…{0}, 99 % bound ±2.576/√N.</p>\n",
+        "<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖) with ŷ simulated {1}; autocorrelation of the {2} residual over τ = 1…{0} and input–residual cross-correlation over τ = −{0}…{0}, 99 % bound ±2.576/√N.</p>\n",
         v.lags,
-        start_of(v)
+        start_of(v),
+        v.residual.name()
     );
     Ok(page("Lifted identification report", &body))
 }

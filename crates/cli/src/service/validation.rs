@@ -3,14 +3,17 @@
 //! and residual tests.
 //!
 //! * fit % per output: 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖), ŷ the model's simulated
-//!   response to the measured input from a zero initial state, compared at
-//!   the instants the output is sampled; with an operating point in the
-//!   model file ŷ = y₀ + G(u − u₀);
+//!   response to the measured input from the initial state fitted to the
+//!   record (`--initial-state zero`: from rest), compared at the instants
+//!   the output is sampled; with an operating point in the model file
+//!   ŷ = y₀ + G(u − u₀);
 //! * k-step-ahead prediction fit (k = 1, 5; k = ∞ is the simulation fit)
 //!   with the model file's Kalman gain ([`lifted_lti::StateSpace::predict`]),
 //!   when the file has one;
 //! * whiteness: normalised autocorrelation r_e(τ)/r_e(0), τ = 1…M, of the
-//!   residual e = y − ŷ (at the output's own sampling instants);
+//!   residual e (at the output's own sampling instants): the one-step
+//!   prediction error with the file's Kalman gain on a single-rate record
+//!   (as MATLAB's `resid`), else the simulation error y − ŷ;
 //! * independence: normalised cross-correlation r_eu(τ)/√(r_e(0) r_u(0)),
 //!   τ = −M…M, between each input (at the output's instants) and e.
 //!

@@ -185,8 +185,12 @@ class Validation(_Result):
     #: The initial state the simulation started from when it was estimated
     #: (``initial_state="estimate"`` on a stable model); ``None`` for rest.
     x0: FloatArray | None = None
+    #: The residual of the whiteness and independence tests: ``"one-step
+    #: prediction"`` (the innovations of a model with its Kalman gain on a
+    #: single-rate record, as MATLAB's ``resid``) or ``"simulation"``.
+    residual: str = "simulation"
 
-    _shown = ("outputs", "horizons", "stable")
+    _shown = ("outputs", "horizons", "stable", "residual")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
