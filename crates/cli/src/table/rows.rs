@@ -3,11 +3,14 @@
 
 use super::*;
 
+/// How far a row's time step may be from the mean spacing of the rows
+/// before it, relative to that spacing.
+pub(crate) const TIME_STEP_TOLERANCE: f64 = 0.1;
+
 /// Row count and time-column checks shared by the CSV and `.npy` readers.
 pub(crate) struct RowCheck {
     pub(super) ts: Option<f64>,
     pub(super) t0: f64,
-    pub(super) t1: f64,
     pub(super) t_last: f64,
     /// Rows accepted so far.
     pub(crate) rows: usize,
@@ -19,7 +22,6 @@ impl RowCheck {
         RowCheck {
             ts,
             t0: f64::NAN,
-            t1: f64::NAN,
             t_last: f64::NAN,
             rows: 0,
         }
@@ -30,8 +32,12 @@ impl RowCheck {
         self.ts.is_none()
     }
 
-    /// Checks time `t` of the next row against the spacing of the first two;
-    /// `at` locates the row in messages ("line 7", "row 5").
+    /// Checks time `t` of the next row: its step from the previous row
+    /// within [`TIME_STEP_TOLERANCE`] of the mean spacing of the rows
+    /// before, so that times rounded as loggers write them (milliseconds
+    /// at 30 Hz: steps of 0.033 and 0.034 s) or stored in single precision
+    /// pass, while a missing, repeated or out-of-order row does not; `at`
+    /// locates the row in messages ("line 7", "row 5").
     #[inline]
     pub(crate) fn time(
         &mut self,
@@ -42,13 +48,14 @@ impl RowCheck {
     ) -> CliResult<()> {
         match self.rows {
             0 => self.t0 = t,
-            1 => self.t1 = t,
+            1 => {}
             rows => {
-                let dt = self.t1 - self.t0;
-                let expect = self.t0 + rows as f64 * dt;
-                if (t - expect).abs() > 1e-6 * dt.abs().max(1e-300) + 1e-9 * expect.abs() {
+                let mean = (self.t_last - self.t0) / (rows - 1) as f64;
+                let step = t - self.t_last;
+                if !((step - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs()) {
                     return Err(input(format!(
-                        "{path}: {at}, column '{column}': time {t} breaks the uniform spacing {dt} (expected {expect}); give --ts to ignore the time column"
+                        "{path}: {at}, column '{column}': time {t} is {step} after the row before, not the spacing {mean} of the rows so far (within {} %): a missing, repeated or out-of-order row? give --ts to ignore the time column",
+                        TIME_STEP_TOLERANCE * 100.0
                     )));
                 }
             }

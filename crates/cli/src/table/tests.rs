@@ -502,8 +502,26 @@ fn each_error_message() {
         );
         assert_eq!(
             err(&t("t,u1,y1\n0,1,2\n0.1,1,2\n0.25,1,2\n"), io, 1..2, None),
-            "F: line 4, column 't': time 0.25 breaks the uniform spacing 0.1 (expected 0.2); give --ts to ignore the time column"
+            "F: line 4, column 't': time 0.25 is 0.15 after the row before, not the spacing 0.1 of the rows so far (within 10 %): a missing, repeated or out-of-order row? give --ts to ignore the time column"
         );
+        // Times as loggers round them (milliseconds at 30 Hz) or single
+        // precision stores them: the period from the whole column.
+        let rounded: String = (0..90)
+            .map(|k| format!("{:.3},1,{}\n", k as f64 / 30.0, k % 7))
+            .collect();
+        let scan = |text: &str| {
+            let path = file("times.csv", text.as_bytes());
+            let (rows, ts, _) = run(&path, io, 1..2, None, Some(Mode::default())).expect("read");
+            (rows, f64::from_bits(ts))
+        };
+        let (rows, ts) = scan(&t(&format!("t,u1,y1\n{rounded}")));
+        assert_eq!(rows, 90);
+        assert!((ts - 1.0 / 30.0).abs() < 1e-5, "{ts}");
+        let single: String = (0..50)
+            .map(|k| format!("{},1,{}\n", (k as f32 * 0.08f32) as f64, k % 5))
+            .collect();
+        let (_, ts) = scan(&t(&format!("t,u1,y1\n{single}")));
+        assert!((ts - 0.08).abs() < 1e-7, "{ts}");
         assert_eq!(
             err(&t("t,u1,y1\n0,1,2\n,1,2\n"), io, 1..2, None),
             "F: line 3, column 't': empty cell (only output columns may have empty cells)"
@@ -671,7 +689,7 @@ fn iso_time_stamps_give_the_base_period() {
     let path = file("jitter.csv", jitter.as_bytes());
     let e = run(&path, &["u1", "y1"], 1..2, None, Some(Mode::default())).unwrap_err();
     assert!(
-        e.contains("line 4, column 'time'") && e.contains("uniform spacing"),
+        e.contains("line 4, column 'time'") && e.contains("not the spacing"),
         "{e}"
     );
     let path = file("bad_time.csv", "t,u1,y1\n0,1,2\n1 s,3,4\n".as_bytes());
@@ -907,7 +925,7 @@ fn parallel_errors_late_in_the_file() {
         );
         let e = reference.unwrap_err().replace(&path, "F");
         assert!(
-            e.starts_with(&format!("F: line {}, column 't': time 0 breaks", k + 1)),
+            e.starts_with(&format!("F: line {}, column 't': time 0 is ", k + 1)),
             "{e}"
         );
     }
