@@ -236,8 +236,8 @@ pub fn at_rate(model: &StateSpace, ts: f64) -> Result<StateSpace> {
 /// Errors: [`Error::DimensionMismatch`] when the channels differ from the
 /// model's or the operating point's, or the gain is not n × p;
 /// [`Error::DomainMismatch`] for another sample period;
-/// [`Error::InvalidArgument`] when an output has fewer than 2M + 2 samples
-/// or a horizon is 0; simulation errors.
+/// [`Error::InvalidArgument`] when M is 0, an output has fewer than 2M + 2
+/// samples or a horizon is 0; simulation errors.
 pub fn validate(
     model: &StateSpace,
     data: &Dataset,
@@ -254,6 +254,13 @@ pub fn validate(
         return Err(Error::InvalidArgument {
             what: "horizons",
             reason: "a prediction horizon must be at least 1".into(),
+        });
+    }
+    if opts.lags == 0 {
+        // No lag tested would pass both tests with nothing tested.
+        return Err(Error::InvalidArgument {
+            what: "lags",
+            reason: "at least 1 correlation lag is needed for the residual tests".into(),
         });
     }
     let m = at_rate(model, data.ts())?;
@@ -728,6 +735,19 @@ mod tests {
         let v = validate(&lag(), &data(u, y, 3), &Default::default()).unwrap();
         assert_eq!(v.outputs[0].samples, 100);
         assert!((v.outputs[0].fit - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn zero_lags_are_refused() {
+        // Nothing tested passed both tests ("white yes, independent yes").
+        let u = DMatrix::from_fn(100, 1, |k, _| ((k as f64) * 0.37).sin());
+        let y = lag().lsim(&u, None, None).unwrap().y;
+        let opts = ValidationOptions {
+            lags: 0,
+            ..Default::default()
+        };
+        let e = validate(&lag(), &data(u, y, 1), &opts).unwrap_err();
+        assert!(e.to_string().contains("at least 1 correlation lag"), "{e}");
     }
 
     #[test]

@@ -11,6 +11,13 @@ use lifted_cli::terminal::print_table;
 
 /// `lifted validate`.
 pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
+    if let Some(min) = a.min_fit
+        && !(min.is_finite() && min <= 100.0)
+    {
+        return Err(lifted_cli::error::input(format!(
+            "--min-fit {min}: a fit is at most 100 %; give a finite percentage up to 100"
+        )));
+    }
     let (file, data) = load_for_validation(&a.model, &a.data, &a.columns, a.detrend)?;
     let v = validate_model(&file, &data, a.lags, a.initial_state.condition(), &a.data)?;
     let rows: Vec<Vec<String>> = table_rows(&v).into_iter().map(|r| r.to_vec()).collect();
