@@ -53,6 +53,28 @@ impl Dmc {
                 ),
             });
         }
+        // The truncated step response of DMC stands for the plant only when
+        // it settles (an unstable model's response grows past a_N, and the
+        // loop diverged without a word).
+        let rho = model
+            .poles()
+            .map_err(|e| Error::InvalidModel {
+                what: "model",
+                reason: format!("poles: {e}"),
+            })?
+            .iter()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max);
+        if rho >= 1.0 {
+            return Err(Error::InvalidModel {
+                what: "model",
+                reason: format!(
+                    "DMC needs a stable model, whose step response settles within the \
+                     truncation N (spectral radius {rho:.6} ≥ 1); use the state-space law \
+                     (gpc), which predicts from the model's state"
+                ),
+            });
+        }
         // The truncation sizes the step coefficients (N + 1 p×n_u matrices).
         check_horizon_size(
             truncation,

@@ -245,6 +245,20 @@ mod bad_input {
     }
 
     #[test]
+    fn dmc_refuses_an_unstable_model() {
+        // Pole 1.1: the truncated step response does not stand for it (the
+        // loop diverged to y = −6.4 after 40 steps without a word).
+        let unstable = tf(&[1.0], &[1.0, -1.1]);
+        match Dmc::new(&unstable, 50, &MpcOptions::default()) {
+            Err(Error::InvalidModel { reason, .. }) => {
+                assert!(reason.contains("stable model"), "{reason}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(StateSpaceMpc::new(&unstable, &MpcOptions::default()).is_ok());
+    }
+
+    #[test]
     fn dmc_predictions_reject_non_finite_outputs() {
         let d = Dmc::new(&siso(), 50, &MpcOptions::default()).unwrap();
         let bad = DVector::from_element(1, f64::NAN);
