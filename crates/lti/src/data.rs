@@ -223,8 +223,22 @@ pub fn channel_scale<'a>(values: impl IntoIterator<Item = &'a f64>) -> f64 {
         .filter(|v| v.is_finite())
         .collect();
     let n = vals.len().max(1) as f64;
-    let mean = vals.iter().sum::<f64>() / n;
+    let mean = match vals.iter().sum::<f64>() / n {
+        m if m.is_finite() => m,
+        _ => vals.iter().map(|v| v / n).sum::<f64>(),
+    };
     let s = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    if s.is_finite() && s > 0.0 {
+        return s;
+    }
+    // Channels in units near the ends of the double range (|v| ~ 1e160:
+    // the squares overflow, or ~1e-170: they underflow) get their scale
+    // instead of 1, the deviations divided by the largest first.
+    let big = vals.iter().fold(0.0_f64, |m, v| m.max((v - mean).abs()));
+    if !(big.is_finite() && big > 0.0) {
+        return 1.0;
+    }
+    let s = big * (vals.iter().map(|v| ((v - mean) / big).powi(2)).sum::<f64>() / n).sqrt();
     if s.is_finite() && s > 0.0 { s } else { 1.0 }
 }
 
@@ -1251,6 +1265,13 @@ mod tests {
         assert_eq!(channel_scale(&[0.0, f64::NAN, 4.0]), 2.0);
         assert_eq!(channel_scale(&[3.5, 3.5]), 1.0);
         assert_eq!(channel_scale(&[]), 1.0);
+        // Units near the ends of the double range: the squares overflow
+        // (underflow), the scale is still the deviation (it was 1, and a
+        // record in units of 1e160 failed in the refinement's SVD).
+        for unit in [1e160, 1e-170] {
+            let s = channel_scale(&[0.0, 4.0 * unit]);
+            assert!((s / (2.0 * unit) - 1.0).abs() < 1e-15, "{unit}: {s}");
+        }
     }
     use proptest::prelude::*;
 
