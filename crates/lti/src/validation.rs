@@ -168,10 +168,36 @@ pub fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {
         .sum::<f64>()
         .sqrt();
     let nd = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+    if ne.is_finite() && nd.is_finite() && nd > f64::MIN_POSITIVE {
+        return 100.0 * (1.0 - ne / nd);
+    }
+    // Outputs in units near the ends of the double range (the squares
+    // overflow or underflow): the same ratio with every term divided by
+    // the largest deviation from the mean.
+    let big = y.iter().fold(0.0_f64, |m, v| m.max((v - mean).abs()));
+    if !(big.is_finite() && big > 0.0) {
+        return f64::NAN;
+    }
+    let norm =
+        |it: &mut dyn Iterator<Item = f64>| it.map(|v| (v / big).powi(2)).sum::<f64>().sqrt();
+    let ne = norm(&mut y.iter().zip(yhat).map(|(a, b)| a - b));
+    let nd = norm(&mut y.iter().map(|v| v - mean));
     if nd > 0.0 {
         100.0 * (1.0 - ne / nd)
     } else {
         f64::NAN
+    }
+}
+
+/// `v` itself, or divided by its largest magnitude when its squares would
+/// overflow or underflow (values near the ends of the double range): the
+/// normalised correlations do not change.
+fn in_range(v: Vec<f64>) -> Vec<f64> {
+    let big = v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    if big.is_finite() && big > 0.0 && !(1e-150..=1e150).contains(&big) {
+        v.into_iter().map(|x| x / big).collect()
+    } else {
+        v
     }
 }
 
@@ -344,7 +370,7 @@ pub fn validate(
             .collect();
         let residual_finite =
             e.iter().all(|v| v.is_finite()) && sim_error.iter().all(|v| v.is_finite());
-        let ec = centred(&e);
+        let ec = in_range(centred(&e));
         let r0 = corr(&ec, &ec, 0);
         let auto: Vec<f64> = (1..=lags as i64)
             .map(|t| {
@@ -360,7 +386,7 @@ pub fn validate(
         let cross: Vec<Vec<f64>> = (0..data.n_inputs())
             .map(|i| {
                 let u: Vec<f64> = idx.iter().map(|&k| data.u()[(k, i)]).collect();
-                let uc = centred(&u);
+                let uc = in_range(centred(&u));
                 let den = (r0 * corr(&uc, &uc, 0)).sqrt();
                 (-(lags as i64)..=lags as i64)
                     .map(|t| {
@@ -735,6 +761,46 @@ mod tests {
         let v = validate(&lag(), &data(u, y, 3), &Default::default()).unwrap();
         assert_eq!(v.outputs[0].samples, 100);
         assert!((v.outputs[0].fit - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn outputs_near_the_ends_of_the_double_range_are_scored() {
+        // A record in units of 1e160 (1e-170): the same fit and the same
+        // correlations as in units of 1 (they read "n/a: constant output"
+        // and 0: the squares overflowed).
+        let u = DMatrix::from_fn(300, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+        let y = lag()
+            .lsim(&u, None, None)
+            .unwrap()
+            .y
+            .map(|v| v + 0.3 * (v * 7.0).sin());
+        let base = validate(&lag(), &data(u.clone(), y.clone(), 1), &Default::default()).unwrap();
+        for unit in [1e160, 1e-170] {
+            let scaled = StateSpace::new(
+                lag().a().clone(),
+                lag().b().clone(),
+                lag().c() * unit,
+                lag().d().clone(),
+                Some(1.0),
+            )
+            .unwrap();
+            let v = validate(
+                &scaled,
+                &data(u.clone(), y.map(|x| x * unit), 1),
+                &Default::default(),
+            )
+            .unwrap();
+            let (a, b) = (&base.outputs[0], &v.outputs[0]);
+            assert!(
+                (a.fit - b.fit).abs() < 1e-9,
+                "{unit}: {} vs {}",
+                a.fit,
+                b.fit
+            );
+            for (x, z) in a.auto.iter().zip(&b.auto) {
+                assert!((x - z).abs() < 1e-9, "{unit}: {x} vs {z}");
+            }
+        }
     }
 
     #[test]
