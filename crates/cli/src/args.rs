@@ -744,7 +744,8 @@ pub struct MpcArgs {
     /// Slow single-rate MPC: design on the hold model at n·T and update every n samples.
     #[arg(long)]
     pub slow: Option<usize>,
-    /// Set-point steps OUTPUT=VALUE applied at --step-at (others stay 0; repeatable or comma separated).
+    /// Set-point steps OUTPUT=VALUE applied at --step-at (the other outputs' set-points stay at
+    /// the operating point, 0 for a model without one; repeatable or comma separated).
     #[arg(long, allow_hyphen_values = true)]
     pub setpoint: Vec<String>,
     /// Sample at which the set-point steps are applied.

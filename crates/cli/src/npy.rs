@@ -313,6 +313,7 @@ pub fn scan_rows(
     let time_col = time_column(&header);
     let mut check = RowCheck::new(ts);
     let read_time = time_col.filter(|_| check.wants_time());
+    crate::table::not_the_time_column(path, &header, &idx, read_time)?;
     // The distinct columns needed, and where each wanted value comes from.
     let mut needed: Vec<usize> = idx.iter().copied().chain(read_time).collect();
     needed.sort_unstable();

@@ -131,7 +131,8 @@ pub enum Error {
     /// allocated.
     #[error(
         "{what} needs {} of memory, more than the budget of {} (half the physical memory by default); \
-         lower the horizons, order or periods, or set LIFTED_MEMORY_LIMIT=<bytes> to raise the budget",
+         make it smaller (the horizons, order, periods or the number of steps or samples that size it), \
+         or set LIFTED_MEMORY_LIMIT=<bytes> to raise the budget",
         crate::budget::format_bytes(*needed_bytes),
         crate::budget::format_bytes(*budget_bytes)
     )]

@@ -109,7 +109,8 @@ pub enum Error {
     /// zero), so its principal q-th root does not exist and the fast model is
     /// ambiguous (thesis Prop. 3, spec pitfalls 2–3).
     #[error(
-        "no principal {root}-th root of the lifted A: eigenvalue {eigenvalue} on or near the negative real axis (aliasing, |n m T η| < π cannot hold)"
+        "no principal {root}{} root of the lifted A: eigenvalue {eigenvalue} on or near the negative real axis (aliasing, |n m T η| < π cannot hold)",
+        ordinal_suffix(*.root)
     )]
     NoPrincipalRoot {
         /// Root order q.
@@ -191,5 +192,16 @@ pub(crate) fn checked_lcm(a: usize, b: usize) -> Option<usize> {
         Some(0)
     } else {
         (a / gcd(a, b)).checked_mul(b)
+    }
+}
+
+/// The English ordinal suffix of `n`: "st" (1, 21), "nd", "rd", "th" (4, 11–13).
+pub(crate) fn ordinal_suffix(n: usize) -> &'static str {
+    match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
     }
 }

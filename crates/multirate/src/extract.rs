@@ -391,8 +391,10 @@ impl std::fmt::Display for Failed {
         match self {
             Failed::NoRoot(root, ev) => write!(
                 f,
-                "no principal {root}-th root: eigenvalue {:.3e}{:+.3e}i",
-                ev.re, ev.im
+                "no principal {root}{} root: eigenvalue {:.3e}{:+.3e}i",
+                crate::error::ordinal_suffix(*root),
+                ev.re,
+                ev.im
             ),
             Failed::Other(s) => f.write_str(s),
         }
@@ -450,7 +452,8 @@ fn closest(
 /// [`ExtractionDiagnostics::fallback`] when the root was not defined.
 fn no_root_note(root: usize, eigenvalue: Complex64, f: &FastModel) -> String {
     format!(
-        "no principal {root}-th root of the lifted A (eigenvalue {:.3e}{:+.3e}i on or near the negative real axis): {:?} extraction (§4.6), the one whose lifting reproduces the lifted model best (lifted response error {:.3e}; input residual {:.3e})",
+        "no principal {root}{} root of the lifted A (eigenvalue {:.3e}{:+.3e}i on or near the negative real axis): {:?} extraction (§4.6), the one whose lifting reproduces the lifted model best (lifted response error {:.3e}; input residual {:.3e})",
+        crate::error::ordinal_suffix(root),
         eigenvalue.re,
         eigenvalue.im,
         f.diagnostics.method,

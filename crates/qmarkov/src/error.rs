@@ -60,7 +60,7 @@ pub enum Error {
     },
     /// The record is shorter than one excitation period `2 n_r m`.
     #[error(
-        "experiment {experiment}: record of {len} samples is shorter than one period of {period}"
+        "experiment {experiment}: record of {len} samples is shorter than one period of {period} (2 n_r m, the inverse PRBS of the m-sequence order and hold the identification was given: the workflow's default order is 8; --prbs-order / prbs_order gives the order the record was made with)"
     )]
     RecordTooShort {
         /// Index of the experiment.

@@ -145,7 +145,9 @@ pub enum Error {
         phase: usize,
     },
     /// The simulation diverged (a signal exceeded the divergence limit or became non-finite).
-    #[error("simulation diverged at sample {sample}: |{signal}| = {value} exceeds {limit}")]
+    #[error(
+        "simulation diverged at sample {sample}: {signal} = {value}, |{signal}| beyond {limit}"
+    )]
     Diverged {
         /// Fast-grid sample index.
         sample: usize,

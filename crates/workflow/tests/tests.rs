@@ -477,7 +477,7 @@ fn fr_error(model: &StateSpace, truth: &StateSpace) -> f64 {
 /// y₁ measured every 3 and y₂ every 5 samples (lifting period 15), 3e4
 /// samples of random binary input, output noise 10 % of each output's
 /// standard deviation. The fast pole 0.7 lifts to 0.7¹⁵ ≈ 0.005, which
-/// noise can push below zero (no principal 15-th root): every method must
+/// noise can push below zero (no principal 15th root): every method must
 /// still identify, and the default refinement (the joint iterations of the
 /// prediction cost, about 1e-1 s here) must run and bring every method to
 /// the truth.

@@ -91,6 +91,11 @@ fn print_summary(title: &str, file: &ModelFile) {
 
 /// `lifted convert`.
 pub fn convert(a: &ConvertArgs) -> CliResult<()> {
+    if let (Some(ts), false) = (a.ts, matches!(a.to, ConvertTo::Discrete)) {
+        return Err(input(format!(
+            "--ts {ts}: only used with --to discrete (the period of a discrete model is its own)"
+        )));
+    }
     let file = read_model(&a.model)?;
     let m = &file.model;
     let (converted, how) = match a.to {

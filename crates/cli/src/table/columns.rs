@@ -118,6 +118,25 @@ pub(super) fn column_indices(
         .collect()
 }
 
+/// Refuses the time column among the inputs and outputs when the base
+/// period is read from it (`--inputs t` gave "u is not persistently
+/// exciting: numerical rank 1, 20 needed").
+pub(crate) fn not_the_time_column(
+    path: &str,
+    header: &[String],
+    idx: &[usize],
+    read_time: Option<usize>,
+) -> CliResult<()> {
+    match read_time {
+        Some(tc) if idx.contains(&tc) => Err(input(format!(
+            "{}: '{}' is the time column (the base period is read from it), not an input or output; give --ts to read it as data",
+            shown(path),
+            shown(&header[tc])
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// The index of the time column `t`/`time` (any case, with or without a
 /// unit: `t [s]`) of a header.
 pub(crate) fn time_column(header: &[String]) -> Option<usize> {

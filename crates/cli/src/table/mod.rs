@@ -51,7 +51,7 @@ use self::parallel::*;
 use self::scan::*;
 
 use self::columns::column_indices;
-pub(crate) use self::columns::{bare_name, time_column};
+pub(crate) use self::columns::{bare_name, not_the_time_column, time_column};
 pub use self::columns::{check_unique, names, parse_name_counts, parse_periods};
 pub use self::npy_glue::{header, is_npy};
 pub(crate) use self::rows::RowCheck;

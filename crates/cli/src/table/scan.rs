@@ -74,6 +74,7 @@ impl<'a> Layout<'a> {
         let idx = column_indices(path, &header, wanted)?;
         let time_col = time_column(&header);
         let read_time = time_col.filter(|_| wants_time);
+        super::columns::not_the_time_column(path, &header, &idx, read_time)?;
         // The fast path parses each needed column once.
         let mut plan = Plan {
             cols: vec![(SKIP, true); header.len()],

@@ -504,6 +504,10 @@ fn each_error_message() {
             err(&t("t,u1,y1\n0,1,2\n0.1,1,2\n0.25,1,2\n"), io, 1..2, None),
             "F: line 4, column 't': time 0.25 is 0.15 after the row before, not the spacing 0.1 of the rows so far (within 10 %): a missing, repeated or out-of-order row? give --ts to ignore the time column"
         );
+        assert_eq!(
+            err(&t("t,u1,y1\n0,1,2\n0.1,1,2\n"), &["t", "y1"], 1..2, None),
+            "F: 't' is the time column (the base period is read from it), not an input or output; give --ts to read it as data"
+        );
         // Times as loggers round them (milliseconds at 30 Hz) or single
         // precision stores them: the period from the whole column.
         let rounded: String = (0..90)

@@ -182,7 +182,7 @@ fn extraction_without_a_root_falls_back_and_says_so() {
     .unwrap();
     assert_ne!(fm.diagnostics.method, ExtractionMethod::MatrixRoot);
     let note = fm.diagnostics.fallback.as_deref().unwrap();
-    assert!(note.contains("no principal 3-th root"), "{note}");
+    assert!(note.contains("no principal 3rd root"), "{note}");
     assert!(fm.diagnostics.input_residual < 1e-9);
     let (mf, mt) = (
         fm.model.markov_parameters(40).unwrap(),
