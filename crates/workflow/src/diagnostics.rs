@@ -59,6 +59,48 @@ pub(crate) fn criterion_json(r: &OrderReport) -> serde_json::Value {
     json!({"criterion": format!("{:?}", r.criterion), "values": values, "selected": r.selected})
 }
 
+/// `order_criterion` of a model whose order the held-out selection chose
+/// (`structure_selection` with its order and candidates): the rule, the
+/// order chosen and the best held-out fit of each order, instead of the
+/// criterion of the subspace step's refit at that order (it read
+/// `{"criterion": "Gap", "selected": 1}` beside a chosen order 6).
+pub(crate) fn criterion_from_selection(d: &mut serde_json::Value) {
+    let Some(sel) = d.get("structure_selection") else {
+        return;
+    };
+    let (Some(order), Some(cands)) = (
+        sel.get("order").and_then(serde_json::Value::as_u64),
+        sel.get("candidates").and_then(serde_json::Value::as_array),
+    ) else {
+        return;
+    };
+    let top = cands
+        .iter()
+        .filter_map(|c| c.get("order").and_then(serde_json::Value::as_u64))
+        .max()
+        .unwrap_or(order);
+    let values: Vec<Option<f64>> = (1..=top)
+        .map(|n| {
+            cands
+                .iter()
+                .filter(|c| c.get("order").and_then(serde_json::Value::as_u64) == Some(n))
+                .filter_map(|c| c.get("fit").and_then(serde_json::Value::as_f64))
+                .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f))))
+        })
+        .collect();
+    if let Some(obj) = d.as_object_mut() {
+        obj.insert(
+            "order_criterion".into(),
+            json!({
+                "criterion": "Validation",
+                "selected": order,
+                "values": values,
+                "rule": "held-out simulation fit (%) of the best structure of each order; diagnostics.structure_selection has the candidates",
+            }),
+        );
+    }
+}
+
 /// Rows of a matrix (JSON arrays).
 pub(crate) fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
     (0..m.nrows())

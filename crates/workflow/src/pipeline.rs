@@ -372,6 +372,7 @@ fn run(
     let identify_s = t_identify.elapsed().as_secs_f64();
     let periods: Vec<usize> = sets[0].outputs().iter().map(|c| c.period).collect();
     let samples = sets.iter().map(Dataset::len).sum::<usize>();
+    crate::diagnostics::criterion_from_selection(&mut diagnostics);
     add_run_facts(&mut diagnostics, samples, ts, &periods, None, identify_s);
     for (j, v) in constant_outputs(records) {
         crate::diagnostics::push_warning(

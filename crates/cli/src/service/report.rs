@@ -84,13 +84,32 @@ pub fn render(
         None => body += "<p>The model file carries no order-selection data.</p>\n",
     }
     if let Some(p) = criterion_plot(&file.diagnostics) {
-        body += &figure(
-            "order-criterion",
-            "The order rule's values per order: for the default rule the held-out simulation fit of the best structure of each order, with the held-out fit of the model each shortlisted order delivers (refined where the held-out blocks prefer it); the vertical line marks the order chosen.",
-            &p,
-            700,
-            340,
-        )?;
+        let held_out = file
+            .diagnostics
+            .get("structure_selection")
+            .and_then(|s| s.get("candidates"))
+            .is_some();
+        let caption = if held_out {
+            "The order rule's values per order: the held-out simulation fit of the best structure of each order, with the held-out fit of the model each shortlisted order delivers (refined where the held-out blocks prefer it); the vertical line marks the order chosen.".to_string()
+        } else {
+            let rule = file
+                .diagnostics
+                .get("order_criterion")
+                .and_then(|c| c.get("criterion"))
+                .and_then(|c| c.as_str())
+                .unwrap_or("the rule");
+            format!(
+                "The order rule's values per order ({}; the smallest is chosen); the vertical line marks the order chosen.",
+                match rule {
+                    "Aicc" => "AICc on the output-error fits of the whole record",
+                    "Aic" => "Akaike's information criterion",
+                    "Bic" => "the Bayesian information criterion",
+                    "Svc" => "Bauer's singular value criterion",
+                    other => other,
+                }
+            )
+        };
+        body += &figure("order-criterion", &caption, &p, 700, 340)?;
     }
 
     body += "<h2>Step response</h2>\n";
