@@ -409,7 +409,9 @@ impl PyStateSpace {
     }
 
     /// Discrete → continuous (inverse ZOH by the principal matrix
-    /// logarithm). The operating point is kept, the Kalman gain is not.
+    /// logarithm: it returns the plant of `c2d(dt, "zoh")`, not of a Tustin
+    /// or other discretisation). The operating point is kept, the Kalman
+    /// gain is not.
     fn d2c(&self, py: Python<'_>) -> PyResult<Self> {
         let s = self.inner.clone();
         let g = py.detach(move || s.d2c()).map_err(err)?;

@@ -107,3 +107,24 @@ def test_other_argument_errors_name_the_argument(plant, record) -> None:
     # u as records, y as one array
     with pytest.raises(lifted.LiftedError, match="u is a list of 2 records but y is one array"):
         lifted.n4sid([u[:500], u[500:]], y)
+
+
+def test_transposed_records_and_nan_outputs_are_explained(record) -> None:
+    u, y = record
+    # Channels as rows: it read "horizons past 2 + future 2 too long for 1
+    # samples".
+    with pytest.raises(lifted.ArgumentError, match="transposed"):
+        lifted.n4sid(u.reshape(1, -1), y.reshape(1, -1), order=2)
+    # NaN in a single-rate call: a note points at the multirate route.
+    gappy = np.array(y, dtype=float)
+    gappy[1] = np.nan
+    with pytest.raises(lifted.NonFiniteError) as e:
+        lifted.n4sid(u, gappy, order=2)
+    assert any("lifted.multirate" in n for n in getattr(e.value, "__notes__", []))
+
+
+def test_frequencies_above_nyquist_are_refused(plant: lifted.StateSpace) -> None:
+    # dt = 0.5: π/T = 6.28 rad/s; above it a discrete response repeats an alias.
+    assert plant.freqresp([np.pi / 0.5]).shape == (1, 1, 1)
+    with pytest.raises(lifted.ArgumentError, match="Nyquist"):
+        plant.freqresp([100.0])

@@ -73,3 +73,10 @@ def test_python_control_round_trip(plant: lifted.StateSpace) -> None:
     cont = lifted.from_control(control.ss([[-2.0]], [[1.0]], [[3.0]], [[0.0]]))
     assert cont.dt is None
     np.testing.assert_allclose(cont.dcgain(), [[1.5]])
+    # A transfer function is realised; an unspecified time base is refused
+    # (it became a continuous-time model without a word).
+    tf = lifted.from_control(control.tf([1.0], [1.0, -0.5], 0.5))
+    assert tf.dt == 0.5
+    np.testing.assert_allclose(tf.dcgain(), [[2.0]])
+    with pytest.raises(lifted.LiftedError, match="unspecified time base"):
+        lifted.from_control(control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], None))

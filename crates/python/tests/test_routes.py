@@ -103,6 +103,18 @@ def test_multirate_equals_the_cli_and_recovers_the_fast_plant(tmp_path, plant) -
     np.testing.assert_allclose(got, want, atol=1e-9)
 
 
+def test_a_slow_output_sampled_off_the_first_row_is_identified(plant) -> None:
+    # Measured at k = 1 mod 3: the phase is read from the NaN pattern (the
+    # record was refused: "sample 0 is sampled but not finite"); the same
+    # fast model as the record measured from k = 0 on its own samples.
+    u = lifted.rbs(3001, seed=5).reshape(-1, 1)
+    y, _ = lifted.simulate(plant, u)
+    y[np.arange(3001) % 3 != 1] = np.nan
+    fit = lifted.multirate(u, y, [3], order=2, past=5, future=5, detrend="none", refine="none",
+                           dt=0.5)
+    np.testing.assert_allclose(np.sort_complex(fit["fast"].poles()), true_poles(plant), atol=1e-6)
+
+
 def test_validate_fits_and_residual_tests(plant, record) -> None:
     u, y = record
     v = lifted.validate(plant, u, y, lags=10, initial_state="zero")

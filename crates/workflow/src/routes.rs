@@ -290,6 +290,28 @@ pub(crate) fn subspace(
         ..used
     };
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
+    // The held-out search's own cap (the largest order its horizons
+    // identify), said as the gap search's is (--max-order 100 searched
+    // 1..=29 without a word).
+    let searched = structure.as_ref().and_then(|st| {
+        st.get("candidates")?
+            .as_array()?
+            .iter()
+            .filter_map(|c| c.get("order")?.as_u64())
+            .max()
+    });
+    if let Some(top) = searched
+        && id.order == Order::Auto
+        && (top as usize) < id.max_order
+    {
+        crate::diagnostics::push_warning(
+            &mut d,
+            format!(
+                "orders above {top} are not identifiable from these records at the horizons tried: the automatic order searched 1..={top} instead of 1..={} (--max-order)",
+                id.max_order
+            ),
+        );
+    }
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
@@ -339,6 +361,23 @@ fn order_beyond_the_records(
         ),
         _ => false,
     };
+    let too_large = |e: &Error| match e {
+        Error::Step { source, .. } => match source.downcast_ref::<lifted_subspace::Error>() {
+            Some(lifted_subspace::Error::OrderTooLarge { max, .. }) => Some(*max),
+            _ => None,
+        },
+        _ => None,
+    };
+    // An order beyond what the horizon identifies (future block rows ×
+    // outputs − 1) on a record long enough for a longer one: said in
+    // terms of --horizon ("model order 50 invalid: it must lie in 1..=9").
+    if let (Some(max), None, Some(x)) = (too_large(&e), id.horizon, exps.first()) {
+        let ny = x.y.ncols().max(1);
+        let need = (n + 1).div_ceil(ny);
+        return Error::Data(format!(
+            "order {n} needs a longer horizon than the one tried (it identifies orders up to {max}: the future block rows × outputs − 1): give --horizon {need} or more (the record must be long enough for it), or a lower --order"
+        ));
+    }
     if id.horizon.is_some() || !too_long(&e) || exps.is_empty() {
         return e;
     }

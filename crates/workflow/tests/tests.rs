@@ -1042,6 +1042,30 @@ fn siso_record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) 
 }
 
 #[test]
+fn orders_beyond_the_horizon_are_said_in_its_terms() {
+    // A fixed order the default horizons cannot reach was "model order 50
+    // invalid: it must lie in 1..=9"; an automatic search bound above what
+    // the horizons identify was lowered without a word. One output: the
+    // longest default horizon, 30, identifies orders up to 29.
+    let (u, y) = siso_record(2000, 0.05, 7);
+    let rec = [Record::new(dataset(&u, &y))];
+    let mut o = WorkflowOptions::default();
+    o.identification.order = Order::Fixed(50);
+    o.refinement.refine = Refine::None;
+    let e = identify(&rec, &o).expect_err("order 50").to_string();
+    assert!(e.contains("--horizon 51 or more"), "{e}");
+    o.identification.order = Order::Auto;
+    o.identification.max_order = 100;
+    let d = identify(&rec, &o).expect("identify").file.diagnostics;
+    assert!(
+        d["warnings"].as_array().is_some_and(|w| w
+            .iter()
+            .any(|m| m.as_str().is_some_and(|m| m.contains("instead of 1..=100")))),
+        "{d}"
+    );
+}
+
+#[test]
 fn a_refinement_asked_for_and_not_kept_is_said() {
     // `--refine oe` on a record the subspace model already fits to its
     // noise: the held-out blocks do not tell the two apart, the identified

@@ -107,11 +107,20 @@ pub(super) fn column_indices(
             exact
                 .or_else(|| header.iter().position(|h| bare_name(h) == name.as_str()))
                 .ok_or_else(|| {
+                    // One header cell with blanks inside: a file whose
+                    // columns are separated by spaces (DaISy's own format).
+                    let spaced = header.len() == 1
+                        && header[0].split_whitespace().count() > 1;
                     input(format!(
-                        "{}: header has no column '{}' (columns: {})",
+                        "{}: header has no column '{}' (columns: {}){}",
                         shown(path),
                         shown(name),
-                        shown_list(header)
+                        shown_list(header),
+                        if spaced {
+                            "; the header is one column: columns separated by spaces are not read, separate them by commas, semicolons or tabs"
+                        } else {
+                            ""
+                        }
                     ))
                 })
         })

@@ -508,6 +508,10 @@ fn each_error_message() {
             err(&t("t,u1,y1\n0,1,2\n0.1,1,2\n"), &["t", "y1"], 1..2, None),
             "F: 't' is the time column (the base period is read from it), not an input or output; give --ts to read it as data"
         );
+        assert!(
+            err(&t("t u1 y1\n0 1 2\n0.1 1 2\n"), io, 1..2, None)
+                .ends_with("separate them by commas, semicolons or tabs")
+        );
         // Times as loggers round them (milliseconds at 30 Hz) or single
         // precision stores them: the period from the whole column.
         let rounded: String = (0..90)

@@ -154,9 +154,20 @@ def _records(u: Any, y: Any) -> tuple[list[Any], list[Any]]:
             f"{which} is a list of {len(u if many_u else y)} records but {other} is one array: "
             "give both as lists of arrays (several records) or both as arrays"
         )
-    if many_u:
-        return list(u), list(y)
-    return [u], [y]
+    us, ys = (list(u), list(y)) if many_u else ([u], [y])
+    for name, recs in (("u", us), ("y", ys)):
+        for k, r in enumerate(recs):
+            shape = np.shape(r)
+            # Samples are rows: a record of fewer samples than channels is
+            # almost always transposed (it read as "horizons too long for 1
+            # samples").
+            if len(shape) == 2 and shape[0] < shape[1] and shape[0] <= 4:
+                at = f"{name}[{k}]" if len(recs) > 1 else name
+                raise ArgumentError(
+                    f"argument '{name}': {at} has {shape[0]} sample(s) of {shape[1]} channels: "
+                    f"samples are rows (N x channels); transposed? pass {at}.T"
+                )
+    return us, ys
 
 
 def simulate(
@@ -311,15 +322,23 @@ def identify(
     warnings).
     """
     us, ys = _records(u, y)
-    d = _identify(
-        us, ys, method, order=order, max_order=max_order, order_criterion=order_criterion,
-        horizon=horizon, past=past, future=future, system=system, bd=bd,
-        feedthrough=feedthrough, detrend=detrend,
-        remove_means=remove_means, noise_model=noise_model,
-        enforce_stability=enforce_stability, refine=refine,
-        refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
-        threads=threads,
-    )
+    try:
+        d = _identify(
+            us, ys, method, order=order, max_order=max_order, order_criterion=order_criterion,
+            horizon=horizon, past=past, future=future, system=system, bd=bd,
+            feedthrough=feedthrough, detrend=detrend,
+            remove_means=remove_means, noise_model=noise_model,
+            enforce_stability=enforce_stability, refine=refine,
+            refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
+            threads=threads,
+        )
+    except NonFiniteError as e:
+        if getattr(e, "what", None) == "y":
+            e.add_note(
+                "NaN marks an unsampled output in multirate records only: "
+                "lifted.multirate(u, y, periods=...) identifies from the measured samples"
+            )
+        raise
     return _subspace_fit(d)
 
 
@@ -805,12 +824,31 @@ def to_control(sys: StateSpace) -> Any:
 
 
 def from_control(cs: Any) -> StateSpace:
-    """A :class:`StateSpace` from a python-control ``StateSpace``
-    (``dt`` 0 is continuous; ``dt=True``, an unspecified period, is rejected)."""
+    """A :class:`StateSpace` from a python-control ``StateSpace`` or
+    ``TransferFunction`` (realised by ``control.ss``). ``dt`` 0 is
+    continuous; ``dt=True`` (discrete, period unspecified) and ``dt=None``
+    (python-control's unspecified time base) are rejected: give the model
+    its period (``control.ss(..., dt=T)``) or 0."""
+    if not all(hasattr(cs, k) for k in ("A", "B", "C", "D")):
+        try:
+            import control  # type: ignore[import-untyped]
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise LiftedError("from_control needs python-control (pip install control)") from e
+        try:
+            cs = control.ss(cs)
+        except Exception as e:
+            raise ArgumentError(
+                f"argument 'cs': not a python-control StateSpace or TransferFunction ({e})"
+            ) from e
     dt = cs.dt
     if dt is True:
         raise LiftedError("python-control model with unspecified sample period (dt=True)")
-    dt = None if dt is None or dt == 0 else float(dt)
+    if dt is None:
+        raise LiftedError(
+            "python-control model with an unspecified time base (dt=None): give it its "
+            "sample period, or dt=0 for a continuous-time model"
+        )
+    dt = None if dt == 0 else float(dt)
 
     def m(a: Any) -> FloatArray:
         return np.ascontiguousarray(np.atleast_2d(np.asarray(a, dtype=np.float64)))
