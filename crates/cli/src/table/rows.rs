@@ -52,7 +52,8 @@ impl RowCheck {
             rows => {
                 let mean = (self.t_last - self.t0) / (rows - 1) as f64;
                 let step = t - self.t_last;
-                if !((step - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs()) {
+                let within = (step - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs();
+                if !within {
                     return Err(input(format!(
                         "{path}: {at}, column '{column}': time {t} is {step} after the row before, not the spacing {mean} of the rows so far (within {} %): a missing, repeated or out-of-order row? give --ts to ignore the time column",
                         TIME_STEP_TOLERANCE * 100.0
