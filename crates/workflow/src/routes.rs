@@ -371,12 +371,19 @@ fn order_beyond_the_records(
     // An order beyond what the horizon identifies (future block rows ×
     // outputs − 1) on a record long enough for a longer one: said in
     // terms of --horizon ("model order 50 invalid: it must lie in 1..=9").
-    if let (Some(max), None, Some(x)) = (too_large(&e), id.horizon, exps.first()) {
+    // (The error keeps its kind — the Python package's OrderError — with
+    // the remedy in its step.)
+    if let (Some(max), None, Some(x)) = (too_large(&e), id.horizon, exps.first())
+        && let Error::Step { what, source } = e
+    {
         let ny = x.y.ncols().max(1);
         let need = (n + 1).div_ceil(ny);
-        return Error::Data(format!(
-            "order {n} needs a longer horizon than the one tried (it identifies orders up to {max}: the future block rows × outputs − 1): give --horizon {need} or more (the record must be long enough for it), or a lower --order"
-        ));
+        return Error::Step {
+            what: format!(
+                "{what} (the horizon tried identifies orders up to {max}, the future block rows × outputs − 1: give --horizon {need} or more, the record long enough for it, or a lower --order)"
+            ),
+            source,
+        };
     }
     if id.horizon.is_some() || !too_long(&e) || exps.is_empty() {
         return e;
