@@ -831,7 +831,7 @@ def from_control(cs: Any) -> StateSpace:
     its period (``control.ss(..., dt=T)``) or 0."""
     if not all(hasattr(cs, k) for k in ("A", "B", "C", "D")):
         try:
-            import control  # type: ignore[import-untyped]
+            import control
         except ImportError as e:  # pragma: no cover - depends on the environment
             raise LiftedError("from_control needs python-control (pip install control)") from e
         try:
