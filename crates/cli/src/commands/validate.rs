@@ -38,6 +38,9 @@ pub fn validate_cmd(a: &ValidateArgs) -> CliResult<()> {
     if let Some(note) = unstable_note(&v) {
         eprintln!("warning: {note}");
     }
+    if let Some(note) = lifted_cli::service::validation::gain_mismatch(&file, &data) {
+        eprintln!("note: {note}");
+    }
     if let Some(min) = a.min_fit {
         let low: Vec<String> = v
             .outputs
