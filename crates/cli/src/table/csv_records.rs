@@ -243,10 +243,12 @@ pub(super) fn open_csv(
 /// The separator of a CSV file whose header row has no comma but has `;`
 /// or a tab (`;` first): the exports of spreadsheets set to a decimal
 /// comma (`t;u1;y1` / `0,5;1,25;…`) and of loggers writing tab-separated
-/// text. `None`: commas (the default, and the fast path's), and any file
-/// that is not a regular file (a pipe is read once). Reads the first
-/// 64 KiB at most.
-pub(super) fn separator(path: &str) -> CliResult<Option<u8>> {
+/// text; blanks when it has neither but several blank-separated names
+/// (`t u1 y1`: DaISy's files with a header row, MATLAB's `save -ascii`).
+/// `None`: commas (the default, and the fast path's), and any file that is
+/// not a regular file (a pipe is read once). Reads the first 64 KiB at
+/// most.
+pub(super) fn separator(path: &str) -> CliResult<Option<Separator>> {
     use std::io::Read;
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     // A pipe cannot be read twice: commas.
@@ -275,46 +277,115 @@ pub(super) fn separator(path: &str) -> CliResult<Option<u8>> {
             _ => {}
         }
     }
+    let words = String::from_utf8_lossy(line).split_whitespace().count();
     Ok(match (commas, semis, tabs) {
-        (0, s, _) if s > 0 => Some(b';'),
-        (0, 0, t) if t > 0 => Some(b'\t'),
+        (0, s, _) if s > 0 => Some(Separator::Byte(b';')),
+        (0, 0, t) if t > 0 => Some(Separator::Byte(b'\t')),
+        (0, 0, 0) if words > 1 => Some(Separator::Blanks),
         _ => None,
     })
 }
 
+/// How the columns of a file that is not comma-separated are separated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Separator {
+    /// One byte (`;` or a tab), a comma being a decimal comma.
+    Byte(u8),
+    /// Runs of spaces and tabs (DaISy's own files, MATLAB's `save
+    /// -ascii`): no empty cells, a decimal point.
+    Blanks,
+}
+
 /// A reader that maps the bytes of a `;`- or tab-separated file to the
 /// comma-separated form the readers parse: the separator becomes `,` and
-/// a comma (in such files a decimal comma) becomes `.`. One byte for one,
-/// so offsets and line numbers are those of the file. `None`: unchanged.
+/// a comma (in such files a decimal comma) becomes `.`; one byte for one,
+/// so offsets and line numbers are those of the file. A blank-separated
+/// file: each run of spaces and tabs between two cells becomes one `,`,
+/// those at the start and end of a line go (line numbers kept). `None`:
+/// unchanged.
 pub(super) struct Mapped<R> {
     inner: R,
     table: Option<Box<[u8; 256]>>,
+    blanks: Option<Blanks>,
+}
+
+/// The state of a blank-separated file's mapping across reads.
+#[derive(Debug, Clone, Copy)]
+struct Blanks {
+    /// No cell yet on this line.
+    line_start: bool,
+    /// Blanks seen after a cell: a `,` before the next one.
+    pending: bool,
 }
 
 impl<R> Mapped<R> {
-    pub(super) fn new(inner: R, separator: Option<u8>) -> Self {
-        let table = separator.map(|sep| {
-            let mut t = Box::new([0u8; 256]);
-            for (i, v) in t.iter_mut().enumerate() {
-                *v = i as u8;
+    pub(super) fn new(inner: R, separator: Option<Separator>) -> Self {
+        let table = match separator {
+            Some(Separator::Byte(sep)) => {
+                let mut t = Box::new([0u8; 256]);
+                for (i, v) in t.iter_mut().enumerate() {
+                    *v = i as u8;
+                }
+                t[usize::from(b',')] = b'.';
+                t[usize::from(sep)] = b',';
+                Some(t)
             }
-            t[usize::from(b',')] = b'.';
-            t[usize::from(sep)] = b',';
-            t
+            _ => None,
+        };
+        let blanks = (separator == Some(Separator::Blanks)).then_some(Blanks {
+            line_start: true,
+            pending: false,
         });
-        Mapped { inner, table }
+        Mapped {
+            inner,
+            table,
+            blanks,
+        }
     }
 }
 
 impl<R: std::io::Read> std::io::Read for Mapped<R> {
     fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.inner.read(out)?;
-        if let Some(t) = &self.table {
-            for b in &mut out[..n] {
-                *b = t[usize::from(*b)];
+        loop {
+            let n = self.inner.read(out)?;
+            if let Some(t) = &self.table {
+                for b in &mut out[..n] {
+                    *b = t[usize::from(*b)];
+                }
+            }
+            let Some(st) = &mut self.blanks else {
+                return Ok(n);
+            };
+            // In place: a `,` stands for at least one blank, so the
+            // written part never passes the read one.
+            let mut w = 0;
+            for r in 0..n {
+                let b = out[r];
+                match b {
+                    b' ' | b'\t' => st.pending = !st.line_start,
+                    b'\n' | b'\r' => {
+                        st.pending = false;
+                        st.line_start = true;
+                        out[w] = b;
+                        w += 1;
+                    }
+                    _ => {
+                        if st.pending {
+                            out[w] = b',';
+                            w += 1;
+                            st.pending = false;
+                        }
+                        st.line_start = false;
+                        out[w] = b;
+                        w += 1;
+                    }
+                }
+            }
+            // A read of blanks only is not the end of the file.
+            if w > 0 || n == 0 {
+                return Ok(w);
             }
         }
-        Ok(n)
     }
 }
 

@@ -233,7 +233,11 @@ pub(super) fn read_one<R: std::io::Read>(
         return Ok(Step::Blank); // a blank record ("")
     }
     let width = lay.header.len();
-    if rd.nfields != width {
+    // A separator closing every row (a trailing comma or tab, as DaISy's
+    // tab-separated files have) is one empty cell more: read as the end of
+    // the row.
+    let trailing = rd.nfields == width + 1 && rd.field(width).is_empty();
+    if rd.nfields != width && !trailing {
         return Err(input(format!(
             "{path}: line {line}: {} cells, the header has {width} (ragged row)",
             rd.nfields
