@@ -131,13 +131,27 @@ impl PyMpc {
     }
 
     /// One update: `measured` has one entry per output, None (or NaN) when
-    /// the output is not sampled now; `reference` the set-point. Returns u(t).
+    /// the output is not sampled now (one output: a number or None will
+    /// do); `reference` the set-point. Returns u(t).
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        measured: Vec<Option<f64>>,
+        measured: &Bound<'py, PyAny>,
         reference: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+        let measured: Vec<Option<f64>> = if measured.is_none() {
+            vec![None]
+        } else if let Ok(v) = measured.extract::<Vec<Option<f64>>>() {
+            v
+        } else {
+            vec![Some(measured.extract::<f64>().map_err(|_| {
+                crate::errors::arg_error(
+                    "measured",
+                    "must be a sequence with one number (or None: not sampled now) per output, \
+                     or one number or None for one output",
+                )
+            })?)]
+        };
         let y0 = self.operating_point.as_ref().map(|o| o.y0.as_slice());
         let measured: Vec<Option<f64>> = measured
             .into_iter()

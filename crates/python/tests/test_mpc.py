@@ -35,6 +35,11 @@ def test_step_with_unsampled_output_and_limits(lag: lifted.StateSpace) -> None:
     assert u0.shape == (1,) and u0[0] <= 2.0 + 1e-9
     u1 = mpc.step([None], np.array([1.0]))
     u2 = mpc.step([float("nan")], np.array([1.0]))
+    # One output: a number or None will do.
+    assert mpc.step(None, np.array([1.0])).shape == u2.shape
+    assert mpc.step(0.0, 1.0).shape == u2.shape
+    with pytest.raises(lifted.ArgumentError, match="measured"):
+        mpc.step("y", 1.0)
     assert np.all(np.isfinite(np.concatenate([u1, u2])))
     assert max(u0[0], u1[0], u2[0]) <= 2.0 + 1e-9
 

@@ -5,7 +5,7 @@ Checked against the built extension by ``python -m mypy.stubtest
 lifted._lifted`` in CI.
 """
 
-from typing import Any, final
+from typing import Any, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
@@ -220,7 +220,7 @@ class Mpc:
         y_max: npt.ArrayLike | None = None,
     ) -> Mpc: ...
     def step(
-        self, measured: list[float | None], reference: npt.ArrayLike
+        self, measured: float | None | Sequence[float | None], reference: npt.ArrayLike
     ) -> npt.NDArray[np.float64]: ...
     def simulate(
         self,
