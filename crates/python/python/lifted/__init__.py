@@ -770,7 +770,10 @@ def validate(
     """Validation of ``model`` on a record (``lifted_lti::validate``, the CLI's
     ``validate``): per output the simulation fit (%), k-step-ahead prediction
     fits with the Kalman gain (n x p), residual whiteness and independence
-    from the inputs at the 99 % level (``lags`` correlation lags).
+    from the inputs at the 99 % level (``lags`` correlation lags). The
+    residual is the one-step prediction error when a Kalman gain is used on
+    a single-rate record (as MATLAB's ``resid``), else the simulation error
+    (``Validation.residual`` says which).
 
     The model's operating point and Kalman gain are used, as
     ``lifted validate --model`` uses the model file's; ``u0``, ``y0`` and
