@@ -171,7 +171,7 @@ pub(crate) fn subspace_options(
         remove_means,
         noise_model: id.noise_model,
         enforce_stability: stabilized_start(opts),
-        feedthrough: subspace_feedthrough(id),
+        feedthrough: feedthrough_of(id, true),
         ts,
         threads: id.threads.unwrap_or(1),
         ..Default::default()
@@ -1533,7 +1533,7 @@ pub(crate) fn pbsid(
         order: order_of(id),
         past,
         future,
-        feedthrough: feedthrough_of(id),
+        feedthrough: feedthrough_of(id, false),
         ts: sets[0].ts(),
         threads: id.threads.unwrap_or(1),
         ..Default::default()
@@ -1783,10 +1783,14 @@ fn gap_fallback<M>(
 /// record); `instruments[k]`: the instrument columns of record k (`None`:
 /// the inputs, the open-loop case); `names`: the instrument columns' names
 /// for the diagnostics (empty: the inputs).
-/// The feedthrough of the closed-loop capable routes (PBSID/SSARX,
-/// single-rate IV): estimated only when asked for.
-fn feedthrough_of(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
-    if id.feedthrough == Some(true) {
+/// The feedthrough asked for, else the route's default (`estimated`:
+/// single-rate N4SID / MOESP / CVA; not: the closed-loop capable routes,
+/// PBSID/SSARX and single-rate IV).
+pub(crate) fn feedthrough_of(
+    id: &IdentificationOptions,
+    estimated: bool,
+) -> lifted_subspace::Feedthrough {
+    if id.feedthrough.unwrap_or(estimated) {
         lifted_subspace::Feedthrough::Free
     } else {
         lifted_subspace::Feedthrough::Zero
@@ -1802,16 +1806,6 @@ fn feedthrough_json(id: &IdentificationOptions) -> serde_json::Value {
             "D = 0 (the closed-loop default: an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
         }
     })
-}
-
-/// The feedthrough of the single-rate N4SID / MOESP / CVA routes:
-/// estimated unless D = 0 is asked for.
-pub(crate) fn subspace_feedthrough(id: &IdentificationOptions) -> lifted_subspace::Feedthrough {
-    if id.feedthrough == Some(false) {
-        lifted_subspace::Feedthrough::Zero
-    } else {
-        lifted_subspace::Feedthrough::Free
-    }
 }
 
 pub(crate) fn iv(
@@ -1953,7 +1947,7 @@ pub(crate) fn iv(
         alpha,
         alpha_p: id.instrument_past,
         enforce_stability: stable,
-        feedthrough: feedthrough_of(id),
+        feedthrough: feedthrough_of(id, false),
         ts: sets[0].ts(),
         ..Default::default()
     };

@@ -163,7 +163,7 @@ pub fn identify_streamed(
         remove_means: opts.data.detrend != Detrend::None,
         noise_model: id.noise_model,
         enforce_stability: stabilized_start(opts),
-        feedthrough: crate::routes::subspace_feedthrough(id),
+        feedthrough: crate::routes::feedthrough_of(id, true),
         ts: 1.0,
         compression,
         // The machine's threads by default (results depend on the count
