@@ -3,20 +3,15 @@
 //! SVG.
 
 use crate::error::CliResult;
+use crate::escape::{html as esc, id as html_id};
 use crate::plot::{Plot, svg};
 
-/// Escapes text for HTML.
-pub fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
-/// A `<figure>` with an inline SVG.
+/// A `<figure>` with an inline SVG; `id` may be any text (a column name):
+/// it is written through [`crate::escape::id`].
 pub fn figure(id: &str, caption: &str, plot: &Plot, w: u32, h: u32) -> CliResult<String> {
     Ok(format!(
-        "<figure id=\"{id}\">\n{}\n<figcaption>{}</figcaption>\n</figure>\n",
+        "<figure id=\"{}\">\n{}\n<figcaption>{}</figcaption>\n</figure>\n",
+        html_id(id),
         svg(plot, w, h)?,
         esc(caption)
     ))

@@ -19,6 +19,7 @@
 
 pub mod args;
 pub mod error;
+pub mod escape;
 pub mod html;
 pub mod npy;
 pub mod plot;

@@ -12,7 +12,7 @@ mod commands;
 
 use std::process::ExitCode;
 
-use lifted_cli::{args, error, html, plot, table, terminal};
+use lifted_cli::{args, error, escape, html, plot, table, terminal};
 
 use clap::Parser;
 use clap::error::ErrorKind;

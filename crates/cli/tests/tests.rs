@@ -9,6 +9,11 @@ use lifted_prbs::{InversePrbs, InversePrbsOptions, RandomBinaryOptions, random_b
 use lifted_sim::{Excitation, NoiseSpec, Plant, Simulator};
 use nalgebra::DMatrix;
 
+#[path = "support/markup.rs"]
+mod markup;
+
+mod hostile;
+
 /// A fresh directory under the system temp dir.
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lifted-cli-{}-{name}", std::process::id()));

@@ -12,7 +12,8 @@ use serde::Serialize;
 
 use crate::args::ReproduceArgs;
 use crate::error::{CliError, CliResult, Context, input};
-use crate::html::{esc, figure, html_table, page};
+use crate::escape::{html as esc, id as anchor};
+use crate::html::{figure, html_table, page};
 use crate::plot::{Marker, Plot, Series};
 use crate::terminal::print_table;
 
@@ -261,26 +262,13 @@ fn html(outcomes: &[Outcome]) -> CliResult<String> {
     Ok(page("Lifted reproductions", &body))
 }
 
-/// An HTML id from `s`: letters, digits, '-' and '_' kept, anything else '-'.
-fn anchor(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '-'
-            }
-        })
-        .collect()
-}
-
-/// The anchor of `id`, suffixed with "-2", "-3", … if already taken.
+/// `id`, suffixed with "-2", "-3", … if already taken (the raw text:
+/// [`anchor`] writes it as an HTML id, distinct texts giving distinct ids).
 fn unique(taken: &mut HashSet<String>, id: &str) -> String {
-    let base = anchor(id);
-    let mut a = base.clone();
+    let mut a = id.to_string();
     let mut k = 2;
     while !taken.insert(a.clone()) {
-        a = format!("{base}-{k}");
+        a = format!("{id}-{k}");
         k += 1;
     }
     a
@@ -310,7 +298,7 @@ fn figure_index(outcomes: &[Outcome], anchors: &[Vec<String>]) -> String {
             .plots
             .iter()
             .zip(a)
-            .map(|(f, id)| format!("<a href=\"#{id}\">{}</a>", esc(short(f))))
+            .map(|(f, id)| format!("<a href=\"#{}\">{}</a>", anchor(id), esc(short(f))))
             .collect();
         s += &format!(
             "<li><a href=\"#{}\">{} {}</a>: {}</li>\n",
@@ -505,7 +493,7 @@ mod tests {
         assert_eq!(p.series[0].y[..2], [2.0, 0.0]);
         assert!(p.series[0].y[2].is_nan());
         let mut taken = HashSet::new();
-        assert_eq!(unique(&mut taken, &f.id), "a-b-c");
-        assert_eq!(unique(&mut taken, &f.id), "a-b-c-2");
+        assert_eq!(anchor(&unique(&mut taken, &f.id)), "a_20b_2fc");
+        assert_eq!(anchor(&unique(&mut taken, &f.id)), "a_20b_2fc-2");
     }
 }

@@ -6,7 +6,8 @@
 use lifted_lti::{Dataset, ModelFile};
 
 use crate::error::CliResult;
-use crate::html::{esc, figure, html_table, page};
+use crate::escape::html as esc;
+use crate::html::{figure, html_table, page};
 use crate::service::figures::{
     bode_grid, bode_plots, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot,
     step_plot,

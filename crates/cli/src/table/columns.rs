@@ -20,7 +20,8 @@ pub fn parse_name_counts(
         .flat_map(|s| s.split(','))
         .filter(|s| !s.trim().is_empty())
         .map(|s| {
-            let (name, p) = s.split_once('=').ok_or_else(|| {
+            // The last '=': a column name may hold one (`a=b=3` is column `a=b`).
+            let (name, p) = s.rsplit_once('=').ok_or_else(|| {
                 input(format!(
                     "{flag} '{s}': expected NAME={what}, e.g. {example}"
                 ))

@@ -1040,3 +1040,9 @@ fn visit_can_stop() {
     .unwrap();
     assert_eq!((rows, ts), (2, 1.0));
 }
+
+#[test]
+fn an_output_period_of_a_column_whose_name_holds_an_equals_sign() {
+    let p = parse_periods(&["title='X'=3".to_string(), "y2=5".to_string()]).unwrap();
+    assert_eq!(p, vec![("title='X'".to_string(), 3), ("y2".to_string(), 5)]);
+}
