@@ -22,9 +22,12 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use fantoccini::{Client, ClientBuilder, Locator, key::Key};
-use lifted_cli::studio::{MAX_JSON, MAX_UPLOAD, Request, Session};
+use lifted_cli::studio::{MAX_JSON, MAX_SESSIONS, MAX_UPLOAD, Request, Session};
 use lifted_prbs::{InversePrbs, InversePrbsOptions};
 use serde_json::{Value, json};
+
+#[path = "support/markup.rs"]
+mod markup;
 
 /// A fresh directory under the system temp dir.
 fn tmp(name: &str) -> PathBuf {
@@ -161,6 +164,82 @@ fn session_identifies_like_the_command() {
     assert_eq!(comparable(cli), comparable(studio));
     let report = s.report(None).unwrap();
     assert!(report.contains("<svg") && report.contains("rec.csv"));
+    s.close();
+}
+
+/// Every string of the parts of an answer the page inserts as markup (the
+/// SVG figures), each read as the page reads it (`innerHTML`): nothing in
+/// it may run script. (The other fields, such as channel names, go in as
+/// text nodes.)
+fn assert_inert(answer: &Value, what: &str) {
+    let mut strings = Vec::new();
+    fn walk<'a>(v: &'a Value, out: &mut Vec<&'a str>) {
+        match v {
+            Value::String(s) if s.contains('<') => out.push(s),
+            Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
+            Value::Object(o) => o.values().for_each(|x| walk(x, out)),
+            _ => {}
+        }
+    }
+    walk(answer, &mut strings);
+    assert!(!strings.is_empty(), "{what}: no figure");
+    for s in strings {
+        let found = markup::script_vectors(s, true);
+        assert!(found.is_empty(), "{what} can run script: {found:#?}");
+    }
+}
+
+/// Issue 47: a record whose column and file names carry markup is shown,
+/// identified and reported by the studio with the names as text only (the
+/// answers' SVG figures and the saved report, parsed as a browser parses
+/// them).
+#[test]
+fn session_shows_hostile_names_as_text() {
+    let dir = tmp("hostile");
+    let mut s = Session::new(&dir).unwrap();
+    let (u, y) = (
+        "u\"><img src=x onerror=alert(1)>",
+        "y\"><script>document.title='X'</script>",
+    );
+    let csv = record(1200, 1).replacen(
+        "t,u1,y1",
+        &format!(
+            "t,\"{}\",\"{}\"",
+            u.replace('"', "\"\""),
+            y.replace('"', "\"\"")
+        ),
+        1,
+    );
+    let info = s
+        .upload("<svg onload=alert(1)>.csv", csv.as_bytes())
+        .unwrap();
+    let names: Vec<&str> = info.columns.iter().map(|c| c.name.as_str()).collect();
+    assert!(names.contains(&u) && names.contains(&y), "{names:?}");
+    let r = Request {
+        inputs: vec![u.into()],
+        outputs: vec![y.into()],
+        method: Some("n4sid".into()),
+        order: Some("2".into()),
+        ..Default::default()
+    };
+    let view = s.view(&r).unwrap();
+    let view = serde_json::to_value(&view).unwrap();
+    assert_inert(
+        &json!([view["inputs_svg"], view["outputs_svg"]]),
+        "the channel view",
+    );
+    let id = s.identify(&r).unwrap();
+    assert_inert(
+        &serde_json::to_value(&id.figures).unwrap(),
+        "the identification's figures",
+    );
+    let report = s.report(None).unwrap();
+    let found = markup::script_vectors(&report, false);
+    assert!(
+        found.is_empty(),
+        "the saved report can run script: {found:#?}"
+    );
+    assert!(markup::text_of(&report, false).contains(y));
     s.close();
 }
 
@@ -1825,6 +1904,19 @@ fn studio_keeps_a_session_per_tab() {
         v["name"].as_str().unwrap_or("").to_string()
     };
     let model = |s: &str, q: &str| -> Answer { call(s, "GET", &format!("/api/model{q}"), "", b"") };
+    let open = |s: &str| {
+        let r = call(s, "POST", "/api/session", "application/json", b"{}");
+        assert_eq!(r.status, 200, "{}", r.body);
+    };
+    // A session is opened before use (the page does it on load); an id
+    // the server has not opened is refused with 410, not given a session.
+    let unknown = call(a, "GET", "/api/data", "", b"");
+    assert_eq!(unknown.status, 410, "{}", unknown.body);
+    assert!(unknown.body.contains("session expired"), "{}", unknown.body);
+    open(a);
+    open(b);
+    // Opening again keeps it.
+    open(a);
 
     upload(a, "first.csv", &record(1000, 1));
     upload(b, "second.csv", &record(800, 1));
@@ -1851,11 +1943,29 @@ fn studio_keeps_a_session_per_tab() {
     // A malformed id is refused.
     assert_eq!(call("x y", "GET", "/api/data", "", b"").status, 400);
 
-    // Beyond eight tabs the least recently used goes (its folder too).
+    // Beyond eight tabs the least recently used goes (its folder too), and
+    // a call of the dropped tab is told so (410), never answered with
+    // another record's model.
     for k in 0..8 {
-        upload(&format!("tab-{k:012}"), "more.csv", &record(300, 1));
+        let tab = format!("tab-{k:012}");
+        open(&tab);
+        upload(&tab, "more.csv", &record(300, 1));
     }
-    assert_eq!(name(b), "", "the least recently used tab was kept");
+    for (method, path, body) in [
+        ("GET", "/api/data", String::new()),
+        ("GET", "/api/model", String::new()),
+        ("POST", "/api/identify", n4sid("2").to_string()),
+    ] {
+        let ctype = if method == "POST" {
+            "application/json"
+        } else {
+            ""
+        };
+        let r = call(b, method, path, ctype, body.as_bytes());
+        assert_eq!(r.status, 410, "{method} {path}: {}", r.body);
+        let v: Value = serde_json::from_str(&r.body).unwrap();
+        assert_eq!(v["error"], json!(lifted_cli::studio::SESSION_EXPIRED));
+    }
     let folders = std::fs::read_dir(&st.scratch)
         .unwrap()
         .flatten()
@@ -2328,6 +2438,94 @@ fn studio_takes_one_file_per_input_in_chromium() {
         assert!(text(&c, "#exp-names").await.contains("u2.csv"));
         element_shot(&c, "#load-block", &shots, "e1-experiments.png").await;
         assert_eq!(status(&c, "jserrors").await, 0);
+        c.close().await.unwrap();
+    });
+}
+
+/// Issue 47: a ninth tab drops the least recently used tab's session; that
+/// tab's next identification is told "session expired" (the page shows it
+/// where the record's name stood) instead of running on another record.
+#[test]
+fn studio_tells_a_dropped_tab_its_session_expired_in_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("browser-expired");
+    let rec = dir.join("first.csv");
+    std::fs::write(&rec, record(600, 1)).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/screens");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let shown = wait_identified(&c, 0).await;
+        assert!(text(&c, "#data-name").await.starts_with("first.csv"));
+        let first = c.window().await.unwrap();
+        // Eight more tabs, each opening its own session on load: nine in
+        // all, one more than the server keeps.
+        for _ in 0..MAX_SESSIONS {
+            let w = c.new_window(true).await.unwrap().handle;
+            c.switch_to_window(w).await.unwrap();
+            c.goto(&url).await.unwrap();
+            let t = Instant::now();
+            while js(
+                &c,
+                "return document.getElementById('status').dataset.session || '';",
+            )
+            .await
+            .as_str()
+                != Some("open")
+            {
+                assert!(t.elapsed() < Duration::from_secs(30), "no session opened");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        }
+        c.switch_to_window(first).await.unwrap();
+        let failed = status(&c, "failed").await;
+        // Identify again (the automatic order): the call names the dropped
+        // session.
+        c.find(Locator::Id("order-auto"))
+            .await
+            .unwrap()
+            .click()
+            .await
+            .unwrap();
+        wait_failed(&c, failed).await;
+        let err = page_error(&c).await;
+        assert!(err.contains("session expired"), "{err}");
+        assert!(err.contains("reload the page"), "{err}");
+        let name = text(&c, "#data-name").await;
+        assert!(name.starts_with("Session expired"), "{name}");
+        // No answer of another record was shown.
+        assert_eq!(status(&c, "generation").await, shown);
+        assert_eq!(status(&c, "jserrors").await, 0);
+        shot(&c, &shots, "studio-session-expired.png").await;
+        // A reload opens a new session on the page.
+        c.refresh().await.unwrap();
+        let t = Instant::now();
+        while js(
+            &c,
+            "return document.getElementById('status').dataset.session || '';",
+        )
+        .await
+        .as_str()
+            != Some("open")
+        {
+            assert!(
+                t.elapsed() < Duration::from_secs(30),
+                "no session after reload"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        assert_eq!(page_error(&c).await, "");
         c.close().await.unwrap();
     });
 }

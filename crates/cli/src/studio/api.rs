@@ -43,6 +43,9 @@ pub const SESSION_HEADER: &str = "x-lifted-session";
 /// one is dropped (its record, models and folder go).
 pub const MAX_SESSIONS: usize = 8;
 
+/// The answer (410 Gone) to a call naming a session that is not open.
+pub const SESSION_EXPIRED: &str = "this tab's session expired (the studio keeps the 8 most recently used tabs, and none across a restart): reload the page and load the record again";
+
 /// A session and its directory (uploads are staged there outside the lock).
 #[derive(Clone)]
 struct Handle {
@@ -52,11 +55,13 @@ struct Handle {
 
 /// The sessions of the server: the default one (calls without a session
 /// id: `lifted studio --data`'s record, scripts) and one per browser tab
-/// (the page draws a random id on load and sends it as `X-Lifted-Session`,
-/// or `?session=` on a GET), each in a folder `session-…` of the scratch
-/// directory; at most [`MAX_SESSIONS`] tabs, least recently used dropped.
-/// A new tab starts with a copy of the default session's record, then
-/// keeps its own.
+/// (the page draws a random id on load, opens it with `POST /api/session`
+/// and sends it as `X-Lifted-Session`, or `?session=` on a GET), each in a
+/// folder `session-…` of the scratch directory; at most [`MAX_SESSIONS`]
+/// tabs, least recently used dropped. A new tab starts with a copy of the
+/// default session's record, then keeps its own. A call naming a session
+/// that is not open (dropped, or from before a restart) is answered
+/// [`SESSION_EXPIRED`] with 410 Gone, never with another record's model.
 pub struct Sessions {
     base: Handle,
     tabs: Mutex<Tabs>,
@@ -106,12 +111,13 @@ impl Sessions {
         self.tabs.lock().map(|t| t.open.len()).unwrap_or(0)
     }
 
-    /// The session of `id` (the default one without), created on first
-    /// use with a copy of the default session's record. An id is 8 to 64
+    /// The session of `id` (the default one without): with `open`, made if
+    /// it is not open yet, with a copy of the default session's record;
+    /// without, `None` when it is not open (expired). An id is 8 to 64
     /// letters, digits, `-` or `_`. Blocking (it may copy a record).
-    fn get(&self, id: Option<&str>) -> CliResult<Handle> {
+    fn get(&self, id: Option<&str>, open: bool) -> CliResult<Option<Handle>> {
         let Some(id) = id else {
-            return Ok(self.base.clone());
+            return Ok(Some(self.base.clone()));
         };
         let valid = (8..=64).contains(&id.len())
             && id
@@ -127,7 +133,10 @@ impl Sessions {
             Err(p) => p.into_inner(),
         };
         if let (_, Some(h)) = lock_tabs().touch(id) {
-            return Ok(h);
+            return Ok(Some(h));
+        }
+        if !open {
+            return Ok(None);
         }
         // A new tab, made outside the map's lock (the default session may
         // be busy identifying).
@@ -146,7 +155,7 @@ impl Sessions {
         let (now, found) = tabs.touch(id);
         if let Some(h) = found {
             // Another call of the same tab made it first: use that one.
-            return Ok(h);
+            return Ok(Some(h));
         }
         tabs.open.push((id.to_string(), handle.clone(), now));
         if tabs.open.len() > MAX_SESSIONS
@@ -161,7 +170,7 @@ impl Sessions {
             // finishes first.
             tabs.open.remove(oldest);
         }
-        Ok(handle)
+        Ok(Some(handle))
     }
 }
 
@@ -349,7 +358,9 @@ struct App {
 /// The studio's routes (see the module documentation of [`crate::studio`]),
 /// behind `guard` (the checks of the module documentation of [`crate::studio`]).
 pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
-    let index: Arc<str> = INDEX.replace("{{token}}", access.token()).into();
+    let index: Arc<str> = INDEX
+        .replace("{{token}}", &crate::escape::html(access.token()))
+        .into();
     let app = App {
         sessions,
         access: Arc::new(access),
@@ -366,6 +377,7 @@ pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
             get(|| async { asset(APP_CSS, "text/css; charset=utf-8") }),
         )
         .route("/api/health", get(|| async { "ok" }))
+        .route("/api/session", post(open_session))
         .route("/api/data", post(upload).get(data_info))
         .route("/api/view", post(view))
         .route("/api/identify", post(identify))
@@ -520,15 +532,28 @@ struct CallQuery {
 }
 
 /// The session of a call: `X-Lifted-Session`, else `?session=`, else the
-/// default session (found or made on the blocking pool).
+/// default session (found on the blocking pool); a session that is not
+/// open is a 410 [`SESSION_EXPIRED`] answer.
 #[allow(clippy::result_large_err)]
 async fn session_of(app: &App, headers: &HeaderMap, q: &CallQuery) -> Result<Handle, Response> {
+    opened(app, headers, q, false).await
+}
+
+/// [`session_of`], or with `open` the session made if it is not open.
+#[allow(clippy::result_large_err)]
+async fn opened(
+    app: &App,
+    headers: &HeaderMap,
+    q: &CallQuery,
+    open: bool,
+) -> Result<Handle, Response> {
     let id = text(headers, SESSION_HEADER)
         .or(q.session.as_deref())
         .map(str::to_string);
     let sessions = app.sessions.clone();
-    match tokio::task::spawn_blocking(move || sessions.get(id.as_deref())).await {
-        Ok(Ok(h)) => Ok(h),
+    match tokio::task::spawn_blocking(move || sessions.get(id.as_deref(), open)).await {
+        Ok(Ok(Some(h))) => Ok(h),
+        Ok(Ok(None)) => Err(error(StatusCode::GONE, SESSION_EXPIRED)),
         Ok(Err(e)) => Err(error(StatusCode::BAD_REQUEST, e)),
         Err(_) => Err(error(
             StatusCode::INTERNAL_SERVER_ERROR,
@@ -610,6 +635,17 @@ async fn upload(
         })
         .await,
     )
+}
+
+/// `POST /api/session`: opens the tab's session (`X-Lifted-Session`),
+/// seeded with the default session's record, and answers its record's
+/// [`DataInfo`](crate::studio::DataInfo) (`null` without one). Opening an
+/// open session keeps it as it is.
+async fn open_session(State(app): State<App>, headers: HeaderMap) -> Response {
+    match opened(&app, &headers, &CallQuery::default(), true).await {
+        Ok(h) => json_answer(with_session(h.session, |s| Ok(s.data_info().cloned())).await),
+        Err(e) => e,
+    }
 }
 
 async fn data_info(

@@ -73,13 +73,17 @@
 //! or `?token=TOKEN` on a `GET`).
 //!
 //! **Sessions.** Each browser tab has its own session: the page draws a
-//! random id on load and sends it as `X-Lifted-Session` (a `GET` may give
-//! `?session=`). A new session starts with a copy of the default session's
-//! record (the one `--data` loaded, or a call without an id uploaded) and
-//! then keeps its own record and models, in a folder `session-…` of the
-//! scratch directory; at most [`MAX_SESSIONS`] (8) are kept, the least
-//! recently used dropped with its folder. Calls without an id use the
-//! default session.
+//! random id on load, opens it with `POST /api/session` and sends it as
+//! `X-Lifted-Session` with every call (a `GET` may give `?session=`). A new
+//! session starts with a copy of the default session's record (the one
+//! `--data` loaded, or a call without an id uploaded) and then keeps its
+//! own record and models, in a folder `session-…` of the scratch
+//! directory; at most [`MAX_SESSIONS`] (8) are kept, the least recently
+//! used dropped with its folder. A call naming a session that is not open
+//! (dropped for newer tabs, or from before a restart) is answered 410 Gone
+//! with [`SESSION_EXPIRED`] ("reload the page"), which the page shows:
+//! never another record's model under the old file name. Calls without an
+//! id use the default session.
 //!
 //! **One model shown, one saved.** The page numbers its identify requests
 //! (`seq`), drops an answer older than its latest request, never moves the
@@ -90,6 +94,7 @@
 //! | call | content type | body | answer |
 //! |---|---|---|---|
 //! | `GET /?token=T` | – | – | the page (with the token in its meta tag) |
+//! | `POST /api/session` | `application/json` | – | opens the session of `X-Lifted-Session` (kept if open); its record's [`DataInfo`] or `null` |
 //! | `POST /api/data?name=F` | `application/octet-stream` or `text/csv` | the CSV file's bytes (≤ 1 GiB) | [`DataInfo`]: rows, base period, columns (samples, period), suggested inputs/outputs |
 //! | `GET /api/data` | – | – | the loaded record's [`DataInfo`] or `null` |
 //! | `POST /api/view` | `application/json` | [`Request`] (channels; ≤ 1 MiB) | [`View`]: channels with rates, SVG of inputs and outputs |
@@ -143,8 +148,8 @@ use std::io::Write;
 use std::sync::Arc;
 
 pub use api::{
-    Access, MAX_JSON, MAX_SESSIONS, SECURITY_HEADERS, SESSION_HEADER, Sessions, TOKEN_HEADER, lock,
-    router,
+    Access, MAX_JSON, MAX_SESSIONS, SECURITY_HEADERS, SESSION_EXPIRED, SESSION_HEADER, Sessions,
+    TOKEN_HEADER, lock, router,
 };
 pub use board::{BoardEntry, BoardRequest, BoardView, MAX_BOARD};
 pub use session::{

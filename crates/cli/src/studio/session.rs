@@ -85,6 +85,9 @@ pub struct Request {
     pub order_criterion: Option<String>,
     /// Enforce a stable model.
     pub stable: bool,
+    /// Estimate a direct feedthrough D (`true`) or fix D = 0 (`false`);
+    /// absent: the method's default (`lifted identify --feedthrough`).
+    pub feedthrough: Option<bool>,
     /// The page's sequence number of this request (not an option of
     /// `lifted identify`): echoed in the answer, and the key under which
     /// the model is kept for `GET /api/model?seq=`.
@@ -936,6 +939,9 @@ impl Session {
         }
         if !r.instrument.is_empty() {
             opt("instrument", r.instrument.join(","));
+        }
+        if let Some(d) = r.feedthrough {
+            opt("feedthrough", d.to_string());
         }
         if r.stable {
             w.push("--stable".into());

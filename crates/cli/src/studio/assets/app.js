@@ -43,6 +43,7 @@ const state = {
   boards: 0,         // board answers shown
   ranges: { estimation: null, validation: null }, // [t0, t1] seconds, null: all rows
   experiments: [],   // names of the further experiments
+  expired: false,    // the server dropped this tab's session (410)
 };
 
 function showError(msg) {
@@ -84,9 +85,23 @@ async function call(path, body, type) {
     /* not JSON */
   }
   if (!res.ok) {
-    throw new Error(json && json.error ? json.error : "HTTP " + res.status + ": " + text);
+    const msg = json && json.error ? json.error : "HTTP " + res.status + ": " + text;
+    // 410: this tab's session is gone (more tabs opened since, or the
+    // server restarted). Say so where the record's name stands: the name
+    // no longer has a record behind it on the server.
+    if (res.status === 410) expired(msg);
+    throw new Error(msg);
   }
   return json;
+}
+
+// The tab's session is gone: the page says so and stops sending work.
+function expired(msg) {
+  state.expired = true;
+  $("data-name").textContent = "Session expired: " + msg;
+  $("data-name").classList.add("expired");
+  setStatus("session expired: reload the page");
+  showError(msg);
 }
 
 function checked(boxId) {
@@ -159,6 +174,7 @@ function request(withOrder) {
   r.detrend = $("detrend").value;
   if (state.refineOnce) r.refine = "pem";
   if ($("stable").checked) r.stable = true;
+  if ($("method").value !== "qmarkov" && $("feedthrough").value !== "") r.feedthrough = $("feedthrough").value === "true";
   if (method === "qmarkov") {
     const n = num("prbs-order", true, 2);
     if (n !== null) r.prbs_order = n;
@@ -494,7 +510,7 @@ function renderIdentified(r) {
 // One request at a time; while one runs, only the latest of the requests
 // made meanwhile is kept (a slider drag sends far fewer calls than events).
 function schedule(job) {
-  if (!state.info) return;
+  if (!state.info || state.expired) return;
   if (state.busy) {
     state.pending = {
       view: job.view || (state.pending && state.pending.view),
@@ -828,7 +844,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "order-criterion"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });
@@ -854,7 +870,9 @@ function wire() {
 window.addEventListener("DOMContentLoaded", async () => {
   wire();
   try {
-    const info = await call("/api/data");
+    // Open this tab's session (a copy of the server's default record).
+    const info = await call("/api/session", "{}");
+    $("status").dataset.session = "open";
     if (info) setup(info);
   } catch (e) {
     showError(e.message);
