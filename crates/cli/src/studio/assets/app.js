@@ -545,7 +545,7 @@ async function run(job) {
     state.failed += 1;
     $("status").dataset.failed = String(state.failed);
     showError(e.message);
-    setStatus("error");
+    setStatus(state.expired ? "session expired: reload the page" : "error");
   }
   state.busy = false;
   $("status").dataset.busy = "0";
