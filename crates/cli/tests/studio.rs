@@ -2529,3 +2529,80 @@ fn studio_tells_a_dropped_tab_its_session_expired_in_chromium() {
         c.close().await.unwrap();
     });
 }
+
+/// Issue 47: plant tags say what a column is (`FIC101.OP` an input,
+/// `TI203.PV` an output, even with a first letter that reads otherwise);
+/// names that say nothing make a guess the page must have confirmed.
+#[test]
+fn session_reads_channels_from_plant_tags_and_says_when_it_guesses() {
+    let dir = tmp("tags");
+    let mut s = Session::new(&dir).unwrap();
+    let tagged = record(400, 1).replacen("t,u1,y1", "t,TI203.PV,RIC7.OP", 1);
+    // The tags decide, whatever the column order and first letters.
+    let info = s.upload("tags.csv", tagged.as_bytes()).unwrap();
+    assert_eq!(info.suggested_inputs, ["RIC7.OP"]);
+    assert_eq!(info.suggested_outputs, ["TI203.PV"]);
+    assert!(!info.channels_guessed);
+    let plain = record(400, 1).replacen("t,u1,y1", "t,a,b", 1);
+    let info = s.upload("plain.csv", plain.as_bytes()).unwrap();
+    assert_eq!(info.suggested_inputs, ["a"]);
+    assert_eq!(info.suggested_outputs, ["b"]);
+    assert!(info.channels_guessed);
+    s.close();
+}
+
+/// Issue 47: with guessed channels the page identifies nothing until the
+/// user confirms them; then it does.
+#[test]
+fn studio_asks_to_confirm_guessed_channels_in_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("browser-confirm");
+    let rec = dir.join("plain.csv");
+    std::fs::write(&rec, record(600, 1).replacen("t,u1,y1", "t,a,b", 1)).unwrap();
+    let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/screens");
+    std::fs::create_dir_all(&shots).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        // The view comes, the identification does not.
+        let t = Instant::now();
+        while status(&c, "view").await == 0 {
+            assert!(t.elapsed() < Duration::from_secs(30), "no view");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        assert_eq!(status(&c, "generation").await, 0, "identified a guess");
+        let hidden = js(
+            &c,
+            "return document.getElementById('confirm-channels').hidden;",
+        )
+        .await;
+        assert_eq!(hidden, json!(false));
+        shot(&c, &shots, "studio-confirm-channels.png").await;
+        c.find(Locator::Id("confirm-button"))
+            .await
+            .unwrap()
+            .click()
+            .await
+            .unwrap();
+        wait_identified(&c, 0).await;
+        let hidden = js(
+            &c,
+            "return document.getElementById('confirm-channels').hidden;",
+        )
+        .await;
+        assert_eq!(hidden, json!(true));
+        assert_eq!(status(&c, "jserrors").await, 0);
+        c.close().await.unwrap();
+    });
+}

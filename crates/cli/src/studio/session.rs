@@ -132,10 +132,38 @@ pub struct DataInfo {
     pub has_time: bool,
     /// The columns other than the time column.
     pub columns: Vec<ColumnInfo>,
-    /// Columns proposed as inputs (complete columns named u…/r…, else the first complete one).
+    /// Columns proposed as inputs: complete columns whose names say so
+    /// ([`named_role`]: `u…`, `r…`, plant tags ending `.OP`/`.MV`), else
+    /// the first complete one.
     pub suggested_inputs: Vec<String>,
-    /// Columns proposed as outputs (the others).
+    /// Columns proposed as outputs: those whose names say so (`y…`, tags
+    /// ending `.PV`/`.CV`), else the columns not proposed as inputs.
     pub suggested_outputs: Vec<String>,
+    /// The proposal is a guess (no naming convention decided the inputs or
+    /// the outputs): the page asks the user to confirm the channels before
+    /// it identifies.
+    pub channels_guessed: bool,
+}
+
+/// What a column is by its name, when a convention says so: plant tags
+/// `FIC101.OP`/`.MV` (a controller's output, the manipulated variable)
+/// are inputs, `TI203.PV`/`.CV` (process or controlled variable) outputs;
+/// else a first letter `u` or `r` (input, reference) or `y` (output).
+/// `Some(true)`: an input, `Some(false)`: an output.
+pub fn named_role(name: &str) -> Option<bool> {
+    let lower = name.trim().to_ascii_lowercase();
+    if let Some((_, suffix)) = lower.rsplit_once('.') {
+        match suffix {
+            "op" | "mv" => return Some(true),
+            "pv" | "cv" => return Some(false),
+            _ => {}
+        }
+    }
+    match lower.chars().next() {
+        Some('u' | 'r') => Some(true),
+        Some('y') => Some(false),
+        _ => None,
+    }
 }
 
 /// A channel and its rate, for the page.
@@ -762,18 +790,13 @@ impl Session {
             })
             .collect();
         let complete = |c: &&ColumnInfo| c.samples == raw.rows;
-        let starts = |c: &ColumnInfo, p: &[char]| {
-            c.name
-                .chars()
-                .next()
-                .is_some_and(|f| p.contains(&f.to_ascii_lowercase()))
-        };
         let mut inputs: Vec<String> = columns
             .iter()
             .filter(complete)
-            .filter(|c| starts(c, &['u', 'r']))
+            .filter(|c| named_role(&c.name) == Some(true))
             .map(|c| c.name.clone())
             .collect();
+        let mut guessed = inputs.is_empty();
         if inputs.is_empty() {
             inputs = columns
                 .iter()
@@ -784,10 +807,11 @@ impl Session {
         }
         let named_y: Vec<String> = columns
             .iter()
-            .filter(|c| starts(c, &['y']))
+            .filter(|c| named_role(&c.name) == Some(false))
             .map(|c| c.name.clone())
             .collect();
         let outputs = if named_y.is_empty() {
+            guessed = true;
             columns
                 .iter()
                 .filter(|c| !inputs.contains(&c.name))
@@ -804,6 +828,7 @@ impl Session {
             columns,
             suggested_inputs: inputs,
             suggested_outputs: outputs,
+            channels_guessed: guessed,
         })
     }
 

@@ -44,6 +44,7 @@ const state = {
   ranges: { estimation: null, validation: null }, // [t0, t1] seconds, null: all rows
   experiments: [],   // names of the further experiments
   expired: false,    // the server dropped this tab's session (410)
+  confirmed: true,   // the user confirmed guessed inputs and outputs
 };
 
 function showError(msg) {
@@ -351,7 +352,10 @@ function setup(info) {
     ", columns " + info.columns.map((c) => c.name).join(", ");
   channelBoxes(info);
   clearIdentified();
-  schedule({ view: true, identify: true });
+  // Guessed channels: shown, but nothing identified until confirmed.
+  state.confirmed = !info.channels_guessed;
+  $("confirm-channels").hidden = state.confirmed;
+  schedule({ view: true, identify: state.confirmed });
 }
 
 async function loadFile(file) {
@@ -511,6 +515,7 @@ function renderIdentified(r) {
 // made meanwhile is kept (a slider drag sends far fewer calls than events).
 function schedule(job) {
   if (!state.info || state.expired) return;
+  if (!state.confirmed) job = { view: job.view };
   if (state.busy) {
     state.pending = {
       view: job.view || (state.pending && state.pending.view),
@@ -814,6 +819,11 @@ function wire() {
     state.csp += 1;
     $("status").dataset.csp = String(state.csp);
     showError("blocked by the page's security policy: " + e.violatedDirective + " (" + (e.blockedURI || "inline") + ")");
+  });
+  $("confirm-button").addEventListener("click", () => {
+    state.confirmed = true;
+    $("confirm-channels").hidden = true;
+    schedule({ view: true, identify: true });
   });
   $("file").addEventListener("change", (e) => {
     if (e.target.files.length) loadFile(e.target.files[0]);
