@@ -126,7 +126,14 @@ pub enum Order {
     Fixed(usize),
 }
 
-/// Rule of an automatic order.
+/// Rule of an automatic order. Whatever the rule, an order whose model is
+/// unstable on the records gives way to the next order of the rule's
+/// ranking with a stable model, at most six models in all (none stable:
+/// the rule's choice, which the validation stage warns about) — on records
+/// in memory, for every method but the q-Markov Cover and the multirate IV
+/// route's gap. The diagnostics name the orders passed over
+/// (`structure_selection`; `stable_order` under AIC, AICc, BIC, SVC and
+/// the gap asked for on single-rate records).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum OrderCriterion {

@@ -210,6 +210,7 @@ pub(crate) fn subspace(
         .collect();
     let what = format!("{} identification", sub.method.name());
     let mut capped_search = None;
+    let mut passed_over = Vec::new();
     let mut short_horizon = None;
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
@@ -228,22 +229,9 @@ pub(crate) fn subspace(
         let (fit, d, used, check) = select(id, &exps, plain, judge)
             .map_err(|e| order_beyond_the_records(e, id, &exps, &sub))?;
         known = check;
-        if sub.enforce_stability
-            && !used.enforce_stability
-            && fit.diagnostics.spectral_radius >= 1.0
-        {
-            let stabilized = SubspaceOptions {
-                enforce_stability: true,
-                ..used
-            };
-            (
-                identify(&exps, &stabilized).ctx(&what)?,
-                Some(d),
-                stabilized,
-            )
-        } else {
-            (fit, Some(d), used)
-        }
+        let (fit, used) =
+            stabilized_if_unstable(&sub, fit, used, |o| identify(&exps, o).ctx(&what))?;
+        (fit, Some(d), used)
     } else {
         // A record too short for the default horizon (and no horizon
         // given): the longest it supports instead of a refusal (the
@@ -266,23 +254,29 @@ pub(crate) fn subspace(
             Some(c) => c.identify(&exps, o, &what),
             None => identify(&exps, o).ctx(&what),
         };
-        match run(&sub) {
-            Ok(fit) => (fit, None, sub),
-            Err(e) => match supported_cap(&e, &sub) {
-                // An automatic order's search bound (--max-order, default
-                // 10) beyond what the records or horizon identify: searched
-                // up to the largest supported order instead, with a warning.
-                Some(max) => {
-                    let capped = SubspaceOptions {
-                        order: OrderSelection::Gap { max },
-                        ..sub
-                    };
-                    let fit = run(&capped)?;
-                    capped_search = Some((order_of(id), max));
-                    (fit, None, capped)
-                }
-                None => return Err(e),
-            },
+        match sub.order {
+            // The order given: identified as it is.
+            OrderSelection::Fixed(_) => (run(&sub)?, None, sub),
+            // An automatic order by the order rule asked for: searched as
+            // the plain identification's, as the held-out selection does (a
+            // refinement's stabilised start must not change the order), its
+            // bound capped at what the records identify (with a warning),
+            // an unstable choice handled as the held-out selection handles
+            // one (`stable_choice`), and a model still unstable re-estimated
+            // as the refinement's stabilised start, as after the selection.
+            OrderSelection::Gap { .. } => {
+                let plain = SubspaceOptions {
+                    enforce_stability: id.stable,
+                    ..sub.clone()
+                };
+                let (fit, plain, capped) = capped_to_supported(plain, &mut run)?;
+                capped_search = capped;
+                let (fit, used, passed) = stable_choice(fit, plain, &mut run);
+                passed_over = passed;
+                let searched = fit.diagnostics.clone();
+                let (fit, used) = stabilized_if_unstable(&sub, fit, used, &mut run)?;
+                (with_report_of(fit, &searched), None, used)
+            }
         }
     };
     let used = SubspaceOptions {
@@ -323,14 +317,10 @@ pub(crate) fn subspace(
             ),
         );
     }
-    if let Some((OrderSelection::Gap { max: asked }, max)) = capped_search {
-        crate::diagnostics::push_warning(
-            &mut d,
-            format!(
-                "orders above {max} are not identifiable from these records with this horizon and order criterion: the automatic order searched 1..={max} instead of 1..={asked} (--max-order)"
-            ),
-        );
+    if let Some(cap) = capped_search {
+        push_capped_search_warning(&mut d, cap);
     }
+    add_stable_choice(&mut d, &passed_over, fit.diagnostics.order);
     Ok(SubspaceRoute {
         fit,
         diagnostics: d,
@@ -406,6 +396,225 @@ fn order_beyond_the_records(
     Error::Data(format!(
         "order {n} is not identifiable from {samples} samples of {nu} input(s) and {ny} output(s) ({e}); at horizon {s}, the longest these records support, orders up to {max} are: give a lower --order or a longer record"
     ))
+}
+
+/// An automatic order's search capped by [`capped_to_supported`]: the
+/// bound asked for and the one searched.
+pub(crate) type SearchCap = (usize, usize);
+
+/// `run` on `sub`, or, when it refused an automatic order's search bound
+/// beyond what the records or the horizon identify ([`supported_cap`]),
+/// on `sub` with the search capped at the largest supported order
+/// instead; with the options run and the cap (the bound asked for, the
+/// one searched) for [`push_capped_search_warning`]. The in-memory and the
+/// streamed route both take an automatic order's search through it.
+pub(crate) fn capped_to_supported<T>(
+    sub: SubspaceOptions,
+    mut run: impl FnMut(&SubspaceOptions) -> Result<T>,
+) -> Result<(T, SubspaceOptions, Option<SearchCap>)> {
+    let e = match run(&sub) {
+        Ok(t) => return Ok((t, sub, None)),
+        Err(e) => e,
+    };
+    match (supported_cap(&e, &sub), sub.order) {
+        // An automatic order's search bound (--max-order, default 10)
+        // beyond what the records or horizon identify: searched up to the
+        // largest supported order instead, with a warning.
+        (Some(max), OrderSelection::Gap { max: asked }) => {
+            let capped = SubspaceOptions {
+                order: OrderSelection::Gap { max },
+                ..sub
+            };
+            let t = run(&capped)?;
+            Ok((t, capped, Some((asked, max))))
+        }
+        _ => Err(e),
+    }
+}
+
+/// The warning of an automatic order's search capped by
+/// [`capped_to_supported`]: `(asked, max)`, the bound asked for and the one
+/// searched.
+pub(crate) fn push_capped_search_warning(d: &mut serde_json::Value, (asked, max): SearchCap) {
+    crate::diagnostics::push_warning(
+        d,
+        format!(
+            "orders above {max} are not identifiable from these records with this horizon and order criterion: the automatic order searched 1..={max} instead of 1..={asked} (--max-order)"
+        ),
+    );
+}
+
+/// The model `fit` identified with `used`, or, when the route's options
+/// `sub` ask for the refinement's stabilised start
+/// ([`stabilized_start`]), `used` did not and `fit` is unstable, its
+/// re-estimate by the zero-padded shift at its order (`run`), so that the
+/// refinement starts from the plain identification's choice; with the
+/// options that give it. Both the held-out selection's and the other order
+/// rules' choices go through it.
+fn stabilized_if_unstable(
+    sub: &SubspaceOptions,
+    fit: SubspaceModel,
+    used: SubspaceOptions,
+    run: impl FnOnce(&SubspaceOptions) -> Result<SubspaceModel>,
+) -> Result<(SubspaceModel, SubspaceOptions)> {
+    if sub.enforce_stability && !used.enforce_stability && fit.diagnostics.spectral_radius >= 1.0 {
+        // An automatic order's search is not run again (its rule's values
+        // would be those of the stabilised models): the order kept, fixed.
+        let at_order = match used.order {
+            OrderSelection::Fixed(_) => used,
+            OrderSelection::Gap { .. } => at_fixed_order(&used, fit.diagnostics.order),
+        };
+        let stabilized = SubspaceOptions {
+            enforce_stability: true,
+            ..at_order
+        };
+        Ok((run(&stabilized)?, stabilized))
+    } else {
+        Ok((fit, used))
+    }
+}
+
+/// The options `o` with the order fixed at `n`, the gap standing for the
+/// order rule (as after a selection: the rule's values are not computed
+/// again; [`with_report_of`] keeps those of the search).
+fn at_fixed_order(o: &SubspaceOptions, n: usize) -> SubspaceOptions {
+    SubspaceOptions {
+        order: OrderSelection::Fixed(n),
+        order_criterion: SubCriterion::Gap,
+        ..o.clone()
+    }
+}
+
+/// `fit` (identified at a fixed order, [`at_fixed_order`]) with the order
+/// rule's values and the suggested order of the search (its diagnostics
+/// `search`), so that the rule's curve stays in the diagnostics.
+fn with_report_of(mut fit: SubspaceModel, search: &lifted_subspace::Diagnostics) -> SubspaceModel {
+    fit.diagnostics.order_selection = search.order_selection.clone();
+    fit.diagnostics.suggested_order = search.suggested_order;
+    fit
+}
+
+/// The orders of an order rule's report ranked best first (the gap's
+/// largest values first, the other rules' smallest), ties to the lower
+/// order, orders whose value is not finite (a model AIC could not fit or
+/// simulate) left out; the gap rule ranks the singular values `sv` as the
+/// default's fallbacks do ([`gap_ranking`], up to `max`). O(n log n).
+fn criterion_ranking(report: &OrderReport, sv: &[f64], max: usize) -> Vec<usize> {
+    if report.criterion == SubCriterion::Gap {
+        return gap_ranking(sv, max);
+    }
+    let mut orders: Vec<usize> = (1..=report.values.len())
+        .filter(|&n| report.values[n - 1].is_finite())
+        .collect();
+    orders.sort_by(|&a, &b| report.values[a - 1].total_cmp(&report.values[b - 1]));
+    orders
+}
+
+/// The automatic order's model `first` (the rule's choice, identified
+/// with the options `search`) when it is stable, else, as the held-out
+/// selection does, the first stable model of the next orders of the
+/// rule's ranking ([`criterion_ranking`], [`first_stable`]: at most
+/// [`STABLE_TRIES`] models in all), identified at a fixed order with
+/// `run`; none stable: `first`. Returns the model, the options that give
+/// it and the orders passed over ([`add_stable_choice`]).
+fn stable_choice(
+    first: SubspaceModel,
+    search: SubspaceOptions,
+    mut run: impl FnMut(&SubspaceOptions) -> Result<SubspaceModel>,
+) -> (SubspaceModel, SubspaceOptions, Vec<serde_json::Value>) {
+    let max = match search.order {
+        OrderSelection::Gap { max } => max,
+        OrderSelection::Fixed(n) => n,
+    };
+    let first_order = first.diagnostics.order;
+    let ranking = criterion_ranking(
+        &first.diagnostics.order_selection,
+        &first.diagnostics.singular_values,
+        max,
+    );
+    let searched = first.diagnostics.clone();
+    let (fit, passed) = first_stable(
+        first,
+        ranking,
+        |m: &SubspaceModel| (m.diagnostics.order, m.diagnostics.spectral_radius),
+        |n| {
+            run(&at_fixed_order(&search, n))
+                .ok()
+                .map(|m| with_report_of(m, &searched))
+        },
+    );
+    let used = if fit.diagnostics.order == first_order {
+        search
+    } else {
+        at_fixed_order(&search, fit.diagnostics.order)
+    };
+    (fit, used, passed)
+}
+
+/// `first` when its model is stable, else the first stable model of the
+/// next orders of `ranking` (the order of `first` skipped; at most
+/// [`STABLE_TRIES`] models in all; `identify_at(n)`, `None` when it
+/// fails), else `first` (unstable: the validation stage warns) — how every
+/// automatic order rule handles an unstable choice: the held-out
+/// selections, the singular-value gap of the multirate routes and of the
+/// fallbacks, and the order rules asked for (AIC, AICc, BIC, SVC, the gap).
+/// `order_rho(model)`: its order and spectral radius. Also returns the
+/// orders passed over, `{order, spectral_radius}`, the rule's choice first.
+fn first_stable<M>(
+    first: M,
+    ranking: impl IntoIterator<Item = usize>,
+    order_rho: impl Fn(&M) -> (usize, f64),
+    mut identify_at: impl FnMut(usize) -> Option<M>,
+) -> (M, Vec<serde_json::Value>) {
+    let (first_order, rho) = order_rho(&first);
+    let mut fit = first;
+    let mut passed_over = Vec::new();
+    if rho >= 1.0 {
+        passed_over.push(json!({"order": first_order, "spectral_radius": rho}));
+        for n in ranking
+            .into_iter()
+            .filter(|&n| n != first_order)
+            .take(STABLE_TRIES - 1)
+        {
+            let Some(other) = identify_at(n) else {
+                continue;
+            };
+            let (_, r) = order_rho(&other);
+            if r < 1.0 {
+                fit = other;
+                break;
+            }
+            passed_over.push(json!({"order": n, "spectral_radius": r}));
+        }
+    }
+    (fit, passed_over)
+}
+
+/// `diagnostics.stable_order` of an automatic order by the order rule
+/// asked for whose choice was unstable ([`first_stable`]; nothing when
+/// none was passed over): the orders passed over and the order kept.
+fn add_stable_choice(d: &mut serde_json::Value, passed_over: &[serde_json::Value], order: usize) {
+    let Some(first) = passed_over.first() else {
+        return;
+    };
+    let kept_stable = !passed_over.iter().any(|p| p["order"] == json!(order));
+    let rule = if kept_stable {
+        format!(
+            "the order rule's choice ({}) gave an unstable model on the records: the next orders of its ranking were identified (at most {STABLE_TRIES} models in all) and the first stable one kept, as the held-out selection does",
+            first["order"]
+        )
+    } else {
+        format!(
+            "the order rule's choice ({}) gave an unstable model on the records and so did the next orders of its ranking (at most {STABLE_TRIES} models in all): the rule's choice is kept",
+            first["order"]
+        )
+    };
+    if let Some(obj) = d.as_object_mut() {
+        obj.insert(
+            "stable_order".into(),
+            json!({"rule": rule, "order": order, "passed_over": passed_over}),
+        );
+    }
 }
 
 /// The largest order the records support when `e` refused an automatic
@@ -723,16 +932,10 @@ fn aicc_report(
         ..opts.clone()
     };
     let run = |o: &SubspaceOptions| identify(exps, o).ctx(what);
-    let fit = match run(&search) {
-        Ok(fit) => Some(fit),
-        Err(e) if n == 0 => supported_cap(&e, &search).and_then(|max| {
-            run(&SubspaceOptions {
-                order: OrderSelection::Gap { max },
-                ..search.clone()
-            })
-            .ok()
-        }),
-        Err(_) => None,
+    let fit = if n == 0 {
+        capped_to_supported(search, run).ok().map(|(fit, _, _)| fit)
+    } else {
+        run(&search).ok()
     };
     fit.map(|f| f.diagnostics.order_selection)
 }
@@ -997,25 +1200,16 @@ pub(crate) fn multirate(
     // the gap's choice (unstable, warned).
     let mut passed_over = Vec::new();
     if let OrderSelection::Gap { max } = opts.identification.order {
-        let rho = |m: &StateSpace| crate::validate::spectral_radius(m).unwrap_or(f64::INFINITY);
-        if rho(&fit.fast) >= 1.0 {
-            passed_over.push(json!({"order": fit.fast.order(), "spectral_radius": rho(&fit.fast)}));
-            for n in gap_ranking(&fit.lifted.singular_values, max)
-                .into_iter()
-                .filter(|&n| n != fit.fast.order())
-                .take(STABLE_TRIES - 1)
-            {
-                let Ok(other) = identify_multirate(data, None, &at_order(&opts, n)) else {
-                    continue;
-                };
-                let r = rho(&other.fast);
-                if r < 1.0 {
-                    fit = other;
-                    break;
-                }
-                passed_over.push(json!({"order": n, "spectral_radius": r}));
-            }
-        }
+        let ranking = gap_ranking(&fit.lifted.singular_values, max);
+        (fit, passed_over) = first_stable(
+            fit,
+            ranking,
+            |m: &lifted_multirate::MultirateModel| {
+                let rho = crate::validate::spectral_radius(&m.fast).unwrap_or(f64::INFINITY);
+                (m.fast.order(), rho)
+            },
+            |n| identify_multirate(data, None, &at_order(&opts, n)).ok(),
+        );
     }
     let structure = held_out.map(|sel| {
         let mut d = sel.diagnostics(fit.fast.order());
@@ -1543,17 +1737,41 @@ pub(crate) fn pbsid(
         .map(|d| Experiment { u: d.u(), y: d.y() })
         .collect();
     let what = format!("{} identification", opts.variant.name());
+    let mut passed_over = Vec::new();
     let (fit, structure) =
         if id.order == Order::Auto && id.order_criterion == OrderCriterion::Validation {
             pbsid_selected(&exps, &opts, &what)?
         } else {
-            (
-                lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?,
-                None,
-            )
+            let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
+            match opts.order {
+                // The gap asked for: an unstable choice handled as the
+                // default's fallback handles one (`first_stable`).
+                OrderSelection::Gap { max } => {
+                    let dg = &fit.diagnostics;
+                    let ranking = criterion_ranking(&dg.order_selection, &dg.singular_values, max);
+                    let (fit, passed) = first_stable(
+                        fit,
+                        ranking,
+                        |m: &lifted_subspace::PbsidModel| {
+                            (m.diagnostics.order, m.diagnostics.spectral_radius)
+                        },
+                        |n| {
+                            let o = lifted_subspace::PbsidOptions {
+                                order: OrderSelection::Fixed(n),
+                                ..opts.clone()
+                            };
+                            lifted_subspace::pbsid_identify(&exps, &o).ok()
+                        },
+                    );
+                    passed_over = passed;
+                    (fit, None)
+                }
+                OrderSelection::Fixed(_) => (fit, None),
+            }
         };
     let dg = &fit.diagnostics;
     let mut diagnostics = pbsid_json(&fit);
+    add_stable_choice(&mut diagnostics, &passed_over, dg.order);
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("feedthrough".into(), feedthrough_json(id));
         if let Some(st) = structure {
@@ -1740,27 +1958,7 @@ fn gap_fallback<M>(
         OrderSelection::Gap { max } => max,
         OrderSelection::Fixed(n) => n,
     };
-    let (gap_order, rho) = order_rho(&first);
-    let mut fit = first;
-    let mut passed_over = Vec::new();
-    if rho >= 1.0 {
-        passed_over.push(json!({"order": gap_order, "spectral_radius": rho}));
-        for n in gap_ranking(sv, max)
-            .into_iter()
-            .filter(|&n| n != gap_order)
-            .take(STABLE_TRIES - 1)
-        {
-            let Some(other) = identify_at(n) else {
-                continue;
-            };
-            let (_, r) = order_rho(&other);
-            if r < 1.0 {
-                fit = other;
-                break;
-            }
-            passed_over.push(json!({"order": n, "spectral_radius": r}));
-        }
-    }
+    let (fit, passed_over) = first_stable(first, gap_ranking(sv, max), &order_rho, identify_at);
     let (order, rho) = order_rho(&fit);
     let passed = match (passed_over.is_empty(), rho < 1.0) {
         (true, _) => String::new(),
@@ -1961,52 +2159,72 @@ pub(crate) fn iv(
         })
         .collect();
     let what = "IV identification";
-    let (fit, structure) =
-        if id.order == Order::Auto && id.order_criterion == OrderCriterion::Validation {
-            match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
-                Ok(sel) => {
-                    let (fit, d) = held_out_choice(
-                        &sel,
-                        &format!("alpha = {}", sel.horizon),
-                        |n| {
-                            let o = IvOptions {
-                                order: OrderSelection::Fixed(n),
-                                ..iopts.clone()
-                            };
-                            iv_identify(&exps, &o).map_err(|e| e.to_string())
-                        },
-                        |fit| crate::validate::spectral_radius(&fit.model).unwrap_or(f64::INFINITY),
-                        what,
-                    )?;
-                    (fit, Some(d))
-                }
-                Err(e) => {
-                    let fit = iv_identify(&exps, &iopts).ctx(what)?;
-                    let sv = fit.diagnostics.singular_values.clone();
-                    let (fit, note) = gap_fallback(
-                        fit,
-                        &held_out_refusal(&e),
-                        &sv,
-                        iopts.order,
-                        |m| {
-                            let rho =
-                                crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
-                            (m.diagnostics.order, rho)
-                        },
-                        |n| {
-                            let o = IvOptions {
-                                order: OrderSelection::Fixed(n),
-                                ..iopts.clone()
-                            };
-                            iv_identify(&exps, &o).ok()
-                        },
-                    );
-                    (fit, Some(note))
-                }
-            }
-        } else {
-            (iv_identify(&exps, &iopts).ctx(what)?, None)
+    // The model at order n (the gap standing for the rule, as after a
+    // selection: the rule of the held-out selection and of its fallback),
+    // its order and spectral radius.
+    let at_order = |n: usize| {
+        let o = IvOptions {
+            order: OrderSelection::Fixed(n),
+            order_criterion: SubCriterion::Gap,
+            ..iopts.clone()
         };
+        iv_identify(&exps, &o)
+    };
+    let order_rho = |m: &lifted_subspace::IvModel| {
+        let rho = crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
+        (m.diagnostics.order, rho)
+    };
+    let mut iv_passed_over = Vec::new();
+    let (fit, structure) = if id.order == Order::Auto
+        && id.order_criterion == OrderCriterion::Validation
+    {
+        match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
+            Ok(sel) => {
+                let (fit, d) = held_out_choice(
+                    &sel,
+                    &format!("alpha = {}", sel.horizon),
+                    |n| at_order(n).map_err(|e| e.to_string()),
+                    |fit| order_rho(fit).1,
+                    what,
+                )?;
+                (fit, Some(d))
+            }
+            Err(e) => {
+                let fit = iv_identify(&exps, &iopts).ctx(what)?;
+                let sv = fit.diagnostics.singular_values.clone();
+                let (fit, note) = gap_fallback(
+                    fit,
+                    &held_out_refusal(&e),
+                    &sv,
+                    iopts.order,
+                    order_rho,
+                    |n| at_order(n).ok(),
+                );
+                (fit, Some(note))
+            }
+        }
+    } else {
+        let fit = iv_identify(&exps, &iopts).ctx(what)?;
+        match iopts.order {
+            // An automatic order by the rule asked for: an unstable
+            // choice handled as the held-out selection handles one
+            // (`first_stable`), the rule's values kept.
+            OrderSelection::Gap { max } => {
+                let searched = fit.diagnostics.clone();
+                let ranking =
+                    criterion_ranking(&searched.order_selection, &searched.singular_values, max);
+                let (fit, passed) = first_stable(fit, ranking, order_rho, |n| {
+                    let mut m = at_order(n).ok()?;
+                    m.diagnostics.order_selection = searched.order_selection.clone();
+                    m.diagnostics.suggested_order = searched.suggested_order;
+                    Some(m)
+                });
+                iv_passed_over = passed;
+                (fit, None)
+            }
+            OrderSelection::Fixed(_) => (fit, None),
+        }
+    };
     let dg = &fit.diagnostics;
     let d = json!({
         "route": "single-rate instrumental-variable subspace identification",
@@ -2029,6 +2247,7 @@ pub(crate) fn iv(
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
+    add_stable_choice(&mut d, &iv_passed_over, dg.order);
     if alpha < 8 && id.horizon.is_none() {
         crate::diagnostics::push_warning(
             &mut d,

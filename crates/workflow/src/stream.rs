@@ -26,7 +26,10 @@ use crate::refine::{
     HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
     work_of_size,
 };
-use crate::routes::{bd_of, criterion_of, method_of, order_of, subspace_options, system_of};
+use crate::routes::{
+    bd_of, capped_to_supported, criterion_of, method_of, order_of, push_capped_search_warning,
+    subspace_options, system_of,
+};
 use crate::validate::{finish_file, require_stable};
 
 /// What a pass over a record source saw.
@@ -116,9 +119,13 @@ impl KeptBlocks {
 /// module docs). The structure is the options' (horizon 10 unless given,
 /// shift invariance unless given; an automatic order under
 /// [`OrderCriterion::Validation`] by Bauer's SVC: the record is too large
-/// for the held-out selection). If the fast correlation compression is
-/// rejected as ill-conditioned, the record is read again with the R-only QR
-/// compression (reported in the diagnostics). The refinement then refines
+/// for the held-out selection), its search bound capped, with the
+/// in-memory route's warning, at the largest order the horizon identifies
+/// ((f − 1) n_y: 9 for one output at horizon 10). An unstable model is
+/// kept and warned about (another order would cost the passes again). If
+/// the fast correlation compression is rejected as ill-conditioned, the
+/// record is read again with the R-only QR compression (reported in the
+/// diagnostics). The refinement then refines
 /// this model on the record loaded in memory, so it starts from exactly
 /// the model the plain identification gives.
 ///
@@ -172,9 +179,16 @@ pub fn identify_streamed(
         threads: id.threads.unwrap_or(0),
         ..Default::default()
     };
+    // An automatic order's search bound beyond what the horizon identifies
+    // (10 by default, one output at horizon 10: orders up to 9) is capped
+    // there with a warning, as in memory.
+    let mut capped_search = None;
     let mut first_pass =
         |compression: Compression| -> Result<Option<(StreamedSubspace, Pass, KeptBlocks)>> {
-            let mut sid = StreamingIdentifier::new(n_u, n_y, &opts_with(compression)).ctx(&what)?;
+            let (mut sid, _, capped) = capped_to_supported(opts_with(compression), |o| {
+                StreamingIdentifier::new(n_u, n_y, o).ctx(&what)
+            })?;
+            capped_search = capped;
             let mut kept = KeptBlocks::with_limit(KEEP_MAX_BYTES);
             let pass = source.pass(&mut |u, y| {
                 kept.keep(u, y);
@@ -263,6 +277,9 @@ pub fn identify_streamed(
         &fit,
         "single-rate subspace identification, streamed in blocks",
     );
+    if let Some(cap) = capped_search {
+        push_capped_search_warning(&mut d, cap);
+    }
     if second {
         add_phase(&mut d, "second_pass_s", second_pass_s);
     }

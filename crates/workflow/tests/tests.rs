@@ -2239,3 +2239,252 @@ fn an_order_beyond_a_short_record_is_named() {
     opts.identification.order = Order::Fixed(2);
     assert!(identify(&[Record::new(dataset(&u, &y))], &opts).is_ok());
 }
+
+/// `n` samples of a 3-input, 1-output plant of order 4, near-integrating
+/// and lightly damped (poles 0.995, 0.9 ± 0.3j, 0.6; a heated building's
+/// slow mode and its ringing), driven from rest by random ±1 inputs: the
+/// noiseless output and the output with uniform noise of standard
+/// deviation `noise` times the output's RMS.
+fn heating_record(n: usize, noise: f64, seed: u64) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let a = DMatrix::from_row_slice(
+        4,
+        4,
+        &[
+            0.995, 0.0, 0.0, 0.0, 0.0, 0.9, -0.3, 0.0, 0.0, 0.3, 0.9, 0.0, 0.0, 0.0, 0.0, 0.6,
+        ],
+    );
+    let b = DMatrix::from_row_slice(
+        4,
+        3,
+        &[
+            0.05, 0.02, 0.01, 0.3, -0.2, 0.1, 0.1, 0.4, -0.3, 0.5, 0.1, 0.6,
+        ],
+    );
+    let c = DMatrix::from_row_slice(1, 4, &[1.0, 0.8, 0.5, 0.4]);
+    let g = StateSpace::new(a, b, c, DMatrix::zeros(1, 3), Some(1.0)).expect("plant");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u = DMatrix::from_fn(
+        n,
+        3,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+        },
+    );
+    let clean = g.lsim(&u, None, None).expect("lsim").y;
+    let rms = (clean.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+    let mut y = clean.clone();
+    for v in y.iter_mut() {
+        *v += noise * rms * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
+    }
+    (u, clean, y)
+}
+
+/// Simulation fit (%) of an identified model file on (u, y): the model's
+/// response to u − u₀ from x = 0, plus y₀, against y.
+fn simulation_fit(fit: &lifted_workflow::Identified, u: &DMatrix<f64>, y: &DMatrix<f64>) -> f64 {
+    let op = fit.file.operating_point.as_ref().expect("operating point");
+    let du = DMatrix::from_fn(u.nrows(), u.ncols(), |k, i| u[(k, i)] - op.u0[i]);
+    let sim = fit.file.model.lsim(&du, None, None).expect("lsim").y;
+    let (mut err, mut spread) = (0.0, 0.0);
+    for j in 0..y.ncols() {
+        let mean = y.column(j).mean();
+        for k in 0..y.nrows() {
+            err += (y[(k, j)] - sim[(k, j)] - op.y0[j]).powi(2);
+            spread += (y[(k, j)] - mean).powi(2);
+        }
+    }
+    100.0 * (1.0 - (err / spread).sqrt())
+}
+
+/// Issue 47: an automatic order by AIC (no held-out selection) gave an
+/// unstable model where the default's was stable (a 3-input heating
+/// record at order 4: −7868 % validation fit against 79.8 %). Here AIC's
+/// minimiser on 200 samples of [`heating_record`] is unstable; as the
+/// held-out selection and the singular-value gap do, it now gives way to
+/// the next order of AIC's ranking with a stable model (at most
+/// `STABLE_TRIES` models tried), the orders passed over named in
+/// `diagnostics.stable_order`, the AIC curve kept; the model kept is then
+/// refined by default as any stable estimate (an unstable one is not).
+#[test]
+fn an_unstable_aic_choice_gives_way_to_the_next_stable_order() {
+    let (u, _, y) = heating_record(200, 0.1, 0);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order_criterion = OrderCriterion::Aic;
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["stability"]["stable"], true, "{d}");
+    // AIC's own choice, its curve, stays in the diagnostics.
+    let values: Vec<f64> = d["order_criterion"]["values"]
+        .as_array()
+        .expect("AIC curve")
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::INFINITY))
+        .collect();
+    let chosen = d["order_criterion"]["selected"].as_u64().expect("selected") as usize;
+    assert_eq!(d["order_criterion"]["criterion"], "Aic", "{d}");
+    let passed = d["stable_order"]["passed_over"]
+        .as_array()
+        .expect("orders passed over");
+    assert_eq!(passed[0]["order"], chosen as u64, "{d}");
+    assert!(
+        passed
+            .iter()
+            .all(|p| p["spectral_radius"].as_f64().is_some_and(|r| r >= 1.0)),
+        "{d}"
+    );
+    // The order kept is the best of AIC's ranking after those passed over.
+    let skipped: Vec<u64> = passed.iter().filter_map(|p| p["order"].as_u64()).collect();
+    let best_left = (1..=values.len())
+        .filter(|n| !skipped.contains(&(*n as u64)))
+        .min_by(|a, b| values[a - 1].total_cmp(&values[b - 1]))
+        .expect("an order left");
+    assert_eq!(fit.order, best_left, "{d}");
+    assert_ne!(fit.order, chosen);
+    // Stable, it is refined as the default refines a stable estimate.
+    let decision = d["refinement_decision"].as_str().unwrap_or_default();
+    assert!(decision.starts_with("refined"), "{decision}");
+    // On a fresh record of the plant the model simulates as the default
+    // route's does: on 2000 noiseless samples the AIC model fitted 63.0 %
+    // and the default's 53.9 % when written; asserted within 10 points
+    // (the unstable order-8 model fitted −1.5e8 %).
+    let (uv, yv, _) = heating_record(2000, 0.0, 100);
+    let default = identify(&records, &WorkflowOptions::default()).expect("default");
+    let (f_aic, f_default) = (
+        simulation_fit(&fit, &uv, &yv),
+        simulation_fit(&default, &uv, &yv),
+    );
+    assert!(
+        f_aic > f_default - 10.0,
+        "AIC {f_aic} vs default {f_default}"
+    );
+    // A refinement asked for starts from that model: the order is searched
+    // as the plain identification's, as under the held-out selection (the
+    // refinement's stabilised start does not change it).
+    for refine in [Refine::None, Refine::Pem] {
+        opts.refinement.refine = refine;
+        let other = identify(&records, &opts).expect("identify");
+        assert_eq!(other.order, fit.order, "{refine:?}");
+        assert_eq!(other.file.diagnostics["stable_order"], d["stable_order"]);
+    }
+}
+
+/// The IV route under AIC (no held-out selection): on 300 samples of
+/// [`heating_record`] AIC's order 5 is unstable (ρ = 1.024); the next
+/// order of its ranking with a stable model is kept, as on the other
+/// routes (it returned order 5). (`max_order` 7: α = 8 identifies
+/// orders up to 7 of one output, and the IV route does not cap the
+/// search.)
+#[test]
+fn an_unstable_aic_choice_on_the_iv_route_gives_way_to_the_next_stable_order() {
+    let (u, _, y) = heating_record(300, 0.2, 4);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.method = Method::Iv;
+    opts.identification.order_criterion = OrderCriterion::Aic;
+    opts.identification.max_order = 7;
+    let fit = identify(&records, &opts).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["stability"]["stable"], true, "{d}");
+    assert_eq!(d["order_criterion"]["selected"], 5, "{d}");
+    assert_eq!(d["stable_order"]["passed_over"][0]["order"], 5, "{d}");
+    assert_eq!(d["stable_order"]["order"], fit.order as u64, "{d}");
+    assert_ne!(fit.order, 5);
+}
+
+/// The singular-value gap asked for on the predictor-based routes (no
+/// held-out selection): the drifting record of
+/// `an_unstable_gap_choice_gives_way_to_the_next_stable_order`, whose
+/// gap order 7 is unstable, gets the next stable order of the gap's
+/// ranking as the default's fallback does (it returned order 7).
+#[test]
+fn an_unstable_gap_choice_asked_for_gives_way_to_the_next_stable_order() {
+    let (u, y) = drifting_record(2);
+    let rec = [Record::new(dataset(&u, &y))];
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Ssarx;
+    o.identification.order_criterion = OrderCriterion::Gap;
+    let fit = identify(&rec, &o).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["stability"]["stable"], true, "{d}");
+    assert_eq!(d["stable_order"]["passed_over"][0]["order"], 7, "{d}");
+    let default = identify(
+        &rec,
+        &WorkflowOptions {
+            identification: lifted_workflow::IdentificationOptions {
+                method: Method::Ssarx,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+    )
+    .expect("default");
+    assert_eq!(fit.order, default.order, "{d}");
+}
+
+/// Issue 47: a single-output record read in blocks (the CLI streams a
+/// file too large for the held-out selection) under the default options:
+/// horizon 10 identifies orders up to (10 − 1)·1 = 9, so the automatic
+/// order's bound 10 is capped there with the in-memory route's warning
+/// (it was refused: "model order 10 invalid: it must lie in 1..=9").
+#[test]
+fn a_streamed_single_output_record_caps_the_automatic_order_search() {
+    let n = 6000;
+    let g = StateSpace::new(
+        DMatrix::from_row_slice(2, 2, &[0.8, 0.3, -0.3, 0.8]),
+        DMatrix::from_row_slice(2, 1, &[1.0, 0.5]),
+        DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )
+    .expect("plant");
+    let mut rng = ChaCha8Rng::seed_from_u64(47);
+    let u = DMatrix::from_fn(
+        n,
+        1,
+        |_, _| {
+            if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 }
+        },
+    );
+    let mut y = g.lsim(&u, None, None).expect("lsim").y;
+    for v in y.iter_mut() {
+        *v += 0.1 * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
+    }
+    let mut src = Blocks {
+        u: u.clone(),
+        y: y.clone(),
+        passes: 0,
+    };
+    let opts = WorkflowOptions::default();
+    let streamed = identify_streamed(&mut src, &opts)
+        .expect("streamed")
+        .expect("a single-rate record streams");
+    let capped = |f: &lifted_workflow::Identified| -> Vec<String> {
+        f.file.diagnostics["warnings"]
+            .as_array()
+            .map(|w| {
+                w.iter()
+                    .filter_map(|s| s.as_str())
+                    .filter(|s| s.contains("the automatic order searched"))
+                    .map(String::from)
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let warned = capped(&streamed);
+    assert_eq!(warned.len(), 1, "{}", streamed.file.diagnostics);
+    assert!(
+        warned[0].contains("searched 1..=9 instead of 1..=10"),
+        "{warned:?}"
+    );
+    assert_eq!(streamed.order, 2, "{}", streamed.file.diagnostics);
+    // The in-memory route with the streamed route's structure (Bauer's
+    // SVC, horizon 10, shift invariance): the same order and warning.
+    let mut mem_opts = WorkflowOptions::default();
+    mem_opts.identification.order_criterion = OrderCriterion::Svc;
+    mem_opts.identification.horizon = Some(10);
+    mem_opts.identification.estimator = Estimator::Shift;
+    let mem = identify(&[Record::new(dataset(&u, &y))], &mem_opts).expect("in memory");
+    assert_eq!(capped(&mem), warned);
+    assert_eq!(mem.order, streamed.order);
+}
