@@ -17,6 +17,16 @@ pub fn figure(id: &str, caption: &str, plot: &Plot, w: u32, h: u32) -> CliResult
     ))
 }
 
+/// A `<figure>` around an SVG document already drawn (a grid of plots).
+pub fn svg_figure(id: &str, caption: &str, svg: &str) -> String {
+    format!(
+        "<figure id=\"{}\">\n{}\n<figcaption>{}</figcaption>\n</figure>\n",
+        html_id(id),
+        svg,
+        esc(caption)
+    )
+}
+
 /// The page skeleton.
 pub fn page(title: &str, body: &str) -> String {
     format!(

@@ -753,8 +753,7 @@ mod use_models {
             "order-selection",
             "order-criterion",
             "step",
-            "bode-magnitude",
-            "bode-phase",
+            "bode",
             "pole-zero",
         ] {
             let at = html

@@ -16,8 +16,9 @@ use crate::error::{CliResult, Context, input};
 use crate::plot::{Plot, Series, svg};
 use crate::table::{names, parse_name_counts, parse_periods, read_raw, write_columns};
 use lifted_cli::service::analysis::check_omega;
-use lifted_cli::service::figures::{bode_grid, bode_plots, stack_svgs, step_data};
+use lifted_cli::service::figures::{bode_grid, step_data};
 use lifted_cli::service::models::{channel_names, read_model, write_model};
+use lifted_cli::service::pairs::{bode_pairs, pairs_svg};
 
 /// Keeps the channel names of `from` on `to` when the sizes agree.
 fn keep_names(from: &StateSpace, to: StateSpace) -> StateSpace {
@@ -261,8 +262,7 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
             println!("wrote {out}");
         }
         (Some(out), _) => {
-            let (mag, ph) = bode_plots(&m, &omega)?;
-            let doc = stack_svgs(&svg(&mag, 720, 320)?, &svg(&ph, 720, 320)?, 720, 320);
+            let doc = pairs_svg(&bode_pairs(&[(String::new(), &m)], &omega)?, 720, 280)?;
             std::fs::write(out, doc).ctx(format!("cannot write {out}"))?;
             println!("wrote {out}");
         }

@@ -8,5 +8,6 @@ pub mod analysis;
 pub mod figures;
 pub mod identify;
 pub mod models;
+pub mod pairs;
 pub mod report;
 pub mod validation;

@@ -7,12 +7,12 @@ use lifted_lti::{Dataset, ModelFile};
 
 use crate::error::CliResult;
 use crate::escape::html as esc;
-use crate::html::{figure, html_table, page};
+use crate::html::{figure, html_table, page, svg_figure};
 use crate::service::figures::{
-    bode_grid, bode_plots, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot,
-    step_plot,
+    bode_grid, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot,
 };
 use crate::service::models::channel_names;
+use crate::service::pairs::{bode_pairs, pairs_svg, step_pairs};
 use crate::service::validation::{TABLE_HEADER, Validation, table_rows, unstable_note};
 
 /// The report page of `file` validated on `data` (`v`, from
@@ -113,32 +113,21 @@ pub fn render(
         body += &figure("order-criterion", &caption, &p, 700, 340)?;
     }
 
+    let one = [(String::new(), model)];
     body += "<h2>Step response</h2>\n";
-    body += &figure(
+    body += &svg_figure(
         "step",
-        "Unit step on each input, zero initial state.",
-        &step_plot(model)?,
-        800,
-        320,
-    )?;
+        "Unit step on each input, zero initial state: one axes per output (rows) and input (columns).",
+        &pairs_svg(&step_pairs(&one)?, 800, 260)?,
+    );
 
     body += "<h2>Bode plot</h2>\n";
     let omega = bode_grid(model, None, None, 300)?;
-    let (mag, ph) = bode_plots(model, &omega)?;
-    body += &figure(
-        "bode-magnitude",
-        "Magnitude of each input-output pair.",
-        &mag,
-        800,
-        300,
-    )?;
-    body += &figure(
-        "bode-phase",
-        "Phase of each input-output pair.",
-        &ph,
-        800,
-        300,
-    )?;
+    body += &svg_figure(
+        "bode",
+        "Magnitude over phase of each input–output pair: one axes per output (rows) and input (columns).",
+        &pairs_svg(&bode_pairs(&one, &omega)?, 800, 220)?,
+    );
 
     body += "<h2>Poles and zeros</h2>\n";
     body += &figure(

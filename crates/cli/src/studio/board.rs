@@ -5,14 +5,13 @@
 //! and the Bode plots, overlaid. Any kept model can be saved
 //! (`GET /api/model?board=ID`) or removed.
 
-use lifted_lti::ModelFile;
+use lifted_lti::{ModelFile, StateSpace};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{CliResult, input};
 use crate::plot::{Marker, Plot, Series, svg};
-use crate::service::figures::{
-    Window, bode_grid, bode_plots, decimate_in, overlay, stack_svgs, step_plot,
-};
+use crate::service::figures::{Window, bode_grid, decimate_in};
+use crate::service::pairs::{bode_pairs, pairs_svg, step_pairs};
 use crate::studio::session::{Request, Session};
 
 /// Models kept on the board at most.
@@ -245,23 +244,11 @@ impl Session {
         let (step, bode) = if models.is_empty() {
             (None, None)
         } else {
-            let mut steps = Vec::new();
-            let mut mags = Vec::new();
-            let mut phs = Vec::new();
             let omega = bode_grid(&models[0].1, None, None, 200)?;
-            for (label, m) in &models {
-                steps.push((label.clone(), step_plot(m)?));
-                let (mag, ph) = bode_plots(m, &omega)?;
-                mags.push((label.clone(), mag));
-                phs.push((label.clone(), ph));
-            }
-            let step = svg(&overlay("Step responses", steps), 560, 300)?;
-            let bode = stack_svgs(
-                &svg(&overlay("Bode magnitude", mags), 560, 240)?,
-                &svg(&overlay("Bode phase", phs), 560, 240)?,
-                560,
-                240,
-            );
+            let drawn: Vec<(String, &StateSpace)> =
+                models.iter().map(|(l, m)| (l.clone(), m)).collect();
+            let step = pairs_svg(&step_pairs(&drawn)?, 560, 240)?;
+            let bode = pairs_svg(&bode_pairs(&drawn, &omega)?, 560, 200)?;
             (Some(step), Some(bode))
         };
         Ok(BoardView {

@@ -14,15 +14,15 @@ use serde::{Deserialize, Serialize};
 
 use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
-use crate::plot::{Plot, svg};
+use crate::plot::svg;
 use crate::service::figures::{
-    add_empirical, bode_grid, bode_plots, criterion_plot, excitation_plot_in, order_plot,
-    outputs_plot_in, pz_plot, residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
-    step_plot,
+    bode_grid, criterion_plot, excitation_plot_in, order_plot, outputs_plot_in, pz_plot,
+    residual_plots, response_error_plot_in, response_plot_in, stack_svgs,
 };
 use crate::service::identify::{
     files_from_args, identify_files_with, options_from_args, require_stable,
 };
+use crate::service::pairs::{PairFigure, add_empirical_pairs, bode_pairs, pairs_svg, step_pairs};
 use crate::service::report::render;
 use crate::service::validation::{validate_model, with_detrend};
 use crate::studio::board::Pinned;
@@ -1180,19 +1180,15 @@ impl Session {
         // The model's own figures (step, pole-zero map, Bode curves,
         // transfer functions) on a second thread while the model is
         // validated on the record (simulation and residual tests).
-        type ModelFigures = (
-            String,
-            String,
-            (Plot, Plot),
-            (Vec<ChannelTf>, Option<String>),
-        );
+        type ModelFigures = (String, String, PairFigure, (Vec<ChannelTf>, Option<String>));
         let (validated, drawn) = std::thread::scope(|scope| {
             let drawn = scope.spawn(|| -> CliResult<ModelFigures> {
                 let omega = bode_grid(model, None, None, 200)?;
+                let one = [(String::new(), model)];
                 Ok((
-                    svg(&step_plot(model)?, 560, 280)?,
+                    pairs_svg(&step_pairs(&one)?, 560, 240)?,
                     svg(&pz_plot(model)?, 380, 440)?,
-                    bode_plots(model, &omega)?,
+                    bode_pairs(&one, &omega)?,
                     channel_tfs(model),
                 ))
             });
@@ -1203,7 +1199,7 @@ impl Session {
             (validated, drawn)
         });
         let (_, data, v) = validated?;
-        let (step, pz, (mut mag, mut ph), (transfer_functions, transfer_note)) = drawn?;
+        let (step, pz, mut bode, (transfer_functions, transfer_note)) = drawn?;
         let ts = data.ts();
         let n = data.len();
         let mut response = Vec::new();
@@ -1228,7 +1224,7 @@ impl Session {
         if data.is_single_rate()
             && let Some(g) = self.cache.spectral(&data)
         {
-            add_empirical(&mut mag, &mut ph, g, model);
+            add_empirical_pairs(&mut bode, g);
         }
         let figures = Figures {
             order: order_plot(&file.diagnostics)
@@ -1238,7 +1234,7 @@ impl Session {
             error,
             residuals,
             step,
-            bode: stack_svgs(&svg(&mag, 560, 220)?, &svg(&ph, 560, 220)?, 560, 220),
+            bode: pairs_svg(&bode, 560, 200)?,
             pz,
             criterion: criterion_plot(&file.diagnostics)
                 .map(|p| svg(&p, 560, 280))
