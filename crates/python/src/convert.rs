@@ -4,19 +4,105 @@
 //! (lists, nested lists, integer and boolean arrays, numpy scalars, objects
 //! with `__array__`); complex and non-numeric arrays are refused with an
 //! [`ArgumentError`](crate::errors::ArgumentError) naming the argument (the
-//! imaginary part is never dropped silently). Counts arrive as Python
-//! integers (`i128`, so a negative value is read, not an `OverflowError`)
-//! and are checked here. Every conversion is one O(size) copy.
+//! imaginary part is never dropped silently). A numpy masked array's masked
+//! entries are missing values: NaN where the argument takes missing samples
+//! (outputs, [`Masked::Missing`]), refused by name everywhere else (inputs,
+//! model matrices, [`Masked::Refused`]); its data under the mask are never
+//! used as numbers.
+//!
+//! Integer arguments are read by [`int`] (and [`opt_int`], [`ints`],
+//! [`opt_ints`]), named on every integer parameter as
+//! `#[pyo3(from_py_with = int)]`: a Python `int` or anything with
+//! `__index__` (numpy integers), as `i128` (so a negative value is read, not
+//! an `OverflowError`), then checked by [`count`] and its siblings. A
+//! `bool` (or `numpy.bool_`) is refused with a `TypeError` (pyo3 adds the
+//! note "while processing 'order'"): `bool` is a subclass of `int`, and
+//! `order=True` must not mean order 1. (Not a newtype with its own
+//! `FromPyObject`: pyo3's signature defaults are Rust expressions of the
+//! parameter's type, and only a primitive integer keeps them literals such
+//! as `max_order=10`, which the text signatures and the stub show.) Every
+//! conversion is one O(size) copy.
 
 use nalgebra::{DMatrix, DVector};
 use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyBool, PyInt, PyString, PyType};
 
 use crate::errors::{arg_error, err};
 
-/// The Python type of integer arguments (read without overflow, checked by
-/// [`count`]).
+/// The Rust type of integer arguments, read by [`int`] without overflow
+/// and checked by [`count`].
 pub(crate) type Int = i128;
+
+/// Whether `obj` is a `bool` or a `numpy.bool_`.
+fn is_bool(obj: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if obj.is_instance_of::<PyBool>() {
+        return Ok(true);
+    }
+    if obj.is_instance_of::<PyInt>() {
+        return Ok(false);
+    }
+    static NUMPY_BOOL: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+    obj.is_instance(NUMPY_BOOL.import(obj.py(), "numpy", "bool_")?)
+}
+
+/// The `TypeError` of a bool given for an integer (`at`: the entry of a
+/// list argument).
+fn bool_error(obj: &Bound<'_, PyAny>, at: Option<usize>) -> PyResult<PyErr> {
+    let entry = at.map_or(String::new(), |k| format!("entry {k}: "));
+    Ok(PyTypeError::new_err(format!(
+        "{entry}expected an integer, got the bool {} (a bool is not read as 1 or 0: pass an int)",
+        obj.repr()?
+    )))
+}
+
+/// An integer argument (`#[pyo3(from_py_with = int)]`): a Python `int`
+/// or an object with `__index__`; a bool is a `TypeError`.
+pub(crate) fn int(obj: &Bound<'_, PyAny>) -> PyResult<Int> {
+    if is_bool(obj)? {
+        return Err(bool_error(obj, None)?);
+    }
+    obj.extract()
+}
+
+/// An optional integer argument (`#[pyo3(from_py_with = opt_int)]`):
+/// None, or as [`int`].
+pub(crate) fn opt_int(obj: &Bound<'_, PyAny>) -> PyResult<Option<Int>> {
+    if obj.is_none() {
+        return Ok(None);
+    }
+    int(obj).map(Some)
+}
+
+/// A list of integers (`#[pyo3(from_py_with = ints)]`): a sized
+/// collection (a list, a tuple, a 1-D array; not a str) whose entries are
+/// read as by [`int`].
+pub(crate) fn ints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Int>> {
+    if obj.is_instance_of::<PyString>() {
+        return Err(PyTypeError::new_err(
+            "expected a sequence of integers, got a str",
+        ));
+    }
+    let mut out = Vec::with_capacity(obj.len()?);
+    for (k, item) in obj.try_iter()?.enumerate() {
+        let item = item?;
+        if is_bool(&item)? {
+            return Err(bool_error(&item, Some(k))?);
+        }
+        out.push(item.extract()?);
+    }
+    Ok(out)
+}
+
+/// An optional list of integers (`#[pyo3(from_py_with = opt_ints)]`).
+pub(crate) fn opt_ints(obj: &Bound<'_, PyAny>) -> PyResult<Option<Vec<Int>>> {
+    if obj.is_none() {
+        return Ok(None);
+    }
+    ints(obj).map(Some)
+}
 
 /// A non-negative integer argument as `usize`.
 pub(crate) fn count(value: Int, name: &str) -> PyResult<usize> {
@@ -70,9 +156,94 @@ pub(crate) fn small(value: Int, name: &str) -> PyResult<u32> {
     u32::try_from(v).map_err(|_| arg_error(name, format!("{value} is too large")))
 }
 
+/// What a masked entry of a numpy masked array (`numpy.ma`) means for an
+/// array argument; the data under the mask are never read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Masked {
+    /// A missing sample, read as NaN: exactly what a NaN entry means there
+    /// (the instants an output was not sampled, whose pattern gives a slow
+    /// output's sampling phase; a route without missing samples refuses it
+    /// as it refuses NaN).
+    Missing,
+    /// Refused with an [`ArgumentError`](crate::errors::ArgumentError)
+    /// naming the argument; the text says why it cannot have missing
+    /// values.
+    Refused(&'static str),
+}
+
+/// Why a signal other than an output cannot have missing samples.
+const SIGNAL: &str = "a masked entry is a missing sample, and only an output can have \
+     missing samples (NaN or a masked entry marks an instant it was not sampled); \
+     an input, an instrument or a set-point needs every sample: fill them or leave \
+     those samples out";
+
+/// Why a matrix or vector argument cannot have masked entries.
+const VALUES: &str = "a masked entry is a missing value, and this argument needs every \
+     value: pass a filled array (numpy.ma.filled)";
+
 /// `obj` as a float64 numpy array (any number of dimensions), refusing
-/// complex and non-numeric data.
-fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+/// complex and non-numeric data; a masked array's masked entries as
+/// `masked` says.
+fn float_array<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    masked: Masked,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    static MASKED_ARRAY: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+    // A masked array is an ndarray too: checked first, so that the data
+    // under its mask never pass as numbers.
+    if obj.is_instance(MASKED_ARRAY.import(obj.py(), "numpy.ma", "MaskedArray")?)? {
+        return unmasked(obj, name, masked);
+    }
+    plain_float_array(obj, name)
+}
+
+/// The float64 data of the masked array `obj`, NaN where it is masked
+/// ([`Masked::Missing`]) or refused when any entry is ([`Masked::Refused`]).
+fn unmasked<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    masked: Masked,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let py = obj.py();
+    let ma = py.import("numpy.ma")?;
+    let data = plain_float_array(&ma.call_method1("getdata", (obj,))?, name)?;
+    let mask = ma.call_method1("getmaskarray", (obj,))?;
+    let n_masked: usize = mask.call_method0("sum")?.extract()?;
+    if n_masked == 0 {
+        return Ok(data);
+    }
+    let np = py.import("numpy")?;
+    match masked {
+        Masked::Refused(why) => {
+            let first: Vec<usize> = np
+                .call_method1("argwhere", (&mask,))?
+                .get_item(0)?
+                .call_method0("tolist")?
+                .extract()?;
+            let at = first
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ");
+            let entries = if n_masked == 1 { "entry" } else { "entries" };
+            Err(arg_error(
+                name,
+                format!("{n_masked} masked {entries} (the first at index ({at})): {why}"),
+            ))
+        }
+        Masked::Missing => np
+            .call_method1("where", (&mask, f64::NAN, &data))?
+            .cast_into::<PyArrayDyn<f64>>()
+            .map_err(|e| arg_error(name, format!("cannot be read as a float64 array ({e})"))),
+    }
+}
+
+/// [`float_array`] of an object that is not a masked array.
+fn plain_float_array<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     if let Ok(a) = obj.cast::<PyArrayDyn<f64>>() {
         return Ok(a.clone());
     }
@@ -123,9 +294,22 @@ fn from_rows(r: usize, c: usize, v: &[f64]) -> DMatrix<f64> {
     DMatrix::from_fn(r, c, |i, j| v[i * c + j])
 }
 
-/// A data record: samples × channels; a 1-D array is one channel.
+/// A data record of a signal that has every sample (an input, an
+/// instrument, a set-point): samples × channels; a 1-D array is one
+/// channel. Masked entries are refused.
 pub(crate) fn record(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DMatrix<f64>> {
-    let a = float_array(obj, name)?;
+    record_of(obj, name, Masked::Refused(SIGNAL))
+}
+
+/// A record of outputs, whose missing samples (NaN, or masked entries,
+/// read as NaN) are the instants an output was not sampled.
+pub(crate) fn output_record(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DMatrix<f64>> {
+    record_of(obj, name, Masked::Missing)
+}
+
+/// A record with masked entries read as `masked` says.
+fn record_of(obj: &Bound<'_, PyAny>, name: &str, masked: Masked) -> PyResult<DMatrix<f64>> {
+    let a = float_array(obj, name, masked)?;
     let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [n] => Ok(from_rows(*n, 1, &v)),
@@ -151,13 +335,14 @@ pub(crate) enum Vector {
 
 /// A matrix argument: 2-D as given, a scalar as 1×1 (or `fill` rows ×
 /// cols of it, numpy's broadcasting of a scalar), a 1-D array as `vector`.
+/// Masked entries are refused.
 pub(crate) fn matrix(
     obj: &Bound<'_, PyAny>,
     name: &str,
     vector: Vector,
     fill: Option<(usize, usize)>,
 ) -> PyResult<DMatrix<f64>> {
-    let a = float_array(obj, name)?;
+    let a = float_array(obj, name, Masked::Refused(VALUES))?;
     let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [] => {
@@ -177,9 +362,9 @@ pub(crate) fn matrix(
 }
 
 /// A vector argument: 1-D, a scalar (length 1), or a 2-D array with one
-/// row or one column.
+/// row or one column. Masked entries are refused.
 pub(crate) fn vector(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f64>> {
-    let a = float_array(obj, name)?;
+    let a = float_array(obj, name, Masked::Refused(VALUES))?;
     let (shape, v) = values(&a, name)?;
     match shape.as_slice() {
         [] | [_] => Ok(v),

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
 use crate::choices::Choice;
-use crate::convert::{Int, count, opt_count, record};
+use crate::convert::{Int, count, int, opt_count, opt_int, output_record, record};
 use crate::errors::{err, lifted_error};
 
 /// The options of a sharded identification (the in-memory `identify`'s).
@@ -64,11 +64,11 @@ pub fn partial_plan<'py>(
     py: Python<'py>,
     u: Bound<'py, PyAny>,
     y: Bound<'py, PyAny>,
-    past: Int,
-    future: Int,
+    #[pyo3(from_py_with = int)] past: Int,
+    #[pyo3(from_py_with = int)] future: Int,
     remove_means: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     let opts = SubspaceOptions {
         past: count(past, "past")?,
         future: count(future, "future")?,
@@ -89,7 +89,7 @@ pub fn partial_plan<'py>(
 /// (input scales, output scales).
 #[pyfunction]
 pub fn channel_scales(u: Bound<'_, PyAny>, y: Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<f64>)> {
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     let rows = u.nrows().min(y.nrows()).min(lifted_workflow::SCALE_ROWS);
     let s = lifted_workflow::ChannelScales::of_rows(&u.rows(0, rows), &y.rows(0, rows));
     Ok((s.u, s.y))
@@ -108,11 +108,11 @@ pub fn partial_compress<'py>(
     plan: &[u8],
     u: Bound<'py, PyAny>,
     y: Bound<'py, PyAny>,
-    threads: Int,
+    #[pyo3(from_py_with = int)] threads: Int,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let plan = plan_of(plan)?;
     let threads = resolve_threads(count(threads, "threads")?);
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     bytes_of(py, move || plan.compress(&u, &y, threads)?.to_bytes())
 }
 
@@ -163,7 +163,7 @@ pub fn regression_push<'py>(
     y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     bytes_of(py, move || {
         let mut st = OutputErrorStream::from_bytes(&s)?;
         st.push(&u, &y)?;
@@ -184,7 +184,7 @@ fn stream_step<'py>(
     ) -> lifted_subspace::Result<()>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     bytes_of(py, move || {
         let mut st = OutputErrorStream::from_bytes(&s)?;
         step(&mut st, &u, &y)?;
@@ -226,7 +226,7 @@ pub fn regression_scan<'py>(
     y: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = stream.to_vec();
-    let (u, y) = (record(&u, "u")?, record(&y, "y")?);
+    let (u, y) = (record(&u, "u")?, output_record(&y, "y")?);
     bytes_of(py, move || {
         OutputErrorStream::from_bytes(&s)?
             .scan_apart(&u, &y)?
@@ -293,14 +293,14 @@ pub fn partial_identify(
     py: Python<'_>,
     records: &[u8],
     method: &str,
-    order: Option<Int>,
-    max_order: Int,
-    past: Int,
-    future: Int,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
+    #[pyo3(from_py_with = int)] past: Int,
+    #[pyo3(from_py_with = int)] future: Int,
     remove_means: bool,
     noise_model: bool,
     dt: f64,
-    threads: Int,
+    #[pyo3(from_py_with = int)] threads: Int,
 ) -> PyResult<PyFirstPass> {
     let opts = options(
         method,

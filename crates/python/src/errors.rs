@@ -584,28 +584,46 @@ impl Classify for lifted_workflow::Error {
                 f.set("argument", *option);
                 Kind::Argument
             }
-            // The class and fields of the layer below.
+            // The class and fields of the layer below: the first error of
+            // a Lifted crate down the chain of sources (a step may wrap it
+            // in an error of its own that keeps it as its source).
             E::Step { source, .. } => {
-                let s: &(dyn std::error::Error + 'static) = source.as_ref();
-                if let Some(e) = s.downcast_ref::<lifted_subspace::Error>() {
-                    e.classify(f)
-                } else if let Some(e) = s.downcast_ref::<lifted_lti::Error>() {
-                    e.classify(f)
-                } else if let Some(e) = s.downcast_ref::<lifted_lti::DataError>() {
-                    e.classify(f)
-                } else if let Some(e) = s.downcast_ref::<lifted_multirate::Error>() {
-                    e.classify(f)
-                } else if let Some(e) = s.downcast_ref::<lifted_qmarkov::Error>() {
-                    e.classify(f)
-                } else if let Some(e) = s.downcast_ref::<lifted_prbs::Error>() {
-                    e.classify(f)
-                } else {
-                    Kind::Base
+                let mut next: Option<&(dyn std::error::Error + 'static)> = Some(source.as_ref());
+                while let Some(s) = next {
+                    if let Some(kind) = classify_layer(s, f) {
+                        return kind;
+                    }
+                    next = s.source();
                 }
+                Kind::Base
             }
             _ => Kind::Base,
         }
     }
+}
+
+/// The class of `s` when it is the error of a Lifted crate below the
+/// workflow (None: another type).
+fn classify_layer(s: &(dyn std::error::Error + 'static), f: &mut Fields<'_>) -> Option<Kind> {
+    macro_rules! first_of {
+        ($($t:ty),+) => {
+            $(
+                if let Some(e) = s.downcast_ref::<$t>() {
+                    return Some(e.classify(f));
+                }
+            )+
+        };
+    }
+    first_of!(
+        lifted_subspace::Error,
+        lifted_lti::Error,
+        lifted_lti::DataError,
+        lifted_multirate::Error,
+        lifted_qmarkov::Error,
+        lifted_prbs::Error,
+        lifted_linalg::Error
+    );
+    None
 }
 
 impl Classify for lifted_prbs::Error {

@@ -7,6 +7,7 @@
 //! options give the same model as `lifted identify`.
 
 use lifted_linalg::budget::resolve_threads;
+use lifted_lti::ModelFile;
 use lifted_subspace::{OrderSelection, SystemEstimate};
 use lifted_workflow::{
     BdRoute, Detrend, Estimator, Order, OrderCriterion, Record, Refine, WorkflowOptions,
@@ -16,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
-use crate::convert::{Int, count, opt_count};
+use crate::convert::{Int, count, int, opt_count, opt_int};
 use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
 use crate::{dataset, records, to_py};
@@ -81,12 +82,12 @@ pub(crate) fn identify<'py>(
     us: Vec<Bound<'py, PyAny>>,
     ys: Vec<Bound<'py, PyAny>>,
     method: &str,
-    order: Option<Int>,
-    max_order: Int,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
     order_criterion: &str,
-    horizon: Option<Int>,
-    past: Option<Int>,
-    future: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] horizon: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] past: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] future: Option<Int>,
     system: Option<&str>,
     bd: &str,
     feedthrough: Option<bool>,
@@ -95,10 +96,10 @@ pub(crate) fn identify<'py>(
     noise_model: bool,
     enforce_stability: bool,
     refine: &str,
-    refine_iterations: Int,
+    #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
-    threads: Int,
+    #[pyo3(from_py_with = int)] threads: Int,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let estimator = match system {
@@ -233,8 +234,10 @@ pub(crate) fn run(
 /// The dict of a workflow run: model (with its operating point and Kalman
 /// gain), kalman_gain, x0, u0/y0 (the offsets removed), singular_values,
 /// order, suggested_order, method, threads (the count used), model_json
-/// (the CLI's model file without channel names), diagnostics_json (the
-/// model file's diagnostics), and the route's details: lifted and
+/// (the workflow's model file, as the CLI writes it: method, model,
+/// operating point, Kalman gain and diagnostics; the CLI adds its column
+/// names and data files), diagnostics_json (that file's diagnostics), and
+/// the route's details: lifted and
 /// lifting_period (multirate routes; None elsewhere), markov_data and
 /// markov_model (q-Markov Cover; empty elsewhere).
 pub(crate) fn identified_dict<'py>(
@@ -258,6 +261,7 @@ pub(crate) fn identified_dict<'py>(
         },
         name,
         threads,
+        Some(f),
     )?;
     out.set_item("diagnostics_json", f.diagnostics.to_string())?;
     let details = &fit.details;
@@ -286,18 +290,18 @@ pub(crate) fn pbsid<'py>(
     us: Vec<Bound<'py, PyAny>>,
     ys: Vec<Bound<'py, PyAny>>,
     variant: &str,
-    order: Option<Int>,
-    max_order: Int,
-    past: Option<Int>,
-    future: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
+    #[pyo3(from_py_with = opt_int)] past: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] future: Option<Int>,
     feedthrough: Option<bool>,
     detrend: &str,
     remove_means: bool,
     refine: &str,
-    refine_iterations: Int,
+    #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
-    threads: Int,
+    #[pyo3(from_py_with = int)] threads: Int,
 ) -> PyResult<Bound<'py, PyDict>> {
     let variant = lifted_subspace::PbsidVariant::parse(variant, "variant")?;
     let threads = resolve_threads(count(threads, "threads")?);
@@ -356,23 +360,31 @@ pub(crate) fn fit_dict<'py>(
         },
         method_name,
         threads,
+        None,
     )
 }
 
-/// The result dict from its parts.
+/// The result dict from its parts; `model_json` is `file` (the model file
+/// of the identification, with its diagnostics) when given, else the
+/// model's file with `method_name` and no diagnostics.
 fn dict_of<'py>(
     py: Python<'py>,
     f: FitParts<'_>,
     method_name: &str,
     threads: usize,
+    file: Option<&ModelFile>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let model = PyStateSpace::with_parts(
         f.model.clone(),
         f.operating_point.cloned(),
         f.kalman_gain.cloned(),
     )?;
+    let model_json = match file {
+        Some(file) => file.to_json().map_err(err)?,
+        None => model.to_json_with(Some(method_name))?,
+    };
     let out = PyDict::new(py);
-    out.set_item("model_json", model.to_json_with(Some(method_name))?)?;
+    out.set_item("model_json", model_json)?;
     out.set_item("model", model)?;
     out.set_item("kalman_gain", f.kalman_gain.map(|k| to_py(py, k)))?;
     let x0: Vec<Vec<f64>> = f.x0.iter().map(|x| x.as_slice().to_vec()).collect();

@@ -34,7 +34,7 @@ use pyo3::prelude::*;
 pub use errors::LiftedError;
 pub use statespace::PyStateSpace;
 
-use crate::convert::record;
+use crate::convert::{output_record, record};
 use crate::errors::{err, lifted_error};
 
 /// nalgebra → numpy, O(r·c).
@@ -82,7 +82,7 @@ pub(crate) fn records(
     let y = ys
         .iter()
         .enumerate()
-        .map(|(k, a)| record(a, &name("y", k)))
+        .map(|(k, a)| output_record(a, &name("y", k)))
         .collect::<PyResult<Vec<_>>>()?;
     Ok((u, y))
 }
@@ -137,7 +137,7 @@ fn _choices() -> Vec<(&'static str, Vec<&'static str>)> {
 /// all available cores; larger counts are capped at the available
 /// parallelism), `lifted_linalg::budget::resolve_threads`.
 #[pyfunction]
-fn resolve_threads(threads: convert::Int) -> PyResult<usize> {
+fn resolve_threads(#[pyo3(from_py_with = convert::int)] threads: convert::Int) -> PyResult<usize> {
     Ok(lifted_linalg::budget::resolve_threads(convert::count(
         threads, "threads",
     )?))

@@ -11,7 +11,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::{Choice, MpcKind};
-use crate::convert::{Int, Vector, count, counts, matrix, opt_count, opt_dvector, record, vector};
+use crate::convert::{
+    Int, Vector, count, counts, int, matrix, opt_count, opt_dvector, opt_int, opt_ints, record,
+    vector,
+};
 use crate::errors::err;
 use crate::statespace::PyStateSpace;
 use crate::to_py;
@@ -77,11 +80,11 @@ impl PyMpc {
         py: Python<'_>,
         model: &PyStateSpace,
         kind: &str,
-        prediction_horizon: Int,
-        control_horizon: Int,
+        #[pyo3(from_py_with = int)] prediction_horizon: Int,
+        #[pyo3(from_py_with = int)] control_horizon: Int,
         output_weight: Option<&Bound<'_, PyAny>>,
         move_weight: Option<&Bound<'_, PyAny>>,
-        truncation: Option<Int>,
+        #[pyo3(from_py_with = opt_int)] truncation: Option<Int>,
         u_min: Option<&Bound<'_, PyAny>>,
         u_max: Option<&Bound<'_, PyAny>>,
         du_max: Option<&Bound<'_, PyAny>>,
@@ -189,7 +192,7 @@ impl PyMpc {
         py: Python<'py>,
         plant: &PyStateSpace,
         reference: &Bound<'py, PyAny>,
-        periods: Option<Vec<Int>>,
+        #[pyo3(from_py_with = opt_ints)] periods: Option<Vec<Int>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut r = record(reference, "reference")?;
         if let Some(op) = &self.operating_point {

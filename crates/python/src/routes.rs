@@ -13,7 +13,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
-use crate::convert::{Int, count, counts, opt_count, record, small};
+use crate::convert::{
+    Int, count, counts, int, ints, opt_count, opt_int, opt_ints, output_record, record, small,
+};
 use crate::dataset;
 use crate::errors::{arg_error, err, lifted_error};
 use crate::identify::{
@@ -38,10 +40,10 @@ pub(crate) fn iv<'py>(
     us: Vec<Bound<'py, PyAny>>,
     ys: Vec<Bound<'py, PyAny>>,
     instruments: Vec<Option<Bound<'py, PyAny>>>,
-    order: Option<Int>,
-    max_order: Int,
-    alpha: Option<Int>,
-    alpha_p: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
+    #[pyo3(from_py_with = opt_int)] alpha: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] alpha_p: Option<Int>,
     feedthrough: Option<bool>,
     order_criterion: &str,
     detrend: &str,
@@ -49,7 +51,7 @@ pub(crate) fn iv<'py>(
     enforce_stability: bool,
     require_stable: bool,
     refine: &str,
-    refine_iterations: Int,
+    #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -124,11 +126,11 @@ pub(crate) fn qmarkov<'py>(
     py: Python<'py>,
     us: Vec<Bound<'py, PyAny>>,
     ys: Vec<Bound<'py, PyAny>>,
-    q: Option<Int>,
-    order: Option<Int>,
-    max_order: Int,
-    hold: Int,
-    prbs_order: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] q: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
+    #[pyo3(from_py_with = int)] hold: Int,
+    #[pyo3(from_py_with = opt_int)] prbs_order: Option<Int>,
     amplitudes: Option<Vec<f64>>,
     last_period: Option<bool>,
     output_weight: Option<Vec<f64>>,
@@ -137,7 +139,7 @@ pub(crate) fn qmarkov<'py>(
     enforce_stability: bool,
     require_stable: bool,
     refine: &str,
-    refine_iterations: Int,
+    #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -199,23 +201,23 @@ pub(crate) fn multirate<'py>(
     py: Python<'py>,
     u: &Bound<'py, PyAny>,
     y: &Bound<'py, PyAny>,
-    periods: Vec<Int>,
-    holds: Option<Vec<Int>>,
+    #[pyo3(from_py_with = ints)] periods: Vec<Int>,
+    #[pyo3(from_py_with = opt_ints)] holds: Option<Vec<Int>>,
     instrument: Option<&Bound<'py, PyAny>>,
     method: &str,
-    order: Option<Int>,
-    max_order: Int,
-    horizon: Option<Int>,
-    past: Option<Int>,
-    future: Option<Int>,
-    alpha: Option<Int>,
-    alpha_p: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = int)] max_order: Int,
+    #[pyo3(from_py_with = opt_int)] horizon: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] past: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] future: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] alpha: Option<Int>,
+    #[pyo3(from_py_with = opt_int)] alpha_p: Option<Int>,
     detrend: &str,
     remove_means: bool,
     enforce_stability: bool,
     require_stable: bool,
     refine: &str,
-    refine_iterations: Int,
+    #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -224,7 +226,13 @@ pub(crate) fn multirate<'py>(
     let holds = holds.map(|h| counts(&h, "holds")).transpose()?;
     let u = record(u, "u")?;
     finite("u", &u)?;
-    let data = dataset(dt, u, record(y, "y")?, holds.as_deref(), Some(&periods))?;
+    let data = dataset(
+        dt,
+        u,
+        output_record(y, "y")?,
+        holds.as_deref(),
+        Some(&periods),
+    )?;
     let f = instrument.map(|f| record(f, "instrument")).transpose()?;
     if f.is_some() {
         method = Method::Iv;

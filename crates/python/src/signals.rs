@@ -12,7 +12,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{Int, budget, count, seed as seed_of, small};
+use crate::convert::{Int, budget, count, int, opt_int, seed as seed_of, small};
 use crate::errors::{arg_error, err, work_budget};
 
 /// `periods` periods of `period` samples, refused above the in-memory
@@ -40,11 +40,11 @@ fn length(period: u128, periods: usize) -> PyResult<usize> {
 #[pyo3(signature = (order, amplitude=1.0, hold=1, periods=1, seed=0))]
 pub(crate) fn prbs<'py>(
     py: Python<'py>,
-    order: Int,
+    #[pyo3(from_py_with = int)] order: Int,
     amplitude: f64,
-    hold: Int,
-    periods: Int,
-    seed: Int,
+    #[pyo3(from_py_with = int)] hold: Int,
+    #[pyo3(from_py_with = int)] periods: Int,
+    #[pyo3(from_py_with = int)] seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (order, hold) = (small(order, "order")?, count(hold, "hold")?);
     let (periods, seed) = (count(periods, "periods")?, seed_of(seed, "seed")?);
@@ -83,11 +83,11 @@ pub(crate) fn prbs<'py>(
 #[pyo3(signature = (order, amplitude=1.0, hold=1, periods=1, seed=0))]
 pub(crate) fn inverse_prbs<'py>(
     py: Python<'py>,
-    order: Int,
+    #[pyo3(from_py_with = int)] order: Int,
     amplitude: f64,
-    hold: Int,
-    periods: Int,
-    seed: Int,
+    #[pyo3(from_py_with = int)] hold: Int,
+    #[pyo3(from_py_with = int)] periods: Int,
+    #[pyo3(from_py_with = int)] seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (order, hold) = (small(order, "order")?, count(hold, "hold")?);
     let (periods, seed) = (count(periods, "periods")?, seed_of(seed, "seed")?);
@@ -118,7 +118,7 @@ pub(crate) fn design<'py>(
     actuator_margin: f64,
     slowest_mode_hz: f64,
     amplitude: f64,
-    min_order: Int,
+    #[pyo3(from_py_with = int)] min_order: Int,
 ) -> PyResult<Bound<'py, PyDict>> {
     let min_order = small(min_order, "min_order")?;
     let p = lifted_prbs::design(&DesignRequest {
@@ -159,10 +159,10 @@ fn signal_length(n: Int) -> PyResult<usize> {
 #[pyo3(signature = (n, amplitude=1.0, hold=1, seed=0))]
 pub(crate) fn rbs<'py>(
     py: Python<'py>,
-    n: Int,
+    #[pyo3(from_py_with = int)] n: Int,
     amplitude: f64,
-    hold: Int,
-    seed: Int,
+    #[pyo3(from_py_with = int)] hold: Int,
+    #[pyo3(from_py_with = int)] seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let n = signal_length(n)?;
     let o = RandomBinaryOptions {
@@ -181,11 +181,11 @@ pub(crate) fn rbs<'py>(
 #[pyo3(signature = (n, amplitude=1.0, switch_probability=0.5, hold=1, seed=0))]
 pub(crate) fn gbn<'py>(
     py: Python<'py>,
-    n: Int,
+    #[pyo3(from_py_with = int)] n: Int,
     amplitude: f64,
     switch_probability: f64,
-    hold: Int,
-    seed: Int,
+    #[pyo3(from_py_with = int)] hold: Int,
+    #[pyo3(from_py_with = int)] seed: Int,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let n = signal_length(n)?;
     let o = GbnOptions {
@@ -236,11 +236,11 @@ fn check_multisine(period: usize, first: usize, last: Option<Int>) -> PyResult<(
 #[pyo3(signature = (n, amplitude=1.0, period=1024, first_harmonic=1, last_harmonic=None))]
 pub(crate) fn multisine<'py>(
     py: Python<'py>,
-    n: Int,
+    #[pyo3(from_py_with = int)] n: Int,
     amplitude: f64,
-    period: Int,
-    first_harmonic: Int,
-    last_harmonic: Option<Int>,
+    #[pyo3(from_py_with = int)] period: Int,
+    #[pyo3(from_py_with = int)] first_harmonic: Int,
+    #[pyo3(from_py_with = opt_int)] last_harmonic: Option<Int>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let n = signal_length(n)?;
     let period = count(period, "period")?;

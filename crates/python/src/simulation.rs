@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
-use crate::convert::{Int, counts, record, seed as seed_of};
+use crate::convert::{Int, counts, int, opt_ints, record, seed as seed_of};
 use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
 use crate::to_py;
@@ -37,10 +37,10 @@ pub(crate) fn simulate_experiment<'py>(
     controller: Option<&PyStateSpace>,
     reference: bool,
     feedback: &str,
-    sampling: Option<Vec<Int>>,
-    holds: Option<Vec<Int>>,
+    #[pyo3(from_py_with = opt_ints)] sampling: Option<Vec<Int>>,
+    #[pyo3(from_py_with = opt_ints)] holds: Option<Vec<Int>>,
     snr: Option<f64>,
-    seed: Int,
+    #[pyo3(from_py_with = int)] seed: Int,
     dt: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let feedback = Feedback::parse(feedback, "feedback")?;

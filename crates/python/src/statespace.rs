@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyFloat, PyTuple};
 
 use crate::choices::{Choice, Discretization};
-use crate::convert::{Int, Vector, budget, count, matrix, record, vector};
+use crate::convert::{Int, Vector, budget, count, int, matrix, record, vector};
 use crate::errors::err;
 use crate::{stack, to_py};
 
@@ -346,7 +346,7 @@ impl PyStateSpace {
     fn step<'py>(
         &self,
         py: Python<'py>,
-        n_samples: Int,
+        #[pyo3(from_py_with = int)] n_samples: Int,
         dt: Option<f64>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = count(n_samples, "n_samples")?;

@@ -6,7 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
-use crate::convert::{Int, Vector, count, counts, matrix, record};
+use crate::convert::{
+    Int, Vector, count, counts, int, ints, matrix, opt_ints, output_record, record,
+};
 use crate::dataset;
 use crate::errors::{err, lifted_error};
 use crate::statespace::PyStateSpace;
@@ -30,12 +32,12 @@ pub(crate) fn validate<'py>(
     model: &PyStateSpace,
     u: &Bound<'py, PyAny>,
     y: &Bound<'py, PyAny>,
-    periods: Option<Vec<Int>>,
-    lags: Int,
+    #[pyo3(from_py_with = opt_ints)] periods: Option<Vec<Int>>,
+    #[pyo3(from_py_with = int)] lags: Int,
     kalman_gain: Option<&Bound<'py, PyAny>>,
     u0: Option<&Bound<'py, PyAny>>,
     y0: Option<&Bound<'py, PyAny>>,
-    horizons: Vec<Int>,
+    #[pyo3(from_py_with = ints)] horizons: Vec<Int>,
     dt: Option<f64>,
     initial_state: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -54,7 +56,7 @@ pub(crate) fn validate<'py>(
     let data = dataset(
         ts,
         record(u, "u")?,
-        record(y, "y")?,
+        output_record(y, "y")?,
         None,
         periods.as_deref(),
     )?;

@@ -89,3 +89,33 @@ def test_identify_bad_input(record: tuple[np.ndarray, np.ndarray]) -> None:
         lifted.identify([u], y)
     with pytest.raises(lifted.LiftedError):
         lifted.identify(np.ones((3, 3, 3)), y)
+
+
+def test_a_constant_input_is_not_exciting(record: tuple[np.ndarray, np.ndarray]) -> None:
+    # The subspace layer refuses the inputs (lifted_subspace::Error::
+    # NotExciting, numerical rank 0 of the 20 the input rows need); the
+    # workflow names the constant column. Mapped by the variant, with its
+    # fields, through the chain of the step's sources.
+    u, y = record
+    for call in (
+        lambda: lifted.n4sid(np.ones_like(u), y, order=2),
+        lambda: lifted.pbsid(np.zeros_like(u), y, order=2),
+        lambda: lifted.n4sid(np.hstack([u, -3 * u]), y, order=2),  # tied inputs
+    ):
+        try:
+            call()
+        except lifted.LiftedError as e:
+            assert isinstance(e, lifted.NotExcitingError), repr(e)
+            assert e.rank is not None and e.needed is not None and e.rank < e.needed
+            assert "not persistently exciting" in str(e)
+        else:
+            raise AssertionError("a non-exciting input was identified")
+
+
+def test_an_input_of_too_few_frequencies_is_not_exciting(record: tuple[np.ndarray, np.ndarray]) -> None:
+    # Not constant, not tied: the workflow passes the subspace step's
+    # refusal on as it is, mapped by its variant with its fields.
+    u, y = record
+    with pytest.raises(lifted.NotExcitingError) as e:
+        lifted.n4sid(np.sin(0.3 * np.arange(len(y))), y, order=2)
+    assert e.value.what == "u" and 0 < e.value.rank < e.value.needed

@@ -142,6 +142,39 @@ def test_agrees_with_cli(record: tuple[np.ndarray, np.ndarray], tmp_path: pathli
     assert json.loads(fit["model_json"])["method"] == json.loads(text)["method"]
 
 
+def test_model_json_carries_the_diagnostics_like_the_cli_model_file(
+    record: tuple[np.ndarray, np.ndarray], tmp_path: pathlib.Path
+) -> None:
+    """fit.model_json is the model file `lifted identify` writes: its
+    diagnostics are fit.diagnostics (they were null), the CLI reads them
+    back unchanged, and the CLI's own file of the same identification has
+    the same ones but for what only the CLI knows (its data files) and the
+    timings."""
+    u, y = record
+    fit = lifted.n4sid(u, y, dt=0.5)
+    doc = json.loads(fit.model_json)
+    assert fit.diagnostics and doc["diagnostics"] == fit.diagnostics
+    assert doc["method"] == "n4sid"
+    # the other routes' results carry their model file's diagnostics too
+    for other in (lifted.iv(u, y, order=2, dt=0.5), lifted.pbsid(u, y, order=2, dt=0.5)):
+        assert other.diagnostics and json.loads(other.model_json)["diagnostics"] == other.diagnostics
+    model = tmp_path / "model.json"
+    model.write_text(fit.model_json)
+    out = subprocess.run([str(cli()), "convert", "--model", str(model), "--to", "ss", "--json"],
+                         check=True, capture_output=True, text=True).stdout
+    assert json.loads(out)["diagnostics"] == fit.diagnostics
+    data, theirs = tmp_path / "rec.csv", tmp_path / "cli.json"
+    np.savetxt(data, np.column_stack([0.5 * np.arange(len(u)), u[:, 0], y[:, 0]]), delimiter=",",
+               header="t,u,y", comments="", fmt="%.17g")
+    subprocess.run([str(cli()), "identify", "--data", str(data), "--inputs", "u", "--outputs", "y",
+                    "--out", str(theirs)], check=True, capture_output=True)
+    cli_diagnostics = json.loads(theirs.read_text())["diagnostics"]
+    assert cli_diagnostics.pop("data") == [str(data)]
+    ours = dict(fit.diagnostics)
+    assert set(cli_diagnostics.pop("profile")) >= set(ours.pop("profile"))
+    assert cli_diagnostics == ours
+
+
 def test_parallel_example_matches_serial() -> None:
     path = pathlib.Path(__file__).resolve().parents[1] / "examples" / "parallel_identify.py"
     spec = importlib.util.spec_from_file_location("parallel_identify", path)

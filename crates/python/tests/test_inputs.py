@@ -5,6 +5,9 @@ the argument."""
 
 from __future__ import annotations
 
+import ast
+import pathlib
+
 import numpy as np
 import pytest
 
@@ -128,3 +131,145 @@ def test_frequencies_above_nyquist_are_refused(plant: lifted.StateSpace) -> None
     assert plant.freqresp([np.pi / 0.5]).shape == (1, 1, 1)
     with pytest.raises(lifted.ArgumentError, match="Nyquist"):
         plant.freqresp([100.0])
+
+
+def test_booleans_are_not_integers(plant, record) -> None:
+    # bool is a subclass of int: order=True was order 1. Refused by the one
+    # conversion of integer arguments, a TypeError with pyo3's note naming
+    # the argument; numpy's bool and list entries too.
+    u, y = record
+    with pytest.raises(TypeError, match="expected an integer, got the bool True") as e:
+        lifted.n4sid(u, y, order=True)
+    assert "while processing 'order'" in e.value.__notes__
+    with pytest.raises(TypeError, match="got the bool") as e:
+        lifted.prbs(7, seed=np.True_)
+    assert "while processing 'seed'" in e.value.__notes__
+    with pytest.raises(TypeError, match="entry 1: expected an integer, got the bool False") as e:
+        lifted.validate(plant, u, y, horizons=[1, False])
+    assert "while processing 'horizons'" in e.value.__notes__
+    with pytest.raises(TypeError, match="while processing 'periods'"):
+        lifted.multirate(u, y, [True])
+    # integers of every kind are still integers
+    np.testing.assert_array_equal(lifted.prbs(np.int64(7), seed=np.uint8(3)), lifted.prbs(7, seed=3))
+    assert lifted.n4sid(u, y, order=np.int32(2), dt=0.5).order == 2
+
+
+def test_masked_output_entries_are_missing_samples(plant, record) -> None:
+    # A masked entry is a missing sample, exactly as NaN: the values under
+    # the mask (1e6 here) are never read.
+    u = lifted.rbs(3000, seed=5).reshape(-1, 1)
+    y, _ = lifted.simulate(plant, u)
+    unsampled = (np.arange(3000) % 3 != 0)[:, None]
+    with_nan = np.where(unsampled, np.nan, y)
+    masked = np.ma.masked_array(np.where(unsampled, 1e6, y), mask=unsampled)
+    opts = dict(order=2, past=5, future=5, detrend="none", refine="none", dt=0.5)
+    want = lifted.multirate(u, with_nan, [3], **opts)
+    got = lifted.multirate(u, masked, [3], **opts)
+    assert got.fast == want.fast and got.lifting_period == 3
+    # the sampling phase of a slow output is read from the mask as from NaN
+    # (measured at k = 1 mod 3)
+    off = (np.arange(3000) % 3 != 1)[:, None]
+    got = lifted.multirate(u, np.ma.masked_array(np.where(off, -1e6, y), mask=off), [3], **opts)
+    assert got.fast == lifted.multirate(u, np.where(off, np.nan, y), [3], **opts).fast
+    v = lifted.validate(plant, u, masked, periods=[3], lags=5).outputs[0]
+    assert v.samples == 1000
+    assert v.fit == lifted.validate(plant, u, with_nan, periods=[3], lags=5).outputs[0].fit
+    # a single-rate route refuses a masked output sample as it refuses NaN
+    u1, y1 = record
+    gappy = np.ma.masked_array(y1)
+    gappy[10, 0] = np.ma.masked
+    with pytest.raises(lifted.NonFiniteError) as e:
+        lifted.n4sid(u1, gappy, order=2)
+    assert (e.value.what, e.value.row, e.value.col) == ("y", 10, 0)
+    # a masked array without masked entries is its data
+    assert lifted.n4sid(u1, np.ma.masked_array(y1), order=2).model == lifted.n4sid(u1, y1, order=2).model
+
+
+def test_masked_entries_are_refused_where_no_value_may_be_missing(plant, record) -> None:
+    u, y = record
+    gappy = np.ma.masked_array(u)
+    gappy[5, 0] = np.ma.masked
+    with pytest.raises(lifted.ArgumentError,
+                       match=r"argument 'u': 1 masked entry \(the first at index \(5, 0\)\)") as e:
+        lifted.n4sid(gappy, y, order=2)
+    assert e.value.argument == "u" and "only an output can have missing samples" in str(e.value)
+    for call, name in [
+        (lambda: lifted.simulate(plant, gappy), "u"),
+        (lambda: lifted.validate(plant, gappy, y), "u"),
+        (lambda: lifted.multirate(gappy, y, [1]), "u"),
+        (lambda: lifted.iv(u, y, gappy), "instrument"),
+        (lambda: lifted.simulate_experiment(plant, gappy), "r"),
+        (lambda: lifted.StateSpace(np.ma.masked_array([[0.5]], mask=[[True]]), [1], [1], 0), "A"),
+        (lambda: plant.lsim(u, x0=np.ma.masked_array([0.0, 1.0], mask=[False, True])), "x0"),
+    ]:
+        with pytest.raises(lifted.ArgumentError, match="masked entr") as e:
+            call()
+        assert e.value.argument == name
+
+
+PACKAGE = pathlib.Path(lifted.__file__).resolve().parent
+
+
+def stub_int_parameters() -> list[tuple[str, str, str, str, dict[str, str]]]:
+    """(class or "", function, parameter, its annotation, {required
+    parameter: annotation}) for every integer parameter of the stub of
+    `lifted._lifted`."""
+    tree = ast.parse((PACKAGE / "_lifted.pyi").read_text())
+    found = []
+
+    def scan(owner: str, fn: ast.FunctionDef) -> None:
+        n_required = len(fn.args.args) - len(fn.args.defaults)
+        required = {a.arg: ast.unparse(a.annotation) for a in fn.args.args[:n_required]
+                    if a.arg not in ("self", "cls") and a.annotation is not None}
+        for a in fn.args.args + fn.args.kwonlyargs:
+            if a.annotation is not None and "int" in {n.id for n in ast.walk(a.annotation)
+                                                       if isinstance(n, ast.Name)}:
+                found.append((owner, fn.name, a.arg, ast.unparse(a.annotation), required))
+
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef):
+            scan("", node)
+        elif isinstance(node, ast.ClassDef):
+            for item in node.body:
+                if isinstance(item, ast.FunctionDef):
+                    scan(node.name, item)
+    return found
+
+
+def test_every_integer_argument_refuses_a_bool(plant) -> None:
+    """Every parameter the stub types as an integer (int, int | None,
+    list[int]) refuses True (or [True]) by name. The arguments are
+    extracted before the call runs, so the other required arguments only
+    need the right type."""
+
+    def dummy(annotation: str) -> object:
+        if "StateSpace" in annotation:
+            return plant
+        if annotation == "bytes":
+            return b""
+        if annotation.startswith("list[npt.ArrayLike"):
+            return []
+        if annotation == "list[int]":
+            return [1]
+        if annotation == "int":
+            return 1
+        return [0.0]
+
+    instances = {"StateSpace": plant, "Mpc": lifted.Mpc(plant)}
+    checked = []
+    for owner, name, param, annotation, required in stub_int_parameters():
+        if not owner:
+            target = getattr(lifted._lifted, name)
+        elif name == "__new__":
+            target = getattr(lifted._lifted, owner)
+        else:
+            target = getattr(instances[owner], name)
+        kwargs = {k: dummy(v) for k, v in required.items()}
+        kwargs[param] = [True] if annotation.startswith("list[") else True
+        with pytest.raises(TypeError, match="got the bool True") as e:
+            target(**kwargs)
+        assert f"while processing '{param}'" in getattr(e.value, "__notes__", []), (owner, name, param)
+        checked.append(f"{owner}.{name}({param})")
+    # prbs, identify, multirate, validate, Mpc, StateSpace.step, ...: every
+    # integer parameter of the stub (73 when this test was written)
+    assert len(checked) >= 73, checked

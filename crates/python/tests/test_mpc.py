@@ -76,3 +76,15 @@ def test_operating_point_gives_plant_values(lag: lifted.StateSpace, kind: str) -
         ua = a.step([y], [1.0])
         ub = b.step([None if y is None else y - 40.0], [-39.0])
         np.testing.assert_allclose(ub, ua + 3.0, rtol=0, atol=1e-12)
+
+
+def test_the_default_model_feeds_mpc(record: tuple[np.ndarray, np.ndarray]) -> None:
+    # Issue 47: the default identification of a plant without feedthrough
+    # gives D = 0 (the records do not support a D), so lifted.Mpc takes it
+    # without feedthrough=False (it refused the estimated D before).
+    u, y = record
+    fit = lifted.identify(u, y, dt=0.5)
+    assert np.all(fit.model.D == 0.0)
+    assert fit.diagnostics["feedthrough"]["used"].startswith("D = 0")
+    run = lifted.Mpc(fit.model).simulate(fit.model, np.ones((60, 1)))
+    assert run["y"][-1, 0] == pytest.approx(1.0, abs=1e-3)

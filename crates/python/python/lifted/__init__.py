@@ -2,7 +2,9 @@
 
 numpy arrays in and out, samples x channels, float64. Arguments are read
 by ``numpy.asarray``: lists, integer arrays and 1-D arrays (one channel) are
-accepted, complex arrays are refused. The numerics are the Rust crates'
+accepted, complex arrays are refused; a masked entry of a numpy masked
+array is a missing sample, as NaN (outputs), or refused (everything else);
+a bool is not an integer argument (TypeError). The numerics are the Rust crates'
 (lifted-lti, lifted-prbs, lifted-subspace, ...); this package only converts
 arguments and results. Every error of the library is raised as
 :class:`LiftedError`, a subclass of :class:`ValueError`, or one of its
@@ -293,8 +295,10 @@ def identify(
       on the records (``diagnostics["refinement_judge"]``).
     * ``feedthrough``: ``False`` fixes D = 0 (a strictly proper model, as
       MPC designs take; ``--feedthrough false``), ``True`` estimates D;
-      None the method's default (N4SID/MOESP/CVA estimate it, PBSID/SSARX
-      and IV do not). Multirate records: not used.
+      None the method's default: N4SID/MOESP/CVA keep D only where the
+      records support it (D free against D = 0 by the Bayesian information
+      criterion on the simulation errors, ``diagnostics["feedthrough"]``),
+      PBSID/SSARX, IV and multirate records fix D = 0.
     * ``enforce_stability``: the stabilised estimate (``--stable``).
     * ``method="pbsid"`` / ``"ssarx"`` / ``"pbsid_rowwise"``: the predictor-based closed-loop
       methods (as :func:`pbsid`: ``horizon`` or ``past`` is their past
@@ -335,7 +339,7 @@ def identify(
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
             e.add_note(
-                "NaN marks an unsampled output in multirate records only: "
+                "NaN (or a masked entry) marks an unsampled output in multirate records only: "
                 "lifted.multirate(u, y, periods=...) identifies from the measured samples"
             )
         raise

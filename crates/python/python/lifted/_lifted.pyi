@@ -3,6 +3,11 @@
 The only stub of the package: the Python modules carry inline annotations.
 Checked against the built extension by ``python -m mypy.stubtest
 lifted._lifted`` in CI.
+
+What the annotations cannot say: an ``int`` parameter (or ``list[int]``
+entry) refuses a ``bool`` at runtime (TypeError), and an array parameter
+reads a numpy masked array's masked entries as missing samples (NaN) in
+outputs (``y``, ``ys``) and refuses them everywhere else (ArgumentError).
 """
 
 from typing import Any, Sequence, final
