@@ -48,6 +48,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -370,6 +371,9 @@ def main():
                     help="run lifted with --detrend none on the centred file (the protocol before 2026-11-27)")
     ap.add_argument("--from-json", help="print the table of a saved --json run instead of running")
     ap.add_argument("--no-sippy", action="store_true")
+    ap.add_argument("--lifted-args", default="",
+                    help="extra arguments for every lifted run but the horizon variant, e.g. "
+                         "'--feedthrough false' (a variant of the CLI's defaults)")
     # internal: the SIPPY worker process
     ap.add_argument("--sippy-worker", help=argparse.SUPPRESS)
     ap.add_argument("--orders", help=argparse.SUPPRESS)
@@ -423,7 +427,7 @@ def main():
         m, p = ue.shape[1], ye.shape[1]
         orders = list(range(1, args.all_orders + 1)) if args.all_orders else rec["orders"]
         horizon = rec.get("sippy_horizon", 20)
-        base = []
+        base = shlex.split(args.lifted_args)
         print(f"## {rec['name']}  {m}x{p}  N={N}  orders {orders}", file=sys.stderr)
         with tempfile.TemporaryDirectory(prefix=f"realdata_{rec['name']}_") as wd:
             csv = os.path.join(wd, "est.csv")

@@ -543,9 +543,10 @@ pub struct IdentifyArgs {
     pub future: Option<usize>,
     /// Estimate a direct feedthrough D (`--feedthrough`, or `--feedthrough true`) or fix D = 0
     /// (`--feedthrough false`: a strictly proper model, as `mpc` takes). Default: single-rate
-    /// N4SID, MOESP and CVA estimate it; PBSID/SSARX and single-rate IV do not (the closed-loop
-    /// default: an estimated D is biased when the controller reacts within the sample). Not
-    /// used with multirate records or qmarkov.
+    /// N4SID, MOESP and CVA keep D only where the records support it (D free against D = 0 by
+    /// the Bayesian information criterion on the simulation errors; streamed files: estimated);
+    /// PBSID/SSARX, IV and multirate records fix D = 0 (in closed loop an estimated D is biased
+    /// when the controller reacts within the sample). Not used with qmarkov.
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
     pub feedthrough: Option<bool>,
     /// IV: past instrument block rows α_p (default 2α).

@@ -2054,7 +2054,7 @@ fn studio_workbench_in_headless_chromium() {
         let res = html(&c, "fig-residuals").await;
         assert!(res.contains("residual autocorrelation"), "{}", &res[..res.len().min(300)]);
         assert!(res.contains("cross-correlation") && res.contains("99 % bound"));
-        assert!(html(&c, "fig-bode").await.contains("(data, Welch)"));
+        assert!(html(&c, "fig-bode").await.contains("data (Welch)"));
         let tables = js(&c, "return document.querySelectorAll('#matrices table').length;").await;
         assert!(tables.as_u64().unwrap_or(0) >= 4, "matrices: {tables}");
         let tf = text(&c, "#tfs").await;

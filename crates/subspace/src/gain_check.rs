@@ -108,6 +108,61 @@ pub fn check_kalman_gain(
     records: &[Experiment<'_>],
     past: usize,
 ) -> (Option<DMatrix<f64>>, GainCheck) {
+    check_kalman_gain_memo(model, riccati, records, past, &mut VarxMemo::default())
+}
+
+/// The VARX innovations of the last [`MEMO_ENTRIES`] records seen by
+/// [`check_kalman_gain_memo`], kept for later calls on the same records:
+/// they depend on the records, the VARX order and whether u(t) is a
+/// regressor, not on the model. A front end that checks the gain of an
+/// order again on one record (the studio's order slider moved back)
+/// computes them once. The records are known by their sizes and a hash of
+/// every sample's bits: the deviations from a model's operating point,
+/// whose output offset is estimated with (B, D, x₀), differ between
+/// orders, so each order's records are their own entry.
+#[derive(Debug, Clone, Default)]
+pub struct VarxMemo {
+    kept: Vec<(u64, usize, bool, Vec<DMatrix<f64>>)>,
+    computed: usize,
+}
+
+/// Records whose VARX innovations a [`VarxMemo`] keeps (the least recently
+/// computed dropped first).
+pub const MEMO_ENTRIES: usize = 8;
+
+impl VarxMemo {
+    /// VARX innovation estimates computed through this memo (a reuse
+    /// computes none).
+    pub fn computed(&self) -> usize {
+        self.computed
+    }
+}
+
+/// The records' sizes and every sample's bits, hashed: O(N (n_u + n_y)).
+fn records_hash(records: &[Experiment<'_>]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for e in records {
+        (e.u.nrows(), e.u.ncols(), e.y.ncols()).hash(&mut h);
+        for v in e.u.iter().chain(e.y.iter()) {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+/// [`check_kalman_gain`] with the VARX innovations taken from `memo` when
+/// it holds those of the same records, VARX order and regressors (else
+/// computed and kept there): the same gain and report bit for bit, the
+/// VARX least squares (the check's largest cost on long records) once per
+/// record instead of once per call.
+pub fn check_kalman_gain_memo(
+    model: &StateSpace,
+    riccati: Option<&DMatrix<f64>>,
+    records: &[Experiment<'_>],
+    past: usize,
+    memo: &mut VarxMemo,
+) -> (Option<DMatrix<f64>>, GainCheck) {
     let sets = records;
     let (n, ny) = (model.order(), model.n_outputs());
     let mut report = GainCheck {
@@ -143,7 +198,7 @@ pub fn check_kalman_gain(
     let regression = if missing {
         Err("the records have output samples not measured".to_string())
     } else {
-        regression_gain(model, sets, past)
+        regression_gain(model, sets, past, memo)
     };
     let zero = DMatrix::zeros(n, ny);
     let starts: Vec<(&str, Option<DMatrix<f64>>)> = vec![
@@ -399,6 +454,7 @@ fn regression_gain(
     model: &StateSpace,
     sets: &[Experiment<'_>],
     past: usize,
+    memo: &mut VarxMemo,
 ) -> Result<(DMatrix<f64>, usize), String> {
     let (nu, ny) = (model.n_inputs(), model.n_outputs());
     let nz = nu + ny;
@@ -417,11 +473,28 @@ fn regression_gain(
     // feedthrough: under a controller reacting within the sample it would
     // carry the innovation into the regression.
     let direct = model.d().iter().any(|v| *v != 0.0);
-    let innovations = varx_innovations(sets, order, direct)?;
+    let hash = records_hash(sets);
+    let at = match memo
+        .kept
+        .iter()
+        .position(|(h, o, d, _)| (*h, *o, *d) == (hash, order, direct))
+    {
+        Some(at) => at,
+        None => {
+            let e = varx_innovations(sets, order, direct)?;
+            memo.computed += 1;
+            if memo.kept.len() == MEMO_ENTRIES {
+                memo.kept.remove(0);
+            }
+            memo.kept.push((hash, order, direct, e));
+            memo.kept.len() - 1
+        }
+    };
+    let innovations = &memo.kept[at].3;
     let a = model.a();
     let c = model.c();
     let mut targets = Vec::with_capacity(sets.len());
-    for (d, e) in sets.iter().zip(&innovations) {
+    for (d, e) in sets.iter().zip(innovations) {
         let len = d.u.nrows() - order;
         let u = d.u.rows(order, len).into_owned();
         let y = d.y.rows(order, len).into_owned();

@@ -164,7 +164,10 @@ pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
-pub use gain_check::{GainCheck, MINIMISE_WORK, VARX_WORK, check_kalman_gain};
+pub use gain_check::{
+    GainCheck, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo, check_kalman_gain,
+    check_kalman_gain_memo,
+};
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use held_out_order::{HeldOutOrder, OrderCandidate};
 pub use iv::{

@@ -9,7 +9,11 @@
 //! kind, block size, threads) are those of the previous run, so a new order
 //! costs O(k³) and the (B, D, x₀) regression instead of O(N) work more.
 //! `CompressedData::identify` is how `lifted_subspace::identify` itself
-//! runs, so the cached model is bit for bit the uncached one.
+//! runs, so the cached model is bit for bit the uncached one. The Kalman-gain
+//! check's VARX innovations (`lifted_subspace::VarxMemo`, O(N (p n_z +
+//! n_u)²), the check's largest cost) are kept too, per record as the
+//! check sees it (the deviations from each model's operating point): an
+//! order identified again reuses them, with the same gain bit for bit.
 
 use lifted_subspace::{CompressedData, Experiment, SubspaceModel, SubspaceOptions};
 
@@ -23,6 +27,9 @@ use crate::error::{Context, Result};
 pub struct SubspaceCache {
     kept: Option<(String, CompressedData<'static>)>,
     compressions: usize,
+    /// The Kalman-gain check's VARX innovations of the last records
+    /// ([`lifted_subspace::VarxMemo`]): an order checked again reuses them.
+    pub(crate) gain: lifted_subspace::VarxMemo,
 }
 
 impl std::fmt::Debug for SubspaceCache {
@@ -30,6 +37,7 @@ impl std::fmt::Debug for SubspaceCache {
         f.debug_struct("SubspaceCache")
             .field("kept", &self.kept.as_ref().map(|(k, _)| k))
             .field("compressions", &self.compressions)
+            .field("varx_estimates", &self.gain.computed())
             .finish()
     }
 }
@@ -41,9 +49,16 @@ impl SubspaceCache {
         self.compressions
     }
 
-    /// Forgets the kept compression.
+    /// VARX innovation estimates the Kalman-gain checks made through the
+    /// cache (an order identified again on the same records makes none).
+    pub fn varx_estimates(&self) -> usize {
+        self.gain.computed()
+    }
+
+    /// Forgets the kept compression and innovations.
     pub fn clear(&mut self) {
         self.kept = None;
+        self.gain = lifted_subspace::VarxMemo::default();
     }
 
     /// `lifted_subspace::identify(exps, sub)`, from the kept compression

@@ -177,42 +177,72 @@ pub(crate) fn refuses_inputs(e: &Error) -> bool {
 }
 
 /// `e` itself, or, when it is a subspace identification's refusal of
-/// non-exciting inputs and some inputs are constant, an [`Error::Data`]
-/// naming them (1-based, in the order of the inputs) with the refusal.
+/// non-exciting inputs and some inputs are constant or tied, the same
+/// [`Error::Step`] whose source names them (1-based, in the order of the
+/// inputs) and keeps the refusal as its own source, so that a front end
+/// still finds the layer below's variant
+/// (`lifted_subspace::Error::NotExciting`) down the chain of sources.
 pub(crate) fn named(e: Error, spread: &InputSpread) -> Error {
     if !refuses_inputs(&e) {
         return e;
     }
-    let Error::Step { what, source } = &e else {
-        return e;
-    };
     let constant = spread.constant();
-    if !constant.is_empty() {
+    let text = if constant.is_empty() {
+        let groups = spread.dependent();
+        if groups.is_empty() {
+            return e;
+        }
+        let list: Vec<String> = groups
+            .iter()
+            .map(|g| {
+                let names: Vec<String> = g.iter().map(|j| (j + 1).to_string()).collect();
+                format!("inputs {}", names.join(", "))
+            })
+            .collect();
+        format!(
+            "{} move together (a combination of them is constant over the records), so their effects cannot be told apart; keep one of each such group or excite them independently",
+            list.join("; ")
+        )
+    } else {
         let list: Vec<String> = constant
             .iter()
             .map(|(j, v)| format!("input {} (always {v})", j + 1))
             .collect();
-        return Error::Data(format!(
-            "{what}: {} {} constant over the records: a constant input excites no dynamics, so its effect cannot be identified; remove it from the inputs ({source})",
+        format!(
+            "{} {} constant over the records: a constant input excites no dynamics, so its effect cannot be identified; remove it from the inputs",
             list.join(", "),
             if constant.len() == 1 { "is" } else { "are" }
-        ));
-    }
-    let groups = spread.dependent();
-    if groups.is_empty() {
+        )
+    };
+    let Error::Step { what, source } = e else {
         return e;
+    };
+    Error::Step {
+        what,
+        source: Box::new(NamedInputs { text, source }),
     }
-    let list: Vec<String> = groups
-        .iter()
-        .map(|g| {
-            let names: Vec<String> = g.iter().map(|j| (j + 1).to_string()).collect();
-            format!("inputs {}", names.join(", "))
-        })
-        .collect();
-    Error::Data(format!(
-        "{what}: {} move together (a combination of them is constant over the records), so their effects cannot be told apart; keep one of each such group or excite them independently ({source})",
-        list.join("; ")
-    ))
+}
+
+/// A refusal of non-exciting inputs with the inputs that cause it named;
+/// the refusal itself stays the source. Displayed as `text (refusal)`.
+#[derive(Debug)]
+struct NamedInputs {
+    /// The inputs and what to do about them.
+    text: String,
+    /// The layer below's refusal.
+    source: Box<dyn std::error::Error + Send + Sync + 'static>,
+}
+
+impl std::fmt::Display for NamedInputs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", self.text, self.source)
+    }
+}
+
+impl std::error::Error for NamedInputs {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(self.source.as_ref())
+    }
 }
 
 #[cfg(test)]
@@ -274,10 +304,28 @@ mod tests {
                 needed: 40,
             }),
         };
-        let e = named(refusal(), &s).to_string();
+        let named_refusal = named(refusal(), &s);
+        let e = named_refusal.to_string();
         assert!(
             e.contains("input 2 (always 0) is constant") && e.contains("numerical rank 20"),
             "{e}"
+        );
+        // The refusal stays down the chain of sources, variant and fields.
+        let Error::Step { source, .. } = &named_refusal else {
+            panic!("{named_refusal:?}");
+        };
+        let below = std::error::Error::source(source.as_ref())
+            .and_then(|s| s.downcast_ref::<lifted_subspace::Error>());
+        assert!(
+            matches!(
+                below,
+                Some(lifted_subspace::Error::NotExciting {
+                    rank: 20,
+                    needed: 40,
+                    ..
+                })
+            ),
+            "{below:?}"
         );
         // No constant input: the refusal as it was.
         let moving = InputSpread::of(1, [&DMatrix::from_row_slice(2, 1, &[1.0, 2.0])]);

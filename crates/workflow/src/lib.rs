@@ -126,6 +126,7 @@ mod cache;
 mod diagnostics;
 mod error;
 mod excitation;
+mod feedthrough;
 mod multirate_start;
 mod options;
 mod pipeline;

@@ -115,6 +115,18 @@ pub(crate) fn interpolated(d: &Dataset) -> Result<Dataset> {
         .map_err(|e| Error::Data(format!("interpolated record: {e}")))
 }
 
+/// `opts` with the multirate routes' feedthrough: D = 0 unless a
+/// feedthrough is asked for. The interpolated record makes a slow output
+/// between its samples an average of its neighbours, the later of which
+/// the input at the same instant reaches: an estimated D takes that
+/// non-causal artefact (the quick start's model got D = −0.0025 and a zero
+/// at z ≈ 76 from it, which MPC refuses).
+fn strictly_proper_unless_asked(opts: &WorkflowOptions) -> WorkflowOptions {
+    let mut o = opts.clone();
+    o.identification.feedthrough = Some(opts.identification.feedthrough == Some(true));
+    o
+}
+
 /// The single-rate subspace model of the interpolated `sets` at `order`
 /// (the options' automatic order when `None`), with its route's
 /// diagnostics.
@@ -124,7 +136,7 @@ pub(crate) fn start(
     order: Option<usize>,
 ) -> Result<(StateSpace, serde_json::Value)> {
     let smooth = sets.iter().map(interpolated).collect::<Result<Vec<_>>>()?;
-    let mut o = opts.clone();
+    let mut o = strictly_proper_unless_asked(opts);
     if let Some(n) = order {
         o.identification.order = Order::Fixed(n);
     }
@@ -165,7 +177,7 @@ fn refit_bd(model: StateSpace, sets: &[Dataset]) -> StateSpace {
 /// of the multirate route's held-out order curve.
 pub(crate) fn quick_start(opts: &WorkflowOptions, d: &Dataset, n: usize) -> Result<StateSpace> {
     let smooth = interpolated(d)?;
-    let mut o = opts.clone();
+    let mut o = strictly_proper_unless_asked(opts);
     o.identification.order = Order::Fixed(n);
     let h = opts.identification.horizon.unwrap_or(10);
     let width = d.n_inputs() + d.n_outputs();

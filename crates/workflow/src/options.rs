@@ -234,13 +234,17 @@ pub struct IdentificationOptions {
     /// given).
     pub instrument_past: Option<usize>,
     /// Estimate a direct feedthrough D (`Some(true)`) or fix D = 0
-    /// (`Some(false)`); `None` the method's default: single-rate N4SID,
-    /// MOESP and CVA estimate it, PBSID/SSARX and single-rate IV do not
-    /// (the closed-loop default: an estimated D is biased when the
-    /// controller reacts within the sample, the noise reaching u in the
-    /// same sample). A strictly proper model (D = 0) is what MPC designs
-    /// take. Multirate records and the q-Markov Cover: not used (an error
-    /// when set).
+    /// (`Some(false)`); `None`, the default: single-rate N4SID, MOESP and
+    /// CVA in memory keep D only where the records support it (the model
+    /// with D free against the one with D = 0 at the same structure, by
+    /// the Bayesian information criterion on their simulation errors:
+    /// `crate::feedthrough`, derivation and benchmark there; the streamed
+    /// route estimates D); PBSID/SSARX, IV and the multirate routes fix
+    /// D = 0 (in closed loop an estimated D is biased, the noise reaching u
+    /// within the sample through the controller; on a multirate record the
+    /// interpolation between slow samples fakes one). A strictly proper
+    /// model is what MPC designs take. The q-Markov Cover: not used (its D
+    /// is the first Markov parameter; an error when set).
     pub feedthrough: Option<bool>,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,

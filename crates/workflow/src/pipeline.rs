@@ -154,7 +154,7 @@ fn run(
     records: &[Record],
     opts: &WorkflowOptions,
     instrument_names: &[String],
-    cache: Option<&mut SubspaceCache>,
+    mut cache: Option<&mut SubspaceCache>,
 ) -> Result<Identified> {
     opts.check()?;
     let id = &opts.identification;
@@ -241,7 +241,7 @@ fn run(
                 diagnostics: d,
                 used,
                 check: known,
-            } = routes::subspace(opts, &sets, inner_means, cache)?;
+            } = routes::subspace(opts, &sets, inner_means, cache.as_deref_mut())?;
             let route_sets = if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.
@@ -261,7 +261,14 @@ fn run(
             // best is kept.
             let mut d = d;
             add_phase(&mut d, "subspace_s", t_subspace.elapsed().as_secs_f64());
-            let kalman_gain = checked_gain(&fit.model, fit.kalman_gain, &sets, used.past, &mut d);
+            let kalman_gain = checked_gain(
+                &fit.model,
+                fit.kalman_gain,
+                &sets,
+                used.past,
+                &mut d,
+                cache.map(|c| &mut c.gain),
+            );
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
             }
@@ -291,7 +298,7 @@ fn run(
                 // predicts as the subspace routes' do.
                 let alpha = fit.diagnostics["horizons"][0].as_u64().unwrap_or(8) as usize;
                 fit.kalman_gain =
-                    checked_gain(&fit.model, None, &sets, alpha, &mut fit.diagnostics);
+                    checked_gain(&fit.model, None, &sets, alpha, &mut fit.diagnostics, None);
             }
             fit
         }
@@ -349,7 +356,7 @@ fn run(
             .zip(sets.first())
             .is_some_and(|(t, d)| (t - d.ts()).abs() <= 1e-9 * d.ts())
     {
-        kalman_gain = checked_gain(&model, None, &sets, 0, &mut diagnostics);
+        kalman_gain = checked_gain(&model, None, &sets, 0, &mut diagnostics, None);
     }
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
@@ -407,13 +414,16 @@ fn run(
 /// the records (`lifted_subspace::check_kalman_gain`, the report in
 /// `diagnostics.kalman_gain_route`) when they hold at most
 /// [`GAIN_CHECK_SAMPLES`] samples, else the subspace step's gain. The
-/// in-memory and the streamed route both call it.
+/// in-memory and the streamed route both call it; `memo`: the VARX
+/// innovations kept between calls on the same records (a front end's
+/// [`SubspaceCache`]), the same gain bit for bit.
 pub(crate) fn checked_gain(
     model: &lifted_lti::StateSpace,
     gain: Option<DMatrix<f64>>,
     sets: &[Dataset],
     past: usize,
     diagnostics: &mut serde_json::Value,
+    memo: Option<&mut lifted_subspace::VarxMemo>,
 ) -> Option<DMatrix<f64>> {
     let samples: usize = sets.iter().map(Dataset::len).sum();
     if samples > GAIN_CHECK_SAMPLES {
@@ -424,7 +434,12 @@ pub(crate) fn checked_gain(
         .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
         .collect();
     let t = std::time::Instant::now();
-    let (checked, report) = lifted_subspace::check_kalman_gain(model, gain.as_ref(), &exps, past);
+    let (checked, report) = match memo {
+        Some(memo) => {
+            lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, memo)
+        }
+        None => lifted_subspace::check_kalman_gain(model, gain.as_ref(), &exps, past),
+    };
     add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert(

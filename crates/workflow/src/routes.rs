@@ -214,6 +214,7 @@ pub(crate) fn subspace(
     let mut short_horizon = None;
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
+    let mut cache = cache;
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
@@ -249,7 +250,6 @@ pub(crate) fn subspace(
             }
             _ => sub,
         };
-        let mut cache = cache;
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
             Some(c) => c.identify(&exps, o, &what),
             None => identify(&exps, o).ctx(&what),
@@ -283,7 +283,52 @@ pub(crate) fn subspace(
         order: OrderSelection::Fixed(fit.diagnostics.order),
         ..used
     };
+    // The default feedthrough: D kept only where the records support it
+    // (crate::feedthrough), the D = 0 model identified at the same
+    // structure.
+    let (fit, used, feedthrough) = match id.feedthrough {
+        Some(true) => (fit, used, json!("D estimated (feedthrough asked for)")),
+        Some(false) => (fit, used, json!("D = 0 (asked for)")),
+        None if fit.model.d().iter().all(|&v| v == 0.0) => {
+            (fit, used, json!("D = 0 (the estimate is zero)"))
+        }
+        None => {
+            let zero_opts = SubspaceOptions {
+                feedthrough: lifted_subspace::Feedthrough::Zero,
+                ..used.clone()
+            };
+            let zero = match cache {
+                Some(c) => c.identify(&exps, &zero_opts, &what),
+                None => identify(&exps, &zero_opts).ctx(&what),
+            };
+            match zero {
+                Ok(zero) => {
+                    let decision = crate::feedthrough::decide(&fit, &zero, sets);
+                    if decision.keep {
+                        (fit, used, decision.json)
+                    } else {
+                        // The order rule's values of the search kept.
+                        (
+                            with_report_of(zero, &fit.diagnostics),
+                            zero_opts,
+                            decision.json,
+                        )
+                    }
+                }
+                Err(e) => (
+                    fit,
+                    used,
+                    json!(format!(
+                        "D estimated (the default; the D = 0 model failed: {e})"
+                    )),
+                ),
+            }
+        }
+    };
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
+    if let Some(obj) = d.as_object_mut() {
+        obj.insert("feedthrough".into(), feedthrough);
+    }
     // The held-out search's own cap (the largest order its horizons
     // identify), said as the gap search's is (--max-order 100 searched
     // 1..=29 without a word).
@@ -416,7 +461,7 @@ pub(crate) fn capped_to_supported<T>(
         Ok(t) => return Ok((t, sub, None)),
         Err(e) => e,
     };
-    match (supported_cap(&e, &sub), sub.order) {
+    match (supported_cap(&e, sub.order), sub.order) {
         // An automatic order's search bound (--max-order, default 10)
         // beyond what the records or horizon identify: searched up to the
         // largest supported order instead, with a warning.
@@ -621,8 +666,8 @@ fn add_stable_choice(d: &mut serde_json::Value, passed_over: &[serde_json::Value
 /// order's search bound (`lifted_subspace::Error::OrderTooLarge` for the
 /// bound itself, with a supported order of at least 1); `None` for any
 /// other error or a fixed order.
-fn supported_cap(e: &Error, sub: &SubspaceOptions) -> Option<usize> {
-    let OrderSelection::Gap { max: asked } = sub.order else {
+fn supported_cap(e: &Error, order: OrderSelection) -> Option<usize> {
+    let OrderSelection::Gap { max: asked } = order else {
         return None;
     };
     let Error::Step { source, .. } = e else {
@@ -1061,13 +1106,6 @@ pub(crate) fn multirate(
 ) -> Result<(RouteFit, Option<StateSpace>)> {
     let wf = opts;
     let id = &opts.identification;
-    if id.feedthrough.is_some() {
-        return Err(Error::option(
-            "feedthrough",
-            "only used with single-rate records: the multirate routes estimate the lifted \
-             feedthrough (the fast model's first Markov parameters) from their causal mask",
-        ));
-    }
     let stable = stabilized_start(opts);
     gap_only(id)?;
     let data = single(sets, "multirate identification")?;
@@ -1102,6 +1140,7 @@ pub(crate) fn multirate(
             past: horizon,
             future: horizon,
             system: system_of(id.estimator),
+            strictly_proper: strictly_proper(id),
             enforce_stability: stable,
             require_stable: false,
             ..Default::default()
@@ -1622,6 +1661,7 @@ fn multirate_fit(
         "extraction": extraction_json(&fit.extraction),
         "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
         "lifting_period": fit.lifting.period(),
+        "feedthrough": feedthrough_json(id),
         "order_selection": order_json("singular values of the lifted subspace step", sv, n, suggested),
     });
     let mut d = d;
@@ -1977,13 +2017,12 @@ fn gap_fallback<M>(
     (fit, note)
 }
 
-/// IV subspace identification (single-rate, or lifted IV on a multirate
-/// record); `instruments[k]`: the instrument columns of record k (`None`:
-/// the inputs, the open-loop case); `names`: the instrument columns' names
-/// for the diagnostics (empty: the inputs).
-/// The feedthrough asked for, else the route's default (`estimated`:
-/// single-rate N4SID / MOESP / CVA; not: the closed-loop capable routes,
-/// PBSID/SSARX and single-rate IV).
+/// The feedthrough of a route: as asked (`--feedthrough [true|false]`),
+/// else the route's default: `estimated` for single-rate N4SID, MOESP and
+/// CVA (then kept only where the records support it,
+/// [`crate::feedthrough`]), D = 0 for the closed-loop capable routes
+/// (PBSID/SSARX, IV: an estimated D is biased when the controller reacts
+/// within the sample, the noise reaching u at once).
 pub(crate) fn feedthrough_of(
     id: &IdentificationOptions,
     estimated: bool,
@@ -1995,17 +2034,28 @@ pub(crate) fn feedthrough_of(
     }
 }
 
-/// `diagnostics.feedthrough` of the closed-loop capable routes.
-fn feedthrough_json(id: &IdentificationOptions) -> serde_json::Value {
+/// The fast model strictly proper (the lifted causal mask without the
+/// instantaneous terms, eq. 4.17) unless a feedthrough is asked for.
+pub(crate) fn strictly_proper(id: &IdentificationOptions) -> bool {
+    id.feedthrough != Some(true)
+}
+
+/// `diagnostics.feedthrough` of the routes whose default is D = 0 (the
+/// closed-loop capable and the multirate routes).
+pub(crate) fn feedthrough_json(id: &IdentificationOptions) -> serde_json::Value {
     json!(match id.feedthrough {
         Some(true) => "D estimated (feedthrough asked for)",
         Some(false) => "D = 0 (asked for)",
         None => {
-            "D = 0 (the closed-loop default: an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
+            "D = 0 (the default of the closed-loop capable and multirate routes: a strictly proper model, as MPC designs take; in closed loop an estimated D takes the noise that reaches u within the sample through the controller; --feedthrough estimates it)"
         }
     })
 }
 
+/// IV subspace identification (single-rate, or lifted IV on a multirate
+/// record); `instruments[k]`: the instrument columns of record k (`None`:
+/// the inputs, the open-loop case); `names`: the instrument columns' names
+/// for the diagnostics (empty: the inputs).
 pub(crate) fn iv(
     opts: &WorkflowOptions,
     sets: &[Dataset],
@@ -2017,13 +2067,6 @@ pub(crate) fn iv(
     let stable = stabilized_start(opts);
     let order = order_of(id);
     if multirate {
-        if id.feedthrough.is_some() {
-            return Err(Error::option(
-                "feedthrough",
-                "only used with single-rate records: the multirate IV estimates the lifted \
-                 feedthrough (the fast model's first Markov parameters) from its causal mask",
-            ));
-        }
         gap_only(id)?;
         let data = single(sets, "multirate IV identification")?;
         let f = instruments
@@ -2036,6 +2079,7 @@ pub(crate) fn iv(
             order,
             alpha: id.horizon.unwrap_or(6),
             alpha_p: id.instrument_past,
+            strictly_proper: strictly_proper(id),
             enforce_stability: stable,
             extraction: ExtractOptions {
                 fallback_without_root: true,
@@ -2116,6 +2160,7 @@ pub(crate) fn iv(
             "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
             "instrument": names,
             "lifting_period": lifting_period,
+            "feedthrough": feedthrough_json(id),
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
         });
         let mut d = d;
@@ -2175,6 +2220,7 @@ pub(crate) fn iv(
         (m.diagnostics.order, rho)
     };
     let mut iv_passed_over = Vec::new();
+    let mut iv_capped = None;
     let (fit, structure) = if id.order == Order::Auto
         && id.order_criterion == OrderCriterion::Validation
     {
@@ -2204,7 +2250,31 @@ pub(crate) fn iv(
             }
         }
     } else {
-        let fit = iv_identify(&exps, &iopts).ctx(what)?;
+        // An automatic order's search bound beyond what the records
+        // identify: searched up to the largest supported order, with the
+        // warning of the subspace routes.
+        let (fit, iopts) = match iv_identify(&exps, &iopts).ctx(what) {
+            Ok(fit) => (fit, iopts),
+            Err(e) => match (supported_cap(&e, iopts.order), iopts.order) {
+                (Some(max), OrderSelection::Gap { max: asked }) => {
+                    let capped = IvOptions {
+                        order: OrderSelection::Gap { max },
+                        ..iopts
+                    };
+                    iv_capped = Some((asked, max));
+                    (iv_identify(&exps, &capped).ctx(what)?, capped)
+                }
+                _ => return Err(e),
+            },
+        };
+        let at_order = |n: usize| {
+            let o = IvOptions {
+                order: OrderSelection::Fixed(n),
+                order_criterion: SubCriterion::Gap,
+                ..iopts.clone()
+            };
+            iv_identify(&exps, &o)
+        };
         match iopts.order {
             // An automatic order by the rule asked for: an unstable
             // choice handled as the held-out selection handles one
@@ -2248,6 +2318,9 @@ pub(crate) fn iv(
         obj.insert("structure_selection".into(), st);
     }
     add_stable_choice(&mut d, &iv_passed_over, dg.order);
+    if let Some(cap) = iv_capped {
+        push_capped_search_warning(&mut d, cap);
+    }
     if alpha < 8 && id.horizon.is_none() {
         crate::diagnostics::push_warning(
             &mut d,

@@ -277,6 +277,18 @@ pub fn identify_streamed(
         &fit,
         "single-rate subspace identification, streamed in blocks",
     );
+    if let Some(obj) = d.as_object_mut() {
+        obj.insert(
+            "feedthrough".into(),
+            serde_json::json!(match id.feedthrough {
+                Some(true) => "D estimated (feedthrough asked for)",
+                Some(false) => "D = 0 (asked for)",
+                None => {
+                    "D estimated (the streamed route's default: the in-memory route's test of D against D = 0 needs a second pass over the file; --feedthrough false fixes D = 0)"
+                }
+            }),
+        );
+    }
     if let Some(cap) = capped_search {
         push_capped_search_warning(&mut d, cap);
     }
@@ -309,6 +321,7 @@ pub fn identify_streamed(
             std::slice::from_ref(set),
             fit.diagnostics.horizons.0,
             &mut d,
+            None,
         );
     }
     let t_refine = std::time::Instant::now();

@@ -343,6 +343,16 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
         // One compression for the three fits.
         assert_eq!(cache.compressions(), 1, "fit {i}");
     }
+    // An order identified again reuses its Kalman-gain check's VARX
+    // innovations (issue 47: the studio's slider moved back recomputed
+    // them), with the same model and gain.
+    let estimates = cache.varx_estimates();
+    opts.identification.method = Method::N4sid;
+    opts.identification.order = Order::Fixed(2);
+    let again = identify_cached(&records, &opts, &[], &mut cache).expect("again");
+    assert_eq!(cache.varx_estimates(), estimates, "VARX again");
+    let plain = identify(&records, &opts).expect("plain");
+    assert_eq!(again.file.kalman_gain, plain.file.kalman_gain);
     // A new horizon or new data compress again.
     opts.identification.horizon = Some(8);
     identify_cached(&records, &opts, &[], &mut cache).expect("new horizon");
@@ -1411,7 +1421,17 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
             && msg.contains("not persistently exciting"),
         "{msg}"
     );
-    assert!(matches!(e, Error::Data(_)), "{e:?}");
+    // The subspace step's refusal stays the named refusal's source (a
+    // front end maps it by its variant).
+    let Error::Step { source, .. } = &e else {
+        panic!("{e:?}");
+    };
+    let below = std::error::Error::source(source.as_ref())
+        .and_then(|s| s.downcast_ref::<lifted_subspace::Error>());
+    assert!(
+        matches!(below, Some(lifted_subspace::Error::NotExciting { .. })),
+        "{e:?}"
+    );
     // The predictor-based and IV routes refuse the same record through
     // their own regressors (the VARX past, the instrument rows): the same
     // column is named (they gave only "… is not persistently exciting:
@@ -2373,8 +2393,7 @@ fn an_unstable_aic_choice_gives_way_to_the_next_stable_order() {
 /// [`heating_record`] AIC's order 5 is unstable (ρ = 1.024); the next
 /// order of its ranking with a stable model is kept, as on the other
 /// routes (it returned order 5). (`max_order` 7: α = 8 identifies
-/// orders up to 7 of one output, and the IV route does not cap the
-/// search.)
+/// orders up to 7 of one output.)
 #[test]
 fn an_unstable_aic_choice_on_the_iv_route_gives_way_to_the_next_stable_order() {
     let (u, _, y) = heating_record(300, 0.2, 4);
@@ -2390,6 +2409,36 @@ fn an_unstable_aic_choice_on_the_iv_route_gives_way_to_the_next_stable_order() {
     assert_eq!(d["stable_order"]["passed_over"][0]["order"], 5, "{d}");
     assert_eq!(d["stable_order"]["order"], fit.order as u64, "{d}");
     assert_ne!(fit.order, 5);
+}
+
+/// Issue 47: the IV route with an order rule asked for caps the automatic
+/// order's search at what the records identify, as the subspace routes
+/// do (α = 8 identifies orders up to 7 of one output; the default bound
+/// 10 failed: "IV identification: model order 10 invalid: it must lie in
+/// 1..=7"), with their warning.
+#[test]
+fn the_iv_route_caps_the_automatic_order_search() {
+    let (u, _, y) = heating_record(300, 0.2, 4);
+    let records = [Record::new(dataset(&u, &y))];
+    for criterion in [
+        OrderCriterion::Aic,
+        OrderCriterion::Aicc,
+        OrderCriterion::Bic,
+    ] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.method = Method::Iv;
+        opts.identification.order_criterion = criterion;
+        let fit = identify(&records, &opts).expect("identify");
+        let d = &fit.file.diagnostics;
+        let warned = d["warnings"].as_array().is_some_and(|w| {
+            w.iter().any(|m| {
+                m.as_str()
+                    .is_some_and(|m| m.contains("searched 1..=7 instead of 1..=10"))
+            })
+        });
+        assert!(warned, "{criterion:?}: {d}");
+        assert!(fit.order <= 7, "{criterion:?}");
+    }
 }
 
 /// The singular-value gap asked for on the predictor-based routes (no
@@ -2487,4 +2536,51 @@ fn a_streamed_single_output_record_caps_the_automatic_order_search() {
     let mem = identify(&[Record::new(dataset(&u, &y))], &mem_opts).expect("in memory");
     assert_eq!(capped(&mem), warned);
     assert_eq!(mem.order, streamed.order);
+}
+
+/// Issue 47: the default feedthrough of N4SID/MOESP/CVA. A plant without
+/// one gets D = 0 exactly (the model MPC takes; an estimated D took noise),
+/// a plant with one (D = diag(0.1, 0.2)) keeps it; the diagnostics give the
+/// information criterion's statistic and threshold. `--feedthrough`
+/// overrides either way.
+#[test]
+fn the_default_keeps_a_feedthrough_only_where_the_records_support_it() {
+    let p = plant();
+    let strictly_proper = StateSpace::new(
+        p.a().clone(),
+        p.b().clone(),
+        p.c().clone(),
+        DMatrix::zeros(2, 2),
+        Some(1.0),
+    )
+    .expect("plant");
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    for method in [Method::N4sid, Method::Moesp, Method::Cva] {
+        opts.identification.method = method;
+        let (u, y) = record_of(&strictly_proper, 3000, 0.05, 21, [2.0, -1.0]);
+        let fit = identify(&[Record::new(dataset(&u, &y))], &opts).expect("identify");
+        let d = &fit.file.diagnostics["feedthrough"];
+        assert!(
+            fit.file.model.d().iter().all(|&v| v == 0.0),
+            "{method:?}: {d}"
+        );
+        let (stat, threshold) = (d["statistic"].as_f64(), d["threshold"].as_f64());
+        assert!(stat < threshold, "{method:?}: {d}");
+        let (u, y) = record_of(&p, 3000, 0.05, 22, [2.0, -1.0]);
+        let fit = identify(&[Record::new(dataset(&u, &y))], &opts).expect("identify");
+        let d = &fit.file.diagnostics["feedthrough"];
+        assert!(
+            d["used"]
+                .as_str()
+                .is_some_and(|s| s.starts_with("D estimated")),
+            "{d}"
+        );
+        let dd = fit.file.model.d();
+        // D within 0.02 of the truth (σ = 0.05, 3000 samples).
+        assert!(
+            (dd[(0, 0)] - 0.1).abs() < 0.02 && (dd[(1, 1)] - 0.2).abs() < 0.02,
+            "{dd}"
+        );
+    }
 }

@@ -231,7 +231,7 @@ pub fn add_empirical_pairs(fig: &mut PairFigure, g: &FrequencyResponse) {
             let phs = g.phase_deg(i, j);
             let (mut x, mut db, mut deg) = (Vec::new(), Vec::new(), Vec::new());
             for k in 0..lw.len() {
-                if !(lw[k] >= lo && lw[k] <= hi) || !mags[k].is_finite() {
+                if !(lw[k] >= lo && lw[k] <= hi && mags[k].is_finite()) {
                     continue;
                 }
                 x.push(lw[k]);

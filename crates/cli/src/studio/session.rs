@@ -133,7 +133,7 @@ pub struct DataInfo {
     /// The columns other than the time column.
     pub columns: Vec<ColumnInfo>,
     /// Columns proposed as inputs: complete columns whose names say so
-    /// ([`named_role`]: `u…`, `r…`, plant tags ending `.OP`/`.MV`), else
+    /// (`named_role`: `u…`, `r…`, plant tags ending `.OP`/`.MV`), else
     /// the first complete one.
     pub suggested_inputs: Vec<String>,
     /// Columns proposed as outputs: those whose names say so (`y…`, tags
