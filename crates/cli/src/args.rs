@@ -544,7 +544,8 @@ pub struct IdentifyArgs {
     /// Estimate a direct feedthrough D (`--feedthrough`, or `--feedthrough true`) or fix D = 0
     /// (`--feedthrough false`: a strictly proper model, as `mpc` takes). Default: single-rate
     /// N4SID, MOESP and CVA keep D only where the records support it (D free against D = 0 by
-    /// the Bayesian information criterion on the simulation errors; streamed files: estimated);
+    /// the Bayesian information criterion on the simulation errors; streamed files over 2e5
+    /// samples: estimated);
     /// PBSID/SSARX, IV and multirate records fix D = 0 (in closed loop an estimated D is biased
     /// when the controller reacts within the sample). Not used with qmarkov.
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]

@@ -18,7 +18,8 @@
 //! simulation errors on the estimation records say it is worth its
 //! parameters by the Bayesian information criterion: with N measured
 //! samples, V₁ⱼ and V₀ⱼ the mean squared simulation error of output j with
-//! D free and with D = 0 (x₀ as each fit estimated it),
+//! D free and with D = 0 (x₀ fitted by least squares, as `validate` fits
+//! it, so that the in-memory and the streamed route decide alike),
 //!
 //! Δ = N Σⱼ ln(V₀ⱼ / V₁ⱼ)  (twice the Gaussian log-likelihood ratio),
 //!
@@ -30,12 +31,10 @@
 //! the decision. Cost: a second identification at the chosen structure
 //! and two simulations, O(N (n² + n n_u + n n_y)) beyond the subspace step.
 
+use lifted_lti::validation::{InitialCondition, ValidationOptions, validate};
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::SubspaceModel;
-use nalgebra::DVector;
 use serde_json::json;
-
-use crate::preprocess::deviations;
 
 /// The outcome of [`decide`].
 #[derive(Debug, Clone)]
@@ -46,59 +45,70 @@ pub(crate) struct Decision {
     pub json: serde_json::Value,
 }
 
-/// Per output, the mean squared simulation error of `fit` on `sets` and the
-/// measured samples (x₀ per record as the fit estimated it; the records as
-/// deviations from the fit's operating point). `None` when a simulation
-/// fails.
-fn simulation_errors(fit: &SubspaceModel, sets: &[Dataset]) -> Option<(Vec<f64>, usize)> {
+/// Per record, its measured samples and, per output, ln of the simulation
+/// error's norm relative to the output's spread, (1 − fit/100), with x₀
+/// fitted by least squares as `validate` fits it
+/// (`lifted_lti::validation::validate`; the records taken as deviations
+/// from the fit's operating point). The same numbers whichever route made
+/// the model (in memory or streamed: the streamed fit keeps no x₀). `None`
+/// when a validation fails or a fit is not finite.
+fn log_errors(fit: &SubspaceModel, sets: &[Dataset]) -> Option<Vec<(usize, Vec<f64>)>> {
+    let opts = ValidationOptions {
+        lags: 1,
+        horizons: vec![1],
+        operating_point: fit.operating_point.clone(),
+        initial_state: InitialCondition::Estimate,
+        ..Default::default()
+    };
     let m: &StateSpace = &fit.model;
-    let ny = m.n_outputs();
-    let mut sum = vec![0.0; ny];
-    let mut count = vec![0usize; ny];
-    for (k, set) in sets.iter().enumerate() {
-        let dev = deviations(set, fit.operating_point.as_ref()).ok()?;
-        let x0: Option<&DVector<f64>> = fit.x0.get(k);
-        let sim = m.lsim(dev.u(), x0, None).ok()?;
-        for j in 0..ny {
-            for (y, s) in dev.y().column(j).iter().zip(sim.y.column(j).iter()) {
-                if y.is_finite() {
-                    let r = y - s;
-                    sum[j] += r * r;
-                    count[j] += 1;
-                }
+    let mut out = Vec::with_capacity(sets.len());
+    for set in sets {
+        let v = validate(
+            &StateSpace::new(
+                m.a().clone(),
+                m.b().clone(),
+                m.c().clone(),
+                m.d().clone(),
+                Some(set.ts()),
+            )
+            .ok()?,
+            set,
+            &opts,
+        )
+        .ok()?;
+        let mut logs = Vec::with_capacity(v.outputs.len());
+        let mut n = usize::MAX;
+        for o in &v.outputs {
+            if !(o.fit.is_finite() && o.residual_finite) {
+                return None;
             }
+            logs.push((1.0 - o.fit / 100.0).max(f64::MIN_POSITIVE).ln());
+            n = n.min(o.samples);
         }
+        out.push((n, logs));
     }
-    let n = count.iter().copied().min().unwrap_or(0);
-    if n == 0 {
-        return None;
-    }
-    Some((
-        sum.iter().zip(&count).map(|(s, &c)| s / c as f64).collect(),
-        n,
-    ))
+    Some(out)
 }
 
 /// Whether `free` (D estimated) beats `zero` (D = 0, the same structure)
 /// on `sets` by the information criterion of the module docs.
 pub(crate) fn decide(free: &SubspaceModel, zero: &SubspaceModel, sets: &[Dataset]) -> Decision {
     let k = free.model.n_inputs() * free.model.n_outputs();
-    let (Some((v1, n)), Some((v0, _))) =
-        (simulation_errors(free, sets), simulation_errors(zero, sets))
-    else {
+    let (Some(l1), Some(l0)) = (log_errors(free, sets), log_errors(zero, sets)) else {
         return Decision {
             keep: true,
             json: json!(
-                "D estimated (the default; the D = 0 model could not be compared: a simulation failed)"
+                "D estimated (the default; the D = 0 model could not be compared: a validation failed)"
             ),
         };
     };
-    let delta: f64 = v0
-        .iter()
-        .zip(&v1)
-        .map(|(a, b)| (a.max(f64::MIN_POSITIVE) / b.max(f64::MIN_POSITIVE)).ln())
-        .sum::<f64>()
-        * n as f64;
+    // V₀ⱼ/V₁ⱼ = ((1 − f₀ⱼ)/(1 − f₁ⱼ))²: the outputs' spreads cancel.
+    let mut delta = 0.0;
+    let mut n = 0usize;
+    for ((n1, a), (_, b)) in l1.iter().zip(&l0) {
+        delta += *n1 as f64 * 2.0 * b.iter().zip(a).map(|(z, f)| z - f).sum::<f64>();
+        n += n1;
+    }
     let threshold = k as f64 * (n as f64).ln();
     let keep = delta > threshold;
     let text = if keep {
@@ -110,11 +120,10 @@ pub(crate) fn decide(free: &SubspaceModel, zero: &SubspaceModel, sets: &[Dataset
         keep,
         json: json!({
             "used": text,
-            "rule": "D kept when N Σ_j ln(V0_j / V1_j) > k ln N: V1, V0 the mean squared simulation errors per output with D free and D = 0 (same structure), N measured samples, k = n_u n_y",
+            "rule": "D kept when N Σ_j ln(V0_j / V1_j) > k ln N: V1, V0 the mean squared simulation errors per output (x0 fitted by least squares) with D free and D = 0 (same structure), N measured samples, k = n_u n_y",
             "statistic": delta,
             "threshold": threshold,
-            "mse_free": v1,
-            "mse_zero": v0,
+            "samples": n,
         }),
     }
 }

@@ -239,7 +239,8 @@ pub struct IdentificationOptions {
     /// with D free against the one with D = 0 at the same structure, by
     /// the Bayesian information criterion on their simulation errors:
     /// `crate::feedthrough`, derivation and benchmark there; the streamed
-    /// route estimates D); PBSID/SSARX, IV and the multirate routes fix
+    /// route alike on records of up to [`GAIN_CHECK_SAMPLES`] samples, D
+    /// estimated on longer ones); PBSID/SSARX, IV and the multirate routes fix
     /// D = 0 (in closed loop an estimated D is biased, the noise reaching u
     /// within the sample through the controller; on a multirate record the
     /// interpolation between slow samples fakes one). A strictly proper

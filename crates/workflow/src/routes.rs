@@ -533,7 +533,10 @@ fn at_fixed_order(o: &SubspaceOptions, n: usize) -> SubspaceOptions {
 /// `fit` (identified at a fixed order, [`at_fixed_order`]) with the order
 /// rule's values and the suggested order of the search (its diagnostics
 /// `search`), so that the rule's curve stays in the diagnostics.
-fn with_report_of(mut fit: SubspaceModel, search: &lifted_subspace::Diagnostics) -> SubspaceModel {
+pub(crate) fn with_report_of(
+    mut fit: SubspaceModel,
+    search: &lifted_subspace::Diagnostics,
+) -> SubspaceModel {
     fit.diagnostics.order_selection = search.order_selection.clone();
     fit.diagnostics.suggested_order = search.suggested_order;
     fit
@@ -2204,17 +2207,18 @@ pub(crate) fn iv(
         })
         .collect();
     let what = "IV identification";
-    // The model at order n (the gap standing for the rule, as after a
-    // selection: the rule of the held-out selection and of its fallback),
-    // its order and spectral radius.
-    let at_order = |n: usize| {
+    // The model of the options `o` at order n (the gap standing for the
+    // rule, as after a selection: the rule of the held-out selection and of
+    // its fallback), its order and spectral radius.
+    let at_order_of = |o: &IvOptions, n: usize| {
         let o = IvOptions {
             order: OrderSelection::Fixed(n),
             order_criterion: SubCriterion::Gap,
-            ..iopts.clone()
+            ..o.clone()
         };
         iv_identify(&exps, &o)
     };
+    let at_order = |n: usize| at_order_of(&iopts, n);
     let order_rho = |m: &lifted_subspace::IvModel| {
         let rho = crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
         (m.diagnostics.order, rho)
@@ -2267,14 +2271,7 @@ pub(crate) fn iv(
                 _ => return Err(e),
             },
         };
-        let at_order = |n: usize| {
-            let o = IvOptions {
-                order: OrderSelection::Fixed(n),
-                order_criterion: SubCriterion::Gap,
-                ..iopts.clone()
-            };
-            iv_identify(&exps, &o)
-        };
+        let at_order = |n: usize| at_order_of(&iopts, n);
         match iopts.order {
             // An automatic order by the rule asked for: an unstable
             // choice handled as the held-out selection handles one

@@ -14,6 +14,7 @@ use lifted_subspace::{
     SubspaceOptions,
 };
 use nalgebra::DMatrix;
+use serde_json::json;
 
 use crate::diagnostics::{add_phase, add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
@@ -264,6 +265,69 @@ pub fn identify_streamed(
     };
     let second_pass_s = t_second.elapsed().as_secs_f64();
     let (ts, n_rows) = (pass.ts, pass.rows);
+    // The default feedthrough as in memory (crate::feedthrough): on a
+    // record that is loaded anyway (the gain check's size), D free against
+    // the D = 0 model identified on it at the same structure; longer
+    // records keep D (the test would need more passes over the file).
+    let mut early = None;
+    let mut zero_chosen = false;
+    let (fit, feedthrough) = match id.feedthrough {
+        Some(true) => (fit, json!("D estimated (feedthrough asked for)")),
+        Some(false) => (fit, json!("D = 0 (asked for)")),
+        None if fit.model.d().iter().all(|&v| v == 0.0) => {
+            (fit, json!("D = 0 (the estimate is zero)"))
+        }
+        None if n_rows <= GAIN_CHECK_SAMPLES => {
+            let record = source.load()?;
+            // The in-memory route's options at the order found, so that
+            // both routes compare the same D = 0 model.
+            let zero_opts = SubspaceOptions {
+                order: lifted_subspace::OrderSelection::Fixed(fit.diagnostics.order),
+                feedthrough: lifted_subspace::Feedthrough::Zero,
+                past: fit.diagnostics.horizons.0,
+                future: fit.diagnostics.horizons.1,
+                system: system_of(id.estimator),
+                ..crate::routes::subspace_options(
+                    opts,
+                    record.ts(),
+                    opts.data.detrend != Detrend::None,
+                )
+            };
+            let exps = [lifted_subspace::Experiment {
+                u: record.u(),
+                y: record.y(),
+            }];
+            let out = match lifted_subspace::identify(&exps, &zero_opts) {
+                Ok(zero) => {
+                    let decision =
+                        crate::feedthrough::decide(&fit, &zero, std::slice::from_ref(&record));
+                    if decision.keep {
+                        (fit, decision.json)
+                    } else {
+                        zero_chosen = true;
+                        (
+                            crate::routes::with_report_of(zero, &fit.diagnostics),
+                            decision.json,
+                        )
+                    }
+                }
+                Err(e) => (
+                    fit,
+                    json!(format!(
+                        "D estimated (the default; the D = 0 model failed: {e})"
+                    )),
+                ),
+            };
+            early = Some(record);
+            out
+        }
+        None => (
+            fit,
+            json!(format!(
+                "D estimated (the streamed route's default for records over {GAIN_CHECK_SAMPLES} samples: the in-memory route's test of D against D = 0 would need more passes over the file; --feedthrough false fixes D = 0)"
+            )),
+        ),
+    };
     let m = &fit.model;
     let model = StateSpace::new(
         m.a().clone(),
@@ -278,16 +342,7 @@ pub fn identify_streamed(
         "single-rate subspace identification, streamed in blocks",
     );
     if let Some(obj) = d.as_object_mut() {
-        obj.insert(
-            "feedthrough".into(),
-            serde_json::json!(match id.feedthrough {
-                Some(true) => "D estimated (feedthrough asked for)",
-                Some(false) => "D = 0 (asked for)",
-                None => {
-                    "D estimated (the streamed route's default: the in-memory route's test of D against D = 0 needs a second pass over the file; --feedthrough false fixes D = 0)"
-                }
-            }),
-        );
+        obj.insert("feedthrough".into(), feedthrough);
     }
     if let Some(cap) = capped_search {
         push_capped_search_warning(&mut d, cap);
@@ -307,7 +362,10 @@ pub fn identify_streamed(
     // The record in memory (and its deviations from the model's operating
     // point) when the gain is checked on it or the model refined on it.
     let loaded = if refines || n_rows <= GAIN_CHECK_SAMPLES {
-        let record = source.load()?;
+        let record = match early.take() {
+            Some(r) => r,
+            None => source.load()?,
+        };
         let set = deviations(&record, fit.operating_point.as_ref())?;
         Some((record, set))
     } else {
@@ -336,11 +394,17 @@ pub fn identify_streamed(
             // A short record (structure given, so streamed) is judged as the
             // in-memory route judges it: on held-out blocks of the record as
             // the identification took it.
+            let base = subspace_options(opts, record.ts(), opts.data.detrend != Detrend::None);
             let check_opts = SubspaceOptions {
                 order: OrderSelection::Fixed(fit.diagnostics.order),
                 past: fit.diagnostics.horizons.0,
                 future: fit.diagnostics.horizons.1,
-                ..subspace_options(opts, record.ts(), opts.data.detrend != Detrend::None)
+                feedthrough: if zero_chosen {
+                    lifted_subspace::Feedthrough::Zero
+                } else {
+                    base.feedthrough.clone()
+                },
+                ..base
             };
             let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
                 sets: std::slice::from_ref(&record),

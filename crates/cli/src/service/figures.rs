@@ -1,7 +1,9 @@
 //! The figures of a model and a record, as [`Plot`]s drawn to SVG by
-//! [`crate::plot::svg`]: Bode magnitude/phase, step response, pole-zero map,
-//! order selection, the excitation and the measured-vs-model output. Shared
-//! by `lifted bode`/`step`/`report` and `lifted studio`.
+//! [`crate::plot::svg`]: the Bode grid and step data, pole-zero map, order
+//! selection, the excitation and the measured-vs-model output (the step
+//! and Bode plots, one axes per input–output pair, are
+//! [`crate::service::pairs`]'s). Shared by `lifted bode`/`step`/`report`
+//! and `lifted studio`.
 
 use lifted_lti::validation::OutputValidation;
 use lifted_lti::{Dataset, StateSpace};
@@ -64,45 +66,6 @@ pub fn bode_grid(
     Ok(logspace(lo, hi, n))
 }
 
-/// Bode magnitude (dB) and phase (deg) plots, one curve per channel pair.
-pub fn bode_plots(m: &StateSpace, omega: &[f64]) -> CliResult<(Plot, Plot)> {
-    let b = m.bode(omega).ctx("bode")?;
-    let (un, yn) = channel_names(m);
-    let lw: Vec<f64> = b.omega.iter().map(|w| w.log10()).collect();
-    let mut mag = Plot {
-        title: "Bode magnitude".into(),
-        x_label: "ω [rad/s]".into(),
-        y_label: "|G| [dB]".into(),
-        log_x: true,
-        ..Default::default()
-    };
-    let mut ph = Plot {
-        title: "Bode phase".into(),
-        x_label: "ω [rad/s]".into(),
-        y_label: "phase [deg]".into(),
-        log_x: true,
-        ..Default::default()
-    };
-    for i in 0..m.n_outputs() {
-        for j in 0..m.n_inputs() {
-            let label = format!("{} ← {}", yn[i], un[j]);
-            let db: Vec<f64> = b
-                .magnitude
-                .iter()
-                .map(|g| 20.0 * g[(i, j)].max(1e-300).log10())
-                .collect();
-            let deg: Vec<f64> = b.phase_deg.iter().map(|g| g[(i, j)]).collect();
-            mag.series.push(Series::line(label.clone(), lw.clone(), db));
-            ph.series.push(Series::line(label, lw.clone(), deg));
-        }
-    }
-    if let Some(ts) = m.ts() {
-        let ny = (std::f64::consts::PI / ts).log10();
-        mag.vlines.push((ny, "Nyquist".into()));
-    }
-    Ok((mag, ph))
-}
-
 /// Step-response grid: (number of samples, time step).
 fn step_grid(m: &StateSpace, samples: Option<usize>, dt: Option<f64>) -> CliResult<(usize, f64)> {
     let (slow, _) = pole_frequencies(m).unwrap_or((1.0, 1.0));
@@ -148,21 +111,6 @@ pub fn step_data(
         }
     }
     Ok((t, cols))
-}
-
-/// Step-response plot.
-pub fn step_plot(m: &StateSpace) -> CliResult<Plot> {
-    let (t, cols) = step_data(m, None, None)?;
-    Ok(Plot {
-        title: "Step response".into(),
-        x_label: "t [s]".into(),
-        y_label: "y".into(),
-        series: cols
-            .into_iter()
-            .map(|(name, y)| Series::line(name, t.clone(), y))
-            .collect(),
-        ..Default::default()
-    })
 }
 
 /// The frame of a discrete model's pole-zero map: the unit circle and
@@ -776,34 +724,6 @@ fn standard_error(v: &[f64]) -> Option<f64> {
     Some((var / k).sqrt())
 }
 
-/// One plot of the series of several, each series' name prefixed with
-/// its plot's label (`#3 n4sid n=2: y1_from_u1`): the overlaid responses
-/// of the model board. Axes and decades of the first plot.
-pub fn overlay(title: &str, plots: Vec<(String, Plot)>) -> Plot {
-    let mut out = Plot {
-        title: title.into(),
-        ..Default::default()
-    };
-    for (k, (label, p)) in plots.into_iter().enumerate() {
-        if k == 0 {
-            out.x_label = p.x_label.clone();
-            out.y_label = p.y_label.clone();
-            out.log_x = p.log_x;
-            out.vlines = p.vlines.clone();
-        }
-        let single = p.series.len() == 1;
-        for mut s in p.series {
-            s.name = if single {
-                label.clone()
-            } else {
-                format!("{label}: {}", s.name)
-            };
-            out.series.push(s);
-        }
-    }
-    out
-}
-
 /// Stems (τ, 0)–(τ, r) of correlations `r` at lags `lags`, as one line
 /// broken by NaN.
 fn stems(lags: impl Iterator<Item = f64>, r: &[f64]) -> (Vec<f64>, Vec<f64>) {
@@ -874,50 +794,6 @@ pub fn residual_plots(o: &OutputValidation, inputs: &[String]) -> (Plot, Plot) {
     cross.series.extend(lines);
     cross.series.push(band(-half - 0.5, half + 0.5, o.bound));
     (auto, cross)
-}
-
-/// Adds the empirical frequency response `g` (Welch's estimate from the
-/// data, [`lifted_lti::spectral::welch`]) to Bode plots made by
-/// [`bode_plots`] for the same channels: one dotted series of markers per
-/// channel pair ("… (data)"), within the plots' frequency range.
-pub fn add_empirical(
-    mag: &mut Plot,
-    ph: &mut Plot,
-    g: &lifted_lti::spectral::FrequencyResponse,
-    m: &StateSpace,
-) {
-    let (un, yn) = channel_names(m);
-    let (lo, hi) = mag
-        .series
-        .first()
-        .map(|s| {
-            s.x.iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                    (a.min(x), b.max(x))
-                })
-        })
-        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-    let lw: Vec<f64> = g.omega.iter().map(|w| w.log10()).collect();
-    let keep: Vec<usize> = (0..lw.len())
-        .filter(|&k| lw[k] >= lo && lw[k] <= hi)
-        .collect();
-    let x: Vec<f64> = keep.iter().map(|&k| lw[k]).collect();
-    for (i, y) in yn.iter().enumerate().take(m.n_outputs()) {
-        for (j, u) in un.iter().enumerate().take(m.n_inputs()) {
-            let label = format!("{y} ← {u} (data, Welch)");
-            let mags = g.magnitude(i, j);
-            let phs = g.phase_deg(i, j);
-            let db: Vec<f64> = keep
-                .iter()
-                .map(|&k| 20.0 * mags[k].max(1e-300).log10())
-                .collect();
-            let deg: Vec<f64> = keep.iter().map(|&k| phs[k]).collect();
-            mag.series
-                .push(Series::points(label.clone(), x.clone(), db, Marker::Dot));
-            ph.series
-                .push(Series::points(label, x.clone(), deg, Marker::Dot));
-        }
-    }
 }
 
 #[cfg(test)]
