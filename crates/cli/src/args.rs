@@ -115,6 +115,10 @@ pub struct StudioArgs {
     /// TCP port on 127.0.0.1 (0: any free port; the URL is printed).
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
+    /// Memory budget of one request (an identification's record and matrices); uploads
+    /// are checked cell by cell without keeping their values.
+    #[command(flatten)]
+    pub resources: ResourceArgs,
 }
 
 /// Output file and signal name shared by the generators.

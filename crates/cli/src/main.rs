@@ -39,6 +39,7 @@ fn resources(c: &Command) -> Option<&ResourceArgs> {
         Command::Analyze(a) => Some(&a.resources),
         Command::Lqr(a) => Some(&a.resources),
         Command::Report(a) => Some(&a.resources),
+        Command::Studio(a) => Some(&a.resources),
         _ => None,
     }
 }

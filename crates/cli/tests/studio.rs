@@ -1193,9 +1193,15 @@ fn free_port() -> u16 {
 /// `parent` (as TMPDIR) and its stderr in `parent/studio.log`, and returns
 /// it with its URL (with the token).
 fn start_studio(parent: &Path) -> (Proc, String) {
+    start_studio_with(parent, &[])
+}
+
+/// [`start_studio`] with more arguments of `lifted studio`.
+fn start_studio_with(parent: &Path, more: &[&str]) -> (Proc, String) {
     let log = std::fs::File::create(parent.join("studio.log")).unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_lifted"))
         .args(["studio", "--port", "0"])
+        .args(more)
         .env("TMPDIR", parent)
         .stdout(Stdio::piped())
         .stderr(log)
@@ -2605,4 +2611,48 @@ fn studio_asks_to_confirm_guessed_channels_in_chromium() {
         assert_eq!(status(&c, "jserrors").await, 0);
         c.close().await.unwrap();
     });
+}
+
+/// Issue 47: an upload is checked cell by cell without keeping its values
+/// (a wide file is accepted whatever its size within the upload limit),
+/// and a request whose chosen channels need more memory than
+/// `lifted studio --memory-limit` is refused naming the budget, before
+/// anything is read.
+#[test]
+fn studio_bounds_a_request_by_its_memory_budget() {
+    let parent = tmp("memory-limit");
+    let (proc, url) = start_studio_with(&parent, &["--memory-limit", "64K"]);
+    let rest = url.trim_start_matches("http://127.0.0.1:");
+    let (port, token) = rest.split_once("/?token=").expect("URL with token");
+    let port: u16 = port.parse().unwrap();
+    let call = |method: &str, path: &str, ctype: &str, body: &[u8]| {
+        let mut h = vec![("X-Lifted-Token", token)];
+        if !ctype.is_empty() {
+            h.push(("Content-Type", ctype));
+        }
+        raw(port, method, path, &h, body)
+    };
+    // 3000 rows: 3000 × 2 channels × 8 bytes × 5 copies = 240 kB > 64 KiB.
+    let r = call(
+        "POST",
+        "/api/data?name=rec.csv",
+        "application/octet-stream",
+        record(3000, 1).as_bytes(),
+    );
+    assert_eq!(r.status, 200, "{}", r.body);
+    let v: Value = serde_json::from_str(&r.body).unwrap();
+    assert_eq!(v["rows"], json!(3000));
+    let r = call(
+        "POST",
+        "/api/identify",
+        "application/json",
+        n4sid("2").to_string().as_bytes(),
+    );
+    assert_eq!(r.status, 400, "{}", r.body);
+    assert!(
+        r.body.contains("--memory-limit") && r.body.contains("64.0 KiB"),
+        "{}",
+        r.body
+    );
+    drop(proc);
 }

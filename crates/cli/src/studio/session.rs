@@ -28,7 +28,7 @@ use crate::service::validation::{validate_model, with_detrend};
 use crate::studio::board::Pinned;
 use crate::studio::cached::Cache;
 use crate::studio::ranges;
-use crate::table::{DataSpec, header, parse_periods, read_raw};
+use crate::table::{DataSpec, header, parse_periods, scan_rows};
 
 /// Largest upload accepted (bytes).
 pub const MAX_UPLOAD: usize = 1 << 30;
@@ -143,6 +143,55 @@ pub struct DataInfo {
     /// the outputs): the page asks the user to confirm the channels before
     /// it identifies.
     pub channels_guessed: bool,
+}
+
+/// Copies of a request's record an identification holds at once (the
+/// values read, scaled, as deviations, simulated, the residuals): the
+/// factor of [`Session::check_sizes`]' memory check.
+const RECORD_COPIES: u128 = 5;
+
+/// The measured samples of a column and their spacing, gathered row by row
+/// ([`Session`]'s upload check keeps no values).
+#[derive(Debug, Clone, Copy, Default)]
+struct SampleSpacing {
+    samples: usize,
+    first: usize,
+    last: usize,
+    /// The spacing of the first two samples, and whether every later one
+    /// kept it.
+    step: Option<usize>,
+    regular: bool,
+}
+
+impl SampleSpacing {
+    fn push(&mut self, row: usize) {
+        match self.samples {
+            0 => self.first = row,
+            1 => {
+                self.step = Some(row - self.first);
+                self.regular = true;
+            }
+            _ => self.regular &= Some(row - self.last) == self.step,
+        }
+        self.last = row;
+        self.samples += 1;
+    }
+
+    /// The sampling period: none without a sample, the record's length
+    /// for a single one, the common spacing when every spacing is equal.
+    fn period(&self, rows: usize) -> Option<usize> {
+        match self.samples {
+            0 => None,
+            1 => Some(rows),
+            _ => self.step.filter(|_| self.regular),
+        }
+    }
+}
+
+/// The size of an uploaded record: rows and base period.
+struct RecordSize {
+    rows: usize,
+    ts: f64,
 }
 
 /// What a column is by its name, when a convention says so: plant tags
@@ -469,8 +518,12 @@ fn bytes_text(b: f64) -> String {
     let gib = b / (1u64 << 30) as f64;
     if gib >= 1024.0 {
         format!("{:.1} TiB", gib / 1024.0)
-    } else {
+    } else if gib >= 1.0 {
         format!("{gib:.1} GiB")
+    } else if b >= (1u64 << 20) as f64 {
+        format!("{:.1} MiB", b / (1u64 << 20) as f64)
+    } else {
+        format!("{:.1} KiB", b / 1024.0)
     }
 }
 
@@ -762,33 +815,43 @@ impl Session {
             return Err(input(format!("{name}: the file has no data columns")));
         }
         let wanted: Vec<&String> = cols.iter().collect();
+        // Every cell checked by the command's reader, the values not kept:
+        // per column its measured samples and their spacing (O(columns)
+        // memory: a 1 GiB wide upload parsed whole peaked at 4.2 GB).
+        let mut stats = vec![SampleSpacing::default(); cols.len()];
+        let mut row = 0usize;
         // Without a time column the base period is the page's (1 s here).
-        let raw = read_raw(&p, &[], &wanted, 0..cols.len(), (!has_time).then_some(1.0))?;
-        if raw.rows == 0 {
+        let (rows, ts) = scan_rows(
+            &p,
+            &[],
+            &wanted,
+            0..cols.len(),
+            (!has_time).then_some(1.0),
+            |values| {
+                for (s, v) in stats.iter_mut().zip(values) {
+                    if !v.is_nan() {
+                        s.push(row);
+                    }
+                }
+                row += 1;
+                Ok(true)
+            },
+        )?;
+        if rows == 0 {
             return Err(input(format!(
                 "{name}: the file has a header but no data rows"
             )));
         }
         let columns: Vec<ColumnInfo> = cols
             .iter()
-            .zip(&raw.cols)
-            .map(|(n, c)| {
-                let at: Vec<usize> = (0..c.len()).filter(|&k| !c[k].is_nan()).collect();
-                let period = match at.as_slice() {
-                    [] => None,
-                    [_] => Some(c.len()),
-                    [a, b, ..] => {
-                        let d = b - a;
-                        at.windows(2).all(|w| w[1] - w[0] == d).then_some(d)
-                    }
-                };
-                ColumnInfo {
-                    name: n.clone(),
-                    samples: at.len(),
-                    period,
-                }
+            .zip(&stats)
+            .map(|(n, s)| ColumnInfo {
+                name: n.clone(),
+                samples: s.samples,
+                period: s.period(rows),
             })
             .collect();
+        let raw = RecordSize { rows, ts };
         let complete = |c: &&ColumnInfo| c.samples == raw.rows;
         let mut inputs: Vec<String> = columns
             .iter()
@@ -1098,6 +1161,22 @@ impl Session {
         let rec = self.record()?;
         let (rows, name) = (rec.info.rows, rec.name.as_str());
         let channels = (r.inputs.len() + r.outputs.len()).max(1) as u128;
+        // The selected channels of the record, read for the request, and
+        // the copies an identification makes of them (scaled, deviations,
+        // simulated, residuals: RECORD_COPIES in all) within the memory
+        // budget (`lifted studio --memory-limit`, LIFTED_MEMORY_LIMIT,
+        // default half the physical memory).
+        let budget = lifted_linalg::budget::MemoryBudget::default().bytes() as u128;
+        let record_bytes = rows as u128 * channels * 8 * RECORD_COPIES;
+        if record_bytes > budget {
+            return Err(input(format!(
+                "{name}: {rows} rows of the {channels} channels chosen need about {} of memory \
+                 for an identification, more than the studio's budget of {} (lifted studio \
+                 --memory-limit, or LIFTED_MEMORY_LIMIT): choose fewer channels or raise the budget",
+                bytes_text(record_bytes as f64),
+                bytes_text(budget as f64)
+            )));
+        }
         let memory = |flag: &str, value: usize, k: u128, what: &str| -> CliResult<()> {
             let bytes = 8 * k * k;
             if bytes > MAX_WORK_BYTES as u128 {
