@@ -177,6 +177,7 @@ pub fn decade_label(k: i32) -> String {
 pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
     let mut out = String::new();
     let mut lines_svg = String::new();
+    let mut full_names: Vec<String> = Vec::new();
     {
         let root = SVGBackend::with_string(&mut out, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(draw_err)?;
@@ -225,6 +226,20 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
                 entries.push((s.name.clone(), color, s.marker, dash));
             }
         }
+        // Long names (plant tags with their paths) shortened in the middle
+        // to fit the figure's width, a title and a legend entry alike; the
+        // full texts are the figure's hover title.
+        let title = shortened(&plot.title, ((w.saturating_sub(20)) / TITLE_CHAR) as usize);
+        if title != plot.title {
+            full_names.push(plot.title.clone());
+        }
+        let label_chars = (w.saturating_sub(100) / LEGEND_CHAR) as usize;
+        for e in &mut entries {
+            let short = shortened(&e.0, label_chars);
+            if short != e.0 {
+                full_names.push(std::mem::replace(&mut e.0, short));
+            }
+        }
         let show_legend = entries.len() > 1;
         let labels: Vec<String> = if show_legend {
             entries.iter().map(|e| e.0.clone()).collect()
@@ -245,7 +260,7 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
             (x0, x1, y0, y1) = (cx - half_x, cx + half_x, cy - half_y, cy + half_y);
         }
         let mut chart = ChartBuilder::on(&upper)
-            .caption(&plot.title, ("sans-serif", 16))
+            .caption(&title, ("sans-serif", 16))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
@@ -441,7 +456,44 @@ pub fn svg(plot: &Plot, w: u32, h: u32) -> CliResult<String> {
         Some(end) => out.insert_str(end, &lines_svg),
         None => return Err(draw_err("the SVG backend wrote no closing tag")),
     }
+    if !full_names.is_empty() {
+        // The hover title of the whole figure: its first child.
+        let at = out
+            .find("<svg")
+            .and_then(|s| out[s..].find('>').map(|e| s + e + 1))
+            .ok_or_else(|| draw_err("the SVG backend wrote no root element"))?;
+        let title = format!(
+            "\n<title>{}</title>",
+            crate::escape::html(&full_names.join("\n"))
+        );
+        out.insert_str(at, &title);
+    }
     Ok(out)
+}
+
+/// Width of a character of the 16 px title font, pixels (a generous
+/// average for sans-serif, so a shortened title fits).
+pub const TITLE_CHAR: u32 = 9;
+
+/// Width of a character of the 12 px legend font, pixels (as
+/// [`legend_layout`] counts them).
+const LEGEND_CHAR: u32 = 7;
+
+/// `s` shortened to at most `max` characters by an ellipsis in its middle
+/// (both ends of a tag name carry meaning: `PLANT.AREA7.FIC101.OP`); as it
+/// is when it fits or `max` is below 5.
+pub fn shortened(s: &str, max: usize) -> String {
+    let n = s.chars().count();
+    if n <= max || max < 5 {
+        return s.to_string();
+    }
+    let head = (max - 1) / 2;
+    let tail = max - 1 - head;
+    let chars: Vec<char> = s.chars().collect();
+    let mut out: String = chars[..head].iter().collect();
+    out.push('…');
+    out.extend(&chars[n - tail..]);
+    out
 }
 
 /// One `<polyline>` through the pixel points `pts` in `color`, dashed by
@@ -576,6 +628,54 @@ mod tests {
         assert!(lengths.iter().all(|&k| k <= 4 * 900), "{lengths:?} points");
         assert_eq!(svg.matches("stroke-dasharray").count(), 1);
         assert!(svg.len() < 200_000, "{} bytes", svg.len());
+    }
+
+    #[test]
+    fn long_titles_and_labels_are_shortened_with_the_full_text_on_hover() {
+        let long = "PLANT.AREA7.UNIT3.TI203.PV: measured vs simulated (fit 91.2 %)";
+        let label = "PLANT.AREA7.UNIT3.FIC101.OP ← PLANT.AREA7.UNIT3.TI203.PV (model)";
+        let plot = Plot {
+            title: long.into(),
+            series: vec![
+                Series::line(label, vec![0.0, 1.0], vec![0.0, 1.0]),
+                Series::line("measured", vec![0.0, 1.0], vec![1.0, 0.0]),
+            ],
+            ..Default::default()
+        };
+        let svg = svg(&plot, 300, 200).unwrap();
+        let at = svg.find("<title>").expect("hover title");
+        assert!(svg[at..].starts_with(&format!("<title>{}\n", crate::escape::html(long))));
+        assert!(svg.contains(&crate::escape::html(label)));
+        // The drawn title fits the figure.
+        let shown = shortened(long, (300 - 20) / TITLE_CHAR as usize);
+        assert!(
+            shown.chars().count() <= 31 && shown.contains('…'),
+            "{shown}"
+        );
+        assert!(svg.contains(&crate::escape::html(&shown)));
+        // A plot whose names fit has no hover title.
+        let plain = svg_plain();
+        assert!(!plain.contains("<title>"));
+    }
+
+    fn svg_plain() -> String {
+        let plot = Plot {
+            title: "y1".into(),
+            series: vec![Series::line("a", vec![0.0, 1.0], vec![0.0, 1.0])],
+            ..Default::default()
+        };
+        svg(&plot, 600, 200).unwrap()
+    }
+
+    #[test]
+    fn long_names_are_shortened_in_the_middle() {
+        assert_eq!(shortened("y1 ← u1", 20), "y1 ← u1");
+        let s = shortened("PLANT.AREA7.TI203.PV ← PLANT.AREA7.FIC101.OP", 21);
+        assert_eq!(s.chars().count(), 21);
+        assert!(
+            s.starts_with("PLANT.AREA") && s.ends_with("FIC101.OP"),
+            "{s}"
+        );
     }
 
     #[test]

@@ -11,7 +11,7 @@ use lifted_lti::spectral::FrequencyResponse;
 
 use crate::error::{CliResult, Context};
 use crate::escape;
-use crate::plot::{Marker, Plot, Series, svg};
+use crate::plot::{Marker, Plot, Series, TITLE_CHAR, shortened, svg};
 use crate::service::figures::step_data;
 use crate::service::models::channel_names;
 
@@ -26,26 +26,6 @@ pub struct PairFigure {
     /// Per cell, row-major (output i, input j at `i * n_u + j`): the full
     /// label `y ← u` and the plots stacked in it.
     pub cells: Vec<(String, Vec<Plot>)>,
-}
-
-/// Width of a character of the 16 px caption font, pixels (a generous
-/// average for sans-serif, so a shortened title fits).
-const CAPTION_CHAR: u32 = 9;
-
-/// `s` shortened to at most `max` characters by an ellipsis in its middle
-/// (both ends of a tag name carry meaning: `FIC101.OP`).
-pub fn shortened(s: &str, max: usize) -> String {
-    let n = s.chars().count();
-    if n <= max || max < 5 {
-        return s.to_string();
-    }
-    let head = (max - 1) / 2;
-    let tail = max - 1 - head;
-    let chars: Vec<char> = s.chars().collect();
-    let mut out: String = chars[..head].iter().collect();
-    out.push('…');
-    out.extend(&chars[n - tail..]);
-    out
 }
 
 fn check_same_channels(models: &[(String, &StateSpace)]) -> CliResult<(usize, usize)> {
@@ -259,7 +239,7 @@ pub fn pairs_svg(fig: &PairFigure, width: u32, plot_h: u32) -> CliResult<String>
     let per_cell = fig.cells.first().map_or(1, |c| c.1.len().max(1)) as u32;
     let cell_h = plot_h * per_cell;
     let (w, h) = (cell_w * cols, cell_h * fig.n_y.max(1) as u32);
-    let max_chars = ((cell_w.saturating_sub(20)) / CAPTION_CHAR) as usize;
+    let max_chars = ((cell_w.saturating_sub(20)) / TITLE_CHAR) as usize;
     let mut body = String::new();
     for (c, (label, plots)) in fig.cells.iter().enumerate() {
         let (row, col) = (c as u32 / cols, c as u32 % cols);
@@ -296,17 +276,6 @@ mod tests {
             Some(1.0),
         )
         .unwrap()
-    }
-
-    #[test]
-    fn long_names_are_shortened_in_the_middle() {
-        assert_eq!(shortened("y1 ← u1", 20), "y1 ← u1");
-        let s = shortened("PLANT.AREA7.TI203.PV ← PLANT.AREA7.FIC101.OP", 21);
-        assert_eq!(s.chars().count(), 21);
-        assert!(
-            s.starts_with("PLANT.AREA") && s.ends_with("FIC101.OP"),
-            "{s}"
-        );
     }
 
     #[test]
