@@ -122,8 +122,12 @@ pub fn check_kalman_gain(
 /// orders, so each order's records are their own entry.
 #[derive(Debug, Clone, Default)]
 pub struct VarxMemo {
-    kept: Vec<(u64, usize, bool, Vec<DMatrix<f64>>)>,
+    kept: Vec<((u64, bool), usize, bool, Vec<DMatrix<f64>>)>,
     computed: usize,
+    /// The records the innovations are estimated from, when the caller
+    /// gave them ([`VarxMemo::set_source`]): their hash and their (u, y),
+    /// each centred by its own means.
+    source: Option<(u64, Vec<(DMatrix<f64>, DMatrix<f64>)>)>,
 }
 
 /// Records whose VARX innovations a [`VarxMemo`] keeps (the least recently
@@ -135,6 +139,37 @@ impl VarxMemo {
     /// computes none).
     pub fn computed(&self) -> usize {
         self.computed
+    }
+
+    /// The records the VARX innovations are estimated from in the next
+    /// checks: `Some(records)`, each centred by its own means (the
+    /// identification's records before its operating point is removed,
+    /// the same for every model of them, so that every order of a record
+    /// shares one innovation estimate); `None`: the records the check is
+    /// given, as they are. Records of other lengths than the check's are
+    /// not used. O(N (n_u + n_y)) when the records change.
+    pub fn set_source(&mut self, records: Option<&[Experiment<'_>]>) {
+        let Some(records) = records else {
+            self.source = None;
+            return;
+        };
+        let hash = records_hash(records);
+        if self.source.as_ref().is_some_and(|(h, _)| *h == hash) {
+            return;
+        }
+        let centred = |m: &DMatrix<f64>| {
+            let mut c = m.clone();
+            for mut col in c.column_iter_mut() {
+                let mean = col.mean();
+                col.add_scalar_mut(-mean);
+            }
+            c
+        };
+        let copies = records
+            .iter()
+            .map(|e| (centred(e.u), centred(e.y)))
+            .collect();
+        self.source = Some((hash, copies));
     }
 }
 
@@ -473,15 +508,32 @@ fn regression_gain(
     // feedthrough: under a controller reacting within the sample it would
     // carry the innovation into the regression.
     let direct = model.d().iter().any(|v| *v != 0.0);
-    let hash = records_hash(sets);
-    let at = match memo
+    // The VARX's records: the memo's source when it has the check's
+    // shapes (every model of a record then shares its innovations), else
+    // the records as given.
+    let fits = |c: &[(DMatrix<f64>, DMatrix<f64>)]| {
+        c.len() == sets.len()
+            && c.iter()
+                .zip(sets)
+                .all(|((u, y), d)| u.shape() == d.u.shape() && y.shape() == d.y.shape())
+    };
+    // Keyed by the records' hash and whether they were centred (a record
+    // given as it is and the same record centred are different VARX data).
+    let (hash, varx_sets): ((u64, bool), Vec<Experiment<'_>>) = match &memo.source {
+        Some((h, c)) if fits(c) => (
+            (*h, true),
+            c.iter().map(|(u, y)| Experiment { u, y }).collect(),
+        ),
+        _ => ((records_hash(sets), false), sets.to_vec()),
+    };
+    let found = memo
         .kept
         .iter()
-        .position(|(h, o, d, _)| (*h, *o, *d) == (hash, order, direct))
-    {
+        .position(|(h, o, d, _)| (*h, *o, *d) == (hash, order, direct));
+    let at = match found {
         Some(at) => at,
         None => {
-            let e = varx_innovations(sets, order, direct)?;
+            let e = varx_innovations(&varx_sets, order, direct)?;
             memo.computed += 1;
             if memo.kept.len() == MEMO_ENTRIES {
                 memo.kept.remove(0);

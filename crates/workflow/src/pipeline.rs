@@ -265,6 +265,7 @@ fn run(
                 &fit.model,
                 fit.kalman_gain,
                 &sets,
+                inner_means.then_some(route_sets.as_slice()),
                 used.past,
                 &mut d,
                 cache.map(|c| &mut c.gain),
@@ -297,8 +298,15 @@ fn run(
                 // on the records (its VARX order α), so that its model
                 // predicts as the subspace routes' do.
                 let alpha = fit.diagnostics["horizons"][0].as_u64().unwrap_or(8) as usize;
-                fit.kalman_gain =
-                    checked_gain(&fit.model, None, &sets, alpha, &mut fit.diagnostics, None);
+                fit.kalman_gain = checked_gain(
+                    &fit.model,
+                    None,
+                    &sets,
+                    None,
+                    alpha,
+                    &mut fit.diagnostics,
+                    None,
+                );
             }
             fit
         }
@@ -356,7 +364,7 @@ fn run(
             .zip(sets.first())
             .is_some_and(|(t, d)| (t - d.ts()).abs() <= 1e-9 * d.ts())
     {
-        kalman_gain = checked_gain(&model, None, &sets, 0, &mut diagnostics, None);
+        kalman_gain = checked_gain(&model, None, &sets, None, 0, &mut diagnostics, None);
     }
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
@@ -414,13 +422,17 @@ fn run(
 /// the records (`lifted_subspace::check_kalman_gain`, the report in
 /// `diagnostics.kalman_gain_route`) when they hold at most
 /// [`GAIN_CHECK_SAMPLES`] samples, else the subspace step's gain. The
-/// in-memory and the streamed route both call it; `memo`: the VARX
-/// innovations kept between calls on the same records (a front end's
-/// [`SubspaceCache`]), the same gain bit for bit.
+/// in-memory and the streamed route both call it. `raw`: the records
+/// before the identification removed its operating point, when it did:
+/// the VARX innovations are estimated from them, each centred by its own
+/// means (`lifted_subspace::VarxMemo::set_source`), the same for every
+/// order of a record; `memo`: the innovations kept between calls (a front
+/// end's [`SubspaceCache`]), the same gain bit for bit as without it.
 pub(crate) fn checked_gain(
     model: &lifted_lti::StateSpace,
     gain: Option<DMatrix<f64>>,
     sets: &[Dataset],
+    raw: Option<&[Dataset]>,
     past: usize,
     diagnostics: &mut serde_json::Value,
     memo: Option<&mut lifted_subspace::VarxMemo>,
@@ -434,12 +446,16 @@ pub(crate) fn checked_gain(
         .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
         .collect();
     let t = std::time::Instant::now();
-    let (checked, report) = match memo {
-        Some(memo) => {
-            lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, memo)
-        }
-        None => lifted_subspace::check_kalman_gain(model, gain.as_ref(), &exps, past),
-    };
+    let mut local = lifted_subspace::VarxMemo::default();
+    let memo = memo.unwrap_or(&mut local);
+    let raw_exps: Option<Vec<lifted_subspace::Experiment<'_>>> = raw.map(|r| {
+        r.iter()
+            .map(|d| lifted_subspace::Experiment { u: d.u(), y: d.y() })
+            .collect()
+    });
+    memo.set_source(raw_exps.as_deref());
+    let (checked, report) =
+        lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, memo);
     add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert(

@@ -371,12 +371,14 @@ pub fn identify_streamed(
     } else {
         None
     };
-    if let Some((_, set)) = &loaded {
+    if let Some((record, set)) = &loaded {
         // As the in-memory route: the same gain from the same record.
+        let raw = opts.data.detrend != Detrend::None;
         kalman_gain = checked_gain(
             &model,
             kalman_gain,
             std::slice::from_ref(set),
+            raw.then_some(std::slice::from_ref(record)),
             fit.diagnostics.horizons.0,
             &mut d,
             None,

@@ -340,12 +340,15 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
         assert_eq!(cached.file.model, plain.file.model, "{method:?} n = {n}");
         assert_eq!(cached.file.kalman_gain, plain.file.kalman_gain);
         assert_eq!(cached.x0, plain.x0);
-        // One compression for the three fits.
+        // One compression for the three fits, and one VARX innovation
+        // estimate for their three Kalman-gain checks: estimated from the
+        // record itself, not from each model's deviations (issue 47: the
+        // studio's slider recomputed it for every order).
         assert_eq!(cache.compressions(), 1, "fit {i}");
+        assert_eq!(cache.varx_estimates(), 1, "fit {i}");
     }
-    // An order identified again reuses its Kalman-gain check's VARX
-    // innovations (issue 47: the studio's slider moved back recomputed
-    // them), with the same model and gain.
+    // An order identified again reuses them too, with the same model and
+    // gain as without the cache.
     let estimates = cache.varx_estimates();
     opts.identification.method = Method::N4sid;
     opts.identification.order = Order::Fixed(2);
