@@ -122,13 +122,20 @@ pub fn check_kalman_gain(
 /// orders, so each order's records are their own entry.
 #[derive(Debug, Clone, Default)]
 pub struct VarxMemo {
-    kept: Vec<((u64, bool), usize, bool, Vec<DMatrix<f64>>)>,
+    kept: Vec<KeptInnovations>,
     computed: usize,
     /// The records the innovations are estimated from, when the caller
     /// gave them ([`VarxMemo::set_source`]): their hash and their (u, y),
     /// each centred by its own means.
-    source: Option<(u64, Vec<(DMatrix<f64>, DMatrix<f64>)>)>,
+    source: Option<(u64, Vec<CentredRecord>)>,
 }
+
+/// Innovations kept by a [`VarxMemo`]: (records' hash, centred), VARX
+/// order, u(t) among the regressors, the innovations per record.
+type KeptInnovations = ((u64, bool), usize, bool, Vec<DMatrix<f64>>);
+
+/// A record's (u, y), each column centred by its mean.
+type CentredRecord = (DMatrix<f64>, DMatrix<f64>);
 
 /// Records whose VARX innovations a [`VarxMemo`] keeps (the least recently
 /// computed dropped first).
@@ -511,7 +518,7 @@ fn regression_gain(
     // The VARX's records: the memo's source when it has the check's
     // shapes (every model of a record then shares its innovations), else
     // the records as given.
-    let fits = |c: &[(DMatrix<f64>, DMatrix<f64>)]| {
+    let fits = |c: &[CentredRecord]| {
         c.len() == sets.len()
             && c.iter()
                 .zip(sets)
