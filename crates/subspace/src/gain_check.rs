@@ -181,7 +181,9 @@ impl VarxMemo {
 }
 
 /// The records' sizes and every sample's bits, hashed: O(N (n_u + n_y)).
-fn records_hash(records: &[Experiment<'_>]) -> u64 {
+/// What tells records apart for the caches of front ends (the workflow's
+/// compression cache, [`VarxMemo`]).
+pub fn records_hash(records: &[Experiment<'_>]) -> u64 {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for e in records {

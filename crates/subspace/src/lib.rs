@@ -166,7 +166,7 @@ pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use gain_check::{
     GainCheck, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo, check_kalman_gain,
-    check_kalman_gain_memo,
+    check_kalman_gain_memo, records_hash,
 };
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use held_out_order::{HeldOutOrder, OrderCandidate};

@@ -87,17 +87,9 @@ impl SubspaceCache {
 /// What the compression depends on: the records (their sizes and a hash
 /// of the bits of every sample, O(N)) and the compression options.
 fn key_of(exps: &[Experiment<'_>], sub: &SubspaceOptions) -> String {
-    use std::hash::{Hash, Hasher};
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    for e in exps {
-        (e.u.nrows(), e.u.ncols(), e.y.ncols()).hash(&mut h);
-        for v in e.u.iter().chain(e.y.iter()) {
-            v.to_bits().hash(&mut h);
-        }
-    }
     format!(
         "{:016x}|{}|{}|{}|{:?}|{}|{}",
-        h.finish(),
+        lifted_subspace::records_hash(exps),
         sub.past,
         sub.future,
         sub.remove_means,

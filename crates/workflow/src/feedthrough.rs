@@ -36,6 +36,9 @@ use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::SubspaceModel;
 use serde_json::json;
 
+use crate::error::Result;
+use crate::options::IdentificationOptions;
+
 /// The outcome of [`decide`].
 #[derive(Debug, Clone)]
 pub(crate) struct Decision {
@@ -125,5 +128,53 @@ pub(crate) fn decide(free: &SubspaceModel, zero: &SubspaceModel, sets: &[Dataset
             "threshold": threshold,
             "samples": n,
         }),
+    }
+}
+
+/// `diagnostics.feedthrough` when the route needs no test: D asked for
+/// either way, or an estimate that is zero already; `None` when the
+/// default's test ([`choose`]) decides.
+pub(crate) fn settled(
+    id: &IdentificationOptions,
+    fit: &SubspaceModel,
+) -> Option<serde_json::Value> {
+    match id.feedthrough {
+        Some(true) => Some(json!("D estimated (feedthrough asked for)")),
+        Some(false) => Some(json!("D = 0 (asked for)")),
+        None if fit.model.d().iter().all(|&v| v == 0.0) => {
+            Some(json!("D = 0 (the estimate is zero)"))
+        }
+        None => None,
+    }
+}
+
+/// The default's choice between `free` (D estimated) and `zero`, the D = 0
+/// model at the same structure (or why it could not be made), by
+/// [`decide`] on `sets`: the model kept (the D = 0 one with the order
+/// rule's values of `free`'s search), whether it is the D = 0 one, and
+/// `diagnostics.feedthrough`. The in-memory and the streamed route both
+/// take it.
+pub(crate) fn choose(
+    free: SubspaceModel,
+    zero: Result<SubspaceModel>,
+    sets: &[Dataset],
+) -> (SubspaceModel, bool, serde_json::Value) {
+    match zero {
+        Ok(zero) => {
+            let decision = decide(&free, &zero, sets);
+            if decision.keep {
+                (free, false, decision.json)
+            } else {
+                let zero = crate::routes::with_report_of(zero, &free.diagnostics);
+                (zero, true, decision.json)
+            }
+        }
+        Err(e) => (
+            free,
+            false,
+            json!(format!(
+                "D estimated (the default; the D = 0 model failed: {e})"
+            )),
+        ),
     }
 }

@@ -286,12 +286,8 @@ pub(crate) fn subspace(
     // The default feedthrough: D kept only where the records support it
     // (crate::feedthrough), the D = 0 model identified at the same
     // structure.
-    let (fit, used, feedthrough) = match id.feedthrough {
-        Some(true) => (fit, used, json!("D estimated (feedthrough asked for)")),
-        Some(false) => (fit, used, json!("D = 0 (asked for)")),
-        None if fit.model.d().iter().all(|&v| v == 0.0) => {
-            (fit, used, json!("D = 0 (the estimate is zero)"))
-        }
+    let (fit, used, feedthrough) = match crate::feedthrough::settled(id, &fit) {
+        Some(said) => (fit, used, said),
         None => {
             let zero_opts = SubspaceOptions {
                 feedthrough: lifted_subspace::Feedthrough::Zero,
@@ -301,28 +297,8 @@ pub(crate) fn subspace(
                 Some(c) => c.identify(&exps, &zero_opts, &what),
                 None => identify(&exps, &zero_opts).ctx(&what),
             };
-            match zero {
-                Ok(zero) => {
-                    let decision = crate::feedthrough::decide(&fit, &zero, sets);
-                    if decision.keep {
-                        (fit, used, decision.json)
-                    } else {
-                        // The order rule's values of the search kept.
-                        (
-                            with_report_of(zero, &fit.diagnostics),
-                            zero_opts,
-                            decision.json,
-                        )
-                    }
-                }
-                Err(e) => (
-                    fit,
-                    used,
-                    json!(format!(
-                        "D estimated (the default; the D = 0 model failed: {e})"
-                    )),
-                ),
-            }
+            let (fit, zero_kept, said) = crate::feedthrough::choose(fit, zero, sets);
+            (fit, if zero_kept { zero_opts } else { used }, said)
         }
     };
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");

@@ -271,12 +271,8 @@ pub fn identify_streamed(
     // records keep D (the test would need more passes over the file).
     let mut early = None;
     let mut zero_chosen = false;
-    let (fit, feedthrough) = match id.feedthrough {
-        Some(true) => (fit, json!("D estimated (feedthrough asked for)")),
-        Some(false) => (fit, json!("D = 0 (asked for)")),
-        None if fit.model.d().iter().all(|&v| v == 0.0) => {
-            (fit, json!("D = 0 (the estimate is zero)"))
-        }
+    let (fit, feedthrough) = match crate::feedthrough::settled(id, &fit) {
+        Some(said) => (fit, said),
         None if n_rows <= GAIN_CHECK_SAMPLES => {
             let record = source.load()?;
             // The in-memory route's options at the order found, so that
@@ -297,29 +293,12 @@ pub fn identify_streamed(
                 u: record.u(),
                 y: record.y(),
             }];
-            let out = match lifted_subspace::identify(&exps, &zero_opts) {
-                Ok(zero) => {
-                    let decision =
-                        crate::feedthrough::decide(&fit, &zero, std::slice::from_ref(&record));
-                    if decision.keep {
-                        (fit, decision.json)
-                    } else {
-                        zero_chosen = true;
-                        (
-                            crate::routes::with_report_of(zero, &fit.diagnostics),
-                            decision.json,
-                        )
-                    }
-                }
-                Err(e) => (
-                    fit,
-                    json!(format!(
-                        "D estimated (the default; the D = 0 model failed: {e})"
-                    )),
-                ),
-            };
+            let zero = lifted_subspace::identify(&exps, &zero_opts).ctx(&what);
+            let (fit, zero_kept, said) =
+                crate::feedthrough::choose(fit, zero, std::slice::from_ref(&record));
+            zero_chosen = zero_kept;
             early = Some(record);
-            out
+            (fit, said)
         }
         None => (
             fit,
