@@ -3,7 +3,9 @@
 //! peer system (order 4, N4SID, horizon 10), moving between orders 3 and 4;
 //! the record is parsed and compressed once (the studio keeps both between
 //! requests), so a move costs the O(k³) steps, the (B, D, x₀) regression,
-//! the validation and the figures. Also: a change of horizon (the
+//! the validation and the figures; a move back to an order seen takes the
+//! kept identification and validation and costs the figures (both timed).
+//! Also: a change of horizon (the
 //! compression made again on the kept record), and the record upload (every
 //! cell checked), and the view of the channels that zoom and pan call
 //! (whole record, a 1000-sample window) at 1e5 and 1e6 samples. Issue 28
@@ -65,12 +67,38 @@ fn studio(c: &mut Criterion) {
     group.bench_function("identify_n4sid_new_horizon", |b| {
         b.iter(|| {
             horizon = if horizon == 12 { 8 } else { horizon + 1 };
+            session.forget_identifications();
             black_box(session.identify(&request(4, horizon)).expect("identify"))
         })
     });
-    // Slider moves: orders 3 and 4 in turn on the kept compression.
-    session.identify(&request(4, 10)).expect("identify");
+    // Slider moves to an order not seen: orders 3 and 4 in turn on the
+    // kept compression, the kept identifications forgotten before each
+    // (identification with its Kalman-gain check, validation, figures).
+    let answer = session.identify(&request(4, 10)).expect("identify");
+    let f = &answer.figures;
+    let sizes = |v: &[String]| v.iter().map(String::len).sum::<usize>();
+    println!(
+        "answer {} bytes: response {}, error {}, residuals {}, step {}, bode {}, pz {}, order {}, criterion {}",
+        serde_json::to_string(&answer).map_or(0, |s| s.len()),
+        sizes(&f.response),
+        sizes(&f.error),
+        sizes(&f.residuals),
+        f.step.len(),
+        f.bode.len(),
+        f.pz.len(),
+        f.order.as_ref().map_or(0, String::len),
+        f.criterion.as_ref().map_or(0, String::len),
+    );
     let mut order = 4;
+    group.bench_function("identify_n4sid_new_order", |b| {
+        b.iter(|| {
+            order = 7 - order;
+            session.forget_identifications();
+            black_box(session.identify(&request(order, 10)).expect("identify"))
+        })
+    });
+    // Slider moves between orders seen (the identifications and
+    // validations kept): the figures and the answer only.
     group.bench_function("identify_n4sid_slider_move", |b| {
         b.iter(|| {
             order = 7 - order;

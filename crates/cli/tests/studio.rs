@@ -484,6 +484,81 @@ fn session_keeps_the_record_and_the_compression_between_orders() {
     s.close();
 }
 
+/// Issue 47: a slider moved back to an order gets the model it got before
+/// without identifying again (the same matrices, gain and fits), a new
+/// order or method identifies, and a new validation record or further
+/// experiment makes every order identify and validate anew.
+#[test]
+fn session_keeps_the_identifications_of_the_orders_seen() {
+    let dir = tmp("kept-models");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(2000, 1);
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    let mut r = request("2");
+    let two = s.identify(&r).unwrap();
+    r.order = Some("3".into());
+    s.identify(&r).unwrap();
+    assert_eq!(s.identifications_run(), 2);
+    r.order = Some("2".into());
+    let again = s.identify(&r).unwrap();
+    assert_eq!(s.identifications_run(), 2, "order 2 was identified again");
+    assert_eq!(
+        (&again.matrices.a, &again.matrices.k, &again.command),
+        (&two.matrices.a, &two.matrices.k, &two.command)
+    );
+    let fits = |i: &lifted_cli::studio::Identified| -> Vec<Option<f64>> {
+        i.fits.iter().map(|f| f.fit).collect()
+    };
+    assert_eq!(fits(&again), fits(&two));
+    r.method = Some("moesp".into());
+    s.identify(&r).unwrap();
+    assert_eq!(s.identifications_run(), 3, "a new method must identify");
+    // A validation record of its own: the kept validations are forgotten
+    // (the fits are those on the new record).
+    let other = record(1500, 1);
+    s.upload_validation("val.csv", other.as_bytes()).unwrap();
+    r.method = Some("n4sid".into());
+    let on_other = s.identify(&r).unwrap();
+    assert_eq!(s.identifications_run(), 4);
+    assert_eq!(
+        on_other.matrices.a, two.matrices.a,
+        "the same estimation record"
+    );
+    assert_ne!(fits(&on_other), fits(&two), "validated on the old record");
+    s.close();
+}
+
+/// Issue 47: a figure the page shows already (its digest sent back in
+/// `have`) is not sent again; a figure that changed is, with its new
+/// digest.
+#[test]
+fn session_sends_only_the_figures_that_changed() {
+    let dir = tmp("digests");
+    let mut s = Session::new(&dir).unwrap();
+    s.upload("rec.csv", record(2000, 1).as_bytes()).unwrap();
+    let mut r = request("2");
+    let first = s.identify(&r).unwrap();
+    assert!(first.unchanged.is_empty());
+    assert_eq!(first.figure_digests.len(), 8, "{:?}", first.figure_digests);
+    assert!(first.figures.bode.contains("<svg"));
+    r.have = first.figure_digests.clone();
+    let same = s.identify(&r).unwrap();
+    assert_eq!(same.figure_digests, first.figure_digests);
+    assert_eq!(same.unchanged.len(), 8, "{:?}", same.unchanged);
+    assert!(same.figures.bode.is_empty() && same.figures.response.is_empty());
+    r.order = Some("1".into());
+    let other = s.identify(&r).unwrap();
+    for slot in ["step", "bode", "pz", "response"] {
+        assert!(!other.unchanged.contains(&slot.to_string()), "{slot}");
+        assert_ne!(
+            other.figure_digests[slot], first.figure_digests[slot],
+            "{slot}"
+        );
+    }
+    assert!(other.figures.bode.contains("<svg"));
+    s.close();
+}
+
 #[test]
 fn session_reports_bad_input_with_the_command_messages() {
     let dir = tmp("errors");

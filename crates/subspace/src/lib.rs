@@ -143,6 +143,7 @@ mod modal;
 mod model;
 mod numerics;
 mod oblique;
+mod one_step;
 mod options;
 mod order;
 mod partial;
@@ -165,8 +166,8 @@ pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use gain_check::{
-    GainCheck, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo, check_kalman_gain,
-    check_kalman_gain_memo, records_hash,
+    GainCheck, GainCheckOptions, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo,
+    check_kalman_gain, check_kalman_gain_memo, records_hash,
 };
 pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
 pub use held_out_order::{HeldOutOrder, OrderCandidate};

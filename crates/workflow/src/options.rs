@@ -247,6 +247,11 @@ pub struct IdentificationOptions {
     /// model is what MPC designs take. The q-Markov Cover: not used (its D
     /// is the first Markov parameter; an error when set).
     pub feedthrough: Option<bool>,
+    /// When the Kalman-gain check's iterations over K stop (default
+    /// [`lifted_subspace::GainCheckOptions::default`]: a decrease below 1 %
+    /// of the cost's sampling spread, at most 30 iterations; derivation
+    /// there); recorded in `diagnostics.kalman_gain_route.stop`.
+    pub gain_check: lifted_subspace::GainCheckOptions,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,
     /// (B, D, x₀) route of the subspace methods (default [`BdRoute::Auto`]).
@@ -289,6 +294,7 @@ impl Default for IdentificationOptions {
             future: None,
             instrument_past: None,
             feedthrough: None,
+            gain_check: lifted_subspace::GainCheckOptions::default(),
             estimator: Estimator::Auto,
             bd: BdRoute::Auto,
             stable: false,
@@ -446,6 +452,13 @@ impl WorkflowOptions {
         }
         if id.order == Order::Auto && id.max_order == 0 {
             return Err(Error::option("max_order", "must be at least 1"));
+        }
+        let share = id.gain_check.stop_share;
+        if !(share.is_finite() && share >= 0.0) {
+            return Err(Error::option(
+                "gain_check.stop_share",
+                format!("must be finite and at least 0, got {share}"),
+            ));
         }
         let r = &self.refinement;
         if matches!(r.refine, Refine::Pem | Refine::Oe) && r.iterations == 0 {

@@ -266,9 +266,12 @@ fn run(
                 fit.kalman_gain,
                 &sets,
                 inner_means.then_some(route_sets.as_slice()),
-                used.past,
                 &mut d,
-                cache.map(|c| &mut c.gain),
+                GainCheckWith {
+                    past: used.past,
+                    options: &opts.identification.gain_check,
+                    memo: cache.map(|c| &mut c.gain),
+                },
             );
             if !route_sets.is_empty() {
                 check = Some((route_sets, used, known));
@@ -303,9 +306,12 @@ fn run(
                     None,
                     &sets,
                     None,
-                    alpha,
                     &mut fit.diagnostics,
-                    None,
+                    GainCheckWith {
+                        past: alpha,
+                        options: &opts.identification.gain_check,
+                        memo: None,
+                    },
                 );
             }
             fit
@@ -364,7 +370,18 @@ fn run(
             .zip(sets.first())
             .is_some_and(|(t, d)| (t - d.ts()).abs() <= 1e-9 * d.ts())
     {
-        kalman_gain = checked_gain(&model, None, &sets, None, 0, &mut diagnostics, None);
+        kalman_gain = checked_gain(
+            &model,
+            None,
+            &sets,
+            None,
+            &mut diagnostics,
+            GainCheckWith {
+                past: 0,
+                options: &opts.identification.gain_check,
+                memo: None,
+            },
+        );
     }
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
@@ -417,6 +434,18 @@ fn run(
     })
 }
 
+/// How [`checked_gain`] checks a gain.
+pub(crate) struct GainCheckWith<'a> {
+    /// The VARX order of the innovation estimate (the identification's
+    /// past horizon).
+    pub past: usize,
+    /// When the iterations over K stop.
+    pub options: &'a lifted_subspace::GainCheckOptions,
+    /// The innovations kept between calls (a front end's
+    /// [`SubspaceCache`]): the same gain bit for bit as without it.
+    pub memo: Option<&'a mut lifted_subspace::VarxMemo>,
+}
+
 /// The Kalman gain of a single-rate subspace model on `sets` (deviations
 /// from its operating point, as the identification took them): checked on
 /// the records (`lifted_subspace::check_kalman_gain`, the report in
@@ -426,17 +455,21 @@ fn run(
 /// before the identification removed its operating point, when it did:
 /// the VARX innovations are estimated from them, each centred by its own
 /// means (`lifted_subspace::VarxMemo::set_source`), the same for every
-/// order of a record; `memo`: the innovations kept between calls (a front
-/// end's [`SubspaceCache`]), the same gain bit for bit as without it.
+/// order of a record; `check`: the VARX order, the options and the memo
+/// of the check ([`GainCheckWith`]).
 pub(crate) fn checked_gain(
     model: &lifted_lti::StateSpace,
     gain: Option<DMatrix<f64>>,
     sets: &[Dataset],
     raw: Option<&[Dataset]>,
-    past: usize,
     diagnostics: &mut serde_json::Value,
-    memo: Option<&mut lifted_subspace::VarxMemo>,
+    check: GainCheckWith<'_>,
 ) -> Option<DMatrix<f64>> {
+    let GainCheckWith {
+        past,
+        options,
+        memo,
+    } = check;
     let samples: usize = sets.iter().map(Dataset::len).sum();
     if samples > GAIN_CHECK_SAMPLES {
         return gain;
@@ -455,7 +488,7 @@ pub(crate) fn checked_gain(
     });
     memo.set_source(raw_exps.as_deref());
     let (checked, report) =
-        lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, memo);
+        lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, options, memo);
     add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert(

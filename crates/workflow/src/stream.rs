@@ -358,9 +358,12 @@ pub fn identify_streamed(
             kalman_gain,
             std::slice::from_ref(set),
             raw.then_some(std::slice::from_ref(record)),
-            fit.diagnostics.horizons.0,
             &mut d,
-            None,
+            crate::pipeline::GainCheckWith {
+                past: fit.diagnostics.horizons.0,
+                options: &opts.identification.gain_check,
+                memo: None,
+            },
         );
     }
     let t_refine = std::time::Instant::now();

@@ -7,7 +7,16 @@
 //!   declared output periods);
 //! * step 1 of the subspace identification
 //!   ([`lifted_workflow::SubspaceCache`]), which the workflow layer reuses
-//!   when the records and the compression options are those of the last run.
+//!   when the records and the compression options are those of the last run;
+//! * the last [`KEPT_IDENTIFICATIONS`] model files, by their command line
+//!   (every option and data file of `lifted identify`), and their
+//!   validations, by that and the validation file: the identification is
+//!   deterministic, so a slider moved back to an order, or a request that
+//!   changes only the view, gets the model it got before without running
+//!   the identification (its Kalman-gain check, the largest cost of a
+//!   move at 1e5 samples) or the validation again. Forgotten with the
+//!   record, and whenever the further experiments or the validation
+//!   record change.
 //!
 //! # The same model as `lifted identify`
 //!
@@ -21,12 +30,13 @@
 //! numeric order (`Session::explicit`), so the command takes the in-memory
 //! route, where the cache applies.
 
-use lifted_lti::Dataset;
 use lifted_lti::spectral::{FrequencyResponse, SpectralOptions, welch};
+use lifted_lti::{Dataset, ModelFile};
 use lifted_workflow::SubspaceCache;
 
 use crate::error::{CliResult, input};
 use crate::service::identify::RecordKeeper;
+use crate::service::validation::Validation;
 use crate::table::{DataSpec, Loaded, load};
 
 /// The parsed record and the compressed data of the last requests.
@@ -39,6 +49,45 @@ pub struct Cache {
     /// Welch's estimate of the last record's frequency response, with the
     /// key of the data it was made from.
     spectral: Option<(String, FrequencyResponse)>,
+    /// The last identifications by their key (`Session`: the command
+    /// line and the ranges), most recent last.
+    models: Vec<(String, ModelFile)>,
+    /// The last validations by their key (the identification's and the
+    /// validation file's): the detrended model file, the record and the
+    /// results.
+    validations: Vec<(String, Validated)>,
+    identifications: usize,
+}
+
+/// A model file validated on a record: the model as validated (detrended
+/// like the record), the record and the results.
+pub type Validated = (ModelFile, Dataset, Validation);
+
+/// Identifications (and validations) kept: the slider's neighbourhood of
+/// orders and a few method or horizon changes; each holds a model file
+/// of a few kB, a validation the record's simulated outputs (O(N n_y)).
+pub const KEPT_IDENTIFICATIONS: usize = 16;
+
+/// Validations kept (each holds a copy of the validation record).
+const KEPT_VALIDATIONS: usize = 4;
+
+/// `value` of `key` moved to the end of `list` (most recent), if kept.
+fn recent<T: Clone>(list: &mut Vec<(String, T)>, key: &str) -> Option<T> {
+    let i = list.iter().position(|(k, _)| k == key)?;
+    let kept = list.remove(i);
+    let value = kept.1.clone();
+    list.push(kept);
+    Some(value)
+}
+
+/// `value` kept under `key` at the end of `list`, the oldest dropped
+/// beyond `limit`.
+fn keep<T>(list: &mut Vec<(String, T)>, key: String, value: T, limit: usize) {
+    list.retain(|(k, _)| *k != key);
+    if list.len() >= limit {
+        list.remove(0);
+    }
+    list.push((key, value));
 }
 
 /// Parsed selections kept: the page's view (channels only) and its
@@ -62,6 +111,41 @@ impl Cache {
         self.data.clear();
         self.subspace.clear();
         self.spectral = None;
+        self.forget_identifications();
+    }
+
+    /// Forgets the kept identifications and validations (the further
+    /// experiments or the validation record changed).
+    pub fn forget_identifications(&mut self) {
+        self.models.clear();
+        self.validations.clear();
+    }
+
+    /// The model file identified before under `key`, if kept.
+    pub fn identification(&mut self, key: &str) -> Option<ModelFile> {
+        recent(&mut self.models, key)
+    }
+
+    /// Keeps the model file identified under `key`.
+    pub fn keep_identification(&mut self, key: String, file: ModelFile) {
+        self.identifications += 1;
+        keep(&mut self.models, key, file, KEPT_IDENTIFICATIONS);
+    }
+
+    /// The validation made before under `key`, if kept.
+    pub fn validation(&mut self, key: &str) -> Option<Validated> {
+        recent(&mut self.validations, key)
+    }
+
+    /// Keeps the validation made under `key`.
+    pub fn keep_validation(&mut self, key: String, validated: Validated) {
+        keep(&mut self.validations, key, validated, KEPT_VALIDATIONS);
+    }
+
+    /// Identifications run (not taken from the kept ones) since the
+    /// session began.
+    pub fn identifications(&self) -> usize {
+        self.identifications
     }
 
     /// Welch's estimate of the frequency response of `data` (default

@@ -104,6 +104,12 @@ pub struct Request {
     /// The time window `[t0, t1]` (seconds) of the time plots: the page's
     /// zoom (not an option of `lifted identify`; absent: the whole record).
     pub window: Option<[f64; 2]>,
+    /// The figures the page shows, by slot (`response`, `bode`, …) with
+    /// the digest an earlier answer gave them (`Identified::figure_digests`;
+    /// not an option of `lifted identify`): a figure whose digest is the
+    /// same is not sent again (its slot is listed in
+    /// `Identified::unchanged`, its content left empty).
+    pub have: std::collections::BTreeMap<String, String>,
 }
 
 /// One column of an uploaded record.
@@ -310,7 +316,7 @@ pub struct ChannelTf {
 }
 
 /// The figures of an identification, as SVG documents.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct Figures {
     /// Order selection (log scale, chosen order marked).
     pub order: Option<String>,
@@ -332,6 +338,83 @@ pub struct Figures {
     /// The order criterion's values per order (AIC, SVC, …, chosen order
     /// marked), when the route reports them.
     pub criterion: Option<String>,
+}
+
+/// The slots of [`Figures`], as the answer names them.
+const FIGURE_SLOTS: [&str; 8] = [
+    "order",
+    "response",
+    "error",
+    "residuals",
+    "step",
+    "bode",
+    "pz",
+    "criterion",
+];
+
+impl Figures {
+    /// Each slot's content: its SVG documents (none for an absent figure).
+    fn slot(&self, name: &str) -> Vec<&str> {
+        fn one(s: &String) -> Vec<&str> {
+            vec![s.as_str()]
+        }
+        fn all(v: &[String]) -> Vec<&str> {
+            v.iter().map(String::as_str).collect()
+        }
+        match name {
+            "order" => self.order.iter().map(String::as_str).collect(),
+            "response" => all(&self.response),
+            "error" => all(&self.error),
+            "residuals" => all(&self.residuals),
+            "step" => one(&self.step),
+            "bode" => one(&self.bode),
+            "pz" => one(&self.pz),
+            "criterion" => self.criterion.iter().map(String::as_str).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Empties slot `name` (the page keeps what it shows there).
+    fn clear(&mut self, name: &str) {
+        match name {
+            "order" => self.order = None,
+            "response" => self.response.clear(),
+            "error" => self.error.clear(),
+            "residuals" => self.residuals.clear(),
+            "step" => self.step.clear(),
+            "bode" => self.bode.clear(),
+            "pz" => self.pz.clear(),
+            "criterion" => self.criterion = None,
+            _ => {}
+        }
+    }
+
+    /// The digest of every slot (a hash of its documents, with their
+    /// count and lengths), and the figures without the slots whose digest
+    /// is in `have` under the same slot, with those slots' names.
+    pub fn unsent(
+        mut self,
+        have: &std::collections::BTreeMap<String, String>,
+    ) -> (
+        Figures,
+        std::collections::BTreeMap<String, String>,
+        Vec<String>,
+    ) {
+        use std::hash::{Hash, Hasher};
+        let mut digests = std::collections::BTreeMap::new();
+        let mut unchanged = Vec::new();
+        for name in FIGURE_SLOTS {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            self.slot(name).hash(&mut h);
+            let digest = format!("{:016x}", h.finish());
+            if have.get(name) == Some(&digest) {
+                self.clear(name);
+                unchanged.push(name.to_string());
+            }
+            digests.insert(name.to_string(), digest);
+        }
+        (self, digests, unchanged)
+    }
 }
 
 /// The answer to an identification.
@@ -356,8 +439,14 @@ pub struct Identified {
     pub fits: Vec<Fit>,
     /// Poles as (re, im).
     pub poles: Vec<(f64, f64)>,
-    /// The figures.
+    /// The figures (the slots in `unchanged` left empty).
     pub figures: Figures,
+    /// Every figure slot's digest (the page sends them back as
+    /// `Request::have`).
+    pub figure_digests: std::collections::BTreeMap<String, String>,
+    /// The slots not sent again: the page shows them already
+    /// (`Request::have`).
+    pub unchanged: Vec<String>,
     /// The subspace horizon the model was identified with (chosen by the
     /// held-out selection for order `auto`, else the request's), when the
     /// route has one: the page keeps it for the slider's numeric orders.
@@ -1061,6 +1150,10 @@ impl Session {
             .into_iter()
             .map(|(_, p)| p.display().to_string())
             .collect();
+        let key = Self::identification_key(r, &paths);
+        if let Some(file) = self.cache.identification(&key) {
+            return Ok(file);
+        }
         let a = Self::identify_args(r, &paths)?;
         let (files, opts) = (files_from_args(&a)?, options_from_args(&a)?);
         let file =
@@ -1068,7 +1161,21 @@ impl Session {
         if a.stable {
             require_stable(&file.model)?;
         }
+        self.cache.keep_identification(key, file.clone());
         Ok(file)
+    }
+
+    /// What tells identifications apart for the kept ones (the module
+    /// `cached`): the command line (every option and data file) and the
+    /// ranges the data files were cut from.
+    fn identification_key(r: &Request, paths: &[String]) -> String {
+        let words = Self::identify_words(r, paths, "model.json");
+        format!(
+            "{}\u{1f}{:?}\u{1f}{:?}",
+            words.join("\u{1f}"),
+            r.estimation_range,
+            r.validation_range
+        )
     }
 
     /// The request with the options the page leaves to the defaults made
@@ -1126,6 +1233,32 @@ impl Session {
         r: &Request,
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
         let (name, path, folder) = self.validation_source(r)?;
+        let paths: Vec<String> = self
+            .estimation_sources(r)?
+            .into_iter()
+            .map(|(_, p)| p.display().to_string())
+            .collect();
+        // The model's matrices too: the key then tells apart any two
+        // models given with one request.
+        let matrices = {
+            use std::hash::{Hash, Hasher};
+            let m = &file.model;
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            for x in [m.a(), m.b(), m.c(), m.d()] {
+                x.shape().hash(&mut h);
+                x.iter().for_each(|v| v.to_bits().hash(&mut h));
+            }
+            h.finish()
+        };
+        let key = format!(
+            "{}\u{1f}{}\u{1f}{}\u{1f}{matrices:x}",
+            Self::identification_key(r, &paths),
+            name,
+            path.display()
+        );
+        if let Some(kept) = self.cache.validation(&key) {
+            return Ok(kept);
+        }
         let data = self
             .load_from(&path.display().to_string(), &folder, r)?
             .clone();
@@ -1146,7 +1279,9 @@ impl Session {
             lifted_lti::InitialCondition::Estimate,
             &name,
         )?;
-        Ok((file, data, v))
+        let validated = (file, data, v);
+        self.cache.keep_validation(key, validated.clone());
+        Ok(validated)
     }
 
     /// Refuses a request whose sizes the record cannot support, before
@@ -1319,6 +1454,7 @@ impl Session {
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
         };
+        let (figures, figure_digests, unchanged) = figures.unsent(&r.have);
         let order_selection = file.diagnostics.get("order_selection").map(|os| {
             let values = os
                 .get("values")
@@ -1410,6 +1546,8 @@ impl Session {
             fits,
             poles,
             figures,
+            figure_digests,
+            unchanged,
             elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         if self.models.len() >= KEPT_MODELS {
@@ -1557,6 +1695,7 @@ impl Session {
                     path,
                     info: info.clone(),
                 });
+                self.cache.forget_identifications();
                 Ok(info)
             }
             Err(e) => {
@@ -1575,6 +1714,7 @@ impl Session {
 
     /// Drops the further experiments.
     pub fn clear_experiments(&mut self) {
+        self.cache.forget_identifications();
         for e in self.experiments.drain(..) {
             let _ = std::fs::remove_dir_all(e.folder);
         }
@@ -1634,6 +1774,7 @@ impl Session {
                     path,
                     info: info.clone(),
                 });
+                self.cache.forget_identifications();
                 if let Some(old) = old {
                     let _ = std::fs::remove_dir_all(old.folder);
                 }
@@ -1655,6 +1796,7 @@ impl Session {
     /// Drops the validation record (the models are validated on the
     /// estimation record again).
     pub fn clear_validation(&mut self) {
+        self.cache.forget_identifications();
         if let Some(v) = self.validation.take() {
             let _ = std::fs::remove_dir_all(v.folder);
         }
@@ -1701,6 +1843,19 @@ impl Session {
     /// command's route read the file themselves and are not counted.
     pub fn cache_counts(&self) -> (usize, usize) {
         self.cache.counts()
+    }
+
+    /// Identifications run since the session began, not counting those
+    /// taken from the kept ones (the module `cached`).
+    pub fn identifications_run(&self) -> usize {
+        self.cache.identifications()
+    }
+
+    /// Forgets the kept identifications and validations, as a change of
+    /// the further experiments or of the validation record does (the
+    /// studio bench times a first visit of an order with it).
+    pub fn forget_identifications(&mut self) {
+        self.cache.forget_identifications();
     }
 
     /// The uploaded record's description, if any.

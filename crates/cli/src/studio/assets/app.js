@@ -32,6 +32,7 @@ const state = {
   seq: 0,           // sequence number of the latest identify request sent
   shown: 0,          // sequence number of the answer on the page (0: none)
   generation: 0,     // completed identifications
+  digests: {},       // the digest of each figure shown, by slot
   views: 0,          // completed channel views
   failed: 0,         // failed calls
   csp: 0,            // content-security-policy violations seen
@@ -174,6 +175,8 @@ function request(withOrder) {
   r.order = String(state.order);
   r.detrend = $("detrend").value;
   if (state.refineOnce) r.refine = "pem";
+  // The figures shown: the server leaves out those that did not change.
+  r.have = state.digests;
   if ($("stable").checked) r.stable = true;
   if ($("method").value !== "qmarkov" && $("feedthrough").value !== "") r.feedthrough = $("feedthrough").value === "true";
   if (method === "qmarkov") {
@@ -270,6 +273,7 @@ function setSaves(enabled, seq) {
 // disables the Save links: after a failed identification nothing of the
 // previous model remains to be mistaken for the current one.
 function clearIdentified() {
+  state.digests = {};
   $("refinement").textContent = "";
   $("gain").textContent = "";
   for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
@@ -441,7 +445,11 @@ function renderIdentified(r) {
     slider.value = String(keep);
     $("order-value").textContent = String(state.order);
   }
-  if (r.figures.order) {
+  // A slot the server did not send again still shows the same figure.
+  const changed = (slot) => !(r.unchanged || []).includes(slot);
+  if (!changed("order")) {
+    // Kept.
+  } else if (r.figures.order) {
     $("fig-order").innerHTML = r.figures.order;
   } else {
     $("fig-order").replaceChildren(el("p", "This route gives no order-selection values.", "note"));
@@ -478,10 +486,10 @@ function renderIdentified(r) {
     stab.textContent = "";
   }
   renderPoles(r.poles || []);
-  $("fig-response").innerHTML = r.figures.response.join("");
-  $("fig-error").innerHTML = r.figures.error.join("");
-  $("fig-residuals").innerHTML = r.figures.residuals.join("");
-  $("fig-criterion").innerHTML = r.figures.criterion || "";
+  if (changed("response")) $("fig-response").innerHTML = r.figures.response.join("");
+  if (changed("error")) $("fig-error").innerHTML = r.figures.error.join("");
+  if (changed("residuals")) $("fig-residuals").innerHTML = r.figures.residuals.join("");
+  if (changed("criterion")) $("fig-criterion").innerHTML = r.figures.criterion || "";
   renderModel(r);
   const judgeText = (j) => {
     if (!j) return "";
@@ -497,9 +505,10 @@ function renderIdentified(r) {
       fixed(ref.final_cost, 6) + " (" + ref.termination + "; " + (ref.kept === "Refined" ? "refined model kept" : "initial model kept") + judgeText(ref.judge) + ")"
     : "";
   if (state.order === "auto") state.structure = { horizon: r.horizon, estimator: r.estimator };
-  $("fig-step").innerHTML = r.figures.step;
-  $("fig-bode").innerHTML = r.figures.bode;
-  $("fig-pz").innerHTML = r.figures.pz;
+  if (changed("step")) $("fig-step").innerHTML = r.figures.step;
+  if (changed("bode")) $("fig-bode").innerHTML = r.figures.bode;
+  if (changed("pz")) $("fig-pz").innerHTML = r.figures.pz;
+  state.digests = r.figure_digests || {};
   $("command").textContent = r.command;
   $("validation-data").textContent = r.validation_data;
   state.shown = r.seq;
@@ -509,6 +518,22 @@ function renderIdentified(r) {
   $("status").dataset.seq = String(r.seq);
   $("status").dataset.order = String(r.order);
   setStatus(r.method + ", order " + r.order + (r.stable === false ? " (unstable)" : "") + " — " + fixed(r.elapsed_ms, 0, "?") + " ms");
+}
+
+// The time from the request until the answer (data-answered-ms) and until
+// the browser has painted its figures (data-drawn-ms: the frame after the
+// update, then the task after it), in the status line.
+function drawnAfter(r, sent, answered) {
+  requestAnimationFrame(() => setTimeout(() => {
+    if (state.shown !== r.seq) return;
+    const status = $("status");
+    const drawn = performance.now() - sent;
+    status.dataset.answeredMs = (answered - sent).toFixed(1);
+    status.dataset.drawnMs = drawn.toFixed(1);
+    status.dataset.drawnSeq = String(r.seq);
+    setStatus(r.method + ", order " + r.order + (r.stable === false ? " (unstable)" : "") + " — " +
+      fixed(r.elapsed_ms, 0, "?") + " ms on the server, drawn in " + drawn.toFixed(0) + " ms");
+  }, 0));
 }
 
 // One request at a time; while one runs, only the latest of the requests
@@ -538,10 +563,15 @@ async function run(job) {
       state.refineOnce = false;
       state.seq += 1;
       req.seq = state.seq;
+      const sent = performance.now();
       const r = await call("/api/identify", JSON.stringify(req));
+      const answered = performance.now();
       // An answer older than the latest request is dropped: the page shows
       // (and saves) only the model of the options it was last asked for.
-      if (r.seq === state.seq) renderIdentified(r);
+      if (r.seq === state.seq) {
+        renderIdentified(r);
+        drawnAfter(r, sent, answered);
+      }
     }
   } catch (e) {
     // The figures and Save links of an earlier model do not belong to

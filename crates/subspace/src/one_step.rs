@@ -1,0 +1,545 @@
+//! The one-step predictor of a model in innovations form with a gain K,
+//! run over a record in flat loops (the Kalman-gain check's cost and its
+//! Levenberg–Marquardt iterations, [`crate::gain_check`]):
+//!
+//! ε(t) = y(t) − C x̂(t) − D u(t),  x̂(t+1) = A x̂(t) + B u(t) + K ε(t),
+//!
+//! an output not measured at t (NaN) giving no error and no correction,
+//! and with it, when asked, the sensitivities of the errors to vec K:
+//! S(t+1) = (A − K C) S(t) + E(ε(t)), ∂ε(t)/∂vec K = −C S(t), where E(ε)
+//! puts ε_o(t) at state i of column o·n + i (at an instant where output o
+//! is not measured, its row of C and column of K take no part: the
+//! iteration matrix is A − Σ K_o C_o over the measured outputs).
+//!
+//! The matrices are kept as column-major slices and every product is a
+//! loop over columns (the sums in the order of nalgebra's `gemv`, the
+//! first column's product first): the same numbers as the nalgebra
+//! products of before for orders up to 5, without the per-call overhead
+//! of dynamic-size products, which dominated at 2 × 4 × 8 per sample.
+//! O(n (n + n_u + n_y)) per sample for the errors, O(n² P + n_y n P) more
+//! with the sensitivities (P = n n_y parameters).
+
+use lifted_lti::StateSpace;
+use nalgebra::{DMatrix, DVector};
+
+/// `out = M x` for a column-major `rows × x.len()` matrix `m`: the first
+/// column's product, then each further column's added in turn (nalgebra's
+/// `gemv` order); zero when `x` is empty.
+#[inline(always)]
+fn matvec(out: &mut [f64], m: &[f64], x: &[f64]) {
+    let rows = out.len();
+    let Some((&x0, rest)) = x.split_first() else {
+        out.fill(0.0);
+        return;
+    };
+    for (o, v) in out.iter_mut().zip(&m[..rows]) {
+        *o = v * x0;
+    }
+    for (j, &xj) in rest.iter().enumerate() {
+        let col = &m[(j + 1) * rows..(j + 2) * rows];
+        for (o, v) in out.iter_mut().zip(col) {
+            *o += v * xj;
+        }
+    }
+}
+
+/// (A, B, C, D), a gain K and A − K C as column-major slices.
+pub(crate) struct OneStep {
+    n: usize,
+    nu: usize,
+    ny: usize,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    c: Vec<f64>,
+    d: Vec<f64>,
+    k: Vec<f64>,
+    m: Vec<f64>,
+}
+
+/// Per-sample work buffers of [`OneStep`]'s runs.
+struct Buffers {
+    ut: Vec<f64>,
+    cx: Vec<f64>,
+    du: Vec<f64>,
+    eps: Vec<f64>,
+    ax: Vec<f64>,
+    bu: Vec<f64>,
+    ke: Vec<f64>,
+}
+
+impl Buffers {
+    fn new(n: usize, nu: usize, ny: usize) -> Self {
+        Buffers {
+            ut: vec![0.0; nu],
+            cx: vec![0.0; ny],
+            du: vec![0.0; ny],
+            eps: vec![0.0; ny],
+            ax: vec![0.0; n],
+            bu: vec![0.0; n],
+            ke: vec![0.0; n],
+        }
+    }
+}
+
+impl OneStep {
+    /// The predictor of `model` with gain `k` (n × n_y) and its A − K C.
+    pub(crate) fn new(model: &StateSpace, k: &DMatrix<f64>, m: &DMatrix<f64>) -> Self {
+        OneStep {
+            n: model.order(),
+            nu: model.n_inputs(),
+            ny: model.n_outputs(),
+            a: model.a().as_slice().to_vec(),
+            b: model.b().as_slice().to_vec(),
+            c: model.c().as_slice().to_vec(),
+            d: model.d().as_slice().to_vec(),
+            k: k.as_slice().to_vec(),
+            m: m.as_slice().to_vec(),
+        }
+    }
+
+    /// The errors ε(t) of sample `t`, in `buf.eps` (0 where y is NaN), and
+    /// the state advanced to x̂(t+1) in `x`.
+    #[inline(always)]
+    fn step(&self, u: &DMatrix<f64>, y: &DMatrix<f64>, t: usize, x: &mut [f64], buf: &mut Buffers) {
+        for (j, v) in buf.ut.iter_mut().enumerate() {
+            *v = u[(t, j)];
+        }
+        matvec(&mut buf.cx, &self.c, x);
+        matvec(&mut buf.du, &self.d, &buf.ut);
+        for o in 0..self.ny {
+            let yo = y[(t, o)];
+            buf.eps[o] = if yo.is_nan() {
+                0.0
+            } else {
+                yo - buf.cx[o] - buf.du[o]
+            };
+        }
+        matvec(&mut buf.ax, &self.a, x);
+        matvec(&mut buf.bu, &self.b, &buf.ut);
+        matvec(&mut buf.ke, &self.k, &buf.eps);
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi = buf.ax[i] + buf.bu[i] + buf.ke[i];
+        }
+    }
+
+    /// Per output, the sum of the squared one-step errors over the record
+    /// (u, y) from x̂(0) = `x0`, added to `err`. O(N n (n + n_u + n_y)).
+    pub(crate) fn add_squared_errors(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        err: &mut [f64],
+    ) {
+        let add = |eps: &[f64], err: &mut [f64]| {
+            for (e, v) in err.iter_mut().zip(eps) {
+                *e += v * v;
+            }
+        };
+        match self.n {
+            1 => Fixed::<1>::new(self).errors(u, y, x0, |e| add(e, err)),
+            2 => Fixed::<2>::new(self).errors(u, y, x0, |e| add(e, err)),
+            3 | 4 => Fixed::<4>::new(self).errors(u, y, x0, |e| add(e, err)),
+            5..=8 => Fixed::<8>::new(self).errors(u, y, x0, |e| add(e, err)),
+            9..=16 => Fixed::<16>::new(self).errors(u, y, x0, |e| add(e, err)),
+            _ => self.errors_any_order(u, y, x0, |e| add(e, err)),
+        }
+    }
+
+    /// [`OneStep::add_squared_errors`]'s run for any order: `visit(ε(t))`
+    /// for every sample.
+    fn errors_any_order(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        mut visit: impl FnMut(&[f64]),
+    ) {
+        let mut buf = Buffers::new(self.n, self.nu, self.ny);
+        let mut x = x0.as_slice().to_vec();
+        for t in 0..u.nrows() {
+            self.step(u, y, t, &mut x, &mut buf);
+            visit(&buf.eps);
+        }
+    }
+
+    /// Runs the predictor over the record (u, y) from `x0` with the
+    /// sensitivities (module docs), calling `row(o, grad, eps)` for every
+    /// measured output sample with ∂ε_o(t)/∂vec K's negative,
+    /// (C S(t)) row o (P = n n_y entries), and ε_o(t). O(N (n² P +
+    /// n_y n P)).
+    pub(crate) fn with_sensitivities(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        row: impl FnMut(usize, &[f64], f64),
+    ) {
+        match self.n {
+            1 => Fixed::<1>::new(self).sensitivities(u, y, x0, row),
+            2 => Fixed::<2>::new(self).sensitivities(u, y, x0, row),
+            3 | 4 => Fixed::<4>::new(self).sensitivities(u, y, x0, row),
+            5..=8 => Fixed::<8>::new(self).sensitivities(u, y, x0, row),
+            9..=16 => Fixed::<16>::new(self).sensitivities(u, y, x0, row),
+            _ => self.any_order(u, y, x0, row),
+        }
+    }
+
+    /// [`OneStep::with_sensitivities`] for any order (slices of length n).
+    fn any_order(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        mut row: impl FnMut(usize, &[f64], f64),
+    ) {
+        let (n, ny) = (self.n, self.ny);
+        let params = n * ny;
+        let mut buf = Buffers::new(n, self.nu, ny);
+        let mut x = x0.as_slice().to_vec();
+        // S (n × P), C S (n_y × P, one row gathered per output) and the
+        // next S, column-major.
+        let mut sens = vec![0.0; n * params];
+        let mut next = vec![0.0; n * params];
+        let mut cs = vec![0.0; ny * params];
+        let mut grad = vec![0.0; params];
+        for t in 0..u.nrows() {
+            for p in 0..params {
+                let col = &sens[p * n..(p + 1) * n];
+                matvec(&mut cs[p * ny..(p + 1) * ny], &self.c, col);
+                matvec(&mut next[p * n..(p + 1) * n], &self.m, col);
+            }
+            self.step(u, y, t, &mut x, &mut buf);
+            for o in 0..ny {
+                if y[(t, o)].is_nan() {
+                    // No error and no correction from output o at t: its
+                    // −K_o C_o S term of (A − K C) S is taken back.
+                    for p in 0..params {
+                        let v = cs[o + p * ny];
+                        let col = &mut next[p * n..(p + 1) * n];
+                        for (i, e) in col.iter_mut().enumerate() {
+                            *e += self.k[i + o * n] * v;
+                        }
+                    }
+                    continue;
+                }
+                for (p, g) in grad.iter_mut().enumerate() {
+                    *g = cs[o + p * ny];
+                }
+                row(o, &grad, buf.eps[o]);
+            }
+            // E(ε(t)): entry K_io (column o·n + i of vec K) adds ε_o(t)
+            // to state i.
+            for o in 0..ny {
+                for i in 0..n {
+                    next[i + (o * n + i) * n] += buf.eps[o];
+                }
+            }
+            std::mem::swap(&mut sens, &mut next);
+        }
+    }
+}
+
+/// A [`OneStep`] with its state-space columns held in arrays of `N ≥ n`
+/// entries (zero beyond n): loops of a length known to the compiler,
+/// unrolled and vectorised. The padding adds exact zeros after each sum,
+/// so the numbers are those of [`OneStep`]'s general loops (the same
+/// order of operations; checked bit for bit in the tests).
+struct Fixed<'a, const N: usize> {
+    general: &'a OneStep,
+    /// Columns of A, of A − K C (N of each, zero beyond n), of B and of K.
+    a: Vec<[f64; N]>,
+    m: Vec<[f64; N]>,
+    b: Vec<[f64; N]>,
+    k: Vec<[f64; N]>,
+    /// Rows of C.
+    c: Vec<[f64; N]>,
+}
+
+/// `out = Σ_j cols[j] x[j]`, the first column's product first.
+#[inline(always)]
+fn combine<const N: usize>(out: &mut [f64; N], cols: &[[f64; N]], x: &[f64]) {
+    match (cols.split_first(), x.split_first()) {
+        (Some((c0, cols)), Some((x0, x))) => {
+            for i in 0..N {
+                out[i] = c0[i] * x0;
+            }
+            for (c, xj) in cols.iter().zip(x) {
+                for i in 0..N {
+                    out[i] += c[i] * xj;
+                }
+            }
+        }
+        _ => *out = [0.0; N],
+    }
+}
+
+/// The dot product `Σ_i r[i] x[i]`, in order.
+#[inline(always)]
+fn dot<const N: usize>(r: &[f64; N], x: &[f64; N]) -> f64 {
+    let mut v = r[0] * x[0];
+    for i in 1..N {
+        v += r[i] * x[i];
+    }
+    v
+}
+
+impl<'a, const N: usize> Fixed<'a, N> {
+    fn new(g: &'a OneStep) -> Self {
+        let n = g.n;
+        let columns = |m: &[f64], count: usize| -> Vec<[f64; N]> {
+            (0..count)
+                .map(|j| {
+                    let mut c = [0.0; N];
+                    c[..n].copy_from_slice(&m[j * n..(j + 1) * n]);
+                    c
+                })
+                .collect()
+        };
+        let square = |m: &[f64]| -> Vec<[f64; N]> {
+            let mut cols = columns(m, n);
+            cols.resize(N, [0.0; N]);
+            cols
+        };
+        Fixed {
+            general: g,
+            a: square(&g.a),
+            m: square(&g.m),
+            b: columns(&g.b, g.nu),
+            k: columns(&g.k, g.ny),
+            c: (0..g.ny)
+                .map(|o| {
+                    let mut r = [0.0; N];
+                    for (i, v) in r.iter_mut().take(n).enumerate() {
+                        *v = g.c[o + i * g.ny];
+                    }
+                    r
+                })
+                .collect(),
+        }
+    }
+
+    /// [`OneStep::step`]: the errors of sample `t` in `eps` (0 where y is
+    /// NaN) and x advanced to x̂(t+1).
+    #[inline(always)]
+    fn step(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        t: usize,
+        x: &mut [f64; N],
+        ut: &mut [f64],
+        eps: &mut [f64],
+    ) {
+        let g = self.general;
+        for (j, v) in ut.iter_mut().enumerate() {
+            *v = u[(t, j)];
+        }
+        for (o, e) in eps.iter_mut().enumerate() {
+            let yo = y[(t, o)];
+            let cx = dot(&self.c[o], x);
+            let du = match ut.split_first() {
+                Some((u0, rest)) => {
+                    let mut v = g.d[o] * u0;
+                    for (j, uj) in rest.iter().enumerate() {
+                        v += g.d[o + (j + 1) * g.ny] * uj;
+                    }
+                    v
+                }
+                None => 0.0,
+            };
+            *e = if yo.is_nan() { 0.0 } else { yo - cx - du };
+        }
+        let (mut ax, mut bu, mut ke) = ([0.0; N], [0.0; N], [0.0; N]);
+        combine(&mut ax, &self.a, x);
+        combine(&mut bu, &self.b, ut);
+        combine(&mut ke, &self.k, eps);
+        for i in 0..N {
+            x[i] = ax[i] + bu[i] + ke[i];
+        }
+    }
+
+    fn start(&self, x0: &DVector<f64>) -> [f64; N] {
+        let mut x = [0.0; N];
+        x[..self.general.n].copy_from_slice(x0.as_slice());
+        x
+    }
+
+    /// [`OneStep::add_squared_errors`]: `visit(ε(t))` for every sample.
+    fn errors(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        mut visit: impl FnMut(&[f64]),
+    ) {
+        let g = self.general;
+        let (mut ut, mut eps) = (vec![0.0; g.nu], vec![0.0; g.ny]);
+        let mut x = self.start(x0);
+        for t in 0..u.nrows() {
+            self.step(u, y, t, &mut x, &mut ut, &mut eps);
+            visit(&eps);
+        }
+    }
+
+    /// [`OneStep::with_sensitivities`].
+    fn sensitivities(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        mut row: impl FnMut(usize, &[f64], f64),
+    ) {
+        let g = self.general;
+        let (n, ny) = (g.n, g.ny);
+        let params = n * ny;
+        let (mut ut, mut eps) = (vec![0.0; g.nu], vec![0.0; ny]);
+        let mut x = self.start(x0);
+        let mut sens = vec![[0.0; N]; params];
+        let mut next = vec![[0.0; N]; params];
+        let mut cs = vec![vec![0.0; params]; ny];
+        for t in 0..u.nrows() {
+            for (p, s) in sens.iter().enumerate() {
+                for (o, co) in self.c.iter().enumerate() {
+                    cs[o][p] = dot(co, s);
+                }
+                combine(&mut next[p], &self.m, s);
+            }
+            self.step(u, y, t, &mut x, &mut ut, &mut eps);
+            for o in 0..ny {
+                if y[(t, o)].is_nan() {
+                    // Output o takes no part at t (as in `any_order`).
+                    for (out, v) in next.iter_mut().zip(&cs[o]) {
+                        for (e, ki) in out.iter_mut().zip(&self.k[o]) {
+                            *e += ki * v;
+                        }
+                    }
+                    continue;
+                }
+                row(o, &cs[o], eps[o]);
+            }
+            for (o, e) in eps.iter().enumerate() {
+                for i in 0..n {
+                    next[o * n + i][i] += e;
+                }
+            }
+            std::mem::swap(&mut sens, &mut next);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// A 2-state, 1-input, 2-output model with D and a stable predictor.
+    fn model() -> (StateSpace, DMatrix<f64>) {
+        let a = DMatrix::from_row_slice(2, 2, &[0.9, 0.1, -0.05, 0.7]);
+        let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.5]);
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.3, -0.2, 1.0]);
+        let d = DMatrix::from_row_slice(2, 1, &[0.1, 0.0]);
+        let k = DMatrix::from_row_slice(2, 2, &[0.4, 0.1, 0.0, 0.3]);
+        (StateSpace::new(a, b, c, d, Some(1.0)).expect("model"), k)
+    }
+
+    fn record() -> (DMatrix<f64>, DMatrix<f64>) {
+        let u = DMatrix::from_fn(50, 1, |t, _| ((t * 7 % 11) as f64 - 5.0) / 5.0);
+        let mut y = DMatrix::from_fn(50, 2, |t, o| ((t * 3 + o * 5) % 13) as f64 / 6.0 - 1.0);
+        y[(7, 1)] = f64::NAN;
+        y[(20, 0)] = f64::NAN;
+        (u, y)
+    }
+
+    /// A run of the sensitivities, given the row visitor.
+    type SensitivityRun<'a> = &'a dyn Fn(&mut dyn FnMut(usize, &[f64], f64));
+    /// A run of the errors, given the error visitor.
+    type ErrorRun<'a> = &'a dyn Fn(&mut dyn FnMut(&[f64]));
+
+    /// The padded kernel gives the general one's numbers bit for bit.
+    #[test]
+    fn the_padded_kernel_is_the_general_one() {
+        let (g, k) = model();
+        let (u, y) = record();
+        let x0 = DVector::from_column_slice(&[0.2, -0.1]);
+        let m = g.a() - &k * g.c();
+        let p = OneStep::new(&g, &k, &m);
+        let collect = |run: SensitivityRun<'_>| {
+            let mut rows = Vec::new();
+            run(&mut |o, cs, e| rows.push((o, cs.to_vec(), e)));
+            rows
+        };
+        let errors = |run: ErrorRun<'_>| {
+            let mut all = Vec::new();
+            run(&mut |e| all.extend(e.iter().map(|v| v.to_bits())));
+            all
+        };
+        let general = errors(&|f| p.errors_any_order(&u, &y, &x0, f));
+        assert_eq!(
+            errors(&|f| Fixed::<2>::new(&p).errors(&u, &y, &x0, f)),
+            general
+        );
+        assert_eq!(
+            errors(&|f| Fixed::<8>::new(&p).errors(&u, &y, &x0, f)),
+            general
+        );
+        let general = collect(&|f| p.any_order(&u, &y, &x0, f));
+        for padded in [
+            collect(&|f| Fixed::<2>::new(&p).sensitivities(&u, &y, &x0, f)),
+            collect(&|f| Fixed::<4>::new(&p).sensitivities(&u, &y, &x0, f)),
+            collect(&|f| Fixed::<16>::new(&p).sensitivities(&u, &y, &x0, f)),
+        ] {
+            assert_eq!(padded.len(), general.len());
+            for (a, b) in padded.iter().zip(&general) {
+                assert_eq!(a.0, b.0);
+                assert_eq!(a.2.to_bits(), b.2.to_bits());
+                for (x, y) in a.1.iter().zip(&b.1) {
+                    assert_eq!(x.to_bits(), y.to_bits());
+                }
+            }
+        }
+    }
+
+    /// The errors are those of `StateSpace::predict_from` on a record
+    /// without missing samples, and the sensitivities those of central
+    /// differences of the cost in each entry of K.
+    #[test]
+    fn errors_and_sensitivities_match_their_definitions() {
+        let (g, k) = model();
+        let (u, mut y) = record();
+        let x0 = DVector::from_column_slice(&[0.2, -0.1]);
+        let m = g.a() - &k * g.c();
+        let full = y.map(|v| if v.is_nan() { 0.3 } else { v });
+        let mut err = vec![0.0; 2];
+        OneStep::new(&g, &k, &m).add_squared_errors(&u, &full, &x0, &mut err);
+        let want = &full
+            - g.predict_from(&k, &u, &full, 1, Some(&x0))
+                .expect("predict");
+        for (got, col) in err.iter().zip(want.column_iter()) {
+            let e: f64 = col.iter().map(|v| v * v).sum();
+            assert_relative_eq!(*got, e, max_relative = 1e-12);
+        }
+        // Gradient of ½Σε² in vec K: Σ ε ∂ε/∂K = −Σ ε (C S) row.
+        y[(3, 0)] = f64::NAN;
+        let cost = |k: &DMatrix<f64>| {
+            let m = g.a() - k * g.c();
+            let mut e = vec![0.0; 2];
+            OneStep::new(&g, k, &m).add_squared_errors(&u, &y, &x0, &mut e);
+            0.5 * (e[0] + e[1])
+        };
+        let mut grad = [0.0; 4];
+        OneStep::new(&g, &k, &m).with_sensitivities(&u, &y, &x0, |_, cs, eps| {
+            for (g, v) in grad.iter_mut().zip(cs) {
+                *g -= eps * v;
+            }
+        });
+        for (p, g) in grad.iter().enumerate() {
+            let h = 1e-6;
+            let (mut up, mut down) = (k.clone(), k.clone());
+            up.as_mut_slice()[p] += h;
+            down.as_mut_slice()[p] -= h;
+            let numeric = (cost(&up) - cost(&down)) / (2.0 * h);
+            assert_relative_eq!(*g, numeric, max_relative = 1e-6, epsilon = 1e-9);
+        }
+    }
+}
