@@ -355,8 +355,8 @@ const FIGURE_SLOTS: [&str; 8] = [
 impl Figures {
     /// Each slot's content: its SVG documents (none for an absent figure).
     fn slot(&self, name: &str) -> Vec<&str> {
-        fn one(s: &String) -> Vec<&str> {
-            vec![s.as_str()]
+        fn one(s: &str) -> Vec<&str> {
+            vec![s]
         }
         fn all(v: &[String]) -> Vec<&str> {
             v.iter().map(String::as_str).collect()
