@@ -530,6 +530,7 @@ function drawnAfter(r, sent, answered) {
     const drawn = performance.now() - sent;
     status.dataset.answeredMs = (answered - sent).toFixed(1);
     status.dataset.drawnMs = drawn.toFixed(1);
+    status.dataset.serverMs = Number(r.elapsed_ms).toFixed(1);
     status.dataset.drawnSeq = String(r.seq);
     setStatus(r.method + ", order " + r.order + (r.stable === false ? " (unstable)" : "") + " — " +
       fixed(r.elapsed_ms, 0, "?") + " ms on the server, drawn in " + drawn.toFixed(0) + " ms");
