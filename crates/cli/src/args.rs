@@ -607,6 +607,12 @@ pub struct IdentifyArgs {
     /// then carries a warning; raise it to let the iterations finish.
     #[arg(long, default_value_t = 2e10)]
     pub refine_max_work: f64,
+    /// The Kalman-gain check (single-rate subspace and IV models) stops its iterations over K
+    /// when one lowers the one-step cost by less than this share of the cost's sampling spread
+    /// √(2/N) (default 0.01; 0: run to 30 iterations or a decrease below 1e-9; recorded in
+    /// the model's diagnostics, `kalman_gain_route.stop`).
+    #[arg(long, default_value_t = 0.01)]
+    pub gain_stop_share: f64,
     /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
     /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
     /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's

@@ -3635,6 +3635,54 @@ mod faults {
         );
     }
 
+    /// Issue 47: the Kalman-gain check's stopping share is an option: a
+    /// bad value is refused naming the flag, a given one is recorded in the
+    /// model's diagnostics with the tolerance it gave.
+    #[test]
+    fn gain_stop_share_is_checked_and_recorded() {
+        let d = tmp("gain-stop");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "m.json");
+        let args = |share: &'static str| -> Vec<String> {
+            [
+                "identify",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order",
+                "2",
+                "--refine",
+                "none",
+                "--out",
+                &out,
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .chain([format!("--gain-stop-share={share}")])
+            .collect()
+        };
+        for bad in ["-1", "nan", "inf"] {
+            let a = args(bad);
+            let a: Vec<&str> = a.iter().map(String::as_str).collect();
+            let e = fails(&a, 2);
+            assert!(e.contains("--gain-stop-share"), "{e}");
+        }
+        let a = args("0.5");
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = lifted(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let stop = m["diagnostics"]["kalman_gain_route"]["stop"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string();
+        assert!(stop.contains("0.5 of its sampling spread"), "{stop}");
+    }
+
     /// A 2-output model y = (x, 2x), x(k+1) = 0.9x + 0.1u, T = 1 s.
     fn two_outputs() -> StateSpace {
         StateSpace::new(

@@ -456,7 +456,7 @@ impl WorkflowOptions {
         let share = id.gain_check.stop_share;
         if !(share.is_finite() && share >= 0.0) {
             return Err(Error::option(
-                "gain_check.stop_share",
+                "gain_stop_share",
                 format!("must be finite and at least 0, got {share}"),
             ));
         }
