@@ -203,7 +203,12 @@ pub(crate) fn subspace(
     cache: Option<&mut SubspaceCache>,
 ) -> Result<SubspaceRoute> {
     let id = &opts.identification;
-    let sub = subspace_options(opts, sets[0].ts(), remove_means);
+    // Estimates within the integrator tolerance of the unit circle are
+    // kept by the refinement's stabilised start (crate::integrators).
+    let sub = SubspaceOptions {
+        marginal_tolerance: crate::integrators::tolerance(opts, sets).0,
+        ..subspace_options(opts, sets[0].ts(), remove_means)
+    };
     let exps: Vec<Experiment<'_>> = sets
         .iter()
         .map(|d| Experiment { u: d.u(), y: d.y() })
@@ -478,7 +483,10 @@ fn stabilized_if_unstable(
     used: SubspaceOptions,
     run: impl FnOnce(&SubspaceOptions) -> Result<SubspaceModel>,
 ) -> Result<(SubspaceModel, SubspaceOptions)> {
-    if sub.enforce_stability && !used.enforce_stability && fit.diagnostics.spectral_radius >= 1.0 {
+    if sub.enforce_stability
+        && !used.enforce_stability
+        && fit.diagnostics.spectral_radius >= 1.0 + sub.marginal_tolerance
+    {
         // An automatic order's search is not run again (its rule's values
         // would be those of the stabilised models): the order kept, fixed.
         let at_order = match used.order {
@@ -731,7 +739,11 @@ fn select(
                 continue;
             }
         };
-        let stable = fit.diagnostics.spectral_radius < 1.0;
+        // A marginal model (integrators within the tolerance of the unit
+        // circle, crate::integrators) is accepted as a stable one: the
+        // next structure would be chosen for not integrating (with
+        // `--stable`, one the zero-padded shift pulled inside).
+        let stable = fit.diagnostics.spectral_radius < 1.0 + opts.marginal_tolerance;
         let criterion = if sel.folds > 1 {
             format!(
                 "blocked cross-validation: simulation fit (x0 estimated, its n parameters charged by the FPE factor) on each of {} contiguous blocks held out once, the structure identified on the others; mean over the blocks",
