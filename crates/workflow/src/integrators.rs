@@ -20,7 +20,7 @@
 //!   up to 6.7e7, `lifted_subspace::MAX_REGRESSOR_GROWTH`).
 //!
 //! **What it changes.** Where the refinement needs a stable start (the
-//! zero-padded shift of [`crate::refine`]'s `stabilized_start`) an estimate
+//! zero-padded shift of the refine module's `stabilized_start`) an estimate
 //! with ρ(A) < 1 + δ is kept instead of being pulled inside the circle (on
 //! the EMPS drive record the zero-padded shift moved the double pole at
 //! 1.00003 to a model whose validation fit was 45 % against 94.5 %), and
