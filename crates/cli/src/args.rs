@@ -594,8 +594,9 @@ pub struct IdentifyArgs {
     /// the simulation error (`oe`); multirate records use their measured samples only. The
     /// refined model is kept only if its simulation fit is at least as good: on six held-out
     /// blocks when they tell the two apart by more than 3 points (single-rate N4SID/MOESP/CVA records of up
-    /// to 2e4 samples; when they do not, the subspace model stays), else on the record;
-    /// `diagnostics.refinement_judge` says which.
+    /// to 2e4 samples; when they do not, the subspace model stays), else on the record, and
+    /// never when it simulates the record worse than its start; `diagnostics.refinement_judge`
+    /// says which.
     /// Default `auto`: the prediction error where it pays (see `auto`), `none` to skip it.
     #[arg(long, value_enum, default_value_t = RefineArg::Auto)]
     pub refine: RefineArg,
@@ -619,9 +620,22 @@ pub struct IdentifyArgs {
     /// stabilised shift invariance, eigenvalues inside the circle), B, D are fitted to it, and
     /// the model is then refined by the prediction-error method (or the `--refine` cost) with
     /// every iterate stable, which brings it back to the data; `diagnostics.stable_route` says
-    /// what was done. A model still unstable is an error naming its spectral radius.
+    /// what was done. An estimate whose poles are only marginal (integrators: ρ(A) < 1 + δ,
+    /// `--integrator-tolerance`) is not re-estimated: those poles are moved just inside, to
+    /// radius 1 − δ (a stable model cannot hold an integrator; a warning says so), and the
+    /// polish follows. A model still unstable is an error naming its spectral radius.
     #[arg(long)]
     pub stable: bool,
+    /// Integrator tolerance δ: poles with |λ| < 1 + δ are integrators (on the unit circle,
+    /// estimated just outside it), not instability: `--refine pem` starts from them instead of
+    /// the zero-padded shift and may keep them, `--stable` moves them just inside (radius
+    /// 1 − δ; a stable model cannot hold an integrator) and says so;
+    /// `diagnostics.integrators` lists the poles within δ of the circle. In [0, 1); 0 treats
+    /// every ρ(A) ≥ 1 as unstable. Default 2/N for the longest record of N samples (a unit
+    /// root is estimated within O(1/N) of 1, Dickey–Fuller; ρ ≤ 1 + 2/N grows by at most e²
+    /// over the record).
+    #[arg(long)]
+    pub integrator_tolerance: Option<f64>,
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,

@@ -4542,3 +4542,71 @@ mod quick_start {
         );
     }
 }
+
+/// Issue 46, "Integrators kept": `--integrator-tolerance` reaches the
+/// workflow (a value outside [0, 1) is named by its flag), and a
+/// double integrator under position control (a unit mass at 100 Hz, a PD
+/// loop, a ±1 N binary excitation) comes back with its integrators listed
+/// in `diagnostics.integrators` (tolerance 2/N by default, the value given
+/// otherwise) and counted in `diagnostics.stability`.
+#[test]
+fn integrators_are_listed_and_their_tolerance_is_an_option() {
+    let d = tmp("integrators");
+    let data = p(&d, "mass.csv");
+    let (ts, kp, kd) = (0.01, 150.0, 17.6);
+    let (mut x, mut v, mut last, mut level) = (0.0f64, 0.0f64, 0.0f64, 0.1f64);
+    let mut text = String::from("t,u1,y1\n");
+    let excitation = random_binary(
+        3000,
+        &RandomBinaryOptions {
+            seed: 46,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for (k, e) in excitation.iter().enumerate() {
+        if k % 250 == 0 {
+            level = -level;
+        }
+        let f = kp * (level - x) - kd * (x - if k == 0 { x } else { last }) / ts + e;
+        last = x;
+        text.push_str(&format!("{},{f},{x}\n", k as f64 * ts));
+        x += ts * v + ts * ts / 2.0 * f;
+        v += ts * f;
+    }
+    std::fs::write(&data, text).unwrap();
+    let out = p(&d, "m.json");
+    let base = [
+        "identify",
+        "--method",
+        "n4sid",
+        "--data",
+        &data,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--order",
+        "2",
+        "--out",
+        &out,
+    ];
+    ok(&base);
+    let f = ModelFile::read(&out).unwrap();
+    let i = &f.diagnostics["integrators"];
+    assert!(
+        (i["tolerance"].as_f64().unwrap() - 2.0 / 3000.0).abs() < 1e-15,
+        "{i}"
+    );
+    assert_eq!(i["count"], 2, "{}", f.diagnostics);
+    assert_eq!(f.diagnostics["stability"]["integrators"], 2);
+    let mut given = base.to_vec();
+    given.extend(["--integrator-tolerance", "1e-2"]);
+    ok(&given);
+    let f = ModelFile::read(&out).unwrap();
+    assert_eq!(f.diagnostics["integrators"]["tolerance"], 1e-2);
+    let mut bad = base.to_vec();
+    bad.extend(["--integrator-tolerance", "1.5"]);
+    let msg = fails(&bad, 2);
+    assert!(msg.contains("--integrator-tolerance"), "{msg}");
+}

@@ -179,6 +179,15 @@ pub(crate) fn check_options(nu: usize, ny: usize, opts: &SubspaceOptions) -> Res
             reason: format!("sample period must be positive and finite, got {}", opts.ts),
         });
     }
+    if !(opts.marginal_tolerance.is_finite() && opts.marginal_tolerance >= 0.0) {
+        return Err(Error::InvalidOption {
+            what: "marginal_tolerance",
+            reason: format!(
+                "must be finite and non-negative, got {}",
+                opts.marginal_tolerance
+            ),
+        });
+    }
     crate::budget::check_hankel(p, f, nu, ny, opts.compression, opts.chunk_rows)?;
     let layout = HankelLayout {
         past: p,

@@ -112,7 +112,7 @@ fn fit_order(
     // (B, D, x₀) by output-error regression on the records (in memory only),
     // for (A, C) of the scaled data: C in original units first.
     let output_error = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
-        let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
+        let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce, opts.marginal_tolerance)?;
         let c = c * scale.y;
         let recs = need_records(records)?;
         let bd = output_error_route(
@@ -146,7 +146,7 @@ fn fit_order(
         })
     };
     let projection = |enforce: bool, gamma: DMatrix<f64>| -> Result<Fit> {
-        let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce)?;
+        let (a, c, stabilized) = ac_from_gamma(&gamma, ny, enforce, opts.marginal_tolerance)?;
         let mask = opts.feedthrough.mask(ny, nu)?;
         let (b, d) = bd_from_projection(
             sub.l,
@@ -195,7 +195,7 @@ fn fit_order(
         SystemEstimate::StateSequence => {
             let mask = opts.feedthrough.mask(ny, nu)?;
             let ls = ac_from_states(sub.l, &sub.layout, &gamma, &sub.map, &mask)?;
-            if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 {
+            if opts.enforce_stability && spectral_radius(&ls.a)? >= 1.0 + opts.marginal_tolerance {
                 return shift(true, gamma);
             }
             let (b, c, d) = scale.unscale(ls.b, ls.c, ls.d);

@@ -490,7 +490,7 @@ impl<'r> IvPrepared<'r> {
     fn ac(&self, n: usize, opts: &IvOptions) -> Result<(DMatrix<f64>, DMatrix<f64>, bool)> {
         self.sub.check(n, self.alpha, self.ny)?;
         let (a, c, stabilized) =
-            ac_from_gamma(&self.sub.gamma(n), self.ny, opts.enforce_stability)?;
+            ac_from_gamma(&self.sub.gamma(n), self.ny, opts.enforce_stability, 0.0)?;
         let c = c * self.scale.y;
         if opts.require_stable {
             let rho = spectral_radius(&a)?;

@@ -33,11 +33,14 @@ pub(crate) fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
 
 /// (A, C) from an extended observability matrix with `ny` rows per block by
 /// shift invariance over all block rows (erratum L-3: A = Γ↑⁺ Γ↓), and the
-/// stabilised variant A = Γ⁺ [Γ↓; 0] when requested and needed.
+/// stabilised variant A = Γ⁺ [Γ↓; 0] when requested and needed (ρ(A) ≥
+/// 1 + `marginal`: an estimate within `marginal` of the unit circle is
+/// kept, its poles taken as integrators).
 pub(crate) fn ac_from_gamma(
     gamma: &DMatrix<f64>,
     ny: usize,
     enforce_stability: bool,
+    marginal: f64,
 ) -> Result<(DMatrix<f64>, DMatrix<f64>, bool)> {
     let (rows_g, n) = gamma.shape();
     let up = gamma.rows(0, rows_g - ny).into_owned();
@@ -45,7 +48,7 @@ pub(crate) fn ac_from_gamma(
     let mut a = lstsq(&up, &dn)?;
     let c = gamma.rows(0, ny).into_owned();
     let mut stabilized = false;
-    if enforce_stability && spectral_radius(&a)? >= 1.0 {
+    if enforce_stability && spectral_radius(&a)? >= 1.0 + marginal {
         let mut padded = DMatrix::zeros(rows_g, n);
         padded.rows_mut(0, rows_g - ny).copy_from(&dn);
         a = lstsq(gamma, &padded)?;

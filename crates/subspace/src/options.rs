@@ -141,6 +141,15 @@ pub struct SubspaceOptions {
     /// If the shift-invariance estimate of A is unstable, re-estimate it with
     /// the zero-padded shift Γ A = (Γ↑; 0) (guaranteed stable). Default false.
     pub enforce_stability: bool,
+    /// With [`enforce_stability`](Self::enforce_stability), the largest
+    /// excess δ of the spectral radius over 1 that is taken as marginal
+    /// (integrators, poles on the unit circle estimated just outside it)
+    /// rather than unstable: an estimate with ρ(A) < 1 + δ is kept as it
+    /// is, only ρ(A) ≥ 1 + δ is re-estimated by the zero-padded shift,
+    /// which would pull an integrator far inside the circle. Finite, ≥ 0.
+    /// Default 0 (every ρ ≥ 1 re-estimated); the workflow derives δ from
+    /// the record's length (`lifted_workflow`'s integrator tolerance).
+    pub marginal_tolerance: f64,
     /// Sample period of the returned model (seconds). Default 1.0.
     pub ts: f64,
     /// Time instants per block of the streamed Hankel compression. Default 2048.
@@ -171,6 +180,7 @@ impl Default for SubspaceOptions {
             initial_state: InitialState::Estimate,
             noise_model: true,
             enforce_stability: false,
+            marginal_tolerance: 0.0,
             ts: 1.0,
             chunk_rows: 2048,
             compression: Compression::Auto,

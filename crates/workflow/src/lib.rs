@@ -127,6 +127,7 @@ mod diagnostics;
 mod error;
 mod excitation;
 mod feedthrough;
+mod integrators;
 mod multirate_start;
 mod options;
 mod pipeline;
@@ -139,6 +140,7 @@ mod validate;
 
 pub use cache::SubspaceCache;
 pub use error::{Error, Result};
+pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
 pub use multirate_start::{MULTIRATE_START_SAMPLES, START_INTERPOLATED, START_LIFTED};
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
@@ -148,7 +150,10 @@ pub use options::{
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};
-pub use refine::{HeldOutCheck, JUDGE_HELD_OUT, JUDGE_NOT_TOLD_APART, JUDGE_RECORDS, refine};
+pub use refine::{
+    HeldOutCheck, JUDGE_HELD_OUT, JUDGE_NOT_TOLD_APART, JUDGE_RECORDS, JUDGE_WORSE_ON_RECORDS,
+    refine,
+};
 pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
-pub use validate::{require_stable, spectral_radius, unstable_warning};
+pub use validate::{marginal_warning, require_stable, spectral_radius, unstable_warning};

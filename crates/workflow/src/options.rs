@@ -258,8 +258,25 @@ pub struct IdentificationOptions {
     pub bd: BdRoute,
     /// Offer a stable model instead of an unstable one (Maciejowski's
     /// stabilised shift invariance; the refinement keeps its iterates
-    /// stable). Default false.
+    /// stable). An estimate that is only marginal (integrators within
+    /// [`Self::integrator_tolerance`]) has those poles moved just inside,
+    /// to radius 1 − δ, instead (`crate::integrators`). Default false.
     pub stable: bool,
+    /// The integrator tolerance δ: poles with |λ| < 1 + δ are taken as
+    /// integrators (marginal: on the unit circle, estimated just outside
+    /// it), not as instability: the refinement's start keeps them instead
+    /// of the zero-padded shift, the prediction-error iterations may keep
+    /// them (their predictor stays strictly stable), with [`Self::stable`]
+    /// they are moved just inside, to radius 1 − δ, and the model's
+    /// `diagnostics.integrators` lists the poles within δ of the circle.
+    /// Finite, in [0, 1); 0 treats every ρ(A) ≥ 1 as unstable (the
+    /// behaviour before 2026-11-29). Default `None`:
+    /// [`INTEGRATOR_TOLERANCE_SCALE`](crate::INTEGRATOR_TOLERANCE_SCALE)/N
+    /// for the longest record of N samples (a unit root is estimated
+    /// within O(1/N) of 1, N(ρ̂ − 1) ≤ 2.03 with probability 99 % by the
+    /// Dickey–Fuller distribution, and ρ ≤ 1 + 2/N grows by at most e² over
+    /// the record; derivation in the `integrators` module docs).
+    pub integrator_tolerance: Option<f64>,
     /// Estimate the Kalman gain of the innovations form (single-rate
     /// subspace methods). Default true.
     pub noise_model: bool,
@@ -298,6 +315,7 @@ impl Default for IdentificationOptions {
             estimator: Estimator::Auto,
             bd: BdRoute::Auto,
             stable: false,
+            integrator_tolerance: None,
             noise_model: true,
             threads: None,
             q: None,
@@ -526,6 +544,14 @@ impl WorkflowOptions {
                      (amplitudes), not both",
                 ));
             }
+        }
+        if let Some(d) = id.integrator_tolerance
+            && !(d.is_finite() && (0.0..1.0).contains(&d))
+        {
+            return Err(Error::option(
+                "integrator_tolerance",
+                format!("must be a number in [0, 1), got {d}"),
+            ));
         }
         if id.stable && pbsid {
             return Err(Error::option(

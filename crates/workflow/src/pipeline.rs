@@ -352,6 +352,8 @@ fn run(
         }
         None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
     };
+    let longest = sets.iter().map(Dataset::len).max().unwrap_or(0);
+    crate::integrators::report(opts, longest, &model, &mut diagnostics);
     if opts.refinement.refine != Refine::None {
         add_phase(
             &mut diagnostics,

@@ -334,7 +334,11 @@ pub fn identify_streamed(
     // record is loaded for it (and the refinement below then runs as
     // decided, `Refine::Pem`).
     let decided = auto_decides(opts, &d);
-    let allowed = auto_allows(opts, &model, &mut d, n_rows, |p| {
+    // (The first pass above ran before the record's length was known: its
+    // stabilised start, when asked for, uses no integrator tolerance; the
+    // refinement below does.)
+    let marginal = crate::integrators::tolerance_for(opts, n_rows).0;
+    let allowed = auto_allows(opts, &model, &mut d, n_rows, marginal, |p| {
         work_of_size(&model, n_rows, p)
     });
     let refines = refinement_cost(opts, &d).is_some() && allowed;
@@ -407,6 +411,7 @@ pub fn identify_streamed(
             refine(&none, model, d, &[], &mut kalman_gain, None)?
         }
     };
+    crate::integrators::report(opts, n_rows, &model, &mut d);
     // Back to the data's units.
     let sc = source.scales.clone().unwrap_or_else(|| ChannelScales {
         u: vec![1.0; n_u],

@@ -48,19 +48,45 @@ pub fn require_stable(model: &StateSpace) -> Result<()> {
 
 /// Adds `stability` ({stable, spectral_radius}) to the diagnostics and, for
 /// an unstable model, the warning under `warnings`.
+///
+/// With `diagnostics.integrators` (the integrator tolerance δ and the poles
+/// within it of the unit circle, `crate::integrators`) the entry also
+/// counts the integrators (`integrators`, `marginal`), and a model with
+/// 1 ≤ ρ(A) < 1 + δ is said to be marginal (integrators kept) instead of
+/// unstable.
 fn add_stability(file: &mut ModelFile) -> Result<()> {
     let rho = spectral_radius(&file.model)?;
     let stable = rho < 1.0;
+    let integrators = file.diagnostics.get("integrators");
+    let tolerance = integrators
+        .and_then(|i| i.get("tolerance"))
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(0.0);
+    let count = integrators
+        .and_then(|i| i.get("count"))
+        .and_then(serde_json::Value::as_u64)
+        .unwrap_or(0);
+    let marginal = !stable && rho < 1.0 + tolerance;
     if let Some(obj) = file.diagnostics.as_object_mut() {
         obj.insert(
             "stability".into(),
-            json!({"stable": stable, "spectral_radius": rho}),
+            json!({"stable": stable, "spectral_radius": rho, "integrators": count, "marginal": marginal || count > 0}),
         );
     }
-    if !stable {
+    if marginal {
+        push_warning(&mut file.diagnostics, marginal_warning(rho, tolerance));
+    } else if !stable {
         push_warning(&mut file.diagnostics, unstable_warning(rho));
     }
     Ok(())
+}
+
+/// The warning printed and stored for a marginal model: integrators kept,
+/// 1 ≤ ρ(A) < 1 + δ.
+pub fn marginal_warning(rho: f64, tolerance: f64) -> String {
+    format!(
+        "the model has integrator(s): poles on the unit circle within the integrator tolerance {tolerance:.2e} (rho(A) = {rho:.6}), kept as the data put them (diagnostics.integrators); it is not asymptotically stable: its simulation drifts with the integrators, growing by at most e^2 over a record of the estimation's length"
+    )
 }
 
 /// Adds the operating point and the Kalman gain (when present) to a model

@@ -305,6 +305,11 @@ fn bad_options_are_named() {
     o.identification.method = Method::Pbsid;
     o.identification.future = Some(0);
     assert_eq!(named(&o), "future");
+    for bad in [f64::NAN, -1e-3, 1.0, f64::INFINITY] {
+        let mut o = WorkflowOptions::default();
+        o.identification.integrator_tolerance = Some(bad);
+        assert_eq!(named(&o), "integrator_tolerance", "{bad}");
+    }
     let with_instrument = [Record {
         data: dataset(&u, &y),
         instrument: Some(u.clone()),
@@ -2585,5 +2590,237 @@ fn the_default_keeps_a_feedthrough_only_where_the_records_support_it() {
             (dd[(0, 0)] - 0.1).abs() < 0.02 && (dd[(1, 1)] - 0.2).abs() < 0.02,
             "{dd}"
         );
+    }
+}
+
+/// A mass (m = 1 kg, x'' = F/m) sampled with a zero-order hold at
+/// Ts = 0.01 s: the double integrator A = [1 Ts; 0 1], B = [Ts²/2; Ts]/m,
+/// y = position.
+fn mass() -> StateSpace {
+    let ts = 0.01;
+    StateSpace::new(
+        DMatrix::from_row_slice(2, 2, &[1.0, ts, 0.0, 1.0]),
+        DMatrix::from_row_slice(2, 1, &[ts * ts / 2.0, ts]),
+        DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+        DMatrix::zeros(1, 1),
+        Some(ts),
+    )
+    .expect("mass")
+}
+
+/// The mass of [`mass`] under position control, `n` samples from rest:
+/// a PD loop F = kp (r − y) − kd (y_t − y_{t−1})/Ts (kp = 150 N/m,
+/// kd = 17.6 N s/m: a closed loop of about 2 Hz, damping 0.7) plus a
+/// random binary excitation of ±1 N, the reference a random step
+/// sequence of ±0.1 m (a switch with probability 0.01 per sample), the
+/// measured position with white noise of σ = 1e-4 m. The last fifth
+/// returns to rest (reference 0, no excitation), so the record's mean
+/// force, which the default detrending takes for an operating point, is
+/// that of a mass at rest (≈ 0: a force offset would be integrated twice
+/// into a drift). Returns the force and the measured position.
+fn position_loop(n: usize, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let g = mass();
+    let ts = 0.01;
+    let (kp, kd) = (150.0, 17.6);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut u, mut y) = (DMatrix::zeros(n, 1), DMatrix::zeros(n, 1));
+    let (mut x, mut level, mut last) = (DVector::<f64>::zeros(2), 0.1, 0.0);
+    for t in 0..n {
+        let rest = t >= n - n / 5;
+        if rng.random::<f64>() < 0.01 {
+            level = -level;
+        }
+        let v = 1e-4 * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
+        let yt = x[0] + v;
+        let d = if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 };
+        let (r, d) = if rest { (0.0, 0.0) } else { (level, d) };
+        let f = kp * (r - yt) - kd * (yt - if t == 0 { yt } else { last }) / ts + d;
+        last = yt;
+        (u[(t, 0)], y[(t, 0)]) = (f, yt);
+        x = g.a() * &x + g.b() * f;
+    }
+    (u, y)
+}
+
+/// Validation fit (%) of a model file on (u, y) as benches/peers/realdata.py
+/// scores it: the response to u − u₀ plus y₀, x₀ by least squares on the
+/// record itself (an integrator's start cannot be known otherwise).
+fn fit_with_x0(fit: &lifted_workflow::Identified, u: &DMatrix<f64>, y: &DMatrix<f64>) -> f64 {
+    let op = fit.file.operating_point.as_ref().expect("operating point");
+    let m = &fit.file.model;
+    let du = DMatrix::from_fn(u.nrows(), 1, |k, _| u[(k, 0)] - op.u0[0]);
+    let forced = m.lsim(&du, None, None).expect("lsim").y;
+    let n = m.order();
+    let rows = y.nrows();
+    let mut phi = DMatrix::zeros(rows, n);
+    let mut ca = m.c().clone();
+    for k in 0..rows {
+        phi.row_mut(k).copy_from(&ca.row(0));
+        ca = &ca * m.a();
+    }
+    let resid = DVector::from_fn(rows, |k, _| y[(k, 0)] - op.y0[0] - forced[(k, 0)]);
+    let x0 = phi
+        .clone()
+        .svd(true, true)
+        .solve(&resid, 1e-12)
+        .expect("x0");
+    let err = &resid - &phi * x0;
+    let mean = y.column(0).mean();
+    let spread = y.column(0).iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+    100.0 * (1.0 - (err.norm_squared() / spread).sqrt())
+}
+
+/// Issue 46, "Integrators kept": a double integrator under position
+/// control, four records (seeds). The subspace estimate of the mass puts
+/// its double pole at z = 1 within the integrator tolerance 2/N of the
+/// circle (here just inside: ρ = 0.99999, poles 1 ± 0.001i). The default,
+/// `--refine pem` and `--stable` all keep both poles within 0.01 of z = 1
+/// (the truth: 1, twice), report them under `diagnostics.integrators` and
+/// as marginal under `diagnostics.stability`, and fit a held-out record
+/// (another seed) above [`HELD_OUT_FIT`]; a refinement kept is never
+/// worse on the estimation record than its start.
+#[test]
+fn a_double_integrator_under_position_control_keeps_its_poles() {
+    for seed in [46, 47, 48, 49] {
+        let (u, y) = position_loop(6000, seed);
+        let (uv, yv) = position_loop(6000, 1000 + seed);
+        let records = [Record::new(
+            Dataset::single_rate(0.01, u.clone(), y.clone()).expect("dataset"),
+        )];
+        let run = |refine: Refine, stable: bool| {
+            let mut opts = WorkflowOptions::default();
+            opts.identification.order = Order::Fixed(2);
+            opts.identification.stable = stable;
+            opts.validation.require_stable = stable;
+            opts.refinement.refine = refine;
+            identify(&records, &opts).expect("identify")
+        };
+        let plain = run(Refine::None, false);
+        let d = &plain.file.diagnostics;
+        let tolerance = d["integrators"]["tolerance"].as_f64().expect("tolerance");
+        assert!((tolerance - 2.0 / 6000.0).abs() < 1e-12, "{d}");
+        let fits = [
+            ("plain", plain.clone()),
+            ("default", run(Refine::Auto, false)),
+            ("pem", run(Refine::Pem, false)),
+            ("stable", run(Refine::Auto, true)),
+        ];
+        for (name, fit) in &fits {
+            let d = &fit.file.diagnostics;
+            let f = fit_with_x0(fit, &uv, &yv);
+            assert!(near_one(&fit.file.model) < 0.01, "seed {seed} {name}: {d}");
+            assert!(f > HELD_OUT_FIT, "seed {seed} {name}: held-out fit {f}");
+            assert!(
+                d["integrators"]["count"].as_u64().expect("count") >= 1,
+                "{d}"
+            );
+            assert_eq!(d["stability"]["marginal"], true, "{d}");
+            if d["refinement"]["kept"] == "Refined" {
+                let judged = &d["refinement"]["judged"];
+                assert!(judged[1].as_f64() <= judged[0].as_f64(), "{d}");
+            }
+        }
+    }
+}
+
+/// Held-out fit (%) every variant reaches on the position loop: measured
+/// 62.7–90.8 over the four seeds (the same for every variant: the
+/// refinement was not kept, the estimates were inside the circle); a model
+/// with its double pole pulled to ρ ≈ 0.9 (the zero-padded start) stops
+/// integrating after about ten samples (2.2 % on the EMPS drive record,
+/// benches/README.md). The truth fits these records to their noise.
+const HELD_OUT_FIT: f64 = 60.0;
+
+/// Largest distance of a model's poles from z = 1.
+fn near_one(m: &StateSpace) -> f64 {
+    m.poles()
+        .expect("poles")
+        .iter()
+        .map(|z| (z - nalgebra::Complex::new(1.0, 0.0)).norm())
+        .fold(0.0, f64::max)
+}
+
+/// Issue 46, the issue's case: an estimate of the mass just outside the
+/// unit circle (the identified model of [`position_loop`] with A scaled to
+/// ρ = 1 + δ/2, δ = 2/N the integrator tolerance; the EMPS drive record's
+/// order-3 estimate had ρ = 1.00003 with δ = 1.6e-4). `--refine pem` used
+/// to reflect such a start inside before iterating
+/// (`refinement.stabilized_start`), or, from the route, start from the
+/// zero-padded shift (ρ ≈ 0.9 on EMPS); now the refinement starts from it
+/// as it is, keeps both poles within 0.01 of z = 1 and ρ < 1 + δ, and the
+/// model written fits the held-out record above [`HELD_OUT_FIT`]. With
+/// `--stable` the marginal poles are moved just inside (ρ < 1) and the
+/// route says so.
+#[test]
+fn a_start_just_outside_the_circle_is_refined_as_an_integrator() {
+    let (u, y) = position_loop(6000, 48);
+    let (uv, yv) = position_loop(6000, 1048);
+    let data = Dataset::single_rate(0.01, u.clone(), y.clone()).expect("dataset");
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(2);
+    opts.refinement.refine = Refine::None;
+    let plain = identify(&[Record::new(data.clone())], &opts).expect("identify");
+    let op = plain.file.operating_point.clone().expect("op");
+    let set = lifted_workflow::deviations(&data, Some(&op)).expect("deviations");
+    let m = &plain.file.model;
+    let tolerance = 2.0 / 6000.0;
+    let rho = lifted_workflow::spectral_radius(m).expect("rho");
+    let outside = StateSpace::new(
+        m.a() * ((1.0 + tolerance / 2.0) / rho),
+        m.b().clone(),
+        m.c().clone(),
+        m.d().clone(),
+        m.ts(),
+    )
+    .expect("model");
+    for stable in [false, true] {
+        let mut o = WorkflowOptions::default();
+        o.refinement.refine = Refine::Pem;
+        o.identification.stable = stable;
+        let mut gain = None;
+        let (model, d) = lifted_workflow::refine(
+            &o,
+            outside.clone(),
+            serde_json::json!({}),
+            std::slice::from_ref(&set),
+            &mut gain,
+            None,
+        )
+        .expect("refine");
+        assert_eq!(
+            d["refinement"]["stabilized_start"],
+            serde_json::Value::Null,
+            "{d}"
+        );
+        assert!(near_one(&model) < 0.01, "stable {stable}: {d}");
+        let r = lifted_workflow::spectral_radius(&model).expect("rho");
+        if stable {
+            assert!(r < 1.0, "{r} {d}");
+            assert_eq!(d["integrators_moved_inside"], true, "{d}");
+            assert!(
+                d["stable_route"]
+                    .as_str()
+                    .is_some_and(|s| s.contains("marginal")),
+                "{d}"
+            );
+        } else {
+            assert!(r < 1.0 + tolerance, "{r} {d}");
+        }
+        if d["refinement"]["kept"] == "Refined" {
+            let judged = &d["refinement"]["judged"];
+            assert!(judged[1].as_f64() <= judged[0].as_f64(), "{d}");
+        }
+        let file = lifted_workflow::Identified {
+            file: lifted_lti::ModelFile::new(model)
+                .with_operating_point(op.clone())
+                .expect("op"),
+            ..plain.clone()
+        };
+        let f = fit_with_x0(&file, &uv, &yv);
+        eprintln!(
+            "stable {stable}: rho {r:.7} held-out fit {f:.2} kept {}",
+            d["refinement"]["kept"]
+        );
+        assert!(f > HELD_OUT_FIT, "stable {stable}: held-out fit {f}");
     }
 }

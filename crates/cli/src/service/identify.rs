@@ -151,6 +151,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         BdArg::Projection => BdRoute::Projection,
     };
     id.stable = a.stable;
+    id.integrator_tolerance = a.integrator_tolerance;
     id.q = a.q;
     id.prbs_order = a.prbs_order;
     match a.amplitude[..] {

@@ -578,7 +578,7 @@ mod tests {
             },
             x0: (0..2).map(|_| DVector::from_fn(n, |_, _| r(1.0))).collect(),
         };
-        assert!(admissible(&p, gain));
+        assert!(admissible(&p, gain, 0.0));
         let us: Vec<_> = (0..2)
             .map(|_| DMatrix::from_fn(len, nu, |_, _| r(1.0)))
             .collect();

@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use super::Termination;
 use super::jacobian::jacobian_r;
 use super::lm::lm_step;
-use super::point::{Point, admissible, mean_square, step_is_small};
+use super::point::{Point, mean_square, step_is_small};
 use super::problem::{Limits, Outcome, Problem, WorkAccount};
 use crate::error::Result;
 
@@ -84,7 +84,8 @@ pub(super) fn minimise(
         };
         let trial_theta = &theta + basis * &step;
         let trial = Point::unpack(&trial_theta, lay);
-        let trial_e = admissible(&trial, prob.gain)
+        let trial_e = prob
+            .admissible(&trial)
             .then(|| prob.residuals(&trial))
             .flatten();
         match trial_e {

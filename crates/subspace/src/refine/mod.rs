@@ -167,12 +167,18 @@
 //! application to system identification", Automatica 40 (2004)
 //! 1629–1635.
 //!
-//! An iterate whose A (or A − KC for the prediction cost) has spectral
-//! radius ≥ 1 is rejected like a cost increase, so a stable start stays
-//! stable; an unstable start is first stabilised (its unstable eigenvalues
-//! reflected into the unit circle, [`PemReport::stabilized_start`]) for
-//! either cost. The better of the start and
-//! the refined model is kept ([`Kept`]), judged by the simulation error (the
+//! An iterate whose A has spectral radius ≥ 1 + δ
+//! ([`PemOptions::marginal_tolerance`], default δ = 0), or, for the
+//! prediction cost, whose predictor A − KC has spectral radius ≥ 1, is
+//! rejected like a cost increase, so a stable start stays stable (δ = 0) or
+//! within δ of the unit circle (an integrating plant: poles on the circle
+//! that the data put just outside it stay there instead of being pulled
+//! in); a start with ρ(A) ≥ 1 + δ is first stabilised (its unstable
+//! eigenvalues reflected into the unit circle,
+//! [`PemReport::stabilized_start`]) for either cost. A marginal start
+//! whose predictor is unstable with its K and with K = 0 starts from the
+//! observer gain of the Riccati equation with unit weights. The better of
+//! the start and the refined model is kept ([`Kept`]), judged by the simulation error (the
 //! validation fit) on optional validation records, or on the estimation
 //! records.
 
@@ -308,6 +314,15 @@ pub struct PemOptions {
     /// a caller that judges the two itself, e.g. on held-out data
     /// ([`crate::cross_validate_refinement`]). Default false.
     pub keep_refined: bool,
+    /// δ ≥ 0: an iterate (and the start) may have ρ(A) < 1 + δ, poles on
+    /// or just outside the unit circle taken as integrators (marginal), not
+    /// instability; the predictor A − KC of the prediction cost must still
+    /// be stable. A start with ρ(A) ≥ 1 + δ is stabilised first. Default 0
+    /// (every iterate stable); `lifted_workflow` derives δ from the
+    /// record's length (its integrator tolerance, 2/N: the estimation
+    /// error of a unit root is O(1/N), and ρ = 1 + 2/N grows by at most
+    /// e² over N samples).
+    pub marginal_tolerance: f64,
 }
 
 impl Default for PemOptions {
@@ -325,6 +340,7 @@ impl Default for PemOptions {
             warm_start_samples: 5_000,
             threads: 1,
             keep_refined: false,
+            marginal_tolerance: 0.0,
         }
     }
 }
@@ -474,7 +490,9 @@ pub fn refine_pem(
         || !(opts.cost_tolerance >= 0.0
             && opts.step_tolerance >= 0.0
             && opts.gradient_tolerance >= 0.0
-            && opts.expected_decrease_tolerance >= 0.0)
+            && opts.expected_decrease_tolerance >= 0.0
+            && opts.marginal_tolerance >= 0.0
+            && opts.marginal_tolerance.is_finite())
     {
         return Err(Error::InvalidOption {
             what: "PemOptions",
@@ -624,9 +642,10 @@ pub fn refine_pem(
     // An unstable start (either cost) is stabilised first: its unstable
     // eigenvalues reflected into the unit circle, eigenvectors kept; a
     // predictor that is then unstable starts with K = 0.
+    let marginal = opts.marginal_tolerance;
     let rho_start = spectral_radius(&start.a)?;
     let mut stabilized_start = None;
-    if rho_start >= 1.0 {
+    if rho_start >= 1.0 + marginal {
         match lifted_linalg::reflect_into_unit_disc(&start.a, STABILIZED_START_RADIUS)? {
             Some(a) => {
                 start.a = a;
@@ -639,10 +658,25 @@ pub fn refine_pem(
             }
         }
     }
-    if gain && !admissible(&start, gain) {
+    if gain && !admissible(&start, gain, marginal) {
         start.k = DMatrix::zeros(n, ny);
+        // A marginal A (integrators kept, ρ(A) ≥ 1) has no stable
+        // predictor with K = 0: the observer gain of the Riccati equation
+        // with unit weights instead (A − KC stable whenever (A, C) is
+        // detectable), as the IV route's predictor form takes.
+        if !admissible(&start, gain, marginal)
+            && let Ok(s) = lifted_linalg::dare(
+                &start.a.transpose(),
+                &start.c.transpose(),
+                &DMatrix::identity(n, n),
+                &DMatrix::identity(ny, ny),
+                None,
+            )
+        {
+            start.k = s.k.transpose();
+        }
     }
-    if !admissible(&start, gain) {
+    if !admissible(&start, gain, marginal) {
         return Err(Error::Unstable {
             spectral_radius: spectral_radius(&start.a)?,
         });
@@ -677,6 +711,7 @@ pub fn refine_pem(
         measured,
         samples,
         hessian_stride: 1,
+        marginal,
     };
     let outcome = match method {
         PemMethod::Joint => {

@@ -244,11 +244,14 @@ pub(super) fn mean_square(e: &DVector<f64>) -> f64 {
     e.norm_squared() / e.len().max(1) as f64
 }
 
-/// Is the iterate admissible: a stable simulation (ρ(A) < 1) and, for the
-/// prediction cost, a stable predictor (ρ(A − KC) < 1)? A refinement never
-/// turns a stable model unstable.
-pub(super) fn admissible(p: &Point, gain: bool) -> bool {
-    let stable_a = spectral_radius(&p.a).is_ok_and(|r| r < 1.0);
+/// Is the iterate admissible: a stable or marginal simulation (ρ(A) <
+/// 1 + `marginal`, [`super::PemOptions::marginal_tolerance`]: an integrator
+/// estimated just outside the unit circle stays where the data put it) and,
+/// for the prediction cost, a stable predictor (ρ(A − KC) < 1, strictly:
+/// the prediction error is defined only for a stable predictor)? With
+/// `marginal` = 0 a refinement never turns a stable model unstable.
+pub(super) fn admissible(p: &Point, gain: bool, marginal: f64) -> bool {
+    let stable_a = spectral_radius(&p.a).is_ok_and(|r| r < 1.0 + marginal);
     if !gain {
         return stable_a;
     }

@@ -21,9 +21,16 @@ pub(super) struct Problem<'a, 'r> {
     /// Hessian subsample of the variable-projection Jacobians (1 = all
     /// rows; [`super::jacobian`]).
     pub(super) hessian_stride: usize,
+    /// [`super::PemOptions::marginal_tolerance`].
+    pub(super) marginal: f64,
 }
 
 impl Problem<'_, '_> {
+    /// Whether `p` is an admissible iterate ([`super::point::admissible`]).
+    pub(super) fn admissible(&self, p: &Point) -> bool {
+        super::point::admissible(p, self.gain, self.marginal)
+    }
+
     /// Scaled residuals at `p` (`None`: unstable or not finite).
     pub(super) fn residuals(&self, p: &Point) -> Option<DVector<f64>> {
         residuals(p, self.records, self.weights, self.gain, self.measured)

@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, DVector};
 use super::Termination;
 use super::jacobian::jacobian_r;
 use super::lm::lm_step;
-use super::point::{Layout, Point, admissible, mean_square, step_is_small};
+use super::point::{Layout, Point, mean_square, step_is_small};
 use super::problem::{Limits, Outcome, Problem, WorkAccount};
 use super::work::{ProjectionWork, Sizes};
 use crate::error::Result;
@@ -148,7 +148,7 @@ fn solve_linear(
     for _ in 0..=LINEAR_BACKTRACKS {
         let t = theta + lin * (&delta * fraction);
         let p = to_model(&Point::unpack(&t, lay));
-        if admissible(&p, prob.gain)
+        if prob.admissible(&p)
             && let Some(e) = prob.residuals(&p)
         {
             return Some((t, p, e));
@@ -156,7 +156,7 @@ fn solve_linear(
         fraction *= 0.5;
     }
     let p = to_model(&Point::unpack(theta, lay));
-    if !admissible(&p, prob.gain) {
+    if !prob.admissible(&p) {
         return None;
     }
     let e = prob.residuals(&p)?;
@@ -258,7 +258,7 @@ pub(super) fn minimise(
                     if let Some(delta) = lm_step(&r11, &r1, LINEAR_DAMPING, &colsq) {
                         let t = &theta + &lin * delta;
                         let p = to_model(&Point::unpack(&t, lay));
-                        if admissible(&p, prob.gain)
+                        if prob.admissible(&p)
                             && let Some(te) = prob.residuals(&p)
                             && mean_square(&te) <= outcome.cost
                         {
@@ -324,12 +324,12 @@ pub(super) fn minimise(
         };
         let trial_theta = &theta + basis * &step;
         let trial = to_model(&Point::unpack(&trial_theta, lay));
-        let solved = if !admissible(&trial, prob.gain) {
+        let solved = if !prob.admissible(&trial) {
             None
         } else if by_model {
             let t = &trial_theta + &lin * (beta_of_alpha * &step);
             let p = to_model(&Point::unpack(&t, lay));
-            admissible(&p, prob.gain)
+            prob.admissible(&p)
                 .then(|| prob.residuals(&p))
                 .flatten()
                 .map(|te| (t, p, te))

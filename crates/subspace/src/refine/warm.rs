@@ -86,6 +86,7 @@ pub(super) fn minimise(
             } else {
                 1
             },
+            marginal: whole.marginal,
         };
         let loose = Limits {
             max_iterations: limits.max_iterations - iterations,

@@ -653,3 +653,64 @@ fn variable_projection_backs_off_at_the_stability_boundary() {
         );
     }
 }
+
+/// Issue 46, "Integrators kept": an integrator y(t+1) = y(t) + 0.1 u(t)
+/// (open loop, random binary input, output noise σ = 0.01) refined from a
+/// start just outside the unit circle (pole 1.0001). With the marginal
+/// tolerance δ = 1e-3 the start is kept (no stabilised start) and the
+/// refined pole stays within 1e-3 of 1 (its standard error on 2000
+/// samples is of order 1/N = 5e-4); with δ = 0 (the default) the start is
+/// reflected inside first, as before.
+#[test]
+fn a_marginal_start_is_kept_within_the_tolerance() {
+    let n = 2000;
+    let g = StateSpace::new(
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::from_element(1, 1, 0.1),
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )
+    .unwrap();
+    let u = rbs(5, n, 1);
+    let y = sim(&g, &u, None) + white(6, n, 1, 0.01);
+    let start = StateSpace::new(
+        DMatrix::from_element(1, 1, 1.0001),
+        DMatrix::from_element(1, 1, 0.1),
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::zeros(1, 1),
+        Some(1.0),
+    )
+    .unwrap();
+    let rec = [Record {
+        u: &u,
+        y: &y,
+        instrument: None,
+    }];
+    let marginal = PemOptions {
+        marginal_tolerance: 1e-3,
+        ..opts(PemCost::Prediction)
+    };
+    let fit = refine_pem(&start, None, &rec, &[], &marginal).unwrap();
+    assert_eq!(fit.report.stabilized_start, None);
+    let pole = fit.model.a()[(0, 0)];
+    assert!((pole - 1.0).abs() < 1e-3, "pole {pole}");
+    assert!(pole < 1.0 + 1e-3, "pole {pole}");
+    let strict = refine_pem(&start, None, &rec, &[], &opts(PemCost::Prediction)).unwrap();
+    assert_eq!(strict.report.stabilized_start, Some(1.0001));
+    assert!(strict.model.a()[(0, 0)] < 1.0);
+    // A tolerance that is not a finite non-negative number is refused.
+    for bad in [f64::NAN, -1.0, f64::INFINITY] {
+        let o = PemOptions {
+            marginal_tolerance: bad,
+            ..opts(PemCost::Prediction)
+        };
+        assert!(
+            matches!(
+                refine_pem(&start, None, &rec, &[], &o),
+                Err(Error::InvalidOption { .. })
+            ),
+            "{bad}"
+        );
+    }
+}
