@@ -83,6 +83,19 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// A linear-algebra kernel failed.
+    #[error(transparent)]
+    Linalg(#[from] lifted_linalg::Error),
+    /// The record is too short for what was asked.
+    #[error("{what}: the record is too short: it needs at least {need} samples, it has {got}")]
+    TooShort {
+        /// What needed the samples.
+        what: &'static str,
+        /// Samples needed.
+        need: usize,
+        /// Samples given.
+        got: usize,
+    },
 }
 
 /// Result alias of this crate.

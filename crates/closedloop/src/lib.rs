@@ -70,10 +70,12 @@
 
 mod error;
 mod experiment;
+pub mod feedback;
 pub mod metrics;
 pub mod recover;
 
 pub use error::{Error, Result};
+pub use feedback::{FeedbackOptions, FeedbackTest, InputEvidence, feedback_test};
 pub use experiment::{
     Approach, ClosedLoopData, ExperimentOptions, PlantEstimate, PlantOptions, estimate_plant,
     identify_closed_loop, recover_plant, run_experiment,

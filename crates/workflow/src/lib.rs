@@ -126,6 +126,7 @@ mod cache;
 mod diagnostics;
 mod error;
 mod excitation;
+mod feedback;
 mod feedthrough;
 mod integrators;
 mod multirate_start;

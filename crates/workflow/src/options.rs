@@ -252,6 +252,11 @@ pub struct IdentificationOptions {
     /// of the cost's sampling spread, at most 30 iterations; derivation
     /// there); recorded in `diagnostics.kalman_gain_route.stop`.
     pub gain_check: lifted_subspace::GainCheckOptions,
+    /// The feedback test on the records (default
+    /// [`lifted_closedloop::FeedbackOptions::default`]: lags max(5, 2 ×
+    /// the longest output period), 1 % per input, the last 50 000 rows);
+    /// its verdict in `diagnostics.feedback`.
+    pub feedback: lifted_closedloop::FeedbackOptions,
     /// (A, C) route of the subspace methods (default [`Estimator::Auto`]).
     pub estimator: Estimator,
     /// (B, D, x₀) route of the subspace methods (default [`BdRoute::Auto`]).
@@ -312,6 +317,7 @@ impl Default for IdentificationOptions {
             instrument_past: None,
             feedthrough: None,
             gain_check: lifted_subspace::GainCheckOptions::default(),
+            feedback: lifted_closedloop::FeedbackOptions::default(),
             estimator: Estimator::Auto,
             bd: BdRoute::Auto,
             stable: false,
@@ -470,6 +476,13 @@ impl WorkflowOptions {
         }
         if id.order == Order::Auto && id.max_order == 0 {
             return Err(Error::option("max_order", "must be at least 1"));
+        }
+        let level = id.feedback.significance;
+        if !(level > 0.0 && level < 1.0) {
+            return Err(Error::option(
+                "feedback_significance",
+                format!("must lie in (0, 1), got {level}"),
+            ));
         }
         let share = id.gain_check.stop_share;
         if !(share.is_finite() && share >= 0.0) {

@@ -385,6 +385,7 @@ fn run(
             },
         );
     }
+    crate::feedback::report(opts, &model, kalman_gain.as_ref(), &sets, &mut diagnostics);
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {

@@ -1,0 +1,144 @@
+//! Feedback detection on the identification's records (issue 46): whether
+//! the inputs depend on the model's past output innovations
+//! ([`lifted_closedloop::feedback_test`]: a Granger test of each input on
+//! the innovations' past given its own, χ² at 1 %). The innovations are
+//! the identified model's one-step prediction errors on its longest record
+//! (with its Kalman gain, K = 0 without one; outputs not measured skipped),
+//! so the test runs for every route, single- and multirate. The verdict
+//! and the evidence go to `diagnostics.feedback`; an open-loop method
+//! (N4SID, MOESP, CVA) on records where feedback is detected gets a
+//! warning naming the methods that are consistent there. The default
+//! method does not switch on it: a biased but close model is often what
+//! the open-loop methods give at a high signal-to-noise ratio, and the
+//! consistent routes need an instrument or a longer record; the warning
+//! leaves the choice to the engineer. Cost: one predictor run O(N n²)
+//! and the test's regression (`lifted_closedloop::feedback`).
+
+use lifted_lti::{Dataset, StateSpace};
+use nalgebra::DMatrix;
+use serde_json::json;
+
+use crate::diagnostics::push_warning;
+use crate::options::{Method, WorkflowOptions};
+
+/// Runs the test and writes `diagnostics.feedback` (and the warning).
+pub(crate) fn report(
+    opts: &WorkflowOptions,
+    model: &StateSpace,
+    gain: Option<&DMatrix<f64>>,
+    sets: &[Dataset],
+    diagnostics: &mut serde_json::Value,
+) {
+    let Some(set) = sets.iter().max_by_key(|d| d.len()) else {
+        return;
+    };
+    let outcome = innovations(model, gain, set).and_then(|e| {
+        let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
+        lifted_closedloop::feedback_test(set.u(), &e, longest, &opts.identification.feedback)
+            .map_err(|e| e.to_string())
+    });
+    let Some(obj) = diagnostics.as_object_mut() else {
+        return;
+    };
+    let test = match outcome {
+        Ok(t) => t,
+        Err(why) => {
+            obj.insert("feedback".into(), json!({ "note": format!("not tested: {why}") }));
+            return;
+        }
+    };
+    obj.insert(
+        "feedback".into(),
+        json!({
+            "detected": test.detected,
+            "verdict": verdict(&test, set),
+            "inputs": serde_json::to_value(&test.inputs).unwrap_or_default(),
+            "lags": test.lags,
+            "rows": test.rows,
+            "significance": test.significance,
+            "innovations": "the identified model's one-step prediction errors on its longest record",
+            "rule": test.rule,
+        }),
+    );
+    let method = opts.identification.method;
+    if test.detected && matches!(method, Method::N4sid | Method::Moesp | Method::Cva) {
+        let multirate = !set.is_single_rate();
+        let consistent = if multirate {
+            "--method iv --instrument with the logged set-point or excitation"
+        } else {
+            "--method pbsid or ssarx (no instrument needed), or --method iv --instrument with the logged set-point or excitation"
+        };
+        push_warning(
+            diagnostics,
+            format!(
+                "closed loop detected ({}): {} is biased under feedback (the noise reaches the input through the controller); consistent here: {consistent}",
+                verdict(&test, set),
+                method.name().to_uppercase()
+            ),
+        );
+    }
+}
+
+/// "input u1 depends on past output innovations (χ²(10) = 85.3, p = 1e-9,
+/// 12 % of its variance)" for each input where feedback was detected, or
+/// "no input depends on past output innovations (largest χ²(10) = 8.1,
+/// p = 0.62)".
+fn verdict(test: &lifted_closedloop::FeedbackTest, set: &Dataset) -> String {
+    let name = |j: usize| {
+        set.inputs()
+            .get(j)
+            .map_or_else(|| format!("u{}", j + 1), |c| c.name.clone())
+    };
+    let detected: Vec<String> = test
+        .inputs
+        .iter()
+        .filter(|i| i.detected)
+        .map(|i| {
+            format!(
+                "input {} depends on past output innovations (χ²({}) = {:.1}, p = {:.1e}, {:.1} % of its variance)",
+                name(i.input),
+                i.dof,
+                i.statistic,
+                i.p_value,
+                100.0 * i.explained
+            )
+        })
+        .collect();
+    if !detected.is_empty() {
+        return detected.join("; ");
+    }
+    match test
+        .inputs
+        .iter()
+        .max_by(|a, b| a.statistic.total_cmp(&b.statistic))
+    {
+        Some(i) => format!(
+            "no input depends on past output innovations at the {} % level (largest χ²({}) = {:.1}, p = {:.2})",
+            100.0 * test.significance,
+            i.dof,
+            i.statistic,
+            i.p_value
+        ),
+        None => "no inputs".into(),
+    }
+}
+
+/// y − ŷ of the one-step predictor of `model` with `gain` (K = 0 without
+/// one) on `set`, from x̂(0) = 0; NaN where an output is not measured.
+fn innovations(
+    model: &StateSpace,
+    gain: Option<&DMatrix<f64>>,
+    set: &Dataset,
+) -> Result<DMatrix<f64>, String> {
+    if model.ts().is_none() {
+        return Err("a continuous-time model".into());
+    }
+    let zero = DMatrix::zeros(model.order(), model.n_outputs());
+    let k = gain
+        .filter(|k| k.shape() == (model.order(), model.n_outputs()))
+        .unwrap_or(&zero);
+    let predicted = model
+        .predict_from(k, set.u(), set.y(), 1, None)
+        .map_err(|e| e.to_string())?;
+    Ok(set.y() - predicted)
+}
