@@ -101,7 +101,7 @@ pub(crate) fn refinement_cost(
 /// closed-loop multirate IV route: the lifted IV uses only the part of the
 /// signals the set-points explain, and on the 2×2 loop of issue 46 (6e4
 /// samples, `tests.rs::multirate_closed_loop`) its fast models were
-/// 0.15–0.30 from the plant in frequency response on six records, 0.014–0.042
+/// 0.20–0.30 from the plant in frequency response on six records, 0.014–0.042
 /// after the refinement (about 2 s).
 pub(crate) const START_NOT_EFFICIENT: &str = "start_not_efficient";
 
