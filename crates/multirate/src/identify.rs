@@ -465,6 +465,15 @@ pub struct LiftedIvModel {
     pub extraction: ExtractionDiagnostics,
     /// Singular values of R₂₂ (IV step).
     pub singular_values: Vec<f64>,
+    /// True when the lifted Ā was re-estimated by the zero-padded shift
+    /// ([`LiftedIvOptions::enforce_stability`]) because the unconstrained
+    /// estimate was unstable.
+    pub stabilized: bool,
+    /// Why (B̄, D̄) and Ā came from the one-step predictor regression
+    /// instead of the IV regression (an Ā too unstable for an output-error
+    /// regression over the record: `lifted_subspace::IvDiagnostics::bd_fallback`);
+    /// `None` otherwise.
+    pub bd_fallback: Option<String>,
 }
 
 /// The two-step closed-loop multirate route (spec A3.9, L-18): lift the
@@ -473,6 +482,26 @@ pub struct LiftedIvModel {
 /// set-point dither of u₂'s loop) with `data`'s pattern, identify the lifted
 /// model by IV (`lifted_subspace::iv_identify`) with the causal mask, then
 /// extract the fast model.
+///
+/// Accuracy. With lifted instruments Z (α_p past frames of f̲) the IV
+/// subspace is that of R₂₂ = Γ̄ X̄ Zᵀ Q₂/J (eq. 7.22): only the part of
+/// the lifted state that the instrument explains, and across frames the
+/// lifted state carries it only through Ā = A^J. A long lifting period
+/// makes Ā small (J = 15 and fast poles 0.85–0.92: ρ(Ā) = 0.29), so some
+/// directions of Γ̄ X̄ Zᵀ lie near the finite-sample noise floor of R₂₂:
+/// on the 2×2 closed loop of issue 46 (outputs every 3 and 5 samples,
+/// slow set-points as f, coloured noise of 9 % of the outputs, 6e4
+/// samples) σ₃, σ₄ of R₂₂ were 1.5–2× σ₅ and the fast models 0.20–0.30
+/// from the plant in frequency response (six records), against 0.07–0.22
+/// on five of six records of a SISO loop lifted by 4 (ρ(Ā) = 0.66; 0.79
+/// on the sixth). Such an estimate is a start for a
+/// prediction-error refinement on the fast grid (the workflow's route),
+/// not an end. An Ā estimated unstable is [`Error::Unstable`] with
+/// `require_stable`; without it the model is returned, re-estimated by
+/// the zero-padded shift with `enforce_stability`
+/// ([`LiftedIvModel::stabilized`]), or with (B̄, D̄) and Ā from the
+/// one-step predictor regression when the IV regression over the record
+/// cannot be computed ([`LiftedIvModel::bd_fallback`]).
 pub fn identify_lifted_iv(
     data: &Dataset,
     instrument: &DMatrix<f64>,
@@ -526,6 +555,8 @@ pub fn identify_lifted_iv(
         fast: fm.model,
         extraction: fm.diagnostics,
         singular_values: fit.diagnostics.singular_values,
+        stabilized: fit.diagnostics.stabilized,
+        bd_fallback: fit.diagnostics.bd_fallback,
     })
 }
 

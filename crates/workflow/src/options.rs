@@ -342,6 +342,11 @@ pub enum Refine {
     /// typical count) is at most [`AUTO_REFINE_WORK`] ([`AUTO_REFINE_WORK_JOINT`]
     /// for the joint iterations of multirate records) or the records are
     /// shorter than [`AUTO_REFINE_SAMPLES`] and the estimate is stable;
+    /// on the closed-loop multirate IV route (an instrument given), whose
+    /// lifted estimate is far from the prediction-error optimum however
+    /// long the record, up to the refinement's work bound
+    /// ([`RefinementOptions::max_work`]) and from the zero-padded shift's
+    /// stable re-estimate when the lifted estimate is unstable (issue 46);
     /// `diagnostics.refinement_decision` says what was decided and why.
     #[default]
     Auto,

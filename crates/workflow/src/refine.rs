@@ -126,18 +126,34 @@ pub(crate) fn refinement_cost(
     }
 }
 
+/// `diagnostics` key of a route whose estimate is far from the
+/// prediction-error optimum however long the record (its value says why):
+/// [`Refine::Auto`] then refines up to the refinement's own work bound
+/// (`refine_max_work`) instead of the default's one second
+/// ([`AUTO_REFINE_WORK`], [`AUTO_REFINE_WORK_JOINT`]), which assumes a
+/// start that is close to efficient on long records. Set by the
+/// closed-loop multirate IV route: the lifted IV uses only the part of the
+/// signals the set-points explain, and on the 2×2 loop of issue 46 (6e4
+/// samples, `tests.rs::multirate_closed_loop`) its fast models were
+/// 0.20–0.30 from the plant in frequency response on six records, 0.014–0.042
+/// after the refinement (about 2 s).
+pub(crate) const START_NOT_EFFICIENT: &str = "start_not_efficient";
+
 /// Whether [`Refine::Auto`] refines `model` on records of `samples`
 /// samples whose predicted refinement work is `work` (`None`: not
 /// predicted) under the work bound `max_work` of the refinement options,
 /// and why (for `diagnostics.refinement_decision`). One iteration over
 /// the bound is never started (`refine_pem` would refuse it: the default
-/// must not turn a model it could give into an error).
+/// must not turn a model it could give into an error). `not_efficient`:
+/// the route's [`START_NOT_EFFICIENT`] reason, when it gave one (refined up
+/// to `max_work`).
 pub(crate) fn auto_decision(
     model: &StateSpace,
     samples: usize,
     work: Option<PemWorkEstimate>,
     max_work: f64,
     marginal: f64,
+    not_efficient: Option<&str>,
 ) -> (bool, String) {
     let rho = spectral_radius(model).unwrap_or(f64::INFINITY);
     // A marginal estimate (integrators within the tolerance `marginal`)
@@ -173,6 +189,14 @@ pub(crate) fn auto_decision(
         PemMethod::Joint => (AUTO_REFINE_WORK_JOINT, " (joint iterations: multirate)"),
         PemMethod::VariableProjection => (AUTO_REFINE_WORK, ""),
     };
+    if let Some(why) = not_efficient {
+        return (
+            true,
+            format!(
+                "refined by the prediction error: predicted work {work:.2e} operations{what}, refined by default up to the refinement's work bound {max_work:.0e} (--refine-max-work) because the start is far from the prediction-error optimum ({why})"
+            ),
+        );
+    }
     if work <= limit || samples < AUTO_REFINE_SAMPLES {
         (
             true,
@@ -230,7 +254,18 @@ pub(crate) fn auto_allows(
         return true;
     }
     let pem = pem_options(opts, model, PemCost::Prediction, false);
-    let (go, why) = auto_decision(model, samples, work(&pem), pem.max_work, marginal);
+    let not_efficient = diagnostics
+        .get(START_NOT_EFFICIENT)
+        .and_then(|v| v.as_str())
+        .map(str::to_owned);
+    let (go, why) = auto_decision(
+        model,
+        samples,
+        work(&pem),
+        pem.max_work,
+        marginal,
+        not_efficient.as_deref(),
+    );
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("refinement_decision".into(), json!(why));
     }

@@ -2072,6 +2072,14 @@ pub(crate) fn iv(
     if multirate {
         gap_only(id)?;
         let data = single(sets, "multirate IV identification")?;
+        // Closed loop (an instrument given): the default refinement runs
+        // whatever the record's length (refine::START_NOT_EFFICIENT), so an
+        // unstable lifted estimate is re-estimated by the zero-padded shift
+        // and the refinement, whose iterates stay stable, starts from it
+        // (as with --stable); without a refinement an unstable estimate is
+        // kept with the validation's warning, as on the single-rate route.
+        let closed_loop = instruments.first().copied().flatten().is_some();
+        let stable = stable || (closed_loop && opts.refinement.refine == Refine::Auto);
         let f = instruments
             .first()
             .copied()
@@ -2089,7 +2097,12 @@ pub(crate) fn iv(
                 best_of_methods: true,
                 ..Default::default()
             },
-            ..Default::default()
+            // An unstable estimate is a model with a warning (as on the
+            // single-rate IV route), never a refusal: `--stable`,
+            // `--refine pem` and the closed loop's default refinement
+            // re-estimate it by the zero-padded shift and refine it with
+            // stable iterates (`refine::stabilized_start`).
+            require_stable: false,
         };
         // The default automatic order: by the held-out fit of the last
         // third (as the multirate subspace route), else the gap.
@@ -2136,10 +2149,30 @@ pub(crate) fn iv(
             })
         });
         let from_ranking = chosen.is_some();
+        let mut stabilized_note = None;
         let fit = match chosen {
             Some(fit) => fit,
-            None => identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts)
-                .ctx("multirate IV identification")?,
+            None => match identify_lifted_iv(data, &f, Ordering::ChannelMajor, &lopts) {
+                Ok(fit) => fit,
+                // A lifted A so unstable that not even the one-step
+                // predictor regression gives (B̄, D̄): the zero-padded
+                // shift's stable A instead, said in a warning (the
+                // refinement then starts from it, as with `--stable`).
+                Err(lifted_multirate::Error::Subspace(
+                    e @ lifted_subspace::Error::UnstableEstimate { .. },
+                )) if !lopts.enforce_stability => {
+                    let o = LiftedIvOptions {
+                        enforce_stability: true,
+                        ..lopts.clone()
+                    };
+                    stabilized_note = Some(e.to_string());
+                    identify_lifted_iv(data, &f, Ordering::ChannelMajor, &o)
+                        .ctx("multirate IV identification")?
+                }
+                Err(e) => {
+                    return Err::<RouteFit, _>(e).ctx("multirate IV identification");
+                }
+            },
         };
         let structure = held_out.as_ref().map(|sel| {
             let mut d = sel.diagnostics(fit.fast.order());
@@ -2160,13 +2193,58 @@ pub(crate) fn iv(
         let d = json!({
             "route": "multirate IV: lifted IV identification with causal mask, fast-model extraction",
             "extraction": extraction_json(&fit.extraction),
-            "fallbacks": fit.extraction.fallback.iter().collect::<Vec<_>>(),
+            "fallbacks": fit.extraction.fallback.iter().chain(&fit.bd_fallback).collect::<Vec<_>>(),
             "instrument": names,
             "lifting_period": lifting_period,
             "feedthrough": feedthrough_json(id),
             "order_selection": order_json("singular values of R22 (lifted IV)", &fit.singular_values, n, suggested),
+            "stabilized": fit.stabilized,
         });
         let mut d = d;
+        if let Some(why) = &stabilized_note {
+            crate::diagnostics::push_warning(
+                &mut d,
+                format!(
+                    "the lifted IV estimate was too unstable for the (B, D) regression ({why}): A re-estimated by the zero-padded shift (Maciejowski), B and D fitted to it, not refined"
+                ),
+            );
+        }
+        // An unstable lifted estimate kept (no refinement to start from
+        // its zero-padded shift): the predictor regression may have moved
+        // its A inside the unit circle, or the extraction may give a
+        // stable fast model, which the validation's warning would not flag.
+        let rho = crate::validate::spectral_radius(&fit.lifted).unwrap_or(f64::INFINITY);
+        let kept_unstable = match (&fit.bd_fallback, rho >= 1.0) {
+            (Some(why), _) => Some(why.clone()),
+            (None, true) => Some(format!(
+                "spectral radius {rho:.4} over the lifting period {lifting_period}"
+            )),
+            (None, false) => None,
+        };
+        if let Some(why) = kept_unstable {
+            crate::diagnostics::push_warning(
+                &mut d,
+                format!(
+                    "the lifted IV estimate is unstable: {why}; the fast model extracted from it is not reliable; --stable or a refinement (--refine pem; the default with an instrument) re-estimates it by the zero-padded shift and refines it with stable iterates"
+                ),
+            );
+        }
+        if fit.stabilized && !id.stable && stabilized_note.is_none() {
+            crate::diagnostics::push_warning(
+                &mut d,
+                "the lifted IV estimate was unstable: A re-estimated by the zero-padded shift (Maciejowski), the start of the prediction-error refinement with stable iterates (--refine none keeps the unstable estimate)".to_string(),
+            );
+        }
+        if closed_loop {
+            // The IV estimate uses only the part of the signals the
+            // instrument explains (refine::START_NOT_EFFICIENT).
+            if let Some(obj) = d.as_object_mut() {
+                obj.insert(
+                    crate::refine::START_NOT_EFFICIENT.into(),
+                    json!("closed-loop multirate IV: the lifted estimate uses only the part of the signals the instrument explains"),
+                );
+            }
+        }
         if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
             obj.insert("structure_selection".into(), st);
         }

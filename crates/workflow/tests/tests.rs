@@ -3,7 +3,9 @@
 //! in-memory route's model; the refinement starts from exactly the plain
 //! identification's model; options round-trip through JSON; bad options
 //! are named; the per-method options (PBSID's future horizon and
-//! feedthrough, IV's past instrument rows) reach their routes.
+//! feedthrough, IV's past instrument rows) reach their routes; multirate
+//! closed loops come back from the lifted IV route with their set-points
+//! (module `multirate_closed_loop`, issue 46).
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_workflow::{
@@ -14,6 +16,8 @@ use lifted_workflow::{
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+mod multirate_closed_loop;
 
 /// 2 inputs, 2 outputs, order 3: poles 0.9 and 0.7 ± 0.3j.
 fn plant() -> StateSpace {
