@@ -563,6 +563,78 @@ fn session_sends_only_the_figures_that_changed() {
     s.close();
 }
 
+/// A PI loop around y(t+1) = 1.6 y(t) − 0.73 y(t−1) + 0.5 u(t) + 0.3 u(t−1)
+/// (second order), the controller acting on the noisy output, the
+/// set-point a random ±1 level: a CSV `t,u1,y1,r1`.
+fn closed_loop_csv(n: usize) -> String {
+    let mut s = String::from("t,u1,y1,r1\n");
+    let (mut x1, mut x2, mut xc, mut level) = (0.0, 0.0, 0.0, 1.0f64);
+    let mut state = 12_345u64;
+    let mut uniform = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for t in 0..n {
+        if uniform() < 0.1 {
+            level = -level;
+        }
+        let y = 0.5 * x1 + 0.3 * x2 + 0.3 * 12f64.sqrt() * (uniform() - 0.5);
+        let e = level - y;
+        let u = 0.05 * xc + 0.1 * e;
+        xc += e;
+        s += &format!("{t},{u},{y},{level}\n");
+        (x1, x2) = (1.6 * x1 - 0.73 * x2 + u, x1);
+    }
+    s
+}
+
+/// Issue 46: the studio and the report say "closed loop detected" on a
+/// record taken under feedback, with the warning that names the
+/// consistent methods; an open-loop record gets the test's "no input
+/// depends …" and no such warning.
+#[test]
+fn session_says_when_the_loop_is_closed() {
+    let dir = tmp("feedback");
+    let mut s = Session::new(&dir).unwrap();
+    s.upload("loop.csv", closed_loop_csv(20_000).as_bytes())
+        .unwrap();
+    let mut r = request("2");
+    r.refine = Some("none".into());
+    let id = s.identify(&r).unwrap();
+    let verdict = id.feedback.clone().unwrap_or_default();
+    assert!(
+        verdict.starts_with("closed loop detected: input u1 depends"),
+        "{verdict}"
+    );
+    assert!(
+        id.warnings
+            .iter()
+            .any(|w| w.contains("closed loop detected") && w.contains("pbsid")),
+        "{:?}",
+        id.warnings
+    );
+    let report = s.report(None).unwrap();
+    let doc = scraper::Html::parse_document(&report);
+    let items: Vec<String> = doc
+        .select(&scraper::Selector::parse("ul.diagnostics li").unwrap())
+        .map(|li| li.text().collect())
+        .collect();
+    assert!(
+        items
+            .iter()
+            .any(|i| i.starts_with("Feedback: closed loop detected")),
+        "{items:?}"
+    );
+    s.upload("rec.csv", record(20_000, 1).as_bytes()).unwrap();
+    let id = s.identify(&request("2")).unwrap();
+    let verdict = id.feedback.clone().unwrap_or_default();
+    assert!(verdict.starts_with("no input depends"), "{verdict}");
+    assert!(!id.warnings.iter().any(|w| w.contains("closed loop")));
+    s.close();
+}
+
 #[test]
 fn session_reports_bad_input_with_the_command_messages() {
     let dir = tmp("errors");

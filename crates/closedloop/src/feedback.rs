@@ -194,7 +194,10 @@ pub fn feedback_test(
         } else if full <= 0.0 {
             (f64::INFINITY, 1.0)
         } else {
-            (rows as f64 * (restricted / full).ln(), 1.0 - full / restricted)
+            (
+                rows as f64 * (restricted / full).ln(),
+                1.0 - full / restricted,
+            )
         };
         let p_value = chi2_survival(statistic, dof);
         inputs.push(InputEvidence {
@@ -313,7 +316,12 @@ mod tests {
     /// χ²₂ is exp(−x/2) exactly.
     #[test]
     fn chi2_tails_match_the_tables() {
-        for (x, k) in [(6.634_897, 1), (23.209_251, 10), (37.566_235, 20), (63.690_740, 40)] {
+        for (x, k) in [
+            (6.634_897, 1),
+            (23.209_251, 10),
+            (37.566_235, 20),
+            (63.690_740, 40),
+        ] {
             assert_relative_eq!(chi2_survival(x, k), 0.01, max_relative = 1e-5);
         }
         for x in [0.1, 1.0, 5.0, 30.0] {

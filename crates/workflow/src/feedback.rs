@@ -43,7 +43,10 @@ pub(crate) fn report(
     let test = match outcome {
         Ok(t) => t,
         Err(why) => {
-            obj.insert("feedback".into(), json!({ "note": format!("not tested: {why}") }));
+            obj.insert(
+                "feedback".into(),
+                json!({ "note": format!("not tested: {why}") }),
+            );
             return;
         }
     };

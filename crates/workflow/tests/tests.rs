@@ -2863,7 +2863,11 @@ fn feedback_is_detected_in_closed_loop_only() {
         }];
         let fit = identify(&rec, &o).expect("identify");
         let d = &fit.file.diagnostics;
-        assert_eq!(d["feedback"]["detected"], false, "seed {seed}: {}", d["feedback"]);
+        assert_eq!(
+            d["feedback"]["detected"], false,
+            "seed {seed}: {}",
+            d["feedback"]
+        );
         assert!(
             d["feedback"]["verdict"]
                 .as_str()

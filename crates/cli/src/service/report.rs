@@ -45,6 +45,8 @@ pub fn render(
         ts
     );
 
+    body += &diagnostics_section(&file.diagnostics);
+
     body += "<h2>Excitation</h2>\n";
     let exc = excitation_plot(data, &un);
     body += &figure(
@@ -168,4 +170,39 @@ fn start_of(v: &Validation) -> &'static str {
     } else {
         "from rest"
     }
+}
+
+/// The identification's verdicts a reader must see before the figures:
+/// the feedback test's (`diagnostics.feedback`) and the warnings, each
+/// escaped as element text. Empty when the model file has neither.
+fn diagnostics_section(d: &serde_json::Value) -> String {
+    let mut items = Vec::new();
+    if let Some(f) = d.get("feedback") {
+        let verdict = f.get("verdict").and_then(|v| v.as_str());
+        let note = f.get("note").and_then(|v| v.as_str());
+        let line = match (f.get("detected").and_then(|v| v.as_bool()), verdict, note) {
+            (Some(true), Some(v), _) => format!("Feedback: closed loop detected: {v}."),
+            (Some(false), Some(v), _) => format!("Feedback: {v}."),
+            (_, _, Some(n)) => format!("Feedback: {n}."),
+            _ => String::new(),
+        };
+        if !line.is_empty() {
+            items.push(line);
+        }
+    }
+    if let Some(w) = d.get("warnings").and_then(|w| w.as_array()) {
+        items.extend(
+            w.iter()
+                .filter_map(|s| s.as_str())
+                .map(|s| format!("Warning: {s}")),
+        );
+    }
+    if items.is_empty() {
+        return String::new();
+    }
+    let list: String = items
+        .iter()
+        .map(|i| format!("<li>{}</li>\n", esc(i)))
+        .collect();
+    format!("<h2>Diagnostics</h2>\n<ul class=\"diagnostics\">\n{list}</ul>\n")
 }

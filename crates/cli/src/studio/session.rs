@@ -439,6 +439,12 @@ pub struct Identified {
     pub fits: Vec<Fit>,
     /// Poles as (re, im).
     pub poles: Vec<(f64, f64)>,
+    /// The feedback test's verdict (`diagnostics.feedback`), in words,
+    /// when it ran: "closed loop detected: …" or "no input depends on past
+    /// output innovations …".
+    pub feedback: Option<String>,
+    /// The identification's warnings (`diagnostics.warnings`).
+    pub warnings: Vec<String>,
     /// The figures (the slots in `unchanged` left empty).
     pub figures: Figures,
     /// Every figure slot's digest (the page sends them back as
@@ -1545,6 +1551,26 @@ impl Session {
             order_selection,
             fits,
             poles,
+            feedback: file.diagnostics.get("feedback").and_then(|f| {
+                let verdict = f.get("verdict").and_then(|v| v.as_str())?;
+                Some(
+                    if f.get("detected") == Some(&serde_json::Value::Bool(true)) {
+                        format!("closed loop detected: {verdict}")
+                    } else {
+                        verdict.to_string()
+                    },
+                )
+            }),
+            warnings: file
+                .diagnostics
+                .get("warnings")
+                .and_then(|w| w.as_array())
+                .map(|w| {
+                    w.iter()
+                        .filter_map(|s| s.as_str().map(String::from))
+                        .collect()
+                })
+                .unwrap_or_default(),
             figures,
             figure_digests,
             unchanged,

@@ -276,6 +276,8 @@ function clearIdentified() {
   state.digests = {};
   $("refinement").textContent = "";
   $("gain").textContent = "";
+  $("feedback").textContent = "";
+  $("warnings").replaceChildren();
   for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
     $(id).replaceChildren();
   }
@@ -476,6 +478,8 @@ function renderIdentified(r) {
         (known(gain.zero_cost) ? "; with none (the simulation) " + fixed(gain.zero_cost, 5) : "") + "."
       : "")
     : "";
+  $("feedback").textContent = r.feedback ? "Feedback: " + r.feedback + "." : "";
+  $("warnings").replaceChildren(...(r.warnings || []).map((w) => el("li", w)));
   const stab = $("stability");
   if (r.stable === false) {
     stab.textContent = "Unstable model: spectral radius ρ(A) = " + fixed(r.spectral_radius, 4, "∞") +
