@@ -25,6 +25,7 @@
 //! | [`run_experiment`], [`ClosedLoopData`] | closed-loop inverse-PRBS experiments, one per excited r₁/r₂ channel (spec A2.3) |
 //! | [`identify_closed_loop`], [`estimate_plant`] | identify Ĥ with any [`lifted_lti::Identifier`] (q-Markov Cover, subspace), recover the plant in approach (a) or (b), keep the diagnostics |
 //! | [`metrics`] | DC-gain error, relative frequency-response error, error below the PRBS limit 1/(2 m n_r T), pole/zero comparison |
+//! | [`feedback`] | feedback detection: each input's Granger test on a model's past output innovations (χ² at 1 %), single- and multirate; the workflow runs it on every identification |
 //!
 //! # Findings reproduced (spec A2.5–A2.7)
 //!

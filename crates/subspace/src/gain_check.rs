@@ -420,24 +420,7 @@ fn minimise(
     }
     // Per-output weights 1/‖y_o − ȳ_o‖ over all records (the cost of
     // prediction_cost without its division by n_y).
-    let mut spread = vec![0.0; ny];
-    for d in sets {
-        // (The means over the measured samples where some are missing;
-        // full-rate records as before, bit for bit.)
-        let means: Vec<f64> = if d.y.iter().any(|v| v.is_nan()) {
-            measured_means(d.y)
-        } else {
-            d.y.column_iter().map(|c| c.mean()).collect()
-        };
-        for (o, s) in spread.iter_mut().enumerate() {
-            *s +=
-                d.y.column(o)
-                    .iter()
-                    .filter(|v| !v.is_nan())
-                    .map(|v| (v - means[o]).powi(2))
-                    .sum::<f64>();
-        }
-    }
+    let spread = output_spread(sets, ny);
     let w: Vec<f64> = spread
         .iter()
         .map(|s| if *s > 0.0 { 1.0 / s.sqrt() } else { 0.0 })
@@ -747,19 +730,10 @@ fn prediction_cost(
     }
     let predictor = OneStep::new(model, k, &m);
     let mut err = vec![0.0; ny];
-    let mut spread = vec![0.0; ny];
     for (d, x0) in sets.iter().zip(x0s) {
         predictor.add_squared_errors(d.u, d.y, x0, &mut err);
-        let means = measured_means(d.y);
-        for (o, s) in spread.iter_mut().enumerate() {
-            *s +=
-                d.y.column(o)
-                    .iter()
-                    .filter(|v| !v.is_nan())
-                    .map(|v| (v - means[o]).powi(2))
-                    .sum::<f64>();
-        }
     }
+    let spread = output_spread(sets, ny);
     let cost = err
         .iter()
         .zip(&spread)
@@ -771,6 +745,30 @@ fn prediction_cost(
     } else {
         Err("the prediction error is not finite".into())
     }
+}
+
+/// Per output, the squared deviations of its measured samples from their
+/// record's mean, summed over the records (the normalisation of the
+/// one-step cost). O(N n_y).
+fn output_spread(sets: &[Experiment<'_>], ny: usize) -> Vec<f64> {
+    let mut spread = vec![0.0; ny];
+    for d in sets {
+        // (The means over the measured samples where some are missing.)
+        let means: Vec<f64> = if d.y.iter().any(|v| v.is_nan()) {
+            measured_means(d.y)
+        } else {
+            d.y.column_iter().map(|c| c.mean()).collect()
+        };
+        for (o, s) in spread.iter_mut().enumerate() {
+            *s +=
+                d.y.column(o)
+                    .iter()
+                    .filter(|v| !v.is_nan())
+                    .map(|v| (v - means[o]).powi(2))
+                    .sum::<f64>();
+        }
+    }
+    spread
 }
 
 /// The mean of each output over its measured (non-NaN) samples.
