@@ -80,7 +80,7 @@ pub use experiment::{
     Approach, ClosedLoopData, ExperimentOptions, PlantEstimate, PlantOptions, estimate_plant,
     identify_closed_loop, recover_plant, run_experiment,
 };
-pub use feedback::{FeedbackOptions, FeedbackTest, InputEvidence, feedback_test};
+pub use feedback::{FeedbackOptions, FeedbackTest, InputEvidence, arx_innovations, feedback_test};
 pub use metrics::{Accuracy, FrequencyModel, accuracy, prbs_low_frequency, relative_error_at};
 pub use recover::{RecoveryOptions, Setup};
 

@@ -1,10 +1,14 @@
 //! Feedback detection on the identification's records (issue 46): whether
 //! the inputs depend on the model's past output innovations
 //! ([`lifted_closedloop::feedback_test`]: a Granger test of each input on
-//! the innovations' past given its own, χ² at 1 %). The innovations are
-//! the identified model's one-step prediction errors on its longest record
-//! (with its Kalman gain, K = 0 without one; outputs not measured skipped),
-//! so the test runs for every route, single- and multirate. The verdict
+//! the innovations' past given its own, χ² at 1 %). On a single-rate
+//! record the innovations are the one-step errors of a VARX of order 10
+//! fitted to it (`lifted_closedloop::arx_innovations`, as MATLAB's
+//! `feedback` uses an ARX): a model's own errors carry what it misses of
+//! the input's effect, which a coloured or periodic input turns into a
+//! false alarm. On a multirate record (no VARX on the base grid) they are
+//! the identified model's one-step prediction errors (with its Kalman
+//! gain, K = 0 without one; outputs not measured skipped). The verdict
 //! and the evidence go to `diagnostics.feedback`; an open-loop method
 //! (N4SID, MOESP, CVA) on records where feedback is detected gets a
 //! warning naming the methods that are consistent there. The default
@@ -32,10 +36,30 @@ pub(crate) fn report(
     let Some(set) = sets.iter().max_by_key(|d| d.len()) else {
         return;
     };
-    let outcome = innovations(model, gain, set).and_then(|e| {
+    let fb = &opts.identification.feedback;
+    // Single-rate records: a VARX's errors (model-free); else, or when the
+    // record is too short for the VARX, the model's own.
+    let varx = set
+        .is_single_rate()
+        .then(|| {
+            lifted_closedloop::arx_innovations(set.u(), set.y(), fb.arx_order, fb.max_samples).ok()
+        })
+        .flatten();
+    let source = if varx.is_some() {
+        format!(
+            "the one-step errors of a VARX of order {} fitted to the longest record",
+            fb.arx_order
+        )
+    } else {
+        "the identified model's one-step prediction errors on its longest record".to_string()
+    };
+    let outcome = match varx {
+        Some(e) => Ok(e),
+        None => innovations(model, gain, set),
+    }
+    .and_then(|e| {
         let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
-        lifted_closedloop::feedback_test(set.u(), &e, longest, &opts.identification.feedback)
-            .map_err(|e| e.to_string())
+        lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string())
     });
     let Some(obj) = diagnostics.as_object_mut() else {
         return;
@@ -59,7 +83,7 @@ pub(crate) fn report(
             "lags": test.lags,
             "rows": test.rows,
             "significance": test.significance,
-            "innovations": "the identified model's one-step prediction errors on its longest record",
+            "innovations": source,
             "rule": test.rule,
         }),
     );
