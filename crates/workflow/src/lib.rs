@@ -82,7 +82,12 @@
 //!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate.
 //! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
 //!    always written to the diagnostics (`stability`), an unstable model
-//!    carrying a warning that names it; optionally an error instead.
+//!    carrying a warning that names it; optionally an error instead. The
+//!    records are tested for feedback (`diagnostics.feedback`: each
+//!    input's Granger test on past innovations — a VARX's errors on
+//!    single-rate records, the model's on multirate ones — χ² at 1 %,
+//!    [`IdentificationOptions::feedback`]); an N4SID/MOESP/CVA model on a
+//!    closed loop carries a warning naming the consistent methods.
 //!
 //! The result, [`Identified`], holds the model file the CLI writes
 //! (`lifted_lti::ModelFile`: model, operating point, Kalman gain, the
