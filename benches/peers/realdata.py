@@ -371,6 +371,9 @@ def main():
                     help="run lifted with --detrend none on the centred file (the protocol before 2026-11-27)")
     ap.add_argument("--from-json", help="print the table of a saved --json run instead of running")
     ap.add_argument("--no-sippy", action="store_true")
+    ap.add_argument("--methods", default="n4sid,moesp,cva",
+                    help="lifted methods run at each order (default n4sid,moesp,cva; e.g. n4sid,pbsid,ssarx "
+                         "to compare the closed-loop methods)")
     ap.add_argument("--lifted-args", default="",
                     help="extra arguments for every lifted run but the horizon variant, e.g. "
                          "'--feedthrough false' (a variant of the CLI's defaults)")
@@ -380,6 +383,7 @@ def main():
     ap.add_argument("--horizon", type=int, default=20, help=argparse.SUPPRESS)
     ap.add_argument("--cap", type=int, default=120, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    LIFTED_METHODS[:] = [m for m in args.methods.split(",") if m]
     global DETREND_NONE
     DETREND_NONE = args.lifted_detrend_none
 
