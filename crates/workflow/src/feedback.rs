@@ -36,6 +36,7 @@ pub(crate) fn report(
     let Some(set) = sets.iter().max_by_key(|d| d.len()) else {
         return;
     };
+    let started = std::time::Instant::now();
     let fb = &opts.identification.feedback;
     // Single-rate records: a VARX's errors (model-free); else, or when the
     // record is too short for the VARX, the model's own.
@@ -61,6 +62,7 @@ pub(crate) fn report(
         let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
         lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string())
     });
+    crate::diagnostics::add_phase(diagnostics, "feedback_s", started.elapsed().as_secs_f64());
     let Some(obj) = diagnostics.as_object_mut() else {
         return;
     };
