@@ -40,44 +40,27 @@ fn bench_gain_check(c: &mut Criterion) {
     let records = [Experiment { u: &ud, y: &yd }];
     let fit = identify(&records, &opts).expect("identification of the peer record");
     let riccati = fit.kalman_gain.as_ref();
+    let check = |memo: &mut VarxMemo| {
+        check_kalman_gain_memo(
+            &fit.model,
+            riccati,
+            &records,
+            opts.past,
+            &GainCheckOptions::default(),
+            memo,
+        )
+    };
     let mut memo = VarxMemo::default();
-    let (_, report) = check_kalman_gain_memo(
-        &fit.model,
-        riccati,
-        &records,
-        opts.past,
-        &GainCheckOptions::default(),
-        &mut memo,
-    );
+    let (_, report) = check(&mut memo);
     println!(
         "gain check at 1e5 samples, 2×2, order 4: {} ({} iterations)",
         report.used, report.iterations
     );
     let mut group = c.benchmark_group("gain_check_1e5_2x2_order4");
     group.sample_size(10);
-    group.bench_function("varx_kept", |b| {
-        b.iter(|| {
-            check_kalman_gain_memo(
-                &fit.model,
-                riccati,
-                &records,
-                opts.past,
-                &GainCheckOptions::default(),
-                &mut memo,
-            )
-        })
-    });
+    group.bench_function("varx_kept", |b| b.iter(|| check(&mut memo)));
     group.bench_function("varx_computed", |b| {
-        b.iter(|| {
-            check_kalman_gain_memo(
-                &fit.model,
-                riccati,
-                &records,
-                opts.past,
-                &GainCheckOptions::default(),
-                &mut VarxMemo::default(),
-            )
-        })
+        b.iter(|| check(&mut VarxMemo::default()))
     });
     group.finish();
 }

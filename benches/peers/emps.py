@@ -57,26 +57,8 @@ def load(path):
 
 def score(model, u, y):
     """realdata.score without its refusal of rho >= 1 (a marginal model is simulated)."""
-    a, b, c, d = (np.atleast_2d(np.asarray(m, dtype=float)) for m in model)
-    rho = realdata.spectral_radius(a)
-    if not all(np.all(np.isfinite(m)) for m in (a, b, c, d)):
-        return None, rho
-    n, p, N = a.shape[0], y.shape[1], u.shape[0]
-    x = np.zeros(n)
-    forced = np.empty((N, p))
-    phi = np.empty((N, p, n))
-    ca = c.copy()
-    for t in range(N):
-        forced[t] = c @ x + d @ u[t]
-        x = a @ x + b @ u[t]
-        phi[t] = ca
-        ca = ca @ a
-    resid = (y - forced).reshape(-1)
-    x0, *_ = np.linalg.lstsq(phi.reshape(N * p, n), resid, rcond=None)
-    yhat = forced + phi @ x0
-    fits = [100.0 * (1.0 - np.linalg.norm(y[:, k] - yhat[:, k]) / np.linalg.norm(y[:, k] - y[:, k].mean()))
-            for k in range(p)]
-    return float(np.mean(fits)), rho
+    fit, _, _, rho = realdata.score(model, u, y, marginal=True)
+    return fit, rho
 
 
 def main():

@@ -88,9 +88,11 @@ def spectral_radius(a):
     return float(np.max(np.abs(np.linalg.eigvals(a))))
 
 
-def score(model, u, y):
+def score(model, u, y, marginal=False):
     """Validation simulation fit (mean over outputs) with x0 by least squares.
 
+    A model with rho >= 1 is refused ("unstable") unless `marginal` (an
+    integrating plant's model is simulated, as benches/peers/emps.py does).
     Returns (fit or None, per-output fits or None, status, spectral radius)."""
     a, b, c, d = (np.atleast_2d(np.asarray(m, dtype=float)) for m in model)
     n = a.shape[0]
@@ -98,7 +100,7 @@ def score(model, u, y):
     if not all(np.all(np.isfinite(m)) for m in (a, b, c, d)):
         return None, None, "non-finite", None
     rho = spectral_radius(a)
-    if rho >= 1.0:
+    if rho >= 1.0 and not marginal:
         return None, None, "unstable", rho
     N = u.shape[0]
     # forced response from x = 0 and the free-response regressor C A^t

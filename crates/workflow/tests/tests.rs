@@ -412,7 +412,6 @@ fn multirate_record(
     hold: usize,
     seed: u64,
 ) -> Dataset {
-    use lifted_lti::{InputChannel, OutputChannel};
     let (n_u, n_y) = (truth.n_inputs(), truth.n_outputs());
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut u = DMatrix::from_fn(
@@ -445,6 +444,14 @@ fn multirate_record(
             };
         }
     }
+    multirate_dataset(u, y, hold, periods)
+}
+
+/// A dataset of inputs u1… held `hold` base periods and outputs y1…
+/// measured every `periods[j]` (NaN between), base period 1 s.
+fn multirate_dataset(u: DMatrix<f64>, y: DMatrix<f64>, hold: usize, periods: &[usize]) -> Dataset {
+    use lifted_lti::{InputChannel, OutputChannel};
+    let n_u = u.ncols();
     Dataset::new(
         1.0,
         u,

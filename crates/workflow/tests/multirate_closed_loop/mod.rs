@@ -17,13 +17,13 @@
 //! samples: 0.955 per sample) and 0.78 for the SISO loop (4 samples: 0.94
 //! per sample), computed when the fixture was built.
 
-use lifted_lti::{Dataset, InputChannel, OutputChannel, StateSpace};
+use lifted_lti::{Dataset, StateSpace};
 use lifted_workflow::{Method, Order, Record, Refine, WorkflowOptions, identify};
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::fr_error;
+use super::{fr_error, multirate_dataset};
 
 /// The 2×2 plant: poles 0.92, 0.85 and 0.9 ± 0.1j, D = 0. B and C
 /// make each input drive one real mode and the complex pair, each output
@@ -96,20 +96,7 @@ fn loop_record(
         }
         x = plant.a() * &x + plant.b() * u.row(t).transpose();
     }
-    let data = Dataset::new(
-        1.0,
-        u,
-        y,
-        (1..=nu)
-            .map(|i| InputChannel::new(format!("u{i}"), 1))
-            .collect(),
-        periods
-            .iter()
-            .enumerate()
-            .map(|(j, &p)| OutputChannel::new(format!("y{}", j + 1), p, 0))
-            .collect(),
-    )
-    .expect("dataset");
+    let data = multirate_dataset(u, y, 1, periods);
     (data, r)
 }
 
