@@ -146,7 +146,18 @@ pub fn feedback_test(
             reason: "non-finite input or infinite innovation".into(),
         });
     }
-    let lags = opts.lags.unwrap_or(5.max(2 * longest_period.max(1))).max(1);
+    let lags = opts
+        .lags
+        .unwrap_or(5.max(longest_period.max(1).saturating_mul(2)))
+        .max(1);
+    if lags >= n {
+        // (Checked before any size is computed from it.)
+        return Err(Error::TooShort {
+            what: "feedback test",
+            need: lags.saturating_add(1),
+            got: n,
+        });
+    }
     let (kr, ku) = (1 + m * lags, 1 + (m + p) * lags);
     let width = ku + m;
     let first = lags.max(n.saturating_sub(opts.max_samples));
@@ -253,6 +264,13 @@ pub fn arx_innovations(
             what: "outputs",
             expected: format!("{n} rows (as the inputs)"),
             got: format!("{} rows", y.nrows()),
+        });
+    }
+    if order >= n {
+        return Err(Error::TooShort {
+            what: "VARX innovations",
+            need: order.saturating_add(1),
+            got: n,
         });
     }
     if order == 0 || u.iter().chain(y.iter()).any(|v| !v.is_finite()) {
@@ -481,5 +499,13 @@ mod tests {
         assert!(feedback_test(&u, &e, 1, &bad).is_err());
         let short = DMatrix::from_element(20, 1, 1.0);
         assert!(feedback_test(&short, &short, 1, &FeedbackOptions::default()).is_err());
+        // Absurd sizes are refused before anything is sized from them.
+        let huge = FeedbackOptions {
+            lags: Some(usize::MAX),
+            ..Default::default()
+        };
+        assert!(feedback_test(&u, &e, 1, &huge).is_err());
+        assert!(feedback_test(&u, &e, usize::MAX, &FeedbackOptions::default()).is_err());
+        assert!(arx_innovations(&u, &e, usize::MAX, 100).is_err());
     }
 }
