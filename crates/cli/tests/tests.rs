@@ -3984,6 +3984,40 @@ mod pbsid {
         let route = f.diagnostics["route"].as_str().unwrap_or_default();
         assert!(route.contains("SSARX"), "{route}");
     }
+
+    /// `--method pbsid` on a multirate record (refused before issue 46):
+    /// the direct prediction-error route on the measured samples, named in
+    /// the model file, with its Kalman gain; the closed-loop accuracy is
+    /// checked in lifted-workflow's tests.
+    #[test]
+    fn pbsid_identifies_a_multirate_record() {
+        let d = tmp("pbsid_multirate");
+        let data = p(&d, "mr.csv");
+        simulate(&data, rbs(3000, 5), 3, 1000.0, 4);
+        let out = p(&d, "mr.json");
+        ok(&[
+            "identify",
+            "--method",
+            "pbsid",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--output-period",
+            "y1=3",
+            "--order",
+            "2",
+            "--out",
+            &out,
+        ]);
+        let f = check_model(&out, 0.03);
+        assert_eq!(f.method.as_deref(), Some("pbsid"));
+        let route = f.diagnostics["route"].as_str().unwrap_or_default();
+        assert!(route.starts_with("multirate prediction error"), "{route}");
+        assert!(f.kalman_gain.is_some());
+    }
 }
 
 mod concat {

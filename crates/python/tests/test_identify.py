@@ -231,3 +231,37 @@ def test_pbsid_identifies_a_closed_loop_without_the_reference() -> None:
     assert ss.method == "ssarx" and pole_error(ss) < 0.01
     with pytest.raises(lifted.ArgumentError, match="variant"):
         lifted.pbsid(u, y, "parsim", order=3)
+
+
+def test_pbsid_identifies_a_multirate_closed_loop_without_the_reference() -> None:
+    """Issue 46: the output measured every 4 samples (NaN between), a PI
+    loop on the latest measurement, the reference not given. ``method="pbsid"``
+    on :func:`lifted.multirate` takes the multirate prediction-error route
+    (refused before); its poles
+    are near the plant's (the Rust tests check the accuracy and the 1/sqrt(N)
+    decay)."""
+    rng = np.random.default_rng(46)
+    n, period = 20_000, 4
+    a, b, c = np.array([[1.5, -0.7], [1.0, 0.0]]), np.array([0.1, 0.0]), np.array([0.5, 0.3])
+    x = np.zeros(2)
+    level, held, integ = 1.0, 0.0, 0.0
+    u = np.zeros(n)
+    y = np.full(n, np.nan)
+    for k in range(n):
+        if rng.random() < 0.02:
+            level = -level
+        if k % period == 0:
+            held = c @ x + 0.02 * rng.standard_normal()
+            y[k] = held
+        err = level - held
+        u[k] = 0.2 * err + 0.05 * integ
+        integ += err
+        x = a @ x + b * u[k]
+    fit = lifted.multirate(u, y, [period], method="pbsid", order=2)
+    assert fit.diagnostics["route"].startswith("multirate prediction error")
+    assert fit.method == "pbsid" and fit.fast.kalman_gain is not None
+    truth = np.linalg.eigvals(a)
+    p = np.linalg.eigvals(np.asarray(fit.fast.A))
+    # Measured 0.0010 (the poles are 0.75 +- 0.37j); the bound 20x that.
+    err = max(min(abs(q - t) for q in p) for t in truth)
+    assert err < 0.02, err

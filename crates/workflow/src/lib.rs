@@ -39,8 +39,11 @@
 //!    start is unstable on the first two thirds by its refinement from the
 //!    stabilised start — the flexible arm with its output every third
 //!    sample: order 3, fit −0.0 %, before; order 9, 97.3 %), the weighted
-//!    q-Markov Cover (Zhu 2000), PBSID/SSARX (Chiuso 2007, Jansson 2003)
-//!    and IV subspace (thesis ch. 7). Under the default order rule
+//!    q-Markov Cover (Zhu 2000), PBSID/SSARX (Chiuso 2007, Jansson 2003;
+//!    on multirate records, where the lifted loop has a direct term, the
+//!    direct prediction-error method on the measured samples from the
+//!    multirate starts: `multirate_predictor`, consistent under feedback
+//!    without an instrument) and IV subspace (thesis ch. 7). Under the default order rule
 //!    ([`OrderCriterion::Validation`]) the horizon s, the (A, C) route and
 //!    the order n of a single-rate subspace identification not given are
 //!    chosen by the simulation fit on held-out data
@@ -134,6 +137,7 @@ mod excitation;
 mod feedback;
 mod feedthrough;
 mod integrators;
+mod multirate_predictor;
 mod multirate_start;
 mod options;
 mod pipeline;

@@ -197,6 +197,7 @@ fn run(
     );
     let mut check: Option<Check> = None;
     let mut alternative: Option<std::result::Result<lifted_lti::StateSpace, String>> = None;
+    let mut refined_by_route = false;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => {
@@ -288,6 +289,13 @@ fn run(
                 diagnostics: d,
             }
         }
+        // Multirate records under feedback without an instrument: the
+        // direct prediction-error method, refined within the route
+        // (crate::multirate_predictor).
+        Method::Pbsid | Method::Ssarx | Method::PbsidRowwise if multirate => {
+            refined_by_route = true;
+            crate::multirate_predictor::identify(opts, &sets)?
+        }
         Method::Pbsid | Method::Ssarx | Method::PbsidRowwise => {
             routes::pbsid(id, &sets, multirate)?
         }
@@ -334,6 +342,7 @@ fn run(
     });
     let t_refine = std::time::Instant::now();
     let (model, mut diagnostics) = match alternative {
+        _ if refined_by_route => (model, diagnostics),
         Some(Ok(alt)) => {
             multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt)?
         }

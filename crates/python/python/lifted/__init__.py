@@ -305,7 +305,14 @@ def identify(
       horizon, None: Akaike's choice; ``future`` their future horizon, None:
       min(past, 10); no D; ``order_criterion`` only ``"validation"``, the
       order by the held-out fit as above at the past horizon of the whole
-      record, or ``"gap"``, the singular-value gap). ``method="iv"``: the
+      record, or ``"gap"``, the singular-value gap). On a multirate record
+      (``y`` with NaN where an output is not measured) the three take the
+      direct prediction-error route: the fast innovations model refined on
+      the measured samples from the multirate subspace and interpolated
+      starts, the lower prediction cost kept, consistent under feedback
+      without the reference (``diagnostics["multirate_predictor"]``;
+      ``refine="oe"`` refused, ``"none"`` returns the start with a
+      warning). ``method="iv"``: the
       instrumental-variable subspace method with the inputs as instruments
       (open loop; :func:`iv` takes a closed loop's instruments; ``horizon``
       is its alpha, default 8; its automatic order by the held-out fit
@@ -724,7 +731,11 @@ def multirate(
     ``periods[i]`` base periods from sample 0; input i is held ``holds[i]``
     samples (default 1). ``method`` ``"n4sid"``, ``"moesp"`` or ``"cva"``
     with ``horizon`` block rows (``past``/``future`` its older spelling,
-    which must agree; None: 10); with ``instrument`` (N x m, the closed-loop
+    which must agree; None: 10); ``"pbsid"``, ``"ssarx"`` or
+    ``"pbsid_rowwise"``: a plant under feedback without its reference, by
+    the direct prediction-error method on the measured samples from the
+    subspace and interpolated starts (consistent in closed loop;
+    ``diagnostics["multirate_predictor"]``); with ``instrument`` (N x m, the closed-loop
     dither; the CLI's ``--instrument``) or ``method="iv"`` the lifted IV
     route of thesis section 7.8.2 (``alpha`` block rows, None: 6;
     ``alpha_p`` past instrument rows). ``enforce_stability`` re-estimates

@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{fr_error, multirate_dataset};
+use super::{fr_error, issue_plant, multirate_dataset, multirate_record};
 
 /// The issue's 2×2 plant: poles 0.92, 0.85 and 0.9 ± 0.1j, D = 0. B and C
 /// make each input drive one real mode and the complex pair, each output
@@ -64,6 +64,18 @@ fn loop_record(
     sigma: f64,
     seed: u64,
 ) -> (Dataset, DMatrix<f64>) {
+    loop_record_with_noise_pole(plant, periods, n, sigma, seed, 0.9)
+}
+
+/// [`loop_record`] with the noise v⁺ = `pole` v + σ e (0: white).
+fn loop_record_with_noise_pole(
+    plant: &StateSpace,
+    periods: &[usize],
+    n: usize,
+    sigma: f64,
+    seed: u64,
+    pole: f64,
+) -> (Dataset, DMatrix<f64>) {
     let (kp, ki, switch) = (0.2, 0.05, 0.02);
     let (nu, ny) = (plant.n_inputs(), plant.n_outputs());
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -82,7 +94,7 @@ fn loop_record(
         let clean = plant.c() * &x;
         for j in 0..ny {
             let e = 12f64.sqrt() * (rng.random::<f64>() - 0.5);
-            v[j] = 0.9 * v[j] + sigma * e;
+            v[j] = pole * v[j] + sigma * e;
             if t % periods[j] == 0 {
                 held[j] = clean[j] + v[j];
                 y[(t, j)] = held[j];
@@ -224,6 +236,157 @@ fn an_unstable_lifted_estimate_comes_back_with_a_warning() {
         d["warnings"]
             .to_string()
             .contains("the lifted IV estimate is unstable: the IV estimate of A is unstable (spectral radius 1.04"),
+        "{d}"
+    );
+}
+
+/// `--method <method> --order n` on a multirate record: the direct
+/// prediction-error route (`lifted_workflow`'s `multirate_predictor`).
+fn predictor_options(method: Method, order: usize) -> WorkflowOptions {
+    let mut o = WorkflowOptions::default();
+    o.identification.method = method;
+    o.identification.order = Order::Fixed(order);
+    o
+}
+
+/// The route's name in the diagnostics.
+const PREDICTOR_ROUTE: &str = "multirate prediction error (direct method)";
+
+/// The SISO loop of issue 46 without its set-point (4e4 samples, one
+/// measurement every 4 samples, AR(1) noise fed back): `--method pbsid`
+/// was refused on multirate records; N4SID gave 2.78 from the plant in
+/// the issue. The direct prediction-error route at the plant's order:
+/// 0.021, 0.010, 0.017, 0.016 on seeds 1–4 (the lifted IV route *with* the
+/// set-point: 0.009–0.021). The issue's bound 0.05 is more than twice the
+/// worst.
+#[test]
+fn the_siso_multirate_loop_without_its_setpoint_reaches_the_plant() {
+    let truth = plant_siso();
+    for seed in [1, 2] {
+        let (data, _) = loop_record(&truth, &[4], 40_000, 0.03, seed);
+        let fit =
+            identify(&[Record::new(data)], &predictor_options(Method::Pbsid, 3)).expect("identify");
+        let d = &fit.file.diagnostics;
+        assert!(
+            d["route"]
+                .as_str()
+                .unwrap_or_default()
+                .starts_with(PREDICTOR_ROUTE),
+            "{d}"
+        );
+        assert_eq!(fit.file.method.as_deref(), Some("pbsid"));
+        assert!(fit.file.kalman_gain.is_some(), "{d}");
+        assert_eq!(
+            d["multirate_predictor"]["candidates"]
+                .as_array()
+                .map(Vec::len),
+            Some(2),
+            "{d}"
+        );
+        let err = fr_error(&fit.file.model, &truth);
+        assert!(err <= 0.05, "seed {seed}: FR error {err}: {d}");
+    }
+}
+
+/// The 2×2 loop of issue 46 without its set-points (6e4 samples, periods 3
+/// and 5): N4SID / MOESP / CVA / IV were 0.62–0.81 from the plant in the
+/// issue, full-rate PARSIM-K 0.064. SSARX names the same route: 0.018,
+/// 0.013, 0.014 on seeds 1–3 at order 4 (0.016, 0.018, 0.014 at the
+/// automatic order 5). The issue's bound 0.10 (within 2× of the full-rate
+/// reference) is five times the worst.
+#[test]
+fn the_2x2_multirate_loop_without_its_setpoints_reaches_the_plant() {
+    let truth = plant_2x2();
+    let (data, _) = loop_record(&truth, &[3, 5], 60_000, 0.03, 1);
+    let fit =
+        identify(&[Record::new(data)], &predictor_options(Method::Ssarx, 4)).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert!(
+        d["route"]
+            .as_str()
+            .unwrap_or_default()
+            .starts_with(PREDICTOR_ROUTE),
+        "{d}"
+    );
+    let err = fr_error(&fit.file.model, &truth);
+    assert!(err <= 0.10, "FR error {err}: {d}");
+}
+
+/// Consistency under feedback: on the SISO loop with white measurement
+/// noise (the true predictor is an order-3 innovations model, which the
+/// route's model class holds: one output period) the FR error's RMS over
+/// three seeds falls as 1/√N, 4× the samples halving it. Measured: 0.0099
+/// at 4e4 and 0.0039 at 1.6e5 (four seeds: ratio 2.5), 0.0044 at 1.6e5 on
+/// these three; at 1e4 one seed of four stops in a local minimum (0.14).
+/// A bias (an inconsistent estimator, as the open-loop routes are under
+/// feedback) would stall the ratio near 1; the bound 1.5 leaves room for
+/// the seeds' spread around the expected 2.
+#[test]
+fn the_predictor_route_error_falls_like_one_over_root_n() {
+    let truth = plant_siso();
+    let rms = |n: usize| {
+        let errs: Vec<f64> = [1, 2, 3]
+            .iter()
+            .map(|&seed| {
+                let (data, _) = loop_record_with_noise_pole(&truth, &[4], n, 0.03, seed, 0.0);
+                let fit = identify(&[Record::new(data)], &predictor_options(Method::Pbsid, 3))
+                    .expect("identify");
+                fr_error(&fit.file.model, &truth)
+            })
+            .collect();
+        (errs.iter().map(|e| e * e).sum::<f64>() / 3.0).sqrt()
+    };
+    let (small, large) = (rms(40_000), rms(160_000));
+    assert!(
+        small / large >= 1.5,
+        "RMS FR error {small:.4} at 4e4, {large:.4} at 1.6e5: ratio {:.2}",
+        small / large
+    );
+}
+
+/// On open-loop multirate data (the 2×2 case of issue 26: random binary
+/// inputs, periods 3 and 5, 3e4 samples) the predictor route and the
+/// default route both reach the plant and agree with each other: both
+/// 0.0024 from the plant, 6e-9 apart (the default refines by the same
+/// prediction error from the same starts). Bounds: 0.02, the plant's.
+#[test]
+fn on_open_loop_multirate_data_the_predictor_route_agrees_with_the_default() {
+    let truth = issue_plant();
+    let data = multirate_record(&truth, 30_000, &[3, 5], 1, 7);
+    let rec = [Record::new(data)];
+    let mut default = WorkflowOptions::default();
+    default.identification.order = Order::Fixed(4);
+    let base = identify(&rec, &default).expect("default route");
+    let pred = identify(&rec, &predictor_options(Method::Pbsid, 4)).expect("predictor route");
+    let (e_base, e_pred) = (
+        fr_error(&base.file.model, &truth),
+        fr_error(&pred.file.model, &truth),
+    );
+    let apart = fr_error(&pred.file.model, &base.file.model);
+    assert!(
+        e_pred <= 0.02 && apart <= 0.02,
+        "predictor {e_pred:.4}, default {e_base:.4}, apart {apart:.4}"
+    );
+}
+
+/// The output-error refinement is biased under feedback: refused on this
+/// route, naming it; `--refine none` returns the start with a warning.
+#[test]
+fn the_predictor_route_refuses_the_output_error_and_warns_without_refinement() {
+    let truth = plant_siso();
+    let (data, _) = loop_record(&truth, &[4], 8_000, 0.03, 1);
+    let rec = [Record::new(data)];
+    let mut o = predictor_options(Method::Pbsid, 3);
+    o.refinement.refine = Refine::Oe;
+    let e = identify(&rec, &o).expect_err("oe refused");
+    assert!(e.to_string().contains("refine"), "{e}");
+    o.refinement.refine = Refine::None;
+    let fit = identify(&rec, &o).expect("start kept");
+    let d = &fit.file.diagnostics;
+    assert!(
+        d["warnings"]
+            .to_string()
+            .contains("not consistent in closed loop"),
         "{d}"
     );
 }
