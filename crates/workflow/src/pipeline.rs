@@ -198,6 +198,9 @@ fn run(
     let mut check: Option<Check> = None;
     let mut alternative: Option<std::result::Result<lifted_lti::StateSpace, String>> = None;
     let mut refined_by_route = false;
+    // The multirate subspace route with its second start also compares the
+    // interpolated start as identified (multirate_start::or_as_identified).
+    let mut third_start = false;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => {
@@ -205,6 +208,7 @@ fn run(
             // (crate::multirate_start), when it applies; it identifies the
             // record alone when the lifted route fails.
             let second = multirate_start::applies(opts, &sets);
+            third_start = second;
             match routes::multirate(opts, &sets) {
                 Ok((fit, made)) => {
                     let mut fit = fit;
@@ -341,7 +345,7 @@ fn run(
         known: known.as_ref(),
     });
     let t_refine = std::time::Instant::now();
-    let (model, mut diagnostics) = match alternative {
+    let (model, diagnostics) = match alternative {
         _ if refined_by_route => (model, diagnostics),
         Some(Ok(alt)) => {
             multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt)?
@@ -360,6 +364,11 @@ fn run(
             (model, d)
         }
         None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
+    };
+    let (model, mut diagnostics) = if third_start {
+        multirate_start::or_as_identified(opts, (model, diagnostics), &sets, &mut kalman_gain)
+    } else {
+        (model, diagnostics)
     };
     let longest = sets.iter().map(Dataset::len).max().unwrap_or(0);
     crate::integrators::report(opts, longest, &model, &mut diagnostics);
