@@ -44,7 +44,13 @@
 //! and the refinement leave the model's output between them free, and
 //! with many inputs or few samples they can end farther from the samples
 //! than the interpolated model (records thinned to every fifth output
-//! sample, issue 46: SRU order 2, winding order 2, thermal wall order 2). Applied to N4SID / MOESP / CVA records of inputs
+//! sample, issue 46: SRU order 2, winding order 2, thermal wall order 2).
+//! With the default feedthrough, models with D free compete too (the
+//! interpolated record's, and the kept model's (A, C) with (B, D) refitted
+//! on the measured samples), kept by the Bayesian information criterion
+//! on the measured samples as `crate::feedthrough` keeps D on single-rate
+//! records (`benches/README.md`, "Multirate routes on real records
+//! thinned as an analyser delivers them"). Applied to N4SID / MOESP / CVA records of inputs
 //! held one sample, up to [`MULTIRATE_START_SAMPLES`] samples, without
 //! `--stable`. Cost: one single-rate identification and a second
 //! refinement.
@@ -211,8 +217,14 @@ pub(crate) fn or_as_identified(
             start_as_identified(&o, sets, order).ok()
         })
         .flatten();
+    // And the chosen model's (A, C) with (B, D) fitted on the measured
+    // samples with D free: the interpolation biases an estimated D (the
+    // interpolated output between two samples averages them), the
+    // regression on the measured samples does not.
+    let refit_d = (opts.identification.feedthrough.is_none())
+        .then(|| refit_bd_with(model.clone(), sets, lifted_subspace::Feedthrough::Free));
     let mut alt: Option<StateSpace> = None;
-    for m in [selected, fixed, with_d].into_iter().flatten() {
+    for m in [selected, fixed, with_d, refit_d].into_iter().flatten() {
         alt = match alt {
             Some(a) if !better_by_bic(&m, &a, sets) => Some(a),
             _ => Some(m),
@@ -224,14 +236,17 @@ pub(crate) fn or_as_identified(
     let (f_chosen, f_alt) = (records_fit(&model, sets), records_fit(&alt, sets));
     let take = better_by_bic(&alt, &model, sets);
     let entry = json!({
-        "rule": "the interpolated record's model as identified (no refit, no refinement; the structure its held-out selection chooses or the quick start's, and with the default feedthrough also with D free) is kept when it simulates the measured samples better than the model chosen above (x0 estimated), by the Bayesian information criterion when it has more feedthrough entries: N sum_j ln(V_chosen,j / V_j) > (extra entries of D) ln N over the N measured samples",
+        "rule": "the interpolated record's model as identified (no refit, no refinement; the structure its held-out selection chooses or the quick start's, and with the default feedthrough also with D free), or with the default feedthrough the chosen model's (A, C) with (B, D) fitted on the measured samples with D free, is kept when it simulates the measured samples better than the model chosen above (x0 estimated), by the Bayesian information criterion when it has more feedthrough entries: N sum_j ln(V_chosen,j / V_j) > (extra entries of D) ln N over the N measured samples",
         "fit": f_alt,
         "fit_of_chosen": f_chosen,
         "feedthrough": alt.d().iter().any(|v| *v != 0.0),
         "kept": take,
     });
     if let Some(obj) = diagnostics.as_object_mut() {
-        match obj.get_mut("multirate_start").and_then(|m| m.as_object_mut()) {
+        match obj
+            .get_mut("multirate_start")
+            .and_then(|m| m.as_object_mut())
+        {
             Some(m) => {
                 m.insert("as_identified".into(), entry);
             }
@@ -261,12 +276,21 @@ pub(crate) fn or_as_identified(
 /// non-causal FIR, which has no poles of its own). The model as it was
 /// when the regression fails.
 fn refit_bd(model: StateSpace, sets: &[Dataset]) -> StateSpace {
-    let records = crate::refine::records_of(sets);
     let feedthrough = if model.d().iter().all(|v| *v == 0.0) {
         lifted_subspace::Feedthrough::Zero
     } else {
         lifted_subspace::Feedthrough::Free
     };
+    refit_bd_with(model, sets, feedthrough)
+}
+
+/// [`refit_bd`] with the given feedthrough structure.
+fn refit_bd_with(
+    model: StateSpace,
+    sets: &[Dataset],
+    feedthrough: lifted_subspace::Feedthrough,
+) -> StateSpace {
+    let records = crate::refine::records_of(sets);
     let refit = lifted_subspace::estimate_bd(
         model.a(),
         model.c(),

@@ -78,8 +78,14 @@ fn add_stability(file: &mut ModelFile) -> Result<()> {
         .and_then(serde_json::Value::as_array)
         .is_some_and(|poles| {
             poles.iter().any(|p| {
-                let re = p.get("re").and_then(serde_json::Value::as_f64).unwrap_or(0.0);
-                let im = p.get("im").and_then(serde_json::Value::as_f64).unwrap_or(0.0);
+                let re = p
+                    .get("re")
+                    .and_then(serde_json::Value::as_f64)
+                    .unwrap_or(0.0);
+                let im = p
+                    .get("im")
+                    .and_then(serde_json::Value::as_f64)
+                    .unwrap_or(0.0);
                 (re - 1.0).hypot(im) <= tolerance
             })
         });
