@@ -684,6 +684,18 @@ fn session_shows_slow_outputs_with_their_period() {
     let id = s.identify(&request("2")).unwrap();
     let fit = id.fits[0].fit.unwrap_or(f64::NAN);
     assert!(fit > 90.0, "multirate fit {fit}");
+    // The closed-loop method without an instrument on the slow record
+    // (issue 46): the multirate prediction-error route, from the studio as
+    // from the command.
+    let mut pbsid = request("2");
+    pbsid.method = Some("pbsid".into());
+    let id = s.identify(&pbsid).unwrap();
+    let fit = id.fits[0].fit.unwrap_or(f64::NAN);
+    assert!(fit > 90.0, "multirate pbsid fit {fit}");
+    assert!(id.command.contains("--method pbsid"), "{}", id.command);
+    let model: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+    let route = model["diagnostics"]["route"].as_str().unwrap_or_default();
+    assert!(route.starts_with("multirate prediction error"), "{route}");
     s.close();
 }
 
