@@ -756,11 +756,15 @@ fn a_multirate_record_keeps_the_start_that_fits_its_samples() {
             )
             .expect("validate");
             let mean = v.outputs.iter().map(|o| o.fit).sum::<f64>() / v.outputs.len() as f64;
-            assert!(
-                (mean - fits[best]).abs() < 0.05,
-                "{mean} vs {}: {ms}",
+            // (Or the interpolated record's model as identified, when it
+            // simulates the samples better still: multirate_start::
+            // or_as_identified.)
+            let want = if ms["as_identified"]["kept"] == true {
+                ms["as_identified"]["fit"].as_f64().expect("fit")
+            } else {
                 fits[best]
-            );
+            };
+            assert!((mean - want).abs() < 0.05, "{mean} vs {want}: {ms}");
         }
     }
     // Measured: 4 of the 8 runs end more than a point apart (the others
