@@ -75,7 +75,7 @@ pub(crate) fn horizon_of(
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
-    threads=1))]
+    threads=1, gain_stop_share=0.01, integrator_tolerance=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -100,6 +100,8 @@ pub(crate) fn identify<'py>(
     refine_max_work: f64,
     dt: f64,
     #[pyo3(from_py_with = int)] threads: Int,
+    gain_stop_share: f64,
+    integrator_tolerance: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let estimator = match system {
@@ -137,6 +139,8 @@ pub(crate) fn identify<'py>(
     id.noise_model = noise_model;
     id.stable = enforce_stability;
     id.threads = Some(threads);
+    id.gain_check.stop_share = gain_stop_share;
+    id.integrator_tolerance = integrator_tolerance;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     let fit = run(py, single_rate(dt, u, y)?, opts)?;
     identified_dict(py, &fit, threads)

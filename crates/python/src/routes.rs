@@ -195,7 +195,8 @@ pub(crate) fn qmarkov<'py>(
 #[pyo3(signature = (u, y, periods, holds=None, instrument=None, method="n4sid", order=None,
     max_order=10, horizon=None, past=None, future=None, alpha=None, alpha_p=None,
     detrend="mean", remove_means=true, enforce_stability=false, require_stable=false,
-    refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0))]
+    refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0, gain_stop_share=0.01,
+    integrator_tolerance=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn multirate<'py>(
     py: Python<'py>,
@@ -220,6 +221,8 @@ pub(crate) fn multirate<'py>(
     #[pyo3(from_py_with = int)] refine_iterations: Int,
     refine_max_work: f64,
     dt: f64,
+    gain_stop_share: f64,
+    integrator_tolerance: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut method = Method::parse(method, "method")?;
     let periods = counts(&periods, "periods")?;
@@ -261,6 +264,8 @@ pub(crate) fn multirate<'py>(
     };
     id.instrument_past = opt_count(alpha_p, "alpha_p")?;
     id.stable = enforce_stability;
+    id.gain_check.stop_share = gain_stop_share;
+    id.integrator_tolerance = integrator_tolerance;
     opts.validation.require_stable = require_stable;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     let sets = vec![Record {

@@ -265,3 +265,30 @@ def test_pbsid_identifies_a_multirate_closed_loop_without_the_reference() -> Non
     # Measured 0.0010 (the poles are 0.75 +- 0.37j); the bound 20x that.
     err = max(min(abs(q - t) for q in p) for t in truth)
     assert err < 0.02, err
+
+
+def test_gain_stop_share_and_integrator_tolerance_reach_the_workflow() -> None:
+    """The keywords of ``lifted identify --gain-stop-share`` and
+    ``--integrator-tolerance`` (issues 46 and 47): recorded in the
+    diagnostics as the command records them; a negative value is refused
+    naming the keyword."""
+    rng = np.random.default_rng(3)
+    n = 2000
+    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    y = np.zeros(n)
+    x = 0.0
+    for k in range(n):
+        y[k] = x + 0.01 * rng.standard_normal()
+        x = 0.9 * x + 0.1 * u[k]
+    fit = lifted.identify(u, y, order=1, gain_stop_share=0.0, integrator_tolerance=1e-3)
+    assert fit.diagnostics["integrators"]["tolerance"] == 1e-3
+    assert "30 iterations" in fit.diagnostics["kalman_gain_route"]["stop"]
+    default = lifted.identify(u, y, order=1)
+    assert default.diagnostics["integrators"]["tolerance"] == pytest.approx(2 / n)
+    with pytest.raises(lifted.ArgumentError, match="gain_stop_share"):
+        lifted.identify(u, y, order=1, gain_stop_share=-1.0)
+    with pytest.raises(lifted.ArgumentError, match="integrator_tolerance"):
+        lifted.identify(u, y, order=1, integrator_tolerance=-1.0)
+    mr = np.where(np.arange(n) % 3 == 0, y, np.nan)
+    slow = lifted.multirate(u, mr, [3], order=1, integrator_tolerance=1e-3)
+    assert slow.diagnostics["integrators"]["tolerance"] == 1e-3

@@ -246,6 +246,8 @@ def identify(
     refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
+    gain_stop_share: float = 0.01,
+    integrator_tolerance: float | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several.
@@ -321,6 +323,14 @@ def identify(
     * ``threads``: the correlation-kernel threads (0 = all cores; capped at
       the machine's available parallelism, the count used is
       ``fit.threads``).
+    * ``gain_stop_share``: the Kalman-gain check's iterations stop at a cost
+      decrease below this share of the cost's sampling spread sqrt(2/N)
+      (``lifted identify --gain-stop-share``; 0: the 30 iterations;
+      ``diagnostics["kalman_gain_route"]["stop"]``).
+    * ``integrator_tolerance``: poles within this distance of the unit circle
+      are integrators, kept by the refinement and reported
+      (``--integrator-tolerance``; None: 2/N, N the longest record;
+      ``diagnostics["integrators"]``).
 
     Returns a :class:`SubspaceFit`; its ``model`` carries the operating point
     (the means removed) and the Kalman gain, so ``validate(fit.model, u, y)``
@@ -341,7 +351,8 @@ def identify(
             remove_means=remove_means, noise_model=noise_model,
             enforce_stability=enforce_stability, refine=refine,
             refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
-            threads=threads,
+            threads=threads, gain_stop_share=gain_stop_share,
+            integrator_tolerance=integrator_tolerance,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -717,6 +728,8 @@ def multirate(
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,
+    gain_stop_share: float = 0.01,
+    integrator_tolerance: float | None = None,
 ) -> MultirateFit:
     """Multirate identification (thesis chs. 4-5): lifting, causal lifted
     subspace identification, fast-model extraction (and, for inputs held one
@@ -743,9 +756,9 @@ def multirate(
     on an unstable model (else it carries a warning in ``diagnostics``).
     ``detrend`` / ``remove_means``, ``refine`` (default ``"auto"``: the fast
     model refined by the prediction error on the measured samples where it
-    pays), ``refine_iterations``, ``refine_max_work`` as for
-    :func:`identify`. A record whose periods and holds are all 1 takes the
-    single-rate route (``lifted`` is then the model, ``lifting_period`` 1).
+    pays), ``refine_iterations``, ``refine_max_work``,
+    ``gain_stop_share``, ``integrator_tolerance`` as for :func:`identify`.
+    A record whose periods and holds are all 1 takes the single-rate route (``lifted`` is then the model, ``lifting_period`` 1).
     Returns a :class:`MultirateFit`.
     """
     d = _multirate(
@@ -754,7 +767,8 @@ def multirate(
         horizon=horizon, past=past, future=future, alpha=alpha, alpha_p=alpha_p,
         detrend=detrend, remove_means=remove_means, enforce_stability=enforce_stability,
         require_stable=require_stable, refine=refine, refine_iterations=refine_iterations,
-        refine_max_work=refine_max_work, dt=dt,
+        refine_max_work=refine_max_work, dt=dt, gain_stop_share=gain_stop_share,
+        integrator_tolerance=integrator_tolerance,
     )
     return MultirateFit(
         fast=d["model"],

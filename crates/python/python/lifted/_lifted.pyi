@@ -286,6 +286,8 @@ def identify(
     refine_max_work: float = 2e10,
     dt: float = 1.0,
     threads: int = 1,
+    gain_stop_share: float = 0.01,
+    integrator_tolerance: float | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],
@@ -377,6 +379,8 @@ def multirate(
     refine_iterations: int = 100,
     refine_max_work: float = 2e10,
     dt: float = 1.0,
+    gain_stop_share: float = 0.01,
+    integrator_tolerance: float | None = None,
 ) -> dict[str, Any]: ...
 def validate(
     model: StateSpace,
