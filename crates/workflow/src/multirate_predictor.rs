@@ -90,7 +90,11 @@ pub const ROUTE: &str = "multirate prediction error (direct method): the fast in
 struct Candidate {
     start: &'static str,
     fit: PemFit,
+    /// The prediction cost on the records where their iterations began
+    /// (after the warm stage, when there was one).
     start_cost: f64,
+    /// The warm stage's samples, when it ran.
+    warm: Option<usize>,
 }
 
 /// The route (module docs). `sets`: the detrended, scaled records.
@@ -185,6 +189,12 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
             },
             ..pem_options(opts, &model, PemCost::Prediction, false)
         };
+        // Long records: the iterations first run on a leading part
+        // ([`WARM_SAMPLES`]), from whose optimum the whole records need few.
+        let (model, gain, warm) = match warm_start(&model, gain.as_ref(), sets, &pem) {
+            Some((fit, samples)) => (fit.model, fit.kalman_gain, Some(samples)),
+            None => (model, gain, None),
+        };
         match refine_pem(&model, gain.as_ref(), &records, &[], &pem) {
             Ok(fit) => {
                 let start_cost = fit.report.initial_cost;
@@ -192,6 +202,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
                     start: name,
                     fit,
                     start_cost,
+                    warm,
                 });
             }
             Err(e) => notes.push(json!({"start": name, "error": e.to_string()})),
@@ -224,6 +235,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
         "candidates": candidates.iter().map(|c| json!({
             "start": c.start,
             "start_cost": c.start_cost,
+            "warm_stage_samples": c.warm,
             "cost": c.fit.report.final_cost,
             "iterations": c.fit.report.iterations,
             "termination": format!("{:?}", c.fit.report.termination),
@@ -277,6 +289,39 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
         suggested_order: route.suggested_order,
         details: route.details,
     })
+}
+
+/// Samples of the warm stage: records longer than twice this are refined
+/// first on their leading part of this length (cut at a frame boundary),
+/// then on the whole from there. The joint iterations cost O(M p n) per
+/// iteration and have no warm stages of their own (variable projection
+/// does); from a start within the leading part's estimation error of the
+/// whole records' optimum the iterations on the whole converge in a few
+/// steps, within the work bound (at 1e6 samples the default bound 2e10
+/// otherwise stopped them before convergence). 40 000 samples: where the
+/// SISO loop's FR error had settled to 0.01 (`benches/README.md`,
+/// "Multirate closed loop without an instrument").
+pub const WARM_SAMPLES: usize = 40_000;
+
+/// The warm stage (see [`WARM_SAMPLES`]): the refined fit on the leading
+/// part of the one record and that part's samples; `None`
+/// when the records are not long enough, not one record, or the stage
+/// fails (the whole records are then refined from the start itself).
+fn warm_start(
+    model: &StateSpace,
+    gain: Option<&nalgebra::DMatrix<f64>>,
+    sets: &[Dataset],
+    pem: &PemOptions,
+) -> Option<(PemFit, usize)> {
+    let [d] = sets else { return None };
+    if d.len() <= 2 * WARM_SAMPLES {
+        return None;
+    }
+    let frame = d.frame_period().max(1);
+    let part = d.slice(0..WARM_SAMPLES / frame * frame).ok()?;
+    let records = records_of(std::slice::from_ref(&part));
+    let fit = refine_pem(model, gain, &records, &[], pem).ok()?;
+    Some((fit, part.len()))
 }
 
 /// Whether every output of `d` is measured at one period and phase.
