@@ -38,7 +38,7 @@ use lifted_lti::{Dataset, StateSpace};
 use nalgebra::DMatrix;
 use serde_json::json;
 
-use crate::options::WorkflowOptions;
+use crate::options::{IdentificationOptions, WorkflowOptions};
 
 /// The default integrator tolerance is this over the longest record's
 /// samples N: the 99 % quantile (2.03) of the asymptotic distribution of
@@ -56,7 +56,24 @@ pub(crate) fn tolerance(opts: &WorkflowOptions, sets: &[Dataset]) -> (f64, Strin
 /// [`tolerance`] for records whose longest has `longest` samples (a
 /// streamed record, before it is loaded).
 pub(crate) fn tolerance_for(opts: &WorkflowOptions, longest: usize) -> (f64, String) {
-    match opts.identification.integrator_tolerance {
+    tolerance_of(&opts.identification, longest)
+}
+
+/// The spectral radius below which the automatic order rules take a model
+/// as they take a stable one (`routes::first_stable`): 1 + δ, the
+/// integrator tolerance of the records, so that an integrating plant's
+/// marginal model at the rule's order is kept as the refinement keeps it;
+/// 1 under `--stable`.
+pub(crate) fn stability_bound(id: &IdentificationOptions, sets: &[Dataset]) -> f64 {
+    if id.stable {
+        return 1.0;
+    }
+    let longest = sets.iter().map(Dataset::len).max().unwrap_or(0);
+    1.0 + tolerance_of(id, longest).0
+}
+
+fn tolerance_of(id: &IdentificationOptions, longest: usize) -> (f64, String) {
+    match id.integrator_tolerance {
         Some(d) => (
             d,
             "given (integrator_tolerance, --integrator-tolerance)".into(),
@@ -185,5 +202,25 @@ pub(crate) fn report(
     annotate(diagnostics, model, delta, &derivation, note.as_deref());
     if moved && let Some(n) = note {
         crate::diagnostics::push_warning(diagnostics, format!("the plant has integrator(s): {n}"));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The order rules' bound: 1 + 2/N by default, 1 + the given tolerance,
+    /// 1 under `--stable`.
+    #[test]
+    fn the_stability_bound_is_one_plus_the_integrator_tolerance() {
+        let d = Dataset::single_rate(1.0, DMatrix::zeros(500, 1), DMatrix::zeros(500, 1))
+            .expect("record");
+        let sets = [d];
+        let mut id = IdentificationOptions::default();
+        assert!((stability_bound(&id, &sets) - (1.0 + 2.0 / 500.0)).abs() < 1e-15);
+        id.integrator_tolerance = Some(1e-3);
+        assert!((stability_bound(&id, &sets) - 1.001).abs() < 1e-15);
+        id.stable = true;
+        assert_eq!(stability_bound(&id, &sets), 1.0);
     }
 }

@@ -565,9 +565,15 @@ fn stable_choice(
         max,
     );
     let searched = first.diagnostics.clone();
+    let bound = if search.enforce_stability {
+        1.0
+    } else {
+        1.0 + search.marginal_tolerance
+    };
     let (fit, passed) = first_stable(
         first,
         ranking,
+        bound,
         |m: &SubspaceModel| (m.diagnostics.order, m.diagnostics.spectral_radius),
         |n| {
             run(&at_fixed_order(&search, n))
@@ -586,7 +592,10 @@ fn stable_choice(
 /// `first` when its model is stable, else the first stable model of the
 /// next orders of `ranking` (the order of `first` skipped; at most
 /// [`STABLE_TRIES`] models in all; `identify_at(n)`, `None` when it
-/// fails), else `first` (unstable: the validation stage warns) — how every
+/// fails), else `first` (unstable: the validation stage warns) — "stable"
+/// meaning ρ < `bound`, 1 + the integrator tolerance
+/// (`crate::integrators::stability_bound`: an integrating plant's marginal
+/// model is kept as the refinement keeps it) — how every
 /// automatic order rule handles an unstable choice: the held-out
 /// selections, the singular-value gap of the multirate routes and of the
 /// fallbacks, and the order rules asked for (AIC, AICc, BIC, SVC, the gap).
@@ -595,13 +604,14 @@ fn stable_choice(
 fn first_stable<M>(
     first: M,
     ranking: impl IntoIterator<Item = usize>,
+    bound: f64,
     order_rho: impl Fn(&M) -> (usize, f64),
     mut identify_at: impl FnMut(usize) -> Option<M>,
 ) -> (M, Vec<serde_json::Value>) {
     let (first_order, rho) = order_rho(&first);
     let mut fit = first;
     let mut passed_over = Vec::new();
-    if rho >= 1.0 {
+    if rho >= bound {
         passed_over.push(json!({"order": first_order, "spectral_radius": rho}));
         for n in ranking
             .into_iter()
@@ -612,7 +622,7 @@ fn first_stable<M>(
                 continue;
             };
             let (_, r) = order_rho(&other);
-            if r < 1.0 {
+            if r < bound {
                 fit = other;
                 break;
             }
@@ -1246,6 +1256,7 @@ pub(crate) fn multirate(
         (fit, passed_over) = first_stable(
             fit,
             ranking,
+            crate::integrators::stability_bound(id, sets),
             |m: &lifted_multirate::MultirateModel| {
                 let rho = crate::validate::spectral_radius(&m.fast).unwrap_or(f64::INFINITY);
                 (m.fast.order(), rho)
@@ -1783,7 +1794,12 @@ pub(crate) fn pbsid(
     let mut passed_over = Vec::new();
     let (fit, structure) =
         if id.order == Order::Auto && id.order_criterion == OrderCriterion::Validation {
-            pbsid_selected(&exps, &opts, &what)?
+            pbsid_selected(
+                &exps,
+                &opts,
+                &what,
+                crate::integrators::stability_bound(id, sets),
+            )?
         } else {
             let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
             match opts.order {
@@ -1795,6 +1811,7 @@ pub(crate) fn pbsid(
                     let (fit, passed) = first_stable(
                         fit,
                         ranking,
+                        crate::integrators::stability_bound(id, sets),
                         |m: &lifted_subspace::PbsidModel| {
                             (m.diagnostics.order, m.diagnostics.spectral_radius)
                         },
@@ -1852,6 +1869,7 @@ fn pbsid_selected(
     exps: &[Experiment<'_>],
     opts: &lifted_subspace::PbsidOptions,
     what: &str,
+    bound: f64,
 ) -> Result<(lifted_subspace::PbsidModel, Option<serde_json::Value>)> {
     let sel = match lifted_subspace::select_pbsid_order(exps, opts, &StructureOptions::default()) {
         Ok(sel) => sel,
@@ -1863,6 +1881,7 @@ fn pbsid_selected(
                 &held_out_refusal(&e),
                 &sv,
                 opts.order,
+                bound,
                 |m| (m.diagnostics.order, m.diagnostics.spectral_radius),
                 |n| {
                     let o = lifted_subspace::PbsidOptions {
@@ -1989,11 +2008,13 @@ fn held_out_refusal(e: &lifted_subspace::Error) -> String {
 /// all; `identify_at(n)`, `order_rho(model)` = its order and spectral
 /// radius), as on the multirate route; and the `structure_selection` note
 /// saying so.
+#[allow(clippy::too_many_arguments)]
 fn gap_fallback<M>(
     first: M,
     why: &str,
     sv: &[f64],
     order: OrderSelection,
+    bound: f64,
     order_rho: impl Fn(&M) -> (usize, f64),
     identify_at: impl Fn(usize) -> Option<M>,
 ) -> (M, serde_json::Value) {
@@ -2001,9 +2022,10 @@ fn gap_fallback<M>(
         OrderSelection::Gap { max } => max,
         OrderSelection::Fixed(n) => n,
     };
-    let (fit, passed_over) = first_stable(first, gap_ranking(sv, max), &order_rho, identify_at);
+    let (fit, passed_over) =
+        first_stable(first, gap_ranking(sv, max), bound, &order_rho, identify_at);
     let (order, rho) = order_rho(&fit);
-    let passed = match (passed_over.is_empty(), rho < 1.0) {
+    let passed = match (passed_over.is_empty(), rho < bound) {
         (true, _) => String::new(),
         (false, true) => format!(
             " ranking (the orders before it unstable, passed over: {})",
@@ -2297,6 +2319,7 @@ pub(crate) fn iv(
         iv_identify(&exps, &o)
     };
     let at_order = |n: usize| at_order_of(&iopts, n);
+    let bound = crate::integrators::stability_bound(id, sets);
     let order_rho = |m: &lifted_subspace::IvModel| {
         let rho = crate::validate::spectral_radius(&m.model).unwrap_or(f64::INFINITY);
         (m.diagnostics.order, rho)
@@ -2325,6 +2348,7 @@ pub(crate) fn iv(
                     &held_out_refusal(&e),
                     &sv,
                     iopts.order,
+                    bound,
                     order_rho,
                     |n| at_order(n).ok(),
                 );
@@ -2358,7 +2382,7 @@ pub(crate) fn iv(
                 let searched = fit.diagnostics.clone();
                 let ranking =
                     criterion_ranking(&searched.order_selection, &searched.singular_values, max);
-                let (fit, passed) = first_stable(fit, ranking, order_rho, |n| {
+                let (fit, passed) = first_stable(fit, ranking, bound, order_rho, |n| {
                     let mut m = at_order(n).ok()?;
                     m.diagnostics.order_selection = searched.order_selection.clone();
                     m.diagnostics.suggested_order = searched.suggested_order;
@@ -2570,6 +2594,24 @@ mod tests {
                 .collect(),
         )
         .expect("record")
+    }
+
+    /// An order rule's choice with ρ within the integrator tolerance of 1
+    /// is kept (an integrating plant's marginal model); beyond it, or with
+    /// the bound 1 (`--stable`), the next order of the ranking that is
+    /// inside is taken and the choice is listed as passed over.
+    #[test]
+    fn an_order_rule_keeps_a_marginal_choice_within_the_integrator_tolerance() {
+        let models = [(3usize, 1.0005f64), (2, 0.9), (4, 1.2)];
+        let at = |n: usize| models.iter().copied().find(|m| m.0 == n);
+        let rho = |m: &(usize, f64)| *m;
+        let (kept, passed) = first_stable(models[0], [3, 2, 4], 1.001, rho, at);
+        assert_eq!((kept, passed.len()), ((3, 1.0005), 0));
+        let (kept, passed) = first_stable(models[0], [3, 2, 4], 1.0, rho, at);
+        assert_eq!(kept, (2, 0.9));
+        assert_eq!(passed[0]["order"], 3);
+        let (kept, _) = first_stable((4, 1.2), [4, 3, 2], 1.001, rho, at);
+        assert_eq!(kept, (3, 1.0005));
     }
 
     #[test]
