@@ -1113,34 +1113,88 @@ fn infer_ts(times: &[f64]) -> DataResult<f64> {
 }
 
 fn infer_sampling(c: usize, col: &[f64], name: &str) -> DataResult<(usize, usize)> {
-    let idx: Vec<usize> = (0..col.len()).filter(|&k| !col[k].is_nan()).collect();
-    let bad = |reason: String| DataError::CsvLayout {
-        reason: format!("output column {c} ('{name}'): {reason} (give CsvOptions::sampling)"),
+    output_sampling(col, None).map_err(|e| DataError::CsvLayout {
+        reason: format!("output column {c} ('{name}'): {e} (give CsvOptions::sampling)"),
+    })
+}
+
+/// Why an output column's samples do not follow one period
+/// ([`output_sampling`]); sample indices count from 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SamplingError {
+    /// Every value is missing.
+    #[error("no samples (every value missing)")]
+    NoSamples,
+    /// One value in a column of several rows: no period to infer.
+    #[error("a single sample does not determine the period")]
+    SingleSample,
+    /// The first value lies a period or more after the start.
+    #[error("first sample at {first} but period {period}: a sample is missing at the start")]
+    FirstMissing {
+        /// Index of the first value.
+        first: usize,
+        /// The period.
+        period: usize,
+    },
+    /// A sampling instant without a value.
+    #[error("no value at sample {sample}, a sampling instant of period {period}")]
+    MissingAt {
+        /// The instant.
+        sample: usize,
+        /// The period.
+        period: usize,
+    },
+    /// A value between two sampling instants.
+    #[error("a value at sample {sample}, between the sampling instants of period {period}")]
+    Between {
+        /// The instant.
+        sample: usize,
+        /// The period.
+        period: usize,
+    },
+}
+
+/// The (period, offset) of an output column whose missing values (NaN)
+/// mark the instants it is not sampled: the period `declared`, or the
+/// distance from the first value to the next; the offset the first value's
+/// index. Every instant k ≡ offset (mod period) must hold a value and no
+/// other may; a record may end between two sampling instants (a logger
+/// stopped before the analyser's next sample). The one rule of every
+/// front end (the CSV and `.npy` readers of the command line, this
+/// crate's CSV reader, the Python package). O(rows).
+///
+/// Errors: [`SamplingError`] naming the first sample that breaks the
+/// pattern.
+pub fn output_sampling(
+    col: &[f64],
+    declared: Option<usize>,
+) -> Result<(usize, usize), SamplingError> {
+    let first = col
+        .iter()
+        .position(|v| !v.is_nan())
+        .ok_or(SamplingError::NoSamples)?;
+    let period = match declared {
+        Some(p) => p.max(1),
+        None => match col[first + 1..].iter().position(|v| !v.is_nan()) {
+            Some(gap) => gap + 1,
+            None if col.len() == 1 => 1,
+            None => return Err(SamplingError::SingleSample),
+        },
     };
-    match idx.len() {
-        0 => Err(bad("no samples".into())),
-        1 if col.len() == 1 => Ok((1, 0)),
-        1 => Err(bad("a single sample does not determine the period".into())),
-        _ => {
-            let period = idx[1] - idx[0];
-            if let Some(w) = idx.windows(2).find(|w| w[1] - w[0] != period) {
-                return Err(bad(format!(
-                    "samples at {} and {} break the period {period}",
-                    w[0], w[1]
-                )));
-            }
-            if idx[0] >= period {
-                return Err(bad(format!(
-                    "first sample at row {} but period {period}: a sample is missing",
-                    idx[0]
-                )));
-            }
-            if col.len() - 1 - idx[idx.len() - 1] >= period {
-                return Err(bad("a sample is missing at the end".into()));
-            }
-            Ok((period, idx[0]))
+    if first >= period {
+        return Err(SamplingError::FirstMissing { first, period });
+    }
+    for (k, v) in col.iter().enumerate() {
+        let sampled = k % period == first;
+        if sampled && v.is_nan() {
+            return Err(SamplingError::MissingAt { sample: k, period });
+        }
+        if !sampled && !v.is_nan() {
+            return Err(SamplingError::Between { sample: k, period });
         }
     }
+    Ok((period, first))
 }
 
 fn trend(kind: Detrend, idx: &[usize], vals: &[f64]) -> DataResult<(f64, f64)> {
@@ -1407,6 +1461,58 @@ mod tests {
             Err(DataError::ChannelOutOfRange { .. })
         ));
         assert_eq!(d.input_samples(0).unwrap().0, vec![0, 3, 6, 9]);
+    }
+
+    /// The one sampling rule: every (period, offset, length) pattern is
+    /// found again, with or without the period declared, including a
+    /// record that ends between two samples; each break is named.
+    #[test]
+    fn output_sampling_finds_the_pattern_and_names_its_breaks() {
+        let nan = f64::NAN;
+        for period in 1..6 {
+            for offset in 0..period {
+                for len in [
+                    offset + 1,
+                    3 * period + offset,
+                    3 * period + offset + period - 1,
+                ] {
+                    let col: Vec<f64> = (0..len)
+                        .map(|k| if k % period == offset { k as f64 } else { nan })
+                        .collect();
+                    if col.iter().filter(|v| !v.is_nan()).count() >= 2 {
+                        assert_eq!(output_sampling(&col, None), Ok((period, offset)));
+                    }
+                    assert_eq!(output_sampling(&col, Some(period)), Ok((period, offset)));
+                }
+            }
+        }
+        use SamplingError as S;
+        assert_eq!(output_sampling(&[nan, nan], None), Err(S::NoSamples));
+        assert_eq!(
+            output_sampling(&[1.0, nan, nan], None),
+            Err(S::SingleSample)
+        );
+        assert_eq!(
+            output_sampling(&[nan, nan, nan, 1.0, nan, nan, 2.0], Some(3)),
+            Err(S::FirstMissing {
+                first: 3,
+                period: 3
+            })
+        );
+        assert_eq!(
+            output_sampling(&[1.0, nan, 2.0, nan, nan, nan, 3.0], None),
+            Err(S::MissingAt {
+                sample: 4,
+                period: 2
+            })
+        );
+        assert_eq!(
+            output_sampling(&[1.0, nan, 2.0, 5.0, 3.0], None),
+            Err(S::Between {
+                sample: 3,
+                period: 2
+            })
+        );
     }
 
     #[test]

@@ -91,8 +91,8 @@ pub mod validation;
 
 pub use connect::{append, feedback, parallel, series};
 pub use data::{
-    DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, period_from_times,
-    snap_period,
+    DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, SamplingError,
+    output_sampling, period_from_times, snap_period,
 };
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};

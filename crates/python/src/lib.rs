@@ -107,22 +107,28 @@ pub(crate) fn dataset(
     let inputs = (0..nu)
         .map(|i| lifted_lti::InputChannel::new(format!("u{}", i + 1), holds.map_or(1, |h| h[i])))
         .collect();
-    // A slow output's phase from its NaN pattern: the first measured
-    // sample (a record whose output is sampled at k ≡ 1 mod 4 was refused:
-    // "sample 0 is sampled but not finite").
+    // A slow output's phase from its NaN pattern, by the command line's
+    // rule (`lifted_lti::output_sampling`: the first measured sample, every
+    // period from there; a record whose output is sampled at k ≡ 1 mod 4
+    // was refused: "sample 0 is sampled but not finite").
     let outputs = (0..ny)
         .map(|i| {
             let period = periods.map_or(1, |p| p[i]);
             let offset = if period > 1 {
-                (0..y.nrows())
-                    .find(|&k| y[(k, i)].is_finite())
-                    .map_or(0, |k| k % period)
+                let col: Vec<f64> = y.column(i).iter().copied().collect();
+                lifted_lti::output_sampling(&col, Some(period))
+                    .map_err(|e| lifted_error(format!("y column {}: {e}", i + 1)))?
+                    .1
             } else {
                 0
             };
-            lifted_lti::OutputChannel::new(format!("y{}", i + 1), period, offset)
+            Ok(lifted_lti::OutputChannel::new(
+                format!("y{}", i + 1),
+                period,
+                offset,
+            ))
         })
-        .collect();
+        .collect::<PyResult<Vec<_>>>()?;
     lifted_lti::Dataset::new(dt, u, y, inputs, outputs).map_err(err)
 }
 

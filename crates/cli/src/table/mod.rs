@@ -252,47 +252,30 @@ fn sampling(
             format!("line {}", k + 2)
         }
     };
-    let first = col.iter().position(|v| !v.is_nan()).ok_or_else(|| {
-        input(format!(
+    use lifted_lti::SamplingError as S;
+    lifted_lti::output_sampling(col, declared).map_err(|e| match e {
+        S::NoSamples => input(format!(
             "{path}: output column '{name}' has no samples (all cells empty)"
-        ))
-    })?;
-    let period = match declared {
-        Some(p) => p,
-        None => match col[first + 1..].iter().position(|v| !v.is_nan()) {
-            Some(gap) => gap + 1,
-            None if col.len() == 1 => 1,
-            None => {
-                return Err(input(format!(
-                    "{path}: output column '{name}' has a single sample: give --output-period {name}=P"
-                )));
-            }
-        },
-    };
-    if first >= period {
-        return Err(input(format!(
+        )),
+        S::SingleSample => input(format!(
+            "{path}: output column '{name}' has a single sample: give --output-period {name}=P"
+        )),
+        S::FirstMissing { first, period } => input(format!(
             "{path}: {}, column '{name}': first sample is missing (period {period}): the column's first value is at {}, {first} rows after the start; an output must be sampled within its first period (an analyser started after the logger?): cut the rows before {}",
             at(first - 1),
             at(first),
             at(first)
-        )));
-    }
-    for (k, v) in col.iter().enumerate() {
-        let sampled = k % period == first;
-        if sampled && v.is_nan() {
-            return Err(input(format!(
-                "{path}: {}, column '{name}': empty cell at a sampling instant of period {period} (an output is sampled every P instants from its first sample; isolated missing values are not supported: fill them, e.g. by interpolation, or cut the record there)",
-                at(k)
-            )));
-        }
-        if !sampled && !v.is_nan() {
-            return Err(input(format!(
-                "{path}: {}, column '{name}': value between samples of period {period} (the cell must be empty)",
-                at(k)
-            )));
-        }
-    }
-    Ok((period, first))
+        )),
+        S::MissingAt { sample, period } => input(format!(
+            "{path}: {}, column '{name}': empty cell at a sampling instant of period {period} (an output is sampled every P instants from its first sample; isolated missing values are not supported: fill them, e.g. by interpolation, or cut the record there)",
+            at(sample)
+        )),
+        S::Between { sample, period } => input(format!(
+            "{path}: {}, column '{name}': value between samples of period {period} (the cell must be empty)",
+            at(sample)
+        )),
+        other => input(format!("{path}: output column '{name}': {other}")),
+    })
 }
 
 /// Writes columns as CSV: header then one row per sample; NaN is written
