@@ -378,11 +378,13 @@ fn dict_of<'py>(
     threads: usize,
     file: Option<&ModelFile>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let model = PyStateSpace::with_parts(
+    let mut model = PyStateSpace::with_parts(
         f.model.clone(),
         f.operating_point.cloned(),
         f.kalman_gain.cloned(),
     )?;
+    // The periods its gain was estimated with (the validation policy).
+    model.gain_periods = file.and_then(lifted_workflow::gain_periods);
     let model_json = match file {
         Some(file) => file.to_json().map_err(err)?,
         None => model.to_json_with(Some(method_name))?,

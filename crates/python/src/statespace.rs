@@ -27,6 +27,11 @@ pub struct PyStateSpace {
     pub(crate) inner: StateSpace,
     pub(crate) operating_point: Option<OperatingPoint>,
     pub(crate) kalman_gain: Option<DMatrix<f64>>,
+    /// The output periods the Kalman gain was estimated with (an
+    /// identification's `diagnostics.output_periods`): `validate` leaves
+    /// the gain out on a record sampled otherwise
+    /// (`lifted_workflow::gain_mismatch`, the command line's rule).
+    pub(crate) gain_periods: Option<Vec<usize>>,
 }
 
 impl PyStateSpace {
@@ -36,6 +41,7 @@ impl PyStateSpace {
             inner,
             operating_point: None,
             kalman_gain: None,
+            gain_periods: None,
         }
     }
 
@@ -50,6 +56,7 @@ impl PyStateSpace {
             inner,
             operating_point,
             kalman_gain,
+            gain_periods: None,
         };
         s.model_file(None)?;
         Ok(s)
@@ -67,6 +74,9 @@ impl PyStateSpace {
         }
         if let Some(k) = &self.kalman_gain {
             f = f.with_kalman_gain(k).map_err(err)?;
+            if let Some(p) = &self.gain_periods {
+                f.diagnostics = serde_json::json!({ "output_periods": p });
+            }
         }
         Ok(f)
     }
@@ -76,12 +86,14 @@ impl PyStateSpace {
         self.model_file(method)?.to_json().map_err(err)
     }
 
-    fn from_file(f: ModelFile) -> Self {
+    pub(crate) fn from_file(f: ModelFile) -> Self {
         let kalman_gain = f.kalman_gain_matrix();
+        let gain_periods = lifted_workflow::gain_periods(&f);
         Self {
             inner: f.model,
             operating_point: f.operating_point,
             kalman_gain,
+            gain_periods,
         }
     }
 
@@ -279,6 +291,8 @@ impl PyStateSpace {
         s.kalman_gain = kalman_gain
             .map(|k| matrix(k, "kalman_gain", Vector::Column, None))
             .transpose()?;
+        // A gain given here: its sampling is not known.
+        s.gain_periods = None;
         s.model_file(None)?;
         Ok(s)
     }

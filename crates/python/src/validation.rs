@@ -77,8 +77,19 @@ pub(crate) fn validate<'py>(
             })
         }
     };
+    // The model's gain is left out on a record sampled otherwise than the
+    // one it was estimated with (the command line's rule,
+    // `lifted_workflow::gain_mismatch`); a gain given here is used as given.
+    let record_periods: Vec<usize> = data.outputs().iter().map(|c| c.period).collect();
+    let gain_note = match (kalman_gain, &model.gain_periods) {
+        (None, Some(p)) if model.kalman_gain.is_some() => {
+            lifted_workflow::gain_mismatch(p, &record_periods)
+        }
+        _ => None,
+    };
     let kalman_gain = match kalman_gain {
         Some(k) => Some(matrix(k, "kalman_gain", Vector::Column, None)?),
+        None if gain_note.is_some() => None,
         None => model.kalman_gain.clone(),
     };
     let opts = ValidationOptions {
@@ -110,6 +121,7 @@ pub(crate) fn validate<'py>(
         })
         .collect::<PyResult<Vec<_>>>()?;
     out.set_item("outputs", rows)?;
+    out.set_item("gain_note", gain_note)?;
     out.set_item("lags", v.lags)?;
     out.set_item("residual", v.residual.name())?;
     out.set_item("stable", v.stable())?;

@@ -292,3 +292,31 @@ def test_gain_stop_share_and_integrator_tolerance_reach_the_workflow() -> None:
     mr = np.where(np.arange(n) % 3 == 0, y, np.nan)
     slow = lifted.multirate(u, mr, [3], order=1, integrator_tolerance=1e-3)
     assert slow.diagnostics["integrators"]["tolerance"] == 1e-3
+
+
+def test_validate_leaves_out_a_gain_estimated_at_other_output_periods() -> None:
+    """The command line's validation policy (issue 48): a multirate model's
+    Kalman gain, estimated on the slow samples, is left out on a full-rate
+    record (no prediction fits, the simulation error tested) and the result
+    says why; on a record sampled as it was identified the gain is used. The
+    model keeps the periods through its JSON (pickle) round trip."""
+    rng = np.random.default_rng(8)
+    n = 3000
+    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    y = np.zeros(n)
+    x = 0.0
+    for k in range(n):
+        y[k] = x + 0.02 * rng.standard_normal()
+        x = 0.85 * x + 0.2 * u[k]
+    slow = np.where(np.arange(n) % 3 == 0, y, np.nan)
+    fit = lifted.multirate(u, slow, [3], order=1)
+    model = fit.fast
+    assert model.kalman_gain is not None
+    full = lifted.validate(model, u, y)
+    assert full.gain_note is not None and "[3]" in full.gain_note
+    assert all(np.isnan(f) for f in full.outputs[0].prediction_fits)
+    assert full.residual == "simulation"
+    same = lifted.validate(model, u, slow, periods=[3])
+    assert same.gain_note is None
+    again = lifted.StateSpace.from_json(model.to_json())
+    assert lifted.validate(again, u, y).gain_note == full.gain_note

@@ -166,4 +166,7 @@ pub use refine::{
 };
 pub use routes::RouteDetails;
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
-pub use validate::{marginal_warning, require_stable, spectral_radius, unstable_warning};
+pub use validate::{
+    gain_mismatch, gain_periods, marginal_warning, require_stable, spectral_radius,
+    unstable_warning,
+};

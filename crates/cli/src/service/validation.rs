@@ -79,26 +79,14 @@ pub fn validate_model(
 }
 
 /// Why the model file's Kalman gain does not predict on `data`, if it does
-/// not: it was estimated for outputs sampled at other periods than the
-/// record's (a multirate model's gain, checked on the slow samples, applied
-/// at every sample of a full-rate record predicted worse than the
-/// simulation: 70 % against 86 %). The validation then leaves the
-/// prediction fits out and tests the simulation error.
+/// not: the workflow's rule (`lifted_workflow::gain_mismatch`, also the
+/// Python package's): estimated for outputs sampled at other periods than
+/// the record's. The validation then leaves the prediction fits out and
+/// tests the simulation error.
 pub fn gain_mismatch(file: &ModelFile, data: &Dataset) -> Option<String> {
-    file.kalman_gain.as_ref()?;
-    let identified: Vec<u64> = file
-        .diagnostics
-        .get("output_periods")?
-        .as_array()?
-        .iter()
-        .map(|v| v.as_u64())
-        .collect::<Option<_>>()?;
-    let here: Vec<u64> = data.outputs().iter().map(|c| c.period as u64).collect();
-    (identified.len() == here.len() && identified != here).then(|| {
-        format!(
-            "the model's Kalman gain was estimated with outputs sampled every {identified:?} base periods, this record's every {here:?}: no prediction fits, the residual tests on the simulation error"
-        )
-    })
+    let identified = lifted_workflow::gain_periods(file)?;
+    let here: Vec<usize> = data.outputs().iter().map(|c| c.period).collect();
+    lifted_workflow::gain_mismatch(&identified, &here)
 }
 
 fn max_abs(v: &[f64]) -> f64 {

@@ -841,6 +841,7 @@ def validate(
         spectral_radius=d["spectral_radius"],
         x0=None if d["x0"] is None else np.asarray(d["x0"], dtype=np.float64),
         residual=d["residual"],
+        gain_note=d["gain_note"],
     )
 
 

@@ -189,6 +189,11 @@ class Validation(_Result):
     #: prediction"`` (the innovations of a model with its Kalman gain on a
     #: single-rate record, as MATLAB's ``resid``) or ``"simulation"``.
     residual: str = "simulation"
+    #: Why the model's Kalman gain was left out, when it was: it was
+    #: estimated with the outputs sampled at other periods than this
+    #: record's (the command line's rule: no prediction fits, the residual
+    #: tests on the simulation error); ``None`` otherwise.
+    gain_note: str | None = None
 
     _shown = ("outputs", "horizons", "stable", "residual")
 
