@@ -1099,17 +1099,36 @@ fn infer_ts(times: &[f64]) -> DataResult<f64> {
     if !(ts.is_finite() && ts > 0.0) {
         return Err(DataError::InvalidSamplePeriod { ts });
     }
-    for (k, &t) in times.iter().enumerate() {
-        let expect = times[0] + k as f64 * ts;
-        if (t - expect).abs() > 1e-9 * (1.0 + expect.abs()).max(ts) {
+    for k in 2..n {
+        if !time_step_within(times[0], times[k - 1], k, times[k]) {
             return Err(DataError::CsvLayout {
                 reason: format!(
-                    "time column is not uniformly spaced at row {k} (t = {t}, expected {expect})"
+                    "time column is not uniformly spaced at row {k} (t = {}, {} after the row before, the spacing of the rows so far {}, within {} %)",
+                    times[k],
+                    times[k] - times[k - 1],
+                    (times[k - 1] - times[0]) / (k - 1) as f64,
+                    TIME_STEP_TOLERANCE * 100.0
                 ),
             });
         }
     }
     Ok(ts)
+}
+
+/// How far a row's time step may be from the mean spacing of the rows
+/// before it, relative to that spacing (every reader of a time column: the
+/// command line's CSV and `.npy` readers, this crate's CSV reader): times
+/// rounded as loggers write them (milliseconds at 30 Hz: steps of 0.033
+/// and 0.034 s) or stored in single precision pass, a missing, repeated or
+/// out-of-order row does not.
+pub const TIME_STEP_TOLERANCE: f64 = 0.1;
+
+/// Whether the time `t` of row `rows` (0-based; `rows ≥ 2`) steps from
+/// the row before (`t_last`) by the mean spacing of the rows so far
+/// (first time `t0`) within [`TIME_STEP_TOLERANCE`]. O(1).
+pub fn time_step_within(t0: f64, t_last: f64, rows: usize, t: f64) -> bool {
+    let mean = (t_last - t0) / (rows.max(2) - 1) as f64;
+    ((t - t_last) - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs()
 }
 
 fn infer_sampling(c: usize, col: &[f64], name: &str) -> DataResult<(usize, usize)> {
@@ -1632,6 +1651,17 @@ mod tests {
         assert_eq!(ok.len(), 2);
         let slow = r("t,u,y\n0,1,\n1,1,3\n2,1,\n3,1,4\n").unwrap();
         assert_eq!((slow.outputs()[0].period, slow.outputs()[0].offset), (2, 1));
+        // The command line's time rule: times rounded as a logger writes
+        // them (30 Hz in milliseconds) read, a missing row does not; a
+        // record may end between two samples of a slow output.
+        let rounded = r("t,u,y\n0,1,1\n0.033,1,2\n0.067,1,3\n0.1,1,4\n0.133,1,5\n").unwrap();
+        assert!((rounded.ts() - 0.133 / 4.0).abs() < 1e-3);
+        assert!(matches!(
+            r("t,u,y\n0,1,1\n0.033,1,2\n0.1,1,3\n0.133,1,4\n"),
+            Err(DataError::CsvLayout { .. })
+        ));
+        let ends_between = r("t,u,y\n0,1,1\n1,1,\n2,1,3\n3,1,\n4,1,5\n5,1,\n").unwrap();
+        assert_eq!(ends_between.outputs()[0].period, 2);
     }
 
     #[test]

@@ -92,7 +92,7 @@ pub mod validation;
 pub use connect::{append, feedback, parallel, series};
 pub use data::{
     DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, SamplingError,
-    output_sampling, period_from_times, snap_period,
+    TIME_STEP_TOLERANCE, output_sampling, period_from_times, snap_period, time_step_within,
 };
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};

@@ -4,8 +4,9 @@
 use super::*;
 
 /// How far a row's time step may be from the mean spacing of the rows
-/// before it, relative to that spacing.
-pub(crate) const TIME_STEP_TOLERANCE: f64 = 0.1;
+/// before it, relative to that spacing (`lifted_lti`'s rule, shared by
+/// every reader of a time column).
+pub(crate) use lifted_lti::TIME_STEP_TOLERANCE;
 
 /// Row count and time-column checks shared by the CSV and `.npy` readers.
 pub(crate) struct RowCheck {
@@ -52,8 +53,7 @@ impl RowCheck {
             rows => {
                 let mean = (self.t_last - self.t0) / (rows - 1) as f64;
                 let step = t - self.t_last;
-                let within = (step - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs();
-                if !within {
+                if !lifted_lti::time_step_within(self.t0, self.t_last, rows, t) {
                     return Err(input(format!(
                         "{path}: {at}, column '{column}': time {t} is {step} after the row before, not the spacing {mean} of the rows so far (within {} %): a missing, repeated or out-of-order row? give --ts to ignore the time column",
                         TIME_STEP_TOLERANCE * 100.0
