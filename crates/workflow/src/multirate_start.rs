@@ -310,15 +310,7 @@ fn refit_bd_with(
 /// record supports; shift invariance): the second candidate at each order
 /// of the multirate route's held-out order curve.
 pub(crate) fn quick_start(opts: &WorkflowOptions, d: &Dataset, n: usize) -> Result<StateSpace> {
-    let smooth = interpolated(d)?;
-    let mut o = strictly_proper_unless_asked(opts);
-    o.identification.order = Order::Fixed(n);
-    let h = opts.identification.horizon.unwrap_or(10);
-    let width = d.n_inputs() + d.n_outputs();
-    o.identification.horizon =
-        Some(lifted_subspace::longest_horizon(&[d.len()], width, h).unwrap_or(2));
-    o.identification.estimator = Estimator::Shift;
-    let model = routes::subspace(&o, &[smooth], false, None)?.fit.model;
+    let model = quick_as_identified(opts, d, n)?;
     Ok(refit_bd(model, std::slice::from_ref(d)))
 }
 

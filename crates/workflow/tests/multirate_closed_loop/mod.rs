@@ -252,6 +252,12 @@ fn predictor_options(method: Method, order: usize) -> WorkflowOptions {
 /// The route's name in the diagnostics.
 const PREDICTOR_ROUTE: &str = "multirate prediction error (direct method)";
 
+/// Fails unless the diagnostics `d` name the predictor route.
+fn assert_predictor_route(d: &serde_json::Value) {
+    let route = d["route"].as_str().unwrap_or_default();
+    assert!(route.starts_with(PREDICTOR_ROUTE), "{d}");
+}
+
 /// The SISO loop of issue 46 without its set-point (4e4 samples, one
 /// measurement every 4 samples, AR(1) noise fed back): `--method pbsid`
 /// was refused on multirate records; N4SID gave 2.78 from the plant in
@@ -267,13 +273,7 @@ fn the_siso_multirate_loop_without_its_setpoint_reaches_the_plant() {
         let fit =
             identify(&[Record::new(data)], &predictor_options(Method::Pbsid, 3)).expect("identify");
         let d = &fit.file.diagnostics;
-        assert!(
-            d["route"]
-                .as_str()
-                .unwrap_or_default()
-                .starts_with(PREDICTOR_ROUTE),
-            "{d}"
-        );
+        assert_predictor_route(d);
         assert_eq!(fit.file.method.as_deref(), Some("pbsid"));
         assert!(fit.file.kalman_gain.is_some(), "{d}");
         assert_eq!(
@@ -301,13 +301,7 @@ fn the_2x2_multirate_loop_without_its_setpoints_reaches_the_plant() {
     let fit =
         identify(&[Record::new(data)], &predictor_options(Method::Ssarx, 4)).expect("identify");
     let d = &fit.file.diagnostics;
-    assert!(
-        d["route"]
-            .as_str()
-            .unwrap_or_default()
-            .starts_with(PREDICTOR_ROUTE),
-        "{d}"
-    );
+    assert_predictor_route(d);
     let err = fr_error(&fit.file.model, &truth);
     assert!(err <= 0.10, "FR error {err}: {d}");
 }
