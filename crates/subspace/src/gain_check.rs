@@ -419,6 +419,10 @@ const BLOCK_ROWS: usize = 2048;
 /// of [J | r] are folded block by block into the R factor of their QR
 /// (memory O(P²), never JᵀJ), and each step solves the small damped
 /// problem [R_J; √λ D] δ = [−q; 0] (D: Marquardt's column norms of J).
+/// A trial's cost comes from a run of the predictor alone; its factor
+/// only when the trial is accepted and a further iteration follows (the
+/// same iterates as a factor at every trial, without the runs wasted on
+/// rejected trials and on the last accepted one).
 /// `limits`: the relative decrease below which it stops and the largest
 /// number of iterations; `route`: how the sensitivities are computed
 /// ([`Sensitivities`]). Returns the gain, its cost ([`prediction_cost`])
@@ -456,20 +460,36 @@ fn minimise(
         .collect();
     let mut theta = DVector::from_column_slice(start.as_slice());
     let gain = |theta: &DVector<f64>| DMatrix::from_column_slice(n, ny, theta.as_slice());
-    // ‖r‖² and the R factor of [J | r] at θ; None when A − K C is not
-    // stable or the errors are not finite.
-    let eval = |theta: &DVector<f64>| -> Option<(f64, DMatrix<f64>)> {
+    // The predictor at θ; None when A − K C is not stable.
+    let predictor = |theta: &DVector<f64>| -> Option<OneStep> {
         let k = gain(theta);
         let m = model.a() - &k * model.c();
         let rho = spectral_radius(&m).ok()?;
-        if rho >= 1.0 {
-            return None;
+        (rho < 1.0).then(|| OneStep::new(model, &k, &m))
+    };
+    // ‖r‖² at θ (the rows' squares summed in the order the fold below
+    // visits them, so the same number bit for bit); None when A − K C is
+    // not stable or the cost is not finite.
+    let cost_at = |theta: &DVector<f64>| -> Option<f64> {
+        let predictor = predictor(theta)?;
+        let mut cost = 0.0;
+        for (data, x0) in sets.iter().zip(x0s) {
+            predictor.with_errors(data.u, data.y, x0, |eps| {
+                for (o, e) in eps.iter().enumerate() {
+                    let r = w[o] * e;
+                    cost += r * r;
+                }
+            });
         }
-        let predictor = OneStep::new(model, &k, &m);
+        cost.is_finite().then_some(cost)
+    };
+    // The R factor of [J | r] at θ; None when A − K C is not stable or
+    // the rows are not finite.
+    let factor_at = |theta: &DVector<f64>| -> Option<DMatrix<f64>> {
+        let predictor = predictor(theta)?;
         let mut acc = lifted_linalg::RAccumulator::new(params + 1);
         let mut block = DMatrix::zeros(BLOCK_ROWS, params + 1);
         let mut filled = 0;
-        let mut cost = 0.0;
         let mut folded = true;
         for (data, x0) in sets.iter().zip(x0s) {
             predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
@@ -480,9 +500,7 @@ fn minimise(
                 for (p, v) in cs.iter().enumerate() {
                     block[(filled, p)] = -w[o] * v;
                 }
-                let r = w[o] * eps;
-                block[(filled, params)] = r;
-                cost += r * r;
+                block[(filled, params)] = w[o] * eps;
                 filled += 1;
             });
         }
@@ -490,9 +508,10 @@ fn minimise(
             return None;
         }
         acc.push_rows(&block.rows(0, filled).into_owned()).ok()?;
-        cost.is_finite().then(|| (cost, acc.r()))
+        Some(acc.r())
     };
-    let Some((mut cost, mut r)) = eval(&theta) else {
+    let start_at = cost_at(&theta).and_then(|c| Some((c, factor_at(&theta)?)));
+    let Some((mut cost, mut r)) = start_at else {
         return Err("the start's predictor is not stable".into());
     };
     runs_left -= 1;
@@ -523,15 +542,31 @@ fn minimise(
             };
             let trial = &theta + step.column(0);
             runs_left -= 1;
-            match eval(&trial) {
-                Some((ct, rt)) if ct < cost => {
+            // The trial's cost first; its factor only when a further
+            // iteration needs it (the last accepted point's is never used).
+            let accepted = match cost_at(&trial) {
+                Some(ct) if ct < cost => {
                     let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
-                    (theta, cost, r) = (trial, ct, rt);
+                    let more = decrease > tolerance;
+                    if more && iterations < max_iterations {
+                        factor_at(&trial).map(|rt| (ct, Some(rt), more))
+                    } else {
+                        Some((ct, None, more))
+                    }
+                }
+                _ => None,
+            };
+            match accepted {
+                Some((ct, rt, more)) => {
+                    (theta, cost) = (trial, ct);
+                    if let Some(rt) = rt {
+                        r = rt;
+                    }
                     lambda = (lambda / 3.0).max(1e-12);
-                    improved = decrease > tolerance;
+                    improved = more;
                     break;
                 }
-                _ => lambda *= 4.0,
+                None => lambda *= 4.0,
             }
         }
         if !improved {
@@ -816,6 +851,7 @@ fn measured_means(y: &DMatrix<f64>) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use approx::assert_relative_eq;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 
@@ -925,6 +961,96 @@ mod tests {
                     (&states - &rows).amax() <= 1e-10 * states.amax(),
                     "{states} {rows}"
                 );
+            }
+        }
+    }
+
+    /// The factor of [J | r] computed only at accepted trials that a
+    /// further iteration needs leaves every iterate as it was: the gains,
+    /// iterations and costs of the code that computed it at every trial
+    /// (commit 9fb6fc3, printed with `{:?}` on this record: the true-order
+    /// model and the over-fitted order-4 one, default stop and
+    /// `stop_share` 0), to 1e-12 (they were equal bit for bit on the
+    /// development machine).
+    #[test]
+    fn the_lazy_factor_gives_the_gains_of_before() {
+        let (g, _, u, y) = record(20_000, 5);
+        let exps = [Experiment { u: &u, y: &y }];
+        let four = crate::identify(
+            &exps,
+            &crate::SubspaceOptions {
+                order: crate::OrderSelection::Fixed(4),
+                past: 10,
+                future: 10,
+                ..Default::default()
+            },
+        )
+        .expect("order 4");
+        let before: [(usize, f64, &[f64]); 4] = [
+            (
+                1,
+                9.603151552225127e-2,
+                &[
+                    0.5057146188440217,
+                    0.00639449769740624,
+                    0.10698766412792649,
+                    0.41805372267645385,
+                ],
+            ),
+            (
+                4,
+                9.603148856515918e-2,
+                &[
+                    0.5075794899573197,
+                    0.006521340483264673,
+                    0.10826321741700716,
+                    0.4183806977194979,
+                ],
+            ),
+            (
+                2,
+                9.599734849013335e-2,
+                &[
+                    0.46823706946937405,
+                    0.16682534074018326,
+                    0.37826938836322366,
+                    0.1787916110417901,
+                    0.15342726381486724,
+                    -0.6927335201326394,
+                    0.03379898936218651,
+                    0.09988748799186688,
+                ],
+            ),
+            (
+                4,
+                9.599734828777039e-2,
+                &[
+                    0.468193565576175,
+                    0.16683033494832022,
+                    0.37953521630872517,
+                    0.17925880957449006,
+                    0.15341459842881996,
+                    -0.6927312256668916,
+                    0.033917351650080044,
+                    0.09982288202564256,
+                ],
+            ),
+        ];
+        let runs = [&g, &four.model]
+            .into_iter()
+            .flat_map(|m| [(m, 0.01), (m, 0.0)]);
+        for ((model, share), (iterations, cost, k)) in runs.zip(before) {
+            let opts = GainCheckOptions {
+                stop_share: share,
+                ..Default::default()
+            };
+            let (got, report) =
+                check_kalman_gain_memo(model, None, &exps, 10, &opts, &mut VarxMemo::default());
+            let got = got.expect("gain");
+            assert_eq!(report.iterations, iterations, "{report:?}");
+            assert_relative_eq!(report.final_cost.expect("cost"), cost, max_relative = 1e-12);
+            for (a, b) in got.iter().zip(k) {
+                assert!((a - b).abs() <= 1e-12, "{got} vs {k:?}");
             }
         }
     }

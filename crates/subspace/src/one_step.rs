@@ -157,18 +157,30 @@ impl OneStep {
         x0: &DVector<f64>,
         err: &mut [f64],
     ) {
-        let add = |eps: &[f64], err: &mut [f64]| {
+        self.with_errors(u, y, x0, |eps| {
             for (e, v) in err.iter_mut().zip(eps) {
                 *e += v * v;
             }
-        };
+        });
+    }
+
+    /// Runs the predictor over the record (u, y) from `x0`, calling
+    /// `visit(ε(t))` for every sample (0 where an output is not measured).
+    /// O(N n (n + n_u + n_y)).
+    pub(crate) fn with_errors(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        x0: &DVector<f64>,
+        visit: impl FnMut(&[f64]),
+    ) {
         match self.n {
-            1 => Fixed::<1>::new(self).errors(u, y, x0, |e| add(e, err)),
-            2 => Fixed::<2>::new(self).errors(u, y, x0, |e| add(e, err)),
-            3 | 4 => Fixed::<4>::new(self).errors(u, y, x0, |e| add(e, err)),
-            5..=8 => Fixed::<8>::new(self).errors(u, y, x0, |e| add(e, err)),
-            9..=16 => Fixed::<16>::new(self).errors(u, y, x0, |e| add(e, err)),
-            _ => self.errors_any_order(u, y, x0, |e| add(e, err)),
+            1 => Fixed::<1>::new(self).errors(u, y, x0, visit),
+            2 => Fixed::<2>::new(self).errors(u, y, x0, visit),
+            3 | 4 => Fixed::<4>::new(self).errors(u, y, x0, visit),
+            5..=8 => Fixed::<8>::new(self).errors(u, y, x0, visit),
+            9..=16 => Fixed::<16>::new(self).errors(u, y, x0, visit),
+            _ => self.errors_any_order(u, y, x0, visit),
         }
     }
 
