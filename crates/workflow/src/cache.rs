@@ -14,6 +14,9 @@
 //! n_u)²), the check's largest cost) are kept too, per record as the
 //! check sees it (the deviations from each model's operating point): an
 //! order identified again reuses them, with the same gain bit for bit.
+//! The feedback test on a single-rate record (its VARX innovations and the
+//! Granger test on them, model-free: the same for every order) is kept
+//! too, by the record and the test's options: a new order takes it.
 
 use lifted_subspace::{CompressedData, Experiment, SubspaceModel, SubspaceOptions};
 
@@ -30,6 +33,9 @@ pub struct SubspaceCache {
     /// The Kalman-gain check's VARX innovations of the last records
     /// ([`lifted_subspace::VarxMemo`]): an order checked again reuses them.
     pub(crate) gain: lifted_subspace::VarxMemo,
+    /// The feedback test of the last single-rate record
+    /// (`crate::feedback::FeedbackMemo`): every order takes it.
+    pub(crate) feedback: crate::feedback::FeedbackMemo,
 }
 
 impl std::fmt::Debug for SubspaceCache {
@@ -38,6 +44,7 @@ impl std::fmt::Debug for SubspaceCache {
             .field("kept", &self.kept.as_ref().map(|(k, _)| k))
             .field("compressions", &self.compressions)
             .field("varx_estimates", &self.gain.computed())
+            .field("feedback_tests", &self.feedback.computed())
             .finish()
     }
 }
@@ -55,10 +62,17 @@ impl SubspaceCache {
         self.gain.computed()
     }
 
-    /// Forgets the kept compression and innovations.
+    /// Feedback tests on a VARX's errors made through the cache (a new
+    /// order on a record already tested makes none).
+    pub fn feedback_tests(&self) -> usize {
+        self.feedback.computed()
+    }
+
+    /// Forgets the kept compression, innovations and feedback test.
     pub fn clear(&mut self) {
         self.kept = None;
         self.gain = lifted_subspace::VarxMemo::default();
+        self.feedback = crate::feedback::FeedbackMemo::default();
     }
 
     /// `lifted_subspace::identify(exps, sub)`, from the kept compression

@@ -270,7 +270,7 @@ fn run(
                 GainCheckWith {
                     past: used.past,
                     options: &opts.identification.gain_check,
-                    memo: cache.map(|c| &mut c.gain),
+                    memo: cache.as_deref_mut().map(|c| &mut c.gain),
                 },
             );
             if !route_sets.is_empty() {
@@ -327,6 +327,10 @@ fn run(
         suggested_order,
         mut details,
     } = fit;
+    // The records before the identification removed its operating point
+    // (the same for every order of a record): the feedback test's
+    // model-free innovations are estimated on them.
+    let before: Option<&[Dataset]> = check.as_ref().map(|(sets, _, _)| sets.as_slice());
     let check = check.as_ref().map(|(sets, options, known)| HeldOutCheck {
         sets,
         options,
@@ -385,7 +389,15 @@ fn run(
             },
         );
     }
-    crate::feedback::report(opts, &model, kalman_gain.as_ref(), &sets, &mut diagnostics);
+    crate::feedback::report(
+        opts,
+        &model,
+        kalman_gain.as_ref(),
+        &sets,
+        before,
+        cache.as_deref_mut().map(|c| &mut c.feedback),
+        &mut diagnostics,
+    );
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {
