@@ -291,6 +291,7 @@ pub(crate) fn subspace(
     // The default feedthrough: D kept only where the records support it
     // (crate::feedthrough), the D = 0 model identified at the same
     // structure.
+    let t_feedthrough = std::time::Instant::now();
     let (fit, used, feedthrough) = match crate::feedthrough::settled(id, &fit) {
         Some(said) => (fit, used, said),
         None => {
@@ -306,10 +307,12 @@ pub(crate) fn subspace(
             (fit, if zero_kept { zero_opts } else { used }, said)
         }
     };
+    let feedthrough_s = t_feedthrough.elapsed().as_secs_f64();
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
     if let Some(obj) = d.as_object_mut() {
         obj.insert("feedthrough".into(), feedthrough);
     }
+    crate::diagnostics::add_phase(&mut d, "feedthrough_s", feedthrough_s);
     // The held-out search's own cap (the largest order its horizons
     // identify), said as the gap search's is (--max-order 100 searched
     // 1..=29 without a word).
