@@ -75,6 +75,7 @@ mod convert;
 pub mod data;
 mod discretize;
 pub mod error;
+mod flat;
 mod freq;
 pub mod identify;
 mod la;

@@ -319,11 +319,12 @@ pub fn validate(
             got: format!("{}x{}", k.nrows(), k.ncols()),
         });
     }
+    // Every horizon from one run of the one-step predictor.
     let predictions: Vec<DMatrix<f64>> = match gain {
-        Some(k) => opts
-            .horizons
+        Some(k) => m
+            .predict_horizons(k, &du, &dy, &opts.horizons, x0.as_ref())?
             .iter()
-            .map(|&h| op.add_output(&m.predict_from(k, &du, &dy, h, x0.as_ref())?))
+            .map(|p| op.add_output(p))
             .collect::<Result<_>>()?,
         None => Vec::new(),
     };
