@@ -485,30 +485,25 @@ fn minimise(
     };
     // The R factor of [J | r] at θ; None when A − K C is not stable or
     // the rows are not finite.
+    // The rows are folded on a second thread while the predictor makes
+    // the next ones, when there is one and the records are long
+    // ([`Blocks`]: the same blocks in the same order, the same R bit for
+    // bit).
+    let parallel =
+        rows > 4 * BLOCK_ROWS && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
     let factor_at = |theta: &DVector<f64>| -> Option<DMatrix<f64>> {
         let predictor = predictor(theta)?;
-        let mut acc = lifted_linalg::RAccumulator::new(params + 1);
-        let mut block = DMatrix::zeros(BLOCK_ROWS, params + 1);
-        let mut filled = 0;
-        let mut folded = true;
-        for (data, x0) in sets.iter().zip(x0s) {
-            predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
-                if filled == BLOCK_ROWS {
-                    folded &= acc.push_rows(&block).is_ok();
-                    filled = 0;
-                }
-                for (p, v) in cs.iter().enumerate() {
-                    block[(filled, p)] = -w[o] * v;
-                }
-                block[(filled, params)] = w[o] * eps;
-                filled += 1;
-            });
-        }
-        if !folded {
-            return None;
-        }
-        acc.push_rows(&block.rows(0, filled).into_owned()).ok()?;
-        Some(acc.r())
+        fold_rows(params + 1, parallel, |blocks| {
+            for (data, x0) in sets.iter().zip(x0s) {
+                predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
+                    let (block, at) = blocks.row();
+                    for (p, v) in cs.iter().enumerate() {
+                        block[(at, p)] = -w[o] * v;
+                    }
+                    block[(at, params)] = w[o] * eps;
+                });
+            }
+        })
     };
     let start_at = cost_at(&theta).and_then(|c| Some((c, factor_at(&theta)?)));
     let Some((mut cost, mut r)) = start_at else {
@@ -576,6 +571,112 @@ fn minimise(
     let k = gain(&theta);
     let cost = prediction_cost(model, &k, sets, x0s)?;
     Ok((k, cost, iterations))
+}
+
+/// Where [`fold_rows`] sends its full blocks: an accumulator here, or the
+/// folding thread (blocks out, emptied blocks back).
+enum Sink<'a> {
+    Here(lifted_linalg::RAccumulator),
+    Thread {
+        full: std::sync::mpsc::SyncSender<DMatrix<f64>>,
+        spent: &'a std::sync::mpsc::Receiver<DMatrix<f64>>,
+    },
+}
+
+/// Blocks of [`BLOCK_ROWS`] rows filled one row at a time by
+/// [`fold_rows`]'s producer.
+struct Blocks<'a> {
+    block: DMatrix<f64>,
+    filled: usize,
+    folded: bool,
+    sink: Sink<'a>,
+}
+
+impl Blocks<'_> {
+    /// The block and the index of the next row to fill (a full block is
+    /// folded, or sent to the folding thread, first).
+    fn row(&mut self) -> (&mut DMatrix<f64>, usize) {
+        if self.filled == BLOCK_ROWS {
+            match &mut self.sink {
+                Sink::Here(acc) => self.folded &= acc.push_rows(&self.block).is_ok(),
+                Sink::Thread { full, spent } => {
+                    let (r, c) = self.block.shape();
+                    let next = spent.try_recv().unwrap_or_else(|_| DMatrix::zeros(r, c));
+                    let block = std::mem::replace(&mut self.block, next);
+                    self.folded &= full.send(block).is_ok();
+                }
+            }
+            self.filled = 0;
+        }
+        self.filled += 1;
+        (&mut self.block, self.filled - 1)
+    }
+}
+
+/// The R factor of the QR of the rows (`width` columns) that `produce`
+/// writes through [`Blocks::row`], folded block by block into an
+/// `RAccumulator`; with `parallel`, the blocks are folded on a second
+/// thread while `produce` fills the next (the same blocks pushed in the
+/// same order: the same R bit for bit). `None` when a block is not
+/// finite or the folding thread fails.
+fn fold_rows(
+    width: usize,
+    parallel: bool,
+    produce: impl FnOnce(&mut Blocks<'_>),
+) -> Option<DMatrix<f64>> {
+    let finish = |mut blocks: Blocks<'_>| -> Option<Option<lifted_linalg::RAccumulator>> {
+        let last = blocks.block.rows(0, blocks.filled).into_owned();
+        match blocks.sink {
+            Sink::Here(mut acc) => {
+                blocks.folded &= acc.push_rows(&last).is_ok();
+                blocks.folded.then_some(Some(acc))
+            }
+            Sink::Thread { full, .. } => {
+                blocks.folded &= full.send(last).is_ok();
+                blocks.folded.then_some(None)
+            }
+        }
+    };
+    if !parallel {
+        let mut blocks = Blocks {
+            block: DMatrix::zeros(BLOCK_ROWS, width),
+            filled: 0,
+            folded: true,
+            sink: Sink::Here(lifted_linalg::RAccumulator::new(width)),
+        };
+        produce(&mut blocks);
+        return finish(blocks).flatten().map(|acc| acc.r());
+    }
+    let (full, blocks_in) = std::sync::mpsc::sync_channel::<DMatrix<f64>>(2);
+    let (spent_out, spent) = std::sync::mpsc::channel::<DMatrix<f64>>();
+    std::thread::scope(|scope| {
+        let folder = scope.spawn(move || {
+            let mut acc = lifted_linalg::RAccumulator::new(width);
+            let mut folded = true;
+            for block in blocks_in {
+                folded &= acc.push_rows(&block).is_ok();
+                // (The producer may have finished: a block not taken back
+                // is dropped.)
+                let _ = spent_out.send(block);
+            }
+            folded.then(|| acc.r())
+        });
+        let mut blocks = Blocks {
+            block: DMatrix::zeros(BLOCK_ROWS, width),
+            filled: 0,
+            folded: true,
+            sink: Sink::Thread {
+                full,
+                spent: &spent,
+            },
+        };
+        produce(&mut blocks);
+        // (Sending the last block and dropping the sender ends the folding
+        // thread's loop.)
+        let sent = finish(blocks).is_some();
+        let r = folder.join().ok().flatten();
+        r.filter(|_| sent)
+    })
 }
 
 /// K by the output-error regression on VARX innovations (module docs),
@@ -1052,6 +1153,39 @@ mod tests {
             for (a, b) in got.iter().zip(k) {
                 assert!((a - b).abs() <= 1e-12, "{got} vs {k:?}");
             }
+        }
+    }
+
+    /// The rows folded on a second thread give the R factor of the rows
+    /// folded here, bit for bit (several full blocks and a partial one).
+    #[test]
+    fn the_folding_thread_gives_the_same_factor() {
+        let rows = 5 * BLOCK_ROWS + 77;
+        let value = |i: usize, j: usize| (((i * 31 + j * 17) % 101) as f64 - 50.3) / 7.0;
+        let fold = |parallel| {
+            fold_rows(6, parallel, |blocks| {
+                for i in 0..rows {
+                    let (block, at) = blocks.row();
+                    for j in 0..6 {
+                        block[(at, j)] = value(i, j);
+                    }
+                }
+            })
+            .expect("factor")
+        };
+        let (here, there) = (fold(false), fold(true));
+        let bits = |m: &DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&here), bits(&there));
+        // A row not finite: no factor either way.
+        for parallel in [false, true] {
+            let r = fold_rows(2, parallel, |blocks| {
+                for i in 0..rows {
+                    let (block, at) = blocks.row();
+                    block[(at, 0)] = if i == 3 * BLOCK_ROWS { f64::NAN } else { 1.0 };
+                    block[(at, 1)] = value(i, 1);
+                }
+            });
+            assert!(r.is_none(), "parallel {parallel}");
         }
     }
 
