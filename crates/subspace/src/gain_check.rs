@@ -225,11 +225,19 @@ impl VarxMemo {
     /// given, as they are. Records of other lengths than the check's are
     /// not used. O(N (n_u + n_y)) when the records change.
     pub fn set_source(&mut self, records: Option<&[Experiment<'_>]>) {
-        let Some(records) = records else {
+        let hashed = records.map(|r| (r, records_hash(r)));
+        self.set_source_hashed(hashed);
+    }
+
+    /// [`VarxMemo::set_source`] with the records' [`records_hash`] given
+    /// (a caller that computed it already for its own cache): O(N (n_u +
+    /// n_y)) only when the records change. The hash must be that of the
+    /// records, or the memo may take another record's innovations.
+    pub fn set_source_hashed(&mut self, records: Option<(&[Experiment<'_>], u64)>) {
+        let Some((records, hash)) = records else {
             self.source = None;
             return;
         };
-        let hash = records_hash(records);
         if self.source.as_ref().is_some_and(|(h, _)| *h == hash) {
             return;
         }
@@ -489,8 +497,9 @@ fn minimise(
     // the next ones, when there is one and the records are long
     // ([`Blocks`]: the same blocks in the same order, the same R bit for
     // bit).
-    let parallel =
-        rows > 4 * BLOCK_ROWS && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
+    let parallel = std::env::var("NOPAR").is_err()
+        && rows > 4 * BLOCK_ROWS
+        && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
     let factor_at = |theta: &DVector<f64>| -> Option<DMatrix<f64>> {
         let predictor = predictor(theta)?;
         fold_rows(params + 1, parallel, |blocks| {

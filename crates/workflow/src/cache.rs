@@ -77,14 +77,16 @@ impl SubspaceCache {
 
     /// `lifted_subspace::identify(exps, sub)`, from the kept compression
     /// when it was made from the same records with the same compression
-    /// options.
+    /// options. `hash`: the records' `lifted_subspace::records_hash`
+    /// ([`SubspaceCache::hash`]).
     pub(crate) fn identify(
         &mut self,
         exps: &[Experiment<'_>],
+        hash: u64,
         sub: &SubspaceOptions,
         what: &str,
     ) -> Result<SubspaceModel> {
-        let key = key_of(exps, sub);
+        let key = key_of(hash, sub);
         if self.kept.as_ref().is_none_or(|(k, _)| *k != key) {
             self.kept = None;
             let c = CompressedData::new(exps, sub).ctx(what)?.into_owned();
@@ -98,17 +100,21 @@ impl SubspaceCache {
     }
 }
 
-/// What the compression depends on: the records (their sizes and a hash
-/// of the bits of every sample, O(N)) and the compression options.
-fn key_of(exps: &[Experiment<'_>], sub: &SubspaceOptions) -> String {
+impl SubspaceCache {
+    /// The records' `lifted_subspace::records_hash` (their sizes and the
+    /// bits of every sample, O(N)): what tells records apart for the kept
+    /// compression, innovations and feedback test. A run computes it once
+    /// and hands it to each of them.
+    pub(crate) fn hash(exps: &[Experiment<'_>]) -> u64 {
+        lifted_subspace::records_hash(exps)
+    }
+}
+
+/// What the compression depends on: the records (`hash`, their
+/// [`SubspaceCache::hash`]) and the compression options.
+fn key_of(hash: u64, sub: &SubspaceOptions) -> String {
     format!(
         "{:016x}|{}|{}|{}|{:?}|{}|{}",
-        lifted_subspace::records_hash(exps),
-        sub.past,
-        sub.future,
-        sub.remove_means,
-        sub.compression,
-        sub.chunk_rows,
-        sub.threads
+        hash, sub.past, sub.future, sub.remove_means, sub.compression, sub.chunk_rows, sub.threads
     )
 }

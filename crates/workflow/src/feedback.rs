@@ -42,6 +42,15 @@ pub(crate) struct FeedbackMemo {
 /// A test's outcome: the test on the innovations, or why there is none.
 type Outcome = Result<lifted_closedloop::FeedbackTest, String>;
 
+/// How [`model_free`] knows the record it tests for its memo.
+#[derive(Debug, Clone, Copy)]
+enum Known {
+    /// Record `index` of records whose `records_hash` the run computed.
+    Among(u64, usize),
+    /// By its own hash (computed here).
+    Alone,
+}
+
 impl FeedbackMemo {
     /// Tests computed through this memo (a reuse computes none).
     pub(crate) fn computed(&self) -> usize {
@@ -58,7 +67,7 @@ fn model_free(
     fb: &lifted_closedloop::FeedbackOptions,
     set: &Dataset,
     longest: usize,
-    memo: Option<&mut FeedbackMemo>,
+    memo: Option<(&mut FeedbackMemo, Known)>,
 ) -> Option<Outcome> {
     if !set.is_single_rate() {
         return None;
@@ -68,17 +77,20 @@ fn model_free(
             .ok()?;
         Some(lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string()))
     };
-    let Some(memo) = memo else {
+    let Some((memo, known)) = memo else {
         return run();
     };
-    let exps = [lifted_subspace::Experiment {
-        u: set.u(),
-        y: set.y(),
-    }];
-    let key = format!(
-        "{:016x}|{fb:?}|{longest}",
-        lifted_subspace::records_hash(&exps)
-    );
+    let records = match known {
+        Known::Among(hash, index) => format!("{hash:016x}#{index}"),
+        Known::Alone => {
+            let exps = [lifted_subspace::Experiment {
+                u: set.u(),
+                y: set.y(),
+            }];
+            format!("{:016x}", lifted_subspace::records_hash(&exps))
+        }
+    };
+    let key = format!("{records}|{fb:?}|{longest}");
     if let Some((k, outcome)) = &memo.kept
         && *k == key
     {
@@ -93,14 +105,15 @@ fn model_free(
 /// Runs the test and writes `diagnostics.feedback` (and the warning).
 /// `before`: the records before the identification removed its operating
 /// point, when it did (single-rate N4SID/MOESP/CVA; the same for every
-/// order of a record), for the model-free test; `memo`: the outcomes kept
-/// between calls ([`FeedbackMemo`]).
+/// order of a record), for the model-free test, with their
+/// `lifted_subspace::records_hash` when the run computed it; `memo`: the
+/// outcomes kept between calls ([`FeedbackMemo`]).
 pub(crate) fn report(
     opts: &WorkflowOptions,
     model: &StateSpace,
     gain: Option<&DMatrix<f64>>,
     sets: &[Dataset],
-    before: Option<&[Dataset]>,
+    before: Option<(&[Dataset], Option<u64>)>,
     memo: Option<&mut FeedbackMemo>,
     diagnostics: &mut serde_json::Value,
 ) {
@@ -112,11 +125,14 @@ pub(crate) fn report(
     let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
     // Single-rate records: a VARX's errors (model-free); else, or when the
     // record is too short for the VARX, the model's own.
-    let free_set = before
-        .filter(|b| b.len() == sets.len())
-        .and_then(|b| b.iter().max_by_key(|d| d.len()))
-        .unwrap_or(set);
-    let varx = model_free(fb, free_set, longest, memo);
+    let (free_set, known) = match before.filter(|(b, _)| b.len() == sets.len()) {
+        Some((b, hash)) => match b.iter().enumerate().max_by_key(|(_, d)| d.len()) {
+            Some((i, d)) => (d, hash.map_or(Known::Alone, |h| Known::Among(h, i))),
+            None => (set, Known::Alone),
+        },
+        None => (set, Known::Alone),
+    };
+    let varx = model_free(fb, free_set, longest, memo.map(|m| (m, known)));
     let source = if varx.is_some() {
         format!(
             "the one-step errors of a VARX of order {} fitted to the longest record",

@@ -197,6 +197,9 @@ fn run(
     );
     let mut check: Option<Check> = None;
     let mut alternative: Option<std::result::Result<lifted_lti::StateSpace, String>> = None;
+    // The hash of the records identified (single-rate subspace route with a
+    // cache): computed once, for every cache of the run.
+    let mut records_hash: Option<u64> = None;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => {
@@ -241,7 +244,9 @@ fn run(
                 diagnostics: d,
                 used,
                 check: known,
+                records_hash: hash,
             } = routes::subspace(opts, &sets, inner_means, cache.as_deref_mut())?;
+            records_hash = hash;
             let route_sets = if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.
@@ -271,6 +276,7 @@ fn run(
                     past: used.past,
                     options: &opts.identification.gain_check,
                     memo: cache.as_deref_mut().map(|c| &mut c.gain),
+                    records_hash,
                 },
             );
             if !route_sets.is_empty() {
@@ -311,6 +317,7 @@ fn run(
                         past: alpha,
                         options: &opts.identification.gain_check,
                         memo: None,
+                        records_hash: None,
                     },
                 );
             }
@@ -386,6 +393,7 @@ fn run(
                 past: 0,
                 options: &opts.identification.gain_check,
                 memo: None,
+                records_hash: None,
             },
         );
     }
@@ -394,7 +402,7 @@ fn run(
         &model,
         kalman_gain.as_ref(),
         &sets,
-        before,
+        before.map(|b| (b, records_hash)),
         cache.as_deref_mut().map(|c| &mut c.feedback),
         &mut diagnostics,
     );
@@ -459,6 +467,10 @@ pub(crate) struct GainCheckWith<'a> {
     /// The innovations kept between calls (a front end's
     /// [`SubspaceCache`]): the same gain bit for bit as without it.
     pub memo: Option<&'a mut lifted_subspace::VarxMemo>,
+    /// The hash of the records before the identification removed its
+    /// operating point (`raw` of [`checked_gain`]), when the run computed
+    /// it ([`SubspaceCache::hash`]).
+    pub records_hash: Option<u64>,
 }
 
 /// The Kalman gain of a single-rate subspace model on `sets` (deviations
@@ -484,6 +496,7 @@ pub(crate) fn checked_gain(
         past,
         options,
         memo,
+        records_hash,
     } = check;
     let samples: usize = sets.iter().map(Dataset::len).sum();
     if samples > GAIN_CHECK_SAMPLES {
@@ -501,7 +514,10 @@ pub(crate) fn checked_gain(
             .map(|d| lifted_subspace::Experiment { u: d.u(), y: d.y() })
             .collect()
     });
-    memo.set_source(raw_exps.as_deref());
+    match (raw_exps.as_deref(), records_hash) {
+        (Some(r), Some(h)) => memo.set_source_hashed(Some((r, h))),
+        (r, _) => memo.set_source(r),
+    }
     let (checked, report) =
         lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, options, memo);
     add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());

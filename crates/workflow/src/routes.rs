@@ -188,6 +188,10 @@ pub(crate) struct SubspaceRoute {
     pub diagnostics: serde_json::Value,
     pub used: SubspaceOptions,
     pub check: Option<RefinementCheck>,
+    /// The records' hash, when a cache was given (`SubspaceCache::hash`
+    /// of the records identified: the records before any operating point
+    /// was removed), for the other caches of the run.
+    pub records_hash: Option<u64>,
 }
 
 /// Single-rate N4SID/MOESP/CVA on records in memory: the held-out
@@ -220,6 +224,8 @@ pub(crate) fn subspace(
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
     let mut cache = cache;
+    // The records' hash, once for every cache of the run.
+    let records_hash = cache.is_some().then(|| SubspaceCache::hash(&exps));
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
@@ -256,7 +262,7 @@ pub(crate) fn subspace(
             _ => sub,
         };
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
-            Some(c) => c.identify(&exps, o, &what),
+            Some(c) => c.identify(&exps, records_hash.unwrap_or_default(), o, &what),
             None => identify(&exps, o).ctx(&what),
         };
         match sub.order {
@@ -300,7 +306,7 @@ pub(crate) fn subspace(
                 ..used.clone()
             };
             let zero = match cache {
-                Some(c) => c.identify(&exps, &zero_opts, &what),
+                Some(c) => c.identify(&exps, records_hash.unwrap_or_default(), &zero_opts, &what),
                 None => identify(&exps, &zero_opts).ctx(&what),
             };
             let (fit, zero_kept, said) = crate::feedthrough::choose(fit, zero, sets);
@@ -355,6 +361,7 @@ pub(crate) fn subspace(
         diagnostics: d,
         used,
         check: known,
+        records_hash,
     })
 }
 
