@@ -257,6 +257,101 @@ pub fn at_rate(model: &StateSpace, ts: f64) -> Result<StateSpace> {
     }
 }
 
+/// What [`validate`] and [`simulation_fits`] share: the model at the
+/// data's rate, the operating point, the deviations, the simulated outputs
+/// (from the fitted x₀ when asked), x₀ and the spectral radius.
+struct Simulated {
+    m: StateSpace,
+    op: OperatingPoint,
+    du: DMatrix<f64>,
+    dy: DMatrix<f64>,
+    sim: DMatrix<f64>,
+    x0: Option<DVector<f64>>,
+    spectral_radius: f64,
+}
+
+/// The simulation of [`validate`] (its channels checked).
+fn simulated(model: &StateSpace, data: &Dataset, opts: &ValidationOptions) -> Result<Simulated> {
+    let m = at_rate(model, data.ts())?;
+    let op = opts
+        .operating_point
+        .clone()
+        .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
+    let (du, dy) = op.to_deviations(data.u(), data.y())?;
+    let mut sim = op.add_output(&m.lsim(&du, None, None)?.y)?;
+    let spectral_radius = if m.order() == 0 {
+        0.0
+    } else {
+        m.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
+    };
+    let x0 = match opts.initial_state {
+        InitialCondition::Estimate if m.order() > 0 && spectral_radius < 1.0 => {
+            let x0 = initial_state(&m, data, &sim)?;
+            free_response(&m, &x0, &mut sim);
+            Some(x0)
+        }
+        _ => None,
+    };
+    Ok(Simulated {
+        m,
+        op,
+        du,
+        dy,
+        sim,
+        x0,
+        spectral_radius,
+    })
+}
+
+/// One output's simulation fit ([`simulation_fits`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimulationFit {
+    /// The fit, % (NaN when the error is not finite), as
+    /// [`OutputValidation::fit`].
+    pub fit: f64,
+    /// Whether the simulation error is finite.
+    pub finite: bool,
+    /// Measured samples of the output.
+    pub samples: usize,
+}
+
+/// The simulation fit of each output as [`validate`] reports it (the same
+/// numbers bit for bit: the same simulation, x₀ and fit), without the
+/// predictions and the residual tests: O(N n (n + n_u + n_y)).
+/// `opts.lags`, `opts.horizons` and `opts.kalman_gain` are not used.
+///
+/// Errors: those of [`validate`] but the lags' and horizons'.
+pub fn simulation_fits(
+    model: &StateSpace,
+    data: &Dataset,
+    opts: &ValidationOptions,
+) -> Result<Vec<SimulationFit>> {
+    if model.n_inputs() != data.n_inputs() || model.n_outputs() != data.n_outputs() {
+        return Err(Error::DimensionMismatch {
+            what: "data channels vs model",
+            expected: format!("{} inputs, {} outputs", model.n_inputs(), model.n_outputs()),
+            got: format!("{} inputs, {} outputs", data.n_inputs(), data.n_outputs()),
+        });
+    }
+    let sim = simulated(model, data, opts)?.sim;
+    (0..data.n_outputs())
+        .map(|o| {
+            let (idx, y) = data.output_samples(o)?;
+            let yhat: Vec<f64> = idx.iter().map(|&k| sim[(k, o)]).collect();
+            let finite = y.iter().zip(&yhat).all(|(a, b)| (a - b).is_finite());
+            Ok(SimulationFit {
+                fit: if finite {
+                    fit_percent(&y, &yhat)
+                } else {
+                    f64::NAN
+                },
+                finite,
+                samples: y.len(),
+            })
+        })
+        .collect()
+}
+
 /// Validates `model` on `data` (see the module docs).
 ///
 /// Errors: [`Error::DimensionMismatch`] when the channels differ from the
@@ -289,26 +384,15 @@ pub fn validate(
             reason: "at least 1 correlation lag is needed for the residual tests".into(),
         });
     }
-    let m = at_rate(model, data.ts())?;
-    let op = opts
-        .operating_point
-        .clone()
-        .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
-    let (du, dy) = op.to_deviations(data.u(), data.y())?;
-    let mut sim = op.add_output(&m.lsim(&du, None, None)?.y)?;
-    let spectral_radius = if m.order() == 0 {
-        0.0
-    } else {
-        m.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
-    };
-    let x0 = match opts.initial_state {
-        InitialCondition::Estimate if m.order() > 0 && spectral_radius < 1.0 => {
-            let x0 = initial_state(&m, data, &sim)?;
-            free_response(&m, &x0, &mut sim);
-            Some(x0)
-        }
-        _ => None,
-    };
+    let Simulated {
+        m,
+        op,
+        du,
+        dy,
+        sim,
+        x0,
+        spectral_radius,
+    } = simulated(model, data, opts)?;
     let gain = opts.kalman_gain.as_ref().filter(|_| model.ts().is_some());
     if let Some(k) = gain
         && k.shape() != (m.order(), m.n_outputs())
@@ -610,6 +694,82 @@ mod tests {
     /// A record that starts away from rest (a slow plant, x(0) = 3): the
     /// simulation from the estimated x₀ fits it exactly and recovers x(0);
     /// from zero the transient costs fit. Multirate output (every 3rd
+    /// `simulation_fits` gives `validate`'s fits bit for bit (x₀ estimated
+    /// or zero, an operating point, an output sampled every third instant,
+    /// a model with its gain), and its errors for wrong channels.
+    #[test]
+    fn simulation_fits_are_the_validations() {
+        let g = StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.9, 0.1, -0.2, 0.7]),
+            DMatrix::from_row_slice(2, 1, &[0.1, 0.3]),
+            DMatrix::from_row_slice(2, 2, &[1.0, 0.5, -0.3, 1.0]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 0.2]),
+            Some(1.0),
+        )
+        .unwrap();
+        let n = 500;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+        let x0 = DVector::from_row_slice(&[2.0, -1.0]);
+        let mut y = g.lsim(&u, Some(&x0), None).unwrap().y;
+        for (k, mut row) in y.row_iter_mut().enumerate() {
+            row[0] += 0.05 * (((k * 31) % 17) as f64 - 8.0) + 1.5;
+            row[1] += 0.04 * (((k * 13) % 11) as f64 - 5.0);
+            if k % 3 != 0 {
+                row[1] = f64::NAN;
+            }
+        }
+        let d = Dataset::new(
+            1.0,
+            u,
+            y,
+            vec![InputChannel::new("u", 1)],
+            vec![
+                OutputChannel::new("y1", 1, 0),
+                OutputChannel::new("y2", 3, 0),
+            ],
+        )
+        .unwrap();
+        let op = OperatingPoint {
+            u0: vec![0.0],
+            y0: vec![1.5, 0.0],
+        };
+        for (initial_state, gain) in [
+            (InitialCondition::Estimate, None),
+            (InitialCondition::Zero, None),
+            (
+                InitialCondition::Estimate,
+                Some(DMatrix::from_element(2, 2, 0.1)),
+            ),
+        ] {
+            let opts = ValidationOptions {
+                operating_point: Some(op.clone()),
+                initial_state,
+                kalman_gain: gain,
+                ..Default::default()
+            };
+            let v = validate(&g, &d, &opts).unwrap();
+            let f = simulation_fits(&g, &d, &opts).unwrap();
+            assert_eq!(f.len(), 2);
+            for (a, b) in f.iter().zip(&v.outputs) {
+                assert_eq!(a.fit.to_bits(), b.fit.to_bits());
+                assert_eq!(a.samples, b.samples);
+                assert!(a.finite);
+            }
+        }
+        let one = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_element(1, 2, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 2),
+            Some(1.0),
+        )
+        .unwrap();
+        assert!(matches!(
+            simulation_fits(&one, &d, &ValidationOptions::default()),
+            Err(Error::DimensionMismatch { .. })
+        ));
+    }
+
     /// sample) likewise.
     #[test]
     fn the_initial_state_is_estimated_by_default() {
