@@ -333,12 +333,33 @@ fn check_by(
             return (riccati.cloned(), report);
         }
     };
-    let regression = if missing {
-        Err("the records have output samples not measured".to_string())
-    } else {
-        regression_gain(model, sets, past, memo)
-    };
     let zero = DMatrix::zeros(n, ny);
+    let cost_of =
+        |k: Option<&DMatrix<f64>>| k.and_then(|k| prediction_cost(model, k, sets, &x0s).ok());
+    let regress = |memo: &mut VarxMemo| {
+        if missing {
+            Err("the records have output samples not measured".to_string())
+        } else {
+            regression_gain(model, sets, past, memo)
+        }
+    };
+    // The subspace step's and K = 0's costs on a second thread while the
+    // regression runs, for long records (the same numbers either way).
+    let samples: usize = sets.iter().map(|d| d.u.nrows()).sum();
+    let apart = samples >= PARALLEL_SAMPLES
+        && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
+    let (regression, (riccati_cost, zero_cost)) = if apart {
+        std::thread::scope(|scope| {
+            let others = scope.spawn(|| (cost_of(riccati), cost_of(Some(&zero))));
+            let regression = regress(memo);
+            let others = others
+                .join()
+                .unwrap_or_else(|_| (cost_of(riccati), cost_of(Some(&zero))));
+            (regression, others)
+        })
+    } else {
+        (regress(memo), (cost_of(riccati), cost_of(Some(&zero))))
+    };
     let starts: Vec<(&str, Option<DMatrix<f64>>)> = vec![
         ("state-sequence covariances (Riccati)", riccati.cloned()),
         (
@@ -347,13 +368,7 @@ fn check_by(
         ),
         ("none (K = 0, the output-error predictor)", Some(zero)),
     ];
-    let costs: Vec<Option<f64>> = starts
-        .iter()
-        .map(|(_, k)| {
-            k.as_ref()
-                .and_then(|k| prediction_cost(model, k, sets, &x0s).ok())
-        })
-        .collect();
+    let costs: Vec<Option<f64>> = vec![riccati_cost, cost_of(starts[1].1.as_ref()), zero_cost];
     report.riccati_cost = costs[0];
     report.regression_cost = costs[1];
     report.zero_cost = costs[2];
@@ -416,6 +431,11 @@ fn starts_name(riccati: Option<&DMatrix<f64>>) -> &'static str {
 
 /// [`GainCheck::rule`].
 const RULE: &str = "one-step prediction error on the records (normalised squared error, mean over the outputs; the predictor started from the state the simulation is fitted from, as `validate` does): the best of three starts (subspace step, regression on VARX innovations, K = 0), then Levenberg–Marquardt over K with A, B, C, D fixed and A − K C stable";
+
+/// Records of at least this many samples have the starts' costs computed
+/// on a second thread while the regression runs (below it a thread costs
+/// more than it saves).
+const PARALLEL_SAMPLES: usize = 20_000;
 
 /// Rows of [J | r] folded into the R factor at a time.
 const BLOCK_ROWS: usize = 2048;
