@@ -86,6 +86,20 @@ impl SubspaceCache {
         sub: &SubspaceOptions,
         what: &str,
     ) -> Result<SubspaceModel> {
+        self.compressed(exps, hash, sub, what)?
+            .identify(sub)
+            .ctx(what)
+    }
+
+    /// The kept compression of `exps` with the compression options of
+    /// `sub`, made (and kept) when it is not the one kept.
+    fn compressed(
+        &mut self,
+        exps: &[Experiment<'_>],
+        hash: u64,
+        sub: &SubspaceOptions,
+        what: &str,
+    ) -> Result<&CompressedData<'static>> {
         let key = key_of(hash, sub);
         if self.kept.as_ref().is_none_or(|(k, _)| *k != key) {
             self.kept = None;
@@ -94,9 +108,43 @@ impl SubspaceCache {
             self.kept = Some((key, c));
         }
         match &self.kept {
-            Some((_, c)) => c.identify(sub).ctx(what),
-            None => lifted_subspace::identify(exps, sub).ctx(what),
+            Some((_, c)) => Ok(c),
+            None => Err(crate::error::Error::Data(
+                "internal: the compression was not kept".into(),
+            )),
         }
+    }
+
+    /// [`SubspaceCache::identify`] with `first` and `second`, two options
+    /// of the same compression (the feedthrough test's D free and D = 0 at
+    /// one structure), the second fit on a second thread while the first
+    /// runs here: the fits of two calls, bit for bit. `None` when the two
+    /// options do not share the compression.
+    pub(crate) fn identify_pair(
+        &mut self,
+        exps: &[Experiment<'_>],
+        hash: u64,
+        (first, second): (&SubspaceOptions, &SubspaceOptions),
+        what: &str,
+    ) -> Option<(Result<SubspaceModel>, Result<SubspaceModel>)> {
+        if key_of(hash, first) != key_of(hash, second) {
+            return None;
+        }
+        let c = match self.compressed(exps, hash, first, what) {
+            Ok(c) => c,
+            Err(e) => {
+                let again = e.to_string();
+                return Some((Err(e), Err(crate::error::Error::Data(again))));
+            }
+        };
+        Some(std::thread::scope(|scope| {
+            let other = scope.spawn(|| c.identify(second).ctx(what));
+            let a = c.identify(first).ctx(what);
+            let b = other
+                .join()
+                .unwrap_or_else(|_| c.identify(second).ctx(what));
+            (a, b)
+        }))
     }
 }
 

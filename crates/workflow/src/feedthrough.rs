@@ -41,9 +41,10 @@ use crate::error::Result;
 use crate::options::IdentificationOptions;
 
 /// Records of at least this many samples have the two models of
-/// [`decide`] simulated on two threads (below it a thread costs more than
-/// it saves).
-const PARALLEL_SAMPLES: usize = 20_000;
+/// [`decide`] simulated on two threads, and with a kept compression
+/// (`crate::SubspaceCache`) the D = 0 model identified with the D-free one
+/// (below it a thread costs more than it saves).
+pub(crate) const PARALLEL_SAMPLES: usize = 20_000;
 
 /// The outcome of [`decide`].
 #[derive(Debug, Clone)]

@@ -226,6 +226,9 @@ pub(crate) fn subspace(
     let mut cache = cache;
     // The records' hash, once for every cache of the run.
     let records_hash = cache.is_some().then(|| SubspaceCache::hash(&exps));
+    // The feedthrough test's D = 0 fit when it was made with the fit
+    // (its options and the fit).
+    let mut zero_fit: Option<(SubspaceOptions, Result<lifted_subspace::SubspaceModel>)> = None;
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
@@ -261,13 +264,38 @@ pub(crate) fn subspace(
             }
             _ => sub,
         };
+        // The order given, the default feedthrough test to come and a
+        // long record: the D = 0 fit of the test (crate::feedthrough) on a
+        // second thread with the fit itself (both from the kept
+        // compression; the same fits as one after the other).
+        let pair = match (&sub.order, cache.as_deref_mut(), records_hash) {
+            (OrderSelection::Fixed(_), Some(c), Some(hash))
+                if id.feedthrough.is_none()
+                    && samples >= crate::feedthrough::PARALLEL_SAMPLES
+                    && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1 =>
+            {
+                let zero_opts = SubspaceOptions {
+                    feedthrough: lifted_subspace::Feedthrough::Zero,
+                    ..sub.clone()
+                };
+                c.identify_pair(&exps, hash, (&sub, &zero_opts), &what)
+                    .map(|(fit, zero)| (fit, (zero_opts, zero)))
+            }
+            _ => None,
+        };
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
             Some(c) => c.identify(&exps, records_hash.unwrap_or_default(), o, &what),
             None => identify(&exps, o).ctx(&what),
         };
         match sub.order {
             // The order given: identified as it is.
-            OrderSelection::Fixed(_) => (run(&sub)?, None, sub),
+            OrderSelection::Fixed(_) => match pair {
+                Some((fit, zero)) => {
+                    zero_fit = Some(zero);
+                    (fit?, None, sub)
+                }
+                None => (run(&sub)?, None, sub),
+            },
             // An automatic order by the order rule asked for: searched as
             // the plain identification's, as the held-out selection does (a
             // refinement's stabilised start must not change the order), its
@@ -305,9 +333,12 @@ pub(crate) fn subspace(
                 feedthrough: lifted_subspace::Feedthrough::Zero,
                 ..used.clone()
             };
-            let zero = match cache {
-                Some(c) => c.identify(&exps, records_hash.unwrap_or_default(), &zero_opts, &what),
-                None => identify(&exps, &zero_opts).ctx(&what),
+            let zero = match (zero_fit.take(), cache) {
+                (Some((o, zero)), _) if o == zero_opts => zero,
+                (_, Some(c)) => {
+                    c.identify(&exps, records_hash.unwrap_or_default(), &zero_opts, &what)
+                }
+                (_, None) => identify(&exps, &zero_opts).ctx(&what),
             };
             let (fit, zero_kept, said) = crate::feedthrough::choose(fit, zero, sets);
             (fit, if zero_kept { zero_opts } else { used }, said)

@@ -374,6 +374,38 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
     assert_eq!(cache.compressions(), 3);
 }
 
+/// On a long record the cached run identifies the feedthrough test's D = 0
+/// model with the D-free one (two threads on the kept compression) and
+/// simulates the two on two threads: the same model file as the uncached
+/// run, bit for bit, with one compression.
+#[test]
+fn the_paired_feedthrough_fits_give_the_uncached_model() {
+    let (u, y) = record(20_000, 0.1, 8);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut cache = SubspaceCache::default();
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.refinement.refine = Refine::None;
+    for n in [2, 3] {
+        opts.identification.order = Order::Fixed(n);
+        let cached = identify_cached(&records, &opts, &[], &mut cache).expect("cached");
+        let plain = identify(&records, &opts).expect("plain");
+        assert_eq!(cached.file.model, plain.file.model, "order {n}");
+        assert_eq!(cached.file.kalman_gain, plain.file.kalman_gain, "order {n}");
+        assert_eq!(
+            cached.file.diagnostics["feedthrough"], plain.file.diagnostics["feedthrough"],
+            "order {n}"
+        );
+        assert!(
+            cached.file.diagnostics["feedthrough"]["statistic"].is_f64(),
+            "the test ran: {}",
+            cached.file.diagnostics["feedthrough"]
+        );
+    }
+    assert_eq!(cache.compressions(), 1);
+}
+
 /// The feedback test of a single-rate record is made once for every order
 /// identified through the cache, on the record before the model's
 /// operating point is removed, and it says what the test on each model's

@@ -48,7 +48,8 @@ fn print_profile(diagnostics: &serde_json::Value) {
     };
     // The compress/svd/estimate rows are the final fit's; the subspace row
     // also counts the structure selection's fits before it and the
-    // feedthrough test (the D = 0 fit and the two simulations).
+    // feedthrough test (the D = 0 fit, unless it ran with the fit on a
+    // second thread, and the two simulations).
     let phases = [
         ("read", "read_s"),
         ("compress", "compress_s"),
