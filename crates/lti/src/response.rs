@@ -20,6 +20,28 @@ pub struct SimResult {
 }
 
 impl StateSpace {
+    /// The outputs of [`StateSpace::lsim`] for a discrete model at its
+    /// own period, without the state trajectory (the same numbers bit for
+    /// bit; memory O(N n_y) instead of O(N (n + n_y))).
+    ///
+    /// Errors: those of [`StateSpace::lsim`], and
+    /// [`Error::NotDiscrete`] for a continuous model.
+    pub fn lsim_outputs(
+        &self,
+        u: &DMatrix<f64>,
+        x0: Option<&DVector<f64>>,
+    ) -> Result<DMatrix<f64>> {
+        if self.ts().is_none() {
+            return Err(Error::NotDiscrete {
+                what: "lsim_outputs",
+            });
+        }
+        la::check_cols("u", u, self.n_inputs())?;
+        la::check_finite("u", u)?;
+        let x0 = la::initial_state(x0, self.order())?;
+        Ok(simulate_discrete(self, u, x0, false).y)
+    }
+
     /// Simulates N samples of the input `u` (N×m, row k = u(k)) from the
     /// initial state `x0` (zeros when None).
     ///
@@ -61,7 +83,7 @@ impl StateSpace {
                 std::borrow::Cow::Owned(self.c2d(d, &C2dOptions::default())?)
             }
         };
-        Ok(simulate_discrete(&sys, u, x0))
+        Ok(simulate_discrete(&sys, u, x0, true))
     }
 
     /// Step responses: one N×p matrix per input (unit step on that input,
@@ -161,13 +183,22 @@ impl StateSpace {
     }
 }
 
-fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> SimResult {
+/// The simulation of `sys` at its period from `x0`; the state trajectory
+/// only with `states` (else `x` is N × 0).
+fn simulate_discrete(
+    sys: &StateSpace,
+    u: &DMatrix<f64>,
+    x0: DVector<f64>,
+    states: bool,
+) -> SimResult {
     match sys.order() {
-        1 => simulate_flat::<1>(sys, u, &x0),
-        2 => simulate_flat::<2>(sys, u, &x0),
-        3 | 4 => simulate_flat::<4>(sys, u, &x0),
-        5..=8 => simulate_flat::<8>(sys, u, &x0),
-        9..=crate::flat::MAX_FLAT => simulate_flat::<{ crate::flat::MAX_FLAT }>(sys, u, &x0),
+        1 => simulate_flat::<1>(sys, u, &x0, states),
+        2 => simulate_flat::<2>(sys, u, &x0, states),
+        3 | 4 => simulate_flat::<4>(sys, u, &x0, states),
+        5..=8 => simulate_flat::<8>(sys, u, &x0, states),
+        9..=crate::flat::MAX_FLAT => {
+            simulate_flat::<{ crate::flat::MAX_FLAT }>(sys, u, &x0, states)
+        }
         _ => simulate_gemv(sys, u, x0),
     }
 }
@@ -178,20 +209,23 @@ fn simulate_flat<const N: usize>(
     sys: &StateSpace,
     u: &DMatrix<f64>,
     x0: &DVector<f64>,
+    states: bool,
 ) -> SimResult {
     let f = crate::flat::Flat::<N>::new(sys);
     let (n, nu, ny) = f.dims();
     let nsamp = u.nrows();
     let mut y = DMatrix::zeros(nsamp, ny);
-    let mut xs = DMatrix::zeros(nsamp, n);
+    let mut xs = DMatrix::zeros(nsamp, if states { n } else { 0 });
     let (mut x, mut next) = (f.state(x0), [0.0; N]);
     let (mut uk, mut yk) = (vec![0.0; nu], vec![0.0; ny]);
     for k in 0..nsamp {
         for (j, v) in uk.iter_mut().enumerate() {
             *v = u[(k, j)];
         }
-        for (i, xi) in x.iter().take(n).enumerate() {
-            xs[(k, i)] = *xi;
+        if states {
+            for (i, xi) in x.iter().take(n).enumerate() {
+                xs[(k, i)] = *xi;
+            }
         }
         f.output(&x, &uk, &mut yk);
         for (i, yi) in yk.iter().enumerate() {
@@ -285,11 +319,13 @@ pub(crate) mod tests {
             for n in [1, 2, 3, 4, 5, 8, 9, 16] {
                 let s = wavy(n, nu, ny);
                 let x0 = DVector::from_fn(n, |i, _| 0.3 - 0.1 * i as f64);
-                let flat = simulate_discrete(&s, &u, x0.clone());
-                let gemv = simulate_gemv(&s, &u, x0);
+                let flat = simulate_discrete(&s, &u, x0.clone(), true);
+                let gemv = simulate_gemv(&s, &u, x0.clone());
+                let outputs = s.lsim_outputs(&u, Some(&x0)).unwrap();
                 let bits = |m: &DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&flat.y), bits(&gemv.y), "n {n}, nu {nu}, ny {ny}");
                 assert_eq!(bits(&flat.x), bits(&gemv.x), "n {n}, nu {nu}, ny {ny}");
+                assert_eq!(bits(&outputs), bits(&gemv.y), "n {n}, nu {nu}, ny {ny}");
             }
         }
     }

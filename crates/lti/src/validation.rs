@@ -278,7 +278,7 @@ fn simulated(model: &StateSpace, data: &Dataset, opts: &ValidationOptions) -> Re
         .clone()
         .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
     let (du, dy) = op.to_deviations(data.u(), data.y())?;
-    let mut sim = op.add_output(&m.lsim(&du, None, None)?.y)?;
+    let mut sim = op.add_output(&m.lsim_outputs(&du, None)?)?;
     let spectral_radius = if m.order() == 0 {
         0.0
     } else {

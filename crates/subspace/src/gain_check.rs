@@ -823,8 +823,8 @@ fn regression_gain(
         let len = d.u.nrows() - order;
         let u = d.u.rows(order, len).into_owned();
         let y = d.y.rows(order, len).into_owned();
-        let sim = model.lsim(&u, None, None).map_err(|e| e.to_string())?;
-        targets.push(y - sim.y - e);
+        let sim = model.lsim_outputs(&u, None).map_err(|e| e.to_string())?;
+        targets.push(y - sim - e);
     }
     let recs: Vec<Record<'_>> = innovations
         .iter()
