@@ -403,7 +403,7 @@ fn run(
         kalman_gain.as_ref(),
         &sets,
         before.map(|b| (b, records_hash)),
-        cache.as_deref_mut().map(|c| &mut c.feedback),
+        cache.map(|c| &mut c.feedback),
         &mut diagnostics,
     );
     // Back to the data's units (an operating point from the detrending is
