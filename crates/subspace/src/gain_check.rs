@@ -526,9 +526,8 @@ fn minimise(
     // the next ones, when there is one and the records are long
     // ([`Blocks`]: the same blocks in the same order, the same R bit for
     // bit).
-    let parallel = std::env::var("NOPAR").is_err()
-        && rows > 4 * BLOCK_ROWS
-        && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
+    let parallel =
+        rows > 4 * BLOCK_ROWS && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
     let factor_at = |theta: &DVector<f64>| -> Option<DMatrix<f64>> {
         let predictor = predictor(theta)?;
         fold_rows(params + 1, parallel, |blocks| {
