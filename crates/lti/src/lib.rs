@@ -75,6 +75,7 @@ mod convert;
 pub mod data;
 mod discretize;
 pub mod error;
+mod flat;
 mod freq;
 pub mod identify;
 mod la;
@@ -106,5 +107,6 @@ pub use response::SimResult;
 pub use ss::StateSpace;
 pub use tf::{FeedbackSign, SisoTf, TransferFunction};
 pub use validation::{
-    InitialCondition, OutputValidation, Residual, Validation, ValidationOptions, validate,
+    InitialCondition, OutputValidation, Residual, SimulationFit, Validation, ValidationOptions,
+    simulation_fits, validate,
 };

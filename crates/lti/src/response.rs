@@ -20,6 +20,28 @@ pub struct SimResult {
 }
 
 impl StateSpace {
+    /// The outputs of [`StateSpace::lsim`] for a discrete model at its
+    /// own period, without the state trajectory (the same numbers bit for
+    /// bit; memory O(N n_y) instead of O(N (n + n_y))).
+    ///
+    /// Errors: those of [`StateSpace::lsim`], and
+    /// [`Error::NotDiscrete`] for a continuous model.
+    pub fn lsim_outputs(
+        &self,
+        u: &DMatrix<f64>,
+        x0: Option<&DVector<f64>>,
+    ) -> Result<DMatrix<f64>> {
+        if self.ts().is_none() {
+            return Err(Error::NotDiscrete {
+                what: "lsim_outputs",
+            });
+        }
+        la::check_cols("u", u, self.n_inputs())?;
+        la::check_finite("u", u)?;
+        let x0 = la::initial_state(x0, self.order())?;
+        Ok(simulate_discrete(self, u, x0, false).y)
+    }
+
     /// Simulates N samples of the input `u` (N×m, row k = u(k)) from the
     /// initial state `x0` (zeros when None).
     ///
@@ -61,7 +83,7 @@ impl StateSpace {
                 std::borrow::Cow::Owned(self.c2d(d, &C2dOptions::default())?)
             }
         };
-        Ok(simulate_discrete(&sys, u, x0))
+        Ok(simulate_discrete(&sys, u, x0, true))
     }
 
     /// Step responses: one N×p matrix per input (unit step on that input,
@@ -161,7 +183,62 @@ impl StateSpace {
     }
 }
 
-fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> SimResult {
+/// The simulation of `sys` at its period from `x0`; the state trajectory
+/// only with `states` (else `x` is N × 0).
+fn simulate_discrete(
+    sys: &StateSpace,
+    u: &DMatrix<f64>,
+    x0: DVector<f64>,
+    states: bool,
+) -> SimResult {
+    match sys.order() {
+        1 => simulate_flat::<1>(sys, u, &x0, states),
+        2 => simulate_flat::<2>(sys, u, &x0, states),
+        3 | 4 => simulate_flat::<4>(sys, u, &x0, states),
+        5..=8 => simulate_flat::<8>(sys, u, &x0, states),
+        9..=crate::flat::MAX_FLAT => {
+            simulate_flat::<{ crate::flat::MAX_FLAT }>(sys, u, &x0, states)
+        }
+        _ => simulate_gemv(sys, u, x0),
+    }
+}
+
+/// [`simulate_discrete`] in flat loops (orders up to N; `crate::flat`): the
+/// numbers of [`simulate_gemv`] bit for bit.
+fn simulate_flat<const N: usize>(
+    sys: &StateSpace,
+    u: &DMatrix<f64>,
+    x0: &DVector<f64>,
+    states: bool,
+) -> SimResult {
+    let f = crate::flat::Flat::<N>::new(sys);
+    let (n, nu, ny) = f.dims();
+    let nsamp = u.nrows();
+    let mut y = DMatrix::zeros(nsamp, ny);
+    let mut xs = DMatrix::zeros(nsamp, if states { n } else { 0 });
+    let (mut x, mut next) = (f.state(x0), [0.0; N]);
+    let (mut uk, mut yk) = (vec![0.0; nu], vec![0.0; ny]);
+    for k in 0..nsamp {
+        for (j, v) in uk.iter_mut().enumerate() {
+            *v = u[(k, j)];
+        }
+        if states {
+            for (i, xi) in x.iter().take(n).enumerate() {
+                xs[(k, i)] = *xi;
+            }
+        }
+        f.output(&x, &uk, &mut yk);
+        for (i, yi) in yk.iter().enumerate() {
+            y[(k, i)] = *yi;
+        }
+        f.advance(&x, &uk, &mut next);
+        std::mem::swap(&mut x, &mut next);
+    }
+    SimResult { y, x: xs }
+}
+
+/// [`simulate_discrete`] by nalgebra's `gemv` (any order).
+fn simulate_gemv(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> SimResult {
     let nsamp = u.nrows();
     let n = sys.order();
     let mut y = DMatrix::zeros(nsamp, sys.n_outputs());
@@ -190,7 +267,7 @@ fn simulate_discrete(sys: &StateSpace, u: &DMatrix<f64>, x0: DVector<f64>) -> Si
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -214,5 +291,42 @@ mod tests {
         assert_eq!(st[1].shape(), (4, 2));
         let h = s.markov_parameters(2).unwrap();
         assert_eq!(h[2][(0, 1)], 1.0);
+    }
+
+    /// A model of order `n` (stable, `nu` inputs, `ny` outputs, D ≠ 0)
+    /// with entries that are not round numbers.
+    pub(crate) fn wavy(n: usize, nu: usize, ny: usize) -> StateSpace {
+        let wave = |i: usize, j: usize, s: usize| (((i * 7 + j * 13 + s) % 17) as f64 - 8.3) / 8.0;
+        let raw = DMatrix::from_fn(n, n, |i, j| wave(i, j, 1));
+        let a = &raw * (0.9 / raw.norm().max(1.0));
+        StateSpace::new(
+            a,
+            DMatrix::from_fn(n, nu, |i, j| wave(i, j, 2)),
+            DMatrix::from_fn(ny, n, |i, j| wave(i, j, 3)),
+            DMatrix::from_fn(ny, nu, |i, j| 0.1 * wave(i, j, 4)),
+            Some(1.0),
+        )
+        .unwrap()
+    }
+
+    /// The flat loops give the `gemv` loops' outputs and states bit for
+    /// bit, for every padded size, with and without inputs, one to three
+    /// outputs, from a nonzero initial state.
+    #[test]
+    fn the_flat_simulation_is_the_gemv_one() {
+        for (nu, ny) in [(0, 1), (1, 2), (2, 2), (3, 3)] {
+            let u = DMatrix::from_fn(200, nu, |t, j| (((t * 5 + j * 3) % 11) as f64 - 5.1) / 5.0);
+            for n in [1, 2, 3, 4, 5, 8, 9, 16] {
+                let s = wavy(n, nu, ny);
+                let x0 = DVector::from_fn(n, |i, _| 0.3 - 0.1 * i as f64);
+                let flat = simulate_discrete(&s, &u, x0.clone(), true);
+                let gemv = simulate_gemv(&s, &u, x0.clone());
+                let outputs = s.lsim_outputs(&u, Some(&x0)).unwrap();
+                let bits = |m: &DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&flat.y), bits(&gemv.y), "n {n}, nu {nu}, ny {ny}");
+                assert_eq!(bits(&flat.x), bits(&gemv.x), "n {n}, nu {nu}, ny {ny}");
+                assert_eq!(bits(&outputs), bits(&gemv.y), "n {n}, nu {nu}, ny {ny}");
+            }
+        }
     }
 }

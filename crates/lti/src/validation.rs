@@ -257,6 +257,105 @@ pub fn at_rate(model: &StateSpace, ts: f64) -> Result<StateSpace> {
     }
 }
 
+/// What [`validate`] and [`simulation_fits`] share: the model at the
+/// data's rate, the operating point, the deviations, the simulated outputs
+/// (from the fitted x₀ when asked), x₀ and the spectral radius.
+struct Simulated {
+    m: StateSpace,
+    op: OperatingPoint,
+    du: DMatrix<f64>,
+    dy: DMatrix<f64>,
+    sim: DMatrix<f64>,
+    x0: Option<DVector<f64>>,
+    spectral_radius: f64,
+}
+
+/// The simulation of [`validate`] (its channels checked).
+fn simulated(model: &StateSpace, data: &Dataset, opts: &ValidationOptions) -> Result<Simulated> {
+    let m = at_rate(model, data.ts())?;
+    let op = opts
+        .operating_point
+        .clone()
+        .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
+    let (du, dy) = op.to_deviations(data.u(), data.y())?;
+    let mut sim = op.add_output(&m.lsim_outputs(&du, None)?)?;
+    let spectral_radius = if m.order() == 0 {
+        0.0
+    } else {
+        m.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
+    };
+    let x0 = match opts.initial_state {
+        InitialCondition::Estimate if m.order() > 0 && spectral_radius < 1.0 => {
+            let x0 = initial_state(&m, data, &sim)?;
+            free_response(&m, &x0, &mut sim);
+            Some(x0)
+        }
+        _ => None,
+    };
+    Ok(Simulated {
+        m,
+        op,
+        du,
+        dy,
+        sim,
+        x0,
+        spectral_radius,
+    })
+}
+
+/// One output's simulation fit ([`simulation_fits`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimulationFit {
+    /// The fit, % (NaN when the error is not finite), as
+    /// [`OutputValidation::fit`].
+    pub fit: f64,
+    /// Whether the simulation error is finite.
+    pub finite: bool,
+    /// Measured samples of the output.
+    pub samples: usize,
+}
+
+/// The simulation fit of each output as [`validate`] reports it (the same
+/// numbers bit for bit: the same simulation, x₀ and fit), without the
+/// predictions and the residual tests: O(N n (n + n_u + n_y)).
+/// `opts.lags`, `opts.horizons` and `opts.kalman_gain` are not used.
+///
+/// Errors: those of [`validate`] but the lags' and horizons'.
+pub fn simulation_fits(
+    model: &StateSpace,
+    data: &Dataset,
+    opts: &ValidationOptions,
+) -> Result<Vec<SimulationFit>> {
+    if model.n_inputs() != data.n_inputs() || model.n_outputs() != data.n_outputs() {
+        return Err(Error::DimensionMismatch {
+            what: "data channels vs model",
+            expected: format!("{} inputs, {} outputs", model.n_inputs(), model.n_outputs()),
+            got: format!("{} inputs, {} outputs", data.n_inputs(), data.n_outputs()),
+        });
+    }
+    let sim = simulated(model, data, opts)?.sim;
+    (0..data.n_outputs())
+        .map(|o| {
+            let (idx, y) = data.output_samples(o)?;
+            let yhat: Vec<f64> = idx.iter().map(|&k| sim[(k, o)]).collect();
+            let finite = y.iter().zip(&yhat).all(|(a, b)| (a - b).is_finite());
+            Ok(SimulationFit {
+                fit: if finite {
+                    fit_percent(&y, &yhat)
+                } else {
+                    f64::NAN
+                },
+                finite,
+                samples: y.len(),
+            })
+        })
+        .collect()
+}
+
+/// Records of at least this many samples are validated an output per
+/// thread on two threads (below it a thread costs more than it saves).
+const PARALLEL_SAMPLES: usize = 20_000;
+
 /// Validates `model` on `data` (see the module docs).
 ///
 /// Errors: [`Error::DimensionMismatch`] when the channels differ from the
@@ -289,26 +388,15 @@ pub fn validate(
             reason: "at least 1 correlation lag is needed for the residual tests".into(),
         });
     }
-    let m = at_rate(model, data.ts())?;
-    let op = opts
-        .operating_point
-        .clone()
-        .unwrap_or_else(|| OperatingPoint::zero(model.n_inputs(), model.n_outputs()));
-    let (du, dy) = op.to_deviations(data.u(), data.y())?;
-    let mut sim = op.add_output(&m.lsim(&du, None, None)?.y)?;
-    let spectral_radius = if m.order() == 0 {
-        0.0
-    } else {
-        m.poles()?.iter().map(|p| p.norm()).fold(0.0, f64::max)
-    };
-    let x0 = match opts.initial_state {
-        InitialCondition::Estimate if m.order() > 0 && spectral_radius < 1.0 => {
-            let x0 = initial_state(&m, data, &sim)?;
-            free_response(&m, &x0, &mut sim);
-            Some(x0)
-        }
-        _ => None,
-    };
+    let Simulated {
+        m,
+        op,
+        du,
+        dy,
+        sim,
+        x0,
+        spectral_radius,
+    } = simulated(model, data, opts)?;
     let gain = opts.kalman_gain.as_ref().filter(|_| model.ts().is_some());
     if let Some(k) = gain
         && k.shape() != (m.order(), m.n_outputs())
@@ -319,11 +407,12 @@ pub fn validate(
             got: format!("{}x{}", k.nrows(), k.ncols()),
         });
     }
+    // Every horizon from one run of the one-step predictor.
     let predictions: Vec<DMatrix<f64>> = match gain {
-        Some(k) => opts
-            .horizons
+        Some(k) => m
+            .predict_horizons(k, &du, &dy, &opts.horizons, x0.as_ref())?
             .iter()
-            .map(|&h| op.add_output(&m.predict_from(k, &du, &dy, h, x0.as_ref())?))
+            .map(|p| op.add_output(p))
             .collect::<Result<_>>()?,
         None => Vec::new(),
     };
@@ -342,8 +431,8 @@ pub fn validate(
         Residual::Simulation
     };
     let lags = opts.lags;
-    let mut outputs = Vec::with_capacity(data.n_outputs());
-    for (o, ch) in data.outputs().iter().enumerate() {
+    // One output's validation (its fits and residual tests).
+    let one = |o: usize, ch: &crate::data::OutputChannel| -> Result<OutputValidation> {
         let (idx, y) = data.output_samples(o)?;
         let n = y.len();
         if n < 2 * lags + 2 {
@@ -407,7 +496,7 @@ pub fn validate(
         } else {
             f64::NAN
         };
-        outputs.push(OutputValidation {
+        Ok(OutputValidation {
             name: ch.name.clone(),
             fit,
             residual_finite,
@@ -421,8 +510,37 @@ pub fn validate(
             instants: idx,
             measured: y,
             simulated: sim.column(o).iter().copied().collect(),
-        });
-    }
+        })
+    };
+    // The outputs on two threads for long records with several outputs
+    // (the same numbers; the first error in output order either way).
+    let channels = data.outputs();
+    let apart = channels.len() > 1
+        && data.len() >= PARALLEL_SAMPLES
+        && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
+    let results: Vec<Result<OutputValidation>> = if apart {
+        let half = channels.len() / 2;
+        std::thread::scope(|scope| {
+            let later = scope.spawn(|| {
+                (half..channels.len())
+                    .map(|o| one(o, &channels[o]))
+                    .collect::<Vec<_>>()
+            });
+            let mut first: Vec<_> = (0..half).map(|o| one(o, &channels[o])).collect();
+            match later.join() {
+                Ok(rest) => first.extend(rest),
+                Err(_) => first.extend((half..channels.len()).map(|o| one(o, &channels[o]))),
+            }
+            first
+        })
+    } else {
+        channels
+            .iter()
+            .enumerate()
+            .map(|(o, ch)| one(o, ch))
+            .collect()
+    };
+    let outputs = results.into_iter().collect::<Result<Vec<_>>>()?;
     Ok(Validation {
         outputs,
         residual,
@@ -609,6 +727,149 @@ mod tests {
     /// A record that starts away from rest (a slow plant, x(0) = 3): the
     /// simulation from the estimated x₀ fits it exactly and recovers x(0);
     /// from zero the transient costs fit. Multirate output (every 3rd
+    /// A long two-output record (validated an output per thread) gives
+    /// each output the numbers of its own validation (the model with that
+    /// output alone, from x₀ = 0, no gain: the same simulation of it), bit
+    /// for bit.
+    #[test]
+    fn outputs_validated_apart_are_validated_alone() {
+        let g = StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.9, 0.1, -0.2, 0.7]),
+            DMatrix::from_row_slice(2, 1, &[0.1, 0.3]),
+            DMatrix::from_row_slice(2, 2, &[1.0, 0.5, -0.3, 1.0]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 0.2]),
+            Some(1.0),
+        )
+        .unwrap();
+        let n = PARALLEL_SAMPLES + 10;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+        let mut y = g.lsim(&u, None, None).unwrap().y;
+        for (k, mut row) in y.row_iter_mut().enumerate() {
+            row[0] += 0.05 * (((k * 31) % 17) as f64 - 8.0);
+            row[1] += 0.04 * (((k * 13) % 11) as f64 - 5.0);
+        }
+        let opts = ValidationOptions {
+            initial_state: InitialCondition::Zero,
+            ..Default::default()
+        };
+        let both = validate(
+            &g,
+            &Dataset::new(
+                1.0,
+                u.clone(),
+                y.clone(),
+                vec![InputChannel::new("u", 1)],
+                vec![
+                    OutputChannel::new("y1", 1, 0),
+                    OutputChannel::new("y2", 1, 0),
+                ],
+            )
+            .unwrap(),
+            &opts,
+        )
+        .unwrap();
+        for o in 0..2 {
+            let alone = StateSpace::new(
+                g.a().clone(),
+                g.b().clone(),
+                g.c().rows(o, 1).into_owned(),
+                g.d().rows(o, 1).into_owned(),
+                Some(1.0),
+            )
+            .unwrap();
+            let d = Dataset::new(
+                1.0,
+                u.clone(),
+                y.columns(o, 1).into_owned(),
+                vec![InputChannel::new("u", 1)],
+                vec![OutputChannel::new("y", 1, 0)],
+            )
+            .unwrap();
+            let v = validate(&alone, &d, &opts).unwrap();
+            let (a, b) = (&both.outputs[o], &v.outputs[0]);
+            assert_eq!(a.fit.to_bits(), b.fit.to_bits());
+            assert_eq!(a.auto, b.auto);
+            assert_eq!(a.cross, b.cross);
+            assert_eq!(a.simulated, b.simulated);
+        }
+    }
+
+    /// `simulation_fits` gives `validate`'s fits bit for bit (x₀ estimated
+    /// or zero, an operating point, an output sampled every third instant,
+    /// a model with its gain), and its errors for wrong channels.
+    #[test]
+    fn simulation_fits_are_the_validations() {
+        let g = StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.9, 0.1, -0.2, 0.7]),
+            DMatrix::from_row_slice(2, 1, &[0.1, 0.3]),
+            DMatrix::from_row_slice(2, 2, &[1.0, 0.5, -0.3, 1.0]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 0.2]),
+            Some(1.0),
+        )
+        .unwrap();
+        let n = 500;
+        let u = DMatrix::from_fn(n, 1, |k, _| if (k * 7919) % 13 < 6 { 1.0 } else { -1.0 });
+        let x0 = DVector::from_row_slice(&[2.0, -1.0]);
+        let mut y = g.lsim(&u, Some(&x0), None).unwrap().y;
+        for (k, mut row) in y.row_iter_mut().enumerate() {
+            row[0] += 0.05 * (((k * 31) % 17) as f64 - 8.0) + 1.5;
+            row[1] += 0.04 * (((k * 13) % 11) as f64 - 5.0);
+            if k % 3 != 0 {
+                row[1] = f64::NAN;
+            }
+        }
+        let d = Dataset::new(
+            1.0,
+            u,
+            y,
+            vec![InputChannel::new("u", 1)],
+            vec![
+                OutputChannel::new("y1", 1, 0),
+                OutputChannel::new("y2", 3, 0),
+            ],
+        )
+        .unwrap();
+        let op = OperatingPoint {
+            u0: vec![0.0],
+            y0: vec![1.5, 0.0],
+        };
+        for (initial_state, gain) in [
+            (InitialCondition::Estimate, None),
+            (InitialCondition::Zero, None),
+            (
+                InitialCondition::Estimate,
+                Some(DMatrix::from_element(2, 2, 0.1)),
+            ),
+        ] {
+            let opts = ValidationOptions {
+                operating_point: Some(op.clone()),
+                initial_state,
+                kalman_gain: gain,
+                ..Default::default()
+            };
+            let v = validate(&g, &d, &opts).unwrap();
+            let f = simulation_fits(&g, &d, &opts).unwrap();
+            assert_eq!(f.len(), 2);
+            for (a, b) in f.iter().zip(&v.outputs) {
+                assert_eq!(a.fit.to_bits(), b.fit.to_bits());
+                assert_eq!(a.samples, b.samples);
+                assert!(a.finite);
+            }
+        }
+        let one = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_element(1, 2, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 2),
+            Some(1.0),
+        )
+        .unwrap();
+        assert!(matches!(
+            simulation_fits(&one, &d, &ValidationOptions::default()),
+            Err(Error::DimensionMismatch { .. })
+        ));
+    }
+
     /// sample) likewise.
     #[test]
     fn the_initial_state_is_estimated_by_default() {

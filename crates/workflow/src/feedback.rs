@@ -25,12 +25,96 @@ use serde_json::json;
 use crate::diagnostics::push_warning;
 use crate::options::{Method, WorkflowOptions};
 
+/// The model-free tests of the last records ([`report`] on single-rate
+/// records: the VARX innovations and the test on them depend on the record
+/// and the options, not on the model), kept for a front end that
+/// identifies one record many times (the studio's order slider, through
+/// [`crate::SubspaceCache`]): an order identified on a record already
+/// tested takes the kept outcome, the same bit for bit. Keyed by the
+/// record's samples (their hash, `lifted_subspace::records_hash`), the
+/// test's options and the longest output period.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct FeedbackMemo {
+    kept: Option<(String, Outcome)>,
+    computed: usize,
+}
+
+/// A test's outcome: the test on the innovations, or why there is none.
+type Outcome = Result<lifted_closedloop::FeedbackTest, String>;
+
+/// How [`model_free`] knows the record it tests for its memo.
+#[derive(Debug, Clone, Copy)]
+enum Known {
+    /// Record `index` of records whose `records_hash` the run computed.
+    Among(u64, usize),
+    /// By its own hash (computed here).
+    Alone,
+}
+
+impl FeedbackMemo {
+    /// Tests computed through this memo (a reuse computes none).
+    pub(crate) fn computed(&self) -> usize {
+        self.computed
+    }
+}
+
+/// The test on a VARX's errors of the single-rate record `set` (the
+/// records before any model's operating point was removed: the VARX's
+/// constant takes any offset), or `None` when the record is multirate or
+/// too short for the VARX (the model's own errors are then tested). Taken
+/// from `memo` when it holds the same record and options.
+fn model_free(
+    fb: &lifted_closedloop::FeedbackOptions,
+    set: &Dataset,
+    longest: usize,
+    memo: Option<(&mut FeedbackMemo, Known)>,
+) -> Option<Outcome> {
+    if !set.is_single_rate() {
+        return None;
+    }
+    let run = || -> Option<Outcome> {
+        let e = lifted_closedloop::arx_innovations(set.u(), set.y(), fb.arx_order, fb.max_samples)
+            .ok()?;
+        Some(lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string()))
+    };
+    let Some((memo, known)) = memo else {
+        return run();
+    };
+    let records = match known {
+        Known::Among(hash, index) => format!("{hash:016x}#{index}"),
+        Known::Alone => {
+            let exps = [lifted_subspace::Experiment {
+                u: set.u(),
+                y: set.y(),
+            }];
+            format!("{:016x}", lifted_subspace::records_hash(&exps))
+        }
+    };
+    let key = format!("{records}|{fb:?}|{longest}");
+    if let Some((k, outcome)) = &memo.kept
+        && *k == key
+    {
+        return Some(outcome.clone());
+    }
+    let outcome = run();
+    memo.computed += 1;
+    memo.kept = outcome.clone().map(|o| (key, o));
+    outcome
+}
+
 /// Runs the test and writes `diagnostics.feedback` (and the warning).
+/// `before`: the records before the identification removed its operating
+/// point, when it did (single-rate N4SID/MOESP/CVA; the same for every
+/// order of a record), for the model-free test, with their
+/// `lifted_subspace::records_hash` when the run computed it; `memo`: the
+/// outcomes kept between calls ([`FeedbackMemo`]).
 pub(crate) fn report(
     opts: &WorkflowOptions,
     model: &StateSpace,
     gain: Option<&DMatrix<f64>>,
     sets: &[Dataset],
+    before: Option<(&[Dataset], Option<u64>)>,
+    memo: Option<&mut FeedbackMemo>,
     diagnostics: &mut serde_json::Value,
 ) {
     let Some(set) = sets.iter().max_by_key(|d| d.len()) else {
@@ -38,14 +122,17 @@ pub(crate) fn report(
     };
     let started = std::time::Instant::now();
     let fb = &opts.identification.feedback;
+    let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
     // Single-rate records: a VARX's errors (model-free); else, or when the
     // record is too short for the VARX, the model's own.
-    let varx = set
-        .is_single_rate()
-        .then(|| {
-            lifted_closedloop::arx_innovations(set.u(), set.y(), fb.arx_order, fb.max_samples).ok()
-        })
-        .flatten();
+    let (free_set, known) = match before.filter(|(b, _)| b.len() == sets.len()) {
+        Some((b, hash)) => match b.iter().enumerate().max_by_key(|(_, d)| d.len()) {
+            Some((i, d)) => (d, hash.map_or(Known::Alone, |h| Known::Among(h, i))),
+            None => (set, Known::Alone),
+        },
+        None => (set, Known::Alone),
+    };
+    let varx = model_free(fb, free_set, longest, memo.map(|m| (m, known)));
     let source = if varx.is_some() {
         format!(
             "the one-step errors of a VARX of order {} fitted to the longest record",
@@ -55,13 +142,11 @@ pub(crate) fn report(
         "the identified model's one-step prediction errors on its longest record".to_string()
     };
     let outcome = match varx {
-        Some(e) => Ok(e),
-        None => innovations(model, gain, set),
-    }
-    .and_then(|e| {
-        let longest = set.outputs().iter().map(|c| c.period).max().unwrap_or(1);
-        lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string())
-    });
+        Some(outcome) => outcome,
+        None => innovations(model, gain, set).and_then(|e| {
+            lifted_closedloop::feedback_test(set.u(), &e, longest, fb).map_err(|e| e.to_string())
+        }),
+    };
     crate::diagnostics::add_phase(diagnostics, "feedback_s", started.elapsed().as_secs_f64());
     let Some(obj) = diagnostics.as_object_mut() else {
         return;

@@ -29,15 +29,22 @@
 //! Nothing here is tuned on the benchmark's validation halves; the rule is
 //! BIC as written. `diagnostics.feedthrough` records Δ, the threshold and
 //! the decision. Cost: a second identification at the chosen structure
-//! and two simulations, O(N (n² + n n_u + n n_y)) beyond the subspace step.
+//! and two simulations, O(N (n² + n n_u + n n_y)) beyond the subspace step
+//! (the simulations on two threads for long records).
 
-use lifted_lti::validation::{InitialCondition, ValidationOptions, validate};
+use lifted_lti::validation::{InitialCondition, ValidationOptions, simulation_fits};
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::SubspaceModel;
 use serde_json::json;
 
 use crate::error::Result;
 use crate::options::IdentificationOptions;
+
+/// Records of at least this many samples have the two models of
+/// [`decide`] simulated on two threads, and with a kept compression
+/// (`crate::SubspaceCache`) the D = 0 model identified with the D-free one
+/// (below it a thread costs more than it saves).
+pub(crate) const PARALLEL_SAMPLES: usize = 20_000;
 
 /// The outcome of [`decide`].
 #[derive(Debug, Clone)]
@@ -66,7 +73,9 @@ fn log_errors(fit: &SubspaceModel, sets: &[Dataset]) -> Option<Vec<(usize, Vec<f
     let m: &StateSpace = &fit.model;
     let mut out = Vec::with_capacity(sets.len());
     for set in sets {
-        let v = validate(
+        // The fits `validate` gives (its simulation alone: the residual
+        // tests of a validation are not needed here).
+        let fits = simulation_fits(
             &StateSpace::new(
                 m.a().clone(),
                 m.b().clone(),
@@ -79,10 +88,11 @@ fn log_errors(fit: &SubspaceModel, sets: &[Dataset]) -> Option<Vec<(usize, Vec<f
             &opts,
         )
         .ok()?;
-        let mut logs = Vec::with_capacity(v.outputs.len());
+        let mut logs = Vec::with_capacity(fits.len());
         let mut n = usize::MAX;
-        for o in &v.outputs {
-            if !(o.fit.is_finite() && o.residual_finite) {
+        for o in &fits {
+            // (`validate` refuses outputs of fewer than 2 lags + 2 samples.)
+            if !(o.fit.is_finite() && o.finite) || o.samples < 2 * opts.lags + 2 {
                 return None;
             }
             logs.push((1.0 - o.fit / 100.0).max(f64::MIN_POSITIVE).ln());
@@ -97,7 +107,21 @@ fn log_errors(fit: &SubspaceModel, sets: &[Dataset]) -> Option<Vec<(usize, Vec<f
 /// on `sets` by the information criterion of the module docs.
 pub(crate) fn decide(free: &SubspaceModel, zero: &SubspaceModel, sets: &[Dataset]) -> Decision {
     let k = free.model.n_inputs() * free.model.n_outputs();
-    let (Some(l1), Some(l0)) = (log_errors(free, sets), log_errors(zero, sets)) else {
+    // The two simulations on two threads when the records are long and
+    // there is a second core (the same numbers either way).
+    let samples: usize = sets.iter().map(Dataset::len).sum();
+    let apart = samples >= PARALLEL_SAMPLES
+        && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
+    let (l1, l0) = if apart {
+        std::thread::scope(|scope| {
+            let other = scope.spawn(|| log_errors(zero, sets));
+            let l1 = log_errors(free, sets);
+            (l1, other.join().unwrap_or_else(|_| log_errors(zero, sets)))
+        })
+    } else {
+        (log_errors(free, sets), log_errors(zero, sets))
+    };
+    let (Some(l1), Some(l0)) = (l1, l0) else {
         return Decision {
             keep: true,
             json: json!(

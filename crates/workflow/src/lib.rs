@@ -89,8 +89,10 @@
 //!    records are tested for feedback (`diagnostics.feedback`: each
 //!    input's Granger test on past innovations — a VARX's errors on
 //!    single-rate records, the model's on multirate ones — χ² at 1 %,
-//!    [`IdentificationOptions::feedback`]); an N4SID/MOESP/CVA model on a
-//!    closed loop carries a warning naming the consistent methods.
+//!    [`IdentificationOptions::feedback`]; the VARX on the records before
+//!    any model's operating point is removed, so that [`SubspaceCache`]
+//!    keeps one test per record for every order); an N4SID/MOESP/CVA model
+//!    on a closed loop carries a warning naming the consistent methods.
 //!
 //! The result, [`Identified`], holds the model file the CLI writes
 //! (`lifted_lti::ModelFile`: model, operating point, Kalman gain, the

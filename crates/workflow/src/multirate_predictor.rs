@@ -176,6 +176,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
                 past: 0,
                 options: &opts.identification.gain_check,
                 memo: None,
+                records_hash: None,
             },
         );
         let stable_start = crate::validate::spectral_radius(&model).is_ok_and(|r| r < 1.0);

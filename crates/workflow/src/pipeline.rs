@@ -201,6 +201,9 @@ fn run(
     // The multirate subspace route with its second start also compares the
     // interpolated start as identified (multirate_start::or_as_identified).
     let mut third_start = false;
+    // The hash of the records identified (single-rate subspace route with a
+    // cache): computed once, for every cache of the run.
+    let mut records_hash: Option<u64> = None;
     let fit: RouteFit = match id.method {
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => {
@@ -246,7 +249,9 @@ fn run(
                 diagnostics: d,
                 used,
                 check: known,
+                records_hash: hash,
             } = routes::subspace(opts, &sets, inner_means, cache.as_deref_mut())?;
+            records_hash = hash;
             let route_sets = if inner_means {
                 // The refinement and the stored model see deviations from
                 // the identification's operating point.
@@ -275,7 +280,8 @@ fn run(
                 GainCheckWith {
                     past: used.past,
                     options: &opts.identification.gain_check,
-                    memo: cache.map(|c| &mut c.gain),
+                    memo: cache.as_deref_mut().map(|c| &mut c.gain),
+                    records_hash,
                 },
             );
             if !route_sets.is_empty() {
@@ -323,6 +329,7 @@ fn run(
                         past: alpha,
                         options: &opts.identification.gain_check,
                         memo: None,
+                        records_hash: None,
                     },
                 );
             }
@@ -339,6 +346,10 @@ fn run(
         suggested_order,
         mut details,
     } = fit;
+    // The records before the identification removed its operating point
+    // (the same for every order of a record): the feedback test's
+    // model-free innovations are estimated on them.
+    let before: Option<&[Dataset]> = check.as_ref().map(|(sets, _, _)| sets.as_slice());
     let check = check.as_ref().map(|(sets, options, known)| HeldOutCheck {
         sets,
         options,
@@ -400,10 +411,19 @@ fn run(
                 past: 0,
                 options: &opts.identification.gain_check,
                 memo: None,
+                records_hash: None,
             },
         );
     }
-    crate::feedback::report(opts, &model, kalman_gain.as_ref(), &sets, &mut diagnostics);
+    crate::feedback::report(
+        opts,
+        &model,
+        kalman_gain.as_ref(),
+        &sets,
+        before.map(|b| (b, records_hash)),
+        cache.map(|c| &mut c.feedback),
+        &mut diagnostics,
+    );
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {
@@ -465,6 +485,10 @@ pub(crate) struct GainCheckWith<'a> {
     /// The innovations kept between calls (a front end's
     /// [`SubspaceCache`]): the same gain bit for bit as without it.
     pub memo: Option<&'a mut lifted_subspace::VarxMemo>,
+    /// The hash of the records before the identification removed its
+    /// operating point (`raw` of [`checked_gain`]), when the run computed
+    /// it ([`SubspaceCache::hash`]).
+    pub records_hash: Option<u64>,
 }
 
 /// The Kalman gain of a single-rate subspace model on `sets` (deviations
@@ -490,6 +514,7 @@ pub(crate) fn checked_gain(
         past,
         options,
         memo,
+        records_hash,
     } = check;
     let samples: usize = sets.iter().map(Dataset::len).sum();
     if samples > GAIN_CHECK_SAMPLES {
@@ -507,7 +532,10 @@ pub(crate) fn checked_gain(
             .map(|d| lifted_subspace::Experiment { u: d.u(), y: d.y() })
             .collect()
     });
-    memo.set_source(raw_exps.as_deref());
+    match (raw_exps.as_deref(), records_hash) {
+        (Some(r), Some(h)) => memo.set_source_hashed(Some((r, h))),
+        (r, _) => memo.set_source(r),
+    }
     let (checked, report) =
         lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, options, memo);
     add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());

@@ -188,6 +188,10 @@ pub(crate) struct SubspaceRoute {
     pub diagnostics: serde_json::Value,
     pub used: SubspaceOptions,
     pub check: Option<RefinementCheck>,
+    /// The records' hash, when a cache was given (`SubspaceCache::hash`
+    /// of the records identified: the records before any operating point
+    /// was removed), for the other caches of the run.
+    pub records_hash: Option<u64>,
 }
 
 /// Single-rate N4SID/MOESP/CVA on records in memory: the held-out
@@ -220,6 +224,11 @@ pub(crate) fn subspace(
     let samples = sets.iter().map(Dataset::len).sum();
     let mut known = None;
     let mut cache = cache;
+    // The records' hash, once for every cache of the run.
+    let records_hash = cache.is_some().then(|| SubspaceCache::hash(&exps));
+    // The feedthrough test's D = 0 fit when it was made with the fit
+    // (its options and the fit).
+    let mut zero_fit: Option<(SubspaceOptions, Result<lifted_subspace::SubspaceModel>)> = None;
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
@@ -255,13 +264,38 @@ pub(crate) fn subspace(
             }
             _ => sub,
         };
+        // The order given, the default feedthrough test to come and a
+        // long record: the D = 0 fit of the test (crate::feedthrough) on a
+        // second thread with the fit itself (both from the kept
+        // compression; the same fits as one after the other).
+        let pair = match (&sub.order, cache.as_deref_mut(), records_hash) {
+            (OrderSelection::Fixed(_), Some(c), Some(hash))
+                if id.feedthrough.is_none()
+                    && samples >= crate::feedthrough::PARALLEL_SAMPLES
+                    && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1 =>
+            {
+                let zero_opts = SubspaceOptions {
+                    feedthrough: lifted_subspace::Feedthrough::Zero,
+                    ..sub.clone()
+                };
+                c.identify_pair(&exps, hash, (&sub, &zero_opts), &what)
+                    .map(|(fit, zero)| (fit, (zero_opts, zero)))
+            }
+            _ => None,
+        };
         let mut run = |o: &SubspaceOptions| match cache.as_deref_mut() {
-            Some(c) => c.identify(&exps, o, &what),
+            Some(c) => c.identify(&exps, records_hash.unwrap_or_default(), o, &what),
             None => identify(&exps, o).ctx(&what),
         };
         match sub.order {
             // The order given: identified as it is.
-            OrderSelection::Fixed(_) => (run(&sub)?, None, sub),
+            OrderSelection::Fixed(_) => match pair {
+                Some((fit, zero)) => {
+                    zero_fit = Some(zero);
+                    (fit?, None, sub)
+                }
+                None => (run(&sub)?, None, sub),
+            },
             // An automatic order by the order rule asked for: searched as
             // the plain identification's, as the held-out selection does (a
             // refinement's stabilised start must not change the order), its
@@ -291,6 +325,7 @@ pub(crate) fn subspace(
     // The default feedthrough: D kept only where the records support it
     // (crate::feedthrough), the D = 0 model identified at the same
     // structure.
+    let t_feedthrough = std::time::Instant::now();
     let (fit, used, feedthrough) = match crate::feedthrough::settled(id, &fit) {
         Some(said) => (fit, used, said),
         None => {
@@ -298,18 +333,23 @@ pub(crate) fn subspace(
                 feedthrough: lifted_subspace::Feedthrough::Zero,
                 ..used.clone()
             };
-            let zero = match cache {
-                Some(c) => c.identify(&exps, &zero_opts, &what),
-                None => identify(&exps, &zero_opts).ctx(&what),
+            let zero = match (zero_fit.take(), cache) {
+                (Some((o, zero)), _) if o == zero_opts => zero,
+                (_, Some(c)) => {
+                    c.identify(&exps, records_hash.unwrap_or_default(), &zero_opts, &what)
+                }
+                (_, None) => identify(&exps, &zero_opts).ctx(&what),
             };
             let (fit, zero_kept, said) = crate::feedthrough::choose(fit, zero, sets);
             (fit, if zero_kept { zero_opts } else { used }, said)
         }
     };
+    let feedthrough_s = t_feedthrough.elapsed().as_secs_f64();
     let mut d = crate::diagnostics::subspace_json(&fit, "single-rate subspace identification");
     if let Some(obj) = d.as_object_mut() {
         obj.insert("feedthrough".into(), feedthrough);
     }
+    crate::diagnostics::add_phase(&mut d, "feedthrough_s", feedthrough_s);
     // The held-out search's own cap (the largest order its horizons
     // identify), said as the gap search's is (--max-order 100 searched
     // 1..=29 without a word).
@@ -352,6 +392,7 @@ pub(crate) fn subspace(
         diagnostics: d,
         used,
         check: known,
+        records_hash,
     })
 }
 

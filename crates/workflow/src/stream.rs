@@ -367,6 +367,7 @@ pub fn identify_streamed(
                 past: fit.diagnostics.horizons.0,
                 options: &opts.identification.gain_check,
                 memo: None,
+                records_hash: None,
             },
         );
     }

@@ -374,6 +374,97 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
     assert_eq!(cache.compressions(), 3);
 }
 
+/// On a long record the cached run identifies the feedthrough test's D = 0
+/// model with the D-free one (two threads on the kept compression) and
+/// simulates the two on two threads: the same model file as the uncached
+/// run, bit for bit, with one compression.
+#[test]
+fn the_paired_feedthrough_fits_give_the_uncached_model() {
+    let (u, y) = record(20_000, 0.1, 8);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut cache = SubspaceCache::default();
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.refinement.refine = Refine::None;
+    for n in [2, 3] {
+        opts.identification.order = Order::Fixed(n);
+        let cached = identify_cached(&records, &opts, &[], &mut cache).expect("cached");
+        let plain = identify(&records, &opts).expect("plain");
+        assert_eq!(cached.file.model, plain.file.model, "order {n}");
+        assert_eq!(cached.file.kalman_gain, plain.file.kalman_gain, "order {n}");
+        assert_eq!(
+            cached.file.diagnostics["feedthrough"], plain.file.diagnostics["feedthrough"],
+            "order {n}"
+        );
+        assert!(
+            cached.file.diagnostics["feedthrough"]["statistic"].is_f64(),
+            "the test ran: {}",
+            cached.file.diagnostics["feedthrough"]
+        );
+    }
+    assert_eq!(cache.compressions(), 1);
+}
+
+/// The feedback test of a single-rate record is made once for every order
+/// identified through the cache, on the record before the model's
+/// operating point is removed, and it says what the test on each model's
+/// deviations (the route of before) says: the same verdict and statistics
+/// to 1e-8 (the VARX's and the test's constants take the offsets, the
+/// channels' scales cancel in the ratios). A new record or new test
+/// options make a new test; the uncached run gives the same diagnostics.
+#[test]
+fn the_feedback_test_is_made_once_per_record() {
+    let (u, y) = record(4000, 0.1, 5);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut cache = SubspaceCache::default();
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.refinement.refine = Refine::None;
+    let fb = opts.identification.feedback;
+    for n in [2, 3, 4] {
+        opts.identification.order = Order::Fixed(n);
+        let cached = identify_cached(&records, &opts, &[], &mut cache).expect("cached");
+        assert_eq!(cache.feedback_tests(), 1, "order {n}");
+        let plain = identify(&records, &opts).expect("plain");
+        let got = &cached.file.diagnostics["feedback"];
+        assert_eq!(*got, plain.file.diagnostics["feedback"], "order {n}");
+        // The route of before: the test on this model's deviations.
+        let op = cached
+            .file
+            .operating_point
+            .as_ref()
+            .expect("operating point");
+        let (du, dy) = op.to_deviations(&u, &y).expect("deviations");
+        let e = lifted_closedloop::arx_innovations(&du, &dy, fb.arx_order, fb.max_samples)
+            .expect("VARX");
+        let before = lifted_closedloop::feedback_test(&du, &e, 1, &fb).expect("test");
+        assert_eq!(got["detected"], serde_json::json!(before.detected));
+        let inputs = got["inputs"].as_array().expect("inputs");
+        assert_eq!(inputs.len(), before.inputs.len());
+        for (now, then) in inputs.iter().zip(&before.inputs) {
+            let s = now["statistic"].as_f64().expect("statistic");
+            assert!(
+                (s - then.statistic).abs() <= 1e-8 * then.statistic.abs().max(1.0),
+                "order {n}: {s} vs {}",
+                then.statistic
+            );
+            assert_eq!(now["detected"], serde_json::json!(then.detected));
+        }
+    }
+    let (u2, y2) = record(4000, 0.1, 6);
+    identify_cached(&[Record::new(dataset(&u2, &y2))], &opts, &[], &mut cache).expect("new data");
+    assert_eq!(cache.feedback_tests(), 2);
+    opts.identification.feedback.arx_order = 8;
+    identify_cached(&[Record::new(dataset(&u2, &y2))], &opts, &[], &mut cache)
+        .expect("new options");
+    assert_eq!(cache.feedback_tests(), 3);
+    cache.clear();
+    identify_cached(&[Record::new(dataset(&u2, &y2))], &opts, &[], &mut cache).expect("cleared");
+    assert_eq!(cache.feedback_tests(), 1);
+}
+
 #[test]
 fn the_default_refines_short_records_and_says_so() {
     let (u, y) = record(3000, 0.1, 7);

@@ -47,12 +47,15 @@ fn print_profile(diagnostics: &serde_json::Value) {
         return;
     };
     // The compress/svd/estimate rows are the final fit's; the subspace row
-    // also counts the structure selection's fits before it.
+    // also counts the structure selection's fits before it and the
+    // feedthrough test (the D = 0 fit, unless it ran with the fit on a
+    // second thread, and the two simulations).
     let phases = [
         ("read", "read_s"),
         ("compress", "compress_s"),
         ("svd", "svd_s"),
         ("estimate", "estimate_s"),
+        ("feedthrough test", "feedthrough_s"),
         ("subspace (all)", "subspace_s"),
         ("second pass", "second_pass_s"),
         ("multirate start", "multirate_start_s"),
