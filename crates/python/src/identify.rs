@@ -111,7 +111,7 @@ pub(crate) fn identify<'py>(
             SystemEstimate::StateSequence => Estimator::States,
         },
     };
-    let (u, y) = finite_records(&us, &ys)?;
+    let records = sampled_records(&us, &ys, dt)?;
     let threads = resolve_threads(count(threads, "threads")?);
     let mut opts = WorkflowOptions::default();
     opts.data.detrend = detrend_of(detrend, remove_means)?;
@@ -142,8 +142,47 @@ pub(crate) fn identify<'py>(
     id.gain_check.stop_share = gain_stop_share;
     id.integrator_tolerance = integrator_tolerance;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
-    let fit = run(py, single_rate(dt, u, y)?, opts)?;
+    let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)
+}
+
+/// The records of `identify`: one record whose outputs hold NaN only at
+/// instants that follow one period per output (the command line's rule for
+/// empty cells, `lifted_lti::output_sampling`) is a multirate record with
+/// those periods, identified by the multirate routes as the command line
+/// identifies the same CSV; otherwise every value must be finite (the
+/// single-rate records, [`finite_records`]'s error and message).
+fn sampled_records(
+    us: &[Bound<'_, PyAny>],
+    ys: &[Bound<'_, PyAny>],
+    dt: f64,
+) -> PyResult<Vec<Record>> {
+    if let ([u], [y]) = (us, ys) {
+        let (mut u, mut y) = records(std::slice::from_ref(u), std::slice::from_ref(y))?;
+        let (u, y) = (u.remove(0), y.remove(0));
+        let gaps = y.iter().any(|v| v.is_nan()) && y.iter().all(|v| !v.is_infinite());
+        if gaps && let Some(periods) = inferred_periods(&y) {
+            finite("u", &u)?;
+            return Ok(vec![Record::new(dataset(dt, u, y, None, Some(&periods))?)]);
+        }
+    }
+    let (u, y) = finite_records(us, ys)?;
+    single_rate(dt, u, y)
+}
+
+/// Each output's period from its NaN pattern (1 without NaN), `None` when
+/// a pattern breaks the rule (an isolated missing value).
+fn inferred_periods(y: &DMatrix<f64>) -> Option<Vec<usize>> {
+    (0..y.ncols())
+        .map(|j| {
+            let col: Vec<f64> = y.column(j).iter().copied().collect();
+            if col.iter().any(|v| v.is_nan()) {
+                lifted_lti::output_sampling(&col, None).ok().map(|(p, _)| p)
+            } else {
+                Some(1)
+            }
+        })
+        .collect()
 }
 
 /// The records of `us`, `ys` with every value finite (the subspace layer's
@@ -315,7 +354,7 @@ pub(crate) fn pbsid<'py>(
         lifted_subspace::PbsidVariant::Ssarx => lifted_workflow::Method::Ssarx,
         lifted_subspace::PbsidVariant::RowWise => lifted_workflow::Method::PbsidRowwise,
     };
-    let (u, y) = finite_records(&us, &ys)?;
+    let records = sampled_records(&us, &ys, dt)?;
     let mut opts = WorkflowOptions::default();
     opts.data.detrend = detrend;
     let id = &mut opts.identification;
@@ -327,7 +366,7 @@ pub(crate) fn pbsid<'py>(
     id.feedthrough = feedthrough;
     id.threads = Some(threads);
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
-    let fit = run(py, single_rate(dt, u, y)?, opts)?;
+    let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)
 }
 

@@ -259,6 +259,13 @@ def test_pbsid_identifies_a_multirate_closed_loop_without_the_reference() -> Non
         x = a @ x + b * u[k]
     fit = lifted.multirate(u, y, [period], method="pbsid", order=2)
     assert fit.diagnostics["route"].startswith("multirate prediction error")
+    # NaN at every instant but every fourth follows one period: identify and
+    # pbsid read the record as multirate, as the command line reads empty
+    # cells, and give the same model.
+    same = lifted.identify(u, y, method="pbsid", order=2)
+    assert same.diagnostics["route"] == fit.diagnostics["route"]
+    np.testing.assert_allclose(np.asarray(same.model.A), np.asarray(fit.fast.A), atol=1e-12)
+    assert lifted.pbsid(u, y, order=2).diagnostics["output_periods"] == [period]
     assert fit.method == "pbsid" and fit.fast.kalman_gain is not None
     truth = np.linalg.eigvals(a)
     p = np.linalg.eigvals(np.asarray(fit.fast.A))

@@ -254,6 +254,11 @@ def identify(
 
     ``u`` and ``y`` are arrays (N x m, N x p; anything numpy reads, a 1-D
     array is one channel) or lists of such arrays (several experiments).
+    One record whose ``y`` holds NaN (or masked entries) only at the
+    instants an output is not sampled — every ``P``-th sample measured, one
+    period per output, the command line's rule for empty CSV cells — is a
+    multirate record and takes the multirate routes (as
+    :func:`multirate` with those periods); any other NaN is refused.
 
     The call goes through the identification workflow that ``lifted
     identify`` and ``lifted studio`` use (the Rust crate
@@ -357,8 +362,9 @@ def identify(
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
             e.add_note(
-                "NaN (or a masked entry) marks an unsampled output in multirate records only: "
-                "lifted.multirate(u, y, periods=...) identifies from the measured samples"
+                "NaN (or a masked entry) marks an unsampled output only where it follows one "
+                "period per output (every P-th sample measured); lifted.multirate(u, y, periods=...) "
+                "identifies from the measured samples of declared periods"
             )
         raise
     return _subspace_fit(d)
