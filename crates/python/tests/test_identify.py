@@ -11,6 +11,7 @@ import pathlib
 import subprocess
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import lifted
@@ -274,19 +275,27 @@ def test_pbsid_identifies_a_multirate_closed_loop_without_the_reference() -> Non
     assert err < 0.02, err
 
 
+def _first_order_record(
+    seed: int, n: int, *, pole: float, gain: float, noise: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """x+ = pole x + gain u, y = x + noise e under a random binary u (seeded)."""
+    rng = np.random.default_rng(seed)
+    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    y = np.zeros(n)
+    x = 0.0
+    for k in range(n):
+        y[k] = x + noise * rng.standard_normal()
+        x = pole * x + gain * u[k]
+    return u, y
+
+
 def test_gain_stop_share_and_integrator_tolerance_reach_the_workflow() -> None:
     """The keywords of ``lifted identify --gain-stop-share`` and
     ``--integrator-tolerance`` (issues 46 and 47): recorded in the
     diagnostics as the command records them; a negative value is refused
     naming the keyword."""
-    rng = np.random.default_rng(3)
     n = 2000
-    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    y = np.zeros(n)
-    x = 0.0
-    for k in range(n):
-        y[k] = x + 0.01 * rng.standard_normal()
-        x = 0.9 * x + 0.1 * u[k]
+    u, y = _first_order_record(3, n, pole=0.9, gain=0.1, noise=0.01)
     fit = lifted.identify(u, y, order=1, gain_stop_share=0.0, integrator_tolerance=1e-3)
     assert fit.diagnostics["integrators"]["tolerance"] == 1e-3
     assert "30 iterations" in fit.diagnostics["kalman_gain_route"]["stop"]
@@ -307,14 +316,8 @@ def test_validate_leaves_out_a_gain_estimated_at_other_output_periods() -> None:
     record (no prediction fits, the simulation error tested) and the result
     says why; on a record sampled as it was identified the gain is used. The
     model keeps the periods through its JSON (pickle) round trip."""
-    rng = np.random.default_rng(8)
     n = 3000
-    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    y = np.zeros(n)
-    x = 0.0
-    for k in range(n):
-        y[k] = x + 0.02 * rng.standard_normal()
-        x = 0.85 * x + 0.2 * u[k]
+    u, y = _first_order_record(8, n, pole=0.85, gain=0.2, noise=0.02)
     slow = np.where(np.arange(n) % 3 == 0, y, np.nan)
     fit = lifted.multirate(u, slow, [3], order=1)
     model = fit.fast

@@ -1098,6 +1098,20 @@ mod tests {
         }
     }
 
+    /// The over-fitted order-4 model of a record (horizon 10).
+    fn over_fitted(exps: &[Experiment<'_>]) -> crate::SubspaceModel {
+        crate::identify(
+            exps,
+            &crate::SubspaceOptions {
+                order: crate::OrderSelection::Fixed(4),
+                past: 10,
+                future: 10,
+                ..Default::default()
+            },
+        )
+        .expect("order 4")
+    }
+
     /// The gain by the rows' recursion of the sensitivities (the default
     /// on complete records) is the one by the states' recursion (the route
     /// of before) to 1e-10 of its largest entry, after the same number of
@@ -1107,16 +1121,7 @@ mod tests {
     fn the_rows_route_gives_the_states_gain() {
         let (g, _, u, y) = record(20_000, 5);
         let exps = [Experiment { u: &u, y: &y }];
-        let four = crate::identify(
-            &exps,
-            &crate::SubspaceOptions {
-                order: crate::OrderSelection::Fixed(4),
-                past: 10,
-                future: 10,
-                ..Default::default()
-            },
-        )
-        .expect("order 4");
+        let four = over_fitted(&exps);
         for model in [&g, &four.model] {
             for opts in [
                 GainCheckOptions::default(),
@@ -1153,16 +1158,7 @@ mod tests {
     fn the_lazy_factor_gives_the_gains_of_before() {
         let (g, _, u, y) = record(20_000, 5);
         let exps = [Experiment { u: &u, y: &y }];
-        let four = crate::identify(
-            &exps,
-            &crate::SubspaceOptions {
-                order: crate::OrderSelection::Fixed(4),
-                past: 10,
-                future: 10,
-                ..Default::default()
-            },
-        )
-        .expect("order 4");
+        let four = over_fitted(&exps);
         let before: [(usize, f64, &[f64]); 4] = [
             (
                 1,

@@ -22,6 +22,37 @@
 use lifted_lti::StateSpace;
 use nalgebra::{DMatrix, DVector};
 
+/// Runs `$call` with `$f` bound to the padded fixed-size kernel of
+/// `$p`'s order (sizes 1, 2, 4, 8, 16: an order pads up to the next), or
+/// `$general` above 16: the one dispatch of every run of this module.
+macro_rules! by_padded_order {
+    ($p:expr, $f:ident => $call:expr, _ => $general:expr) => {
+        match $p.n {
+            1 => {
+                let $f = Fixed::<1>::new($p);
+                $call
+            }
+            2 => {
+                let $f = Fixed::<2>::new($p);
+                $call
+            }
+            3 | 4 => {
+                let $f = Fixed::<4>::new($p);
+                $call
+            }
+            5..=8 => {
+                let $f = Fixed::<8>::new($p);
+                $call
+            }
+            9..=16 => {
+                let $f = Fixed::<16>::new($p);
+                $call
+            }
+            _ => $general,
+        }
+    };
+}
+
 /// `out = M x` for a column-major `rows × x.len()` matrix `m`: the first
 /// column's product, then each further column's added in turn (nalgebra's
 /// `gemv` order); zero when `x` is empty.
@@ -174,14 +205,9 @@ impl OneStep {
         x0: &DVector<f64>,
         visit: impl FnMut(&[f64]),
     ) {
-        match self.n {
-            1 => Fixed::<1>::new(self).errors(u, y, x0, visit),
-            2 => Fixed::<2>::new(self).errors(u, y, x0, visit),
-            3 | 4 => Fixed::<4>::new(self).errors(u, y, x0, visit),
-            5..=8 => Fixed::<8>::new(self).errors(u, y, x0, visit),
-            9..=16 => Fixed::<16>::new(self).errors(u, y, x0, visit),
-            _ => self.errors_any_order(u, y, x0, visit),
-        }
+        by_padded_order!(self, f => f.errors(u, y, x0, visit), _ => {
+            self.errors_any_order(u, y, x0, visit)
+        })
     }
 
     /// [`OneStep::add_squared_errors`]'s run for any order: `visit(ε(t))`
@@ -220,20 +246,17 @@ impl OneStep {
             Sensitivities::Rows if y.iter().any(|v| v.is_nan()) => Sensitivities::States,
             r => r,
         };
-        match (route, self.n) {
-            (Sensitivities::Rows, 1) => Fixed::<1>::new(self).row_sensitivities(u, y, x0, row),
-            (Sensitivities::Rows, 2) => Fixed::<2>::new(self).row_sensitivities(u, y, x0, row),
-            (Sensitivities::Rows, 3 | 4) => Fixed::<4>::new(self).row_sensitivities(u, y, x0, row),
-            (Sensitivities::Rows, 5..=8) => Fixed::<8>::new(self).row_sensitivities(u, y, x0, row),
-            (Sensitivities::Rows, 9..=16) => {
-                Fixed::<16>::new(self).row_sensitivities(u, y, x0, row)
-            }
-            (_, 1) => Fixed::<1>::new(self).sensitivities(u, y, x0, row),
-            (_, 2) => Fixed::<2>::new(self).sensitivities(u, y, x0, row),
-            (_, 3 | 4) => Fixed::<4>::new(self).sensitivities(u, y, x0, row),
-            (_, 5..=8) => Fixed::<8>::new(self).sensitivities(u, y, x0, row),
-            (_, 9..=16) => Fixed::<16>::new(self).sensitivities(u, y, x0, row),
-            _ => self.any_order(u, y, x0, row),
+        match route {
+            Sensitivities::Rows => by_padded_order!(
+                self,
+                f => f.row_sensitivities(u, y, x0, row),
+                _ => self.any_order(u, y, x0, row)
+            ),
+            Sensitivities::States => by_padded_order!(
+                self,
+                f => f.sensitivities(u, y, x0, row),
+                _ => self.any_order(u, y, x0, row)
+            ),
         }
     }
 

@@ -333,10 +333,7 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
     let (u, y) = record(4000, 0.1, 5);
     let records = [Record::new(dataset(&u, &y))];
     let mut cache = SubspaceCache::default();
-    let mut opts = WorkflowOptions::default();
-    opts.identification.horizon = Some(10);
-    opts.identification.estimator = Estimator::Shift;
-    opts.refinement.refine = Refine::None;
+    let mut opts = fixed_structure_unrefined();
     for (i, (method, n)) in [(Method::N4sid, 2), (Method::N4sid, 3), (Method::Moesp, 4)]
         .into_iter()
         .enumerate()
@@ -374,6 +371,16 @@ fn the_cache_gives_the_uncached_model_without_a_new_compression() {
     assert_eq!(cache.compressions(), 3);
 }
 
+/// Default options with the structure fixed (horizon 10, shift
+/// invariance) and no refinement: the cached runs' tests.
+fn fixed_structure_unrefined() -> WorkflowOptions {
+    let mut opts = WorkflowOptions::default();
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.refinement.refine = Refine::None;
+    opts
+}
+
 /// On a long record the cached run identifies the feedthrough test's D = 0
 /// model with the D-free one (two threads on the kept compression) and
 /// simulates the two on two threads: the same model file as the uncached
@@ -383,10 +390,7 @@ fn the_paired_feedthrough_fits_give_the_uncached_model() {
     let (u, y) = record(20_000, 0.1, 8);
     let records = [Record::new(dataset(&u, &y))];
     let mut cache = SubspaceCache::default();
-    let mut opts = WorkflowOptions::default();
-    opts.identification.horizon = Some(10);
-    opts.identification.estimator = Estimator::Shift;
-    opts.refinement.refine = Refine::None;
+    let mut opts = fixed_structure_unrefined();
     for n in [2, 3] {
         opts.identification.order = Order::Fixed(n);
         let cached = identify_cached(&records, &opts, &[], &mut cache).expect("cached");
@@ -418,10 +422,7 @@ fn the_feedback_test_is_made_once_per_record() {
     let (u, y) = record(4000, 0.1, 5);
     let records = [Record::new(dataset(&u, &y))];
     let mut cache = SubspaceCache::default();
-    let mut opts = WorkflowOptions::default();
-    opts.identification.horizon = Some(10);
-    opts.identification.estimator = Estimator::Shift;
-    opts.refinement.refine = Refine::None;
+    let mut opts = fixed_structure_unrefined();
     let fb = opts.identification.feedback;
     for n in [2, 3, 4] {
         opts.identification.order = Order::Fixed(n);
