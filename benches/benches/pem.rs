@@ -12,7 +12,8 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lifted_lti::StateSpace;
-use lifted_subspace::{Feedthrough, PemMethod, PemOptions, Record, refine_pem};
+use lifted_pem::{PemMethod, PemOptions, refine_pem};
+use lifted_subspace::{Feedthrough, Record};
 use nalgebra::DMatrix;
 
 /// The plant and record of [`lifted_benches::pem_case`] and a start near

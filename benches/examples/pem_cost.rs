@@ -12,10 +12,8 @@
 
 use std::time::Instant;
 
-use lifted_subspace::{
-    Experiment, Feedthrough, OrderSelection, PemOptions, Record, SubspaceOptions, identify,
-    pem_work_estimate, refine_pem,
-};
+use lifted_pem::{PemOptions, pem_work_estimate, refine_pem};
+use lifted_subspace::{Experiment, Feedthrough, OrderSelection, Record, SubspaceOptions, identify};
 
 fn main() {
     let lens: Vec<usize> = std::env::args()

@@ -7,7 +7,7 @@
 //! The memory budget is 2 GiB (the smoke run's RSS limit is 4 GiB).
 //! Refinement runs with at most 3 iterations and orders up to 12 here so
 //! that one input stays within the smoke run's `-timeout` (the work bound
-//! of `refine_pem`, 2e10 operations, is unit-tested in lifted-subspace).
+//! of `refine_pem`, 2e10 operations, is unit-tested in lifted-pem).
 #![no_main]
 
 use std::path::PathBuf;

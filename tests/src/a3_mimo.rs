@@ -23,9 +23,10 @@
 
 use lifted_lti::{Dataset, StateSpace};
 use lifted_multirate::{LiftedIdOptions, Ordering, ProcedureOptions, identify_multirate};
+use lifted_pem::{PemOptions, refine_pem};
 use lifted_sim::plants::stirred_tank_5_3_1;
 use lifted_sim::{Excitation, SimOutput, SnrDefinition};
-use lifted_subspace::{Feedthrough, OrderSelection, PemOptions, Record, refine_pem};
+use lifted_subspace::{Feedthrough, OrderSelection, Record};
 use nalgebra::DMatrix;
 
 use crate::a3_lifting::{median, step_errors};

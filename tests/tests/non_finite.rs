@@ -5,11 +5,12 @@
 
 use lifted_lti::{Dataset, InputChannel, OutputChannel, StateSpace};
 use lifted_mpc::{Controller, MpcOptions, StateSpaceMpc};
+use lifted_pem::{PemOptions, refine_pem};
 use lifted_prbs::{RandomBinaryOptions, random_binary};
 use lifted_sim::{Excitation, Plant, Simulator};
 use lifted_subspace::{
-    Experiment, IvExperiment, IvOptions, OrderSelection, PemOptions, Record, SubspaceOptions,
-    identify, iv_identify, refine_pem,
+    Experiment, IvExperiment, IvOptions, OrderSelection, Record, SubspaceOptions, identify,
+    iv_identify,
 };
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -127,7 +128,7 @@ proptest! {
         if target == 0 || (target == 1 && v.is_infinite()) {
             named(
                 refine_pem(&plant(), None, &[Record { u: &bu, y: &by, instrument: None }], &[], &PemOptions::default()),
-                "lifted_subspace::refine_pem",
+                "lifted_pem::refine_pem",
             )?;
         }
     }

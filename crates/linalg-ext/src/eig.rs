@@ -87,6 +87,14 @@ pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex64>> {
         .map_err(|_| evd_err("faer eigenvalues"))
 }
 
+/// Spectral radius ρ(A) = maxᵢ |λᵢ| of a real square matrix (0 for an
+/// empty one), from [`eigenvalues`]: O(10n³).
+///
+/// Errors as [`eig`].
+pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
+    Ok(eigenvalues(a)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
+}
+
 /// Symmetric eigen-decomposition of (A + Aᵀ)/2 (faer `self_adjoint_eigen`,
 /// O(9n³) with vectors), eigenvalues sorted by `order`.
 ///

@@ -97,7 +97,7 @@ pub use cholesky::{cholesky_condition, cholesky_lower};
 pub use convert::{as_faer, as_faer_mut, to_dmatrix};
 pub use eig::{
     Eigen, MAX_REFLECTION_CONDITION, SortOrder, SymEigen, eig, eigenvalues, reflect_into_unit_disc,
-    sym_eig,
+    spectral_radius, sym_eig,
 };
 pub use error::{Error, Result};
 pub use extremes::{

@@ -9,7 +9,8 @@ use crate::conic::{MinimaxOptions, NormMinimax};
 use crate::error::{Error, Result};
 use crate::lifting::lift;
 use crate::model::check_discrete;
-use crate::robust::{spectral_radius, theta_grid};
+use crate::robust::theta_grid;
+use lifted_linalg::spectral_radius;
 
 /// Options of [`gamma_sr`], [`gamma_dr`] and [`prop5`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -2,6 +2,7 @@
 //! SISO and MIMO; the derivation and the MIMO meaning are in [`beta_dr`]'s
 //! docs.
 
+use lifted_linalg::spectral_radius;
 use lifted_lti::{FeedbackSign, HinfOptions, StateSpace, feedback, series};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -103,16 +104,6 @@ fn check_pieces(
         return Err(mismatch(what, expected, weight.n_inputs()));
     }
     Ok((p, m))
-}
-
-pub(crate) fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
-    if a.nrows() == 0 {
-        return Ok(0.0);
-    }
-    Ok(lifted_linalg::eigenvalues(a)?
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max))
 }
 
 /// The closed-loop product T whose norms are β_sr and β_dr:

@@ -19,6 +19,7 @@
 //!   observable from the fast outputs and reports a rank-deficient Γ_R
 //!   otherwise.
 
+use lifted_linalg::spectral_radius;
 use lifted_lti::{Dataset, StateSpace};
 use lifted_subspace::{
     Experiment, Feedthrough, InitialState, IvExperiment, IvOptions, Method, MultirateIvOptions,
@@ -92,13 +93,6 @@ pub struct LiftedFit {
     pub mask: DMatrix<bool>,
     /// Singular values of the subspace step, descending.
     pub singular_values: Vec<f64>,
-}
-
-fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
-    Ok(lifted_linalg::eigenvalues(a)?
-        .iter()
-        .map(|l| l.norm())
-        .fold(0.0, f64::max))
 }
 
 fn check_stable(model: &StateSpace, what: &'static str, require: bool) -> Result<()> {

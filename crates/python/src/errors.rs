@@ -461,18 +461,6 @@ impl Classify for lifted_subspace::Error {
                 f.set("what", "order").set("order", *order).set("max", *max);
                 Kind::Order
             }
-            E::TooManyParameters {
-                what,
-                parameters,
-                measured,
-                max,
-            } => {
-                f.set("what", *what)
-                    .set("max", *max)
-                    .set("parameters", *parameters)
-                    .set("measured", *measured);
-                Kind::Order
-            }
             E::NotExciting { what, rank, needed } => {
                 f.set("what", *what)
                     .set("rank", *rank)
@@ -504,13 +492,70 @@ impl Classify for lifted_subspace::Error {
                     .set("max_growth", *max_growth);
                 Kind::Unstable
             }
+            E::InvalidHorizon { what, .. } | E::InvalidOption { what, .. } => {
+                f.set("what", *what);
+                Kind::Base
+            }
+            _ => Kind::Base,
+        }
+    }
+}
+
+impl Classify for lifted_pem::Error {
+    fn classify(&self, f: &mut Fields<'_>) -> Kind {
+        use lifted_pem::Error as E;
+        match self {
+            E::Linalg(e) => e.classify(f),
+            E::Lti(e) => e.classify(f),
+            E::Subspace(e) => e.classify(f),
+            E::NonFinite { what, row, col } => {
+                f.set("what", *what).set("row", *row).set("col", *col);
+                Kind::NonFinite
+            }
+            E::DimensionMismatch {
+                what,
+                expected,
+                got,
+            } => {
+                f.set("what", *what)
+                    .set("expected", expected)
+                    .set("got", got);
+                Kind::Dimension
+            }
+            E::TooFewSamples {
+                what,
+                measured,
+                needed,
+            } => {
+                f.set("what", *what)
+                    .set("got", *measured)
+                    .set("needed", *needed);
+                Kind::TooShort
+            }
+            E::TooManyParameters {
+                what,
+                parameters,
+                measured,
+                max,
+            } => {
+                f.set("what", *what)
+                    .set("max", *max)
+                    .set("parameters", *parameters)
+                    .set("measured", *measured);
+                Kind::Order
+            }
             E::TooMuchWork { what, flops, limit } => {
                 f.set("what", *what)
                     .set("flops", *flops)
                     .set("limit", *limit);
                 Kind::WorkBudget
             }
-            E::InvalidHorizon { what, .. } | E::InvalidOption { what, .. } => {
+            E::Unstable { spectral_radius } => {
+                f.set("what", "refinement start")
+                    .set("spectral_radius", *spectral_radius);
+                Kind::Unstable
+            }
+            E::InvalidOption { what, .. } => {
                 f.set("what", *what);
                 Kind::Base
             }
@@ -615,6 +660,7 @@ fn classify_layer(s: &(dyn std::error::Error + 'static), f: &mut Fields<'_>) -> 
         };
     }
     first_of!(
+        lifted_pem::Error,
         lifted_subspace::Error,
         lifted_lti::Error,
         lifted_lti::DataError,

@@ -1,7 +1,7 @@
 //! Steps 3–6 of the algorithm (Zhu 2000 §III.C, spec A1.4): from the correlation
 //! data `R_yy(τ)`, `H_τ` and `W(τ)` to the realisation `(Â, D̂, Ĉ, Ĥ)`.
 
-use lifted_linalg::{RankTolerance, SortOrder, eigenvalues, null_space, pinv, rank, sym_eig};
+use lifted_linalg::{RankTolerance, SortOrder, null_space, pinv, rank, spectral_radius, sym_eig};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -368,11 +368,6 @@ pub fn realize(data: &CoverData, settings: &CoverSettings) -> Result<Realization
         negative_eigenvalues: negative,
         stabilized_from,
     })
-}
-
-/// Largest eigenvalue modulus, O(r³).
-fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
-    Ok(eigenvalues(a)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Checks of records and options before anything is allocated: shapes,
 //! finiteness (split over threads for large records), horizons, orders,
-//! instruments, thread counts.
+//! instruments, thread counts. [`validate`] is public: the crates above
+//! (`lifted-pem`) check experiments with the same rules and errors.
 
 use nalgebra::DMatrix;
 
@@ -11,7 +12,7 @@ use crate::options::{OrderSelection, SubspaceOptions};
 use crate::order::OrderCriterion;
 
 /// Validates the records; returns (n_u, n_y, total samples).
-pub(crate) fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
+pub fn validate(experiments: &[Experiment<'_>]) -> Result<(usize, usize, usize)> {
     validate_on(experiments, 1)
 }
 

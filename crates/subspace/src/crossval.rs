@@ -1,7 +1,7 @@
 //! Blocked cross-validation of subspace identifications: the fold layout
 //! and held-out score shared by the structure selection
 //! ([`crate::select_structure`]) and the check of a refinement
-//! ([`cross_validate_refinement`]).
+//! (`lifted_pem::cross_validate_refinement`).
 //!
 //! A record of n samples is cut into K contiguous blocks (block b: rows
 //! b n / K .. (b + 1) n / K). Fold f holds block f of every record out; its
@@ -19,21 +19,18 @@
 
 use lifted_lti::{OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};
-use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::Experiment;
-use crate::options::SubspaceOptions;
-use crate::records::OwnedRecords;
-use crate::refine::{PemOptions, refine_pem};
+pub use crate::records::OwnedRecords;
 use crate::regress::{Record, estimate_x0};
 
 /// The score of a fold without a stable model (and the floor of every
 /// fold's fit, so that one diverging fold does not swamp the mean).
-pub(crate) const FAILED_FOLD: f64 = -100.0;
+pub const FAILED_FOLD: f64 = -100.0;
 
 /// The folds of K contiguous blocks over a set of records.
-pub(crate) struct Folds<'e, 'a> {
+pub struct Folds<'e, 'a> {
     experiments: &'e [Experiment<'a>],
     blocks: usize,
     /// The blocks held out: all of them (blocked cross-validation) or the
@@ -44,7 +41,7 @@ pub(crate) struct Folds<'e, 'a> {
 impl<'e, 'a> Folds<'e, 'a> {
     /// K = `blocks` blocks per record; `forward`: only the last one is
     /// held out.
-    pub(crate) fn new(experiments: &'e [Experiment<'a>], blocks: usize, forward: bool) -> Self {
+    pub fn new(experiments: &'e [Experiment<'a>], blocks: usize, forward: bool) -> Self {
         let held_out = if forward {
             vec![blocks - 1]
         } else {
@@ -64,7 +61,7 @@ impl<'e, 'a> Folds<'e, 'a> {
 
     /// Estimation pieces of fold `f`: (record, first row, end row) of the
     /// runs of consecutive blocks ≠ f.
-    pub(crate) fn pieces(&self, f: usize) -> Vec<(usize, usize, usize)> {
+    pub fn pieces(&self, f: usize) -> Vec<(usize, usize, usize)> {
         let mut out = Vec::new();
         for (r, e) in self.experiments.iter().enumerate() {
             let n = e.u.nrows();
@@ -80,7 +77,7 @@ impl<'e, 'a> Folds<'e, 'a> {
 
     /// Hankel columns of the fold with the fewest at horizon s = p = f
     /// (pieces too short for the horizon add none).
-    pub(crate) fn columns(&self, s: usize) -> usize {
+    pub fn columns(&self, s: usize) -> usize {
         self.held_out
             .iter()
             .map(|&f| {
@@ -94,7 +91,7 @@ impl<'e, 'a> Folds<'e, 'a> {
     }
 
     /// Estimation samples of the smallest fold.
-    pub(crate) fn shortest(&self) -> usize {
+    pub fn shortest(&self) -> usize {
         self.held_out
             .iter()
             .map(|&f| self.pieces(f).iter().map(|(_, a, b)| b - a).sum::<usize>())
@@ -105,7 +102,7 @@ impl<'e, 'a> Folds<'e, 'a> {
     /// Copies of the estimation pieces and held-out blocks of every fold:
     /// O(K N (n_u + n_y)) memory, checked against the memory budget first
     /// (`lifted_linalg::budget::MemoryBudget`).
-    pub(crate) fn split(&self) -> Result<Vec<(OwnedRecords, OwnedRecords)>> {
+    pub fn split(&self) -> Result<Vec<(OwnedRecords, OwnedRecords)>> {
         // Every fold holds a whole copy of the records (pieces + block).
         let values: usize = self
             .experiments
@@ -149,7 +146,7 @@ impl<'e, 'a> Folds<'e, 'a> {
 
 /// The estimation pieces of a fold long enough for horizon `s` (a piece of
 /// at most 2 s samples adds no Hankel column), as experiments.
-pub(crate) fn usable<'r>(est: &'r OwnedRecords, s: usize) -> Vec<Experiment<'r>> {
+pub fn usable<'r>(est: &'r OwnedRecords, s: usize) -> Vec<Experiment<'r>> {
     est.iter()
         .filter(|(u, _)| u.nrows() > 2 * s)
         .map(|(u, y)| Experiment { u, y })
@@ -178,7 +175,7 @@ pub(crate) fn usable<'r>(est: &'r OwnedRecords, s: usize) -> Vec<Experiment<'r>>
 /// worse); on the 14 real records of the benchmark the automatic orders and
 /// fits stayed those of the uncorrected score but one (the heat exchanger:
 /// the same order 2, validation fit 48.8 → 48.1 %).
-pub(crate) fn held_out_fit(
+pub fn held_out_fit(
     model: &StateSpace,
     op: Option<&OperatingPoint>,
     held: &[(&DMatrix<f64>, &DMatrix<f64>)],
@@ -239,174 +236,13 @@ pub(crate) fn held_out_fit(
 
 /// A fold's score for the mean: its fit floored at [`FAILED_FOLD`], or
 /// [`FAILED_FOLD`] without one.
-pub(crate) fn floored(fit: Option<f64>) -> f64 {
+pub fn floored(fit: Option<f64>) -> f64 {
     fit.unwrap_or(FAILED_FOLD).max(FAILED_FOLD)
-}
-
-/// What [`cross_validate_refinement`] measured: the held-out fits of the
-/// subspace models and of their refinements, fold by fold.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RefinementCheck {
-    /// Mean held-out simulation fit (percent) of the subspace models of the
-    /// folds (a fold without a stable model counts as −100).
-    pub initial_fit: f64,
-    /// The same for their refinements.
-    pub refined_fit: f64,
-    /// Folds scored (a fold whose subspace identification fails is left
-    /// out of both means).
-    pub folds: usize,
-    /// Per scored fold: (subspace model's fit, refined model's fit).
-    pub per_fold: Vec<(Option<f64>, Option<f64>)>,
-}
-
-impl RefinementCheck {
-    /// Whether the refinement did at least as well on the held-out blocks
-    /// as the subspace step (by the means).
-    pub fn refined_is_better(&self) -> bool {
-        self.refined_fit >= self.initial_fit
-    }
-
-    /// The check's verdict when it is clear: `Some(true)` (keep the
-    /// refinement) or `Some(false)` when the mean held-out fits differ by
-    /// more than `margin` points and the median of the per-fold
-    /// differences (refined − initial, each fit floored at −100) has the
-    /// same sign — one diverging fold cannot decide alone; `None` when the
-    /// blocks do not tell the two apart.
-    pub fn verdict(&self, margin: f64) -> Option<bool> {
-        let diff = self.refined_fit - self.initial_fit;
-        let mut per: Vec<f64> = self
-            .per_fold
-            .iter()
-            .map(|(i, r)| floored(*r) - floored(*i))
-            .collect();
-        per.sort_by(f64::total_cmp);
-        let k = per.len();
-        if k == 0 || diff.abs() <= margin {
-            return None;
-        }
-        let median = if k % 2 == 1 {
-            per[k / 2]
-        } else {
-            0.5 * (per[k / 2 - 1] + per[k / 2])
-        };
-        (median != 0.0 && median.signum() == diff.signum()).then_some(diff > 0.0)
-    }
-}
-
-/// Whether a refinement helps on data it was not fitted to: blocked
-/// cross-validation over `blocks` contiguous blocks (module docs). For
-/// each fold the subspace model of `opts` (a fixed order, horizon and
-/// (A, C) route: the structure the whole records were identified with) is
-/// identified on the estimation pieces and refined by [`refine_pem`] with
-/// `pem` on them; both are scored on the held-out blocks. The refinement's
-/// own keep-or-not test is not applied inside a fold (each fold reports
-/// the refined model as it came out).
-///
-/// The in-sample judgement of [`refine_pem`] (the simulation error on the
-/// records the model was refined on) keeps the refined model on some real
-/// records where it predicts the validation data worse (the steam
-/// generator at order 9: 73.9 → 44.3 % validation fit) and drops it where
-/// it predicts them better (the heating rig at order 2: 79.7 → 89.4 %);
-/// the held-out comparison ranks both right (`benches/README.md`,
-/// "Keeping the refinement by held-out fit").
-///
-/// Cost: `blocks` subspace identifications and refinements of 5/6 of the
-/// records, plus a simulation per fold.
-///
-/// Errors: [`Error::InvalidOption`] for fewer than 2 or more than 10
-/// blocks or an order that is not fixed; [`Error::HorizonTooLong`] when no
-/// fold can be identified; [`Error::Linalg`] (`TooLarge`) when a copy of
-/// the records per fold exceeds the memory budget.
-pub fn cross_validate_refinement(
-    experiments: &[Experiment<'_>],
-    opts: &SubspaceOptions,
-    pem: &PemOptions,
-    blocks: usize,
-) -> Result<RefinementCheck> {
-    if !(2..=10).contains(&blocks) {
-        return Err(Error::InvalidOption {
-            what: "blocks",
-            reason: format!("2 to 10 cross-validation blocks, got {blocks}"),
-        });
-    }
-    if !matches!(opts.order, crate::OrderSelection::Fixed(_)) {
-        return Err(Error::InvalidOption {
-            what: "order",
-            reason: "the refinement check needs the fixed order of the model it checks".into(),
-        });
-    }
-    let (nu, ny, _) = crate::checks::validate(experiments)?;
-    let folds = Folds::new(experiments, blocks, false);
-    let s = opts.past.max(opts.future);
-    let pem = PemOptions {
-        keep_refined: true,
-        ..pem.clone()
-    };
-    let mut per_fold = Vec::new();
-    for (est, held) in folds.split()? {
-        let exps = usable(&est, s);
-        let Ok(fit) = crate::identify(&exps, opts) else {
-            continue;
-        };
-        let op = fit.operating_point.as_ref();
-        let dev: OwnedRecords = match op {
-            Some(op) => exps
-                .iter()
-                .map(|e| op.to_deviations(e.u, e.y))
-                .collect::<lifted_lti::Result<_>>()?,
-            None => exps.iter().map(|e| (e.u.clone(), e.y.clone())).collect(),
-        };
-        let recs: Vec<Record<'_>> = dev
-            .iter()
-            .map(|(u, y)| Record {
-                u,
-                y,
-                instrument: None,
-            })
-            .collect();
-        let held: Vec<(&DMatrix<f64>, &DMatrix<f64>)> = held.iter().map(|(u, y)| (u, y)).collect();
-        let initial = held_out_fit(&fit.model, op, &held);
-        // The refinement starts from the gain the whole records' model
-        // would get (the workflow checks the subspace step's gain on the
-        // records first: `check_kalman_gain`).
-        let exps_dev: Vec<Experiment<'_>> = dev.iter().map(|(u, y)| Experiment { u, y }).collect();
-        let (gain, _) = crate::check_kalman_gain(
-            &fit.model,
-            fit.kalman_gain.as_ref(),
-            &exps_dev,
-            fit.diagnostics.horizons.0,
-        );
-        let refined = refine_pem(&fit.model, gain.as_ref(), &recs, &[], &pem)
-            .ok()
-            .and_then(|r| held_out_fit(&r.model, op, &held));
-        per_fold.push((initial, refined));
-    }
-    if per_fold.is_empty() {
-        // What a fold of two pieces per record needs at this horizon (the
-        // Hankel rows plus p + f − 1 samples per piece, as `identify`).
-        let (p, f) = (opts.past, opts.future);
-        return Err(Error::HorizonTooLong {
-            past: p,
-            future: f,
-            n_samples: folds.shortest(),
-            min_samples: (p + f) * (nu + ny) + (p + f - 1) * 2 * experiments.len(),
-        });
-    }
-    let count = per_fold.len() as f64;
-    let initial_fit = per_fold.iter().map(|p| floored(p.0)).sum::<f64>() / count;
-    let refined_fit = per_fold.iter().map(|p| floored(p.1)).sum::<f64>() / count;
-    Ok(RefinementCheck {
-        initial_fit,
-        refined_fit,
-        folds: per_fold.len(),
-        per_fold,
-    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::OrderSelection;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 
@@ -427,15 +263,6 @@ mod tests {
             x = &a * &x + &b * u.row(t).transpose();
         }
         (u, y)
-    }
-
-    fn fixed(order: usize, horizon: usize) -> SubspaceOptions {
-        SubspaceOptions {
-            order: OrderSelection::Fixed(order),
-            past: horizon,
-            future: horizon,
-            ..Default::default()
-        }
     }
 
     /// A stable diagonal model of `n` states with poles spread over
@@ -490,94 +317,5 @@ mod tests {
             assert_eq!(held[0].0[(0, 0)], u[(f * 100, 0)]);
         }
         assert_eq!(Folds::new(&exps, 3, true).held_out, vec![2]);
-    }
-
-    #[test]
-    fn a_refinement_is_scored_on_held_out_blocks() {
-        // A short record with heavy output noise identified at horizon 3:
-        // the folds' subspace models are poor (two of six unstable, the
-        // others 0–31 % on their held-out blocks), their prediction-error
-        // refinements all near the noise floor (noise 0.5 against an
-        // output RMS of about 0.6: ≈ 50 % fit at best). Measured: initial
-        // −25.9 %, refined 50.5 %.
-        let (u, y) = record(1200, 0.5, 2);
-        let exps = [Experiment { u: &u, y: &y }];
-        let check =
-            cross_validate_refinement(&exps, &fixed(2, 3), &PemOptions::default(), 6).unwrap();
-        assert_eq!(check.folds, 6);
-        assert_eq!(check.per_fold.len(), 6);
-        assert!(check.refined_is_better(), "{check:?}");
-        assert!(
-            check.refined_fit > 40.0 && check.refined_fit < 60.0,
-            "{check:?}"
-        );
-        assert!(check.initial_fit < check.refined_fit - 20.0, "{check:?}");
-        // Every fold's refinement is stable and scored (one of them had
-        // drifted to entries of 1e4 and is scored after balancing).
-        assert!(check.per_fold.iter().all(|(_, r)| r.is_some()), "{check:?}");
-        // An unstable fold model counts as −100 in the mean.
-        let floor = check.per_fold.iter().map(|(i, _)| floored(*i)).sum::<f64>() / 6.0;
-        assert!((floor - check.initial_fit).abs() < 1e-12);
-        assert_eq!(check.verdict(3.0), Some(true));
-        assert_eq!(check.verdict(100.0), None);
-    }
-
-    #[test]
-    fn one_diverging_fold_does_not_decide_alone() {
-        // Three blocks favour the refinement by a few points, one block's
-        // refinement diverges: the mean says "initial" by 30 points, the
-        // median says "refined" — no verdict.
-        let check = RefinementCheck {
-            initial_fit: 67.1,
-            refined_fit: 36.0,
-            folds: 4,
-            per_fold: vec![
-                (Some(89.7), Some(87.5)),
-                (Some(71.2), Some(73.5)),
-                (Some(76.3), Some(80.5)),
-                (Some(31.0), Some(-97.6)),
-            ],
-        };
-        assert_eq!(check.verdict(3.0), None);
-        let clear = RefinementCheck {
-            per_fold: vec![(Some(80.0), Some(60.0)); 4],
-            initial_fit: 80.0,
-            refined_fit: 60.0,
-            folds: 4,
-        };
-        assert_eq!(clear.verdict(3.0), Some(false));
-    }
-
-    #[test]
-    fn the_check_refuses_what_it_cannot_do() {
-        let (u, y) = record(600, 0.1, 3);
-        let exps = [Experiment { u: &u, y: &y }];
-        let pem = PemOptions::default();
-        assert!(matches!(
-            cross_validate_refinement(&exps, &fixed(2, 5), &pem, 1),
-            Err(Error::InvalidOption { what: "blocks", .. })
-        ));
-        let gap = SubspaceOptions {
-            order: OrderSelection::Gap { max: 4 },
-            ..fixed(2, 5)
-        };
-        assert!(matches!(
-            cross_validate_refinement(&exps, &gap, &pem, 6),
-            Err(Error::InvalidOption { what: "order", .. })
-        ));
-        // Blocks too short for the horizon: no fold can be identified.
-        let (u, y) = record(60, 0.1, 4);
-        let exps = [Experiment { u: &u, y: &y }];
-        assert!(matches!(
-            cross_validate_refinement(&exps, &fixed(2, 20), &pem, 6),
-            Err(Error::HorizonTooLong { .. })
-        ));
-        let mut bad = u.clone();
-        bad[(3, 0)] = f64::NAN;
-        let exps = [Experiment { u: &bad, y: &y }];
-        assert!(matches!(
-            cross_validate_refinement(&exps, &fixed(2, 3), &pem, 6),
-            Err(Error::NonFinite { .. })
-        ));
     }
 }

@@ -151,34 +151,6 @@ pub enum Error {
         /// The largest accepted growth ([`crate::MAX_REGRESSOR_GROWTH`]).
         max_growth: f64,
     },
-    /// More free parameters than the data can support: [`crate::refine_pem`]
-    /// takes at most one per two measured output samples.
-    #[error(
-        "{what}: {parameters} free parameters for {measured} measured output samples (at most {max}, one per two samples); lower the order or use more data"
-    )]
-    TooManyParameters {
-        /// Which computation.
-        what: &'static str,
-        /// Free parameters requested.
-        parameters: usize,
-        /// Measured output samples.
-        measured: usize,
-        /// Largest accepted count.
-        max: usize,
-    },
-    /// Even one iteration of an iterative method would exceed its work
-    /// bound (e.g. [`crate::PemOptions::max_work`]).
-    #[error(
-        "{what}: one iteration needs about {flops:.2e} floating-point operations, more than the bound of {limit:.2e}; lower the order or raise the bound"
-    )]
-    TooMuchWork {
-        /// Which computation.
-        what: &'static str,
-        /// Estimated operations of one iteration.
-        flops: f64,
-        /// The bound.
-        limit: f64,
-    },
     /// An option has an invalid value.
     #[error("invalid option {what}: {reason}")]
     InvalidOption {

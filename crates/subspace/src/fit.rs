@@ -15,7 +15,7 @@ use crate::checks::{candidate_orders, thread_count, validate_on};
 use crate::error::{Error, Result, check_exciting};
 use crate::hankel::{HankelFactor, HankelLayout};
 use crate::model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
-use crate::numerics::{Scale, ac_from_gamma, rows, scaled_basis, spectral_radius, vstack};
+use crate::numerics::{Scale, ac_from_gamma, rows, scaled_basis, vstack};
 use crate::oblique::Projector;
 use crate::options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 use crate::order::{
@@ -25,6 +25,7 @@ use crate::order::{
 use crate::projection::bd_from_projection;
 use crate::records::{compressed, need_records, records_of, remove_means};
 use crate::regress::{InitialState, Record, Route, estimate_x0, output_error_route};
+use lifted_linalg::spectral_radius;
 
 /// CVA's weight W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2} and its inverse
 /// (eigenvalues floored at 1e-14 λ_max; erratum L-1). O(k³).

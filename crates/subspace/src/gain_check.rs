@@ -50,9 +50,9 @@
 use lifted_lti::StateSpace;
 
 use crate::model::Experiment;
-use crate::numerics::spectral_radius;
 use crate::one_step::{OneStep, Sensitivities};
 use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
+use lifted_linalg::spectral_radius;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 

@@ -180,6 +180,22 @@ impl HankelLayout {
     }
 }
 
+/// (offset, channel) of every row of the factor of [`crate::compress_hankel`]
+/// for horizons (`past`, `future`) and `nu` + `ny` channels, in the
+/// factor's row order: row r of the Hankel column of "present" time t holds
+/// z_channel(t − past + offset), z = [u; y] (channels u first). The
+/// regressions that read the factor (ARX in `lifted-pem`) locate their
+/// lagged signals by it. O(k).
+pub fn hankel_row_sources(past: usize, future: usize, nu: usize, ny: usize) -> Vec<(usize, usize)> {
+    HankelLayout {
+        past,
+        future,
+        nu,
+        ny,
+    }
+    .sources()
+}
+
 /// Per-method state of a [`HankelStream`].
 enum Engine {
     Qr {

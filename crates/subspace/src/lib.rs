@@ -9,12 +9,12 @@
 //! | [`SubspaceIdentifier`] | the same behind `lifted_lti::identify::Identifier` (single-rate `Dataset`s) |
 //! | [`SubspaceModel`], [`Diagnostics`] ([`CompressionReport`], [`Profile`]) | model, Kalman gain, (Q, R, S), singular values, suggested order, compression used and fallback, time per phase |
 //! | [`OrderCriterion`], [`OrderReport`], [`gap_order`] | order selection: singular-value gap (default), Bauer's SVC, SIPPY's AIC/AICc/BIC; the criterion's value per order in the diagnostics |
-//! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemMethod`], [`PemFit`], [`PemReport`]) | prediction-error or output-error refinement of a model by variable projection (B, D, K, x₀ solved for, Levenberg–Marquardt on the predictor's Ā, C in data-driven local coordinates, warm stages on long records); multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result; a drifted realization is returned balanced |
-//! | [`pem_work_estimate`] ([`PemWorkEstimate`]) | the refinement's predicted work, in the units of its work bound, before running it |
 //! | [`StreamingIdentifier`], [`StreamedSubspace`] | the same identification from data fed in blocks, memory independent of N: one pass ((B, D) by the projection) or two passes ((B, D, x₀) by the output-error regression of a second pass, equal to [`identify`] in memory up to rounding) |
 //! | [`OutputErrorStream`] ([`OutputErrorStreamOptions`]) | the output-error (B, D, x₀) regression fed in blocks (the second pass) |
 //! | [`select_structure`] ([`StructureOptions`], [`StructureSelection`], [`Candidate`]) | horizon, (A, C) route and order chosen by the simulation fit on held-out data (the default of the `lifted` command) |
-//! | [`cross_validate_refinement`] ([`RefinementCheck`]) | whether a refinement helps on data it was not fitted to: each of K blocks held out once, the fold's subspace model and its refinement scored on it; a verdict only when the blocks tell the two apart (the `lifted` command's judge of its refinement on short records) |
+//! | [`crossval`] ([`crossval::Folds`], [`crossval::held_out_fit`]) | blocked cross-validation: K contiguous blocks held out in turn, a model scored on them by its simulation fit with x₀ fitted per block (shared by [`select_structure`] and `lifted-pem`'s check of a refinement) |
+//! | [`checks::validate`] | the record checks (shapes, finite samples) every identification entry runs, public for the crates above |
+//! | [`estimate_x0`] | least-squares initial state of each record for a fixed model |
 //! | [`CompressedData`] | the separable steps (as SLICOT's IB01AD / IB01BD / IB01CD): step 1 of [`identify`] kept, then any number of fits (every order, method and route) at O(k³) plus the (B, D, x₀) regression, each equal to [`identify`] with those options |
 //! | [`CompressionPlan`], [`RecordPiece`], [`CompressedRecords`], [`RegressionPiece`] | one record compressed in pieces on several machines: pieces concatenate associatively, closed records add, both passes (compression, (B, D, x₀) rows) merge; CBOR bytes to cross processes (the `lifted.dask` package) |
 //! | [`compress_hankel`] ([`Compression`], [`HankelFactor`]) | the compression kernel alone on the raw data (no scaling or centring; benchmarks): correlation/Cholesky or QR |
@@ -128,8 +128,8 @@
 
 mod bd_stream;
 mod budget;
-mod checks;
-mod crossval;
+pub mod checks;
+pub mod crossval;
 mod engine;
 pub mod error;
 mod fit;
@@ -153,7 +153,6 @@ mod predictor_regress;
 mod projection;
 mod records;
 pub use records::longest_horizon;
-mod refine;
 mod regress;
 mod select;
 mod separable;
@@ -161,15 +160,15 @@ mod streaming;
 mod wire;
 
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
-pub use budget::PEM_SAMPLES_PER_PARAMETER;
-pub use crossval::{RefinementCheck, cross_validate_refinement};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use gain_check::{
     GainCheck, GainCheckOptions, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo,
     check_kalman_gain, check_kalman_gain_memo, records_hash,
 };
-pub use hankel::{CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor};
+pub use hankel::{
+    CORRELATION_RCOND_MIN, Compression, CompressionReport, HankelFactor, hankel_row_sources,
+};
 pub use held_out_order::{HeldOutOrder, OrderCandidate};
 pub use iv::{
     IvDiagnostics, IvExperiment, IvModel, IvOptions, MultirateIvOptions, iv_identify,
@@ -185,13 +184,9 @@ pub use pbsid::{
     pbsid_identify, pbsid_longest_future,
 };
 pub use pbsid_order::select_pbsid_order;
-pub use refine::{
-    Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
-    pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
-};
 pub use regress::{
     BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
-    estimate_bd_iv, estimate_bd_with_offsets, structured_state_lstsq,
+    estimate_bd_iv, estimate_bd_with_offsets, estimate_x0, structured_state_lstsq,
 };
 pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};
 pub use separable::CompressedData;

@@ -2,7 +2,7 @@
 //! regressions: the exact power-of-4 data scaling, numerical rank, spectral
 //! radius, (A, C) from an extended observability matrix.
 
-use lifted_linalg::lstsq;
+use lifted_linalg::{lstsq, spectral_radius};
 use nalgebra::DMatrix;
 
 use crate::error::Result;
@@ -21,14 +21,6 @@ pub(crate) fn vstack(parts: &[&DMatrix<f64>]) -> DMatrix<f64> {
         r += p.nrows();
     }
     out
-}
-
-/// Spectral radius of a square matrix.
-pub(crate) fn spectral_radius(a: &DMatrix<f64>) -> Result<f64> {
-    Ok(lifted_linalg::eigenvalues(a)?
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max))
 }
 
 /// (A, C) from an extended observability matrix with `ny` rows per block by

@@ -120,12 +120,13 @@ use crate::checks::{thread_count, validate_on};
 use crate::error::{Error, Result};
 use crate::hankel::{Compression, CompressionReport, HankelFactor, HankelLayout, compress};
 use crate::model::Experiment;
-use crate::numerics::{Scale, spectral_radius, vstack};
+use crate::numerics::{Scale, vstack};
 use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
 use crate::records::{data_scale, remove_means};
 use crate::regress::{Feedthrough, InitialState, Record, estimate_x0};
+use lifted_linalg::spectral_radius;
 
 /// How the product Γ_f K_p of step 2 is estimated (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -15,7 +15,7 @@ use crate::options::SubspaceOptions;
 use crate::regress::Record;
 
 /// Records as owned (u, y) pairs.
-pub(crate) type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
+pub type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;
 
 /// The pooled per-channel means of the records and the records less them.
 /// O(N (n_u + n_y)) time and a copy of the data.

@@ -25,7 +25,8 @@ use serde::{Deserialize, Serialize};
 use crate::checks::{check_instrument, check_record_shape};
 use crate::error::{Error, Result, check_data, check_rank, non_finite_at};
 use crate::modal::{self, ModalForm};
-use crate::numerics::{Scale, numerical_rank, pow4_scale, spectral_radius};
+use crate::numerics::{Scale, numerical_rank, pow4_scale};
+use lifted_linalg::spectral_radius;
 
 /// Largest growth ρ(A)^(N−1) of the simulated regressors accepted by the
 /// output-error regressions for an unstable A: 1/√ε = 2²⁶ ≈ 6.7e7. Beyond
@@ -827,7 +828,7 @@ const X0_NEGLIGIBLE: f64 = 1e-17;
 /// window that determines x₀; the later rows would swamp it and
 /// overflow), O(N n_y n²) flops at most, O(n²) memory beyond the
 /// zero-state simulation.
-pub(crate) fn estimate_x0(
+pub fn estimate_x0(
     a: &DMatrix<f64>,
     b: &DMatrix<f64>,
     c: &DMatrix<f64>,

@@ -3,8 +3,7 @@
 
 use lifted_linalg::budget::MemoryBudget;
 use lifted_subspace::{
-    Error, Experiment, OrderSelection, PemOptions, StructureOptions, SubspaceOptions,
-    cross_validate_refinement, select_structure,
+    Error, Experiment, OrderSelection, StructureOptions, SubspaceOptions, select_structure,
 };
 use nalgebra::DMatrix;
 
@@ -23,8 +22,6 @@ fn fold_copies_beyond_the_memory_budget_are_refused() {
         ..Default::default()
     };
     let too_large = |e: &Error| matches!(e, Error::Linalg(lifted_linalg::Error::TooLarge { .. }));
-    let e = cross_validate_refinement(&exps, &opts, &PemOptions::default(), 6).unwrap_err();
-    assert!(too_large(&e), "{e}");
     let e = select_structure(&exps, &opts, &StructureOptions::default()).unwrap_err();
     assert!(too_large(&e), "{e}");
 }

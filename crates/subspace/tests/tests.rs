@@ -80,7 +80,6 @@ mod suite {
     pub mod closed_loop;
     pub mod consistency;
     pub mod partial;
-    pub mod refine;
     pub mod two_pass;
 }
 

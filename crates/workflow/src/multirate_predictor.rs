@@ -28,7 +28,7 @@
 //! at an instant where nothing is measured. (A, B, C, K, x₀) minimise
 //! V = Σ_t ‖e_{m(t)}(t)‖² / M over the M measured samples (each output
 //! scaled by its spread), by the joint Levenberg–Marquardt iterations of
-//! `lifted_subspace::refine_pem` (prediction cost; D = 0 unless
+//! `lifted_pem::refine_pem` (prediction cost; D = 0 unless
 //! `--feedthrough`). The input enters through u only, whatever produced
 //! it, so the estimate is consistent in closed loop when (1) contains the
 //! true predictor (Ljung 1999, Theorem 13.1 and §13.4): the plant and
@@ -69,11 +69,11 @@
 //!
 //! **Cost.** Each start: the subspace route, then the joint iterations,
 //! O(iterations · M · p · n) with p = n(n + n_u + 2 n_y) parameters
-//! (`lifted_subspace::pem_work_estimate`); about 1–3 s per start at
+//! (`lifted_pem::pem_work_estimate`); about 1–3 s per start at
 //! 4e4–6e4 samples of the loops.
 
 use lifted_lti::{Dataset, StateSpace};
-use lifted_subspace::{PemCost, PemFit, PemMethod, PemOptions, refine_pem};
+use lifted_pem::{PemCost, PemFit, PemMethod, PemOptions, refine_pem};
 use serde_json::json;
 
 use crate::diagnostics::{add_phase, push_warning};
@@ -255,7 +255,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
     });
     let kept = candidates.swap_remove(best);
     let refinement = serde_json::to_value(&kept.fit.report).unwrap_or_default();
-    if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
+    if let (Some(cap), lifted_pem::Termination::MaxIterations) =
         (kept.fit.report.iteration_cap, kept.fit.report.termination)
     {
         push_warning(

@@ -338,7 +338,7 @@ impl Default for IdentificationOptions {
 #[serde(rename_all = "lowercase")]
 pub enum Refine {
     /// The prediction-error refinement where it pays (default): run when
-    /// its predicted work (`lifted_subspace::pem_work_estimate`, the
+    /// its predicted work (`lifted_pem::pem_work_estimate`, the
     /// typical count) is at most [`AUTO_REFINE_WORK`] ([`AUTO_REFINE_WORK_JOINT`]
     /// for the joint iterations of multirate records) or the records are
     /// shorter than [`AUTO_REFINE_SAMPLES`] and the estimate is stable;
@@ -387,7 +387,7 @@ pub const AUTO_REFINE_SAMPLES: usize = 10_000;
 
 /// Records (samples, all records together) of a single-rate N4SID / MOESP /
 /// CVA identification up to which a refinement is kept or dropped by its
-/// fit on held-out blocks (`lifted_subspace::cross_validate_refinement`, six
+/// fit on held-out blocks (`lifted_pem::cross_validate_refinement`, six
 /// blocks each held out once) instead of its simulation error on the
 /// records it was fitted to — the records whose structure is chosen by
 /// blocked cross-validation too (`StructureOptions::blocked_samples`) — when
@@ -406,7 +406,7 @@ pub const GAIN_CHECK_SAMPLES: usize = 200_000;
 
 /// Points of mean held-out fit by which the refined model must beat the
 /// subspace model (or lose to it), with the median block agreeing, for the
-/// held-out check to decide (`lifted_subspace::RefinementCheck::verdict`):
+/// held-out check to decide (`lifted_pem::RefinementCheck::verdict`):
 /// 3. Closer calls keep the subspace model (they used to be left to the
 /// simulation error on the records, which favours the refinement fitted to
 /// them: benches/README.md, "The refinement kept only on held-out

@@ -193,7 +193,7 @@ fn run(
     type Check = (
         Vec<Dataset>,
         lifted_subspace::SubspaceOptions,
-        Option<lifted_subspace::RefinementCheck>,
+        Option<lifted_pem::RefinementCheck>,
     );
     let mut check: Option<Check> = None;
     let mut alternative: Option<std::result::Result<lifted_lti::StateSpace, String>> = None;

@@ -1,6 +1,6 @@
 //! The refinement stage: prediction-error or output-error refinement of the
 //! identified model on the (detrended) records, measured samples only
-//! (`lifted_subspace::refine_pem`). The report goes to
+//! (`lifted_pem::refine_pem`). The report goes to
 //! `diagnostics.refinement`; for the prediction error the Kalman gain is
 //! replaced when the refined model is kept. With
 //! [`IdentificationOptions::stable`](crate::IdentificationOptions::stable),
@@ -9,11 +9,11 @@
 //! it back to the data; `diagnostics.stable_route` says what was done.
 
 use lifted_lti::{Dataset, StateSpace};
-use lifted_subspace::{
-    Experiment, Feedthrough, Kept, PemCost, PemMethod, PemOptions, PemWorkEstimate, Record,
-    RefinementCheck, SubspaceOptions, cross_validate_refinement, pem_work_estimate,
-    pem_work_estimate_of_sizes, refine_pem,
+use lifted_pem::{
+    Kept, PemCost, PemMethod, PemOptions, PemWorkEstimate, RefinementCheck,
+    cross_validate_refinement, pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
 };
+use lifted_subspace::{Experiment, Feedthrough, Record, SubspaceOptions};
 use nalgebra::DMatrix;
 use serde_json::json;
 
@@ -223,13 +223,9 @@ fn unsupported_by_data(e: &crate::Error) -> bool {
     let crate::Error::Step { source, .. } = e else {
         return false;
     };
-    matches!(
-        source.downcast_ref::<lifted_subspace::Error>(),
-        Some(
-            lifted_subspace::Error::NotExciting { .. }
-                | lifted_subspace::Error::TooManyParameters { .. }
-        )
-    )
+    source
+        .downcast_ref::<lifted_pem::Error>()
+        .is_some_and(lifted_pem::Error::unsupported_by_data)
 }
 
 pub(crate) fn auto_decides(opts: &WorkflowOptions, diagnostics: &serde_json::Value) -> bool {
@@ -378,7 +374,7 @@ pub const JUDGE_WORSE_ON_RECORDS: &str = "held-out blocks, overruled by the reco
 
 /// The records and options of a single-rate N4SID / MOESP / CVA
 /// identification, for the held-out check of its refinement
-/// (`lifted_subspace::cross_validate_refinement`).
+/// (`lifted_pem::cross_validate_refinement`).
 #[derive(Debug, Clone, Copy)]
 pub struct HeldOutCheck<'a> {
     /// The records as the identification took them (before the deviations
@@ -427,7 +423,7 @@ fn check_applies<'a>(
 }
 
 /// The refinement of `model` kept or dropped by the held-out check
-/// (`lifted_subspace::cross_validate_refinement`) when its blocks tell the
+/// (`lifted_pem::cross_validate_refinement`) when its blocks tell the
 /// two apart, else by the simulation error on `records`; the judgement goes
 /// to `diagnostics.refinement_judge`.
 fn refine_judged_on_blocks(
@@ -437,7 +433,7 @@ fn refine_judged_on_blocks(
     pem: &PemOptions,
     check: HeldOutCheck<'_>,
     diagnostics: &mut serde_json::Value,
-) -> Result<lifted_subspace::PemFit> {
+) -> Result<lifted_pem::PemFit> {
     let exps: Vec<Experiment<'_>> = check
         .sets
         .iter()
@@ -726,7 +722,7 @@ pub fn refine(
             );
         }
     }
-    if let (Some(cap), lifted_subspace::Termination::MaxIterations) =
+    if let (Some(cap), lifted_pem::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)
     {
         let note = format!(

@@ -9,11 +9,12 @@ use lifted_multirate::{
     ExtractOptions, LiftedIdOptions, LiftedIvOptions, Ordering, ProcedureOptions,
     identify_lifted_iv, identify_multirate,
 };
+use lifted_pem::RefinementCheck;
 use lifted_qmarkov::{QMarkov, QMarkovOptions, RecordMode};
 use lifted_subspace::{
     BdEstimate, Candidate, Experiment, IvExperiment, IvOptions, OrderCriterion as SubCriterion,
-    OrderReport, OrderSelection, RefinementCheck, StructureOptions, SubspaceModel, SubspaceOptions,
-    SystemEstimate, identify, iv_identify, select_structure,
+    OrderReport, OrderSelection, StructureOptions, SubspaceModel, SubspaceOptions, SystemEstimate,
+    identify, iv_identify, select_structure,
 };
 use nalgebra::{DMatrix, DVector};
 use serde_json::json;
@@ -27,7 +28,7 @@ use crate::options::{
 };
 use crate::refine::stabilized_start;
 use crate::shortlist::{self, Entry, Judge, SHORTLIST};
-use lifted_subspace::PemCost;
+use lifted_pem::PemCost;
 
 /// What a route gives: the model, the diagnostics entry, the Kalman gain,
 /// and what the front ends show besides.
@@ -1588,7 +1589,7 @@ fn held_out_mean(
 /// The held-out fits of the refined models of the best
 /// [`MULTIRATE_SHORTLIST`] orders of `ranking` (`(order, fit)`), then of
 /// the orders whose start was `unstable` on the first part (refined from
-/// their stabilised start, `lifted_subspace::refine_pem`: the default
+/// their stabilised start, `lifted_pem::refine_pem`: the default
 /// refinement cannot reach them otherwise, and on a short record the
 /// well-fitting orders can be exactly those — the flexible arm's output
 /// every third sample: no start above order 3 stable on its first 339
@@ -1643,12 +1644,12 @@ fn refined_shortlist(
     for (order, fast) in candidates {
         let order = *order;
         let pem = crate::refine::pem_options(wf, fast, cost, false);
-        let w = lifted_subspace::pem_work_estimate(fast, &records, &pem).ok()?;
+        let w = lifted_pem::pem_work_estimate(fast, &records, &pem).ok()?;
         work += w.typical;
         if work > 2.0 * AUTO_REFINE_WORK_JOINT || w.per_iteration > pem.max_work {
             break;
         }
-        let Ok(r) = lifted_subspace::refine_pem(fast, None, &records, &[], &pem) else {
+        let Ok(r) = lifted_pem::refine_pem(fast, None, &records, &[], &pem) else {
             continue;
         };
         if let Some(f) = held_out_mean(&r.model, val, vopts) {

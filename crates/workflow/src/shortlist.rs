@@ -15,7 +15,7 @@
 //! refinement will run, the first structure of each of the best
 //! [`SHORTLIST`] orders of the selection's ranking (stable on the whole
 //! records) is checked the way the refinement is judged
-//! (`lifted_subspace::cross_validate_refinement`, six blocks each held out
+//! (`lifted_pem::cross_validate_refinement`, six blocks each held out
 //! once, the subspace model and its refinement fitted to the others), and
 //! each order is scored by the held-out fit of what it would deliver: the
 //! refinement or the subspace model where the blocks tell them apart
@@ -31,10 +31,10 @@
 //! two orders (the selection's choice stands).
 
 use lifted_lti::StateSpace;
-use lifted_subspace::{
-    Candidate, Experiment, PemCost, PemMethod, RefinementCheck, SubspaceModel, SubspaceOptions,
-    cross_validate_refinement, pem_work_estimate_of_sizes,
+use lifted_pem::{
+    PemCost, PemMethod, RefinementCheck, cross_validate_refinement, pem_work_estimate_of_sizes,
 };
+use lifted_subspace::{Candidate, Experiment, SubspaceModel, SubspaceOptions};
 use serde_json::json;
 
 use crate::diagnostics::system_name;

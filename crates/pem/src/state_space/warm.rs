@@ -11,7 +11,7 @@ use super::point::Point;
 use super::problem::{Limits, Outcome, Problem, WorkAccount};
 use super::projection;
 use crate::error::Result;
-use crate::regress::Record;
+use lifted_subspace::Record;
 
 /// Relative cost decrease that ends the iterations on the leading part:
 /// the leading part's optimum differs from the whole records' by the

@@ -3,7 +3,8 @@
 //! records, keep-the-better rule and rejected inputs.
 
 use lifted_lti::StateSpace;
-use lifted_subspace::*;
+use lifted_pem::*;
+use lifted_subspace::{Feedthrough, Record};
 use nalgebra::DMatrix;
 
 use crate::common::*;
@@ -221,7 +222,7 @@ fn rejected_inputs_are_named() {
     ));
     assert!(matches!(
         rec(&u.rows(0, 5).into_owned(), &y.rows(0, 5).into_owned()),
-        Err(Error::NotExciting { .. })
+        Err(Error::TooFewSamples { .. })
     ));
     assert!(matches!(
         refine_pem(&g, None, &[], &[], &PemOptions::default()),

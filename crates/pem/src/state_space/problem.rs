@@ -5,7 +5,7 @@ use nalgebra::DVector;
 
 use super::Termination;
 use super::point::{Layout, Point, residuals};
-use crate::regress::Record;
+use lifted_subspace::Record;
 
 /// The data of one minimisation: records, output weights, layout.
 pub(super) struct Problem<'a, 'r> {

@@ -19,8 +19,8 @@
 //! with other poles) lies outside an order-n innovations model of the plant
 //! alone, and the feedback then carries the misfit into the plant estimate:
 //! refine at the order of plant and noise together (as the predictor-based
-//! [`crate::pbsid_identify`] identifies them), or use an instrument
-//! ([`crate::iv_identify`]). No separate noise-model order is offered: in
+//! [`lifted_subspace::pbsid_identify`] identifies them), or use an instrument
+//! ([`lifted_subspace::iv_identify`]). No separate noise-model order is offered: in
 //! state space the noise shares the state, so "a noise model of its own"
 //! is the same as a larger n. The output-error cost is biased in closed
 //! loop (the noise reaches the input through the controller).
@@ -187,8 +187,8 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::numerics::spectral_radius;
-use crate::regress::{Feedthrough, Record, estimate_x0};
+use lifted_linalg::spectral_radius;
+use lifted_subspace::{Feedthrough, Record, estimate_x0};
 
 mod jacobian;
 mod joint;
@@ -432,8 +432,8 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
     let (nu, ny) = (model.n_inputs(), model.n_outputs());
     let mut measured = 0;
     for r in records {
-        crate::checks::check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
-        crate::error::check_data("u", r.u)?;
+        crate::checks::check_record_shape("record (u, y)", r.u, r.y, nu, ny)?;
+        crate::checks::check_finite("u", r.u)?;
         for ((row, col), v) in
             r.y.iter()
                 .enumerate()
@@ -464,7 +464,7 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
 /// Errors: [`Error::NoData`], [`Error::DimensionMismatch`],
 /// [`Error::NonFinite`] (u anywhere, y infinite; NaN y = not sampled),
 /// [`Error::InvalidOption`] (a continuous model, bad tolerances),
-/// [`Error::NotExciting`] when fewer measured samples than parameters,
+/// [`Error::TooFewSamples`] when fewer measured samples than parameters,
 /// [`Error::TooManyParameters`] when more than one free parameter per two
 /// measured samples, [`Error::TooMuchWork`] when one iteration on the
 /// whole records exceeds [`PemOptions::max_work`] (a bound reached later
@@ -554,9 +554,9 @@ pub fn refine_pem(
     };
     let free = lay.len() - n * n;
     if measured <= free {
-        return Err(Error::NotExciting {
-            what: "measured output samples for the PEM parameters",
-            rank: measured,
+        return Err(Error::TooFewSamples {
+            what: "the PEM refinement",
+            measured,
             needed: free + 1,
         });
     }
@@ -565,7 +565,7 @@ pub fn refine_pem(
     crate::budget::check_pem_parameters(free, measured)?;
     crate::budget::check_pem_memory(n, lay.len(), measured)?;
     let samples: usize = records.iter().map(|r| r.u.nrows()).sum();
-    let threads = crate::checks::thread_count(opts.threads);
+    let threads = lifted_linalg::budget::resolve_threads(opts.threads);
     let sizes = work::Sizes {
         n,
         nu,
@@ -612,7 +612,7 @@ pub fn refine_pem(
                     got: format!("{}x{}", k.nrows(), k.ncols()),
                 });
             }
-            crate::error::check_data("Kalman gain", k)?;
+            crate::checks::check_finite("Kalman gain", k)?;
             k.clone()
         }
         _ => DMatrix::zeros(n, ny),
@@ -837,7 +837,7 @@ pub struct PemWorkEstimate {
 /// Predicts the work of [`refine_pem`] for a model of `initial`'s sizes
 /// on `records` with `opts`, without running it: a caller can compare it
 /// with the subspace step's `compression_flops` (the diagnostics of
-/// [`crate::identify`]) to decide whether the refinement pays.
+/// [`lifted_subspace::identify`]) to decide whether the refinement pays.
 ///
 /// Errors: those of [`refine_pem`]'s input checks ([`Error::NoData`],
 /// [`Error::DimensionMismatch`], [`Error::NonFinite`], a bad
@@ -905,7 +905,7 @@ fn estimate_of_sizes(
             .filter(|&(o, j)| mask[(o, j)])
             .collect(),
     };
-    let threads = crate::checks::thread_count(opts.threads);
+    let threads = lifted_linalg::budget::resolve_threads(opts.threads);
     let sizes = |samples: usize, measured: usize, hessian_stride: usize| work::Sizes {
         n,
         nu,

@@ -4,7 +4,7 @@ use nalgebra::DMatrix;
 
 use super::point::{Layout, Point, predictor_step};
 use crate::error::{Error, Result};
-use crate::regress::Record;
+use lifted_subspace::Record;
 
 /// Rows of [J | e] gathered before each push into the R-only QR (memory
 /// O(p²) for p local coordinates).
@@ -525,7 +525,7 @@ pub(super) fn jacobian_r(
 mod tests {
     use super::super::point::{admissible, output_weights, residuals};
     use super::*;
-    use crate::numerics::spectral_radius;
+    use lifted_linalg::spectral_radius;
     use nalgebra::DVector;
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;

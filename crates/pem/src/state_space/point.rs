@@ -2,8 +2,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::numerics::spectral_radius;
-use crate::regress::Record;
+use lifted_linalg::spectral_radius;
+use lifted_subspace::Record;
 
 /// The parameter vector θ and its layout.
 #[derive(Debug, Clone)]
