@@ -595,7 +595,7 @@ fn armax_form(ss: &StateSpace, k: &DMatrix<f64>, ts: f64) -> Result<PolyModel> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::PolyFamily;
     use super::super::tests::{coupled_arx, miso_oe, siso_models};
     use super::*;
