@@ -12,10 +12,14 @@
 //!   P_i = A_ii P̄_i,  M_ij = A_ij P̄_i,  N_ik = q^{−nk} B_ik P̄_i / F_ik,  N_ie = C_i Π F_ik,
 //! ```
 //!
-//! each realised in observer canonical form with n_i = max degree states:
-//! y_i = x_{i,1} + Σ_k N_ik[0] u_k + e_i and
-//! x_{i,l}(t+1) = x_{i,l+1} − P_i[l] y_i − Σ_j M_ij[l] y_j + Σ_k N_ik[l] u_k + N_ie[l] e_i,
-//! the y_j substituted. Since A(0) = I and C(0) = D(0) = F(0) = 1 this is
+//! each realised in observer canonical form with n_i = max degree states
+//! (`p[l]` the coefficient of q^{−l}), the y_j substituted:
+//!
+//! ```text
+//!   y_i(t)       = x_{i,1}(t) + Σ_k N_ik[0] u_k(t) + e_i(t)
+//!   x_{i,l}(t+1) = x_{i,l+1}(t) − P_i[l] y_i(t) − Σ_j M_ij[l] y_j(t) + Σ_k N_ik[l] u_k(t) + N_ie[l] e_i(t)
+//! ```
+//! Since A(0) = I and C(0) = D(0) = F(0) = 1 this is
 //! exactly the innovations form x⁺ = A x + B u + K e, y = C x + D u + e.
 //! For one output it is minimal when the polynomials are coprime: order
 //! max(na, nb + nk − 1, nc) for ARMAX, max(nf, nb + nk − 1) for OE

@@ -58,7 +58,7 @@
 //! | [`PolyModel::new`] ([`Polynomials`]), [`PolyModel::from_orders`] | general MIMO model; the zero-parameter template of a structure | O(r) |
 //! | [`PolyModel::parameters`], [`PolyModel::with_parameters`], [`PolyModel::with_covariance`], [`PolyModel::std`] | free parameters (order below) and their covariance | O(r), O(r²) |
 //! | [`PolyModel::to_ss`], [`PolyModel::to_innovations_ss`] | G, and the innovations form (G, H, K), coupled observer form | O(n²) |
-//! | [`PolyModel::to_tf`], [`PolyModel::noise_tf`] | G and H as [`TransferFunction`]s in z | O(r²) (diagonal A) |
+//! | [`PolyModel::to_tf`], [`PolyModel::noise_tf`] | G and H as [`crate::TransferFunction`]s in z | O(r²) (diagonal A) |
 //! | [`PolyModel::from_tf`], [`PolyModel::from_ss`], [`PolyModel::from_ss_bj`] | OE from a transfer function; ARMAX-form or OE from state space; BJ from state space | O(r), O(n_y (n_y + n_u) n³) |
 //! | [`PolyModel::simulate`] | y = G u + H e by difference equations | O(N r) |
 //! | [`PolyModel::prediction_errors`], [`PolyModel::predict_one_step`], [`PolyModel::predict`] | ε(t), ŷ(t\|t−1) by filtering; ŷ(t\|t−k) by the Kalman predictor | O(N r); O(N k n (n + n_u)) |

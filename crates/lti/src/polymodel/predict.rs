@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::la;
 use crate::poly::Poly;
 
-/// Roots in z of a polynomial in q⁻¹ (p[0] ≠ 0): the roots of the same
+/// Roots in z of a polynomial in q⁻¹ (`p[0]` ≠ 0): the roots of the same
 /// coefficients read in descending powers of z. O(len³).
 fn q_roots(p: &[f64]) -> Result<Vec<Complex64>> {
     Poly::new(p.to_vec())?.roots()

@@ -8,7 +8,7 @@ use super::PolyModel;
 use crate::error::{Error, Result, check_scalar};
 use crate::la;
 
-/// out(t) = Σ_l num[l] x(t − delay − l) − Σ_{l≥1} den[l] out(t − l), zero
+/// `out(t) = Σ_l num[l] x(t − delay − l) − Σ_{l≥1} den[l] out(t − l)`, zero
 /// initial conditions; `den` monic. O(N (len num + len den)).
 pub(super) fn filter(num: &[f64], delay: usize, den: &[f64], x: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; x.len()];
@@ -37,7 +37,7 @@ pub(super) fn column(m: &DMatrix<f64>, j: usize) -> Vec<f64> {
     m.column(j).iter().copied().collect()
 }
 
-/// (A(q) y)_i(t) = Σ_j Σ_l A_ij[l] y_j(t − l), leading coefficients
+/// `(A(q) y)_i(t) = Σ_j Σ_l A_ij[l] y_j(t − l)`, leading coefficients
 /// included, zero before t = 0. O(Σ_j na_ij).
 pub(super) fn apply_a_row(m: &PolyModel, i: usize, y: &[Vec<f64>], t: usize) -> f64 {
     let mut v = 0.0;
@@ -83,7 +83,7 @@ impl PolyModel {
     /// Simulates y = G u + H e from zero initial conditions by the
     /// difference equations (one row per sample, one column per channel):
     /// w_ik = B_ik/F_ik u_k(t − nk), v_i = C_i/D_i e_i, then
-    /// y_i(t) = w_i + v_i − Σ_j Σ_{l≥1} A_ij[l] y_j(t − l). `e` (N × n_y)
+    /// y_i(t) = w_i + v_i − Σ_j Σ_{l≥1} a_ij,l y_j(t − l). `e` (N × n_y)
     /// is the white noise realisation itself (not scaled by Λ); `None`
     /// simulates the deterministic part. O(N r).
     ///
@@ -187,7 +187,7 @@ impl PolyModel {
     }
 }
 
-/// Σ_l p[l] x^l (Horner).
+/// `Σ_l p[l] x^l` (Horner).
 fn qeval(p: &[f64], x: Complex64) -> Complex64 {
     p.iter()
         .rev()
