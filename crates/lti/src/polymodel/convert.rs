@@ -755,6 +755,21 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn mimo_output_error_form_keeps_g() {
+        // The coupled ARX's G = A⁻¹B as one B/F per entry (H = I).
+        let m = coupled_arx();
+        let oe = PolyModel::from_ss(&m.to_ss().unwrap(), None).unwrap();
+        assert_eq!(oe.family(), PolyFamily::Oe);
+        let w: Vec<f64> = (1..30).map(|i| i as f64 * 0.2).collect();
+        let (g, g0) = (oe.freqresp(&w).unwrap(), m.freqresp(&w).unwrap());
+        for (a, b) in g.iter().zip(&g0) {
+            assert!((a - b).map(Complex64::norm).max() < 1e-9);
+        }
+        // The delays show as nk: G21 = 0.5 q⁻² (…) starts at q⁻².
+        assert_eq!(oe.nk(1, 0), 2);
+    }
+
+    #[test]
     fn mimo_armax_form_is_exact() {
         // Two outputs with a coupled noise (K full): G and H survive.
         let ss = StateSpace::new(

@@ -808,6 +808,100 @@ impl PolyModel {
     }
 }
 
+/// `1 - 1.5 q^-1 + 0.7 q^-2` (ascending powers, up to 6 decimals; the
+/// zero polynomial for an empty slice).
+fn display_q(p: &[f64]) -> String {
+    let mut out = String::new();
+    for (l, &c) in p.iter().enumerate() {
+        if c == 0.0 && !(out.is_empty() && l + 1 == p.len()) {
+            continue;
+        }
+        let mag = format!("{:.6}", c.abs());
+        let mag = mag.trim_end_matches('0').trim_end_matches('.');
+        let term = match l {
+            0 => mag.to_string(),
+            1 => format!("{mag} q^-1"),
+            _ => format!("{mag} q^-{l}"),
+        };
+        if out.is_empty() {
+            out = if c < 0.0 { format!("-{term}") } else { term };
+        } else {
+            out.push_str(if c < 0.0 { " - " } else { " + " });
+            out.push_str(&term);
+        }
+    }
+    if out.is_empty() { "0".into() } else { out }
+}
+
+impl std::fmt::Display for PolyModel {
+    /// The family, `ts` and every non-trivial polynomial, one a line:
+    /// `A(q) = 1 - 1.5 q^-1`, `B(q) = q^-1 (1 + 0.5 q^-1)`, with indices
+    /// (`A12`, `B21`, `C2`) when there are several channels.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let family = match self.family() {
+            PolyFamily::Arx => "ARX",
+            PolyFamily::Armax => "ARMAX",
+            PolyFamily::Oe => "OE",
+            PolyFamily::Bj => "BJ",
+            PolyFamily::Fir => "FIR",
+            PolyFamily::General => "general",
+        };
+        write!(
+            f,
+            "discrete-time polynomial model ({family}, T = {}), {} output(s), {} input(s)",
+            self.ts, self.ny, self.nu
+        )?;
+        let mimo = self.ny > 1 || self.nu > 1;
+        let idx2 = |i: usize, j: usize| {
+            if mimo {
+                format!("{}{}", i + 1, j + 1)
+            } else {
+                String::new()
+            }
+        };
+        let idx1 = |i: usize| {
+            if self.ny > 1 {
+                format!("{}", i + 1)
+            } else {
+                String::new()
+            }
+        };
+        let trivial = |p: &[f64], one: f64| p.len() == 1 && p[0] == one;
+        for i in 0..self.ny {
+            for j in 0..self.ny {
+                let a = self.a(i, j);
+                if !trivial(a, if i == j { 1.0 } else { 0.0 }) {
+                    write!(f, "\nA{}(q) = {}", idx2(i, j), display_q(a))?;
+                }
+            }
+            for k in 0..self.nu {
+                let delay = match self.nk(i, k) {
+                    0 => String::new(),
+                    1 => "q^-1 ".into(),
+                    n => format!("q^-{n} "),
+                };
+                let b = self.b(i, k);
+                if b.len() > 1 {
+                    write!(f, "\nB{}(q) = {delay}({})", idx2(i, k), display_q(b))?;
+                } else {
+                    write!(f, "\nB{}(q) = {delay}{}", idx2(i, k), display_q(b))?;
+                }
+            }
+            for (name, p) in [("C", &self.c[i]), ("D", &self.d[i])] {
+                if !trivial(p, 1.0) {
+                    write!(f, "\n{name}{}(q) = {}", idx1(i), display_q(p))?;
+                }
+            }
+            for k in 0..self.nu {
+                if !trivial(self.f(i, k), 1.0) {
+                    write!(f, "\nF{}(q) = {}", idx2(i, k), display_q(self.f(i, k)))?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Coefficients of the product of two polynomials (any common variable). O(len a · len b).
 pub(crate) fn conv(a: &[f64], b: &[f64]) -> Vec<f64> {
     if a.is_empty() || b.is_empty() {
@@ -941,6 +1035,49 @@ pub(crate) mod tests {
         ));
         let lam = DMatrix::from_element(1, 1, 0.25);
         assert_eq!(m.with_noise_variance(&lam).unwrap().noise_variance(), &lam);
+    }
+
+    #[test]
+    fn display_shows_the_polynomials() {
+        let m = PolyModel::armax(&[1.0, -1.5, 0.7], &[1.0, 0.5], &[1.0, -0.2], 1, 0.1).unwrap();
+        assert_eq!(
+            m.to_string(),
+            "discrete-time polynomial model (ARMAX, T = 0.1), 1 output(s), 1 input(s)\n\
+             A(q) = 1 - 1.5 q^-1 + 0.7 q^-2\n\
+             B(q) = q^-1 (1 + 0.5 q^-1)\n\
+             C(q) = 1 - 0.2 q^-1"
+        );
+        let s = coupled_arx().to_string();
+        assert!(s.contains("A12(q) = 0.2 q^-1"), "{s}");
+        assert!(s.contains("B21(q) = q^-2 0.5"), "{s}");
+        assert_eq!(display_q(&[]), "0");
+    }
+
+    #[test]
+    fn time_series_models_have_no_inputs() {
+        // ARMA: (1 − 0.7q⁻¹) y = (1 + 0.4q⁻¹) e.
+        let m = PolyModel::new(
+            Polynomials {
+                a: Some(vec![vec![vec![1.0, -0.7]]]),
+                b: vec![vec![]],
+                c: Some(vec![vec![1.0, 0.4]]),
+                nk: vec![vec![]],
+                ..Default::default()
+            },
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(m.n_inputs(), 0);
+        assert_eq!(m.family(), PolyFamily::Armax);
+        let u = DMatrix::zeros(100, 0);
+        let e = DMatrix::from_fn(100, 1, |t, _| ((t * 37 % 11) as f64 - 5.0) / 5.0);
+        let y = m.simulate(&u, Some(&e)).unwrap();
+        assert!((m.prediction_errors(&u, &y).unwrap() - &e).amax() < 1e-12);
+        let (ss, k) = m.to_innovations_ss().unwrap();
+        assert_eq!(ss.order(), 1);
+        let back = PolyModel::from_ss(&ss, Some(&k)).unwrap();
+        assert!(convert::tests::model_diff(&back, &m) < 1e-12);
+        assert_eq!(PolyModel::from_json(&m.to_json().unwrap()).unwrap(), m);
     }
 
     // One test per rejected input.

@@ -121,13 +121,13 @@ impl PolyModel {
         Ok(DMatrix::from_fn(len, self.ny, |t, i| y[i][t]))
     }
 
-    /// Evaluates at x = e^{−jωT} (q⁻¹): (A(x), W(x)) with W the n_y × m
-    /// right-hand side of `rhs`.
+    /// A(x)⁻¹ W(x) at x = e^{−jωT} (q⁻¹) for each ω, W the n_y × `cols`
+    /// matrix of `rhs(i, k, x, ωT)`.
     fn solve_at(
         &self,
         omega: &[f64],
         cols: usize,
-        rhs: impl Fn(usize, usize, Complex64) -> Result<Complex64>,
+        rhs: impl Fn(usize, usize, Complex64, f64) -> Result<Complex64>,
     ) -> Result<Vec<DMatrix<Complex64>>> {
         omega
             .iter()
@@ -138,7 +138,7 @@ impl PolyModel {
                 let mut r = DMatrix::zeros(self.ny, cols);
                 for i in 0..self.ny {
                     for k in 0..cols {
-                        r[(i, k)] = rhs(i, k, x)?;
+                        r[(i, k)] = rhs(i, k, x, w * self.ts)?;
                     }
                 }
                 let g = if self.has_diagonal_a() {
@@ -167,8 +167,9 @@ impl PolyModel {
     /// Errors: non-finite ω, [`Error::Infinite`] at a root of A or F on the
     /// unit circle.
     pub fn freqresp(&self, omega: &[f64]) -> Result<Vec<DMatrix<Complex64>>> {
-        self.solve_at(omega, self.nu, |i, k, x| {
-            Ok(x.powu(self.nk(i, k) as u32) * qeval(self.b(i, k), x) / qeval(self.f(i, k), x))
+        self.solve_at(omega, self.nu, |i, k, x, wt| {
+            let delay = Complex64::from_polar(1.0, -(self.nk(i, k) as f64) * wt);
+            Ok(delay * qeval(self.b(i, k), x) / qeval(self.f(i, k), x))
         })
     }
 
@@ -177,7 +178,7 @@ impl PolyModel {
     ///
     /// Errors: as [`PolyModel::freqresp`] (roots of A or D).
     pub fn noise_freqresp(&self, omega: &[f64]) -> Result<Vec<DMatrix<Complex64>>> {
-        self.solve_at(omega, self.ny, |i, j, x| {
+        self.solve_at(omega, self.ny, |i, j, x, _| {
             Ok(if i == j {
                 qeval(&self.c[i], x) / qeval(&self.d[i], x)
             } else {
