@@ -1,49 +1,7 @@
 //! Conversions of [`PolyModel`] to and from [`StateSpace`] and
 //! [`TransferFunction`].
 //!
-//! # To state space: the coupled observer form
-//!
-//! Output i's equation is multiplied by P̄_i = D_i · Π F_ik (the product
-//! over the *distinct* F_ik of the row, D_i only with the noise), giving
-//! polynomial equations
-//!
-//! ```text
-//!   P_i y_i + Σ_{j≠i} M_ij y_j = Σ_k N_ik u_k + N_ie e_i,
-//!   P_i = A_ii P̄_i,  M_ij = A_ij P̄_i,  N_ik = q^{−nk} B_ik P̄_i / F_ik,  N_ie = C_i Π F_ik,
-//! ```
-//!
-//! each realised in observer canonical form with n_i = max degree states
-//! (`p[l]` the coefficient of q^{−l}), the y_j substituted:
-//!
-//! ```text
-//!   y_i(t)       = x_{i,1}(t) + Σ_k N_ik[0] u_k(t) + e_i(t)
-//!   x_{i,l}(t+1) = x_{i,l+1}(t) − P_i[l] y_i(t) − Σ_j M_ij[l] y_j(t) + Σ_k N_ik[l] u_k(t) + N_ie[l] e_i(t)
-//! ```
-//! Since A(0) = I and C(0) = D(0) = F(0) = 1 this is
-//! exactly the innovations form x⁺ = A x + B u + K e, y = C x + D u + e.
-//! For one output it is minimal when the polynomials are coprime: order
-//! max(na, nb + nk − 1, nc) for ARMAX, max(nf, nb + nk − 1) for OE
-//! (K = 0), max(nf + nd, nb + nk − 1 + nd, nc + nf) for BJ. The
-//! deterministic part [`PolyModel::to_ss`] leaves D and C out.
-//!
-//! # From state space
-//!
-//! With Ā = A − KC and c(z) = det(zI − Ā), the innovations model has
-//! H⁻¹ = I − C(zI − Ā)⁻¹K and H⁻¹G = C(zI − Ā)⁻¹(B − KD) + D, so
-//!
-//! ```text
-//!   A_poly = c · H⁻¹,   B_poly = c · H⁻¹ G,   C_i = c,   D_i = F_ik = 1
-//! ```
-//!
-//! are polynomial matrices (A_poly(0) = I) and A_poly y = B_poly u + c e
-//! is the same model, exactly, for any number of outputs. Entries use
-//! cᵢ adj(zI − Ā) x = det(zI − Ā + x cᵢ) − det(zI − Ā) (characteristic
-//! polynomials from eigenvalues). The realisation is first made minimal
-//! ([`StateSpace::minreal`] of (A, [B K], C, [D I])), so for one output
-//! this is the ARMAX model with A = det(zI − A_ss), B the numerators of G
-//! over it and C = det(zI − A_ss + K C_ss): minimal and unique. For several
-//! outputs it is exact but not minimal in parameters (every output gets the
-//! common C = c, and A is a full polynomial matrix of degree n).
+//! The realisation and the formulas are in the [parent module's docs](super#conversions).
 
 use nalgebra::DMatrix;
 
@@ -73,7 +31,7 @@ fn delayed(b: &[f64], nk: usize) -> Vec<f64> {
     v
 }
 
-/// One output's row of the coupled observer form (module docs).
+/// One output's row of the coupled observer form ([conversions](super#conversions)).
 struct RowForm {
     p: Vec<f64>,
     m: Vec<Vec<f64>>,
@@ -133,7 +91,7 @@ impl PolyModel {
     }
 }
 
-/// The matrices of the coupled observer form (module docs).
+/// The matrices of the coupled observer form ([conversions](super#conversions)).
 struct ObserverForm {
     a: DMatrix<f64>,
     b: DMatrix<f64>,
@@ -143,7 +101,7 @@ struct ObserverForm {
     k: DMatrix<f64>,
 }
 
-/// (A, B, C, D, K) of the coupled observer form of `rows` (module docs).
+/// (A, B, C, D, K) of the coupled observer form of `rows` ([conversions](super#conversions)).
 /// O(n (n_y (n_y + n_u))) to fill, O(n²) memory.
 fn observer_form(rows: &[RowForm], nu: usize) -> ObserverForm {
     let ny = rows.len();
@@ -270,7 +228,7 @@ fn check_k(ss: &StateSpace, k: &DMatrix<f64>) -> Result<()> {
 impl PolyModel {
     /// The deterministic part G(q) = A⁻¹ diag(q^{−nk}) B/F as a discrete
     /// [`StateSpace`] (period `ts`, channel names kept), in the coupled
-    /// observer form of the module docs (minimal for one output with
+    /// observer form of [the module docs](crate::polymodel#conversions) (minimal for one output with
     /// coprime polynomials). O(n²).
     ///
     /// Errors: none for a valid model (the `Result` is for uniformity).
@@ -392,14 +350,17 @@ impl PolyModel {
         Self::new(p, ts)
     }
 
-    /// A polynomial model of a discrete state-space model, exactly.
+    /// A polynomial model of a discrete state-space model, exactly (up to
+    /// the tolerance of the minimal realisations it starts from).
     ///
     /// * `k = None`: the output-error model of G (H = I): every entry of
     ///   [`StateSpace::to_tf`] (per-entry minimal, default tolerance) as
     ///   B_ik/F_ik with its delay (see [`PolyModel::from_tf`]).
     /// * `k = Some(K)`: the innovations model x⁺ = A x + B u + K e,
     ///   y = C x + D u + e in the ARMAX form A_poly y = B_poly u + C e of
-    ///   the module docs. One output: the minimal ARMAX model. Several
+    ///   [the module docs](crate::polymodel#conversions), computed from a
+    ///   minimal realisation of (A, `[B K]`, C, `[D I]`) (default
+    ///   tolerance). One output: the minimal ARMAX model. Several
     ///   outputs: exact (G and H unchanged) with a full A and a common
     ///   C_i = det(zI − A + KC) per output, not minimal in parameters.
     ///
@@ -510,7 +471,7 @@ impl PolyModel {
     }
 }
 
-/// The ARMAX form A_poly = c H⁻¹, B_poly = c H⁻¹ G, C = c (module docs).
+/// The ARMAX form A_poly = c H⁻¹, B_poly = c H⁻¹ G, C = c ([conversions](super#conversions)).
 fn armax_form(ss: &StateSpace, k: &DMatrix<f64>, ts: f64) -> Result<PolyModel> {
     let (nu, ny) = (ss.n_inputs(), ss.n_outputs());
     let mut bk = DMatrix::zeros(ss.order(), nu + ny);

@@ -50,6 +50,55 @@
 //! of the exact innovations form [`PolyModel::to_innovations_ss`]
 //! (x⁺ = A x + B u + K e, y = C x + D u + e) for any horizon.
 //!
+//! # Conversions
+//!
+//! ## To state space: the coupled observer form
+//!
+//! Output i's equation is multiplied by P̄_i = D_i · Π F_ik (the product
+//! over the *distinct* F_ik of the row, D_i only with the noise), giving
+//! polynomial equations
+//!
+//! ```text
+//!   P_i y_i + Σ_{j≠i} M_ij y_j = Σ_k N_ik u_k + N_ie e_i,
+//!   P_i = A_ii P̄_i,  M_ij = A_ij P̄_i,  N_ik = q^{−nk} B_ik P̄_i / F_ik,  N_ie = C_i Π F_ik,
+//! ```
+//!
+//! each realised in observer canonical form with n_i = max degree states
+//! (`p[l]` the coefficient of q^{−l}), the y_j substituted:
+//!
+//! ```text
+//!   y_i(t)       = x_{i,1}(t) + Σ_k N_ik[0] u_k(t) + e_i(t)
+//!   x_{i,l}(t+1) = x_{i,l+1}(t) − P_i[l] y_i(t) − Σ_j M_ij[l] y_j(t) + Σ_k N_ik[l] u_k(t) + N_ie[l] e_i(t)
+//! ```
+//!
+//! Since A(0) = I and C(0) = D(0) = F(0) = 1 this is
+//! exactly the innovations form x⁺ = A x + B u + K e, y = C x + D u + e.
+//! For one output it is minimal when the polynomials are coprime: order
+//! max(na, nb + nk − 1, nc) for ARMAX, max(nf, nb + nk − 1) for OE
+//! (K = 0), max(nf + nd, nb + nk − 1 + nd, nc + nf) for BJ. The
+//! deterministic part [`PolyModel::to_ss`] leaves D and C out (order
+//! max(na, nb + nk − 1) for ARX, max(nf, nb + nk − 1) for OE and BJ).
+//!
+//! ## From state space
+//!
+//! With Ā = A − KC and c(z) = det(zI − Ā), the innovations model has
+//! H⁻¹ = I − C(zI − Ā)⁻¹K and H⁻¹G = C(zI − Ā)⁻¹(B − KD) + D, so
+//!
+//! ```text
+//!   A_poly = c · H⁻¹,   B_poly = c · H⁻¹ G,   C_i = c,   D_i = F_ik = 1
+//! ```
+//!
+//! are polynomial matrices (A_poly(0) = I) and A_poly y = B_poly u + c e
+//! is the same model, exactly, for any number of outputs. Entries use
+//! cᵢ adj(zI − Ā) x = det(zI − Ā + x cᵢ) − det(zI − Ā) (characteristic
+//! polynomials from eigenvalues). The realisation is first made minimal
+//! ([`crate::StateSpace::minreal`] of (A, `[B K]`, C, `[D I]`), default
+//! tolerance), so for one output
+//! this is the ARMAX model with A = det(zI − A_ss), B the numerators of G
+//! over it and C = det(zI − A_ss + K C_ss): minimal and unique. For several
+//! outputs it is exact but not minimal in parameters (every output gets the
+//! common C = c, and A is a full polynomial matrix of degree n).
+//!
 //! # Map
 //!
 //! | function | what | cost (N samples, n states, r = total number of coefficients) |
@@ -103,6 +152,7 @@
 //! // Back from the innovations state-space form: the same polynomials.
 //! let (ss, k) = m.to_innovations_ss()?;
 //! let back = PolyModel::from_ss(&ss, Some(&k))?;
+//! assert_eq!(back.orders(), m.orders());
 //! assert!(back.parameters().iter().zip(m.parameters()).all(|(a, b)| (a - b).abs() < 1e-9));
 //! # Ok(())
 //! # }
@@ -121,7 +171,7 @@ use crate::error::{Error, Result, check_ts};
 pub use convert::POLY_TRIM_TOL;
 
 /// A discrete-time polynomial model (MATLAB's `idpoly`; see the
-/// [module docs](self) for the equation, the coefficient order and the
+/// [module docs](crate::polymodel) for the equation, the coefficient order and the
 /// parameter order).
 ///
 /// The fields are private so every model is valid: finite coefficients,
@@ -738,7 +788,7 @@ impl PolyModel {
         }
     }
 
-    /// The free coefficients, in the order of the [module docs](self):
+    /// The free coefficients, in the order of the module docs:
     /// blocks of (polynomial, number of fixed leading coefficients).
     fn free_blocks(&self) -> Vec<(&[f64], usize)> {
         let mut out = Vec::new();
@@ -757,7 +807,7 @@ impl PolyModel {
         self.free_blocks().iter().map(|(p, s)| p.len() - s).sum()
     }
 
-    /// The free parameters in the documented order (module docs: per
+    /// The free parameters in the documented order ([module docs](crate::polymodel#free-parameters): per
     /// output, a, b, c, d, f). O(r).
     pub fn parameters(&self) -> Vec<f64> {
         self.free_blocks()

@@ -25,7 +25,7 @@ fn all_inside(polys: &[&[f64]]) -> Result<bool> {
 }
 
 impl PolyModel {
-    /// The prediction errors ε(t) = y(t) − ŷ(t|t−1) of the module docs,
+    /// The prediction errors ε(t) = y(t) − ŷ(t|t−1) of [the module docs](crate::polymodel#the-predictor),
     /// ε_i = D_i/C_i [Σ_j A_ij y_j − Σ_k B_ik/F_ik u_k(t − nk_ik)], by
     /// filtering the data from zero initial conditions (N × n_y, one row
     /// per sample). For the model's own noise realisation this returns e.
