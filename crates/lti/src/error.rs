@@ -152,6 +152,58 @@ pub enum Error {
         /// Iterations performed.
         iterations: usize,
     },
+    /// A polynomial coefficient of a [`crate::PolyModel`] is NaN or infinite.
+    #[error("polynomial {which}({row}, {col}): coefficient {index} is not finite ({value})")]
+    NonFiniteCoefficient {
+        /// Which polynomial ("A", "B", "C", "D" or "F").
+        which: &'static str,
+        /// Output index (row of the polynomial matrix).
+        row: usize,
+        /// Column of the polynomial matrix (input index for B and F, output
+        /// index for A, 0 for C and D).
+        col: usize,
+        /// Index of the coefficient (power of q⁻¹, counted from the first
+        /// stored coefficient).
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// A polynomial of a [`crate::PolyModel`] does not start with the
+    /// required leading coefficient: 1 for the diagonal of A and for C, D
+    /// and F (monic), 0 for the off-diagonal entries of A (and every
+    /// polynomial must have at least that leading coefficient).
+    #[error("polynomial {which}({row}, {col}) must start with {expected}, got {got:?}")]
+    NonMonicPolynomial {
+        /// Which polynomial ("A", "C", "D" or "F").
+        which: &'static str,
+        /// Output index (row of the polynomial matrix).
+        row: usize,
+        /// Column of the polynomial matrix (see [`Error::NonFiniteCoefficient`]).
+        col: usize,
+        /// The required leading coefficient.
+        expected: f64,
+        /// The leading coefficient found (None: the polynomial is empty).
+        got: Option<f64>,
+    },
+    /// A parameter vector does not have one entry per free parameter of the
+    /// model structure.
+    #[error("parameter vector of length {got}, the model structure has {expected} free parameters")]
+    ParameterCount {
+        /// Number of free parameters of the structure.
+        expected: usize,
+        /// Length given.
+        got: usize,
+    },
+    /// A model cannot be written exactly in the requested form (e.g. a
+    /// multi-output noise model with cross-couplings as diagonal C/D
+    /// polynomials).
+    #[error("{what}: not representable: {reason}")]
+    NotRepresentable {
+        /// Which conversion.
+        what: &'static str,
+        /// What cannot be represented.
+        reason: String,
+    },
     /// JSON (de)serialisation failed.
     #[error("JSON: {reason}")]
     Json {

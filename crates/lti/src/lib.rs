@@ -15,6 +15,7 @@
 //! | [`StateSpace::freqresp`], [`StateSpace::bode`], [`StateSpace::h2_norm`], [`StateSpace::hinf_norm`] | frequency domain and norms |
 //! | [`series`], [`parallel`], [`feedback`], [`append`], [`StateSpace::inverse`] | interconnections (MIMO) |
 //! | [`StateSpace::minreal`], [`StateSpace::balanced_truncation`] | reduction (staircase; square-root balanced truncation) |
+//! | [`PolyModel`] ([`Polynomials`], [`PolyOrders`], [`PolyFamily`]) | polynomial models (MATLAB `idpoly`: ARX, ARMAX, OE, BJ, FIR; q⁻¹ coefficients in **ascending** powers, delays `nk` per input): parameters and covariance, [`PolyModel::to_ss`] / [`PolyModel::to_innovations_ss`] / [`PolyModel::to_tf`], [`PolyModel::from_tf`] / [`PolyModel::from_ss`], simulation, prediction, frequency response, stability (module [`polymodel`]) |
 //! | [`spectral::welch`] | empirical frequency response from data (Welch's averaged periodograms, Ĝ = Φ̂_yu Φ̂_u⁻¹) |
 //!
 //! # Conventions (used by every Lifted crate)
@@ -25,7 +26,9 @@
 //! * Markov parameters are `Vec<DMatrix<f64>>`, H₀ = D first.
 //! * Polynomial coefficients are in **descending powers** (MATLAB/scipy):
 //!   `[1, 2, 3]` is s² + 2s + 3. Discrete transfer functions use positive
-//!   powers of z.
+//!   powers of z. The exception is [`PolyModel`], whose polynomials are in
+//!   the delay operator q⁻¹ with **ascending** powers (MATLAB `idpoly`):
+//!   `[1, -0.5]` is 1 − 0.5 q⁻¹.
 //! * `ts: None` is continuous time, `Some(T)` discrete with period T seconds;
 //!   frequencies are always in rad/s (discrete: z = e^{jωT}).
 //!
@@ -82,6 +85,7 @@ mod la;
 pub mod model_file;
 mod operating_point;
 pub mod poly;
+pub mod polymodel;
 mod predict;
 mod reduce;
 mod response;
@@ -102,6 +106,7 @@ pub use identify::{Identified, Identifier};
 pub use model_file::{ModelFile, ModelFileError};
 pub use operating_point::OperatingPoint;
 pub use poly::{Poly, cancel_common_roots};
+pub use polymodel::{POLY_TRIM_TOL, PolyFamily, PolyModel, PolyOrders, Polynomials};
 pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;

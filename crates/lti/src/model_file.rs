@@ -9,6 +9,25 @@
 //!  "method": "n4sid", "diagnostics": {"singular_values": [3.1, 0.01]}}
 //! ```
 //!
+//! A polynomial model ([`PolyModel`], kind `"polynomial"`, written by
+//! [`ModelFile::with_polynomial`]) is stored as its innovations
+//! realisation ([`PolyModel::to_innovations_ss`]: the matrices and
+//! `kalman_gain`) **and** the polynomials in a `polynomial` field (the
+//! [`PolyModel`] JSON layout, with the noise variance and the parameter
+//! covariance), so every reader of state-space model files keeps working
+//! and the polynomials survive the round trip:
+//!
+//! ```json
+//! {"kind": "polynomial", "ts": 1.0, "a": [[1.5, 1], [-0.7, 0]], "b": …, "c": …, "d": …,
+//!  "kalman_gain": [[…], […]],
+//!  "polynomial": {"ts": 1.0, "a": [[[1, -1.5, 0.7]]], "b": [[[1, 0.5]]], "c": [[1]],
+//!                 "d": [[1]], "f": [[[1]]], "nk": [[1]], "noise_variance": [[1]]}}
+//! ```
+//!
+//! On reading, a `"polynomial"` file must carry the `polynomial` field (and
+//! a `"state_space"` file must not), with the same `ts` and channel counts
+//! as the matrices; the matrices are not recomputed.
+//!
 //! Optional fields: `input_names`, `output_names`, `method`, `diagnostics`,
 //! `operating_point` (`{"u0": [...], "y0": [...]}`: the model maps u − u₀
 //! to y − y₀; identification stores the means it removed) and
@@ -44,6 +63,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::operating_point::OperatingPoint;
+use crate::polymodel::PolyModel;
 use crate::ss::StateSpace;
 use nalgebra::DMatrix;
 
@@ -65,8 +85,12 @@ fn check_gain(model: &StateSpace, k: &DMatrix<f64>) -> crate::Result<()> {
     Ok(())
 }
 
-/// The only `kind` written and accepted.
+/// The `kind` of a state-space model file.
 pub const STATE_SPACE_KIND: &str = "state_space";
+
+/// The `kind` of a polynomial model file (state-space matrices plus the
+/// `polynomial` field).
+pub const POLYNOMIAL_KIND: &str = "polynomial";
 
 /// Errors of [`ModelFile`] reading and writing.
 #[derive(Debug, thiserror::Error)]
@@ -88,8 +112,8 @@ pub enum ModelFileError {
         /// What is wrong (serde's message, with line and column).
         reason: String,
     },
-    /// `kind` is not `"state_space"`.
-    #[error("{path}: unsupported model kind '{kind}' (expected \"state_space\")")]
+    /// `kind` is neither `"state_space"` nor `"polynomial"`.
+    #[error("{path}: unsupported model kind '{kind}' (expected \"state_space\" or \"polynomial\")")]
     UnsupportedKind {
         /// The file (`<string>` when parsed from memory).
         path: String,
@@ -102,7 +126,7 @@ pub enum ModelFileError {
 /// [module docs](self) for the JSON layout).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelFile {
-    /// Always [`STATE_SPACE_KIND`].
+    /// [`STATE_SPACE_KIND`], or [`POLYNOMIAL_KIND`] when `polynomial` is set.
     pub kind: String,
     /// The model (matrices, `ts`, optional channel names), flattened into
     /// the top-level object.
@@ -122,6 +146,10 @@ pub struct ModelFile {
     /// x(k+1) = A x + B u + K e, if estimated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kalman_gain: Option<Vec<Vec<f64>>>,
+    /// The polynomial model of a `"polynomial"` file (`model` and
+    /// `kalman_gain` are then its innovations realisation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polynomial: Option<PolyModel>,
 }
 
 impl ModelFile {
@@ -134,7 +162,21 @@ impl ModelFile {
             diagnostics: serde_json::Value::Null,
             operating_point: None,
             kalman_gain: None,
+            polynomial: None,
         }
+    }
+
+    /// A `"polynomial"` model file: the innovations realisation of `poly`
+    /// ([`PolyModel::to_innovations_ss`]) as the model and its Kalman gain,
+    /// and `poly` itself (channel names from `poly`). O(n²).
+    ///
+    /// Errors: none for a valid model (the `Result` is for uniformity).
+    pub fn with_polynomial(poly: PolyModel) -> crate::Result<Self> {
+        let (model, k) = poly.to_innovations_ss()?;
+        let mut f = ModelFile::new(model).with_kalman_gain(&k)?;
+        f.kind = POLYNOMIAL_KIND.to_string();
+        f.polynomial = Some(poly);
+        Ok(f)
     }
 
     /// Records the operating point (checked against the model's channels).
@@ -197,7 +239,7 @@ impl ModelFile {
             path: path.to_string(),
             reason: crate::ss::json_reason(&e),
         })?;
-        if f.kind != STATE_SPACE_KIND {
+        if f.kind != STATE_SPACE_KIND && f.kind != POLYNOMIAL_KIND {
             return Err(ModelFileError::UnsupportedKind {
                 path: path.to_string(),
                 kind: f.kind,
@@ -207,6 +249,38 @@ impl ModelFile {
             path: path.to_string(),
             reason,
         };
+        match (&f.polynomial, f.kind == POLYNOMIAL_KIND) {
+            (None, true) => {
+                return Err(invalid(
+                    "kind \"polynomial\" without a `polynomial` field".into(),
+                ));
+            }
+            (Some(_), false) => {
+                return Err(invalid(format!(
+                    "a `polynomial` field in a file of kind \"{}\" (expected \"polynomial\")",
+                    f.kind
+                )));
+            }
+            (Some(p), true) => {
+                if !crate::error::same_domain(Some(p.ts()), f.model.ts()) {
+                    return Err(invalid(format!(
+                        "polynomial: ts {} differs from the matrices' {:?}",
+                        p.ts(),
+                        f.model.ts()
+                    )));
+                }
+                if (p.n_inputs(), p.n_outputs()) != (f.model.n_inputs(), f.model.n_outputs()) {
+                    return Err(invalid(format!(
+                        "polynomial: {} inputs and {} outputs, the matrices {} and {}",
+                        p.n_inputs(),
+                        p.n_outputs(),
+                        f.model.n_inputs(),
+                        f.model.n_outputs()
+                    )));
+                }
+            }
+            (None, false) => {}
+        }
         if let Some(op) = &f.operating_point {
             op.check_dims(f.model.n_inputs(), f.model.n_outputs())
                 .and_then(|_| OperatingPoint::new(op.u0.clone(), op.y0.clone()).map(|_| ()))
@@ -363,6 +437,56 @@ mod tests {
                 .ts(),
             None
         );
+    }
+
+    #[test]
+    fn polynomial_model_round_trips() {
+        let p = PolyModel::armax(&[1.0, -1.5, 0.7], &[1.0, 0.5], &[1.0, -0.2], 1, 0.5)
+            .and_then(|p| p.with_covariance(&DMatrix::from_diagonal_element(5, 5, 1e-4)))
+            .and_then(|p| p.with_noise_variance(&DMatrix::from_element(1, 1, 0.04)))
+            .and_then(|p| p.with_input_names(vec!["u".into()]))
+            .unwrap();
+        let f = ModelFile::with_polynomial(p.clone())
+            .unwrap()
+            .with_method("armax");
+        let json = f.to_json().unwrap();
+        assert!(json.contains("\"kind\": \"polynomial\""));
+        let back = ModelFile::from_json(&json).unwrap();
+        assert_eq!(back, f);
+        assert_eq!(back.polynomial.as_ref(), Some(&p));
+        assert_eq!(
+            back.polynomial.as_ref().and_then(PolyModel::std).unwrap()[0],
+            1e-2
+        );
+        // The state-space part is the innovations realisation.
+        let (ss, k) = p.to_innovations_ss().unwrap();
+        assert_eq!(back.model, ss);
+        assert_eq!(back.kalman_gain_matrix(), Some(k));
+        assert_eq!(back.model.input_names(), Some(&["u".to_string()][..]));
+    }
+
+    #[test]
+    fn polynomial_kind_and_field_must_agree() {
+        let p = PolyModel::oe(&[1.0], &[1.0, -0.5], 1, 1.0).unwrap();
+        let f = ModelFile::with_polynomial(p).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&f.to_json().unwrap()).unwrap();
+        let mut no_field = v.clone();
+        no_field.as_object_mut().unwrap().remove("polynomial");
+        assert!(matches!(
+            ModelFile::from_json(&no_field.to_string()),
+            Err(ModelFileError::Invalid { .. })
+        ));
+        let mut wrong_kind = v.clone();
+        wrong_kind["kind"] = "state_space".into();
+        assert!(matches!(
+            ModelFile::from_json(&wrong_kind.to_string()),
+            Err(ModelFileError::Invalid { .. })
+        ));
+        v["polynomial"]["ts"] = 2.0.into();
+        let e = ModelFile::from_json(&v.to_string())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("ts"), "{e}");
     }
 
     #[test]
