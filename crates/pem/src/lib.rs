@@ -7,6 +7,8 @@
 //! | [`refine_pem`] ([`PemOptions`], [`PemCost`], [`PemMethod`], [`PemFit`], [`PemReport`], [`Kept`], [`Termination`]) | prediction-error or output-error refinement of a state-space model by variable projection (B, D, K, x₀ solved for, Levenberg–Marquardt on the predictor's Ā, C in data-driven local coordinates, warm stages on long records); multirate records (NaN = not sampled) use the measured samples only; keeps the better of start and result; a drifted realization is returned balanced |
 //! | [`pem_work_estimate`], [`pem_work_estimate_of_sizes`] ([`PemWorkEstimate`]) | the refinement's predicted work, in the units of its work bound, before running it |
 //! | [`cross_validate_refinement`] ([`RefinementCheck`]) | whether a refinement helps on data it was not fitted to: each of K blocks held out once, the fold's subspace model and its refinement scored on it; a verdict only when the blocks tell the two apart |
+//! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
+//! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
 //!
 //! # Method
@@ -63,12 +65,17 @@
 //! ```
 #![deny(missing_docs)]
 
+mod arx;
 mod budget;
 mod checks;
 pub mod error;
 mod held_out;
 mod state_space;
 
+pub use arx::{
+    ArxFit, ArxOptions, ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions,
+    StructureCriterion, arx, arx_scan, estimate_delays,
+};
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
 pub use held_out::{RefinementCheck, cross_validate_refinement};
