@@ -143,6 +143,7 @@ mod multirate_predictor;
 mod multirate_start;
 mod options;
 mod pipeline;
+mod polynomial;
 mod preprocess;
 mod refine;
 mod routes;

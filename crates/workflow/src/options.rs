@@ -82,6 +82,12 @@ pub enum Method {
     /// whose future outputs are regressed one block row at a time.
     #[serde(rename = "pbsid_rowwise")]
     PbsidRowwise,
+    /// ARX, A y = B u + e, by least squares (the polynomial model of
+    /// `lifted_pem::arx`; orders [`IdentificationOptions::orders`]
+    /// `[na nb nk]`, else chosen by the structure scan).
+    Arx,
+    /// FIR, y = B u + e (ARX with na = 0; orders `[nb nk]`).
+    Fir,
 }
 
 impl Method {
@@ -96,7 +102,14 @@ impl Method {
             Method::Pbsid => "pbsid",
             Method::Ssarx => "ssarx",
             Method::PbsidRowwise => "pbsid_rowwise",
+            Method::Arx => "arx",
+            Method::Fir => "fir",
         }
+    }
+
+    /// Whether this method gives a polynomial model (ARX, FIR).
+    pub fn is_polynomial(self) -> bool {
+        matches!(self, Method::Arx | Method::Fir)
     }
 
     /// Whether this is one of the predictor-based methods (PBSID-opt,
@@ -290,6 +303,14 @@ pub struct IdentificationOptions {
     /// the count through rounding only). Default `None`: 1 in memory, the
     /// machine's on a streamed record.
     pub threads: Option<usize>,
+    /// ARX and FIR: MATLAB's order vector, the same for every
+    /// input–output pair: `[na nb nk]` (ARX) or `[nb nk]` (FIR). Empty,
+    /// the default: chosen by the structure scan (`crate::polynomial`:
+    /// na, nb in 1..=[`Self::max_order`], nk in 1..=5 (0..=5 with
+    /// [`Self::feedthrough`] `Some(true)`), by
+    /// [`Self::order_criterion`]). Other methods: not used (an error when
+    /// given).
+    pub orders: Vec<usize>,
     /// q-Markov: number q of Markov/covariance parameters matched (default
     /// 60, capped below n_r m).
     pub q: Option<usize>,
@@ -324,6 +345,7 @@ impl Default for IdentificationOptions {
             integrator_tolerance: None,
             noise_model: true,
             threads: None,
+            orders: Vec::new(),
             q: None,
             prbs_order: None,
             amplitude: None,
@@ -515,6 +537,7 @@ impl WorkflowOptions {
         if id.method == Method::Qmarkov {
             gap_only(id)?;
         }
+        crate::polynomial::check_options(id)?;
         if !id.output_weight.is_empty() && id.method != Method::Qmarkov {
             return Err(Error::option(
                 "output_weight",

@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::cache::SubspaceCache;
 use crate::diagnostics::{add_phase, add_run_facts};
-use crate::error::{Error, Result};
+use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
 use crate::multirate_start;
 use crate::options::{
@@ -309,6 +309,12 @@ fn run(
         Method::Pbsid | Method::Ssarx | Method::PbsidRowwise => {
             routes::pbsid(id, &sets, multirate)?
         }
+        // ARX, FIR: the least-squares polynomial model, final as estimated
+        // (crate::polynomial).
+        m if m.is_polynomial() => {
+            refined_by_route = true;
+            crate::polynomial::identify(opts, &sets, multirate)?
+        }
         _ => {
             let instruments: Vec<Option<&DMatrix<f64>>> =
                 records.iter().map(|r| r.instrument.as_ref()).collect();
@@ -439,6 +445,29 @@ fn run(
         }
         None => model,
     };
+    // A polynomial model in the data's units; the model and its gain are
+    // its innovations realisation.
+    let polynomial = match details.polynomial.take() {
+        Some(p) => {
+            let p = match &scales {
+                Some(sc) => crate::polynomial::in_units(sc, &p)?,
+                None => p,
+            };
+            details.polynomial = Some(p.clone());
+            Some(p)
+        }
+        None => None,
+    };
+    let model = match &polynomial {
+        Some(p) => {
+            let (m, k) = p
+                .to_innovations_ss()
+                .ctx("the polynomial model's state-space form")?;
+            kalman_gain = Some(k);
+            m
+        }
+        None => model,
+    };
     if opts.validation.require_stable {
         require_stable(&model)?;
     }
@@ -458,9 +487,12 @@ fn run(
     }
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
+    let file = match polynomial {
+        Some(p) => ModelFile::with_polynomial(p).ctx("the polynomial model file")?,
+        None => ModelFile::new(model),
+    };
     let file = finish_file(
-        ModelFile::new(model)
-            .with_method(id.method.name())
+        file.with_method(id.method.name())
             .with_diagnostics(diagnostics),
         operating_point,
         kalman_gain.as_ref(),

@@ -62,6 +62,10 @@ pub struct RouteDetails {
     /// q-Markov Cover: the Markov parameters of the identified cover (before
     /// any refinement).
     pub markov_model: Vec<DMatrix<f64>>,
+    /// ARX and FIR: the polynomial model, in the data's units (with its
+    /// noise covariance and parameter covariance); the model file carries
+    /// it too (`ModelFile::polynomial`).
+    pub polynomial: Option<lifted_lti::PolyModel>,
 }
 
 impl RouteFit {
@@ -84,7 +88,7 @@ impl RouteFit {
         }
     }
 
-    fn with_details(mut self, details: RouteDetails) -> Self {
+    pub(crate) fn with_details(mut self, details: RouteDetails) -> Self {
         self.details = details;
         self
     }

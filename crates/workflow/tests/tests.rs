@@ -18,6 +18,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 mod multirate_closed_loop;
+mod polynomial;
 
 /// 2 inputs, 2 outputs, order 3: poles 0.9 and 0.7 ± 0.3j.
 fn plant() -> StateSpace {

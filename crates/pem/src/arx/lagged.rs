@@ -84,7 +84,8 @@ impl Lagged {
         let (past, future) = (span - 2, 2);
         let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
         let factor =
-            match lifted_subspace::compress_hankel(experiments, past, future, compression, threads) {
+            match lifted_subspace::compress_hankel(experiments, past, future, compression, threads)
+            {
                 Ok(f) => f,
                 Err(lifted_subspace::Error::HorizonTooLong { min_samples, .. }) => {
                     return Err(Error::TooFewSamples {
@@ -177,14 +178,16 @@ impl Lagged {
         }
         let t = r.view((0, 0), (d, d)).into_owned();
         let rhs = r.view((0, d), (d, 1)).column(0).into_owned();
-        let theta = t
-            .solve_upper_triangular(&rhs)
-            .ok_or(Error::RankDeficient {
-                what: "the ARX regressors (lagged inputs and outputs)",
-                rank: 0,
-                needed: d,
-            })?;
-        let loss = if r.nrows() > d { r[(d, d)].powi(2) } else { 0.0 };
+        let theta = t.solve_upper_triangular(&rhs).ok_or(Error::RankDeficient {
+            what: "the ARX regressors (lagged inputs and outputs)",
+            rank: 0,
+            needed: d,
+        })?;
+        let loss = if r.nrows() > d {
+            r[(d, d)].powi(2)
+        } else {
+            0.0
+        };
         let mut coef = DVector::zeros(d + 1);
         coef.rows_mut(0, d).copy_from(&(-&theta));
         coef[d] = 1.0;
@@ -201,7 +204,12 @@ impl Lagged {
 
     /// Mean squared residual of `target − regressors·θ` over this data's
     /// rows (a held-out loss of coefficients fitted elsewhere): O(k d).
-    pub(crate) fn loss_of(&self, regressors: &[Column], target: Column, theta: &DVector<f64>) -> f64 {
+    pub(crate) fn loss_of(
+        &self,
+        regressors: &[Column],
+        target: Column,
+        theta: &DVector<f64>,
+    ) -> f64 {
         let mut cols = regressors.to_vec();
         cols.push(target);
         let m = self.gather(&cols);
@@ -214,6 +222,8 @@ impl Lagged {
     /// Mean square of output `i` over the rows (the loss of the zero
     /// predictor). O(k).
     pub(crate) fn mean_square(&self, i: usize) -> f64 {
-        self.lt.column(self.column(self.output(i, 0))).norm_squared()
+        self.lt
+            .column(self.column(self.output(i, 0)))
+            .norm_squared()
     }
 }

@@ -44,8 +44,8 @@ use crate::error::{Error, Result};
 use lagged::{Column, Lagged, Solve};
 
 pub use scan::{
-    ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion,
-    arx_scan, estimate_delays,
+    ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx_scan,
+    estimate_delays,
 };
 
 /// Options of [`arx`].
@@ -114,7 +114,12 @@ fn longest_lag(orders: &PolyOrders) -> usize {
         .nb
         .iter()
         .zip(&orders.nk)
-        .flat_map(|(nb, nk)| nb.iter().zip(nk).filter(|(b, _)| **b > 0).map(|(b, k)| k + b - 1))
+        .flat_map(|(nb, nk)| {
+            nb.iter()
+                .zip(nk)
+                .filter(|(b, _)| **b > 0)
+                .map(|(b, k)| k + b - 1)
+        })
         .max()
         .unwrap_or(0);
     a.max(b)
@@ -196,7 +201,12 @@ pub fn arx(
 ) -> Result<ArxFit> {
     let (nu, ny) = channels(experiments)?;
     check_orders(orders, nu, ny)?;
-    let data = Lagged::new(experiments, longest_lag(orders), opts.compression, opts.threads)?;
+    let data = Lagged::new(
+        experiments,
+        longest_lag(orders),
+        opts.compression,
+        opts.threads,
+    )?;
     fit_structure(&data, orders, ts)
 }
 

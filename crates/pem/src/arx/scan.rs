@@ -217,11 +217,7 @@ pub fn arx_scan(
                     let (cols, _) = regressors(&data, &orders, i);
                     d += cols.len();
                     if data.rows <= cols.len() {
-                        failed = Some(format!(
-                            "{} regressors for {} rows",
-                            cols.len(),
-                            data.rows
-                        ));
+                        failed = Some(format!("{} regressors for {} rows", cols.len(), data.rows));
                         break;
                     }
                     match data.solve(&cols, data.output(i, 0)) {
@@ -241,7 +237,10 @@ pub fn arx_scan(
                     skipped.push((structure, why));
                     continue;
                 }
-                let log_v: f64 = loss.iter().map(|v: &f64| v.max(f64::MIN_POSITIVE).ln()).sum();
+                let log_v: f64 = loss
+                    .iter()
+                    .map(|v: &f64| v.max(f64::MIN_POSITIVE).ln())
+                    .sum();
                 rows.push(ArxScanRow {
                     structure,
                     parameters: d,

@@ -62,7 +62,11 @@ fn reference(
     let phi = DMatrix::from_fn(rows, cols.len(), |r, c| {
         let t = r + lags;
         let (is_y, ch, lag) = cols[c];
-        if is_y { -y[(t - lag, ch)] } else { u[(t - lag, ch)] }
+        if is_y {
+            -y[(t - lag, ch)]
+        } else {
+            u[(t - lag, ch)]
+        }
     });
     let target = DVector::from_fn(rows, |r, _| y[(r + lags, i)]);
     let qr = phi.clone().qr();
@@ -181,7 +185,10 @@ fn the_scan_finds_the_true_structure_and_the_delay() {
     let e = gauss(8, 4000, 1, 0.2);
     let y = g.simulate(&u, Some(&e)).unwrap();
     let (ue, ye) = (u.rows(0, 3000).into_owned(), y.rows(0, 3000).into_owned());
-    let (uv, yv) = (u.rows(3000, 1000).into_owned(), y.rows(3000, 1000).into_owned());
+    let (uv, yv) = (
+        u.rows(3000, 1000).into_owned(),
+        y.rows(3000, 1000).into_owned(),
+    );
     let est = [Experiment { u: &ue, y: &ye }];
     let val = [Experiment { u: &uv, y: &yv }];
     let opts = ArxScanOptions {
@@ -193,7 +200,14 @@ fn the_scan_finds_the_true_structure_and_the_delay() {
     let scan = arx_scan(&est, &val, &opts).unwrap();
     assert_eq!(scan.rows.len() + scan.skipped.len(), 5 * 4 * 6);
     let best = scan.best(StructureCriterion::Mdl).unwrap().structure;
-    assert_eq!(best, ArxStructure { na: 1, nb: 2, nk: 3 });
+    assert_eq!(
+        best,
+        ArxStructure {
+            na: 1,
+            nb: 2,
+            nk: 3
+        }
+    );
     // The held-out loss does not penalise parameters: its choice may carry
     // lags the truth lacks, but it must span the true lags 3 and 4 and
     // predict the validation records as well as the true structure.
@@ -203,7 +217,14 @@ fn the_scan_finds_the_true_structure_and_the_delay() {
     let truth = scan
         .rows
         .iter()
-        .find(|r| r.structure == ArxStructure { na: 1, nb: 2, nk: 3 })
+        .find(|r| {
+            r.structure
+                == ArxStructure {
+                    na: 1,
+                    nb: 2,
+                    nk: 3,
+                }
+        })
         .unwrap();
     let (v_best, v_true) = (
         held.validation_loss.as_ref().unwrap()[0],

@@ -1,0 +1,307 @@
+//! The polynomial routes: ARX and FIR by least squares
+//! (`lifted_pem::arx`), their structure from the options or from the
+//! structure scan (`lifted_pem::arx_scan`).
+//!
+//! **Structure.** `orders` = `[na nb nk]` (ARX) or `[nb nk]` (FIR), the
+//! same for every input–output pair (A full n_y × n_y), as MATLAB's
+//! `arx(data, [na nb nk])`. Without it, the scan compares every structure
+//! of the grid na, nb ∈ 1..=max_order (FIR: na = 0; a fixed order n: na =
+//! nb = n) and nk ∈ 1..=[`SCAN_MAX_DELAY`] (from 0 when a feedthrough is
+//! asked for) on one compression of the records, ranked by
+//! `order_criterion`: the one-step loss on held-out data (default: the
+//! last [`SCAN_HOLDOUT_SHARE`] of every record, the coefficients fitted on
+//! the rest; MATLAB's `arxstruc(ze, zv, …)` with `selstruc(…, 0)`),
+//! Akaike's criterion (AIC, AICc) or Rissanen's MDL (BIC) on the whole
+//! records. The chosen structure is then fitted to the whole records.
+//!
+//! **Model.** The polynomial model with its noise covariance Λ and the
+//! covariance of its parameters, in the data's units; the state-space
+//! model the rest of the workflow (validation, prediction, MPC) works with
+//! is its innovations realisation (A, B, C, D, K) (`PolyModel::to_innovations_ss`).
+//! No refinement follows: the least-squares estimate is the
+//! prediction-error estimate of the ARX structure.
+//!
+//! Records whose outputs are measured at slower rates are refused: the
+//! ARX regressors are past outputs at every sample.
+
+use lifted_lti::{Dataset, PolyModel, PolyOrders};
+use lifted_pem::{ArxOptions, ArxScanOptions, ArxStructure, StructureCriterion, arx, arx_scan};
+use lifted_subspace::Experiment;
+use nalgebra::DMatrix;
+use serde_json::json;
+
+use crate::error::{Context, Error, Result};
+use crate::options::{IdentificationOptions, Method, Order, OrderCriterion, WorkflowOptions};
+use crate::routes::{RouteDetails, RouteFit};
+
+/// Largest input delay (samples) the structure scan tries. Default 5: the
+/// scan's grid, like MATLAB's `struc(1:10, 1:10, 1:5)`; a longer delay is
+/// asked for with `orders`.
+pub const SCAN_MAX_DELAY: usize = 5;
+
+/// Share of every record the held-out criterion of the structure scan
+/// keeps for validation (the last third; the first two thirds estimate).
+/// A split, not a tuned value: two thirds leave the estimate most of the
+/// data while a third gives the held-out loss a spread of about
+/// √(2/(N/3)) relative.
+pub const SCAN_HOLDOUT_SHARE: f64 = 1.0 / 3.0;
+
+/// Records shorter than this (samples, after the split) are not split for
+/// the held-out criterion: AIC ranks the structures instead (with a
+/// warning). 50 samples per block, at least the 20 rows per parameter of
+/// the smallest structures, keep the held-out loss meaningful.
+const MIN_HOLDOUT_SAMPLES: usize = 50;
+
+/// The option checks of the polynomial methods (part of
+/// `WorkflowOptions::check`).
+pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
+    if !id.method.is_polynomial() {
+        if !id.orders.is_empty() {
+            return Err(Error::option(
+                "orders",
+                "only used with the arx and fir methods",
+            ));
+        }
+        return Ok(());
+    }
+    let expected = if id.method == Method::Arx { 3 } else { 2 };
+    if !id.orders.is_empty() {
+        if id.orders.len() != expected {
+            return Err(Error::option(
+                "orders",
+                format!(
+                    "{} takes {} ({expected} numbers), got {:?}",
+                    id.method.name(),
+                    if expected == 3 {
+                        "[na nb nk]"
+                    } else {
+                        "[nb nk]"
+                    },
+                    id.orders
+                ),
+            ));
+        }
+        let nb = id.orders[expected - 2];
+        if nb == 0 {
+            return Err(Error::option(
+                "orders",
+                "nb must be at least 1 (the model needs an input term)",
+            ));
+        }
+        if id.feedthrough == Some(false) && id.orders[expected - 1] == 0 {
+            return Err(Error::option(
+                "orders",
+                "nk = 0 is a direct feedthrough, but the feedthrough is fixed at 0",
+            ));
+        }
+    } else if matches!(
+        id.order_criterion,
+        OrderCriterion::Gap | OrderCriterion::Svc
+    ) {
+        return Err(Error::option(
+            "order_criterion",
+            "the ARX/FIR structure scan ranks by the held-out loss (validation), AIC, AICc or BIC (MDL), not by singular values",
+        ));
+    }
+    Ok(())
+}
+
+/// The uniform orders of `s` for `nu` inputs and `ny` outputs.
+fn orders_of(s: ArxStructure, nu: usize, ny: usize) -> PolyOrders {
+    s.orders(nu, ny)
+}
+
+/// The structure the options fix, if they do.
+fn fixed_structure(id: &IdentificationOptions) -> Option<ArxStructure> {
+    match (id.method, id.orders.as_slice()) {
+        (Method::Arx, &[na, nb, nk]) => Some(ArxStructure { na, nb, nk }),
+        (Method::Fir, &[nb, nk]) => Some(ArxStructure { na: 0, nb, nk }),
+        _ => None,
+    }
+}
+
+/// The scan's grid for the options.
+fn grid(id: &IdentificationOptions) -> ArxScanOptions {
+    let (na, nb): (Vec<usize>, Vec<usize>) = match (id.method, id.order) {
+        (Method::Fir, Order::Fixed(n)) => (vec![0], vec![n]),
+        (Method::Fir, Order::Auto) => (vec![0], (1..=id.max_order).collect()),
+        (_, Order::Fixed(n)) => (vec![n], vec![n]),
+        (_, Order::Auto) => ((1..=id.max_order).collect(), (1..=id.max_order).collect()),
+    };
+    let first = if id.feedthrough == Some(true) { 0 } else { 1 };
+    ArxScanOptions {
+        na,
+        nb,
+        nk: (first..=SCAN_MAX_DELAY).collect(),
+        threads: id.threads.unwrap_or(1),
+        ..Default::default()
+    }
+}
+
+/// The leading and trailing parts of every record, split at
+/// 1 − [`SCAN_HOLDOUT_SHARE`].
+fn split(sets: &[Dataset]) -> (Parts, Parts) {
+    let mut est = Vec::new();
+    let mut val = Vec::new();
+    for d in sets {
+        let n = d.len();
+        let cut = n - (n as f64 * SCAN_HOLDOUT_SHARE).round() as usize;
+        est.push((
+            d.u().rows(0, cut).into_owned(),
+            d.y().rows(0, cut).into_owned(),
+        ));
+        val.push((
+            d.u().rows(cut, n - cut).into_owned(),
+            d.y().rows(cut, n - cut).into_owned(),
+        ));
+    }
+    (est, val)
+}
+
+/// Records as owned (u, y) pairs.
+type Parts = Vec<(DMatrix<f64>, DMatrix<f64>)>;
+
+fn experiments(parts: &[(DMatrix<f64>, DMatrix<f64>)]) -> Vec<Experiment<'_>> {
+    parts.iter().map(|(u, y)| Experiment { u, y }).collect()
+}
+
+/// The structure chosen by the scan, and the scan's diagnostics.
+fn scanned(
+    id: &IdentificationOptions,
+    sets: &[Dataset],
+    warnings: &mut Vec<String>,
+) -> Result<(ArxStructure, serde_json::Value)> {
+    let opts = grid(id);
+    let shortest = sets.iter().map(Dataset::len).min().unwrap_or(0);
+    let held_out = id.order_criterion == OrderCriterion::Validation
+        && (shortest as f64 * SCAN_HOLDOUT_SHARE) as usize >= MIN_HOLDOUT_SAMPLES;
+    if id.order_criterion == OrderCriterion::Validation && !held_out {
+        warnings.push(format!(
+            "the records are too short to hold out {:.0} % of them ({shortest} samples): the ARX structure was ranked by AIC",
+            100.0 * SCAN_HOLDOUT_SHARE
+        ));
+    }
+    let (criterion, scan) = if held_out {
+        let (est, val) = split(sets);
+        let scan =
+            arx_scan(&experiments(&est), &experiments(&val), &opts).ctx("ARX structure scan")?;
+        (StructureCriterion::Validation, scan)
+    } else {
+        let whole: Parts = sets
+            .iter()
+            .map(|d| (d.u().clone(), d.y().clone()))
+            .collect();
+        let scan = arx_scan(&experiments(&whole), &[], &opts).ctx("ARX structure scan")?;
+        let c = if id.order_criterion == OrderCriterion::Bic {
+            StructureCriterion::Mdl
+        } else {
+            StructureCriterion::Aic
+        };
+        (c, scan)
+    };
+    let best = scan
+        .best(criterion)
+        .ok_or_else(|| Error::Data("the ARX structure scan fitted no candidate".into()))?;
+    let chosen = best.structure;
+    let candidates: Vec<serde_json::Value> = scan
+        .rows
+        .iter()
+        .map(|r| {
+            json!({
+                "na": r.structure.na, "nb": r.structure.nb, "nk": r.structure.nk,
+                "parameters": r.parameters,
+                "value": r.value(criterion),
+            })
+        })
+        .collect();
+    let d = json!({
+        "criterion": match criterion {
+            StructureCriterion::Validation => "validation",
+            StructureCriterion::Aic => "aic",
+            StructureCriterion::Mdl => "mdl",
+        },
+        "holdout_share": held_out.then_some(SCAN_HOLDOUT_SHARE),
+        "max_delay": SCAN_MAX_DELAY,
+        "rows": scan.samples,
+        "validation_rows": scan.validation_samples,
+        "skipped": scan.skipped.len(),
+        "chosen": {"na": chosen.na, "nb": chosen.nb, "nk": chosen.nk},
+        "candidates": candidates,
+    });
+    Ok((chosen, d))
+}
+
+/// The ARX/FIR route on the (detrended, scaled) records.
+///
+/// Errors: [`Error::InvalidOption`] (`method`) on multirate records;
+/// [`Error::Step`] with `lifted_pem`'s error (too short, not exciting).
+pub(crate) fn identify(
+    opts: &WorkflowOptions,
+    sets: &[Dataset],
+    multirate: bool,
+) -> Result<RouteFit> {
+    let id = &opts.identification;
+    if multirate {
+        return Err(Error::option(
+            "method",
+            format!(
+                "{} needs every output sample (its regressors are past outputs); this record has outputs measured at slower rates: use n4sid (the multirate routes) or pbsid",
+                id.method.name()
+            ),
+        ));
+    }
+    let first = sets
+        .first()
+        .ok_or_else(|| Error::Data("no data record".into()))?;
+    let (nu, ny, ts) = (first.n_inputs(), first.y().ncols(), first.ts());
+    let mut warnings = Vec::new();
+    let (structure, scan) = match fixed_structure(id) {
+        Some(s) => (s, serde_json::Value::Null),
+        None => scanned(id, sets, &mut warnings)?,
+    };
+    let whole: Parts = sets
+        .iter()
+        .map(|d| (d.u().clone(), d.y().clone()))
+        .collect();
+    let arx_opts = ArxOptions {
+        threads: id.threads.unwrap_or(1),
+        ..Default::default()
+    };
+    let fit = arx(
+        &experiments(&whole),
+        &orders_of(structure, nu, ny),
+        ts,
+        &arx_opts,
+    )
+    .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
+    let (model, k) = fit
+        .model
+        .to_innovations_ss()
+        .ctx("the polynomial model's state-space form")?;
+    let mut diagnostics = json!({
+        "route": id.method.name(),
+        "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
+        "parameters": fit.model.n_parameters(),
+        "loss": fit.loss,
+        "one_step_fit": fit.fit,
+        "rows": fit.rows,
+        "compression": fit.compression.used,
+        "structure_scan": scan,
+    });
+    for w in warnings {
+        crate::diagnostics::push_warning(&mut diagnostics, w);
+    }
+    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
+    route.suggested_order = route.order;
+    route.kalman_gain = Some(k);
+    Ok(route.with_details(RouteDetails {
+        polynomial: Some(fit.model),
+        ..Default::default()
+    }))
+}
+
+/// The polynomial model `p` of the channels scaled by `sc` in the data's
+/// units (see `ChannelScales::poly`).
+pub(crate) fn in_units(sc: &crate::ChannelScales, p: &PolyModel) -> Result<PolyModel> {
+    sc.poly(p)
+}

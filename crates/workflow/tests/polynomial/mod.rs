@@ -1,0 +1,183 @@
+//! The polynomial routes (ARX, FIR; issue 49): the model in the data's
+//! units with its covariance, the structure scan, the model file, refusals.
+
+use lifted_lti::{Dataset, ModelFile, PolyModel, Polynomials};
+use lifted_workflow::{Error, Method, Record, WorkflowOptions, identify};
+use nalgebra::DMatrix;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+fn gauss(seed: u64, n: usize, m: usize, sd: f64) -> DMatrix<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    DMatrix::from_fn(n, m, |_, _| {
+        let v: f64 = StandardNormal.sample(&mut rng);
+        sd * v
+    })
+}
+
+fn options(method: Method, orders: &[usize]) -> WorkflowOptions {
+    let mut o = WorkflowOptions::default();
+    o.identification.method = method;
+    o.identification.orders = orders.to_vec();
+    o
+}
+
+/// A 2×2 ARX with coupled A and delays 1 and 2, simulated in "plant units":
+/// inputs scaled by (100, 0.01) and outputs offset by (5, −3) around the
+/// model's deviations.
+fn coupled_record(n: usize, seed: u64) -> (PolyModel, Dataset) {
+    let p = Polynomials {
+        a: Some(vec![
+            vec![vec![1.0, -0.8, 0.15], vec![0.0, 0.2]],
+            vec![vec![0.0, -0.1], vec![1.0, -0.6]],
+        ]),
+        b: vec![
+            vec![vec![0.01, 0.004], vec![30.0]],
+            vec![vec![0.005], vec![80.0, -20.0]],
+        ],
+        nk: vec![vec![1, 2], vec![1, 1]],
+        ..Default::default()
+    };
+    let truth = PolyModel::new(p, 1.0).unwrap();
+    let mut u = gauss(seed, n, 2, 1.0);
+    u.column_mut(0).iter_mut().for_each(|v| *v *= 100.0);
+    u.column_mut(1).iter_mut().for_each(|v| *v *= 0.01);
+    let e = gauss(seed + 1, n, 2, 0.1);
+    let mut y = truth.simulate(&u, Some(&e)).unwrap();
+    y.column_mut(0).iter_mut().for_each(|v| *v += 5.0);
+    y.column_mut(1).iter_mut().for_each(|v| *v -= 3.0);
+    (truth, Dataset::single_rate(1.0, u, y).unwrap())
+}
+
+#[test]
+fn arx_with_its_orders_gives_the_polynomials_in_the_data_units() {
+    let (truth, data) = coupled_record(6000, 11);
+    // [na nb nk] = [2 2 1] for every pair: the truth's structure nested in
+    // it (its A12, A21 of degree 1, B12 starting at lag 2).
+    let id = identify(&[Record::new(data)], &options(Method::Arx, &[2, 2, 1])).unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    assert_eq!(p.n_parameters(), 16);
+    let std = p.std().unwrap();
+    // Each true coefficient within 4.5 standard deviations (16 of them;
+    // the true zeros of the padded structure included).
+    let check = |got: f64, sd: f64, want: f64, what: &str| {
+        assert!(
+            (got - want).abs() < 4.5 * sd,
+            "{what}: {got} ± {sd}, truth {want}"
+        );
+    };
+    let theta = p.parameters();
+    // Output 1: A11 [a1 a2], A12 [a1 a2], B11 [b0 b1], B12 [b0 b1].
+    let t1 = [-0.8, 0.15, 0.2, 0.0, 0.01, 0.004, 0.0, 30.0];
+    // Output 2: A21, A22, B21, B22.
+    let t2 = [-0.1, 0.0, -0.6, 0.0, 0.005, 0.0, 80.0, -20.0];
+    for (i, want) in t1.iter().chain(&t2).enumerate() {
+        check(theta[i], std[i], *want, &format!("parameter {i}"));
+    }
+    // The noise covariance in the data's units (σ = 0.1).
+    let lambda = p.noise_variance();
+    assert!((lambda[(0, 0)] - 0.01).abs() < 0.002, "{lambda}");
+    // The operating point is the means removed.
+    let op = id.file.operating_point.as_ref().unwrap();
+    assert!(
+        (op.y0[0] - 5.0).abs() < 1.0 && (op.y0[1] + 3.0).abs() < 1.0,
+        "{op:?}"
+    );
+    // The model file is a polynomial file whose matrices realise the
+    // polynomials, and it round-trips.
+    assert_eq!(id.file.kind, "polynomial");
+    let json = id.file.to_json().unwrap();
+    let back = ModelFile::from_json(&json).unwrap();
+    assert_eq!(back.polynomial.as_ref(), Some(p));
+    let w = [0.01, 0.3, 1.0, 2.5];
+    let g_ss = id.file.model.freqresp(&w).unwrap();
+    let g_p = p.freqresp(&w).unwrap();
+    for (a, b) in g_ss.iter().zip(&g_p) {
+        assert!((a - b).iter().all(|z| z.norm() < 1e-8));
+    }
+    // The frequency response of the estimate is that of the truth where
+    // the record holds many periods (≥ 280 at 0.3 rad/s; at 0.01 rad/s only
+    // about ten, and the weakest entry is off by some 13 % there): within
+    // 5 % of each entry (measured at most 2 %).
+    let w_hi = [0.3, 1.0, 2.5];
+    let g_t = truth.freqresp(&w_hi).unwrap();
+    for (a, b) in p.freqresp(&w_hi).unwrap().iter().zip(&g_t) {
+        for (x, y) in a.iter().zip(b.iter()) {
+            assert!((x - y).norm() < 0.05 * y.norm(), "{x} {y}");
+        }
+    }
+    assert_eq!(id.file.diagnostics["route"], "arx");
+}
+
+#[test]
+fn the_structure_scan_finds_the_lags_and_the_delay() {
+    // (1 − 0.7q⁻¹) y = q⁻³(1 + 0.6q⁻¹) u + e: the default scan (held-out
+    // last third) must cover the true lags 3 and 4 with a model that
+    // predicts as well as the truth.
+    let g = PolyModel::arx(&[1.0, -0.7], &[1.0, 0.6], 3, 1.0).unwrap();
+    let u = gauss(21, 3000, 1, 1.0);
+    let e = gauss(22, 3000, 1, 0.2);
+    let y = g.simulate(&u, Some(&e)).unwrap();
+    let data = Dataset::single_rate(1.0, u, y).unwrap();
+    let id = identify(&[Record::new(data.clone())], &options(Method::Arx, &[])).unwrap();
+    let d = &id.file.diagnostics;
+    let chosen = &d["structure_scan"]["chosen"];
+    let (na, nb, nk) = (
+        chosen["na"].as_u64().unwrap(),
+        chosen["nb"].as_u64().unwrap(),
+        chosen["nk"].as_u64().unwrap(),
+    );
+    assert!(na >= 1 && nk <= 3 && nk + nb >= 5, "{chosen}");
+    assert_eq!(d["structure_scan"]["criterion"], "validation");
+    // BIC (MDL) is parsimonious: the true structure exactly.
+    let mut bic = options(Method::Arx, &[]);
+    bic.identification.order_criterion = lifted_workflow::OrderCriterion::Bic;
+    let id = identify(&[Record::new(data)], &bic).unwrap();
+    assert_eq!(
+        id.file.diagnostics["structure_scan"]["chosen"],
+        serde_json::json!({"na": 1, "nb": 2, "nk": 3})
+    );
+}
+
+#[test]
+fn fir_and_the_refusals() {
+    let g = PolyModel::fir(&[0.5, 0.3, 0.1], 1, 1.0).unwrap();
+    let u = gauss(31, 800, 1, 1.0);
+    let y = g.simulate(&u, Some(&gauss(32, 800, 1, 0.05))).unwrap();
+    let data = Dataset::single_rate(1.0, u.clone(), y.clone()).unwrap();
+    let id = identify(&[Record::new(data.clone())], &options(Method::Fir, &[3, 1])).unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    for (a, b) in p.parameters().iter().zip([0.5, 0.3, 0.1]) {
+        assert!((a - b).abs() < 0.02, "{a} {b}");
+    }
+    let bad = |o: WorkflowOptions, d: &Dataset, what: &str| {
+        let e = identify(&[Record::new(d.clone())], &o).unwrap_err();
+        assert!(
+            matches!(&e, Error::InvalidOption { option, .. } if *option == what),
+            "{e}"
+        );
+    };
+    bad(options(Method::Arx, &[2, 2]), &data, "orders");
+    bad(options(Method::Fir, &[0, 1]), &data, "orders");
+    bad(options(Method::N4sid, &[2, 2, 1]), &data, "orders");
+    let mut gap = options(Method::Arx, &[]);
+    gap.identification.order_criterion = lifted_workflow::OrderCriterion::Gap;
+    bad(gap, &data, "order_criterion");
+    // An output measured every 4 samples: ARX regressors need them all.
+    let mut slow = y.clone();
+    for (t, v) in slow.iter_mut().enumerate() {
+        if t % 4 != 0 {
+            *v = f64::NAN;
+        }
+    }
+    let multirate = Dataset::new(
+        1.0,
+        u,
+        slow,
+        vec![lifted_lti::InputChannel::new("u1", 1)],
+        vec![lifted_lti::OutputChannel::new("y1", 4, 0)],
+    )
+    .unwrap();
+    bad(options(Method::Arx, &[2, 2, 1]), &multirate, "method");
+}
