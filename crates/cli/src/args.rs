@@ -461,6 +461,14 @@ pub enum MethodArg {
     /// horizons as pbsid.
     #[value(name = "pbsid-rowwise")]
     PbsidRowwise,
+    /// ARX, A(q) y = B(q) u + e, by least squares, with the parameters' standard deviations:
+    /// --orders "na nb nk" (the same for every input–output pair; A full for several outputs),
+    /// else the structure scan (na, nb up to --max-order, nk 1–5) by --order-criterion
+    /// (validation: the one-step loss on the last third of the records; aic; bic = MDL).
+    /// Single-rate records (its regressors are past outputs).
+    Arx,
+    /// FIR, y = B(q) u + e (ARX with na = 0): --orders "nb nk", else the scan over nb.
+    Fir,
 }
 
 impl MethodArg {
@@ -475,6 +483,8 @@ impl MethodArg {
             MethodArg::Pbsid => "pbsid",
             MethodArg::Ssarx => "ssarx",
             MethodArg::PbsidRowwise => "pbsid_rowwise",
+            MethodArg::Arx => "arx",
+            MethodArg::Fir => "fir",
         }
     }
 }
@@ -523,6 +533,10 @@ pub struct IdentifyArgs {
     /// simulation fit on held-out blocks).
     #[arg(long, default_value = "auto")]
     pub order: String,
+    /// ARX/FIR: MATLAB's order vector, "na nb nk" (arx) or "nb nk" (fir), the same for every
+    /// input–output pair (spaces or commas). Default: chosen by the structure scan.
+    #[arg(long)]
+    pub orders: Option<String>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
     /// to the largest order the records and horizon identify).
     #[arg(long, default_value_t = 10)]

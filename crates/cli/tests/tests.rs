@@ -4644,3 +4644,124 @@ fn integrators_are_listed_and_their_tolerance_is_an_option() {
     let msg = fails(&bad, 2);
     assert!(msg.contains("--integrator-tolerance"), "{msg}");
 }
+
+mod polynomial {
+    //! ARX and FIR from the command line (issue 49): the polynomials with
+    //! their standard deviations, a polynomial model file the other
+    //! commands take, refusals.
+    use super::*;
+
+    #[test]
+    fn arx_prints_the_polynomials_and_its_model_file_feeds_validate_and_mpc() {
+        let d = tmp("arx_cli");
+        let (id, val) = single_rate_data(&d);
+        let out = p(&d, "arx.json");
+        let text = ok(&[
+            "identify",
+            "--method",
+            "arx",
+            "--orders",
+            "2, 2 1",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        // The polynomials with a standard deviation after each free
+        // coefficient (4 of them).
+        assert!(text.contains("A(q) = 1 "), "{text}");
+        assert_eq!(text.matches("(±").count(), 4, "{text}");
+        let f = ModelFile::read(&out).unwrap();
+        assert_eq!(f.kind, "polynomial");
+        let poly = f.polynomial.as_ref().unwrap();
+        assert_eq!(poly.parameters().len(), 4);
+        assert!(poly.std().unwrap().iter().all(|s| *s > 0.0 && *s < 0.05));
+        // The plant's poles (SNR 1000: ARX is nearly unbiased).
+        let got = pole_modulus(&f.model);
+        let want = pole_modulus(&plant());
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() < 0.03, "{got:?} vs {want:?}");
+        }
+        ok(&["validate", "--model", &out, "--data", &val]);
+        let sim = p(&d, "mpc.csv");
+        ok(&[
+            "mpc",
+            "--model",
+            &out,
+            "--setpoint",
+            "y1=1",
+            "--steps",
+            "40",
+            "--out",
+            &sim,
+        ]);
+        // The scan without orders, and FIR.
+        let auto = p(&d, "auto.json");
+        ok(&[
+            "identify",
+            "--method",
+            "arx",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &auto,
+        ]);
+        let f = ModelFile::read(&auto).unwrap();
+        assert!(f.diagnostics["structure_scan"]["chosen"].is_object());
+        let fir = p(&d, "fir.json");
+        ok(&[
+            "identify",
+            "--method",
+            "fir",
+            "--orders",
+            "20 1",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &fir,
+        ]);
+    }
+
+    #[test]
+    fn bad_orders_are_named() {
+        let d = tmp("arx_cli_bad");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "m.json");
+        let run = |method: &str, orders: &str| {
+            fails(
+                &[
+                    "identify",
+                    "--method",
+                    method,
+                    "--orders",
+                    orders,
+                    "--data",
+                    &id,
+                    "--inputs",
+                    "u1",
+                    "--outputs",
+                    "y1",
+                    "--out",
+                    &out,
+                ],
+                2,
+            )
+        };
+        assert!(run("arx", "2 x 1").contains("'x' is not a non-negative integer"));
+        assert!(run("arx", "2 2").contains("[na nb nk]"));
+        assert!(run("n4sid", "2 2 1").contains("only used with the arx and fir methods"));
+        assert!(run("fir", "0 1").contains("nb must be at least 1"));
+    }
+}

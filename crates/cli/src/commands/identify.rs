@@ -16,6 +16,9 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     if a.profile {
         print_profile(&file.diagnostics);
     }
+    if let Some(p) = &file.polynomial {
+        println!("{}", p.present());
+    }
     let m = &file.model;
     println!(
         "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",

@@ -128,7 +128,12 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Pbsid => Method::Pbsid,
         MethodArg::Ssarx => Method::Ssarx,
         MethodArg::PbsidRowwise => Method::PbsidRowwise,
+        MethodArg::Arx => Method::Arx,
+        MethodArg::Fir => Method::Fir,
     };
+    if let Some(text) = &a.orders {
+        id.orders = parse_orders(text)?;
+    }
     id.order = parse_order(&a.order, a.max_order)?;
     id.max_order = a.max_order;
     id.order_criterion = match a.order_criterion {
@@ -174,6 +179,30 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     o.identification.gain_check.stop_share = a.gain_stop_share;
     o.validation.require_stable = a.stable;
     Ok(o)
+}
+
+/// MATLAB's order vector from `--orders`: non-negative integers separated
+/// by spaces or commas.
+fn parse_orders(text: &str) -> CliResult<Vec<usize>> {
+    let parts: Vec<&str> = text
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|p| !p.is_empty())
+        .collect();
+    if parts.is_empty() {
+        return Err(input(format!(
+            "--orders '{text}': expected numbers such as \"2 2 1\" (na nb nk)"
+        )));
+    }
+    parts
+        .iter()
+        .map(|p| {
+            p.parse::<usize>().map_err(|_| {
+                input(format!(
+                    "--orders '{text}': '{p}' is not a non-negative integer"
+                ))
+            })
+        })
+        .collect()
 }
 
 /// The message for a missing `--inputs`/`--outputs` (`flag`): the first

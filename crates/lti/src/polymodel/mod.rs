@@ -860,16 +860,22 @@ impl PolyModel {
 
 /// `1 - 1.5 q^-1 + 0.7 q^-2` (ascending powers, up to 6 decimals; the
 /// zero polynomial for an empty slice).
-fn display_q(p: &[f64]) -> String {
+/// `p` in powers of q⁻¹; the coefficients from `fixed` on followed by
+/// "(±σ)" when their standard deviations `std` are given.
+fn display_q(p: &[f64], std: Option<&[f64]>, fixed: usize) -> String {
     let mut out = String::new();
     for (l, &c) in p.iter().enumerate() {
-        if c == 0.0 && !(out.is_empty() && l + 1 == p.len()) {
+        let sd = std.and_then(|s| l.checked_sub(fixed).and_then(|i| s.get(i)));
+        if c == 0.0 && sd.is_none() && !(out.is_empty() && l + 1 == p.len()) {
             continue;
         }
         let mag = format!("{:.6}", c.abs());
-        let mag = mag.trim_end_matches('0').trim_end_matches('.');
+        let mut mag = mag.trim_end_matches('0').trim_end_matches('.').to_string();
+        if let Some(sd) = sd {
+            mag = format!("{mag} (±{})", significant(*sd));
+        }
         let term = match l {
-            0 => mag.to_string(),
+            0 => mag,
             1 => format!("{mag} q^-1"),
             _ => format!("{mag} q^-{l}"),
         };
@@ -883,11 +889,25 @@ fn display_q(p: &[f64]) -> String {
     if out.is_empty() { "0".into() } else { out }
 }
 
-impl std::fmt::Display for PolyModel {
-    /// The family, `ts` and every non-trivial polynomial, one a line:
-    /// `A(q) = 1 - 1.5 q^-1`, `B(q) = q^-1 (1 + 0.5 q^-1)`, with indices
-    /// (`A12`, `B21`, `C2`) when there are several channels.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+/// A standard deviation to two significant digits.
+fn significant(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return format!("{v}");
+    }
+    let digits = (1 - v.log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
+impl PolyModel {
+    /// The model as [`Display`](std::fmt::Display) writes it, each free
+    /// coefficient followed by its standard deviation "(±σ)" when the model
+    /// carries a parameter covariance (MATLAB's `present`). O(r).
+    pub fn present(&self) -> String {
+        self.render(self.std().as_deref())
+    }
+
+    fn render(&self, std: Option<&[f64]>) -> String {
+        use std::fmt::Write;
         let family = match self.family() {
             PolyFamily::Arx => "ARX",
             PolyFamily::Armax => "ARMAX",
@@ -896,11 +916,10 @@ impl std::fmt::Display for PolyModel {
             PolyFamily::Fir => "FIR",
             PolyFamily::General => "general",
         };
-        write!(
-            f,
+        let mut f = format!(
             "discrete-time polynomial model ({family}, T = {}), {} output(s), {} input(s)",
             self.ts, self.ny, self.nu
-        )?;
+        );
         let mimo = self.ny > 1 || self.nu > 1;
         let idx2 = |i: usize, j: usize| {
             if mimo {
@@ -917,11 +936,20 @@ impl std::fmt::Display for PolyModel {
             }
         };
         let trivial = |p: &[f64], one: f64| p.len() == 1 && p[0] == one;
+        // The standard deviations of the next polynomial's free
+        // coefficients (parameters() order).
+        let mut at = 0usize;
+        let mut take = |free: usize| {
+            let s = std.map(|s| &s[at.min(s.len())..(at + free).min(s.len())]);
+            at += free;
+            s
+        };
         for i in 0..self.ny {
             for j in 0..self.ny {
                 let a = self.a(i, j);
+                let sd = take(a.len() - 1);
                 if !trivial(a, if i == j { 1.0 } else { 0.0 }) {
-                    write!(f, "\nA{}(q) = {}", idx2(i, j), display_q(a))?;
+                    let _ = write!(f, "\nA{}(q) = {}", idx2(i, j), display_q(a, sd, 1));
                 }
             }
             for k in 0..self.nu {
@@ -931,24 +959,38 @@ impl std::fmt::Display for PolyModel {
                     n => format!("q^-{n} "),
                 };
                 let b = self.b(i, k);
+                let sd = take(b.len());
                 if b.len() > 1 {
-                    write!(f, "\nB{}(q) = {delay}({})", idx2(i, k), display_q(b))?;
+                    let _ = write!(f, "\nB{}(q) = {delay}({})", idx2(i, k), display_q(b, sd, 0));
                 } else {
-                    write!(f, "\nB{}(q) = {delay}{}", idx2(i, k), display_q(b))?;
+                    let _ = write!(f, "\nB{}(q) = {delay}{}", idx2(i, k), display_q(b, sd, 0));
                 }
             }
             for (name, p) in [("C", &self.c[i]), ("D", &self.d[i])] {
+                let sd = take(p.len() - 1);
                 if !trivial(p, 1.0) {
-                    write!(f, "\n{name}{}(q) = {}", idx1(i), display_q(p))?;
+                    let _ = write!(f, "\n{name}{}(q) = {}", idx1(i), display_q(p, sd, 1));
                 }
             }
             for k in 0..self.nu {
-                if !trivial(self.f(i, k), 1.0) {
-                    write!(f, "\nF{}(q) = {}", idx2(i, k), display_q(self.f(i, k)))?;
+                let p = self.f(i, k);
+                let sd = take(p.len() - 1);
+                if !trivial(p, 1.0) {
+                    let _ = write!(f, "\nF{}(q) = {}", idx2(i, k), display_q(p, sd, 1));
                 }
             }
         }
-        Ok(())
+        f
+    }
+}
+
+impl std::fmt::Display for PolyModel {
+    /// The family, `ts` and every non-trivial polynomial, one a line:
+    /// `A(q) = 1 - 1.5 q^-1`, `B(q) = q^-1 (1 + 0.5 q^-1)`, with indices
+    /// (`A12`, `B21`, `C2`) when there are several channels
+    /// ([`PolyModel::present`] adds the standard deviations).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(None))
     }
 }
 
@@ -969,6 +1011,26 @@ pub(crate) fn conv(a: &[f64], b: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn present_shows_the_standard_deviations() {
+        let m = PolyModel::arx(&[1.0, -1.5, 0.7], &[1.0, 0.5], 1, 1.0).unwrap();
+        assert_eq!(m.present(), m.to_string());
+        let cov =
+            DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1e-4, 4e-4, 0.0225, 1e-6]));
+        let m = m.with_covariance(&cov).unwrap();
+        let text = m.present();
+        assert!(
+            text.contains("A(q) = 1 - 1.5 (±0.010) q^-1 + 0.7 (±0.020) q^-2"),
+            "{text}"
+        );
+        assert!(
+            text.contains("B(q) = q^-1 (1 (±0.15) + 0.5 (±0.0010) q^-1)"),
+            "{text}"
+        );
+        assert_eq!(significant(0.0123), "0.012");
+        assert_eq!(significant(12.3), "12");
+    }
 
     /// A coupled two-output, one-input ARX model (A12 = 0.2 q⁻¹,
     /// A21 = −0.1 q⁻¹ + 0.05 q⁻²).
@@ -1100,7 +1162,7 @@ pub(crate) mod tests {
         let s = coupled_arx().to_string();
         assert!(s.contains("A12(q) = 0.2 q^-1"), "{s}");
         assert!(s.contains("B21(q) = q^-2 0.5"), "{s}");
-        assert_eq!(display_q(&[]), "0");
+        assert_eq!(display_q(&[], None, 0), "0");
     }
 
     #[test]

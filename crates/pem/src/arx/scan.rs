@@ -13,7 +13,8 @@
 //!   V (1 + 2d/J), to first order);
 //! * Rissanen's MDL: Σ_i ln V_i + d ln J / J;
 //! * held out: Σ_i ln V_i on validation records, the coefficients fitted on
-//!   the estimation records (MATLAB's `arxstruc(ze, zv, …)`).
+//!   the estimation records (MATLAB's `arxstruc(ze, zv, …)`), with the
+//!   one-standard-error rule for the choice ([`ArxScan::best`]).
 
 use lifted_lti::PolyOrders;
 use lifted_subspace::{Compression, Experiment};
@@ -139,7 +140,39 @@ pub struct ArxScan {
 impl ArxScan {
     /// The row with the lowest `criterion` (ties: fewer parameters first),
     /// `None` when no candidate could be fitted.
+    ///
+    /// For [`StructureCriterion::Validation`] the one-standard-error rule
+    /// (Hastie, Tibshirani & Friedman 2009, §7.10): the held-out loss does
+    /// not penalise parameters, and structures within its sampling spread of
+    /// the lowest predict equally well, so the one with the fewest
+    /// parameters among those whose Σ ln V_i is within n_y √(2/M) of the
+    /// lowest is chosen (M validation rows: for Gaussian errors the mean
+    /// square of M residuals has relative standard deviation √(2/M), which
+    /// is the standard deviation of its logarithm to first order).
     pub fn best(&self, criterion: StructureCriterion) -> Option<&ArxScanRow> {
+        let lowest = self.rows.iter().min_by(|a, b| {
+            a.value(criterion)
+                .total_cmp(&b.value(criterion))
+                .then(a.parameters.cmp(&b.parameters))
+        })?;
+        let (StructureCriterion::Validation, Some(m)) = (criterion, self.validation_samples) else {
+            return Some(lowest);
+        };
+        let outputs = lowest.loss.len() as f64;
+        let bound = lowest.value(criterion) + outputs * (2.0 / m.max(1) as f64).sqrt();
+        self.rows
+            .iter()
+            .filter(|r| r.value(criterion) <= bound)
+            .min_by(|a, b| {
+                a.parameters
+                    .cmp(&b.parameters)
+                    .then(a.value(criterion).total_cmp(&b.value(criterion)))
+            })
+    }
+
+    /// The row with the lowest `criterion`, without the one-standard-error
+    /// rule of [`ArxScan::best`].
+    pub fn lowest(&self, criterion: StructureCriterion) -> Option<&ArxScanRow> {
         self.rows.iter().min_by(|a, b| {
             a.value(criterion)
                 .total_cmp(&b.value(criterion))
