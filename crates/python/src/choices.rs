@@ -59,6 +59,8 @@ impl Choice for lifted_workflow::Method {
         ("ssarx", Self::Ssarx),
         ("pbsid_rowwise", Self::PbsidRowwise),
         ("iv", Self::Iv),
+        ("arx", Self::Arx),
+        ("fir", Self::Fir),
     ];
 }
 

@@ -559,6 +559,14 @@ impl Classify for lifted_pem::Error {
                 f.set("what", *what);
                 Kind::Base
             }
+            // ARX/FIR regressors the data do not determine (a
+            // non-exciting input, a delay longer than the record shows).
+            E::RankDeficient { what, rank, needed } => {
+                f.set("what", *what)
+                    .set("rank", *rank)
+                    .set("needed", *needed);
+                Kind::NotExciting
+            }
             _ => Kind::Base,
         }
     }

@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::choices::Choice;
-use crate::convert::{Int, count, int, opt_count, opt_int};
+use crate::convert::{Int, count, counts, int, opt_count, opt_int, opt_ints};
 use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
 use crate::{dataset, records, to_py};
@@ -68,10 +68,12 @@ pub(crate) fn horizon_of(
 /// open-loop case; `lifted.iv` takes instruments). `feedthrough` None: the
 /// method's (N4SID/MOESP/CVA estimate D, the others not); False: D = 0.
 /// `threads` is capped at
-/// the machine's available parallelism (0 = all cores). Returns the dict of
+/// the machine's available parallelism (0 = all cores). `method` "arx" /
+/// "fir": least-squares polynomial models, `orders` MATLAB's `[na nb nk]` /
+/// `[nb nk]` (None: the workflow's structure scan). Returns the dict of
 /// [`identified_dict`].
 #[pyfunction]
-#[pyo3(signature = (us, ys, method="n4sid", order=None, max_order=10,
+#[pyo3(signature = (us, ys, method="n4sid", order=None, orders=None, max_order=10,
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
@@ -83,6 +85,7 @@ pub(crate) fn identify<'py>(
     ys: Vec<Bound<'py, PyAny>>,
     method: &str,
     #[pyo3(from_py_with = opt_int)] order: Option<Int>,
+    #[pyo3(from_py_with = opt_ints)] orders: Option<Vec<Int>>,
     #[pyo3(from_py_with = int)] max_order: Int,
     order_criterion: &str,
     #[pyo3(from_py_with = opt_int)] horizon: Option<Int>,
@@ -118,6 +121,7 @@ pub(crate) fn identify<'py>(
     let id = &mut opts.identification;
     id.method = method;
     id.order = order_choice(order)?;
+    id.orders = orders_of(orders.as_deref(), order)?;
     id.max_order = count(max_order, "max_order")?;
     id.order_criterion = OrderCriterion::parse(order_criterion, "order_criterion")?;
     let (horizon, past, future) = (
@@ -238,6 +242,26 @@ pub(crate) fn order_choice(order: Option<Int>) -> PyResult<Order> {
     })
 }
 
+/// The ARX/FIR order vector from the `orders` keyword (None: empty, the
+/// structure scan); each entry non-negative. Given with `order` it is
+/// refused (the two would contradict: `order` n is na = nb = n with nk
+/// scanned). Its length, nb ≥ 1 and its use with a state-space method are
+/// the workflow's checks (`argument 'orders'`).
+pub(crate) fn orders_of(orders: Option<&[Int]>, order: Option<Int>) -> PyResult<Vec<usize>> {
+    match orders {
+        None => Ok(Vec::new()),
+        Some(_) if order.is_some() => Err(arg_error(
+            "orders",
+            "give orders ([na nb nk] / [nb nk]) or order (na = nb = order, nk scanned), not both",
+        )),
+        Some([]) => Err(arg_error(
+            "orders",
+            "is empty: give [na nb nk] (arx) or [nb nk] (fir), or None for the structure scan",
+        )),
+        Some(v) => counts(v, "orders"),
+    }
+}
+
 /// The refinement keywords (`refine`, `refine_iterations`,
 /// `refine_max_work`) into the workflow options.
 pub(crate) fn refinement(
@@ -282,7 +306,8 @@ pub(crate) fn run(
 /// names and data files), diagnostics_json (that file's diagnostics), and
 /// the route's details: lifted and
 /// lifting_period (multirate routes; None elsewhere), markov_data and
-/// markov_model (q-Markov Cover; empty elsewhere).
+/// markov_model (q-Markov Cover; empty elsewhere), polynomial (ARX/FIR:
+/// the dict of `polynomial::poly_dict`; None elsewhere).
 pub(crate) fn identified_dict<'py>(
     py: Python<'py>,
     fit: &lifted_workflow::Identified,
@@ -313,6 +338,14 @@ pub(crate) fn identified_dict<'py>(
     let mats = |ms: &[DMatrix<f64>]| ms.iter().map(|m| to_py(py, m)).collect::<Vec<_>>();
     out.set_item("markov_data", mats(&details.markov_data))?;
     out.set_item("markov_model", mats(&details.markov_model))?;
+    // ARX/FIR: the polynomial model of the model file (data units, with
+    // its parameter covariance); None for the state-space routes.
+    let polynomial = f
+        .polynomial
+        .as_ref()
+        .map(|p| crate::polynomial::poly_dict(py, p))
+        .transpose()?;
+    out.set_item("polynomial", polynomial)?;
     Ok(out)
 }
 

@@ -20,6 +20,7 @@ mod distributed;
 mod errors;
 mod identify;
 mod mpc;
+mod polynomial;
 mod routes;
 mod signals;
 mod simulation;
@@ -168,6 +169,9 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(signals::multisine, m)?)?;
     m.add_function(wrap_pyfunction!(identify::identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify::pbsid, m)?)?;
+    m.add_function(wrap_pyfunction!(polynomial::arxstruc, m)?)?;
+    m.add_function(wrap_pyfunction!(polynomial::delayest, m)?)?;
+    m.add_function(wrap_pyfunction!(polynomial::polynomial_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(simulation::simulate_experiment, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
     m.add_function(wrap_pyfunction!(_choices, m)?)?;

@@ -33,6 +33,7 @@ def _fits(record: tuple[np.ndarray, np.ndarray]) -> dict[str, Any]:
     return {
         "qmarkov": lifted.qmarkov(w, yw, q=10, order=1, prbs_order=6, dt=0.5),
         "subspace": lifted.n4sid(u + 1.0, y - 2.0, order=2, dt=0.5),
+        "arx": lifted.arx(u + 1.0, y - 2.0, [2, 2, 1], dt=0.5),
         "iv": lifted.iv(u, y, order=2, dt=0.5),
         "multirate": lifted.multirate(u, ym, [2], order=2, past=5, future=5, dt=0.5),
         "validation": lifted.validate(lifted.n4sid(u, y, order=2, dt=0.5).model, u, y),

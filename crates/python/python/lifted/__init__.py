@@ -45,6 +45,8 @@ from ._lifted import (
     rbs,
     resolve_threads,
 )
+from ._lifted import arxstruc as _arxstruc
+from ._lifted import delayest as _delayest
 from ._lifted import identify as _identify
 from ._lifted import pbsid as _pbsid
 from ._lifted import iv as _iv
@@ -53,10 +55,12 @@ from ._lifted import qmarkov as _qmarkov
 from ._lifted import simulate_experiment as _simulate_experiment
 from ._lifted import validate as _validate
 from ._results import (
+    ArxScan,
     Experiment,
     IvFit,
     MultirateFit,
     OutputValidation,
+    PolyModel,
     QMarkovFit,
     SubspaceFit,
     Validation,
@@ -94,6 +98,8 @@ __all__ = [
     "IvFit",
     "QMarkovFit",
     "MultirateFit",
+    "PolyModel",
+    "ArxScan",
     "Validation",
     "OutputValidation",
     "Experiment",
@@ -123,6 +129,10 @@ __all__ = [
     "pbsid",
     "moesp",
     "cva",
+    "arx",
+    "fir",
+    "arxstruc",
+    "delayest",
     "iv",
     "qmarkov",
     "multirate",
@@ -229,6 +239,7 @@ def identify(
     method: IdentifyMethod = "n4sid",
     *,
     order: int | None = None,
+    orders: Sequence[int] | None = None,
     max_order: int = 10,
     order_criterion: OrderCriterion = "validation",
     horizon: int | None = None,
@@ -250,7 +261,8 @@ def identify(
     integrator_tolerance: float | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
-    of one record or several.
+    of one record or several, or least-squares ARX and FIR polynomial models
+    (``method="arx"`` / ``"fir"``, as :func:`arx` and :func:`fir`).
 
     ``u`` and ``y`` are arrays (N x m, N x p; anything numpy reads, a 1-D
     array is one channel) or lists of such arrays (several experiments).
@@ -336,6 +348,19 @@ def identify(
       are integrators, kept by the refinement and reported
       (``--integrator-tolerance``; None: 2/N, N the longest record;
       ``diagnostics["integrators"]``).
+    * ``method="arx"`` / ``"fir"``: the polynomial models of :func:`arx` and
+      :func:`fir` (least squares, no refinement; single-rate records only).
+      ``orders`` is MATLAB's order vector, ``[na, nb, nk]`` for ARX and
+      ``[nb, nk]`` for FIR, the same for every input-output pair (a list
+      or tuple of non-negative ints, nb >= 1; refused with the state-space
+      methods and together with ``order``); None: the structure scan (na,
+      nb in 1..``max_order``, FIR na = 0, ``order`` n fixing na = nb = n;
+      nk in 1..5, from 0 with ``feedthrough=True``) ranked by
+      ``order_criterion``: ``"validation"`` (the one-step loss on the last
+      third of each record, the coefficients fitted on the rest), ``"aic"``,
+      ``"aicc"`` or ``"bic"`` (MDL) (``diagnostics["structure_scan"]``).
+      The fit's ``polynomial``, ``parameters``, ``covariance`` and ``std``
+      hold the model and its uncertainty (None for the other methods).
 
     Returns a :class:`SubspaceFit`; its ``model`` carries the operating point
     (the means removed) and the Kalman gain, so ``validate(fit.model, u, y)``
@@ -350,7 +375,8 @@ def identify(
     us, ys = _records(u, y)
     try:
         d = _identify(
-            us, ys, method, order=order, max_order=max_order, order_criterion=order_criterion,
+            us, ys, method, order=order, orders=_orders(orders), max_order=max_order,
+            order_criterion=order_criterion,
             horizon=horizon, past=past, future=future, system=system, bd=bd,
             feedthrough=feedthrough, detrend=detrend,
             remove_means=remove_means, noise_model=noise_model,
@@ -385,7 +411,21 @@ def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:
         threads=d["threads"],
         model_json=d["model_json"],
         diagnostics=json.loads(d["diagnostics_json"]) if "diagnostics_json" in d else {},
+        polynomial=None if d.get("polynomial") is None else PolyModel._of(d["polynomial"]),
     )
+
+
+def _orders(orders: Sequence[int] | None) -> list[int] | None:
+    """The ``orders`` keyword as a list (its entries are checked, bools
+    refused, by the extension); a str or a bare int is an ArgumentError."""
+    if orders is None:
+        return None
+    if isinstance(orders, (str, bytes)) or np.ndim(orders) != 1:
+        raise ArgumentError(
+            f"argument 'orders': expected a list of ints ([na, nb, nk] for arx, [nb, nk] "
+            f"for fir), got {orders!r}"
+        )
+    return list(orders)
 
 
 def pbsid(
@@ -550,6 +590,163 @@ def cva(
         refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
         threads=threads,
     )
+
+
+def arx(
+    u: Any,
+    y: Any,
+    orders: Sequence[int] | None = None,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    feedthrough: bool | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """Least-squares ARX model (MATLAB's ``arx(data, [na nb nk])``, SIPPY's
+    ARX), through the identification workflow (``identify(u, y, "arx",
+    orders=...)``, ``lifted identify --method arx --orders``)::
+
+        A(q) y(t) = B(q) u(t - nk) + e(t)
+        A(q) = I + A_1 q^-1 + ... + A_na q^-na
+        B(q) = B_0 + B_1 q^-1 + ... + B_{nb-1} q^-(nb-1)
+
+    ``orders`` = ``[na, nb, nk]``, the same for every input-output pair
+    (multi-output: A is full, p x p polynomials of degree na); None chooses
+    the structure by the workflow's scan (see :func:`identify`:
+    ``order_criterion`` ``"validation"``, ``"aic"``, ``"aicc"`` or ``"bic"``,
+    na and nb up to ``max_order``, nk 1..5; ``order`` n fixes na = nb = n).
+    The records' means are removed first (``detrend``; the model maps
+    deviations, ``fit.model`` carries the operating point).
+
+    Returns a :class:`SubspaceFit` whose ``polynomial`` is the
+    :class:`PolyModel` (coefficients in the data's units) and whose
+    ``parameters`` are, per output i, ``[a_i1 coefficients .. a_ip
+    coefficients, b_i1 .. b_im]`` (MATLAB's ``getpvec``; SISO: ``[a1 ..
+    a_na, b0 .. b_{nb-1}]``), with their ``covariance`` (least squares:
+    Lambda (Phi^T Phi)^-1, exact for white e) and ``std``; ``model`` is the
+    innovations realisation (A, B, C, D, K) that :func:`validate`,
+    :func:`simulate` and :class:`Mpc` take. Coloured noise biases ARX and
+    its bounds: the equation error must be white.
+    """
+    return identify(
+        u, y, "arx", order=order, orders=orders, max_order=max_order,
+        order_criterion=order_criterion, feedthrough=feedthrough, detrend=detrend,
+        remove_means=remove_means, dt=dt, threads=threads,
+    )
+
+
+def fir(
+    u: Any,
+    y: Any,
+    orders: Sequence[int] | None = None,
+    *,
+    order: int | None = None,
+    max_order: int = 10,
+    order_criterion: OrderCriterion = "validation",
+    feedthrough: bool | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """Least-squares FIR model (ARX with na = 0; MATLAB's ``arx(data, [0 nb
+    nk])``, ``impulseest``'s structure), through the identification
+    workflow (``identify(u, y, "fir", orders=...)``)::
+
+        y(t) = B_0 u(t - nk) + B_1 u(t - nk - 1) + ... + B_{nb-1} u(t - nk - nb + 1) + e(t)
+
+    ``orders`` = ``[nb, nk]``; None: the structure scan of :func:`identify`
+    (nb up to ``max_order``, ``order`` n fixes nb = n). ``parameters`` are,
+    per output, the B coefficients input by input (``[b0 .. b_{nb-1}]``
+    for one input), with ``covariance`` and ``std``; otherwise as
+    :func:`arx`.
+    """
+    return identify(
+        u, y, "fir", order=order, orders=orders, max_order=max_order,
+        order_criterion=order_criterion, feedthrough=feedthrough, detrend=detrend,
+        remove_means=remove_means, dt=dt, threads=threads,
+    )
+
+
+def arxstruc(
+    u: Any,
+    y: Any,
+    u_val: Any = None,
+    y_val: Any = None,
+    *,
+    na: Sequence[int] = range(1, 11),
+    nb: Sequence[int] = range(1, 11),
+    nk: Sequence[int] = (1,),
+    remove_means: bool = True,
+    threads: int = 1,
+) -> ArxScan:
+    """ARX structure scan (MATLAB's ``arxstruc`` + ``selstruc``,
+    ``lifted_pem::arx_scan``): every structure of the grid ``na x nb x nk``
+    (MATLAB's ``struc(na, nb, nk)``; na = 0 is FIR) fitted by least squares
+    on one compression of the records ``u``, ``y`` (arrays or lists of
+    arrays), all on the same regression rows. Each is scored by Akaike's
+    criterion and Rissanen's MDL and, with validation records ``u_val``,
+    ``y_val`` (both or neither), by the one-step prediction loss on them
+    with the coefficients of the estimation records.
+
+    ``remove_means`` subtracts each record's column means first (as
+    :func:`identify` does; False: the records as given). Structures the
+    data do not determine are left out (``skipped``). Returns an
+    :class:`ArxScan` (per structure ``na``, ``nb``, ``nk``, ``parameters``,
+    ``loss`` per output, ``aic``, ``mdl``, ``validation_loss``);
+    ``scan.best("mdl")`` picks ``(na, nb, nk)`` for :func:`arx`.
+    """
+    us, ys = _records(u, y)
+    if (u_val is None) != (y_val is None):
+        raise ArgumentError(
+            "argument 'u_val': give both validation records u_val and y_val, or neither"
+        )
+    uv, yv = ([], []) if u_val is None else _records(u_val, y_val)
+    d = _arxstruc(
+        us, ys, uv, yv, _grid(na, "na"), _grid(nb, "nb"), _grid(nk, "nk"),
+        remove_means=remove_means, threads=threads,
+    )
+    return ArxScan._of(d)
+
+
+def _grid(values: Sequence[int], name: str) -> list[int]:
+    """A candidate list (an int is one candidate)."""
+    if isinstance(values, (str, bytes)):
+        raise ArgumentError(f"argument '{name}': expected a list of ints, got {values!r}")
+    if np.ndim(values) == 0:
+        return [values]  # type: ignore[list-item]
+    return list(values)
+
+
+def delayest(
+    u: Any,
+    y: Any,
+    *,
+    na: int = 2,
+    nb: int = 2,
+    min_delay: int = 0,
+    max_delay: int = 20,
+    remove_means: bool = True,
+    threads: int = 1,
+) -> npt.NDArray[np.int64]:
+    """Input delays (MATLAB's ``delayest(data, na, nb, nkmin, nkmax)``,
+    ``lifted_pem::estimate_delays``): for each output and input, the delay
+    nk in ``min_delay..max_delay`` samples whose ARX model (A of degree
+    ``na``, ``nb`` B coefficients per input) has the lowest one-step loss,
+    all candidates on one compression and the same rows (inputs by turns,
+    two sweeps). ``remove_means`` as :func:`arxstruc`. Returns the delays,
+    an int array p x m (``int(d[0, 0])`` for one input and output).
+    """
+    us, ys = _records(u, y)
+    d = _delayest(
+        us, ys, na=na, nb=nb, min_delay=min_delay, max_delay=max_delay,
+        remove_means=remove_means, threads=threads,
+    )
+    return np.asarray(d, dtype=np.int64).reshape(len(d), -1)
 
 
 def iv(

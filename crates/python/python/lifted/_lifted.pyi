@@ -46,7 +46,9 @@ __all__ = [
     "WorkBudgetError",
     "__version__",
     "_choices",
+    "arxstruc",
     "channel_scales",
+    "delayest",
     "design",
     "gbn",
     "identify",
@@ -61,6 +63,7 @@ __all__ = [
     "partial_merge",
     "partial_plan",
     "pbsid",
+    "polynomial_from_json",
     "prbs",
     "qmarkov",
     "rbs",
@@ -269,6 +272,7 @@ def identify(
     ys: list[npt.ArrayLike],
     method: IdentifyMethod = "n4sid",
     order: int | None = None,
+    orders: list[int] | None = None,
     max_order: int = 10,
     order_criterion: OrderCriterion = "validation",
     horizon: int | None = None,
@@ -306,6 +310,28 @@ def pbsid(
     dt: float = 1.0,
     threads: int = 1,
 ) -> dict[str, Any]: ...
+def arxstruc(
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
+    us_val: list[npt.ArrayLike],
+    ys_val: list[npt.ArrayLike],
+    na: list[int],
+    nb: list[int],
+    nk: list[int],
+    remove_means: bool = True,
+    threads: int = 1,
+) -> dict[str, Any]: ...
+def delayest(
+    us: list[npt.ArrayLike],
+    ys: list[npt.ArrayLike],
+    na: int = 2,
+    nb: int = 2,
+    min_delay: int = 0,
+    max_delay: int = 20,
+    remove_means: bool = True,
+    threads: int = 1,
+) -> list[list[int]]: ...
+def polynomial_from_json(text: str) -> dict[str, Any]: ...
 def simulate_experiment(
     plant: StateSpace,
     r: npt.ArrayLike,

@@ -15,9 +15,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ._lifted import StateSpace
+from ._lifted import ArgumentError, StateSpace
 
 __all__ = [
+    "PolyModel",
+    "ArxScan",
     "SubspaceFit",
     "IvFit",
     "QMarkovFit",
@@ -28,6 +30,7 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 
 class _Result:
@@ -54,14 +57,205 @@ class _Result:
 
 
 @dataclass(frozen=True, eq=False, repr=False)
+class PolyModel(_Result):
+    """A discrete-time polynomial model (MATLAB's ``idpoly``,
+    ``lifted_lti::PolyModel``), as estimated by :func:`lifted.arx` and
+    :func:`lifted.fir` (``fit.polynomial``)::
+
+        A(q) y(t) = sum_k B_k(q) / F_k(q) u_k(t - nk_k) + C(q) / D(q) e(t)
+
+    with ``q^-1`` the one-sample delay and ``e`` white noise of covariance
+    ``noise_variance`` (Lambda). ARX: C = D = F = 1; FIR: A = 1 too. Multi-output:
+    ``A`` is ``p x p`` polynomials (the diagonal monic, the off-diagonal
+    ones starting with 0), ``B``, ``F`` and ``nk`` are ``p x m``, ``C`` and
+    ``D`` one per output.
+
+    Every polynomial is a list of coefficients in **ascending powers of
+    q^-1**: ``a[i][j] = [1, a1, ..., a_na]`` (the monic diagonal), ``b[i][k]
+    = [b0, ..., b_{nb-1}]`` multiplying ``u_k(t - nk[i][k])``, ``u_k(t -
+    nk - 1)``, ...; ``c[i]``, ``d[i]``, ``f[i][k]`` monic. The model is in
+    the data's units (the operating point, when one was removed, is the
+    model file's).
+
+    ``parameters`` is MATLAB's ``getpvec`` order: per output i, the free
+    coefficients of A_i1 ... A_ip (the leading 1 of the diagonal left out),
+    then B_i1 ... B_im, C_i, D_i, F_i1 ... F_im; for a SISO ARX
+    ``[a1 .. a_na, b0 .. b_{nb-1}]``. ``covariance`` is their covariance
+    (the least-squares one for ARX/FIR: Lambda (Phi^T Phi)^-1, exact for
+    white e; None when not estimated) and ``std`` the square roots of its
+    diagonal. ``orders`` holds MATLAB's orders (``na``, ``nb``, ``nc``,
+    ``nd``, ``nf``, ``nk``) as nested lists, ``family`` is ``"arx"``,
+    ``"armax"``, ``"oe"``, ``"bj"``, ``"fir"`` or ``"general"``, ``dt`` the
+    sample period. :meth:`to_json` / :meth:`from_json` round-trip it
+    (``from_json`` also reads a model file of kind ``"polynomial"``, such as
+    ``fit.model_json``).
+    """
+
+    family: str
+    dt: float
+    a: list[list[list[float]]]
+    b: list[list[list[float]]]
+    c: list[list[float]]
+    d: list[list[float]]
+    f: list[list[list[float]]]
+    nk: list[list[int]]
+    orders: dict[str, Any]
+    noise_variance: FloatArray
+    parameters: FloatArray
+    covariance: FloatArray | None
+    std: FloatArray | None
+    poly_json: str
+
+    _shown = ("family", "orders", "dt")
+
+    @classmethod
+    def _of(cls, d: dict[str, Any]) -> PolyModel:
+        """The model of the extension's dict."""
+        cov = d["covariance"]
+        std = d["std"]
+        return cls(
+            family=d["family"],
+            dt=float(d["dt"]),
+            a=d["a"],
+            b=d["b"],
+            c=d["c"],
+            d=d["d"],
+            f=d["f"],
+            nk=d["nk"],
+            orders=d["orders"],
+            noise_variance=np.asarray(d["noise_variance"], dtype=np.float64),
+            parameters=np.asarray(d["parameters"], dtype=np.float64),
+            covariance=None if cov is None else np.asarray(cov, dtype=np.float64),
+            std=None if std is None else np.asarray(std, dtype=np.float64),
+            poly_json=d["poly_json"],
+        )
+
+    @classmethod
+    def from_json(cls, text: str) -> PolyModel:
+        """The polynomial model of ``text``: a model file of kind
+        ``"polynomial"`` (``fit.model_json`` of an ARX/FIR fit, the file
+        ``lifted identify --method arx`` writes) or the model's own JSON
+        (:meth:`to_json`). A state-space model file is a
+        :class:`~lifted.LiftedError` (it holds no polynomial model)."""
+        from ._lifted import polynomial_from_json
+
+        return cls._of(polynomial_from_json(text))
+
+    def to_json(self) -> str:
+        """The model's JSON (``lifted_lti::PolyModel``: polynomials,
+        ``noise_variance``, ``covariance``), read back by :meth:`from_json`."""
+        return self.poly_json
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class ArxScan(_Result):
+    """Result of :func:`lifted.arxstruc` (MATLAB's ``arxstruc``): one row
+    per ARX structure (na, nb, nk) the data determine, in the order na, nb,
+    nk of the grid.
+
+    ``loss`` (rows x outputs) is the mean squared one-step prediction
+    error per output on the estimation records (all structures on the same
+    ``samples`` regression rows); ``aic`` = sum_i ln V_i + 2 d / J and
+    ``mdl`` = sum_i ln V_i + d ln J / J (V_i the loss of output i, d the
+    ``parameters`` of all outputs, J = ``samples``); ``validation_loss``
+    (rows x outputs) the one-step loss on the validation records with the
+    coefficients of the estimation records (None without validation
+    records). ``skipped``: the structures left out, as (na, nb, nk, why).
+    :meth:`best` picks a structure (MATLAB's ``selstruc``).
+    """
+
+    na: IntArray
+    nb: IntArray
+    nk: IntArray
+    parameters: IntArray
+    loss: FloatArray
+    aic: FloatArray
+    mdl: FloatArray
+    validation_loss: FloatArray | None
+    samples: int
+    validation_samples: int | None
+    skipped: list[tuple[int, int, int, str]]
+    best_rows: dict[str, int]
+
+    _shown = ("samples", "validation_samples", "best_rows")
+
+    def __len__(self) -> int:
+        return len(self.na)
+
+    def value(self, criterion: str) -> FloatArray:
+        """Each row's value of ``criterion`` (lower is better): ``"aic"``,
+        ``"mdl"`` or ``"validation"`` (sum_i ln of the validation loss)."""
+        if criterion == "aic":
+            return self.aic
+        if criterion == "mdl":
+            return self.mdl
+        if criterion == "validation":
+            if self.validation_loss is None:
+                raise ArgumentError(
+                    "argument 'criterion': 'validation' needs validation records "
+                    "(arxstruc(u, y, u_val, y_val))"
+                )
+            return np.asarray(np.sum(np.log(self.validation_loss), axis=1), dtype=np.float64)
+        raise ArgumentError(
+            f"argument 'criterion': unknown structure criterion {criterion!r} "
+            "(expected one of 'aic', 'mdl', 'validation')"
+        )
+
+    def best(self, criterion: str | None = None) -> tuple[int, int, int]:
+        """The structure ``(na, nb, nk)`` that ``criterion`` picks (MATLAB's
+        ``selstruc``), ready for ``lifted.arx(u, y, scan.best())``:
+        ``"validation"`` (the default with validation records), ``"aic"``
+        (the default without), or ``"mdl"`` (Rissanen's, more
+        parsimonious). The choice is ``lifted_pem::ArxScan::best``'s, the
+        rule of the workflow's structure scan: the lowest :meth:`value`,
+        fewer parameters on ties (see that function for the held-out
+        criterion's rule)."""
+        if criterion is None:
+            criterion = "validation" if self.validation_loss is not None else "aic"
+        self.value(criterion)  # refuses an unknown or unavailable criterion
+        r = self.best_rows[criterion]
+        return (int(self.na[r]), int(self.nb[r]), int(self.nk[r]))
+
+    @classmethod
+    def _of(cls, d: dict[str, Any]) -> ArxScan:
+        """The scan of the extension's dict."""
+        vl = d["validation_loss"]
+        return cls(
+            na=np.asarray(d["na"], dtype=np.int64),
+            nb=np.asarray(d["nb"], dtype=np.int64),
+            nk=np.asarray(d["nk"], dtype=np.int64),
+            parameters=np.asarray(d["parameters"], dtype=np.int64),
+            loss=np.asarray(d["loss"], dtype=np.float64),
+            aic=np.asarray(d["aic"], dtype=np.float64),
+            mdl=np.asarray(d["mdl"], dtype=np.float64),
+            validation_loss=None if vl is None else np.asarray(vl, dtype=np.float64),
+            samples=int(d["samples"]),
+            validation_samples=d["validation_samples"],
+            skipped=[(int(s[0]), int(s[1]), int(s[2]), str(s[3])) for s in d["skipped"]],
+            best_rows={k: int(v) for k, v in d["best"].items() if v is not None},
+        )
+
+
+@dataclass(frozen=True, eq=False, repr=False)
 class SubspaceFit(_Result):
     """Result of :func:`lifted.identify` (N4SID, MOESP, CVA, PBSID, SSARX,
-    IV) and :func:`lifted.pbsid`.
+    IV, ARX, FIR), :func:`lifted.pbsid`, :func:`lifted.arx` and
+    :func:`lifted.fir`.
 
     ``model`` carries the operating point (``u0``, ``y0``: the means removed
     from the records, None with ``remove_means=False``) and the Kalman gain
     of the noise model, so :func:`lifted.validate` and :func:`lifted.simulate`
     work on plant values as ``lifted validate --model`` does.
+
+    ARX and FIR fits also carry the polynomial model (``polynomial``, a
+    :class:`PolyModel` in the data's units; ``model`` and ``kalman_gain``
+    are its innovations realisation) and its uncertainty: ``parameters``
+    (MATLAB's ``getpvec`` order, see :class:`PolyModel`), ``covariance``
+    and ``std``. For the state-space methods these four are None (the
+    parameter covariance of state-space models is not estimated yet).
+    ``model_json`` of an ARX/FIR fit is a model file of kind
+    ``"polynomial"`` that keeps the polynomials: ``StateSpace.from_json``
+    reads its model, :meth:`PolyModel.from_json` its polynomial model.
     """
 
     model: StateSpace
@@ -76,8 +270,27 @@ class SubspaceFit(_Result):
     threads: int
     model_json: str
     diagnostics: dict[str, Any]
+    polynomial: PolyModel | None = None
 
     _shown = ("method", "order", "suggested_order", "model")
+
+    @property
+    def parameters(self) -> FloatArray | None:
+        """The polynomial model's parameters (ARX/FIR, MATLAB's ``getpvec``
+        order; None for state-space fits)."""
+        return None if self.polynomial is None else self.polynomial.parameters
+
+    @property
+    def covariance(self) -> FloatArray | None:
+        """The covariance of :attr:`parameters` (ARX/FIR; None for
+        state-space fits, whose covariance is not estimated yet)."""
+        return None if self.polynomial is None else self.polynomial.covariance
+
+    @property
+    def std(self) -> FloatArray | None:
+        """The standard deviations of :attr:`parameters` (ARX/FIR; None for
+        state-space fits)."""
+        return None if self.polynomial is None else self.polynomial.std
 
 
 @dataclass(frozen=True, eq=False, repr=False)

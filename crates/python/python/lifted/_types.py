@@ -29,8 +29,11 @@ __all__ = [
 SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: Identification method of the workflow (``identify(method=...)``, the
 #: CLI's ``--method``): the subspace methods, the predictor-based PBSID-opt
-#: and SSARX, and instrumental-variable subspace.
-IdentifyMethod = Literal["n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv"]
+#: and SSARX, instrumental-variable subspace, and the least-squares
+#: polynomial models ARX and FIR (``orders=[na, nb, nk]`` / ``[nb, nk]``).
+IdentifyMethod = Literal[
+    "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir"
+]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on
 #: the estimated state sequence.

@@ -1,0 +1,288 @@
+"""Polynomial models (issue 49): lifted.arx / lifted.fir and
+identify(method="arx"|"fir", orders=...), the polynomial model and its
+parameter uncertainty on the result, the structure scan (arxstruc), the
+delay estimate (delayest), the refusals, and the model-file round trip."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import pickle
+import re
+
+import numpy as np
+import pytest
+
+import lifted
+
+#: y(t) - 1.5 y(t-1) + 0.7 y(t-2) = u(t-nk) + 0.5 u(t-nk-1) + e(t)
+A = (-1.5, 0.7)
+B = (1.0, 0.5)
+TRUTH = np.array(A + B)
+
+
+def simulate_arx(
+    seed: int, n: int = 1000, nk: int = 1, sigma: float = 0.2,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A seeded SISO ARX record (white input, white equation error)."""
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(n)
+    e = sigma * rng.standard_normal(n)
+    y = np.zeros(n)
+    for t in range(n):
+        acc = e[t]
+        for i, a in enumerate(A, start=1):
+            if t - i >= 0:
+                acc -= a * y[t - i]
+        for m, b in enumerate(B):
+            if t - nk - m >= 0:
+                acc += b * u[t - nk - m]
+        y[t] = acc
+    return u, y
+
+
+@pytest.fixture(scope="module")
+def arx_record() -> tuple[np.ndarray, np.ndarray]:
+    return simulate_arx(3, n=2000)
+
+
+def test_arx_recovers_the_parameters(arx_record) -> None:
+    u, y = arx_record
+    fit = lifted.arx(u, y, [2, 2, 1], dt=0.5)
+    assert isinstance(fit, lifted.SubspaceFit) and fit.method == "arx"
+    p = fit.polynomial
+    assert isinstance(p, lifted.PolyModel)
+    assert p.family == "arx" and p.dt == 0.5
+    assert p.orders["na"] == [[2]] and p.orders["nb"] == [[2]] and p.orders["nk"] == [[1]]
+    assert p.nk == [[1]]
+    # ascending powers of q^-1, the diagonal of A monic
+    assert p.a[0][0][0] == 1.0 and len(p.a[0][0]) == 3 and len(p.b[0][0]) == 2
+    assert p.c == [[1.0]] and p.d == [[1.0]] and p.f == [[[1.0]]]
+    # parameters in MATLAB's getpvec order [a1 a2 b0 b1], within 4 std
+    assert fit.parameters is not None and fit.std is not None and fit.covariance is not None
+    assert fit.parameters.shape == (4,) and fit.covariance.shape == (4, 4)
+    np.testing.assert_allclose(fit.std, np.sqrt(np.diag(fit.covariance)))
+    assert np.all(np.abs(fit.parameters - TRUTH) < 4 * fit.std), (fit.parameters, fit.std)
+    np.testing.assert_allclose(fit.parameters, [*p.a[0][0][1:], *p.b[0][0]])
+    # the noise variance of e (sigma = 0.2)
+    assert p.noise_variance.shape == (1, 1)
+    assert abs(p.noise_variance[0, 0] / 0.04 - 1) < 0.1
+    # the model is the innovations realisation: a stable second-order predictor
+    assert fit.model.nstates == 2 and fit.kalman_gain is not None
+    np.testing.assert_allclose(
+        np.sort_complex(fit.model.poles()), np.sort_complex(np.roots([1, *A])), atol=0.05)
+    assert lifted.validate(fit.model, u, y).outputs[0].prediction_fits[0] > 90
+
+
+def test_std_covers_the_truth_over_seeds() -> None:
+    """Over 100 seeded records the +-1.96 sigma interval holds the truth in
+    about 95 % of the 400 parameter-runs (loosely: 90-99 %)."""
+    hits, runs = 0, 0
+    for seed in range(100):
+        u, y = simulate_arx(1000 + seed, n=400)
+        fit = lifted.arx(u, y, (2, 2, 1))
+        assert fit.parameters is not None and fit.std is not None
+        hits += int(np.sum(np.abs(fit.parameters - TRUTH) <= 1.96 * fit.std))
+        runs += 4
+    assert 0.90 <= hits / runs <= 0.99, hits / runs
+
+
+def test_identify_method_arx_and_the_scan(arx_record) -> None:
+    u, y = arx_record
+    fixed = lifted.identify(u, y, "arx", orders=[2, 2, 1])
+    np.testing.assert_allclose(fixed.parameters, lifted.arx(u, y, [2, 2, 1]).parameters)
+    # order n: na = nb = n, nk scanned
+    fit = lifted.identify(u, y, "ARX", order=2)
+    assert fit.polynomial is not None
+    assert fit.polynomial.orders["na"] == [[2]] and fit.polynomial.orders["nb"] == [[2]]
+    assert fit.diagnostics["structure_scan"]["chosen"]["nk"] == 1
+    # no orders: the structure scan of the workflow
+    scanned = lifted.arx(u, y, order_criterion="bic")
+    chosen = scanned.diagnostics["structure_scan"]["chosen"]
+    assert (chosen["na"], chosen["nb"], chosen["nk"]) == (2, 2, 1)
+
+
+def test_state_space_fits_have_no_polynomial(record) -> None:
+    u, y = record
+    fit = lifted.n4sid(u, y, order=2, dt=0.5)
+    assert fit.polynomial is None
+    assert fit.parameters is None and fit.covariance is None and fit.std is None
+    assert json.loads(fit.model_json)["kind"] == "state_space"
+
+
+def test_fir() -> None:
+    rng = np.random.default_rng(5)
+    b = np.array([0.5, 1.0, 0.8, 0.3])
+    u = rng.standard_normal(1500)
+    y = np.convolve(u, np.r_[0.0, 0.0, b])[: len(u)] + 0.1 * rng.standard_normal(len(u))
+    fit = lifted.fir(u, y, [4, 2])
+    p = fit.polynomial
+    assert p is not None and p.family == "fir" and fit.method == "fir"
+    assert p.a == [[[1.0]]] and p.nk == [[2]] and p.orders["nb"] == [[4]]
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - b) < 4 * fit.std), (fit.parameters, fit.std)
+    same = lifted.identify(u, y, "fir", orders=(4, 2))
+    np.testing.assert_allclose(same.parameters, fit.parameters)
+
+
+def test_mimo_arx_parameter_order() -> None:
+    """Per output: A_i1, A_i2 (the free coefficients), then B_i1, B_i2."""
+    rng = np.random.default_rng(8)
+    n = 3000
+    u = rng.standard_normal((n, 2))
+    e = 0.1 * rng.standard_normal((n, 2))
+    y = np.zeros((n, 2))
+    for t in range(1, n):
+        y[t, 0] = 0.5 * y[t - 1, 0] + 0.1 * y[t - 1, 1] + u[t - 1, 0] + 0.3 * u[t - 1, 1] + e[t, 0]
+        y[t, 1] = -0.2 * y[t - 1, 0] + 0.4 * y[t - 1, 1] + 0.5 * u[t - 1, 0] - u[t - 1, 1] + e[t, 1]
+    fit = lifted.arx(u, y, [1, 1, 1])
+    truth = np.array([-0.5, -0.1, 1.0, 0.3, 0.2, -0.4, 0.5, -1.0])
+    assert fit.parameters is not None and fit.std is not None
+    assert fit.parameters.shape == (8,) and fit.std.shape == (8,)
+    assert np.all(np.abs(fit.parameters - truth) < 4 * fit.std), (fit.parameters, fit.std)
+    p = fit.polynomial
+    assert p is not None and p.noise_variance.shape == (2, 2)
+    assert p.a[0][1][0] == 0.0 and p.a[0][0][0] == 1.0  # off-diagonal starts with 0
+    assert p.nk == [[1, 1], [1, 1]]
+
+
+def test_arxstruc_finds_the_structure_by_mdl() -> None:
+    u, y = simulate_arx(21, n=3000, nk=2)
+    scan = lifted.arxstruc(u, y, na=range(1, 5), nb=range(1, 5), nk=[1, 2, 3])
+    assert isinstance(scan, lifted.ArxScan)
+    assert len(scan) == 4 * 4 * 3 and scan.validation_loss is None
+    assert scan.loss.shape == (48, 1) and scan.aic.shape == (48,)
+    assert list(scan.na[:3]) == [1, 1, 1] and list(scan.nk[:3]) == [1, 2, 3]
+    assert list(scan.parameters[:3]) == [2, 2, 2]
+    assert scan.best("mdl") == (2, 2, 2)
+    r = int(np.argmin(scan.mdl))
+    assert (scan.na[r], scan.nb[r], scan.nk[r]) == (2, 2, 2)
+    # MDL = sum ln V + d ln J / J
+    j = scan.samples
+    np.testing.assert_allclose(
+        scan.mdl, np.log(scan.loss[:, 0]) + scan.parameters * np.log(j) / j, rtol=1e-12)
+    # held-out records: the validation loss, and the default criterion
+    u_val, y_val = simulate_arx(22, n=1500, nk=2)
+    held = lifted.arxstruc(u, y, u_val, y_val, na=range(1, 5), nb=range(1, 5), nk=[1, 2, 3])
+    assert held.validation_loss is not None and held.validation_loss.shape == (48, 1)
+    assert held.validation_samples is not None
+    assert held.best() == held.best("validation")
+    assert held.best("validation")[2] == 2 and held.best("mdl") == (2, 2, 2)
+    fit = lifted.arx(u, y, scan.best("mdl"))
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - TRUTH) < 4 * fit.std)
+    assert pickle.loads(pickle.dumps(scan)).best("mdl") == (2, 2, 2)
+
+
+def test_delayest_finds_the_delay() -> None:
+    u, y = simulate_arx(31, n=2000, nk=4)
+    d = lifted.delayest(u, y)
+    assert d.shape == (1, 1) and d.dtype == np.int64
+    assert int(d[0, 0]) == 4
+    assert int(lifted.delayest(u, y, min_delay=1, max_delay=6)[0, 0]) == 4
+
+
+def test_refusals(arx_record) -> None:
+    u, y = arx_record
+    cases = [
+        (lambda: lifted.arx(u, y, [2, 2]), lifted.ArgumentError, "orders"),
+        (lambda: lifted.fir(u, y, [2, 2, 1]), lifted.ArgumentError, "orders"),
+        (lambda: lifted.arx(u, y, [2, -1, 1]), lifted.ArgumentError, "orders[1]"),
+        (lambda: lifted.arx(u, y, [2, 0, 1]), lifted.ArgumentError, "orders"),
+        (lambda: lifted.fir(u, y, [0, 1]), lifted.ArgumentError, "orders"),
+        (lambda: lifted.arx(u, y, []), lifted.ArgumentError, "orders"),
+        (lambda: lifted.arx(u, y, 3), lifted.ArgumentError, None),  # type: ignore[arg-type]
+        (lambda: lifted.arx(u, y, "221"), lifted.ArgumentError, None),  # type: ignore[arg-type]
+        (lambda: lifted.arx(u, y, [2, 2, 1], order=2), lifted.ArgumentError, "orders"),
+        (lambda: lifted.identify(u, y, "n4sid", orders=[2, 2, 1]), lifted.ArgumentError, "orders"),
+        (lambda: lifted.fir(u, y, [2, 0], feedthrough=False), lifted.ArgumentError, "orders"),
+        (lambda: lifted.arx(np.ones(300), y[:300], [2, 2, 1]), lifted.NotExcitingError, None),
+        (lambda: lifted.arx(u[:5], y[:5], [2, 2, 1]), lifted.TooShortError, None),
+        (lambda: lifted.arxstruc(u, y, na=[]), lifted.ArgumentError, "na"),
+        (lambda: lifted.arxstruc(u, y, na=[0], nb=[0]), lifted.ArgumentError, "nb"),
+        (lambda: lifted.arxstruc(u, y, u), lifted.ArgumentError, None),
+        (lambda: lifted.arxstruc(u, y, na=[1], nb=[1]).best("validation"),
+         lifted.ArgumentError, None),
+        (lambda: lifted.arxstruc(u, y, na=[1], nb=[1]).best("bic"), lifted.ArgumentError, None),
+        (lambda: lifted.delayest(u, y, nb=0), lifted.ArgumentError, "nb"),
+        (lambda: lifted.delayest(u, y, min_delay=5, max_delay=2), lifted.ArgumentError,
+         "max_delay"),
+        (lambda: lifted.delayest(u, y, na=-1), lifted.ArgumentError, "na"),
+        (lambda: lifted.delayest(np.zeros(300), y[:300]), lifted.NotExcitingError, None),
+    ]
+    for k, (call, cls, argument) in enumerate(cases):
+        with pytest.raises(cls) as e:
+            call()
+        assert isinstance(e.value, ValueError), k
+        if argument is not None:
+            assert e.value.argument == argument, (k, e.value)  # type: ignore[attr-defined]
+    # the workflow's message reaches Python
+    with pytest.raises(lifted.ArgumentError, match="only used with the arx and fir methods"):
+        lifted.identify(u, y, "moesp", orders=[2, 2, 1])
+    with pytest.raises(lifted.ArgumentError, match=r"\[na nb nk\] \(3 numbers\)"):
+        lifted.arx(u, y, [2, 2])
+    # types: as everywhere in the package, a float or a bool is a TypeError
+    for bad in ([2, 2.5, 1], [2, True, 1], [2, np.True_, 1]):
+        with pytest.raises(TypeError):
+            lifted.arx(u, y, bad)  # type: ignore[arg-type]
+    with pytest.raises(TypeError):
+        lifted.delayest(u, y, nb=True)
+
+
+def test_model_json_keeps_the_polynomial(arx_record, tmp_path: pathlib.Path) -> None:
+    u, y = arx_record
+    fit = lifted.arx(u, y, [2, 2, 1], dt=0.5)
+    assert fit.polynomial is not None
+    doc = json.loads(fit.model_json)
+    assert doc["kind"] == "polynomial" and doc["method"] == "arx"
+    assert doc["polynomial"]["ts"] == 0.5 and "covariance" in doc["polynomial"]
+    path = tmp_path / "arx.json"
+    path.write_text(fit.model_json)
+    text = path.read_text()
+    back = lifted.PolyModel.from_json(text)
+    np.testing.assert_array_equal(back.parameters, fit.polynomial.parameters)
+    np.testing.assert_array_equal(back.covariance, fit.polynomial.covariance)
+    np.testing.assert_array_equal(back.noise_variance, fit.polynomial.noise_variance)
+    assert back.a == fit.polynomial.a and back.b == fit.polynomial.b
+    assert back.orders == fit.polynomial.orders and back.family == "arx"
+    # the state-space model of the same file, with its operating point and gain
+    model = lifted.StateSpace.from_json(text)
+    assert model == fit.model
+    # the polynomial model's own JSON
+    again = lifted.PolyModel.from_json(back.to_json())
+    np.testing.assert_array_equal(again.parameters, back.parameters)
+    np.testing.assert_array_equal(again.std, back.std)
+    # a state-space model file holds no polynomial model
+    ss = lifted.n4sid(u, y, order=2)
+    with pytest.raises(lifted.LiftedError, match="not 'polynomial'"):
+        lifted.PolyModel.from_json(ss.model_json)
+    with pytest.raises(lifted.ArgumentError):
+        lifted.PolyModel.from_json("{")
+
+
+def test_arx_fit_pickles(arx_record) -> None:
+    u, y = arx_record
+    fit = lifted.arx(u, y, [2, 2, 1])
+    back = pickle.loads(pickle.dumps(fit))
+    assert back.polynomial is not None and fit.polynomial is not None
+    np.testing.assert_array_equal(back.parameters, fit.parameters)
+    np.testing.assert_array_equal(back.covariance, fit.covariance)
+    assert repr(back.polynomial) == repr(fit.polynomial)
+    assert back.model == fit.model and back.model_json == fit.model_json
+
+
+def test_readme_arx_example(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    text = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    code = re.search(r"## Polynomial models.*?```python\n(.*?)```", text, re.S)
+    assert code is not None
+    monkeypatch.chdir(tmp_path)
+    scope: dict[str, object] = {}
+    exec(compile(code.group(1), "README.md", "exec"), scope)
+    fit = scope["fit"]
+    assert isinstance(fit, lifted.SubspaceFit) and fit.polynomial is not None
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - TRUTH) < 4 * fit.std)
+    assert scope["best"] == (2, 2, 1)
+    back = scope["back"]
+    assert isinstance(back, lifted.PolyModel)
+    np.testing.assert_array_equal(back.parameters, fit.parameters)
