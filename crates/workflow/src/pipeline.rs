@@ -12,7 +12,7 @@ use crate::multirate_start;
 use crate::options::{
     Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, Refine, WorkflowOptions,
 };
-use crate::preprocess::{ChannelScales, detrend_sets, deviations};
+use crate::preprocess::{ChannelScales, detrended, deviations};
 use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
 use crate::validate::{finish_file, require_stable};
@@ -166,18 +166,20 @@ fn run(
         return Err(Error::option("instrument", "only used with the iv method"));
     }
     let t_identify = std::time::Instant::now();
-    let raw: Vec<Dataset> = records.iter().map(|r| r.data.clone()).collect();
-    let multirate = raw.iter().any(|d| !d.is_single_rate());
+    let multirate = records.iter().any(|r| !r.data.is_single_rate());
     let subspace_single_rate = !multirate && id.method.is_subspace();
     // Single-rate N4SID/MOESP/CVA remove the means inside the
     // identification (as the streamed route does: the output-error
     // regression then also estimates the constant a response that started
     // at rest keeps); the other routes take the detrended records.
     let inner_means = subspace_single_rate && opts.data.detrend == Detrend::Mean;
+    // (One copy of the records: the detrended sets, or the records as they
+    // are; the scaling below divides that copy in place.)
     let (mut operating_point, mut sets): (Option<OperatingPoint>, Vec<Dataset>) = if inner_means {
-        (None, raw)
+        (None, records.iter().map(|r| r.data.clone()).collect())
     } else {
-        detrend_sets(raw, opts.data.detrend)?
+        let refs: Vec<&Dataset> = records.iter().map(|r| &r.data).collect();
+        detrended(&refs, opts.data.detrend)?
     };
     // Every route but the q-Markov Cover (whose PRBS amplitudes are in the
     // data's units) identifies on channels of unit standard deviation, so
@@ -185,7 +187,10 @@ fn run(
     // (preprocess::ChannelScales).
     let scales = (id.method != Method::Qmarkov).then(|| ChannelScales::of(&sets));
     if let Some(sc) = &scales {
-        sets = sets.iter().map(|d| sc.apply(d)).collect::<Result<_>>()?;
+        sets = sets
+            .into_iter()
+            .map(|d| sc.apply_owned(d))
+            .collect::<Result<_>>()?;
     }
     let ts = sets[0].ts();
     // The records and options of a single-rate subspace identification, for

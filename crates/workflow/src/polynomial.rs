@@ -161,6 +161,13 @@ fn split(sets: &[Dataset]) -> (Parts, Parts) {
 /// Records as owned (u, y) pairs.
 type Parts = Vec<(DMatrix<f64>, DMatrix<f64>)>;
 
+/// The records as experiments, borrowed.
+fn borrowed(sets: &[Dataset]) -> Vec<Experiment<'_>> {
+    sets.iter()
+        .map(|d| Experiment { u: d.u(), y: d.y() })
+        .collect()
+}
+
 fn experiments(parts: &[(DMatrix<f64>, DMatrix<f64>)]) -> Vec<Experiment<'_>> {
     parts.iter().map(|(u, y)| Experiment { u, y }).collect()
 }
@@ -187,11 +194,7 @@ fn scanned(
             arx_scan(&experiments(&est), &experiments(&val), &opts).ctx("ARX structure scan")?;
         (StructureCriterion::Validation, scan)
     } else {
-        let whole: Parts = sets
-            .iter()
-            .map(|d| (d.u().clone(), d.y().clone()))
-            .collect();
-        let scan = arx_scan(&experiments(&whole), &[], &opts).ctx("ARX structure scan")?;
+        let scan = arx_scan(&borrowed(sets), &[], &opts).ctx("ARX structure scan")?;
         let c = if id.order_criterion == OrderCriterion::Bic {
             StructureCriterion::Mdl
         } else {
@@ -259,16 +262,13 @@ pub(crate) fn identify(
         Some(s) => (s, serde_json::Value::Null),
         None => scanned(id, sets, &mut warnings)?,
     };
-    let whole: Parts = sets
-        .iter()
-        .map(|d| (d.u().clone(), d.y().clone()))
-        .collect();
     let arx_opts = ArxOptions {
         threads: id.threads.unwrap_or(1),
         ..Default::default()
     };
+    let t_arx = std::time::Instant::now();
     let fit = arx(
-        &experiments(&whole),
+        &borrowed(sets),
         &orders_of(structure, nu, ny),
         ts,
         &arx_opts,
@@ -288,6 +288,7 @@ pub(crate) fn identify(
         "compression": fit.compression.used,
         "structure_scan": scan,
     });
+    crate::diagnostics::add_phase(&mut diagnostics, "arx_s", t_arx.elapsed().as_secs_f64());
     for w in warnings {
         crate::diagnostics::push_warning(&mut diagnostics, w);
     }

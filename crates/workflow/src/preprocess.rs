@@ -14,13 +14,26 @@ pub fn detrend_sets(
     sets: Vec<Dataset>,
     detrend: Detrend,
 ) -> Result<(Option<OperatingPoint>, Vec<Dataset>)> {
+    if detrend == Detrend::None {
+        return Ok((None, sets));
+    }
+    let refs: Vec<&Dataset> = sets.iter().collect();
+    detrended(&refs, detrend)
+}
+
+/// [`detrend_sets`] of borrowed records: the detrended copies (one copy of
+/// the data; the records themselves for [`Detrend::None`], copied).
+pub(crate) fn detrended(
+    sets: &[&Dataset],
+    detrend: Detrend,
+) -> Result<(Option<OperatingPoint>, Vec<Dataset>)> {
     let kind = match detrend {
-        Detrend::None => return Ok((None, sets)),
+        Detrend::None => return Ok((None, sets.iter().map(|d| (*d).clone()).collect())),
         Detrend::Mean => LtiDetrend::Constant,
         Detrend::Linear => LtiDetrend::Linear,
     };
-    let us: Vec<&DMatrix<f64>> = sets.iter().map(Dataset::u).collect();
-    let ys: Vec<&DMatrix<f64>> = sets.iter().map(Dataset::y).collect();
+    let us: Vec<&DMatrix<f64>> = sets.iter().map(|d| d.u()).collect();
+    let ys: Vec<&DMatrix<f64>> = sets.iter().map(|d| d.y()).collect();
     let op = OperatingPoint::means(&us, &ys).ctx("detrend")?;
     let out = sets
         .iter()
@@ -136,6 +149,19 @@ impl ChannelScales {
             y.column_mut(c).iter_mut().for_each(|v| *v /= s);
         }
         (u, y)
+    }
+
+    /// [`ChannelScales::apply`] on a record the caller gives up: divided
+    /// in place, no copy. O(N (n_u + n_y)).
+    pub fn apply_owned(&self, d: Dataset) -> Result<Dataset> {
+        let (ts, mut u, mut y, inputs, outputs) = d.into_parts();
+        for (c, s) in self.u.iter().enumerate() {
+            u.column_mut(c).iter_mut().for_each(|v| *v /= s);
+        }
+        for (c, s) in self.y.iter().enumerate() {
+            y.column_mut(c).iter_mut().for_each(|v| *v /= s);
+        }
+        Dataset::new(ts, u, y, inputs, outputs).ctx("channel scaling")
     }
 
     /// The record with every channel divided by its scale (holds and

@@ -64,6 +64,7 @@ fn print_profile(diagnostics: &serde_json::Value) {
         ("multirate start", "multirate_start_s"),
         ("Kalman gain", "kalman_gain_s"),
         ("refinement", "refine_s"),
+        ("ARX / FIR", "arx_s"),
         ("feedback test", "feedback_s"),
         ("identify (total)", "identify_s"),
     ];
