@@ -469,6 +469,10 @@ pub enum MethodArg {
     Arx,
     /// FIR, y = B(q) u + e (ARX with na = 0): --orders "nb nk", else the scan over nb.
     Fir,
+    /// Output error, y = B(q)/F(q) u + e, by prediction-error minimisation of the simulation
+    /// error on the measured samples (multirate records too), with the parameters' standard
+    /// deviations: --orders "nb nf nk", or --order n (nb = nf = n, the delay estimated).
+    Oe,
 }
 
 impl MethodArg {
@@ -485,6 +489,7 @@ impl MethodArg {
             MethodArg::PbsidRowwise => "pbsid_rowwise",
             MethodArg::Arx => "arx",
             MethodArg::Fir => "fir",
+            MethodArg::Oe => "oe",
         }
     }
 }
@@ -533,8 +538,9 @@ pub struct IdentifyArgs {
     /// simulation fit on held-out blocks).
     #[arg(long, default_value = "auto")]
     pub order: String,
-    /// ARX/FIR: MATLAB's order vector, "na nb nk" (arx) or "nb nk" (fir), the same for every
-    /// input–output pair (spaces or commas). Default: chosen by the structure scan.
+    /// ARX/FIR/OE: MATLAB's order vector, "na nb nk" (arx), "nb nk" (fir) or "nb nf nk" (oe),
+    /// the same for every input–output pair (spaces or commas). Default (arx, fir): chosen by the
+    /// structure scan.
     #[arg(long)]
     pub orders: Option<String>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,

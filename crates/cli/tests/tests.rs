@@ -4735,6 +4735,40 @@ mod polynomial {
     }
 
     #[test]
+    fn oe_identifies_from_a_slow_output() {
+        // The test plant's output kept every 4th sample (empty cells): OE
+        // [nb nf nk] = [2 2 1] gives the fast model with its deviations.
+        let d = tmp("oe_cli");
+        let data = p(&d, "slow.csv");
+        simulate(&data, rbs(4000, 3), 4, 1000.0, 5);
+        let out = p(&d, "oe.json");
+        let text = ok(&[
+            "identify",
+            "--method",
+            "oe",
+            "--orders",
+            "2 2 1",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        assert!(text.contains("F(q) = 1 "), "{text}");
+        let f = ModelFile::read(&out).unwrap();
+        assert_eq!(f.kind, "polynomial");
+        assert_eq!(f.diagnostics["measured"][0], 1000);
+        let got = pole_modulus(&f.model);
+        let want = pole_modulus(&plant());
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() < 0.03, "{got:?} vs {want:?}");
+        }
+    }
+
+    #[test]
     fn bad_orders_are_named() {
         let d = tmp("arx_cli_bad");
         let (id, _) = single_rate_data(&d);

@@ -9,6 +9,7 @@
 //! | [`cross_validate_refinement`] ([`RefinementCheck`]) | whether a refinement helps on data it was not fitted to: each of K blocks held out once, the fold's subspace model and its refinement scored on it; a verdict only when the blocks tell the two apart |
 //! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
 //! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
+//! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
 //!
 //! # Method
@@ -70,6 +71,7 @@ mod budget;
 mod checks;
 pub mod error;
 mod held_out;
+mod oe;
 mod state_space;
 
 pub use arx::{
@@ -79,6 +81,7 @@ pub use arx::{
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
 pub use held_out::{RefinementCheck, cross_validate_refinement};
+pub use oe::{OeFit, OeOptions, oe};
 pub use state_space::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,

@@ -61,6 +61,7 @@ impl Choice for lifted_workflow::Method {
         ("iv", Self::Iv),
         ("arx", Self::Arx),
         ("fir", Self::Fir),
+        ("oe", Self::Oe),
     ];
 }
 

@@ -88,6 +88,11 @@ pub enum Method {
     Arx,
     /// FIR, y = B u + e (ARX with na = 0; orders `[nb nk]`).
     Fir,
+    /// Output error, y = B/F u + e, by prediction-error minimisation on the
+    /// measured samples (`lifted_pem::oe`; multirate records included):
+    /// orders `[nb nf nk]`, or a fixed order n (nb = nf = n, nk from the
+    /// delay estimate on single-rate records, else 1).
+    Oe,
 }
 
 impl Method {
@@ -104,12 +109,13 @@ impl Method {
             Method::PbsidRowwise => "pbsid_rowwise",
             Method::Arx => "arx",
             Method::Fir => "fir",
+            Method::Oe => "oe",
         }
     }
 
-    /// Whether this method gives a polynomial model (ARX, FIR).
+    /// Whether this method gives a polynomial model (ARX, FIR, OE).
     pub fn is_polynomial(self) -> bool {
-        matches!(self, Method::Arx | Method::Fir)
+        matches!(self, Method::Arx | Method::Fir | Method::Oe)
     }
 
     /// Whether this is one of the predictor-based methods (PBSID-opt,
@@ -303,9 +309,10 @@ pub struct IdentificationOptions {
     /// the count through rounding only). Default `None`: 1 in memory, the
     /// machine's on a streamed record.
     pub threads: Option<usize>,
-    /// ARX and FIR: MATLAB's order vector, the same for every
-    /// input–output pair: `[na nb nk]` (ARX) or `[nb nk]` (FIR). Empty,
-    /// the default: chosen by the structure scan (`crate::polynomial`:
+    /// ARX, FIR and OE: MATLAB's order vector, the same for every
+    /// input–output pair: `[na nb nk]` (ARX), `[nb nk]` (FIR) or
+    /// `[nb nf nk]` (OE). OE needs it or a fixed [`Self::order`]. Empty,
+    /// the default for ARX and FIR: chosen by the structure scan (`crate::polynomial`:
     /// na, nb in 1..=[`Self::max_order`], nk in 1..=5 (0..=5 with
     /// [`Self::feedthrough`] `Some(true)`), by
     /// [`Self::order_criterion`]). Other methods: not used (an error when

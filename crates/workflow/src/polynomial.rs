@@ -1,6 +1,8 @@
 //! The polynomial routes: ARX and FIR by least squares
 //! (`lifted_pem::arx`), their structure from the options or from the
-//! structure scan (`lifted_pem::arx_scan`).
+//! structure scan (`lifted_pem::arx_scan`); output error by
+//! prediction-error minimisation (`lifted_pem::oe`), on multirate records
+//! too (the cost on the measured samples).
 //!
 //! **Structure.** `orders` = `[na nb nk]` (ARX) or `[nb nk]` (FIR), the
 //! same for every input–output pair (A full n_y × n_y), as MATLAB's
@@ -21,8 +23,12 @@
 //! No refinement follows: the least-squares estimate is the
 //! prediction-error estimate of the ARX structure.
 //!
-//! Records whose outputs are measured at slower rates are refused: the
-//! ARX regressors are past outputs at every sample.
+//! ARX and FIR refuse records whose outputs are measured at slower rates
+//! (their regressors are past outputs at every sample); OE takes them: its
+//! predictor is the simulation, scored where the outputs were measured.
+//! OE's structure is `orders` = `[nb nf nk]` or a fixed order n (nb = nf =
+//! n, nk per pair from the ARX delay estimate on single-rate records, 1 on
+//! multirate ones).
 
 use lifted_lti::{Dataset, PolyModel, PolyOrders};
 use lifted_pem::{ArxOptions, ArxScanOptions, ArxStructure, StructureCriterion, arx, arx_scan};
@@ -64,7 +70,13 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
         }
         return Ok(());
     }
-    let expected = if id.method == Method::Arx { 3 } else { 2 };
+    let expected = if id.method == Method::Fir { 2 } else { 3 };
+    if id.method == Method::Oe && id.orders.is_empty() && id.order == Order::Auto {
+        return Err(Error::option(
+            "orders",
+            "oe needs its structure: orders [nb nf nk] (--orders \"nb nf nk\"), or a fixed order n (nb = nf = n)",
+        ));
+    }
     if !id.orders.is_empty() {
         if id.orders.len() != expected {
             return Err(Error::option(
@@ -72,16 +84,20 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
                 format!(
                     "{} takes {} ({expected} numbers), got {:?}",
                     id.method.name(),
-                    if expected == 3 {
-                        "[na nb nk]"
-                    } else {
-                        "[nb nk]"
+                    match id.method {
+                        Method::Arx => "[na nb nk]",
+                        Method::Oe => "[nb nf nk]",
+                        _ => "[nb nk]",
                     },
                     id.orders
                 ),
             ));
         }
-        let nb = id.orders[expected - 2];
+        let nb = id.orders[if id.method == Method::Oe {
+            0
+        } else {
+            expected - 2
+        }];
         if nb == 0 {
             return Err(Error::option(
                 "orders",
@@ -94,10 +110,12 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
                 "nk = 0 is a direct feedthrough, but the feedthrough is fixed at 0",
             ));
         }
-    } else if matches!(
-        id.order_criterion,
-        OrderCriterion::Gap | OrderCriterion::Svc
-    ) {
+    } else if id.method != Method::Oe
+        && matches!(
+            id.order_criterion,
+            OrderCriterion::Gap | OrderCriterion::Svc
+        )
+    {
         return Err(Error::option(
             "order_criterion",
             "the ARX/FIR structure scan ranks by the held-out loss (validation), AIC, AICc or BIC (MDL), not by singular values",
@@ -244,6 +262,9 @@ pub(crate) fn identify(
     multirate: bool,
 ) -> Result<RouteFit> {
     let id = &opts.identification;
+    if id.method == Method::Oe {
+        return output_error(opts, sets, multirate);
+    }
     if multirate {
         return Err(Error::option(
             "method",
@@ -305,4 +326,70 @@ pub(crate) fn identify(
 /// units (see `ChannelScales::poly`).
 pub(crate) fn in_units(sc: &crate::ChannelScales, p: &PolyModel) -> Result<PolyModel> {
     sc.poly(p)
+}
+
+/// The OE route (module docs).
+fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let first = sets
+        .first()
+        .ok_or_else(|| Error::Data("no data record".into()))?;
+    let (nu, ny, ts) = (first.n_inputs(), first.y().ncols(), first.ts());
+    let records = borrowed(sets);
+    let (nb, nf, nk): (usize, usize, Option<usize>) = match (id.orders.as_slice(), id.order) {
+        (&[nb, nf, nk], _) => (nb, nf, Some(nk)),
+        (_, Order::Fixed(n)) => (n, n, None),
+        _ => {
+            return Err(Error::option(
+                "orders",
+                "oe needs orders [nb nf nk] or a fixed order",
+            ));
+        }
+    };
+    let first_delay = if id.feedthrough == Some(true) { 0 } else { 1 };
+    let delays: Vec<Vec<usize>> = match nk {
+        Some(nk) => vec![vec![nk; nu]; ny],
+        None if !multirate => lifted_pem::estimate_delays(
+            &records,
+            &lifted_pem::DelayOptions {
+                min_delay: first_delay,
+                threads: id.threads.unwrap_or(1),
+                ..Default::default()
+            },
+        )
+        .ctx("OE delay estimate")?,
+        None => vec![vec![first_delay; nu]; ny],
+    };
+    let orders = PolyOrders {
+        na: vec![vec![0; ny]; ny],
+        nb: vec![vec![nb; nu]; ny],
+        nc: vec![0; ny],
+        nd: vec![0; ny],
+        nf: vec![vec![nf; nu]; ny],
+        nk: delays.clone(),
+    };
+    let t_oe = std::time::Instant::now();
+    let fit = lifted_pem::oe(&records, &orders, ts, &lifted_pem::OeOptions::default())
+        .ctx("OE estimation")?;
+    let (model, k) = fit
+        .model
+        .to_innovations_ss()
+        .ctx("the polynomial model's state-space form")?;
+    let mut diagnostics = json!({
+        "route": "oe",
+        "orders": {"nb": nb, "nf": nf, "nk": delays},
+        "parameters": fit.model.n_parameters(),
+        "loss": fit.loss,
+        "simulation_fit": fit.fit,
+        "measured": fit.measured,
+        "iterations": fit.iterations,
+    });
+    crate::diagnostics::add_phase(&mut diagnostics, "oe_s", t_oe.elapsed().as_secs_f64());
+    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
+    route.suggested_order = route.order;
+    route.kalman_gain = Some(k);
+    Ok(route.with_details(RouteDetails {
+        polynomial: Some(fit.model),
+        ..Default::default()
+    }))
 }

@@ -65,6 +65,7 @@ fn print_profile(diagnostics: &serde_json::Value) {
         ("Kalman gain", "kalman_gain_s"),
         ("refinement", "refine_s"),
         ("ARX / FIR", "arx_s"),
+        ("OE", "oe_s"),
         ("feedback test", "feedback_s"),
         ("identify (total)", "identify_s"),
     ];

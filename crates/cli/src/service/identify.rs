@@ -130,6 +130,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::PbsidRowwise => Method::PbsidRowwise,
         MethodArg::Arx => Method::Arx,
         MethodArg::Fir => Method::Fir,
+        MethodArg::Oe => Method::Oe,
     };
     if let Some(text) = &a.orders {
         id.orders = parse_orders(text)?;

@@ -131,6 +131,7 @@ __all__ = [
     "cva",
     "arx",
     "fir",
+    "oe",
     "arxstruc",
     "delayest",
     "iv",
@@ -669,6 +670,39 @@ def fir(
         u, y, "fir", order=order, orders=orders, max_order=max_order,
         order_criterion=order_criterion, feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, dt=dt, threads=threads,
+    )
+
+
+def oe(
+    u: Any,
+    y: Any,
+    orders: Sequence[int] | None = None,
+    *,
+    order: int | None = None,
+    feedthrough: bool | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """Output-error model (MATLAB's ``oe(data, [nb nf nk])``) by
+    prediction-error minimisation of the simulation error, through the
+    identification workflow (``identify(u, y, "oe", orders=...)``)::
+
+        y(t) = sum_k B_k(q)/F_k(q) u_k(t - nk) + e(t)
+
+    ``orders`` = ``[nb, nf, nk]`` for every input-output pair, or ``order``
+    n (nb = nf = n, the delays estimated by ARX fits). ``y`` may hold NaN
+    where an output was not measured (a slow analyser: the NaN of one
+    period per output): the cost uses the measured samples only, and the
+    fast model comes back. ``parameters`` are, per output, the B
+    coefficients input by input, then the free F coefficients input by
+    input, with ``covariance`` and ``std`` (from the Jacobian at the
+    optimum).
+    """
+    return identify(
+        u, y, "oe", order=order, orders=orders, feedthrough=feedthrough,
+        detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
     )
 
 

@@ -30,9 +30,10 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: Identification method of the workflow (``identify(method=...)``, the
 #: CLI's ``--method``): the subspace methods, the predictor-based PBSID-opt
 #: and SSARX, instrumental-variable subspace, and the least-squares
-#: polynomial models ARX and FIR (``orders=[na, nb, nk]`` / ``[nb, nk]``).
+#: polynomial models ARX, FIR and OE (``orders=[na, nb, nk]`` / ``[nb, nk]``
+#: / ``[nb, nf, nk]``).
 IdentifyMethod = Literal[
-    "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir"
+    "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir", "oe"
 ]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on

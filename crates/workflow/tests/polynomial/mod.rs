@@ -181,3 +181,46 @@ fn fir_and_the_refusals() {
     .unwrap();
     bad(options(Method::Arx, &[2, 2, 1]), &multirate, "method");
 }
+
+#[test]
+fn oe_identifies_a_fast_model_from_an_analyser_every_five_samples() {
+    // y = q⁻²(0.5 + 0.3q⁻¹)/(1 − 1.2q⁻¹ + 0.5q⁻²) u + e, the output kept
+    // every 5th sample (an analyser): the fast OE model within 4.5σ, its
+    // state-space form scored on the measured samples.
+    let g = PolyModel::oe(&[0.5, 0.3], &[1.0, -1.2, 0.5], 2, 1.0).unwrap();
+    let u = gauss(41, 6000, 1, 1.0);
+    let mut y = g.simulate(&u, Some(&gauss(42, 6000, 1, 0.05))).unwrap();
+    for (t, v) in y.iter_mut().enumerate() {
+        if t % 5 != 0 {
+            *v = f64::NAN;
+        } else {
+            *v += 10.0;
+        }
+    }
+    let data = Dataset::new(
+        1.0,
+        u,
+        y,
+        vec![lifted_lti::InputChannel::new("u1", 1)],
+        vec![lifted_lti::OutputChannel::new("y1", 5, 0)],
+    )
+    .unwrap();
+    let id = identify(
+        &[Record::new(data.clone())],
+        &options(Method::Oe, &[2, 2, 2]),
+    )
+    .unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    let std = p.std().unwrap();
+    for ((a, b), s) in p.parameters().iter().zip(g.parameters()).zip(&std) {
+        assert!((a - b).abs() < 4.5 * s, "{a} {b} ± {s}");
+    }
+    assert_eq!(id.file.diagnostics["measured"][0], 1200);
+    assert_eq!(id.file.kind, "polynomial");
+    // OE without orders or a fixed order is refused.
+    let e = identify(&[Record::new(data)], &options(Method::Oe, &[])).unwrap_err();
+    assert!(
+        matches!(&e, Error::InvalidOption { option, .. } if *option == "orders"),
+        "{e}"
+    );
+}

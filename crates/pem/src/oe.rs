@@ -1,0 +1,669 @@
+//! Output-error models, y_i(t) = Σ_k B_ik(q)/F_ik(q) u_k(t − nk_ik) + e_i(t),
+//! by prediction-error minimisation on the measured samples — multirate
+//! records included.
+//!
+//! The output-error predictor is the simulation ŷ = Σ_k (B_k/F_k) u_k, which
+//! needs no past output, so the cost V = Σ ε(t)² / M over the M samples where
+//! output i was measured (NaN elsewhere) is the same whether the output is
+//! sampled at every fast instant or every P-th (Ljung 1999, §4.2 eq. (4.25)
+//! for the model, §10.2 for the Gauss–Newton iterations; the missing-output
+//! cost as Isaksson 1993). Each output is its own problem (the OE model has
+//! no noise coupling between outputs).
+//!
+//! **Start.** A FIR model of L lags per input, regressed on the measured
+//! samples (u is known at every instant), then per input an ARX
+//! [nf nb nk] fitted to the FIR model's noise-free simulation of that input's
+//! contribution ([`crate::arx`]): B/F ≈ the FIR response, exact when the FIR
+//! is. A start whose F is unstable is replaced by F = 1 and the leading FIR
+//! coefficients.
+//!
+//! **Iterations.** Levenberg–Marquardt on θ = (B_i1 … B_inu, F_i1 … F_inu)
+//! (the parameter order of [`lifted_lti::PolyModel::parameters`]) with the
+//! analytic Jacobian: with v_k = u_k(t − nk)/F_k and z_k = ŷ_k/F_k,
+//! ∂ŷ/∂b_km = v_k(t − m) and ∂ŷ/∂f_kj = −z_k(t − j), filtered once per
+//! iteration (O(N Σ(nb + nf)) flops); the rows of [∂ŷ/∂θ | ε] at the
+//! measured samples are folded into an R-only QR (memory O(d²), never JᵀJ);
+//! the damped step solves [R₁₁; √λ D] δ = [r; 0] (Marquardt's scaling D). A
+//! step that leaves any F unstable (a root on or outside the unit circle) is
+//! rejected like a cost increase. Zero initial conditions.
+//!
+//! **Uncertainty.** Cov θ = λ̂ (JᵀJ)⁻¹ = λ̂ R₁₁⁻¹R₁₁⁻ᵀ at the optimum with
+//! λ̂ = M V / (M − d) (Ljung 1999, eq. (9.18)); across outputs the
+//! parameters are taken as independent (block-diagonal covariance).
+
+use lifted_linalg::RAccumulator;
+use lifted_lti::{PolyModel, PolyOrders, Polynomials};
+use lifted_subspace::Experiment;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Rows of [J | ε] folded into the R-only QR at a time.
+const BLOCK_ROWS: usize = 4096;
+
+/// Options of [`oe`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OeOptions {
+    /// Largest number of Levenberg–Marquardt iterations per output
+    /// (default 100).
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this
+    /// fraction (default 1e-10), or the step is below it relative to θ.
+    pub tolerance: f64,
+    /// Lags of the FIR start per input (default: 10 (nb + nf), at least
+    /// 20 and at most 200, and at most one lag per 4 measured samples per
+    /// input).
+    pub fir_length: Option<usize>,
+}
+
+impl Default for OeOptions {
+    fn default() -> Self {
+        OeOptions {
+            max_iterations: 100,
+            tolerance: 1e-10,
+            fir_length: None,
+        }
+    }
+}
+
+/// An estimated output-error model and what the iterations did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OeFit {
+    /// The model, with the noise variances and the parameter covariance.
+    pub model: PolyModel,
+    /// Mean squared simulation error per output on its measured samples.
+    pub loss: Vec<f64>,
+    /// Simulation fit per output, percent: 100 (1 − ‖ε‖/‖y − ȳ‖) on the
+    /// measured samples.
+    pub fit: Vec<f64>,
+    /// Measured samples per output.
+    pub measured: Vec<usize>,
+    /// Iterations run per output.
+    pub iterations: Vec<usize>,
+}
+
+/// One output's structure: per input (nb, nf, nk).
+#[derive(Debug, Clone)]
+struct Pairs {
+    nb: Vec<usize>,
+    nf: Vec<usize>,
+    nk: Vec<usize>,
+}
+
+impl Pairs {
+    fn parameters(&self) -> usize {
+        self.nb.iter().sum::<usize>() + self.nf.iter().sum::<usize>()
+    }
+}
+
+/// (B_k, F_k) per input: b coefficients, f free coefficients (F = 1 + …).
+type Rational = Vec<(Vec<f64>, Vec<f64>)>;
+
+fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    let grid = |m: &Vec<Vec<usize>>, rows: usize, cols: usize| {
+        m.len() == rows && m.iter().all(|r| r.len() == cols)
+    };
+    if !(grid(&orders.na, ny, ny)
+        && grid(&orders.nb, ny, nu)
+        && grid(&orders.nf, ny, nu)
+        && grid(&orders.nk, ny, nu)
+        && orders.nc.len() == ny
+        && orders.nd.len() == ny)
+    {
+        return Err(Error::DimensionMismatch {
+            what: "OE orders (nb, nf, nk n_y×n_u)",
+            expected: format!("{ny} outputs and {nu} inputs"),
+            got: format!(
+                "nb {}×{}",
+                orders.nb.len(),
+                orders.nb.first().map_or(0, Vec::len)
+            ),
+        });
+    }
+    if orders.na.iter().flatten().any(|&n| n > 0)
+        || orders.nc.iter().chain(&orders.nd).any(|&n| n > 0)
+    {
+        return Err(Error::InvalidOption {
+            what: "orders",
+            reason: "an output-error structure has no A, C or D polynomial (na = nc = nd = 0)"
+                .into(),
+        });
+    }
+    for (i, row) in orders.nb.iter().enumerate() {
+        if row
+            .iter()
+            .zip(&orders.nf[i])
+            .any(|(&b, &f)| b == 0 && f > 0)
+        {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: format!("output {i}: an input with nb = 0 has no F (nf must be 0)"),
+            });
+        }
+        if row.iter().all(|&b| b == 0) {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: format!("output {i} has no input term (every nb = 0)"),
+            });
+        }
+    }
+    for e in experiments {
+        crate::checks::check_record_shape("record (u, y)", e.u, e.y, nu, ny)?;
+        crate::checks::check_finite("u", e.u)?;
+        if let Some(k) = e.y.iter().position(|v| v.is_infinite()) {
+            return Err(Error::NonFinite {
+                what: "y",
+                row: k % e.y.nrows(),
+                col: k / e.y.nrows(),
+            });
+        }
+    }
+    Ok((nu, ny))
+}
+
+/// w(t) = s(t − delay) − Σ_j f_j w(t − j), zero initial conditions.
+fn filter(s: &[f64], f: &[f64], delay: usize, out: &mut Vec<f64>) {
+    out.clear();
+    out.resize(s.len(), 0.0);
+    for t in 0..s.len() {
+        let mut v = if t >= delay { s[t - delay] } else { 0.0 };
+        for (j, fj) in f.iter().enumerate() {
+            if t > j {
+                v -= fj * out[t - j - 1];
+            }
+        }
+        out[t] = v;
+    }
+}
+
+/// Σ_m b_m v(t − m).
+fn fir_apply(v: &[f64], b: &[f64], out: &mut Vec<f64>) {
+    out.clear();
+    out.resize(v.len(), 0.0);
+    for t in 0..v.len() {
+        let mut s = 0.0;
+        for (m, bm) in b.iter().enumerate() {
+            if t >= m {
+                s += bm * v[t - m];
+            }
+        }
+        out[t] = s;
+    }
+}
+
+/// Whether 1 + f₁q⁻¹ + … has every root strictly inside the unit circle.
+fn stable(f: &[f64]) -> bool {
+    if f.is_empty() {
+        return true;
+    }
+    let n = f.len();
+    let companion = DMatrix::from_fn(n, n, |r, c| {
+        if r == 0 {
+            -f[c]
+        } else if r == c + 1 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    lifted_linalg::spectral_radius(&companion).is_ok_and(|rho| rho < 1.0)
+}
+
+/// The simulated output ŷ_i = Σ_k (B_k/F_k) u_k and, with `jacobian`, the
+/// columns ∂ŷ/∂θ, for one record. O(N Σ(nb + nf)).
+fn simulate(
+    u: &DMatrix<f64>,
+    pairs: &Pairs,
+    theta: &Rational,
+    jacobian: bool,
+) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let n = u.nrows();
+    let mut yhat = vec![0.0; n];
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    let (mut v, mut yk, mut z) = (Vec::new(), Vec::new(), Vec::new());
+    let mut b_cols = Vec::new();
+    let mut f_cols = Vec::new();
+    for (k, (b, f)) in theta.iter().enumerate() {
+        if pairs.nb[k] == 0 {
+            continue;
+        }
+        let uk: Vec<f64> = u.column(k).iter().copied().collect();
+        filter(&uk, f, pairs.nk[k], &mut v);
+        fir_apply(&v, b, &mut yk);
+        for (a, c) in yhat.iter_mut().zip(&yk) {
+            *a += c;
+        }
+        if jacobian {
+            for m in 0..b.len() {
+                b_cols.push(
+                    (0..n)
+                        .map(|t| if t >= m { v[t - m] } else { 0.0 })
+                        .collect(),
+                );
+            }
+            filter(&yk, f, 0, &mut z);
+            for j in 1..=f.len() {
+                f_cols.push(
+                    (0..n)
+                        .map(|t| if t >= j { -z[t - j] } else { 0.0 })
+                        .collect(),
+                );
+            }
+        }
+    }
+    if jacobian {
+        // Parameter order: every B, then every F (PolyModel::parameters).
+        cols.extend(b_cols);
+        cols.extend(f_cols);
+    }
+    (yhat, cols)
+}
+
+/// Splits θ (B's then F's) into per-input (b, f).
+fn unpack(theta: &[f64], pairs: &Pairs) -> Rational {
+    let mut at = 0;
+    let mut bs = Vec::new();
+    for &nb in &pairs.nb {
+        bs.push(theta[at..at + nb].to_vec());
+        at += nb;
+    }
+    let mut out = Vec::new();
+    for (k, &nf) in pairs.nf.iter().enumerate() {
+        out.push((bs[k].clone(), theta[at..at + nf].to_vec()));
+        at += nf;
+    }
+    out
+}
+
+fn pack(r: &Rational) -> Vec<f64> {
+    r.iter()
+        .flat_map(|(b, _)| b.iter().copied())
+        .chain(r.iter().flat_map(|(_, f)| f.iter().copied()))
+        .collect()
+}
+
+/// Cost Σ ε² over the measured samples of output `i`, and (with
+/// `jacobian`) the R factor of [∂ŷ/∂θ | ε] (∂ŷ/∂θ = −J).
+fn evaluate(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    pairs: &Pairs,
+    theta: &Rational,
+    jacobian: bool,
+) -> Result<(f64, Option<DMatrix<f64>>)> {
+    let d = pairs.parameters();
+    let mut acc = jacobian.then(|| RAccumulator::new(d + 1));
+    let mut block: Vec<f64> = Vec::new();
+    let mut rows = 0;
+    let mut cost = 0.0;
+    for e in experiments {
+        let (yhat, cols) = simulate(e.u, pairs, theta, jacobian);
+        for (t, &yh) in yhat.iter().enumerate() {
+            let y = e.y[(t, i)];
+            if y.is_nan() {
+                continue;
+            }
+            let eps = y - yh;
+            cost += eps * eps;
+            if let Some(acc) = acc.as_mut() {
+                block.extend(cols.iter().map(|c| c[t]));
+                block.push(eps);
+                rows += 1;
+                if rows == BLOCK_ROWS {
+                    acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+                    block.clear();
+                    rows = 0;
+                }
+            }
+        }
+    }
+    if let Some(acc) = acc.as_mut()
+        && rows > 0
+    {
+        acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+    }
+    Ok((cost, acc.map(|a| a.r())))
+}
+
+/// The FIR-then-ARX start of output `i` (module docs).
+fn start(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    pairs: &Pairs,
+    measured: usize,
+    opts: &OeOptions,
+) -> Result<Rational> {
+    let nu = pairs.nb.len();
+    let active: Vec<usize> = (0..nu).filter(|&k| pairs.nb[k] > 0).collect();
+    let longest = active
+        .iter()
+        .map(|&k| 10 * (pairs.nb[k] + pairs.nf[k]))
+        .max()
+        .unwrap_or(20);
+    let cap = (measured / (4 * active.len().max(1))).max(1);
+    let lags = opts
+        .fir_length
+        .unwrap_or_else(|| longest.clamp(20, 200))
+        .min(cap)
+        .max(pairs.nb.iter().copied().max().unwrap_or(1));
+    // FIR regression on the measured samples: y(t) = Σ_k Σ_l g_kl u_k(t − nk_k − l).
+    let p = lags * active.len();
+    let mut acc = RAccumulator::new(p + 1);
+    let mut block: Vec<f64> = Vec::new();
+    let mut rows = 0;
+    for e in experiments {
+        for t in 0..e.u.nrows() {
+            let y = e.y[(t, i)];
+            if y.is_nan() {
+                continue;
+            }
+            for &k in &active {
+                for l in 0..lags {
+                    let lag = pairs.nk[k] + l;
+                    block.push(if t >= lag { e.u[(t - lag, k)] } else { 0.0 });
+                }
+            }
+            block.push(y);
+            rows += 1;
+            if rows == BLOCK_ROWS {
+                acc.push_rows(&DMatrix::from_row_slice(rows, p + 1, &block))?;
+                block.clear();
+                rows = 0;
+            }
+        }
+    }
+    if rows > 0 {
+        acc.push_rows(&DMatrix::from_row_slice(rows, p + 1, &block))?;
+    }
+    let r = acc.r();
+    if r.nrows() < p + 1 {
+        return Err(Error::TooFewSamples {
+            what: "the output-error start (FIR regression)",
+            measured,
+            needed: p + 1,
+        });
+    }
+    let r11 = r.view((0, 0), (p, p)).into_owned();
+    let scale = (0..p).map(|j| r11[(j, j)].abs()).fold(0.0, f64::max);
+    let rank = (0..p)
+        .filter(|&j| r11[(j, j)].abs() > 1e-10 * scale.max(f64::MIN_POSITIVE))
+        .count();
+    if rank < p {
+        return Err(Error::RankDeficient {
+            what: "the FIR regressors of the output-error start (lagged inputs)",
+            rank,
+            needed: p,
+        });
+    }
+    let g = r11
+        .solve_upper_triangular(&r.view((0, p), (p, 1)).into_owned())
+        .ok_or(Error::RankDeficient {
+            what: "the FIR regressors of the output-error start (lagged inputs)",
+            rank: 0,
+            needed: p,
+        })?;
+    let mut out: Rational = vec![(Vec::new(), Vec::new()); nu];
+    for (slot, &k) in active.iter().enumerate() {
+        let fir: Vec<f64> = (0..lags).map(|l| g[slot * lags + l]).collect();
+        let (nb, nf) = (pairs.nb[k], pairs.nf[k]);
+        let plain = (fir[..nb].to_vec(), vec![0.0; nf]);
+        if nf == 0 {
+            out[k] = plain;
+            continue;
+        }
+        // ARX [nf nb 0] on the FIR's simulation of this input (the delay
+        // already applied): B/F fitted to the FIR response.
+        let mut fitted = None;
+        for e in experiments {
+            let n = e.u.nrows();
+            if n <= lags + nf + nb + 1 {
+                continue;
+            }
+            let uk = DMatrix::from_fn(n, 1, |t, _| {
+                if t >= pairs.nk[k] {
+                    e.u[(t - pairs.nk[k], k)]
+                } else {
+                    0.0
+                }
+            });
+            let mut yk = Vec::new();
+            fir_apply(uk.as_slice(), &fir, &mut yk);
+            let ykm = DMatrix::from_column_slice(n, 1, &yk);
+            let fit = crate::arx(
+                &[Experiment { u: &uk, y: &ykm }],
+                &PolyOrders::siso(nf, nb, 0, 0, 0, 0),
+                1.0,
+                &crate::ArxOptions {
+                    threads: 1,
+                    ..Default::default()
+                },
+            );
+            if let Ok(fit) = fit {
+                let a = fit.model.a(0, 0)[1..].to_vec();
+                let b = fit.model.b(0, 0).to_vec();
+                if stable(&a) {
+                    fitted = Some((b, a));
+                }
+            }
+            break;
+        }
+        out[k] = fitted.unwrap_or(plain);
+    }
+    Ok(out)
+}
+
+/// Levenberg–Marquardt on output `i` from `theta`; returns (θ, cost,
+/// R₁₁ at θ, iterations).
+fn iterate(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    pairs: &Pairs,
+    mut theta: Rational,
+    opts: &OeOptions,
+) -> Result<(Rational, f64, DMatrix<f64>, usize)> {
+    let d = pairs.parameters();
+    let mut lambda: f64 = 1e-3;
+    let (mut cost, mut r) = evaluate(experiments, i, pairs, &theta, true)?;
+    let mut iterations = 0;
+    while iterations < opts.max_iterations {
+        iterations += 1;
+        let rr = r.clone().unwrap_or_else(|| DMatrix::zeros(0, d + 1));
+        if rr.nrows() < d {
+            break;
+        }
+        let r11 = rr.view((0, 0), (d, d)).into_owned();
+        let r12 = rr.view((0, d), (d, 1)).column(0).into_owned();
+        let scale: Vec<f64> = (0..d)
+            .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
+            .collect();
+        let current = pack(&theta);
+        let mut accepted = false;
+        for _ in 0..12 {
+            // The rows are [G | ε] with G = ∂ŷ/∂θ = −J, so the damped
+            // Gauss–Newton step solves [R₁₁; √λ D] δ = [r; 0] (a small QR).
+            let mut m = DMatrix::zeros(2 * d, d + 1);
+            m.view_mut((0, 0), (d, d)).copy_from(&r11);
+            for j in 0..d {
+                m[(d + j, j)] = lambda.sqrt() * scale[j];
+                m[(j, d)] = r12[j];
+            }
+            let q = lifted_linalg::qr_r(&m)?;
+            let Some(delta) = q
+                .view((0, 0), (d, d))
+                .into_owned()
+                .solve_upper_triangular(&q.view((0, d), (d, 1)).into_owned())
+            else {
+                lambda *= 4.0;
+                continue;
+            };
+            let trial: Vec<f64> = current
+                .iter()
+                .zip(delta.iter())
+                .map(|(a, b)| a + b)
+                .collect();
+            let trial_r = unpack(&trial, pairs);
+            if !trial_r.iter().all(|(_, f)| stable(f)) {
+                lambda *= 4.0;
+                continue;
+            }
+            let (c, _) = evaluate(experiments, i, pairs, &trial_r, false)?;
+            if c < cost {
+                let small_step = delta.norm()
+                    <= opts.tolerance.sqrt() * (1.0 + DVector::from_vec(current.clone()).norm());
+                let small_gain = (cost - c) <= opts.tolerance * cost;
+                theta = trial_r;
+                cost = c;
+                lambda = (lambda / 3.0).max(1e-12);
+                accepted = true;
+                let (_, nr) = evaluate(experiments, i, pairs, &theta, true)?;
+                r = nr;
+                if small_step || small_gain {
+                    let r11 = r
+                        .as_ref()
+                        .map(|r| r.view((0, 0), (d, d)).into_owned())
+                        .unwrap_or_else(|| DMatrix::zeros(d, d));
+                    return Ok((theta, cost, r11, iterations));
+                }
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    let r11 = r
+        .as_ref()
+        .filter(|r| r.nrows() >= d)
+        .map(|r| r.view((0, 0), (d, d)).into_owned())
+        .unwrap_or_else(|| DMatrix::zeros(d, d));
+    Ok((theta, cost, r11, iterations))
+}
+
+/// Output-error model of structure `orders` (n_y × n_u nb, nf, nk; every
+/// na, nc, nd 0) on the records, sample period `ts`, with the parameter
+/// covariance. y may hold NaN where an output was not measured (a
+/// multirate record): the cost uses the measured samples only.
+///
+/// Cost: per output, the FIR start (one pass, O(M L² n_u²) for L lags),
+/// then per iteration one Jacobian pass O(N d) plus its QR O(M d²) and a
+/// few trial simulations O(N d); memory O(N + d²) per record and output.
+///
+/// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`] for orders or
+/// records that do not match; [`Error::InvalidOption`] for a structure
+/// with A, C or D or an output without input terms; [`Error::NonFinite`]
+/// for NaN/inf in u or an infinite y; [`Error::TooFewSamples`] when an
+/// output has no more measured samples than parameters (and the FIR
+/// start's lags); [`Error::RankDeficient`] for inputs that do not excite
+/// the FIR start.
+pub fn oe(
+    experiments: &[Experiment<'_>],
+    orders: &PolyOrders,
+    ts: f64,
+    opts: &OeOptions,
+) -> Result<OeFit> {
+    let (nu, ny) = check(experiments, orders)?;
+    if opts.max_iterations == 0 || !(opts.tolerance.is_finite() && opts.tolerance > 0.0) {
+        return Err(Error::InvalidOption {
+            what: "OE iterations",
+            reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
+        });
+    }
+    let mut b_all = vec![vec![Vec::new(); nu]; ny];
+    let mut f_all = vec![vec![vec![1.0]; nu]; ny];
+    let mut blocks: Vec<DMatrix<f64>> = Vec::new();
+    let mut lambdas = Vec::new();
+    let (mut loss, mut fit, mut measured_all, mut iterations) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for i in 0..ny {
+        let pairs = Pairs {
+            nb: orders.nb[i].clone(),
+            nf: orders.nf[i].clone(),
+            nk: orders.nk[i].clone(),
+        };
+        let d = pairs.parameters();
+        let values: Vec<f64> = experiments
+            .iter()
+            .flat_map(|e| {
+                e.y.column(i)
+                    .iter()
+                    .copied()
+                    .filter(|v| !v.is_nan())
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let measured = values.len();
+        if measured <= d {
+            return Err(Error::TooFewSamples {
+                what: "the output-error model",
+                measured,
+                needed: d + 1,
+            });
+        }
+        let theta0 = start(experiments, i, &pairs, measured, opts)?;
+        let (theta, cost, r11, its) = iterate(experiments, i, &pairs, theta0, opts)?;
+        let lambda = cost / (measured - d) as f64;
+        let inv =
+            r11.solve_upper_triangular(&DMatrix::identity(d, d))
+                .ok_or(Error::RankDeficient {
+                    what: "the output-error Jacobian at the estimate",
+                    rank: 0,
+                    needed: d,
+                })?;
+        blocks.push(&inv * inv.transpose() * lambda);
+        lambdas.push(lambda);
+        for (k, (b, f)) in theta.iter().enumerate() {
+            b_all[i][k] = b.clone();
+            let mut poly = vec![1.0];
+            poly.extend_from_slice(f);
+            f_all[i][k] = poly;
+        }
+        let mean = values.iter().sum::<f64>() / measured as f64;
+        let spread: f64 = values
+            .iter()
+            .map(|v| (v - mean).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        loss.push(cost / measured as f64);
+        fit.push(if spread > 0.0 {
+            100.0 * (1.0 - cost.sqrt() / spread)
+        } else {
+            f64::NAN
+        });
+        measured_all.push(measured);
+        iterations.push(its);
+    }
+    let total: usize = blocks.iter().map(|b| b.nrows()).sum();
+    let mut cov = DMatrix::zeros(total, total);
+    let mut at = 0;
+    for b in &blocks {
+        let n = b.nrows();
+        cov.view_mut((at, at), (n, n))
+            .copy_from(&((b + b.transpose()) * 0.5));
+        at += n;
+    }
+    let model = PolyModel::new(
+        Polynomials {
+            b: b_all,
+            f: Some(f_all),
+            nk: orders.nk.clone(),
+            ..Default::default()
+        },
+        ts,
+    )?
+    .with_noise_variance(&DMatrix::from_diagonal(&DVector::from_vec(lambdas)))?
+    .with_covariance(&cov)?;
+    Ok(OeFit {
+        model,
+        loss,
+        fit,
+        measured: measured_all,
+        iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests;
