@@ -979,6 +979,12 @@ pub struct BodeArgs {
     /// Print JSON (frequency, magnitude, magnitude in dB, phase per channel pair) instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Confidence level of the band drawn around the response of a model that carries a
+    /// parameter covariance (ARX, FIR, OE model files): ± z σ of the magnitude and the phase
+    /// (first-order propagation of the covariance, z the two-sided normal quantile; MATLAB's
+    /// `showConfidence`). 0: no band.
+    #[arg(long, default_value_t = 0.95)]
+    pub confidence: f64,
     /// Memory budget.
     #[command(flatten)]
     pub resources: ResourceArgs,

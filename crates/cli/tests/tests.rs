@@ -4769,6 +4769,70 @@ mod polynomial {
     }
 
     #[test]
+    fn bode_draws_the_confidence_band_of_a_polynomial_model() {
+        let d = tmp("arx_bode");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "arx.json");
+        ok(&[
+            "identify",
+            "--method",
+            "arx",
+            "--orders",
+            "2 2 1",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        let text = ok(&["bode", "--model", &out, "--omega", "0.1,1,3", "--json"]);
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["confidence"], 0.95);
+        let pair = &v["pairs"][0];
+        for k in 0..3 {
+            let mid = pair["magnitude_db"][k].as_f64().unwrap();
+            let lo = pair["magnitude_db_lower"][k].as_f64().unwrap();
+            let hi = pair["magnitude_db_upper"][k].as_f64().unwrap();
+            assert!(lo < mid && mid < hi, "{lo} {mid} {hi}");
+            // SNR 1000, 2000 samples: a narrow band (well under 1 dB).
+            assert!(hi - lo < 1.0, "{lo} {hi}");
+            let sd = pair["phase_std_deg"][k].as_f64().unwrap();
+            assert!(sd > 0.0 && sd < 2.0, "{sd}");
+        }
+        // The SVG carries the band's legend; --confidence 0 drops it.
+        let svg = p(&d, "bode.svg");
+        ok(&["bode", "--model", &out, "--out", &svg]);
+        assert!(std::fs::read_to_string(&svg).unwrap().contains("±95 %"));
+        let text = ok(&[
+            "bode",
+            "--model",
+            &out,
+            "--omega",
+            "1",
+            "--json",
+            "--confidence",
+            "0",
+        ]);
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert!(v["confidence"].is_null() && v["pairs"][0].get("magnitude_db_lower").is_none());
+        fails(
+            &[
+                "bode",
+                "--model",
+                &out,
+                "--omega",
+                "1",
+                "--confidence",
+                "1.5",
+            ],
+            2,
+        );
+    }
+
+    #[test]
     fn bad_orders_are_named() {
         let d = tmp("arx_cli_bad");
         let (id, _) = single_rate_data(&d);

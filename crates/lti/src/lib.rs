@@ -106,7 +106,9 @@ pub use identify::{Identified, Identifier};
 pub use model_file::{ModelFile, ModelFileError};
 pub use operating_point::OperatingPoint;
 pub use poly::{Poly, cancel_common_roots};
-pub use polymodel::{POLY_TRIM_TOL, PolyFamily, PolyModel, PolyOrders, Polynomials};
+pub use polymodel::{
+    FreqStd, POLY_TRIM_TOL, PolyFamily, PolyModel, PolyOrders, Polynomials, normal_quantile,
+};
 pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;

@@ -219,7 +219,14 @@ fn given_omega(a: &BodeArgs) -> CliResult<Option<Vec<f64>>> {
 /// `lifted bode`.
 pub fn bode(a: &BodeArgs) -> CliResult<()> {
     let kind = a.out.as_deref().map(out_kind).transpose()?;
-    let m = read_model(&a.model)?.model;
+    if !(a.confidence.is_finite() && (0.0..1.0).contains(&a.confidence)) {
+        return Err(input(format!(
+            "--confidence {}: a level in [0, 1) (0.95 for 95 %; 0: no band)",
+            a.confidence
+        )));
+    }
+    let file = read_model(&a.model)?;
+    let m = file.model;
     let given = given_omega(a)?;
     if given.is_none() && kind.is_none() {
         return Err(input(
@@ -246,6 +253,31 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
     let b = m.bode(&omega).ctx("bode")?;
     let (un, yn) = channel_names(&m);
     let db = |g: f64| 20.0 * g.max(1e-300).log10();
+    // The confidence band: z σ of |G| (in dB: the bounds |G| ± z σ) and of
+    // the phase, for a model file with a parameter covariance.
+    let band = match (&file.polynomial, a.confidence > 0.0) {
+        (Some(p), true) => match p.freqresp_std(&omega).ctx("bode confidence band")? {
+            Some(s) => {
+                let z = lifted_lti::normal_quantile(0.5 + a.confidence / 2.0).ctx("bode")?;
+                Some((z, s))
+            }
+            None => None,
+        },
+        _ => None,
+    };
+    let bounds = |k: usize, i: usize, j: usize| -> Option<[f64; 4]> {
+        let (z, s) = band.as_ref()?;
+        let g = b.magnitude[k][(i, j)];
+        let (sm, sp) = (s.magnitude[k][(i, j)], s.phase[k][(i, j)].to_degrees());
+        let ph = b.phase_deg[k][(i, j)];
+        // (A lower bound at or below zero magnitude: NaN, no dB value.)
+        let lo = if g - z * sm > 0.0 {
+            db(g - z * sm)
+        } else {
+            f64::NAN
+        };
+        Some([lo, db(g + z * sm), ph - z * sp, ph + z * sp])
+    };
     match (&a.out, kind) {
         (Some(out), Some(OutKind::Csv)) => {
             let mut header = vec!["omega".to_string()];
@@ -256,13 +288,59 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
                     cols.push(b.magnitude.iter().map(|g| db(g[(i, j)])).collect());
                     header.push(format!("phase_deg_{}_{}", yn[i], un[j]));
                     cols.push(b.phase_deg.iter().map(|g| g[(i, j)]).collect());
+                    if band.is_some() {
+                        for (c, what) in ["mag_db_lo", "mag_db_hi", "phase_deg_lo", "phase_deg_hi"]
+                            .iter()
+                            .enumerate()
+                        {
+                            header.push(format!("{what}_{}_{}", yn[i], un[j]));
+                            cols.push(
+                                (0..omega.len())
+                                    .map(|k| bounds(k, i, j).map_or(f64::NAN, |v| v[c]))
+                                    .collect(),
+                            );
+                        }
+                    }
                 }
             }
             write_columns(out, &header, &cols)?;
             println!("wrote {out}");
         }
         (Some(out), _) => {
-            let doc = pairs_svg(&bode_pairs(&[(String::new(), &m)], &omega)?, 720, 280)?;
+            let mut fig = bode_pairs(&[(String::new(), &m)], &omega)?;
+            if band.is_some() {
+                // Each bound pair one series (a NaN joins them), drawn
+                // after the response (dashed).
+                let lw: Vec<f64> = omega.iter().map(|w| w.log10()).collect();
+                let x: Vec<f64> = lw
+                    .iter()
+                    .copied()
+                    .chain([f64::NAN])
+                    .chain(lw.clone())
+                    .collect();
+                let label = format!("±{:.0} %", 100.0 * a.confidence);
+                let nu = m.n_inputs();
+                for i in 0..m.n_outputs() {
+                    for j in 0..nu {
+                        let v: Vec<[f64; 4]> = (0..omega.len())
+                            .map(|k| bounds(k, i, j).unwrap_or([f64::NAN; 4]))
+                            .collect();
+                        let cell = &mut fig.cells[i * nu + j].1;
+                        for (plot, (lo, hi)) in [(0, (0, 1)), (1, (2, 3))] {
+                            let y: Vec<f64> = v
+                                .iter()
+                                .map(|r| r[lo])
+                                .chain([f64::NAN])
+                                .chain(v.iter().map(|r| r[hi]))
+                                .collect();
+                            cell[plot]
+                                .series
+                                .push(Series::line(label.clone(), x.clone(), y));
+                        }
+                    }
+                }
+            }
+            let doc = pairs_svg(&fig, 720, 280)?;
             std::fs::write(out, doc).ctx(format!("cannot write {out}"))?;
             println!("wrote {out}");
         }
@@ -275,16 +353,35 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
         let pairs: Vec<serde_json::Value> = (0..m.n_outputs())
             .flat_map(|i| (0..m.n_inputs()).map(move |j| (i, j)))
             .map(|(i, j)| {
-                serde_json::json!({
+                let mut v = serde_json::json!({
                     "output": yn[i],
                     "input": un[j],
                     "magnitude": b.magnitude.iter().map(|g| g[(i, j)]).collect::<Vec<_>>(),
                     "magnitude_db": b.magnitude.iter().map(|g| db(g[(i, j)])).collect::<Vec<_>>(),
                     "phase_deg": b.phase_deg.iter().map(|g| g[(i, j)]).collect::<Vec<_>>(),
-                })
+                });
+                if let Some((_, s)) = &band {
+                    v["magnitude_std"] = s.magnitude.iter().map(|g| g[(i, j)]).collect();
+                    v["phase_std_deg"] = s.phase.iter().map(|g| g[(i, j)].to_degrees()).collect();
+                    for (c, what) in [
+                        "magnitude_db_lower",
+                        "magnitude_db_upper",
+                        "phase_deg_lower",
+                        "phase_deg_upper",
+                    ]
+                    .iter()
+                    .enumerate()
+                    {
+                        v[*what] = (0..omega.len())
+                            .map(|k| bounds(k, i, j).map_or(f64::NAN, |r| r[c]))
+                            .collect();
+                    }
+                }
+                v
             })
             .collect();
-        let v = serde_json::json!({"ts": m.ts(), "omega": b.omega, "pairs": pairs});
+        let confidence = band.as_ref().map(|_| a.confidence);
+        let v = serde_json::json!({"ts": m.ts(), "omega": b.omega, "pairs": pairs, "confidence": confidence});
         println!(
             "{}",
             serde_json::to_string_pretty(&v).ctx("JSON of the response")?

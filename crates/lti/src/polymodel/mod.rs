@@ -113,6 +113,8 @@
 //! | [`PolyModel::prediction_errors`], [`PolyModel::predict_one_step`], [`PolyModel::predict`] | ε(t), ŷ(t\|t−1) by filtering; ŷ(t\|t−k) by the Kalman predictor | O(N r); O(N k n (n + n_u)) |
 //! | [`PolyModel::freqresp`], [`PolyModel::noise_freqresp`] | G(e^{jωT}), H(e^{jωT}) | O(len (n_y³ + r)) |
 //! | [`PolyModel::is_stable`], [`PolyModel::noise_is_stable`], [`PolyModel::predictor_is_stable`] | roots of A and F; A and D; C and F | O(n³) |
+//! | [`PolyModel::freqresp_std`] ([`FreqStd`], [`normal_quantile`]) | standard deviations of |G| and arg G from the parameter covariance (first-order propagation) | O(p · len(ω) · (n_y³ + r)) |
+//! | [`PolyModel::present`] | the polynomials with each coefficient's standard deviation | O(r) |
 //!
 //! # Free parameters
 //!
@@ -162,6 +164,7 @@ mod convert;
 mod predict;
 mod repr;
 mod simulate;
+mod uncertainty;
 
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -169,6 +172,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, check_ts};
 
 pub use convert::POLY_TRIM_TOL;
+pub use uncertainty::{FreqStd, normal_quantile};
 
 /// A discrete-time polynomial model (MATLAB's `idpoly`; see the
 /// [module docs](crate::polymodel) for the equation, the coefficient order and the

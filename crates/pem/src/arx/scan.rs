@@ -71,7 +71,7 @@ pub struct ArxScanOptions {
     pub na: Vec<usize>,
     /// Candidate nb (default 1..=10).
     pub nb: Vec<usize>,
-    /// Candidate nk (default [1], MATLAB's `struc(1:10, 1:10, 1)`).
+    /// Candidate nk (default `vec![1]`, MATLAB's `struc(1:10, 1:10, 1)`).
     pub nk: Vec<usize>,
     /// Compression of the lagged data (default [`Compression::Auto`]).
     pub compression: Compression,
