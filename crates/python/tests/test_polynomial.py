@@ -286,3 +286,25 @@ def test_readme_arx_example(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPa
     back = scope["back"]
     assert isinstance(back, lifted.PolyModel)
     np.testing.assert_array_equal(back.parameters, fit.parameters)
+
+
+def test_oe_from_an_output_measured_every_five_samples() -> None:
+    """OE (``lifted.oe``) on a record whose output is measured every 5th
+    sample (NaN between): the fast model's parameters within 4.5 std."""
+    rng = np.random.default_rng(7)
+    n = 6000
+    u = rng.standard_normal(n)
+    y = np.zeros(n)
+    # y = q^-2 (0.5 + 0.3 q^-1) / (1 - 1.2 q^-1 + 0.5 q^-2) u
+    x = np.zeros(n)
+    for t in range(n):
+        x[t] = (1.2 * x[t - 1] if t >= 1 else 0.0) - (0.5 * x[t - 2] if t >= 2 else 0.0)
+        x[t] += (0.5 * u[t - 2] if t >= 2 else 0.0) + (0.3 * u[t - 3] if t >= 3 else 0.0)
+    y = x + 0.05 * rng.standard_normal(n)
+    y[np.arange(n) % 5 != 0] = np.nan
+    fit = lifted.oe(u, y, [2, 2, 2])
+    assert fit.polynomial is not None
+    assert fit.polynomial.family == "oe"
+    truth = np.array([0.5, 0.3, -1.2, 0.5])
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - truth) < 4.5 * fit.std)
