@@ -473,6 +473,12 @@ pub enum MethodArg {
     /// error on the measured samples (multirate records too), with the parameters' standard
     /// deviations: --orders "nb nf nk", or --order n (nb = nf = n, the delay estimated).
     Oe,
+    /// ARMAX, A(q) y = B(q) u + C(q) e, by prediction-error minimisation (consistent in closed
+    /// loop, the direct method): --orders "na nb nc nk", or --order n. Single-rate records.
+    Armax,
+    /// Box–Jenkins, y = B/F u + C/D e, by prediction-error minimisation (consistent in closed
+    /// loop): --orders "nb nc nd nf nk", or --order n. Single-rate records.
+    Bj,
 }
 
 impl MethodArg {
@@ -490,6 +496,8 @@ impl MethodArg {
             MethodArg::Arx => "arx",
             MethodArg::Fir => "fir",
             MethodArg::Oe => "oe",
+            MethodArg::Armax => "armax",
+            MethodArg::Bj => "bj",
         }
     }
 }
@@ -538,9 +546,9 @@ pub struct IdentifyArgs {
     /// simulation fit on held-out blocks).
     #[arg(long, default_value = "auto")]
     pub order: String,
-    /// ARX/FIR/OE: MATLAB's order vector, "na nb nk" (arx), "nb nk" (fir) or "nb nf nk" (oe),
-    /// the same for every input–output pair (spaces or commas). Default (arx, fir): chosen by the
-    /// structure scan.
+    /// Polynomial models: MATLAB's order vector, "na nb nk" (arx), "nb nk" (fir), "nb nf nk"
+    /// (oe), "na nb nc nk" (armax) or "nb nc nd nf nk" (bj), the same for every input–output pair
+    /// (spaces or commas). Default (arx, fir): chosen by the structure scan.
     #[arg(long)]
     pub orders: Option<String>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,

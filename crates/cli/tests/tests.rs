@@ -4861,5 +4861,25 @@ mod polynomial {
         assert!(run("arx", "2 2").contains("[na nb nk]"));
         assert!(run("n4sid", "2 2 1").contains("only used with the arx and fir methods"));
         assert!(run("fir", "0 1").contains("nb must be at least 1"));
+        assert!(run("armax", "2 2 1").contains("[na nb nc nk]"));
+        // ARMAX and BJ run from the command line.
+        for (method, orders) in [("armax", "2 2 1 1"), ("bj", "2 1 1 2 1")] {
+            let text = ok(&[
+                "identify",
+                "--method",
+                method,
+                "--orders",
+                orders,
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--out",
+                &out,
+            ]);
+            assert!(text.contains("C(q) = 1 "), "{text}");
+        }
     }
 }

@@ -10,6 +10,7 @@
 //! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
 //! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
+//! | [`polyest`], [`armax`], [`bj`] ([`PolyestOptions`], [`PolyestFit`]) | ARMAX, Box–Jenkins and the general diagonal-A structure by Levenberg–Marquardt on the one-step prediction error (analytic gradient by filtering), Hannan–Rissanen / OE starts, consistent in closed loop (the direct method), with the parameter covariance |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
 //!
 //! # Method
@@ -70,8 +71,10 @@ mod arx;
 mod budget;
 mod checks;
 pub mod error;
+mod filters;
 mod held_out;
 mod oe;
+mod polyest;
 mod state_space;
 
 pub use arx::{
@@ -82,6 +85,7 @@ pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
 pub use held_out::{RefinementCheck, cross_validate_refinement};
 pub use oe::{OeFit, OeOptions, oe};
+pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
 pub use state_space::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,

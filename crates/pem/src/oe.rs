@@ -38,6 +38,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::filters::{damped_step, filter, fir_apply, stable};
 
 /// Rows of [J | ε] folded into the R-only QR at a time.
 const BLOCK_ROWS: usize = 4096;
@@ -162,54 +163,6 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
         }
     }
     Ok((nu, ny))
-}
-
-/// w(t) = s(t − delay) − Σ_j f_j w(t − j), zero initial conditions.
-fn filter(s: &[f64], f: &[f64], delay: usize, out: &mut Vec<f64>) {
-    out.clear();
-    out.resize(s.len(), 0.0);
-    for t in 0..s.len() {
-        let mut v = if t >= delay { s[t - delay] } else { 0.0 };
-        for (j, fj) in f.iter().enumerate() {
-            if t > j {
-                v -= fj * out[t - j - 1];
-            }
-        }
-        out[t] = v;
-    }
-}
-
-/// Σ_m b_m v(t − m).
-fn fir_apply(v: &[f64], b: &[f64], out: &mut Vec<f64>) {
-    out.clear();
-    out.resize(v.len(), 0.0);
-    for t in 0..v.len() {
-        let mut s = 0.0;
-        for (m, bm) in b.iter().enumerate() {
-            if t >= m {
-                s += bm * v[t - m];
-            }
-        }
-        out[t] = s;
-    }
-}
-
-/// Whether 1 + f₁q⁻¹ + … has every root strictly inside the unit circle.
-fn stable(f: &[f64]) -> bool {
-    if f.is_empty() {
-        return true;
-    }
-    let n = f.len();
-    let companion = DMatrix::from_fn(n, n, |r, c| {
-        if r == 0 {
-            -f[c]
-        } else if r == c + 1 {
-            1.0
-        } else {
-            0.0
-        }
-    });
-    lifted_linalg::spectral_radius(&companion).is_ok_and(|rho| rho < 1.0)
 }
 
 /// The simulated output ŷ_i = Σ_k (B_k/F_k) u_k and, with `jacobian`, the
@@ -482,20 +435,9 @@ fn iterate(
         let current = pack(&theta);
         let mut accepted = false;
         for _ in 0..12 {
-            // The rows are [G | ε] with G = ∂ŷ/∂θ = −J, so the damped
-            // Gauss–Newton step solves [R₁₁; √λ D] δ = [r; 0] (a small QR).
-            let mut m = DMatrix::zeros(2 * d, d + 1);
-            m.view_mut((0, 0), (d, d)).copy_from(&r11);
-            for j in 0..d {
-                m[(d + j, j)] = lambda.sqrt() * scale[j];
-                m[(j, d)] = r12[j];
-            }
-            let q = lifted_linalg::qr_r(&m)?;
-            let Some(delta) = q
-                .view((0, 0), (d, d))
-                .into_owned()
-                .solve_upper_triangular(&q.view((0, d), (d, 1)).into_owned())
-            else {
+            // The rows are [G | ε] with G = ∂ŷ/∂θ = −J: the damped
+            // Gauss–Newton step solves [R₁₁; √λ D] δ = [r; 0].
+            let Some(delta) = damped_step(&r11, &r12, &scale, lambda)? else {
                 lambda *= 4.0;
                 continue;
             };

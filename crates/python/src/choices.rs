@@ -62,6 +62,8 @@ impl Choice for lifted_workflow::Method {
         ("arx", Self::Arx),
         ("fir", Self::Fir),
         ("oe", Self::Oe),
+        ("armax", Self::Armax),
+        ("bj", Self::Bj),
     ];
 }
 
@@ -168,6 +170,8 @@ impl Choice for lifted_workflow::Refine {
         ("none", Self::None),
         ("pem", Self::Pem),
         ("oe", Self::Oe),
+        ("armax", Self::Armax),
+        ("bj", Self::Bj),
     ];
 }
 

@@ -308,3 +308,28 @@ def test_oe_from_an_output_measured_every_five_samples() -> None:
     truth = np.array([0.5, 0.3, -1.2, 0.5])
     assert fit.parameters is not None and fit.std is not None
     assert np.all(np.abs(fit.parameters - truth) < 4.5 * fit.std)
+
+
+def test_armax_and_bj() -> None:
+    """ARMAX (1 - 1.5q + 0.7q^2) y = q(1 + 0.5q) u + (1 + 0.5q) e and its
+    parameters within 4.5 std; BJ of an OE plant with coloured noise."""
+    rng = np.random.default_rng(11)
+    n = 4000
+    u = rng.standard_normal(n)
+    e = 0.3 * rng.standard_normal(n)
+    y = np.zeros(n)
+    for t in range(n):
+        y[t] = e[t]
+        if t >= 1:
+            y[t] += 1.5 * y[t - 1] + u[t - 1] + 0.5 * e[t - 1]
+        if t >= 2:
+            y[t] += -0.7 * y[t - 2] + 0.5 * u[t - 2]
+    fit = lifted.armax(u, y, [2, 2, 1, 1])
+    assert fit.polynomial is not None and fit.polynomial.family == "armax"
+    truth = np.array([-1.5, 0.7, 1.0, 0.5, 0.5])
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - truth) < 4.5 * fit.std)
+    fit = lifted.bj(u, y, [2, 1, 1, 2, 1])
+    assert fit.polynomial is not None and fit.polynomial.family == "bj"
+    with pytest.raises(lifted.ArgumentError):
+        lifted.armax(u, y, [2, 2, 1])

@@ -93,6 +93,13 @@ pub enum Method {
     /// orders `[nb nf nk]`, or a fixed order n (nb = nf = n, nk from the
     /// delay estimate on single-rate records, else 1).
     Oe,
+    /// ARMAX, A y = B u + C e, by prediction-error minimisation
+    /// (`lifted_pem::armax`; consistent in closed loop): orders
+    /// `[na nb nc nk]`, or a fixed order n (na = nb = nc = n).
+    Armax,
+    /// Box–Jenkins, y = B/F u + C/D e (`lifted_pem::bj`; consistent in
+    /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n.
+    Bj,
 }
 
 impl Method {
@@ -110,12 +117,24 @@ impl Method {
             Method::Arx => "arx",
             Method::Fir => "fir",
             Method::Oe => "oe",
+            Method::Armax => "armax",
+            Method::Bj => "bj",
         }
     }
 
-    /// Whether this method gives a polynomial model (ARX, FIR, OE).
+    /// Whether this method gives a polynomial model (ARX, FIR, OE, ARMAX,
+    /// BJ).
     pub fn is_polynomial(self) -> bool {
-        matches!(self, Method::Arx | Method::Fir | Method::Oe)
+        matches!(
+            self,
+            Method::Arx | Method::Fir | Method::Oe | Method::Armax | Method::Bj
+        )
+    }
+
+    /// Whether this polynomial method is estimated by prediction-error
+    /// iterations and needs its structure given (OE, ARMAX, BJ).
+    pub fn is_iterative_polynomial(self) -> bool {
+        matches!(self, Method::Oe | Method::Armax | Method::Bj)
     }
 
     /// Whether this is one of the predictor-based methods (PBSID-opt,
@@ -309,9 +328,10 @@ pub struct IdentificationOptions {
     /// the count through rounding only). Default `None`: 1 in memory, the
     /// machine's on a streamed record.
     pub threads: Option<usize>,
-    /// ARX, FIR and OE: MATLAB's order vector, the same for every
-    /// input–output pair: `[na nb nk]` (ARX), `[nb nk]` (FIR) or
-    /// `[nb nf nk]` (OE). OE needs it or a fixed [`Self::order`]. Empty,
+    /// ARX, FIR, OE, ARMAX, BJ: MATLAB's order vector, the same for every
+    /// input–output pair: `[na nb nk]` (ARX), `[nb nk]` (FIR),
+    /// `[nb nf nk]` (OE), `[na nb nc nk]` (ARMAX) or `[nb nc nd nf nk]`
+    /// (BJ). OE, ARMAX and BJ need it or a fixed [`Self::order`]. Empty,
     /// the default for ARX and FIR: chosen by the structure scan (`crate::polynomial`:
     /// na, nb in 1..=[`Self::max_order`], nk in 1..=5 (0..=5 with
     /// [`Self::feedthrough`] `Some(true)`), by

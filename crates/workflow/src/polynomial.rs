@@ -70,11 +70,21 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
         }
         return Ok(());
     }
-    let expected = if id.method == Method::Fir { 2 } else { 3 };
-    if id.method == Method::Oe && id.orders.is_empty() && id.order == Order::Auto {
+    let (expected, shape) = match id.method {
+        Method::Fir => (2, "[nb nk]"),
+        Method::Arx => (3, "[na nb nk]"),
+        Method::Oe => (3, "[nb nf nk]"),
+        Method::Armax => (4, "[na nb nc nk]"),
+        _ => (5, "[nb nc nd nf nk]"),
+    };
+    if id.method.is_iterative_polynomial() && id.orders.is_empty() && id.order == Order::Auto {
         return Err(Error::option(
             "orders",
-            "oe needs its structure: orders [nb nf nk] (--orders \"nb nf nk\"), or a fixed order n (nb = nf = n)",
+            format!(
+                "{} needs its structure: orders {shape} (--orders \"{}\"), or a fixed order n",
+                id.method.name(),
+                shape.trim_matches(|c| c == '[' || c == ']')
+            ),
         ));
     }
     if !id.orders.is_empty() {
@@ -84,19 +94,15 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
                 format!(
                     "{} takes {} ({expected} numbers), got {:?}",
                     id.method.name(),
-                    match id.method {
-                        Method::Arx => "[na nb nk]",
-                        Method::Oe => "[nb nf nk]",
-                        _ => "[nb nk]",
-                    },
+                    shape,
                     id.orders
                 ),
             ));
         }
-        let nb = id.orders[if id.method == Method::Oe {
-            0
-        } else {
-            expected - 2
+        let nb = id.orders[match id.method {
+            Method::Oe | Method::Bj => 0,
+            Method::Armax => 1,
+            _ => expected - 2,
         }];
         if nb == 0 {
             return Err(Error::option(
@@ -110,7 +116,7 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
                 "nk = 0 is a direct feedthrough, but the feedthrough is fixed at 0",
             ));
         }
-    } else if id.method != Method::Oe
+    } else if !id.method.is_iterative_polynomial()
         && matches!(
             id.order_criterion,
             OrderCriterion::Gap | OrderCriterion::Svc
@@ -265,11 +271,14 @@ pub(crate) fn identify(
     if id.method == Method::Oe {
         return output_error(opts, sets, multirate);
     }
+    if matches!(id.method, Method::Armax | Method::Bj) && !multirate {
+        return prediction_error(opts, sets);
+    }
     if multirate {
         return Err(Error::option(
             "method",
             format!(
-                "{} needs every output sample (its regressors are past outputs); this record has outputs measured at slower rates: use n4sid (the multirate routes) or pbsid",
+                "{} needs every output sample (its predictor filters past outputs); this record has outputs measured at slower rates: use oe, n4sid (the multirate routes) or pbsid",
                 id.method.name()
             ),
         ));
@@ -385,6 +394,86 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
         "iterations": fit.iterations,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "oe_s", t_oe.elapsed().as_secs_f64());
+    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
+    route.suggested_order = route.order;
+    route.kalman_gain = Some(k);
+    Ok(route.with_details(RouteDetails {
+        polynomial: Some(fit.model),
+        ..Default::default()
+    }))
+}
+
+/// The ARMAX and BJ routes (`lifted_pem::polyest`): the structure from
+/// `orders`, or a fixed order n for every polynomial with the delays
+/// estimated.
+fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let first = sets
+        .first()
+        .ok_or_else(|| Error::Data("no data record".into()))?;
+    let (nu, ny, ts) = (first.n_inputs(), first.y().ncols(), first.ts());
+    let records = borrowed(sets);
+    let armax = id.method == Method::Armax;
+    // (na, nb, nc, nd, nf, nk); nk None: estimated.
+    let (na, nb, nc, nd, nf, nk) = match (id.orders.as_slice(), id.order) {
+        (&[na, nb, nc, nk], _) if armax => (na, nb, nc, 0, 0, Some(nk)),
+        (&[nb, nc, nd, nf, nk], _) if !armax => (0, nb, nc, nd, nf, Some(nk)),
+        (_, Order::Fixed(n)) if armax => (n, n, n, 0, 0, None),
+        (_, Order::Fixed(n)) => (0, n, n, n, n, None),
+        _ => {
+            return Err(Error::option(
+                "orders",
+                format!("{} needs its orders or a fixed order", id.method.name()),
+            ));
+        }
+    };
+    let first_delay = if id.feedthrough == Some(true) { 0 } else { 1 };
+    let delays: Vec<Vec<usize>> = match nk {
+        Some(nk) => vec![vec![nk; nu]; ny],
+        None => lifted_pem::estimate_delays(
+            &records,
+            &lifted_pem::DelayOptions {
+                min_delay: first_delay,
+                threads: id.threads.unwrap_or(1),
+                ..Default::default()
+            },
+        )
+        .ctx(format!(
+            "{} delay estimate",
+            id.method.name().to_uppercase()
+        ))?,
+    };
+    let orders = PolyOrders {
+        na: (0..ny)
+            .map(|i| (0..ny).map(|j| if i == j { na } else { 0 }).collect())
+            .collect(),
+        nb: vec![vec![nb; nu]; ny],
+        nc: vec![nc; ny],
+        nd: vec![nd; ny],
+        nf: vec![vec![nf; nu]; ny],
+        nk: delays.clone(),
+    };
+    let t_pem = std::time::Instant::now();
+    let fit = lifted_pem::polyest(
+        &records,
+        &orders,
+        ts,
+        &lifted_pem::PolyestOptions::default(),
+    )
+    .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
+    let (model, k) = fit
+        .model
+        .to_innovations_ss()
+        .ctx("the polynomial model's state-space form")?;
+    let mut diagnostics = json!({
+        "route": id.method.name(),
+        "orders": {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": delays},
+        "parameters": fit.model.n_parameters(),
+        "loss": fit.loss,
+        "one_step_fit": fit.fit,
+        "iterations": fit.iterations,
+    });
+    crate::diagnostics::add_phase(&mut diagnostics, "pem_s", t_pem.elapsed().as_secs_f64());
     let mut route = RouteFit::plain(model, diagnostics, &[], 0);
     route.suggested_order = route.order;
     route.kalman_gain = Some(k);

@@ -66,6 +66,7 @@ fn print_profile(diagnostics: &serde_json::Value) {
         ("refinement", "refine_s"),
         ("ARX / FIR", "arx_s"),
         ("OE", "oe_s"),
+        ("ARMAX / BJ", "pem_s"),
         ("feedback test", "feedback_s"),
         ("identify (total)", "identify_s"),
     ];

@@ -131,6 +131,8 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Arx => Method::Arx,
         MethodArg::Fir => Method::Fir,
         MethodArg::Oe => Method::Oe,
+        MethodArg::Armax => Method::Armax,
+        MethodArg::Bj => Method::Bj,
     };
     if let Some(text) = &a.orders {
         id.orders = parse_orders(text)?;

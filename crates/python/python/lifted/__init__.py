@@ -132,6 +132,8 @@ __all__ = [
     "arx",
     "fir",
     "oe",
+    "armax",
+    "bj",
     "arxstruc",
     "delayest",
     "iv",
@@ -702,6 +704,64 @@ def oe(
     """
     return identify(
         u, y, "oe", order=order, orders=orders, feedthrough=feedthrough,
+        detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
+    )
+
+
+def armax(
+    u: Any,
+    y: Any,
+    orders: Sequence[int] | None = None,
+    *,
+    order: int | None = None,
+    feedthrough: bool | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """ARMAX model (MATLAB's ``armax(data, [na nb nc nk])``) by
+    prediction-error minimisation, through the identification workflow
+    (``identify(u, y, "armax", orders=...)``)::
+
+        A(q) y(t) = sum_k B_k(q) u_k(t - nk) + C(q) e(t)
+
+    ``orders`` = ``[na, nb, nc, nk]`` (the same for every input-output
+    pair; A diagonal), or ``order`` n (na = nb = nc = n, the delays
+    estimated). Consistent on closed-loop records (the direct method).
+    ``parameters`` per output: a, the B's input by input, c; with
+    ``covariance`` and ``std``. Every output sample is needed.
+    """
+    return identify(
+        u, y, "armax", order=order, orders=orders, feedthrough=feedthrough,
+        detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
+    )
+
+
+def bj(
+    u: Any,
+    y: Any,
+    orders: Sequence[int] | None = None,
+    *,
+    order: int | None = None,
+    feedthrough: bool | None = None,
+    detrend: Detrend = "mean",
+    remove_means: bool = True,
+    dt: float = 1.0,
+    threads: int = 1,
+) -> SubspaceFit:
+    """Box-Jenkins model (MATLAB's ``bj(data, [nb nc nd nf nk])``) by
+    prediction-error minimisation (``identify(u, y, "bj", orders=...)``)::
+
+        y(t) = sum_k B_k(q)/F_k(q) u_k(t - nk) + C(q)/D(q) e(t)
+
+    ``orders`` = ``[nb, nc, nd, nf, nk]``, or ``order`` n (every degree n,
+    the delays estimated). Consistent on closed-loop records.
+    ``parameters`` per output: the B's, c, d, the F's; with ``covariance``
+    and ``std``. Every output sample is needed.
+    """
+    return identify(
+        u, y, "bj", order=order, orders=orders, feedthrough=feedthrough,
         detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
     )
 

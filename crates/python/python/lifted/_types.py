@@ -30,10 +30,11 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: Identification method of the workflow (``identify(method=...)``, the
 #: CLI's ``--method``): the subspace methods, the predictor-based PBSID-opt
 #: and SSARX, instrumental-variable subspace, and the least-squares
-#: polynomial models ARX, FIR and OE (``orders=[na, nb, nk]`` / ``[nb, nk]``
-#: / ``[nb, nf, nk]``).
+#: polynomial models ARX, FIR, OE, ARMAX and BJ (``orders=[na, nb, nk]`` /
+#: ``[nb, nk]`` / ``[nb, nf, nk]`` / ``[na, nb, nc, nk]`` / ``[nb, nc, nd, nf, nk]``).
 IdentifyMethod = Literal[
-    "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir", "oe"
+    "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir", "oe",
+    "armax", "bj",
 ]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on

@@ -224,3 +224,55 @@ fn oe_identifies_a_fast_model_from_an_analyser_every_five_samples() {
         "{e}"
     );
 }
+
+#[test]
+fn armax_and_bj_through_the_workflow() {
+    // ARMAX in closed loop (u = r − 0.4 y): the direct method gives the
+    // plant within its intervals, in the data's units (u × 10, y + 3).
+    let g = PolyModel::armax(&[1.0, -1.5, 0.7], &[1.0, 0.5], &[1.0, 0.5], 1, 1.0).unwrap();
+    let n = 5000;
+    let r = gauss(51, n, 1, 1.0);
+    let e = gauss(52, n, 1, 0.3);
+    let (mut y, mut u) = (DMatrix::zeros(n, 1), DMatrix::zeros(n, 1));
+    for t in 0..n {
+        let lag = |m: &DMatrix<f64>, j: usize| if t >= j { m[(t - j, 0)] } else { 0.0 };
+        let v = 1.5 * lag(&y, 1) - 0.7 * lag(&y, 2)
+            + lag(&u, 1)
+            + 0.5 * lag(&u, 2)
+            + e[(t, 0)]
+            + 0.5 * lag(&e, 1);
+        y[(t, 0)] = v;
+        u[(t, 0)] = r[(t, 0)] - 0.4 * v;
+    }
+    let data = Dataset::single_rate(1.0, u.map(|v| 10.0 * v), y.map(|v| v + 3.0)).unwrap();
+    let id = identify(
+        &[Record::new(data.clone())],
+        &options(Method::Armax, &[2, 2, 1, 1]),
+    )
+    .unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    let std = p.std().unwrap();
+    // In the data's units B is divided by 10.
+    let truth = [-1.5, 0.7, 0.1, 0.05, 0.5];
+    for ((a, b), s) in p.parameters().iter().zip(truth).zip(&std) {
+        assert!((a - b).abs() < 4.5 * s, "{a} {b} ± {s}");
+    }
+    assert_eq!(id.file.diagnostics["route"], "armax");
+    // BJ [nb nc nd nf nk] = [2 1 1 2 1] on the same record runs and keeps
+    // its noise model stable.
+    let id = identify(
+        &[Record::new(data.clone())],
+        &options(Method::Bj, &[2, 1, 1, 2, 1]),
+    )
+    .unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    assert!(p.noise_is_stable().unwrap() && p.predictor_is_stable().unwrap());
+    // Structure needed; the wrong length named.
+    let e = identify(&[Record::new(data.clone())], &options(Method::Armax, &[])).unwrap_err();
+    assert!(
+        matches!(&e, Error::InvalidOption { option, .. } if *option == "orders"),
+        "{e}"
+    );
+    let e = identify(&[Record::new(data)], &options(Method::Bj, &[2, 1, 1])).unwrap_err();
+    assert!(e.to_string().contains("[nb nc nd nf nk]"), "{e}");
+}

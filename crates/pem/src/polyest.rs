@@ -1,0 +1,744 @@
+//! ARMAX and Box–Jenkins models (and the general structure with a diagonal
+//! A) by prediction-error minimisation, MATLAB's `armax`, `bj`, `polyest`.
+//!
+//! Per output i (A diagonal: A_ii only),
+//!
+//! ```text
+//!   A(q) y(t) = Σ_k B_k(q)/F_k(q) u_k(t − nk_k) + C(q)/D(q) e(t),
+//! ```
+//!
+//! the one-step prediction error is ε = (D/C) [A y − Σ_k (B_k/F_k) u_k]
+//! (Ljung 1999, eq. (4.35) with (4.33)) and V = Σ ε²/N is minimised by
+//! Levenberg–Marquardt with the analytic gradient (Ljung 1999, §10.3): with
+//! s = A y − Σ w_k, w_k = (B_k/F_k) u_k(t − nk), every partial derivative
+//! is a filtered signal —
+//! ∂ε/∂a_j = (D/C) y(t − j), ∂ε/∂b_kj = −(D/(C F_k)) u_k(t − nk − j),
+//! ∂ε/∂f_kj = (D/(C F_k)) w_k(t − j), ∂ε/∂c_j = −(1/C) ε(t − j),
+//! ∂ε/∂d_j = (1/C) s(t − j) — O(N d) flops per Jacobian; its rows are
+//! folded into an R-only QR with ε (memory O(d²), JᵀJ never formed). A
+//! step that leaves C, D or any F with a root on or outside the unit circle
+//! is rejected (the predictor and the noise model stay stable and
+//! invertible). Zero initial conditions.
+//!
+//! **Starts** (Hannan & Rissanen 1982's two stages): ARMAX from a long ARX
+//! model's residuals ê (a second least-squares fit of A, B and C with ê as
+//! a known input, [`crate::arx`]); Box–Jenkins from the output-error model
+//! ([`crate::oe`]) and an ARMA (C, D) fitted the same way to its residuals.
+//!
+//! **Closed loop.** The prediction-error method is consistent in closed
+//! loop when the model set holds the true plant and noise model (the
+//! direct method, Ljung 1999, §13.4): ARMAX and BJ are the structures for
+//! records taken under feedback, OE and the FIR start are not (their
+//! noise model is fixed).
+//!
+//! **Uncertainty.** Cov θ = λ̂ (JᵀJ)⁻¹ = λ̂ R₁₁⁻¹R₁₁⁻ᵀ, λ̂ = N V/(N − d)
+//! (Ljung 1999, eq. (9.18)); outputs independent (block diagonal).
+//!
+//! Every output sample is needed (the predictor filters past outputs):
+//! for records with outputs measured at slower rates use [`crate::oe`].
+
+use lifted_linalg::RAccumulator;
+use lifted_lti::{PolyModel, PolyOrders, Polynomials};
+use lifted_subspace::Experiment;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::filters::{damped_step, filter, fir_apply, stable};
+
+/// Rows of [J | ε] folded into the R-only QR at a time.
+const BLOCK_ROWS: usize = 4096;
+
+/// Options of [`polyest`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PolyestOptions {
+    /// Largest number of Levenberg–Marquardt iterations per output
+    /// (default 100).
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this
+    /// fraction (default 1e-10), or the step is below its square root
+    /// relative to θ.
+    pub tolerance: f64,
+}
+
+impl Default for PolyestOptions {
+    fn default() -> Self {
+        PolyestOptions {
+            max_iterations: 100,
+            tolerance: 1e-10,
+        }
+    }
+}
+
+/// An estimated polynomial model and what the iterations did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PolyestFit {
+    /// The model, with the noise variances and the parameter covariance.
+    pub model: PolyModel,
+    /// Mean squared one-step prediction error per output.
+    pub loss: Vec<f64>,
+    /// One-step prediction fit per output, percent: 100 (1 − ‖ε‖/‖y − ȳ‖).
+    pub fit: Vec<f64>,
+    /// Iterations run per output.
+    pub iterations: Vec<usize>,
+}
+
+/// One output's polynomials: a (free part), per input (b, f free, nk), c, d.
+#[derive(Debug, Clone, PartialEq)]
+struct Output {
+    a: Vec<f64>,
+    b: Vec<Vec<f64>>,
+    f: Vec<Vec<f64>>,
+    nk: Vec<usize>,
+    c: Vec<f64>,
+    d: Vec<f64>,
+}
+
+impl Output {
+    /// θ in [`PolyModel::parameters`]' order: a, B's, c, d, F's.
+    fn pack(&self) -> Vec<f64> {
+        let mut v = self.a.clone();
+        for b in &self.b {
+            v.extend_from_slice(b);
+        }
+        v.extend_from_slice(&self.c);
+        v.extend_from_slice(&self.d);
+        for f in &self.f {
+            v.extend_from_slice(f);
+        }
+        v
+    }
+
+    fn with(&self, theta: &[f64]) -> Output {
+        let mut at = 0;
+        let mut take = |n: usize| {
+            let v = theta[at..at + n].to_vec();
+            at += n;
+            v
+        };
+        let a = take(self.a.len());
+        let b = self.b.iter().map(|b| take(b.len())).collect();
+        let c = take(self.c.len());
+        let d = take(self.d.len());
+        let f = self.f.iter().map(|f| take(f.len())).collect();
+        Output {
+            a,
+            b,
+            f,
+            nk: self.nk.clone(),
+            c,
+            d,
+        }
+    }
+
+    fn admissible(&self) -> bool {
+        stable(&self.c) && stable(&self.d) && self.f.iter().all(|f| stable(f))
+    }
+}
+
+/// x ↦ (D/C) x: multiply by D, divide by C.
+fn noise_whiten(x: &[f64], c: &[f64], d: &[f64], out: &mut Vec<f64>) {
+    let mut dx = Vec::new();
+    let mut monic = vec![1.0];
+    monic.extend_from_slice(d);
+    fir_apply(x, &monic, &mut dx);
+    filter(&dx, c, 0, out);
+}
+
+/// ε and (with `jacobian`) the columns ∂ε/∂θ for output `i` of one record.
+fn residuals(
+    e: &Experiment<'_>,
+    i: usize,
+    p: &Output,
+    jacobian: bool,
+) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let n = e.u.nrows();
+    let y: Vec<f64> = e.y.column(i).iter().copied().collect();
+    let mut s = y.clone();
+    for (j, aj) in p.a.iter().enumerate() {
+        for t in (j + 1)..n {
+            s[t] += aj * y[t - j - 1];
+        }
+    }
+    let mut vs = Vec::with_capacity(p.b.len());
+    let mut ws = Vec::with_capacity(p.b.len());
+    for (k, b) in p.b.iter().enumerate() {
+        let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+        let (mut v, mut w) = (Vec::new(), Vec::new());
+        filter(&uk, &p.f[k], p.nk[k], &mut v);
+        fir_apply(&v, b, &mut w);
+        for (st, wt) in s.iter_mut().zip(&w) {
+            *st -= wt;
+        }
+        vs.push(v);
+        ws.push(w);
+    }
+    let mut eps = Vec::new();
+    noise_whiten(&s, &p.c, &p.d, &mut eps);
+    if !jacobian {
+        return (eps, Vec::new());
+    }
+    let lagged = |x: &[f64], j: usize, sign: f64| -> Vec<f64> {
+        (0..n)
+            .map(|t| if t >= j { sign * x[t - j] } else { 0.0 })
+            .collect()
+    };
+    let mut cols = Vec::new();
+    let mut h = Vec::new();
+    noise_whiten(&y, &p.c, &p.d, &mut h);
+    for j in 1..=p.a.len() {
+        cols.push(lagged(&h, j, 1.0));
+    }
+    for (k, b) in p.b.iter().enumerate() {
+        let mut pk = Vec::new();
+        noise_whiten(&vs[k], &p.c, &p.d, &mut pk);
+        for j in 0..b.len() {
+            cols.push(lagged(&pk, j, -1.0));
+        }
+    }
+    let (mut ec, mut sc) = (Vec::new(), Vec::new());
+    filter(&eps, &p.c, 0, &mut ec);
+    for j in 1..=p.c.len() {
+        cols.push(lagged(&ec, j, -1.0));
+    }
+    filter(&s, &p.c, 0, &mut sc);
+    for j in 1..=p.d.len() {
+        cols.push(lagged(&sc, j, 1.0));
+    }
+    for (k, f) in p.f.iter().enumerate() {
+        let (mut z, mut r) = (Vec::new(), Vec::new());
+        filter(&ws[k], f, 0, &mut z);
+        noise_whiten(&z, &p.c, &p.d, &mut r);
+        for j in 1..=f.len() {
+            cols.push(lagged(&r, j, 1.0));
+        }
+    }
+    (eps, cols)
+}
+
+/// Σ ε² over the records, and (with `jacobian`) the R factor of [J | ε].
+fn evaluate(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    p: &Output,
+    jacobian: bool,
+) -> Result<(f64, Option<DMatrix<f64>>)> {
+    let d = p.pack().len();
+    let mut acc = jacobian.then(|| RAccumulator::new(d + 1));
+    let (mut block, mut rows, mut cost) = (Vec::new(), 0usize, 0.0);
+    for e in experiments {
+        let (eps, cols) = residuals(e, i, p, jacobian);
+        cost += eps.iter().map(|v| v * v).sum::<f64>();
+        if let Some(acc) = acc.as_mut() {
+            for (t, et) in eps.iter().enumerate() {
+                block.extend(cols.iter().map(|c| c[t]));
+                block.push(*et);
+                rows += 1;
+                if rows == BLOCK_ROWS {
+                    acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+                    block.clear();
+                    rows = 0;
+                }
+            }
+        }
+    }
+    if let Some(acc) = acc.as_mut()
+        && rows > 0
+    {
+        acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+    }
+    Ok((cost, acc.map(|a| a.r())))
+}
+
+/// Levenberg–Marquardt from `p`; (polynomials, cost, R₁₁, iterations).
+fn iterate(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    mut p: Output,
+    opts: &PolyestOptions,
+) -> Result<(Output, f64, DMatrix<f64>, usize)> {
+    let d = p.pack().len();
+    let mut lambda: f64 = 1e-3;
+    let (mut cost, mut r) = evaluate(experiments, i, &p, true)?;
+    let mut iterations = 0;
+    let r11_of = |r: &Option<DMatrix<f64>>| {
+        r.as_ref()
+            .filter(|r| r.nrows() >= d)
+            .map(|r| r.view((0, 0), (d, d)).into_owned())
+            .unwrap_or_else(|| DMatrix::zeros(d, d))
+    };
+    while iterations < opts.max_iterations {
+        iterations += 1;
+        let Some(rr) = r.as_ref().filter(|r| r.nrows() >= d) else {
+            break;
+        };
+        let r11 = rr.view((0, 0), (d, d)).into_owned();
+        // J = ∂ε/∂θ: the step solves [R₁₁; √λ D] δ = [−r; 0].
+        let rhs: DVector<f64> = -rr.view((0, d), (d, 1)).column(0).into_owned();
+        let scale: Vec<f64> = (0..d)
+            .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
+            .collect();
+        let current = p.pack();
+        let mut accepted = false;
+        for _ in 0..12 {
+            let Some(delta) = damped_step(&r11, &rhs, &scale, lambda)? else {
+                lambda *= 4.0;
+                continue;
+            };
+            let trial: Vec<f64> = current
+                .iter()
+                .zip(delta.iter())
+                .map(|(a, b)| a + b)
+                .collect();
+            let q = p.with(&trial);
+            if !q.admissible() {
+                lambda *= 4.0;
+                continue;
+            }
+            let (c, _) = evaluate(experiments, i, &q, false)?;
+            if c < cost {
+                let small_step = delta.norm()
+                    <= opts.tolerance.sqrt() * (1.0 + DVector::from_vec(current.clone()).norm());
+                let small_gain = (cost - c) <= opts.tolerance * cost;
+                p = q;
+                cost = c;
+                lambda = (lambda / 3.0).max(1e-12);
+                accepted = true;
+                r = evaluate(experiments, i, &p, true)?.1;
+                if small_step || small_gain {
+                    return Ok((p, cost, r11_of(&r), iterations));
+                }
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    Ok((p.clone(), cost, r11_of(&r), iterations))
+}
+
+/// Second stage of Hannan–Rissanen: least squares of y on its own lags
+/// (na), the inputs (nb, nk) and the first-stage residuals ê (nc lags from
+/// 1), through [`crate::arx`] with ê as an extra input. Returns (a, b per
+/// input, c).
+#[allow(clippy::type_complexity)]
+fn hannan_rissanen(
+    u: &DMatrix<f64>,
+    y: &DVector<f64>,
+    e_hat: &[f64],
+    na: usize,
+    nb: &[usize],
+    nk: &[usize],
+    nc: usize,
+) -> Result<(Vec<f64>, Vec<Vec<f64>>, Vec<f64>)> {
+    let (n, nu) = (u.nrows(), u.ncols());
+    let mut inputs = DMatrix::zeros(n, nu + 1);
+    inputs.view_mut((0, 0), (n, nu)).copy_from(u);
+    for t in 0..n {
+        inputs[(t, nu)] = e_hat[t];
+    }
+    let ym = DMatrix::from_column_slice(n, 1, y.as_slice());
+    let mut nbs = nb.to_vec();
+    nbs.push(nc);
+    let mut nks = nk.to_vec();
+    nks.push(1);
+    let orders = PolyOrders {
+        na: vec![vec![na]],
+        nb: vec![nbs],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![vec![0; nu + 1]],
+        nk: vec![nks],
+    };
+    let fit = crate::arx(
+        &[Experiment { u: &inputs, y: &ym }],
+        &orders,
+        1.0,
+        &crate::ArxOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )?;
+    let m = fit.model;
+    let a = m.a(0, 0)[1..].to_vec();
+    let b = (0..nu).map(|k| m.b(0, k).to_vec()).collect();
+    let c = m.b(0, nu).to_vec();
+    Ok((a, b, c))
+}
+
+/// One-step residuals of a long ARX model of output `i`
+/// (na = nb = `order` for every input, delay 1), concatenated over the
+/// records (used as ê; zero over the first `order` samples of a record).
+fn long_arx_residuals(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    order: usize,
+) -> Result<Vec<Vec<f64>>> {
+    let nu = experiments[0].u.ncols();
+    let ys: Vec<DMatrix<f64>> = experiments
+        .iter()
+        .map(|e| e.y.columns(i, 1).into_owned())
+        .collect();
+    let exps: Vec<Experiment<'_>> = experiments
+        .iter()
+        .zip(&ys)
+        .map(|(e, y)| Experiment { u: e.u, y })
+        .collect();
+    let orders = PolyOrders {
+        na: vec![vec![order]],
+        nb: vec![vec![order; nu]],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![vec![0; nu]],
+        nk: vec![vec![1; nu]],
+    };
+    let fit = crate::arx(
+        &exps,
+        &orders,
+        1.0,
+        &crate::ArxOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )?;
+    let m = fit.model;
+    exps.iter()
+        .map(|e| {
+            let r = m.prediction_errors(e.u, e.y)?;
+            Ok(r.column(0).iter().copied().collect())
+        })
+        .collect()
+}
+
+/// The start of output `i` (module docs).
+fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> Result<Output> {
+    let (na, nc, nd) = (shape.a.len(), shape.c.len(), shape.d.len());
+    let nb: Vec<usize> = shape.b.iter().map(Vec::len).collect();
+    let nf: Vec<usize> = shape.f.iter().map(Vec::len).collect();
+    let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
+    let long = (4 * (na + nc + nd + nf.iter().sum::<usize>() + 1)).clamp(10, 40);
+    let long = long.min((total / (8 * (experiments[0].u.ncols() + 1))).max(1));
+    let mut p = shape.clone();
+    if nf.iter().all(|&f| f == 0) && nd == 0 {
+        // ARMAX (or ARX with C): Hannan–Rissanen on the records joined.
+        // (A record too short for the long ARX: the zero start.)
+        let Ok(e_hat) = long_arx_residuals(experiments, i, long) else {
+            return Ok(p);
+        };
+        let mut found = None;
+        for (e, eh) in experiments.iter().zip(&e_hat) {
+            let y = e.y.column(i).into_owned();
+            if let Ok(fit) = hannan_rissanen(e.u, &y, eh, na, &nb, &shape.nk, nc) {
+                found = Some(fit);
+                break;
+            }
+        }
+        if let Some((a, b, c)) = found {
+            p.a = a;
+            p.b = b;
+            p.c = if stable(&c) { c } else { vec![0.0; nc] };
+        }
+        return Ok(p);
+    }
+    // Box–Jenkins (and the general case): B/F from the output-error model,
+    // then (C, D) as an ARMA model of its residuals.
+    let ys: Vec<DMatrix<f64>> = experiments
+        .iter()
+        .map(|e| e.y.columns(i, 1).into_owned())
+        .collect();
+    let exps: Vec<Experiment<'_>> = experiments
+        .iter()
+        .zip(&ys)
+        .map(|(e, y)| Experiment { u: e.u, y })
+        .collect();
+    let nu = nb.len();
+    let oe_orders = PolyOrders {
+        na: vec![vec![0]],
+        nb: vec![nb.clone()],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![nf.clone()],
+        nk: vec![shape.nk.clone()],
+    };
+    let Ok(g) = crate::oe(&exps, &oe_orders, ts, &crate::OeOptions::default()) else {
+        return Ok(p);
+    };
+    for k in 0..nu {
+        p.b[k] = g.model.b(0, k).to_vec();
+        p.f[k] = g.model.f(0, k)[1..].to_vec();
+    }
+    if nc + nd == 0 {
+        return Ok(p);
+    }
+    // Residuals r = y − B/F u, then D r = C e by Hannan–Rissanen.
+    for (e, y) in exps.iter().zip(&ys) {
+        let sim = g.model.simulate(e.u, None)?;
+        let r: Vec<f64> = (0..e.u.nrows()).map(|t| y[(t, 0)] - sim[(t, 0)]).collect();
+        let n = r.len();
+        if n <= 2 * long + nc + nd + 2 {
+            continue;
+        }
+        // A long AR model of r gives ê.
+        let rm = DMatrix::from_column_slice(n, 1, &r);
+        let none = DMatrix::zeros(n, 1);
+        let ar = crate::arx(
+            &[Experiment { u: &none, y: &rm }],
+            &PolyOrders::siso(long, 0, 0, 0, 0, 1),
+            1.0,
+            &crate::ArxOptions {
+                threads: 1,
+                ..Default::default()
+            },
+        );
+        let Ok(ar) = ar else { continue };
+        let eh = ar.model.prediction_errors(&none, &rm)?;
+        let eh: Vec<f64> = eh.column(0).iter().copied().collect();
+        let rv = DVector::from_vec(r);
+        if let Ok((dd, _, cc)) = hannan_rissanen(&none, &rv, &eh, nd, &[0], &[1], nc) {
+            if stable(&dd) {
+                p.d = dd;
+            }
+            if stable(&cc) {
+                p.c = cc;
+            }
+        }
+        break;
+    }
+    Ok(p)
+}
+
+fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    let grid = |m: &Vec<Vec<usize>>, rows: usize, cols: usize| {
+        m.len() == rows && m.iter().all(|r| r.len() == cols)
+    };
+    if !(grid(&orders.na, ny, ny)
+        && grid(&orders.nb, ny, nu)
+        && grid(&orders.nf, ny, nu)
+        && grid(&orders.nk, ny, nu)
+        && orders.nc.len() == ny
+        && orders.nd.len() == ny)
+    {
+        return Err(Error::DimensionMismatch {
+            what: "polynomial orders (na n_y×n_y, nb, nf, nk n_y×n_u, nc, nd per output)",
+            expected: format!("{ny} outputs and {nu} inputs"),
+            got: format!(
+                "nb {}×{}",
+                orders.nb.len(),
+                orders.nb.first().map_or(0, Vec::len)
+            ),
+        });
+    }
+    for (i, row) in orders.na.iter().enumerate() {
+        if row.iter().enumerate().any(|(j, &n)| j != i && n > 0) {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: "the prediction-error estimator takes a diagonal A (one output's own lags); a coupled A is an ARX structure (arx)".into(),
+            });
+        }
+        if orders.nb[i]
+            .iter()
+            .zip(&orders.nf[i])
+            .any(|(&b, &f)| b == 0 && f > 0)
+        {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: format!("output {i}: an input with nb = 0 has no F (nf must be 0)"),
+            });
+        }
+        if orders.na[i][i] > 0 && orders.nf[i].iter().any(|&f| f > 0) && orders.nd[i] > 0 {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: "A together with D and F: use ARMAX (na nb nc nk) or BJ (nb nc nd nf nk)"
+                    .into(),
+            });
+        }
+    }
+    for e in experiments {
+        crate::checks::check_record_shape("record (u, y)", e.u, e.y, nu, ny)?;
+        crate::checks::check_finite("u", e.u)?;
+        crate::checks::check_finite("y", e.y)?;
+    }
+    Ok((nu, ny))
+}
+
+/// The prediction-error estimate of the polynomial structure `orders`
+/// (A diagonal; any of B, C, D, F; MATLAB's `polyest`), sample period
+/// `ts`, with the parameter covariance (module docs).
+///
+/// Cost per output: the start (one or two least-squares fits, an OE fit
+/// for BJ), then per iteration one Jacobian pass O(N d) with its QR
+/// O(N d²) and a few residual passes O(N d); memory O(N + d²) per record.
+///
+/// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`];
+/// [`Error::InvalidOption`] for a coupled A, an F without B, A with both D
+/// and F; [`Error::NonFinite`] for NaN/inf (every output sample is needed:
+/// [`crate::oe`] takes multirate records); [`Error::TooFewSamples`];
+/// [`Error::RankDeficient`] for inputs that do not excite the start.
+pub fn polyest(
+    experiments: &[Experiment<'_>],
+    orders: &PolyOrders,
+    ts: f64,
+    opts: &PolyestOptions,
+) -> Result<PolyestFit> {
+    let (nu, ny) = check(experiments, orders)?;
+    if opts.max_iterations == 0 || !(opts.tolerance.is_finite() && opts.tolerance > 0.0) {
+        return Err(Error::InvalidOption {
+            what: "iterations",
+            reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
+        });
+    }
+    let template = PolyModel::from_orders(orders, ts)?;
+    let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
+    let mut polys = template.polynomials();
+    let mut blocks = Vec::new();
+    let mut lambdas = Vec::new();
+    let (mut loss, mut fit, mut iterations) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..ny {
+        let shape = Output {
+            a: vec![0.0; orders.na[i][i]],
+            b: orders.nb[i].iter().map(|&n| vec![0.0; n]).collect(),
+            f: orders.nf[i].iter().map(|&n| vec![0.0; n]).collect(),
+            nk: orders.nk[i].clone(),
+            c: vec![0.0; orders.nc[i]],
+            d: vec![0.0; orders.nd[i]],
+        };
+        let d = shape.pack().len();
+        if samples <= d {
+            return Err(Error::TooFewSamples {
+                what: "the polynomial model",
+                measured: samples,
+                needed: d + 1,
+            });
+        }
+        let p0 = start(experiments, i, &shape, ts)?;
+        let (p, cost, r11, its) = iterate(experiments, i, p0, opts)?;
+        let lambda = cost / (samples - d) as f64;
+        let inv =
+            r11.solve_upper_triangular(&DMatrix::identity(d, d))
+                .ok_or(Error::RankDeficient {
+                    what: "the prediction-error Jacobian at the estimate",
+                    rank: 0,
+                    needed: d,
+                })?;
+        blocks.push(&inv * inv.transpose() * lambda);
+        lambdas.push(lambda);
+        let monic = |v: &[f64]| {
+            let mut m = vec![1.0];
+            m.extend_from_slice(v);
+            m
+        };
+        if let Some(a) = polys.a.as_mut() {
+            a[i][i] = monic(&p.a);
+        }
+        for k in 0..nu {
+            polys.b[i][k] = p.b[k].clone();
+            if let Some(f) = polys.f.as_mut() {
+                f[i][k] = monic(&p.f[k]);
+            }
+        }
+        if let Some(c) = polys.c.as_mut() {
+            c[i] = monic(&p.c);
+        }
+        if let Some(dd) = polys.d.as_mut() {
+            dd[i] = monic(&p.d);
+        }
+        let values: Vec<f64> = experiments
+            .iter()
+            .flat_map(|e| e.y.column(i).iter().copied().collect::<Vec<_>>())
+            .collect();
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let spread = values
+            .iter()
+            .map(|v| (v - mean).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        loss.push(cost / samples as f64);
+        fit.push(if spread > 0.0 {
+            100.0 * (1.0 - cost.sqrt() / spread)
+        } else {
+            f64::NAN
+        });
+        iterations.push(its);
+    }
+    let total: usize = blocks.iter().map(DMatrix::nrows).sum();
+    let mut cov = DMatrix::zeros(total, total);
+    let mut at = 0;
+    for b in &blocks {
+        let n = b.nrows();
+        cov.view_mut((at, at), (n, n))
+            .copy_from(&((b + b.transpose()) * 0.5));
+        at += n;
+    }
+    let model = PolyModel::new(
+        Polynomials {
+            nk: orders.nk.clone(),
+            ..polys
+        },
+        ts,
+    )?
+    .with_noise_variance(&DMatrix::from_diagonal(&DVector::from_vec(lambdas)))?
+    .with_covariance(&cov)?;
+    Ok(PolyestFit {
+        model,
+        loss,
+        fit,
+        iterations,
+    })
+}
+
+/// ARMAX [na nb nc nk] (the same for every input–output pair, A diagonal):
+/// [`polyest`] with nd = nf = 0 (MATLAB's `armax`).
+///
+/// Errors: those of [`polyest`].
+pub fn armax(
+    experiments: &[Experiment<'_>],
+    orders: [usize; 4],
+    ts: f64,
+    opts: &PolyestOptions,
+) -> Result<PolyestFit> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    let [na, nb, nc, nk] = orders;
+    let o = PolyOrders {
+        na: (0..ny)
+            .map(|i| (0..ny).map(|j| if i == j { na } else { 0 }).collect())
+            .collect(),
+        nb: vec![vec![nb; nu]; ny],
+        nc: vec![nc; ny],
+        nd: vec![0; ny],
+        nf: vec![vec![0; nu]; ny],
+        nk: vec![vec![nk; nu]; ny],
+    };
+    polyest(experiments, &o, ts, opts)
+}
+
+/// Box–Jenkins [nb nc nd nf nk] (the same for every input–output pair):
+/// [`polyest`] with na = 0 (MATLAB's `bj`).
+///
+/// Errors: those of [`polyest`].
+pub fn bj(
+    experiments: &[Experiment<'_>],
+    orders: [usize; 5],
+    ts: f64,
+    opts: &PolyestOptions,
+) -> Result<PolyestFit> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    let [nb, nc, nd, nf, nk] = orders;
+    let o = PolyOrders {
+        na: vec![vec![0; ny]; ny],
+        nb: vec![vec![nb; nu]; ny],
+        nc: vec![nc; ny],
+        nd: vec![nd; ny],
+        nf: vec![vec![nf; nu]; ny],
+        nk: vec![vec![nk; nu]; ny],
+    };
+    polyest(experiments, &o, ts, opts)
+}
+
+#[cfg(test)]
+mod tests;
