@@ -170,8 +170,6 @@ impl Choice for lifted_workflow::Refine {
         ("none", Self::None),
         ("pem", Self::Pem),
         ("oe", Self::Oe),
-        ("armax", Self::Armax),
-        ("bj", Self::Bj),
     ];
 }
 
