@@ -72,6 +72,7 @@ mod checks;
 pub mod error;
 mod held_out;
 mod oe;
+mod process;
 mod state_space;
 
 pub use arx::{
@@ -82,6 +83,7 @@ pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
 pub use held_out::{RefinementCheck, cross_validate_refinement};
 pub use oe::{OeFit, OeOptions, oe};
+pub use process::{ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
 pub use state_space::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
