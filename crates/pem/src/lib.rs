@@ -10,6 +10,7 @@
 //! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
 //! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
+//! | [`procest`] ([`ProcessKind`], [`ProcessModel`], [`ProcessOptions`], [`ProcessFit`]) | process models with dead time (MATLAB's `idproc`: P1D, P2D, P1DI, P2DZ, P2DU) — gain, time constants, any dead time (exact ZOH with a fractional delay) — by output error on the measured samples (multirate records included), grid and two-point starts, Levenberg–Marquardt, covariance of K, T, θ; equations, discretisation, estimator and complexity in [`process`] |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
 //!
 //! # Method
@@ -72,7 +73,7 @@ mod checks;
 pub mod error;
 mod held_out;
 mod oe;
-mod process;
+pub mod process;
 mod state_space;
 
 pub use arx::{

@@ -289,17 +289,15 @@ impl Discrete {
         debug_assert!(n <= 4);
         for t in self.shift..u.len().min(out.len()) {
             let v = u[t - self.shift];
-            let mut y = self.d * v;
-            for i in 0..n {
-                y += self.c[i] * x[i];
-            }
+            let y = self.d * v + self.c.iter().zip(&x[..n]).map(|(c, x)| c * x).sum::<f64>();
             out[t] += scale * y;
-            for i in 0..n {
-                let mut s = self.b[i] * v;
-                for j in 0..n {
-                    s += self.a[(i, j)] * x[j];
-                }
-                xn[i] = s;
+            for (i, (xi, bi)) in xn[..n].iter_mut().zip(&self.b).enumerate() {
+                *xi = bi * v
+                    + x[..n]
+                        .iter()
+                        .enumerate()
+                        .map(|(j, xj)| self.a[(i, j)] * xj)
+                        .sum::<f64>();
             }
             x[..n].copy_from_slice(&xn[..n]);
         }
