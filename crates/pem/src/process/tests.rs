@@ -121,7 +121,8 @@ fn realisations_have_the_stated_transfer_functions() {
 
 #[test]
 fn noise_free_recovery_of_every_structure() {
-    // Random binary input, hold 8, N = 1500; every dead time fractional.
+    // Random binary input, hold 8, N = 1500; every dead time fractional;
+    // parameters to 1e-5 relative.
     let cases: [(ProcessKind, &[f64]); 6] = [
         (ProcessKind::P1D, &[2.0, 20.0, 7.3]),
         (ProcessKind::P2D, &[-1.5, 15.0, 4.0, 3.6]),
@@ -134,19 +135,22 @@ fn noise_free_recovery_of_every_structure() {
         let m = ProcessModel::from_parameters(*kind, p, 1.0).unwrap();
         let u = rbs(10 + i as u64, 1500, 8);
         let y = m.simulate(&u).unwrap();
-        let f = fit(&col(&u), &col(&y), *kind);
-        for ((a, b), name) in f
-            .parameters
-            .iter()
-            .zip(p.iter())
-            .zip(kind.parameter_names())
-        {
-            assert!(
-                (a - b).abs() < 1e-5 * b.abs().max(1.0),
-                "{kind:?} {name}: {a} vs {b} ({f:?})"
-            );
+        // at full rate and with the output every 5th sample
+        for rate in [1, 5] {
+            let f = fit(&col(&u), &col(&every(&y, rate)), *kind);
+            for ((a, b), name) in f
+                .parameters
+                .iter()
+                .zip(p.iter())
+                .zip(kind.parameter_names())
+            {
+                assert!(
+                    (a - b).abs() < 1e-5 * b.abs().max(1.0),
+                    "{kind:?} 1/{rate} {name}: {a} vs {b} ({f:?})"
+                );
+            }
+            assert!(f.loss < 1e-16, "{kind:?} 1/{rate} loss {}", f.loss);
         }
-        assert!(f.loss < 1e-16, "{kind:?} loss {}", f.loss);
     }
 }
 
@@ -427,4 +431,28 @@ fn bad_input_is_refused_with_a_named_error() {
         ProcessModel::from_parameters(ProcessKind::P1D, &[1.0, 2.0], 1.0),
         Err(Error::DimensionMismatch { .. })
     ));
+}
+
+#[test]
+fn several_records_are_fitted_together() {
+    // Two records from rest, different inputs and lengths, one of them
+    // sampled every 4th: the P2DU plant comes back to 1e-5.
+    let m = ProcessModel::from_parameters(ProcessKind::P2DU, &[0.8, 5.0, 0.3, 2.2], 1.0).unwrap();
+    let (u1, u2) = (rbs(50, 500, 6), rbs(51, 700, 9));
+    let (y1, y2) = (
+        m.simulate(&u1).unwrap(),
+        every(&m.simulate(&u2).unwrap(), 4),
+    );
+    let (u1, y1, u2, y2) = (col(&u1), col(&y1), col(&u2), col(&y2));
+    let f = procest(
+        &[Experiment { u: &u1, y: &y1 }, Experiment { u: &u2, y: &y2 }],
+        ProcessKind::P2DU,
+        1.0,
+        &ProcessOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(f.measured, 500 + 175);
+    for (a, b) in f.parameters.iter().zip([0.8, 5.0, 0.3, 2.2]) {
+        assert!((a - b).abs() < 1e-5 * b, "{:?}", f.parameters);
+    }
 }
