@@ -11,6 +11,7 @@
 //! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
 //! | [`polyest`], [`armax`], [`bj`] ([`PolyestOptions`], [`PolyestFit`]) | ARMAX, Box–Jenkins and the general diagonal-A structure by Levenberg–Marquardt on the one-step prediction error (analytic gradient by filtering), Hannan–Rissanen / OE starts, consistent in closed loop (the direct method), with the parameter covariance |
+//! | [`procest`] ([`ProcessKind`], [`ProcessModel`], [`ProcessOptions`], [`ProcessFit`]) | process models with dead time (MATLAB's `idproc`: P1D, P2D, P1DI, P2DZ, P2DU) — gain, time constants, any dead time (exact ZOH with a fractional delay) — by output error on the measured samples (multirate records included), grid and two-point starts, Levenberg–Marquardt, covariance of K, T, θ; equations, discretisation, estimator and complexity in [`process`] |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
 //!
 //! # Method
@@ -75,6 +76,7 @@ mod filters;
 mod held_out;
 mod oe;
 mod polyest;
+pub mod process;
 mod state_space;
 
 pub use arx::{
@@ -86,6 +88,7 @@ pub use error::{Error, Result};
 pub use held_out::{RefinementCheck, cross_validate_refinement};
 pub use oe::{OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
+pub use process::{ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
 pub use state_space::{
     Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
     pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,

@@ -1,0 +1,1022 @@
+//! `procest`: the checks, the starts (grid with the gains solved for, the
+//! two-point method on a step test), Levenberg–Marquardt on the simulation
+//! error of the measured samples, the covariance.
+
+use lifted_linalg::RAccumulator;
+use lifted_subspace::Experiment;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::model::{Discrete, ProcessKind, ProcessModel};
+use crate::error::{Error, Result};
+
+/// Rows of [∂ŷ/∂φ | ε] folded into the R-only QR at a time.
+const BLOCK_ROWS: usize = 4096;
+/// Time constants on the start grid (log-spaced from T/2 to a quarter of
+/// the longest record).
+const GRID_TIME_CONSTANTS: usize = 12;
+/// Damping ratios on the start grid of P2DU.
+const GRID_ZETAS: [f64; 5] = [0.15, 0.3, 0.5, 0.7, 1.0];
+/// Dead-time shifts evaluated per shape on the coarse grid.
+const GRID_SHIFTS: usize = 64;
+
+/// Options of [`procest`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProcessOptions {
+    /// Largest number of Levenberg–Marquardt iterations per start
+    /// (default 100).
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this
+    /// fraction, or the step is below its square root relative to the
+    /// parameters (default 1e-10).
+    pub tolerance: f64,
+    /// Estimate a constant output offset besides the models (default
+    /// false: the records are deviations from the operating point, the
+    /// caller removed it; MATLAB's `procest` likewise assumes detrended
+    /// data unless an offset is asked for).
+    pub offset: bool,
+    /// Largest dead time in seconds the search considers (default: a third
+    /// of the longest record's duration).
+    pub max_delay: Option<f64>,
+    /// Levenberg–Marquardt runs from the best distinct grid points (single
+    /// input only; default 3); the two-point start of a step test is run
+    /// besides. The lowest cost is kept.
+    pub starts: usize,
+}
+
+impl Default for ProcessOptions {
+    fn default() -> Self {
+        ProcessOptions {
+            max_iterations: 100,
+            tolerance: 1e-10,
+            offset: false,
+            max_delay: None,
+            starts: 3,
+        }
+    }
+}
+
+/// An estimated process model (one per input, summed at the output), its
+/// uncertainty and what the iterations did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProcessFit {
+    /// One model per input, in input order (for P2D and P2DZ T₁ ≥ T₂).
+    pub models: Vec<ProcessModel>,
+    /// The estimated output offset ([`ProcessOptions::offset`]), else 0.
+    pub offset: f64,
+    /// Names of the estimated parameters: per input the
+    /// [`ProcessKind::parameter_names`] suffixed `(u{j})`, then `offset`.
+    pub names: Vec<String>,
+    /// The estimated physical parameters in the order of `names`.
+    pub parameters: Vec<f64>,
+    /// Their covariance λ̂ (JᵀJ)⁻¹ at the optimum (J the Jacobian of the
+    /// simulated measured samples with respect to the physical parameters,
+    /// λ̂ = Σε² / (M − d)); NaN when JᵀJ is singular.
+    pub covariance: DMatrix<f64>,
+    /// Standard deviations, the square roots of the covariance's diagonal.
+    pub std: Vec<f64>,
+    /// Mean squared simulation error on the measured samples.
+    pub loss: f64,
+    /// Simulation fit, percent: 100 (1 − ‖ε‖/‖y − ȳ‖) on the measured
+    /// samples.
+    pub fit: f64,
+    /// Measured output samples used (finite y).
+    pub measured: usize,
+    /// Levenberg–Marquardt iterations of the kept run.
+    pub iterations: usize,
+    /// Levenberg–Marquardt runs (starts) made.
+    pub starts: usize,
+}
+
+impl ProcessFit {
+    /// The simulated output for the inputs `u` (N × n_u, zero initial
+    /// state), the offset included.
+    ///
+    /// Errors: [`Error::DimensionMismatch`] for a wrong column count,
+    /// [`Error::NonFinite`] for NaN/inf in `u`.
+    pub fn simulate(&self, u: &DMatrix<f64>) -> Result<Vec<f64>> {
+        if u.ncols() != self.models.len() {
+            return Err(Error::DimensionMismatch {
+                what: "process-model input",
+                expected: format!("{} columns", self.models.len()),
+                got: format!("{}", u.ncols()),
+            });
+        }
+        crate::checks::check_finite("u", u)?;
+        let mut out = vec![self.offset; u.nrows()];
+        for (j, m) in self.models.iter().enumerate() {
+            m.validate()?;
+            let col: Vec<f64> = u.column(j).iter().copied().collect();
+            Discrete::new(m)?.add_response(&col, 1.0, &mut out);
+        }
+        Ok(out)
+    }
+
+    /// The exact ZOH equivalent of the whole (MISO) model, every dead time
+    /// included ([`ProcessModel::to_discrete_ss`]); the offset is not in it.
+    pub fn to_discrete_ss(&self) -> Result<lifted_lti::StateSpace> {
+        let parts = self
+            .models
+            .iter()
+            .map(ProcessModel::to_continuous_ss)
+            .collect::<Result<Vec<_>>>()?;
+        let n: usize = parts.iter().map(|p| p.order()).sum();
+        let m = parts.len();
+        let (mut a, mut b, mut c) = (
+            DMatrix::zeros(n, n),
+            DMatrix::zeros(n, m),
+            DMatrix::zeros(1, n),
+        );
+        let mut at = 0;
+        for (j, p) in parts.iter().enumerate() {
+            let k = p.order();
+            a.view_mut((at, at), (k, k)).copy_from(p.a());
+            b.view_mut((at, j), (k, 1)).copy_from(p.b());
+            c.view_mut((0, at), (1, k)).copy_from(p.c());
+            at += k;
+        }
+        let ts = self.models.first().map_or(1.0, |m| m.ts);
+        let cont = lifted_lti::StateSpace::new(a, b, c, DMatrix::zeros(1, m), None)?;
+        Ok(cont.c2d(
+            ts,
+            &lifted_lti::C2dOptions {
+                input_delays: Some(self.models.iter().map(|m| m.theta).collect()),
+                ..Default::default()
+            },
+        )?)
+    }
+}
+
+/// The estimation problem: the records, the structure, the bounds.
+struct Problem<'a> {
+    kind: ProcessKind,
+    ts: f64,
+    nu: usize,
+    offset: bool,
+    /// Per record, per input, the input samples.
+    inputs: Vec<Vec<Vec<f64>>>,
+    /// Per record, the output samples (NaN = not measured).
+    outputs: Vec<&'a [f64]>,
+    measured: usize,
+    theta_max: f64,
+    log_t: (f64, f64),
+    /// Typical gain |y|/|u|, the scale of the gain's difference step.
+    gain_scale: f64,
+    /// Longest record, seconds.
+    duration: f64,
+}
+
+/// Whether parameter `i` of a block of `kind` is carried as its logarithm.
+fn is_log(kind: ProcessKind, i: usize) -> bool {
+    match kind {
+        ProcessKind::P1D | ProcessKind::P1DI => i == 1,
+        _ => i == 1 || i == 2,
+    }
+}
+
+impl Problem<'_> {
+    fn block(&self) -> usize {
+        self.kind.n_parameters()
+    }
+
+    fn n_phi(&self) -> usize {
+        self.nu * self.block() + usize::from(self.offset)
+    }
+
+    /// Internal coordinates φ of physical parameters p (logs of the
+    /// positive ones).
+    fn to_phi(&self, p: &[f64]) -> Vec<f64> {
+        let b = self.block();
+        p.iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                if i < self.nu * b && is_log(self.kind, i % b) {
+                    v.max(f64::MIN_POSITIVE).ln()
+                } else {
+                    v
+                }
+            })
+            .collect()
+    }
+
+    fn to_physical(&self, phi: &[f64]) -> Vec<f64> {
+        let b = self.block();
+        phi.iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                if i < self.nu * b && is_log(self.kind, i % b) {
+                    v.exp()
+                } else {
+                    v
+                }
+            })
+            .collect()
+    }
+
+    /// Projects φ onto the box: θ ∈ [0, θ_max], time constants in
+    /// [T/1000, 100 × record], ζ ∈ [0.01, 100].
+    fn clamp(&self, phi: &mut [f64]) {
+        let b = self.block();
+        for j in 0..self.nu {
+            let blk = &mut phi[j * b..(j + 1) * b];
+            blk[b - 1] = blk[b - 1].clamp(0.0, self.theta_max);
+            for (i, v) in blk.iter_mut().enumerate() {
+                if is_log(self.kind, i) {
+                    *v = if self.kind == ProcessKind::P2DU && i == 2 {
+                        v.clamp(0.01f64.ln(), 100f64.ln())
+                    } else {
+                        v.clamp(self.log_t.0, self.log_t.1)
+                    };
+                }
+            }
+        }
+    }
+
+    fn models(&self, phi: &[f64]) -> Result<(Vec<ProcessModel>, f64)> {
+        let p = self.to_physical(phi);
+        let b = self.block();
+        let models = (0..self.nu)
+            .map(|j| ProcessModel::from_parameters(self.kind, &p[j * b..(j + 1) * b], self.ts))
+            .collect::<Result<Vec<_>>>()?;
+        let offset = if self.offset { p[p.len() - 1] } else { 0.0 };
+        Ok((models, offset))
+    }
+
+    /// ŷ per record.
+    fn simulate(&self, phi: &[f64]) -> Result<Vec<Vec<f64>>> {
+        let (models, offset) = self.models(phi)?;
+        let discrete = models
+            .iter()
+            .map(Discrete::new)
+            .collect::<Result<Vec<_>>>()?;
+        Ok(self
+            .inputs
+            .iter()
+            .map(|us| {
+                let mut out = vec![offset; us.first().map_or(0, Vec::len)];
+                for (d, u) in discrete.iter().zip(us) {
+                    d.add_response(u, 1.0, &mut out);
+                }
+                out
+            })
+            .collect())
+    }
+
+    fn cost(&self, phi: &[f64]) -> Result<f64> {
+        let sims = self.simulate(phi)?;
+        Ok(sims
+            .iter()
+            .zip(&self.outputs)
+            .flat_map(|(s, y)| s.iter().zip(y.iter()))
+            .filter(|(_, y)| !y.is_nan())
+            .map(|(s, y)| (y - s) * (y - s))
+            .sum())
+    }
+
+    /// The difference step of φ_i.
+    fn step(&self, phi: &[f64], i: usize) -> f64 {
+        let b = self.block();
+        if i >= self.nu * b {
+            return 1e-4 * (phi[i].abs() + self.gain_scale);
+        }
+        match i % b {
+            0 => 1e-6 * phi[i].abs().max(1e-3 * self.gain_scale),
+            r if r == b - 1 => 1e-4 * self.ts,
+            r if is_log(self.kind, r) => 1e-5,
+            _ => 1e-5 * phi[i].abs().max(self.ts), // T_z
+        }
+    }
+
+    /// Cost and the R factor of [∂ŷ/∂φ | ε] (central differences, one-sided
+    /// at a bound) over the measured samples.
+    fn jacobian(&self, phi: &[f64]) -> Result<(f64, DMatrix<f64>)> {
+        let d = self.n_phi();
+        let base = self.simulate(phi)?;
+        let mut cols: Vec<Vec<Vec<f64>>> = Vec::with_capacity(d);
+        for i in 0..d {
+            let h = self.step(phi, i);
+            let (mut hi, mut lo) = (phi.to_vec(), phi.to_vec());
+            hi[i] += h;
+            lo[i] -= h;
+            self.clamp(&mut hi);
+            self.clamp(&mut lo);
+            let span = hi[i] - lo[i];
+            let (sh, sl) = (self.simulate(&hi)?, self.simulate(&lo)?);
+            cols.push(
+                sh.iter()
+                    .zip(&sl)
+                    .map(|(a, b)| {
+                        a.iter()
+                            .zip(b)
+                            .map(|(x, y)| if span > 0.0 { (x - y) / span } else { 0.0 })
+                            .collect()
+                    })
+                    .collect(),
+            );
+        }
+        let mut acc = RAccumulator::new(d + 1);
+        let mut block = Vec::new();
+        let mut rows = 0;
+        let mut cost = 0.0;
+        for (e, y) in self.outputs.iter().enumerate() {
+            for (t, &yt) in y.iter().enumerate() {
+                if yt.is_nan() {
+                    continue;
+                }
+                let eps = yt - base[e][t];
+                cost += eps * eps;
+                block.extend(cols.iter().map(|c| c[e][t]));
+                block.push(eps);
+                rows += 1;
+                if rows == BLOCK_ROWS {
+                    acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+                    block.clear();
+                    rows = 0;
+                }
+            }
+        }
+        if rows > 0 {
+            acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
+        }
+        Ok((cost, acc.r()))
+    }
+
+    /// Levenberg–Marquardt from φ₀; returns (φ, cost, iterations).
+    fn iterate(&self, mut phi: Vec<f64>, opts: &ProcessOptions) -> Result<(Vec<f64>, f64, usize)> {
+        let d = self.n_phi();
+        self.clamp(&mut phi);
+        let mut lambda: f64 = 1e-3;
+        let (mut cost, mut r) = self.jacobian(&phi)?;
+        let mut iterations = 0;
+        while iterations < opts.max_iterations && r.nrows() >= d {
+            iterations += 1;
+            let r11 = r.view((0, 0), (d, d)).into_owned();
+            let r12 = r.view((0, d), (d, 1)).column(0).into_owned();
+            let scale: Vec<f64> = (0..d)
+                .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
+                .collect();
+            let mut accepted = false;
+            for _ in 0..16 {
+                // Rows [G | ε] with G = ∂ŷ/∂φ: the damped Gauss–Newton step
+                // solves [R₁₁; √λ D] δ = [r; 0].
+                let mut m = DMatrix::zeros(2 * d, d + 1);
+                m.view_mut((0, 0), (d, d)).copy_from(&r11);
+                for j in 0..d {
+                    m[(d + j, j)] = lambda.sqrt() * scale[j];
+                    m[(j, d)] = r12[j];
+                }
+                let q = lifted_linalg::qr_r(&m)?;
+                let Some(delta) = q
+                    .view((0, 0), (d, d))
+                    .into_owned()
+                    .solve_upper_triangular(&q.view((0, d), (d, 1)).into_owned())
+                else {
+                    lambda *= 4.0;
+                    continue;
+                };
+                let mut trial: Vec<f64> =
+                    phi.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+                self.clamp(&mut trial);
+                let c = self.cost(&trial)?;
+                if c < cost {
+                    let moved =
+                        DVector::from_iterator(d, trial.iter().zip(&phi).map(|(a, b)| a - b));
+                    let small_step = moved.norm()
+                        <= opts.tolerance.sqrt() * (1.0 + DVector::from_column_slice(&phi).norm());
+                    let small_gain = cost - c <= opts.tolerance * cost;
+                    phi = trial;
+                    lambda = (lambda / 3.0).max(1e-12);
+                    accepted = true;
+                    (cost, r) = self.jacobian(&phi)?;
+                    if small_step || small_gain {
+                        return Ok((phi, cost, iterations));
+                    }
+                    break;
+                }
+                lambda *= 4.0;
+            }
+            if !accepted {
+                break;
+            }
+        }
+        Ok((phi, cost, iterations))
+    }
+
+    /// P2D and P2DZ: T₁ ≥ T₂ (the transfer function is symmetric in them).
+    fn canonical(&self, phi: &mut [f64]) {
+        if matches!(self.kind, ProcessKind::P2D | ProcessKind::P2DZ) {
+            let b = self.block();
+            for j in 0..self.nu {
+                if phi[j * b + 1] < phi[j * b + 2] {
+                    phi.swap(j * b + 1, j * b + 2);
+                }
+            }
+        }
+    }
+}
+
+/// A start on the grid: one input's physical block, the offset, the cost.
+#[derive(Debug, Clone)]
+struct Candidate {
+    block: Vec<f64>,
+    offset: f64,
+    cost: f64,
+    /// Grid coordinates (time-constant indices, shift) for distinctness.
+    cell: (usize, usize, usize),
+}
+
+/// Basis responses of one grid shape (θ = 0, K = 1) per record, and how
+/// the fitted coefficients map to (K, T_z).
+fn shape_bases(
+    kind: ProcessKind,
+    shape: &[f64],
+    ts: f64,
+    inputs: &[&[f64]],
+) -> Result<Vec<Vec<Vec<f64>>>> {
+    let unit = |k: ProcessKind, p: &[f64]| ProcessModel::from_parameters(k, p, ts);
+    let models = match kind {
+        ProcessKind::P1D => vec![unit(kind, &[1.0, shape[0], 0.0])?],
+        ProcessKind::P1DI => vec![unit(kind, &[1.0, shape[0], 0.0])?],
+        ProcessKind::P2D => vec![unit(kind, &[1.0, shape[0], shape[1], 0.0])?],
+        // y = K(1 − T_z/T₂) x₂ + K (T_z/T₂) x₁: bases x₂ (T_z = 0) and x₁ (T_z = T₂)
+        ProcessKind::P2DZ => vec![
+            unit(kind, &[1.0, shape[0], shape[1], 0.0, 0.0])?,
+            unit(kind, &[1.0, shape[0], shape[1], shape[1], 0.0])?,
+        ],
+        ProcessKind::P2DU => vec![unit(kind, &[1.0, shape[0], shape[1], 0.0])?],
+    };
+    models
+        .iter()
+        .map(|m| {
+            let d = Discrete::new(m)?;
+            Ok(inputs
+                .iter()
+                .map(|u| {
+                    let mut out = vec![0.0; u.len()];
+                    d.add_response(u, 1.0, &mut out);
+                    out
+                })
+                .collect())
+        })
+        .collect()
+}
+
+/// The grid search of input `j` against `target` (per record, NaN = not
+/// measured): every shape, every coarse shift, gains (and offset) by least
+/// squares; the best shift of each shape refined at single-sample
+/// resolution. Candidates sorted by cost.
+fn grid(p: &Problem<'_>, j: usize, target: &[Vec<f64>]) -> Result<Vec<Candidate>> {
+    let lo = (p.ts / 2.0).ln();
+    let hi = (p.duration / 4.0).max(p.ts).ln();
+    let tcs: Vec<f64> = (0..GRID_TIME_CONSTANTS)
+        .map(|i| (lo + (hi - lo) * i as f64 / (GRID_TIME_CONSTANTS - 1) as f64).exp())
+        .collect();
+    let mut shapes: Vec<(Vec<f64>, (usize, usize))> = Vec::new();
+    match p.kind {
+        ProcessKind::P1D | ProcessKind::P1DI => {
+            for (a, &t) in tcs.iter().enumerate() {
+                shapes.push((vec![t], (a, 0)));
+            }
+        }
+        ProcessKind::P2D | ProcessKind::P2DZ => {
+            for (a, &t1) in tcs.iter().enumerate() {
+                for (b, &t2) in tcs.iter().enumerate().take(a + 1) {
+                    shapes.push((vec![t1, t2], (a, b)));
+                }
+            }
+        }
+        ProcessKind::P2DU => {
+            for (a, &t) in tcs.iter().enumerate() {
+                for (b, &z) in GRID_ZETAS.iter().enumerate() {
+                    shapes.push((vec![t, z], (a, b)));
+                }
+            }
+        }
+    }
+    let d_max = (p.theta_max / p.ts).floor() as usize;
+    let stride = (d_max + 1).div_ceil(GRID_SHIFTS).max(1);
+    let inputs: Vec<&[f64]> = p.inputs.iter().map(|us| us[j].as_slice()).collect();
+    let mut out = Vec::new();
+    for (shape, cell) in shapes {
+        let bases = shape_bases(p.kind, &shape, p.ts, &inputs)?;
+        let mut best: Option<(f64, usize, Vec<f64>)> = None;
+        let consider = |d: usize, best: &mut Option<(f64, usize, Vec<f64>)>| {
+            if let Some((c, coef)) = shifted_ls(&bases, target, d, p.offset)
+                && best.as_ref().is_none_or(|b| c < b.0)
+            {
+                *best = Some((c, d, coef));
+            }
+        };
+        for d in (0..=d_max).step_by(stride) {
+            consider(d, &mut best);
+        }
+        if stride > 1
+            && let Some((_, d0, _)) = best.clone()
+        {
+            for d in d0.saturating_sub(stride - 1)..=(d0 + stride - 1).min(d_max) {
+                consider(d, &mut best);
+            }
+        }
+        let Some((cost, d, coef)) = best else {
+            continue;
+        };
+        let theta = d as f64 * p.ts;
+        let (k, tz) = if p.kind == ProcessKind::P2DZ {
+            let k = coef[0] + coef[1];
+            let tz = if k.abs() > 1e-12 * (coef[0].abs() + coef[1].abs()) {
+                shape[1] * coef[1] / k
+            } else {
+                0.0
+            };
+            (k, tz)
+        } else {
+            (coef[0], 0.0)
+        };
+        if !k.is_finite() || k == 0.0 {
+            continue;
+        }
+        let block = match p.kind {
+            ProcessKind::P2DZ => vec![k, shape[0], shape[1], tz, theta],
+            _ => {
+                let mut b = vec![k];
+                b.extend_from_slice(&shape);
+                b.push(theta);
+                b
+            }
+        };
+        let offset = if p.offset { coef[coef.len() - 1] } else { 0.0 };
+        out.push(Candidate {
+            block,
+            offset,
+            cost,
+            cell: (cell.0, cell.1, d),
+        });
+    }
+    out.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    Ok(out)
+}
+
+/// Least squares of the measured target on the bases delayed by `d`
+/// samples (and a constant with `offset`): (residual sum of squares,
+/// coefficients), None when singular.
+fn shifted_ls(
+    bases: &[Vec<Vec<f64>>],
+    target: &[Vec<f64>],
+    d: usize,
+    offset: bool,
+) -> Option<(f64, Vec<f64>)> {
+    let nb = bases.len() + usize::from(offset);
+    let mut g = DMatrix::<f64>::zeros(nb, nb);
+    let mut h = DVector::<f64>::zeros(nb);
+    let mut yy = 0.0;
+    let mut x = vec![0.0; nb];
+    for (e, y) in target.iter().enumerate() {
+        for (t, &yt) in y.iter().enumerate() {
+            if yt.is_nan() {
+                continue;
+            }
+            for (b, basis) in bases.iter().enumerate() {
+                x[b] = if t >= d { basis[e][t - d] } else { 0.0 };
+            }
+            if offset {
+                x[nb - 1] = 1.0;
+            }
+            for a in 0..nb {
+                h[a] += x[a] * yt;
+                for b in 0..=a {
+                    g[(a, b)] += x[a] * x[b];
+                }
+            }
+            yy += yt * yt;
+        }
+    }
+    for a in 0..nb {
+        for b in 0..a {
+            g[(b, a)] = g[(a, b)];
+        }
+    }
+    let diag = (0..nb).map(|a| g[(a, a)]).fold(0.0, f64::max);
+    if (0..nb).any(|a| g[(a, a)] <= 1e-12 * diag) {
+        return None;
+    }
+    let c = g.clone().cholesky()?.solve(&h);
+    let rss = (yy - h.dot(&c)).max(0.0);
+    Some((rss, c.iter().copied().collect()))
+}
+
+/// Smith's two-point start on a single-input step test (the input takes two
+/// values and changes once in the first record that does so): K from the
+/// final value, T = 1.5 (t₆₃ − t₂₈), θ = t₆₃ − T; for P1DI the slope and
+/// intercept of the response's last third. None when no record is a step
+/// test or the response does not cross its levels.
+fn two_point_start(p: &Problem<'_>) -> Option<Vec<f64>> {
+    if p.nu != 1 {
+        return None;
+    }
+    for (us, y) in p.inputs.iter().zip(&p.outputs) {
+        let u = &us[0];
+        let changes: Vec<usize> = (1..u.len()).filter(|&t| u[t] != u[t - 1]).collect();
+        let [k0] = changes[..] else { continue };
+        let du = u[k0] - u[k0 - 1];
+        let before: Vec<f64> = y[..k0].iter().copied().filter(|v| !v.is_nan()).collect();
+        let base = if before.is_empty() {
+            0.0
+        } else {
+            before.iter().sum::<f64>() / before.len() as f64
+        };
+        // (time after the step, normalised response) at the measured samples
+        let s: Vec<(f64, f64)> = (k0..y.len())
+            .filter(|&t| !y[t].is_nan())
+            .map(|t| ((t - k0) as f64 * p.ts, (y[t] - base) / du))
+            .collect();
+        if s.len() < 6 {
+            continue;
+        }
+        let tail = &s[s.len() * 2 / 3..];
+        if p.kind == ProcessKind::P1DI {
+            let n = tail.len() as f64;
+            let (mt, ms) = tail
+                .iter()
+                .fold((0.0, 0.0), |a, (t, v)| (a.0 + t / n, a.1 + v / n));
+            let (sxy, sxx) = tail.iter().fold((0.0, 0.0), |a, (t, v)| {
+                (a.0 + (t - mt) * (v - ms), a.1 + (t - mt) * (t - mt))
+            });
+            let k = sxy / sxx;
+            let lag = (mt - ms / k).max(p.ts);
+            return (k.is_finite() && k != 0.0).then(|| vec![k, lag / 2.0, lag / 2.0]);
+        }
+        let k = tail.iter().map(|(_, v)| v).sum::<f64>() / tail.len() as f64;
+        if !(k.is_finite() && k != 0.0) {
+            continue;
+        }
+        let cross = |level: f64| {
+            let mut prev = (0.0, 0.0);
+            for &(t, v) in &s {
+                if v / k >= level {
+                    let (t0, v0) = prev;
+                    let f = if v / k > v0 / k {
+                        (level - v0 / k) / (v / k - v0 / k)
+                    } else {
+                        0.0
+                    };
+                    return Some(t0 + f * (t - t0));
+                }
+                prev = (t, v);
+            }
+            None
+        };
+        let (t28, t63) = (cross(0.283)?, cross(0.632)?);
+        let tau = (1.5 * (t63 - t28)).max(p.ts / 2.0);
+        let theta = (t63 - tau).max(0.0);
+        return Some(match p.kind {
+            ProcessKind::P1D => vec![k, tau, theta],
+            ProcessKind::P2D => vec![k, 0.7 * tau, 0.3 * tau, (theta - 0.15 * tau).max(0.0)],
+            ProcessKind::P2DZ => vec![k, 0.7 * tau, 0.3 * tau, 0.0, (theta - 0.15 * tau).max(0.0)],
+            ProcessKind::P2DU => vec![k, tau / 2.0, 0.7, theta],
+            ProcessKind::P1DI => vec![k, tau, theta], // handled above
+        });
+    }
+    None
+}
+
+/// Process model of structure `kind` from every input to the single output
+/// of the records, sample period `ts`: the simulation error over the
+/// measured output samples (NaN = not measured) minimised by
+/// Levenberg–Marquardt from several starts; see the module docs.
+///
+/// The records are deviations from the operating point and start at rest
+/// (zero initial state): remove the operating point (the values before the
+/// test) first, or set [`ProcessOptions::offset`] for a constant output
+/// offset.
+///
+/// Cost: the start grid evaluates ≤ 78 shapes (P2D, P2DZ; 12 for P1D and
+/// P1DI, 60 for P2DU) × 64 dead times × M measured samples; each
+/// iteration 2d + 1 simulations of O(N) and a QR of O(M d²) (d ≤ 6
+/// parameters per input).
+///
+/// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`] for a y with
+/// other than one column, or records whose shapes differ;
+/// [`Error::NonFinite`] for NaN/inf in u or an infinite y;
+/// [`Error::InvalidOption`] for `ts` or an option out of range;
+/// [`Error::RankDeficient`] for an input that is constant in every record
+/// (no step or change to identify from); [`Error::TooFewSamples`] for no
+/// more measured samples than twice the parameters.
+pub fn procest(
+    experiments: &[Experiment<'_>],
+    kind: ProcessKind,
+    ts: f64,
+    opts: &ProcessOptions,
+) -> Result<ProcessFit> {
+    let first = experiments.first().ok_or(Error::NoData)?;
+    let nu = first.u.ncols();
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(Error::InvalidOption {
+            what: "ts",
+            reason: format!("the sample period must be finite and > 0, got {ts}"),
+        });
+    }
+    if opts.max_iterations == 0
+        || !(opts.tolerance.is_finite() && opts.tolerance > 0.0)
+        || opts.starts == 0
+    {
+        return Err(Error::InvalidOption {
+            what: "process-model iterations",
+            reason: "max_iterations ≥ 1, starts ≥ 1 and a positive finite tolerance".into(),
+        });
+    }
+    if let Some(m) = opts.max_delay
+        && !(m.is_finite() && m >= 0.0)
+    {
+        return Err(Error::InvalidOption {
+            what: "max_delay",
+            reason: format!("must be finite and ≥ 0, got {m}"),
+        });
+    }
+    if nu == 0 {
+        return Err(Error::DimensionMismatch {
+            what: "process-model input",
+            expected: "at least one input column".into(),
+            got: "0".into(),
+        });
+    }
+    for e in experiments {
+        crate::checks::check_record_shape("record (u, y)", e.u, e.y, nu, 1)?;
+        if e.u.nrows() == 0 {
+            return Err(Error::NoData);
+        }
+        crate::checks::check_finite("u", e.u)?;
+        if let Some(k) = e.y.iter().position(|v| v.is_infinite()) {
+            return Err(Error::NonFinite {
+                what: "y",
+                row: k,
+                col: 0,
+            });
+        }
+    }
+    for j in 0..nu {
+        let varies = experiments.iter().any(|e| {
+            let c = e.u.column(j);
+            c.iter().any(|&v| v != c[0])
+        });
+        if !varies {
+            return Err(Error::RankDeficient {
+                what: "the process-model inputs (an input constant in every record: no step or change to identify from)",
+                rank: 0,
+                needed: 1,
+            });
+        }
+    }
+    let measured = experiments
+        .iter()
+        .map(|e| e.y.iter().filter(|v| !v.is_nan()).count())
+        .sum::<usize>();
+    let d = nu * kind.n_parameters() + usize::from(opts.offset);
+    if measured <= 2 * d {
+        return Err(Error::TooFewSamples {
+            what: "the process model",
+            measured,
+            needed: 2 * d + 1,
+        });
+    }
+    let longest = experiments.iter().map(|e| e.u.nrows()).max().unwrap_or(0);
+    let duration = longest as f64 * ts;
+    let rms = |it: &mut dyn Iterator<Item = f64>| {
+        let (s, n) = it.fold((0.0, 0usize), |a, v| (a.0 + v * v, a.1 + 1));
+        (s / n.max(1) as f64).sqrt()
+    };
+    let y_rms = rms(&mut experiments
+        .iter()
+        .flat_map(|e| e.y.iter().copied().filter(|v| !v.is_nan())));
+    let u_rms = rms(&mut experiments.iter().flat_map(|e| e.u.iter().copied()));
+    let p = Problem {
+        kind,
+        ts,
+        nu,
+        offset: opts.offset,
+        inputs: experiments
+            .iter()
+            .map(|e| {
+                (0..nu)
+                    .map(|j| e.u.column(j).iter().copied().collect())
+                    .collect()
+            })
+            .collect(),
+        outputs: experiments.iter().map(|e| e.y.as_slice()).collect(),
+        measured,
+        theta_max: opts.max_delay.unwrap_or(duration / 3.0),
+        log_t: ((ts * 1e-3).ln(), (duration * 100.0).ln()),
+        gain_scale: if u_rms > 0.0 && y_rms > 0.0 {
+            y_rms / u_rms
+        } else {
+            1.0
+        },
+        duration,
+    };
+    let starts = starts(&p, opts)?;
+    let mut best: Option<(Vec<f64>, f64, usize)> = None;
+    let n_starts = starts.len();
+    for s in starts {
+        let phi0 = p.to_phi(&s);
+        let (phi, cost, its) = p.iterate(phi0, opts)?;
+        if best.as_ref().is_none_or(|b| cost < b.1) {
+            best = Some((phi, cost, its));
+        }
+    }
+    let Some((mut phi, _, iterations)) = best else {
+        return Err(Error::RankDeficient {
+            what: "the process-model start grid (no shape and dead time gives a determined gain)",
+            rank: 0,
+            needed: d,
+        });
+    };
+    p.canonical(&mut phi);
+    finish(&p, phi, iterations, n_starts)
+}
+
+/// The starts: the two-point method on a step test, then for one input the
+/// best distinct grid points, for several inputs one point from two sweeps
+/// of per-input grids against the others' current contributions.
+fn starts(p: &Problem<'_>, opts: &ProcessOptions) -> Result<Vec<Vec<f64>>> {
+    let mut out = Vec::new();
+    let b = p.block();
+    if p.nu == 1 {
+        let target: Vec<Vec<f64>> = p.outputs.iter().map(|y| y.to_vec()).collect();
+        let cands = grid(p, 0, &target)?;
+        let mut picked: Vec<&Candidate> = Vec::new();
+        for c in &cands {
+            if picked.len() == opts.starts {
+                break;
+            }
+            let distinct = picked.iter().all(|q| {
+                q.cell.0.abs_diff(c.cell.0) > 1
+                    || q.cell.1.abs_diff(c.cell.1) > 1
+                    || q.cell.2.abs_diff(c.cell.2) > 2
+            });
+            if distinct {
+                picked.push(c);
+            }
+        }
+        for c in picked {
+            let mut s = c.block.clone();
+            if p.offset {
+                s.push(c.offset);
+            }
+            out.push(s);
+        }
+        if let Some(mut s) = two_point_start(p) {
+            if p.offset {
+                s.push(0.0);
+            }
+            out.push(s);
+        }
+        return Ok(out);
+    }
+    let mut blocks: Vec<Option<Vec<f64>>> = vec![None; p.nu];
+    let mut offset = 0.0;
+    for _sweep in 0..2 {
+        for j in 0..p.nu {
+            // target = y − the other inputs' current contributions
+            let mut target: Vec<Vec<f64>> = p.outputs.iter().map(|y| y.to_vec()).collect();
+            for (i, blk) in blocks.iter().enumerate() {
+                let Some(blk) = blk else { continue };
+                if i == j {
+                    continue;
+                }
+                let m = ProcessModel::from_parameters(p.kind, blk, p.ts)?;
+                let dm = Discrete::new(&m)?;
+                for (e, t) in target.iter_mut().enumerate() {
+                    dm.add_response(&p.inputs[e][i], -1.0, t);
+                }
+            }
+            if let Some(c) = grid(p, j, &target)?.into_iter().next() {
+                blocks[j] = Some(c.block);
+                offset = c.offset;
+            }
+        }
+    }
+    let mut s = Vec::with_capacity(p.n_phi());
+    for blk in blocks {
+        match blk {
+            Some(blk) => s.extend(blk),
+            None => return Ok(out),
+        }
+    }
+    debug_assert_eq!(s.len(), p.nu * b);
+    if p.offset {
+        s.push(offset);
+    }
+    out.push(s);
+    Ok(out)
+}
+
+/// The fit at φ: models, covariance in the physical parameters, loss, fit.
+fn finish(p: &Problem<'_>, phi: Vec<f64>, iterations: usize, starts: usize) -> Result<ProcessFit> {
+    let d = p.n_phi();
+    let (cost, r) = p.jacobian(&phi)?;
+    let (models, offset) = p.models(&phi)?;
+    let parameters = p.to_physical(&phi);
+    let lambda = cost / (p.measured - d) as f64;
+    // Cov p = D Cov φ D with D = diag(∂p/∂φ) (p for a logarithm, else 1):
+    // the same as λ̂ (J_pᵀ J_p)⁻¹ since J_p = J_φ D⁻¹.
+    let dvec: Vec<f64> = (0..d)
+        .map(|i| {
+            if i < p.nu * p.block() && is_log(p.kind, i % p.block()) {
+                parameters[i]
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let inv = (r.nrows() >= d)
+        .then(|| {
+            r.view((0, 0), (d, d))
+                .into_owned()
+                .solve_upper_triangular(&DMatrix::identity(d, d))
+        })
+        .flatten();
+    let covariance = match inv {
+        Some(inv) => {
+            let c = &inv * inv.transpose() * lambda;
+            DMatrix::from_fn(d, d, |a, b| {
+                0.5 * (c[(a, b)] + c[(b, a)]) * dvec[a] * dvec[b]
+            })
+        }
+        None => DMatrix::from_element(d, d, f64::NAN),
+    };
+    let std = (0..d).map(|i| covariance[(i, i)].max(0.0).sqrt()).collect();
+    let mut names = Vec::with_capacity(d);
+    for j in 0..p.nu {
+        for n in p.kind.parameter_names() {
+            names.push(format!("{n}(u{j})"));
+        }
+    }
+    if p.offset {
+        names.push("offset".into());
+    }
+    let values: Vec<f64> = p
+        .outputs
+        .iter()
+        .flat_map(|y| y.iter().copied().filter(|v| !v.is_nan()))
+        .collect();
+    let mean = values.iter().sum::<f64>() / values.len().max(1) as f64;
+    let spread = values
+        .iter()
+        .map(|v| (v - mean).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    Ok(ProcessFit {
+        models,
+        offset,
+        names,
+        parameters,
+        covariance,
+        std,
+        loss: cost / p.measured as f64,
+        fit: if spread > 0.0 {
+            100.0 * (1.0 - cost.sqrt() / spread)
+        } else {
+            f64::NAN
+        },
+        measured: p.measured,
+        iterations,
+        starts,
+    })
+}
+
+#[cfg(test)]
+mod two_point_tests {
+    use super::*;
+
+    #[test]
+    fn smith_two_point_start_on_a_noise_free_step() {
+        // On a first order plus dead time, 28.3 % is reached at θ + T/3 and
+        // 63.2 % at θ + T, so the two-point start is exact up to the linear
+        // interpolation between samples: within 0.1 s here (T = 20 s, 1 s
+        // samples), the gain to 1e-3 (the last third is 0.9999 settled).
+        let m = ProcessModel::from_parameters(ProcessKind::P1D, &[2.0, 20.0, 7.3], 1.0).unwrap();
+        let mut u = vec![0.0; 600];
+        for v in u.iter_mut().skip(40) {
+            *v = 1.0;
+        }
+        let y = m.simulate(&u).unwrap();
+        let p = Problem {
+            kind: ProcessKind::P1D,
+            ts: 1.0,
+            nu: 1,
+            offset: false,
+            inputs: vec![vec![u]],
+            outputs: vec![&y],
+            measured: 600,
+            theta_max: 200.0,
+            log_t: (1e-3f64.ln(), 6e4f64.ln()),
+            gain_scale: 1.0,
+            duration: 600.0,
+        };
+        let s = two_point_start(&p).unwrap();
+        assert!((s[0] - 2.0).abs() < 1e-3, "{s:?}");
+        assert!(
+            (s[1] - 20.0).abs() < 0.1 && (s[2] - 7.3).abs() < 0.1,
+            "{s:?}"
+        );
+    }
+}
