@@ -479,6 +479,26 @@ pub enum MethodArg {
     /// Box–Jenkins, y = B/F u + C/D e, by prediction-error minimisation (consistent in closed
     /// loop): --orders "nb nc nd nf nk", or --order n. Single-rate records.
     Bj,
+    /// Process model per input–output pair (MATLAB's procest): gain, time constants and dead
+    /// time of --process (default p1d, first order plus dead time), by output error on the
+    /// measured samples (multirate records too); the inputs are taken relative to their first
+    /// sample (the plant at rest before the test), an output offset is estimated.
+    Process,
+}
+
+/// Process-model structures (`--process`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProcessArg {
+    /// K e^(−θs)/(1 + T1 s).
+    P1d,
+    /// K e^(−θs)/((1 + T1 s)(1 + T2 s)).
+    P2d,
+    /// K e^(−θs)/(s(1 + T1 s)) (integrating).
+    P1di,
+    /// K (1 + Tz s) e^(−θs)/((1 + T1 s)(1 + T2 s)).
+    P2dz,
+    /// K e^(−θs)/(1 + 2ζ Tw s + Tw² s²) (underdamped allowed).
+    P2du,
 }
 
 impl MethodArg {
@@ -498,6 +518,7 @@ impl MethodArg {
             MethodArg::Oe => "oe",
             MethodArg::Armax => "armax",
             MethodArg::Bj => "bj",
+            MethodArg::Process => "process",
         }
     }
 }
@@ -551,6 +572,9 @@ pub struct IdentifyArgs {
     /// (spaces or commas). Default (arx, fir): chosen by the structure scan.
     #[arg(long)]
     pub orders: Option<String>,
+    /// Process models (--method process): the structure.
+    #[arg(long, value_enum)]
+    pub process: Option<ProcessArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
     /// to the largest order the records and horizon identify).
     #[arg(long, default_value_t = 10)]

@@ -4833,6 +4833,80 @@ mod polynomial {
     }
 
     #[test]
+    fn a_step_test_gives_gain_time_constant_and_dead_time() {
+        // K = 2, τ = 20 s, θ = 7.3 s, T = 1 s: at rest for 20 s, then a unit
+        // step and back after 250 s; noise σ 0.02. The printed parameters
+        // within 2 % (SNR ≈ 2500 on a step of this size).
+        use lifted_pem::{ProcessKind, ProcessModel};
+        let d = tmp("process_cli");
+        let data = p(&d, "step.csv");
+        let g = ProcessModel::from_parameters(ProcessKind::P1D, &[2.0, 20.0, 7.3], 1.0).unwrap();
+        let n = 500;
+        let u: Vec<f64> = (0..n)
+            .map(|t| if (20..270).contains(&t) { 1.0 } else { 0.0 })
+            .collect();
+        let y = g.simulate(&u).unwrap();
+        let noise = rbs(n, 9);
+        let mut text = String::from("t,u1,y1\n");
+        for t in 0..n {
+            text.push_str(&format!(
+                "{t},{},{}\n",
+                u[t] + 5.0,
+                y[t] + 0.02 * noise[t] + 40.0
+            ));
+        }
+        std::fs::write(&data, text).unwrap();
+        let out = p(&d, "p1d.json");
+        let printed = ok(&[
+            "identify",
+            "--method",
+            "process",
+            "--process",
+            "p1d",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        assert!(
+            printed.contains("process model P1D, output 1: K(u1) = "),
+            "{printed}"
+        );
+        let f = ModelFile::read(&out).unwrap();
+        let values: Vec<f64> = f.diagnostics["process"]["outputs"][0]["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        for (got, want) in values.iter().zip([2.0, 20.0, 7.3]) {
+            assert!((got - want).abs() < 0.02 * want, "{values:?}");
+        }
+        fails(
+            &[
+                "identify",
+                "--method",
+                "arx",
+                "--process",
+                "p1d",
+                "--data",
+                &data,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--out",
+                &out,
+            ],
+            2,
+        );
+    }
+
+    #[test]
     fn bad_orders_are_named() {
         let d = tmp("arx_cli_bad");
         let (id, _) = single_rate_data(&d);

@@ -145,6 +145,7 @@ mod options;
 mod pipeline;
 mod polynomial;
 mod preprocess;
+mod process;
 mod refine;
 mod routes;
 mod shortlist;

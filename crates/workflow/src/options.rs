@@ -100,6 +100,11 @@ pub enum Method {
     /// Box–Jenkins, y = B/F u + C/D e (`lifted_pem::bj`; consistent in
     /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n.
     Bj,
+    /// Process model with dead time per input–output pair (MATLAB's
+    /// `procest`): [`IdentificationOptions::process`] (default P1D, first
+    /// order plus dead time), by output error on the measured samples
+    /// (`crate::process`).
+    Process,
 }
 
 impl Method {
@@ -119,6 +124,7 @@ impl Method {
             Method::Oe => "oe",
             Method::Armax => "armax",
             Method::Bj => "bj",
+            Method::Process => "process",
         }
     }
 
@@ -338,6 +344,9 @@ pub struct IdentificationOptions {
     /// [`Self::order_criterion`]). Other methods: not used (an error when
     /// given).
     pub orders: Vec<usize>,
+    /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
+    /// `None`: P1D). Other methods: not used (an error when given).
+    pub process: Option<lifted_pem::ProcessKind>,
     /// q-Markov: number q of Markov/covariance parameters matched (default
     /// 60, capped below n_r m).
     pub q: Option<usize>,
@@ -373,6 +382,7 @@ impl Default for IdentificationOptions {
             noise_model: true,
             threads: None,
             orders: Vec::new(),
+            process: None,
             q: None,
             prbs_order: None,
             amplitude: None,
@@ -565,6 +575,12 @@ impl WorkflowOptions {
             gap_only(id)?;
         }
         crate::polynomial::check_options(id)?;
+        if id.process.is_some() && id.method != Method::Process {
+            return Err(Error::option(
+                "process",
+                "only used with the process method",
+            ));
+        }
         if !id.output_weight.is_empty() && id.method != Method::Qmarkov {
             return Err(Error::option(
                 "output_weight",

@@ -314,6 +314,11 @@ fn run(
         Method::Pbsid | Method::Ssarx | Method::PbsidRowwise => {
             routes::pbsid(id, &sets, multirate)?
         }
+        // Process models (crate::process), final as estimated.
+        Method::Process => {
+            refined_by_route = true;
+            crate::process::identify(opts, &sets, scales.as_ref())?
+        }
         // ARX, FIR: the least-squares polynomial model, final as estimated
         // (crate::polynomial).
         m if m.is_polynomial() => {

@@ -19,6 +19,7 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     if let Some(p) = &file.polynomial {
         println!("{}", p.present());
     }
+    print_process(&file.diagnostics);
     let m = &file.model;
     println!(
         "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
@@ -67,6 +68,7 @@ fn print_profile(diagnostics: &serde_json::Value) {
         ("ARX / FIR", "arx_s"),
         ("OE", "oe_s"),
         ("ARMAX / BJ", "pem_s"),
+        ("process model", "process_s"),
         ("feedback test", "feedback_s"),
         ("identify (total)", "identify_s"),
     ];
@@ -84,5 +86,37 @@ fn print_profile(diagnostics: &serde_json::Value) {
             print!(" (fallback: {f})");
         }
         println!();
+    }
+}
+
+/// Prints a process model's parameters with their standard deviations
+/// (`diagnostics.process`), one output a line.
+fn print_process(diagnostics: &serde_json::Value) {
+    let Some(p) = diagnostics.get("process") else {
+        return;
+    };
+    let kind = p["kind"].as_str().unwrap_or_default();
+    for (i, out) in p["outputs"].as_array().into_iter().flatten().enumerate() {
+        let names = out["names"].as_array().cloned().unwrap_or_default();
+        let values = out["parameters"].as_array().cloned().unwrap_or_default();
+        let std = out["std"].as_array().cloned().unwrap_or_default();
+        let terms: Vec<String> = names
+            .iter()
+            .zip(&values)
+            .zip(&std)
+            .map(|((n, v), s)| {
+                format!(
+                    "{} = {:.6} (±{:.2e})",
+                    n.as_str().unwrap_or_default(),
+                    v.as_f64().unwrap_or(f64::NAN),
+                    s.as_f64().unwrap_or(f64::NAN)
+                )
+            })
+            .collect();
+        println!(
+            "process model {kind}, output {}: {}",
+            i + 1,
+            terms.join(", ")
+        );
     }
 }

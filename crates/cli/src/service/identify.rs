@@ -21,7 +21,8 @@ use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::args::{
-    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, RefineArg,
+    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, ProcessArg,
+    RefineArg,
 };
 use crate::error::{CliError, CliResult, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -133,7 +134,15 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Oe => Method::Oe,
         MethodArg::Armax => Method::Armax,
         MethodArg::Bj => Method::Bj,
+        MethodArg::Process => Method::Process,
     };
+    id.process = a.process.map(|p| match p {
+        ProcessArg::P1d => lifted_pem::ProcessKind::P1D,
+        ProcessArg::P2d => lifted_pem::ProcessKind::P2D,
+        ProcessArg::P1di => lifted_pem::ProcessKind::P1DI,
+        ProcessArg::P2dz => lifted_pem::ProcessKind::P2DZ,
+        ProcessArg::P2du => lifted_pem::ProcessKind::P2DU,
+    });
     if let Some(text) = &a.orders {
         id.orders = parse_orders(text)?;
     }

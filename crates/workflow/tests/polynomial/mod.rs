@@ -277,3 +277,75 @@ fn armax_and_bj_through_the_workflow() {
     let e = identify(&[Record::new(data)], &options(Method::Bj, &[2, 1, 1])).unwrap_err();
     assert!(e.to_string().contains("[nb nc nd nf nk]"), "{e}");
 }
+
+#[test]
+fn a_first_order_plus_dead_time_plant_through_the_process_route() {
+    // K = 2 (data units: u × 10 → 0.2), τ = 20 s, θ = 7.3 s, T = 1 s,
+    // random binary input held 5 s, 3000 samples, output noise σ 0.05
+    // (SNR ≈ 100); full rate and the output every 5th sample.
+    use lifted_pem::{ProcessKind, ProcessModel};
+    let truth = ProcessModel::from_parameters(ProcessKind::P1D, &[2.0, 20.0, 7.3], 1.0).unwrap();
+    let n = 3000;
+    let mut rng = ChaCha8Rng::seed_from_u64(61);
+    let mut level = 1.0;
+    // At rest for the first 100 s (as a test starts), then the excitation.
+    let u: Vec<f64> = (0..n)
+        .map(|t| {
+            if t < 100 {
+                return 0.0;
+            }
+            if t % 5 == 0 && rand::RngExt::random::<bool>(&mut rng) {
+                level = -level;
+            }
+            level
+        })
+        .collect();
+    let y = truth.simulate(&u).unwrap();
+    let noise = gauss(62, n, 1, 0.05);
+    let um = DMatrix::from_fn(n, 1, |t, _| 10.0 * u[t] + 50.0);
+    let ym = DMatrix::from_fn(n, 1, |t, _| y[t] + noise[(t, 0)] + 4.0);
+    let mut o = options(Method::Process, &[]);
+    o.identification.process = Some(ProcessKind::P1D);
+    for period in [1usize, 5] {
+        let mut yp = ym.clone();
+        for (t, v) in yp.iter_mut().enumerate() {
+            if t % period != 0 {
+                *v = f64::NAN;
+            }
+        }
+        let data = Dataset::new(
+            1.0,
+            um.clone(),
+            yp,
+            vec![lifted_lti::InputChannel::new("u1", 1)],
+            vec![lifted_lti::OutputChannel::new("y1", period, 0)],
+        )
+        .unwrap();
+        let id = identify(&[Record::new(data)], &o).unwrap();
+        let out = &id.file.diagnostics["process"]["outputs"][0];
+        let p: Vec<f64> = out["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let sd: Vec<f64> = out["std"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        // K, τ, θ within 4.5 standard deviations and within 3 % (SNR 100).
+        for ((got, want), s) in p.iter().zip([0.2, 20.0, 7.3]).zip(&sd) {
+            assert!(
+                (got - want).abs() < 4.5 * s,
+                "period {period}: {got} {want} ± {s}"
+            );
+            assert!(
+                (got - want).abs() < 0.03 * want,
+                "period {period}: {got} {want}"
+            );
+        }
+        assert_eq!(id.file.diagnostics["route"], "process");
+    }
+}
