@@ -64,6 +64,7 @@ impl Choice for lifted_workflow::Method {
         ("oe", Self::Oe),
         ("armax", Self::Armax),
         ("bj", Self::Bj),
+        ("process", Self::Process),
     ];
 }
 
@@ -199,4 +200,15 @@ pub(crate) fn all() -> Vec<(&'static str, Vec<&'static str>)> {
         ("Refine", names::<lifted_workflow::Refine>()),
         ("InitialState", names::<lifted_lti::InitialCondition>()),
     ]
+}
+
+impl Choice for lifted_pem::ProcessKind {
+    const WHAT: &'static str = "process-model structure";
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("p1d", Self::P1D),
+        ("p2d", Self::P2D),
+        ("p1di", Self::P1DI),
+        ("p2dz", Self::P2DZ),
+        ("p2du", Self::P2DU),
+    ];
 }

@@ -77,7 +77,7 @@ pub(crate) fn horizon_of(
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
-    threads=1, gain_stop_share=0.01, integrator_tolerance=None))]
+    threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -105,8 +105,12 @@ pub(crate) fn identify<'py>(
     #[pyo3(from_py_with = int)] threads: Int,
     gain_stop_share: f64,
     integrator_tolerance: Option<f64>,
+    process: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
+    let process = process
+        .map(|p| lifted_pem::ProcessKind::parse(p, "process"))
+        .transpose()?;
     let estimator = match system {
         None => Estimator::Auto,
         Some(s) => match SystemEstimate::parse(s, "system")? {
@@ -122,6 +126,7 @@ pub(crate) fn identify<'py>(
     id.method = method;
     id.order = order_choice(order)?;
     id.orders = orders_of(orders.as_deref(), order)?;
+    id.process = process;
     id.max_order = count(max_order, "max_order")?;
     id.order_criterion = OrderCriterion::parse(order_criterion, "order_criterion")?;
     let (horizon, past, future) = (

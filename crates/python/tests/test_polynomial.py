@@ -333,3 +333,33 @@ def test_armax_and_bj() -> None:
     assert fit.polynomial is not None and fit.polynomial.family == "bj"
     with pytest.raises(lifted.ArgumentError):
         lifted.armax(u, y, [2, 2, 1])
+
+
+def test_procest_first_order_plus_dead_time() -> None:
+    """A step test of K = 2, tau = 20 s, theta = 7.3 s (dt = 1 s): the
+    printed parameters within 2 %, named after the record's inputs."""
+    n = 500
+    u = np.where((np.arange(n) >= 20) & (np.arange(n) < 270), 1.0, 0.0)
+    # Exact ZOH response of K/(1 + tau s) with dead time 7.3 s.
+    a = np.exp(-1.0 / 20.0)
+    frac = 0.3
+    b_full = 2.0 * (1.0 - a)
+    # Fractional delay: the input change reaches the plant 0.3 s into the
+    # sample after the integer delay of 7.
+    y = np.zeros(n)
+    x = 0.0
+    for t in range(n):
+        y[t] = x
+        u_now = u[t - 7] if t >= 7 else 0.0
+        u_prev = u[t - 8] if t >= 8 else 0.0
+        # Over [t, t+1): u_prev for 0.3 s, then u_now for 0.7 s.
+        x = a * x + 2.0 * (np.exp(-0.7 / 20.0) - a) * u_prev + 2.0 * (1.0 - np.exp(-0.7 / 20.0)) * u_now
+    del b_full, frac
+    rng = np.random.default_rng(3)
+    fit = lifted.procest(u + 5.0, y + 40.0 + 0.01 * rng.standard_normal(n), "p1d")
+    out = fit.diagnostics["process"]["outputs"][0]
+    assert out["names"][:3] == ["K(u1)", "Tp1(u1)", "Td(u1)"]
+    for got, want in zip(out["parameters"][:3], [2.0, 20.0, 7.3]):
+        assert abs(got - want) < 0.02 * want, out
+    with pytest.raises(lifted.ArgumentError):
+        lifted.identify(u, y, "arx", process="p1d")

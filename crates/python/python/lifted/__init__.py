@@ -75,6 +75,7 @@ from ._types import (
     MpcKind,
     OrderCriterion,
     PbsidVariant,
+    ProcessStructure,
     Refine,
     SubspaceMethod,
     SystemEstimate,
@@ -105,6 +106,7 @@ __all__ = [
     "Experiment",
     "SubspaceMethod",
     "IdentifyMethod",
+    "ProcessStructure",
     "PbsidVariant",
     "SystemEstimate",
     "Feedback",
@@ -134,6 +136,7 @@ __all__ = [
     "oe",
     "armax",
     "bj",
+    "procest",
     "arxstruc",
     "delayest",
     "iv",
@@ -262,6 +265,7 @@ def identify(
     threads: int = 1,
     gain_stop_share: float = 0.01,
     integrator_tolerance: float | None = None,
+    process: ProcessStructure | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -386,7 +390,7 @@ def identify(
             enforce_stability=enforce_stability, refine=refine,
             refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
             threads=threads, gain_stop_share=gain_stop_share,
-            integrator_tolerance=integrator_tolerance,
+            integrator_tolerance=integrator_tolerance, process=process,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -764,6 +768,34 @@ def bj(
         u, y, "bj", order=order, orders=orders, feedthrough=feedthrough,
         detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
     )
+
+
+def procest(
+    u: Any,
+    y: Any,
+    process: ProcessStructure = "p1d",
+    *,
+    dt: float = 1.0,
+    detrend: Detrend = "mean",
+    threads: int = 1,
+) -> SubspaceFit:
+    """Process model with dead time per input-output pair (MATLAB's
+    ``procest``), through the identification workflow
+    (``identify(u, y, "process", process=...)``): ``"p1d"``
+    K e^(-Td s)/(1 + Tp1 s), ``"p2d"`` two real poles, ``"p1di"``
+    integrating, ``"p2dz"`` with a zero, ``"p2du"`` underdamped; the dead
+    time need not be a multiple of ``dt`` (exact zero-order-hold
+    discretisation with a fractional delay). Fitted by output error on the
+    measured samples (NaN where an output was not measured: a slow
+    analyser's record works); the inputs are taken relative to their first
+    sample (the plant at rest before the test) and an output offset is
+    estimated. ``fit.diagnostics["process"]["outputs"][i]`` holds the
+    parameter ``names`` (``K(u1)``, ``Tp1(u1)``, ``Td(u1)``, ...,
+    ``offset``), their values (``parameters``) and standard deviations
+    (``std``) in the data's units; ``fit.model`` is the exact discrete
+    equivalent.
+    """
+    return identify(u, y, "process", process=process, dt=dt, detrend=detrend, threads=threads)
 
 
 def arxstruc(

@@ -24,6 +24,7 @@ from lifted._types import (
     MpcKind,
     OrderCriterion,
     PbsidVariant,
+    ProcessStructure,
     Refine,
     SystemEstimate,
 )
@@ -292,6 +293,7 @@ def identify(
     threads: int = 1,
     gain_stop_share: float = 0.01,
     integrator_tolerance: float | None = None,
+    process: ProcessStructure | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

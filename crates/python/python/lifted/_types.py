@@ -34,8 +34,11 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: ``[nb, nk]`` / ``[nb, nf, nk]`` / ``[na, nb, nc, nk]`` / ``[nb, nc, nd, nf, nk]``).
 IdentifyMethod = Literal[
     "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir", "oe",
-    "armax", "bj",
+    "armax", "bj", "process",
 ]
+#: process-model structures (MATLAB's ``idproc`` types): first/second order,
+#: integrating, with a zero, underdamped; each with a gain and a dead time.
+ProcessStructure = Literal["p1d", "p2d", "p1di", "p2dz", "p2du"]
 #: How (A, C) and then (B, D) are estimated (``identify(system=...)``):
 #: shift invariance of the extended observability matrix, or regression on
 #: the estimated state sequence.
