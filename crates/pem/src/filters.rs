@@ -1,7 +1,9 @@
-//! Scalar polynomial filters in q⁻¹ and the damped Gauss–Newton step shared
-//! by the polynomial prediction-error estimators ([`crate::oe`],
-//! [`crate::polyest`]).
+//! What the polynomial prediction-error estimators ([`crate::oe`],
+//! [`crate::polyest`]) share: scalar polynomial filters in q⁻¹, the rows
+//! of [J | ε] folded into an R-only QR, and the Levenberg–Marquardt
+//! iterations on them.
 
+use lifted_linalg::RAccumulator;
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::Result;
@@ -75,4 +77,132 @@ pub(crate) fn damped_step(
         .into_owned()
         .solve_upper_triangular(&q.view((0, d), (d, 1)).into_owned())
         .map(|v| v.column(0).into_owned()))
+}
+
+/// Rows folded into an R-only QR in blocks of [`FOLD_ROWS`] (memory
+/// O(width · FOLD_ROWS + width²), whatever the number of rows).
+pub(crate) struct RowFolder {
+    acc: RAccumulator,
+    block: Vec<f64>,
+    rows: usize,
+    width: usize,
+}
+
+/// Rows of a [`RowFolder`] block.
+const FOLD_ROWS: usize = 4096;
+
+impl RowFolder {
+    /// An empty folder for rows of `width` entries.
+    pub(crate) fn new(width: usize) -> Self {
+        RowFolder {
+            acc: RAccumulator::new(width),
+            block: Vec::with_capacity(width * FOLD_ROWS.min(256)),
+            rows: 0,
+            width,
+        }
+    }
+
+    /// Appends one row (`width` entries).
+    pub(crate) fn push(&mut self, row: impl IntoIterator<Item = f64>) -> Result<()> {
+        self.block.extend(row);
+        self.rows += 1;
+        if self.rows == FOLD_ROWS {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        if self.rows > 0 {
+            self.acc
+                .push_rows(&DMatrix::from_row_slice(self.rows, self.width, &self.block))?;
+            self.block.clear();
+            self.rows = 0;
+        }
+        Ok(())
+    }
+
+    /// The R factor of every row pushed.
+    pub(crate) fn finish(mut self) -> Result<DMatrix<f64>> {
+        self.flush()?;
+        Ok(self.acc.r())
+    }
+}
+
+/// A nonlinear least-squares problem for [`minimise`].
+pub(crate) trait Residuals {
+    /// Σ ε² at θ and, with `jacobian`, the R factor of [J | ε] with
+    /// J = ∂ε/∂θ (d + 1 columns).
+    fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)>;
+    /// Whether θ is admissible (its polynomials stable).
+    fn admissible(&self, theta: &[f64]) -> bool;
+}
+
+/// Levenberg–Marquardt from `theta` (Marquardt's scaling, λ from 1e-3,
+/// ÷3 on success, ×4 on failure, at most 12 trials per iteration; an
+/// inadmissible trial counts as a failure): stops after `max_iterations`,
+/// when an accepted step lowers the cost by less than `tolerance` of it,
+/// or when the step is below √tolerance (1 + ‖θ‖). Returns (θ, cost, R₁₁
+/// at θ, iterations). Cost per iteration: one Jacobian evaluation and a
+/// few cost evaluations, plus O(d³) per trial.
+pub(crate) fn minimise(
+    problem: &impl Residuals,
+    mut theta: Vec<f64>,
+    max_iterations: usize,
+    tolerance: f64,
+) -> Result<(Vec<f64>, f64, DMatrix<f64>, usize)> {
+    let d = theta.len();
+    let mut lambda: f64 = 1e-3;
+    let (mut cost, mut r) = problem.evaluate(&theta, true)?;
+    let r11_of = |r: &Option<DMatrix<f64>>| {
+        r.as_ref()
+            .filter(|r| r.nrows() >= d)
+            .map(|r| r.view((0, 0), (d, d)).into_owned())
+            .unwrap_or_else(|| DMatrix::zeros(d, d))
+    };
+    let mut iterations = 0;
+    while iterations < max_iterations {
+        iterations += 1;
+        let Some(rr) = r.as_ref().filter(|r| r.nrows() >= d) else {
+            break;
+        };
+        let r11 = rr.view((0, 0), (d, d)).into_owned();
+        // min ‖ε + J δ‖²: [R₁₁; √λ D] δ = [−r; 0].
+        let rhs: DVector<f64> = -rr.view((0, d), (d, 1)).column(0).into_owned();
+        let scale: Vec<f64> = (0..d)
+            .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
+            .collect();
+        let mut accepted = false;
+        for _ in 0..12 {
+            let Some(delta) = damped_step(&r11, &rhs, &scale, lambda)? else {
+                lambda *= 4.0;
+                continue;
+            };
+            let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+            if !problem.admissible(&trial) {
+                lambda *= 4.0;
+                continue;
+            }
+            let (c, _) = problem.evaluate(&trial, false)?;
+            if c < cost {
+                let small_step = delta.norm()
+                    <= tolerance.sqrt() * (1.0 + DVector::from_column_slice(&theta).norm());
+                let small_gain = (cost - c) <= tolerance * cost;
+                theta = trial;
+                cost = c;
+                lambda = (lambda / 3.0).max(1e-12);
+                accepted = true;
+                r = problem.evaluate(&theta, true)?.1;
+                if small_step || small_gain {
+                    return Ok((theta, cost, r11_of(&r), iterations));
+                }
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    Ok((theta, cost, r11_of(&r), iterations))
 }

@@ -21,9 +21,10 @@
 //! (the parameter order of [`lifted_lti::PolyModel::parameters`]) with the
 //! analytic Jacobian: with v_k = u_k(t − nk)/F_k and z_k = ŷ_k/F_k,
 //! ∂ŷ/∂b_km = v_k(t − m) and ∂ŷ/∂f_kj = −z_k(t − j), filtered once per
-//! iteration (O(N Σ(nb + nf)) flops); the rows of [∂ŷ/∂θ | ε] at the
-//! measured samples are folded into an R-only QR (memory O(d²), never JᵀJ);
-//! the damped step solves [R₁₁; √λ D] δ = [r; 0] (Marquardt's scaling D). A
+//! iteration (O(N Σ(nb + nf)) flops); the rows of [J | ε] (J = −∂ŷ/∂θ)
+//! at the measured samples are folded into an R-only QR (memory O(d²),
+//! never JᵀJ); the damped step solves [R₁₁; √λ D] δ = [−r; 0]
+//! (Marquardt's scaling D). A
 //! step that leaves any F unstable (a root on or outside the unit circle) is
 //! rejected like a cost increase. Zero initial conditions.
 //!
@@ -31,17 +32,13 @@
 //! λ̂ = M V / (M − d) (Ljung 1999, eq. (9.18)); across outputs the
 //! parameters are taken as independent (block-diagonal covariance).
 
-use lifted_linalg::RAccumulator;
 use lifted_lti::{PolyModel, PolyOrders, Polynomials};
 use lifted_subspace::Experiment;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::filters::{damped_step, filter, fir_apply, stable};
-
-/// Rows of [J | ε] folded into the R-only QR at a time.
-const BLOCK_ROWS: usize = 4096;
+use crate::filters::{Residuals, RowFolder, filter, fir_apply, minimise, stable};
 
 /// Options of [`oe`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -239,7 +236,7 @@ fn pack(r: &Rational) -> Vec<f64> {
 }
 
 /// Cost Σ ε² over the measured samples of output `i`, and (with
-/// `jacobian`) the R factor of [∂ŷ/∂θ | ε] (∂ŷ/∂θ = −J).
+/// `jacobian`) the R factor of [J | ε] (J = ∂ε/∂θ = −∂ŷ/∂θ).
 fn evaluate(
     experiments: &[Experiment<'_>],
     i: usize,
@@ -248,9 +245,7 @@ fn evaluate(
     jacobian: bool,
 ) -> Result<(f64, Option<DMatrix<f64>>)> {
     let d = pairs.parameters();
-    let mut acc = jacobian.then(|| RAccumulator::new(d + 1));
-    let mut block: Vec<f64> = Vec::new();
-    let mut rows = 0;
+    let mut rows = jacobian.then(|| RowFolder::new(d + 1));
     let mut cost = 0.0;
     for e in experiments {
         let (yhat, cols) = simulate(e.u, pairs, theta, jacobian);
@@ -261,24 +256,12 @@ fn evaluate(
             }
             let eps = y - yh;
             cost += eps * eps;
-            if let Some(acc) = acc.as_mut() {
-                block.extend(cols.iter().map(|c| c[t]));
-                block.push(eps);
-                rows += 1;
-                if rows == BLOCK_ROWS {
-                    acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
-                    block.clear();
-                    rows = 0;
-                }
+            if let Some(rows) = rows.as_mut() {
+                rows.push(cols.iter().map(|c| -c[t]).chain([eps]))?;
             }
         }
     }
-    if let Some(acc) = acc.as_mut()
-        && rows > 0
-    {
-        acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
-    }
-    Ok((cost, acc.map(|a| a.r())))
+    Ok((cost, rows.map(RowFolder::finish).transpose()?))
 }
 
 /// The FIR-then-ARX start of output `i` (module docs).
@@ -304,34 +287,23 @@ fn start(
         .max(pairs.nb.iter().copied().max().unwrap_or(1));
     // FIR regression on the measured samples: y(t) = Σ_k Σ_l g_kl u_k(t − nk_k − l).
     let p = lags * active.len();
-    let mut acc = RAccumulator::new(p + 1);
-    let mut block: Vec<f64> = Vec::new();
-    let mut rows = 0;
+    let mut fold = RowFolder::new(p + 1);
     for e in experiments {
         for t in 0..e.u.nrows() {
             let y = e.y[(t, i)];
             if y.is_nan() {
                 continue;
             }
-            for &k in &active {
-                for l in 0..lags {
+            let row = active.iter().flat_map(|&k| {
+                (0..lags).map(move |l| {
                     let lag = pairs.nk[k] + l;
-                    block.push(if t >= lag { e.u[(t - lag, k)] } else { 0.0 });
-                }
-            }
-            block.push(y);
-            rows += 1;
-            if rows == BLOCK_ROWS {
-                acc.push_rows(&DMatrix::from_row_slice(rows, p + 1, &block))?;
-                block.clear();
-                rows = 0;
-            }
+                    if t >= lag { e.u[(t - lag, k)] } else { 0.0 }
+                })
+            });
+            fold.push(row.chain([y]))?;
         }
     }
-    if rows > 0 {
-        acc.push_rows(&DMatrix::from_row_slice(rows, p + 1, &block))?;
-    }
-    let r = acc.r();
+    let r = fold.finish()?;
     if r.nrows() < p + 1 {
         return Err(Error::TooFewSamples {
             what: "the output-error start (FIR regression)",
@@ -408,81 +380,27 @@ fn start(
     Ok(out)
 }
 
-/// Levenberg–Marquardt on output `i` from `theta`; returns (θ, cost,
-/// R₁₁ at θ, iterations).
-fn iterate(
-    experiments: &[Experiment<'_>],
+/// Output `i`'s output-error problem for [`minimise`].
+struct OutputError<'a, 'e> {
+    experiments: &'a [Experiment<'e>],
     i: usize,
-    pairs: &Pairs,
-    mut theta: Rational,
-    opts: &OeOptions,
-) -> Result<(Rational, f64, DMatrix<f64>, usize)> {
-    let d = pairs.parameters();
-    let mut lambda: f64 = 1e-3;
-    let (mut cost, mut r) = evaluate(experiments, i, pairs, &theta, true)?;
-    let mut iterations = 0;
-    while iterations < opts.max_iterations {
-        iterations += 1;
-        let rr = r.clone().unwrap_or_else(|| DMatrix::zeros(0, d + 1));
-        if rr.nrows() < d {
-            break;
-        }
-        let r11 = rr.view((0, 0), (d, d)).into_owned();
-        let r12 = rr.view((0, d), (d, 1)).column(0).into_owned();
-        let scale: Vec<f64> = (0..d)
-            .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
-            .collect();
-        let current = pack(&theta);
-        let mut accepted = false;
-        for _ in 0..12 {
-            // The rows are [G | ε] with G = ∂ŷ/∂θ = −J: the damped
-            // Gauss–Newton step solves [R₁₁; √λ D] δ = [r; 0].
-            let Some(delta) = damped_step(&r11, &r12, &scale, lambda)? else {
-                lambda *= 4.0;
-                continue;
-            };
-            let trial: Vec<f64> = current
-                .iter()
-                .zip(delta.iter())
-                .map(|(a, b)| a + b)
-                .collect();
-            let trial_r = unpack(&trial, pairs);
-            if !trial_r.iter().all(|(_, f)| stable(f)) {
-                lambda *= 4.0;
-                continue;
-            }
-            let (c, _) = evaluate(experiments, i, pairs, &trial_r, false)?;
-            if c < cost {
-                let small_step = delta.norm()
-                    <= opts.tolerance.sqrt() * (1.0 + DVector::from_vec(current.clone()).norm());
-                let small_gain = (cost - c) <= opts.tolerance * cost;
-                theta = trial_r;
-                cost = c;
-                lambda = (lambda / 3.0).max(1e-12);
-                accepted = true;
-                let (_, nr) = evaluate(experiments, i, pairs, &theta, true)?;
-                r = nr;
-                if small_step || small_gain {
-                    let r11 = r
-                        .as_ref()
-                        .map(|r| r.view((0, 0), (d, d)).into_owned())
-                        .unwrap_or_else(|| DMatrix::zeros(d, d));
-                    return Ok((theta, cost, r11, iterations));
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            break;
-        }
+    pairs: &'a Pairs,
+}
+
+impl Residuals for OutputError<'_, '_> {
+    fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)> {
+        evaluate(
+            self.experiments,
+            self.i,
+            self.pairs,
+            &unpack(theta, self.pairs),
+            jacobian,
+        )
     }
-    let r11 = r
-        .as_ref()
-        .filter(|r| r.nrows() >= d)
-        .map(|r| r.view((0, 0), (d, d)).into_owned())
-        .unwrap_or_else(|| DMatrix::zeros(d, d));
-    Ok((theta, cost, r11, iterations))
+
+    fn admissible(&self, theta: &[f64]) -> bool {
+        unpack(theta, self.pairs).iter().all(|(_, f)| stable(f))
+    }
 }
 
 /// Output-error model of structure `orders` (n_y × n_u nb, nf, nk; every
@@ -546,7 +464,14 @@ pub fn oe(
             });
         }
         let theta0 = start(experiments, i, &pairs, measured, opts)?;
-        let (theta, cost, r11, its) = iterate(experiments, i, &pairs, theta0, opts)?;
+        let problem = OutputError {
+            experiments,
+            i,
+            pairs: &pairs,
+        };
+        let (theta, cost, r11, its) =
+            minimise(&problem, pack(&theta0), opts.max_iterations, opts.tolerance)?;
+        let theta = unpack(&theta, &pairs);
         let lambda = cost / (measured - d) as f64;
         let inv =
             r11.solve_upper_triangular(&DMatrix::identity(d, d))

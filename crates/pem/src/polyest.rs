@@ -37,17 +37,13 @@
 //! Every output sample is needed (the predictor filters past outputs):
 //! for records with outputs measured at slower rates use [`crate::oe`].
 
-use lifted_linalg::RAccumulator;
 use lifted_lti::{PolyModel, PolyOrders, Polynomials};
 use lifted_subspace::Experiment;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::filters::{damped_step, filter, fir_apply, stable};
-
-/// Rows of [J | ε] folded into the R-only QR at a time.
-const BLOCK_ROWS: usize = 4096;
+use crate::filters::{Residuals, RowFolder, filter, fir_apply, minimise, stable};
 
 /// Options of [`polyest`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -224,99 +220,36 @@ fn evaluate(
     jacobian: bool,
 ) -> Result<(f64, Option<DMatrix<f64>>)> {
     let d = p.pack().len();
-    let mut acc = jacobian.then(|| RAccumulator::new(d + 1));
-    let (mut block, mut rows, mut cost) = (Vec::new(), 0usize, 0.0);
+    let mut rows = jacobian.then(|| RowFolder::new(d + 1));
+    let mut cost = 0.0;
     for e in experiments {
         let (eps, cols) = residuals(e, i, p, jacobian);
         cost += eps.iter().map(|v| v * v).sum::<f64>();
-        if let Some(acc) = acc.as_mut() {
+        if let Some(rows) = rows.as_mut() {
             for (t, et) in eps.iter().enumerate() {
-                block.extend(cols.iter().map(|c| c[t]));
-                block.push(*et);
-                rows += 1;
-                if rows == BLOCK_ROWS {
-                    acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
-                    block.clear();
-                    rows = 0;
-                }
+                rows.push(cols.iter().map(|c| c[t]).chain([*et]))?;
             }
         }
     }
-    if let Some(acc) = acc.as_mut()
-        && rows > 0
-    {
-        acc.push_rows(&DMatrix::from_row_slice(rows, d + 1, &block))?;
-    }
-    Ok((cost, acc.map(|a| a.r())))
+    Ok((cost, rows.map(RowFolder::finish).transpose()?))
 }
 
-/// Levenberg–Marquardt from `p`; (polynomials, cost, R₁₁, iterations).
-fn iterate(
-    experiments: &[Experiment<'_>],
+/// Output `i`'s prediction-error problem for [`minimise`] (θ in the
+/// layout of `shape`).
+struct PredictionError<'a, 'e> {
+    experiments: &'a [Experiment<'e>],
     i: usize,
-    mut p: Output,
-    opts: &PolyestOptions,
-) -> Result<(Output, f64, DMatrix<f64>, usize)> {
-    let d = p.pack().len();
-    let mut lambda: f64 = 1e-3;
-    let (mut cost, mut r) = evaluate(experiments, i, &p, true)?;
-    let mut iterations = 0;
-    let r11_of = |r: &Option<DMatrix<f64>>| {
-        r.as_ref()
-            .filter(|r| r.nrows() >= d)
-            .map(|r| r.view((0, 0), (d, d)).into_owned())
-            .unwrap_or_else(|| DMatrix::zeros(d, d))
-    };
-    while iterations < opts.max_iterations {
-        iterations += 1;
-        let Some(rr) = r.as_ref().filter(|r| r.nrows() >= d) else {
-            break;
-        };
-        let r11 = rr.view((0, 0), (d, d)).into_owned();
-        // J = ∂ε/∂θ: the step solves [R₁₁; √λ D] δ = [−r; 0].
-        let rhs: DVector<f64> = -rr.view((0, d), (d, 1)).column(0).into_owned();
-        let scale: Vec<f64> = (0..d)
-            .map(|j| r11.column(j).norm().max(f64::MIN_POSITIVE))
-            .collect();
-        let current = p.pack();
-        let mut accepted = false;
-        for _ in 0..12 {
-            let Some(delta) = damped_step(&r11, &rhs, &scale, lambda)? else {
-                lambda *= 4.0;
-                continue;
-            };
-            let trial: Vec<f64> = current
-                .iter()
-                .zip(delta.iter())
-                .map(|(a, b)| a + b)
-                .collect();
-            let q = p.with(&trial);
-            if !q.admissible() {
-                lambda *= 4.0;
-                continue;
-            }
-            let (c, _) = evaluate(experiments, i, &q, false)?;
-            if c < cost {
-                let small_step = delta.norm()
-                    <= opts.tolerance.sqrt() * (1.0 + DVector::from_vec(current.clone()).norm());
-                let small_gain = (cost - c) <= opts.tolerance * cost;
-                p = q;
-                cost = c;
-                lambda = (lambda / 3.0).max(1e-12);
-                accepted = true;
-                r = evaluate(experiments, i, &p, true)?.1;
-                if small_step || small_gain {
-                    return Ok((p, cost, r11_of(&r), iterations));
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            break;
-        }
+    shape: &'a Output,
+}
+
+impl Residuals for PredictionError<'_, '_> {
+    fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)> {
+        evaluate(self.experiments, self.i, &self.shape.with(theta), jacobian)
     }
-    Ok((p.clone(), cost, r11_of(&r), iterations))
+
+    fn admissible(&self, theta: &[f64]) -> bool {
+        self.shape.with(theta).admissible()
+    }
 }
 
 /// Second stage of Hannan–Rissanen: least squares of y on its own lags
@@ -615,7 +548,14 @@ pub fn polyest(
             });
         }
         let p0 = start(experiments, i, &shape, ts)?;
-        let (p, cost, r11, its) = iterate(experiments, i, p0, opts)?;
+        let problem = PredictionError {
+            experiments,
+            i,
+            shape: &p0,
+        };
+        let (theta, cost, r11, its) =
+            minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+        let p = p0.with(&theta);
         let lambda = cost / (samples - d) as f64;
         let inv =
             r11.solve_upper_triangular(&DMatrix::identity(d, d))
