@@ -153,6 +153,21 @@ impl Lagged {
         m
     }
 
+    /// The upper-triangular R ((d + 1) × (d + 1)) of the data matrix
+    /// [Φ y] of `regressors` and `target` over the J rows, in the data's
+    /// scale (RᵀR = [Φ y]ᵀ[Φ y]): √J times the R of the factor's columns.
+    /// O(k d²).
+    pub(crate) fn r_factor(&self, regressors: &[Column], target: Column) -> Result<DMatrix<f64>> {
+        let mut cols = regressors.to_vec();
+        cols.push(target);
+        let r = lifted_linalg::qr_r(&self.gather(&cols))?;
+        let d = cols.len();
+        let mut out = DMatrix::zeros(d, d);
+        let rows = r.nrows().min(d);
+        out.view_mut((0, 0), (rows, d)).copy_from(&r.rows(0, rows));
+        Ok(out * (self.rows as f64).sqrt())
+    }
+
     /// Least squares of `target` on `regressors`: O(k d²).
     ///
     /// Errors: [`Error::RankDeficient`] when a regressor is (numerically) a

@@ -32,7 +32,7 @@
 //! reuses one compression for every candidate ([`arx_scan`]), and so does
 //! the delay estimate ([`estimate_delays`]).
 
-mod lagged;
+pub(crate) mod lagged;
 mod scan;
 
 use lifted_lti::{PolyModel, PolyOrders};
