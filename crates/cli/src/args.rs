@@ -484,6 +484,18 @@ pub enum MethodArg {
     /// measured samples (multirate records too); the inputs are taken relative to their first
     /// sample (the plant at rest before the test), an output offset is estimated.
     Process,
+    /// Regularised FIR (impulse response, MATLAB's impulseest): --orders "lags nk" (default
+    /// "70 1"), --kernel tc|dc, hyperparameters by the marginal likelihood. Single-rate records.
+    Impulse,
+}
+
+/// Kernels of the regularised FIR (`--kernel`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelArg {
+    /// Tuned/correlated: c λ^max(i,j).
+    Tc,
+    /// Diagonal/correlated: c ρ^|i−j| λ^((i+j)/2).
+    Dc,
 }
 
 /// Process-model structures (`--process`).
@@ -519,6 +531,7 @@ impl MethodArg {
             MethodArg::Armax => "armax",
             MethodArg::Bj => "bj",
             MethodArg::Process => "process",
+            MethodArg::Impulse => "impulse",
         }
     }
 }
@@ -575,6 +588,9 @@ pub struct IdentifyArgs {
     /// Process models (--method process): the structure.
     #[arg(long, value_enum)]
     pub process: Option<ProcessArg>,
+    /// Regularised FIR (--method impulse): the prior's kernel (default tc).
+    #[arg(long, value_enum)]
+    pub kernel: Option<KernelArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
     /// to the largest order the records and horizon identify).
     #[arg(long, default_value_t = 10)]

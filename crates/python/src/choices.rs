@@ -65,6 +65,7 @@ impl Choice for lifted_workflow::Method {
         ("armax", Self::Armax),
         ("bj", Self::Bj),
         ("process", Self::Process),
+        ("impulse", Self::Impulse),
     ];
 }
 
@@ -211,4 +212,9 @@ impl Choice for lifted_pem::ProcessKind {
         ("p2dz", Self::P2DZ),
         ("p2du", Self::P2DU),
     ];
+}
+
+impl Choice for lifted_pem::Kernel {
+    const WHAT: &'static str = "kernel";
+    const NAMES: &'static [(&'static str, Self)] = &[("tc", Self::Tc), ("dc", Self::Dc)];
 }

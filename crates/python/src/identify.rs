@@ -77,7 +77,7 @@ pub(crate) fn horizon_of(
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
-    threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None))]
+    threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -106,6 +106,7 @@ pub(crate) fn identify<'py>(
     gain_stop_share: f64,
     integrator_tolerance: Option<f64>,
     process: Option<&str>,
+    kernel: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -127,6 +128,9 @@ pub(crate) fn identify<'py>(
     id.order = order_choice(order)?;
     id.orders = orders_of(orders.as_deref(), order)?;
     id.process = process;
+    id.kernel = kernel
+        .map(|k| lifted_pem::Kernel::parse(k, "kernel"))
+        .transpose()?;
     id.max_order = count(max_order, "max_order")?;
     id.order_criterion = OrderCriterion::parse(order_criterion, "order_criterion")?;
     let (horizon, past, future) = (

@@ -363,3 +363,22 @@ def test_procest_first_order_plus_dead_time() -> None:
         assert abs(got - want) < 0.02 * want, out
     with pytest.raises(lifted.ArgumentError):
         lifted.identify(u, y, "arx", process="p1d")
+
+
+def test_impulseest_regularised_fir() -> None:
+    """lifted.impulseest: 70 TC-regularised coefficients with posterior
+    std, the first ones near the impulse response of 0.3/(1 - 1.6q + 0.7q^2)."""
+    rng = np.random.default_rng(5)
+    n = 400
+    u = rng.standard_normal(n)
+    x = np.zeros(n)
+    for t in range(n):
+        x[t] = (1.6 * x[t - 1] if t >= 1 else 0.0) - (0.7 * x[t - 2] if t >= 2 else 0.0)
+        x[t] += 0.3 * u[t - 1] if t >= 1 else 0.0
+    y = x + 0.1 * rng.standard_normal(n)
+    fit = lifted.impulseest(u, y)
+    assert fit.parameters is not None and fit.std is not None
+    assert len(fit.parameters) == 70
+    g = [0.3, 0.48, 0.558]
+    assert np.all(np.abs(fit.parameters[:3] - g) < 4.5 * fit.std[:3] + 1e-4)
+    assert "hyperparameters" in fit.diagnostics

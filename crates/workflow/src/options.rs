@@ -100,6 +100,11 @@ pub enum Method {
     /// Box–Jenkins, y = B/F u + C/D e (`lifted_pem::bj`; consistent in
     /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n.
     Bj,
+    /// Regularised FIR (impulse response; MATLAB's `impulseest`): orders
+    /// `[nb nk]` (default 70 lags from delay 1), the kernel
+    /// [`IdentificationOptions::kernel`] (default TC), hyperparameters by
+    /// the marginal likelihood (`lifted_pem::impulseest`).
+    Impulse,
     /// Process model with dead time per input–output pair (MATLAB's
     /// `procest`): [`IdentificationOptions::process`] (default P1D, first
     /// order plus dead time), by output error on the measured samples
@@ -125,6 +130,7 @@ impl Method {
             Method::Armax => "armax",
             Method::Bj => "bj",
             Method::Process => "process",
+            Method::Impulse => "impulse",
         }
     }
 
@@ -133,7 +139,7 @@ impl Method {
     pub fn is_polynomial(self) -> bool {
         matches!(
             self,
-            Method::Arx | Method::Fir | Method::Oe | Method::Armax | Method::Bj
+            Method::Arx | Method::Fir | Method::Oe | Method::Armax | Method::Bj | Method::Impulse
         )
     }
 
@@ -344,6 +350,9 @@ pub struct IdentificationOptions {
     /// [`Self::order_criterion`]). Other methods: not used (an error when
     /// given).
     pub orders: Vec<usize>,
+    /// Regularised FIR: the prior's kernel (default `None`: TC). Other
+    /// methods: not used (an error when given).
+    pub kernel: Option<lifted_pem::Kernel>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
     /// `None`: P1D). Other methods: not used (an error when given).
     pub process: Option<lifted_pem::ProcessKind>,
@@ -383,6 +392,7 @@ impl Default for IdentificationOptions {
             threads: None,
             orders: Vec::new(),
             process: None,
+            kernel: None,
             q: None,
             prbs_order: None,
             amplitude: None,
@@ -575,6 +585,9 @@ impl WorkflowOptions {
             gap_only(id)?;
         }
         crate::polynomial::check_options(id)?;
+        if id.kernel.is_some() && id.method != Method::Impulse {
+            return Err(Error::option("kernel", "only used with the impulse method"));
+        }
         if id.process.is_some() && id.method != Method::Process {
             return Err(Error::option(
                 "process",

@@ -71,7 +71,7 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
         return Ok(());
     }
     let (expected, shape) = match id.method {
-        Method::Fir => (2, "[nb nk]"),
+        Method::Fir | Method::Impulse => (2, "[nb nk]"),
         Method::Arx => (3, "[na nb nk]"),
         Method::Oe => (3, "[nb nf nk]"),
         Method::Armax => (4, "[na nb nc nk]"),
@@ -117,6 +117,7 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
             ));
         }
     } else if !id.method.is_iterative_polynomial()
+        && id.method != Method::Impulse
         && matches!(
             id.order_criterion,
             OrderCriterion::Gap | OrderCriterion::Svc
@@ -273,6 +274,9 @@ pub(crate) fn identify(
     }
     if matches!(id.method, Method::Armax | Method::Bj) && !multirate {
         return prediction_error(opts, sets);
+    }
+    if id.method == Method::Impulse && !multirate {
+        return regularised_fir(opts, sets);
     }
     if multirate {
         return Err(Error::option(
@@ -474,6 +478,49 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
         "iterations": fit.iterations,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "pem_s", t_pem.elapsed().as_secs_f64());
+    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
+    route.suggested_order = route.order;
+    route.kalman_gain = Some(k);
+    Ok(route.with_details(RouteDetails {
+        polynomial: Some(fit.model),
+        ..Default::default()
+    }))
+}
+
+/// The regularised FIR route (`lifted_pem::impulseest`).
+fn regularised_fir(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let ts = sets
+        .first()
+        .ok_or_else(|| Error::Data("no data record".into()))?
+        .ts();
+    let mut o = lifted_pem::ImpulseOptions {
+        kernel: id.kernel.unwrap_or_default(),
+        threads: id.threads.unwrap_or(1),
+        ..Default::default()
+    };
+    if let &[nb, nk] = id.orders.as_slice() {
+        o.lags = nb;
+        o.delay = nk;
+    }
+    if id.feedthrough == Some(true) && id.orders.is_empty() {
+        o.delay = 0;
+    }
+    let t_fit = std::time::Instant::now();
+    let fit = lifted_pem::impulseest(&borrowed(sets), ts, &o).ctx("regularised FIR")?;
+    let (model, k) = fit
+        .model
+        .to_innovations_ss()
+        .ctx("the polynomial model's state-space form")?;
+    let mut diagnostics = json!({
+        "route": "impulse",
+        "lags": o.lags,
+        "delay": o.delay,
+        "kernel": format!("{:?}", o.kernel),
+        "hyperparameters": fit.hyperparameters.iter().map(|h| json!({"c": h[0], "lambda": h[1], "rho": h[2]})).collect::<Vec<_>>(),
+        "objective": fit.objective,
+    });
+    crate::diagnostics::add_phase(&mut diagnostics, "impulse_s", t_fit.elapsed().as_secs_f64());
     let mut route = RouteFit::plain(model, diagnostics, &[], 0);
     route.suggested_order = route.order;
     route.kalman_gain = Some(k);

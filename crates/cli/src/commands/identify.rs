@@ -69,6 +69,7 @@ fn print_profile(diagnostics: &serde_json::Value) {
         ("OE", "oe_s"),
         ("ARMAX / BJ", "pem_s"),
         ("process model", "process_s"),
+        ("regularised FIR", "impulse_s"),
         ("feedback test", "feedback_s"),
         ("identify (total)", "identify_s"),
     ];

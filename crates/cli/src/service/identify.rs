@@ -21,8 +21,8 @@ use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::args::{
-    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, MethodArg, ProcessArg,
-    RefineArg,
+    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, KernelArg, MethodArg,
+    ProcessArg, RefineArg,
 };
 use crate::error::{CliError, CliResult, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -135,7 +135,12 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Armax => Method::Armax,
         MethodArg::Bj => Method::Bj,
         MethodArg::Process => Method::Process,
+        MethodArg::Impulse => Method::Impulse,
     };
+    id.kernel = a.kernel.map(|k| match k {
+        KernelArg::Tc => lifted_pem::Kernel::Tc,
+        KernelArg::Dc => lifted_pem::Kernel::Dc,
+    });
     id.process = a.process.map(|p| match p {
         ProcessArg::P1d => lifted_pem::ProcessKind::P1D,
         ProcessArg::P2d => lifted_pem::ProcessKind::P2D,

@@ -18,7 +18,7 @@ processes can too.
 from __future__ import annotations
 
 import json
-from typing import Any, Sequence
+from typing import Any, Literal, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -137,6 +137,7 @@ __all__ = [
     "armax",
     "bj",
     "procest",
+    "impulseest",
     "arxstruc",
     "delayest",
     "iv",
@@ -266,6 +267,7 @@ def identify(
     gain_stop_share: float = 0.01,
     integrator_tolerance: float | None = None,
     process: ProcessStructure | None = None,
+    kernel: Literal["tc", "dc"] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -390,7 +392,7 @@ def identify(
             enforce_stability=enforce_stability, refine=refine,
             refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
             threads=threads, gain_stop_share=gain_stop_share,
-            integrator_tolerance=integrator_tolerance, process=process,
+            integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -796,6 +798,31 @@ def procest(
     equivalent.
     """
     return identify(u, y, "process", process=process, dt=dt, detrend=detrend, threads=threads)
+
+
+def impulseest(
+    u: Any,
+    y: Any,
+    lags: int = 70,
+    *,
+    delay: int = 1,
+    kernel: Literal["tc", "dc"] = "tc",
+    dt: float = 1.0,
+    detrend: Detrend = "mean",
+    threads: int = 1,
+) -> SubspaceFit:
+    """Regularised FIR model (MATLAB's ``impulseest``): ``lags``
+    coefficients per input from ``delay``, the prior a TC kernel
+    c lambda^max(i,j) (or DC, c rho^|i-j| lambda^((i+j)/2)) whose
+    hyperparameters maximise the marginal likelihood; ``fit.polynomial``
+    holds the coefficients with their posterior ``covariance``/``std``,
+    ``fit.diagnostics["hyperparameters"]`` the (c, lambda, rho) per
+    output.
+    """
+    return identify(
+        u, y, "impulse", orders=[lags, delay], kernel=kernel, dt=dt, detrend=detrend,
+        threads=threads,
+    )
 
 
 def arxstruc(

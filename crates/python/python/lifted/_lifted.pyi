@@ -10,7 +10,7 @@ reads a numpy masked array's masked entries as missing samples (NaN) in
 outputs (``y``, ``ys``) and refuses them everywhere else (ArgumentError).
 """
 
-from typing import Any, Sequence, final
+from typing import Any, Literal, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
@@ -294,6 +294,7 @@ def identify(
     gain_stop_share: float = 0.01,
     integrator_tolerance: float | None = None,
     process: ProcessStructure | None = None,
+    kernel: Literal["tc", "dc"] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

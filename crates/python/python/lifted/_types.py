@@ -34,7 +34,7 @@ SubspaceMethod = Literal["n4sid", "moesp", "cva"]
 #: ``[nb, nk]`` / ``[nb, nf, nk]`` / ``[na, nb, nc, nk]`` / ``[nb, nc, nd, nf, nk]``).
 IdentifyMethod = Literal[
     "n4sid", "moesp", "cva", "pbsid", "ssarx", "pbsid_rowwise", "iv", "arx", "fir", "oe",
-    "armax", "bj", "process",
+    "armax", "bj", "process", "impulse",
 ]
 #: process-model structures (MATLAB's ``idproc`` types): first/second order,
 #: integrating, with a zero, underdamped; each with a gain and a dead time.

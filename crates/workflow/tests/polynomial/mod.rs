@@ -349,3 +349,39 @@ fn a_first_order_plus_dead_time_plant_through_the_process_route() {
         assert_eq!(id.file.diagnostics["route"], "process");
     }
 }
+
+#[test]
+fn the_regularised_fir_through_the_workflow() {
+    // A slow resonant plant, 400 samples, 70 lags by default: the TC
+    // estimate's first coefficients near the truth's impulse response, in
+    // the data's units (u × 10: coefficients ÷ 10), with a posterior σ.
+    let g = PolyModel::oe(&[0.3], &[1.0, -1.6, 0.7], 1, 1.0).unwrap();
+    let u = gauss(71, 400, 1, 1.0);
+    let y = g.simulate(&u, Some(&gauss(72, 400, 1, 0.1))).unwrap();
+    let data = Dataset::single_rate(1.0, u.map(|v| 10.0 * v), y).unwrap();
+    let id = identify(&[Record::new(data.clone())], &options(Method::Impulse, &[])).unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    assert_eq!(p.n_parameters(), 70);
+    let mut e = DMatrix::zeros(10, 1);
+    e[(0, 0)] = 1.0;
+    let truth = g.simulate(&e, None).unwrap();
+    let std = p.std().unwrap();
+    for k in 0..9 {
+        let got = p.parameters()[k];
+        let want = truth[(k + 1, 0)] / 10.0;
+        assert!(
+            (got - want).abs() < 4.5 * std[k] + 1e-4,
+            "lag {}: {got} {want} ± {}",
+            k + 1,
+            std[k]
+        );
+    }
+    assert_eq!(id.file.diagnostics["kernel"], "Tc");
+    let mut bad = options(Method::Arx, &[]);
+    bad.identification.kernel = Some(lifted_pem::Kernel::Dc);
+    let e = identify(&[Record::new(data)], &bad).unwrap_err();
+    assert!(
+        matches!(&e, Error::InvalidOption { option, .. } if *option == "kernel"),
+        "{e}"
+    );
+}
