@@ -273,7 +273,7 @@ def test_arx_fit_pickles(arx_record) -> None:
 
 def test_readme_arx_example(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
     text = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
-    code = re.search(r"## Polynomial models.*?```python\n(.*?)```", text, re.S)
+    code = re.search(r"## Polynomial.*?```python\n(.*?)```", text, re.S)
     assert code is not None
     monkeypatch.chdir(tmp_path)
     scope: dict[str, object] = {}
