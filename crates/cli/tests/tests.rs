@@ -4788,6 +4788,12 @@ mod polynomial {
             "--out",
             &out,
         ]);
+        // analyze shows the polynomials with their deviations.
+        let text = ok(&["analyze", "--model", &out]);
+        assert!(text.contains("A(q) = 1 ") && text.contains("(±"), "{text}");
+        let text = ok(&["analyze", "--model", &out, "--json"]);
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["polynomial"]["std"].as_array().unwrap().len(), 4);
         let text = ok(&["bode", "--model", &out, "--omega", "0.1,1,3", "--json"]);
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(v["confidence"], 0.95);

@@ -137,14 +137,29 @@ fn print_analysis(path: &str, a: &Analysis) {
 
 /// `lifted analyze`.
 pub fn analyze_cmd(a: &AnalyzeArgs) -> CliResult<()> {
-    let model = read_model(&a.model)?.model;
-    let r = analyze(&model)?;
+    let file = read_model(&a.model)?;
+    let r = analyze(&file.model)?;
     if a.json {
+        let mut v = serde_json::to_value(&r).ctx("JSON of the analysis")?;
+        // A polynomial model's coefficients with their standard deviations.
+        if let (Some(p), Some(obj)) = (&file.polynomial, v.as_object_mut()) {
+            obj.insert(
+                "polynomial".into(),
+                serde_json::json!({
+                    "family": p.family(),
+                    "parameters": p.parameters(),
+                    "std": p.std(),
+                }),
+            );
+        }
         println!(
             "{}",
-            serde_json::to_string_pretty(&r).ctx("JSON of the analysis")?
+            serde_json::to_string_pretty(&v).ctx("JSON of the analysis")?
         );
     } else {
+        if let Some(p) = &file.polynomial {
+            println!("{}", p.present());
+        }
         print_analysis(&a.model, &r);
     }
     Ok(())
