@@ -382,3 +382,29 @@ def test_impulseest_regularised_fir() -> None:
     g = [0.3, 0.48, 0.558]
     assert np.all(np.abs(fit.parameters[:3] - g) < 4.5 * fit.std[:3] + 1e-4)
     assert "hyperparameters" in fit.diagnostics
+
+
+def test_tf_data_and_python_control() -> None:
+    """The plant of an ARMAX fit as z-polynomials (descending powers), and
+    as a python-control transfer function when python-control is there."""
+    rng = np.random.default_rng(13)
+    n = 3000
+    u = rng.standard_normal(n)
+    y = np.zeros(n)
+    for t in range(n):
+        y[t] = 0.05 * rng.standard_normal()
+        if t >= 1:
+            y[t] += 1.5 * y[t - 1] + u[t - 1]
+        if t >= 2:
+            y[t] += -0.7 * y[t - 2] + 0.5 * u[t - 2]
+    fit = lifted.arx(u, y, [2, 2, 1])
+    assert fit.polynomial is not None
+    nums, dens = fit.polynomial.tf_data()
+    num, den = nums[0][0], dens[0][0]
+    # G(z) = z^-1 (b0 + b1 z^-1) / (1 + a1 z^-1 + a2 z^-2) = (b0 z + b1) / (z^2 + a1 z + a2).
+    assert len(num) == len(den) == 3 and num[0] == 0.0 and den[0] == 1.0
+    np.testing.assert_allclose(num[1:], [1.0, 0.5], atol=0.01)
+    np.testing.assert_allclose(den[1:], [-1.5, 0.7], atol=0.01)
+    control = pytest.importorskip("control")
+    g = fit.polynomial.to_control()
+    assert isinstance(g, control.TransferFunction) and g.dt == 1.0

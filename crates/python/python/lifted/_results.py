@@ -146,6 +146,48 @@ class PolyModel(_Result):
         ``noise_variance``, ``covariance``), read back by :meth:`from_json`."""
         return self.poly_json
 
+    def tf_data(self) -> tuple[list[list[list[float]]], list[list[list[float]]]]:
+        """Numerators and denominators of the plant G(z) = z^-nk B/(A F)
+        per (output, input) pair, in **descending powers of z** (the
+        convention of python-control and scipy), padded to one length per
+        pair. Needs a diagonal A (a coupled multi-output ARX: use the
+        state-space ``fit.model``)."""
+        p, m = len(self.b), len(self.b[0]) if self.b else 0
+        for i in range(p):
+            for j in range(p):
+                if i != j and any(v != 0.0 for v in self.a[i][j]):
+                    raise ArgumentError(
+                        "tf_data: A is coupled between outputs (a multi-output ARX); "
+                        "use the state-space model fit.model"
+                    )
+        nums: list[list[list[float]]] = []
+        dens: list[list[list[float]]] = []
+        for i in range(p):
+            nrow: list[list[float]] = []
+            drow: list[list[float]] = []
+            for k in range(m):
+                num = [0.0] * self.nk[i][k] + [float(v) for v in self.b[i][k]]
+                den = [float(v) for v in np.convolve(self.a[i][i], self.f[i][k])]
+                n = max(len(num), len(den))
+                nrow.append(num + [0.0] * (n - len(num)))
+                drow.append(den + [0.0] * (n - len(den)))
+            nums.append(nrow)
+            dens.append(drow)
+        return nums, dens
+
+    def to_control(self) -> Any:
+        """The plant as a python-control ``TransferFunction`` (discrete,
+        ``dt``), from :meth:`tf_data`; python-control must be installed
+        (it is not a dependency of lifted)."""
+        try:
+            import control  # type: ignore[import-not-found, import-untyped, unused-ignore]
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("PolyModel.to_control needs python-control (pip install control)") from e
+        nums, dens = self.tf_data()
+        if len(nums) == 1 and len(nums[0]) == 1:
+            return control.tf(nums[0][0], dens[0][0], self.dt)
+        return control.tf(nums, dens, self.dt)
+
 
 @dataclass(frozen=True, eq=False, repr=False)
 class ArxScan(_Result):
