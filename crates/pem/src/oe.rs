@@ -98,29 +98,10 @@ impl Pairs {
 /// (B_k, F_k) per input: b coefficients, f free coefficients (F = 1 + …).
 type Rational = Vec<(Vec<f64>, Vec<f64>)>;
 
+/// The OE structure's checks beside the shared ones: no A, C or D, an
+/// input term per output; y may hold NaN (not measured).
 fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
-    let first = experiments.first().ok_or(Error::NoData)?;
-    let (nu, ny) = (first.u.ncols(), first.y.ncols());
-    let grid = |m: &Vec<Vec<usize>>, rows: usize, cols: usize| {
-        m.len() == rows && m.iter().all(|r| r.len() == cols)
-    };
-    if !(grid(&orders.na, ny, ny)
-        && grid(&orders.nb, ny, nu)
-        && grid(&orders.nf, ny, nu)
-        && grid(&orders.nk, ny, nu)
-        && orders.nc.len() == ny
-        && orders.nd.len() == ny)
-    {
-        return Err(Error::DimensionMismatch {
-            what: "OE orders (nb, nf, nk n_y×n_u)",
-            expected: format!("{ny} outputs and {nu} inputs"),
-            got: format!(
-                "nb {}×{}",
-                orders.nb.len(),
-                orders.nb.first().map_or(0, Vec::len)
-            ),
-        });
-    }
+    let dims = crate::checks::check_polynomial_records(experiments, orders, true)?;
     if orders.na.iter().flatten().any(|&n| n > 0)
         || orders.nc.iter().chain(&orders.nd).any(|&n| n > 0)
     {
@@ -131,16 +112,6 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
         });
     }
     for (i, row) in orders.nb.iter().enumerate() {
-        if row
-            .iter()
-            .zip(&orders.nf[i])
-            .any(|(&b, &f)| b == 0 && f > 0)
-        {
-            return Err(Error::InvalidOption {
-                what: "orders",
-                reason: format!("output {i}: an input with nb = 0 has no F (nf must be 0)"),
-            });
-        }
         if row.iter().all(|&b| b == 0) {
             return Err(Error::InvalidOption {
                 what: "orders",
@@ -148,18 +119,7 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
             });
         }
     }
-    for e in experiments {
-        crate::checks::check_record_shape("record (u, y)", e.u, e.y, nu, ny)?;
-        crate::checks::check_finite("u", e.u)?;
-        if let Some(k) = e.y.iter().position(|v| v.is_infinite()) {
-            return Err(Error::NonFinite {
-                what: "y",
-                row: k % e.y.nrows(),
-                col: k / e.y.nrows(),
-            });
-        }
-    }
-    Ok((nu, ny))
+    Ok(dims)
 }
 
 /// The simulated output ŷ_i = Σ_k (B_k/F_k) u_k and, with `jacobian`, the

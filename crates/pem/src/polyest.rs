@@ -442,44 +442,15 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
     Ok(p)
 }
 
+/// The structure's checks beside the shared ones: A diagonal, not A with
+/// both D and F; every output sample measured.
 fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
-    let first = experiments.first().ok_or(Error::NoData)?;
-    let (nu, ny) = (first.u.ncols(), first.y.ncols());
-    let grid = |m: &Vec<Vec<usize>>, rows: usize, cols: usize| {
-        m.len() == rows && m.iter().all(|r| r.len() == cols)
-    };
-    if !(grid(&orders.na, ny, ny)
-        && grid(&orders.nb, ny, nu)
-        && grid(&orders.nf, ny, nu)
-        && grid(&orders.nk, ny, nu)
-        && orders.nc.len() == ny
-        && orders.nd.len() == ny)
-    {
-        return Err(Error::DimensionMismatch {
-            what: "polynomial orders (na n_y×n_y, nb, nf, nk n_y×n_u, nc, nd per output)",
-            expected: format!("{ny} outputs and {nu} inputs"),
-            got: format!(
-                "nb {}×{}",
-                orders.nb.len(),
-                orders.nb.first().map_or(0, Vec::len)
-            ),
-        });
-    }
+    let dims = crate::checks::check_polynomial_records(experiments, orders, false)?;
     for (i, row) in orders.na.iter().enumerate() {
         if row.iter().enumerate().any(|(j, &n)| j != i && n > 0) {
             return Err(Error::InvalidOption {
                 what: "orders",
                 reason: "the prediction-error estimator takes a diagonal A (one output's own lags); a coupled A is an ARX structure (arx)".into(),
-            });
-        }
-        if orders.nb[i]
-            .iter()
-            .zip(&orders.nf[i])
-            .any(|(&b, &f)| b == 0 && f > 0)
-        {
-            return Err(Error::InvalidOption {
-                what: "orders",
-                reason: format!("output {i}: an input with nb = 0 has no F (nf must be 0)"),
             });
         }
         if orders.na[i][i] > 0 && orders.nf[i].iter().any(|&f| f > 0) && orders.nd[i] > 0 {
@@ -490,12 +461,7 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
             });
         }
     }
-    for e in experiments {
-        crate::checks::check_record_shape("record (u, y)", e.u, e.y, nu, ny)?;
-        crate::checks::check_finite("u", e.u)?;
-        crate::checks::check_finite("y", e.y)?;
-    }
-    Ok((nu, ny))
+    Ok(dims)
 }
 
 /// The prediction-error estimate of the polynomial structure `orders`

@@ -308,10 +308,6 @@ pub(crate) fn identify(
         &arx_opts,
     )
     .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
-    let (model, k) = fit
-        .model
-        .to_innovations_ss()
-        .ctx("the polynomial model's state-space form")?;
     let mut diagnostics = json!({
         "route": id.method.name(),
         "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
@@ -326,13 +322,7 @@ pub(crate) fn identify(
     for w in warnings {
         crate::diagnostics::push_warning(&mut diagnostics, w);
     }
-    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
-    route.suggested_order = route.order;
-    route.kalman_gain = Some(k);
-    Ok(route.with_details(RouteDetails {
-        polynomial: Some(fit.model),
-        ..Default::default()
-    }))
+    finish(fit.model, diagnostics)
 }
 
 /// The polynomial model `p` of the channels scaled by `sc` in the data's
@@ -384,10 +374,6 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
     let t_oe = std::time::Instant::now();
     let fit = lifted_pem::oe(&records, &orders, ts, &lifted_pem::OeOptions::default())
         .ctx("OE estimation")?;
-    let (model, k) = fit
-        .model
-        .to_innovations_ss()
-        .ctx("the polynomial model's state-space form")?;
     let mut diagnostics = json!({
         "route": "oe",
         "orders": {"nb": nb, "nf": nf, "nk": delays},
@@ -398,13 +384,7 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
         "iterations": fit.iterations,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "oe_s", t_oe.elapsed().as_secs_f64());
-    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
-    route.suggested_order = route.order;
-    route.kalman_gain = Some(k);
-    Ok(route.with_details(RouteDetails {
-        polynomial: Some(fit.model),
-        ..Default::default()
-    }))
+    finish(fit.model, diagnostics)
 }
 
 /// The ARMAX and BJ routes (`lifted_pem::polyest`): the structure from
@@ -465,10 +445,6 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
         &lifted_pem::PolyestOptions::default(),
     )
     .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
-    let (model, k) = fit
-        .model
-        .to_innovations_ss()
-        .ctx("the polynomial model's state-space form")?;
     let mut diagnostics = json!({
         "route": id.method.name(),
         "orders": {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": delays},
@@ -478,13 +454,7 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
         "iterations": fit.iterations,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "pem_s", t_pem.elapsed().as_secs_f64());
-    let mut route = RouteFit::plain(model, diagnostics, &[], 0);
-    route.suggested_order = route.order;
-    route.kalman_gain = Some(k);
-    Ok(route.with_details(RouteDetails {
-        polynomial: Some(fit.model),
-        ..Default::default()
-    }))
+    finish(fit.model, diagnostics)
 }
 
 /// The regularised FIR route (`lifted_pem::impulseest`).
@@ -508,10 +478,6 @@ fn regularised_fir(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit>
     }
     let t_fit = std::time::Instant::now();
     let fit = lifted_pem::impulseest(&borrowed(sets), ts, &o).ctx("regularised FIR")?;
-    let (model, k) = fit
-        .model
-        .to_innovations_ss()
-        .ctx("the polynomial model's state-space form")?;
     let mut diagnostics = json!({
         "route": "impulse",
         "lags": o.lags,
@@ -521,11 +487,20 @@ fn regularised_fir(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit>
         "objective": fit.objective,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "impulse_s", t_fit.elapsed().as_secs_f64());
+    finish(fit.model, diagnostics)
+}
+
+/// The route's result for a polynomial model: its innovations realisation
+/// (A, B, C, D, K) as the model, the polynomials in the details.
+fn finish(poly: PolyModel, diagnostics: serde_json::Value) -> Result<RouteFit> {
+    let (model, k) = poly
+        .to_innovations_ss()
+        .ctx("the polynomial model's state-space form")?;
     let mut route = RouteFit::plain(model, diagnostics, &[], 0);
     route.suggested_order = route.order;
     route.kalman_gain = Some(k);
     Ok(route.with_details(RouteDetails {
-        polynomial: Some(fit.model),
+        polynomial: Some(poly),
         ..Default::default()
     }))
 }
