@@ -490,8 +490,28 @@ pub fn polyest(
             reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
         });
     }
-    let template = PolyModel::from_orders(orders, ts)?;
     let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
+    // The orders size every allocation below: refused before any is made
+    // when an output has no fewer parameters than samples (saturating sums).
+    for i in 0..orders.nb.len() {
+        let d = [
+            orders.na[i][i],
+            orders.nc[i],
+            orders.nd[i],
+            orders.nb[i].iter().fold(0usize, |a, &b| a.saturating_add(b)),
+            orders.nf[i].iter().fold(0usize, |a, &b| a.saturating_add(b)),
+        ]
+        .iter()
+        .fold(0usize, |a, &b| a.saturating_add(b));
+        if samples <= d {
+            return Err(Error::TooFewSamples {
+                what: "the polynomial model",
+                measured: samples,
+                needed: d.saturating_add(1),
+            });
+        }
+    }
+    let template = PolyModel::from_orders(orders, ts)?;
     let mut polys = template.polynomials();
     let mut blocks = Vec::new();
     let mut lambdas = Vec::new();
