@@ -498,8 +498,12 @@ pub fn polyest(
             orders.na[i][i],
             orders.nc[i],
             orders.nd[i],
-            orders.nb[i].iter().fold(0usize, |a, &b| a.saturating_add(b)),
-            orders.nf[i].iter().fold(0usize, |a, &b| a.saturating_add(b)),
+            orders.nb[i]
+                .iter()
+                .fold(0usize, |a, &b| a.saturating_add(b)),
+            orders.nf[i]
+                .iter()
+                .fold(0usize, |a, &b| a.saturating_add(b)),
         ]
         .iter()
         .fold(0usize, |a, &b| a.saturating_add(b));

@@ -176,7 +176,12 @@ fn bad_input_is_refused_with_a_named_error() {
     // Orders far beyond the record are refused before anything is sized
     // by them.
     assert!(matches!(
-        armax(&[Experiment { u: &u, y: &y }], [2, usize::MAX / 4, 1, 1], 1.0, &o),
+        armax(
+            &[Experiment { u: &u, y: &y }],
+            [2, usize::MAX / 4, 1, 1],
+            1.0,
+            &o
+        ),
         Err(Error::TooFewSamples { .. })
     ));
     let (us, ys) = (u.rows(0, 3).into_owned(), y.rows(0, 3).into_owned());
