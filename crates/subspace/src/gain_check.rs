@@ -41,11 +41,13 @@
 //! stays within [`VARX_WORK`]), the regression O(N n_y (n_y n³ + q²)), the
 //! starts' predictor runs O(N n²) and at most
 //! [`GainCheckOptions::max_iterations`]
-//! Levenberg–Marquardt iterations of O(N n_y (n² n_y + P²)) for P = n n_y
-//! on records with every output measured (the sensitivities' rows by their
-//! own recursion, `one_step::Sensitivities::Rows`), O(N n_y (n² P + P²))
-//! on records with outputs not measured (rows folded into an R factor:
-//! memory O(P² + N n_y)).
+//! Levenberg–Marquardt iterations of O(N n_y (n² n_y + P)) for P = n n_y
+//! on records with every output measured (the exact gradient from the
+//! sensitivities' rows by their own recursion,
+//! `one_step::Sensitivities::Rows`), O(N n_y n² P) on records with
+//! outputs not measured, plus O(N n_y P²) for each R factor of [J | r]
+//! folded (at the start, and again only where a step from an earlier
+//! iterate's factor fails: [`GainCheck::factors`]). Memory O(P² + N n_y).
 
 use lifted_lti::StateSpace;
 
@@ -142,6 +144,10 @@ pub struct GainCheck {
     pub final_cost: Option<f64>,
     /// Levenberg–Marquardt iterations.
     pub iterations: usize,
+    /// The R factors of [J | r] folded by those iterations (at the start,
+    /// then where a step from an earlier iterate's factor failed).
+    #[serde(default)]
+    pub factors: usize,
     /// The VARX order of the innovation estimate.
     pub varx_order: Option<usize>,
     /// Why a step was not taken (no VARX, no minimisation), if so.
@@ -310,6 +316,7 @@ fn check_by(
         zero_cost: None,
         final_cost: None,
         iterations: 0,
+        factors: 0,
         varx_order: None,
         note: None,
         rule: RULE.into(),
@@ -402,10 +409,11 @@ fn check_by(
     });
     let limits = (tolerance, opts.max_iterations);
     match minimise(model, &start, sets, &x0s, limits, route) {
-        Ok((k, cost, iterations)) if cost < start_cost => {
+        Ok((k, cost, iterations, factors)) if cost < start_cost => {
             report.used = format!("prediction-error minimisation over K from {}", starts[i].0);
             report.final_cost = Some(cost);
             report.iterations = iterations;
+            report.factors = factors;
             (Some(k), report)
         }
         outcome => {
@@ -437,15 +445,87 @@ const RULE: &str = "one-step prediction error on the records (normalised squared
 /// more than it saves).
 const PARALLEL_SAMPLES: usize = 20_000;
 
-/// [`minimise`] makes a trial's factor with its cost when the last
-/// accepted iteration lowered the cost by more than this many times the
-/// stopping tolerance (the iterations of this large-residual problem
-/// converge linearly at ratios 0.6–0.7: the next decrease then most likely
-/// still exceeds the tolerance). Speed only: the iterates are the same.
+/// [`minimise`] computes a trial's gradient with its cost (one run of the
+/// predictor with its sensitivities) when the last accepted iteration
+/// lowered the cost by more than this many times the stopping tolerance
+/// (the iterations of this large-residual problem converge linearly at
+/// ratios 0.6–0.7: the next trial will then most likely be accepted and
+/// need its gradient); else its cost alone first. Speed only: the iterates
+/// are the same either way.
 const SPECULATE: f64 = 2.0;
 
 /// Rows of [J | r] folded into the R factor at a time.
 const BLOCK_ROWS: usize = 2048;
+
+/// [`minimise`] keeps a step's factor for the next iteration while its
+/// quadratic model predicted the decrease the step gave to within this
+/// factor (ratio of actual to predicted decrease in [2/3, 3/2]);
+/// otherwise the factor is folded anew at the new iterate. Speed only in
+/// intent: a kept factor still gives descent steps from the exact
+/// gradient, and every iterate is accepted on the cost, but a factor
+/// whose model is off by more than this makes steps too short or too long
+/// and the iterations slow (measured on the studio bench's record: at
+/// order 2 ratios 1.6–2.0 for 28 iterations without refolding, and a
+/// cost 8 % above the optimum after 30; at order 3 ratios 0.26–0.43 and
+/// 14 iterations instead of 10).
+const MODEL_AGREEMENT: f64 = 1.5;
+
+/// What a step of [`minimise`] is solved with: the R factor of [J | r]
+/// at the point where it was last folded (the Gauss–Newton matrix
+/// R_Jᵀ R_J of that point) and the exact gradient Jᵀ r at the current
+/// point.
+struct StepBasis {
+    /// R of [J | r] (its first P columns' upper block R_J, the last
+    /// column's first P entries q).
+    r: DMatrix<f64>,
+    /// Jᵀ r at the current iterate (the gradient of ½ ‖r‖²).
+    gradient: DVector<f64>,
+    /// Whether `r` was folded at the current iterate (then R_Jᵀ q is the
+    /// gradient and q is taken as it is).
+    fresh: bool,
+}
+
+impl StepBasis {
+    /// At a point whose factor was just folded: the gradient R_Jᵀ q.
+    fn folded(r: DMatrix<f64>, params: usize) -> Self {
+        let k = r.nrows().min(params);
+        let rj = r.view((0, 0), (k, params));
+        let q = r.view((0, params), (k, 1));
+        let gradient = rj.transpose() * q;
+        StepBasis {
+            gradient: gradient.column(0).into_owned(),
+            r,
+            fresh: true,
+        }
+    }
+
+    /// R_J, its column norms (Marquardt's scaling D: J's column norms at
+    /// the factor's point) and the right-hand side q̃ with R_Jᵀ q̃ = Jᵀ r
+    /// (q itself when the factor is fresh), so that the damped problem
+    /// [R_J; √λ D] δ ≈ [−q̃; 0] is (R_Jᵀ R_J + λ D²) δ = −Jᵀ r without
+    /// forming R_Jᵀ R_J. `None` when a stale R_J is singular or has fewer
+    /// rows than parameters (a fresh factor is then needed).
+    fn parts(&self, params: usize) -> Option<(DMatrix<f64>, Vec<f64>, DVector<f64>)> {
+        let k = self.r.nrows().min(params);
+        let rj = self.r.view((0, 0), (k, params)).into_owned();
+        let scale: Vec<f64> = (0..params)
+            .map(|p| rj.column(p).norm().max(1e-300))
+            .collect();
+        let q = if self.fresh {
+            self.r.view((0, params), (k, 1)).column(0).into_owned()
+        } else {
+            if k < params || (0..params).any(|p| rj[(p, p)] == 0.0) {
+                return None;
+            }
+            let q = rj.transpose().solve_lower_triangular(&self.gradient)?;
+            if !q.iter().all(|v| v.is_finite()) {
+                return None;
+            }
+            q
+        };
+        Some((rj, scale, q))
+    }
+}
 
 /// Levenberg–Marquardt on the one-step prediction errors over K from
 /// `start` (its predictor stable), the predictor started from `x0s`, with
@@ -453,19 +533,28 @@ const BLOCK_ROWS: usize = 2048;
 /// S(t+1) = (A − K C) S(t) + E(ε(t)), ∂ε(t)/∂vec K = −C S(t). The rows
 /// of [J | r] are folded block by block into the R factor of their QR
 /// (memory O(P²), never JᵀJ), and each step solves the small damped
-/// problem [R_J; √λ D] δ = [−q; 0] (D: Marquardt's column norms of J).
-/// A trial's cost and factor come from one run of the predictor when the
-/// last decrease says a further iteration is likely ([`SPECULATE`]), else
-/// its cost from a run of the predictor alone and its factor only when the
-/// trial is accepted and a further iteration follows (the same iterates as
-/// a factor at every trial, with fewer runs wasted on the last accepted
-/// trial).
+/// problem [R_J; √λ D] δ = [−q̃; 0] (D: Marquardt's column norms of J).
+///
+/// The factor is lazy (Jacobian reuse, the idea of the chord and
+/// Shamanskii variants of Newton's method; Kelley, *Iterative Methods for
+/// Linear and Nonlinear Equations*, 1995): it is folded at
+/// the start and again only where a step taken with a factor of an earlier
+/// iterate fails; every iterate gets its exact gradient Jᵀ r from a run of
+/// the predictor with its sensitivities alone, and q̃ solves R_Jᵀ q̃ = Jᵀ r
+/// (so the step is (R_Jᵀ R_J + λ D²) δ = −Jᵀ r with the Gauss–Newton
+/// matrix of the factor's point: a descent direction at any λ). Near the
+/// optimum J changes little, so the steps are those of Gauss–Newton at a
+/// fraction of the cost: a gradient run is O(N n_y (n² n_y + P)), a fold
+/// O(N n_y P²) more (at order 8 with two outputs about 2.5× the gradient
+/// run, with both cores). Every trial is accepted only on a lower cost on
+/// the records, as before.
+///
 /// `limits`: the relative decrease below which it stops and the largest
 /// number of iterations; `route`: how the sensitivities are computed
-/// ([`Sensitivities`]). Returns the gain, its cost ([`prediction_cost`])
-/// and the iterations taken. O(N (n² n_y² + P²)) per iteration for
-/// P = n n_y parameters on records with every output measured, O(N n² P)
-/// on others.
+/// ([`Sensitivities`]). Returns the gain, its cost ([`prediction_cost`]),
+/// the iterations taken and the factors folded. O(N (n² n_y² + P n_y))
+/// per iteration for P = n n_y parameters on records with every output
+/// measured (O(N n² P) on others), plus O(N n_y P²) per factor.
 fn minimise(
     model: &StateSpace,
     start: &DMatrix<f64>,
@@ -473,7 +562,7 @@ fn minimise(
     x0s: &[DVector<f64>],
     limits: (f64, usize),
     route: Sensitivities,
-) -> Result<(DMatrix<f64>, f64, usize), String> {
+) -> Result<(DMatrix<f64>, f64, usize, usize), String> {
     let (tolerance, max_iterations) = limits;
     let (n, ny) = (model.order(), model.n_outputs());
     if n == 0 {
@@ -504,7 +593,7 @@ fn minimise(
         let rho = spectral_radius(&m).ok()?;
         (rho < 1.0).then(|| OneStep::new(model, &k, &m))
     };
-    // ‖r‖² at θ (the rows' squares summed in the order the fold below
+    // ‖r‖² at θ (the rows' squares summed in the order every run below
     // visits them, so the same number bit for bit); None when A − K C is
     // not stable or the cost is not finite.
     let cost_at = |theta: &DVector<f64>| -> Option<f64> {
@@ -520,33 +609,34 @@ fn minimise(
         }
         cost.is_finite().then_some(cost)
     };
-    // The R factor of [J | r] at θ; None when A − K C is not stable or
-    // the rows are not finite.
-    // The rows are folded on a second thread while the predictor makes
-    // the next ones, when there is one and the records are long
-    // ([`Blocks`]: the same blocks in the same order, the same R bit for
-    // bit).
+    // ‖r‖² and the gradient Jᵀ r at θ from one run of the predictor with
+    // its sensitivities, no factor (J's rows −w_o C S(t)); None when
+    // A − K C is not stable or either is not finite.
+    let gradient_at = |theta: &DVector<f64>| -> Option<(f64, DVector<f64>)> {
+        let predictor = predictor(theta)?;
+        let mut cost = 0.0;
+        let mut gradient: DVector<f64> = DVector::zeros(params);
+        for (data, x0) in sets.iter().zip(x0s) {
+            predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
+                let r = w[o] * eps;
+                let wr = w[o] * r;
+                for (g, v) in gradient.iter_mut().zip(cs) {
+                    *g -= wr * v;
+                }
+                cost += r * r;
+            });
+        }
+        (cost.is_finite() && gradient.iter().all(|g| g.is_finite())).then_some((cost, gradient))
+    };
+    // The cost and the R factor of [J | r] at θ from one run (the factor
+    // `None` when its rows are not finite); None when A − K C is not
+    // stable or the cost is not finite. The rows are folded on a second
+    // thread while the predictor makes the next ones, when there is one
+    // and the records are long ([`Blocks`]: the same blocks in the same
+    // order, the same R bit for bit).
     let parallel =
         rows > 4 * BLOCK_ROWS && std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
-    let factor_at = |theta: &DVector<f64>| -> Option<DMatrix<f64>> {
-        let predictor = predictor(theta)?;
-        fold_rows(params + 1, parallel, |blocks| {
-            for (data, x0) in sets.iter().zip(x0s) {
-                predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
-                    let (block, at) = blocks.row();
-                    for (p, v) in cs.iter().enumerate() {
-                        block[(at, p)] = -w[o] * v;
-                    }
-                    block[(at, params)] = w[o] * eps;
-                });
-            }
-        })
-    };
-    // Both in one run of the predictor: the cost (the same number as
-    // `cost_at`'s: the rows' squares in the same order) and the factor
-    // (`None` when its rows are not finite); None when A − K C is not
-    // stable or the cost is not finite.
-    let both_at = |theta: &DVector<f64>| -> Option<(f64, Option<DMatrix<f64>>)> {
+    let factor_at = |theta: &DVector<f64>| -> Option<(f64, Option<DMatrix<f64>>)> {
         let predictor = predictor(theta)?;
         let mut cost = 0.0;
         let r = fold_rows(params + 1, parallel, |blocks| {
@@ -564,78 +654,124 @@ fn minimise(
         });
         cost.is_finite().then_some((cost, r))
     };
-    let start_at = both_at(&theta).and_then(|(c, r)| Some((c, r?)));
-    let Some((mut cost, mut r)) = start_at else {
+    let start_at = factor_at(&theta).and_then(|(c, r)| Some((c, r?)));
+    let Some((mut cost, r)) = start_at else {
         return Err("the start's predictor is not stable".into());
     };
+    let mut basis = StepBasis::folded(r, params);
+    let mut factors = 1;
     runs_left -= 1;
     let mut lambda: f64 = 1e-3;
     let mut iterations = 0;
     // The last accepted iteration's relative decrease: well above the
-    // tolerance, the next accepted trial will most likely need its factor
-    // too, which the run that gives its cost then makes at once.
+    // tolerance, the next accepted trial will most likely need its
+    // gradient too, which the run that gives its cost then makes at once.
     let mut last_decrease = f64::INFINITY;
     while iterations < max_iterations {
         iterations += 1;
-        // R of [J | r]: its first P columns' upper block is R_J, the last
-        // column's first P entries q (J δ + r ≈ R_J δ + q).
-        let k = r.nrows().min(params);
-        let rj = r.view((0, 0), (k, params)).into_owned();
-        let q = r.view((0, params), (k, 1)).into_owned();
-        let scale: Vec<f64> = (0..params)
-            .map(|p| rj.column(p).norm().max(1e-300))
-            .collect();
         let mut improved = false;
         while lambda < 1e10 && runs_left > 0 {
+            // A stale factor that cannot give the step is folded anew here.
+            let parts = match basis.parts(params) {
+                Some(parts) => parts,
+                None if !basis.fresh => {
+                    runs_left -= 1;
+                    match factor_at(&theta) {
+                        Some((_, Some(r))) => {
+                            basis = StepBasis::folded(r, params);
+                            factors += 1;
+                            continue;
+                        }
+                        _ => break,
+                    }
+                }
+                None => break,
+            };
+            let (rj, scale, q) = parts;
+            let k = rj.nrows();
             let mut aug = DMatrix::zeros(k + params, params);
             aug.rows_mut(0, k).copy_from(&rj);
             for p in 0..params {
                 aug[(k + p, p)] = lambda.sqrt() * scale[p];
             }
             let mut rhs = DMatrix::zeros(k + params, 1);
-            rhs.rows_mut(0, k).copy_from(&(-&q));
+            rhs.view_mut((0, 0), (k, 1)).copy_from(&(-&q));
             let Ok(step) = lifted_linalg::lstsq(&aug, &rhs) else {
                 lambda *= 4.0;
                 continue;
             };
             let trial = &theta + step.column(0);
+            let predicted = q.norm_squared() - (&rj * step.column(0) + &q).norm_squared();
             runs_left -= 1;
-            // The trial's cost, with its factor when the last decrease
+            // The trial's cost, with its gradient when the last decrease
             // says a further iteration is likely; else the cost alone and
-            // the factor only when a further iteration needs it (the last
-            // accepted point's is never used). The same iterates either
-            // way: the cost is the same number, and a trial is accepted
-            // with its factor or, when no further iteration follows,
-            // without it.
+            // the gradient only when a further iteration needs it. The
+            // same iterates either way: the cost is the same number.
             let speculate = last_decrease > SPECULATE * tolerance;
             let evaluated = if speculate {
-                both_at(&trial)
+                gradient_at(&trial).map(|(c, g)| (c, Some(g)))
             } else {
                 cost_at(&trial).map(|c| (c, None))
             };
+            // Accepted with a further iteration to come: its step basis, the
+            // factor kept and the trial's gradient while the factor's
+            // quadratic model predicted the decrease to within
+            // [`MODEL_AGREEMENT`], else a factor folded at the trial.
             let accepted = match evaluated {
-                Some((ct, rt)) if ct < cost => {
+                Some((ct, gt)) if ct < cost => {
                     let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
                     let more = decrease > tolerance;
-                    if more && iterations < max_iterations {
-                        let rt = if speculate { rt } else { factor_at(&trial) };
-                        rt.map(|rt| (ct, Some(rt), more, decrease))
-                    } else {
+                    let agreement = (cost - ct) / predicted.max(f64::MIN_POSITIVE);
+                    let keep = (1.0 / MODEL_AGREEMENT..=MODEL_AGREEMENT).contains(&agreement);
+                    if !(more && iterations < max_iterations) {
                         Some((ct, None, more, decrease))
+                    } else if keep {
+                        let gt = if speculate {
+                            gt
+                        } else {
+                            gradient_at(&trial).map(|(_, g)| g)
+                        };
+                        gt.map(|gt| {
+                            let next = StepBasis {
+                                r: std::mem::take(&mut basis.r),
+                                gradient: gt,
+                                fresh: false,
+                            };
+                            (ct, Some(next), more, decrease)
+                        })
+                    } else {
+                        runs_left = runs_left.saturating_sub(1);
+                        factors += 1;
+                        factor_at(&trial).and_then(|(_, r)| {
+                            Some((ct, Some(StepBasis::folded(r?, params)), more, decrease))
+                        })
                     }
                 }
                 _ => None,
             };
             match accepted {
-                Some((ct, rt, more, decrease)) => {
+                Some((ct, next, more, decrease)) => {
                     (theta, cost) = (trial, ct);
-                    if let Some(rt) = rt {
-                        r = rt;
+                    if let Some(next) = next {
+                        basis = next;
                     }
                     lambda = (lambda / 3.0).max(1e-12);
                     improved = more;
                     last_decrease = decrease;
                     break;
+                }
+                // A step from a factor of an earlier iterate failed: the
+                // factor is folded at this one and the step tried again
+                // at the same damping.
+                None if !basis.fresh && runs_left > 0 => {
+                    runs_left -= 1;
+                    match factor_at(&theta) {
+                        Some((_, Some(r))) => {
+                            basis = StepBasis::folded(r, params);
+                            factors += 1;
+                        }
+                        _ => break,
+                    }
                 }
                 None => lambda *= 4.0,
             }
@@ -646,7 +782,7 @@ fn minimise(
     }
     let k = gain(&theta);
     let cost = prediction_cost(model, &k, sets, x0s)?;
-    Ok((k, cost, iterations))
+    Ok((k, cost, iterations, factors))
 }
 
 /// Where [`fold_rows`] sends its full blocks: an accumulator here, or the
@@ -1147,29 +1283,27 @@ mod tests {
         }
     }
 
-    /// The factor of [J | r] computed only at accepted trials that a
-    /// further iteration needs leaves every iterate as it was: the gains,
-    /// iterations and costs of the code that computed it at every trial
-    /// (commit 9fb6fc3, printed with `{:?}` on this record: the true-order
-    /// model and the over-fitted order-4 one, default stop and
-    /// `stop_share` 0), to 1e-12 (they were equal bit for bit on the
-    /// development machine).
+    /// The lazy factor (folded at the start and where a step from an
+    /// earlier iterate's factor fails, the gradient exact at every
+    /// iterate) reaches the optimum of the iterations that folded it at
+    /// every accepted trial (commit 9fb6fc3's gains, iterations and costs,
+    /// printed with `{:?}` on this record: the true-order model and the
+    /// over-fitted order-4 one, default stop and `stop_share` 0). Run to
+    /// convergence (`stop_share` 0) the costs agree to 1e-11 relative
+    /// (7e-14 and 1e-12 measured) and the true-order model's gain to 1e-5
+    /// (5.8e-7 measured; the over-fitted model's gain has flat directions
+    /// and is not compared entry by entry); under the default stop the
+    /// cost is within the stopping tolerance (√(2/N_e) times the share, of
+    /// the cost) of that optimum, and one factor sufficed for these
+    /// well-conditioned problems.
     #[test]
-    fn the_lazy_factor_gives_the_gains_of_before() {
+    fn the_lazy_factor_reaches_the_optimum_of_before() {
         let (g, _, u, y) = record(20_000, 5);
         let exps = [Experiment { u: &u, y: &y }];
         let four = over_fitted(&exps);
-        let before: [(usize, f64, &[f64]); 4] = [
-            (
-                1,
-                9.603151552225127e-2,
-                &[
-                    0.5057146188440217,
-                    0.00639449769740624,
-                    0.10698766412792649,
-                    0.41805372267645385,
-                ],
-            ),
+        // (iterations, cost, gain) at stop_share 0: the true-order model,
+        // then the over-fitted one.
+        let converged: [(usize, f64, &[f64]); 2] = [
             (
                 4,
                 9.603148856515918e-2,
@@ -1178,20 +1312,6 @@ mod tests {
                     0.006521340483264673,
                     0.10826321741700716,
                     0.4183806977194979,
-                ],
-            ),
-            (
-                2,
-                9.599734849013335e-2,
-                &[
-                    0.46823706946937405,
-                    0.16682534074018326,
-                    0.37826938836322366,
-                    0.1787916110417901,
-                    0.15342726381486724,
-                    -0.6927335201326394,
-                    0.03379898936218651,
-                    0.09988748799186688,
                 ],
             ),
             (
@@ -1212,7 +1332,8 @@ mod tests {
         let runs = [&g, &four.model]
             .into_iter()
             .flat_map(|m| [(m, 0.01), (m, 0.0)]);
-        for ((model, share), (iterations, cost, k)) in runs.zip(before) {
+        let optimum = [converged[0], converged[0], converged[1], converged[1]];
+        for (i, ((model, share), (_, cost, k))) in runs.zip(optimum).enumerate() {
             let opts = GainCheckOptions {
                 stop_share: share,
                 ..Default::default()
@@ -1220,10 +1341,23 @@ mod tests {
             let (got, report) =
                 check_kalman_gain_memo(model, None, &exps, 10, &opts, &mut VarxMemo::default());
             let got = got.expect("gain");
-            assert_eq!(report.iterations, iterations, "{report:?}");
-            assert_relative_eq!(report.final_cost.expect("cost"), cost, max_relative = 1e-12);
-            for (a, b) in got.iter().zip(k) {
-                assert!((a - b).abs() <= 1e-12, "{got} vs {k:?}");
+            let final_cost = report.final_cost.expect("cost");
+            assert_eq!(report.factors, 1, "{report:?}");
+            assert!(report.iterations > 0, "{report:?}");
+            if share == 0.0 {
+                assert_relative_eq!(final_cost, cost, max_relative = 1e-11);
+                if i == 1 {
+                    for (a, b) in got.iter().zip(k) {
+                        assert!((a - b).abs() <= 1e-5, "{got} vs {k:?}");
+                    }
+                }
+            } else {
+                let tolerance = opts.tolerance(2 * u.nrows());
+                assert!(final_cost >= cost * (1.0 - 1e-11), "{final_cost} {cost}");
+                assert!(
+                    final_cost <= cost * (1.0 + tolerance),
+                    "{final_cost} {cost} {tolerance}"
+                );
             }
         }
     }
