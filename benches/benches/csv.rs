@@ -151,7 +151,7 @@ fn reader(c: &mut Criterion) {
         })
     });
     // A consumer of ≈ 40 ns a row (12 × 4 dependent multiply-adds; about
-    // what the streamed compression costs per row at 1e6, benches/README.md):
+    // what the streamed compression costs per row at 1e6, benches/results/slicot.md):
     // how much of it the parallel reader overlaps.
     let consumer = |threads: Option<usize>| {
         let mut acc = [0.0f64; 4];

@@ -6,7 +6,7 @@
 //! (B, D)), the same with the QR compression (the accurate reference), the
 //! streamed route ((B, D) by the Γ⊥ projection) and the state-sequence
 //! route. Not a test: it prints a table (the figures are in
-//! benches/README.md).
+//! benches/results/peers-simulated.md).
 //!
 //! ```text
 //! cargo run --release -p lifted-benches --example consistency -- [seeds] [max_exponent]

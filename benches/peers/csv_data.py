@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Data files for the CSV / .npy reader figures of benches/README.md (no numpy needed).
+"""Data files for the CSV / .npy reader figures of benches/results/slicot.md (no numpy needed).
 
     python3 benches/peers/csv_data.py N OUT.csv [OUT.npy]
 

@@ -358,7 +358,7 @@ def main():
     ap.add_argument("--records", help="comma-separated subset of record names")
     ap.add_argument("--all-orders", type=int, metavar="K",
                     help="run every tool at every order 1..K instead of the manifest's orders "
-                         "(benches/README.md, 'Every order 1-10 beside the peers': K = 10)")
+                         "(benches/results/real-records.md, 'Every order 1-10 beside the peers': K = 10)")
     ap.add_argument("--lifted-timeout", type=int, default=120, help="seconds per lifted subspace run")
     ap.add_argument("--pem-timeout", type=int, default=120, help="seconds per lifted --refine pem run")
     ap.add_argument("--no-pem", action="store_true", help="skip the --refine pem variant")

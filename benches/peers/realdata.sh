@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Real-data benchmark (issue 26): lifted beside SIPPY (and Octave's control package
-# when installed) on DaISy records; see benches/README.md, "Real records beside SIPPY".
+# when installed) on DaISy records; see benches/results/real-records.md, "Real records beside SIPPY".
 # Not part of the test suite. Usage (from the repository root):
 #   LIFTED_CLI=/path/to/lifted benches/peers/realdata.sh [--json out.json] [--md out.md] [...]
 # Environment: LIFTED_CLI (default: $CARGO_TARGET_DIR/release/lifted, built here if

@@ -1,4 +1,4 @@
-"""The peers' own automatic orders (benches/README.md, "The peers' own automatic orders").
+"""The peers' own automatic orders (benches/results/real-records.md, "The peers' own automatic orders").
 Usage, from the repository root (the venv of realdata.sh; REALDATA_DIR as there):
   benches/peers/.venv-real/bin/python benches/peers/realdata_peer_auto.py benches/peers/realdata_records.json [s20_all.json]
 One JSON line per record: SIPPY's automatic orders (IC = AIC, orders 1-10, f = p = 20 or

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Simulation throughput of lifted-sim against scipy.signal.dlsim,
 # python-control forced_response, SLICOT TF01MD (slycot) and a numpy loop on
-# the closed loop of crates/sim/benches/sim.rs; see benches/README.md
+# the closed loop of crates/sim/benches/sim.rs; see benches/results/peers-simulated.md
 # ("Simulation throughput vs peers"). Not part of the test suite.
 # Usage (from anywhere):
 #   benches/peers/sim_run.sh [N ...] [--reps K] [--budget S] [--json FILE]

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # lifted vs SLICOT (IB01AD/IB01BD, built from source) vs SIPPY, interleaved runs;
-# see benches/README.md ("SLICOT, SIPPY and lifted side by side"). Not part of
+# see benches/results/slicot.md ("SLICOT, SIPPY and lifted side by side"). Not part of
 # the test suite. Usage (from anywhere):
 #   benches/peers/slicot.sh [N ...] [--runs 5] [--sippy-max N] [--json FILE] ...
 # (N defaults to 1e4 1e5 1e6; every option goes to benches/peers/compare.py,

@@ -4,7 +4,7 @@
 //! whole right operand on every call; for the short, wide products of the
 //! subspace estimates (4×80 coefficients times 80×160 rows of a factor)
 //! faer's kernels on zero-copy views take half the time (4.6 µs against
-//! 2.2 µs, measured 2026-11-26 on the AVX-512 machine of benches/README.md).
+//! 2.2 µs, measured 2026-11-26 on the AVX-512 machine of benches/results/slicot.md).
 
 use std::ops::Range;
 

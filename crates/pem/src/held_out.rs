@@ -78,7 +78,7 @@ impl RefinementCheck {
 /// records where it predicts the validation data worse (the steam
 /// generator at order 9: 73.9 → 44.3 % validation fit) and drops it where
 /// it predicts them better (the heating rig at order 2: 79.7 → 89.4 %);
-/// the held-out comparison ranks both right (`benches/README.md`,
+/// the held-out comparison ranks both right (`benches/results/real-records.md`,
 /// "Keeping the refinement by held-out fit").
 ///
 /// Cost: `blocks` subspace identifications and refinements of 5/6 of the

@@ -168,7 +168,7 @@ pub fn usable<'r>(est: &'r OwnedRecords, s: usize) -> Vec<Experiment<'r>> {
 /// predict. A part with m ≤ n is left out.
 ///
 /// On 192 simulated records (three plants of orders 2–4, 400 and 1000
-/// samples, white or low-pass output noise; `benches/README.md`) the
+/// samples, white or low-pass output noise; `benches/results/real-records.md`) the
 /// automatic order chosen with this factor came nearer the true order (mean
 /// 6.0 → 3.9) and the frequency-response error of the delivered model
 /// against the truth fell by 12 % (geometric mean; 85 records better, 32

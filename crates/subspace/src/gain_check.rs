@@ -5,7 +5,7 @@
 //! On real records that gain can make the one-step predictions worse than
 //! the simulation they should correct, on the very data it was estimated
 //! from (the CD-player arm: one-step fits 69.6 / 69.5 % where the
-//! simulation fits 77.7 / 85.8 %; `benches/README.md`, "A Kalman gain that
+//! simulation fits 77.7 / 85.8 %; `benches/results/real-records.md`, "A Kalman gain that
 //! predicts"): an observer or MPC built on it would track worse than no
 //! correction at all.
 //!

@@ -4,7 +4,7 @@
 //!
 //! The IV method's own rules are the singular-value gap of R₂₂ and the
 //! information criteria on the estimation records. On the records of
-//! `benches/README.md` (open loop, the inputs as instruments) the gap was
+//! `benches/results/real-records.md` (open loop, the inputs as instruments) the gap was
 //! within 2 points of validation fit of the best fixed order on few of
 //! them; the held-out fit judges each order by what its model predicts on
 //! data it was not fitted to, as for the other subspace routes.

@@ -5,7 +5,7 @@
 //! The singular-value gap of Γ̂K̂ L_P (step 3 of the PBSID module docs) is
 //! the method's own order rule, and it fails on real records the way it
 //! does for the other subspace methods: on the 14 DaISy records of
-//! `benches/README.md` and three held-out ones, PBSID-opt's gap chose order
+//! `benches/results/real-records.md` and three held-out ones, PBSID-opt's gap chose order
 //! 1 on 9 of 17 (robot arm: 0.3 % validation fit where order 6 gives 97.0;
 //! the heating rig 58.4 against 94.3 at order 9; the winding rig 27.1
 //! against 53.6) and was within 2 points of the best fixed order on 3.

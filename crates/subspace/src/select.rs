@@ -5,7 +5,7 @@
 //! The singular-value gap fails on real records (it picked order 1 on 9 of
 //! 14 DaISy records where the literature orders give 10–96 points more
 //! validation fit), and no single horizon or route is best on every record
-//! (`benches/README.md`, "Real records beside SIPPY"). Each candidate
+//! (`benches/results/real-records.md`, "Real records beside SIPPY"). Each candidate
 //! structure (horizon s = p = f, [`SystemEstimate`], order n) is therefore
 //! scored on held-out data. Records of up to
 //! [`StructureOptions::blocked_samples`] samples in all (default 20 000)
@@ -31,7 +31,7 @@
 //! smallest order, then the shortest horizon, within
 //! [`StructureOptions::tolerance`] points of the best score (parsimony).
 //!
-//! On the 14 real records of `benches/README.md` the blocked scheme moved
+//! On the 14 real records of `benches/results/real-records.md` the blocked scheme moved
 //! the automatic order from 9 to 10 records within 2 points of the best
 //! listed fixed order, and the default N4SID from 28 to 29 of 36 (record,
 //! order) pairs within a point of SIPPY's best subspace method; its cost

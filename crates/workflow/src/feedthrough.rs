@@ -7,7 +7,7 @@
 //! noise: a spurious zero far outside the unit circle, and a model MPC
 //! refuses (it needs no feedthrough from the manipulated inputs). MATLAB's
 //! `n4sid`/`ssest` and SIPPY fix D = 0 unless asked; on the real records of
-//! `benches/README.md` ("Feedthrough by default") that loses 66 of 139
+//! `benches/results/real-records.md` ("Feedthrough by default") that loses 66 of 139
 //! (record, order, method) cells by more than a point (the thermal wall
 //! 19–28 points, the heat exchanger 17, the glass furnace 7.5, the robot
 //! arm 6–12) and gains 23; the rule below moves 4 up and 4 down (131

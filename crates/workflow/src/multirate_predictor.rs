@@ -43,7 +43,7 @@
 //! of issue 46 (periods 3 and 5) with white measurement noise at the true
 //! order 4: over three seeds the RMS pole error was 0.0059 / 0.0032 /
 //! 0.0019 and the FR error 0.010 / 0.0033 / 0.0018 at 1.5e4 / 6e4 / 2.4e5
-//! samples, still falling about as 1/√N (`benches/README.md`, "Multirate
+//! samples, still falling about as 1/√N (`benches/results/closed-loop.md`, "Multirate
 //! closed loop without an instrument").
 //!
 //! **Starts.** The iterations need a start in the optimum's basin, not a
@@ -300,7 +300,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
 /// whole records' optimum the iterations on the whole converge in a few
 /// steps, within the work bound (at 1e6 samples the default bound 2e10
 /// otherwise stopped them before convergence). 40 000 samples: where the
-/// SISO loop's FR error had settled to 0.01 (`benches/README.md`,
+/// SISO loop's FR error had settled to 0.01 (`benches/results/closed-loop.md`,
 /// "Multirate closed loop without an instrument").
 pub const WARM_SAMPLES: usize = 40_000;
 

@@ -49,7 +49,7 @@
 //! interpolated record's, and the kept model's (A, C) with (B, D) refitted
 //! on the measured samples), kept by the Bayesian information criterion
 //! on the measured samples as `crate::feedthrough` keeps D on single-rate
-//! records (`benches/README.md`, "Multirate routes on real records
+//! records (`benches/results/closed-loop.md`, "Multirate routes on real records
 //! thinned as an analyser delivers them"). Applied to N4SID / MOESP / CVA records of inputs
 //! held one sample, up to [`MULTIRATE_START_SAMPLES`] samples, without
 //! `--stable`. Cost: one single-rate identification and a second

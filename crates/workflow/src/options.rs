@@ -431,7 +431,7 @@ pub enum Refine {
 /// Work (floating-point operations of the work bound's cost model) up to
 /// which [`Refine::Auto`] refines: 4e9, about one second on one core of
 /// the benchmark machine (≈ 4e9 such operations per second were measured).
-/// By `benches/examples/pem_cost.rs` (table in `benches/README.md`, "PEM
+/// By `benches/examples/pem_cost.rs` (table in `benches/results/pem.md`, "PEM
 /// against the subspace step") this refines 2×2 models of order 4 up to
 /// N ≈ 1e5 and 3×2 models of order 6 up to a few 1e4 samples, and skips the
 /// long records, where the refinement costs seconds and the subspace
@@ -478,9 +478,9 @@ pub const GAIN_CHECK_SAMPLES: usize = 200_000;
 /// held-out check to decide (`lifted_pem::RefinementCheck::verdict`):
 /// 3. Closer calls keep the subspace model (they used to be left to the
 /// simulation error on the records, which favours the refinement fitted to
-/// them: benches/README.md, "The refinement kept only on held-out
+/// them: benches/results/real-records.md, "The refinement kept only on held-out
 /// evidence"). When the margin was chosen, on the
-/// real records of `benches/README.md` ("Keeping the refinement by
+/// real records of `benches/results/real-records.md` ("Keeping the refinement by
 /// held-out fit", N4SID at 50 (record, order) runs) the held-out means of
 /// the two differed by less than 1 point on most runs, and deciding those
 /// by the held-out sign moved the validation fits both ways by up to 15

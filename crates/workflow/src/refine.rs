@@ -455,7 +455,7 @@ fn refine_judged_on_blocks(
         // both) give no evidence that the refinement simulates better on
         // data it was not fitted to: the subspace model stays. (The
         // records, on which the refinement was fitted, favour it; on the
-        // real records of benches/README.md, "The refinement kept only on
+        // real records of benches/results/real-records.md, "The refinement kept only on
         // held-out evidence", deciding these on the records lost up to 56
         // points of validation fit and gained at most 11.)
         Ok(c) => {

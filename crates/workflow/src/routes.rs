@@ -868,7 +868,7 @@ fn select(
 /// information criterion is meant for records this short, where the
 /// singular-value gap picked order 1 on the 100-sample power-plant half
 /// (−186 % validation fit; AICc picks 3, −119 %, the best of the orders
-/// 3/5/8 listed in `benches/README.md`). An automatic search above the
+/// 3/5/8 listed in `benches/results/real-records.md`). An automatic search above the
 /// largest order AICc can count parameters for is capped there; when AICc
 /// fails altogether the singular-value gap decides.
 ///

@@ -6,7 +6,7 @@
 //! *subspace* models, but on a short record the workflow then refines the
 //! chosen model and keeps the refinement when it does better on held-out
 //! blocks ([`crate::refine`]). The order that is best before the refinement
-//! need not be best after it: on the heating rig of `benches/README.md`
+//! need not be best after it: on the heating rig of `benches/results/real-records.md`
 //! (400 estimation samples) the selection's order 7 scores 82.6 % on the
 //! validation half, while the refined orders 2 and 5 score 89.4 and 88.7 %.
 //!

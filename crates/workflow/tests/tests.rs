@@ -1681,7 +1681,7 @@ fn a_multirate_automatic_order_is_chosen_on_held_out_data_and_stable() {
 /// MOESP's projections weight the outputs by their units; before the
 /// workflow scaled the channels a 3×3 record logged in units 1e-7 … 1e6
 /// apart got another order and validation fits of 19/1/47 % instead of
-/// 48/58/41 % (benches/README, session 17).
+/// 48/58/41 % (benches/results/real-records.md, session 17).
 #[test]
 fn the_model_does_not_depend_on_the_channels_units() {
     let (u, y) = record(2000, 0.05, 21);
@@ -1838,7 +1838,7 @@ fn the_predictor_based_routes_choose_their_order_on_held_out_blocks() {
     // The singular-value gap, PBSID's own rule, chose order 1 here
     // (simulation fit 75.1 % on a fresh record); the held-out fit chooses
     // order 3 (95.7 %), as on real records where the gap chose order 1 on
-    // 9 of 17 (benches/README.md). (SSARX's gap finds 3 on this record.)
+    // 9 of 17 (benches/results/real-records.md). (SSARX's gap finds 3 on this record.)
     // Row-wise PBSID (whose Python route took the gap before it became a
     // workflow method) likewise.
     let (u, y) = distributed_record(2000, 3);
@@ -2836,7 +2836,7 @@ fn a_double_integrator_under_position_control_keeps_its_poles() {
 /// refinement was not kept, the estimates were inside the circle); a model
 /// with its double pole pulled to ρ ≈ 0.9 (the zero-padded start) stops
 /// integrating after about ten samples (2.2 % on the EMPS drive record,
-/// benches/README.md). The truth fits these records to their noise.
+/// benches/results/closed-loop.md). The truth fits these records to their noise.
 const HELD_OUT_FIT: f64 = 60.0;
 
 /// Largest distance of a model's poles from z = 1.

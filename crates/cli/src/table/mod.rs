@@ -14,7 +14,7 @@
 //! numbers and `csv-core` for anything else (see [`scan_rows`]); on a
 //! large file it parses blocks of whole lines on several threads and
 //! delivers the rows in file order on the calling thread. Its throughput is
-//! measured by `benches/benches/csv.rs` (benches/README.md).
+//! measured by `benches/benches/csv.rs` (benches/results/slicot.md).
 //!
 //! One file per reader: `fast` (the fast CSV path), `csv_records` (the
 //! csv-crate path: `csv-core` records, cell checks, the header row),
