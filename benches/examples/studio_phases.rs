@@ -4,9 +4,10 @@
 //! refinement, as the studio asks), each order identified once on a
 //! kept compression, then the studio's whole answer
 //! (`Session::identify`, identification, validation and figures) for
-//! orders not seen. Medians of `rounds` passes.
+//! orders not seen (overall and by order). Medians of `rounds` passes.
 //!
 //! `cargo run --release -p lifted-benches --example studio_phases -- [rounds] [csv]`
+//! (`LIFTED_ORDERS=8,7`: visit these orders instead of 3, 5, 6, 7, 8, 2)
 //! (`csv`: where to write the record, for `lifted identify --profile`).
 
 use std::collections::BTreeMap;
@@ -60,7 +61,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         u.clone(),
         y.clone(),
     )?)];
-    let orders = [3usize, 5, 6, 7, 8, 2];
+    // The orders visited, in turn (`LIFTED_ORDERS=8,7` to look at some).
+    let orders: Vec<usize> = match std::env::var("LIFTED_ORDERS") {
+        Ok(list) => list
+            .split(',')
+            .map(|k| k.trim().parse())
+            .collect::<Result<_, _>>()?,
+        Err(_) => vec![3, 5, 6, 7, 8, 2],
+    };
     let opts = |order: usize| {
         let mut o = WorkflowOptions::default();
         o.identification.method = Method::N4sid;
@@ -137,13 +145,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         std::fs::write(path, &text)?;
     }
     let mut server = Vec::new();
+    let mut by_order: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
     let c0 = cpu_seconds();
     for _ in 0..rounds {
         for &k in &orders {
             session.forget_identifications();
             let t = Instant::now();
             session.identify(&request(k))?;
-            server.push(t.elapsed().as_secs_f64());
+            let took = t.elapsed().as_secs_f64();
+            server.push(took);
+            by_order.entry(k).or_default().push(took);
         }
     }
     let studio_cpu = (cpu_seconds() - c0) / server.len() as f64;
@@ -164,6 +175,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         server.len(),
         1e3 * studio_cpu,
         1e3 * median(&mut seen)
+    );
+    let per_order: Vec<String> = by_order
+        .iter_mut()
+        .map(|(k, v)| format!("{k}: {:.1}", 1e3 * median(v)))
+        .collect();
+    println!(
+        "studio answer by order not seen, median ms: {}",
+        per_order.join(", ")
     );
     session.close();
     Ok(())

@@ -341,8 +341,10 @@ fn check_by(
         }
     };
     let zero = DMatrix::zeros(n, ny);
-    let cost_of =
-        |k: Option<&DMatrix<f64>>| k.and_then(|k| prediction_cost(model, k, sets, &x0s).ok());
+    let spread = output_spread(sets, ny);
+    let cost_of = |k: Option<&DMatrix<f64>>| {
+        k.and_then(|k| prediction_cost(model, k, sets, &x0s, &spread).ok())
+    };
     let regress = |memo: &mut VarxMemo| {
         if missing {
             Err("the records have output samples not measured".to_string())
@@ -408,7 +410,7 @@ fn check_by(
         Sensitivities::Rows
     });
     let limits = (tolerance, opts.max_iterations);
-    match minimise(model, &start, sets, &x0s, limits, route) {
+    match minimise(model, &start, sets, &x0s, &spread, limits, route) {
         Ok((k, cost, iterations, factors)) if cost < start_cost => {
             report.used = format!("prediction-error minimisation over K from {}", starts[i].0);
             report.final_cost = Some(cost);
@@ -549,6 +551,7 @@ impl StepBasis {
 /// run, with both cores). Every trial is accepted only on a lower cost on
 /// the records, as before.
 ///
+/// `spread`: [`output_spread`] of `sets` (the outputs' weights);
 /// `limits`: the relative decrease below which it stops and the largest
 /// number of iterations; `route`: how the sensitivities are computed
 /// ([`Sensitivities`]). Returns the gain, its cost ([`prediction_cost`]),
@@ -560,6 +563,7 @@ fn minimise(
     start: &DMatrix<f64>,
     sets: &[Experiment<'_>],
     x0s: &[DVector<f64>],
+    spread: &[f64],
     limits: (f64, usize),
     route: Sensitivities,
 ) -> Result<(DMatrix<f64>, f64, usize, usize), String> {
@@ -579,7 +583,6 @@ fn minimise(
     }
     // Per-output weights 1/‖y_o − ȳ_o‖ over all records (the cost of
     // prediction_cost without its division by n_y).
-    let spread = output_spread(sets, ny);
     let w: Vec<f64> = spread
         .iter()
         .map(|s| if *s > 0.0 { 1.0 / s.sqrt() } else { 0.0 })
@@ -781,7 +784,7 @@ fn minimise(
         }
     }
     let k = gain(&theta);
-    let cost = prediction_cost(model, &k, sets, x0s)?;
+    let cost = prediction_cost(model, &k, sets, x0s, spread)?;
     Ok((k, cost, iterations, factors))
 }
 
@@ -1091,13 +1094,15 @@ fn simulation_states(
 /// The one-step prediction error of gain `k` on `sets`, the predictor
 /// started from `x0s` (one state per record): per output, the squared
 /// error over the records divided by the output's squared deviation from
-/// its mean, averaged over the outputs. `Err` when A − K C is not stable
-/// (no predictor) or the prediction fails.
+/// its mean ([`output_spread`] of `sets`: `spread`), averaged over the
+/// outputs. `Err` when A − K C is not stable (no predictor) or the
+/// prediction fails.
 fn prediction_cost(
     model: &StateSpace,
     k: &DMatrix<f64>,
     sets: &[Experiment<'_>],
     x0s: &[DVector<f64>],
+    spread: &[f64],
 ) -> Result<f64, String> {
     let ny = model.n_outputs();
     let m = model.a() - k * model.c();
@@ -1110,10 +1115,9 @@ fn prediction_cost(
     for (d, x0) in sets.iter().zip(x0s) {
         predictor.add_squared_errors(d.u, d.y, x0, &mut err);
     }
-    let spread = output_spread(sets, ny);
     let cost = err
         .iter()
-        .zip(&spread)
+        .zip(spread)
         .map(|(e, s)| if *s > 0.0 { e / s } else { 0.0 })
         .sum::<f64>()
         / ny as f64;
@@ -1426,7 +1430,8 @@ mod tests {
         );
         assert!(last < 0.95 * zero, "{report:?}");
         let x0s = simulation_states(&g, &exps).expect("x0");
-        let truth = prediction_cost(&g, &k_true, &exps, &x0s).expect("true K");
+        let truth =
+            prediction_cost(&g, &k_true, &exps, &x0s, &output_spread(&exps, 2)).expect("true K");
         assert!(last <= truth * 1.001, "{last} vs {truth}");
         y[(9, 0)] = f64::INFINITY;
         let exps = [Experiment { u: &u, y: &y }];
