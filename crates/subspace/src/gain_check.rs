@@ -41,13 +41,16 @@
 //! stays within [`VARX_WORK`]), the regression O(N n_y (n_y n³ + q²)), the
 //! starts' predictor runs O(N n²) and at most
 //! [`GainCheckOptions::max_iterations`]
-//! Levenberg–Marquardt iterations of O(N n_y (n² n_y + P)) for P = n n_y
-//! on records with every output measured (the exact gradient from the
-//! sensitivities' rows by their own recursion,
-//! `one_step::Sensitivities::Rows`), O(N n_y n² P) on records with
-//! outputs not measured, plus O(N n_y P²) for each R factor of [J | r]
-//! folded (at the start, and again only where a step from an earlier
-//! iterate's factor fails: [`GainCheck::factors`]). Memory O(P² + N n_y).
+//! Levenberg–Marquardt iterations of O(N (n² + n n_y + n n_u)): a run of
+//! the predictor for the trial's cost and, when it is accepted, the exact
+//! gradient by the adjoint recursion backwards over that run's errors
+//! (`one_step::OneStep::add_adjoint_gradient`); plus, for each R factor of
+//! [J | r] folded (at the start, and again only where the factor's model
+//! of the cost mispredicts a step: [`GainCheck::factors`]), the forward
+//! sensitivities O(N n² n_y²) (their rows' own recursion,
+//! `one_step::Sensitivities::Rows`; O(N n² P) for P = n n_y on records
+//! with outputs not measured) and the fold O(N n_y P²). Memory
+//! O(P² + N n_y).
 
 use lifted_lti::StateSpace;
 
@@ -447,15 +450,6 @@ const RULE: &str = "one-step prediction error on the records (normalised squared
 /// more than it saves).
 const PARALLEL_SAMPLES: usize = 20_000;
 
-/// [`minimise`] computes a trial's gradient with its cost (one run of the
-/// predictor with its sensitivities) when the last accepted iteration
-/// lowered the cost by more than this many times the stopping tolerance
-/// (the iterations of this large-residual problem converge linearly at
-/// ratios 0.6–0.7: the next trial will then most likely be accepted and
-/// need its gradient); else its cost alone first. Speed only: the iterates
-/// are the same either way.
-const SPECULATE: f64 = 2.0;
-
 /// Rows of [J | r] folded into the R factor at a time.
 const BLOCK_ROWS: usize = 2048;
 
@@ -539,25 +533,27 @@ impl StepBasis {
 ///
 /// The factor is lazy (Jacobian reuse, the idea of the chord and
 /// Shamanskii variants of Newton's method; Kelley, *Iterative Methods for
-/// Linear and Nonlinear Equations*, 1995): it is folded at
-/// the start and again only where a step taken with a factor of an earlier
-/// iterate fails; every iterate gets its exact gradient Jᵀ r from a run of
-/// the predictor with its sensitivities alone, and q̃ solves R_Jᵀ q̃ = Jᵀ r
-/// (so the step is (R_Jᵀ R_J + λ D²) δ = −Jᵀ r with the Gauss–Newton
-/// matrix of the factor's point: a descent direction at any λ). Near the
-/// optimum J changes little, so the steps are those of Gauss–Newton at a
-/// fraction of the cost: a gradient run is O(N n_y (n² n_y + P)), a fold
-/// O(N n_y P²) more (at order 8 with two outputs about 2.5× the gradient
-/// run, with both cores). Every trial is accepted only on a lower cost on
-/// the records, as before.
+/// Linear and Nonlinear Equations*, 1995): it is folded at the start and
+/// again only where the factor's quadratic model mispredicts a step's
+/// decrease ([`MODEL_AGREEMENT`]) or a step taken with a factor of an
+/// earlier iterate fails. Every iterate gets its exact gradient Jᵀ r by
+/// the adjoint recursion backwards over the errors of the run that gave
+/// its cost (`OneStep::add_adjoint_gradient`, O(N (n² + n n_y))), and q̃
+/// solves R_Jᵀ q̃ = Jᵀ r (so the step is (R_Jᵀ R_J + λ D²) δ = −Jᵀ r with
+/// the Gauss–Newton matrix of the factor's point: a descent direction at
+/// any λ). Near the optimum J changes little, so the steps are those of
+/// Gauss–Newton at a fraction of the cost: the forward sensitivities and
+/// the fold of a factor cost O(N n_y (n² n_y + P²)), several times a run
+/// with its adjoint. Every trial is accepted only on a lower cost on the
+/// records, as before.
 ///
 /// `spread`: [`output_spread`] of `sets` (the outputs' weights);
 /// `limits`: the relative decrease below which it stops and the largest
-/// number of iterations; `route`: how the sensitivities are computed
-/// ([`Sensitivities`]). Returns the gain, its cost ([`prediction_cost`]),
-/// the iterations taken and the factors folded. O(N (n² n_y² + P n_y))
-/// per iteration for P = n n_y parameters on records with every output
-/// measured (O(N n² P) on others), plus O(N n_y P²) per factor.
+/// number of iterations; `route`: how a factor's sensitivities are
+/// computed ([`Sensitivities`]). Returns the gain, its cost
+/// ([`prediction_cost`]), the iterations taken and the factors folded.
+/// O(N (n² + n n_y + n n_u)) per iteration, plus O(N n_y (n² n_y + P²))
+/// per factor (O(N n_y (n² P + P²)) on records with outputs not measured).
 fn minimise(
     model: &StateSpace,
     start: &DMatrix<f64>,
@@ -597,39 +593,40 @@ fn minimise(
         (rho < 1.0).then(|| OneStep::new(model, &k, &m))
     };
     // ‖r‖² at θ (the rows' squares summed in the order every run below
-    // visits them, so the same number bit for bit); None when A − K C is
-    // not stable or the cost is not finite.
-    let cost_at = |theta: &DVector<f64>| -> Option<f64> {
+    // visits them, so the same number bit for bit) with the run's errors
+    // (one row-major block a record, for the adjoint gradient) and its
+    // predictor; None when A − K C is not stable or the cost is not
+    // finite.
+    let run_at = |theta: &DVector<f64>| -> Option<(f64, Vec<Vec<f64>>, OneStep)> {
         let predictor = predictor(theta)?;
         let mut cost = 0.0;
+        let mut errors = Vec::with_capacity(sets.len());
         for (data, x0) in sets.iter().zip(x0s) {
+            let mut record = Vec::with_capacity(data.y.len());
             predictor.with_errors(data.u, data.y, x0, |eps| {
                 for (o, e) in eps.iter().enumerate() {
                     let r = w[o] * e;
                     cost += r * r;
                 }
+                record.extend_from_slice(eps);
             });
+            errors.push(record);
         }
-        cost.is_finite().then_some(cost)
+        cost.is_finite().then_some((cost, errors, predictor))
     };
-    // ‖r‖² and the gradient Jᵀ r at θ from one run of the predictor with
-    // its sensitivities, no factor (J's rows −w_o C S(t)); None when
-    // A − K C is not stable or either is not finite.
-    let gradient_at = |theta: &DVector<f64>| -> Option<(f64, DVector<f64>)> {
-        let predictor = predictor(theta)?;
-        let mut cost = 0.0;
-        let mut gradient: DVector<f64> = DVector::zeros(params);
-        for (data, x0) in sets.iter().zip(x0s) {
-            predictor.with_sensitivities(route, data.u, data.y, x0, |o, cs, eps| {
-                let r = w[o] * eps;
-                let wr = w[o] * r;
-                for (g, v) in gradient.iter_mut().zip(cs) {
-                    *g -= wr * v;
-                }
-                cost += r * r;
-            });
+    // The gradient Jᵀ r of a run by the adjoint recursion over its errors
+    // (`OneStep::add_adjoint_gradient`: one n-state recursion backwards,
+    // no sensitivities); None when it is not finite.
+    let w2: Vec<f64> = w.iter().map(|v| v * v).collect();
+    let gradient_of = |errors: &[Vec<f64>], predictor: &OneStep| -> Option<DVector<f64>> {
+        let mut gradient = vec![0.0; params];
+        for (data, eps) in sets.iter().zip(errors) {
+            predictor.add_adjoint_gradient(data.y, eps, &w2, &mut gradient);
         }
-        (cost.is_finite() && gradient.iter().all(|g| g.is_finite())).then_some((cost, gradient))
+        gradient
+            .iter()
+            .all(|g| g.is_finite())
+            .then(|| DVector::from_vec(gradient))
     };
     // The cost and the R factor of [J | r] at θ from one run (the factor
     // `None` when its rows are not finite); None when A − K C is not
@@ -666,10 +663,6 @@ fn minimise(
     runs_left -= 1;
     let mut lambda: f64 = 1e-3;
     let mut iterations = 0;
-    // The last accepted iteration's relative decrease: well above the
-    // tolerance, the next accepted trial will most likely need its
-    // gradient too, which the run that gives its cost then makes at once.
-    let mut last_decrease = f64::INFINITY;
     while iterations < max_iterations {
         iterations += 1;
         let mut improved = false;
@@ -706,61 +699,46 @@ fn minimise(
             let trial = &theta + step.column(0);
             let predicted = q.norm_squared() - (&rj * step.column(0) + &q).norm_squared();
             runs_left -= 1;
-            // The trial's cost, with its gradient when the last decrease
-            // says a further iteration is likely; else the cost alone and
-            // the gradient only when a further iteration needs it. The
-            // same iterates either way: the cost is the same number.
-            let speculate = last_decrease > SPECULATE * tolerance;
-            let evaluated = if speculate {
-                gradient_at(&trial).map(|(c, g)| (c, Some(g)))
-            } else {
-                cost_at(&trial).map(|c| (c, None))
-            };
+            let evaluated = run_at(&trial);
             // Accepted with a further iteration to come: its step basis, the
             // factor kept and the trial's gradient while the factor's
             // quadratic model predicted the decrease to within
             // [`MODEL_AGREEMENT`], else a factor folded at the trial.
             let accepted = match evaluated {
-                Some((ct, gt)) if ct < cost => {
+                Some((ct, errors, run)) if ct < cost => {
                     let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
                     let more = decrease > tolerance;
                     let agreement = (cost - ct) / predicted.max(f64::MIN_POSITIVE);
                     let keep = (1.0 / MODEL_AGREEMENT..=MODEL_AGREEMENT).contains(&agreement);
                     if !(more && iterations < max_iterations) {
-                        Some((ct, None, more, decrease))
+                        Some((ct, None, more))
                     } else if keep {
-                        let gt = if speculate {
-                            gt
-                        } else {
-                            gradient_at(&trial).map(|(_, g)| g)
-                        };
-                        gt.map(|gt| {
+                        gradient_of(&errors, &run).map(|gt| {
                             let next = StepBasis {
                                 r: std::mem::take(&mut basis.r),
                                 gradient: gt,
                                 fresh: false,
                             };
-                            (ct, Some(next), more, decrease)
+                            (ct, Some(next), more)
                         })
                     } else {
                         runs_left = runs_left.saturating_sub(1);
                         factors += 1;
                         factor_at(&trial).and_then(|(_, r)| {
-                            Some((ct, Some(StepBasis::folded(r?, params)), more, decrease))
+                            Some((ct, Some(StepBasis::folded(r?, params)), more))
                         })
                     }
                 }
                 _ => None,
             };
             match accepted {
-                Some((ct, next, more, decrease)) => {
+                Some((ct, next, more)) => {
                     (theta, cost) = (trial, ct);
                     if let Some(next) = next {
                         basis = next;
                     }
                     lambda = (lambda / 3.0).max(1e-12);
                     improved = more;
-                    last_decrease = decrease;
                     break;
                 }
                 // A step from a factor of an earlier iterate failed: the
