@@ -663,6 +663,8 @@ fn minimise(
     runs_left -= 1;
     let mut lambda: f64 = 1e-3;
     let mut iterations = 0;
+    // The errors of the last accepted trial's run.
+    let mut last_errors: Option<Vec<Vec<f64>>> = None;
     while iterations < max_iterations {
         iterations += 1;
         let mut improved = false;
@@ -710,30 +712,30 @@ fn minimise(
                     let more = decrease > tolerance;
                     let agreement = (cost - ct) / predicted.max(f64::MIN_POSITIVE);
                     let keep = (1.0 / MODEL_AGREEMENT..=MODEL_AGREEMENT).contains(&agreement);
-                    if !(more && iterations < max_iterations) {
-                        Some((ct, None, more))
+                    let next = if !(more && iterations < max_iterations) {
+                        Some(None)
                     } else if keep {
                         gradient_of(&errors, &run).map(|gt| {
-                            let next = StepBasis {
+                            Some(StepBasis {
                                 r: std::mem::take(&mut basis.r),
                                 gradient: gt,
                                 fresh: false,
-                            };
-                            (ct, Some(next), more)
+                            })
                         })
                     } else {
                         runs_left = runs_left.saturating_sub(1);
                         factors += 1;
-                        factor_at(&trial).and_then(|(_, r)| {
-                            Some((ct, Some(StepBasis::folded(r?, params)), more))
-                        })
-                    }
+                        factor_at(&trial)
+                            .and_then(|(_, r)| Some(Some(StepBasis::folded(r?, params))))
+                    };
+                    next.map(|next| (ct, next, more, errors))
                 }
                 _ => None,
             };
             match accepted {
-                Some((ct, next, more)) => {
+                Some((ct, next, more, errors)) => {
                     (theta, cost) = (trial, ct);
+                    last_errors = Some(errors);
                     if let Some(next) = next {
                         basis = next;
                     }
@@ -762,7 +764,23 @@ fn minimise(
         }
     }
     let k = gain(&theta);
-    let cost = prediction_cost(model, &k, sets, x0s, spread)?;
+    // The gain's cost from the errors of the run that accepted it (the
+    // same number as `prediction_cost`'s: the squares summed in the same
+    // order), else by a run.
+    let cost = match last_errors {
+        Some(errors) => {
+            let mut err = vec![0.0; ny];
+            for record in &errors {
+                for eps in record.chunks_exact(ny) {
+                    for (e, v) in err.iter_mut().zip(eps) {
+                        *e += v * v;
+                    }
+                }
+            }
+            normalised_cost(&err, spread)?
+        }
+        None => prediction_cost(model, &k, sets, x0s, spread)?,
+    };
     Ok((k, cost, iterations, factors))
 }
 
@@ -1093,12 +1111,18 @@ fn prediction_cost(
     for (d, x0) in sets.iter().zip(x0s) {
         predictor.add_squared_errors(d.u, d.y, x0, &mut err);
     }
+    normalised_cost(&err, spread)
+}
+
+/// [`prediction_cost`] from the outputs' summed squared errors `err`:
+/// each divided by its [`output_spread`], averaged over the outputs.
+fn normalised_cost(err: &[f64], spread: &[f64]) -> Result<f64, String> {
     let cost = err
         .iter()
         .zip(spread)
         .map(|(e, s)| if *s > 0.0 { e / s } else { 0.0 })
         .sum::<f64>()
-        / ny as f64;
+        / err.len().max(1) as f64;
     if cost.is_finite() {
         Ok(cost)
     } else {
@@ -1324,6 +1348,12 @@ mod tests {
                 check_kalman_gain_memo(model, None, &exps, 10, &opts, &mut VarxMemo::default());
             let got = got.expect("gain");
             let final_cost = report.final_cost.expect("cost");
+            // (The cost reported is the one a run of the kept gain gives,
+            // bit for bit, though it comes from the accepting run's errors.)
+            let x0s = simulation_states(model, &exps).expect("x0");
+            let spread = output_spread(&exps, 2);
+            let run = prediction_cost(model, &got, &exps, &x0s, &spread).expect("cost");
+            assert_eq!(final_cost.to_bits(), run.to_bits());
             assert_eq!(report.factors, 1, "{report:?}");
             assert!(report.iterations > 0, "{report:?}");
             if share == 0.0 {
