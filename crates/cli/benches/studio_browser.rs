@@ -13,7 +13,8 @@
 //!
 //! Run: `cargo bench -p lifted-cli --bench studio_browser` (needs Debian's
 //! `chromium` and `chromium-driver`, or `LIFTED_CHROMIUM` /
-//! `LIFTED_CHROMEDRIVER`; without them it says so and exits).
+//! `LIFTED_CHROMEDRIVER`; without them it says so and exits;
+//! `LIFTED_BENCH_RECORD=path` also writes the record there).
 
 use std::time::{Duration, Instant};
 
@@ -114,7 +115,13 @@ fn main() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch directory");
     let rec = dir.join("rec.csv");
-    std::fs::write(&rec, record()).expect("record written");
+    let text = record();
+    std::fs::write(&rec, &text).expect("record written");
+    // (`LIFTED_BENCH_RECORD=path` keeps a copy of the record, for
+    // `lifted identify --profile` on it.)
+    if let Ok(copy) = std::env::var("LIFTED_BENCH_RECORD") {
+        std::fs::write(copy, &text).expect("record copy written");
+    }
     let (_studio, url) = browser::start_studio(&dir);
     let (_driver, port) = browser::start_driver(&driver);
     let rt = tokio::runtime::Builder::new_current_thread()
