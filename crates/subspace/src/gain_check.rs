@@ -709,9 +709,13 @@ fn minimise(
             let accepted = match evaluated {
                 Some((ct, errors, run)) if ct < cost => {
                     let decrease = (cost - ct) / cost.max(f64::MIN_POSITIVE);
-                    let more = decrease > tolerance;
                     let agreement = (cost - ct) / predicted.max(f64::MIN_POSITIVE);
                     let keep = (1.0 / MODEL_AGREEMENT..=MODEL_AGREEMENT).contains(&agreement);
+                    // A small decrease ends the iterations only from a
+                    // factor that is fresh or whose model predicted it: a
+                    // stale factor that mispredicts can make short steps
+                    // far from the optimum (it is folded anew instead).
+                    let more = decrease > tolerance || !(basis.fresh || keep);
                     let next = if !(more && iterations < max_iterations) {
                         Some(None)
                     } else if keep {
