@@ -25,6 +25,12 @@ pub struct ResourceArgs {
     pub memory_limit: Option<u64>,
 }
 
+/// `--refine-check`: `margin:P` or `t:C` (`lifted_pem::CheckRule`'s
+/// `FromStr`).
+fn parse_refine_check(s: &str) -> Result<lifted_pem::CheckRule, String> {
+    s.parse().map_err(|e: lifted_pem::Error| e.to_string())
+}
+
 /// `--memory-limit`: bytes with an optional binary (K, M, G, T, KiB…TiB) or
 /// decimal (kB, MB, GB, TB) suffix; positive, at most 2^64 − 1 bytes.
 pub fn parse_memory_limit(text: &str) -> Result<u64, String> {
@@ -661,8 +667,8 @@ pub struct IdentifyArgs {
     /// Refine the identified model by Levenberg–Marquardt on the prediction error (`pem`) or
     /// the simulation error (`oe`); multirate records use their measured samples only. The
     /// refined model is kept only if its simulation fit is at least as good: on six held-out
-    /// blocks when they tell the two apart by more than 3 points (single-rate N4SID/MOESP/CVA records of up
-    /// to 2e4 samples; when they do not, the subspace model stays), else on the record, and
+    /// blocks when they tell the two apart (`--refine-check`; single-rate N4SID/MOESP/CVA records
+    /// of up to 2e4 samples; when they do not, the subspace model stays), else on the record, and
     /// never when it simulates the record worse than its start; `diagnostics.refinement_judge`
     /// says which.
     /// Default `auto`: the prediction error where it pays (see `auto`), `none` to skip it.
@@ -676,6 +682,13 @@ pub struct IdentifyArgs {
     /// then carries a warning; raise it to let the iterations finish.
     #[arg(long, default_value_t = 2e10)]
     pub refine_max_work: f64,
+    /// How the six held-out blocks tell the refinement and the subspace model apart:
+    /// `margin:P` (the default, `margin:3`: mean held-out fits more than P points apart) or
+    /// `t:C` (a paired t-test of the per-block differences at two-sided confidence C, e.g.
+    /// `t:0.95`: the threshold from the blocks' own spread); either way the median block must
+    /// agree. Recorded in `diagnostics.refinement_judge.rule`.
+    #[arg(long, value_parser = parse_refine_check, default_value = "margin:3")]
+    pub refine_check: lifted_pem::CheckRule,
     /// The Kalman-gain check (single-rate subspace and IV models) stops its iterations over K
     /// when one lowers the one-step cost by less than this share of the cost's sampling spread
     /// √(2/N) (default 0.01; 0: run to 30 iterations or a decrease below 1e-9; recorded in

@@ -108,6 +108,7 @@ pub use operating_point::OperatingPoint;
 pub use poly::{Poly, cancel_common_roots};
 pub use polymodel::{
     FreqStd, POLY_TRIM_TOL, PolyFamily, PolyModel, PolyOrders, Polynomials, normal_quantile,
+    student_t_quantile,
 };
 pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;

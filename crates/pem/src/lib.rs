@@ -87,7 +87,7 @@ pub use arx::{
 };
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
-pub use held_out::{RefinementCheck, cross_validate_refinement};
+pub use held_out::{CheckRule, RefinementCheck, cross_validate_refinement};
 pub use impulse::{ImpulseFit, ImpulseOptions, Kernel, impulseest};
 pub use oe::{OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};

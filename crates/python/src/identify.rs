@@ -77,7 +77,8 @@ pub(crate) fn horizon_of(
     order_criterion="validation", horizon=None, past=None, future=None, system=None, bd="auto",
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
-    threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None))]
+    threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
+    refine_check="margin:3"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -107,6 +108,7 @@ pub(crate) fn identify<'py>(
     integrator_tolerance: Option<f64>,
     process: Option<&str>,
     kernel: Option<&str>,
+    refine_check: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -155,6 +157,12 @@ pub(crate) fn identify<'py>(
     id.gain_check.stop_share = gain_stop_share;
     id.integrator_tolerance = integrator_tolerance;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
+    opts.refinement.check = refine_check.parse::<lifted_pem::CheckRule>().map_err(|e| {
+        err(lifted_workflow::Error::InvalidOption {
+            option: "refine_check",
+            reason: e.to_string(),
+        })
+    })?;
     let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)
 }

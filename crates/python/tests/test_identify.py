@@ -330,3 +330,19 @@ def test_validate_leaves_out_a_gain_estimated_at_other_output_periods() -> None:
     assert same.gain_note is None
     again = lifted.StateSpace.from_json(model.to_json())
     assert lifted.validate(again, u, y).gain_note == full.gain_note
+
+
+def test_refine_check_reaches_the_held_out_judge() -> None:
+    """``refine_check`` (``lifted identify --refine-check``, issue 48): the
+    rule that tells the refinement and the subspace model apart on the
+    held-out blocks is a parameter, recorded in the judge's rule; a bad
+    rule is refused naming the keyword."""
+    u, y = _first_order_record(5, 2000, pole=0.9, gain=0.1, noise=0.05)
+    fit = lifted.identify(u, y, order=2, refine="pem", refine_check="t:0.95")
+    rule = fit.diagnostics["refinement_judge"]["rule"]
+    assert "paired t-test" in rule, rule
+    default = lifted.identify(u, y, order=2, refine="pem")
+    assert "3 points apart" in default.diagnostics["refinement_judge"]["rule"]
+    for bad in ("t:1.5", "margin:-1", "median"):
+        with pytest.raises(lifted.ArgumentError, match="refine_check"):
+            lifted.identify(u, y, order=2, refine_check=bad)

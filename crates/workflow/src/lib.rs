@@ -75,10 +75,13 @@
 //!    simulation error, from exactly the identified model; the refined
 //!    model is kept only if its simulation fit is at least as good — on
 //!    six held-out blocks for single-rate N4SID/MOESP/CVA records of up to
-//!    [`REFINE_CHECK_SAMPLES`] samples when they differ by more than
-//!    [`REFINE_CHECK_MARGIN`] points (each block's subspace model and its
-//!    refinement fitted to the other five; closer calls keep the subspace
-//!    model), else (longer records, costly checks) on the records. By
+//!    [`REFINE_CHECK_SAMPLES`] samples when they tell the two apart
+//!    (`RefinementOptions::check`: by default mean fits more than
+//!    [`REFINE_CHECK_MARGIN`] points apart, or a paired t-test of the
+//!    per-block differences; each block's subspace model and its
+//!    refinement fitted to the
+//!    other five; closer calls keep the subspace model), else (longer
+//!    records, costly checks) on the records. By
 //!    default ([`Refine::Auto`]) the prediction-error refinement runs where
 //!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
 //!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than

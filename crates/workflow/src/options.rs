@@ -475,8 +475,9 @@ pub const GAIN_CHECK_SAMPLES: usize = 200_000;
 
 /// Points of mean held-out fit by which the refined model must beat the
 /// subspace model (or lose to it), with the median block agreeing, for the
-/// held-out check to decide (`lifted_pem::RefinementCheck::verdict`):
-/// 3. Closer calls keep the subspace model (they used to be left to the
+/// held-out check to decide under the margin rule
+/// (`lifted_pem::CheckRule::Margin`, `--refine-check margin:3`, the
+/// default; `t:0.95` tests the blocks' differences instead): 3. Closer calls keep the subspace model (they used to be left to the
 /// simulation error on the records, which favours the refinement fitted to
 /// them: benches/results/real-records.md, "The refinement kept only on held-out
 /// evidence"). When the margin was chosen, on the
@@ -512,6 +513,13 @@ pub struct RefinementOptions {
     pub iterations: usize,
     /// Bound on the work in floating-point operations. Default 2e10.
     pub max_work: f64,
+    /// How the held-out blocks tell the refinement and the subspace model
+    /// apart (`lifted_pem::CheckRule`): by default mean fits more than
+    /// [`REFINE_CHECK_MARGIN`] points apart; `CheckRule::PairedT`, a paired
+    /// t-test of the per-block differences, takes its threshold from the
+    /// blocks' own spread. Recorded in `diagnostics.refinement_judge.rule`
+    /// and the shortlist's rule.
+    pub check: lifted_pem::CheckRule,
 }
 
 impl Default for RefinementOptions {
@@ -520,6 +528,7 @@ impl Default for RefinementOptions {
             refine: Refine::Auto,
             iterations: 100,
             max_work: 2e10,
+            check: lifted_pem::CheckRule::default(),
         }
     }
 }
@@ -566,6 +575,9 @@ impl WorkflowOptions {
             ));
         }
         let r = &self.refinement;
+        r.check
+            .check()
+            .map_err(|e| Error::option("refine_check", e.to_string()))?;
         if matches!(r.refine, Refine::Pem | Refine::Oe) && r.iterations == 0 {
             return Err(Error::option(
                 "refine_iterations",

@@ -20,8 +20,8 @@ use serde_json::json;
 use crate::diagnostics::push_warning;
 use crate::error::{Context, Result};
 use crate::options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, REFINE_CHECK_MARGIN,
-    REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine, WorkflowOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, REFINE_CHECK_SAMPLES,
+    REFINE_CHECK_WORK, Refine, WorkflowOptions,
 };
 use crate::validate::spectral_radius;
 
@@ -432,6 +432,7 @@ fn refine_judged_on_blocks(
     records: &[Record<'_>],
     pem: &PemOptions,
     check: HeldOutCheck<'_>,
+    rule: &lifted_pem::CheckRule,
     diagnostics: &mut serde_json::Value,
 ) -> Result<lifted_pem::PemFit> {
     let exps: Vec<Experiment<'_>> = check
@@ -459,19 +460,21 @@ fn refine_judged_on_blocks(
         // held-out evidence", deciding these on the records lost up to 56
         // points of validation fit and gained at most 11.)
         Ok(c) => {
-            let verdict = c.verdict(REFINE_CHECK_MARGIN);
+            let verdict = c.decide(rule);
             let (rule, decided_by) = match verdict {
                 Some(_) => (
                     format!(
-                        "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block, its n parameters charged by the FPE factor)",
-                        c.folds
+                        "held-out simulation fit: {} blocks, each held out once, the subspace model and its refinement fitted to the others (x0 estimated per block, its n parameters charged by the FPE factor), told apart by {}",
+                        c.folds,
+                        rule.describe()
                     ),
                     JUDGE_HELD_OUT,
                 ),
                 None => (
                     format!(
-                        "held-out simulation fit: the {} blocks do not tell the two apart (mean fits within {REFINE_CHECK_MARGIN} points, or the median block disagrees with the mean): the subspace model is kept",
-                        c.folds
+                        "held-out simulation fit: the {} blocks do not tell the two apart (the rule: {}): the subspace model is kept",
+                        c.folds,
+                        rule.describe()
                     ),
                     JUDGE_NOT_TOLD_APART,
                 ),
@@ -638,9 +641,15 @@ pub fn refine(
     }
     let held_out = check_applies(check, &model, stabilized, &records, &pem);
     let fit = match held_out {
-        Some(Ok(check)) => {
-            refine_judged_on_blocks(&model, kalman_gain, &records, &pem, check, &mut diagnostics)
-        }
+        Some(Ok(check)) => refine_judged_on_blocks(
+            &model,
+            kalman_gain,
+            &records,
+            &pem,
+            check,
+            &opts.check,
+            &mut diagnostics,
+        ),
         other => {
             let why = match other {
                 Some(Err(why)) => format!(": {why}"),

@@ -19,7 +19,7 @@
 //! once, the subspace model and its refinement fitted to the others), and
 //! each order is scored by the held-out fit of what it would deliver: the
 //! refinement or the subspace model where the blocks tell them apart
-//! ([`RefinementCheck::verdict`] with [`REFINE_CHECK_MARGIN`]), the mean of
+//! ([`RefinementCheck::decide`] with `RefinementOptions::check`), the mean of
 //! the two where they do not. The smallest order within the selection's
 //! tolerance of the best score is chosen, and its check then judges its
 //! refinement (not computed twice).
@@ -39,8 +39,8 @@ use serde_json::json;
 
 use crate::diagnostics::system_name;
 use crate::options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, Order, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES,
-    REFINE_CHECK_WORK, Refine, WorkflowOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, Order, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine,
+    WorkflowOptions,
 };
 use crate::refine::{CHECK_BLOCKS, pem_options};
 
@@ -133,8 +133,8 @@ fn check_work(
 /// The held-out fit an order is scored by: its refinement's or its subspace
 /// model's where the blocks decide, else the mean of the two; and what
 /// decided.
-fn score(check: &RefinementCheck) -> (f64, &'static str) {
-    match check.verdict(REFINE_CHECK_MARGIN) {
+fn score(check: &RefinementCheck, rule: &lifted_pem::CheckRule) -> (f64, &'static str) {
+    match check.decide(rule) {
         Some(true) => (check.refined_fit, "refinement"),
         Some(false) => (check.initial_fit, "subspace model"),
         None => (
@@ -204,7 +204,8 @@ pub(crate) fn judge(
             .map_err(|err| format!("order {}: no held-out check ({err})", e.candidate.order))?;
         scored.push(check);
     }
-    let scores: Vec<(f64, &str)> = scored.iter().map(score).collect();
+    let rule = &opts.refinement.check;
+    let scores: Vec<(f64, &str)> = scored.iter().map(|c| score(c, rule)).collect();
     let best = scores.iter().map(|s| s.0).fold(f64::NEG_INFINITY, f64::max);
     let index = (0..count)
         .filter(|&i| scores[i].0 >= best - tolerance)
@@ -228,7 +229,8 @@ pub(crate) fn judge(
         .collect();
     let diagnostics = json!({
         "rule": format!(
-            "the first structure of each of the best {SHORTLIST} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement fitted to the others; the one the blocks prefer by more than {REFINE_CHECK_MARGIN} points, else the mean of the two); the smallest order within {tolerance} points of the best"
+            "the first structure of each of the best {SHORTLIST} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement fitted to the others; the one the blocks prefer ({}), else the mean of the two); the smallest order within {tolerance} points of the best",
+            rule.describe()
         ),
         "candidates": rows,
         "order": entries[index].candidate.order,

@@ -193,6 +193,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     };
     o.refinement.iterations = a.refine_iterations;
     o.refinement.max_work = a.refine_max_work;
+    o.refinement.check = a.refine_check;
     o.identification.gain_check.stop_share = a.gain_stop_share;
     o.validation.require_stable = a.stable;
     Ok(o)

@@ -172,7 +172,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, check_ts};
 
 pub use convert::POLY_TRIM_TOL;
-pub use uncertainty::{FreqStd, normal_quantile};
+pub use uncertainty::{FreqStd, normal_quantile, student_t_quantile};
 
 /// A discrete-time polynomial model (MATLAB's `idpoly`; see the
 /// [module docs](crate::polymodel) for the equation, the coefficient order and the

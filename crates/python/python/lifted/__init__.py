@@ -268,6 +268,7 @@ def identify(
     integrator_tolerance: float | None = None,
     process: ProcessStructure | None = None,
     kernel: Literal["tc", "dc"] | None = None,
+    refine_check: str = "margin:3",
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -353,6 +354,12 @@ def identify(
       decrease below this share of the cost's sampling spread sqrt(2/N)
       (``lifted identify --gain-stop-share``; 0: the 30 iterations;
       ``diagnostics["kalman_gain_route"]["stop"]``).
+    * ``refine_check``: how the six held-out blocks tell the refinement and
+      the subspace model apart (``lifted identify --refine-check``):
+      ``"margin:3"`` (the default: mean fits more than 3 points apart) or
+      ``"t:0.95"`` (a paired t-test of the per-block differences at that
+      confidence);
+      ``diagnostics["refinement_judge"]["rule"]``.
     * ``integrator_tolerance``: poles within this distance of the unit circle
       are integrators, kept by the refinement and reported
       (``--integrator-tolerance``; None: 2/N, N the longest record;
@@ -393,6 +400,7 @@ def identify(
             refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
             threads=threads, gain_stop_share=gain_stop_share,
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
+            refine_check=refine_check,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":

@@ -295,6 +295,7 @@ def identify(
     integrator_tolerance: float | None = None,
     process: ProcessStructure | None = None,
     kernel: Literal["tc", "dc"] | None = None,
+    refine_check: str = "margin:3",
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],
