@@ -1102,6 +1102,12 @@ pub struct StepArgs {
     /// Time step for continuous models (default: the slowest time constant / 50).
     #[arg(long)]
     pub dt: Option<f64>,
+    /// Confidence level of the band drawn around the step response of a model that carries a
+    /// parameter covariance (ARX, FIR, OE, ARMAX, BJ and process model files): ± z σ of each
+    /// sample (first-order propagation of the covariance, z the two-sided normal quantile;
+    /// MATLAB's `showConfidence` on `stepplot`); CSV columns `…_lo`, `…_hi`. 0: no band.
+    #[arg(long, default_value_t = 0.95)]
+    pub confidence: f64,
     /// Memory budget.
     #[command(flatten)]
     pub resources: ResourceArgs,

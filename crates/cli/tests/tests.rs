@@ -4838,6 +4838,70 @@ mod polynomial {
         );
     }
 
+    /// `lifted step` draws the band of a model with a parameter covariance
+    /// (issue 49): `_lo`/`_hi` columns around every sample after the
+    /// delay (zero width before it: the response is exactly 0 there),
+    /// widening as the response builds up; `--confidence 0` drops them; a
+    /// bad level is refused.
+    #[test]
+    fn step_draws_the_band_of_a_model_with_a_covariance() {
+        let d = tmp("step_band");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "arx.json");
+        ok(&[
+            "identify",
+            "--method",
+            "arx",
+            "--orders",
+            "2 2 1",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        let csv = p(&d, "step.csv");
+        ok(&["step", "--model", &out, "--out", &csv, "--samples", "40"]);
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 4, "{header:?}");
+        assert!(
+            header[2].ends_with("_lo") && header[3].ends_with("_hi"),
+            "{header:?}"
+        );
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 40);
+        assert_eq!(rows[0][2], rows[0][3]);
+        for r in &rows[1..] {
+            assert!(r[2] < r[1] && r[1] < r[3], "{r:?}");
+        }
+        assert!(rows[39][3] - rows[39][2] > rows[1][3] - rows[1][2]);
+        let svg = p(&d, "step.svg");
+        ok(&["step", "--model", &out, "--out", &svg]);
+        assert!(std::fs::read_to_string(&svg).unwrap().contains("±95 %"));
+        ok(&["step", "--model", &out, "--out", &csv, "--confidence", "0"]);
+        let plain = std::fs::read_to_string(&csv).unwrap();
+        assert_eq!(plain.lines().next().unwrap().split(',').count(), 2);
+        fails(
+            &[
+                "step",
+                "--model",
+                &out,
+                "--out",
+                &csv,
+                "--confidence",
+                "1.5",
+            ],
+            2,
+        );
+    }
+
     #[test]
     fn a_step_test_gives_gain_time_constant_and_dead_time() {
         // K = 2, τ = 20 s, θ = 7.3 s, T = 1 s: at rest for 20 s, then a unit

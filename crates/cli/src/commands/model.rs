@@ -421,25 +421,90 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
 /// `lifted step`.
 pub fn step(a: &StepArgs) -> CliResult<()> {
     let kind = out_kind(&a.out)?;
-    let m = read_model(&a.model)?.model;
+    if !(a.confidence.is_finite() && (0.0..1.0).contains(&a.confidence)) {
+        return Err(input(format!(
+            "--confidence {}: a level in [0, 1) (0.95 for 95 %; 0: no band)",
+            a.confidence
+        )));
+    }
+    let file = read_model(&a.model)?;
+    let m = file.model;
     let (t, cols) = step_data(&m, a.samples, a.dt)?;
+    // The band: ± z σ of each sample, for a model file with a parameter
+    // covariance (σ per input, one column per output: the order of
+    // `step_data`'s columns).
+    let band: Option<Vec<(Vec<f64>, Vec<f64>)>> = match (&file.polynomial, a.confidence > 0.0) {
+        (Some(p), true) => match p.step_std(t.len()).ctx("step confidence band")? {
+            Some(sigma) => {
+                let z = lifted_lti::normal_quantile(0.5 + a.confidence / 2.0).ctx("step")?;
+                let per_column = sigma.iter().flat_map(|s| {
+                    (0..s.ncols()).map(move |i| s.column(i).iter().copied().collect::<Vec<f64>>())
+                });
+                Some(
+                    cols.iter()
+                        .zip(per_column)
+                        .map(|((_, y), s)| {
+                            (
+                                y.iter().zip(&s).map(|(v, s)| v - z * s).collect(),
+                                y.iter().zip(&s).map(|(v, s)| v + z * s).collect(),
+                            )
+                        })
+                        .collect(),
+                )
+            }
+            None => None,
+        },
+        _ => None,
+    };
     match kind {
         OutKind::Csv => {
             let mut header = vec!["t".to_string()];
-            header.extend(cols.iter().map(|c| c.0.clone()));
             let mut data = vec![t];
-            data.extend(cols.into_iter().map(|c| c.1));
+            for (k, (name, y)) in cols.into_iter().enumerate() {
+                header.push(name.clone());
+                data.push(y);
+                if let Some(b) = &band {
+                    header.push(format!("{name}_lo"));
+                    data.push(b[k].0.clone());
+                    header.push(format!("{name}_hi"));
+                    data.push(b[k].1.clone());
+                }
+            }
             write_columns(&a.out, &header, &data)?;
         }
         OutKind::Svg => {
+            let mut series = Vec::new();
+            for (k, (name, y)) in cols.into_iter().enumerate() {
+                if let Some(b) = &band {
+                    // The bounds as one series (a NaN joins them).
+                    let x: Vec<f64> = t
+                        .iter()
+                        .copied()
+                        .chain([f64::NAN])
+                        .chain(t.iter().copied())
+                        .collect();
+                    let yb: Vec<f64> = b[k]
+                        .0
+                        .iter()
+                        .copied()
+                        .chain([f64::NAN])
+                        .chain(b[k].1.iter().copied())
+                        .collect();
+                    series.push(Series::line(name.clone(), t.clone(), y));
+                    series.push(Series::line(
+                        format!("{name} ±{:.0} %", 100.0 * a.confidence),
+                        x,
+                        yb,
+                    ));
+                } else {
+                    series.push(Series::line(name, t.clone(), y));
+                }
+            }
             let plot = Plot {
                 title: "Step response".into(),
                 x_label: "t [s]".into(),
                 y_label: "y".into(),
-                series: cols
-                    .into_iter()
-                    .map(|(n, y)| Series::line(n, t.clone(), y))
-                    .collect(),
+                series,
                 ..Default::default()
             };
             std::fs::write(&a.out, svg(&plot, 720, 400)?).ctx(format!("cannot write {}", a.out))?;

@@ -189,6 +189,62 @@ impl PolyModel {
         }
         Ok(Some(FreqStd { magnitude, phase }))
     }
+
+    /// Standard deviations of the step responses' samples (one
+    /// `samples × n_y` matrix per input, as [`StateSpace::step`] gives the
+    /// responses), by first-order propagation of the parameter covariance,
+    /// σ² = ∇sᵀ P ∇s, the gradient of each sample by central differences
+    /// (step h = 1e-6 max(|θ_k|, σ_k), as [`PolyModel::freqresp_std`]).
+    /// `None` when the model carries no covariance. O(p · samples ·
+    /// (n² + p) · n_u n_y) for p parameters and a realisation of order n.
+    ///
+    /// Errors: those of the state-space realisation and its simulation.
+    ///
+    /// [`StateSpace::step`]: crate::StateSpace::step
+    pub fn step_std(&self, samples: usize) -> Result<Option<Vec<DMatrix<f64>>>> {
+        let Some(cov) = self.covariance() else {
+            return Ok(None);
+        };
+        let theta = self.parameters();
+        let p = theta.len();
+        let (ny, nu) = (self.n_outputs(), self.n_inputs());
+        // ∂s/∂θ_k: one set of step responses per parameter.
+        let mut grads: Vec<Vec<DMatrix<f64>>> = Vec::with_capacity(p);
+        for k in 0..p {
+            let sd = cov[(k, k)].max(0.0).sqrt();
+            let h = 1e-6 * theta[k].abs().max(sd).max(1e-8);
+            let mut up = theta.clone();
+            up[k] += h;
+            let mut down = theta.clone();
+            down[k] -= h;
+            let su = self.with_parameters(&up)?.to_ss()?.step(samples, None)?;
+            let sd = self.with_parameters(&down)?.to_ss()?.step(samples, None)?;
+            grads.push(
+                su.iter()
+                    .zip(&sd)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect(),
+            );
+        }
+        let mut out = Vec::with_capacity(nu);
+        for j in 0..nu {
+            let mut sigma = DMatrix::zeros(samples, ny);
+            for t in 0..samples {
+                for i in 0..ny {
+                    let g: Vec<f64> = grads.iter().map(|gk| gk[j][(t, i)]).collect();
+                    let mut s = 0.0;
+                    for r in 0..p {
+                        for c in 0..p {
+                            s += g[r] * cov[(r, c)] * g[c];
+                        }
+                    }
+                    sigma[(t, i)] = s.max(0.0).sqrt();
+                }
+            }
+            out.push(sigma);
+        }
+        Ok(Some(out))
+    }
 }
 
 #[cfg(test)]
@@ -218,6 +274,58 @@ mod tests {
         }
         assert!(student_t_quantile(0.975, 0).is_err());
         assert!(student_t_quantile(1.5, 4).is_err());
+    }
+
+    /// The step response's σ by first-order propagation matches the spread
+    /// of the step responses of parameters drawn from the covariance (a
+    /// first-order ARX whose step is nearly linear in its parameters over
+    /// one σ): within 10 % at every sample after the delay (Monte Carlo
+    /// with 4000 seeded draws: its own relative error about 1/√8000 ≈ 1 %,
+    /// the nonlinearity a few % at the slowest samples).
+    #[test]
+    fn the_step_spread_is_the_parameters_spread() {
+        use nalgebra::DVector;
+        use rand::{RngExt, SeedableRng};
+        let cov = DMatrix::from_row_slice(2, 2, &[1e-4, 2e-5, 2e-5, 4e-4]);
+        let m = PolyModel::arx(&[1.0, -0.8], &[0.5], 1, 1.0)
+            .unwrap()
+            .with_covariance(&cov)
+            .unwrap();
+        let n = 30;
+        let sigma = m.step_std(n).unwrap().expect("a covariance");
+        let l = cov.clone().cholesky().unwrap().l();
+        let theta = DVector::from_vec(m.parameters());
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // Standard normal draws by Box–Muller.
+        let mut normal = || -> f64 {
+            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+            (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        };
+        let draws = 4000;
+        let mut sum = DVector::<f64>::zeros(n);
+        let mut sum2 = DVector::<f64>::zeros(n);
+        for _ in 0..draws {
+            let z = DVector::from_fn(2, |_, _| normal());
+            let th = &theta + &l * z;
+            let s = m
+                .with_parameters(th.as_slice())
+                .unwrap()
+                .to_ss()
+                .unwrap()
+                .step(n, None)
+                .unwrap();
+            let col = s[0].column(0).into_owned();
+            sum += &col;
+            sum2 += col.component_mul(&col);
+        }
+        for t in 1..n {
+            let mean = sum[t] / draws as f64;
+            let mc = (sum2[t] / draws as f64 - mean * mean).max(0.0).sqrt();
+            let got = sigma[0][(t, 0)];
+            assert!((got - mc).abs() <= 0.1 * mc, "t {t}: {got} vs {mc}");
+        }
+        assert_eq!(sigma[0][(0, 0)], 0.0);
+        assert!(m.without_covariance().step_std(n).unwrap().is_none());
     }
 
     #[test]
