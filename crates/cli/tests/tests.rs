@@ -4902,6 +4902,62 @@ mod polynomial {
         );
     }
 
+    /// The report draws the 95 % bands of a model with a parameter
+    /// covariance on its step and Bode figures and says so in their
+    /// captions (issue 49); a subspace model's report has none.
+    #[test]
+    fn the_report_draws_the_bands_of_a_model_with_a_covariance() {
+        let d = tmp("report_band");
+        let (id, val) = single_rate_data(&d);
+        let arx = p(&d, "arx.json");
+        ok(&[
+            "identify",
+            "--method",
+            "arx",
+            "--orders",
+            "2 2 1",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &arx,
+        ]);
+        let html = p(&d, "r.html");
+        ok(&["report", "--model", &arx, "--data", &val, "--out", &html]);
+        let page = std::fs::read_to_string(&html).unwrap();
+        assert_eq!(
+            page.matches("95 % confidence band").count(),
+            2,
+            "step and Bode"
+        );
+        assert!(
+            page.matches("±95 %").count() >= 3,
+            "the bands' legend entries"
+        );
+        let ss = p(&d, "ss.json");
+        ok(&[
+            "identify",
+            "--method",
+            "n4sid",
+            "--order",
+            "2",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &ss,
+        ]);
+        ok(&["report", "--model", &ss, "--data", &val, "--out", &html]);
+        let page = std::fs::read_to_string(&html).unwrap();
+        assert!(!page.contains("confidence band") && !page.contains("±95 %"));
+    }
+
     #[test]
     fn a_step_test_gives_gain_time_constant_and_dead_time() {
         // K = 2, τ = 20 s, θ = 7.3 s, T = 1 s: at rest for 20 s, then a unit

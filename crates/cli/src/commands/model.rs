@@ -16,6 +16,7 @@ use crate::error::{CliResult, Context, input};
 use crate::plot::{Plot, Series, svg};
 use crate::table::{names, parse_name_counts, parse_periods, read_raw, write_columns};
 use lifted_cli::service::analysis::check_omega;
+use lifted_cli::service::bands;
 use lifted_cli::service::figures::{bode_grid, step_data};
 use lifted_cli::service::models::{channel_names, read_model, write_model};
 use lifted_cli::service::pairs::{bode_pairs, pairs_svg};
@@ -219,12 +220,7 @@ fn given_omega(a: &BodeArgs) -> CliResult<Option<Vec<f64>>> {
 /// `lifted bode`.
 pub fn bode(a: &BodeArgs) -> CliResult<()> {
     let kind = a.out.as_deref().map(out_kind).transpose()?;
-    if !(a.confidence.is_finite() && (0.0..1.0).contains(&a.confidence)) {
-        return Err(input(format!(
-            "--confidence {}: a level in [0, 1) (0.95 for 95 %; 0: no band)",
-            a.confidence
-        )));
-    }
+    bands::check_level(a.confidence)?;
     let file = read_model(&a.model)?;
     let m = file.model;
     let given = given_omega(a)?;
@@ -255,28 +251,9 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
     let db = |g: f64| 20.0 * g.max(1e-300).log10();
     // The confidence band: z σ of |G| (in dB: the bounds |G| ± z σ) and of
     // the phase, for a model file with a parameter covariance.
-    let band = match (&file.polynomial, a.confidence > 0.0) {
-        (Some(p), true) => match p.freqresp_std(&omega).ctx("bode confidence band")? {
-            Some(s) => {
-                let z = lifted_lti::normal_quantile(0.5 + a.confidence / 2.0).ctx("bode")?;
-                Some((z, s))
-            }
-            None => None,
-        },
-        _ => None,
-    };
+    let band = bands::bode_bounds(file.polynomial.as_ref(), &b, &omega, a.confidence)?;
     let bounds = |k: usize, i: usize, j: usize| -> Option<[f64; 4]> {
-        let (z, s) = band.as_ref()?;
-        let g = b.magnitude[k][(i, j)];
-        let (sm, sp) = (s.magnitude[k][(i, j)], s.phase[k][(i, j)].to_degrees());
-        let ph = b.phase_deg[k][(i, j)];
-        // (A lower bound at or below zero magnitude: NaN, no dB value.)
-        let lo = if g - z * sm > 0.0 {
-            db(g - z * sm)
-        } else {
-            f64::NAN
-        };
-        Some([lo, db(g + z * sm), ph - z * sp, ph + z * sp])
+        band.as_ref().map(|band| band.bounds[k][(i, j)])
     };
     match (&a.out, kind) {
         (Some(out), Some(OutKind::Csv)) => {
@@ -308,37 +285,8 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
         }
         (Some(out), _) => {
             let mut fig = bode_pairs(&[(String::new(), &m)], &omega)?;
-            if band.is_some() {
-                // Each bound pair one series (a NaN joins them), drawn
-                // after the response (dashed).
-                let lw: Vec<f64> = omega.iter().map(|w| w.log10()).collect();
-                let x: Vec<f64> = lw
-                    .iter()
-                    .copied()
-                    .chain([f64::NAN])
-                    .chain(lw.clone())
-                    .collect();
-                let label = format!("±{:.0} %", 100.0 * a.confidence);
-                let nu = m.n_inputs();
-                for i in 0..m.n_outputs() {
-                    for j in 0..nu {
-                        let v: Vec<[f64; 4]> = (0..omega.len())
-                            .map(|k| bounds(k, i, j).unwrap_or([f64::NAN; 4]))
-                            .collect();
-                        let cell = &mut fig.cells[i * nu + j].1;
-                        for (plot, (lo, hi)) in [(0, (0, 1)), (1, (2, 3))] {
-                            let y: Vec<f64> = v
-                                .iter()
-                                .map(|r| r[lo])
-                                .chain([f64::NAN])
-                                .chain(v.iter().map(|r| r[hi]))
-                                .collect();
-                            cell[plot]
-                                .series
-                                .push(Series::line(label.clone(), x.clone(), y));
-                        }
-                    }
-                }
+            if let Some(band) = &band {
+                bands::add_bode_band(&mut fig, &omega, band, a.confidence);
             }
             let doc = pairs_svg(&fig, 720, 280)?;
             std::fs::write(out, doc).ctx(format!("cannot write {out}"))?;
@@ -360,7 +308,8 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
                     "magnitude_db": b.magnitude.iter().map(|g| db(g[(i, j)])).collect::<Vec<_>>(),
                     "phase_deg": b.phase_deg.iter().map(|g| g[(i, j)]).collect::<Vec<_>>(),
                 });
-                if let Some((_, s)) = &band {
+                if let Some(band) = &band {
+                    let s = &band.std;
                     v["magnitude_std"] = s.magnitude.iter().map(|g| g[(i, j)]).collect();
                     v["phase_std_deg"] = s.phase.iter().map(|g| g[(i, j)].to_degrees()).collect();
                     for (c, what) in [
@@ -421,41 +370,13 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
 /// `lifted step`.
 pub fn step(a: &StepArgs) -> CliResult<()> {
     let kind = out_kind(&a.out)?;
-    if !(a.confidence.is_finite() && (0.0..1.0).contains(&a.confidence)) {
-        return Err(input(format!(
-            "--confidence {}: a level in [0, 1) (0.95 for 95 %; 0: no band)",
-            a.confidence
-        )));
-    }
+    bands::check_level(a.confidence)?;
     let file = read_model(&a.model)?;
     let m = file.model;
     let (t, cols) = step_data(&m, a.samples, a.dt)?;
     // The band: ± z σ of each sample, for a model file with a parameter
-    // covariance (σ per input, one column per output: the order of
-    // `step_data`'s columns).
-    let band: Option<Vec<(Vec<f64>, Vec<f64>)>> = match (&file.polynomial, a.confidence > 0.0) {
-        (Some(p), true) => match p.step_std(t.len()).ctx("step confidence band")? {
-            Some(sigma) => {
-                let z = lifted_lti::normal_quantile(0.5 + a.confidence / 2.0).ctx("step")?;
-                let per_column = sigma.iter().flat_map(|s| {
-                    (0..s.ncols()).map(move |i| s.column(i).iter().copied().collect::<Vec<f64>>())
-                });
-                Some(
-                    cols.iter()
-                        .zip(per_column)
-                        .map(|((_, y), s)| {
-                            (
-                                y.iter().zip(&s).map(|(v, s)| v - z * s).collect(),
-                                y.iter().zip(&s).map(|(v, s)| v + z * s).collect(),
-                            )
-                        })
-                        .collect(),
-                )
-            }
-            None => None,
-        },
-        _ => None,
-    };
+    // covariance.
+    let band = bands::step_bounds(file.polynomial.as_ref(), &cols, a.confidence)?;
     match kind {
         OutKind::Csv => {
             let mut header = vec!["t".to_string()];
@@ -475,29 +396,14 @@ pub fn step(a: &StepArgs) -> CliResult<()> {
         OutKind::Svg => {
             let mut series = Vec::new();
             for (k, (name, y)) in cols.into_iter().enumerate() {
+                series.push(Series::line(name.clone(), t.clone(), y));
                 if let Some(b) = &band {
-                    // The bounds as one series (a NaN joins them).
-                    let x: Vec<f64> = t
-                        .iter()
-                        .copied()
-                        .chain([f64::NAN])
-                        .chain(t.iter().copied())
-                        .collect();
-                    let yb: Vec<f64> = b[k]
-                        .0
-                        .iter()
-                        .copied()
-                        .chain([f64::NAN])
-                        .chain(b[k].1.iter().copied())
-                        .collect();
-                    series.push(Series::line(name.clone(), t.clone(), y));
-                    series.push(Series::line(
-                        format!("{name} ±{:.0} %", 100.0 * a.confidence),
-                        x,
-                        yb,
+                    series.push(bands::bound_series(
+                        format!("{name} {}", bands::label(a.confidence)),
+                        &t,
+                        &b[k].0,
+                        &b[k].1,
                     ));
-                } else {
-                    series.push(Series::line(name, t.clone(), y));
                 }
             }
             let plot = Plot {

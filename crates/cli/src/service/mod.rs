@@ -5,6 +5,7 @@
 //! analyses (norms, LQR) of `lifted analyze` / `lifted lqr`.
 
 pub mod analysis;
+pub mod bands;
 pub mod figures;
 pub mod identify;
 pub mod models;

@@ -5,15 +5,21 @@
 
 use lifted_lti::{Dataset, ModelFile};
 
-use crate::error::CliResult;
+use crate::error::{CliResult, Context};
 use crate::escape::html as esc;
 use crate::html::{figure, html_table, page, svg_figure};
+use crate::service::bands;
 use crate::service::figures::{
-    bode_grid, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot,
+    bode_grid, criterion_plot, excitation_plot, order_plot, pz_plot, response_plot, step_data,
 };
 use crate::service::models::channel_names;
 use crate::service::pairs::{bode_pairs, pairs_svg, step_pairs};
 use crate::service::validation::{TABLE_HEADER, Validation, table_rows, unstable_note};
+
+/// The confidence level of the report's bands (models with a parameter
+/// covariance): 95 %, the level MATLAB's `showConfidence` and `lifted
+/// bode`/`step` draw by default.
+pub const REPORT_CONFIDENCE: f64 = 0.95;
 
 /// The report page of `file` validated on `data` (`v`, from
 /// [`crate::service::validation::validate_model`]); the labels name the
@@ -116,19 +122,52 @@ pub fn render(
     }
 
     let one = [(String::new(), model)];
+    // A model with a parameter covariance gets its confidence bands
+    // (`service::bands`) on the step and Bode figures.
+    let poly = file.polynomial.as_ref();
+    let band_note = format!(
+        " Dashed: the {:.0} % confidence band (± z σ, first-order propagation of the parameter covariance).",
+        100.0 * REPORT_CONFIDENCE
+    );
     body += "<h2>Step response</h2>\n";
+    let mut step_fig = step_pairs(&one)?;
+    let (t, cols) = step_data(model, None, None)?;
+    let step_band = bands::step_bounds(poly, &cols, REPORT_CONFIDENCE)?;
+    if let Some(b) = &step_band {
+        bands::add_step_band(&mut step_fig, &t, b, REPORT_CONFIDENCE);
+    }
     body += &svg_figure(
         "step",
-        "Unit step on each input, zero initial state: one axes per output (rows) and input (columns).",
-        &pairs_svg(&step_pairs(&one)?, 800, 260)?,
+        &format!(
+            "Unit step on each input, zero initial state: one axes per output (rows) and input (columns).{}",
+            if step_band.is_some() {
+                band_note.as_str()
+            } else {
+                ""
+            }
+        ),
+        &pairs_svg(&step_fig, 800, 260)?,
     );
 
     body += "<h2>Bode plot</h2>\n";
     let omega = bode_grid(model, None, None, 300)?;
+    let mut bode_fig = bode_pairs(&one, &omega)?;
+    let response = model.bode(&omega).ctx("bode")?;
+    let bode_band = bands::bode_bounds(poly, &response, &omega, REPORT_CONFIDENCE)?;
+    if let Some(b) = &bode_band {
+        bands::add_bode_band(&mut bode_fig, &omega, b, REPORT_CONFIDENCE);
+    }
     body += &svg_figure(
         "bode",
-        "Magnitude over phase of each input–output pair: one axes per output (rows) and input (columns).",
-        &pairs_svg(&bode_pairs(&one, &omega)?, 800, 220)?,
+        &format!(
+            "Magnitude over phase of each input–output pair: one axes per output (rows) and input (columns).{}",
+            if bode_band.is_some() {
+                band_note.as_str()
+            } else {
+                ""
+            }
+        ),
+        &pairs_svg(&bode_fig, 800, 220)?,
     );
 
     body += "<h2>Poles and zeros</h2>\n";
