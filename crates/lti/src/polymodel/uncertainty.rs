@@ -133,14 +133,9 @@ impl PolyModel {
         // ∂G/∂θ_k per frequency, by central differences.
         let mut grads: Vec<Vec<DMatrix<num_complex::Complex64>>> = Vec::with_capacity(p);
         for k in 0..p {
-            let sd = cov[(k, k)].max(0.0).sqrt();
-            let h = 1e-6 * theta[k].abs().max(sd).max(1e-8);
-            let mut up = theta.clone();
-            up[k] += h;
-            let mut down = theta.clone();
-            down[k] -= h;
-            let gu = self.with_parameters(&up)?.freqresp(w)?;
-            let gd = self.with_parameters(&down)?.freqresp(w)?;
+            let (up, down, h) = self.perturbed(&theta, cov, k)?;
+            let gu = up.freqresp(w)?;
+            let gd = down.freqresp(w)?;
             grads.push(
                 gu.iter()
                     .zip(&gd)
@@ -190,6 +185,25 @@ impl PolyModel {
         Ok(Some(FreqStd { magnitude, phase }))
     }
 
+    /// The model with parameter `k` of `theta` moved up and down by the
+    /// central-difference step h = 1e-6 max(|θ_k|, σ_k, 1e-8) (σ_k from
+    /// `cov`), and h: the two sides of every gradient by central
+    /// differences here.
+    fn perturbed(
+        &self,
+        theta: &[f64],
+        cov: &DMatrix<f64>,
+        k: usize,
+    ) -> Result<(PolyModel, PolyModel, f64)> {
+        let sd = cov[(k, k)].max(0.0).sqrt();
+        let h = 1e-6 * theta[k].abs().max(sd).max(1e-8);
+        let mut up = theta.to_vec();
+        up[k] += h;
+        let mut down = theta.to_vec();
+        down[k] -= h;
+        Ok((self.with_parameters(&up)?, self.with_parameters(&down)?, h))
+    }
+
     /// Standard deviations of the step responses' samples (one
     /// `samples × n_y` matrix per input, as [`StateSpace::step`] gives the
     /// responses), by first-order propagation of the parameter covariance,
@@ -211,14 +225,9 @@ impl PolyModel {
         // ∂s/∂θ_k: one set of step responses per parameter.
         let mut grads: Vec<Vec<DMatrix<f64>>> = Vec::with_capacity(p);
         for k in 0..p {
-            let sd = cov[(k, k)].max(0.0).sqrt();
-            let h = 1e-6 * theta[k].abs().max(sd).max(1e-8);
-            let mut up = theta.clone();
-            up[k] += h;
-            let mut down = theta.clone();
-            down[k] -= h;
-            let su = self.with_parameters(&up)?.to_ss()?.step(samples, None)?;
-            let sd = self.with_parameters(&down)?.to_ss()?.step(samples, None)?;
+            let (up, down, h) = self.perturbed(&theta, cov, k)?;
+            let su = up.to_ss()?.step(samples, None)?;
+            let sd = down.to_ss()?.step(samples, None)?;
             grads.push(
                 su.iter()
                     .zip(&sd)
