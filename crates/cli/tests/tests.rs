@@ -4768,11 +4768,10 @@ mod polynomial {
         }
     }
 
-    #[test]
-    fn bode_draws_the_confidence_band_of_a_polynomial_model() {
-        let d = tmp("arx_bode");
-        let (id, _) = single_rate_data(&d);
-        let out = p(&d, "arx.json");
+    /// The ARX [2 2 1] model file of the record `id` (u1 → y1), written in
+    /// `d`.
+    fn arx_221(d: &Path, id: &str) -> String {
+        let out = p(d, "arx.json");
         ok(&[
             "identify",
             "--method",
@@ -4780,7 +4779,7 @@ mod polynomial {
             "--orders",
             "2 2 1",
             "--data",
-            &id,
+            id,
             "--inputs",
             "u1",
             "--outputs",
@@ -4788,6 +4787,14 @@ mod polynomial {
             "--out",
             &out,
         ]);
+        out
+    }
+
+    #[test]
+    fn bode_draws_the_confidence_band_of_a_polynomial_model() {
+        let d = tmp("arx_bode");
+        let (id, _) = single_rate_data(&d);
+        let out = arx_221(&d, &id);
         // analyze shows the polynomials with their deviations.
         let text = ok(&["analyze", "--model", &out]);
         assert!(text.contains("A(q) = 1 ") && text.contains("(±"), "{text}");
@@ -4847,22 +4854,7 @@ mod polynomial {
     fn step_draws_the_band_of_a_model_with_a_covariance() {
         let d = tmp("step_band");
         let (id, _) = single_rate_data(&d);
-        let out = p(&d, "arx.json");
-        ok(&[
-            "identify",
-            "--method",
-            "arx",
-            "--orders",
-            "2 2 1",
-            "--data",
-            &id,
-            "--inputs",
-            "u1",
-            "--outputs",
-            "y1",
-            "--out",
-            &out,
-        ]);
+        let out = arx_221(&d, &id);
         let csv = p(&d, "step.csv");
         ok(&["step", "--model", &out, "--out", &csv, "--samples", "40"]);
         let text = std::fs::read_to_string(&csv).unwrap();
@@ -4909,22 +4901,7 @@ mod polynomial {
     fn the_report_draws_the_bands_of_a_model_with_a_covariance() {
         let d = tmp("report_band");
         let (id, val) = single_rate_data(&d);
-        let arx = p(&d, "arx.json");
-        ok(&[
-            "identify",
-            "--method",
-            "arx",
-            "--orders",
-            "2 2 1",
-            "--data",
-            &id,
-            "--inputs",
-            "u1",
-            "--outputs",
-            "y1",
-            "--out",
-            &arx,
-        ]);
+        let arx = arx_221(&d, &id);
         let html = p(&d, "r.html");
         ok(&["report", "--model", &arx, "--data", &val, "--out", &html]);
         let page = std::fs::read_to_string(&html).unwrap();
