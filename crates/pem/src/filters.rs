@@ -4,9 +4,10 @@
 //! iterations on them.
 
 use lifted_linalg::RAccumulator;
+use lifted_subspace::Experiment;
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// w(t) = s(t − delay) − Σ_j f_j w(t − j), zero initial conditions.
 pub(crate) fn filter(s: &[f64], f: &[f64], delay: usize, out: &mut Vec<f64>) {
@@ -136,6 +137,43 @@ pub(crate) trait Residuals {
     fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)>;
     /// Whether θ is admissible (its polynomials stable).
     fn admissible(&self, theta: &[f64]) -> bool;
+}
+
+/// `Err` naming `what` unless [`minimise`]'s limits are usable: at least
+/// one iteration and a positive finite tolerance.
+pub(crate) fn check_iterations(
+    max_iterations: usize,
+    tolerance: f64,
+    what: &'static str,
+) -> Result<()> {
+    if max_iterations == 0 || !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(Error::InvalidOption {
+            what,
+            reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
+        });
+    }
+    Ok(())
+}
+
+/// The single-output records of output `i` of `experiments` (its y
+/// columns, to be paired with the inputs by [`with_outputs`]).
+pub(crate) fn output_columns(experiments: &[Experiment<'_>], i: usize) -> Vec<DMatrix<f64>> {
+    experiments
+        .iter()
+        .map(|e| e.y.columns(i, 1).into_owned())
+        .collect()
+}
+
+/// `experiments`' inputs with the outputs `ys` ([`output_columns`]).
+pub(crate) fn with_outputs<'a>(
+    experiments: &[Experiment<'a>],
+    ys: &'a [DMatrix<f64>],
+) -> Vec<Experiment<'a>> {
+    experiments
+        .iter()
+        .zip(ys)
+        .map(|(e, y)| Experiment { u: e.u, y })
+        .collect()
 }
 
 /// Levenberg–Marquardt from `theta` (Marquardt's scaling, λ from 1e-3,

@@ -38,7 +38,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::filters::{Residuals, RowFolder, filter, fir_apply, minimise, stable};
+use crate::filters::{Residuals, RowFolder, check_iterations, filter, fir_apply, minimise, stable};
 
 /// Options of [`oe`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -386,12 +386,7 @@ pub fn oe(
     opts: &OeOptions,
 ) -> Result<OeFit> {
     let (nu, ny) = check(experiments, orders)?;
-    if opts.max_iterations == 0 || !(opts.tolerance.is_finite() && opts.tolerance > 0.0) {
-        return Err(Error::InvalidOption {
-            what: "OE iterations",
-            reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
-        });
-    }
+    check_iterations(opts.max_iterations, opts.tolerance, "OE iterations")?;
     let mut b_all = vec![vec![Vec::new(); nu]; ny];
     let mut f_all = vec![vec![vec![1.0]; nu]; ny];
     let mut blocks: Vec<DMatrix<f64>> = Vec::new();

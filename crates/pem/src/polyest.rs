@@ -43,7 +43,10 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::filters::{Residuals, RowFolder, filter, fir_apply, minimise, stable};
+use crate::filters::{
+    Residuals, RowFolder, check_iterations, filter, fir_apply, minimise, output_columns, stable,
+    with_outputs,
+};
 
 /// Options of [`polyest`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -310,15 +313,8 @@ fn long_arx_residuals(
     order: usize,
 ) -> Result<Vec<Vec<f64>>> {
     let nu = experiments[0].u.ncols();
-    let ys: Vec<DMatrix<f64>> = experiments
-        .iter()
-        .map(|e| e.y.columns(i, 1).into_owned())
-        .collect();
-    let exps: Vec<Experiment<'_>> = experiments
-        .iter()
-        .zip(&ys)
-        .map(|(e, y)| Experiment { u: e.u, y })
-        .collect();
+    let ys = output_columns(experiments, i);
+    let exps = with_outputs(experiments, &ys);
     let orders = PolyOrders {
         na: vec![vec![order]],
         nb: vec![vec![order; nu]],
@@ -377,15 +373,8 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
     }
     // Box–Jenkins (and the general case): B/F from the output-error model,
     // then (C, D) as an ARMA model of its residuals.
-    let ys: Vec<DMatrix<f64>> = experiments
-        .iter()
-        .map(|e| e.y.columns(i, 1).into_owned())
-        .collect();
-    let exps: Vec<Experiment<'_>> = experiments
-        .iter()
-        .zip(&ys)
-        .map(|(e, y)| Experiment { u: e.u, y })
-        .collect();
+    let ys = output_columns(experiments, i);
+    let exps = with_outputs(experiments, &ys);
     let nu = nb.len();
     let oe_orders = PolyOrders {
         na: vec![vec![0]],
@@ -484,12 +473,7 @@ pub fn polyest(
     opts: &PolyestOptions,
 ) -> Result<PolyestFit> {
     let (nu, ny) = check(experiments, orders)?;
-    if opts.max_iterations == 0 || !(opts.tolerance.is_finite() && opts.tolerance > 0.0) {
-        return Err(Error::InvalidOption {
-            what: "iterations",
-            reason: "max_iterations ≥ 1 and a positive finite tolerance".into(),
-        });
-    }
+    check_iterations(opts.max_iterations, opts.tolerance, "iterations")?;
     let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
     // The orders size every allocation below: refused before any is made
     // when an output has no fewer parameters than samples (saturating sums).
