@@ -4892,6 +4892,23 @@ mod polynomial {
             ],
             2,
         );
+        // The band's gradients (2p + 3 responses) are sized before they
+        // are allocated: over the memory budget, a clear refusal.
+        let msg = fails(
+            &[
+                "step",
+                "--model",
+                &out,
+                "--out",
+                &csv,
+                "--samples",
+                "2000000",
+                "--memory-limit",
+                "50M",
+            ],
+            2,
+        );
+        assert!(msg.contains("confidence band"), "{msg}");
     }
 
     /// The report draws the 95 % bands of a model with a parameter

@@ -5,6 +5,7 @@
 //! `freqresp_std`), z the two-sided normal quantile of the level (MATLAB's
 //! `showConfidence`). Used by `lifted step`, `lifted bode` and the report.
 
+use lifted_linalg::budget::{MemoryBudget, Size};
 use lifted_lti::Bode;
 use lifted_lti::PolyModel;
 
@@ -51,6 +52,18 @@ pub fn step_bounds(
         return Ok(None);
     };
     let samples = cols.first().map_or(0, |c| c.1.len());
+    // One set of step responses per parameter, two more per step and the
+    // σ: refused before allocating when over the memory budget.
+    MemoryBudget::default()
+        .check(
+            "the step response's confidence band (--samples)",
+            Size::matrices(
+                (2 * p.parameters().len() + 3) * p.n_inputs(),
+                samples,
+                p.n_outputs(),
+            ),
+        )
+        .ctx("step confidence band")?;
     let Some(sigma) = p.step_std(samples).ctx("step confidence band")? else {
         return Ok(None);
     };
@@ -117,6 +130,18 @@ pub fn bode_bounds(
     let (Some(p), true) = (poly, confidence > 0.0) else {
         return Ok(None);
     };
+    // One complex response per parameter and two per difference:
+    // refused before allocating when over the memory budget.
+    MemoryBudget::default()
+        .check(
+            "the frequency response's confidence band",
+            Size::matrices(
+                2 * (p.parameters().len() + 3),
+                omega.len(),
+                p.n_outputs() * p.n_inputs(),
+            ),
+        )
+        .ctx("bode confidence band")?;
     let Some(s) = p.freqresp_std(omega).ctx("bode confidence band")? else {
         return Ok(None);
     };
