@@ -50,27 +50,24 @@ impl Dtype {
         }
     }
 
-    /// Decodes one element from its `size()` bytes. O(1).
-    fn decode(self, b: &[u8]) -> f64 {
-        match self {
-            Dtype::F8 { big } => {
-                let mut a = [0u8; 8];
-                a.copy_from_slice(b);
-                if big {
-                    f64::from_be_bytes(a)
-                } else {
-                    f64::from_le_bytes(a)
+    /// Decodes `out.len()` elements, the k-th from the `size()` bytes at
+    /// `b[k * stride..]`: one loop per element type, no per-element
+    /// dispatch. O(out.len()).
+    fn decode_strided(self, b: &[u8], stride: usize, out: &mut [f64]) {
+        macro_rules! each {
+            ($n:literal, $from:expr) => {
+                for (k, v) in out.iter_mut().enumerate() {
+                    let mut a = [0u8; $n];
+                    a.copy_from_slice(&b[k * stride..k * stride + $n]);
+                    *v = $from(a);
                 }
-            }
-            Dtype::F4 { big } => {
-                let mut a = [0u8; 4];
-                a.copy_from_slice(b);
-                f64::from(if big {
-                    f32::from_be_bytes(a)
-                } else {
-                    f32::from_le_bytes(a)
-                })
-            }
+            };
+        }
+        match self {
+            Dtype::F8 { big: false } => each!(8, f64::from_le_bytes),
+            Dtype::F8 { big: true } => each!(8, f64::from_be_bytes),
+            Dtype::F4 { big: false } => each!(4, |a| f64::from(f32::from_le_bytes(a))),
+            Dtype::F4 { big: true } => each!(4, |a| f64::from(f32::from_be_bytes(a))),
         }
     }
 }
@@ -279,9 +276,8 @@ pub fn header(path: &str, given: &[String]) -> CliResult<Vec<String>> {
 
 /// [`crate::table::scan_rows`] for a `.npy` file: streams the rows, `visit`
 /// receives the values of `wanted` (NaN allowed only in the columns of
-/// `may_be_empty`), the time column is checked for uniform spacing. Time
-/// O(rows × needed columns) plus the reads (all the data in C order, the
-/// needed columns in Fortran order); memory O(block), whatever the rows.
+/// `may_be_empty`), the time column is checked for uniform spacing. Row by
+/// row on top of [`scan_blocks`]: the same checks and messages.
 pub fn scan_rows(
     path: &str,
     given: &[String],
@@ -289,6 +285,52 @@ pub fn scan_rows(
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
+) -> CliResult<(usize, f64)> {
+    let mut row = vec![0.0; wanted.len()];
+    let block_rows = (BLOCK / (8 * wanted.len().max(1))).max(1);
+    scan_blocks(
+        path,
+        given,
+        wanted,
+        may_be_empty,
+        ts,
+        block_rows,
+        |cols, n| {
+            for i in 0..n {
+                for (j, x) in row.iter_mut().enumerate() {
+                    *x = cols[j * n + i];
+                }
+                if !visit(&row)? {
+                    return Ok(i + 1);
+                }
+            }
+            Ok(n)
+        },
+    )
+}
+
+/// Streams the `wanted` columns of a `.npy` file in blocks of up to
+/// `block_rows` rows: `visit(cols, n)` receives the block column-major
+/// (column j of `wanted` at `cols[j * n .. (j + 1) * n]`) and returns how
+/// many of its rows it took; fewer than `n` ends the scan there. Values are
+/// checked as [`scan_rows`] checks them (NaN only in the columns of
+/// `may_be_empty`, the time column's spacing when no `ts` is given): at the
+/// first row that fails, the rows before it are delivered and the error is
+/// returned, as a row-by-row reading would. Returns the rows taken and the
+/// base period.
+///
+/// Each column of a block is decoded in one strided loop (C order: from
+/// one contiguous read of whole rows; Fortran order: one read per wanted
+/// column) and checked for finiteness in chunks of 8: O(rows × wanted
+/// columns) with no per-row calls, memory O(block_rows × columns).
+pub fn scan_blocks(
+    path: &str,
+    given: &[String],
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    block_rows: usize,
+    mut visit: impl FnMut(&[f64], usize) -> CliResult<usize>,
 ) -> CliResult<(usize, f64)> {
     let (mut file, h) = open(path)?;
     let header = names(path, given, h.cols)?;
@@ -314,86 +356,110 @@ pub fn scan_rows(
     let mut check = RowCheck::new(ts);
     let read_time = time_col.filter(|_| check.wants_time());
     crate::table::not_the_time_column(path, &header, &idx, read_time)?;
-    // The distinct columns needed, and where each wanted value comes from.
-    let mut needed: Vec<usize> = idx.iter().copied().chain(read_time).collect();
-    needed.sort_unstable();
-    needed.dedup();
-    let slot = |c: usize| needed.iter().position(|&n| n == c).unwrap_or(0);
-    let from: Vec<usize> = idx.iter().map(|&c| slot(c)).collect();
-    let time_slot = read_time.map(slot);
+    // The columns decoded per block: the wanted ones, then the time column.
+    let sources: Vec<usize> = idx.iter().copied().chain(read_time).collect();
     let size = h.dtype.size();
     let row_bytes = h.cols * size;
-    let block_rows = if h.fortran_order {
-        (BLOCK / size).max(1)
-    } else {
-        (BLOCK / row_bytes.max(1)).max(1)
-    };
+    let block_rows = block_rows.max(1);
     let read_err = |e: std::io::Error| input(format!("{path}: truncated data ({e})"));
     let mut bytes = vec![0u8; block_rows * if h.fortran_order { size } else { row_bytes }];
-    // Fortran order: the needed columns of the block, one after the other.
-    let mut cols_buf: Vec<f64> = vec![
-        0.0;
-        if h.fortran_order {
-            needed.len() * block_rows
-        } else {
-            0
-        }
-    ];
-    let mut vals = vec![0.0; needed.len()];
-    let mut row = vec![0.0; wanted.len()];
+    let mut cols = vec![0.0; sources.len() * block_rows];
     let mut r0 = 0;
-    'blocks: while r0 < h.rows {
+    while r0 < h.rows {
         let n = block_rows.min(h.rows - r0);
-        if h.fortran_order {
-            for (k, &c) in needed.iter().enumerate() {
+        for (k, &c) in sources.iter().enumerate() {
+            let out = &mut cols[k * n..(k + 1) * n];
+            if h.fortran_order {
                 let at = h.data_offset + (c as u64 * h.rows as u64 + r0 as u64) * size as u64;
                 file.seek(SeekFrom::Start(at)).map_err(read_err)?;
                 let b = &mut bytes[..n * size];
                 file.read_exact(b).map_err(read_err)?;
-                for (v, e) in cols_buf[k * block_rows..k * block_rows + n]
-                    .iter_mut()
-                    .zip(b.chunks_exact(size))
-                {
-                    *v = h.dtype.decode(e);
+                h.dtype.decode_strided(b, size, out);
+            } else {
+                if k == 0 {
+                    file.read_exact(&mut bytes[..n * row_bytes])
+                        .map_err(read_err)?;
                 }
+                h.dtype.decode_strided(&bytes[c * size..], row_bytes, out);
             }
-        } else {
-            file.read_exact(&mut bytes[..n * row_bytes])
-                .map_err(read_err)?;
         }
-        for i in 0..n {
-            let r = r0 + i;
-            for (k, v) in vals.iter_mut().enumerate() {
-                *v = if h.fortran_order {
-                    cols_buf[k * block_rows + i]
+        // The first row that fails a value check (and the column, in
+        // wanted order, where a row-by-row reading fails it).
+        let mut first_bad: Option<(usize, usize)> = None;
+        for (j, col) in cols[..wanted.len() * n].chunks_exact(n).enumerate() {
+            let nan_ok = may_be_empty.contains(&j);
+            let limit = first_bad.map_or(n, |(r, _)| r + 1);
+            if let Some(r) = first_failing(&col[..limit], nan_ok)
+                && first_bad.is_none_or(|(b, _)| r < b)
+            {
+                first_bad = Some((r, j));
+            }
+        }
+        // The time column's checks up to that row (a row's values are
+        // checked before its time).
+        let checked = first_bad.map_or(n, |(r, _)| r);
+        let mut time_error = None;
+        if let Some(tc) = read_time {
+            let times = &cols[wanted.len() * n..(wanted.len() + 1) * n];
+            let start = check.rows;
+            for (i, &t) in times[..checked].iter().enumerate() {
+                let step = if t.is_finite() {
+                    check.time(path, &format_args!("row {}", r0 + i), &header[tc], t)
                 } else {
-                    let at = i * row_bytes + needed[k] * size;
-                    h.dtype.decode(&bytes[at..at + size])
+                    Err(not_finite(path, r0 + i, &header[tc], t, false))
                 };
-            }
-            for (j, (x, &s)) in row.iter_mut().zip(&from).enumerate() {
-                let v = vals[s];
-                let unsampled = v.is_nan() && may_be_empty.contains(&j);
-                if !(v.is_finite() || unsampled) {
-                    return Err(not_finite(path, r, wanted[j], v, may_be_empty.contains(&j)));
+                if let Err(e) = step {
+                    time_error = Some((i, e));
+                    break;
                 }
-                *x = v;
+                check.rows += 1;
             }
-            if let (Some(tc), Some(s)) = (read_time, time_slot) {
-                let t = vals[s];
-                if !t.is_finite() {
-                    return Err(not_finite(path, r, &header[tc], t, false));
-                }
-                check.time(path, &format_args!("row {r}"), &header[tc], t)?;
+            check.rows = start;
+        }
+        let (good, error) = match (time_error, first_bad) {
+            (Some((i, e)), _) => (i, Some(e)),
+            (None, Some((r, j))) => {
+                let v = cols[j * n + r];
+                let e = not_finite(path, r0 + r, wanted[j], v, may_be_empty.contains(&j));
+                (r, Some(e))
             }
-            check.rows += 1;
-            if !visit(&row)? {
-                break 'blocks;
+            (None, None) => (n, None),
+        };
+        let taken = if good == 0 {
+            0
+        } else if good == n {
+            visit(&cols[..wanted.len() * n], n)?
+        } else {
+            // The rows before the failing one, as a block of their own.
+            let mut part = vec![0.0; wanted.len() * good];
+            for (j, dst) in part.chunks_exact_mut(good).enumerate() {
+                dst.copy_from_slice(&cols[j * n..j * n + good]);
             }
+            visit(&part, good)?
+        };
+        check.rows += taken;
+        if taken < good {
+            break;
+        }
+        if let Some(e) = error {
+            return Err(e);
         }
         r0 += n;
     }
     check.finish(path, time_col.is_some())
+}
+
+/// The first entry of `col` that is not finite (NaN allowed when `nan_ok`);
+/// checked 8 values at a time without branches, then located.
+fn first_failing(col: &[f64], nan_ok: bool) -> Option<usize> {
+    let bad = |v: f64| !(v.is_finite() || (nan_ok && v.is_nan()));
+    for (c, chunk) in col.chunks(8).enumerate() {
+        let any = chunk.iter().fold(false, |a, &v| a | bad(v));
+        if any {
+            return chunk.iter().position(|&v| bad(v)).map(|i| c * 8 + i);
+        }
+    }
+    None
 }
 
 /// The error of a non-finite value at row `r` of `column`.
@@ -587,6 +653,82 @@ mod tests {
                 "{path}: row 4, column 'y': value between samples of period 3 (the cell must be empty)"
             )
         );
+    }
+
+    /// Blocks of any size give the rows of the row-by-row reading, in
+    /// both layouts; a bad value mid-block delivers the rows before it,
+    /// then the row reading's error; a visitor that takes fewer rows ends
+    /// the scan there.
+    #[test]
+    fn blocks_are_the_rows_and_stop_where_rows_stop() {
+        let names = s(&["time", "u", "y"]);
+        let (u, y) = (s(&["u"])[0].clone(), s(&["y"])[0].clone());
+        let wanted = [&y, &u];
+        for fortran in [false, true] {
+            let mut data = table(50);
+            let path = file(
+                &format!("blk-{fortran}.npy"),
+                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
+            );
+            let mut rows = Vec::new();
+            scan_rows(&path, &names, &wanted, 0..1, None, |r| {
+                rows.push(r.to_vec());
+                Ok(true)
+            })
+            .unwrap();
+            for block in [1, 7, 50, 64] {
+                let mut got = Vec::new();
+                let (n, ts) = scan_blocks(&path, &names, &wanted, 0..1, None, block, |c, n| {
+                    assert!(n <= block);
+                    got.extend((0..n).map(|i| vec![c[i], c[n + i]]));
+                    Ok(n)
+                })
+                .unwrap();
+                assert_eq!((n, ts, &got), (50, 0.5, &rows));
+            }
+            // An infinite input at row 23: rows 0..23 delivered, then the error.
+            data[3 * 23 + 1] = f64::INFINITY;
+            let path = file(
+                &format!("blk-inf-{fortran}.npy"),
+                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
+            );
+            let mut seen = 0;
+            let e = scan_blocks(&path, &names, &wanted, 0..1, None, 10, |_, n| {
+                seen += n;
+                Ok(n)
+            })
+            .unwrap_err()
+            .to_string();
+            assert_eq!(seen, 23);
+            assert!(
+                e.contains("row 23, column 'u': value inf is not finite"),
+                "{e}"
+            );
+            // A visitor that stops at row 15 of 50: no error from row 23.
+            let mut blocks = 0;
+            let (n, _) = scan_blocks(&path, &names, &wanted, 0..1, None, 10, |_, n| {
+                blocks += 1;
+                Ok(if blocks == 2 { 5 } else { n })
+            })
+            .unwrap();
+            assert_eq!((n, blocks), (15, 2));
+            seen = 0;
+            // A time step out of order at row 31 is found as row by row.
+            data[3 * 23 + 1] = 0.0;
+            data[3 * 31] = 100.0;
+            let path = file(
+                &format!("blk-t-{fortran}.npy"),
+                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
+            );
+            let e = scan_blocks(&path, &names, &wanted, 0..1, None, 8, |_, n| {
+                seen += n;
+                Ok(n)
+            })
+            .unwrap_err()
+            .to_string();
+            assert_eq!(seen, 31);
+            assert!(e.contains("row 31, column 'time'"), "{e}");
+        }
     }
 
     /// Every error message of the reader.

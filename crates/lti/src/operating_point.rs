@@ -130,6 +130,22 @@ impl OperatingPoint {
         Ok((self.remove_input(u)?, shift(y, &self.y0, -1.0, "outputs")?))
     }
 
+    /// [`OperatingPoint::to_deviations`] into `du`, `dy` (resized when
+    /// their shapes differ, else reused: no allocation from block to block
+    /// of a stream). O(rows (n_u + n_y)).
+    ///
+    /// Errors: [`Error::DimensionMismatch`].
+    pub fn to_deviations_into(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        du: &mut DMatrix<f64>,
+        dy: &mut DMatrix<f64>,
+    ) -> Result<()> {
+        shift_into(u, &self.u0, -1.0, "inputs", du)?;
+        shift_into(y, &self.y0, -1.0, "outputs", dy)
+    }
+
     /// u − u₀.
     ///
     /// Errors: [`Error::DimensionMismatch`].
@@ -198,6 +214,19 @@ fn channel_means(records: &[&DMatrix<f64>], n: usize, skip_nan: bool) -> Result<
 }
 
 fn shift(m: &DMatrix<f64>, offsets: &[f64], sign: f64, what: &'static str) -> Result<DMatrix<f64>> {
+    let mut out = DMatrix::zeros(0, 0);
+    shift_into(m, offsets, sign, what, &mut out)?;
+    Ok(out)
+}
+
+/// `m` with `sign · offsets[c]` added to each column c, into `out`.
+fn shift_into(
+    m: &DMatrix<f64>,
+    offsets: &[f64],
+    sign: f64,
+    what: &'static str,
+    out: &mut DMatrix<f64>,
+) -> Result<()> {
     if m.ncols() != offsets.len() {
         return Err(Error::DimensionMismatch {
             what,
@@ -205,11 +234,18 @@ fn shift(m: &DMatrix<f64>, offsets: &[f64], sign: f64, what: &'static str) -> Re
             got: format!("{}", m.ncols()),
         });
     }
-    let mut out = m.clone();
-    for (c, &o) in offsets.iter().enumerate() {
-        out.column_mut(c).iter_mut().for_each(|v| *v += sign * o);
+    if out.shape() != m.shape() {
+        *out = DMatrix::zeros(m.nrows(), m.ncols());
     }
-    Ok(out)
+    // Column slices (contiguous: the loops vectorise).
+    let rows = m.nrows().max(1);
+    let cols = out.as_mut_slice().chunks_exact_mut(rows);
+    for ((t, f), &o) in cols.zip(m.as_slice().chunks_exact(rows)).zip(offsets) {
+        for (t, v) in t.iter_mut().zip(f) {
+            *t = v + sign * o;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -114,6 +114,10 @@ pub struct OutputErrorStream {
     acc: RAccumulator,
     records_done: usize,
     record_open: bool,
+    /// The last block's deviations, reused by [`OutputErrorStream::push`]
+    /// from block to block.
+    #[serde(skip)]
+    scratch: Option<(DMatrix<f64>, DMatrix<f64>)>,
 }
 
 impl OutputErrorStream {
@@ -174,6 +178,7 @@ impl OutputErrorStream {
             acc,
             records_done: 0,
             record_open: false,
+            scratch: None,
         })
     }
 
@@ -185,19 +190,37 @@ impl OutputErrorStream {
     /// are pushed than declared, or a record has more than 64 patterns of
     /// sampled outputs.
     pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
-        let Some((u, y)) = self.prepare(u, y)? else {
+        let mut scratch = self
+            .scratch
+            .take()
+            .unwrap_or_else(|| (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0)));
+        let pushed = self.push_deviations(u, y, &mut scratch);
+        self.scratch = Some(scratch);
+        pushed
+    }
+
+    /// [`push`](Self::push) with the deviations written into `scratch`.
+    fn push_deviations(
+        &mut self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        scratch: &mut (DMatrix<f64>, DMatrix<f64>),
+    ) -> Result<()> {
+        let (du, dy) = scratch;
+        if !self.prepare_into(u, y, du, dy)? {
             return Ok(());
-        };
+        }
+        let (u, y) = (&*du, &*dy);
         let Some((rows, _)) = self.rows.as_mut() else {
             return Ok(());
         };
         match rows {
             Rows::Modal(m) => {
-                if !m.push(&u, &y)? {
+                if !m.push(u, y)? {
                     return Err(too_many_patterns());
                 }
             }
-            Rows::Direct(d) => d.push(&u, &y, &mut self.acc)?,
+            Rows::Direct(d) => d.push(u, y, &mut self.acc)?,
         }
         Ok(())
     }
@@ -210,9 +233,24 @@ impl OutputErrorStream {
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
     ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
-        let Some((u, y)) = self.deviations(u, y)? else {
-            return Ok(None);
-        };
+        let (mut du, mut dy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
+        Ok(self
+            .prepare_into(u, y, &mut du, &mut dy)?
+            .then_some((du, dy)))
+    }
+
+    /// [`prepare`](Self::prepare) with the deviations written into `du`,
+    /// `dy`; false for an empty block.
+    fn prepare_into(
+        &mut self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        du: &mut DMatrix<f64>,
+        dy: &mut DMatrix<f64>,
+    ) -> Result<bool> {
+        if !self.deviations_into(u, y, du, dy)? {
+            return Ok(false);
+        }
         if !self.record_open {
             if self.records_done >= self.opts.records.max(1) {
                 return Err(Error::InvalidOption {
@@ -226,9 +264,9 @@ impl OutputErrorStream {
             self.record_open = true;
         }
         if self.rows.is_none() {
-            self.choose_rows(&u, &y);
+            self.choose_rows(du, dy);
         }
-        Ok(Some((u, y)))
+        Ok(true)
     }
 
     /// A block checked (shape, finiteness) and less the operating point;
@@ -238,18 +276,37 @@ impl OutputErrorStream {
         u: &DMatrix<f64>,
         y: &DMatrix<f64>,
     ) -> Result<Option<(DMatrix<f64>, DMatrix<f64>)>> {
+        let (mut du, mut dy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
+        Ok(self
+            .deviations_into(u, y, &mut du, &mut dy)?
+            .then_some((du, dy)))
+    }
+
+    /// [`deviations`](Self::deviations) into `du`, `dy` (reused when their
+    /// shapes fit); false for an empty block.
+    fn deviations_into(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        du: &mut DMatrix<f64>,
+        dy: &mut DMatrix<f64>,
+    ) -> Result<bool> {
         crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
         crate::error::check_data("u", u)?;
         if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
             return Err(crate::error::non_finite_at("y", y, i));
         }
         if u.nrows() == 0 {
-            return Ok(None);
+            return Ok(false);
         }
-        Ok(Some(match &self.opts.operating_point {
-            Some(op) => op.to_deviations(u, y)?,
-            None => (u.clone(), y.clone()),
-        }))
+        match &self.opts.operating_point {
+            Some(op) => op.to_deviations_into(u, y, du, dy)?,
+            None => {
+                du.clone_from(u);
+                dy.clone_from(y);
+            }
+        }
+        Ok(true)
     }
 
     /// The data scale (from the block `u`, `y`, deviations) and the

@@ -203,6 +203,64 @@ impl ModalForm {
         }
     }
 
+    /// Runs the modal filters of every input (`w`: n per input, as
+    /// [`FilterState::w`]) over the instants `ts` of `u` (each sample times
+    /// `iu`): at each instant the operations of [`step`](Self::step), so
+    /// the numbers are those of the sample-by-sample run, bit for bit; the
+    /// filters of an instant are independent, so their chains overlap in
+    /// the pipeline. With `out = (block, stride, row)`, the value of filter
+    /// c (c = j·n + i) *before* instant k of the stretch is written to
+    /// `block[c * stride + row + k]` (the base rows' column-major block).
+    /// O(n · n_u · ts.len()).
+    fn run(
+        &self,
+        w: &mut [f64],
+        u: &DMatrix<f64>,
+        iu: f64,
+        ts: std::ops::Range<usize>,
+        out: Option<(&mut [f64], usize, usize)>,
+    ) {
+        let n = w.len() / u.ncols().max(1);
+        // The modes as flat lists: (state index, λ) and (index, a, b).
+        let mut reals = Vec::with_capacity(n);
+        let mut pairs = Vec::with_capacity(n / 2);
+        let mut i = 0;
+        for m in &self.modes {
+            match *m {
+                Mode::Real(l) => {
+                    reals.push((i, l));
+                    i += 1;
+                }
+                Mode::Pair(a, b) => {
+                    pairs.push((i, a, b));
+                    i += 2;
+                }
+            }
+        }
+        let rows = u.nrows();
+        let us = u.as_slice();
+        let mut out = out;
+        for (k, t) in ts.enumerate() {
+            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
+                let v = us[j * rows + t] * iu;
+                if let Some((blk, stride, row)) = out.as_mut() {
+                    let at = |c: usize| (j * n + c) * *stride + *row + k;
+                    for (c, x) in wj.iter().enumerate() {
+                        blk[at(c)] = *x;
+                    }
+                }
+                for &(i, l) in &reals {
+                    wj[i] = l.mul_add(wj[i], v);
+                }
+                for &(i, a, b) in &pairs {
+                    let (p, q) = (wj[i], wj[i + 1]);
+                    wj[i] = a.mul_add(p, (-b).mul_add(q, v));
+                    wj[i + 1] = a.mul_add(q, b * p);
+                }
+            }
+        }
+    }
+
     /// Writes into `s` (rows `base..base + n`, parameter columns
     /// `col..col + n`) the coefficients of the n modal parameters on the
     /// base signals of one filter bank for the output row `ct` of C̃:
@@ -652,8 +710,13 @@ impl ModalStream {
             y: u,
             instrument: None,
         };
-        for t in 0..u.nrows() {
+        let mut t = 0;
+        while t < u.nrows() && self.state.fr_live {
             self.state.step(&self.form, &rec, self.inv.0, t);
+            t += 1;
+        }
+        if t < u.nrows() {
+            self.state.run(&self.form, &rec, self.inv.0, t..u.nrows());
         }
     }
 
@@ -763,6 +826,14 @@ impl FilterState {
         }
     }
 
+    /// Advances over the instants `ts` once the free response is gone
+    /// (`fr_live` false): each filter over the stretch at once, the
+    /// numbers of [`step`](Self::step) at every instant.
+    fn run(&mut self, form: &ModalForm, rec: &Record<'_>, iu: f64, ts: std::ops::Range<usize>) {
+        debug_assert!(!self.fr_live);
+        form.run(&mut self.w, rec.u, iu, ts, None);
+    }
+
     /// The states at t = 0, per, 2·per, … (`parts` of them) of a scan of
     /// `rec` that starts from `st`, by one pass of the recursions over the
     /// first (parts − 1)·per instants.
@@ -776,9 +847,17 @@ impl FilterState {
     ) -> Vec<FilterState> {
         let mut out = vec![st.clone()];
         let end = (per * (parts - 1)).min(rec.u.nrows());
-        for t in 0..end {
-            st.step(form, rec, iu, t);
-            if (t + 1) % per == 0 {
+        let mut t = 0;
+        while t < end {
+            let next = ((t / per + 1) * per).min(end);
+            if st.fr_live {
+                st.step(form, rec, iu, t);
+                t += 1;
+            } else {
+                st.run(form, rec, iu, t..next);
+                t = next;
+            }
+            if t % per == 0 {
                 out.push(st.clone());
             }
         }
@@ -807,7 +886,50 @@ fn scan(
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
     let mut pats: Vec<PatternAcc> = Vec::new();
     let mut rows = 0;
-    for t in range {
+    let mut t = range.start;
+    while t < range.end {
+        if !st.fr_live {
+            // Once the free response is gone (or not estimated): runs of
+            // instants with one sampling pattern, column by column.
+            let mask = pattern(rec.y, t);
+            let mut end = t + 1;
+            while end < range.end && pattern(rec.y, end) == mask {
+                end += 1;
+            }
+            if mask == 0 {
+                st.run(form, rec, iu, t..end);
+                t = end;
+                continue;
+            }
+            let k = match pats.iter().position(|pa| pa.mask == mask) {
+                Some(k) => k,
+                None if pats.len() == MAX_PATTERNS => return Ok(None),
+                None => {
+                    pats.push(PatternAcc::new(mask, lay.width));
+                    pats.len() - 1
+                }
+            };
+            let (pa, shift) = match lay.x0 {
+                Some(_) => (
+                    &mut **pats[k]
+                        .narrow
+                        .get_or_insert_with(|| Box::new(PatternAcc::new(mask, lay.width - n))),
+                    n,
+                ),
+                None => (&mut pats[k], 0),
+            };
+            while t < end {
+                let len = (end - t).min(BLOCK - pa.used);
+                fill_rows(form, lay, rec, inv, st, pa, shift, t..t + len);
+                pa.used += len;
+                if pa.used == BLOCK {
+                    pa.flush()?;
+                }
+                rows += mask.count_ones() as usize * len;
+                t += len;
+            }
+            continue;
+        }
         let mask = pattern(rec.y, t);
         if mask != 0 {
             let k = match pats.iter().position(|pa| pa.mask == mask) {
@@ -860,6 +982,7 @@ fn scan(
             rows += mask.count_ones() as usize;
         }
         st.step(form, rec, iu, t);
+        t += 1;
     }
     for pa in &mut pats {
         pa.finish(lay.x0, n)?;
@@ -868,6 +991,60 @@ fn scan(
         patterns: pats,
         rows,
     }))
+}
+
+/// The base rows of the instants `ts` (one sampling pattern, the free
+/// response gone) written into `pa`'s block from its row `pa.used` on,
+/// column by column: the filter columns by [`ModalForm::run`], the inputs,
+/// the constant and the outputs (NaN, not sampled, as 0) by plain loops;
+/// `shift`: the x₀ columns left out (the narrow block). The filter state
+/// ends at `ts.end`. The same numbers as the row-by-row scan.
+#[allow(clippy::too_many_arguments)]
+fn fill_rows(
+    form: &ModalForm,
+    lay: &Layout,
+    rec: &Record<'_>,
+    inv: (f64, f64),
+    st: &mut FilterState,
+    pa: &mut PatternAcc,
+    shift: usize,
+    ts: std::ops::Range<usize>,
+) {
+    let (iu, iy) = inv;
+    let (n, row, len) = (lay.n, pa.used, ts.len());
+    let blk = pa.block.as_mut_slice();
+    // Column j of `m` over the instants `ts`.
+    fn column<'m>(m: &'m DMatrix<f64>, j: usize, ts: &std::ops::Range<usize>) -> &'m [f64] {
+        let at = j * m.nrows();
+        &m.as_slice()[at + ts.start..at + ts.end]
+    }
+    form.run(
+        &mut st.w,
+        rec.u,
+        iu,
+        ts.clone(),
+        Some((&mut *blk, BLOCK, row)),
+    );
+    let at = |c: usize| c * BLOCK + row..c * BLOCK + row + len;
+    for j in 0..lay.nu {
+        for (o, &v) in blk[at(n * lay.nu + j)]
+            .iter_mut()
+            .zip(column(rec.u, j, &ts))
+        {
+            *o = v * iu;
+        }
+    }
+    if let Some(one) = lay.one {
+        blk[at(one - shift)].fill(1.0);
+    }
+    for o in 0..lay.ny {
+        for (d, &v) in blk[at(lay.y - shift + o)]
+            .iter_mut()
+            .zip(column(rec.y, o, &ts))
+        {
+            *d = if v.is_nan() { 0.0 } else { v * iy };
+        }
+    }
 }
 
 #[cfg(test)]
@@ -946,6 +1123,48 @@ mod tests {
             x = a * &x + b * &ut;
         }
         (u, y)
+    }
+
+    #[test]
+    fn the_filters_run_over_a_stretch_as_sample_by_sample() {
+        // Bit for bit: the stretch-wise run (the scan's fast path) and the
+        // sample-by-sample steps, states and the values written.
+        let (a, b, c) = system();
+        let form = ModalForm::of(&a).expect("modes");
+        let (u, y) = record(&a, &b, &c, 700, 7);
+        let rec = Record {
+            u: &u,
+            y: &y,
+            instrument: None,
+        };
+        let start = FilterState {
+            w: (0..8).map(|i| 0.1 * i as f64 - 0.3).collect(),
+            fr: vec![0.0; 4],
+            fr_live: false,
+        };
+        let (mut by_step, mut by_run) = (start.clone(), start);
+        let ts = 13..613;
+        let mut written = vec![0.0; 8 * 1000];
+        form.run(
+            &mut by_run.w,
+            &u,
+            0.37,
+            ts.clone(),
+            Some((&mut written, 1000, 5)),
+        );
+        for (k, t) in ts.enumerate() {
+            for (col, &v) in by_step.w.iter().enumerate() {
+                assert_eq!(written[col * 1000 + 5 + k].to_bits(), v.to_bits());
+            }
+            by_step.step(&form, &rec, 0.37, t);
+        }
+        assert!(
+            by_step
+                .w
+                .iter()
+                .zip(&by_run.w)
+                .all(|(x, z)| x.to_bits() == z.to_bits())
+        );
     }
 
     #[test]

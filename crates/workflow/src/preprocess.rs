@@ -140,15 +140,34 @@ impl ChannelScales {
 
     /// Blocks (u, y) with every channel divided by its scale.
     pub fn apply_block(&self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
-        let mut u = u.clone();
-        for (c, s) in self.u.iter().enumerate() {
-            u.column_mut(c).iter_mut().for_each(|v| *v /= s);
+        let (mut su, mut sy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
+        self.apply_block_into(u, y, &mut su, &mut sy);
+        (su, sy)
+    }
+
+    /// [`ChannelScales::apply_block`] into `su`, `sy` (resized when their
+    /// shapes differ, else reused: no allocation from block to block of a
+    /// stream). O(rows (n_u + n_y)).
+    pub fn apply_block_into(
+        &self,
+        u: &DMatrix<f64>,
+        y: &DMatrix<f64>,
+        su: &mut DMatrix<f64>,
+        sy: &mut DMatrix<f64>,
+    ) {
+        for (from, to, scales) in [(u, &mut *su, &self.u), (y, &mut *sy, &self.y)] {
+            if to.shape() != from.shape() {
+                *to = DMatrix::zeros(from.nrows(), from.ncols());
+            }
+            // Column slices (contiguous: the loops vectorise).
+            let rows = from.nrows().max(1);
+            let cols = to.as_mut_slice().chunks_exact_mut(rows);
+            for ((t, f), s) in cols.zip(from.as_slice().chunks_exact(rows)).zip(scales) {
+                for (t, v) in t.iter_mut().zip(f) {
+                    *t = v / s;
+                }
+            }
         }
-        let mut y = y.clone();
-        for (c, s) in self.y.iter().enumerate() {
-            y.column_mut(c).iter_mut().for_each(|v| *v /= s);
-        }
-        (u, y)
     }
 
     /// [`ChannelScales::apply`] on a record the caller gives up: divided

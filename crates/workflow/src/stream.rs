@@ -494,10 +494,12 @@ impl RecordSource for ScaledSource<'_> {
         let mut held: Vec<(DMatrix<f64>, DMatrix<f64>)> = Vec::new();
         let mut rows = 0;
         let scales = &mut self.scales;
+        // The scaled blocks, reused from block to block.
+        let (mut su, mut sy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
         let pass = self.inner.pass(&mut |u, y| {
             if let Some(sc) = scales.as_ref() {
-                let (u, y) = sc.apply_block(u, y);
-                return push(&u, &y);
+                sc.apply_block_into(u, y, &mut su, &mut sy);
+                return push(&su, &sy);
             }
             held.push((u.clone(), y.clone()));
             rows += u.nrows();

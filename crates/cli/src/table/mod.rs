@@ -107,6 +107,25 @@ pub fn read_raw(
     ts: Option<f64>,
 ) -> CliResult<Raw> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
+    if is_npy(path) {
+        // Whole blocks of columns (no per-row calls).
+        let block_rows = 1 << 16;
+        let (rows, ts) = crate::npy::scan_blocks(
+            path,
+            columns,
+            wanted,
+            may_be_empty,
+            ts,
+            block_rows,
+            |b, n| {
+                for (c, col) in cols.iter_mut().zip(b.chunks_exact(n)) {
+                    c.extend_from_slice(col);
+                }
+                Ok(n)
+            },
+        )?;
+        return Ok(Raw { cols, rows, ts });
+    }
     let (rows, ts) = scan_rows(path, columns, wanted, may_be_empty, ts, |row| {
         for (c, &v) in cols.iter_mut().zip(row) {
             c.push(v);
