@@ -490,18 +490,11 @@ pub(crate) fn accumulate(
         let len = rec.u.nrows();
         let parts = threads.max(1).min(len / PARALLEL_MIN_SAMPLES).max(1);
         let per = len.div_ceil(parts);
-        let starts = FilterState::at(
-            FilterState::initial(form, &lay),
-            form,
-            rec,
-            inv.0,
-            per,
-            parts,
-        );
+        let start = FilterState::initial(form, &lay);
         let scans: Vec<Result<Option<Scan>>> = if parts == 1 {
-            vec![scan(form, &lay, rec, inv, 0..len, &mut starts[0].clone())]
+            vec![scan(form, &lay, rec, inv, 0..len, &mut start.clone())]
         } else {
-            scan_parallel(form, &lay, rec, inv, &starts, per)
+            scan_parallel(form, &lay, rec, inv, &start, per, parts)
                 .into_iter()
                 .map(|(sc, _)| sc)
                 .collect()
@@ -522,36 +515,50 @@ pub(crate) fn accumulate(
     Ok(Some(rows_total))
 }
 
-/// The ranges `i·per .. (i + 1)·per` of `rec` (one per entry of `starts`,
-/// their starting filter states) scanned on their own threads, the first on
-/// the calling thread; each result comes with the filter state at the end
-/// of its range. A range whose thread failed is scanned again here.
+/// The `parts` ranges `i·per .. (i + 1)·per` of `rec` scanned on their own
+/// threads, from the filter state `start` at the first: the first range's
+/// thread starts at once while the calling thread runs the filters alone
+/// over the ranges before the others (O(n n_u) per sample, the same
+/// numbers the single scan would hold there: [`FilterState::at`]), starts
+/// them, and scans the last range itself. Each result comes with the filter
+/// state at the end of its range; a range whose thread failed is scanned
+/// again here.
 fn scan_parallel(
     form: &ModalForm,
     lay: &Layout,
     rec: &Record<'_>,
     inv: (f64, f64),
-    starts: &[FilterState],
+    start: &FilterState,
     per: usize,
+    parts: usize,
 ) -> Vec<(Result<Option<Scan>>, FilterState)> {
     let len = rec.u.nrows();
     let range = |i: usize| (i * per).min(len)..((i + 1) * per).min(len);
-    let run = |i: usize| {
-        let mut st = starts[i].clone();
+    let run = |i: usize, from: &FilterState| {
+        let mut st = from.clone();
         (scan(form, lay, rec, inv, range(i), &mut st), st)
     };
-    let joined: Vec<Option<(Result<Option<Scan>>, FilterState)>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (1..starts.len())
-            .map(|i| scope.spawn(move || run(i)))
+    let (joined, starts) = std::thread::scope(|scope| {
+        let first = scope.spawn(|| run(0, start));
+        let starts = FilterState::at(start.clone(), form, rec, inv.0, per, parts);
+        let middle: Vec<_> = (1..parts.saturating_sub(1))
+            .map(|i| {
+                let from = starts[i].clone();
+                scope.spawn(move || run(i, &from))
+            })
             .collect();
-        std::iter::once(Some(run(0)))
-            .chain(handles.into_iter().map(|h| h.join().ok()))
-            .collect()
+        let last = (parts > 1).then(|| run(parts - 1, &starts[parts - 1]));
+        let joined: Vec<Option<(Result<Option<Scan>>, FilterState)>> =
+            std::iter::once(first.join().ok())
+                .chain(middle.into_iter().map(|h| h.join().ok()))
+                .chain(last.map(Some))
+                .collect();
+        (joined, starts)
     });
     joined
         .into_iter()
         .enumerate()
-        .map(|(i, r)| r.unwrap_or_else(|| run(i)))
+        .map(|(i, r)| r.unwrap_or_else(|| run(i, &starts[i])))
         .collect()
 }
 
@@ -665,9 +672,16 @@ impl ModalStream {
         // the filters), scanned on their own threads; the last range's
         // scan leaves the state at the end of the block.
         let per = len.div_ceil(parts);
-        let starts = FilterState::at(self.state.clone(), &self.form, &rec, self.inv.0, per, parts);
         let mut end_state = None;
-        for (sc, st) in scan_parallel(&self.form, &self.lay, &rec, self.inv, &starts, per) {
+        for (sc, st) in scan_parallel(
+            &self.form,
+            &self.lay,
+            &rec,
+            self.inv,
+            &self.state,
+            per,
+            parts,
+        ) {
             let Some(sc) = sc? else {
                 return Ok(false);
             };

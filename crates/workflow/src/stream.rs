@@ -50,7 +50,8 @@ pub struct Pass {
 pub type BlockSink<'a> = dyn FnMut(&DMatrix<f64>, &DMatrix<f64>) -> Result<()> + 'a;
 
 /// A single record read in blocks, as often as the streamed route needs.
-pub trait RecordSource {
+/// `Send`: a pass may run on a reading thread ahead of the arithmetic.
+pub trait RecordSource: Send {
     /// Numbers of inputs and outputs of the record.
     fn channels(&self) -> (usize, usize);
 
@@ -141,11 +142,16 @@ pub fn identify_streamed(
     if !streamable(opts) {
         return Ok(None);
     }
+    // The machine's threads unless given (results depend on the count
+    // through rounding only): with two or more, the first pass reads on a
+    // thread of its own ahead of the compression.
+    let threads = lifted_linalg::budget::resolve_threads(opts.identification.threads.unwrap_or(0));
     // The channels divided by their scales, as the in-memory routes take
     // them (preprocess::ChannelScales): the same model from both.
     let mut scaled = ScaledSource {
         inner: raw,
         scales: None,
+        ahead: threads > 1,
     };
     let source = &mut scaled;
     let id = &opts.identification;
@@ -259,6 +265,10 @@ pub fn identify_streamed(
     let t_second = std::time::Instant::now();
     let second = first.wants_second_pass();
     let fit = if second {
+        // The second pass's regression splits each block over the threads
+        // itself (a reading thread beside it measured slower: the split
+        // waits for its slower half).
+        source.ahead = false;
         second_pass(source, first, kept, &what)?
     } else {
         first.into_model()
@@ -456,10 +466,22 @@ pub fn identify_streamed(
 /// holds its blocks back until it has seen those rows (or the record's
 /// end), then delivers them and the rest scaled; later passes and
 /// [`RecordSource::load`] use the same scales.
+///
+/// With `ahead`, a pass reads, checks and scales on a thread of its own,
+/// up to [`READ_AHEAD`] blocks ahead of the arithmetic that takes them
+/// (the same blocks in the same order: the same model), so that reading
+/// overlaps the compression and the regression instead of leaving the
+/// other core idle.
 struct ScaledSource<'s> {
     inner: &'s mut dyn RecordSource,
     scales: Option<ChannelScales>,
+    ahead: bool,
 }
+
+/// Blocks a reading thread may hold ready beyond the one being taken:
+/// two keep the arithmetic fed through an uneven read, and bound the
+/// memory to a few blocks.
+const READ_AHEAD: usize = 2;
 
 impl ScaledSource<'_> {
     /// The scales of the first [`SCALE_ROWS`] rows of `held`.
@@ -484,12 +506,47 @@ impl ScaledSource<'_> {
     }
 }
 
-impl RecordSource for ScaledSource<'_> {
-    fn channels(&self) -> (usize, usize) {
-        self.inner.channels()
+impl ScaledSource<'_> {
+    /// One pass with the reading on a thread of its own: its blocks
+    /// (copies into buffers that come back once taken) through a channel
+    /// of [`READ_AHEAD`] to `push` on the calling thread. An error of
+    /// `push` stops the reading (the channel closes) and is returned.
+    fn pass_ahead(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
+        type Block = (DMatrix<f64>, DMatrix<f64>);
+        let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Block>(READ_AHEAD);
+        let (free_tx, free_rx) = std::sync::mpsc::channel::<Block>();
+        let stopped = || Error::Source("the reading stopped: the blocks were refused".into());
+        std::thread::scope(|scope| {
+            let reader = scope.spawn(move || {
+                self.scaled_pass(&mut |u, y| {
+                    let (mut bu, mut by) = free_rx
+                        .try_recv()
+                        .unwrap_or_else(|_| (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0)));
+                    bu.clone_from(u);
+                    by.clone_from(y);
+                    full_tx.send((bu, by)).map_err(|_| stopped())
+                })
+            });
+            let mut pushed = Ok(());
+            while let Ok((u, y)) = full_rx.recv() {
+                pushed = push(&u, &y);
+                if pushed.is_err() {
+                    break;
+                }
+                // The reader may have finished: its buffers are not needed.
+                let _ = free_tx.send((u, y));
+            }
+            drop(full_rx);
+            let read = reader
+                .join()
+                .unwrap_or_else(|_| Err(Error::Source("the reading thread failed".into())));
+            pushed?;
+            read
+        })
     }
 
-    fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
+    /// One pass, scaled, on the calling thread.
+    fn scaled_pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
         let (n_u, n_y) = self.inner.channels();
         let mut held: Vec<(DMatrix<f64>, DMatrix<f64>)> = Vec::new();
         let mut rows = 0;
@@ -523,6 +580,20 @@ impl RecordSource for ScaledSource<'_> {
             self.scales = Some(sc);
         }
         Ok(pass)
+    }
+}
+
+impl RecordSource for ScaledSource<'_> {
+    fn channels(&self) -> (usize, usize) {
+        self.inner.channels()
+    }
+
+    fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
+        if self.ahead {
+            self.pass_ahead(push)
+        } else {
+            self.scaled_pass(push)
+        }
     }
 
     fn load(&mut self) -> Result<Dataset> {
