@@ -12,7 +12,13 @@ worker (getrusage), for 4 shards (2.5e7 samples) and 16 shards (1e8):
 memory per worker stays that of one shard whatever the number of shards.
 
   benches/peers/dask_scale.py --dir /work/dask-bench --cli target/release/lifted \
-      [--shards 4,16] [--json out.json]
+      [--shards 4,16] [--json out.json] [--cli-only] [--repeat 3]
+
+Beside the CLI's whole run it prints each pass's cost per sample (from
+the model file's profile) against two bounds measured in the same run on
+the same bytes: reading the shards once from the page cache (no parsing)
+and copying them in memory, so the distance to the machine's limit is a
+ratio ("whole / 2 reads": the two-pass route reads the bytes twice).
 
 Shards are written once (seeded) and reused. Needs numpy, lifted (the
 wheel) and dask[distributed].
@@ -66,6 +72,48 @@ def write_shards(folder: pathlib.Path, count: int) -> list[pathlib.Path]:
     return paths
 
 
+def read_bound(paths: list[pathlib.Path]) -> float:
+    """Seconds to read the shards' bytes once from the page cache into one
+    reused 4 MiB buffer (readinto: the kernel's copy, no parsing), the
+    best of three: the floor under one pass over the files on this
+    machine."""
+    buf = bytearray(4 << 20)
+    view = memoryview(buf)
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        for p in paths:
+            with open(p, "rb", buffering=0) as f:
+                while f.readinto(view):
+                    pass
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def memcpy_bound(nbytes: int) -> float:
+    """Seconds to copy `nbytes` in memory (numpy, 200 MB at a time, best
+    of three): the machine's memory bandwidth for the same bytes."""
+    chunk = min(nbytes, 200_000_000)
+    src = np.ones(chunk // 8)
+    dst = np.empty_like(src)
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        done = 0
+        while done < nbytes:
+            np.copyto(dst, src)
+            done += chunk
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def cli_passes(out: pathlib.Path) -> tuple[float, float]:
+    """The CLI run's first pass (reading and compression) and second pass
+    (the (B, D, x0) regression) from the model file's profile."""
+    prof = json.loads(out.read_text())["diagnostics"].get("profile", {})
+    return float(prof.get("read_s", float("nan"))), float(prof.get("second_pass_s", float("nan")))
+
+
 def cli_run(cli: str, paths: list[pathlib.Path], out: pathlib.Path) -> tuple[float, float]:
     cmd = [cli, "identify", "--method", "n4sid", "--order", "4", "--horizon", "10", "--concat",
            "--columns", "u1,u2,y1,y2", "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--out", str(out)]
@@ -103,13 +151,34 @@ def main() -> None:
     ap.add_argument("--cli", default="target/release/lifted")
     ap.add_argument("--shards", default="4,16")
     ap.add_argument("--json")
+    ap.add_argument("--cli-only", action="store_true",
+                    help="time the CLI and the bounds only (no Dask)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="CLI runs per size; the fastest is reported")
     args = ap.parse_args()
     rows = []
     for count in [int(s) for s in args.shards.split(",")]:
         paths = write_shards(pathlib.Path(args.dir), count)[:count]
         n = count * SHARD
-        cli_wall, cli_rss = cli_run(args.cli, paths, pathlib.Path(args.dir) / "cli-model.json")
-        row = {"samples": n, "shards": count, "cli_s": cli_wall, "cli_peak_mb": cli_rss}
+        out = pathlib.Path(args.dir) / "cli-model.json"
+        runs = []
+        for _ in range(max(1, args.repeat)):
+            wall, rss = cli_run(args.cli, paths, out)
+            runs.append((wall, rss, *cli_passes(out)))
+        cli_wall, cli_rss, first_s, second_s = min(runs)
+        nbytes = sum(p.stat().st_size for p in paths)
+        read_s, copy_s = read_bound(paths), memcpy_bound(nbytes)
+        row = {"samples": n, "shards": count, "cli_s": cli_wall, "cli_peak_mb": cli_rss,
+               "first_pass_s": first_s, "second_pass_s": second_s,
+               "read_bound_s": read_s, "memcpy_bound_s": copy_s}
+        ns = 1e9 / n
+        print(f"{n:.2e} samples, {nbytes / 1e9:.2f} GB: whole {cli_wall * ns:.1f} ns/sample "
+              f"(first pass {first_s * ns:.1f}, second {second_s * ns:.1f}); "
+              f"reading the bytes once {read_s * ns:.1f} ns/sample, copying them {copy_s * ns:.1f}; "
+              f"whole run / two reads of the bytes = {cli_wall / (2 * read_s):.1f}x")
+        if args.cli_only:
+            rows.append(row)
+            continue
         for w in (1, 2):
             wall, rss, fit = dask_run(paths, w)
             row[f"dask{w}_s"] = wall
@@ -119,6 +188,17 @@ def main() -> None:
         rows.append(row)
         print(json.dumps(row))
     cpu = os.cpu_count()
+    print(f"\n| samples | CLI whole (ns/sample) | first pass | second pass | read of the bytes | copy of the bytes | whole / 2 reads | CLI peak MB |")
+    print("|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        ns = 1e9 / r["samples"]
+        print(f"| {r['samples']:.2e} | {r['cli_s']:.2f} s ({r['cli_s'] * ns:.0f}) | {r['first_pass_s']:.2f} s "
+              f"| {r['second_pass_s']:.2f} s | {r['read_bound_s']:.2f} s | {r['memcpy_bound_s']:.2f} s "
+              f"| {r['cli_s'] / (2 * r['read_bound_s']):.1f} | {r['cli_peak_mb']:.0f} |")
+    if args.cli_only:
+        if args.json:
+            pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
+        return
     print(f"\n| samples | shards | CLI (1 process, {cpu} cores) | Dask 1 worker | Dask 2 workers | peak MB per worker (1 / 2 workers) | CLI peak MB |")
     print("|---|---|---|---|---|---|---|")
     for r in rows:

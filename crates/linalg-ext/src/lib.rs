@@ -77,6 +77,7 @@ pub mod convert;
 pub mod eig;
 pub mod error;
 pub mod extremes;
+mod fold;
 pub mod kernels;
 pub mod lstsq;
 pub mod lyapunov;

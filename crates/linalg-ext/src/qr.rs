@@ -224,12 +224,45 @@ impl RAccumulator {
             return Ok(());
         }
         let (k, n) = (self.r.nrows(), self.ncols);
+        if k == n && n <= NARROW_COLUMNS && crate::fold::available() {
+            // A full triangle and a narrow block: the structured fold.
+            let mut b = block.clone();
+            crate::fold::fold_into_triangle(&mut self.r, &mut b);
+        } else {
+            self.stack(block);
+        }
+        self.rows_seen += block.nrows();
+        Ok(())
+    }
+
+    /// [`push_rows`](Self::push_rows) for a block the caller gives up as
+    /// scratch (overwritten): no copy of it when R is full and the block
+    /// narrow (the structured fold). The same R up to rounding.
+    ///
+    /// Errors: as [`push_rows`](Self::push_rows).
+    pub fn fold_rows(&mut self, block: &mut DMatrix<f64>) -> Result<()> {
+        check_cols("block", block, self.ncols)?;
+        check_finite("block", block)?;
+        if block.nrows() == 0 {
+            return Ok(());
+        }
+        let (k, n) = (self.r.nrows(), self.ncols);
+        if k == n && n <= NARROW_COLUMNS && crate::fold::available() {
+            crate::fold::fold_into_triangle(&mut self.r, block);
+        } else {
+            self.stack(block);
+        }
+        self.rows_seen += block.nrows();
+        Ok(())
+    }
+
+    /// R of [R; block] by the Householder QR of the stacked copy.
+    fn stack(&mut self, block: &DMatrix<f64>) {
+        let (k, n) = (self.r.nrows(), self.ncols);
         let mut stacked = DMatrix::zeros(k + block.nrows(), n);
         stacked.rows_mut(0, k).copy_from(&self.r);
         stacked.rows_mut(k, block.nrows()).copy_from(block);
         self.r = r_in_place(stacked);
-        self.rows_seen += block.nrows();
-        Ok(())
     }
 
     /// The current R, min(rows_seen, ncols)×ncols upper triangular.

@@ -396,7 +396,8 @@ impl PatternAcc {
 
     fn flush(&mut self) -> Result<()> {
         if self.used == BLOCK {
-            self.acc.push_rows(&self.block)?;
+            // The block is scratch from here on: folded in place.
+            self.acc.fold_rows(&mut self.block)?;
         } else if self.used > 0 {
             self.acc
                 .push_rows(&self.block.rows(0, self.used).into_owned())?;
