@@ -143,8 +143,10 @@ pub fn identify_streamed(
         return Ok(None);
     }
     // The machine's threads unless given (results depend on the count
-    // through rounding only): with two or more, the first pass reads on a
-    // thread of its own ahead of the compression.
+    // through rounding only): with two or more, each pass reads on a
+    // thread of its own ahead of the arithmetic (the compression's and
+    // the regression's threads take their ranges in turn, so the reading
+    // thread beside them holds none of them up).
     let threads = lifted_linalg::budget::resolve_threads(opts.identification.threads.unwrap_or(0));
     // The channels divided by their scales, as the in-memory routes take
     // them (preprocess::ChannelScales): the same model from both.
@@ -265,10 +267,6 @@ pub fn identify_streamed(
     let t_second = std::time::Instant::now();
     let second = first.wants_second_pass();
     let fit = if second {
-        // The second pass's regression splits each block over the threads
-        // itself (a reading thread beside it measured slower: the split
-        // waits for its slower half).
-        source.ahead = false;
         second_pass(source, first, kept, &what)?
     } else {
         first.into_model()
