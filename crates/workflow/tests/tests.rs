@@ -111,6 +111,19 @@ struct Blocks {
     u: DMatrix<f64>,
     y: DMatrix<f64>,
     passes: usize,
+    /// Rows per block (700 unless set).
+    rows: usize,
+}
+
+impl Blocks {
+    fn of(u: &DMatrix<f64>, y: &DMatrix<f64>) -> Self {
+        Blocks {
+            u: u.clone(),
+            y: y.clone(),
+            passes: 0,
+            rows: 700,
+        }
+    }
 }
 
 impl RecordSource for Blocks {
@@ -123,7 +136,7 @@ impl RecordSource for Blocks {
         let n = self.u.nrows();
         let mut k = 0;
         while k < n {
-            let r = 700.min(n - k);
+            let r = self.rows.min(n - k);
             push(
                 &self.u.rows(k, r).into_owned(),
                 &self.y.rows(k, r).into_owned(),
@@ -162,11 +175,7 @@ fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
     opts.identification.order_criterion = OrderCriterion::Gap;
     opts.identification.threads = Some(1);
     let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
-    let mut src = Blocks {
-        u: u.clone(),
-        y: y.clone(),
-        passes: 0,
-    };
+    let mut src = Blocks::of(&u, &y);
     let streamed = identify_streamed(&mut src, &opts)
         .expect("streamed")
         .expect("a single-rate record streams");
@@ -191,6 +200,61 @@ fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
     for (p, q) in oa.y0.iter().zip(&ob.y0) {
         assert!((p - q).abs() < 1e-9 * p.abs().max(1.0), "{p} vs {q}");
     }
+}
+
+/// Two threads, blocks of 65 536 rows: the first pass reads ahead on its
+/// own thread, the regression scans each block's ranges on both threads in
+/// turn; the model is the one thread's in memory (to rounding).
+#[test]
+fn the_streamed_route_on_two_threads_gives_the_in_memory_model() {
+    let (u, y) = record(150_000, 0.05, 4);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = Estimator::Shift;
+    opts.identification.order_criterion = OrderCriterion::Gap;
+    opts.identification.threads = Some(1);
+    let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
+    opts.identification.threads = Some(2);
+    let mut src = Blocks {
+        rows: 65_536,
+        ..Blocks::of(&u, &y)
+    };
+    let streamed = identify_streamed(&mut src, &opts)
+        .expect("streamed")
+        .expect("a single-rate record streams");
+    // As in `streamed_equals_in_memory`: rounding amplified by the SVD.
+    let (a, b) = (&mem.file.model, &streamed.file.model);
+    let w = [0.0, 0.3, 1.0, 2.5];
+    let (ga, gb) = (a.freqresp(&w).expect("G"), b.freqresp(&w).expect("G"));
+    for (k, (p, q)) in ga.iter().zip(&gb).enumerate() {
+        let err = (p - q).iter().map(|z| z.norm()).fold(0.0, f64::max);
+        let scale = p.iter().map(|z| z.norm()).fold(1.0, f64::max);
+        assert!(err < 1e-8 * scale, "w = {}: {err}", w[k]);
+    }
+}
+
+/// A block the identification refuses while the reading thread is ahead:
+/// the reading stops and the refusal is what comes back (no hang, no
+/// other error in its place).
+#[test]
+fn a_refused_block_stops_the_reading_ahead() {
+    let (u, mut y) = record(40_000, 0.05, 5);
+    y[(30_000, 1)] = f64::INFINITY;
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    opts.identification.horizon = Some(10);
+    opts.identification.threads = Some(2);
+    let mut src = Blocks {
+        rows: 4096,
+        ..Blocks::of(&u, &y)
+    };
+    let e = identify_streamed(&mut src, &opts)
+        .err()
+        .expect("an infinite output is refused")
+        .to_string();
+    assert!(e.contains("y contains a non-finite value"), "{e}");
+    assert!(!e.contains("reading stopped"), "{e}");
 }
 
 #[test]
@@ -1064,11 +1128,7 @@ fn the_per_method_options_reach_their_routes() {
         o.identification.feedthrough = Some(false);
         let zero = fit(&o);
         assert!(zero.d().iter().all(|&v| v == 0.0), "{method:?}: D = 0");
-        let mut src = Blocks {
-            u: u.clone(),
-            y: y.clone(),
-            passes: 0,
-        };
+        let mut src = Blocks::of(&u, &y);
         let streamed = identify_streamed(&mut src, &o)
             .expect("streamed")
             .expect("a streamed model")
@@ -1571,11 +1631,7 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
     opts.identification.horizon = Some(10);
     opts.identification.estimator = Estimator::Shift;
     opts.identification.order_criterion = OrderCriterion::Gap;
-    let mut src = Blocks {
-        u: u.clone(),
-        y: y.clone(),
-        passes: 0,
-    };
+    let mut src = Blocks::of(&u, &y);
     let e = identify_streamed(&mut src, &opts).expect_err("constant input, streamed");
     assert!(
         e.to_string().contains("input 2 (always 0.5) is constant"),
@@ -1583,11 +1639,7 @@ fn a_constant_input_is_named_when_the_inputs_do_not_excite() {
     );
     // Two inputs tied together: named as a group.
     let tied = DMatrix::from_fn(400, 2, |i, j| u[(i, 0)] * if j == 0 { 1.0 } else { -3.0 });
-    let mut src = Blocks {
-        u: tied,
-        y,
-        passes: 0,
-    };
+    let mut src = Blocks::of(&tied, &y);
     let e = identify_streamed(&mut src, &opts).expect_err("tied inputs, streamed");
     assert!(e.to_string().contains("inputs 1, 2 move together"), "{e}");
 }
@@ -2615,11 +2667,7 @@ fn a_streamed_single_output_record_caps_the_automatic_order_search() {
     for v in y.iter_mut() {
         *v += 0.1 * 12f64.sqrt() * (rng.random::<f64>() - 0.5);
     }
-    let mut src = Blocks {
-        u: u.clone(),
-        y: y.clone(),
-        passes: 0,
-    };
+    let mut src = Blocks::of(&u, &y);
     let opts = WorkflowOptions::default();
     let streamed = identify_streamed(&mut src, &opts)
         .expect("streamed")
