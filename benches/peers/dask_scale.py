@@ -115,16 +115,26 @@ def cli_passes(out: pathlib.Path) -> tuple[float, float]:
 
 
 def cli_run(cli: str, paths: list[pathlib.Path], out: pathlib.Path) -> tuple[float, float]:
+    """Wall time and peak resident memory (MB) of one CLI run. The peak is
+    GNU time's (%M) when /usr/bin/time exists: the rusage of a child that
+    Python forks counts the pages of the forked interpreter before exec."""
     cmd = [cli, "identify", "--method", "n4sid", "--order", "4", "--horizon", "10", "--concat",
            "--columns", "u1,u2,y1,y2", "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--out", str(out)]
     for p in paths:
         cmd += ["--data", str(p)]
+    timed = os.path.exists("/usr/bin/time")
+    if timed:
+        cmd = ["/usr/bin/time", "-f", "peak-kb %M"] + cmd
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
+    err = proc.stderr.read().decode() if proc.stderr else ""
     if status != 0:
-        raise RuntimeError(f"{cmd}: {proc.stderr.read().decode() if proc.stderr else status}")
+        raise RuntimeError(f"{cmd}: {err or status}")
+    peak = [ln for ln in err.splitlines() if ln.startswith("peak-kb ")]
+    if timed and peak:
+        return wall, float(peak[-1].split()[1]) / 1024
     return wall, usage.ru_maxrss / 1024
 
 
