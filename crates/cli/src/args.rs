@@ -695,6 +695,27 @@ pub struct IdentifyArgs {
     /// the model's diagnostics, `kalman_gain_route.stop`).
     #[arg(long, default_value_t = 0.01)]
     pub gain_stop_share: f64,
+    /// Automatic order: most models identified to find a stable one (the rule's choice, then
+    /// the next orders of its ranking; default 6; 1: no retry). The selection's rules are
+    /// recorded in `diagnostics.selection_policy`.
+    #[arg(long, default_value_t = 6)]
+    pub stable_tries: usize,
+    /// Automatic order: orders compared by the refined shortlist (each scored by the model it
+    /// delivers after the refinement; default 3).
+    #[arg(long, default_value_t = 3)]
+    pub shortlist: usize,
+    /// Multirate records, automatic order: orders within this many points of the best held-out
+    /// fit enter the refined shortlist (default 5).
+    #[arg(long, default_value_t = 5.0, allow_hyphen_values = true)]
+    pub shortlist_span: f64,
+    /// Automatic order and horizon: the smallest within this many points of the best held-out
+    /// fit is kept (parsimony; default 0.5).
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    pub selection_tolerance: f64,
+    /// The score (percent) of a held-out block whose model failed, and the floor of every
+    /// block's fit in the means (default -100).
+    #[arg(long, default_value_t = -100.0, allow_hyphen_values = true)]
+    pub failed_fold: f64,
     /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
     /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
     /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's

@@ -3683,6 +3683,57 @@ mod faults {
         assert!(stop.contains("0.5 of its sampling spread"), "{stop}");
     }
 
+    /// Issue 48: the automatic order's selection rules are flags: bad
+    /// values refused naming the flag, given ones recorded in
+    /// `diagnostics.selection_policy`.
+    #[test]
+    fn selection_policy_flags_are_checked_and_recorded() {
+        let d = tmp("selection-policy");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "m.json");
+        let args = |extra: &[&str]| -> Vec<String> {
+            [
+                "identify",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--refine",
+                "none",
+                "--out",
+                &out,
+            ]
+            .iter()
+            .chain(extra)
+            .map(|s| s.to_string())
+            .collect()
+        };
+        for (bad, flag) in [
+            (["--stable-tries", "0"], "--stable-tries"),
+            (["--shortlist", "0"], "--shortlist"),
+            (["--shortlist-span", "nan"], "--shortlist-span"),
+            (["--selection-tolerance", "-1"], "--selection-tolerance"),
+            (["--failed-fold", "5"], "--failed-fold"),
+        ] {
+            let a = args(&bad);
+            let a: Vec<&str> = a.iter().map(String::as_str).collect();
+            let e = fails(&a, 2);
+            assert!(e.contains(flag), "{e}");
+        }
+        let a = args(&["--failed-fold", "-30", "--stable-tries", "2"]);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = lifted(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let policy = &m["diagnostics"]["selection_policy"];
+        assert_eq!(policy["failed_fold"], -30.0);
+        assert_eq!(policy["stable_tries"], 2);
+        assert_eq!(policy["shortlist"], 3);
+    }
+
     /// A 2-output model y = (x, 2x), x(k+1) = 0.9x + 0.1u, T = 1 s.
     fn two_outputs() -> StateSpace {
         StateSpace::new(

@@ -6,7 +6,9 @@
 //! Bergmeir & Benítez, "On the use of cross-validation for time series
 //! predictor evaluation", Information Sciences 191 (2012) 192–213.
 
-use lifted_subspace::crossval::{Folds, OwnedRecords, floored, held_out_fit, usable};
+use lifted_subspace::crossval::{
+    FAILED_FOLD, Folds, OwnedRecords, floored, floored_at, held_out_fit, usable,
+};
 use lifted_subspace::{Experiment, OrderSelection, Record, SubspaceOptions};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -28,6 +30,15 @@ pub struct RefinementCheck {
     pub folds: usize,
     /// Per scored fold: (subspace model's fit, refined model's fit).
     pub per_fold: Vec<(Option<f64>, Option<f64>)>,
+    /// The score of a fold without a model and the floor of every fold's
+    /// fit in the means and differences (percent; default
+    /// [`FAILED_FOLD`], −100; [`RefinementCheck::with_floor`]).
+    #[serde(default = "failed_fold")]
+    pub floor: f64,
+}
+
+fn failed_fold() -> f64 {
+    FAILED_FOLD
 }
 
 /// How the held-out blocks decide between the subspace model and its
@@ -131,6 +142,27 @@ impl std::str::FromStr for CheckRule {
 }
 
 impl RefinementCheck {
+    /// The check with the folds' scores floored at `floor` (the
+    /// selection's failed-fold score) instead: the means recomputed from
+    /// the per-fold fits.
+    pub fn with_floor(mut self, floor: f64) -> Self {
+        let count = self.per_fold.len().max(1) as f64;
+        self.initial_fit = self
+            .per_fold
+            .iter()
+            .map(|p| floored_at(p.0, floor))
+            .sum::<f64>()
+            / count;
+        self.refined_fit = self
+            .per_fold
+            .iter()
+            .map(|p| floored_at(p.1, floor))
+            .sum::<f64>()
+            / count;
+        self.floor = floor;
+        self
+    }
+
     /// The verdict under `rule` ([`CheckRule`]): `Some(true)` (keep the
     /// refinement), `Some(false)` (keep the subspace model), `None` when
     /// the blocks do not tell the two apart.
@@ -141,7 +173,7 @@ impl RefinementCheck {
                 let per: Vec<f64> = self
                     .per_fold
                     .iter()
-                    .map(|(i, r)| floored(*r) - floored(*i))
+                    .map(|(i, r)| floored_at(*r, self.floor) - floored_at(*i, self.floor))
                     .collect();
                 let k = per.len();
                 if k < 2 {
@@ -187,7 +219,7 @@ impl RefinementCheck {
         let mut per: Vec<f64> = self
             .per_fold
             .iter()
-            .map(|(i, r)| floored(*r) - floored(*i))
+            .map(|(i, r)| floored_at(*r, self.floor) - floored_at(*i, self.floor))
             .collect();
         per.sort_by(f64::total_cmp);
         let k = per.len();
@@ -311,6 +343,7 @@ pub fn cross_validate_refinement(
         refined_fit,
         folds: per_fold.len(),
         per_fold,
+        floor: FAILED_FOLD,
     })
 }
 
@@ -394,13 +427,21 @@ mod tests {
                 (Some(76.3), Some(80.5)),
                 (Some(31.0), Some(-97.6)),
             ],
+            floor: FAILED_FOLD,
         };
         assert_eq!(check.verdict(3.0), None);
+        // A floor at −20 (a diverging fold counts less): the mean
+        // difference −11.7 points, the median of the differences +0.05:
+        // still no verdict; the means are recomputed from the folds.
+        let floored20 = check.clone().with_floor(-20.0);
+        assert!((floored20.refined_fit - (87.5 + 73.5 + 80.5 - 20.0) / 4.0).abs() < 1e-12);
+        assert_eq!(floored20.verdict(3.0), None);
         let clear = RefinementCheck {
             per_fold: vec![(Some(80.0), Some(60.0)); 4],
             initial_fit: 80.0,
             refined_fit: 60.0,
             folds: 4,
+            floor: FAILED_FOLD,
         };
         assert_eq!(clear.verdict(3.0), Some(false));
         let t = CheckRule::PairedT { confidence: 0.95 };
@@ -419,6 +460,7 @@ mod tests {
             refined_fit: 80.0 + d.iter().sum::<f64>() / d.len() as f64,
             folds: d.len(),
             per_fold: d.iter().map(|x| (Some(80.0), Some(80.0 + x))).collect(),
+            floor: FAILED_FOLD,
         };
         let t = CheckRule::PairedT { confidence: 0.95 };
         let margin = CheckRule::Margin { points: 3.0 };

@@ -78,7 +78,7 @@ pub(crate) fn horizon_of(
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
-    refine_check="margin:3"))]
+    refine_check="margin:3", selection=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -109,6 +109,7 @@ pub(crate) fn identify<'py>(
     process: Option<&str>,
     kernel: Option<&str>,
     refine_check: &str,
+    selection: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -163,8 +164,60 @@ pub(crate) fn identify<'py>(
             reason: e.to_string(),
         })
     })?;
+    if let Some(sel) = selection {
+        opts.identification.selection = selection_of(&sel)?;
+    }
     let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)
+}
+
+/// `selection={...}`: the automatic order's rules
+/// (`lifted_workflow::SelectionOptions`), any of `stable_tries`,
+/// `shortlist` (ints), `shortlist_span`, `tolerance`, `failed_fold`
+/// (numbers); the others at their defaults. An unknown key or a value of
+/// the wrong type is an `InvalidOptionError` naming it (the values' ranges
+/// are checked by the workflow).
+fn selection_of(d: &Bound<'_, PyDict>) -> PyResult<lifted_workflow::SelectionOptions> {
+    let mut s = lifted_workflow::SelectionOptions::default();
+    let bad = |key: &str, reason: String| {
+        err(lifted_workflow::Error::InvalidOption {
+            option: "selection",
+            reason: format!("{key}: {reason}"),
+        })
+    };
+    for (k, v) in d.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| bad("key", "the keys are the policy's field names".into()))?;
+        let number = || -> PyResult<f64> {
+            if v.is_instance_of::<pyo3::types::PyBool>() {
+                return Err(bad(&key, "a number, not a bool".into()));
+            }
+            v.extract::<f64>()
+                .map_err(|_| bad(&key, format!("a number, got {v}")))
+        };
+        let whole = || -> PyResult<usize> {
+            if v.is_instance_of::<pyo3::types::PyBool>() {
+                return Err(bad(&key, "an integer, not a bool".into()));
+            }
+            v.extract::<usize>()
+                .map_err(|_| bad(&key, format!("a non-negative integer, got {v}")))
+        };
+        match key.as_str() {
+            "stable_tries" => s.stable_tries = whole()?,
+            "shortlist" => s.shortlist = whole()?,
+            "shortlist_span" => s.shortlist_span = number()?,
+            "tolerance" => s.tolerance = number()?,
+            "failed_fold" => s.failed_fold = number()?,
+            other => {
+                return Err(bad(
+                    other,
+                    "unknown; the keys are stable_tries, shortlist, shortlist_span, tolerance, failed_fold".into(),
+                ));
+            }
+        }
+    }
+    Ok(s)
 }
 
 /// The records of `identify`: one record whose outputs hold NaN only at

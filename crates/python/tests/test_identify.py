@@ -346,3 +346,23 @@ def test_refine_check_reaches_the_held_out_judge() -> None:
     for bad in ("t:1.5", "margin:-1", "median"):
         with pytest.raises(lifted.ArgumentError, match="refine_check"):
             lifted.identify(u, y, order=2, refine_check=bad)
+
+
+def test_selection_policy_is_a_keyword() -> None:
+    """``selection`` (``lifted identify --stable-tries`` … ``--failed-fold``,
+    issue 48): the automatic order's rules are parameters, recorded in
+    ``diagnostics["selection_policy"]``; unknown keys, wrong types and
+    values out of range are refused naming them."""
+    u, y = _first_order_record(6, 1500, pole=0.9, gain=0.1, noise=0.05)
+    fit = lifted.identify(u, y, refine="none", selection={"stable_tries": 2, "failed_fold": -50})
+    policy = fit.diagnostics["selection_policy"]
+    assert policy["stable_tries"] == 2 and policy["failed_fold"] == -50.0
+    assert policy["shortlist"] == 3 and policy["tolerance"] == 0.5
+    default = lifted.identify(u, y, refine="none")
+    assert default.diagnostics["selection_policy"]["failed_fold"] == -100.0
+    with pytest.raises(lifted.ArgumentError, match="unknown"):
+        lifted.identify(u, y, selection={"stable_trys": 2})
+    with pytest.raises(lifted.ArgumentError, match="bool"):
+        lifted.identify(u, y, selection={"shortlist": True})
+    with pytest.raises(lifted.ArgumentError, match="failed_fold"):
+        lifted.identify(u, y, selection={"failed_fold": 5})

@@ -237,7 +237,13 @@ pub fn held_out_fit(
 /// A fold's score for the mean: its fit floored at [`FAILED_FOLD`], or
 /// [`FAILED_FOLD`] without one.
 pub fn floored(fit: Option<f64>) -> f64 {
-    fit.unwrap_or(FAILED_FOLD).max(FAILED_FOLD)
+    floored_at(fit, FAILED_FOLD)
+}
+
+/// [`floored`] at the floor `floor` (the selection's
+/// `StructureOptions::failed_fold`).
+pub fn floored_at(fit: Option<f64>, floor: f64) -> f64 {
+    fit.unwrap_or(floor).max(floor)
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::crossval::{Folds, floored};
+use crate::crossval::{Folds, floored_at};
 use crate::error::{Error, Result};
 use crate::model::Experiment;
 use crate::records::OwnedRecords;
@@ -119,7 +119,10 @@ pub(crate) fn held_out_order(
         .iter()
         .zip(&fits)
         .map(|(&order, f)| {
-            let fold_fits: Vec<f64> = f.iter().map(|&v| floored(v)).collect();
+            let fold_fits: Vec<f64> = f
+                .iter()
+                .map(|&v| floored_at(v, structure.failed_fold))
+                .collect();
             let mean = fold_fits.iter().sum::<f64>() / fold_fits.len().max(1) as f64;
             OrderCandidate {
                 order,

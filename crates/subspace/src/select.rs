@@ -46,7 +46,7 @@
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::crossval::{Folds, floored, held_out_fit, usable};
+use crate::crossval::{Folds, floored_at, held_out_fit, usable};
 use crate::error::{Error, Result};
 use crate::fit::models_of_orders;
 use crate::model::Experiment;
@@ -89,6 +89,12 @@ pub struct StructureOptions {
     /// Records of up to this many samples (all records) get the full
     /// search of horizons and routes. Default 200 000.
     pub search_samples: usize,
+    /// The score of a held-out fold whose model failed, and the floor of
+    /// every fold's fit in the means (percent), so that one diverging fold
+    /// does not swamp them. Default [`crate::crossval::FAILED_FOLD`] (−100:
+    /// a fold twice as far off as predicting zero, the fit's scale; a
+    /// policy, not fitted to any benchmark).
+    pub failed_fold: f64,
 }
 
 impl StructureOptions {
@@ -132,6 +138,7 @@ impl Default for StructureOptions {
             blocked_folds: 6,
             tolerance: 0.5,
             search_samples: 200_000,
+            failed_fold: crate::crossval::FAILED_FOLD,
         }
     }
 }
@@ -326,14 +333,20 @@ pub fn select_structure(
         for (&system, fits) in systems.iter().zip(&fits) {
             for (i, &n) in orders.iter().enumerate() {
                 let any = fits[i].iter().any(Option::is_some);
-                let mean = fits[i].iter().map(|&f| floored(f)).sum::<f64>()
+                let mean = fits[i]
+                    .iter()
+                    .map(|&f| floored_at(f, opts.failed_fold))
+                    .sum::<f64>()
                     / fold_layout.held_out.len() as f64;
                 candidates.push(Candidate {
                     horizon: s,
                     system,
                     order: n,
                     fit: any.then_some(mean),
-                    fold_fits: fits[i].iter().map(|&f| floored(f)).collect(),
+                    fold_fits: fits[i]
+                        .iter()
+                        .map(|&f| floored_at(f, opts.failed_fold))
+                        .collect(),
                 });
             }
         }

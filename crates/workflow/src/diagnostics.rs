@@ -191,6 +191,24 @@ pub(crate) fn add_run_facts(
     obj.insert("output_periods".into(), json!(output_periods));
 }
 
+/// Records the selection policy an automatic order was picked by
+/// (`diagnostics.selection_policy`: [`crate::SelectionOptions`]); nothing
+/// when the order was given.
+pub(crate) fn add_selection_policy(
+    diagnostics: &mut serde_json::Value,
+    opts: &crate::WorkflowOptions,
+) {
+    if opts.identification.order != crate::Order::Auto {
+        return;
+    }
+    if let Some(obj) = diagnostics.as_object_mut() {
+        obj.insert(
+            "selection_policy".into(),
+            opts.identification.selection.to_json(),
+        );
+    }
+}
+
 /// Adds `secs` to the wall time of the phase `key` (seconds) in the
 /// diagnostics' `phases`, which [`add_run_facts`] merges into `profile`;
 /// a phase timed twice (the gain check of a multirate model) accumulates.

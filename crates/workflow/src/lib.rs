@@ -163,7 +163,7 @@ pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
     Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order, OrderCriterion,
     REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine, RefinementOptions,
-    ValidationOptions, WorkflowOptions,
+    SelectionOptions, ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};

@@ -369,6 +369,116 @@ pub struct IdentificationOptions {
     /// q-Markov: diagonal output weighting Q of eq. (III-6), one positive
     /// value for every output or one per output (empty: the identity).
     pub output_weight: Vec<f64>,
+    /// The rules an automatic order or structure picks its model by (how
+    /// many models to try for a stable one, the shortlists, the tolerance,
+    /// a failed fold's score): [`SelectionOptions`]; recorded in
+    /// `diagnostics.selection_policy`.
+    pub selection: SelectionOptions,
+}
+
+/// The rules by which an automatic order (or structure) picks among the
+/// models it compares. Each default is a policy with its reason, none
+/// fitted to a benchmark's validation halves; every run records the values
+/// it used in `diagnostics.selection_policy`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SelectionOptions {
+    /// Most models an automatic order identifies to find a stable one: the
+    /// rule's choice and then the next orders of its ranking, the first
+    /// stable one kept (none stable: the rule's choice, with the
+    /// validation stage's warning). Default 6: the rule's choice and the
+    /// five next, half the default order range — enough to pass over the
+    /// one or two spurious orders an unstable choice usually sits among,
+    /// without identifying the whole range. At least 1 (1: no retry).
+    pub stable_tries: usize,
+    /// Orders the refined shortlists compare (the held-out selection's
+    /// best orders, each scored by the model it delivers after the
+    /// refinement; the multirate routes' shortlist). Default 3: the best
+    /// order and its two nearest rivals, whose held-out fits are usually
+    /// within the tolerance of each other; each costs a refinement per
+    /// held-out block. At least 1.
+    pub shortlist: usize,
+    /// Multirate routes: orders whose held-out fit is within this many
+    /// points of the best enter the refined shortlist. Default 5: the
+    /// spread of a held-out fit over the last third of a record of a few
+    /// thousand slow samples (a few points), so that orders the curve
+    /// cannot tell apart are refined and compared. Finite, at least 0.
+    pub shortlist_span: f64,
+    /// Points of held-out fit within which a smaller order or horizon is
+    /// preferred to the best (parsimony). Default 0.5: below the spread of
+    /// the held-out fit between blocks. Finite, at least 0.
+    pub tolerance: f64,
+    /// The score of a held-out fold whose model failed or was unstable,
+    /// and the floor of every fold's fit in the means and paired
+    /// differences (percent), so that one diverging fold does not swamp
+    /// them. Default −100 (`lifted_subspace::crossval::FAILED_FOLD`: an
+    /// error twice the output's spread about its mean). Finite, at most 0.
+    pub failed_fold: f64,
+}
+
+impl Default for SelectionOptions {
+    fn default() -> Self {
+        SelectionOptions {
+            stable_tries: 6,
+            shortlist: 3,
+            shortlist_span: 5.0,
+            tolerance: 0.5,
+            failed_fold: lifted_subspace::crossval::FAILED_FOLD,
+        }
+    }
+}
+
+impl SelectionOptions {
+    /// The subspace selection's options with this policy's tolerance and
+    /// failed-fold score (the rest at their defaults).
+    pub fn structure(&self) -> lifted_subspace::StructureOptions {
+        lifted_subspace::StructureOptions {
+            tolerance: self.tolerance,
+            failed_fold: self.failed_fold,
+            ..Default::default()
+        }
+    }
+
+    /// Checks the values (see each field).
+    pub fn check(&self) -> crate::Result<()> {
+        use crate::Error;
+        if self.stable_tries == 0 {
+            return Err(Error::option("stable_tries", "must be at least 1"));
+        }
+        if self.shortlist == 0 {
+            return Err(Error::option("shortlist", "must be at least 1"));
+        }
+        for (name, v) in [
+            ("shortlist_span", self.shortlist_span),
+            ("selection_tolerance", self.tolerance),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::option(
+                    name,
+                    format!("must be finite and at least 0, got {v}"),
+                ));
+            }
+        }
+        let f = self.failed_fold;
+        if !(f.is_finite() && f <= 0.0) {
+            return Err(Error::option(
+                "failed_fold",
+                format!("must be finite and at most 0, got {f}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The policy as a diagnostics object.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "stable_tries": self.stable_tries,
+            "shortlist": self.shortlist,
+            "shortlist_span": self.shortlist_span,
+            "tolerance": self.tolerance,
+            "failed_fold": self.failed_fold,
+        })
+    }
 }
 
 impl Default for IdentificationOptions {
@@ -398,6 +508,7 @@ impl Default for IdentificationOptions {
             amplitude: None,
             amplitudes: Vec::new(),
             output_weight: Vec::new(),
+            selection: SelectionOptions::default(),
         }
     }
 }
@@ -574,6 +685,7 @@ impl WorkflowOptions {
                 format!("must be finite and at least 0, got {share}"),
             ));
         }
+        id.selection.check()?;
         let r = &self.refinement;
         r.check
             .check()

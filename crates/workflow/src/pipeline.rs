@@ -486,6 +486,7 @@ fn run(
     let samples = sets.iter().map(Dataset::len).sum::<usize>();
     crate::diagnostics::criterion_from_selection(&mut diagnostics);
     add_run_facts(&mut diagnostics, samples, ts, &periods, None, identify_s);
+    crate::diagnostics::add_selection_policy(&mut diagnostics, opts);
     for (j, v) in constant_outputs(records) {
         crate::diagnostics::push_warning(
             &mut diagnostics,

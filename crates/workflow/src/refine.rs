@@ -432,7 +432,7 @@ fn refine_judged_on_blocks(
     records: &[Record<'_>],
     pem: &PemOptions,
     check: HeldOutCheck<'_>,
-    rule: &lifted_pem::CheckRule,
+    (rule, failed_fold): (&lifted_pem::CheckRule, f64),
     diagnostics: &mut serde_json::Value,
 ) -> Result<lifted_pem::PemFit> {
     let exps: Vec<Experiment<'_>> = check
@@ -447,7 +447,8 @@ fn refine_judged_on_blocks(
     let mut fit = refine_pem(model, kalman_gain.as_ref(), records, &[], &whole).ctx("refine")?;
     let judged = match check.known {
         Some(c) => Ok(c.clone()),
-        None => cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS),
+        None => cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS)
+            .map(|c| c.with_floor(failed_fold)),
     };
     let in_sample = fit.report.judged.1 <= fit.report.judged.0;
     let (keep, judge) = match &judged {
@@ -629,6 +630,7 @@ pub fn refine(
     let wf = opts;
     // (Zero iterations with a refinement asked for are refused by
     // `WorkflowOptions::check`.)
+    let failed_fold = opts.identification.selection.failed_fold;
     let opts = &opts.refinement;
     if !(opts.max_work.is_finite() && opts.max_work > 0.0) {
         return Err(crate::Error::option(
@@ -647,7 +649,7 @@ pub fn refine(
             &records,
             &pem,
             check,
-            &opts.check,
+            (&opts.check, failed_fold),
             &mut diagnostics,
         ),
         other => {

@@ -24,10 +24,10 @@ use crate::diagnostics::{criterion_json, extraction_json, order_json, pbsid_json
 use crate::error::{Context, Error, Result};
 use crate::options::{
     AUTO_REFINE_WORK_JOINT, BdRoute, Estimator, IdentificationOptions, Method, Order,
-    OrderCriterion, Refine, WorkflowOptions, gap_only,
+    OrderCriterion, Refine, SelectionOptions, WorkflowOptions, gap_only,
 };
 use crate::refine::stabilized_start;
-use crate::shortlist::{self, Entry, Judge, SHORTLIST};
+use crate::shortlist::{self, Entry, Judge};
 use lifted_pem::PemCost;
 
 /// What a route gives: the model, the diagnostics entry, the Kalman gain,
@@ -152,10 +152,6 @@ fn single<'a>(sets: &'a [Dataset], what: &str) -> Result<&'a Dataset> {
     }
 }
 
-/// Most candidates of the structure ranking identified on the whole
-/// records while looking for a stable model.
-const STABLE_TRIES: usize = 6;
-
 /// The subspace options of the workflow options for records in memory of
 /// period `ts` (the options' structure: horizon 10 and the gap rule unless
 /// given); `remove_means`: the means are removed inside the identification.
@@ -235,7 +231,7 @@ pub(crate) fn subspace(
     // (its options and the fit).
     let mut zero_fit: Option<(SubspaceOptions, Result<lifted_subspace::SubspaceModel>)> = None;
     let (fit, structure, used) = if opts.wants_selection() {
-        let judge = shortlist::judge_of(opts, samples, StructureOptions::default().tolerance);
+        let judge = shortlist::judge_of(opts, samples, id.selection.tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
         // `--stable`) must not change the structure: the selection runs as
         // the plain identification's, and only an unstable choice is then
@@ -315,7 +311,8 @@ pub(crate) fn subspace(
                 };
                 let (fit, plain, capped) = capped_to_supported(plain, &mut run)?;
                 capped_search = capped;
-                let (fit, used, passed) = stable_choice(fit, plain, &mut run);
+                let (fit, used, passed) =
+                    stable_choice(fit, plain, id.selection.stable_tries, &mut run);
                 passed_over = passed;
                 let searched = fit.diagnostics.clone();
                 let (fit, used) = stabilized_if_unstable(&sub, fit, used, &mut run)?;
@@ -391,7 +388,12 @@ pub(crate) fn subspace(
     if let Some(cap) = capped_search {
         push_capped_search_warning(&mut d, cap);
     }
-    add_stable_choice(&mut d, &passed_over, fit.diagnostics.order);
+    add_stable_choice(
+        &mut d,
+        &passed_over,
+        fit.diagnostics.order,
+        id.selection.stable_tries,
+    );
     Ok(SubspaceRoute {
         fit,
         diagnostics: d,
@@ -592,12 +594,13 @@ fn criterion_ranking(report: &OrderReport, sv: &[f64], max: usize) -> Vec<usize>
 /// with the options `search`) when it is stable, else, as the held-out
 /// selection does, the first stable model of the next orders of the
 /// rule's ranking ([`criterion_ranking`], [`first_stable`]: at most
-/// [`STABLE_TRIES`] models in all), identified at a fixed order with
+/// `tries` models in all), identified at a fixed order with
 /// `run`; none stable: `first`. Returns the model, the options that give
 /// it and the orders passed over ([`add_stable_choice`]).
 fn stable_choice(
     first: SubspaceModel,
     search: SubspaceOptions,
+    tries: usize,
     mut run: impl FnMut(&SubspaceOptions) -> Result<SubspaceModel>,
 ) -> (SubspaceModel, SubspaceOptions, Vec<serde_json::Value>) {
     let max = match search.order {
@@ -619,6 +622,7 @@ fn stable_choice(
     let (fit, passed) = first_stable(
         first,
         ranking,
+        tries,
         bound,
         |m: &SubspaceModel| (m.diagnostics.order, m.diagnostics.spectral_radius),
         |n| {
@@ -637,7 +641,7 @@ fn stable_choice(
 
 /// `first` when its model is stable, else the first stable model of the
 /// next orders of `ranking` (the order of `first` skipped; at most
-/// [`STABLE_TRIES`] models in all; `identify_at(n)`, `None` when it
+/// `tries` models in all, [`SelectionOptions::stable_tries`]; `identify_at(n)`, `None` when it
 /// fails), else `first` (unstable: the validation stage warns) — "stable"
 /// meaning ρ < `bound`, 1 + the integrator tolerance
 /// (`crate::integrators::stability_bound`: an integrating plant's marginal
@@ -650,6 +654,7 @@ fn stable_choice(
 fn first_stable<M>(
     first: M,
     ranking: impl IntoIterator<Item = usize>,
+    tries: usize,
     bound: f64,
     order_rho: impl Fn(&M) -> (usize, f64),
     mut identify_at: impl FnMut(usize) -> Option<M>,
@@ -662,7 +667,7 @@ fn first_stable<M>(
         for n in ranking
             .into_iter()
             .filter(|&n| n != first_order)
-            .take(STABLE_TRIES - 1)
+            .take(tries.saturating_sub(1))
         {
             let Some(other) = identify_at(n) else {
                 continue;
@@ -681,19 +686,24 @@ fn first_stable<M>(
 /// `diagnostics.stable_order` of an automatic order by the order rule
 /// asked for whose choice was unstable ([`first_stable`]; nothing when
 /// none was passed over): the orders passed over and the order kept.
-fn add_stable_choice(d: &mut serde_json::Value, passed_over: &[serde_json::Value], order: usize) {
+fn add_stable_choice(
+    d: &mut serde_json::Value,
+    passed_over: &[serde_json::Value],
+    order: usize,
+    tries: usize,
+) {
     let Some(first) = passed_over.first() else {
         return;
     };
     let kept_stable = !passed_over.iter().any(|p| p["order"] == json!(order));
     let rule = if kept_stable {
         format!(
-            "the order rule's choice ({}) gave an unstable model on the records: the next orders of its ranking were identified (at most {STABLE_TRIES} models in all) and the first stable one kept, as the held-out selection does",
+            "the order rule's choice ({}) gave an unstable model on the records: the next orders of its ranking were identified (at most {tries} models in all) and the first stable one kept, as the held-out selection does",
             first["order"]
         )
     } else {
         format!(
-            "the order rule's choice ({}) gave an unstable model on the records and so did the next orders of its ranking (at most {STABLE_TRIES} models in all): the rule's choice is kept",
+            "the order rule's choice ({}) gave an unstable model on the records and so did the next orders of its ranking (at most {tries} models in all): the rule's choice is kept",
             first["order"]
         )
     };
@@ -752,12 +762,18 @@ fn select(
             e => vec![system_of(e)],
         },
         max_order: id.max_order.max(1),
-        ..Default::default()
+        ..id.selection.structure()
     };
     let sel = match select_structure(exps, &opts, &sel_opts) {
         Ok(sel) => sel,
         Err(e) => {
-            let (fit, rule, opts) = unselected(exps, opts, &what, id.horizon.is_some())?;
+            let (fit, rule, opts) = unselected(
+                exps,
+                opts,
+                &what,
+                id.horizon.is_some(),
+                id.selection.stable_tries,
+            )?;
             // Too short for the folds: say so (the error's sample counts
             // are those of one fold's estimation pieces, not the record's).
             let why = match e {
@@ -787,7 +803,7 @@ fn select(
     let mut first_fit = None;
     let mut first_stabilized = None;
     let ranking = sel.ranking(sel_opts.tolerance);
-    for (rank, c) in ranking.iter().enumerate().take(STABLE_TRIES) {
+    for (rank, c) in ranking.iter().enumerate().take(id.selection.stable_tries) {
         let o = structure_options(&opts, c);
         let fit = match identify(exps, &o) {
             Ok(fit) => fit,
@@ -888,6 +904,7 @@ fn unselected(
     opts: SubspaceOptions,
     what: &str,
     horizon_given: bool,
+    tries: usize,
 ) -> Result<(SubspaceModel, String, SubspaceOptions)> {
     let default = opts.past.max(opts.future);
     let short = if horizon_given {
@@ -946,7 +963,7 @@ fn unselected(
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut first = None;
     let mut passed_over = Vec::new();
-    for &(_, s, n) in ranked.iter().take(STABLE_TRIES) {
+    for &(_, s, n) in ranked.iter().take(tries) {
         // The order fixed (and the gap standing for the criterion, as
         // after a selection): a re-identification gives this model again.
         let used = SubspaceOptions {
@@ -1106,10 +1123,12 @@ fn judged(
     first: Entry,
     mut d: serde_json::Value,
 ) -> Selected {
+    let policy = judge.options.identification.selection;
     let mut entries = vec![first];
     let mut identified = 0;
     for c in rest {
-        if entries.len() >= SHORTLIST || identified >= SHORTLIST + STABLE_TRIES {
+        if entries.len() >= policy.shortlist || identified >= policy.shortlist + policy.stable_tries
+        {
             break;
         }
         if entries.iter().any(|e| e.candidate.order == c.order) {
@@ -1281,7 +1300,7 @@ pub(crate) fn multirate(
                 }
             }
         }
-        for &(n, _) in sel.ranking.iter().take(STABLE_TRIES) {
+        for &(n, _) in sel.ranking.iter().take(id.selection.stable_tries) {
             let Ok(fit) = identify_multirate(data, None, &at_order(&opts, n)) else {
                 continue;
             };
@@ -1293,7 +1312,8 @@ pub(crate) fn multirate(
     }
     let mut fit = identify_multirate(data, None, &opts).ctx("multirate identification")?;
     // An automatic order whose fast model is unstable gives way to the next
-    // orders of the singular-value gap's ranking (up to STABLE_TRIES), as
+    // orders of the singular-value gap's ranking (up to the selection's
+    // stable_tries), as
     // the single-rate selection does; the first stable one is kept, else
     // the gap's choice (unstable, warned).
     let mut passed_over = Vec::new();
@@ -1302,6 +1322,7 @@ pub(crate) fn multirate(
         (fit, passed_over) = first_stable(
             fit,
             ranking,
+            id.selection.stable_tries,
             crate::integrators::stability_bound(id, sets),
             |m: &lifted_multirate::MultirateModel| {
                 let rho = crate::validate::spectral_radius(&m.fast).unwrap_or(f64::INFINITY);
@@ -1410,6 +1431,9 @@ struct HeldOutOrders {
     lead_from_unstable: Option<usize>,
     /// The refined shortlist's rule and scores, when it was judged.
     refined: Option<serde_json::Value>,
+    /// Points within which the smallest order leads
+    /// ([`SelectionOptions::tolerance`]).
+    tolerance: f64,
 }
 
 impl HeldOutOrders {
@@ -1420,7 +1444,7 @@ impl HeldOutOrders {
                 "simulation fit (x0 estimated, mean over the outputs' measured samples) on the held-out samples {}.. of the model identified on the samples before, for orders 1..={}; the smallest order within {} points of the best, the next of the ranking when its model on the whole record is unstable",
                 self.split,
                 self.curve.len(),
-                StructureOptions::default().tolerance
+                self.tolerance
             ),
             "order": n,
             "candidates": self.curve,
@@ -1497,7 +1521,8 @@ fn held_out_orders(
     // Best first, with the parsimony of the single-rate selection: the
     // smallest order within the tolerance of the best leads — of the
     // refined shortlist's scores when it was judged, else of the curve.
-    let tolerance = StructureOptions::default().tolerance;
+    let policy = wf.identification.selection;
+    let tolerance = policy.tolerance;
     let mut ranking = scored.clone();
     ranking.sort_by(|a, b| b.1.total_cmp(&a.1));
     // The best few orders judged by the model each delivers: refined on the
@@ -1555,6 +1580,7 @@ fn held_out_orders(
         return None;
     }
     Some(HeldOutOrders {
+        tolerance,
         ranking,
         curve,
         split,
@@ -1562,21 +1588,15 @@ fn held_out_orders(
         refined: refined.map(|r| {
             json!({
                 "rule": format!(
-                    "the best {MULTIRATE_SHORTLIST} orders of the curve and the orders whose start was unstable there, each refined on the samples before {split} (the prediction cost; an unstable start from its stabilised version) and scored on the rest; the smallest order within {tolerance} points of the best refined score leads (scores of the {rule} models)"
+                    "the best {} orders of the curve (the smallest within {} points of the best, then the best) and the orders whose start was unstable there, each refined on the samples before {split} (the prediction cost; an unstable start from its stabilised version) and scored on the rest; the smallest order within {tolerance} points of the best refined score leads (scores of the {rule} models)",
+                    policy.shortlist,
+                    policy.shortlist_span
                 ),
                 "candidates": r.iter().map(|e| json!({"order": e.0, "score": e.1})).collect::<Vec<_>>(),
             })
         }),
     })
 }
-
-/// Orders of the multirate held-out curve judged by their refined models
-/// (the smallest near the best, then the best).
-const MULTIRATE_SHORTLIST: usize = 3;
-
-/// Points of unrefined held-out fit below the best within which an order
-/// is shortlisted.
-const SHORTLIST_SPAN: f64 = 5.0;
 
 /// Mean held-out simulation fit of `fast` on `val` (x₀ estimated).
 fn held_out_mean(
@@ -1591,7 +1611,9 @@ fn held_out_mean(
 }
 
 /// The held-out fits of the refined models of the best
-/// [`MULTIRATE_SHORTLIST`] orders of `ranking` (`(order, fit)`), then of
+/// [`SelectionOptions::shortlist`] orders of `ranking` (`(order, fit)`: the
+/// smallest within [`SelectionOptions::shortlist_span`] points of the best,
+/// then the best), then of
 /// the orders whose start was `unstable` on the first part (refined from
 /// their stabilised start, `lifted_pem::refine_pem`: the default
 /// refinement cannot reach them otherwise, and on a short record the
@@ -1622,18 +1644,19 @@ fn refined_shortlist(
         y: est.y(),
         instrument: None,
     }];
-    // The smallest orders within SHORTLIST_SPAN points of the best (the
+    // The smallest orders within the shortlist's span of the best (the
     // unrefined curve flattens out past the true order while its level
     // keeps creeping up), then the best itself.
+    let policy = wf.identification.selection;
     let mut near: Vec<usize> = Vec::new();
     if let Some(best) = ranking.first() {
         near = ranking
             .iter()
-            .filter(|c| c.1 >= best.1 - SHORTLIST_SPAN)
+            .filter(|c| c.1 >= best.1 - policy.shortlist_span)
             .map(|c| c.0)
             .collect();
         near.sort_unstable();
-        near.truncate(MULTIRATE_SHORTLIST);
+        near.truncate(policy.shortlist);
         if !near.contains(&best.0) {
             near.push(best.0);
         }
@@ -1844,7 +1867,7 @@ pub(crate) fn pbsid(
                 &exps,
                 &opts,
                 &what,
-                crate::integrators::stability_bound(id, sets),
+                (&id.selection, crate::integrators::stability_bound(id, sets)),
             )?
         } else {
             let fit = lifted_subspace::pbsid_identify(&exps, &opts).ctx(&what)?;
@@ -1857,6 +1880,7 @@ pub(crate) fn pbsid(
                     let (fit, passed) = first_stable(
                         fit,
                         ranking,
+                        id.selection.stable_tries,
                         crate::integrators::stability_bound(id, sets),
                         |m: &lifted_subspace::PbsidModel| {
                             (m.diagnostics.order, m.diagnostics.spectral_radius)
@@ -1877,7 +1901,12 @@ pub(crate) fn pbsid(
         };
     let dg = &fit.diagnostics;
     let mut diagnostics = pbsid_json(&fit);
-    add_stable_choice(&mut diagnostics, &passed_over, dg.order);
+    add_stable_choice(
+        &mut diagnostics,
+        &passed_over,
+        dg.order,
+        id.selection.stable_tries,
+    );
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("feedthrough".into(), feedthrough_json(id));
         if let Some(st) = structure {
@@ -1915,9 +1944,9 @@ fn pbsid_selected(
     exps: &[Experiment<'_>],
     opts: &lifted_subspace::PbsidOptions,
     what: &str,
-    bound: f64,
+    (policy, bound): (&SelectionOptions, f64),
 ) -> Result<(lifted_subspace::PbsidModel, Option<serde_json::Value>)> {
-    let sel = match lifted_subspace::select_pbsid_order(exps, opts, &StructureOptions::default()) {
+    let sel = match lifted_subspace::select_pbsid_order(exps, opts, &policy.structure()) {
         Ok(sel) => sel,
         Err(e) => {
             let fit = lifted_subspace::pbsid_identify(exps, opts).ctx(what)?;
@@ -1927,7 +1956,7 @@ fn pbsid_selected(
                 &held_out_refusal(&e),
                 &sv,
                 opts.order,
-                bound,
+                (policy.stable_tries, bound),
                 |m| (m.diagnostics.order, m.diagnostics.spectral_radius),
                 |n| {
                     let o = lifted_subspace::PbsidOptions {
@@ -1942,6 +1971,7 @@ fn pbsid_selected(
     };
     let (mut fit, d) = held_out_choice(
         &sel,
+        policy,
         &format!("the whole record's past horizon {}", sel.horizon),
         |n| {
             let o = lifted_subspace::PbsidOptions {
@@ -1968,12 +1998,13 @@ fn pbsid_selected(
 
 /// The model of the first order of a held-out ranking (`sel`) whose model
 /// on the whole records (`identify_at(n)`) is stable — at most
-/// [`STABLE_TRIES`] tried; none stable: the first, which the validation
+/// [`SelectionOptions::stable_tries`] tried; none stable: the first, which the validation
 /// stage flags — and the `structure_selection` diagnostics entry (the
 /// criterion, the order, its held-out fit, every candidate with its
 /// per-block fits, the orders passed over). `horizon`: how the folds' horizon was set.
 fn held_out_choice<M>(
     sel: &lifted_subspace::HeldOutOrder,
+    policy: &SelectionOptions,
     horizon: &str,
     identify_at: impl Fn(usize) -> std::result::Result<M, String>,
     spectral_radius: impl Fn(&M) -> f64,
@@ -1997,9 +2028,9 @@ fn held_out_choice<M>(
     let mut tried = Vec::new();
     let mut first = None;
     for c in sel
-        .ranking(StructureOptions::default().tolerance)
+        .ranking(policy.tolerance)
         .iter()
-        .take(STABLE_TRIES)
+        .take(policy.stable_tries)
     {
         let fit = match identify_at(c.order) {
             Ok(fit) => fit,
@@ -2060,7 +2091,7 @@ fn gap_fallback<M>(
     why: &str,
     sv: &[f64],
     order: OrderSelection,
-    bound: f64,
+    (tries, bound): (usize, f64),
     order_rho: impl Fn(&M) -> (usize, f64),
     identify_at: impl Fn(usize) -> Option<M>,
 ) -> (M, serde_json::Value) {
@@ -2068,8 +2099,14 @@ fn gap_fallback<M>(
         OrderSelection::Gap { max } => max,
         OrderSelection::Fixed(n) => n,
     };
-    let (fit, passed_over) =
-        first_stable(first, gap_ranking(sv, max), bound, &order_rho, identify_at);
+    let (fit, passed_over) = first_stable(
+        first,
+        gap_ranking(sv, max),
+        tries,
+        bound,
+        &order_rho,
+        identify_at,
+    );
     let (order, rho) = order_rho(&fit);
     let passed = match (passed_over.is_empty(), rho < bound) {
         (true, _) => String::new(),
@@ -2205,16 +2242,19 @@ pub(crate) fn iv(
             _ => None,
         };
         let chosen = held_out.as_ref().and_then(|sel| {
-            sel.ranking.iter().take(STABLE_TRIES).find_map(|&(n, _)| {
-                let o = LiftedIvOptions {
-                    order: OrderSelection::Fixed(n),
-                    ..lopts.clone()
-                };
-                let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &o).ok()?;
-                crate::validate::spectral_radius(&fit.fast)
-                    .is_ok_and(|r| r < 1.0)
-                    .then_some(fit)
-            })
+            sel.ranking
+                .iter()
+                .take(id.selection.stable_tries)
+                .find_map(|&(n, _)| {
+                    let o = LiftedIvOptions {
+                        order: OrderSelection::Fixed(n),
+                        ..lopts.clone()
+                    };
+                    let fit = identify_lifted_iv(data, &f, Ordering::ChannelMajor, &o).ok()?;
+                    crate::validate::spectral_radius(&fit.fast)
+                        .is_ok_and(|r| r < 1.0)
+                        .then_some(fit)
+                })
         });
         let from_ranking = chosen.is_some();
         let mut stabilized_note = None;
@@ -2375,10 +2415,11 @@ pub(crate) fn iv(
     let (fit, structure) = if id.order == Order::Auto
         && id.order_criterion == OrderCriterion::Validation
     {
-        match lifted_subspace::select_iv_order(&exps, &iopts, &StructureOptions::default()) {
+        match lifted_subspace::select_iv_order(&exps, &iopts, &id.selection.structure()) {
             Ok(sel) => {
                 let (fit, d) = held_out_choice(
                     &sel,
+                    &id.selection,
                     &format!("alpha = {}", sel.horizon),
                     |n| at_order(n).map_err(|e| e.to_string()),
                     |fit| order_rho(fit).1,
@@ -2394,7 +2435,7 @@ pub(crate) fn iv(
                     &held_out_refusal(&e),
                     &sv,
                     iopts.order,
-                    bound,
+                    (id.selection.stable_tries, bound),
                     order_rho,
                     |n| at_order(n).ok(),
                 );
@@ -2428,7 +2469,8 @@ pub(crate) fn iv(
                 let searched = fit.diagnostics.clone();
                 let ranking =
                     criterion_ranking(&searched.order_selection, &searched.singular_values, max);
-                let (fit, passed) = first_stable(fit, ranking, bound, order_rho, |n| {
+                let tries = id.selection.stable_tries;
+                let (fit, passed) = first_stable(fit, ranking, tries, bound, order_rho, |n| {
                     let mut m = at_order(n).ok()?;
                     m.diagnostics.order_selection = searched.order_selection.clone();
                     m.diagnostics.suggested_order = searched.suggested_order;
@@ -2462,7 +2504,7 @@ pub(crate) fn iv(
     if let (Some(obj), Some(st)) = (d.as_object_mut(), structure) {
         obj.insert("structure_selection".into(), st);
     }
-    add_stable_choice(&mut d, &iv_passed_over, dg.order);
+    add_stable_choice(&mut d, &iv_passed_over, dg.order, id.selection.stable_tries);
     if let Some(cap) = iv_capped {
         push_capped_search_warning(&mut d, cap);
     }
@@ -2651,13 +2693,28 @@ mod tests {
         let models = [(3usize, 1.0005f64), (2, 0.9), (4, 1.2)];
         let at = |n: usize| models.iter().copied().find(|m| m.0 == n);
         let rho = |m: &(usize, f64)| *m;
-        let (kept, passed) = first_stable(models[0], [3, 2, 4], 1.001, rho, at);
+        let (kept, passed) = first_stable(models[0], [3, 2, 4], 6, 1.001, rho, at);
         assert_eq!((kept, passed.len()), ((3, 1.0005), 0));
-        let (kept, passed) = first_stable(models[0], [3, 2, 4], 1.0, rho, at);
+        let (kept, passed) = first_stable(models[0], [3, 2, 4], 6, 1.0, rho, at);
         assert_eq!(kept, (2, 0.9));
         assert_eq!(passed[0]["order"], 3);
-        let (kept, _) = first_stable((4, 1.2), [4, 3, 2], 1.001, rho, at);
+        let (kept, _) = first_stable((4, 1.2), [4, 3, 2], 6, 1.001, rho, at);
         assert_eq!(kept, (3, 1.0005));
+    }
+
+    /// The selection's `stable_tries` bounds the models tried: one try
+    /// keeps the rule's unstable choice, two reach the next order only.
+    #[test]
+    fn stable_tries_bound_the_models_tried_for_a_stable_one() {
+        let models = [(4usize, 1.2f64), (5, 1.1), (2, 0.9)];
+        let at = |n: usize| models.iter().copied().find(|m| m.0 == n);
+        let rho = |m: &(usize, f64)| *m;
+        let (kept, passed) = first_stable(models[0], [4, 5, 2], 1, 1.0, rho, at);
+        assert_eq!((kept, passed.len()), ((4, 1.2), 1));
+        let (kept, passed) = first_stable(models[0], [4, 5, 2], 2, 1.0, rho, at);
+        assert_eq!((kept, passed.len()), ((4, 1.2), 2));
+        let (kept, passed) = first_stable(models[0], [4, 5, 2], 3, 1.0, rho, at);
+        assert_eq!((kept, passed.len()), ((2, 0.9), 2));
     }
 
     #[test]

@@ -13,7 +13,7 @@
 //! So when the order is automatic, the records are short enough for the
 //! held-out check of a refinement ([`REFINE_CHECK_SAMPLES`]) and a
 //! refinement will run, the first structure of each of the best
-//! [`SHORTLIST`] orders of the selection's ranking (stable on the whole
+//! `SelectionOptions::shortlist` orders (default 3) of the selection's ranking (stable on the whole
 //! records) is checked the way the refinement is judged
 //! (`lifted_pem::cross_validate_refinement`, six blocks each held out
 //! once, the subspace model and its refinement fitted to the others), and
@@ -43,9 +43,6 @@ use crate::options::{
     WorkflowOptions,
 };
 use crate::refine::{CHECK_BLOCKS, pem_options};
-
-/// Orders shortlisted.
-pub(crate) const SHORTLIST: usize = 3;
 
 /// Most predicted work of the shortlist's refinement checks together
 /// (operations; about 2 s here).
@@ -201,7 +198,8 @@ pub(crate) fn judge(
     for e in &entries[..count] {
         let pem = pem_options(opts, &e.fit.model, cost, false);
         let check = cross_validate_refinement(exps, &e.options, &pem, CHECK_BLOCKS)
-            .map_err(|err| format!("order {}: no held-out check ({err})", e.candidate.order))?;
+            .map_err(|err| format!("order {}: no held-out check ({err})", e.candidate.order))?
+            .with_floor(opts.identification.selection.failed_fold);
         scored.push(check);
     }
     let rule = &opts.refinement.check;
@@ -229,7 +227,8 @@ pub(crate) fn judge(
         .collect();
     let diagnostics = json!({
         "rule": format!(
-            "the first structure of each of the best {SHORTLIST} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement fitted to the others; the one the blocks prefer ({}), else the mean of the two); the smallest order within {tolerance} points of the best",
+            "the first structure of each of the best {} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement fitted to the others; the one the blocks prefer ({}), else the mean of the two); the smallest order within {tolerance} points of the best",
+            judge.options.identification.selection.shortlist,
             rule.describe()
         ),
         "candidates": rows,

@@ -439,6 +439,7 @@ pub fn identify_streamed(
     // read; the identification's time is everything after the first pass.
     let identify_s = t_total.elapsed().as_secs_f64() - read_s;
     add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
+    crate::diagnostics::add_selection_policy(&mut d, opts);
     let dg = &fit.diagnostics;
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;

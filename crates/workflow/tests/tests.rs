@@ -249,12 +249,44 @@ fn a_refused_block_stops_the_reading_ahead() {
         rows: 4096,
         ..Blocks::of(&u, &y)
     };
-    let e = identify_streamed(&mut src, &opts)
-        .err()
-        .expect("an infinite output is refused")
-        .to_string();
+    let Err(e) = identify_streamed(&mut src, &opts) else {
+        panic!("an infinite output is refused");
+    };
+    let e = e.to_string();
     assert!(e.contains("y contains a non-finite value"), "{e}");
     assert!(!e.contains("reading stopped"), "{e}");
+}
+
+/// The selection policy an automatic order was picked by is in the
+/// diagnostics, the values given; a given order records none.
+#[test]
+fn the_selection_policy_is_recorded_with_an_automatic_order() {
+    let (u, y) = record(1200, 0.1, 6);
+    let rec = [Record::new(dataset(&u, &y))];
+    let mut o = WorkflowOptions::default();
+    o.refinement.refine = Refine::None;
+    o.identification.selection.failed_fold = -40.0;
+    o.identification.selection.stable_tries = 3;
+    let fit = identify(&rec, &o).expect("automatic order");
+    let p = &fit.file.diagnostics["selection_policy"];
+    assert_eq!(
+        (p["failed_fold"].as_f64(), p["stable_tries"].as_u64()),
+        (Some(-40.0), Some(3))
+    );
+    assert_eq!(p["tolerance"].as_f64(), Some(0.5));
+    let floor = fit.file.diagnostics["structure_selection"]["candidates"]
+        .as_array()
+        .expect("candidates")
+        .iter()
+        .flat_map(|c| c["fold_fits"].as_array().cloned().unwrap_or_default())
+        .filter_map(|f| f.as_f64())
+        .fold(f64::INFINITY, f64::min);
+    // Some fold of a high order fails or diverges on this record: its
+    // score is the policy's (−100 by default).
+    assert_eq!(floor, -40.0);
+    o.identification.order = Order::Fixed(2);
+    let fixed = identify(&rec, &o).expect("order given");
+    assert!(fixed.file.diagnostics.get("selection_policy").is_none());
 }
 
 #[test]
@@ -370,6 +402,17 @@ fn bad_options_are_named() {
     let mut o = WorkflowOptions::default();
     o.identification.amplitudes = vec![1.0, 2.0];
     assert_eq!(named(&o), "amplitudes");
+    // The selection policy's values.
+    let policy = |f: &dyn Fn(&mut lifted_workflow::SelectionOptions)| {
+        let mut o = WorkflowOptions::default();
+        f(&mut o.identification.selection);
+        named(&o)
+    };
+    assert_eq!(policy(&|s| s.stable_tries = 0), "stable_tries");
+    assert_eq!(policy(&|s| s.shortlist = 0), "shortlist");
+    assert_eq!(policy(&|s| s.shortlist_span = f64::NAN), "shortlist_span");
+    assert_eq!(policy(&|s| s.tolerance = -0.1), "selection_tolerance");
+    assert_eq!(policy(&|s| s.failed_fold = 5.0), "failed_fold");
     let mut o = WorkflowOptions::default();
     o.identification.method = Method::Pbsid;
     o.identification.future = Some(0);

@@ -269,6 +269,7 @@ def identify(
     process: ProcessStructure | None = None,
     kernel: Literal["tc", "dc"] | None = None,
     refine_check: str = "margin:3",
+    selection: dict[str, float] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -360,6 +361,16 @@ def identify(
       ``"t:0.95"`` (a paired t-test of the per-block differences at that
       confidence);
       ``diagnostics["refinement_judge"]["rule"]``.
+    * ``selection``: the rules an automatic order picks its model by, a dict
+      with any of ``stable_tries`` (models tried for a stable one, default
+      6), ``shortlist`` (orders the refined shortlist compares, 3),
+      ``shortlist_span`` (multirate: points of held-out fit within which an
+      order is shortlisted, 5), ``tolerance`` (points within which the
+      smallest order leads, 0.5) and ``failed_fold`` (a failed held-out
+      block's score and the floor of every block's fit, -100); the command
+      line's ``--stable-tries``, ``--shortlist``, ``--shortlist-span``,
+      ``--selection-tolerance``, ``--failed-fold``;
+      ``diagnostics["selection_policy"]``.
     * ``integrator_tolerance``: poles within this distance of the unit circle
       are integrators, kept by the refinement and reported
       (``--integrator-tolerance``; None: 2/N, N the longest record;
@@ -400,7 +411,7 @@ def identify(
             refine_iterations=refine_iterations, refine_max_work=refine_max_work, dt=dt,
             threads=threads, gain_stop_share=gain_stop_share,
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
-            refine_check=refine_check,
+            refine_check=refine_check, selection=selection,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":

@@ -296,6 +296,7 @@ def identify(
     process: ProcessStructure | None = None,
     kernel: Literal["tc", "dc"] | None = None,
     refine_check: str = "margin:3",
+    selection: dict[str, float] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],
