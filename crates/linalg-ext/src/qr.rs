@@ -218,17 +218,11 @@ impl RAccumulator {
     /// Errors: [`crate::Error::DimensionMismatch`] if the block does not
     /// have `ncols` columns, [`crate::Error::NonFinite`].
     pub fn push_rows(&mut self, block: &DMatrix<f64>) -> Result<()> {
-        check_cols("block", block, self.ncols)?;
-        check_finite("block", block)?;
-        if block.nrows() == 0 {
-            return Ok(());
-        }
-        let (k, n) = (self.r.nrows(), self.ncols);
-        if k == n && n <= NARROW_COLUMNS && crate::fold::available() {
+        if self.folds(block)? {
             // A full triangle and a narrow block: the structured fold.
             let mut b = block.clone();
             crate::fold::fold_into_triangle(&mut self.r, &mut b);
-        } else {
+        } else if block.nrows() > 0 {
             self.stack(block);
         }
         self.rows_seen += block.nrows();
@@ -241,19 +235,26 @@ impl RAccumulator {
     ///
     /// Errors: as [`push_rows`](Self::push_rows).
     pub fn fold_rows(&mut self, block: &mut DMatrix<f64>) -> Result<()> {
-        check_cols("block", block, self.ncols)?;
-        check_finite("block", block)?;
-        if block.nrows() == 0 {
-            return Ok(());
-        }
-        let (k, n) = (self.r.nrows(), self.ncols);
-        if k == n && n <= NARROW_COLUMNS && crate::fold::available() {
+        if self.folds(block)? {
             crate::fold::fold_into_triangle(&mut self.r, block);
-        } else {
+        } else if block.nrows() > 0 {
             self.stack(block);
         }
         self.rows_seen += block.nrows();
         Ok(())
+    }
+
+    /// Checks a block (width, finiteness) and says whether it is folded by
+    /// the structured reflections (R full, the block non-empty and narrow,
+    /// the vector kernels available) rather than by the stacked QR.
+    fn folds(&self, block: &DMatrix<f64>) -> Result<bool> {
+        check_cols("block", block, self.ncols)?;
+        check_finite("block", block)?;
+        let n = self.ncols;
+        Ok(block.nrows() > 0
+            && self.r.nrows() == n
+            && n <= NARROW_COLUMNS
+            && crate::fold::available())
     }
 
     /// R of [R; block] by the Householder QR of the stacked copy.

@@ -1254,22 +1254,29 @@ mod tests {
         (u, y)
     }
 
-    #[test]
-    fn the_filters_run_over_a_stretch_as_sample_by_sample() {
-        // Bit for bit: the stretch-wise run (the scan's fast path) and the
-        // sample-by-sample steps, states and the values written.
+    /// The modal form of [`system`], a record of `n` samples and filter
+    /// states away from rest once the free response is gone.
+    fn filters_case(n: usize, seed: u64) -> (ModalForm, DMatrix<f64>, DMatrix<f64>, FilterState) {
         let (a, b, c) = system();
         let form = ModalForm::of(&a).expect("modes");
-        let (u, y) = record(&a, &b, &c, 700, 7);
-        let rec = Record {
-            u: &u,
-            y: &y,
-            instrument: None,
-        };
+        let (u, y) = record(&a, &b, &c, n, seed);
         let start = FilterState {
             w: (0..8).map(|i| 0.1 * i as f64 - 0.3).collect(),
             fr: vec![0.0; 4],
             fr_live: false,
+        };
+        (form, u, y, start)
+    }
+
+    #[test]
+    fn the_filters_run_over_a_stretch_as_sample_by_sample() {
+        // Bit for bit: the stretch-wise run (the scan's fast path) and the
+        // sample-by-sample steps, states and the values written.
+        let (form, u, y, start) = filters_case(700, 7);
+        let rec = Record {
+            u: &u,
+            y: &y,
+            instrument: None,
         };
         let (mut by_step, mut by_run) = (start.clone(), start);
         let ts = 13..613;
@@ -1298,18 +1305,11 @@ mod tests {
 
     #[test]
     fn the_filters_jump_to_the_state_the_steps_reach() {
-        let (a, b, c) = system();
-        let form = ModalForm::of(&a).expect("modes");
-        let (u, y) = record(&a, &b, &c, 5000, 8);
+        let (form, u, y, start) = filters_case(5000, 8);
         let rec = Record {
             u: &u,
             y: &y,
             instrument: None,
-        };
-        let start = FilterState {
-            w: (0..8).map(|i| 0.1 * i as f64 - 0.3).collect(),
-            fr: vec![0.0; 4],
-            fr_live: false,
         };
         for ts in [3..4003, 10..73, 0..5000, 7..7] {
             let (mut stepped, mut jumped) = (start.clone(), start.clone());

@@ -178,7 +178,8 @@ pub enum Order {
 
 /// Rule of an automatic order. Whatever the rule, an order whose model is
 /// unstable on the records gives way to the next order of the rule's
-/// ranking with a stable model, at most six models in all (none stable:
+/// ranking with a stable model, at most six models in all
+/// ([`SelectionOptions::stable_tries`]; none stable:
 /// the rule's choice, which the validation stage warns about) — on records
 /// in memory, for every method but the q-Markov Cover and the multirate IV
 /// route's gap. The diagnostics name the orders passed over
@@ -192,7 +193,8 @@ pub enum OrderCriterion {
     /// horizon and the (A, C) route chosen the same way when they are not
     /// given (single-rate N4SID, MOESP, CVA; default). When the records
     /// are refined and short enough for the held-out check of a refinement
-    /// ([`REFINE_CHECK_SAMPLES`]), the best three orders are then compared
+    /// ([`REFINE_CHECK_SAMPLES`]), the best three orders
+    /// ([`SelectionOptions::shortlist`]) are then compared
     /// by the held-out fit of the model each delivers (its refinement where
     /// the blocks prefer it; `structure_selection.refined_shortlist`).
     /// Records too short for any held-out block at the horizon get the
@@ -205,7 +207,7 @@ pub enum OrderCriterion {
     /// within 5 points of the best and the best are then refined on the
     /// first two thirds (about 2 s of work at most; not with
     /// [`Refine::None`]) and the smallest within 0.5 points of the best
-    /// refined score is kept (`structure_selection.refined_shortlist`;
+    /// refined score is kept (the counts and points: [`SelectionOptions`]) (`structure_selection.refined_shortlist`;
     /// without the shortlist, of the unrefined scores). PBSID and SSARX:
     /// the order by the same held-out fit at the whole record's past
     /// horizon (`lifted_subspace::select_pbsid_order`), single-rate IV at

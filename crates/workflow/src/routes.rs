@@ -740,7 +740,7 @@ fn supported_cap(e: &Error, order: OrderSelection) -> Option<usize> {
 /// `opts` on the records ([`select_structure`]), identified on the whole
 /// records, and the diagnostics entry. When the chosen structure's model is
 /// unstable on the whole records, the next candidates of the ranking are
-/// tried (up to [`STABLE_TRIES`]) and the first stable one is kept (the
+/// tried (up to [`SelectionOptions::stable_tries`]) and the first stable one is kept (the
 /// diagnostics say so); a selection that fails keeps `opts` (horizon 10,
 /// shift invariance, the singular-value gap) and says why. Also returns the
 /// options of the model's identification.
@@ -896,8 +896,8 @@ fn select(
 /// chosen from the data by the same criterion as the order.
 ///
 /// As in [`select`], an unstable choice gives way to the next of the AICc
-/// ranking (up to [`STABLE_TRIES`] models) and is kept only when none of
-/// them is stable. O(s_max + [`STABLE_TRIES`]) AICc searches and fits;
+/// ranking (up to [`SelectionOptions::stable_tries`] models) and is kept only when none of
+/// them is stable. O(s_max + stable_tries) AICc searches and fits;
 /// only records too short for held-out blocks get here.
 fn unselected(
     exps: &[Experiment<'_>],
@@ -2081,7 +2081,7 @@ fn held_out_refusal(e: &lifted_subspace::Error) -> String {
 /// The model of the singular-value gap when no order could be chosen on
 /// held-out blocks (`why`): `first` (the gap's choice), or, when it is
 /// unstable, the first stable one of the next orders of the gap's ranking
-/// of `sv` up to the search bound of `order` (at most [`STABLE_TRIES`] in
+/// of `sv` up to the search bound of `order` (at most [`SelectionOptions::stable_tries`] in
 /// all; `identify_at(n)`, `order_rho(model)` = its order and spectral
 /// radius), as on the multirate route; and the `structure_selection` note
 /// saying so.

@@ -163,29 +163,23 @@ fn the_streamed_route_gives_the_in_memory_model() {
     streamed_equals_in_memory(12_000, [1e-5, 3e4]);
 }
 
-fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
-    let (u, mut y) = record(n, 0.05, 2);
-    for (j, s) in output_units.iter().enumerate() {
-        y.column_mut(j).iter_mut().for_each(|v| *v *= s);
-    }
+/// Order 3, horizon 10, shift invariance, on `threads` threads: the
+/// structure both routes take.
+fn fixed_structure(threads: usize) -> WorkflowOptions {
     let mut opts = WorkflowOptions::default();
     opts.identification.order = Order::Fixed(3);
     opts.identification.horizon = Some(10);
     opts.identification.estimator = Estimator::Shift;
     opts.identification.order_criterion = OrderCriterion::Gap;
-    opts.identification.threads = Some(1);
-    let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
-    let mut src = Blocks::of(&u, &y);
-    let streamed = identify_streamed(&mut src, &opts)
-        .expect("streamed")
-        .expect("a single-rate record streams");
-    // One pass: the first pass kept the small record for the regression.
-    assert_eq!(src.passes, 1, "n = {n}");
-    // Same estimator on the same samples; the compressions differ in their
-    // summation order (blocks of 700 against the in-memory chunks), so the
-    // models agree to rounding amplified by the SVD: 1e-8 on the frequency
-    // response (a lost block or a different (B, D) route moves it ≥ 1e-4).
-    let (a, b) = (&mem.file.model, &streamed.file.model);
+    opts.identification.threads = Some(threads);
+    opts
+}
+
+/// The frequency responses of `a` and `b` agree to 1e-8 of their size:
+/// the same estimator on the same samples, the compressions summed in
+/// another order (rounding amplified by the SVD; a lost block or another
+/// (B, D) route moves them ≥ 1e-4).
+fn same_response(a: &StateSpace, b: &StateSpace) {
     let w = [0.0, 0.3, 1.0, 2.5];
     let (ga, gb) = (a.freqresp(&w).expect("G"), b.freqresp(&w).expect("G"));
     for (k, (p, q)) in ga.iter().zip(&gb).enumerate() {
@@ -193,6 +187,23 @@ fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
         let scale = p.iter().map(|z| z.norm()).fold(1.0, f64::max);
         assert!(err < 1e-8 * scale, "w = {}: {err}", w[k]);
     }
+}
+
+fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
+    let (u, mut y) = record(n, 0.05, 2);
+    for (j, s) in output_units.iter().enumerate() {
+        y.column_mut(j).iter_mut().for_each(|v| *v *= s);
+    }
+    let opts = fixed_structure(1);
+    let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
+    let mut src = Blocks::of(&u, &y);
+    let streamed = identify_streamed(&mut src, &opts)
+        .expect("streamed")
+        .expect("a single-rate record streams");
+    // One pass: the first pass kept the small record for the regression.
+    assert_eq!(src.passes, 1, "n = {n}");
+    // Blocks of 700 against the in-memory chunks.
+    same_response(&mem.file.model, &streamed.file.model);
     let (oa, ob) = (
         mem.file.operating_point.as_ref().expect("op"),
         streamed.file.operating_point.as_ref().expect("op"),
@@ -208,14 +219,8 @@ fn streamed_equals_in_memory(n: usize, output_units: [f64; 2]) {
 #[test]
 fn the_streamed_route_on_two_threads_gives_the_in_memory_model() {
     let (u, y) = record(150_000, 0.05, 4);
-    let mut opts = WorkflowOptions::default();
-    opts.identification.order = Order::Fixed(3);
-    opts.identification.horizon = Some(10);
-    opts.identification.estimator = Estimator::Shift;
-    opts.identification.order_criterion = OrderCriterion::Gap;
-    opts.identification.threads = Some(1);
-    let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
-    opts.identification.threads = Some(2);
+    let mem = identify(&[Record::new(dataset(&u, &y))], &fixed_structure(1)).expect("in memory");
+    let opts = fixed_structure(2);
     let mut src = Blocks {
         rows: 65_536,
         ..Blocks::of(&u, &y)
@@ -223,15 +228,7 @@ fn the_streamed_route_on_two_threads_gives_the_in_memory_model() {
     let streamed = identify_streamed(&mut src, &opts)
         .expect("streamed")
         .expect("a single-rate record streams");
-    // As in `streamed_equals_in_memory`: rounding amplified by the SVD.
-    let (a, b) = (&mem.file.model, &streamed.file.model);
-    let w = [0.0, 0.3, 1.0, 2.5];
-    let (ga, gb) = (a.freqresp(&w).expect("G"), b.freqresp(&w).expect("G"));
-    for (k, (p, q)) in ga.iter().zip(&gb).enumerate() {
-        let err = (p - q).iter().map(|z| z.norm()).fold(0.0, f64::max);
-        let scale = p.iter().map(|z| z.norm()).fold(1.0, f64::max);
-        assert!(err < 1e-8 * scale, "w = {}: {err}", w[k]);
-    }
+    same_response(&mem.file.model, &streamed.file.model);
 }
 
 /// A block the identification refuses while the reading thread is ahead:
