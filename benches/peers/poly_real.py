@@ -106,9 +106,10 @@ def sippy_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
         s = system_identification(yy, uu, "ARMAX", ARMAX_orders=[o(vec), om(mat), o(vec), om(theta)],
                                   ARMAX_mod="OPT")
     elif family == "oe":
-        s = system_identification(yy, uu, "OE", OE_orders=[om(mat), om(mat), om(theta)], OE_mod="OPT")
+        # SIPPY's OE and BJ take one F per output (nf a vector).
+        s = system_identification(yy, uu, "OE", OE_orders=[om(mat), o(vec), om(theta)], OE_mod="OPT")
     else:
-        s = system_identification(yy, uu, "BJ", BJ_orders=[om(mat), o(vec), o(vec), om(mat), om(theta)])
+        s = system_identification(yy, uu, "BJ", BJ_orders=[om(mat), o(vec), o(vec), o(vec), om(theta)])
     num, den = s.NUMERATOR, s.DENOMINATOR
     if siso:
         num, den = [[num]] if np.ndim(num) == 1 else num, [[den]] if np.ndim(den) == 1 else den
@@ -126,7 +127,7 @@ def run(tool: str, family: str, n: int, ue, ye, uv, yv, cap: int) -> dict:
         return {"fit": fit, "status": status, "rho": rho, "seconds": time.perf_counter() - t0}
     except Timeout:
         return {"fit": None, "status": "timeout", "seconds": cap}
-    except Exception as e:  # noqa: BLE001 - a failed run is a data point
+    except (Exception, SystemExit) as e:  # noqa: BLE001 - a failed run is a data point (SIPPY exits on bad orders)
         signal.alarm(0)
         return {"fit": None, "status": f"failed: {type(e).__name__}: {str(e)[:120]}",
                 "seconds": time.perf_counter() - t0}
