@@ -408,3 +408,20 @@ def test_tf_data_and_python_control() -> None:
     control = pytest.importorskip("control")
     g = fit.polynomial.to_control()
     assert isinstance(g, control.TransferFunction) and g.dt == 1.0
+
+
+def test_oe_without_orders_scans_the_order() -> None:
+    """Issue 49: ``lifted.oe(u, y)`` without orders scans the orders by the
+    held-out simulation fit; the scan is in the diagnostics."""
+    rng = np.random.default_rng(7)
+    n = 2000
+    u = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    w = np.zeros(n)
+    for t in range(n):
+        w[t] = (0.5 * (u[t - 2] if t >= 2 else 0.0) + 0.3 * (u[t - 3] if t >= 3 else 0.0)
+                + 1.2 * (w[t - 1] if t >= 1 else 0.0) - 0.5 * (w[t - 2] if t >= 2 else 0.0))
+    y = w + 0.1 * rng.standard_normal(n)
+    fit = lifted.oe(u, y)
+    scan = fit.diagnostics["structure_scan"]
+    assert scan["order"] == 2, scan
+    assert [c["order"] for c in scan["candidates"]] == list(range(1, 11))

@@ -91,14 +91,17 @@ pub enum Method {
     /// Output error, y = B/F u + e, by prediction-error minimisation on the
     /// measured samples (`lifted_pem::oe`; multirate records included):
     /// orders `[nb nf nk]`, or a fixed order n (nb = nf = n, nk from the
-    /// delay estimate on single-rate records, else 1).
+    /// delay estimate on single-rate records, else 1), or neither: the
+    /// order scan by the held-out simulation fit (`crate::polynomial`).
     Oe,
     /// ARMAX, A y = B u + C e, by prediction-error minimisation
     /// (`lifted_pem::armax`; consistent in closed loop): orders
-    /// `[na nb nc nk]`, or a fixed order n (na = nb = nc = n).
+    /// `[na nb nc nk]`, or a fixed order n (na = nb = nc = n), or neither:
+    /// the order scan.
     Armax,
     /// Box–Jenkins, y = B/F u + C/D e (`lifted_pem::bj`; consistent in
-    /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n.
+    /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n, or
+    /// neither: the order scan.
     Bj,
     /// Regularised FIR (impulse response; MATLAB's `impulseest`): orders
     /// `[nb nk]` (default 70 lags from delay 1), the kernel
@@ -345,7 +348,8 @@ pub struct IdentificationOptions {
     /// ARX, FIR, OE, ARMAX, BJ: MATLAB's order vector, the same for every
     /// input–output pair: `[na nb nk]` (ARX), `[nb nk]` (FIR),
     /// `[nb nf nk]` (OE), `[na nb nc nk]` (ARMAX) or `[nb nc nd nf nk]`
-    /// (BJ). OE, ARMAX and BJ need it or a fixed [`Self::order`]. Empty,
+    /// (BJ). OE, ARMAX and BJ without it or a fixed [`Self::order`]: the order
+    /// scan over 1..=[`Self::max_order`] by the held-out simulation fit. Empty,
     /// the default for ARX and FIR: chosen by the structure scan (`crate::polynomial`:
     /// na, nb in 1..=[`Self::max_order`], nk in 1..=5 (0..=5 with
     /// [`Self::feedthrough`] `Some(true)`), by

@@ -29,6 +29,16 @@
 //! OE's structure is `orders` = `[nb nf nk]` or a fixed order n (nb = nf =
 //! n, nk per pair from the ARX delay estimate on single-rate records, 1 on
 //! multirate ones).
+//!
+//! **Order scan of OE, ARMAX and BJ.** Without `orders` and with the order
+//! automatic, every fixed order n = 1..=max_order (OE [n n nk], ARMAX
+//! [n n n nk], BJ [n n n n nk], the delays estimated) is estimated on the
+//! first two thirds of every record and its plant simulated on the last
+//! third (x₀ estimated, the mean fit over the outputs' measured samples:
+//! the held-out criterion of the subspace routes); the smallest order
+//! within the selection's tolerance of the best
+//! (`SelectionOptions::tolerance`, 0.5 points) is estimated on the whole
+//! records (`diagnostics.structure_scan`). O(max_order) estimations.
 
 use lifted_lti::{Dataset, PolyModel, PolyOrders};
 use lifted_pem::{ArxOptions, ArxScanOptions, ArxStructure, StructureCriterion, arx, arx_scan};
@@ -77,11 +87,15 @@ pub(crate) fn check_options(id: &IdentificationOptions) -> Result<()> {
         Method::Armax => (4, "[na nb nc nk]"),
         _ => (5, "[nb nc nd nf nk]"),
     };
-    if id.method.is_iterative_polynomial() && id.orders.is_empty() && id.order == Order::Auto {
+    if id.method.is_iterative_polynomial()
+        && id.orders.is_empty()
+        && id.order == Order::Auto
+        && id.order_criterion != OrderCriterion::Validation
+    {
         return Err(Error::option(
-            "orders",
+            "order_criterion",
             format!(
-                "{} needs its structure: orders {shape} (--orders \"{}\"), or a fixed order n",
+                "{}'s automatic order is scanned by the held-out simulation fit (validation); give orders {shape} (--orders \"{}\") or a fixed order n for another rule",
                 id.method.name(),
                 shape.trim_matches(|c| c == '[' || c == ']')
             ),
@@ -269,6 +283,13 @@ pub(crate) fn identify(
     multirate: bool,
 ) -> Result<RouteFit> {
     let id = &opts.identification;
+    if id.method.is_iterative_polynomial()
+        && id.orders.is_empty()
+        && id.order == Order::Auto
+        && (id.method == Method::Oe || !multirate)
+    {
+        return scanned_order(opts, sets, multirate);
+    }
     if id.method == Method::Oe {
         return output_error(opts, sets, multirate);
     }
@@ -329,6 +350,96 @@ pub(crate) fn identify(
 /// units (see `ChannelScales::poly`).
 pub(crate) fn in_units(sc: &crate::ChannelScales, p: &PolyModel) -> Result<PolyModel> {
     sc.poly(p)
+}
+
+/// The order scan of OE, ARMAX and BJ (module docs): the route at every
+/// fixed order on the first two thirds of the records, scored on the last
+/// third, the smallest order within the tolerance of the best estimated
+/// on the whole records.
+fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Result<RouteFit> {
+    let id = &opts.identification;
+    let route = |o: &WorkflowOptions, s: &[Dataset]| {
+        if id.method == Method::Oe {
+            output_error(o, s, multirate)
+        } else {
+            prediction_error(o, s)
+        }
+    };
+    let (mut est, mut val) = (Vec::new(), Vec::new());
+    for d in sets {
+        let n = d.len();
+        let frame = d.frame_period().max(1);
+        let split = (2 * n / 3) / frame * frame;
+        let (e, v) = (d.slice(0..split), d.slice(split..n));
+        let (Ok(e), Ok(v)) = (e, v) else {
+            return Err(Error::Data(format!(
+                "the {} order scan needs records it can cut into two thirds and a third; one has {n} samples: give the orders or a fixed order",
+                id.method.name()
+            )));
+        };
+        est.push(e);
+        val.push(v);
+    }
+    let vopts = lifted_lti::ValidationOptions {
+        lags: 1,
+        horizons: Vec::new(),
+        ..Default::default()
+    };
+    let mut candidates = Vec::new();
+    let mut scores: Vec<(usize, f64)> = Vec::new();
+    for n in 1..=id.max_order.max(1) {
+        let mut at = opts.clone();
+        at.identification.order = Order::Fixed(n);
+        let scored = route(&at, &est).map_err(|e| e.to_string()).and_then(|fit| {
+            if !crate::validate::spectral_radius(&fit.model).is_ok_and(|r| r < 1.0) {
+                return Err("unstable plant on the first two thirds".into());
+            }
+            let fits: Vec<f64> = val
+                .iter()
+                .filter_map(|v| crate::routes::held_out_mean(&fit.model, v, &vopts))
+                .collect();
+            if fits.len() == val.len() {
+                Ok(fits.iter().sum::<f64>() / fits.len() as f64)
+            } else {
+                Err("not scored on the last third".into())
+            }
+        });
+        match scored {
+            Ok(f) => {
+                candidates.push(json!({"order": n, "held_out_fit": f}));
+                scores.push((n, f));
+            }
+            Err(why) => candidates.push(json!({"order": n, "held_out_fit": null, "why": why})),
+        }
+    }
+    let best = scores.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
+    let tolerance = id.selection.tolerance;
+    let Some(&(order, held_out_fit)) = scores.iter().find(|s| s.1 >= best - tolerance) else {
+        return Err(Error::Data(format!(
+            "no order of 1..={} gave a {} model with a stable plant on the first two thirds of the records: give the orders or a fixed order",
+            id.max_order.max(1),
+            id.method.name()
+        )));
+    };
+    let mut chosen = opts.clone();
+    chosen.identification.order = Order::Fixed(order);
+    let mut fit = route(&chosen, sets)?;
+    if let Some(obj) = fit.diagnostics.as_object_mut() {
+        obj.insert(
+            "structure_scan".into(),
+            json!({
+                "criterion": format!(
+                    "simulation fit (x0 estimated, mean over the outputs' measured samples) on the last third of every record of the model estimated on the first two thirds, fixed orders 1..={}; the smallest order within {tolerance} points of the best",
+                    id.max_order.max(1)
+                ),
+                "candidates": candidates,
+                "order": order,
+                "held_out_fit": held_out_fit,
+            }),
+        );
+    }
+    fit.suggested_order = fit.order;
+    Ok(fit)
 }
 
 /// The OE route (module docs).

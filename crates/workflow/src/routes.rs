@@ -1599,7 +1599,7 @@ fn held_out_orders(
 }
 
 /// Mean held-out simulation fit of `fast` on `val` (x₀ estimated).
-fn held_out_mean(
+pub(crate) fn held_out_mean(
     fast: &StateSpace,
     val: &Dataset,
     vopts: &lifted_lti::ValidationOptions,

@@ -3188,3 +3188,70 @@ fn a_multirate_feedthrough_the_samples_support_is_kept() {
     let fit = identify(&rec, &o).expect("identify, D = 0");
     assert!(fit.file.model.d().iter().all(|v| *v == 0.0));
 }
+
+/// y = B/F u + e with B = 0.5 q⁻² + 0.3 q⁻³, F = 1 − 1.2 q⁻¹ + 0.5 q⁻²
+/// (an OE plant of order 2, delay 2), u white ±1, e white of sd `sd`.
+fn oe_record(n: usize, sd: f64, seed: u64) -> Dataset {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u: Vec<f64> = (0..n)
+        .map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 })
+        .collect();
+    let mut w = vec![0.0; n];
+    for t in 0..n {
+        let b = |k: usize| if t >= k { u[t - k] } else { 0.0 };
+        let f = |k: usize| if t >= k { w[t - k] } else { 0.0 };
+        w[t] = 0.5 * b(2) + 0.3 * b(3) + 1.2 * f(1) - 0.5 * f(2);
+    }
+    let y: Vec<f64> = w
+        .iter()
+        .map(|v| v + sd * (2.0 * rng.random::<f64>() - 1.0) * 3f64.sqrt())
+        .collect();
+    dataset(
+        &DMatrix::from_column_slice(n, 1, &u),
+        &DMatrix::from_column_slice(n, 1, &y),
+    )
+}
+
+/// Issue 49: OE, ARMAX and BJ without orders scan the fixed orders by the
+/// held-out simulation fit and keep the smallest within the tolerance of
+/// the best: the OE plant of order 2 gets order 2 from OE and from BJ (its
+/// plant part), every candidate is recorded; another order rule is
+/// refused naming it.
+#[test]
+fn iterative_polynomial_methods_scan_their_order() {
+    let data = oe_record(3000, 0.1, 11);
+    for method in [Method::Oe, Method::Bj, Method::Armax] {
+        let mut o = WorkflowOptions::default();
+        o.identification.method = method;
+        o.identification.max_order = 4;
+        let fit = identify(&[Record::new(data.clone())], &o).expect("scanned");
+        let scan = &fit.file.diagnostics["structure_scan"];
+        let cands = scan["candidates"].as_array().expect("candidates");
+        assert_eq!(cands.len(), 4, "{method:?}: {scan}");
+        let order = scan["order"].as_u64().expect("order");
+        let best = cands
+            .iter()
+            .filter_map(|c| c["held_out_fit"].as_f64())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let chosen = scan["held_out_fit"].as_f64().expect("fit");
+        assert!(chosen >= best - 0.5, "{method:?}: {scan}");
+        // ARMAX's noise model A/C is not the plant's: it needs a higher
+        // order to fit the OE plant; OE and BJ have the true structure.
+        if method != Method::Armax {
+            assert_eq!(order, 2, "{method:?}: {scan}");
+        }
+        // Every smaller order fits the held-out third worse than the
+        // tolerance.
+        for c in cands.iter().take(order as usize - 1) {
+            let f = c["held_out_fit"].as_f64().unwrap_or(f64::NEG_INFINITY);
+            assert!(f < best - 0.5, "{method:?}: {c}");
+        }
+    }
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Oe;
+    o.identification.order_criterion = OrderCriterion::Aic;
+    match identify(&[Record::new(data)], &o) {
+        Err(Error::InvalidOption { option, .. }) => assert_eq!(option, "order_criterion"),
+        other => panic!("expected the rule refused, got {other:?}"),
+    }
+}

@@ -719,7 +719,10 @@ def oe(
         y(t) = sum_k B_k(q)/F_k(q) u_k(t - nk) + e(t)
 
     ``orders`` = ``[nb, nf, nk]`` for every input-output pair, or ``order``
-    n (nb = nf = n, the delays estimated by ARX fits). ``y`` may hold NaN
+    n (nb = nf = n, the delays estimated by ARX fits), or neither: every
+    order 1..10 estimated on the first two thirds and simulated on the last
+    third, the smallest within half a point of the best kept
+    (``diagnostics["structure_scan"]``). ``y`` may hold NaN
     where an output was not measured (a slow analyser: the NaN of one
     period per output): the cost uses the measured samples only, and the
     fast model comes back. ``parameters`` are, per output, the B
@@ -753,7 +756,8 @@ def armax(
 
     ``orders`` = ``[na, nb, nc, nk]`` (the same for every input-output
     pair; A diagonal), or ``order`` n (na = nb = nc = n, the delays
-    estimated). Consistent on closed-loop records (the direct method).
+    estimated), or neither: the order scan of :func:`oe`. Consistent on
+    closed-loop records (the direct method).
     ``parameters`` per output: a, the B's input by input, c; with
     ``covariance`` and ``std``. Every output sample is needed.
     """
@@ -781,7 +785,8 @@ def bj(
         y(t) = sum_k B_k(q)/F_k(q) u_k(t - nk) + C(q)/D(q) e(t)
 
     ``orders`` = ``[nb, nc, nd, nf, nk]``, or ``order`` n (every degree n,
-    the delays estimated). Consistent on closed-loop records.
+    the delays estimated), or neither: the order scan of :func:`oe`.
+    Consistent on closed-loop records.
     ``parameters`` per output: the B's, c, d, the F's; with ``covariance``
     and ``std``. Every output sample is needed.
     """
