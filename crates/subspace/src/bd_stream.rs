@@ -118,6 +118,9 @@ pub struct OutputErrorStream {
     /// from block to block.
     #[serde(skip)]
     scratch: Option<(DMatrix<f64>, DMatrix<f64>)>,
+    /// Samples pushed so far (a bad sample's place in the stream).
+    #[serde(default)]
+    pushed: usize,
 }
 
 impl OutputErrorStream {
@@ -179,6 +182,7 @@ impl OutputErrorStream {
             records_done: 0,
             record_open: false,
             scratch: None,
+            pushed: 0,
         })
     }
 
@@ -194,9 +198,12 @@ impl OutputErrorStream {
             .scratch
             .take()
             .unwrap_or_else(|| (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0)));
-        let pushed = self.push_deviations(u, y, &mut scratch);
+        let result = self
+            .push_deviations(u, y, &mut scratch)
+            .map_err(|e| e.after(self.pushed));
         self.scratch = Some(scratch);
-        pushed
+        self.pushed += u.nrows();
+        result
     }
 
     /// [`push`](Self::push) with the deviations written into `scratch`.

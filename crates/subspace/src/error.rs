@@ -176,6 +176,20 @@ pub const VARX_REGRESSOR: &str = "past inputs (the input rows of the VARX regres
 pub const VARX_PAST: &str = "past inputs and outputs (the VARX regressor Z_p; past outputs linearly dependent given the past inputs, e.g. a noise-free combination of outputs, need a shorter past horizon: leave it automatic to get the longest that works)";
 
 impl Error {
+    /// A [`Error::NonFinite`] of a block located in the whole stream: its
+    /// sample moved by `by`, the samples pushed before the block (other
+    /// errors as they are).
+    pub(crate) fn after(self, by: usize) -> Self {
+        match self {
+            Error::NonFinite { what, row, col } => Error::NonFinite {
+                what,
+                row: row + by,
+                col,
+            },
+            e => e,
+        }
+    }
+
     /// Whether this is a refusal of data whose rows built from the inputs
     /// are not persistently exciting — the subspace methods' input rows,
     /// the IV method's instrument rows (the inputs in open loop),

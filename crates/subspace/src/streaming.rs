@@ -138,8 +138,9 @@ impl StreamingIdentifier {
         let (nu, ny) = (self.layout.nu, self.layout.ny);
         check_record_shape("block (u, y)", "b", u, y, nu, ny)?;
         let threads = thread_count(self.opts.threads);
-        check_data_on("u", u, threads)?;
-        check_data_on("y", y, threads)?;
+        // A bad sample located in the stream, not in the block.
+        check_data_on("u", u, threads).map_err(|e| e.after(self.samples))?;
+        check_data_on("y", y, threads).map_err(|e| e.after(self.samples))?;
         if u.nrows() > 0 && self.scale.is_none() {
             // With mean removal, the scale of the first block less its
             // means, as `identify` scales the centred records (the same
