@@ -116,12 +116,48 @@ def sippy_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
     return realise(num, den, nu, ny)
 
 
+def sysidentpy_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
+    """sysidentpy's linear ARX (FROLS with every term of degree 1: ylag n,
+    xlag n per input, and the constant, i.e. least squares), one MISO model
+    per output (A diagonal, as SIPPY's MIMO ARX); ARX only."""
+    from sysidentpy.basis_function import Polynomial
+    from sysidentpy.model_structure_selection import FROLS
+    from sysidentpy.parameter_estimation import LeastSquares
+
+    if family != "arx":
+        raise ValueError("sysidentpy: linear ARX only")
+    ny, nu = y.shape[1], u.shape[1]
+    num = [[None] * nu for _ in range(ny)]
+    den = [[None] * nu for _ in range(ny)]
+    for i in range(ny):
+        xlag = n if nu == 1 else [list(range(1, n + 1))] * nu
+        m = FROLS(order_selection=False, n_terms=n + n * nu + 1, ylag=n, xlag=xlag,
+                  basis_function=Polynomial(degree=1), estimator=LeastSquares())
+        m.fit(X=u, y=y[:, i:i + 1])
+        a = np.zeros(n + 1)
+        a[0] = 1.0
+        b = np.zeros((nu, n + 1))
+        for code, th in zip(np.asarray(m.final_model).ravel(), np.asarray(m.theta).ravel()):
+            code = int(code)
+            if code == 0:
+                continue  # the constant (the data are centred)
+            var, lag = divmod(code, 1000)
+            if var == 1:
+                a[lag] = -th
+            else:
+                b[var - 2, lag] = th
+        for j in range(nu):
+            num[i][j], den[i][j] = b[j], a
+    return realise(num, den, nu, ny)
+
+
 def run(tool: str, family: str, n: int, ue, ye, uv, yv, cap: int) -> dict:
     signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(cap)
     t0 = time.perf_counter()
     try:
-        model = (lifted_model if tool == "lifted" else sippy_model)(family, n, ue, ye)
+        fitter = {"lifted": lifted_model, "sippy": sippy_model, "sysidentpy": sysidentpy_model}[tool]
+        model = fitter(family, n, ue, ye)
         signal.alarm(0)
         fit, fits, status, rho = realdata.score(model, uv, yv)
         return {"fit": fit, "status": status, "rho": rho, "seconds": time.perf_counter() - t0}
@@ -148,6 +184,8 @@ def main() -> None:
     ap.add_argument("--records")
     ap.add_argument("--families", default=",".join(FAMILIES))
     ap.add_argument("--cap", type=int, default=60, help="seconds per fit")
+    ap.add_argument("--sysidentpy", action="store_true",
+                    help="also sysidentpy's linear ARX (FROLS, every term) in the ARX rows")
     ap.add_argument("--json")
     args = ap.parse_args()
     recs = json.load(open(args.manifest))["records"]
@@ -164,9 +202,11 @@ def main() -> None:
                 row = {"record": rec["name"], "family": fam, "n": n,
                        "lifted": run("lifted", fam, n, ue, ye, uv, yv, args.cap),
                        "sippy": run("sippy", fam, n, ue, ye, uv, yv, args.cap)}
+                if fam == "arx" and args.sysidentpy:
+                    row["sysidentpy"] = run("sysidentpy", fam, n, ue, ye, uv, yv, args.cap)
                 rows.append(row)
                 print(json.dumps({k: row[k] for k in ("record", "family", "n")}
-                                 | {"lifted": cell(row["lifted"]), "sippy": cell(row["sippy"])}),
+                                 | {t: cell(row[t]) for t in ("lifted", "sippy", "sysidentpy") if t in row}),
                       flush=True)
     print("\n| record | structure | lifted | SIPPY | lifted − SIPPY |")
     print("|---|---|---|---|---|")
@@ -188,7 +228,8 @@ def main() -> None:
             diff = "SIPPY only"
         fam = r["family"].upper()
         o = " ".join(str(v) for v in orders_of(r["family"], r["n"]))
-        print(f"| {r['record']} | {fam} [{o}] | {cell(r['lifted'])} | {cell(r['sippy'])} | {diff} |")
+        extra = f" (sysidentpy {cell(r['sysidentpy'])})" if "sysidentpy" in r else ""
+        print(f"| {r['record']} | {fam} [{o}] | {cell(r['lifted'])} | {cell(r['sippy'])}{extra} | {diff} |")
     print(f"\ncells: lifted better by > 1 point {better}, within a point {within}, worse by > 1 point {worse}")
     if args.json:
         with open(args.json, "w") as f:

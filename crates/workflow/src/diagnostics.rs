@@ -191,17 +191,24 @@ pub(crate) fn add_run_facts(
     obj.insert("output_periods".into(), json!(output_periods));
 }
 
-/// Records the selection policy an automatic order was picked by
-/// (`diagnostics.selection_policy`: [`crate::SelectionOptions`]); nothing
-/// when the order was given.
+/// Records the options the run was given (`diagnostics.options`: the
+/// serialised [`crate::WorkflowOptions`], `null` where a default is
+/// resolved by the route, which the route's own entries then report) and
+/// the selection policy an automatic order was picked by
+/// (`diagnostics.selection_policy`: [`crate::SelectionOptions`]; nothing
+/// when the order was given): the configuration that made a model, as
+/// data.
 pub(crate) fn add_selection_policy(
     diagnostics: &mut serde_json::Value,
     opts: &crate::WorkflowOptions,
 ) {
-    if opts.identification.order != crate::Order::Auto {
+    let Some(obj) = diagnostics.as_object_mut() else {
         return;
+    };
+    if let Ok(o) = serde_json::to_value(opts) {
+        obj.insert("options".into(), o);
     }
-    if let Some(obj) = diagnostics.as_object_mut() {
+    if opts.identification.order == crate::Order::Auto {
         obj.insert(
             "selection_policy".into(),
             opts.identification.selection.to_json(),

@@ -288,6 +288,10 @@ fn the_selection_policy_is_recorded_with_an_automatic_order() {
     o.identification.order = Order::Fixed(2);
     let fixed = identify(&rec, &o).expect("order given");
     assert!(fixed.file.diagnostics.get("selection_policy").is_none());
+    // The options the run was given, as data: they read back as given.
+    let back: WorkflowOptions =
+        serde_json::from_value(fixed.file.diagnostics["options"].clone()).expect("options");
+    assert_eq!(back, o);
 }
 
 #[test]
