@@ -445,15 +445,16 @@ pub fn oe(
         };
         let (mut theta, mut cost, mut r11, mut its) =
             minimise(&problem, pack(&theta0), opts.max_iterations, opts.tolerance)?;
-        if opts.starts >= 2 && plain != theta0 {
-            if let Ok((t2, c2, r2, i2)) =
+        // The second start (module docs): the lower cost kept.
+        if opts.starts >= 2
+            && plain != theta0
+            && let Ok((t2, c2, r2, i2)) =
                 minimise(&problem, pack(&plain), opts.max_iterations, opts.tolerance)
-            {
-                if c2 < cost {
-                    (theta, cost, r11) = (t2, c2, r2);
-                }
-                its += i2;
+        {
+            if c2 < cost {
+                (theta, cost, r11) = (t2, c2, r2);
             }
+            its += i2;
         }
         let theta = unpack(&theta, &pairs);
         let lambda = cost / (measured - d) as f64;
