@@ -217,12 +217,14 @@ fn oe_identifies_a_fast_model_from_an_analyser_every_five_samples() {
     }
     assert_eq!(id.file.diagnostics["measured"][0], 1200);
     assert_eq!(id.file.kind, "polynomial");
-    // OE without orders or a fixed order is refused.
-    let e = identify(&[Record::new(data)], &options(Method::Oe, &[])).unwrap_err();
-    assert!(
-        matches!(&e, Error::InvalidOption { option, .. } if *option == "orders"),
-        "{e}"
-    );
+    // OE without orders or a fixed order scans the orders on the measured
+    // samples (issue 49): the delay is not estimated on a multirate record
+    // (nk = 1), so the plant's delay of 2 takes one more B coefficient,
+    // order 3; the held-out fit is the noise's limit.
+    let id = identify(&[Record::new(data)], &options(Method::Oe, &[])).unwrap();
+    let scan = &id.file.diagnostics["structure_scan"];
+    assert_eq!(scan["order"], 3, "{scan}");
+    assert!(scan["held_out_fit"].as_f64().unwrap() > 95.0, "{scan}");
 }
 
 #[test]
@@ -268,12 +270,10 @@ fn armax_and_bj_through_the_workflow() {
     .unwrap();
     let p = id.details.polynomial.as_ref().unwrap();
     assert!(p.noise_is_stable().unwrap() && p.predictor_is_stable().unwrap());
-    // Structure needed; the wrong length named.
-    let e = identify(&[Record::new(data.clone())], &options(Method::Armax, &[])).unwrap_err();
-    assert!(
-        matches!(&e, Error::InvalidOption { option, .. } if *option == "orders"),
-        "{e}"
-    );
+    // Without a structure, the order scan (the true order 2); the wrong
+    // length named.
+    let id = identify(&[Record::new(data.clone())], &options(Method::Armax, &[])).unwrap();
+    assert_eq!(id.file.diagnostics["structure_scan"]["order"], 2);
     let e = identify(&[Record::new(data)], &options(Method::Bj, &[2, 1, 1])).unwrap_err();
     assert!(e.to_string().contains("[nb nc nd nf nk]"), "{e}");
 }
