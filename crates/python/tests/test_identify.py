@@ -173,6 +173,13 @@ def test_model_json_carries_the_diagnostics_like_the_cli_model_file(
     assert cli_diagnostics.pop("data") == [str(data)]
     ours = dict(fit.diagnostics)
     assert set(cli_diagnostics.pop("profile")) >= set(ours.pop("profile"))
+    # The options each front end gave: the same but for the thread count,
+    # which Python states (1) and the command leaves to the workflow (None:
+    # 1 in memory); it moves the model by rounding only.
+    theirs_opts, our_opts = cli_diagnostics.pop("options"), ours.pop("options")
+    assert theirs_opts["identification"].pop("threads") is None
+    assert our_opts["identification"].pop("threads") == 1
+    assert theirs_opts == our_opts
     assert cli_diagnostics == ours
 
 
