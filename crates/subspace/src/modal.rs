@@ -1030,22 +1030,8 @@ fn scan(
                 t = end;
                 continue;
             }
-            let k = match pats.iter().position(|pa| pa.mask == mask) {
-                Some(k) => k,
-                None if pats.len() == MAX_PATTERNS => return Ok(None),
-                None => {
-                    pats.push(PatternAcc::new(mask, lay.width));
-                    pats.len() - 1
-                }
-            };
-            let (pa, shift) = match lay.x0 {
-                Some(_) => (
-                    &mut **pats[k]
-                        .narrow
-                        .get_or_insert_with(|| Box::new(PatternAcc::new(mask, lay.width - n))),
-                    n,
-                ),
-                None => (&mut pats[k], 0),
+            let Some((pa, shift)) = accumulator(&mut pats, mask, lay, lay.x0.is_some()) else {
+                return Ok(None);
             };
             while t < end {
                 let len = (end - t).min(BLOCK - pa.used);
@@ -1061,25 +1047,12 @@ fn scan(
         }
         let mask = pattern(rec.y, t);
         if mask != 0 {
-            let k = match pats.iter().position(|pa| pa.mask == mask) {
-                Some(k) => k,
-                None if pats.len() == MAX_PATTERNS => return Ok(None),
-                None => {
-                    pats.push(PatternAcc::new(mask, lay.width));
-                    pats.len() - 1
-                }
-            };
             // Once the free response has died out the row's x₀ columns are
             // zero: it goes to the narrow accumulator without them (the
             // columns after them shift left by n).
-            let (pa, shift) = match lay.x0 {
-                Some(_) if !st.fr_live => (
-                    &mut **pats[k]
-                        .narrow
-                        .get_or_insert_with(|| Box::new(PatternAcc::new(mask, lay.width - n))),
-                    n,
-                ),
-                _ => (&mut pats[k], 0),
+            let narrow = lay.x0.is_some() && !st.fr_live;
+            let Some((pa, shift)) = accumulator(&mut pats, mask, lay, narrow) else {
+                return Ok(None);
             };
             // Row `used` of the column-major block: entry (row, col) at
             // col·BLOCK + row.
@@ -1120,6 +1093,37 @@ fn scan(
         patterns: pats,
         rows,
     }))
+}
+
+/// The accumulator of sampling pattern `mask` in `pats` (a new one for a
+/// new pattern; `None` beyond [`MAX_PATTERNS`]): its rows' block, or with
+/// `narrow` (the free response gone) its narrow block without the n x₀
+/// columns, and the columns' shift (0 or n).
+fn accumulator<'p>(
+    pats: &'p mut Vec<PatternAcc>,
+    mask: u64,
+    lay: &Layout,
+    narrow: bool,
+) -> Option<(&'p mut PatternAcc, usize)> {
+    let k = match pats.iter().position(|pa| pa.mask == mask) {
+        Some(k) => k,
+        None if pats.len() == MAX_PATTERNS => return None,
+        None => {
+            pats.push(PatternAcc::new(mask, lay.width));
+            pats.len() - 1
+        }
+    };
+    let n = lay.n;
+    Some(if narrow {
+        (
+            &mut **pats[k]
+                .narrow
+                .get_or_insert_with(|| Box::new(PatternAcc::new(mask, lay.width - n))),
+            n,
+        )
+    } else {
+        (&mut pats[k], 0)
+    })
 }
 
 /// The base rows of the instants `ts` (one sampling pattern, the free
