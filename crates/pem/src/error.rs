@@ -95,7 +95,7 @@ pub enum Error {
     /// structure the data do not determine (a non-exciting input, an output
     /// tied to the inputs, a delay longer than the record shows).
     #[error(
-        "{what} are rank deficient: numerical rank {rank}, {needed} needed; lower the orders or excite the inputs more"
+        "{what}: rank deficient (numerical rank {rank}, {needed} needed); lower the orders or excite the inputs more"
     )]
     RankDeficient {
         /// Which regressors.
