@@ -449,17 +449,15 @@ pub fn scan_blocks(
     check.finish(path, time_col.is_some())
 }
 
-/// The first entry of `col` that is not finite (NaN allowed when `nan_ok`);
-/// checked 8 values at a time without branches, then located.
+/// The first entry of `col` that is not finite
+/// ([`lifted_linalg::kernels::first_non_finite`]), or with `nan_ok` (an
+/// output whose NaN marks an unsampled instant) the first infinity.
 fn first_failing(col: &[f64], nan_ok: bool) -> Option<usize> {
-    let bad = |v: f64| !(v.is_finite() || (nan_ok && v.is_nan()));
-    for (c, chunk) in col.chunks(8).enumerate() {
-        let any = chunk.iter().fold(false, |a, &v| a | bad(v));
-        if any {
-            return chunk.iter().position(|&v| bad(v)).map(|i| c * 8 + i);
-        }
+    if nan_ok {
+        col.iter().position(|v| v.is_infinite())
+    } else {
+        lifted_linalg::kernels::first_non_finite(col)
     }
-    None
 }
 
 /// The error of a non-finite value at row `r` of `column`.

@@ -367,14 +367,11 @@ fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> R
     };
     let (mut est, mut val) = (Vec::new(), Vec::new());
     for d in sets {
-        let n = d.len();
-        let frame = d.frame_period().max(1);
-        let split = (2 * n / 3) / frame * frame;
-        let (e, v) = (d.slice(0..split), d.slice(split..n));
-        let (Ok(e), Ok(v)) = (e, v) else {
+        let Some((e, v, _)) = crate::routes::two_thirds(d) else {
             return Err(Error::Data(format!(
-                "the {} order scan needs records it can cut into two thirds and a third; one has {n} samples: give the orders or a fixed order",
-                id.method.name()
+                "the {} order scan needs records it can cut into two thirds and a third; one has {} samples: give the orders or a fixed order",
+                id.method.name(),
+                d.len()
             )));
         };
         est.push(e);

@@ -1473,15 +1473,10 @@ fn held_out_orders(
     judge_unstable: bool,
 ) -> Option<HeldOutOrders> {
     let n = data.len();
-    let frame = data.frame_period().max(1);
     if n > MULTIRATE_SELECTION_SAMPLES {
         return None;
     }
-    let split = (2 * n / 3) / frame * frame;
-    if split == 0 || split >= n {
-        return None;
-    }
-    let (est, val) = (data.slice(0..split).ok()?, data.slice(split..n).ok()?);
+    let (est, val, split) = two_thirds(data)?;
     let vopts = lifted_lti::ValidationOptions {
         lags: 1,
         horizons: Vec::new(),
@@ -1596,6 +1591,23 @@ fn held_out_orders(
             })
         }),
     })
+}
+
+/// A record cut into its first two thirds and the rest, at a whole frame
+/// of its output periods (so both parts keep the sampling pattern), with
+/// the sample where the rest starts; `None` when a part would be empty.
+pub(crate) fn two_thirds(data: &Dataset) -> Option<(Dataset, Dataset, usize)> {
+    let n = data.len();
+    let frame = data.frame_period().max(1);
+    let split = (2 * n / 3) / frame * frame;
+    if split == 0 || split >= n {
+        return None;
+    }
+    Some((
+        data.slice(0..split).ok()?,
+        data.slice(split..n).ok()?,
+        split,
+    ))
 }
 
 /// Mean held-out simulation fit of `fast` on `val` (x₀ estimated).

@@ -477,6 +477,10 @@ struct ScaledSource<'s> {
     ahead: bool,
 }
 
+/// What [`ScaledSource::scaled_pass`] delivers to: a raw block (u, y) and
+/// the channel scales to apply to it.
+type ScaledSink<'a> = dyn FnMut(&DMatrix<f64>, &DMatrix<f64>, &ChannelScales) -> Result<()> + 'a;
+
 /// Blocks a reading thread may hold ready beyond the one being taken:
 /// two keep the arithmetic fed through an uneven read, and bound the
 /// memory to a few blocks.
@@ -506,10 +510,10 @@ impl ScaledSource<'_> {
 }
 
 impl ScaledSource<'_> {
-    /// One pass with the reading on a thread of its own: its blocks
-    /// (copies into buffers that come back once taken) through a channel
-    /// of [`READ_AHEAD`] to `push` on the calling thread. An error of
-    /// `push` stops the reading (the channel closes) and is returned.
+    /// One pass with the reading on a thread of its own: its blocks,
+    /// scaled into buffers that come back once taken, through a channel of
+    /// [`READ_AHEAD`] to `push` on the calling thread. An error of `push`
+    /// stops the reading (the channel closes) and is returned.
     fn pass_ahead(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
         type Block = (DMatrix<f64>, DMatrix<f64>);
         let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Block>(READ_AHEAD);
@@ -517,12 +521,11 @@ impl ScaledSource<'_> {
         let stopped = || Error::Source("the reading stopped: the blocks were refused".into());
         std::thread::scope(|scope| {
             let reader = scope.spawn(move || {
-                self.scaled_pass(&mut |u, y| {
+                self.scaled_pass(&mut |u, y, sc| {
                     let (mut bu, mut by) = free_rx
                         .try_recv()
                         .unwrap_or_else(|_| (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0)));
-                    bu.clone_from(u);
-                    by.clone_from(y);
+                    sc.apply_block_into(u, y, &mut bu, &mut by);
                     full_tx.send((bu, by)).map_err(|_| stopped())
                 })
             });
@@ -544,26 +547,25 @@ impl ScaledSource<'_> {
         })
     }
 
-    /// One pass, scaled, on the calling thread.
-    fn scaled_pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
+    /// One pass on the calling thread: every block of the source with the
+    /// channel scales to `deliver` (which scales it where it wants it),
+    /// the first blocks held back until the scales are known
+    /// ([`SCALE_ROWS`] rows, or the record's end).
+    fn scaled_pass(&mut self, deliver: &mut ScaledSink<'_>) -> Result<Pass> {
         let (n_u, n_y) = self.inner.channels();
         let mut held: Vec<(DMatrix<f64>, DMatrix<f64>)> = Vec::new();
         let mut rows = 0;
         let scales = &mut self.scales;
-        // The scaled blocks, reused from block to block.
-        let (mut su, mut sy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
         let pass = self.inner.pass(&mut |u, y| {
             if let Some(sc) = scales.as_ref() {
-                sc.apply_block_into(u, y, &mut su, &mut sy);
-                return push(&su, &sy);
+                return deliver(u, y, sc);
             }
             held.push((u.clone(), y.clone()));
             rows += u.nrows();
             if rows >= SCALE_ROWS {
                 let sc = Self::scales_of(&held, n_u, n_y);
                 for (u, y) in held.drain(..) {
-                    let (u, y) = sc.apply_block(&u, &y);
-                    push(&u, &y)?;
+                    deliver(&u, &y, &sc)?;
                 }
                 *scales = Some(sc);
             }
@@ -573,8 +575,7 @@ impl ScaledSource<'_> {
             // A record shorter than SCALE_ROWS: its scales, then its blocks.
             let sc = Self::scales_of(&held, n_u, n_y);
             for (u, y) in held.drain(..) {
-                let (u, y) = sc.apply_block(&u, &y);
-                push(&u, &y)?;
+                deliver(&u, &y, &sc)?;
             }
             self.scales = Some(sc);
         }
@@ -589,10 +590,14 @@ impl RecordSource for ScaledSource<'_> {
 
     fn pass(&mut self, push: &mut BlockSink<'_>) -> Result<Pass> {
         if self.ahead {
-            self.pass_ahead(push)
-        } else {
-            self.scaled_pass(push)
+            return self.pass_ahead(push);
         }
+        // The scaled blocks, reused from block to block.
+        let (mut su, mut sy) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
+        self.scaled_pass(&mut |u, y, sc| {
+            sc.apply_block_into(u, y, &mut su, &mut sy);
+            push(&su, &sy)
+        })
     }
 
     fn load(&mut self) -> Result<Dataset> {

@@ -87,19 +87,15 @@ pub fn step_bounds(
 /// `lo` then `hi` as one series over `x` twice (a NaN joins them), named
 /// `name`.
 pub fn bound_series(name: String, x: &[f64], lo: &[f64], hi: &[f64]) -> Series {
-    let xs: Vec<f64> = x
-        .iter()
-        .copied()
-        .chain([f64::NAN])
-        .chain(x.iter().copied())
-        .collect();
-    let ys: Vec<f64> = lo
-        .iter()
-        .copied()
-        .chain([f64::NAN])
-        .chain(hi.iter().copied())
-        .collect();
-    Series::line(name, xs, ys)
+    // `a`, a NaN (the pen lifted), then `b`.
+    let joined = |a: &[f64], b: &[f64]| -> Vec<f64> {
+        a.iter()
+            .copied()
+            .chain([f64::NAN])
+            .chain(b.iter().copied())
+            .collect()
+    };
+    Series::line(name, joined(x, x), joined(lo, hi))
 }
 
 /// Adds the step bounds (`step_bounds` of the figure's first model, on

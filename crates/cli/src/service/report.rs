@@ -129,6 +129,8 @@ pub fn render(
         " Dashed: the {:.0} % confidence band (± z σ, first-order propagation of the parameter covariance).",
         100.0 * REPORT_CONFIDENCE
     );
+    // The band's sentence in a caption when the figure has one.
+    let note_if = |has_band: bool| if has_band { band_note.as_str() } else { "" };
     body += "<h2>Step response</h2>\n";
     let mut step_fig = step_pairs(&one)?;
     let (t, cols) = step_data(model, None, None)?;
@@ -140,11 +142,7 @@ pub fn render(
         "step",
         &format!(
             "Unit step on each input, zero initial state: one axes per output (rows) and input (columns).{}",
-            if step_band.is_some() {
-                band_note.as_str()
-            } else {
-                ""
-            }
+            note_if(step_band.is_some())
         ),
         &pairs_svg(&step_fig, 800, 260)?,
     );
@@ -161,11 +159,7 @@ pub fn render(
         "bode",
         &format!(
             "Magnitude over phase of each input–output pair: one axes per output (rows) and input (columns).{}",
-            if bode_band.is_some() {
-                band_note.as_str()
-            } else {
-                ""
-            }
+            note_if(bode_band.is_some())
         ),
         &pairs_svg(&bode_fig, 800, 220)?,
     );
