@@ -101,5 +101,56 @@ fn narrow_least_squares(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(kernels, thin_svd, r_only_qr, narrow_least_squares);
+/// One block of 1000 rows × 13 columns (the modal regression's narrow
+/// base rows) folded into a full 13×13 R: `RAccumulator::fold_rows` (the
+/// structured reflections, the block as scratch) and `push_rows` (a copy
+/// of the block first) against the Householder QR of the stacked
+/// [R; block] (1013×13, faer, what `push_rows` did before).
+fn accumulator_fold(c: &mut Criterion) {
+    let mut group = c.benchmark_group("accumulator_fold_1000x13");
+    group
+        .sample_size(30)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    let block = random_matrix(1000, 13, 5);
+    let mut acc = lifted_linalg::RAccumulator::new(13);
+    acc.push_rows(&random_matrix(50, 13, 6))
+        .expect("finite input");
+    let r = acc.r();
+    group.bench_function("fold_rows", |b| {
+        b.iter_batched(
+            || (acc.clone(), block.clone()),
+            |(mut a, mut blk)| {
+                a.fold_rows(&mut blk).expect("finite input");
+                black_box(a)
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    group.bench_function("push_rows", |b| {
+        b.iter_batched(
+            || acc.clone(),
+            |mut a| {
+                a.push_rows(black_box(&block)).expect("finite input");
+                black_box(a)
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    let mut stacked = nalgebra::DMatrix::zeros(1013, 13);
+    stacked.rows_mut(0, 13).copy_from(&r);
+    stacked.rows_mut(13, 1000).copy_from(&block);
+    group.bench_function("stacked_qr_faer", |b| {
+        b.iter(|| black_box(lifted_linalg::qr_r(black_box(&stacked)).expect("finite input")))
+    });
+    group.finish();
+}
+
+criterion_group!(
+    kernels,
+    thin_svd,
+    r_only_qr,
+    narrow_least_squares,
+    accumulator_fold
+);
 criterion_main!(kernels);
