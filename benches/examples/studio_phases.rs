@@ -8,7 +8,9 @@
 //!
 //! `cargo run --release -p lifted-benches --example studio_phases -- [rounds] [csv]`
 //! (`LIFTED_ORDERS=8,7`: visit these orders instead of 3, 5, 6, 7, 8, 2)
-//! (`csv`: where to write the record, for `lifted identify --profile`).
+//! (`csv`: where to write the record, for `lifted identify --profile`)
+//! (`LIFTED_RECORD=path`: time this `t,u1,u2,y1,y2` CSV instead, such as
+//! the browser bench's record kept by `LIFTED_BENCH_RECORD`).
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -16,6 +18,7 @@ use std::time::Instant;
 use lifted_benches::peer_data;
 use lifted_cli::studio::{Request, Session};
 use lifted_lti::Dataset;
+use nalgebra::DMatrix;
 use lifted_workflow::{
     Estimator, Method, Order, Record, Refine, SubspaceCache, WorkflowOptions, identify_cached,
 };
@@ -52,10 +55,32 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// A `t,u1,u2,y1,y2` CSV with a header line: (u, y).
+fn read_record(path: &str) -> Result<(DMatrix<f64>, DMatrix<f64>), Box<dyn std::error::Error>> {
+    let text = std::fs::read_to_string(path)?;
+    let mut rows = Vec::new();
+    for line in text.lines().skip(1) {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()?;
+        if v.len() != 5 {
+            return Err(format!("{path}: a row without 5 columns").into());
+        }
+        rows.push(v);
+    }
+    let u = DMatrix::from_fn(rows.len(), 2, |i, j| rows[i][1 + j]);
+    let y = DMatrix::from_fn(rows.len(), 2, |i, j| rows[i][3 + j]);
+    Ok((u, y))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rounds: usize = std::env::args().nth(1).map_or(Ok(3), |s| s.parse())?;
-    let n = 100_000;
-    let (u, y) = peer_data(n, 0.1, 7);
+    let (u, y) = match std::env::var("LIFTED_RECORD") {
+        Ok(path) => read_record(&path)?,
+        Err(_) => peer_data(100_000, 0.1, 7),
+    };
+    let n = u.nrows();
     let records = [Record::new(Dataset::single_rate(
         1.0,
         u.clone(),
