@@ -7,7 +7,8 @@
 //! orders not seen (overall and by order). Medians of `rounds` passes.
 //!
 //! `cargo run --release -p lifted-benches --example studio_phases -- [rounds] [csv]`
-//! (`LIFTED_ORDERS=8,7`: visit these orders instead of 3, 5, 6, 7, 8, 2)
+//! (`LIFTED_ORDERS=8,7`: visit these orders instead of 3, 5, 6, 7, 8, 2;
+//! `LIFTED_HORIZON=5`: that horizon instead of 10)
 //! (`csv`: where to write the record, for `lifted identify --profile`)
 //! (`LIFTED_RECORD=path`: time this `t,u1,u2,y1,y2` CSV instead, such as
 //! the browser bench's record kept by `LIFTED_BENCH_RECORD`).
@@ -18,10 +19,10 @@ use std::time::Instant;
 use lifted_benches::peer_data;
 use lifted_cli::studio::{Request, Session};
 use lifted_lti::Dataset;
-use nalgebra::DMatrix;
 use lifted_workflow::{
     Estimator, Method, Order, Record, Refine, SubspaceCache, WorkflowOptions, identify_cached,
 };
+use nalgebra::DMatrix;
 
 /// The process's CPU time so far (user + system, s; Linux `/proc`, 10 ms
 /// ticks), or NaN elsewhere: on a shared machine the CPU time per move is
@@ -60,10 +61,7 @@ fn read_record(path: &str) -> Result<(DMatrix<f64>, DMatrix<f64>), Box<dyn std::
     let text = std::fs::read_to_string(path)?;
     let mut rows = Vec::new();
     for line in text.lines().skip(1) {
-        let v: Vec<f64> = line
-            .split(',')
-            .map(str::parse)
-            .collect::<Result<_, _>>()?;
+        let v: Vec<f64> = line.split(',').map(str::parse).collect::<Result<_, _>>()?;
         if v.len() != 5 {
             return Err(format!("{path}: a row without 5 columns").into());
         }
@@ -94,11 +92,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?,
         Err(_) => vec![3, 5, 6, 7, 8, 2],
     };
+    // The horizon (`LIFTED_HORIZON`, default 10; the browser bench's page
+    // asks for the automatic order's, 5 on its record).
+    let horizon: usize = match std::env::var("LIFTED_HORIZON") {
+        Ok(h) => h.parse()?,
+        Err(_) => 10,
+    };
     let opts = |order: usize| {
         let mut o = WorkflowOptions::default();
         o.identification.method = Method::N4sid;
         o.identification.order = Order::Fixed(order);
-        o.identification.horizon = Some(10);
+        o.identification.horizon = Some(horizon);
         o.identification.estimator = Estimator::Shift;
         o.refinement.refine = Refine::None;
         o
@@ -161,7 +165,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         outputs: vec!["y1".into(), "y2".into()],
         method: Some("n4sid".into()),
         order: Some(order.to_string()),
-        horizon: Some(10),
+        horizon: Some(horizon),
+        detrend: Some("mean".into()),
         ..Default::default()
     };
     let first = session.identify(&request(4))?;

@@ -152,6 +152,11 @@ fn main() {
             println!("{:>5}  {:>9.1}  {:>11.1}  {:>8.1}  (seen)", m.0, m.1, m.2, m.3);
             down.push(m);
         }
+        // The page's command line for the last order shown (what the
+        // slider asks the server for).
+        let command = browser::js(&c, "return document.getElementById('command').textContent;")
+            .await;
+        println!("last command: {}", command.as_str().unwrap_or("?"));
         for (what, moves) in [("orders not seen", &up), ("orders seen", &down)] {
             println!(
                 "median over {} moves to {what}: server {:.1} ms, answered {:.1} ms, drawn {:.1} ms",

@@ -695,6 +695,12 @@ pub struct IdentifyArgs {
     /// the model's diagnostics, `kalman_gain_route.stop`).
     #[arg(long, default_value_t = 0.01)]
     pub gain_stop_share: f64,
+    /// The Kalman-gain check minimises first on the covariances of its start's one-step errors
+    /// (BFGS, no pass over the records per step), then finishes on the records (default true);
+    /// false: Levenberg–Marquardt on the records alone. Recorded in
+    /// `kalman_gain_route.covariance_iterations`.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub gain_covariance_start: bool,
     /// Automatic order: most models identified to find a stable one (the rule's choice, then
     /// the next orders of its ranking; default 6; 1: no retry). The selection's rules are
     /// recorded in `diagnostics.selection_policy`.

@@ -78,7 +78,7 @@ pub(crate) fn horizon_of(
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
-    refine_check="margin:3", selection=None))]
+    refine_check="margin:3", selection=None, gain_covariance_start=true))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -110,6 +110,7 @@ pub(crate) fn identify<'py>(
     kernel: Option<&str>,
     refine_check: &str,
     selection: Option<Bound<'py, PyDict>>,
+    gain_covariance_start: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -156,6 +157,7 @@ pub(crate) fn identify<'py>(
     id.stable = enforce_stability;
     id.threads = Some(threads);
     id.gain_check.stop_share = gain_stop_share;
+    id.gain_check.covariance_start = gain_covariance_start;
     id.integrator_tolerance = integrator_tolerance;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     opts.refinement.check = refine_check.parse::<lifted_pem::CheckRule>().map_err(|e| {

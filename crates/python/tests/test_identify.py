@@ -317,6 +317,26 @@ def test_gain_stop_share_and_integrator_tolerance_reach_the_workflow() -> None:
     assert slow.diagnostics["integrators"]["tolerance"] == 1e-3
 
 
+def test_gain_covariance_start_reaches_the_workflow() -> None:
+    """``gain_covariance_start`` as ``lifted identify
+    --gain-covariance-start``: the covariance route by default (its BFGS
+    iterations recorded, no Gauss-Newton factor), Levenberg-Marquardt alone
+    with False; both end below the best start's cost and near each other."""
+    u, y = _first_order_record(5, 4000, pole=0.9, gain=0.1, noise=0.05)
+    default = lifted.identify(u, y, order=2, refine="none")
+    route = default.diagnostics["kalman_gain_route"]
+    lm = lifted.identify(u, y, order=2, refine="none", gain_covariance_start=False)
+    before = lm.diagnostics["kalman_gain_route"]
+    assert before.get("covariance_iterations") is None
+    starts = [route[k] for k in ("riccati_cost", "regression_cost", "zero_cost") if route[k] is not None]
+    assert route["final_cost"] <= min(starts)
+    if "minimisation" in route["used"]:
+        assert route["covariance_iterations"] is not None and route["factors"] == 0
+    assert route["final_cost"] == pytest.approx(before["final_cost"], rel=1e-3)
+    with pytest.raises(TypeError):
+        lifted.identify(u, y, order=2, gain_covariance_start="yes")  # type: ignore[arg-type]
+
+
 def test_validate_leaves_out_a_gain_estimated_at_other_output_periods() -> None:
     """The command line's validation policy (issue 48): a multirate model's
     Kalman gain, estimated on the slow samples, is left out on a full-rate

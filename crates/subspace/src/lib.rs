@@ -132,6 +132,7 @@ pub mod checks;
 pub mod crossval;
 mod engine;
 pub mod error;
+mod error_covariance;
 mod fit;
 mod gain_check;
 mod hankel;

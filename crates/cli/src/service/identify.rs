@@ -195,6 +195,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     o.refinement.max_work = a.refine_max_work;
     o.refinement.check = a.refine_check;
     o.identification.gain_check.stop_share = a.gain_stop_share;
+    o.identification.gain_check.covariance_start = a.gain_covariance_start;
     o.identification.selection = lifted_workflow::SelectionOptions {
         stable_tries: a.stable_tries,
         shortlist: a.shortlist,

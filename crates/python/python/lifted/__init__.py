@@ -270,6 +270,7 @@ def identify(
     kernel: Literal["tc", "dc"] | None = None,
     refine_check: str = "margin:3",
     selection: dict[str, float] | None = None,
+    gain_covariance_start: bool = True,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -355,6 +356,12 @@ def identify(
       decrease below this share of the cost's sampling spread sqrt(2/N)
       (``lifted identify --gain-stop-share``; 0: the 30 iterations;
       ``diagnostics["kalman_gain_route"]["stop"]``).
+    * ``gain_covariance_start``: the Kalman-gain check minimises first on the
+      covariances of its start's one-step errors (BFGS, no pass over the
+      records per step), then finishes on the records (default ``True``;
+      ``False``: Levenberg–Marquardt on the records alone;
+      ``lifted identify --gain-covariance-start``;
+      ``diagnostics["kalman_gain_route"]["covariance_iterations"]``).
     * ``refine_check``: how the six held-out blocks tell the refinement and
       the subspace model apart (``lifted identify --refine-check``):
       ``"margin:3"`` (the default: mean fits more than 3 points apart) or
@@ -412,6 +419,7 @@ def identify(
             threads=threads, gain_stop_share=gain_stop_share,
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
+            gain_covariance_start=gain_covariance_start,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":

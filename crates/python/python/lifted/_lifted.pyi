@@ -297,6 +297,7 @@ def identify(
     kernel: Literal["tc", "dc"] | None = None,
     refine_check: str = "margin:3",
     selection: dict[str, float] | None = None,
+    gain_covariance_start: bool = True,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

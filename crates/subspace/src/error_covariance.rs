@@ -1,0 +1,571 @@
+//! The one-step prediction cost of a Kalman gain from the covariances of
+//! a reference predictor's errors: the Kalman-gain check's cheap first
+//! phase ([`crate::gain_check`]).
+//!
+//! With A, B, C, D fixed and every predictor started from one state, the
+//! one-step errors of a gain K are a filter of those of any reference
+//! gain K₀ whose predictor is stable (the simulation's for K₀ = 0): the
+//! difference of the two predictors' states, d(t), follows
+//! d(t+1) = M d(t) + ΔK e(t), d(0) = 0, with M = A − K C, ΔK = K − K₀
+//! and e the reference's errors, and ε(t) = e(t) − C d(t). Written with
+//! A₀ = A − K₀ C, M = A₀ − ΔK C: the gain ΔK on the model (A₀, C) with
+//! the simulation errors e, the form used below (K₀ = 0, A₀ = A). So
+//! ε = Σ_{i≥0} h_i e(t−i) with h_0 = I, h_i = −C M^{i−1} K (the inverse
+//! noise filter H⁻¹ of the innovations form), and the cost
+//! Σ_t ε(t)ᵀ W² ε(t) is a quadratic form in the error covariances
+//! R(τ) = Σ_t e(t) e(t−τ)ᵀ:
+//!
+//! J(K) = Σ_{i,j} tr(h_iᵀ W² h_j R(i−j))
+//!      = tr(W² R₀) + tr(Kᵀ X K R₀) − 2 tr(W² C Z₁) + 2 tr(X M Z₁ Kᵀ),
+//!
+//! X = Σ_j M^{jᵀ} Cᵀ W² C M^j (the Stein equation X = Mᵀ X M + Cᵀ W² C,
+//! solved by doubling), Z₁ = Σ_{τ≥1} M^{τ−1} K R(τ)ᵀ (Horner's scheme),
+//! using that M^{τᵀ} commutes with the sum in X. It is the exact cost of
+//! the records continued by zeros, which differs from the cost over the
+//! records by d(N)ᵀ X d(N), the predictor's free response after the last
+//! sample: a relative difference of order (lags of M's memory) / N. The
+//! gradient comes by the reverse of the same steps (the adjoint Stein
+//! equation Y = M Y Mᵀ + S and Horner's scheme backwards), so an
+//! evaluation with its gradient costs O(L (n² n_y + n n_y²) + n³ log L)
+//! for L lags, independent of the record's length: the records are read
+//! once, for R(τ) by FFT (O(N n_y² log N)).
+//!
+//! [`Covariances::minimise`] runs BFGS on this cost from a start; the
+//! gain check then finishes on the exact cost over the records with
+//! the BFGS curvature (a few predictor runs), instead of folding
+//! Gauss–Newton factors of the N-row Jacobian, whose quadratic model
+//! mispredicts large-residual problems such as an under-modelled order.
+
+use lifted_linalg::spectral_radius;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex;
+use rustfft::FftPlanner;
+
+/// Most lags of R(τ) kept: M's memory beyond it is cut (the cost then
+/// approximates more coarsely; the exact phase corrects it). 4096 lags
+/// hold a predictor pole of modulus 0.99 to 1e-18 of its start.
+pub(crate) const MAX_LAGS: usize = 4096;
+
+/// The lags used at a predictor of spectral radius `rho`: those over
+/// which ρ^τ falls below 1e-15 (the terms beyond are rounding), plus a
+/// margin for a non-normal M, at most `available`.
+fn lags_for(rho: f64, available: usize) -> usize {
+    let memory = if rho <= 1e-3 {
+        8.0
+    } else {
+        (1e-15f64.ln() / rho.ln()).ceil() + 16.0
+    };
+    (memory.min(available as f64) as usize)
+        .max(1)
+        .min(available)
+}
+
+/// The simulation errors' covariances R(τ), τ = 0 … L, summed over the
+/// records, and the outputs' weights W² (the gain check's normalisation).
+pub(crate) struct Covariances {
+    /// R(τ)ᵀ, τ = 0 … L (n_y × n_y each).
+    rt: Vec<DMatrix<f64>>,
+    /// W² (diagonal).
+    w2: Vec<f64>,
+}
+
+/// What [`Covariances::minimise`] gives: the gain, its cost, the inverse
+/// Hessian of the last BFGS update (P × P, vec K column-major) and the
+/// iterations.
+pub(crate) struct Minimum {
+    pub k: DMatrix<f64>,
+    pub cost: f64,
+    pub inverse_hessian: DMatrix<f64>,
+    pub iterations: usize,
+}
+
+impl Covariances {
+    /// From the simulation errors of each record (row-major, n_y a sample,
+    /// as `OneStep::with_errors` gives them) and the weights W². `None`
+    /// when a record is empty or not finite. O(N n_y² log N) by FFT
+    /// ([`add_covariances`]).
+    pub(crate) fn from_errors(errors: &[Vec<f64>], ny: usize, w2: &[f64]) -> Option<Self> {
+        let longest = errors.iter().map(|e| e.len() / ny.max(1)).max()?;
+        if ny == 0 || longest < 2 {
+            return None;
+        }
+        let lags = MAX_LAGS.min(longest - 1);
+        let mut r = vec![DMatrix::zeros(ny, ny); lags + 1];
+        for e in errors {
+            if e.len() < ny {
+                continue;
+            }
+            if e.iter().any(|v| !v.is_finite()) {
+                return None;
+            }
+            add_covariances(e, ny, &mut r);
+        }
+        // R(0) is symmetric in exact arithmetic.
+        let r0 = (&r[0] + r[0].transpose()) * 0.5;
+        r[0] = r0;
+        Some(Covariances {
+            rt: r.iter().map(|m| m.transpose()).collect(),
+            w2: w2.to_vec(),
+        })
+    }
+
+    /// J(K) (module docs) and, with `gradient`, ∂J/∂vec K; `None` when
+    /// A − K C is not stable or a number is not finite.
+    /// O(L (n² n_y + n n_y²) + n³ log L).
+    pub(crate) fn cost(
+        &self,
+        a: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        k: &DMatrix<f64>,
+        gradient: bool,
+    ) -> Option<(f64, Option<DVector<f64>>)> {
+        let (n, ny) = (a.nrows(), c.nrows());
+        let m = a - k * c;
+        let rho = spectral_radius(&m).ok()?;
+        if rho.is_nan() || rho >= 1.0 {
+            return None;
+        }
+        let lags = lags_for(rho, self.rt.len() - 1);
+        let w2 = DMatrix::from_diagonal(&DVector::from_column_slice(&self.w2));
+        let w2c = &w2 * c;
+        let q = c.transpose() * &w2c;
+        let x = stein(&m.transpose(), &q)?;
+        let r0 = &self.rt[0];
+        // Horner: Z_τ = M Z_{τ+1} + K R_τᵀ, Z_L = K R_Lᵀ, every Z_τ kept
+        // for the gradient (block τ − 1 of `z`, column-major n × n_y).
+        let nny = n * ny;
+        let mut z = vec![0.0; lags * nny];
+        let (ms, ks) = (m.as_slice(), k.as_slice());
+        for tau in (1..=lags).rev() {
+            let (lo, hi) = z.split_at_mut(tau * nny);
+            let zt = &mut lo[(tau - 1) * nny..];
+            let rt = self.rt[tau].as_slice();
+            for col in 0..ny {
+                for row in 0..n {
+                    zt[row + col * n] = (0..ny).map(|l| ks[row + l * n] * rt[l + col * ny]).sum();
+                }
+            }
+            if tau < lags {
+                let next = &hi[..nny];
+                for col in 0..ny {
+                    for l in 0..n {
+                        let v = next[l + col * n];
+                        for row in 0..n {
+                            zt[row + col * n] += ms[row + l * n] * v;
+                        }
+                    }
+                }
+            }
+        }
+        let z1 = DMatrix::from_column_slice(n, ny, &z[..nny]);
+        let xk = &x * k;
+        let mz1 = &m * &z1;
+        let cost = (&w2 * r0.transpose()).trace() + (k.transpose() * &xk * r0).trace()
+            - 2.0 * (&w2c * &z1).trace()
+            + 2.0 * (&x * &mz1 * k.transpose()).trace();
+        if !cost.is_finite() {
+            return None;
+        }
+        if !gradient {
+            return Some((cost, None));
+        }
+        // Reverse of the steps above (module docs).
+        let kz = &mz1 * k.transpose();
+        let s = k * r0 * k.transpose() + &kz + kz.transpose();
+        let y = stein(&m, &s)?;
+        let bt = -2.0 * w2c.transpose() + 2.0 * m.transpose() * &xk;
+        let mut gk = 2.0 * &xk * r0 + 2.0 * &x * &mz1;
+        let mut gm = 2.0 * &x * &m * &y + 2.0 * &xk * z1.transpose();
+        // Horner backwards: Ẑ_1 = Bᵀ, Ẑ_{τ+1} = Mᵀ Ẑ_τ; ∂K += Ẑ_τ R_τ,
+        // ∂M += Ẑ_τ Z_{τ+1}ᵀ.
+        let mut zhat = bt.as_slice().to_vec();
+        let mut spare = vec![0.0; nny];
+        let (gks, gms) = (gk.as_mut_slice(), gm.as_mut_slice());
+        for tau in 1..=lags {
+            let rt = self.rt[tau].as_slice();
+            for col in 0..ny {
+                for row in 0..n {
+                    gks[row + col * n] += (0..ny)
+                        .map(|l| zhat[row + l * n] * rt[col + l * ny])
+                        .sum::<f64>();
+                }
+            }
+            if tau < lags {
+                let next = &z[tau * nny..(tau + 1) * nny];
+                for col in 0..n {
+                    for o in 0..ny {
+                        let v = next[col + o * n];
+                        for row in 0..n {
+                            gms[row + col * n] += zhat[row + o * n] * v;
+                        }
+                    }
+                }
+                for o in 0..ny {
+                    for row in 0..n {
+                        spare[row + o * n] =
+                            (0..n).map(|l| ms[l + row * n] * zhat[l + o * n]).sum();
+                    }
+                }
+                std::mem::swap(&mut zhat, &mut spare);
+            }
+        }
+        let g = gk - gm * c.transpose();
+        debug_assert_eq!(g.shape(), (n, ny));
+        g.iter()
+            .all(|v| v.is_finite())
+            .then(|| (cost, Some(DVector::from_column_slice(g.as_slice()))))
+    }
+
+    /// BFGS on J from `start` (A − K C stable there), every trial's
+    /// predictor stable (an unstable trial is a failed one). Stops when
+    /// the decrease still to come by BFGS's quadratic model, ½ gᵀ H g, is
+    /// below a hundredth of `tolerance` (relative to J: the gain check's
+    /// stopping decrease, so the iterations on the records that follow
+    /// start well within it) at two iterations in a row (H's curvature is
+    /// learnt over the iterations, so one small estimate can be early),
+    /// when an iteration lowers J by less than 1e-12 of it, or after
+    /// `max_iterations`. `None` when J cannot be
+    /// evaluated at the start.
+    pub(crate) fn minimise(
+        &self,
+        a: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        start: &DMatrix<f64>,
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> Option<Minimum> {
+        let (n, ny) = start.shape();
+        let p = n * ny;
+        let gain = |theta: &DVector<f64>| DMatrix::from_column_slice(n, ny, theta.as_slice());
+        let eval = |theta: &DVector<f64>| {
+            self.cost(a, c, &gain(theta), true)
+                .and_then(|(f, g)| Some((f, g?)))
+        };
+        let mut theta = DVector::from_column_slice(start.as_slice());
+        let (mut f, mut g) = eval(&theta)?;
+        let mut h = DMatrix::<f64>::identity(p, p);
+        let mut scaled = false;
+        let mut was_near = false;
+        let mut iterations = 0;
+        while iterations < max_iterations {
+            iterations += 1;
+            let mut dir = -(&h * &g);
+            let mut slope = g.dot(&dir);
+            if slope.is_nan() || slope >= 0.0 {
+                // Not a descent direction: steepest descent, curvature anew.
+                h = DMatrix::identity(p, p);
+                scaled = false;
+                dir = -g.clone();
+                slope = -g.norm_squared();
+                if slope == 0.0 {
+                    break;
+                }
+            }
+            // Backtracking (Armijo) line search from the full step.
+            let mut alpha = 1.0;
+            let mut found = None;
+            for _ in 0..60 {
+                let trial = &theta + alpha * &dir;
+                if let Some((ft, gt)) = eval(&trial)
+                    && ft <= f + 1e-4 * alpha * slope
+                {
+                    found = Some((trial, ft, gt));
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            let Some((trial, ft, gt)) = found else {
+                break;
+            };
+            let s = &trial - &theta;
+            let yv = &gt - &g;
+            let sy = s.dot(&yv);
+            if sy > 1e-12 * s.norm() * yv.norm() {
+                if !scaled {
+                    h = DMatrix::identity(p, p) * (sy / yv.norm_squared());
+                    scaled = true;
+                }
+                // H ← (I − ρ s yᵀ) H (I − ρ y sᵀ) + ρ s sᵀ.
+                let rho = 1.0 / sy;
+                let hy = &h * &yv;
+                let yhy = yv.dot(&hy);
+                h += (s.clone() * s.transpose()) * (rho * (1.0 + rho * yhy))
+                    - (&hy * s.transpose() + &s * hy.transpose()) * rho;
+            }
+            let decrease = f - ft;
+            (theta, f, g) = (trial, ft, gt);
+            // The decrease still to come by the quadratic model, ½ gᵀ H g,
+            // once H has curvature in it.
+            let to_come = if scaled {
+                0.5 * g.dot(&(&h * &g))
+            } else {
+                f64::INFINITY
+            };
+            let near = to_come <= 0.01 * tolerance * f.abs();
+            if decrease <= 1e-12 * f.abs() || (near && was_near) {
+                break;
+            }
+            was_near = near;
+        }
+        Some(Minimum {
+            k: gain(&theta),
+            cost: f,
+            inverse_hessian: h,
+            iterations,
+        })
+    }
+}
+
+/// One planner for the process: rustfft keeps the plans (twiddle tables)
+/// it has built, so the records of one length are planned once (planning
+/// a transform of 1e5 points costs about three of its runs), whichever
+/// thread checks the gain.
+static PLANNER: std::sync::LazyLock<std::sync::Mutex<FftPlanner<f64>>> =
+    std::sync::LazyLock::new(|| std::sync::Mutex::new(FftPlanner::new()));
+
+/// The transform length for `min` points: the least 2^a 3^b ≥ `min`
+/// (rustfft's fastest radices; 104 976 for 1e5 + 4096 instead of 131 072).
+fn fft_length(min: usize) -> usize {
+    let mut best = min.next_power_of_two();
+    let mut three = 1usize;
+    while three < best {
+        let mut len = three;
+        while len < min {
+            len *= 2;
+        }
+        best = best.min(len);
+        three *= 3;
+    }
+    best
+}
+
+/// Adds to `r` (R(τ), τ = 0 … r.len() − 1) the lagged products of one
+/// record's errors `e` (row-major, n_y a sample): R_ab(τ) += Σ_t e_a(t)
+/// e_b(t − τ). By FFT of the record zero-padded to m ≥ N + L points
+/// ([`fft_length`]; the circular sums are then the linear ones): two real channels a
+/// transform (z = x + i y, X_k = (Z_k + conj Z_{m−k})/2, Y_k = (Z_k −
+/// conj Z_{m−k})/(2i)), and two real correlations an inverse transform
+/// (their spectra are Hermitian: IFFT(P + i Q) = p + i q). ⌈n_y/2⌉ +
+/// ⌈n_y(n_y+1)/4⌉ transforms, O(n_y² m log m).
+fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
+    let n = e.len() / ny;
+    let lags = r.len() - 1;
+    let m = fft_length(n + lags);
+    let (forward, inverse) = {
+        let mut p = PLANNER
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        (p.plan_fft_forward(m), p.plan_fft_inverse(m))
+    };
+    let zero = Complex::new(0.0, 0.0);
+    let mut scratch = vec![
+        zero;
+        forward
+            .get_inplace_scratch_len()
+            .max(inverse.get_inplace_scratch_len())
+    ];
+    // The channels' spectra.
+    let mut spectra: Vec<Vec<Complex<f64>>> = Vec::with_capacity(ny);
+    let mut z = vec![zero; m];
+    for first in (0..ny).step_by(2) {
+        let second = (first + 1 < ny).then_some(first + 1);
+        for (t, zt) in z.iter_mut().enumerate() {
+            *zt = if t < n {
+                let im = second.map_or(0.0, |b| e[t * ny + b]);
+                Complex::new(e[t * ny + first], im)
+            } else {
+                zero
+            };
+        }
+        forward.process_with_scratch(&mut z, &mut scratch);
+        let mut x = vec![zero; m];
+        let mut y = vec![zero; m];
+        for k in 0..m {
+            let zk = z[k];
+            let zc = z[(m - k) % m].conj();
+            x[k] = (zk + zc) * 0.5;
+            y[k] = (zk - zc) * Complex::new(0.0, -0.5);
+        }
+        spectra.push(x);
+        if second.is_some() {
+            spectra.push(y);
+        }
+    }
+    let pairs: Vec<(usize, usize)> = (0..ny).flat_map(|a| (a..ny).map(move |b| (a, b))).collect();
+    let scale = 1.0 / m as f64;
+    for two in pairs.chunks(2) {
+        let (a, b) = two[0];
+        let other = two.get(1).copied();
+        for (k, zk) in z.iter_mut().enumerate() {
+            let p = spectra[a][k] * spectra[b][k].conj();
+            let q = other.map_or(zero, |(c, d)| spectra[c][k] * spectra[d][k].conj());
+            *zk = p + Complex::new(-q.im, q.re);
+        }
+        inverse.process_with_scratch(&mut z, &mut scratch);
+        let mut put = |(a, b): (usize, usize), part: fn(&Complex<f64>) -> f64| {
+            for (tau, rt) in r.iter_mut().enumerate() {
+                rt[(a, b)] += part(&z[tau]) * scale;
+                if a != b {
+                    rt[(b, a)] += part(&z[(m - tau) % m]) * scale;
+                }
+            }
+        };
+        put((a, b), |c| c.re);
+        if let Some(pair) = other {
+            put(pair, |c| c.im);
+        }
+    }
+}
+
+/// X = Σ_j F^j G F^{jᵀ} for `f` stable (X = F X Fᵀ + G), by doubling:
+/// X ← X + F_k X F_kᵀ, F_k ← F_k², until F_k's contribution is below
+/// rounding (at most 64 squarings). `None` when it does not converge.
+/// With F = Mᵀ it is the Stein equation X = Mᵀ X M + G.
+fn stein(f: &DMatrix<f64>, g: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let mut x = g.clone();
+    let mut fk = f.clone();
+    for _ in 0..64 {
+        let add = &fk * &x * fk.transpose();
+        let small = add.norm() <= 1e-17 * x.norm();
+        x += add;
+        if small {
+            return x.iter().all(|v| v.is_finite()).then_some(x);
+        }
+        fk = &fk * &fk;
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// A 3-state, 2-output (A, C), a gain K with A − K C stable, and
+    /// coloured errors e(t) of `n` samples (row-major).
+    fn setup(n: usize) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, Vec<f64>) {
+        let a = DMatrix::from_row_slice(3, 3, &[0.8, 0.2, 0.0, -0.2, 0.8, 0.1, 0.0, 0.0, 0.5]);
+        let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.5, 0.0, 1.0, -0.3]);
+        let k = DMatrix::from_row_slice(3, 2, &[0.3, 0.1, -0.1, 0.2, 0.05, 0.1]);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut e = Vec::with_capacity(2 * n);
+        let (mut s0, mut s1) = (0.0, 0.0);
+        for _ in 0..n {
+            let v0: f64 = StandardNormal.sample(&mut rng);
+            let v1: f64 = StandardNormal.sample(&mut rng);
+            s0 = 0.7 * s0 + v0;
+            s1 = -0.4 * s1 + v1 + 0.3 * v0;
+            e.push(s0);
+            e.push(s1);
+        }
+        (a, c, k, e)
+    }
+
+    /// Σ_t ε(t)ᵀ W² ε(t) over the record continued by zeros, by the
+    /// recursion d(t+1) = M d(t) + K e(t).
+    fn direct(a: &DMatrix<f64>, c: &DMatrix<f64>, k: &DMatrix<f64>, e: &[f64], w2: &[f64]) -> f64 {
+        let m = a - k * c;
+        let mut d = DVector::zeros(3);
+        let mut cost = 0.0;
+        let n = e.len() / 2;
+        for t in 0..n + 4000 {
+            let et = if t < n {
+                DVector::from_column_slice(&e[2 * t..2 * t + 2])
+            } else {
+                DVector::zeros(2)
+            };
+            let eps = &et - c * &d;
+            cost += w2[0] * eps[0] * eps[0] + w2[1] * eps[1] * eps[1];
+            d = &m * &d + k * &et;
+        }
+        cost
+    }
+
+    #[test]
+    fn the_cost_is_the_filtered_errors_sum() {
+        let (a, c, k, e) = setup(3000);
+        let w2 = [0.7, 1.3];
+        let cov = Covariances::from_errors(std::slice::from_ref(&e), 2, &w2).unwrap();
+        let (j, _) = cov.cost(&a, &c, &k, false).unwrap();
+        assert_relative_eq!(j, direct(&a, &c, &k, &e, &w2), max_relative = 1e-11);
+        // K = 0: the errors' own weighted sum.
+        let zero = DMatrix::zeros(3, 2);
+        let (j0, _) = cov.cost(&a, &c, &zero, false).unwrap();
+        assert_relative_eq!(j0, direct(&a, &c, &zero, &e, &w2), max_relative = 1e-12);
+    }
+
+    #[test]
+    fn the_gradient_is_the_cost_s_derivative() {
+        let (a, c, k, e) = setup(2000);
+        let w2 = [0.7, 1.3];
+        let cov = Covariances::from_errors(std::slice::from_ref(&e), 2, &w2).unwrap();
+        let (_, g) = cov.cost(&a, &c, &k, true).unwrap();
+        let g = g.unwrap();
+        for p in 0..6 {
+            let h = 1e-6;
+            let mut kp = k.clone();
+            kp[p] += h;
+            let mut km = k.clone();
+            km[p] -= h;
+            let fd = (cov.cost(&a, &c, &kp, false).unwrap().0
+                - cov.cost(&a, &c, &km, false).unwrap().0)
+                / (2.0 * h);
+            assert_relative_eq!(g[p], fd, max_relative = 1e-6, epsilon = 1e-6);
+        }
+    }
+
+    #[test]
+    fn bfgs_reaches_a_stationary_point_below_the_start() {
+        let (a, c, k, e) = setup(5000);
+        let w2 = [1.0, 1.0];
+        let cov = Covariances::from_errors(std::slice::from_ref(&e), 2, &w2).unwrap();
+        let start = cov.cost(&a, &c, &k, false).unwrap().0;
+        let min = cov.minimise(&a, &c, &k, 1e-12, 200).unwrap();
+        let (end, g) = cov.cost(&a, &c, &min.k, true).unwrap();
+        assert!(end < start);
+        assert!(g.unwrap().amax() < 1e-6 * end, "gradient at the end");
+        // Records split in two: the sum of their covariances.
+        let halves = vec![e[..5000].to_vec(), e[5000..].to_vec()];
+        let split = Covariances::from_errors(&halves, 2, &w2).unwrap();
+        let whole = direct(&a, &c, &k, &e[..5000], &w2) + direct(&a, &c, &k, &e[5000..], &w2);
+        assert_relative_eq!(
+            split.cost(&a, &c, &k, false).unwrap().0,
+            whole,
+            max_relative = 1e-11
+        );
+    }
+
+    #[test]
+    fn transform_lengths_are_the_least_smooth_ones() {
+        assert_eq!(fft_length(1), 1);
+        assert_eq!(fft_length(5), 6);
+        assert_eq!(fft_length(100), 108);
+        assert_eq!(fft_length(104_096), 104_976);
+        assert_eq!(fft_length(131_072), 131_072);
+        // 2^a 3^b, and no such number between `min` and it.
+        let smooth = |mut k: usize| {
+            while k.is_multiple_of(2) {
+                k /= 2;
+            }
+            while k.is_multiple_of(3) {
+                k /= 3;
+            }
+            k == 1
+        };
+        for min in 1..2000 {
+            let m = fft_length(min);
+            assert!(m >= min && smooth(m), "{min}: {m}");
+            assert!(!(min..m).any(smooth), "{min}: {m}");
+        }
+    }
+
+    #[test]
+    fn an_unstable_predictor_has_no_cost() {
+        let (a, c, _, e) = setup(500);
+        let cov = Covariances::from_errors(std::slice::from_ref(&e), 2, &[1.0, 1.0]).unwrap();
+        let k = DMatrix::from_row_slice(3, 2, &[-3.0, 0.0, 0.0, -3.0, 0.0, 0.0]);
+        assert!(cov.cost(&a, &c, &k, true).is_none());
+    }
+}
