@@ -375,8 +375,13 @@ fn check_by(
     };
     let zero = DMatrix::zeros(n, ny);
     let spread = output_spread(sets, ny);
+    // A start's cost ([`prediction_cost`], the same number bit for bit)
+    // with its run's errors (the covariance route's reference).
+    let runs = ExactRuns::new(model, sets, &x0s, &spread);
     let cost_of = |k: Option<&DMatrix<f64>>| {
-        k.and_then(|k| prediction_cost(model, k, sets, &x0s, &spread).ok())
+        let (_, errors, _) = runs.run_at(&DVector::from_column_slice(k?.as_slice()))?;
+        let cost = runs.final_cost(k?, Some(&errors)).ok()?;
+        Some((cost, errors))
     };
     let regress = |memo: &mut VarxMemo| {
         if missing {
@@ -410,7 +415,8 @@ fn check_by(
         ),
         ("none (K = 0, the output-error predictor)", Some(zero)),
     ];
-    let costs: Vec<Option<f64>> = vec![riccati_cost, cost_of(starts[1].1.as_ref()), zero_cost];
+    let mut runs_of = [riccati_cost, cost_of(starts[1].1.as_ref()), zero_cost];
+    let costs: Vec<Option<f64>> = runs_of.iter().map(|r| r.as_ref().map(|r| r.0)).collect();
     report.riccati_cost = costs[0];
     report.regression_cost = costs[1];
     report.zero_cost = costs[2];
@@ -443,14 +449,16 @@ fn check_by(
         Sensitivities::Rows
     });
     let limits = (tolerance, opts.max_iterations);
-    if opts.covariance_start && !missing {
-        let runs = ExactRuns::new(model, sets, &x0s, &spread);
+    if opts.covariance_start
+        && !missing
+        && let Some((_, base)) = runs_of[i].take()
+    {
         let others: Vec<&DMatrix<f64>> = (0..starts.len())
             .filter(|&j| j != i && costs[j].is_some())
             .filter_map(|j| starts[j].1.as_ref())
             .collect();
         if let Some((k, cost, iterations, bfgs)) =
-            minimise_from_covariances(&runs, &start, &others, start_cost, limits)
+            minimise_from_covariances(&runs, &start, &base, &others, start_cost, limits)
         {
             report.used = format!(
                 "prediction-error minimisation over K from {} (BFGS on the covariances of its one-step errors, then quasi-Newton on the records)",
@@ -888,7 +896,8 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
 
 /// The covariance route of the minimisation over K (module
 /// [`crate::error_covariance`]): BFGS on the cost written through the
-/// covariances of the start's one-step errors, from the start and from
+/// covariances of the start's one-step errors (`base`, a block a record
+/// as [`ExactRuns::run_at`] gives them), from the start and from
 /// `others` (the other starts whose predictors are stable; the lowest
 /// minimum kept), then quasi-Newton on the
 /// exact cost over the records from its minimum, with BFGS's curvature
@@ -906,6 +915,7 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
 fn minimise_from_covariances(
     runs: &ExactRuns<'_, '_>,
     start: &DMatrix<f64>,
+    base: &[Vec<f64>],
     others: &[&DMatrix<f64>],
     start_cost: f64,
     limits: (f64, usize),
@@ -919,8 +929,7 @@ fn minimise_from_covariances(
     // The start's one-step errors (its predictor is stable), of which
     // every other gain's are a filter: K = K₀ + ΔK has the errors of
     // A − K₀ C with gain ΔK (module `error_covariance`).
-    let (_, base, _) = runs.run_at(&DVector::from_column_slice(start.as_slice()))?;
-    let cov = Covariances::from_errors(&base, ny, &runs.w2)?;
+    let cov = Covariances::from_errors(base, ny, &runs.w2)?;
     // BFGS from every start whose predictor is stable (the covariance
     // form costs no pass over the records, so the other starts are tried
     // too), the lowest minimum kept.
