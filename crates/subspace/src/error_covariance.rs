@@ -140,19 +140,15 @@ impl Covariances {
             let (lo, hi) = z.split_at_mut(tau * nny);
             let zt = &mut lo[(tau - 1) * nny..];
             let rt = self.rt[tau].as_slice();
-            for col in 0..ny {
-                for row in 0..n {
-                    zt[row + col * n] = (0..ny).map(|l| ks[row + l * n] * rt[l + col * ny]).sum();
+            for (col, zc) in zt.chunks_exact_mut(n).enumerate() {
+                zc.fill(0.0);
+                for (l, kl) in ks.chunks_exact(n).enumerate() {
+                    axpy(zc, kl, rt[l + col * ny]);
                 }
-            }
-            if tau < lags {
-                let next = &hi[..nny];
-                for col in 0..ny {
-                    for l in 0..n {
-                        let v = next[l + col * n];
-                        for row in 0..n {
-                            zt[row + col * n] += ms[row + l * n] * v;
-                        }
+                if tau < lags {
+                    let next = &hi[col * n..(col + 1) * n];
+                    for (ml, v) in ms.chunks_exact(n).zip(next) {
+                        axpy(zc, ml, *v);
                     }
                 }
             }
@@ -183,27 +179,21 @@ impl Covariances {
         let (gks, gms) = (gk.as_mut_slice(), gm.as_mut_slice());
         for tau in 1..=lags {
             let rt = self.rt[tau].as_slice();
-            for col in 0..ny {
-                for row in 0..n {
-                    gks[row + col * n] += (0..ny)
-                        .map(|l| zhat[row + l * n] * rt[col + l * ny])
-                        .sum::<f64>();
+            for (col, gc) in gks.chunks_exact_mut(n).enumerate() {
+                for (l, zl) in zhat.chunks_exact(n).enumerate() {
+                    axpy(gc, zl, rt[col + l * ny]);
                 }
             }
             if tau < lags {
                 let next = &z[tau * nny..(tau + 1) * nny];
-                for col in 0..n {
-                    for o in 0..ny {
-                        let v = next[col + o * n];
-                        for row in 0..n {
-                            gms[row + col * n] += zhat[row + o * n] * v;
-                        }
+                for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
+                    for (o, zo) in zhat.chunks_exact(n).enumerate() {
+                        axpy(gc, zo, next[col + o * n]);
                     }
                 }
-                for o in 0..ny {
-                    for row in 0..n {
-                        spare[row + o * n] =
-                            (0..n).map(|l| ms[l + row * n] * zhat[l + o * n]).sum();
+                for (sp, zo) in spare.chunks_exact_mut(n).zip(zhat.chunks_exact(n)) {
+                    for (v, mr) in sp.iter_mut().zip(ms.chunks_exact(n)) {
+                        *v = mr.iter().zip(zo).map(|(a, b)| a * b).sum();
                     }
                 }
                 std::mem::swap(&mut zhat, &mut spare);
@@ -364,41 +354,41 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
             .get_inplace_scratch_len()
             .max(inverse.get_inplace_scratch_len())
     ];
-    // The channels' spectra.
-    let mut spectra: Vec<Vec<Complex<f64>>> = Vec::with_capacity(ny);
-    let mut z = vec![zero; m];
+    // The transforms of the channel pairs (x + i y).
+    let mut packed: Vec<Vec<Complex<f64>>> = Vec::with_capacity(ny.div_ceil(2));
     for first in (0..ny).step_by(2) {
         let second = (first + 1 < ny).then_some(first + 1);
-        for (t, zt) in z.iter_mut().enumerate() {
-            *zt = if t < n {
-                let im = second.map_or(0.0, |b| e[t * ny + b]);
-                Complex::new(e[t * ny + first], im)
-            } else {
-                zero
-            };
+        let mut z = vec![zero; m];
+        for (t, zt) in z.iter_mut().take(n).enumerate() {
+            let im = second.map_or(0.0, |b| e[t * ny + b]);
+            *zt = Complex::new(e[t * ny + first], im);
         }
         forward.process_with_scratch(&mut z, &mut scratch);
-        let mut x = vec![zero; m];
-        let mut y = vec![zero; m];
-        for k in 0..m {
-            let zk = z[k];
-            let zc = z[(m - k) % m].conj();
-            x[k] = (zk + zc) * 0.5;
-            y[k] = (zk - zc) * Complex::new(0.0, -0.5);
-        }
-        spectra.push(x);
-        if second.is_some() {
-            spectra.push(y);
-        }
+        packed.push(z);
     }
+    // Channel c's spectrum at k: X_k = (Z_k + conj Z_{m−k})/2 for the
+    // first of its pair, Y_k = (Z_k − conj Z_{m−k})/(2i) for the second.
+    let spectrum_at = |k: usize, out: &mut [Complex<f64>]| {
+        let mk = if k == 0 { 0 } else { m - k };
+        for (p, z) in packed.iter().enumerate() {
+            let (zk, zc) = (z[k], z[mk].conj());
+            out[2 * p] = (zk + zc) * 0.5;
+            if 2 * p + 1 < ny {
+                out[2 * p + 1] = (zk - zc) * Complex::new(0.0, -0.5);
+            }
+        }
+    };
+    let mut z = vec![zero; m];
+    let mut at = vec![zero; ny];
     let pairs: Vec<(usize, usize)> = (0..ny).flat_map(|a| (a..ny).map(move |b| (a, b))).collect();
     let scale = 1.0 / m as f64;
     for two in pairs.chunks(2) {
         let (a, b) = two[0];
         let other = two.get(1).copied();
         for (k, zk) in z.iter_mut().enumerate() {
-            let p = spectra[a][k] * spectra[b][k].conj();
-            let q = other.map_or(zero, |(c, d)| spectra[c][k] * spectra[d][k].conj());
+            spectrum_at(k, &mut at);
+            let p = at[a] * at[b].conj();
+            let q = other.map_or(zero, |(c, d)| at[c] * at[d].conj());
             *zk = p + Complex::new(-q.im, q.re);
         }
         inverse.process_with_scratch(&mut z, &mut scratch);
@@ -414,6 +404,14 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
         if let Some(pair) = other {
             put(pair, |c| c.im);
         }
+    }
+}
+
+/// y ← y + a x (slices of one length).
+#[inline(always)]
+fn axpy(y: &mut [f64], x: &[f64], a: f64) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += a * xi;
     }
 }
 
@@ -494,6 +492,39 @@ mod tests {
         let zero = DMatrix::zeros(3, 2);
         let (j0, _) = cov.cost(&a, &c, &zero, false).unwrap();
         assert_relative_eq!(j0, direct(&a, &c, &zero, &e, &w2), max_relative = 1e-12);
+    }
+
+    /// R(τ) by the packed transforms equals the direct lagged sums, for
+    /// an odd number of channels (one transform holds a single channel)
+    /// and records of several lengths.
+    #[test]
+    fn the_covariances_are_the_lagged_sums() {
+        let ny = 3;
+        let records: Vec<Vec<f64>> = [40usize, 7, 13]
+            .iter()
+            .map(|&n| {
+                (0..n * ny)
+                    .map(|i| ((i * 37 + n) % 23) as f64 * 0.25 - 2.5)
+                    .collect()
+            })
+            .collect();
+        let cov = Covariances::from_errors(&records, ny, &[1.0; 3]).unwrap();
+        assert_eq!(cov.rt.len(), 40);
+        for (tau, rt) in cov.rt.iter().enumerate() {
+            for a in 0..ny {
+                for b in 0..ny {
+                    let mut want = 0.0;
+                    for e in &records {
+                        let n = e.len() / ny;
+                        for t in tau..n {
+                            want += e[t * ny + a] * e[(t - tau) * ny + b];
+                        }
+                    }
+                    // rt holds R(τ)ᵀ.
+                    assert!((rt[(b, a)] - want).abs() < 1e-10, "τ {tau} ({a}, {b})");
+                }
+            }
+        }
     }
 
     #[test]
