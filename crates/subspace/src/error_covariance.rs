@@ -76,12 +76,10 @@ pub(crate) struct Covariances {
     tails: Vec<Vec<f64>>,
 }
 
-/// What [`Covariances::minimise`] gives: the gain, its cost, the inverse
-/// Hessian of the last BFGS update (P × P, vec K column-major) and the
-/// iterations.
+/// What [`Covariances::minimise`] gives: the gain, the inverse Hessian of
+/// the last BFGS update (P × P, vec K column-major) and the iterations.
 pub(crate) struct Minimum {
     pub k: DMatrix<f64>,
-    pub cost: f64,
     pub inverse_hessian: DMatrix<f64>,
     pub iterations: usize,
 }
@@ -267,6 +265,36 @@ impl Covariances {
             .then(|| (cost, Some(DVector::from_column_slice(g.as_slice()))))
     }
 
+    /// The inverse of the Hessian at θ by forward differences of the
+    /// gradient `eval` gives (step 1e-6 of max(|θ_p|, 1e-3)), symmetrised,
+    /// its eigenvalues floored at 1e-10 of the largest; `None` when a
+    /// step's predictor is not stable or the Hessian has no positive
+    /// eigenvalue.
+    fn start_curvature(
+        &self,
+        eval: &impl Fn(&DVector<f64>) -> Option<(f64, DVector<f64>)>,
+        theta: &DVector<f64>,
+        g: &DVector<f64>,
+    ) -> Option<DMatrix<f64>> {
+        let p = theta.len();
+        let mut hess = DMatrix::zeros(p, p);
+        for j in 0..p {
+            let step = 1e-6 * theta[j].abs().max(1e-3);
+            let mut t = theta.clone();
+            t[j] += step;
+            let (_, gj) = eval(&t)?;
+            hess.set_column(j, &((gj - g) / step));
+        }
+        let sym = (&hess + hess.transpose()) * 0.5;
+        let eig = sym.symmetric_eigen();
+        let top = eig.eigenvalues.max();
+        if !(top > 0.0 && top.is_finite()) {
+            return None;
+        }
+        let inv = eig.eigenvalues.map(|l| 1.0 / l.max(1e-10 * top));
+        Some(&eig.eigenvectors * DMatrix::from_diagonal(&inv) * eig.eigenvectors.transpose())
+    }
+
     /// BFGS on J from `start` (A − K C stable there), every trial's
     /// predictor stable (an unstable trial is a failed one), until an
     /// iteration lowers J by less than 1e-12 of it (rounding: J is exact,
@@ -291,8 +319,14 @@ impl Covariances {
         };
         let mut theta = DVector::from_column_slice(start.as_slice());
         let (mut f, mut g) = eval(&theta)?;
-        let mut h = DMatrix::<f64>::identity(p, p);
-        let mut scaled = false;
+        // The start's inverse Hessian from forward differences of the
+        // gradient (P gradients), its eigenvalues floored at 1e-10 of the
+        // largest: BFGS then starts with the curvature it would otherwise
+        // learn over many steps (the check's costs are ill-conditioned).
+        let (mut h, mut scaled) = match self.start_curvature(&eval, &theta, &g) {
+            Some(h) => (h, true),
+            None => (DMatrix::<f64>::identity(p, p), false),
+        };
         let mut iterations = 0;
         while iterations < max_iterations {
             iterations += 1;
@@ -347,7 +381,6 @@ impl Covariances {
         }
         Some(Minimum {
             k: gain(&theta),
-            cost: f,
             inverse_hessian: h,
             iterations,
         })

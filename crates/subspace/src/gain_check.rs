@@ -469,12 +469,8 @@ fn check_by(
         && !missing
         && let Some((_, base)) = runs_of[i].take()
     {
-        let others: Vec<&DMatrix<f64>> = (0..starts.len())
-            .filter(|&j| j != i && costs[j].is_some())
-            .filter_map(|j| starts[j].1.as_ref())
-            .collect();
         if let Some((k, cost, iterations, bfgs)) =
-            minimise_from_covariances(&runs, &start, &base, &others, start_cost, limits)
+            minimise_from_covariances(&runs, &start, &base, start_cost, limits)
         {
             report.used = format!(
                 "prediction-error minimisation over K from {} (BFGS on the covariances of its one-step errors, then quasi-Newton on the records)",
@@ -913,9 +909,8 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
 /// The covariance route of the minimisation over K (module
 /// [`crate::error_covariance`]): BFGS on the cost written through the
 /// covariances of the start's one-step errors (`base`, a block a record
-/// as [`ExactRuns::run_at`] gives them), from the start and from
-/// `others` (the other starts whose predictors are stable; the lowest
-/// minimum kept), then quasi-Newton on the
+/// as [`ExactRuns::run_at`] gives them) from the start, then quasi-Newton
+/// on the
 /// exact cost over the records from its minimum, with BFGS's curvature
 /// and each iterate's exact gradient (adjoint), every step accepted only
 /// on a lower cost over the records, until a decrease below the relative
@@ -932,7 +927,6 @@ fn minimise_from_covariances(
     runs: &ExactRuns<'_, '_>,
     start: &DMatrix<f64>,
     base: &[Vec<f64>],
-    others: &[&DMatrix<f64>],
     start_cost: f64,
     limits: (f64, usize),
 ) -> Option<(DMatrix<f64>, f64, usize, usize)> {
@@ -946,28 +940,14 @@ fn minimise_from_covariances(
     // every other gain's are a filter: K = K₀ + ΔK has the errors of
     // A − K₀ C with gain ΔK (module `error_covariance`).
     let cov = Covariances::from_errors(base, ny, &runs.w2)?;
-    // BFGS from every start whose predictor is stable (the covariance
-    // form costs no pass over the records, so the other starts are tried
-    // too; on a second thread while the best start's runs here), the
-    // lowest minimum kept (the best start's on a tie: the same result
-    // whichever thread ends first).
+    // BFGS from the start: ΔK = 0 on (A − K₀ C, C).
     let shifted = model.a() - start * model.c();
-    let from = |k0: &DMatrix<f64>| cov.minimise(&shifted, model.c(), k0, COVARIANCE_ITERATIONS);
-    let from_others = || -> Vec<_> { others.iter().filter_map(|k| from(&(*k - start))).collect() };
-    let zero = DMatrix::zeros(n, ny);
-    let (own, tried) = if others.is_empty() {
-        (from(&zero), Vec::new())
-    } else {
-        std::thread::scope(|scope| {
-            let handle = scope.spawn(from_others);
-            let own = from(&zero);
-            (own, handle.join().unwrap_or_else(|_| from_others()))
-        })
-    };
-    let min = own
-        .into_iter()
-        .chain(tried)
-        .reduce(|best, m| if m.cost < best.cost { m } else { best })?;
+    let min = cov.minimise(
+        &shifted,
+        model.c(),
+        &DMatrix::zeros(n, ny),
+        COVARIANCE_ITERATIONS,
+    )?;
     let mut theta = DVector::from_column_slice((start + &min.k).as_slice());
     let (mut cost, mut errors, mut predictor) = runs.run_at(&theta)?;
     // (‖r‖² is n_y times the normalised cost.)
@@ -979,14 +959,19 @@ fn minimise_from_covariances(
     let mut g = runs.gradient_of(&errors, &predictor)? * 2.0;
     let mut iterations = 0;
     while iterations < max_iterations {
-        iterations += 1;
+        // The decrease a quasi-Newton step predicts, ½ gᵀ H g: below the
+        // stopping decrease, no trial is run (the covariance form is the
+        // cost over the records, so its minimum is one of the cost's, and
+        // there a trial step only meets rounding).
         let dir = -(&h * &g);
-        if g.dot(&dir) >= 0.0 {
+        let predicted = -0.5 * g.dot(&dir);
+        if predicted.is_nan() || predicted <= tolerance * cost {
             break;
         }
+        iterations += 1;
         let mut alpha = 1.0;
         let mut accepted = None;
-        for _ in 0..8 {
+        for _ in 0..4 {
             let trial = &theta + alpha * &dir;
             match runs.run_at(&trial) {
                 Some(run) if run.0 < cost => {
@@ -1590,10 +1575,15 @@ mod tests {
         let exps = [Experiment { u: &u, y: &y }];
         let four = over_fitted(&exps);
         for model in [&g, &four.model] {
+            // (Levenberg–Marquardt: the sensitivities are its factors'.)
             for opts in [
-                GainCheckOptions::default(),
+                GainCheckOptions {
+                    covariance_start: false,
+                    ..Default::default()
+                },
                 GainCheckOptions {
                     stop_share: 0.0,
+                    covariance_start: false,
                     ..Default::default()
                 },
             ] {
