@@ -36,7 +36,7 @@
 //! one-step predictor is never worse than the simulation on the records.
 //! With every output measured, the one-step errors of a gain are a filter
 //! of those of the start, so the cost is first minimised through their
-//! covariances by BFGS (module [`crate::error_covariance`], no pass over
+//! covariances by BFGS (module `error_covariance`, no pass over
 //! the records per evaluation) and finished on the records by
 //! quasi-Newton with BFGS's curvature and the exact gradient
 //! ([`GainCheckOptions::covariance_start`]); otherwise, or when that ends
@@ -103,16 +103,18 @@ pub struct GainCheckOptions {
     pub stop_share: f64,
     /// Largest number of iterations (default 30).
     pub max_iterations: usize,
-    /// Minimise first on the cost written through the covariances of the
-    /// start's one-step errors (module [`crate::error_covariance`]: BFGS at no pass
-    /// over the records), then finish on the records by quasi-Newton from
-    /// its minimum; Levenberg–Marquardt from the start when that route
-    /// cannot be taken (outputs not measured at some samples) or ends no
-    /// lower than the start. Default true: the same minimum of the same
-    /// cost, reached with a few passes over the records instead of one
-    /// Gauss–Newton factor of the N-row Jacobian per iteration or two
-    /// (measured in `benches/results/studio.md`); false: the
-    /// Levenberg–Marquardt iterations alone, as before.
+    /// Minimise first on the cost written exactly through the covariances
+    /// of the start's one-step errors (module `error_covariance`: BFGS at
+    /// no pass over the records), then finish on the records by
+    /// quasi-Newton from its minimum; Levenberg–Marquardt from the start
+    /// when that route cannot be taken (outputs not measured at some
+    /// samples) or ends no lower than the start. Default true: a minimum
+    /// of the same cost, reached with a few passes over the records
+    /// instead of one Gauss–Newton factor of the N-row Jacobian per
+    /// iteration or two, and lower than Levenberg–Marquardt's end on 159
+    /// of 366 real-record cells, higher on 19 (`benches/results/studio.md`
+    /// and `real-records.md`, session 30); false: the Levenberg–Marquardt
+    /// iterations alone, as before.
     pub covariance_start: bool,
 }
 
@@ -468,19 +470,17 @@ fn check_by(
     if opts.covariance_start
         && !missing
         && let Some((_, base)) = runs_of[i].take()
-    {
-        if let Some((k, cost, iterations, bfgs)) =
+        && let Some((k, cost, iterations, bfgs)) =
             minimise_from_covariances(&runs, &start, &base, start_cost, limits)
-        {
-            report.used = format!(
-                "prediction-error minimisation over K from {} (BFGS on the covariances of its one-step errors, then quasi-Newton on the records)",
-                starts[i].0
-            );
-            report.final_cost = Some(cost);
-            report.iterations = iterations;
-            report.covariance_iterations = Some(bfgs);
-            return (Some(k), report);
-        }
+    {
+        report.used = format!(
+            "prediction-error minimisation over K from {} (BFGS on the covariances of its one-step errors, then quasi-Newton on the records)",
+            starts[i].0
+        );
+        report.final_cost = Some(cost);
+        report.iterations = iterations;
+        report.covariance_iterations = Some(bfgs);
+        return (Some(k), report);
     }
     match minimise(model, &start, sets, &x0s, &spread, limits, route) {
         Ok((k, cost, iterations, factors)) if cost < start_cost => {
@@ -907,22 +907,23 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
 }
 
 /// The covariance route of the minimisation over K (module
-/// [`crate::error_covariance`]): BFGS on the cost written through the
+/// `error_covariance`): BFGS on the cost written exactly through the
 /// covariances of the start's one-step errors (`base`, a block a record
 /// as [`ExactRuns::run_at`] gives them) from the start, then quasi-Newton
-/// on the
-/// exact cost over the records from its minimum, with BFGS's curvature
-/// and each iterate's exact gradient (adjoint), every step accepted only
-/// on a lower cost over the records, until a decrease below the relative
-/// `tolerance` or `max_iterations`. Returns the gain, its cost
-/// ([`prediction_cost`]), the exact iterations and the covariance form's;
-/// `None` when the route cannot be taken or does not end below
-/// `start_cost` (then Levenberg–Marquardt runs as before). Records with
-/// every output measured (the errors of a constant K are then a filter of
-/// those of the start). O(N n_y² log N) for the covariances, O(L (n²
-/// n_y + n n_y²) + n³ log L) per evaluation of the covariance form (L ≤
-/// [`crate::error_covariance::MAX_LAGS`] lags), O(N (n² + n n_y + n n_u))
-/// per exact iteration.
+/// on the cost over the records from its minimum, with BFGS's curvature
+/// and each iterate's exact gradient (adjoint), a trial only where the
+/// step predicts more than the relative `tolerance` and accepted only on
+/// a lower cost over the records, until a decrease below `tolerance` or
+/// `max_iterations`. Returns the gain, its cost ([`prediction_cost`]), the
+/// iterations on the records and the covariance form's; `None` when the
+/// route cannot be taken (its work beyond [`MINIMISE_WORK`]) or does not
+/// end below `start_cost` (then Levenberg–Marquardt runs as before).
+/// Records with every output measured (the errors of a constant K are
+/// then a filter of those of the start). O(N n_y² log N) for the
+/// covariances, O(L (n² n_y + n n_y²) + n³ log L) per evaluation of the
+/// covariance form (L ≤ `error_covariance::MAX_LAGS` lags, and each
+/// record's last L errors), O(N (n² + n n_y + n n_u)) per iteration on the
+/// records.
 fn minimise_from_covariances(
     runs: &ExactRuns<'_, '_>,
     start: &DMatrix<f64>,
@@ -934,6 +935,17 @@ fn minimise_from_covariances(
     let model = runs.model;
     let (n, ny) = (model.order(), model.n_outputs());
     if n == 0 {
+        return None;
+    }
+    // Within the minimisation's work budget: the start's Hessian (P
+    // gradients) and the most BFGS iterations, each evaluation with its
+    // gradient about three Horner passes over the lags and each record's
+    // end (else Levenberg–Marquardt, under the same budget).
+    let longest = base.iter().map(|e| e.len() / ny).max().unwrap_or(0);
+    let lags = crate::error_covariance::MAX_LAGS.min(longest.saturating_sub(1)) as f64;
+    let per_evaluation =
+        6.0 * lags * ((n * n * ny + n * ny * ny) as f64) * base.len().max(1) as f64;
+    if ((n * ny + COVARIANCE_ITERATIONS) as f64) * per_evaluation > MINIMISE_WORK {
         return None;
     }
     // The start's one-step errors (its predictor is stable), of which
