@@ -168,6 +168,14 @@ fn session_identifies_like_the_command() {
     assert_eq!(comparable(cli), comparable(studio));
     let report = s.report(None).unwrap();
     assert!(report.contains("<svg") && report.contains("rec.csv"));
+    // The page's validation spares the 5-step predictions; the report
+    // still has its table's 5-step fit (validated anew for it).
+    assert!(two.fits[0].one_step.is_some());
+    assert!(report.contains("fit % 5-step"));
+    assert!(
+        !report.contains("<td>n/a</td>"),
+        "a fit missing from the report"
+    );
     s.close();
 }
 

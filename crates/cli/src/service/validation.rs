@@ -34,13 +34,28 @@ pub use lifted_lti::validation::Validation;
 
 /// Validates the model file's model, operating point and Kalman gain on
 /// `data` with `lifted_lti::validate` (the gain only when the model runs at
-/// the data's period as given), the simulation from `initial_state`;
-/// errors name the data file `path`.
+/// the data's period as given), the simulation from `initial_state`, the
+/// 1- and 5-step predictions; errors name the data file `path`.
 pub fn validate_model(
     file: &ModelFile,
     data: &Dataset,
     lags: usize,
     initial_state: InitialCondition,
+    path: &str,
+) -> CliResult<Validation> {
+    let horizons = lifted_lti::ValidationOptions::default().horizons;
+    validate_model_at(file, data, lags, initial_state, &horizons, path)
+}
+
+/// [`validate_model`] with the prediction horizons given (the studio's
+/// slider shows the one-step fit only: `&[1]`, which spares the 5-step
+/// predictions, five model runs over the record).
+pub fn validate_model_at(
+    file: &ModelFile,
+    data: &Dataset,
+    lags: usize,
+    initial_state: InitialCondition,
+    horizons: &[usize],
     path: &str,
 ) -> CliResult<Validation> {
     let model = &file.model;
@@ -60,7 +75,7 @@ pub fn validate_model(
             .kalman_gain_matrix()
             .filter(|_| gain_mismatch(file, data).is_none()),
         initial_state,
-        ..Default::default()
+        horizons: horizons.to_vec(),
     };
     validate(model, data, &opts).map_err(|e| match e {
         lifted_lti::Error::InvalidArgument {

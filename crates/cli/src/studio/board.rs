@@ -167,7 +167,7 @@ impl Session {
             let shown = selected.contains(&id);
             // A model whose channels the current data lack stays on the
             // board, without fits.
-            let (data, v) = match self.validated(&file, &request) {
+            let (data, v) = match self.validated(&file, &request, super::session::SLIDER_HORIZONS) {
                 Ok((_, data, v)) => (data, v),
                 Err(e) => {
                     entries.push(BoardEntry {

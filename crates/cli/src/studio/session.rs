@@ -24,7 +24,7 @@ use crate::service::identify::{
 };
 use crate::service::pairs::{PairFigure, add_empirical_pairs, bode_pairs, pairs_svg, step_pairs};
 use crate::service::report::render;
-use crate::service::validation::{validate_model, with_detrend};
+use crate::service::validation::{validate_model_at, with_detrend};
 use crate::studio::board::Pinned;
 use crate::studio::cached::Cache;
 use crate::studio::ranges;
@@ -41,6 +41,14 @@ pub const MAX_WORK_BYTES: u64 = 2 << 30;
 /// Lags of the residual tests in the studio (as `lifted validate`'s
 /// default), fewer on a short record.
 const LAGS: usize = 20;
+
+/// The prediction horizons of a validation the page shows (its one-step
+/// fit; the 5-step predictions, five model runs over the record, only for
+/// the report).
+pub(crate) const SLIDER_HORIZONS: &[usize] = &[1];
+
+/// The prediction horizons of the report's table (`lifted report`'s).
+pub(crate) const REPORT_HORIZONS: &[usize] = &[1, 5];
 
 /// Identification and view options of the page, named as the options of
 /// `lifted identify` (`output_period` entries are `NAME=PERIOD`; `order` is a
@@ -1232,11 +1240,14 @@ impl Session {
     }
 
     /// The record of a request checked against a model file, as `lifted
-    /// validate --detrend auto` does.
+    /// validate --detrend auto` does; `horizons`: the prediction fits'
+    /// ([`SLIDER_HORIZONS`] for what the page shows, [`REPORT_HORIZONS`]
+    /// for the report's table).
     pub(crate) fn validated(
         &mut self,
         file: &ModelFile,
         r: &Request,
+        horizons: &[usize],
     ) -> CliResult<(ModelFile, Dataset, crate::service::validation::Validation)> {
         let (name, path, folder) = self.validation_source(r)?;
         let paths: Vec<String> = self
@@ -1257,7 +1268,7 @@ impl Session {
             h.finish()
         };
         let key = format!(
-            "{}\u{1f}{}\u{1f}{}\u{1f}{matrices:x}",
+            "{}\u{1f}{}\u{1f}{}\u{1f}{matrices:x}\u{1f}{horizons:?}",
             Self::identification_key(r, &paths),
             name,
             path.display()
@@ -1278,11 +1289,12 @@ impl Session {
         let lags = LAGS.min(shortest.saturating_sub(1) / 4).max(1);
         // The page shows the simulation fits, the residual tests (on the
         // simulation's residuals) and the one-step prediction fits.
-        let v = validate_model(
+        let v = validate_model_at(
             &file,
             &data,
             lags,
             lifted_lti::InitialCondition::Estimate,
+            horizons,
             &name,
         )?;
         let validated = (file, data, v);
@@ -1412,7 +1424,7 @@ impl Session {
                     channel_tfs(model),
                 ))
             });
-            let validated = self.validated(&file, r);
+            let validated = self.validated(&file, r, SLIDER_HORIZONS);
             let drawn = drawn
                 .join()
                 .unwrap_or_else(|_| Err(input("internal: drawing the model's figures failed")));
@@ -1625,7 +1637,7 @@ impl Session {
         let last = self.last(seq)?;
         let (file, request) = (last.file.clone(), last.request.clone());
         let name = self.record()?.name.clone();
-        let (file, data, v) = self.validated(&file, &request)?;
+        let (file, data, v) = self.validated(&file, &request, REPORT_HORIZONS)?;
         render(&file, &data, &v, "model.json (lifted studio)", &name)
     }
 
