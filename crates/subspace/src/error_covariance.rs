@@ -580,21 +580,73 @@ mod tests {
     /// Σ_t ε(t)ᵀ W² ε(t) over the record, by the recursion
     /// d(t+1) = M d(t) + K e(t).
     fn direct(a: &DMatrix<f64>, c: &DMatrix<f64>, k: &DMatrix<f64>, e: &[f64], w2: &[f64]) -> f64 {
+        let (n, ny) = (a.nrows(), c.nrows());
         let m = a - k * c;
-        let mut d = DVector::zeros(3);
+        let mut d = DVector::zeros(n);
         let mut cost = 0.0;
-        let n = e.len() / 2;
-        for t in 0..n {
-            let et = if t < n {
-                DVector::from_column_slice(&e[2 * t..2 * t + 2])
-            } else {
-                DVector::zeros(2)
-            };
+        for et in e.chunks_exact(ny) {
+            let et = DVector::from_column_slice(et);
             let eps = &et - c * &d;
-            cost += w2[0] * eps[0] * eps[0] + w2[1] * eps[1] * eps[1];
+            cost += eps.iter().zip(w2).map(|(v, w)| w * v * v).sum::<f64>();
             d = &m * &d + k * &et;
         }
         cost
+    }
+
+    /// The cost and its gradient against the recursion and finite
+    /// differences for random shapes (orders 1–6, 1–3 outputs, 1–3
+    /// records of 2–400 samples, A − K C of spectral radius up to 0.97),
+    /// seeded.
+    #[test]
+    fn the_cost_holds_for_random_shapes() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(30);
+        let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
+        for case in 0..60 {
+            let n = 1 + case % 6;
+            let ny = 1 + (case / 6) % 3;
+            let records = 1 + case % 3;
+            let a = DMatrix::from_fn(n, n, |_, _| normal());
+            let c = DMatrix::from_fn(ny, n, |_, _| normal());
+            let k = DMatrix::from_fn(n, ny, |_, _| 0.3 * normal());
+            // Scale A so that A − K C has the radius drawn.
+            let radius = 0.2 + 0.77 * ((case * 7919) % 100) as f64 / 100.0;
+            let m = &a - &k * &c;
+            let rho = spectral_radius(&m).unwrap().max(1e-6);
+            let a = (m * (radius / rho)) + &k * &c;
+            let errors: Vec<Vec<f64>> = (0..records)
+                .map(|r| {
+                    let len = 2 + (case * 37 + r * 101) % 399;
+                    (0..len * ny).map(|_| normal()).collect()
+                })
+                .collect();
+            let w2: Vec<f64> = (0..ny).map(|o| 0.5 + o as f64).collect();
+            let cov = Covariances::from_errors(&errors, ny, &w2).unwrap();
+            let (j, g) = cov.cost(&a, &c, &k, true).unwrap();
+            let want: f64 = errors.iter().map(|e| direct(&a, &c, &k, e, &w2)).sum();
+            assert_relative_eq!(j, want, max_relative = 1e-9);
+            let g = g.unwrap();
+            let scale = g.amax().max(want);
+            for p in 0..n * ny {
+                let h = 1e-6;
+                let (mut kp, mut km) = (k.clone(), k.clone());
+                kp[p] += h;
+                km[p] -= h;
+                let fd = (errors
+                    .iter()
+                    .map(|e| direct(&a, &c, &kp, e, &w2))
+                    .sum::<f64>()
+                    - errors
+                        .iter()
+                        .map(|e| direct(&a, &c, &km, e, &w2))
+                        .sum::<f64>())
+                    / (2.0 * h);
+                assert!(
+                    (g[p] - fd).abs() <= 1e-5 * scale,
+                    "case {case} (n {n}, n_y {ny}): {} against {fd}",
+                    g[p]
+                );
+            }
+        }
     }
 
     #[test]
