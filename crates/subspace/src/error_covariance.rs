@@ -232,9 +232,7 @@ impl Covariances {
                     }
                 }
                 for (sp, zo) in spare.chunks_exact_mut(n).zip(zhat.chunks_exact(n)) {
-                    for (v, mr) in sp.iter_mut().zip(ms.chunks_exact(n)) {
-                        *v = mr.iter().zip(zo).map(|(a, b)| a * b).sum();
-                    }
+                    mul_transpose(sp, ms, zo);
                 }
                 std::mem::swap(&mut zhat, &mut spare);
             }
@@ -255,9 +253,7 @@ impl Covariances {
                     for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
                         axpy(gc, &ahat, dj[col]);
                     }
-                    for (v, mr) in next.iter_mut().zip(ms.chunks_exact(n)) {
-                        *v = mr.iter().zip(&ahat).map(|(a, b)| a * b).sum();
-                    }
+                    mul_transpose(&mut next, ms, &ahat);
                     std::mem::swap(&mut ahat, &mut next);
                 }
             }
@@ -364,18 +360,12 @@ impl Covariances {
             };
             let s = &trial - &theta;
             let yv = &gt - &g;
-            let sy = s.dot(&yv);
-            if sy > 1e-12 * s.norm() * yv.norm() {
+            if let Some(sy) = positive_curvature(&s, &yv) {
                 if !scaled {
                     h = DMatrix::identity(p, p) * (sy / yv.norm_squared());
                     scaled = true;
                 }
-                // H ← (I − ρ s yᵀ) H (I − ρ y sᵀ) + ρ s sᵀ.
-                let rho = 1.0 / sy;
-                let hy = &h * &yv;
-                let yhy = yv.dot(&hy);
-                h += (s.clone() * s.transpose()) * (rho * (1.0 + rho * yhy))
-                    - (&hy * s.transpose() + &s * hy.transpose()) * rho;
+                bfgs_update(&mut h, &s, &yv, sy);
             }
             let decrease = f - ft;
             (theta, f, g) = (trial, ft, gt);
@@ -521,6 +511,33 @@ fn end_states(
         }
     }
     (d, kept)
+}
+
+/// out ← Mᵀ x for M column-major with columns of `x.len()` entries (one
+/// dot product a column).
+#[inline(always)]
+fn mul_transpose(out: &mut [f64], m: &[f64], x: &[f64]) {
+    for (v, column) in out.iter_mut().zip(m.chunks_exact(x.len())) {
+        *v = column.iter().zip(x).map(|(a, b)| a * b).sum();
+    }
+}
+
+/// sᵀy when it is positive beyond rounding (sᵀy > 1e-12 ‖s‖ ‖y‖): the
+/// curvature along the step s (gradient change y) that a BFGS update
+/// needs, else `None`.
+pub(crate) fn positive_curvature(s: &DVector<f64>, y: &DVector<f64>) -> Option<f64> {
+    let sy = s.dot(y);
+    (sy > 1e-12 * s.norm() * y.norm()).then_some(sy)
+}
+
+/// BFGS's update of the inverse Hessian, H ← (I − ρ s yᵀ) H (I − ρ y sᵀ)
+/// + ρ s sᵀ with ρ = 1/sᵀy (`sy`, from [`positive_curvature`]).
+pub(crate) fn bfgs_update(h: &mut DMatrix<f64>, s: &DVector<f64>, y: &DVector<f64>, sy: f64) {
+    let rho = 1.0 / sy;
+    let hy = &*h * y;
+    let yhy = y.dot(&hy);
+    *h += (s * s.transpose()) * (rho * (1.0 + rho * yhy))
+        - (&hy * s.transpose() + s * hy.transpose()) * rho;
 }
 
 /// y ← y + a x (slices of one length).

@@ -64,7 +64,7 @@
 
 use lifted_lti::StateSpace;
 
-use crate::error_covariance::Covariances;
+use crate::error_covariance::{Covariances, bfgs_update, positive_curvature};
 use crate::model::Experiment;
 use crate::one_step::{OneStep, Sensitivities};
 use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
@@ -1007,13 +1007,8 @@ fn minimise_from_covariances(
         let gt = gt * 2.0;
         let s = alpha * &dir;
         let yv = &gt - &g;
-        let sy = s.dot(&yv);
-        if sy > 1e-12 * s.norm() * yv.norm() {
-            let rho = 1.0 / sy;
-            let hy = &h * &yv;
-            let yhy = yv.dot(&hy);
-            h += (&s * s.transpose()) * (rho * (1.0 + rho * yhy))
-                - (&hy * s.transpose() + &s * hy.transpose()) * rho;
+        if let Some(sy) = positive_curvature(&s, &yv) {
+            bfgs_update(&mut h, &s, &yv, sy);
         }
         g = gt;
     }
