@@ -2242,10 +2242,14 @@ pub(crate) fn iv(
                 };
                 // Orders above (α − 1) p̄ (p̄ lifted outputs per frame)
                 // are not identifiable: not tried (`max` may be anything
-                // the caller gave).
+                // the caller gave), with α the longest the record holds
+                // (`iv_alpha_for`, what `fit_at` gets at most: a horizon
+                // beyond the record would otherwise let a search of a
+                // million orders through, each lifting the record).
+                let alpha = iv_alpha_for(&[data], lopts.alpha, lopts.alpha_p);
                 held_out_orders(
                     data,
-                    max.min(lifted_max_order(data, lopts.alpha)),
+                    max.min(lifted_max_order(data, alpha)),
                     fit_at,
                     opts,
                     false,
