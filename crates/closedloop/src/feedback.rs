@@ -258,75 +258,80 @@ pub fn arx_innovations(
     order: usize,
     max_samples: usize,
 ) -> Result<DMatrix<f64>> {
-    let (n, m, p) = (u.nrows(), u.ncols(), y.ncols());
-    if y.nrows() != n {
-        return Err(Error::DimensionMismatch {
-            what: "outputs",
-            expected: format!("{n} rows (as the inputs)"),
-            got: format!("{} rows", y.nrows()),
-        });
-    }
-    if order >= n {
-        return Err(Error::TooShort {
-            what: "VARX innovations",
-            need: order.saturating_add(1),
-            got: n,
-        });
-    }
-    if order == 0 || u.iter().chain(y.iter()).any(|v| !v.is_finite()) {
-        return Err(Error::InvalidArgument {
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (n, m, p) = (u.nrows(), u.ncols(), y.ncols());
+            if y.nrows() != n {
+                return Err(Error::DimensionMismatch {
+                    what: "outputs",
+                    expected: format!("{n} rows (as the inputs)"),
+                    got: format!("{} rows", y.nrows()),
+                });
+            }
+            if order >= n {
+                return Err(Error::TooShort {
+                    what: "VARX innovations",
+                    need: order.saturating_add(1),
+                    got: n,
+                });
+            }
+            if order == 0 || u.iter().chain(y.iter()).any(|v| !v.is_finite()) {
+                return Err(Error::InvalidArgument {
             what: "VARX innovations",
             reason:
                 "order 0, or a sample not finite (a multirate record has no VARX on the base grid)"
                     .into(),
         });
-    }
-    let k = 1 + order * (m + p);
-    let first = order.max(n.saturating_sub(max_samples.max(1)));
-    if n.saturating_sub(first) < 2 * (k + p) + 10 {
-        return Err(Error::TooShort {
-            what: "VARX innovations",
-            need: first + 2 * (k + p) + 10,
-            got: n,
-        });
-    }
-    let row = |s: usize, c: usize| -> f64 {
-        if c == 0 {
-            1.0
-        } else if c <= order * p {
-            let (lag, o) = ((c - 1) / p + 1, (c - 1) % p);
-            y[(s - lag, o)]
-        } else if c < k {
-            let c = c - 1 - order * p;
-            let (lag, j) = (c / m + 1, c % m);
-            u[(s - lag, j)]
-        } else {
-            y[(s, c - k)]
-        }
-    };
-    const BLOCK: usize = 1024;
-    let mut acc = lifted_linalg::RAccumulator::new(k + p);
-    let mut t = first;
-    while t < n {
-        let take = BLOCK.min(n - t);
-        acc.push_rows(&DMatrix::from_fn(take, k + p, |r, c| row(t + r, c)))?;
-        t += take;
-    }
-    let r = acc.r();
-    let rx = r.view((0, 0), (k, k)).into_owned();
-    let ry = r.view((0, k), (k, p)).into_owned();
-    let theta = lifted_linalg::lstsq(&rx, &ry)?;
-    let mut e = DMatrix::from_element(n, p, f64::NAN);
-    for s in first..n {
-        for o in 0..p {
-            let mut v = y[(s, o)];
-            for c in 0..k {
-                v -= row(s, c) * theta[(c, o)];
             }
-            e[(s, o)] = v;
-        }
-    }
-    Ok(e)
+            let k = 1 + order * (m + p);
+            let first = order.max(n.saturating_sub(max_samples.max(1)));
+            if n.saturating_sub(first) < 2 * (k + p) + 10 {
+                return Err(Error::TooShort {
+                    what: "VARX innovations",
+                    need: first + 2 * (k + p) + 10,
+                    got: n,
+                });
+            }
+            let row = |s: usize, c: usize| -> f64 {
+                if c == 0 {
+                    1.0
+                } else if c <= order * p {
+                    let (lag, o) = ((c - 1) / p + 1, (c - 1) % p);
+                    y[(s - lag, o)]
+                } else if c < k {
+                    let c = c - 1 - order * p;
+                    let (lag, j) = (c / m + 1, c % m);
+                    u[(s - lag, j)]
+                } else {
+                    y[(s, c - k)]
+                }
+            };
+            const BLOCK: usize = 1024;
+            let mut acc = lifted_linalg::RAccumulator::new(k + p);
+            let mut t = first;
+            while t < n {
+                let take = BLOCK.min(n - t);
+                acc.push_rows(&DMatrix::from_fn(take, k + p, |r, c| row(t + r, c)))?;
+                t += take;
+            }
+            let r = acc.r();
+            let rx = r.view((0, 0), (k, k)).into_owned();
+            let ry = r.view((0, k), (k, p)).into_owned();
+            let theta = lifted_linalg::lstsq(&rx, &ry)?;
+            let mut e = DMatrix::from_element(n, p, f64::NAN);
+            for s in first..n {
+                for o in 0..p {
+                    let mut v = y[(s, o)];
+                    for c in 0..k {
+                        v -= row(s, c) * theta[(c, o)];
+                    }
+                    e[(s, o)] = v;
+                }
+            }
+            Ok(e)
+        },
+    )
 }
 
 /// P(χ²_k > x): the regularised upper incomplete gamma Q(k/2, x/2).

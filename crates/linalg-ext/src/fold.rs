@@ -13,55 +13,52 @@
 //! stay in L1/L2 for m ≈ 1000). The reflections are those of the stacked
 //! Householder QR, so R' equals its R up to rounding (and row signs).
 
+use crate::simd::Avx2Fma;
 use nalgebra::DMatrix;
 
-/// Whether the vector kernels can run here (AVX2 and FMA detected).
-pub(crate) fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// R of [r; b] into `r` (see the module docs); `b` is overwritten.
-/// Call only when [`available`]. O(m n²).
-pub(crate) fn fold_into_triangle(r: &mut DMatrix<f64>, b: &mut DMatrix<f64>) {
+/// R of [r; b] into `r` (see the module docs); `b` is overwritten. The
+/// token is the proof that the vector kernels can run. O(m n²).
+pub(crate) fn fold_into_triangle(simd: Avx2Fma, r: &mut DMatrix<f64>, b: &mut DMatrix<f64>) {
     let (m, n) = b.shape();
     assert!(r.shape() == (n, n), "fold: R must be n×n");
     if m == 0 {
         return;
     }
-    let cols = b.as_mut_slice();
-    for j in 0..n {
-        let (head, tail) = cols.split_at_mut((j + 1) * m);
-        let x = &mut head[j * m..];
-        let xnorm = norm2(x);
-        if xnorm == 0.0 {
-            continue;
-        }
-        let alpha = r[(j, j)];
-        let beta = -alpha.signum() * alpha.hypot(xnorm);
-        let tau = (beta - alpha) / beta;
-        let scale = 1.0 / (alpha - beta);
-        x.iter_mut().for_each(|v| *v *= scale);
-        r[(j, j)] = beta;
-        for (k, col) in (j + 1..n).zip(tail.chunks_exact_mut(m)) {
-            let w = tau * (r[(j, k)] + dot(x, col));
-            r[(j, k)] -= w;
-            axpy(-w, x, col);
-        }
-    }
+    // The reflections' loop compiled for AVX2/FMA, so that the kernels
+    // below inline into it.
+    simd.run(
+        #[inline(always)]
+        || {
+            let cols = b.as_mut_slice();
+            for j in 0..n {
+                let (head, tail) = cols.split_at_mut((j + 1) * m);
+                let x = &mut head[j * m..];
+                let xnorm = norm2(simd, x);
+                if xnorm == 0.0 {
+                    continue;
+                }
+                let alpha = r[(j, j)];
+                let beta = -alpha.signum() * alpha.hypot(xnorm);
+                let tau = (beta - alpha) / beta;
+                let scale = 1.0 / (alpha - beta);
+                x.iter_mut().for_each(|v| *v *= scale);
+                r[(j, j)] = beta;
+                for (k, col) in (j + 1..n).zip(tail.chunks_exact_mut(m)) {
+                    let w = tau * (r[(j, k)] + dot(simd, x, col));
+                    r[(j, k)] -= w;
+                    axpy(simd, -w, x, col);
+                }
+            }
+        },
+    )
 }
 
 /// ‖x‖₂: the plain sum of squares unless it leaves the safe range, then
 /// with the entries scaled by their largest magnitude (as LAPACK's
 /// `dnrm2`: no overflow or underflow).
-fn norm2(x: &[f64]) -> f64 {
-    let ss = dot(x, x);
+#[inline(always)]
+fn norm2(simd: Avx2Fma, x: &[f64]) -> f64 {
+    let ss = dot(simd, x, x);
     if ss.is_finite() && ss > 1e-280 && ss < 1e280 {
         return ss.sqrt();
     }
@@ -74,12 +71,13 @@ fn norm2(x: &[f64]) -> f64 {
 }
 
 /// Σ a_i b_i (equal lengths).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+#[inline(always)]
+fn dot(simd: Avx2Fma, a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len(), "fold: dot of unequal lengths");
+    let _ = simd;
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: the callers run only when `available()` (AVX2 and FMA
-    // detected); the lengths are equal (asserted), and the kernel reads
-    // a[i], b[i] for i < len only.
+    // SAFETY: `simd` proves AVX2 and FMA; the lengths are equal
+    // (asserted), and the kernel reads a[i], b[i] for i < len only.
     unsafe {
         dot_avx2(a.as_ptr(), b.as_ptr(), a.len())
     }
@@ -90,8 +88,10 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// y += α x (equal lengths).
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+#[inline(always)]
+fn axpy(simd: Avx2Fma, alpha: f64, x: &[f64], y: &mut [f64]) {
     assert_eq!(x.len(), y.len(), "fold: axpy of unequal lengths");
+    let _ = simd;
     #[cfg(target_arch = "x86_64")]
     // SAFETY: as in `dot`; the kernel reads x[i] and writes y[i] for
     // i < len only.
@@ -110,6 +110,7 @@ fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
 /// AVX2 and FMA must be available; `a` and `b` readable for `len` entries.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[inline]
 unsafe fn dot_avx2(a: *const f64, b: *const f64, len: usize) -> f64 {
     use std::arch::x86_64::*;
     // SAFETY: every offset formed is below `len` (the caller's bound).
@@ -149,6 +150,7 @@ unsafe fn dot_avx2(a: *const f64, b: *const f64, len: usize) -> f64 {
 /// `len` entries.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[inline]
 unsafe fn axpy_avx2(alpha: f64, x: *const f64, y: *mut f64, len: usize) {
     use std::arch::x86_64::*;
     // SAFETY: every offset formed is below `len` (the caller's bound).
@@ -182,9 +184,9 @@ mod tests {
     /// lengths that are no multiple of the vector width.
     #[test]
     fn the_fold_is_the_r_of_the_stacked_rows() {
-        if !available() {
+        let Some(simd) = Avx2Fma::detect() else {
             return;
-        }
+        };
         let mut x = 0.37f64;
         let mut next = || {
             x = (x * 3.7 + 0.11).fract();
@@ -198,7 +200,7 @@ mod tests {
             }
             let mut r = crate::qr_r(&first).unwrap();
             let mut b = block.clone();
-            fold_into_triangle(&mut r, &mut b);
+            fold_into_triangle(simd, &mut r, &mut b);
             let mut stacked = DMatrix::zeros(n + 4 + m, n);
             stacked.rows_mut(0, n + 4).copy_from(&first);
             stacked.rows_mut(n + 4, m).copy_from(&block);

@@ -64,23 +64,28 @@ pub fn sum(x: &[f64]) -> f64 {
 /// ```
 #[inline]
 pub fn first_non_finite(x: &[f64]) -> Option<usize> {
-    const B: usize = 64;
-    let mut blocks = x.chunks_exact(B);
-    for (b, blk) in blocks.by_ref().enumerate() {
-        // |v| < ∞ is false for NaN and ±∞; `&` (not `&&`) keeps it branch-free
-        if !blk
-            .iter()
-            .fold(true, |ok, v| ok & (v.abs() < f64::INFINITY))
-        {
-            return blk.iter().position(|v| !v.is_finite()).map(|i| b * B + i);
-        }
-    }
-    let base = x.len() - blocks.remainder().len();
-    blocks
-        .remainder()
-        .iter()
-        .position(|v| !v.is_finite())
-        .map(|i| base + i)
+    crate::simd::dispatch(
+        #[inline(always)]
+        || {
+            const B: usize = 64;
+            let mut blocks = x.chunks_exact(B);
+            for (b, blk) in blocks.by_ref().enumerate() {
+                // |v| < ∞ is false for NaN and ±∞; `&` (not `&&`) keeps it branch-free
+                if !blk
+                    .iter()
+                    .fold(true, |ok, v| ok & (v.abs() < f64::INFINITY))
+                {
+                    return blk.iter().position(|v| !v.is_finite()).map(|i| b * B + i);
+                }
+            }
+            let base = x.len() - blocks.remainder().len();
+            blocks
+                .remainder()
+                .iter()
+                .position(|v| !v.is_finite())
+                .map(|i| base + i)
+        },
+    )
 }
 
 #[cfg(test)]

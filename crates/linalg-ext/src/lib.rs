@@ -88,6 +88,7 @@ pub mod qr;
 pub mod rank;
 pub mod riccati;
 pub mod schur;
+pub mod simd;
 pub mod solve;
 pub mod svd;
 pub mod warm;

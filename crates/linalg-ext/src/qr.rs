@@ -218,10 +218,10 @@ impl RAccumulator {
     /// Errors: [`crate::Error::DimensionMismatch`] if the block does not
     /// have `ncols` columns, [`crate::Error::NonFinite`].
     pub fn push_rows(&mut self, block: &DMatrix<f64>) -> Result<()> {
-        if self.folds(block)? {
+        if let Some(simd) = self.folds(block)? {
             // A full triangle and a narrow block: the structured fold.
             let mut b = block.clone();
-            crate::fold::fold_into_triangle(&mut self.r, &mut b);
+            crate::fold::fold_into_triangle(simd, &mut self.r, &mut b);
         } else if block.nrows() > 0 {
             self.stack(block);
         }
@@ -235,8 +235,8 @@ impl RAccumulator {
     ///
     /// Errors: as [`push_rows`](Self::push_rows).
     pub fn fold_rows(&mut self, block: &mut DMatrix<f64>) -> Result<()> {
-        if self.folds(block)? {
-            crate::fold::fold_into_triangle(&mut self.r, block);
+        if let Some(simd) = self.folds(block)? {
+            crate::fold::fold_into_triangle(simd, &mut self.r, block);
         } else if block.nrows() > 0 {
             self.stack(block);
         }
@@ -246,15 +246,14 @@ impl RAccumulator {
 
     /// Checks a block (width, finiteness) and says whether it is folded by
     /// the structured reflections (R full, the block non-empty and narrow,
-    /// the vector kernels available) rather than by the stacked QR.
-    fn folds(&self, block: &DMatrix<f64>) -> Result<bool> {
+    /// the vector kernels available: their token) rather than by the
+    /// stacked QR.
+    fn folds(&self, block: &DMatrix<f64>) -> Result<Option<crate::simd::Avx2Fma>> {
         check_cols("block", block, self.ncols)?;
         check_finite("block", block)?;
         let n = self.ncols;
-        Ok(block.nrows() > 0
-            && self.r.nrows() == n
-            && n <= NARROW_COLUMNS
-            && crate::fold::available())
+        let structured = block.nrows() > 0 && self.r.nrows() == n && n <= NARROW_COLUMNS;
+        Ok(crate::simd::Avx2Fma::detect().filter(|_| structured))
     }
 
     /// R of [R; block] by the Householder QR of the stacked copy.

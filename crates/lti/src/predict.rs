@@ -133,50 +133,55 @@ fn predict_flat<const N: usize>(
     horizons: &[usize],
     x0: &DVector<f64>,
 ) -> Vec<DMatrix<f64>> {
-    use crate::flat::Flat;
-    let f = Flat::<N>::new(sys);
-    let (_, nu, ny) = f.dims();
-    let k = f.columns_of(k_gain);
-    let len = u.nrows();
-    // Inputs as rows of a transposed copy: u(t) a contiguous slice.
-    let ut = u.transpose();
-    let input = |t: usize| &ut.as_slice()[t * nu..(t + 1) * nu];
-    // xp[t] = x̂(t|t−1), t = 0 … N−1.
-    let mut xp = Vec::with_capacity(len);
-    let (mut x, mut next) = (f.state(x0), [0.0; N]);
-    let mut yhat = vec![0.0; ny];
-    for t in 0..len {
-        xp.push(x);
-        let u_t = input(t);
-        f.advance(&x, u_t, &mut next);
-        f.output(&x, u_t, &mut yhat);
-        for (o, ko) in k.iter().enumerate() {
-            let yo = y[(t, o)];
-            if !yo.is_nan() {
-                Flat::<N>::correct(&mut next, ko, yo - yhat[o]);
-            }
-        }
-        std::mem::swap(&mut x, &mut next);
-    }
-    horizons
-        .iter()
-        .map(|&horizon| {
-            let mut out = DMatrix::zeros(len, ny);
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            use crate::flat::Flat;
+            let f = Flat::<N>::new(sys);
+            let (_, nu, ny) = f.dims();
+            let k = f.columns_of(k_gain);
+            let len = u.nrows();
+            // Inputs as rows of a transposed copy: u(t) a contiguous slice.
+            let ut = u.transpose();
+            let input = |t: usize| &ut.as_slice()[t * nu..(t + 1) * nu];
+            // xp[t] = x̂(t|t−1), t = 0 … N−1.
+            let mut xp = Vec::with_capacity(len);
+            let (mut x, mut next) = (f.state(x0), [0.0; N]);
+            let mut yhat = vec![0.0; ny];
             for t in 0..len {
-                let start = (t + 1).saturating_sub(horizon);
-                x = xp[start];
-                for s in start..t {
-                    f.advance(&x, input(s), &mut next);
-                    std::mem::swap(&mut x, &mut next);
+                xp.push(x);
+                let u_t = input(t);
+                f.advance(&x, u_t, &mut next);
+                f.output(&x, u_t, &mut yhat);
+                for (o, ko) in k.iter().enumerate() {
+                    let yo = y[(t, o)];
+                    if !yo.is_nan() {
+                        Flat::<N>::correct(&mut next, ko, yo - yhat[o]);
+                    }
                 }
-                f.output(&x, input(t), &mut yhat);
-                for (o, v) in yhat.iter().enumerate() {
-                    out[(t, o)] = *v;
-                }
+                std::mem::swap(&mut x, &mut next);
             }
-            out
-        })
-        .collect()
+            horizons
+                .iter()
+                .map(|&horizon| {
+                    let mut out = DMatrix::zeros(len, ny);
+                    for t in 0..len {
+                        let start = (t + 1).saturating_sub(horizon);
+                        x = xp[start];
+                        for s in start..t {
+                            f.advance(&x, input(s), &mut next);
+                            std::mem::swap(&mut x, &mut next);
+                        }
+                        f.output(&x, input(t), &mut yhat);
+                        for (o, v) in yhat.iter().enumerate() {
+                            out[(t, o)] = *v;
+                        }
+                    }
+                    out
+                })
+                .collect()
+        },
+    )
 }
 
 /// [`StateSpace::predict_horizons`] (its arguments checked) by nalgebra's

@@ -211,30 +211,35 @@ fn simulate_flat<const N: usize>(
     x0: &DVector<f64>,
     states: bool,
 ) -> SimResult {
-    let f = crate::flat::Flat::<N>::new(sys);
-    let (n, nu, ny) = f.dims();
-    let nsamp = u.nrows();
-    let mut y = DMatrix::zeros(nsamp, ny);
-    let mut xs = DMatrix::zeros(nsamp, if states { n } else { 0 });
-    let (mut x, mut next) = (f.state(x0), [0.0; N]);
-    let (mut uk, mut yk) = (vec![0.0; nu], vec![0.0; ny]);
-    for k in 0..nsamp {
-        for (j, v) in uk.iter_mut().enumerate() {
-            *v = u[(k, j)];
-        }
-        if states {
-            for (i, xi) in x.iter().take(n).enumerate() {
-                xs[(k, i)] = *xi;
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let f = crate::flat::Flat::<N>::new(sys);
+            let (n, nu, ny) = f.dims();
+            let nsamp = u.nrows();
+            let mut y = DMatrix::zeros(nsamp, ny);
+            let mut xs = DMatrix::zeros(nsamp, if states { n } else { 0 });
+            let (mut x, mut next) = (f.state(x0), [0.0; N]);
+            let (mut uk, mut yk) = (vec![0.0; nu], vec![0.0; ny]);
+            for k in 0..nsamp {
+                for (j, v) in uk.iter_mut().enumerate() {
+                    *v = u[(k, j)];
+                }
+                if states {
+                    for (i, xi) in x.iter().take(n).enumerate() {
+                        xs[(k, i)] = *xi;
+                    }
+                }
+                f.output(&x, &uk, &mut yk);
+                for (i, yi) in yk.iter().enumerate() {
+                    y[(k, i)] = *yi;
+                }
+                f.advance(&x, &uk, &mut next);
+                std::mem::swap(&mut x, &mut next);
             }
-        }
-        f.output(&x, &uk, &mut yk);
-        for (i, yi) in yk.iter().enumerate() {
-            y[(k, i)] = *yi;
-        }
-        f.advance(&x, &uk, &mut next);
-        std::mem::swap(&mut x, &mut next);
-    }
-    SimResult { y, x: xs }
+            SimResult { y, x: xs }
+        },
+    )
 }
 
 /// [`simulate_discrete`] by nalgebra's `gemv` (any order).

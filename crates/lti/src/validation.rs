@@ -160,33 +160,39 @@ impl Validation {
 
 /// 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖); NaN for a constant `y`. O(N).
 pub fn fit_percent(y: &[f64], yhat: &[f64]) -> f64 {
-    let mean = y.iter().sum::<f64>() / y.len() as f64;
-    let ne = y
-        .iter()
-        .zip(yhat)
-        .map(|(a, b)| (a - b).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let nd = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
-    if ne.is_finite() && nd.is_finite() && nd > f64::MIN_POSITIVE {
-        return 100.0 * (1.0 - ne / nd);
-    }
-    // Outputs in units near the ends of the double range (the squares
-    // overflow or underflow): the same ratio with every term divided by
-    // the largest deviation from the mean.
-    let big = y.iter().fold(0.0_f64, |m, v| m.max((v - mean).abs()));
-    if !(big.is_finite() && big > 0.0) {
-        return f64::NAN;
-    }
-    let norm =
-        |it: &mut dyn Iterator<Item = f64>| it.map(|v| (v / big).powi(2)).sum::<f64>().sqrt();
-    let ne = norm(&mut y.iter().zip(yhat).map(|(a, b)| a - b));
-    let nd = norm(&mut y.iter().map(|v| v - mean));
-    if nd > 0.0 {
-        100.0 * (1.0 - ne / nd)
-    } else {
-        f64::NAN
-    }
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let mean = y.iter().sum::<f64>() / y.len() as f64;
+            let ne = y
+                .iter()
+                .zip(yhat)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let nd = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+            if ne.is_finite() && nd.is_finite() && nd > f64::MIN_POSITIVE {
+                return 100.0 * (1.0 - ne / nd);
+            }
+            // Outputs in units near the ends of the double range (the squares
+            // overflow or underflow): the same ratio with every term divided by
+            // the largest deviation from the mean.
+            let big = y.iter().fold(0.0_f64, |m, v| m.max((v - mean).abs()));
+            if !(big.is_finite() && big > 0.0) {
+                return f64::NAN;
+            }
+            let norm = |it: &mut dyn Iterator<Item = f64>| {
+                it.map(|v| (v / big).powi(2)).sum::<f64>().sqrt()
+            };
+            let ne = norm(&mut y.iter().zip(yhat).map(|(a, b)| a - b));
+            let nd = norm(&mut y.iter().map(|v| v - mean));
+            if nd > 0.0 {
+                100.0 * (1.0 - ne / nd)
+            } else {
+                f64::NAN
+            }
+        },
+    )
 }
 
 /// `v` itself, or divided by its largest magnitude when its squares would
@@ -216,24 +222,29 @@ fn passes(r: &[f64], bound: f64) -> bool {
 /// (independent chains the compiler vectorises; the result differs from
 /// the serial sum by rounding only). O(N) per lag.
 fn corr(a: &[f64], b: &[f64], tau: i64) -> f64 {
-    let n = a.len() as i64;
-    let (lo, hi) = ((-tau).max(0), (n - tau).min(n));
-    if hi <= lo {
-        return 0.0;
-    }
-    let (lo, hi) = (lo as usize, hi as usize);
-    let shift = |k: usize| (k as i64 + tau) as usize;
-    let (x, y) = (&a[shift(lo)..shift(hi)], &b[lo..hi]);
-    let mut acc = [0.0f64; 4];
-    let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
-    let (xr, yr) = (xc.remainder(), yc.remainder());
-    for (p, q) in xc.zip(yc) {
-        for j in 0..4 {
-            acc[j] += p[j] * q[j];
-        }
-    }
-    let tail: f64 = xr.iter().zip(yr).map(|(p, q)| p * q).sum();
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let n = a.len() as i64;
+            let (lo, hi) = ((-tau).max(0), (n - tau).min(n));
+            if hi <= lo {
+                return 0.0;
+            }
+            let (lo, hi) = (lo as usize, hi as usize);
+            let shift = |k: usize| (k as i64 + tau) as usize;
+            let (x, y) = (&a[shift(lo)..shift(hi)], &b[lo..hi]);
+            let mut acc = [0.0f64; 4];
+            let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+            let (xr, yr) = (xc.remainder(), yc.remainder());
+            for (p, q) in xc.zip(yc) {
+                for j in 0..4 {
+                    acc[j] += p[j] * q[j];
+                }
+            }
+            let tail: f64 = xr.iter().zip(yr).map(|(p, q)| p * q).sum();
+            (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+        },
+    )
 }
 
 fn centred(v: &[f64]) -> Vec<f64> {

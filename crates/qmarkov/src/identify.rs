@@ -152,21 +152,26 @@ fn corr(
 /// `g(τ) = (1/c) Σ_k y((k+τ) mod N) v(k)`, τ < q, for `v` non-zero only at
 /// `k ≡ phase (mod n_r)`.
 fn impulse_train_corr(y: &[f64], v: &[f64], nr: usize, phase: usize, c: f64, q: usize) -> Vec<f64> {
-    let n = y.len();
-    let mut g = vec![0.0; q.min(n)];
-    for k in (phase..n).step_by(nr.max(1)) {
-        let vk = v[k] / c;
-        // y(k … k+q−1) with the wrap past N − 1 to the start.
-        let head = g.len().min(n - k);
-        let (g_head, g_tail) = g.split_at_mut(head);
-        for (gt, yv) in g_head.iter_mut().zip(&y[k..k + head]) {
-            *gt = yv.mul_add(vk, *gt);
-        }
-        for (gt, yv) in g_tail.iter_mut().zip(y) {
-            *gt = yv.mul_add(vk, *gt);
-        }
-    }
-    g
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let n = y.len();
+            let mut g = vec![0.0; q.min(n)];
+            for k in (phase..n).step_by(nr.max(1)) {
+                let vk = v[k] / c;
+                // y(k … k+q−1) with the wrap past N − 1 to the start.
+                let head = g.len().min(n - k);
+                let (g_head, g_tail) = g.split_at_mut(head);
+                for (gt, yv) in g_head.iter_mut().zip(&y[k..k + head]) {
+                    *gt = yv.mul_add(vk, *gt);
+                }
+                for (gt, yv) in g_tail.iter_mut().zip(y) {
+                    *gt = yv.mul_add(vk, *gt);
+                }
+            }
+            g
+        },
+    )
 }
 
 fn column(m: &DMatrix<f64>, j: usize) -> &[f64] {

@@ -633,98 +633,103 @@ impl Engine {
         inp: &RunInput<'_>,
         mut rec: Option<&mut Record>,
     ) -> Result<Vec<f64>> {
-        let (nz, ny, nu, len) = (self.nz, self.ny, self.nu, inp.len);
-        let rows = if R > 0 { R } else { plan.rows };
-        let (nl, nk) = (plan.live.len(), plan.nk);
-        let (cols_a, srcs) = (&plan.cols_a[..], &plan.srcs[..]);
-        // row 0: the state entering the block; row b + 1: sample b's result
-        let mut hist = vec![0.0; (BLOCK + 1) * rows];
-        for (h, &c) in hist.iter_mut().zip(&plan.live) {
-            *h = z0[c];
-        }
-        let mut acc = vec![0.0; if R > 0 { 0 } else { 2 * rows }];
-        // per-row divergence limit: outputs only (∞ for states and padding)
-        let mut lim = vec![f64::INFINITY; rows];
-        lim[nl..nl + ny + nu].fill(self.limit);
-        // the live state entering the last sample (for the final full step)
-        let mut last = vec![0.0; nl];
-        let mut ph = 0usize;
-        let mut k0 = 0usize;
-        while k0 < len {
-            let nb = BLOCK.min(len - k0);
-            for b in 0..nb {
-                let m = &plan.mats[ph * nk * rows..(ph + 1) * nk * rows];
-                let (done, next) = hist.split_at_mut((b + 1) * rows);
-                let prev = &done[b * rows..];
-                if R > 0 {
-                    step_fixed::<R>(m, cols_a, srcs, k0 + b, prev, &mut next[..R]);
-                } else {
-                    let next = &mut next[..rows];
-                    step_dyn(m, rows, cols_a, srcs, k0 + b, prev, &mut acc, next);
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let (nz, ny, nu, len) = (self.nz, self.ny, self.nu, inp.len);
+                let rows = if R > 0 { R } else { plan.rows };
+                let (nl, nk) = (plan.live.len(), plan.nk);
+                let (cols_a, srcs) = (&plan.cols_a[..], &plan.srcs[..]);
+                // row 0: the state entering the block; row b + 1: sample b's result
+                let mut hist = vec![0.0; (BLOCK + 1) * rows];
+                for (h, &c) in hist.iter_mut().zip(&plan.live) {
+                    *h = z0[c];
                 }
-                ph += 1;
-                if ph == self.frame {
-                    ph = 0;
-                }
-            }
-            let outs = || hist[rows..(nb + 1) * rows].chunks_exact(rows);
-            if !within::<R>(outs(), &lim) {
-                for (b, row) in outs().enumerate() {
-                    check(
-                        k0 + b,
-                        &row[nl..nl + ny],
-                        &row[nl + ny..nl + ny + nu],
-                        self.limit,
-                    )?;
-                }
-            }
-            if let Some(rec) = rec.as_deref_mut() {
-                for j in 0..ny {
-                    let dst = &mut rec.y_clean.as_mut_slice()[j * len + k0..][..nb];
-                    for (d, row) in dst.iter_mut().zip(outs()) {
-                        *d = row[nl + j];
-                    }
-                    let dst = &mut rec.y.as_mut_slice()[j * len + k0..][..nb];
-                    for (d, row) in dst.iter_mut().zip(outs()) {
-                        *d = row[nl + j];
-                    }
-                    if let Some((m, s)) = inp.noise {
-                        let src = &m.as_slice()[j * len + k0..][..nb];
-                        for (d, &e) in dst.iter_mut().zip(src) {
-                            *d += s[j] * e;
+                let mut acc = vec![0.0; if R > 0 { 0 } else { 2 * rows }];
+                // per-row divergence limit: outputs only (∞ for states and padding)
+                let mut lim = vec![f64::INFINITY; rows];
+                lim[nl..nl + ny + nu].fill(self.limit);
+                // the live state entering the last sample (for the final full step)
+                let mut last = vec![0.0; nl];
+                let mut ph = 0usize;
+                let mut k0 = 0usize;
+                while k0 < len {
+                    let nb = BLOCK.min(len - k0);
+                    for b in 0..nb {
+                        let m = &plan.mats[ph * nk * rows..(ph + 1) * nk * rows];
+                        let (done, next) = hist.split_at_mut((b + 1) * rows);
+                        let prev = &done[b * rows..];
+                        if R > 0 {
+                            step_fixed::<R>(m, cols_a, srcs, k0 + b, prev, &mut next[..R]);
+                        } else {
+                            let next = &mut next[..rows];
+                            step_dyn(m, rows, cols_a, srcs, k0 + b, prev, &mut acc, next);
+                        }
+                        ph += 1;
+                        if ph == self.frame {
+                            ph = 0;
                         }
                     }
-                }
-                for i in 0..nu {
-                    let dst = &mut rec.u.as_mut_slice()[i * len + k0..][..nb];
-                    for (d, row) in dst.iter_mut().zip(outs()) {
-                        *d = row[nl + ny + i];
+                    let outs = || hist[rows..(nb + 1) * rows].chunks_exact(rows);
+                    if !within::<R>(outs(), &lim) {
+                        for (b, row) in outs().enumerate() {
+                            check(
+                                k0 + b,
+                                &row[nl..nl + ny],
+                                &row[nl + ny..nl + ny + nu],
+                                self.limit,
+                            )?;
+                        }
                     }
+                    if let Some(rec) = rec.as_deref_mut() {
+                        for j in 0..ny {
+                            let dst = &mut rec.y_clean.as_mut_slice()[j * len + k0..][..nb];
+                            for (d, row) in dst.iter_mut().zip(outs()) {
+                                *d = row[nl + j];
+                            }
+                            let dst = &mut rec.y.as_mut_slice()[j * len + k0..][..nb];
+                            for (d, row) in dst.iter_mut().zip(outs()) {
+                                *d = row[nl + j];
+                            }
+                            if let Some((m, s)) = inp.noise {
+                                let src = &m.as_slice()[j * len + k0..][..nb];
+                                for (d, &e) in dst.iter_mut().zip(src) {
+                                    *d += s[j] * e;
+                                }
+                            }
+                        }
+                        for i in 0..nu {
+                            let dst = &mut rec.u.as_mut_slice()[i * len + k0..][..nb];
+                            for (d, row) in dst.iter_mut().zip(outs()) {
+                                *d = row[nl + ny + i];
+                            }
+                        }
+                    }
+                    if k0 + nb == len {
+                        last.copy_from_slice(&hist[(nb - 1) * rows..(nb - 1) * rows + nl]);
+                    }
+                    hist.copy_within(nb * rows..nb * rows + nl, 0);
+                    k0 += nb;
                 }
-            }
-            if k0 + nb == len {
-                last.copy_from_slice(&hist[(nb - 1) * rows..(nb - 1) * rows + nl]);
-            }
-            hist.copy_within(nb * rows..nb * rows + nl, 0);
-            k0 += nb;
-        }
-        let mut z = z0.to_vec();
-        if len > 0 && nl < nz {
-            // the states left out of the recursion: one full step of the
-            // last sample (their own columns are zero, so their values
-            // before it do not matter)
-            let mut zl = vec![0.0; nz];
-            for (&c, &v) in plan.live.iter().zip(&last) {
-                zl[c] = v;
-            }
-            let ph_last = (len - 1) % self.frame;
-            let full = self.full_step(f, ph_last, &zl, inp, len - 1);
-            z.copy_from_slice(&full[..nz]);
-        }
-        for (&c, &v) in plan.live.iter().zip(&hist) {
-            z[c] = v;
-        }
-        Ok(z)
+                let mut z = z0.to_vec();
+                if len > 0 && nl < nz {
+                    // the states left out of the recursion: one full step of the
+                    // last sample (their own columns are zero, so their values
+                    // before it do not matter)
+                    let mut zl = vec![0.0; nz];
+                    for (&c, &v) in plan.live.iter().zip(&last) {
+                        zl[c] = v;
+                    }
+                    let ph_last = (len - 1) % self.frame;
+                    let full = self.full_step(f, ph_last, &zl, inp, len - 1);
+                    z.copy_from_slice(&full[..nz]);
+                }
+                for (&c, &v) in plan.live.iter().zip(&hist) {
+                    z[c] = v;
+                }
+                Ok(z)
+            },
+        )
     }
 
     /// One step of the full fused map (every row) at phase `ph` from state
@@ -920,6 +925,15 @@ impl StepMap {
     /// row b's state and sample b of the inputs, stored input by input in
     /// `w` (input i at `w[i · stride + b]`). O(nb · rows · (states + inputs)).
     pub fn run(&self, hist: &mut [f64], w: &[f64], stride: usize, nb: usize, acc: &mut Vec<f64>) {
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || self.run_any(hist, w, stride, nb, acc),
+        )
+    }
+
+    /// [`run`](Self::run)'s steps (inlined there).
+    #[inline(always)]
+    fn run_any(&self, hist: &mut [f64], w: &[f64], stride: usize, nb: usize, acc: &mut Vec<f64>) {
         let srcs: Vec<Src<'_>> = (0..self.inputs)
             .map(|i| Src::Col(&w[i * stride..]))
             .collect();
@@ -944,6 +958,7 @@ impl StepMap {
     /// are visited with compile-time indices (`states` ≤ R, the map's rows
     /// start with the state), so the sample-to-sample chain is a lane
     /// broadcast and the FMAs, not a store and a reload.
+    #[inline(always)]
     fn run_fixed<const R: usize>(&self, hist: &mut [f64], srcs: &[Src<'_>], nb: usize) {
         let ns = self.states;
         let (ma, mb) = self.m.split_at(ns * R);
@@ -1013,6 +1028,7 @@ fn step_fixed<const R: usize>(
 /// [`step_fixed`] with the row count known at run time (`acc`: 2 · rows
 /// scratch numbers).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn step_dyn(
     m: &[f64],
     rows: usize,

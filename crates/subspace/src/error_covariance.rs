@@ -94,41 +94,46 @@ impl Covariances {
     /// when a record is empty or not finite. O(N n_y² log N) by FFT
     /// ([`add_covariances`]).
     pub(crate) fn from_errors(errors: &[Vec<f64>], ny: usize, w2: &[f64]) -> Option<Self> {
-        let longest = errors.iter().map(|e| e.len() / ny.max(1)).max()?;
-        if ny == 0 || longest < 2 {
-            return None;
-        }
-        let lags = MAX_LAGS.min(longest - 1);
-        let mut r = vec![DMatrix::zeros(ny, ny); lags + 1];
-        for e in errors {
-            if e.len() < ny {
-                continue;
-            }
-            if e.iter().any(|v| !v.is_finite()) {
-                return None;
-            }
-            add_covariances(e, ny, &mut r);
-        }
-        // R(0) is symmetric in exact arithmetic.
-        let r0 = (&r[0] + r[0].transpose()) * 0.5;
-        r[0] = r0;
-        let tails = errors
-            .iter()
-            .filter(|e| e.len() >= ny)
-            .map(|e| {
-                e.chunks_exact(ny)
-                    .rev()
-                    .take(lags + 1)
-                    .flatten()
-                    .copied()
-                    .collect()
-            })
-            .collect();
-        Some(Covariances {
-            rt: r.iter().map(|m| m.transpose()).collect(),
-            w2: w2.to_vec(),
-            tails,
-        })
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let longest = errors.iter().map(|e| e.len() / ny.max(1)).max()?;
+                if ny == 0 || longest < 2 {
+                    return None;
+                }
+                let lags = MAX_LAGS.min(longest - 1);
+                let mut r = vec![DMatrix::zeros(ny, ny); lags + 1];
+                for e in errors {
+                    if e.len() < ny {
+                        continue;
+                    }
+                    if e.iter().any(|v| !v.is_finite()) {
+                        return None;
+                    }
+                    add_covariances(e, ny, &mut r);
+                }
+                // R(0) is symmetric in exact arithmetic.
+                let r0 = (&r[0] + r[0].transpose()) * 0.5;
+                r[0] = r0;
+                let tails = errors
+                    .iter()
+                    .filter(|e| e.len() >= ny)
+                    .map(|e| {
+                        e.chunks_exact(ny)
+                            .rev()
+                            .take(lags + 1)
+                            .flatten()
+                            .copied()
+                            .collect()
+                    })
+                    .collect();
+                Some(Covariances {
+                    rt: r.iter().map(|m| m.transpose()).collect(),
+                    w2: w2.to_vec(),
+                    tails,
+                })
+            },
+        )
     }
 
     /// J(K) (module docs) and, with `gradient`, ∂J/∂vec K; `None` when
@@ -141,128 +146,133 @@ impl Covariances {
         k: &DMatrix<f64>,
         gradient: bool,
     ) -> Option<(f64, Option<DVector<f64>>)> {
-        let (n, ny) = (a.nrows(), c.nrows());
-        let m = a - k * c;
-        let rho = spectral_radius(&m).ok()?;
-        if rho.is_nan() || rho >= 1.0 {
-            return None;
-        }
-        let lags = lags_for(rho, self.rt.len() - 1);
-        let w2 = DMatrix::from_diagonal(&DVector::from_column_slice(&self.w2));
-        let w2c = &w2 * c;
-        let q = c.transpose() * &w2c;
-        let x = stein(&m.transpose(), &q)?;
-        let r0 = &self.rt[0];
-        // Horner: Z_τ = M Z_{τ+1} + K R_τᵀ, Z_L = K R_Lᵀ, every Z_τ kept
-        // for the gradient (block τ − 1 of `z`, column-major n × n_y).
-        let nny = n * ny;
-        let mut z = vec![0.0; lags * nny];
-        let (ms, ks) = (m.as_slice(), k.as_slice());
-        for tau in (1..=lags).rev() {
-            let (lo, hi) = z.split_at_mut(tau * nny);
-            let zt = &mut lo[(tau - 1) * nny..];
-            let rt = self.rt[tau].as_slice();
-            for (col, zc) in zt.chunks_exact_mut(n).enumerate() {
-                zc.fill(0.0);
-                for (l, kl) in ks.chunks_exact(n).enumerate() {
-                    axpy(zc, kl, rt[l + col * ny]);
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let (n, ny) = (a.nrows(), c.nrows());
+                let m = a - k * c;
+                let rho = spectral_radius(&m).ok()?;
+                if rho.is_nan() || rho >= 1.0 {
+                    return None;
                 }
-                if tau < lags {
-                    let next = &hi[col * n..(col + 1) * n];
-                    for (ml, v) in ms.chunks_exact(n).zip(next) {
-                        axpy(zc, ml, *v);
+                let lags = lags_for(rho, self.rt.len() - 1);
+                let w2 = DMatrix::from_diagonal(&DVector::from_column_slice(&self.w2));
+                let w2c = &w2 * c;
+                let q = c.transpose() * &w2c;
+                let x = stein(&m.transpose(), &q)?;
+                let r0 = &self.rt[0];
+                // Horner: Z_τ = M Z_{τ+1} + K R_τᵀ, Z_L = K R_Lᵀ, every Z_τ kept
+                // for the gradient (block τ − 1 of `z`, column-major n × n_y).
+                let nny = n * ny;
+                let mut z = vec![0.0; lags * nny];
+                let (ms, ks) = (m.as_slice(), k.as_slice());
+                for tau in (1..=lags).rev() {
+                    let (lo, hi) = z.split_at_mut(tau * nny);
+                    let zt = &mut lo[(tau - 1) * nny..];
+                    let rt = self.rt[tau].as_slice();
+                    for (col, zc) in zt.chunks_exact_mut(n).enumerate() {
+                        zc.fill(0.0);
+                        for (l, kl) in ks.chunks_exact(n).enumerate() {
+                            axpy(zc, kl, rt[l + col * ny]);
+                        }
+                        if tau < lags {
+                            let next = &hi[col * n..(col + 1) * n];
+                            for (ml, v) in ms.chunks_exact(n).zip(next) {
+                                axpy(zc, ml, *v);
+                            }
+                        }
                     }
                 }
-            }
-        }
-        let z1 = DMatrix::from_column_slice(n, ny, &z[..nny]);
-        let xk = &x * k;
-        let mz1 = &m * &z1;
-        // The end correction: each record's d(N) = Σ_j M^j K e(N−1−j) by
-        // Horner from its oldest kept error (every D_j kept for the
-        // gradient), and its free response d(N)ᵀ X d(N) taken off.
-        let ends: Vec<(Vec<f64>, usize)> = self
-            .tails
-            .iter()
-            .map(|tail| end_states(ms, ks, tail, n, ny, lags))
-            .collect();
-        let mut end = 0.0;
-        for (d, _) in &ends {
-            let dn = DVector::from_column_slice(&d[..n]);
-            end += dn.dot(&(&x * &dn));
-        }
-        let cost = (&w2 * r0.transpose()).trace() + (k.transpose() * &xk * r0).trace()
-            - 2.0 * (&w2c * &z1).trace()
-            + 2.0 * (&x * &mz1 * k.transpose()).trace()
-            - end;
-        if !cost.is_finite() {
-            return None;
-        }
-        if !gradient {
-            return Some((cost, None));
-        }
-        // Reverse of the steps above (module docs).
-        let kz = &mz1 * k.transpose();
-        let mut s = k * r0 * k.transpose() + &kz + kz.transpose();
-        for (d, _) in &ends {
-            let dn = DVector::from_column_slice(&d[..n]);
-            s -= &dn * dn.transpose();
-        }
-        let y = stein(&m, &s)?;
-        let bt = -2.0 * w2c.transpose() + 2.0 * m.transpose() * &xk;
-        let mut gk = 2.0 * &xk * r0 + 2.0 * &x * &mz1;
-        let mut gm = 2.0 * &x * &m * &y + 2.0 * &xk * z1.transpose();
-        // Horner backwards: Ẑ_1 = Bᵀ, Ẑ_{τ+1} = Mᵀ Ẑ_τ; ∂K += Ẑ_τ R_τ,
-        // ∂M += Ẑ_τ Z_{τ+1}ᵀ.
-        let mut zhat = bt.as_slice().to_vec();
-        let mut spare = vec![0.0; nny];
-        let (gks, gms) = (gk.as_mut_slice(), gm.as_mut_slice());
-        for tau in 1..=lags {
-            let rt = self.rt[tau].as_slice();
-            for (col, gc) in gks.chunks_exact_mut(n).enumerate() {
-                for (l, zl) in zhat.chunks_exact(n).enumerate() {
-                    axpy(gc, zl, rt[col + l * ny]);
+                let z1 = DMatrix::from_column_slice(n, ny, &z[..nny]);
+                let xk = &x * k;
+                let mz1 = &m * &z1;
+                // The end correction: each record's d(N) = Σ_j M^j K e(N−1−j) by
+                // Horner from its oldest kept error (every D_j kept for the
+                // gradient), and its free response d(N)ᵀ X d(N) taken off.
+                let ends: Vec<(Vec<f64>, usize)> = self
+                    .tails
+                    .iter()
+                    .map(|tail| end_states(ms, ks, tail, n, ny, lags))
+                    .collect();
+                let mut end = 0.0;
+                for (d, _) in &ends {
+                    let dn = DVector::from_column_slice(&d[..n]);
+                    end += dn.dot(&(&x * &dn));
                 }
-            }
-            if tau < lags {
-                let next = &z[tau * nny..(tau + 1) * nny];
-                for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
-                    for (o, zo) in zhat.chunks_exact(n).enumerate() {
-                        axpy(gc, zo, next[col + o * n]);
+                let cost = (&w2 * r0.transpose()).trace() + (k.transpose() * &xk * r0).trace()
+                    - 2.0 * (&w2c * &z1).trace()
+                    + 2.0 * (&x * &mz1 * k.transpose()).trace()
+                    - end;
+                if !cost.is_finite() {
+                    return None;
+                }
+                if !gradient {
+                    return Some((cost, None));
+                }
+                // Reverse of the steps above (module docs).
+                let kz = &mz1 * k.transpose();
+                let mut s = k * r0 * k.transpose() + &kz + kz.transpose();
+                for (d, _) in &ends {
+                    let dn = DVector::from_column_slice(&d[..n]);
+                    s -= &dn * dn.transpose();
+                }
+                let y = stein(&m, &s)?;
+                let bt = -2.0 * w2c.transpose() + 2.0 * m.transpose() * &xk;
+                let mut gk = 2.0 * &xk * r0 + 2.0 * &x * &mz1;
+                let mut gm = 2.0 * &x * &m * &y + 2.0 * &xk * z1.transpose();
+                // Horner backwards: Ẑ_1 = Bᵀ, Ẑ_{τ+1} = Mᵀ Ẑ_τ; ∂K += Ẑ_τ R_τ,
+                // ∂M += Ẑ_τ Z_{τ+1}ᵀ.
+                let mut zhat = bt.as_slice().to_vec();
+                let mut spare = vec![0.0; nny];
+                let (gks, gms) = (gk.as_mut_slice(), gm.as_mut_slice());
+                for tau in 1..=lags {
+                    let rt = self.rt[tau].as_slice();
+                    for (col, gc) in gks.chunks_exact_mut(n).enumerate() {
+                        for (l, zl) in zhat.chunks_exact(n).enumerate() {
+                            axpy(gc, zl, rt[col + l * ny]);
+                        }
+                    }
+                    if tau < lags {
+                        let next = &z[tau * nny..(tau + 1) * nny];
+                        for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
+                            for (o, zo) in zhat.chunks_exact(n).enumerate() {
+                                axpy(gc, zo, next[col + o * n]);
+                            }
+                        }
+                        for (sp, zo) in spare.chunks_exact_mut(n).zip(zhat.chunks_exact(n)) {
+                            mul_transpose(sp, ms, zo);
+                        }
+                        std::mem::swap(&mut zhat, &mut spare);
                     }
                 }
-                for (sp, zo) in spare.chunks_exact_mut(n).zip(zhat.chunks_exact(n)) {
-                    mul_transpose(sp, ms, zo);
-                }
-                std::mem::swap(&mut zhat, &mut spare);
-            }
-        }
-        // The end correction backwards: â_0 = −2 X d(N), â_{j+1} = Mᵀ â_j;
-        // ∂K += â_j e(N−1−j)ᵀ, ∂M += â_j D_{j+1}ᵀ.
-        for ((d, kept), tail) in ends.iter().zip(&self.tails) {
-            let dn = DVector::from_column_slice(&d[..n]);
-            let mut ahat = (&x * &dn * -2.0).as_slice().to_vec();
-            let mut next = vec![0.0; n];
-            for j in 0..*kept {
-                let e = &tail[j * ny..(j + 1) * ny];
-                for (o, gc) in gks.chunks_exact_mut(n).enumerate() {
-                    axpy(gc, &ahat, e[o]);
-                }
-                if j + 1 < *kept {
-                    let dj = &d[(j + 1) * n..(j + 2) * n];
-                    for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
-                        axpy(gc, &ahat, dj[col]);
+                // The end correction backwards: â_0 = −2 X d(N), â_{j+1} = Mᵀ â_j;
+                // ∂K += â_j e(N−1−j)ᵀ, ∂M += â_j D_{j+1}ᵀ.
+                for ((d, kept), tail) in ends.iter().zip(&self.tails) {
+                    let dn = DVector::from_column_slice(&d[..n]);
+                    let mut ahat = (&x * &dn * -2.0).as_slice().to_vec();
+                    let mut next = vec![0.0; n];
+                    for j in 0..*kept {
+                        let e = &tail[j * ny..(j + 1) * ny];
+                        for (o, gc) in gks.chunks_exact_mut(n).enumerate() {
+                            axpy(gc, &ahat, e[o]);
+                        }
+                        if j + 1 < *kept {
+                            let dj = &d[(j + 1) * n..(j + 2) * n];
+                            for (col, gc) in gms.chunks_exact_mut(n).enumerate() {
+                                axpy(gc, &ahat, dj[col]);
+                            }
+                            mul_transpose(&mut next, ms, &ahat);
+                            std::mem::swap(&mut ahat, &mut next);
+                        }
                     }
-                    mul_transpose(&mut next, ms, &ahat);
-                    std::mem::swap(&mut ahat, &mut next);
                 }
-            }
-        }
-        let g = gk - gm * c.transpose();
-        debug_assert_eq!(g.shape(), (n, ny));
-        g.iter()
-            .all(|v| v.is_finite())
-            .then(|| (cost, Some(DVector::from_column_slice(g.as_slice()))))
+                let g = gk - gm * c.transpose();
+                debug_assert_eq!(g.shape(), (n, ny));
+                g.iter()
+                    .all(|v| v.is_finite())
+                    .then(|| (cost, Some(DVector::from_column_slice(g.as_slice()))))
+            },
+        )
     }
 
     /// The inverse of the Hessian at θ by forward differences of the

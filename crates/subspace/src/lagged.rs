@@ -36,9 +36,11 @@ pub(crate) const KERNEL_BLOCK: usize = 4000;
 /// streaming blocks allocate nothing.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
-    /// One interleaved block.
+    /// One interleaved block (the x86-64 tiles).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     zi: Vec<f64>,
-    /// The n_z × span n_z sums of a call.
+    /// The n_z × span n_z sums of a call (the x86-64 tiles).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     tile: Vec<f64>,
     /// One block per channel (portable kernel).
     flat: Vec<Vec<f64>>,
@@ -143,9 +145,8 @@ pub(crate) fn channel_sums(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            let wide = std::is_x86_feature_detected!("avx512f");
-            interleaved_sums(z, span, len, s, scratch, wide);
+        if let Some(tiles) = tiles::Tiles::detect() {
+            interleaved_sums(z, span, len, s, scratch, tiles);
             return;
         }
     }
@@ -220,8 +221,48 @@ fn range_sums(
     acc
 }
 
+/// The register tiles this CPU can run, as a proof: made only by
+/// [`Tiles::detect`](tiles::Tiles::detect) (its fields are private to this
+/// module), so a kernel given one may use AVX2 and FMA, and the 512-bit
+/// tiles when `wide()`.
+#[cfg(target_arch = "x86_64")]
+mod tiles {
+    use lifted_linalg::simd::Avx2Fma;
+
+    #[derive(Clone, Copy)]
+    pub(super) struct Tiles {
+        /// The proof of AVX2 and FMA.
+        _simd: Avx2Fma,
+        wide: bool,
+    }
+
+    impl Tiles {
+        /// AVX2 and FMA found (the token), and whether AVX-512F too.
+        pub(super) fn detect() -> Option<Tiles> {
+            Avx2Fma::detect().map(|simd| Tiles {
+                _simd: simd,
+                wide: std::is_x86_feature_detected!("avx512f"),
+            })
+        }
+
+        /// The same CPU restricted to the 256-bit tiles.
+        #[cfg(test)]
+        pub(super) fn narrow(self) -> Tiles {
+            Tiles {
+                wide: false,
+                ..self
+            }
+        }
+
+        /// Whether the 512-bit tiles may run (AVX-512F detected).
+        pub(super) fn wide(self) -> bool {
+            self.wide
+        }
+    }
+}
+
 /// The tiled kernel over interleaved blocks (x86-64 with AVX2 and FMA;
-/// `wide`: 512-bit tiles first, AVX-512F detected by the caller).
+/// 512-bit tiles first where `tiles` allows them).
 #[cfg(target_arch = "x86_64")]
 fn interleaved_sums(
     z: &[Channel<'_>],
@@ -229,7 +270,7 @@ fn interleaved_sums(
     len: usize,
     s: &mut [f64],
     w: &mut Scratch,
-    wide: bool,
+    tiles: tiles::Tiles,
 ) {
     let nz = z.len();
     if nz == 0 || span == 0 || len == 0 {
@@ -250,7 +291,7 @@ fn interleaved_sums(
         for (e, ze) in z.iter().enumerate() {
             ze.write(t0, rows, zi, nz, e);
         }
-        block_product(&zi[..rows * nz], nz, span, bl, tile, wide);
+        block_product(&zi[..rows * nz], nz, span, bl, tile, tiles);
         t0 += bl;
     }
     for c in 0..nz {
@@ -264,7 +305,14 @@ fn interleaved_sums(
 /// tile[c cols + j] += Σ_{t<len} zi[t n_z + c] zi[t n_z + j], j < cols =
 /// span n_z, over the interleaved block `zi` ((len + span − 1) n_z values).
 #[cfg(target_arch = "x86_64")]
-fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64], wide: bool) {
+fn block_product(
+    zi: &[f64],
+    nz: usize,
+    span: usize,
+    len: usize,
+    tile: &mut [f64],
+    tiles: tiles::Tiles,
+) {
     let cols = span * nz;
     debug_assert!(zi.len() >= (len + span - 1) * nz && tile.len() >= nz * cols);
     let mut c0 = 0;
@@ -272,7 +320,7 @@ fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64
         let r = (nz - c0).min(4);
         let mut j0 = 0;
         // Widest tiles first: 24 and 8 columns (AVX-512), then 12 and 4.
-        let plan: &[(Lanes, usize)] = if wide {
+        let plan: &[(Lanes, usize)] = if tiles.wide() {
             &[
                 (Lanes::Eight, 3),
                 (Lanes::Eight, 1),
@@ -285,7 +333,7 @@ fn block_product(zi: &[f64], nz: usize, span: usize, len: usize, tile: &mut [f64
         for &(lanes, v) in plan {
             let w = lanes.width() * v;
             while j0 + w <= cols {
-                micro_dispatch(lanes, r, v, zi, nz, c0, j0, len, tile, cols);
+                micro_dispatch(tiles, lanes, r, v, zi, nz, c0, j0, len, tile, cols);
                 j0 += w;
             }
         }
@@ -327,6 +375,7 @@ impl Lanes {
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn micro_dispatch(
+    tiles: tiles::Tiles,
     lanes: Lanes,
     r: usize,
     v: usize,
@@ -347,10 +396,14 @@ fn micro_dispatch(
         "lagged-sum tile out of range"
     );
     assert!((c0 + r - 1) * cols + j0 + w <= tile.len());
-    // SAFETY: AVX2 and FMA (and AVX-512F for `Lanes::Eight`) were detected
-    // by `channel_sums` before any call (the only caller chain), and the
-    // asserts above bound every pointer offset the kernel forms: reads
-    // below zi.len(), writes below tile.len().
+    assert!(
+        matches!(lanes, Lanes::Four) || tiles.wide(),
+        "512-bit tile without AVX-512F"
+    );
+    // SAFETY: `tiles` proves AVX2 and FMA (its token) and, for
+    // `Lanes::Eight`, AVX-512F (`wide()`, asserted above); the asserts
+    // above bound every pointer offset the kernel forms: reads below
+    // zi.len(), writes below tile.len().
     unsafe {
         let (zp, tp) = (zi.as_ptr(), tile.as_mut_ptr());
         macro_rules! run {
@@ -577,12 +630,11 @@ mod tests {
                     portable_sums(&refs, span, len, &mut port);
                     // The AVX2 tiles alone, also where AVX-512 is used.
                     #[cfg(target_arch = "x86_64")]
-                    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-                    {
+                    if let Some(tiles) = tiles::Tiles::detect() {
                         let ch: Vec<Channel<'_>> = refs.iter().map(|z| Channel::plain(z)).collect();
                         let mut narrow = vec![0.0; want.len()];
                         let mut w = Scratch::default();
-                        interleaved_sums(&ch, span, len, &mut narrow, &mut w, false);
+                        interleaved_sums(&ch, span, len, &mut narrow, &mut w, tiles.narrow());
                         for (g, w) in narrow.iter().zip(&want) {
                             assert!((g - w).abs() <= 1e-12 * scale, "avx2 nz {nz} span {span}");
                         }

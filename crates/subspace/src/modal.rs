@@ -224,45 +224,50 @@ impl ModalForm {
         ts: std::ops::Range<usize>,
         out: Option<(&mut [f64], usize, usize)>,
     ) {
-        let n = w.len() / u.ncols().max(1);
-        // The modes as flat lists: (state index, λ) and (index, a, b).
-        let mut reals = Vec::with_capacity(n);
-        let mut pairs = Vec::with_capacity(n / 2);
-        let mut i = 0;
-        for m in &self.modes {
-            match *m {
-                Mode::Real(l) => {
-                    reals.push((i, l));
-                    i += 1;
-                }
-                Mode::Pair(a, b) => {
-                    pairs.push((i, a, b));
-                    i += 2;
-                }
-            }
-        }
-        let rows = u.nrows();
-        let us = u.as_slice();
-        let mut out = out;
-        for (k, t) in ts.enumerate() {
-            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
-                let v = us[j * rows + t] * iu;
-                if let Some((blk, stride, row)) = out.as_mut() {
-                    let at = |c: usize| (j * n + c) * *stride + *row + k;
-                    for (c, x) in wj.iter().enumerate() {
-                        blk[at(c)] = *x;
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let n = w.len() / u.ncols().max(1);
+                // The modes as flat lists: (state index, λ) and (index, a, b).
+                let mut reals = Vec::with_capacity(n);
+                let mut pairs = Vec::with_capacity(n / 2);
+                let mut i = 0;
+                for m in &self.modes {
+                    match *m {
+                        Mode::Real(l) => {
+                            reals.push((i, l));
+                            i += 1;
+                        }
+                        Mode::Pair(a, b) => {
+                            pairs.push((i, a, b));
+                            i += 2;
+                        }
                     }
                 }
-                for &(i, l) in &reals {
-                    wj[i] = l.mul_add(wj[i], v);
+                let rows = u.nrows();
+                let us = u.as_slice();
+                let mut out = out;
+                for (k, t) in ts.enumerate() {
+                    for (j, wj) in w.chunks_exact_mut(n).enumerate() {
+                        let v = us[j * rows + t] * iu;
+                        if let Some((blk, stride, row)) = out.as_mut() {
+                            let at = |c: usize| (j * n + c) * *stride + *row + k;
+                            for (c, x) in wj.iter().enumerate() {
+                                blk[at(c)] = *x;
+                            }
+                        }
+                        for &(i, l) in &reals {
+                            wj[i] = l.mul_add(wj[i], v);
+                        }
+                        for &(i, a, b) in &pairs {
+                            let (p, q) = (wj[i], wj[i + 1]);
+                            wj[i] = a.mul_add(p, (-b).mul_add(q, v));
+                            wj[i + 1] = a.mul_add(q, b * p);
+                        }
+                    }
                 }
-                for &(i, a, b) in &pairs {
-                    let (p, q) = (wj[i], wj[i + 1]);
-                    wj[i] = a.mul_add(p, (-b).mul_add(q, v));
-                    wj[i + 1] = a.mul_add(q, b * p);
-                }
-            }
-        }
+            },
+        )
     }
 
     /// Advances the modal filters of every input (`w`: n per input) over
@@ -277,63 +282,71 @@ impl ModalForm {
     /// recursion up to rounding (the powers to about C ulps). About
     /// 2 n n_u flops per sample, at vector speed.
     fn jump(&self, w: &mut [f64], u: &DMatrix<f64>, iu: f64, ts: std::ops::Range<usize>) {
-        let n: usize = self
-            .modes
-            .iter()
-            .map(|m| if matches!(m, Mode::Real(_)) { 1 } else { 2 })
-            .sum();
-        let rows = u.nrows();
-        let whole = ts.len() / JUMP * JUMP;
-        let mut i = 0;
-        for m in &self.modes {
-            match *m {
-                Mode::Real(l) => {
-                    // tab[k] = λ^(C−1−k); then pw = λ^C.
-                    let mut tab = [0.0; JUMP];
-                    let mut pw = 1.0;
-                    for t in tab.iter_mut().rev() {
-                        *t = pw;
-                        pw *= l;
-                    }
-                    for (j, wj) in w.chunks_exact_mut(n).enumerate() {
-                        let col = &u.as_slice()[j * rows + ts.start..j * rows + ts.end];
-                        let mut x = wj[i];
-                        for c in col[..whole].chunks_exact(JUMP) {
-                            x = pw.mul_add(x, iu * lifted_linalg::dot(&tab, c));
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let n: usize = self
+                    .modes
+                    .iter()
+                    .map(|m| if matches!(m, Mode::Real(_)) { 1 } else { 2 })
+                    .sum();
+                let rows = u.nrows();
+                let whole = ts.len() / JUMP * JUMP;
+                let mut i = 0;
+                for m in &self.modes {
+                    match *m {
+                        Mode::Real(l) => {
+                            // tab[k] = λ^(C−1−k); then pw = λ^C.
+                            let mut tab = [0.0; JUMP];
+                            let mut pw = 1.0;
+                            for t in tab.iter_mut().rev() {
+                                *t = pw;
+                                pw *= l;
+                            }
+                            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
+                                let col = &u.as_slice()[j * rows + ts.start..j * rows + ts.end];
+                                let mut x = wj[i];
+                                for c in col[..whole].chunks_exact(JUMP) {
+                                    x = pw.mul_add(x, iu * lifted_linalg::dot(&tab, c));
+                                }
+                                for &v in &col[whole..] {
+                                    x = l.mul_add(x, v * iu);
+                                }
+                                wj[i] = x;
+                            }
+                            i += 1;
                         }
-                        for &v in &col[whole..] {
-                            x = l.mul_add(x, v * iu);
+                        Mode::Pair(a, b) => {
+                            // re + i·im = μ^(C−1−k); then (pr, pi) = μ^C.
+                            let (mut re, mut im) = ([0.0; JUMP], [0.0; JUMP]);
+                            let (mut pr, mut pi) = (1.0f64, 0.0f64);
+                            for (r, m) in re.iter_mut().rev().zip(im.iter_mut().rev()) {
+                                (*r, *m) = (pr, pi);
+                                (pr, pi) = (a * pr - b * pi, a * pi + b * pr);
+                            }
+                            for (j, wj) in w.chunks_exact_mut(n).enumerate() {
+                                let col = &u.as_slice()[j * rows + ts.start..j * rows + ts.end];
+                                let (mut p, mut q) = (wj[i], wj[i + 1]);
+                                for c in col[..whole].chunks_exact(JUMP) {
+                                    let sr = iu * lifted_linalg::dot(&re, c);
+                                    let si = iu * lifted_linalg::dot(&im, c);
+                                    (p, q) = (pr * p - pi * q + sr, pr * q + pi * p + si);
+                                }
+                                for &v in &col[whole..] {
+                                    (p, q) = (
+                                        a.mul_add(p, (-b).mul_add(q, v * iu)),
+                                        a.mul_add(q, b * p),
+                                    );
+                                }
+                                wj[i] = p;
+                                wj[i + 1] = q;
+                            }
+                            i += 2;
                         }
-                        wj[i] = x;
                     }
-                    i += 1;
                 }
-                Mode::Pair(a, b) => {
-                    // re + i·im = μ^(C−1−k); then (pr, pi) = μ^C.
-                    let (mut re, mut im) = ([0.0; JUMP], [0.0; JUMP]);
-                    let (mut pr, mut pi) = (1.0f64, 0.0f64);
-                    for (r, m) in re.iter_mut().rev().zip(im.iter_mut().rev()) {
-                        (*r, *m) = (pr, pi);
-                        (pr, pi) = (a * pr - b * pi, a * pi + b * pr);
-                    }
-                    for (j, wj) in w.chunks_exact_mut(n).enumerate() {
-                        let col = &u.as_slice()[j * rows + ts.start..j * rows + ts.end];
-                        let (mut p, mut q) = (wj[i], wj[i + 1]);
-                        for c in col[..whole].chunks_exact(JUMP) {
-                            let sr = iu * lifted_linalg::dot(&re, c);
-                            let si = iu * lifted_linalg::dot(&im, c);
-                            (p, q) = (pr * p - pi * q + sr, pr * q + pi * p + si);
-                        }
-                        for &v in &col[whole..] {
-                            (p, q) = (a.mul_add(p, (-b).mul_add(q, v * iu)), a.mul_add(q, b * p));
-                        }
-                        wj[i] = p;
-                        wj[i + 1] = q;
-                    }
-                    i += 2;
-                }
-            }
-        }
+            },
+        )
     }
 
     /// Writes into `s` (rows `base..base + n`, parameter columns
@@ -1011,88 +1024,94 @@ fn scan(
     range: std::ops::Range<usize>,
     st: &mut FilterState,
 ) -> Result<Option<Scan>> {
-    let (iu, iy) = inv;
-    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    let mut pats: Vec<PatternAcc> = Vec::new();
-    let mut rows = 0;
-    let mut t = range.start;
-    while t < range.end {
-        if !st.fr_live {
-            // Once the free response is gone (or not estimated): runs of
-            // instants with one sampling pattern, column by column.
-            let mask = pattern(rec.y, t);
-            let mut end = t + 1;
-            while end < range.end && pattern(rec.y, end) == mask {
-                end += 1;
-            }
-            if mask == 0 {
-                st.run(form, rec, iu, t..end);
-                t = end;
-                continue;
-            }
-            let Some((pa, shift)) = accumulator(&mut pats, mask, lay, lay.x0.is_some()) else {
-                return Ok(None);
-            };
-            while t < end {
-                let len = (end - t).min(BLOCK - pa.used);
-                fill_rows(form, lay, rec, inv, st, pa, shift, t..t + len);
-                pa.used += len;
-                if pa.used == BLOCK {
-                    pa.flush()?;
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (iu, iy) = inv;
+            let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+            let mut pats: Vec<PatternAcc> = Vec::new();
+            let mut rows = 0;
+            let mut t = range.start;
+            while t < range.end {
+                if !st.fr_live {
+                    // Once the free response is gone (or not estimated): runs of
+                    // instants with one sampling pattern, column by column.
+                    let mask = pattern(rec.y, t);
+                    let mut end = t + 1;
+                    while end < range.end && pattern(rec.y, end) == mask {
+                        end += 1;
+                    }
+                    if mask == 0 {
+                        st.run(form, rec, iu, t..end);
+                        t = end;
+                        continue;
+                    }
+                    let Some((pa, shift)) = accumulator(&mut pats, mask, lay, lay.x0.is_some())
+                    else {
+                        return Ok(None);
+                    };
+                    while t < end {
+                        let len = (end - t).min(BLOCK - pa.used);
+                        fill_rows(form, lay, rec, inv, st, pa, shift, t..t + len);
+                        pa.used += len;
+                        if pa.used == BLOCK {
+                            pa.flush()?;
+                        }
+                        rows += mask.count_ones() as usize * len;
+                        t += len;
+                    }
+                    continue;
                 }
-                rows += mask.count_ones() as usize * len;
-                t += len;
-            }
-            continue;
-        }
-        let mask = pattern(rec.y, t);
-        if mask != 0 {
-            // Once the free response has died out the row's x₀ columns are
-            // zero: it goes to the narrow accumulator without them (the
-            // columns after them shift left by n).
-            let narrow = lay.x0.is_some() && !st.fr_live;
-            let Some((pa, shift)) = accumulator(&mut pats, mask, lay, narrow) else {
-                return Ok(None);
-            };
-            // Row `used` of the column-major block: entry (row, col) at
-            // col·BLOCK + row.
-            let row = pa.used;
-            let blk = pa.block.as_mut_slice();
-            let mut put = |col: usize, v: f64| blk[col * BLOCK + row] = v;
-            for (col, &v) in st.w.iter().enumerate() {
-                put(col, v);
-            }
-            for j in 0..nu {
-                put(n * nu + j, rec.u[(t, j)] * iu);
-            }
-            if let (Some(x0), 0) = (lay.x0, shift) {
-                for (i, &v) in st.fr.iter().enumerate() {
-                    put(x0 + i, v);
+                let mask = pattern(rec.y, t);
+                if mask != 0 {
+                    // Once the free response has died out the row's x₀ columns are
+                    // zero: it goes to the narrow accumulator without them (the
+                    // columns after them shift left by n).
+                    let narrow = lay.x0.is_some() && !st.fr_live;
+                    let Some((pa, shift)) = accumulator(&mut pats, mask, lay, narrow) else {
+                        return Ok(None);
+                    };
+                    // Row `used` of the column-major block: entry (row, col) at
+                    // col·BLOCK + row.
+                    let row = pa.used;
+                    let blk = pa.block.as_mut_slice();
+                    let mut put = |col: usize, v: f64| blk[col * BLOCK + row] = v;
+                    for (col, &v) in st.w.iter().enumerate() {
+                        put(col, v);
+                    }
+                    for j in 0..nu {
+                        put(n * nu + j, rec.u[(t, j)] * iu);
+                    }
+                    if let (Some(x0), 0) = (lay.x0, shift) {
+                        for (i, &v) in st.fr.iter().enumerate() {
+                            put(x0 + i, v);
+                        }
+                    }
+                    if let Some(one) = lay.one {
+                        put(one - shift, 1.0);
+                    }
+                    for o in 0..ny {
+                        let v = rec.y[(t, o)];
+                        put(lay.y - shift + o, if v.is_nan() { 0.0 } else { v * iy });
+                    }
+                    pa.used += 1;
+                    if pa.used == BLOCK {
+                        pa.flush()?;
+                    }
+                    rows += mask.count_ones() as usize;
                 }
+                st.step(form, rec, iu, t);
+                t += 1;
             }
-            if let Some(one) = lay.one {
-                put(one - shift, 1.0);
+            for pa in &mut pats {
+                pa.finish(lay.x0, n)?;
             }
-            for o in 0..ny {
-                let v = rec.y[(t, o)];
-                put(lay.y - shift + o, if v.is_nan() { 0.0 } else { v * iy });
-            }
-            pa.used += 1;
-            if pa.used == BLOCK {
-                pa.flush()?;
-            }
-            rows += mask.count_ones() as usize;
-        }
-        st.step(form, rec, iu, t);
-        t += 1;
-    }
-    for pa in &mut pats {
-        pa.finish(lay.x0, n)?;
-    }
-    Ok(Some(Scan {
-        patterns: pats,
-        rows,
-    }))
+            Ok(Some(Scan {
+                patterns: pats,
+                rows,
+            }))
+        },
+    )
 }
 
 /// The accumulator of sampling pattern `mask` in `pats` (a new one for a

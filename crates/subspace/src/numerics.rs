@@ -128,51 +128,56 @@ pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
 
 /// [`pow4_scale`] and the number of finite entries it saw.
 pub(crate) fn pow4_scale_counted(mats: &[&DMatrix<f64>]) -> (f64, usize) {
-    // Eight independent lanes (sum, largest magnitude, count): no chain of
-    // dependent max/add across elements, so the loop vectorises.
-    const LANES: usize = 8;
-    let mut sums = [0.0f64; LANES];
-    let mut bigs = [0.0f64; LANES];
-    let mut counts = [0usize; LANES];
-    for m in mats {
-        let v = m.as_slice();
-        let mut chunks = v.chunks_exact(LANES);
-        for c in &mut chunks {
-            for l in 0..LANES {
-                let x = c[l];
-                let ok = x.is_finite();
-                let x = if ok { x } else { 0.0 };
-                bigs[l] = bigs[l].max(x.abs());
-                sums[l] += x * x;
-                counts[l] += usize::from(ok);
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            // Eight independent lanes (sum, largest magnitude, count): no chain of
+            // dependent max/add across elements, so the loop vectorises.
+            const LANES: usize = 8;
+            let mut sums = [0.0f64; LANES];
+            let mut bigs = [0.0f64; LANES];
+            let mut counts = [0usize; LANES];
+            for m in mats {
+                let v = m.as_slice();
+                let mut chunks = v.chunks_exact(LANES);
+                for c in &mut chunks {
+                    for l in 0..LANES {
+                        let x = c[l];
+                        let ok = x.is_finite();
+                        let x = if ok { x } else { 0.0 };
+                        bigs[l] = bigs[l].max(x.abs());
+                        sums[l] += x * x;
+                        counts[l] += usize::from(ok);
+                    }
+                }
+                for &x in chunks.remainder() {
+                    if x.is_finite() {
+                        bigs[0] = bigs[0].max(x.abs());
+                        sums[0] += x * x;
+                        counts[0] += 1;
+                    }
+                }
             }
-        }
-        for &x in chunks.remainder() {
-            if x.is_finite() {
-                bigs[0] = bigs[0].max(x.abs());
-                sums[0] += x * x;
-                counts[0] += 1;
+            let big = bigs.iter().cloned().fold(0.0f64, f64::max);
+            let count: usize = counts.iter().sum();
+            if big <= 0.0 {
+                return (1.0, count);
             }
-        }
-    }
-    let big = bigs.iter().cloned().fold(0.0f64, f64::max);
-    let count: usize = counts.iter().sum();
-    if big <= 0.0 {
-        return (1.0, count);
-    }
-    let mut sum: f64 = sums.iter().sum();
-    let mut unit = 1.0;
-    if !(1e-150..=1e150).contains(&big) || !sum.is_finite() {
-        // Squares out of range: the same sums of (v / big)².
-        sum = mats
-            .iter()
-            .flat_map(|m| m.iter())
-            .filter(|v| v.is_finite())
-            .map(|v| (v / big) * (v / big))
-            .sum();
-        unit = big;
-    }
-    let rms = unit * (sum / count as f64).sqrt();
-    let k = (rms.log2() / 2.0).round().clamp(-500.0, 500.0) as i32;
-    (2f64.powi(2 * k), count)
+            let mut sum: f64 = sums.iter().sum();
+            let mut unit = 1.0;
+            if !(1e-150..=1e150).contains(&big) || !sum.is_finite() {
+                // Squares out of range: the same sums of (v / big)².
+                sum = mats
+                    .iter()
+                    .flat_map(|m| m.iter())
+                    .filter(|v| v.is_finite())
+                    .map(|v| (v / big) * (v / big))
+                    .sum();
+                unit = big;
+            }
+            let rms = unit * (sum / count as f64).sqrt();
+            let k = (rms.log2() / 2.0).round().clamp(-500.0, 500.0) as i32;
+            (2f64.powi(2 * k), count)
+        },
+    )
 }

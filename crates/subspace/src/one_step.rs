@@ -27,32 +27,37 @@ use nalgebra::{DMatrix, DVector};
 
 /// Runs `$call` with `$f` bound to the padded fixed-size kernel of
 /// `$p`'s order (sizes 1, 2, 4, 8, 16: an order pads up to the next), or
-/// `$general` above 16: the one dispatch of every run of this module.
+/// `$general` above 16: the one dispatch of every run of this module,
+/// compiled for AVX2/FMA where the CPU has them (`lifted_linalg::simd`; the
+/// kernels' methods are inlined into it).
 macro_rules! by_padded_order {
     ($p:expr, $f:ident => $call:expr, _ => $general:expr) => {
-        match $p.n {
-            1 => {
-                let $f = Fixed::<1>::new($p);
-                $call
-            }
-            2 => {
-                let $f = Fixed::<2>::new($p);
-                $call
-            }
-            3 | 4 => {
-                let $f = Fixed::<4>::new($p);
-                $call
-            }
-            5..=8 => {
-                let $f = Fixed::<8>::new($p);
-                $call
-            }
-            9..=16 => {
-                let $f = Fixed::<16>::new($p);
-                $call
-            }
-            _ => $general,
-        }
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || match $p.n {
+                1 => {
+                    let $f = Fixed::<1>::new($p);
+                    $call
+                }
+                2 => {
+                    let $f = Fixed::<2>::new($p);
+                    $call
+                }
+                3 | 4 => {
+                    let $f = Fixed::<4>::new($p);
+                    $call
+                }
+                5..=8 => {
+                    let $f = Fixed::<8>::new($p);
+                    $call
+                }
+                9..=16 => {
+                    let $f = Fixed::<16>::new($p);
+                    $call
+                }
+                _ => $general,
+            },
+        )
     };
 }
 
@@ -514,6 +519,7 @@ impl<'a, const N: usize> Fixed<'a, N> {
         }
     }
 
+    #[inline(always)]
     fn start(&self, x0: &DVector<f64>) -> [f64; N] {
         let mut x = [0.0; N];
         x[..self.general.n].copy_from_slice(x0.as_slice());
@@ -521,6 +527,7 @@ impl<'a, const N: usize> Fixed<'a, N> {
     }
 
     /// [`OneStep::add_squared_errors`]: `visit(ε(t))` for every sample.
+    #[inline(always)]
     fn errors(
         &self,
         u: &DMatrix<f64>,
@@ -538,6 +545,7 @@ impl<'a, const N: usize> Fixed<'a, N> {
     }
 
     /// [`OneStep::with_sensitivities`].
+    #[inline(always)]
     fn sensitivities(
         &self,
         u: &DMatrix<f64>,
@@ -583,6 +591,7 @@ impl<'a, const N: usize> Fixed<'a, N> {
     }
 
     /// [`OneStep::add_adjoint_gradient`].
+    #[inline(always)]
     fn adjoint(&self, y: &DMatrix<f64>, eps: &[f64], w2: &[f64], grad: &mut [f64]) {
         let (n, ny) = (self.general.n, self.general.ny);
         let mut a = [0.0; N];
@@ -613,6 +622,7 @@ impl<'a, const N: usize> Fixed<'a, N> {
     /// [`OneStep::with_sensitivities`] by the rows' recursion
     /// ([`Sensitivities::Rows`]; every output measured).
     /// O(N n² n_y²).
+    #[inline(always)]
     fn row_sensitivities(
         &self,
         u: &DMatrix<f64>,

@@ -255,6 +255,7 @@ impl RowGen {
     }
 
     /// Writes the regressor row for output `o` at the current time into `row`.
+    #[inline(always)]
     fn row(&self, o: usize, sig: &DMatrix<f64>, t: usize, row: &mut [f64]) {
         let (n, nu) = (self.p.n, self.p.nu);
         row.iter_mut().for_each(|v| *v = 0.0);
@@ -279,6 +280,7 @@ impl RowGen {
     }
 
     /// Advances Z_j and C Aᵗ by one sample with input sig(t).
+    #[inline(always)]
     fn step(&mut self, sig: &DMatrix<f64>, t: usize) {
         let (n, nu) = (self.p.n, self.p.nu);
         // Column-major A: column q is ad[q n .. (q + 1) n]; each column of
@@ -430,57 +432,62 @@ fn stream(
     scale: DataScale,
     sink: &mut Sink<'_>,
 ) -> Result<usize> {
-    let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
-    let np = p.total;
-    let mut phi = DMatrix::zeros(BLOCK, np + 1);
-    let mut zeta = DMatrix::zeros(if iv { BLOCK } else { 0 }, np);
-    let mut row = vec![0.0; np];
-    let mut used = 0;
-    let mut rows_total = 0;
-    for (e, rec) in records.iter().enumerate() {
-        let (zsig, iz) = match rec.instrument {
-            Some(f) => (f, 1.0 / scale.z),
-            None => (rec.u, iu),
-        };
-        let mut g = RowGen::new(a, c, p, e, iu);
-        let mut gz = RowGen::new(a, c, p, e, iz);
-        for t in 0..rec.u.nrows() {
-            for o in 0..p.ny {
-                let yv = rec.y[(t, o)] * iy;
-                if yv.is_nan() {
-                    continue;
-                }
-                g.row(o, rec.u, t, &mut row);
-                for (k, v) in row.iter().enumerate() {
-                    phi[(used, k)] = *v;
-                }
-                phi[(used, np)] = yv;
-                if iv {
-                    gz.row(o, zsig, t, &mut row);
-                    for (k, v) in row.iter().enumerate() {
-                        zeta[(used, k)] = *v;
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (iu, iy) = (1.0 / scale.io.u, 1.0 / scale.io.y);
+            let np = p.total;
+            let mut phi = DMatrix::zeros(BLOCK, np + 1);
+            let mut zeta = DMatrix::zeros(if iv { BLOCK } else { 0 }, np);
+            let mut row = vec![0.0; np];
+            let mut used = 0;
+            let mut rows_total = 0;
+            for (e, rec) in records.iter().enumerate() {
+                let (zsig, iz) = match rec.instrument {
+                    Some(f) => (f, 1.0 / scale.z),
+                    None => (rec.u, iu),
+                };
+                let mut g = RowGen::new(a, c, p, e, iu);
+                let mut gz = RowGen::new(a, c, p, e, iz);
+                for t in 0..rec.u.nrows() {
+                    for o in 0..p.ny {
+                        let yv = rec.y[(t, o)] * iy;
+                        if yv.is_nan() {
+                            continue;
+                        }
+                        g.row(o, rec.u, t, &mut row);
+                        for (k, v) in row.iter().enumerate() {
+                            phi[(used, k)] = *v;
+                        }
+                        phi[(used, np)] = yv;
+                        if iv {
+                            gz.row(o, zsig, t, &mut row);
+                            for (k, v) in row.iter().enumerate() {
+                                zeta[(used, k)] = *v;
+                            }
+                        }
+                        used += 1;
+                        if used == BLOCK {
+                            sink(&phi, iv.then_some(&zeta))?;
+                            rows_total += used;
+                            used = 0;
+                        }
+                    }
+                    g.step(rec.u, t);
+                    if iv {
+                        gz.step(zsig, t);
                     }
                 }
-                used += 1;
-                if used == BLOCK {
-                    sink(&phi, iv.then_some(&zeta))?;
-                    rows_total += used;
-                    used = 0;
-                }
             }
-            g.step(rec.u, t);
-            if iv {
-                gz.step(zsig, t);
+            if used > 0 {
+                let ph = phi.rows(0, used).into_owned();
+                let zz = zeta.rows(0, if iv { used } else { 0 }).into_owned();
+                sink(&ph, iv.then_some(&zz))?;
+                rows_total += used;
             }
-        }
-    }
-    if used > 0 {
-        let ph = phi.rows(0, used).into_owned();
-        let zz = zeta.rows(0, if iv { used } else { 0 }).into_owned();
-        sink(&ph, iv.then_some(&zz))?;
-        rows_total += used;
-    }
-    Ok(rows_total)
+            Ok(rows_total)
+        },
+    )
 }
 
 /// The set-up shared by [`estimate_bd`] and [`estimate_bd_iv`] (`iv`): the
@@ -680,26 +687,31 @@ impl DirectStream {
         y: &DMatrix<f64>,
         acc: &mut RAccumulator,
     ) -> Result<()> {
-        let np = self.p.total;
-        for t in 0..u.nrows() {
-            for o in 0..self.p.ny {
-                let yv = y[(t, o)] * self.iy;
-                if yv.is_nan() {
-                    continue;
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                let np = self.p.total;
+                for t in 0..u.nrows() {
+                    for o in 0..self.p.ny {
+                        let yv = y[(t, o)] * self.iy;
+                        if yv.is_nan() {
+                            continue;
+                        }
+                        self.rows_of.row(o, u, t, &mut self.row);
+                        for (k, v) in self.row.iter().enumerate() {
+                            self.block[(self.used, k)] = *v;
+                        }
+                        self.block[(self.used, np)] = yv;
+                        self.used += 1;
+                        if self.used == BLOCK {
+                            self.flush(acc)?;
+                        }
+                    }
+                    self.rows_of.step(u, t);
                 }
-                self.rows_of.row(o, u, t, &mut self.row);
-                for (k, v) in self.row.iter().enumerate() {
-                    self.block[(self.used, k)] = *v;
-                }
-                self.block[(self.used, np)] = yv;
-                self.used += 1;
-                if self.used == BLOCK {
-                    self.flush(acc)?;
-                }
-            }
-            self.rows_of.step(u, t);
-        }
-        Ok(())
+                Ok(())
+            },
+        )
     }
 
     fn flush(&mut self, acc: &mut RAccumulator) -> Result<()> {
@@ -730,9 +742,14 @@ impl DirectStream {
     /// Advances the recursions over the inputs of the next samples without
     /// making rows (n_u n³ flops per sample).
     pub(crate) fn advance(&mut self, u: &DMatrix<f64>) {
-        for t in 0..u.nrows() {
-            self.rows_of.step(u, t);
-        }
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                for t in 0..u.nrows() {
+                    self.rows_of.step(u, t);
+                }
+            },
+        )
     }
 
     /// The R factor (p + 1 columns) of the rows of the next samples from
@@ -835,83 +852,88 @@ pub fn estimate_x0(
     d: &DMatrix<f64>,
     records: &[Record<'_>],
 ) -> Result<Vec<DVector<f64>>> {
-    let n = a.nrows();
-    let ny = c.nrows();
-    // On the data divided by their scales (model rescaled to match; x₀ is
-    // the same).
-    let scale = DataScale::of(records).io;
-    let (iu, iy) = (1.0 / scale.u, 1.0 / scale.y);
-    let (b, c, d) = scale.rescale(b, c, d);
-    let mut out = Vec::with_capacity(records.len());
-    for rec in records {
-        let mut acc = RAccumulator::new(n + 1);
-        let mut block = DMatrix::zeros(BLOCK, n + 1);
-        let mut used = 0;
-        let mut x = DVector::zeros(n);
-        let mut cat = c.clone();
-        let c_norm = c.norm();
-        // Work vectors, reused every sample (the products are the same
-        // gemm calls as `&c * &x` etc., so the result is unchanged).
-        let nu = rec.u.ncols();
-        let mut ut = DVector::zeros(nu);
-        let (mut cx, mut du) = (DVector::zeros(ny), DVector::zeros(ny));
-        let (mut ax, mut bu) = (DVector::zeros(n), DVector::zeros(n));
-        let mut cat_next = DMatrix::zeros(ny, n);
-        for t in 0..rec.u.nrows() {
-            for j in 0..nu {
-                ut[j] = rec.u[(t, j)] * iu;
-            }
-            cx.gemm(1.0, &c, &x, 0.0);
-            du.gemm(1.0, &d, &ut, 0.0);
-            for o in 0..ny {
-                let yv = rec.y[(t, o)] * iy;
-                if yv.is_nan() {
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let n = a.nrows();
+            let ny = c.nrows();
+            // On the data divided by their scales (model rescaled to match; x₀ is
+            // the same).
+            let scale = DataScale::of(records).io;
+            let (iu, iy) = (1.0 / scale.u, 1.0 / scale.y);
+            let (b, c, d) = scale.rescale(b, c, d);
+            let mut out = Vec::with_capacity(records.len());
+            for rec in records {
+                let mut acc = RAccumulator::new(n + 1);
+                let mut block = DMatrix::zeros(BLOCK, n + 1);
+                let mut used = 0;
+                let mut x = DVector::zeros(n);
+                let mut cat = c.clone();
+                let c_norm = c.norm();
+                // Work vectors, reused every sample (the products are the same
+                // gemm calls as `&c * &x` etc., so the result is unchanged).
+                let nu = rec.u.ncols();
+                let mut ut = DVector::zeros(nu);
+                let (mut cx, mut du) = (DVector::zeros(ny), DVector::zeros(ny));
+                let (mut ax, mut bu) = (DVector::zeros(n), DVector::zeros(n));
+                let mut cat_next = DMatrix::zeros(ny, n);
+                for t in 0..rec.u.nrows() {
+                    for j in 0..nu {
+                        ut[j] = rec.u[(t, j)] * iu;
+                    }
+                    cx.gemm(1.0, &c, &x, 0.0);
+                    du.gemm(1.0, &d, &ut, 0.0);
+                    for o in 0..ny {
+                        let yv = rec.y[(t, o)] * iy;
+                        if yv.is_nan() {
+                            continue;
+                        }
+                        for s in 0..n {
+                            block[(used, s)] = cat[(o, s)];
+                        }
+                        block[(used, n)] = yv - (cx[o] + du[o]);
+                        used += 1;
+                        if used == BLOCK {
+                            acc.push_rows(&block)?;
+                            used = 0;
+                        }
+                    }
+                    ax.gemm(1.0, a, &x, 0.0);
+                    bu.gemm(1.0, &b, &ut, 0.0);
+                    for s in 0..n {
+                        x[s] = ax[s] + bu[s];
+                    }
+                    cat_next.gemm(1.0, &cat, a, 0.0);
+                    std::mem::swap(&mut cat, &mut cat_next);
+                    // Rows with C Aᵗ = 0 carry no information on x₀ (they only add to
+                    // the residual norm, which is not used): stop once C Aᵗ is below
+                    // rounding level, O(log ε / log ρ(A)) samples instead of N. For
+                    // an unstable A stop once C Aᵗ has grown by MAX_REGRESSOR_GROWTH:
+                    // later rows would swamp the earlier ones (and overflow), while
+                    // x₀ is already determined by the window read so far.
+                    let cn = cat.norm();
+                    if t > 2 * (n + 1)
+                        && (cn <= X0_NEGLIGIBLE * c_norm || cn > MAX_REGRESSOR_GROWTH * c_norm)
+                    {
+                        break;
+                    }
+                }
+                if used > 0 {
+                    acc.push_rows(&block.rows(0, used).into_owned())?;
+                }
+                let r = acc.r();
+                if r.nrows() < n + 1 {
+                    out.push(DVector::zeros(n));
                     continue;
                 }
-                for s in 0..n {
-                    block[(used, s)] = cat[(o, s)];
-                }
-                block[(used, n)] = yv - (cx[o] + du[o]);
-                used += 1;
-                if used == BLOCK {
-                    acc.push_rows(&block)?;
-                    used = 0;
-                }
+                let r11 = r.view((0, 0), (n, n)).into_owned();
+                let r12 = r.view((0, n), (n, 1)).into_owned();
+                let th = lstsq(&r11, &r12)?;
+                out.push(DVector::from_fn(n, |s, _| th[(s, 0)]));
             }
-            ax.gemm(1.0, a, &x, 0.0);
-            bu.gemm(1.0, &b, &ut, 0.0);
-            for s in 0..n {
-                x[s] = ax[s] + bu[s];
-            }
-            cat_next.gemm(1.0, &cat, a, 0.0);
-            std::mem::swap(&mut cat, &mut cat_next);
-            // Rows with C Aᵗ = 0 carry no information on x₀ (they only add to
-            // the residual norm, which is not used): stop once C Aᵗ is below
-            // rounding level, O(log ε / log ρ(A)) samples instead of N. For
-            // an unstable A stop once C Aᵗ has grown by MAX_REGRESSOR_GROWTH:
-            // later rows would swamp the earlier ones (and overflow), while
-            // x₀ is already determined by the window read so far.
-            let cn = cat.norm();
-            if t > 2 * (n + 1)
-                && (cn <= X0_NEGLIGIBLE * c_norm || cn > MAX_REGRESSOR_GROWTH * c_norm)
-            {
-                break;
-            }
-        }
-        if used > 0 {
-            acc.push_rows(&block.rows(0, used).into_owned())?;
-        }
-        let r = acc.r();
-        if r.nrows() < n + 1 {
-            out.push(DVector::zeros(n));
-            continue;
-        }
-        let r11 = r.view((0, 0), (n, n)).into_owned();
-        let r12 = r.view((0, n), (n, 1)).into_owned();
-        let th = lstsq(&r11, &r12)?;
-        out.push(DVector::from_fn(n, |s, _| th[(s, 0)]));
-    }
-    Ok(out)
+            Ok(out)
+        },
+    )
 }
 
 /// Longest record (samples).

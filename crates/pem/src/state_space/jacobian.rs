@@ -130,13 +130,21 @@ impl RowSink {
     }
 
     fn flush(&mut self) -> Result<()> {
-        if self.rows > 0 {
-            let block =
-                DMatrix::from_row_slice(self.rows, self.width, &self.buf[..self.rows * self.width]);
-            self.acc.push_rows(&block)?;
-            self.rows = 0;
-        }
-        Ok(())
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || {
+                if self.rows > 0 {
+                    let block = DMatrix::from_row_slice(
+                        self.rows,
+                        self.width,
+                        &self.buf[..self.rows * self.width],
+                    );
+                    self.acc.push_rows(&block)?;
+                    self.rows = 0;
+                }
+                Ok(())
+            },
+        )
     }
 
     /// Room for `k` more rows; returns the first new row's index.
@@ -174,146 +182,153 @@ fn sweep(
     mut sink: Option<&mut RowSink>,
     stride: usize,
 ) -> Result<()> {
-    let (n, nu, ny, np) = (dirs.n, dirs.nu, dirs.ny, dirs.np);
-    let width = s.len() / n.max(1);
-    let (mz, mcz) = (n + nu + ny, n + nu);
-    let (a, c, k) = (p.a.as_slice(), p.c.as_slice(), p.k.as_slice());
-    let mut z = vec![0.0; mz];
-    let mut meas = vec![false; ny];
-    let mut next = vec![0.0; n];
-    let mut f = vec![0.0; n * np];
-    let mut g = vec![0.0; ny * np];
-    let mut de = vec![0.0; ny * width];
-    let mut sn = vec![0.0; s.len()];
-    for t in range {
-        predictor_step(p, gain, rec, t, x, &mut z, &mut meas, &mut next);
-        let nmeas = meas.iter().filter(|&&m| m).count();
-        // z holds the pre-step state x̂(t); the forcing terms use it.
-        // Every operation below is an axpy over the directions (state-
-        // and output-major layouts), so it vectorises.
-        f.fill(0.0);
-        for (col, &zc) in z.iter().enumerate() {
-            let (lo, hi) = dirs.m_span[col];
-            if zc != 0.0 && hi > lo {
-                let at = col * n * np;
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (n, nu, ny, np) = (dirs.n, dirs.nu, dirs.ny, dirs.np);
+            let width = s.len() / n.max(1);
+            let (mz, mcz) = (n + nu + ny, n + nu);
+            let (a, c, k) = (p.a.as_slice(), p.c.as_slice(), p.k.as_slice());
+            let mut z = vec![0.0; mz];
+            let mut meas = vec![false; ny];
+            let mut next = vec![0.0; n];
+            let mut f = vec![0.0; n * np];
+            let mut g = vec![0.0; ny * np];
+            let mut de = vec![0.0; ny * width];
+            let mut sn = vec![0.0; s.len()];
+            for t in range {
+                predictor_step(p, gain, rec, t, x, &mut z, &mut meas, &mut next);
+                let nmeas = meas.iter().filter(|&&m| m).count();
+                // z holds the pre-step state x̂(t); the forcing terms use it.
+                // Every operation below is an axpy over the directions (state-
+                // and output-major layouts), so it vectorises.
+                f.fill(0.0);
+                for (col, &zc) in z.iter().enumerate() {
+                    let (lo, hi) = dirs.m_span[col];
+                    if zc != 0.0 && hi > lo {
+                        let at = col * n * np;
+                        for r in 0..n {
+                            let row = at + r * np;
+                            for (fi, mi) in f[r * np + lo..r * np + hi]
+                                .iter_mut()
+                                .zip(&dirs.m[row + lo..row + hi])
+                            {
+                                *fi += mi * zc;
+                            }
+                        }
+                    }
+                }
+                g.fill(0.0);
+                for (col, &zc) in z[..mcz].iter().enumerate() {
+                    let (lo, hi) = dirs.mc_span[col];
+                    if zc != 0.0 && hi > lo {
+                        let at = col * ny * np;
+                        for o in 0..ny {
+                            let row = at + o * np;
+                            for (gi, mi) in g[o * np + lo..o * np + hi]
+                                .iter_mut()
+                                .zip(&dirs.mc[row + lo..row + hi])
+                            {
+                                *gi += mi * zc;
+                            }
+                        }
+                    }
+                }
+                // δe = −(C s + δC x̂ + δD u) on the measured outputs (n_y × width).
+                for o in 0..ny {
+                    let out = &mut de[o * width..(o + 1) * width];
+                    if !meas[o] {
+                        out.fill(0.0);
+                        continue;
+                    }
+                    out[..np].copy_from_slice(&g[o * np..(o + 1) * np]);
+                    out[np..].fill(0.0);
+                    for j in 0..n {
+                        let coj = c[o + j * ny];
+                        if coj != 0.0 {
+                            for (dv, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
+                                *dv += coj * sv;
+                            }
+                        }
+                    }
+                    for dv in out.iter_mut() {
+                        *dv = -*dv;
+                    }
+                }
+                // s(t+1) = A s + forcing + K δe (n × width).
                 for r in 0..n {
-                    let row = at + r * np;
-                    for (fi, mi) in f[r * np + lo..r * np + hi]
-                        .iter_mut()
-                        .zip(&dirs.m[row + lo..row + hi])
-                    {
-                        *fi += mi * zc;
+                    let out = &mut sn[r * width..(r + 1) * width];
+                    out[..np].copy_from_slice(&f[r * np..(r + 1) * np]);
+                    out[np..].fill(0.0);
+                    for j in 0..n {
+                        let arj = a[r + j * n];
+                        if arj != 0.0 {
+                            for (ov, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
+                                *ov += arj * sv;
+                            }
+                        }
                     }
-                }
-            }
-        }
-        g.fill(0.0);
-        for (col, &zc) in z[..mcz].iter().enumerate() {
-            let (lo, hi) = dirs.mc_span[col];
-            if zc != 0.0 && hi > lo {
-                let at = col * ny * np;
-                for o in 0..ny {
-                    let row = at + o * np;
-                    for (gi, mi) in g[o * np + lo..o * np + hi]
-                        .iter_mut()
-                        .zip(&dirs.mc[row + lo..row + hi])
-                    {
-                        *gi += mi * zc;
-                    }
-                }
-            }
-        }
-        // δe = −(C s + δC x̂ + δD u) on the measured outputs (n_y × width).
-        for o in 0..ny {
-            let out = &mut de[o * width..(o + 1) * width];
-            if !meas[o] {
-                out.fill(0.0);
-                continue;
-            }
-            out[..np].copy_from_slice(&g[o * np..(o + 1) * np]);
-            out[np..].fill(0.0);
-            for j in 0..n {
-                let coj = c[o + j * ny];
-                if coj != 0.0 {
-                    for (dv, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
-                        *dv += coj * sv;
-                    }
-                }
-            }
-            for dv in out.iter_mut() {
-                *dv = -*dv;
-            }
-        }
-        // s(t+1) = A s + forcing + K δe (n × width).
-        for r in 0..n {
-            let out = &mut sn[r * width..(r + 1) * width];
-            out[..np].copy_from_slice(&f[r * np..(r + 1) * np]);
-            out[np..].fill(0.0);
-            for j in 0..n {
-                let arj = a[r + j * n];
-                if arj != 0.0 {
-                    for (ov, sv) in out.iter_mut().zip(&s[j * width..(j + 1) * width]) {
-                        *ov += arj * sv;
-                    }
-                }
-            }
-            if gain {
-                for o in 0..ny {
-                    let kro = k[r + o * n];
-                    if kro != 0.0 && meas[o] {
-                        for (ov, dv) in out.iter_mut().zip(&de[o * width..(o + 1) * width]) {
-                            *ov += kro * dv;
+                    if gain {
+                        for o in 0..ny {
+                            let kro = k[r + o * n];
+                            if kro != 0.0 && meas[o] {
+                                for (ov, dv) in out.iter_mut().zip(&de[o * width..(o + 1) * width])
+                                {
+                                    *ov += kro * dv;
+                                }
+                            }
                         }
                     }
                 }
-            }
-        }
-        if let Some(sk) = sink.as_deref_mut()
-            && nmeas > 0
-        {
-            // Hessian subsample: the head of the record (its transient)
-            // whole, then one block in `stride`, scaled by √stride.
-            let (keep, scale) = if stride <= 1 || t < stride * HESSIAN_BLOCK {
-                (true, 1.0)
-            } else {
-                (
-                    (t / HESSIAN_BLOCK).is_multiple_of(stride),
-                    (stride as f64).sqrt(),
-                )
-            };
-            let at = sk.reserve(nmeas)?;
-            let w = sk.width;
-            let mut row = at;
-            for o in 0..ny {
-                if meas[o] {
-                    let wo = weights[o];
-                    let dst = &mut sk.buf[row * w..(row + 1) * w];
-                    for (dv, sv) in dst[..np].iter_mut().zip(&de[o * width..o * width + np]) {
-                        *dv = wo * sv;
-                    }
-                    dst[np] = wo * z[n + nu + o];
-                    if stride > 1 {
-                        let (buf, grad) = (&mut sk.buf, &mut sk.grad);
-                        let dst = &mut buf[row * w..(row + 1) * w];
-                        let e = dst[np];
-                        for (gv, rv) in grad.iter_mut().zip(dst.iter()) {
-                            *gv += rv * e;
+                if let Some(sk) = sink.as_deref_mut()
+                    && nmeas > 0
+                {
+                    // Hessian subsample: the head of the record (its transient)
+                    // whole, then one block in `stride`, scaled by √stride.
+                    let (keep, scale) = if stride <= 1 || t < stride * HESSIAN_BLOCK {
+                        (true, 1.0)
+                    } else {
+                        (
+                            (t / HESSIAN_BLOCK).is_multiple_of(stride),
+                            (stride as f64).sqrt(),
+                        )
+                    };
+                    let at = sk.reserve(nmeas)?;
+                    let w = sk.width;
+                    let mut row = at;
+                    for o in 0..ny {
+                        if meas[o] {
+                            let wo = weights[o];
+                            let dst = &mut sk.buf[row * w..(row + 1) * w];
+                            for (dv, sv) in dst[..np].iter_mut().zip(&de[o * width..o * width + np])
+                            {
+                                *dv = wo * sv;
+                            }
+                            dst[np] = wo * z[n + nu + o];
+                            if stride > 1 {
+                                let (buf, grad) = (&mut sk.buf, &mut sk.grad);
+                                let dst = &mut buf[row * w..(row + 1) * w];
+                                let e = dst[np];
+                                for (gv, rv) in grad.iter_mut().zip(dst.iter()) {
+                                    *gv += rv * e;
+                                }
+                                if keep {
+                                    dst.iter_mut().for_each(|v| *v *= scale);
+                                }
+                            }
+                            row += 1;
                         }
-                        if keep {
-                            dst.iter_mut().for_each(|v| *v *= scale);
-                        }
                     }
-                    row += 1;
+                    if !keep {
+                        // Offered to the gradient only: give the rows back.
+                        sk.rows -= nmeas;
+                    }
                 }
+                std::mem::swap(s, &mut sn);
             }
-            if !keep {
-                // Offered to the gradient only: give the rows back.
-                sk.rows -= nmeas;
-            }
-        }
-        std::mem::swap(s, &mut sn);
-    }
-    Ok(())
+            Ok(())
+        },
+    )
 }
 
 /// `work(j)` for every job, in job order, the jobs split into `threads`

@@ -150,24 +150,29 @@ pub(super) fn residuals(
     gain: bool,
     total: usize,
 ) -> Option<DVector<f64>> {
-    let mut out = Vec::with_capacity(total);
-    let (n, nu, ny) = (p.a.nrows(), p.b.ncols(), p.c.nrows());
-    let mut z = vec![0.0; n + nu + ny];
-    let mut next = vec![0.0; n];
-    let mut meas = vec![false; ny];
-    for (r, rec) in records.iter().enumerate() {
-        let mut x = p.x0[r].as_slice().to_vec();
-        for t in 0..rec.u.nrows() {
-            predictor_step(p, gain, rec, t, &mut x, &mut z, &mut meas, &mut next);
-            for o in 0..ny {
-                if meas[o] {
-                    out.push(z[n + nu + o] * weights[o]);
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let mut out = Vec::with_capacity(total);
+            let (n, nu, ny) = (p.a.nrows(), p.b.ncols(), p.c.nrows());
+            let mut z = vec![0.0; n + nu + ny];
+            let mut next = vec![0.0; n];
+            let mut meas = vec![false; ny];
+            for (r, rec) in records.iter().enumerate() {
+                let mut x = p.x0[r].as_slice().to_vec();
+                for t in 0..rec.u.nrows() {
+                    predictor_step(p, gain, rec, t, &mut x, &mut z, &mut meas, &mut next);
+                    for o in 0..ny {
+                        if meas[o] {
+                            out.push(z[n + nu + o] * weights[o]);
+                        }
+                    }
                 }
             }
-        }
-    }
-    let v = DVector::from_vec(out);
-    v.iter().all(|e| e.is_finite()).then_some(v)
+            let v = DVector::from_vec(out);
+            v.iter().all(|e| e.is_finite()).then_some(v)
+        },
+    )
 }
 
 /// One step of the predictor (simulation when `gain` is false) at time
@@ -175,6 +180,7 @@ pub(super) fn residuals(
 /// 0 for the others), `meas` (which outputs are measured) and advances x̂,
 /// using `next` as workspace. O(n (n + n_u + n_y)), no allocation.
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub(super) fn predictor_step(
     p: &Point,
     gain: bool,
