@@ -722,6 +722,14 @@ pub struct IdentifyArgs {
     /// block's fit in the means (default -100).
     #[arg(long, default_value_t = -100.0, allow_hyphen_values = true)]
     pub failed_fold: f64,
+    /// A work or record-length budget of the default route, as NAME=VALUE (repeatable):
+    /// auto_refine_work (default 4e9 operations), auto_refine_work_joint (8e9),
+    /// auto_refine_samples (10000), refine_check_samples (20000), refine_check_work (4e9),
+    /// gain_check_samples (200000), gain_check_varx_work (4e9), gain_check_minimise_work (8e9).
+    /// Above a budget the stage is skipped or judged more cheaply, and the diagnostics say so;
+    /// the values used are recorded in `diagnostics.budgets`.
+    #[arg(long, value_name = "NAME=VALUE")]
+    pub budget: Vec<String>,
     /// Offer a stable model instead of an unstable one: when the estimated A (lifted Ā for
     /// multirate records, the cover's Â for q-Markov) has an eigenvalue on or outside the unit
     /// circle it is re-estimated by the zero-padded shift A = Γ⁺[Γ↓; 0] (Maciejowski's

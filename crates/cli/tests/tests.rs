@@ -3734,6 +3734,69 @@ mod faults {
         assert_eq!(policy["shortlist"], 3);
     }
 
+    /// Issue 48: the default route's work budgets are `--budget NAME=VALUE`:
+    /// an unknown name, a malformed pair or a bad value refused naming the
+    /// budget (one line, exit 2); given ones recorded in
+    /// `diagnostics.budgets` and deciding the refinement.
+    #[test]
+    fn budget_flags_are_checked_and_recorded() {
+        let d = tmp("budgets");
+        let (id, _) = single_rate_data(&d);
+        let out = p(&d, "m.json");
+        let args = |extra: &[&str]| -> Vec<String> {
+            [
+                "identify",
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--order",
+                "2",
+                "--out",
+                &out,
+            ]
+            .iter()
+            .chain(extra)
+            .map(|s| s.to_string())
+            .collect()
+        };
+        for (bad, said) in [
+            (["--budget", "auto_refine_wrok=1"], "auto_refine_work"),
+            (["--budget", "auto_refine_work"], "NAME=VALUE"),
+            (["--budget", "auto_refine_work=lots"], "not a number"),
+            (
+                ["--budget", "auto_refine_work=-1"],
+                "--budget auto_refine_work",
+            ),
+            (["--budget", "gain_check_samples=2.5"], "gain_check_samples"),
+        ] {
+            let a = args(&bad);
+            let a: Vec<&str> = a.iter().map(String::as_str).collect();
+            let e = fails(&a, 2);
+            assert!(e.contains(said), "{e}");
+        }
+        let a = args(&[
+            "--budget",
+            "auto_refine_samples=10",
+            "--budget",
+            "auto_refine_work=1",
+        ]);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        ok(&a);
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let b = &m["diagnostics"]["budgets"];
+        assert_eq!(b["auto_refine_samples"], 10);
+        assert_eq!(b["auto_refine_work"], 1.0);
+        assert_eq!(b["gain_check_samples"], 200_000);
+        let why = m["diagnostics"]["refinement_decision"]
+            .as_str()
+            .unwrap_or_default();
+        assert!(why.starts_with("not refined"), "{why}");
+    }
+
     /// A 2-output model y = (x, 2x), x(k+1) = 0.9x + 0.1u, T = 1 s.
     fn two_outputs() -> StateSpace {
         StateSpace::new(

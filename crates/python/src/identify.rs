@@ -78,7 +78,7 @@ pub(crate) fn horizon_of(
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
-    refine_check="margin:3", selection=None, gain_covariance_start=true))]
+    refine_check="margin:3", selection=None, gain_covariance_start=true, budgets=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -111,6 +111,7 @@ pub(crate) fn identify<'py>(
     refine_check: &str,
     selection: Option<Bound<'py, PyDict>>,
     gain_covariance_start: bool,
+    budgets: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -169,6 +170,9 @@ pub(crate) fn identify<'py>(
     if let Some(sel) = selection {
         opts.identification.selection = selection_of(&sel)?;
     }
+    if let Some(b) = budgets {
+        budgets_into(&b, &mut opts)?;
+    }
     let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)
 }
@@ -220,6 +224,39 @@ fn selection_of(d: &Bound<'_, PyDict>) -> PyResult<lifted_workflow::SelectionOpt
         }
     }
     Ok(s)
+}
+
+/// `budgets={...}`: the default route's work and record-length budgets
+/// (`lifted_workflow::Budgets` and the gain check's two; the names of
+/// `lifted_workflow::BUDGET_NAMES`, as the command line's `--budget`), each
+/// a number (samples: a whole one). An unknown name or a value of the wrong
+/// type is an `InvalidOptionError` naming it (the values' ranges are
+/// checked by the workflow).
+fn budgets_into(
+    d: &Bound<'_, PyDict>,
+    opts: &mut lifted_workflow::WorkflowOptions,
+) -> PyResult<()> {
+    let bad = |key: &str, reason: String| {
+        err(lifted_workflow::Error::InvalidOption {
+            option: "budgets",
+            reason: format!("{key}: {reason}"),
+        })
+    };
+    for (k, v) in d.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| bad("key", "the keys are the budgets' names".into()))?;
+        if v.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(bad(&key, "a number, not a bool".into()));
+        }
+        let value: f64 = v
+            .extract()
+            .map_err(|_| bad(&key, format!("a number, got {v}")))?;
+        opts.budgets
+            .set(&mut opts.identification.gain_check, &key, value)
+            .map_err(err)?;
+    }
+    Ok(())
 }
 
 /// The records of `identify`: one record whose outputs hold NaN only at

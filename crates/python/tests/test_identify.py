@@ -393,3 +393,26 @@ def test_selection_policy_is_a_keyword() -> None:
         lifted.identify(u, y, selection={"shortlist": True})
     with pytest.raises(lifted.ArgumentError, match="failed_fold"):
         lifted.identify(u, y, selection={"failed_fold": 5})
+
+
+def test_budgets_are_a_keyword() -> None:
+    """``budgets`` (``lifted identify --budget NAME=VALUE``, issue 48): the
+    default route's work budgets are parameters, recorded in
+    ``diagnostics["budgets"]``; under lowered refinement budgets the default
+    does not refine; unknown names, wrong types and bad values are refused
+    naming them."""
+    u, y = _first_order_record(6, 1500, pole=0.9, gain=0.1, noise=0.05)
+    default = lifted.identify(u, y, order=1)
+    assert default.diagnostics["budgets"]["auto_refine_samples"] == 10000
+    assert default.diagnostics["refinement_decision"].startswith("refined")
+    tight = lifted.identify(
+        u, y, order=1, budgets={"auto_refine_samples": 100, "auto_refine_work": 1.0}
+    )
+    assert tight.diagnostics["budgets"]["auto_refine_samples"] == 100
+    assert tight.diagnostics["refinement_decision"].startswith("not refined")
+    with pytest.raises(lifted.ArgumentError, match="auto_refine_work"):
+        lifted.identify(u, y, budgets={"auto_refine_wrok": 1.0})
+    with pytest.raises(lifted.ArgumentError, match="bool"):
+        lifted.identify(u, y, budgets={"gain_check_samples": True})
+    with pytest.raises(lifted.ArgumentError, match="refine_check_work"):
+        lifted.identify(u, y, budgets={"refine_check_work": -1.0})

@@ -116,6 +116,18 @@ pub struct GainCheckOptions {
     /// and `real-records.md`, session 30); false: the Levenberg–Marquardt
     /// iterations alone, as before.
     pub covariance_start: bool,
+    /// Largest work (operations) of the VARX least squares whose
+    /// innovations start the check (N (p n_z + n_u)² for N samples, past
+    /// p, n_z = n_u + n_y): the longest VARX within it is fitted. Default
+    /// [`VARX_WORK`], 4e9: about a second on one core of the benchmark
+    /// machine (≈ 4e9 such operations a second measured). Finite, > 0.
+    pub varx_work: f64,
+    /// Largest work (operations) of the minimisation over K: the
+    /// covariance route's Hessian and iterations, or Levenberg–Marquardt's
+    /// predictor runs with their sensitivities (three at least); a check
+    /// over it keeps the best start. Default [`MINIMISE_WORK`], 8e9: about
+    /// two seconds. Finite, > 0.
+    pub minimise_work: f64,
 }
 
 impl Default for GainCheckOptions {
@@ -124,18 +136,32 @@ impl Default for GainCheckOptions {
             stop_share: 0.01,
             max_iterations: 30,
             covariance_start: true,
+            varx_work: VARX_WORK,
+            minimise_work: MINIMISE_WORK,
         }
     }
 }
 
 impl GainCheckOptions {
-    /// `Err` naming the field when `stop_share` is negative or not finite.
+    /// `Err` naming the field when `stop_share` is negative or not
+    /// finite, or a work budget is not finite and positive.
     pub fn check(&self) -> crate::Result<()> {
         if !(self.stop_share.is_finite() && self.stop_share >= 0.0) {
             return Err(crate::Error::InvalidOption {
                 what: "gain check stop_share",
                 reason: format!("must be finite and ≥ 0, got {}", self.stop_share),
             });
+        }
+        for (what, v) in [
+            ("gain check varx_work", self.varx_work),
+            ("gain check minimise_work", self.minimise_work),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(crate::Error::InvalidOption {
+                    what,
+                    reason: format!("must be finite and > 0, got {v}"),
+                });
+            }
         }
         Ok(())
     }
@@ -145,6 +171,15 @@ impl GainCheckOptions {
     fn tolerance(&self, samples: usize) -> f64 {
         (self.stop_share * (2.0 / samples.max(1) as f64).sqrt()).max(1e-9)
     }
+}
+
+/// Where the minimisation over K stops: the relative decrease, the
+/// iteration count and the work budget ([`GainCheckOptions`]).
+#[derive(Debug, Clone, Copy)]
+struct Limits {
+    tolerance: f64,
+    max_iterations: usize,
+    work: f64,
 }
 
 /// Largest work of the Levenberg–Marquardt iterations over K (predictor
@@ -405,7 +440,7 @@ fn check_by(
         if missing {
             Err("the records have output samples not measured".to_string())
         } else {
-            regression_gain(model, sets, past, memo)
+            regression_gain(model, sets, past, opts.varx_work, memo)
         }
     };
     // The subspace step's and K = 0's costs on a second thread while the
@@ -466,7 +501,11 @@ fn check_by(
     } else {
         Sensitivities::Rows
     });
-    let limits = (tolerance, opts.max_iterations);
+    let limits = Limits {
+        tolerance,
+        max_iterations: opts.max_iterations,
+        work: opts.minimise_work,
+    };
     if opts.covariance_start
         && !missing
         && let Some((_, base)) = runs_of[i].take()
@@ -629,10 +668,14 @@ fn minimise(
     sets: &[Experiment<'_>],
     x0s: &[DVector<f64>],
     spread: &[f64],
-    limits: (f64, usize),
+    limits: Limits,
     route: Sensitivities,
 ) -> Result<(DMatrix<f64>, f64, usize, usize), String> {
-    let (tolerance, max_iterations) = limits;
+    let Limits {
+        tolerance,
+        max_iterations,
+        work,
+    } = limits;
     let (n, ny) = (model.order(), model.n_outputs());
     if n == 0 {
         return Err("a static model has no gain".into());
@@ -640,10 +683,10 @@ fn minimise(
     let params = n * ny;
     let rows: usize = sets.iter().map(|d| d.u.nrows() * ny).sum();
     let per_run = rows as f64 * ((n * n * params) as f64 + 2.0 * (params * params) as f64);
-    let mut runs_left = (MINIMISE_WORK / per_run).floor() as usize;
+    let mut runs_left = (work / per_run).floor() as usize;
     if runs_left < 3 {
         return Err(format!(
-            "its predictor runs would cost {per_run:.2e} operations each, more than a third of {MINIMISE_WORK:.0e}"
+            "its predictor runs would cost {per_run:.2e} operations each, more than a third of {work:.0e}"
         ));
     }
     let runs = ExactRuns::new(model, sets, x0s, spread);
@@ -889,20 +932,23 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
     /// that accepted it (the same number: the squares summed in the same
     /// order), else by a run.
     fn final_cost(&self, k: &DMatrix<f64>, errors: Option<&[Vec<f64>]>) -> Result<f64, String> {
-        match errors {
-            Some(errors) => {
-                let mut err = vec![0.0; self.model.n_outputs()];
-                for record in errors {
-                    for eps in record.chunks_exact(err.len()) {
-                        for (e, v) in err.iter_mut().zip(eps) {
-                            *e += v * v;
+        lifted_linalg::simd::dispatch(
+            #[inline(always)]
+            || match errors {
+                Some(errors) => {
+                    let mut err = vec![0.0; self.model.n_outputs()];
+                    for record in errors {
+                        for eps in record.chunks_exact(err.len()) {
+                            for (e, v) in err.iter_mut().zip(eps) {
+                                *e += v * v;
+                            }
                         }
                     }
+                    normalised_cost(&err, self.spread)
                 }
-                normalised_cost(&err, self.spread)
-            }
-            None => prediction_cost(self.model, k, self.sets, self.x0s, self.spread),
-        }
+                None => prediction_cost(self.model, k, self.sets, self.x0s, self.spread),
+            },
+        )
     }
 }
 
@@ -916,7 +962,7 @@ impl<'a, 'r> ExactRuns<'a, 'r> {
 /// a lower cost over the records, until a decrease below `tolerance` or
 /// `max_iterations`. Returns the gain, its cost ([`prediction_cost`]), the
 /// iterations on the records and the covariance form's; `None` when the
-/// route cannot be taken (its work beyond [`MINIMISE_WORK`]) or does not
+/// route cannot be taken (its work beyond [`GainCheckOptions::minimise_work`]) or does not
 /// end below `start_cost` (then Levenberg–Marquardt runs as before).
 /// Records with every output measured (the errors of a constant K are
 /// then a filter of those of the start). O(N n_y² log N) for the
@@ -929,9 +975,13 @@ fn minimise_from_covariances(
     start: &DMatrix<f64>,
     base: &[Vec<f64>],
     start_cost: f64,
-    limits: (f64, usize),
+    limits: Limits,
 ) -> Option<(DMatrix<f64>, f64, usize, usize)> {
-    let (tolerance, max_iterations) = limits;
+    let Limits {
+        tolerance,
+        max_iterations,
+        work,
+    } = limits;
     let model = runs.model;
     let (n, ny) = (model.order(), model.n_outputs());
     if n == 0 {
@@ -945,7 +995,7 @@ fn minimise_from_covariances(
     let lags = crate::error_covariance::MAX_LAGS.min(longest.saturating_sub(1)) as f64;
     let per_evaluation =
         6.0 * lags * ((n * n * ny + n * ny * ny) as f64) * base.len().max(1) as f64;
-    if ((n * ny + COVARIANCE_ITERATIONS) as f64) * per_evaluation > MINIMISE_WORK {
+    if ((n * ny + COVARIANCE_ITERATIONS) as f64) * per_evaluation > work {
         return None;
     }
     // The start's one-step errors (its predictor is stable), of which
@@ -1134,82 +1184,89 @@ fn regression_gain(
     model: &StateSpace,
     sets: &[Experiment<'_>],
     past: usize,
+    varx_work: f64,
     memo: &mut VarxMemo,
 ) -> Result<(DMatrix<f64>, usize), String> {
-    let (nu, ny) = (model.n_inputs(), model.n_outputs());
-    let nz = nu + ny;
-    let total: usize = sets.iter().map(|d| d.u.nrows()).sum();
-    let cols = |p: usize| (p * nz + nu) as f64;
-    // The longest VARX within the work bound with ten samples per
-    // regressor in every record.
-    let shortest = sets.iter().map(|d| d.u.nrows()).min().unwrap_or(0);
-    let order = (1..=past.max(1))
-        .rev()
-        .find(|&p| {
-            total as f64 * cols(p) * cols(p) <= VARX_WORK && shortest > p + 10 * (p * nz + nu)
-        })
-        .ok_or_else(|| "the records are too short for a VARX".to_string())?;
-    // u(t) among the regressors only for a model with a direct
-    // feedthrough: under a controller reacting within the sample it would
-    // carry the innovation into the regression.
-    let direct = model.d().iter().any(|v| *v != 0.0);
-    // The VARX's records: the memo's source when it has the check's
-    // shapes (every model of a record then shares its innovations), else
-    // the records as given.
-    let fits = |c: &[CentredRecord]| {
-        c.len() == sets.len()
-            && c.iter()
-                .zip(sets)
-                .all(|((u, y), d)| u.shape() == d.u.shape() && y.shape() == d.y.shape())
-    };
-    // Keyed by the records' hash and whether they were centred (a record
-    // given as it is and the same record centred are different VARX data).
-    let (hash, varx_sets): ((u64, bool), Vec<Experiment<'_>>) = match &memo.source {
-        Some((h, c)) if fits(c) => (
-            (*h, true),
-            c.iter().map(|(u, y)| Experiment { u, y }).collect(),
-        ),
-        _ => ((records_hash(sets), false), sets.to_vec()),
-    };
-    let found = memo
-        .kept
-        .iter()
-        .position(|(h, o, d, _)| (*h, *o, *d) == (hash, order, direct));
-    let at = match found {
-        Some(at) => at,
-        None => {
-            let e = varx_innovations(&varx_sets, order, direct)?;
-            memo.computed += 1;
-            if memo.kept.len() == MEMO_ENTRIES {
-                memo.kept.remove(0);
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (nu, ny) = (model.n_inputs(), model.n_outputs());
+            let nz = nu + ny;
+            let total: usize = sets.iter().map(|d| d.u.nrows()).sum();
+            let cols = |p: usize| (p * nz + nu) as f64;
+            // The longest VARX within the work bound with ten samples per
+            // regressor in every record.
+            let shortest = sets.iter().map(|d| d.u.nrows()).min().unwrap_or(0);
+            let order = (1..=past.max(1))
+                .rev()
+                .find(|&p| {
+                    total as f64 * cols(p) * cols(p) <= varx_work
+                        && shortest > p + 10 * (p * nz + nu)
+                })
+                .ok_or_else(|| "the records are too short for a VARX".to_string())?;
+            // u(t) among the regressors only for a model with a direct
+            // feedthrough: under a controller reacting within the sample it would
+            // carry the innovation into the regression.
+            let direct = model.d().iter().any(|v| *v != 0.0);
+            // The VARX's records: the memo's source when it has the check's
+            // shapes (every model of a record then shares its innovations), else
+            // the records as given.
+            let fits = |c: &[CentredRecord]| {
+                c.len() == sets.len()
+                    && c.iter()
+                        .zip(sets)
+                        .all(|((u, y), d)| u.shape() == d.u.shape() && y.shape() == d.y.shape())
+            };
+            // Keyed by the records' hash and whether they were centred (a record
+            // given as it is and the same record centred are different VARX data).
+            let (hash, varx_sets): ((u64, bool), Vec<Experiment<'_>>) = match &memo.source {
+                Some((h, c)) if fits(c) => (
+                    (*h, true),
+                    c.iter().map(|(u, y)| Experiment { u, y }).collect(),
+                ),
+                _ => ((records_hash(sets), false), sets.to_vec()),
+            };
+            let found = memo
+                .kept
+                .iter()
+                .position(|(h, o, d, _)| (*h, *o, *d) == (hash, order, direct));
+            let at = match found {
+                Some(at) => at,
+                None => {
+                    let e = varx_innovations(&varx_sets, order, direct)?;
+                    memo.computed += 1;
+                    if memo.kept.len() == MEMO_ENTRIES {
+                        memo.kept.remove(0);
+                    }
+                    memo.kept.push((hash, order, direct, e));
+                    memo.kept.len() - 1
+                }
+            };
+            let innovations = &memo.kept[at].3;
+            let a = model.a();
+            let c = model.c();
+            let mut targets = Vec::with_capacity(sets.len());
+            for (d, e) in sets.iter().zip(innovations) {
+                let len = d.u.nrows() - order;
+                let u = d.u.rows(order, len).into_owned();
+                let y = d.y.rows(order, len).into_owned();
+                let sim = model.lsim_outputs(&u, None).map_err(|e| e.to_string())?;
+                targets.push(y - sim - e);
             }
-            memo.kept.push((hash, order, direct, e));
-            memo.kept.len() - 1
-        }
-    };
-    let innovations = &memo.kept[at].3;
-    let a = model.a();
-    let c = model.c();
-    let mut targets = Vec::with_capacity(sets.len());
-    for (d, e) in sets.iter().zip(innovations) {
-        let len = d.u.nrows() - order;
-        let u = d.u.rows(order, len).into_owned();
-        let y = d.y.rows(order, len).into_owned();
-        let sim = model.lsim_outputs(&u, None).map_err(|e| e.to_string())?;
-        targets.push(y - sim - e);
-    }
-    let recs: Vec<Record<'_>> = innovations
-        .iter()
-        .zip(&targets)
-        .map(|(e, r)| Record {
-            u: e,
-            y: r,
-            instrument: None,
-        })
-        .collect();
-    let fit = estimate_bd(a, c, &recs, &Feedthrough::Zero, InitialState::Estimate)
-        .map_err(|e| format!("the regression of K failed ({e})"))?;
-    Ok((fit.b, order))
+            let recs: Vec<Record<'_>> = innovations
+                .iter()
+                .zip(&targets)
+                .map(|(e, r)| Record {
+                    u: e,
+                    y: r,
+                    instrument: None,
+                })
+                .collect();
+            let fit = estimate_bd(a, c, &recs, &Feedthrough::Zero, InitialState::Estimate)
+                .map_err(|e| format!("the regression of K failed ({e})"))?;
+            Ok((fit.b, order))
+        },
+    )
 }
 
 /// The one-step prediction errors of a VARX of order `p` fitted to all
@@ -1223,83 +1280,92 @@ fn varx_innovations(
     p: usize,
     direct: bool,
 ) -> Result<Vec<DMatrix<f64>>, String> {
-    let (nu, ny) = (sets[0].u.ncols(), sets[0].y.ncols());
-    let nz = nu + ny;
-    let nd = if direct { nu } else { 0 };
-    let width = p * nz + nd;
-    // Rows t0 … t0 + rows − 1 of record d into block rows at … at + rows − 1:
-    // row t is [z(t−1) … z(t−p), u(t) | y(t)], filled a column segment at a
-    // time (contiguous copies of the column-major records).
-    let fill = |d: &Experiment<'_>, t0: usize, rows: usize, block: &mut DMatrix<f64>, at: usize| {
-        let (u, y) = (d.u, d.y);
-        for lag in 1..=p {
-            let base = (lag - 1) * nz;
-            for j in 0..nu {
-                block
-                    .view_mut((at, base + j), (rows, 1))
-                    .copy_from(&u.view((t0 - lag, j), (rows, 1)));
+    lifted_linalg::simd::dispatch(
+        #[inline(always)]
+        || {
+            let (nu, ny) = (sets[0].u.ncols(), sets[0].y.ncols());
+            let nz = nu + ny;
+            let nd = if direct { nu } else { 0 };
+            let width = p * nz + nd;
+            // Rows t0 … t0 + rows − 1 of record d into block rows at … at + rows − 1:
+            // row t is [z(t−1) … z(t−p), u(t) | y(t)], filled a column segment at a
+            // time (contiguous copies of the column-major records).
+            let fill = |d: &Experiment<'_>,
+                        t0: usize,
+                        rows: usize,
+                        block: &mut DMatrix<f64>,
+                        at: usize| {
+                let (u, y) = (d.u, d.y);
+                for lag in 1..=p {
+                    let base = (lag - 1) * nz;
+                    for j in 0..nu {
+                        block
+                            .view_mut((at, base + j), (rows, 1))
+                            .copy_from(&u.view((t0 - lag, j), (rows, 1)));
+                    }
+                    for j in 0..ny {
+                        block
+                            .view_mut((at, base + nu + j), (rows, 1))
+                            .copy_from(&y.view((t0 - lag, j), (rows, 1)));
+                    }
+                }
+                for j in 0..nd {
+                    block
+                        .view_mut((at, p * nz + j), (rows, 1))
+                        .copy_from(&u.view((t0, j), (rows, 1)));
+                }
+                for j in 0..ny {
+                    block
+                        .view_mut((at, width + j), (rows, 1))
+                        .copy_from(&y.view((t0, j), (rows, 1)));
+                }
+            };
+            let mut acc = lifted_linalg::RAccumulator::new(width + ny);
+            let mut block = DMatrix::zeros(BLOCK_ROWS, width + ny);
+            let mut filled = 0;
+            for d in sets {
+                let mut t = p;
+                while t < d.u.nrows() {
+                    if filled == BLOCK_ROWS {
+                        acc.push_rows(&block).map_err(|e| e.to_string())?;
+                        filled = 0;
+                    }
+                    let take = (BLOCK_ROWS - filled).min(d.u.nrows() - t);
+                    fill(d, t, take, &mut block, filled);
+                    filled += take;
+                    t += take;
+                }
             }
-            for j in 0..ny {
-                block
-                    .view_mut((at, base + nu + j), (rows, 1))
-                    .copy_from(&y.view((t0 - lag, j), (rows, 1)));
+            acc.push_rows(&block.rows(0, filled).into_owned())
+                .map_err(|e| e.to_string())?;
+            let r = acc.r();
+            if r.nrows() < width + ny {
+                return Err("the records are too short for the VARX".into());
             }
-        }
-        for j in 0..nd {
-            block
-                .view_mut((at, p * nz + j), (rows, 1))
-                .copy_from(&u.view((t0, j), (rows, 1)));
-        }
-        for j in 0..ny {
-            block
-                .view_mut((at, width + j), (rows, 1))
-                .copy_from(&y.view((t0, j), (rows, 1)));
-        }
-    };
-    let mut acc = lifted_linalg::RAccumulator::new(width + ny);
-    let mut block = DMatrix::zeros(BLOCK_ROWS, width + ny);
-    let mut filled = 0;
-    for d in sets {
-        let mut t = p;
-        while t < d.u.nrows() {
-            if filled == BLOCK_ROWS {
-                acc.push_rows(&block).map_err(|e| e.to_string())?;
-                filled = 0;
+            let theta = lifted_linalg::lstsq(
+                &r.view((0, 0), (width, width)).into_owned(),
+                &r.view((0, width), (width, ny)).into_owned(),
+            )
+            .map_err(|e| format!("the VARX failed ({e})"))?;
+            // The residuals block by block: ê = y − [z(t−1) … z(t−p), u(t)] θ.
+            let mut out = Vec::with_capacity(sets.len());
+            for d in sets {
+                let len = d.u.nrows() - p;
+                let mut e = DMatrix::zeros(len, ny);
+                let mut t = p;
+                while t < d.u.nrows() {
+                    let take = BLOCK_ROWS.min(d.u.nrows() - t);
+                    fill(d, t, take, &mut block, 0);
+                    let mut rows = e.view_mut((t - p, 0), (take, ny));
+                    rows.copy_from(&block.view((0, width), (take, ny)));
+                    rows.gemm(-1.0, &block.view((0, 0), (take, width)), &theta, 1.0);
+                    t += take;
+                }
+                out.push(e);
             }
-            let take = (BLOCK_ROWS - filled).min(d.u.nrows() - t);
-            fill(d, t, take, &mut block, filled);
-            filled += take;
-            t += take;
-        }
-    }
-    acc.push_rows(&block.rows(0, filled).into_owned())
-        .map_err(|e| e.to_string())?;
-    let r = acc.r();
-    if r.nrows() < width + ny {
-        return Err("the records are too short for the VARX".into());
-    }
-    let theta = lifted_linalg::lstsq(
-        &r.view((0, 0), (width, width)).into_owned(),
-        &r.view((0, width), (width, ny)).into_owned(),
+            Ok(out)
+        },
     )
-    .map_err(|e| format!("the VARX failed ({e})"))?;
-    // The residuals block by block: ê = y − [z(t−1) … z(t−p), u(t)] θ.
-    let mut out = Vec::with_capacity(sets.len());
-    for d in sets {
-        let len = d.u.nrows() - p;
-        let mut e = DMatrix::zeros(len, ny);
-        let mut t = p;
-        while t < d.u.nrows() {
-            let take = BLOCK_ROWS.min(d.u.nrows() - t);
-            fill(d, t, take, &mut block, 0);
-            let mut rows = e.view_mut((t - p, 0), (take, ny));
-            rows.copy_from(&block.view((0, width), (take, ny)));
-            rows.gemm(-1.0, &block.view((0, 0), (take, width)), &theta, 1.0);
-            t += take;
-        }
-        out.push(e);
-    }
-    Ok(out)
 }
 
 /// The initial state of each record that `lifted validate` simulates

@@ -193,7 +193,9 @@ pub(crate) fn add_run_facts(
 
 /// Records the options the run was given (`diagnostics.options`: the
 /// serialised [`crate::WorkflowOptions`], `null` where a default is
-/// resolved by the route, which the route's own entries then report) and
+/// resolved by the route, which the route's own entries then report), the
+/// work budgets (`diagnostics.budgets`: [`crate::Budgets`] with the
+/// Kalman-gain check's two) and
 /// the selection policy an automatic order was picked by
 /// (`diagnostics.selection_policy`: [`crate::SelectionOptions`]; nothing
 /// when the order was given): the configuration that made a model, as
@@ -208,6 +210,10 @@ pub(crate) fn add_selection_policy(
     if let Ok(o) = serde_json::to_value(opts) {
         obj.insert("options".into(), o);
     }
+    obj.insert(
+        "budgets".into(),
+        opts.budgets.to_json(&opts.identification.gain_check),
+    );
     if opts.identification.order == crate::Order::Auto {
         obj.insert(
             "selection_policy".into(),

@@ -160,10 +160,10 @@ pub use error::{Error, Result};
 pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
 pub use multirate_start::{MULTIRATE_START_SAMPLES, START_INTERPOLATED, START_LIFTED};
 pub use options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BdRoute, DataOptions, Detrend,
-    Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order, OrderCriterion,
-    REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine, RefinementOptions,
-    SelectionOptions, ValidationOptions, WorkflowOptions,
+    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BUDGET_NAMES, BdRoute, Budgets,
+    DataOptions, Detrend, Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order,
+    OrderCriterion, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine,
+    RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};

@@ -175,6 +175,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
             GainCheckWith {
                 past: 0,
                 options: &opts.identification.gain_check,
+                most_samples: opts.budgets.gain_check_samples,
                 memo: None,
                 records_hash: None,
             },

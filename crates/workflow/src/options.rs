@@ -18,7 +18,148 @@ pub struct WorkflowOptions {
     pub refinement: RefinementOptions,
     /// What the run checks of its model before returning it.
     pub validation: ValidationOptions,
+    /// Where the default route stops spending work (the automatic
+    /// refinement, its held-out check, the Kalman-gain check's records):
+    /// [`Budgets`]; recorded in `diagnostics.budgets`.
+    pub budgets: Budgets,
 }
+
+/// The work and record-length budgets of the default route: above each,
+/// a stage that would cost more is skipped (or judged more cheaply) and
+/// the diagnostics say so. They decide which model a long record gets, so
+/// each is a parameter with its default's derivation; none was fitted to a
+/// benchmark's validation halves (they bound *time*: about a second of one
+/// core of the benchmark machine, where ≈ 4e9 operations of the cost
+/// models run a second). The Kalman-gain check's own two budgets are
+/// [`lifted_subspace::GainCheckOptions::varx_work`] and
+/// [`lifted_subspace::GainCheckOptions::minimise_work`]. Every run records
+/// the values it used in `diagnostics.budgets`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Budgets {
+    /// [`Refine::Auto`] refines when the refinement's predicted work is at
+    /// most this (operations). Default [`AUTO_REFINE_WORK`], 4e9.
+    pub auto_refine_work: f64,
+    /// The same for the joint iterations of multirate records. Default
+    /// [`AUTO_REFINE_WORK_JOINT`], 8e9.
+    pub auto_refine_work_joint: f64,
+    /// [`Refine::Auto`] always refines (a stable estimate) records shorter
+    /// than this (samples, all records). Default [`AUTO_REFINE_SAMPLES`].
+    pub auto_refine_samples: usize,
+    /// Records up to this many samples have a refinement judged on
+    /// held-out blocks. Default [`REFINE_CHECK_SAMPLES`].
+    pub refine_check_samples: usize,
+    /// Work (six fold refinements together) up to which that held-out
+    /// check runs; twice it bounds the refined shortlist. Default
+    /// [`REFINE_CHECK_WORK`], 4e9.
+    pub refine_check_work: f64,
+    /// Records up to this many samples get the single-rate Kalman-gain
+    /// check and the feedthrough test (the streamed route loads them).
+    /// Default [`GAIN_CHECK_SAMPLES`].
+    pub gain_check_samples: usize,
+}
+
+impl Default for Budgets {
+    fn default() -> Self {
+        Budgets {
+            auto_refine_work: AUTO_REFINE_WORK,
+            auto_refine_work_joint: AUTO_REFINE_WORK_JOINT,
+            auto_refine_samples: AUTO_REFINE_SAMPLES,
+            refine_check_samples: REFINE_CHECK_SAMPLES,
+            refine_check_work: REFINE_CHECK_WORK,
+            gain_check_samples: GAIN_CHECK_SAMPLES,
+        }
+    }
+}
+
+impl Budgets {
+    /// Checks the values: every work budget finite and positive.
+    pub fn check(&self) -> crate::Result<()> {
+        for (name, v) in [
+            ("auto_refine_work", self.auto_refine_work),
+            ("auto_refine_work_joint", self.auto_refine_work_joint),
+            ("refine_check_work", self.refine_check_work),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(crate::Error::option(
+                    name,
+                    format!("must be a positive number of operations, got {v}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The budgets with the Kalman-gain check's two, as a diagnostics
+    /// object.
+    pub fn to_json(&self, gain: &lifted_subspace::GainCheckOptions) -> serde_json::Value {
+        serde_json::json!({
+            "auto_refine_work": self.auto_refine_work,
+            "auto_refine_work_joint": self.auto_refine_work_joint,
+            "auto_refine_samples": self.auto_refine_samples,
+            "refine_check_samples": self.refine_check_samples,
+            "refine_check_work": self.refine_check_work,
+            "gain_check_samples": self.gain_check_samples,
+            "gain_check_varx_work": gain.varx_work,
+            "gain_check_minimise_work": gain.minimise_work,
+        })
+    }
+
+    /// Sets one budget by its name in `diagnostics.budgets` (the keys of
+    /// [`Self::to_json`], the gain check's two into `gain`), as the
+    /// command line's `--budget name=value` and Python's `budgets={…}`
+    /// give them; an unknown name or a value of the wrong kind is an
+    /// error naming it.
+    pub fn set(
+        &mut self,
+        gain: &mut lifted_subspace::GainCheckOptions,
+        name: &str,
+        value: f64,
+    ) -> crate::Result<()> {
+        let whole = |v: f64| -> crate::Result<usize> {
+            if v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v <= 1e15 {
+                Ok(v as usize)
+            } else {
+                Err(crate::Error::option(
+                    "budget",
+                    format!("{name}: a whole number of samples, got {v}"),
+                ))
+            }
+        };
+        match name {
+            "auto_refine_work" => self.auto_refine_work = value,
+            "auto_refine_work_joint" => self.auto_refine_work_joint = value,
+            "auto_refine_samples" => self.auto_refine_samples = whole(value)?,
+            "refine_check_samples" => self.refine_check_samples = whole(value)?,
+            "refine_check_work" => self.refine_check_work = value,
+            "gain_check_samples" => self.gain_check_samples = whole(value)?,
+            "gain_check_varx_work" => gain.varx_work = value,
+            "gain_check_minimise_work" => gain.minimise_work = value,
+            other => {
+                return Err(crate::Error::option(
+                    "budget",
+                    format!(
+                        "unknown budget {other:?}; the budgets are {}",
+                        BUDGET_NAMES.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The names [`Budgets::set`] takes.
+pub const BUDGET_NAMES: [&str; 8] = [
+    "auto_refine_work",
+    "auto_refine_work_joint",
+    "auto_refine_samples",
+    "refine_check_samples",
+    "refine_check_work",
+    "gain_check_samples",
+    "gain_check_varx_work",
+    "gain_check_minimise_work",
+];
 
 /// Data layout and preprocessing.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -692,6 +833,18 @@ impl WorkflowOptions {
             ));
         }
         id.selection.check()?;
+        self.budgets.check()?;
+        for (name, v) in [
+            ("gain_check_varx_work", id.gain_check.varx_work),
+            ("gain_check_minimise_work", id.gain_check.minimise_work),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::option(
+                    name,
+                    format!("must be a positive number of operations, got {v}"),
+                ));
+            }
+        }
         let r = &self.refinement;
         r.check
             .check()

@@ -9,9 +9,7 @@ use crate::diagnostics::{add_phase, add_run_facts};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
 use crate::multirate_start;
-use crate::options::{
-    Detrend, GAIN_CHECK_SAMPLES, Method, REFINE_CHECK_SAMPLES, Refine, WorkflowOptions,
-};
+use crate::options::{Detrend, Method, Refine, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrended, deviations};
 use crate::refine::{HeldOutCheck, refine};
 use crate::routes::{self, RouteDetails, RouteFit};
@@ -266,7 +264,9 @@ fn run(
                     .collect::<Result<_>>()?;
                 operating_point = fit.operating_point.clone();
                 std::mem::replace(&mut sets, dev)
-            } else if sets.iter().map(Dataset::len).sum::<usize>() <= REFINE_CHECK_SAMPLES {
+            } else if sets.iter().map(Dataset::len).sum::<usize>()
+                <= opts.budgets.refine_check_samples
+            {
                 sets.clone()
             } else {
                 Vec::new()
@@ -285,6 +285,7 @@ fn run(
                 GainCheckWith {
                     past: used.past,
                     options: &opts.identification.gain_check,
+                    most_samples: opts.budgets.gain_check_samples,
                     memo: cache.as_deref_mut().map(|c| &mut c.gain),
                     records_hash,
                 },
@@ -344,6 +345,7 @@ fn run(
                     GainCheckWith {
                         past: alpha,
                         options: &opts.identification.gain_check,
+                        most_samples: opts.budgets.gain_check_samples,
                         memo: None,
                         records_hash: None,
                     },
@@ -426,6 +428,7 @@ fn run(
             GainCheckWith {
                 past: 0,
                 options: &opts.identification.gain_check,
+                most_samples: opts.budgets.gain_check_samples,
                 memo: None,
                 records_hash: None,
             },
@@ -525,6 +528,9 @@ pub(crate) struct GainCheckWith<'a> {
     pub past: usize,
     /// When the iterations over K stop.
     pub options: &'a lifted_subspace::GainCheckOptions,
+    /// Records of more samples keep the subspace step's gain
+    /// ([`crate::Budgets::gain_check_samples`]).
+    pub most_samples: usize,
     /// The innovations kept between calls (a front end's
     /// [`SubspaceCache`]): the same gain bit for bit as without it.
     pub memo: Option<&'a mut lifted_subspace::VarxMemo>,
@@ -556,11 +562,12 @@ pub(crate) fn checked_gain(
     let GainCheckWith {
         past,
         options,
+        most_samples,
         memo,
         records_hash,
     } = check;
     let samples: usize = sets.iter().map(Dataset::len).sum();
-    if samples > GAIN_CHECK_SAMPLES {
+    if samples > most_samples {
         return gain;
     }
     let exps: Vec<lifted_subspace::Experiment<'_>> = sets

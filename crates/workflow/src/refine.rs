@@ -19,10 +19,7 @@ use serde_json::json;
 
 use crate::diagnostics::push_warning;
 use crate::error::{Context, Result};
-use crate::options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, REFINE_CHECK_SAMPLES,
-    REFINE_CHECK_WORK, Refine, WorkflowOptions,
-};
+use crate::options::{Refine, WorkflowOptions};
 use crate::validate::spectral_radius;
 
 /// What the refinement's noise model is, and when it is consistent under
@@ -148,6 +145,7 @@ pub(crate) const START_NOT_EFFICIENT: &str = "start_not_efficient";
 /// the route's [`START_NOT_EFFICIENT`] reason, when it gave one (refined up
 /// to `max_work`).
 pub(crate) fn auto_decision(
+    budgets: &crate::Budgets,
     model: &StateSpace,
     samples: usize,
     work: Option<PemWorkEstimate>,
@@ -186,8 +184,11 @@ pub(crate) fn auto_decision(
     // About one second of either method (their operations run at
     // different rates).
     let (limit, what) = match method {
-        PemMethod::Joint => (AUTO_REFINE_WORK_JOINT, " (joint iterations: multirate)"),
-        PemMethod::VariableProjection => (AUTO_REFINE_WORK, ""),
+        PemMethod::Joint => (
+            budgets.auto_refine_work_joint,
+            " (joint iterations: multirate)",
+        ),
+        PemMethod::VariableProjection => (budgets.auto_refine_work, ""),
     };
     if let Some(why) = not_efficient {
         return (
@@ -197,11 +198,12 @@ pub(crate) fn auto_decision(
             ),
         );
     }
-    if work <= limit || samples < AUTO_REFINE_SAMPLES {
+    let few = budgets.auto_refine_samples;
+    if work <= limit || samples < few {
         (
             true,
             format!(
-                "refined by the prediction error: predicted work {work:.2e} operations{what} (refined by default up to {limit:.0e}, or always below {AUTO_REFINE_SAMPLES} samples)"
+                "refined by the prediction error: predicted work {work:.2e} operations{what} (refined by default up to {limit:.0e}, or always below {few} samples)"
             ),
         )
     } else {
@@ -255,6 +257,7 @@ pub(crate) fn auto_allows(
         .and_then(|v| v.as_str())
         .map(str::to_owned);
     let (go, why) = auto_decision(
+        &opts.budgets,
         model,
         samples,
         work(&pem),
@@ -394,6 +397,7 @@ pub struct HeldOutCheck<'a> {
 /// [`REFINE_CHECK_WORK`]; `Err(reason)` otherwise (`None`: nothing to say,
 /// no check offered).
 fn check_applies<'a>(
+    budgets: &crate::Budgets,
     check: Option<HeldOutCheck<'a>>,
     model: &StateSpace,
     stabilized: bool,
@@ -403,9 +407,10 @@ fn check_applies<'a>(
     let marginal = pem.marginal_tolerance;
     let check = check?;
     let samples: usize = check.sets.iter().map(Dataset::len).sum();
-    if samples > REFINE_CHECK_SAMPLES {
+    let most = budgets.refine_check_samples;
+    if samples > most {
         return Some(Err(format!(
-            "{samples} samples: records of more than {REFINE_CHECK_SAMPLES} are judged on themselves"
+            "{samples} samples: records of more than {most} are judged on themselves"
         )));
     }
     if stabilized || spectral_radius(model).map_or(true, |r| r >= 1.0 + marginal) {
@@ -414,9 +419,10 @@ fn check_applies<'a>(
     let work = pem_work_estimate(model, records, pem)
         .map(|w| w.typical * CHECK_BLOCKS as f64 * 5.0 / 6.0)
         .unwrap_or(f64::INFINITY);
-    if work > REFINE_CHECK_WORK {
+    let budget = budgets.refine_check_work;
+    if work > budget {
         return Some(Err(format!(
-            "the {CHECK_BLOCKS} fold refinements would cost {work:.2e} operations, more than {REFINE_CHECK_WORK:.0e}"
+            "the {CHECK_BLOCKS} fold refinements would cost {work:.2e} operations, more than {budget:.0e}"
         )));
     }
     Some(Ok(check))
@@ -641,7 +647,7 @@ pub fn refine(
             ),
         ));
     }
-    let held_out = check_applies(check, &model, stabilized, &records, &pem);
+    let held_out = check_applies(&wf.budgets, check, &model, stabilized, &records, &pem);
     let fit = match held_out {
         Some(Ok(check)) => refine_judged_on_blocks(
             &model,

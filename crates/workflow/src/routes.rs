@@ -23,8 +23,8 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::{criterion_json, extraction_json, order_json, pbsid_json, system_name};
 use crate::error::{Context, Error, Result};
 use crate::options::{
-    AUTO_REFINE_WORK_JOINT, BdRoute, Estimator, IdentificationOptions, Method, Order,
-    OrderCriterion, Refine, SelectionOptions, WorkflowOptions, gap_only,
+    BdRoute, Estimator, IdentificationOptions, Method, Order, OrderCriterion, Refine,
+    SelectionOptions, WorkflowOptions, gap_only,
 };
 use crate::refine::stabilized_start;
 use crate::shortlist::{self, Entry, Judge};
@@ -1635,7 +1635,7 @@ pub(crate) fn held_out_mean(
 /// bound allows; or `None` when the run does not refine (`--refine
 /// none`), fewer than two orders were refined, or the refinements
 /// together are predicted to cost more than two default refinements
-/// ([`AUTO_REFINE_WORK_JOINT`] each, about 2 s). O(shortlist + unstable)
+/// ([`crate::Budgets::auto_refine_work_joint`] each, about 2 s). O(shortlist + unstable)
 /// refinements of 2N/3 samples.
 fn refined_shortlist(
     ranking: &[(usize, f64)],
@@ -1685,7 +1685,7 @@ fn refined_shortlist(
         let pem = crate::refine::pem_options(wf, fast, cost, false);
         let w = lifted_pem::pem_work_estimate(fast, &records, &pem).ok()?;
         work += w.typical;
-        if work > 2.0 * AUTO_REFINE_WORK_JOINT || w.per_iteration > pem.max_work {
+        if work > 2.0 * wf.budgets.auto_refine_work_joint || w.per_iteration > pem.max_work {
             break;
         }
         let Ok(r) = lifted_pem::refine_pem(fast, None, &records, &[], &pem) else {

@@ -27,7 +27,7 @@
 //! Cost: one whole-record identification and one refinement check (six
 //! fold identifications and refinements) per shortlisted order; the
 //! shortlist is cut where the predicted work of its checks would pass
-//! [`SHORTLIST_WORK`] (about 2 s), and is not judged at all with fewer than
+//! [`shortlist_work`] (about 2 s), and is not judged at all with fewer than
 //! two orders (the selection's choice stands).
 
 use lifted_lti::StateSpace;
@@ -38,15 +38,15 @@ use lifted_subspace::{Candidate, Experiment, SubspaceModel, SubspaceOptions};
 use serde_json::json;
 
 use crate::diagnostics::system_name;
-use crate::options::{
-    AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, Order, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine,
-    WorkflowOptions,
-};
+use crate::options::{Order, Refine, WorkflowOptions};
 use crate::refine::{CHECK_BLOCKS, pem_options};
 
 /// Most predicted work of the shortlist's refinement checks together
-/// (operations; about 2 s here).
-pub(crate) const SHORTLIST_WORK: f64 = 2.0 * REFINE_CHECK_WORK;
+/// (operations; about 2 s here): twice the budget of one check
+/// ([`crate::Budgets::refine_check_work`]).
+pub(crate) fn shortlist_work(opts: &WorkflowOptions) -> f64 {
+    2.0 * opts.budgets.refine_check_work
+}
 
 /// A shortlisted structure: its options (order fixed), its selection
 /// candidate and its model on the whole records.
@@ -83,7 +83,7 @@ pub(crate) fn judge_of(
     samples: usize,
     tolerance: f64,
 ) -> Option<Judge<'_>> {
-    if opts.identification.order != Order::Auto || samples > REFINE_CHECK_SAMPLES {
+    if opts.identification.order != Order::Auto || samples > opts.budgets.refine_check_samples {
         return None;
     }
     let cost = match opts.refinement.refine {
@@ -110,17 +110,17 @@ fn check_work(
     let work = pem_work_estimate_of_sizes(model, sizes, &pem)
         .map_err(|e| format!("its refinement work could not be predicted ({e})"))?;
     if opts.refinement.refine == Refine::Auto {
-        // The default refines below AUTO_REFINE_SAMPLES samples or within
-        // AUTO_REFINE_WORK (crate::refine::auto_decision).
+        // The default refines below the budget's auto_refine_samples or
+        // within its auto_refine_work (crate::refine::auto_decision).
         let samples: usize = sizes.iter().sum();
         let limit = match pem.method {
-            PemMethod::VariableProjection => AUTO_REFINE_WORK,
+            PemMethod::VariableProjection => opts.budgets.auto_refine_work,
             PemMethod::Joint => return Err("its refinement would use joint iterations".into()),
         };
         if work.per_iteration > pem.max_work {
             return Err("one iteration of its refinement is over the work bound".into());
         }
-        if work.typical > limit && samples >= AUTO_REFINE_SAMPLES {
+        if work.typical > limit && samples >= opts.budgets.auto_refine_samples {
             return Err("it would not be refined by default (predicted work)".into());
         }
     }
@@ -172,15 +172,17 @@ pub(crate) fn judge(
                 break;
             }
         };
-        if work > REFINE_CHECK_WORK {
+        let budget = opts.budgets.refine_check_work;
+        if work > budget {
             cut = format!(
-                "order {order}: its check would cost {work:.2e} operations, more than {REFINE_CHECK_WORK:.0e}"
+                "order {order}: its check would cost {work:.2e} operations, more than {budget:.0e}"
             );
             break;
         }
-        if total + work > SHORTLIST_WORK {
+        if total + work > shortlist_work(opts) {
             cut = format!(
-                "order {order}: the checks would cost more than {SHORTLIST_WORK:.0e} operations together"
+                "order {order}: the checks would cost more than {:.0e} operations together",
+                shortlist_work(opts)
             );
             break;
         }

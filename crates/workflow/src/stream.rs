@@ -20,7 +20,6 @@ use crate::diagnostics::{add_phase, add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
-use crate::options::{GAIN_CHECK_SAMPLES, REFINE_CHECK_SAMPLES};
 use crate::pipeline::{Identified, checked_gain};
 use crate::preprocess::{ChannelScales, SCALE_ROWS, deviations};
 use crate::refine::{
@@ -281,7 +280,7 @@ pub fn identify_streamed(
     let mut zero_chosen = false;
     let (fit, feedthrough) = match crate::feedthrough::settled(id, &fit) {
         Some(said) => (fit, said),
-        None if n_rows <= GAIN_CHECK_SAMPLES => {
+        None if n_rows <= opts.budgets.gain_check_samples => {
             let record = source.load()?;
             // The in-memory route's options at the order found, so that
             // both routes compare the same D = 0 model.
@@ -311,7 +310,8 @@ pub fn identify_streamed(
         None => (
             fit,
             json!(format!(
-                "D estimated (the streamed route's default for records over {GAIN_CHECK_SAMPLES} samples: the in-memory route's test of D against D = 0 would need more passes over the file; --feedthrough false fixes D = 0)"
+                "D estimated (the streamed route's default for records over {} samples: the in-memory route's test of D against D = 0 would need more passes over the file; --feedthrough false fixes D = 0)",
+                opts.budgets.gain_check_samples
             )),
         ),
     };
@@ -352,7 +352,7 @@ pub fn identify_streamed(
     let refines = refinement_cost(opts, &d).is_some() && allowed;
     // The record in memory (and its deviations from the model's operating
     // point) when the gain is checked on it or the model refined on it.
-    let loaded = if refines || n_rows <= GAIN_CHECK_SAMPLES {
+    let loaded = if refines || n_rows <= opts.budgets.gain_check_samples {
         let record = match early.take() {
             Some(r) => r,
             None => source.load()?,
@@ -374,6 +374,7 @@ pub fn identify_streamed(
             crate::pipeline::GainCheckWith {
                 past: fit.diagnostics.horizons.0,
                 options: &opts.identification.gain_check,
+                most_samples: opts.budgets.gain_check_samples,
                 memo: None,
                 records_hash: None,
             },
@@ -403,7 +404,7 @@ pub fn identify_streamed(
                 },
                 ..base
             };
-            let check = (record.len() <= REFINE_CHECK_SAMPLES).then(|| HeldOutCheck {
+            let check = (record.len() <= opts.budgets.refine_check_samples).then(|| HeldOutCheck {
                 sets: std::slice::from_ref(&record),
                 options: &check_opts,
                 known: None,

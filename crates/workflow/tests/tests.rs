@@ -606,6 +606,70 @@ fn the_default_refines_short_records_and_says_so() {
     assert!(none.file.diagnostics.get("refinement_decision").is_none());
 }
 
+/// Issue 48: the work budgets are parameters. Below the samples budget the
+/// default refines; with both refinement budgets lowered under the
+/// record's size and work it does not, and says which bound; with the gain
+/// check's samples budget under the record the subspace step's gain is
+/// kept. The values used are in `diagnostics.budgets`; bad ones are
+/// refused naming the budget.
+#[test]
+fn the_work_budgets_decide_and_are_recorded() {
+    let (u, y) = record(3000, 0.1, 7);
+    let records = [Record::new(dataset(&u, &y))];
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(3);
+    let auto = identify(&records, &opts).expect("default budgets");
+    let d = &auto.file.diagnostics;
+    assert_eq!(d["budgets"]["auto_refine_samples"], 10_000);
+    assert_eq!(d["budgets"]["gain_check_minimise_work"], 8e9);
+    assert!(d["kalman_gain_route"].is_object(), "{d}");
+    let why = d["refinement_decision"].as_str().unwrap_or_default();
+    assert!(why.starts_with("refined"), "{why}");
+    opts.budgets.auto_refine_samples = 1000;
+    opts.budgets.auto_refine_work = 1.0;
+    opts.budgets.gain_check_samples = 2999;
+    let tight = identify(&records, &opts).expect("tight budgets");
+    let d = &tight.file.diagnostics;
+    let why = d["refinement_decision"].as_str().unwrap_or_default();
+    assert!(
+        why.starts_with("not refined") && why.contains("1e0"),
+        "{why}"
+    );
+    assert!(d.get("refinement").is_none(), "{d}");
+    assert!(d.get("kalman_gain_route").is_none(), "{d}");
+    assert_eq!(d["budgets"]["auto_refine_samples"], 1000);
+    assert_eq!(d["budgets"]["gain_check_samples"], 2999);
+    // The subspace step's gain kept instead of the checked one.
+    assert_ne!(
+        auto.file.kalman_gain_matrix().expect("gain"),
+        tight.file.kalman_gain_matrix().expect("gain")
+    );
+    // Read back from the model file's options as given.
+    let back: WorkflowOptions = serde_json::from_value(d["options"].clone()).expect("options");
+    assert_eq!(back.budgets, opts.budgets);
+    let mut gain = opts.identification.gain_check;
+    let mut b = opts.budgets;
+    let e = b
+        .set(&mut gain, "auto_refine_wrok", 1.0)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("auto_refine_wrok") && e.contains("auto_refine_work"),
+        "{e}"
+    );
+    let e = b
+        .set(&mut gain, "gain_check_samples", 1.5)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gain_check_samples"), "{e}");
+    b.set(&mut gain, "gain_check_minimise_work", 1e9)
+        .expect("a budget");
+    assert_eq!(gain.minimise_work, 1e9);
+    opts.budgets.refine_check_work = -1.0;
+    let e = identify(&records, &opts).unwrap_err().to_string();
+    assert!(e.contains("refine_check_work"), "{e}");
+}
+
 /// A multirate record of `truth` driven by `n` samples of random binary
 /// input held `hold` samples (seed `seed`): output j measured every
 /// `periods[j]` samples (phase 0), with uniform noise of 10 % of its

@@ -203,6 +203,24 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         tolerance: a.selection_tolerance,
         failed_fold: a.failed_fold,
     };
+    for spec in &a.budget {
+        let bad = |why: &str| {
+            input(format!(
+                "--budget {spec}: {why}; the budgets are {}",
+                lifted_workflow::BUDGET_NAMES.join(", ")
+            ))
+        };
+        let (name, value) = spec
+            .split_once('=')
+            .ok_or_else(|| bad("expected NAME=VALUE"))?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| bad("the value is not a number"))?;
+        o.budgets
+            .set(&mut o.identification.gain_check, name.trim(), value)
+            .map_err(cli_error)?;
+    }
     o.validation.require_stable = a.stable;
     Ok(o)
 }
@@ -299,8 +317,12 @@ pub fn files_from_args(a: &IdentifyArgs) -> CliResult<DataFiles> {
 }
 
 /// The command's spelling of a workflow option (`refine_iterations` →
-/// `--refine-iterations`).
+/// `--refine-iterations`; a budget `auto_refine_work` → `--budget
+/// auto_refine_work`).
 fn flag(option: &str) -> String {
+    if lifted_workflow::BUDGET_NAMES.contains(&option) {
+        return format!("--budget {option}");
+    }
     format!("--{}", option.replace('_', "-"))
 }
 

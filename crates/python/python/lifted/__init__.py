@@ -271,6 +271,7 @@ def identify(
     refine_check: str = "margin:3",
     selection: dict[str, float] | None = None,
     gain_covariance_start: bool = True,
+    budgets: dict[str, float] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -378,6 +379,15 @@ def identify(
       line's ``--stable-tries``, ``--shortlist``, ``--shortlist-span``,
       ``--selection-tolerance``, ``--failed-fold``;
       ``diagnostics["selection_policy"]``.
+    * ``budgets``: where the default route stops spending work, a dict with
+      any of ``auto_refine_work`` (operations up to which the default
+      refines, 4e9), ``auto_refine_work_joint`` (multirate, 8e9),
+      ``auto_refine_samples`` (records always refined below, 10000),
+      ``refine_check_samples`` (a refinement judged on held-out blocks up
+      to, 20000), ``refine_check_work`` (4e9), ``gain_check_samples`` (the
+      Kalman-gain check up to, 200000), ``gain_check_varx_work`` (4e9) and
+      ``gain_check_minimise_work`` (8e9); the command line's ``--budget
+      NAME=VALUE``; ``diagnostics["budgets"]``.
     * ``integrator_tolerance``: poles within this distance of the unit circle
       are integrators, kept by the refinement and reported
       (``--integrator-tolerance``; None: 2/N, N the longest record;
@@ -419,7 +429,7 @@ def identify(
             threads=threads, gain_stop_share=gain_stop_share,
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
-            gain_covariance_start=gain_covariance_start,
+            gain_covariance_start=gain_covariance_start, budgets=budgets,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":

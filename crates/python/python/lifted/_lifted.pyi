@@ -298,6 +298,7 @@ def identify(
     refine_check: str = "margin:3",
     selection: dict[str, float] | None = None,
     gain_covariance_start: bool = True,
+    budgets: dict[str, float] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],
