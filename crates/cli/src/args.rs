@@ -752,6 +752,19 @@ pub struct IdentifyArgs {
     /// over the record).
     #[arg(long)]
     pub integrator_tolerance: Option<f64>,
+    /// Take the identification options from a plan instead of the option flags: a model file
+    /// written by `lifted identify` (its `diagnostics.options`, the options that made it) or a
+    /// JSON object of the workflow options (as `--write-plan` writes it; fields left out take
+    /// their defaults, an unknown field is an error). The data flags (--data, --concat,
+    /// --columns, --inputs, --outputs, --instrument, --ts, --output-period) still select the
+    /// records, and the other option flags must be left at their defaults. The same records
+    /// then give the same model, bit for bit.
+    #[arg(long, value_name = "FILE")]
+    pub plan: Option<String>,
+    /// Write the options of this run (its plan: every option with the value used, defaults
+    /// included) to this JSON file, for `--plan`.
+    #[arg(long, value_name = "FILE")]
+    pub write_plan: Option<String>,
     /// Output model file (JSON).
     #[arg(long)]
     pub out: String,

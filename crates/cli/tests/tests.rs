@@ -3797,6 +3797,130 @@ mod faults {
         assert!(why.starts_with("not refined"), "{why}");
     }
 
+    /// Issue 48: `--plan` takes the options from a model file (its
+    /// `diagnostics.options`) or from `--write-plan`'s file, and the same
+    /// records give the same model bit for bit — single-rate with options
+    /// away from the defaults, and a multirate record at the automatic
+    /// order; option flags beside a plan, unknown fields and a model file
+    /// without options are refused naming them.
+    #[test]
+    fn a_plan_reproduces_its_model() {
+        let d = tmp("plan");
+        let (id, _) = single_rate_data(&d);
+        let mr = p(&d, "mr.csv");
+        simulate(&mr, rbs(3000, 5), 3, 1000.0, 4);
+        let strip = |path: &str| -> serde_json::Value {
+            let mut m: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+            m.as_object_mut().unwrap().remove("diagnostics");
+            m
+        };
+        for (data, extra) in [
+            (
+                &id,
+                &[
+                    "--order",
+                    "3",
+                    "--horizon",
+                    "8",
+                    "--refine",
+                    "pem",
+                    "--budget",
+                    "gain_check_minimise_work=1e9",
+                    "--max-order",
+                    "6",
+                ][..],
+            ),
+            (&mr, &["--output-period", "y1=3", "--max-order", "4"][..]),
+        ] {
+            let (first, again, from_plan, plan) = (
+                p(&d, "first.json"),
+                p(&d, "again.json"),
+                p(&d, "from_plan.json"),
+                p(&d, "plan.json"),
+            );
+            let base = [
+                "identify",
+                "--data",
+                data.as_str(),
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+            ];
+            let with = |tail: &[&str]| -> Vec<String> {
+                base.iter().chain(tail).map(|s| s.to_string()).collect()
+            };
+            let run = |args: Vec<String>| {
+                let a: Vec<&str> = args.iter().map(String::as_str).collect();
+                ok(&a);
+            };
+            let mut tail: Vec<&str> = extra.to_vec();
+            tail.extend(["--write-plan", &plan, "--out", &first]);
+            run(with(&tail));
+            // The data flags stay; the options come from the plan.
+            let keep: Vec<&str> = if data == &mr {
+                vec!["--output-period", "y1=3"]
+            } else {
+                vec![]
+            };
+            let mut t = keep.clone();
+            t.extend(["--plan", &first, "--out", &again]);
+            run(with(&t));
+            let mut t = keep.clone();
+            t.extend(["--plan", &plan, "--out", &from_plan]);
+            run(with(&t));
+            assert_eq!(
+                strip(&first),
+                strip(&again),
+                "{data}: the model file's plan"
+            );
+            assert_eq!(
+                strip(&first),
+                strip(&from_plan),
+                "{data}: --write-plan's file"
+            );
+        }
+        // Refusals, one line each.
+        let first = p(&d, "first.json");
+        let out = p(&d, "x.json");
+        let args = |tail: &[&str]| -> Vec<String> {
+            [
+                "identify",
+                "--data",
+                &mr,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+            ]
+            .iter()
+            .chain(tail)
+            .map(|s| s.to_string())
+            .collect()
+        };
+        let refused = |tail: &[&str]| -> String {
+            let a = args(tail);
+            let a: Vec<&str> = a.iter().map(String::as_str).collect();
+            fails(&a, 2)
+        };
+        let e = refused(&["--plan", &first, "--order", "2", "--out", &out]);
+        assert!(e.contains("identification.order"), "{e}");
+        let bad = p(&d, "bad.json");
+        std::fs::write(&bad, r#"{"identification": {"ordr": 3}}"#).unwrap();
+        let e = refused(&["--plan", &bad, "--out", &out]);
+        assert!(e.contains("unknown option identification.ordr"), "{e}");
+        let old = p(&d, "old.json");
+        let mut m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&first).unwrap()).unwrap();
+        m["diagnostics"].as_object_mut().unwrap().remove("options");
+        std::fs::write(&old, m.to_string()).unwrap();
+        let e = refused(&["--plan", &old, "--out", &out]);
+        assert!(e.contains("records no options"), "{e}");
+        let e = refused(&["--plan", &p(&d, "none.json"), "--out", &out]);
+        assert!(e.contains("none.json"), "{e}");
+    }
+
     /// A 2-output model y = (x, 2x), x(k+1) = 0.9x + 0.1u, T = 1 s.
     fn two_outputs() -> StateSpace {
         StateSpace::new(

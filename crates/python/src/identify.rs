@@ -78,7 +78,8 @@ pub(crate) fn horizon_of(
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
-    refine_check="margin:3", selection=None, gain_covariance_start=true, budgets=None))]
+    refine_check="margin:3", selection=None, gain_covariance_start=true, budgets=None,
+    plan=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -112,6 +113,7 @@ pub(crate) fn identify<'py>(
     selection: Option<Bound<'py, PyDict>>,
     gain_covariance_start: bool,
     budgets: Option<Bound<'py, PyDict>>,
+    plan: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -172,6 +174,18 @@ pub(crate) fn identify<'py>(
     }
     if let Some(b) = budgets {
         budgets_into(&b, &mut opts)?;
+    }
+    // A plan (the JSON of a model file or of the options): its options
+    // replace the keywords' (the package's wrapper refuses keywords given
+    // beside it).
+    if let Some(text) = plan {
+        let doc: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+            err(lifted_workflow::Error::InvalidOption {
+                option: "plan",
+                reason: format!("not JSON: {e}"),
+            })
+        })?;
+        opts = lifted_workflow::options_from_plan(&doc).map_err(err)?;
     }
     let fit = run(py, records, opts)?;
     identified_dict(py, &fit, threads)

@@ -416,3 +416,54 @@ def test_budgets_are_a_keyword() -> None:
         lifted.identify(u, y, budgets={"gain_check_samples": True})
     with pytest.raises(lifted.ArgumentError, match="refine_check_work"):
         lifted.identify(u, y, budgets={"refine_check_work": -1.0})
+
+
+def test_a_plan_reproduces_its_model(tmp_path: pathlib.Path) -> None:
+    """``plan`` (``lifted identify --plan``, issue 48): a fit, its diagnostics,
+    a model file written by the command line or a dict of the options give
+    the same model bit for bit on the same record; keywords beside a plan
+    and unknown options are refused naming them."""
+    u, y = _first_order_record(6, 1500, pole=0.9, gain=0.1, noise=0.05)
+    first = lifted.identify(
+        u, y, order=2, horizon=8, refine="pem", budgets={"gain_check_minimise_work": 1e9}
+    )
+    options = first.diagnostics["options"]
+    for plan in (first, first.diagnostics, options, {"options": options}):
+        again = lifted.identify(u, y, plan=plan)
+        for k in ("A", "B", "C", "D"):
+            np.testing.assert_array_equal(
+                np.asarray(getattr(again.model, k)), np.asarray(getattr(first.model, k))
+            )
+        np.testing.assert_array_equal(
+            np.asarray(again.model.kalman_gain), np.asarray(first.model.kalman_gain)
+        )
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps({"options": options}))
+    assert lifted.identify(u, y, plan=str(path)).diagnostics["options"] == options
+    with pytest.raises(lifted.ArgumentError, match="order"):
+        lifted.identify(u, y, order=3, plan=first)
+    with pytest.raises(lifted.ArgumentError, match="identification.ordr"):
+        lifted.identify(u, y, plan={"identification": {"ordr": 2}})
+
+
+def test_a_command_line_model_is_made_again_in_python(tmp_path: pathlib.Path) -> None:
+    """The plan crosses front ends: ``lifted identify`` with options away
+    from the defaults writes a model file; ``identify(u, y, plan=that file)``
+    on the same samples gives the same model bit for bit."""
+    u, y = _first_order_record(8, 1200, pole=0.85, gain=0.2, noise=0.05)
+    data = tmp_path / "r.csv"
+    np.savetxt(data, np.column_stack([np.ravel(u), np.ravel(y)]), delimiter=",", header="u,y",
+               comments="", fmt="%.17g")
+    out = tmp_path / "m.json"
+    subprocess.run(
+        [str(cli()), "identify", "--data", str(data), "--inputs", "u", "--outputs", "y",
+         "--ts", "1", "--order", "2", "--horizon", "7", "--refine", "pem", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    model = json.loads(out.read_text())
+    fit = lifted.identify(u, y, plan=str(out))
+    np.testing.assert_array_equal(np.asarray(fit.model.A), np.array(model["a"]))
+    np.testing.assert_array_equal(np.asarray(fit.model.C), np.array(model["c"]))
+    np.testing.assert_array_equal(
+        np.asarray(fit.model.kalman_gain), np.array(model["kalman_gain"])
+    )

@@ -35,7 +35,7 @@ pub struct WorkflowOptions {
 /// [`lifted_subspace::GainCheckOptions::minimise_work`]. Every run records
 /// the values it used in `diagnostics.budgets`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(default)]
 pub struct Budgets {
     /// [`Refine::Auto`] refines when the refinement's predicted work is at
     /// most this (operations). Default [`AUTO_REFINE_WORK`], 4e9.

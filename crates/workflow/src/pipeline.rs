@@ -544,7 +544,7 @@ pub(crate) struct GainCheckWith<'a> {
 /// from its operating point, as the identification took them): checked on
 /// the records (`lifted_subspace::check_kalman_gain`, the report in
 /// `diagnostics.kalman_gain_route`) when they hold at most
-/// [`GAIN_CHECK_SAMPLES`] samples, else the subspace step's gain. The
+/// [`crate::Budgets::gain_check_samples`] samples, else the subspace step's gain. The
 /// in-memory and the streamed route both call it. `raw`: the records
 /// before the identification removed its operating point, when it did:
 /// the VARX innovations are estimated from them, each centred by its own

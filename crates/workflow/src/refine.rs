@@ -127,7 +127,7 @@ pub(crate) fn refinement_cost(
 /// prediction-error optimum however long the record (its value says why):
 /// [`Refine::Auto`] then refines up to the refinement's own work bound
 /// (`refine_max_work`) instead of the default's one second
-/// ([`AUTO_REFINE_WORK`], [`AUTO_REFINE_WORK_JOINT`]), which assumes a
+/// ([`crate::Budgets::auto_refine_work`], [`crate::Budgets::auto_refine_work_joint`]), which assumes a
 /// start that is close to efficient on long records. Set by the
 /// closed-loop multirate IV route: the lifted IV uses only the part of the
 /// signals the set-points explain, and on the 2×2 loop of issue 46 (6e4
@@ -394,7 +394,7 @@ pub struct HeldOutCheck<'a> {
 /// How the refinement is judged: on held-out blocks when `check` is given,
 /// the records are short enough, the start is stable and not a stabilised
 /// re-estimate, and six fold refinements are predicted to cost at most
-/// [`REFINE_CHECK_WORK`]; `Err(reason)` otherwise (`None`: nothing to say,
+/// [`crate::Budgets::refine_check_work`]; `Err(reason)` otherwise (`None`: nothing to say,
 /// no check offered).
 fn check_applies<'a>(
     budgets: &crate::Budgets,
@@ -546,7 +546,7 @@ fn refine_judged_on_blocks(
 ///
 /// The refined model is kept when it simulates better than the start: on
 /// held-out blocks when `check` gives the records and options of a
-/// single-rate subspace identification of up to [`REFINE_CHECK_SAMPLES`]
+/// single-rate subspace identification of up to [`crate::Budgets::refine_check_samples`]
 /// samples ([`HeldOutCheck`]; six blocks, each fold's subspace model and its
 /// refinement scored on the block it was not fitted to), else on `sets`;
 /// never when it simulates `sets` worse than its start (the held-out

@@ -11,7 +11,7 @@
 //! validation half, while the refined orders 2 and 5 score 89.4 and 88.7 %.
 //!
 //! So when the order is automatic, the records are short enough for the
-//! held-out check of a refinement ([`REFINE_CHECK_SAMPLES`]) and a
+//! held-out check of a refinement ([`crate::Budgets::refine_check_samples`]) and a
 //! refinement will run, the first structure of each of the best
 //! `SelectionOptions::shortlist` orders (default 3) of the selection's ranking (stable on the whole
 //! records) is checked the way the refinement is judged
@@ -76,7 +76,7 @@ pub(crate) struct Choice {
 
 /// The judge of the run when the shortlist applies: the order automatic,
 /// a refinement that runs on a stable start (the default, or `--refine
-/// pem|oe`), records of at most [`REFINE_CHECK_SAMPLES`] samples;
+/// pem|oe`), records of at most [`crate::Budgets::refine_check_samples`] samples;
 /// `tolerance` as [`Judge::tolerance`].
 pub(crate) fn judge_of(
     opts: &WorkflowOptions,

@@ -8,7 +8,12 @@ use lifted_cli::service::identify::{require_stable, run_identification};
 /// `lifted identify`.
 pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     let file = run_identification(a)?;
-    if a.stable {
+    // `--stable`, or the plan's `validation.require_stable`.
+    let required = file
+        .diagnostics
+        .pointer("/options/validation/require_stable")
+        .and_then(|v| v.as_bool());
+    if a.stable || required == Some(true) {
         require_stable(&file.model)?;
     }
     file.write(&a.out).map_err(|e| input(e.to_string()))?;
@@ -21,9 +26,14 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     }
     print_process(&file.diagnostics);
     let m = &file.model;
+    let method = file
+        .diagnostics
+        .pointer("/options/identification/method")
+        .and_then(|v| v.as_str())
+        .unwrap_or(a.method.name());
     println!(
         "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
-        a.method.name(),
+        method,
         m.order(),
         m.n_inputs(),
         m.n_outputs(),

@@ -342,11 +342,86 @@ pub fn cli_error(e: lifted_workflow::Error) -> CliError {
 }
 
 /// Runs `lifted identify`'s identification and returns the model file (not
-/// yet written): [`identify_files`] with the arguments converted.
+/// yet written): [`identify_files`] with the arguments converted, or with
+/// the options of `--plan` ([`plan_options`]); `--write-plan` writes the
+/// options used.
 pub fn run_identification(a: &IdentifyArgs) -> CliResult<ModelFile> {
-    let opts = options_from_args(a)?;
+    let opts = match &a.plan {
+        Some(path) => plan_options(a, path)?,
+        None => options_from_args(a)?,
+    };
     let files = files_from_args(a)?;
-    identify_files(&files, &opts)
+    let file = identify_files(&files, &opts)?;
+    if let Some(path) = &a.write_plan {
+        let text =
+            serde_json::to_string_pretty(&opts).map_err(|e| input(format!("--write-plan: {e}")))?;
+        std::fs::write(path, text + "\n")
+            .map_err(|e| input(format!("--write-plan {path}: {e}")))?;
+    }
+    Ok(file)
+}
+
+/// The options of `--plan FILE`: a model file's `diagnostics.options`, or a
+/// plan file (a JSON object of [`WorkflowOptions`], or one under the key
+/// `options`); fields left out take their defaults, a field the options do
+/// not have is an error naming it, and so are option flags given beside
+/// the plan (the data flags excepted). Checked as the flags' options are.
+pub fn plan_options(a: &IdentifyArgs, path: &str) -> CliResult<WorkflowOptions> {
+    let bad = |why: String| input(format!("--plan {path}: {why}"));
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let doc: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let opts = lifted_workflow::options_from_plan(&doc).map_err(|e| match e {
+        lifted_workflow::Error::InvalidOption {
+            option: "plan",
+            reason,
+        } => bad(reason),
+        other => cli_error(other),
+    })?;
+    // The option flags must be at their defaults: compare the options the
+    // flags give with those of a command line with the data flags only.
+    use clap::Parser;
+    let plain =
+        crate::args::Cli::try_parse_from(["lifted", "identify", "--data", "-", "--out", "-"])
+            .map_err(|e| input(e.to_string()))?;
+    let crate::args::Cli {
+        command: crate::args::Command::Identify(plain),
+    } = plain
+    else {
+        return Err(input("internal: not an identify command line"));
+    };
+    let (flags, defaults) = (
+        serde_json::to_value(options_from_args(a)?).map_err(|e| bad(e.to_string()))?,
+        serde_json::to_value(options_from_args(&plain)?).map_err(|e| bad(e.to_string()))?,
+    );
+    if let Some(key) = first_difference(&flags, &defaults, "") {
+        return Err(bad(format!(
+            "the options come from the plan: leave the option flags at their defaults \
+             ({key} was given)"
+        )));
+    }
+    Ok(opts)
+}
+
+/// The first dotted path where two JSON trees differ.
+fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> Option<String> {
+    match (a, b) {
+        (serde_json::Value::Object(x), serde_json::Value::Object(y)) => {
+            x.iter().find_map(|(k, v)| {
+                let path = if at.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{at}.{k}")
+                };
+                match y.get(k) {
+                    Some(w) => first_difference(v, w, &path),
+                    None => Some(path),
+                }
+            })
+        }
+        _ if a != b => Some(at.to_string()),
+        _ => None,
+    }
 }
 
 /// Largest data file (bytes, all files) on which the structure of a

@@ -17,7 +17,9 @@ processes can too.
 
 from __future__ import annotations
 
+import inspect
 import json
+import os
 from typing import Any, Literal, Sequence
 
 import numpy as np
@@ -272,6 +274,7 @@ def identify(
     selection: dict[str, float] | None = None,
     gain_covariance_start: bool = True,
     budgets: dict[str, float] | None = None,
+    plan: Any = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -388,6 +391,13 @@ def identify(
       Kalman-gain check up to, 200000), ``gain_check_varx_work`` (4e9) and
       ``gain_check_minimise_work`` (8e9); the command line's ``--budget
       NAME=VALUE``; ``diagnostics["budgets"]``.
+    * ``plan``: take every option from a plan instead of the keywords (the
+      command line's ``--plan``): a :class:`SubspaceFit` or its
+      ``diagnostics`` (the options that made it), the path of a model file
+      or of a plan file (``lifted identify --write-plan``), or a dict of the
+      workflow's options; the other keywords but ``dt`` must be left at
+      their defaults. The same records then give the same model bit for
+      bit; an unknown option in the plan is an ``ArgumentError`` naming it.
     * ``integrator_tolerance``: poles within this distance of the unit circle
       are integrators, kept by the refinement and reported
       (``--integrator-tolerance``; None: 2/N, N the longest record;
@@ -416,6 +426,18 @@ def identify(
     file's diagnostics (route, structure selection, refinement, stability,
     warnings).
     """
+    plan_text = None
+    if plan is not None:
+        given = {
+            k: v for k, v in locals().items()
+            if k in _IDENTIFY_DEFAULTS and not _same(v, _IDENTIFY_DEFAULTS[k])
+        }
+        if given:
+            raise ArgumentError(
+                "plan: the options come from the plan; leave the other keywords at their "
+                f"defaults ({', '.join(sorted(given))} given)"
+            )
+        plan_text = _plan_json(plan)
     us, ys = _records(u, y)
     try:
         d = _identify(
@@ -429,7 +451,7 @@ def identify(
             threads=threads, gain_stop_share=gain_stop_share,
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
-            gain_covariance_start=gain_covariance_start, budgets=budgets,
+            gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -440,6 +462,39 @@ def identify(
             )
         raise
     return _subspace_fit(d)
+
+
+# identify's keywords and their defaults, for the plan's check (u, y, dt and
+# plan itself are not options).
+_IDENTIFY_DEFAULTS: dict[str, Any] = {
+    k: p.default
+    for k, p in inspect.signature(identify).parameters.items()
+    if p.default is not p.empty and k not in ("dt", "plan")
+}
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether a keyword's value is its default (plain values only)."""
+    try:
+        return bool(a == b) and type(a) is type(b)
+    except (TypeError, ValueError):
+        return False
+
+
+def _plan_json(plan: Any) -> str:
+    """The JSON text of ``identify``'s ``plan``: a fit or its diagnostics,
+    a path to a model or plan file, or a dict of the options."""
+    if isinstance(plan, SubspaceFit):
+        return json.dumps({"diagnostics": plan.diagnostics})
+    if isinstance(plan, (str, os.PathLike)):
+        with open(plan, encoding="utf-8") as f:
+            return f.read()
+    if isinstance(plan, dict):
+        return json.dumps(plan)
+    raise ArgumentError(
+        "plan: a SubspaceFit, its diagnostics, a path to a model or plan file, or a dict of "
+        f"the workflow's options; got {type(plan).__name__}"
+    )
 
 
 def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:

@@ -299,6 +299,7 @@ def identify(
     selection: dict[str, float] | None = None,
     gain_covariance_start: bool = True,
     budgets: dict[str, float] | None = None,
+    plan: str | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],
