@@ -101,13 +101,15 @@ def test_dask_array_input_agrees_with_files(client) -> None:
     u, y = record(200_000, 5)
     du = da.from_array(u, chunks=(30_000, 2))
     dy = da.from_array(y, chunks=(50_000, 2))  # rechunked to u's chunks
-    fit = lifted_dask.identify(u=du, y=dy, order=4, client=client)
-    # lifted.dask's structure (horizon 10, shift invariance) given to the
-    # in-memory call, which would otherwise select its own.
+    fit = lifted_dask.identify(u=du, y=dy, order=4, engine="sharded", client=client)
+    # The sharded engine's structure (horizon 10, shift invariance) given
+    # to the in-memory call, which would otherwise select its own.
     one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
+    assert fit.diagnostics["engine"].startswith("sharded")
     both = da.from_array(np.hstack([u, y]), chunks=(70_000, 4))
-    fit2 = lifted_dask.identify(both, inputs=2, outputs=[2, 3], order=4, client=client)
+    fit2 = lifted_dask.identify(both, inputs=2, outputs=[2, 3], order=4, engine="sharded",
+                                client=client)
     np.testing.assert_allclose(poles(fit2), poles(one), rtol=0, atol=1e-9)
 
 
@@ -148,10 +150,59 @@ def test_parquet_shards_and_dataframe(client, tmp_path: pathlib.Path) -> None:
         frame.iloc[part].to_parquet(p)
         paths.append(p)
     one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
-    fit = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4, client=client)
+    fit = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4,
+                               engine="sharded", client=client)
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
     ddf = dd.from_pandas(frame, npartitions=4)
-    fit2 = lifted_dask.identify(ddf, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4, client=client)
+    fit2 = lifted_dask.identify(ddf, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4,
+                                engine="sharded", client=client)
     np.testing.assert_allclose(poles(fit2), poles(one), rtol=0, atol=1e-9)
     with pytest.raises(lifted.LiftedError, match="not in the data"):
         lifted_dask.identify(ddf, inputs=["u1", "nope"], outputs=["y1"], order=2, client=client)
+    # At the defaults, the gathered record is lifted.identify's, bit for bit.
+    same = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], client=client)
+    default = lifted.identify(u, y)
+    np.testing.assert_array_equal(np.asarray(same.model.A), np.asarray(default.model.A))
+
+
+def same_model(a: lifted.SubspaceFit, b: lifted.SubspaceFit) -> None:
+    for k in ("A", "B", "C", "D"):
+        np.testing.assert_array_equal(np.asarray(getattr(a.model, k)), np.asarray(getattr(b.model, k)))
+    np.testing.assert_array_equal(np.asarray(a.model.kalman_gain), np.asarray(b.model.kalman_gain))
+
+
+def test_default_options_give_lifted_identify_s_model(client, tmp_path: pathlib.Path) -> None:
+    """Issue 48, engines under one plan: with the DEFAULT options (and with
+    any of lifted.identify's keywords) the shards of a record of up to
+    IN_MEMORY_BYTES give lifted.identify's model bit for bit — N4SID with its
+    held-out selection, gain check and refinement, PBSID, and a multirate
+    record (NaN at the unmeasured samples); the sharded engine refuses the
+    options it cannot run, naming them."""
+    u, y = record(6000, 21)
+    cuts = [0, 2500, 4000, 6000]
+    paths = []
+    for k in range(3):
+        p = tmp_path / f"s-{k}.npy"
+        np.save(p, np.hstack([u[cuts[k] : cuts[k + 1]], y[cuts[k] : cuts[k + 1]]]))
+        paths.append(p)
+    shards = dict(inputs=[0, 1], outputs=[2, 3], client=client)
+    fit = lifted_dask.identify(paths, **shards)
+    same_model(fit, lifted.identify(u, y))
+    assert fit.diagnostics["engine"].startswith("in memory")
+    same_model(lifted_dask.identify(paths, method="pbsid", **shards),
+               lifted.identify(u, y, method="pbsid"))
+    # Multirate: y1 measured every 3 samples, y2 every 5.
+    ym = y.copy()
+    ym[np.arange(len(ym)) % 3 != 0, 0] = np.nan
+    ym[np.arange(len(ym)) % 5 != 0, 1] = np.nan
+    import dask.array as da
+
+    mr = lifted_dask.identify(u=da.from_array(u, chunks=(2000, 2)),
+                              y=da.from_array(ym, chunks=(2000, 2)), order=4, client=client)
+    same_model(mr, lifted.identify(u, ym, order=4))
+    with pytest.raises(lifted.LiftedError, match="selection"):
+        lifted_dask.identify(paths, engine="sharded", selection={"tolerance": 1.0}, **shards)
+    with pytest.raises(lifted.LiftedError, match="refine"):
+        lifted_dask.identify(paths, engine="sharded", refine="pem", **shards)
+    with pytest.raises(lifted.LiftedError, match="engine"):
+        lifted_dask.identify(paths, engine="gpu", **shards)

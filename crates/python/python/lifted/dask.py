@@ -3,7 +3,11 @@
 Install the optional extra: ``pip install "lifted[dask]"`` (``dask[distributed]``).
 
 :func:`identify` identifies one record stored as shards (a dask array, a dask
-DataFrame, or a list of ``.npy`` / Parquet files) without gathering it: each
+DataFrame, or a list of ``.npy`` / Parquet files) by the plan of
+:func:`lifted.identify`: a record of up to :data:`IN_MEMORY_BYTES` (16 MiB of
+float64 samples) is gathered to the client and identified by that function
+itself, with its options and defaults, so the model is the same bit for bit;
+a larger record runs the sharded engine without gathering it: each
 shard is compressed on the worker that holds it into lagged correlation sums
 (O(s (m+p)^2) floats, a few kB), the pieces are merged in a tree of
 adjacent pairs (the merge is associative: each join adds the products that
@@ -319,6 +323,47 @@ def compress_shards(
     return _compress_shards(shards, past, future, remove_means, threads, plan_rows, _client(client))
 
 
+#: Largest record (bytes of its float64 samples, inputs and outputs) that
+#: :func:`identify` gathers to the client to run :func:`lifted.identify`
+#: itself: 16 MiB, the size up to which ``lifted identify`` selects the
+#: structure on held-out blocks in memory (its ``SELECT_MAX_BYTES``) before
+#: it streams. About 5e5 samples of a 2x2 loop.
+IN_MEMORY_BYTES = 16 << 20
+
+#: The options the sharded engine runs (the streamed route's structure).
+_SHARDED_OPTIONS = frozenset(
+    {"method", "order", "max_order", "horizon", "past", "future", "remove_means",
+     "noise_model", "dt", "threads", "system", "refine"}
+)
+
+
+def _rows(shard: Any) -> int:
+    """Samples of a shard, from the file's header where there is one."""
+    if isinstance(shard, _FileShard):
+        if shard.path.endswith(".npy"):
+            return int(np.load(shard.path, mmap_mode="r").shape[0])
+        pq = _module("pyarrow.parquet")
+        return int(pq.ParquetFile(shard.path).metadata.num_rows)
+    u, _ = _data(shard)
+    return int(np.asarray(u).shape[0])
+
+
+def _record_size(raw: list[Any], channels: int, client: Any) -> tuple[int, int]:
+    """Samples and float64 bytes of the sharded record."""
+    delayed = _dask()
+    rows = _compute(client, *[delayed(_rows)(s) for s in raw])
+    n = int(sum(rows))
+    return n, n * channels * 8
+
+
+def _channels(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> int:
+    """Inputs plus outputs of the record (for its size)."""
+    if u is not None and y is not None:
+        width = [a.shape[1] if getattr(a, "ndim", 1) == 2 else 1 for a in (u, y)]
+        return int(sum(width))
+    return len(_index_list(inputs, "inputs")) + len(_index_list(outputs, "outputs"))
+
+
 def identify(
     data: Any = None,
     *,
@@ -326,34 +371,84 @@ def identify(
     y: Any = None,
     inputs: Any = None,
     outputs: Any = None,
-    method: str = "n4sid",
-    order: int | None = None,
-    max_order: int = 10,
-    past: int = 10,
-    future: int = 10,
-    remove_means: bool = True,
-    noise_model: bool = True,
-    dt: float = 1.0,
-    threads: int = 1,
+    engine: str = "auto",
     plan_rows: int = 65536,
     client: Any = None,
+    **options: Any,
 ) -> SubspaceFit:
-    """Identifies one record stored as shards, on a Dask cluster.
+    """Identifies one record stored as shards, on a Dask cluster, by the
+    plan of :func:`lifted.identify`.
 
     ``data``: a dask array (samples x columns; ``inputs``/``outputs`` column
     indices, or ``inputs=m`` for the first m columns), a dask DataFrame
     (``inputs``/``outputs`` column names), or a list of ``.npy`` (indices)
     / Parquet (names) files in record order; or ``u=``, ``y=`` dask arrays
-    chunked along samples. As :func:`lifted.identify` does, every channel is
-    divided by its standard deviation over the record's first 1e4 samples
-    and the model returned in the data's units (so both give the same
-    model, whatever the channels' units); the centring reference comes from
-    the first ``plan_rows`` samples. ``threads`` per task (0: all cores of
-    the worker). Returns a :class:`lifted.SubspaceFit`, as :func:`lifted.identify`.
+    chunked along samples. ``options``: the keywords of
+    :func:`lifted.identify` (``method``, ``order``, ``horizon``, ``refine``,
+    ``selection``, ``budgets``, ``plan``, ``dt``, ...), with its defaults.
+
+    ``engine``: ``"auto"`` (the default) gathers a record of up to
+    :data:`IN_MEMORY_BYTES` to the client and runs :func:`lifted.identify`
+    on it, so the model is that function's, bit for bit, whatever the
+    options (held-out structure selection, Kalman-gain check, refinement,
+    multirate records with NaN at the unmeasured samples, PBSID, ...);
+    larger records run the sharded engine. ``"memory"`` always gathers,
+    ``"sharded"`` never does. The sharded engine compresses each shard on its
+    worker and merges the pieces (module docs): the single-rate N4SID /
+    MOESP / CVA of the streamed route (``lifted identify`` on files too
+    large for the held-out selection): horizon 10 (``horizon``, or
+    ``past``/``future``), shift invariance, the order given or the
+    singular-value gap up to ``max_order``, no Kalman-gain check and no
+    refinement (they need the record in one process); any other option is
+    refused naming it. Every channel is divided by its standard deviation
+    over the record's first 1e4 samples as :func:`lifted.identify` does, and
+    the model returned in the data's units. ``diagnostics["engine"]`` says
+    which engine ran and why. Returns a :class:`lifted.SubspaceFit`.
     """
+    if engine not in ("auto", "memory", "sharded"):
+        raise LiftedError(f"engine must be 'auto', 'memory' or 'sharded', got {engine!r}")
     client = _client(client)
     delayed = _dask()
     raw = _shards(data, u, y, inputs, outputs)
+    if engine != "sharded":
+        n, nbytes = _record_size(raw, _channels(data, u, y, inputs, outputs), client)
+        if engine == "memory" or nbytes <= IN_MEMORY_BYTES:
+            from . import identify as _identify_mem
+
+            parts = _compute(client, *[delayed(_data)(s) for s in raw])
+            uu = np.vstack([np.asarray(p[0], dtype=np.float64).reshape(len(p[0]), -1) for p in parts])
+            yy = np.vstack([np.asarray(p[1], dtype=np.float64).reshape(len(p[1]), -1) for p in parts])
+            fit = _identify_mem(uu, yy, **options)
+            why = "asked" if engine == "memory" else f"at most {IN_MEMORY_BYTES} bytes"
+            fit.diagnostics["engine"] = (
+                f"in memory: the record ({n} samples, {nbytes} bytes; {why}) gathered to the "
+                "client and identified by lifted.identify with the options given"
+            )
+            return fit
+    return _sharded(raw, options, plan_rows, client)
+
+
+def _sharded(raw: list[Any], options: dict[str, Any], plan_rows: int, client: Any) -> SubspaceFit:
+    """The sharded engine of :func:`identify` (module docs)."""
+    delayed = _dask()
+    other = sorted(set(options) - _SHARDED_OPTIONS)
+    if other:
+        raise LiftedError(
+            f"{', '.join(other)}: not run by the sharded engine (records over {IN_MEMORY_BYTES} "
+            "bytes, or engine='sharded'): it takes method, order, max_order, horizon (or past "
+            "and future), remove_means, noise_model, dt and threads"
+        )
+    method = options.get("method", "n4sid")
+    if options.get("system") not in (None, "shift"):
+        raise LiftedError("system: the sharded engine estimates A by shift invariance only")
+    if options.get("refine", "auto") not in ("auto", "none"):
+        raise LiftedError("refine: the sharded engine cannot refine (the record is never in one process)")
+    horizon = options.get("horizon")
+    past = options.get("past", horizon if horizon is not None else 10)
+    future = options.get("future", horizon if horizon is not None else 10)
+    remove_means = options.get("remove_means", True)
+    threads = options.get("threads", 1)
+    dt = options.get("dt", 1.0)
     # Channels divided by their scales, as lifted.identify does; the model
     # comes back in the data's units.
     su, sy = _channel_scales(raw, client)
@@ -367,30 +462,37 @@ def identify(
     first = _lifted.partial_identify(
         records,
         method=method,
-        order=order,
-        max_order=max_order,
+        order=options.get("order"),
+        max_order=options.get("max_order", 10),
         past=past,
         future=future,
         remove_means=remove_means,
-        noise_model=noise_model,
+        noise_model=options.get("noise_model", True),
         dt=dt,
         threads=threads,
     )
     if not first.wants_second_pass():
-        return _subspace_fit(first.finish(input_scales=su, output_scales=sy))
-    # Second pass, parallel: the regressor recursions' state goes from
-    # shard to shard (cheap: filtering only), each shard's rows are scanned
-    # from its state on its worker, and the R factors merge in a tree.
-    state: Any = delayed(_prime)(first.regression(), shards[0], plan_rows)
-    start = state
-    pieces = []
-    for s in shards:
-        pieces.append(delayed(_scan)(state, s))
-        state = delayed(_advance)(state, s)
-    merged = _tree(pieces, _lifted.regression_merge)
-    final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
-    (final,) = _compute(client, final)
-    return _subspace_fit(first.finish(final, input_scales=su, output_scales=sy))
+        fit = _subspace_fit(first.finish(input_scales=su, output_scales=sy))
+    else:
+        # Second pass, parallel: the regressor recursions' state goes from
+        # shard to shard (cheap: filtering only), each shard's rows are
+        # scanned from its state on its worker, and the R factors merge in
+        # a tree.
+        state: Any = delayed(_prime)(first.regression(), shards[0], plan_rows)
+        start = state
+        pieces = []
+        for s in shards:
+            pieces.append(delayed(_scan)(state, s))
+            state = delayed(_advance)(state, s)
+        merged = _tree(pieces, _lifted.regression_merge)
+        final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
+        (final,) = _compute(client, final)
+        fit = _subspace_fit(first.finish(final, input_scales=su, output_scales=sy))
+    fit.diagnostics["engine"] = (
+        f"sharded: merged partial compressions, horizon {past}/{future}, shift invariance, "
+        "no Kalman-gain check and no refinement (they need the record in one process)"
+    )
+    return fit
 
 
 # ---------------------------------------------------------------- many loops
