@@ -115,9 +115,11 @@
 //! same names and defaults (`inputs`, `outputs`, `ts`, `hold`,
 //! `output_period`, `method`, `order`, `max_order`, `horizon`, `q`,
 //! `prbs_order`, `amplitude`, `output_weight`, `instrument`, `detrend`,
-//! `estimator`, `order_criterion`, `stable`, `refine`); they are handed to the
-//! command's own option parser, so the saved model equals the one
-//! `lifted identify` writes with the same options. Besides them: `seq`,
+//! `estimator`, `order_criterion`, `stable`, `refine`); they are set field
+//! by field on the command's arguments (no command line parsed again) and
+//! converted by the command's own conversion, so the saved model equals the
+//! one `lifted identify` writes with the same options (a test checks the
+//! arguments against those the shown command line parses to). Besides them: `seq`,
 //! `window` (the time plots' zoom, seconds), `estimation_range` and
 //! `validation_range` (rows of the record, seconds: [`ranges`]). The
 //! parsed record and the subspace compression are kept between requests

@@ -2,8 +2,10 @@
 //! uploaded, its channels viewed, a model identified with the `identify`
 //! options, and the last model saved as a model file or a report. Every
 //! operation goes through the service layer ([`crate::table`],
-//! [`crate::service`]) with the command's own option parser, so a model made
-//! here equals the one `lifted identify` writes with the same options.
+//! [`crate::service`]): a request's values are set on the command's
+//! arguments directly and converted to the workflow's options by the
+//! command's own conversion, so a model made here equals the one
+//! `lifted identify` writes with the same options.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -1142,15 +1144,81 @@ impl Session {
         w
     }
 
-    /// The request parsed by the command's own option parser.
+    /// The request as the command's arguments, built field by field from
+    /// its typed values (no command line written and parsed again): the
+    /// command's defaults, then each value the request gives — the same
+    /// arguments the shown command line parses to (test
+    /// `the_request_builds_the_shown_command_s_arguments`). A name the
+    /// command does not take (method, detrend, estimator, order criterion,
+    /// refinement) is an error naming the field and the names it takes.
     fn identify_args(r: &Request, data: &[String]) -> CliResult<IdentifyArgs> {
-        let words = Self::identify_words(r, data, "model.json");
-        let argv = std::iter::once("lifted".to_string()).chain(words);
-        match Cli::try_parse_from(argv) {
+        fn named<T: clap::ValueEnum>(field: &str, value: &str) -> CliResult<T> {
+            T::from_str(value, false).map_err(|_| {
+                let names: Vec<String> = T::value_variants()
+                    .iter()
+                    .filter_map(|v| v.to_possible_value())
+                    .map(|v| format!("'{}'", v.get_name()))
+                    .collect();
+                input(format!(
+                    "invalid {field} '{value}' (one of {})",
+                    names.join(", ")
+                ))
+            })
+        }
+        let mut a = Self::default_identify_args()?;
+        a.data = data.to_vec();
+        a.method = named("method", r.method.as_deref().unwrap_or("n4sid"))?;
+        a.columns.inputs = Some(r.inputs.join(","));
+        a.columns.outputs = Some(r.outputs.join(","));
+        a.columns.ts = r.ts;
+        a.columns.output_period = r.output_period.clone();
+        if let Some(h) = r.hold {
+            a.hold = h;
+        }
+        if let Some(o) = &r.order {
+            a.order = o.clone();
+        }
+        if let Some(m) = r.max_order {
+            a.max_order = m;
+        }
+        a.horizon = r.horizon.or(a.horizon);
+        a.q = r.q.or(a.q);
+        a.prbs_order = r.prbs_order.or(a.prbs_order);
+        if let Some(x) = r.amplitude {
+            a.amplitude = vec![x];
+        }
+        if let Some(d) = &r.detrend {
+            a.detrend = named("detrend", d)?;
+        }
+        if let Some(e) = &r.estimator {
+            a.estimator = named("estimator", e)?;
+        }
+        if let Some(c) = &r.order_criterion {
+            a.order_criterion = named("order_criterion", c)?;
+        }
+        // The page refines only on its PEM button: a slider move stays a
+        // subspace fit (the command's default, `auto`, would refine).
+        a.refine = named("refine", r.refine.as_deref().unwrap_or("none"))?;
+        if !r.output_weight.is_empty() {
+            a.output_weight = r.output_weight.clone();
+        }
+        if !r.instrument.is_empty() {
+            a.instrument = Some(r.instrument.join(","));
+        }
+        a.feedthrough = r.feedthrough.or(a.feedthrough);
+        a.stable = r.stable;
+        a.out = "model.json".into();
+        Ok(a)
+    }
+
+    /// `lifted identify`'s arguments at their defaults (the parser's
+    /// defaults, from a command line of constants).
+    fn default_identify_args() -> CliResult<IdentifyArgs> {
+        match Cli::try_parse_from(["lifted", "identify", "--data", "-", "--out", "model.json"]) {
             Ok(Cli {
                 command: Command::Identify(a),
             }) => Ok(a),
-            Ok(_) => Err(input("internal: not an identify request")),
+            Ok(_) => Err(input("internal: not an identify command line")),
             Err(e) => Err(input(clap_one_line(&e).trim_start_matches("error: "))),
         }
     }
@@ -1919,6 +1987,87 @@ mod tests {
         assert_eq!(safe_name("my data (1).csv"), "my_data__1_.csv");
         assert_eq!(safe_name(".."), "data.csv");
         assert_eq!(safe_name("C:\\x\\rec.csv"), "rec.csv");
+    }
+
+    /// The arguments the studio builds from a request are those its shown
+    /// command line parses to, field by field, for requests that set every
+    /// option the page has (and none); a name the command does not take is
+    /// refused naming the field.
+    #[test]
+    fn the_request_builds_the_shown_command_s_arguments() {
+        let parsed = |r: &Request, data: &[String]| -> IdentifyArgs {
+            let words = Session::identify_words(r, data, "model.json");
+            match Cli::try_parse_from(std::iter::once("lifted".to_string()).chain(words)) {
+                Ok(Cli {
+                    command: Command::Identify(a),
+                }) => a,
+                other => panic!("{other:?}"),
+            }
+        };
+        let data = vec!["rec.csv".to_string(), "two.csv".to_string()];
+        let full = Request {
+            inputs: vec!["u1".into(), "u 2".into()],
+            outputs: vec!["y1".into()],
+            ts: Some(0.5),
+            hold: Some(3),
+            output_period: vec!["y1=3".into()],
+            method: Some("qmarkov".into()),
+            order: Some("4".into()),
+            max_order: Some(7),
+            horizon: Some(12),
+            q: Some(30),
+            prbs_order: Some(6),
+            amplitude: Some(-0.5),
+            output_weight: vec![1.0, 2.5],
+            instrument: vec!["r1".into(), "r2".into()],
+            detrend: Some("linear".into()),
+            estimator: Some("states".into()),
+            order_criterion: Some("gap".into()),
+            stable: true,
+            feedthrough: Some(false),
+            refine: Some("pem".into()),
+            ..Request::default()
+        };
+        let iv = Request {
+            method: Some("iv".into()),
+            feedthrough: Some(true),
+            order: Some("auto".into()),
+            ..Request::default()
+        };
+        for r in [Request::default(), full, iv] {
+            let direct = Session::identify_args(&r, &data).expect("direct");
+            assert_eq!(
+                format!("{direct:?}"),
+                format!("{:?}", parsed(&r, &data)),
+                "{r:?}"
+            );
+        }
+        for (field, bad) in [
+            (
+                "method",
+                Request {
+                    method: Some("magic".into()),
+                    ..Request::default()
+                },
+            ),
+            (
+                "detrend",
+                Request {
+                    detrend: Some("cubic".into()),
+                    ..Request::default()
+                },
+            ),
+            (
+                "refine",
+                Request {
+                    refine: Some("harder".into()),
+                    ..Request::default()
+                },
+            ),
+        ] {
+            let e = Session::identify_args(&bad, &data).unwrap_err().to_string();
+            assert!(e.contains(field) && e.contains("one of"), "{e}");
+        }
     }
 
     #[test]
