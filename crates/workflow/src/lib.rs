@@ -167,7 +167,7 @@ pub use options::{
     RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
-pub use plan::options_from_plan;
+pub use plan::{DataShape, options_from_plan, resolved_defaults};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};
 pub use refine::{
     HeldOutCheck, JUDGE_HELD_OUT, JUDGE_NOT_TOLD_APART, JUDGE_RECORDS, JUDGE_WORSE_ON_RECORDS,

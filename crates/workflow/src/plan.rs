@@ -81,6 +81,69 @@ fn unknown_key(
 mod tests {
     use super::*;
 
+    /// The defaults left to a run are named with what decides them on the
+    /// records' shape: the budgets' bounds on either side, 2/N.
+    #[test]
+    fn the_plan_names_what_the_defaults_decide() {
+        let o = WorkflowOptions::default();
+        let shape = |samples: usize| DataShape {
+            records: 1,
+            samples,
+            longest: samples,
+            multirate: false,
+            streamed: false,
+        };
+        let find = |p: &serde_json::Value, key: &str| -> serde_json::Value {
+            p["resolved"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|e| e["option"] == key)
+                .map(|e| e["value"].clone())
+                .unwrap_or(serde_json::Value::Null)
+        };
+        let short = resolved_defaults(&o, &shape(1000));
+        assert_eq!(
+            find(&short, "integrator_tolerance"),
+            serde_json::json!(0.002)
+        );
+        assert_eq!(find(&short, "kalman_gain_check"), serde_json::json!(true));
+        assert_eq!(
+            find(&short, "refinement_judge"),
+            serde_json::json!("held-out blocks")
+        );
+        let long = resolved_defaults(&o, &shape(300_000));
+        assert_eq!(find(&long, "kalman_gain_check"), serde_json::json!(false));
+        assert_eq!(
+            find(&long, "refinement_judge"),
+            serde_json::json!("the records")
+        );
+        let mut given = o.clone();
+        given.identification.horizon = Some(7);
+        given.identification.integrator_tolerance = Some(0.01);
+        let p = resolved_defaults(&given, &shape(1000));
+        assert!(
+            p["resolved"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|e| e["option"] != "horizon" && e["option"] != "integrator_tolerance")
+        );
+        let mr = resolved_defaults(
+            &o,
+            &DataShape {
+                multirate: true,
+                ..shape(1000)
+            },
+        );
+        assert!(
+            mr["route"]
+                .as_str()
+                .unwrap()
+                .starts_with("multirate subspace")
+        );
+    }
+
     /// Every way of giving a plan reads back the options; the ways of
     /// getting it wrong are named.
     #[test]
@@ -116,4 +179,173 @@ mod tests {
             .unwrap_err();
         assert!(e.to_string().contains("max_order"), "{e}");
     }
+}
+
+/// The shape of the records a run identifies, known before any heavy work.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DataShape {
+    /// Records.
+    pub records: usize,
+    /// Samples, all records together.
+    pub samples: usize,
+    /// Samples of the longest record.
+    pub longest: usize,
+    /// Some output is not measured at every sample (a multirate record).
+    pub multirate: bool,
+    /// The records are streamed from files in two passes (not in memory).
+    pub streamed: bool,
+}
+
+/// What a run will do with the defaults left to it, said before the heavy
+/// work (`diagnostics.plan`): the route, and for every option given as
+/// "default" (`None` or automatic) the value or rule that decides it on
+/// these records, with its reason. O(1): from the options and the
+/// [`DataShape`] only. The options themselves (`diagnostics.options`) stay
+/// as given, so a plan made from them decides the same way on other
+/// records.
+pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> serde_json::Value {
+    use crate::{Method, Order, OrderCriterion, Refine};
+    let id = &opts.identification;
+    let b = &opts.budgets;
+    let m = id.method;
+    let route = if shape.streamed {
+        "single-rate subspace, streamed in two passes (structure: horizon 10, shift invariance, order by the rule asked or Bauer's SVC)"
+    } else if m.is_subspace() && shape.multirate {
+        "multirate subspace (lifted), the interpolated record's start beside it"
+    } else if m.is_subspace() {
+        "single-rate subspace in memory"
+    } else if m.is_predictor_based() && shape.multirate {
+        "multirate prediction-error method on the measured samples (closed loop without an instrument)"
+    } else if m.is_predictor_based() {
+        "predictor-based subspace (closed loop)"
+    } else if m == Method::Iv && shape.multirate {
+        "multirate instrumental variables (lifted)"
+    } else if m == Method::Iv {
+        "instrumental-variable subspace"
+    } else if m == Method::Qmarkov {
+        "weighted q-Markov Cover"
+    } else {
+        "polynomial, process or impulse-response model"
+    };
+    let mut out: Vec<serde_json::Value> = Vec::new();
+    let mut say = |option: &str, value: serde_json::Value, why: String| {
+        out.push(serde_json::json!({ "option": option, "value": value, "why": why }));
+    };
+    if id.horizon.is_none() {
+        let (value, why) = if shape.streamed {
+            (
+                serde_json::json!(10),
+                "the streamed route's horizon".to_string(),
+            )
+        } else if m.is_subspace()
+            && !shape.multirate
+            && id.order_criterion == OrderCriterion::Validation
+        {
+            (
+                serde_json::Value::Null,
+                "chosen with the order by the held-out fit among 5, 10, 15, 20, 30 (records too short for held-out blocks: the smallest AICc)".to_string(),
+            )
+        } else if m.is_subspace() {
+            (
+                serde_json::json!(10),
+                "the subspace methods' default".to_string(),
+            )
+        } else if m == Method::Iv {
+            let a = if shape.multirate { 6 } else { 8 };
+            (
+                serde_json::json!(a),
+                "the instrumental variables' default α".to_string(),
+            )
+        } else if m.is_predictor_based() {
+            (
+                serde_json::Value::Null,
+                "the past horizon by Akaike's criterion on a VARX".to_string(),
+            )
+        } else {
+            (
+                serde_json::Value::Null,
+                "not used by this method".to_string(),
+            )
+        };
+        say("horizon", value, why);
+    }
+    if id.order == Order::Auto && !m.is_polynomial() {
+        say(
+            "order",
+            serde_json::Value::Null,
+            format!(
+                "automatic: 1 to {} by the {} rule",
+                id.max_order,
+                format!("{:?}", id.order_criterion).to_lowercase()
+            ),
+        );
+    }
+    if id.integrator_tolerance.is_none() {
+        let (d, why) = crate::integrators::tolerance_for(opts, shape.longest);
+        say("integrator_tolerance", serde_json::json!(d), why);
+    }
+    if id.threads.is_none() {
+        let (v, why) = if shape.streamed {
+            (0, "the machine's threads on a streamed record")
+        } else {
+            (1, "one thread in memory")
+        };
+        say("threads", serde_json::json!(v), why.to_string());
+    }
+    if id.feedthrough.is_none() && m.is_subspace() && !shape.multirate {
+        let why = if shape.streamed && shape.samples > b.gain_check_samples {
+            "D estimated (a streamed record over budgets.gain_check_samples)".to_string()
+        } else {
+            "D kept where the records support it: D free against D = 0 by the BIC of their simulation errors".to_string()
+        };
+        say("feedthrough", serde_json::Value::Null, why);
+    }
+    if m.is_subspace() && !shape.multirate && id.noise_model {
+        let checked = shape.samples <= b.gain_check_samples;
+        say(
+            "kalman_gain_check",
+            serde_json::json!(checked),
+            format!(
+                "{} samples {} budgets.gain_check_samples = {}",
+                shape.samples,
+                if checked { "≤" } else { ">" },
+                b.gain_check_samples
+            ),
+        );
+    }
+    if opts.refinement.refine == Refine::Auto {
+        say(
+            "refine",
+            serde_json::Value::Null,
+            format!(
+                "decided after the estimate: refined when stable and its predicted work is at most {:.0e} operations ({:.0e} for multirate joint iterations) or the records have fewer than {} samples",
+                b.auto_refine_work, b.auto_refine_work_joint, b.auto_refine_samples
+            ),
+        );
+    }
+    if opts.refinement.refine != Refine::None && m.is_subspace() && !shape.multirate {
+        let held_out = shape.samples <= b.refine_check_samples;
+        say(
+            "refinement_judge",
+            serde_json::json!(if held_out {
+                "held-out blocks"
+            } else {
+                "the records"
+            }),
+            format!(
+                "{} samples {} budgets.refine_check_samples = {} (and six fold refinements within {:.0e} operations)",
+                shape.samples,
+                if held_out { "≤" } else { ">" },
+                b.refine_check_samples,
+                b.refine_check_work
+            ),
+        );
+    }
+    serde_json::json!({
+        "route": route,
+        "records": shape.records,
+        "samples": shape.samples,
+        "multirate": shape.multirate,
+        "resolved": out,
+    })
 }

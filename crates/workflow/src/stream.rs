@@ -441,6 +441,16 @@ pub fn identify_streamed(
     let identify_s = t_total.elapsed().as_secs_f64() - read_s;
     add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
     crate::diagnostics::add_selection_policy(&mut d, opts);
+    if let Some(obj) = d.as_object_mut() {
+        let shape = crate::plan::DataShape {
+            records: 1,
+            samples: n_rows,
+            longest: n_rows,
+            multirate: false,
+            streamed: true,
+        };
+        obj.insert("plan".into(), crate::plan::resolved_defaults(opts, &shape));
+    }
     let dg = &fit.diagnostics;
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
