@@ -180,6 +180,13 @@ def test_model_json_carries_the_diagnostics_like_the_cli_model_file(
     assert theirs_opts["identification"].pop("threads") is None
     assert our_opts["identification"].pop("threads") == 1
     assert theirs_opts == our_opts
+    # So the CLI's plan names the thread count it left to the default; the
+    # rest of the plan is the same.
+    theirs_plan, our_plan = cli_diagnostics.pop("plan"), ours.pop("plan")
+    threads = [e for e in theirs_plan["resolved"] if e["option"] == "threads"]
+    assert threads == [{"option": "threads", "value": 1, "why": "one thread in memory"}]
+    theirs_plan["resolved"] = [e for e in theirs_plan["resolved"] if e["option"] != "threads"]
+    assert theirs_plan == our_plan
     assert cli_diagnostics == ours
 
 
