@@ -18,12 +18,11 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, check_rank};
+use crate::estimated::{BdFit, DataScale, Params};
+use crate::estimated::{Feedthrough, InitialState};
 use crate::modal::{self, ModalForm, ModalStream};
 use crate::numerics::{Scale, pow4_scale};
-use crate::regress::{
-    BdFit, DataScale, DirectStream, Feedthrough, InitialState, Params, check_growth,
-    equilibrated_solve,
-};
+use crate::regress::{DirectStream, check_growth, equilibrated_solve};
 
 /// Options of [`OutputErrorStream`]. `Default` gives the values documented
 /// per field.

@@ -21,9 +21,10 @@ use lifted_lti::{OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::Result;
+use crate::estimated::Record;
 use crate::model::Experiment;
 pub use crate::records::OwnedRecords;
-use crate::regress::{Record, estimate_x0};
+use crate::regress::estimate_x0;
 
 /// The score of a fold without a stable model (and the floor of every
 /// fold's fit, so that one diverging fold does not swamp the mean).

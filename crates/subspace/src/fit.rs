@@ -13,6 +13,8 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::checks::{candidate_orders, thread_count, validate_on};
 use crate::error::{Error, Result, check_exciting};
+use crate::estimated::InitialState;
+use crate::estimated::Record;
 use crate::hankel::{HankelFactor, HankelLayout};
 use crate::model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
 use crate::numerics::{Scale, ac_from_gamma, rows, scaled_basis, vstack};
@@ -24,7 +26,7 @@ use crate::order::{
 };
 use crate::projection::bd_from_projection;
 use crate::records::{compressed, need_records, records_of, remove_means};
-use crate::regress::{InitialState, Record, Route, estimate_x0, output_error_route};
+use crate::regress::{Route, estimate_x0, output_error_route};
 use lifted_linalg::spectral_radius;
 
 /// CVA's weight W₁ = [(Y_f/U_f⊥)(Y_f/U_f⊥)ᵀ]^{−1/2} and its inverse

@@ -65,9 +65,11 @@
 use lifted_lti::StateSpace;
 
 use crate::error_covariance::{Covariances, bfgs_update, positive_curvature};
+use crate::estimated::Record;
+use crate::estimated::{Feedthrough, InitialState};
 use crate::model::Experiment;
 use crate::one_step::{OneStep, Sensitivities};
-use crate::regress::{Feedthrough, InitialState, Record, estimate_bd, estimate_x0};
+use crate::regress::{estimate_bd, estimate_x0};
 use lifted_linalg::spectral_radius;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};

@@ -9,6 +9,8 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::checks::{candidate_orders, check_instrument, check_order, validate};
 use crate::error::{Error, Result, check_data, check_exciting, check_rank};
+use crate::estimated::{BdFit, Record};
+use crate::estimated::{Feedthrough, InitialState};
 use crate::model::Experiment;
 use crate::numerics::{Scale, ac_from_gamma, numerical_rank, pow4_scale, scaled_basis};
 use crate::options::OrderSelection;
@@ -16,7 +18,7 @@ use crate::order::{
     OrderCriterion, OrderReport, gap_values, information_criterion_values, simulation_error,
 };
 use crate::predictor_regress::predictor_regression;
-use crate::regress::{BdFit, Feedthrough, InitialState, Record, estimate_bd, estimate_bd_iv};
+use crate::regress::{estimate_bd, estimate_bd_iv};
 use lifted_linalg::spectral_radius;
 
 /// One record for [`iv_identify`].

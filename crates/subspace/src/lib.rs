@@ -133,6 +133,7 @@ pub mod crossval;
 mod engine;
 pub mod error;
 mod error_covariance;
+mod estimated;
 mod fit;
 mod gain_check;
 mod hankel;
@@ -163,6 +164,7 @@ mod wire;
 pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
+pub use estimated::{BdFit, Feedthrough, InitialState, Record};
 pub use gain_check::{
     GainCheck, GainCheckOptions, MEMO_ENTRIES, MINIMISE_WORK, VARX_WORK, VarxMemo,
     check_kalman_gain, check_kalman_gain_memo, records_hash,
@@ -186,8 +188,8 @@ pub use pbsid::{
 };
 pub use pbsid_order::select_pbsid_order;
 pub use regress::{
-    BdFit, Feedthrough, InitialState, MAX_REGRESSOR_GROWTH, Record, StateFit, estimate_bd,
-    estimate_bd_iv, estimate_bd_with_offsets, estimate_x0, structured_state_lstsq,
+    MAX_REGRESSOR_GROWTH, StateFit, estimate_bd, estimate_bd_iv, estimate_bd_with_offsets,
+    estimate_x0, structured_state_lstsq,
 };
 pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};
 pub use separable::CompressedData;

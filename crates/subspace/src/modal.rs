@@ -35,7 +35,7 @@ use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
-use crate::regress::{DataScale, Params, Record};
+use crate::estimated::{DataScale, Params, Record};
 
 /// Largest 2-norm condition number of the (column-normalised) eigenvector
 /// matrix V for which the modal route is used: the change of coordinates
@@ -1202,7 +1202,9 @@ fn fill_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::regress::{BdFit, Feedthrough, InitialState, Route, output_error_route};
+    use crate::estimated::BdFit;
+    use crate::estimated::{Feedthrough, InitialState};
+    use crate::regress::{Route, output_error_route};
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

@@ -3,9 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::estimated::{Feedthrough, InitialState};
 use crate::hankel::Compression;
 use crate::order::OrderCriterion;
-use crate::regress::{Feedthrough, InitialState};
 
 /// The weighting of the unifying theorem (thesis §2.5 table, erratum L-4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -28,7 +28,8 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::regress::{Feedthrough, InitialState, Record};
+use crate::estimated::Record;
+use crate::estimated::{Feedthrough, InitialState};
 
 /// The rule of the automatic order choice
 /// ([`crate::OrderSelection::Gap`]`{ max }` chooses 1 ≤ n ≤ max by this

@@ -118,6 +118,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::checks::{thread_count, validate_on};
 use crate::error::{Error, Result};
+use crate::estimated::Record;
+use crate::estimated::{Feedthrough, InitialState};
 use crate::hankel::{Compression, CompressionReport, HankelFactor, HankelLayout, compress};
 use crate::model::Experiment;
 use crate::numerics::{Scale, vstack};
@@ -125,7 +127,7 @@ use crate::options::OrderSelection;
 use crate::order::{OrderCriterion, OrderReport, gap_values};
 use crate::predictor_regress::predictor_regression;
 use crate::records::{data_scale, remove_means};
-use crate::regress::{Feedthrough, InitialState, Record, estimate_x0};
+use crate::regress::estimate_x0;
 use lifted_linalg::spectral_radius;
 
 /// How the product Γ_f K_p of step 2 is estimated (module docs).

@@ -25,7 +25,7 @@ use lifted_linalg::RAccumulator;
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::Result;
-use crate::regress::Record;
+use crate::estimated::Record;
 
 /// Samples folded into the QR at a time.
 const BLOCK: usize = 2048;

@@ -8,11 +8,11 @@ use nalgebra::DMatrix;
 
 use crate::checks::{check_options, thread_count, validate, validate_shapes};
 use crate::error::{Error, Result};
+use crate::estimated::Record;
 use crate::hankel::{HankelFactor, HankelLayout, compress};
 use crate::model::Experiment;
 use crate::numerics::{Scale, pow4_scale_counted};
 use crate::options::SubspaceOptions;
-use crate::regress::Record;
 
 /// Records as owned (u, y) pairs.
 pub type OwnedRecords = Vec<(DMatrix<f64>, DMatrix<f64>)>;

@@ -9,13 +9,13 @@ use std::time::Instant;
 use crate::bd_stream::{OutputErrorStream, OutputErrorStreamOptions};
 use crate::checks::{check_data_on, check_options, check_record_shape, thread_count};
 use crate::error::{Error, Result};
+use crate::estimated::InitialState;
 use crate::fit::{Factored, Fit, NoisePart, from_factor_parts, noise_part};
 use crate::hankel::{HankelFactor, HankelLayout, HankelStream};
 use crate::model::{BdRoute, SubspaceModel, fold_output_offsets};
 use crate::numerics::{Scale, pow4_scale};
 use crate::options::{BdEstimate, SubspaceOptions, SystemEstimate};
 use crate::records::need_records;
-use crate::regress::InitialState;
 
 /// Identification from data fed in blocks (e.g. while a CSV file is read):
 /// memory O(((n_u + n_y)(p + f))²) whatever the number of samples.
