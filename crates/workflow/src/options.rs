@@ -867,7 +867,7 @@ impl WorkflowOptions {
         if id.method == Method::Qmarkov {
             gap_only(id)?;
         }
-        crate::polynomial::check_options(id)?;
+        check_polynomial_options(id)?;
         if id.kernel.is_some() && id.method != Method::Impulse {
             return Err(Error::option("kernel", "only used with the impulse method"));
         }
@@ -969,4 +969,81 @@ pub(crate) fn gap_only(id: &IdentificationOptions) -> crate::Result<()> {
              q-Markov and the multirate routes use the held-out fit or the singular-value gap",
         ))
     }
+}
+
+/// The option checks of the polynomial methods (part of
+/// `WorkflowOptions::check`).
+fn check_polynomial_options(id: &IdentificationOptions) -> crate::Result<()> {
+    if !id.method.is_polynomial() {
+        if !id.orders.is_empty() {
+            return Err(crate::Error::option(
+                "orders",
+                "only used with the arx and fir methods",
+            ));
+        }
+        return Ok(());
+    }
+    let (expected, shape) = match id.method {
+        Method::Fir | Method::Impulse => (2, "[nb nk]"),
+        Method::Arx => (3, "[na nb nk]"),
+        Method::Oe => (3, "[nb nf nk]"),
+        Method::Armax => (4, "[na nb nc nk]"),
+        _ => (5, "[nb nc nd nf nk]"),
+    };
+    if id.method.is_iterative_polynomial()
+        && id.orders.is_empty()
+        && id.order == Order::Auto
+        && id.order_criterion != OrderCriterion::Validation
+    {
+        return Err(crate::Error::option(
+            "order_criterion",
+            format!(
+                "{}'s automatic order is scanned by the held-out simulation fit (validation); give orders {shape} (--orders \"{}\") or a fixed order n for another rule",
+                id.method.name(),
+                shape.trim_matches(|c| c == '[' || c == ']')
+            ),
+        ));
+    }
+    if !id.orders.is_empty() {
+        if id.orders.len() != expected {
+            return Err(crate::Error::option(
+                "orders",
+                format!(
+                    "{} takes {} ({expected} numbers), got {:?}",
+                    id.method.name(),
+                    shape,
+                    id.orders
+                ),
+            ));
+        }
+        let nb = id.orders[match id.method {
+            Method::Oe | Method::Bj => 0,
+            Method::Armax => 1,
+            _ => expected - 2,
+        }];
+        if nb == 0 {
+            return Err(crate::Error::option(
+                "orders",
+                "nb must be at least 1 (the model needs an input term)",
+            ));
+        }
+        if id.feedthrough == Some(false) && id.orders[expected - 1] == 0 {
+            return Err(crate::Error::option(
+                "orders",
+                "nk = 0 is a direct feedthrough, but the feedthrough is fixed at 0",
+            ));
+        }
+    } else if !id.method.is_iterative_polynomial()
+        && id.method != Method::Impulse
+        && matches!(
+            id.order_criterion,
+            OrderCriterion::Gap | OrderCriterion::Svc
+        )
+    {
+        return Err(crate::Error::option(
+            "order_criterion",
+            "the ARX/FIR structure scan ranks by the held-out loss (validation), AIC, AICc or BIC (MDL), not by singular values",
+        ));
+    }
+    Ok(())
 }
