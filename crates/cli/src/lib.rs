@@ -21,11 +21,12 @@ pub mod args;
 pub mod error;
 pub mod escape;
 pub mod html;
-pub mod npy;
 pub mod plot;
 pub mod service;
 pub mod shards;
 pub mod shown;
 pub mod studio;
 pub mod table;
+/// The `.npy` reader (a part of [`table`]: the reader its `.npy` files go to).
+pub use table::npy;
 pub mod terminal;

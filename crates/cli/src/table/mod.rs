@@ -1,4 +1,4 @@
-//! Reading data sets from CSV (or numpy `.npy`, see [`crate::npy`]) by
+//! Reading data sets from CSV (or numpy `.npy`, see [`npy`]) by
 //! column name, streaming, with error messages that name the file, the line
 //! and the column.
 //!
@@ -18,7 +18,7 @@
 //!
 //! One file per reader: `fast` (the fast CSV path), `csv_records` (the
 //! csv-crate path: `csv-core` records, cell checks, the header row),
-//! `npy_glue` (which reader a file goes to; `.npy` files to [`crate::npy`]),
+//! `npy_glue` (which reader a file goes to; `.npy` files to [`npy`]),
 //! `columns` (column selection and duplicate checks), `rows` (row count and
 //! time-column checks shared with `.npy`), and the two CSV scans built on
 //! them, `scan` (sequential) and `parallel`. This module holds the data-set
@@ -28,6 +28,7 @@
 mod columns;
 mod csv_records;
 mod fast;
+pub mod npy;
 mod npy_glue;
 mod parallel;
 mod rows;
@@ -110,7 +111,7 @@ pub fn read_raw(
     if is_npy(path) {
         // Whole blocks of columns (no per-row calls).
         let block_rows = 1 << 16;
-        let (rows, ts) = crate::npy::scan_blocks(
+        let (rows, ts) = npy::scan_blocks(
             path,
             columns,
             wanted,
@@ -136,7 +137,7 @@ pub fn read_raw(
 }
 
 /// Streams the named columns of a data file (CSV, or `.npy` by extension:
-/// see [`crate::npy`]) row by row: `visit` receives the values of `wanted`
+/// see [`npy`]) row by row: `visit` receives the values of `wanted`
 /// (empty cells of the columns in `may_be_empty` as NaN) and returns whether
 /// to go on. Returns the number of rows visited and the base period (given,
 /// or from the time column over the rows read). `columns` names the columns
@@ -189,7 +190,7 @@ pub fn scan_rows_threads(
     visit: impl FnMut(&[f64]) -> CliResult<bool>,
 ) -> CliResult<(usize, f64)> {
     if is_npy(path) {
-        return crate::npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
+        return npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
     let mode = Mode {
         threads: threads.map(|n| lifted_linalg::budget::resolve_threads(n.max(1))),

@@ -1,5 +1,5 @@
 //! Which reader a data file goes to: numpy `.npy` files (by extension) to
-//! [`crate::npy`], everything else to the CSV readers.
+//! [`super::npy`], everything else to the CSV readers.
 
 use super::*;
 
@@ -15,7 +15,7 @@ pub fn is_npy(path: &str) -> bool {
 /// width). Reads only the start of the file.
 pub fn header(path: &str, columns: &[String]) -> CliResult<Vec<String>> {
     if is_npy(path) {
-        return crate::npy::header(path, columns);
+        return super::npy::header(path, columns);
     }
     open_csv(path, 1 << 16).map(|(_, h)| h)
 }
