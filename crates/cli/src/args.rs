@@ -779,6 +779,23 @@ pub struct IdentifyArgs {
     pub resources: ResourceArgs,
 }
 
+impl IdentifyArgs {
+    /// The arguments at the command's defaults (its parser's, from a
+    /// command line of constants: data `-`, output `out`), for the front
+    /// ends that set the values themselves (the studio) or compare given
+    /// flags with the defaults (`--plan`).
+    pub fn defaults(out: &str) -> Result<IdentifyArgs, clap::Error> {
+        let cli = Cli::try_parse_from(["lifted", "identify", "--data", "-", "--out", out])?;
+        match cli.command {
+            Command::Identify(a) => Ok(a),
+            _ => Err(clap::Error::raw(
+                clap::error::ErrorKind::InvalidSubcommand,
+                "internal: not an identify command line",
+            )),
+        }
+    }
+}
+
 /// `lifted delay`.
 #[derive(Debug, Args)]
 pub struct DelayArgs {

@@ -73,12 +73,16 @@ impl Default for Budgets {
 }
 
 impl Budgets {
-    /// Checks the values: every work budget finite and positive.
-    pub fn check(&self) -> crate::Result<()> {
+    /// Checks the values: every work budget, the Kalman-gain check's two
+    /// (`gain`) with them, finite and positive; named as in
+    /// [`Self::to_json`].
+    pub fn check(&self, gain: &lifted_subspace::GainCheckOptions) -> crate::Result<()> {
         for (name, v) in [
             ("auto_refine_work", self.auto_refine_work),
             ("auto_refine_work_joint", self.auto_refine_work_joint),
             ("refine_check_work", self.refine_check_work),
+            ("gain_check_varx_work", gain.varx_work),
+            ("gain_check_minimise_work", gain.minimise_work),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(crate::Error::option(
@@ -833,18 +837,7 @@ impl WorkflowOptions {
             ));
         }
         id.selection.check()?;
-        self.budgets.check()?;
-        for (name, v) in [
-            ("gain_check_varx_work", id.gain_check.varx_work),
-            ("gain_check_minimise_work", id.gain_check.minimise_work),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::option(
-                    name,
-                    format!("must be a positive number of operations, got {v}"),
-                ));
-            }
-        }
+        self.budgets.check(&id.gain_check)?;
         let r = &self.refinement;
         r.check
             .check()

@@ -380,16 +380,7 @@ pub fn plan_options(a: &IdentifyArgs, path: &str) -> CliResult<WorkflowOptions> 
     })?;
     // The option flags must be at their defaults: compare the options the
     // flags give with those of a command line with the data flags only.
-    use clap::Parser;
-    let plain =
-        crate::args::Cli::try_parse_from(["lifted", "identify", "--data", "-", "--out", "-"])
-            .map_err(|e| input(e.to_string()))?;
-    let crate::args::Cli {
-        command: crate::args::Command::Identify(plain),
-    } = plain
-    else {
-        return Err(input("internal: not an identify command line"));
-    };
+    let plain = IdentifyArgs::defaults("-").map_err(|e| input(e.to_string()))?;
     let (flags, defaults) = (
         serde_json::to_value(options_from_args(a)?).map_err(|e| bad(e.to_string()))?,
         serde_json::to_value(options_from_args(&plain)?).map_err(|e| bad(e.to_string()))?,

@@ -10,11 +10,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use clap::Parser;
 use lifted_lti::{Dataset, ModelFile};
 use serde::{Deserialize, Serialize};
 
-use crate::args::{Cli, Command, DetrendArg, IdentifyArgs};
+use crate::args::{DetrendArg, IdentifyArgs};
 use crate::error::{CliError, CliResult, clap_one_line, input};
 use crate::plot::svg;
 use crate::service::figures::{
@@ -1214,13 +1213,8 @@ impl Session {
     /// `lifted identify`'s arguments at their defaults (the parser's
     /// defaults, from a command line of constants).
     fn default_identify_args() -> CliResult<IdentifyArgs> {
-        match Cli::try_parse_from(["lifted", "identify", "--data", "-", "--out", "model.json"]) {
-            Ok(Cli {
-                command: Command::Identify(a),
-            }) => Ok(a),
-            Ok(_) => Err(input("internal: not an identify command line")),
-            Err(e) => Err(input(clap_one_line(&e).trim_start_matches("error: "))),
-        }
+        IdentifyArgs::defaults("model.json")
+            .map_err(|e| input(clap_one_line(&e).trim_start_matches("error: ")))
     }
 
     /// The model file of a request, as `lifted identify` writes it: the
@@ -1980,6 +1974,8 @@ impl Drop for Session {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::args::{Cli, Command};
+    use clap::Parser;
 
     #[test]
     fn names_are_made_safe() {

@@ -348,11 +348,19 @@ def _rows(shard: Any) -> int:
     return int(np.asarray(u).shape[0])
 
 
-def _record_size(raw: list[Any], channels: int, client: Any) -> tuple[int, int]:
-    """Samples and float64 bytes of the sharded record."""
-    delayed = _dask()
-    rows = _compute(client, *[delayed(_rows)(s) for s in raw])
-    n = int(sum(rows))
+def _record_size(
+    raw: list[Any], data: Any, u: Any, channels: int, client: Any
+) -> tuple[int, int]:
+    """Samples and float64 bytes of the sharded record: from the arrays'
+    shapes when the data are dask arrays (no block computed for it), from
+    the files' headers, else by a task per partition (a DataFrame)."""
+    known = u if u is not None else data
+    rows_known = getattr(known, "shape", (None,))[0] if hasattr(known, "chunks") else None
+    if isinstance(rows_known, (int, np.integer)):
+        n = int(rows_known)
+    else:
+        delayed = _dask()
+        n = int(sum(_compute(client, *[delayed(_rows)(s) for s in raw])))
     return n, n * channels * 8
 
 
@@ -411,7 +419,7 @@ def identify(
     delayed = _dask()
     raw = _shards(data, u, y, inputs, outputs)
     if engine != "sharded":
-        n, nbytes = _record_size(raw, _channels(data, u, y, inputs, outputs), client)
+        n, nbytes = _record_size(raw, data, u, _channels(data, u, y, inputs, outputs), client)
         if engine == "memory" or nbytes <= IN_MEMORY_BYTES:
             from . import identify as _identify_mem
 
