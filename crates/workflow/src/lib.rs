@@ -140,26 +140,22 @@ mod diagnostics;
 mod error;
 mod excitation;
 mod feedback;
-mod feedthrough;
+mod gain;
 mod integrators;
-mod multirate_predictor;
-mod multirate_start;
 mod options;
 mod pipeline;
 mod plan;
-mod polynomial;
 mod preprocess;
-mod process;
 mod refine;
 mod routes;
-mod shortlist;
+mod selection;
 pub mod stream;
+mod subspace_options;
 mod validate;
 
 pub use cache::SubspaceCache;
 pub use error::{Error, Result};
 pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
-pub use multirate_start::{MULTIRATE_START_SAMPLES, START_INTERPOLATED, START_LIFTED};
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BUDGET_NAMES, BdRoute, Budgets,
     DataOptions, Detrend, Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order,
@@ -174,6 +170,7 @@ pub use refine::{
     refine,
 };
 pub use routes::RouteDetails;
+pub use routes::multirate_start::{MULTIRATE_START_SAMPLES, START_INTERPOLATED, START_LIFTED};
 pub use stream::{BlockSink, Pass, RecordSource, identify_streamed, streamable};
 pub use validate::{
     gain_mismatch, gain_periods, marginal_warning, require_stable, spectral_radius,

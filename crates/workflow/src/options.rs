@@ -237,7 +237,7 @@ pub enum Method {
     /// measured samples (`lifted_pem::oe`; multirate records included):
     /// orders `[nb nf nk]`, or a fixed order n (nb = nf = n, nk from the
     /// delay estimate on single-rate records, else 1), or neither: the
-    /// order scan by the held-out simulation fit (`crate::polynomial`).
+    /// order scan by the held-out simulation fit (`crate::routes::polynomial`).
     Oe,
     /// ARMAX, A y = B u + C e, by prediction-error minimisation
     /// (`lifted_pem::armax`; consistent in closed loop): orders
@@ -256,7 +256,7 @@ pub enum Method {
     /// Process model with dead time per input–output pair (MATLAB's
     /// `procest`): [`IdentificationOptions::process`] (default P1D, first
     /// order plus dead time), by output error on the measured samples
-    /// (`crate::process`).
+    /// (`crate::routes::process`).
     Process,
 }
 
@@ -438,7 +438,7 @@ pub struct IdentificationOptions {
     /// CVA in memory keep D only where the records support it (the model
     /// with D free against the one with D = 0 at the same structure, by
     /// the Bayesian information criterion on their simulation errors:
-    /// `crate::feedthrough`, derivation and benchmark there; the streamed
+    /// `crate::routes::feedthrough`, derivation and benchmark there; the streamed
     /// route alike on records of up to [`GAIN_CHECK_SAMPLES`] samples, D
     /// estimated on longer ones); PBSID/SSARX, IV and the multirate routes fix
     /// D = 0 (in closed loop an estimated D is biased, the noise reaching u
@@ -495,7 +495,7 @@ pub struct IdentificationOptions {
     /// `[nb nf nk]` (OE), `[na nb nc nk]` (ARMAX) or `[nb nc nd nf nk]`
     /// (BJ). OE, ARMAX and BJ without it or a fixed [`Self::order`]: the order
     /// scan over 1..=[`Self::max_order`] by the held-out simulation fit. Empty,
-    /// the default for ARX and FIR: chosen by the structure scan (`crate::polynomial`:
+    /// the default for ARX and FIR: chosen by the structure scan (`crate::routes::polynomial`:
     /// na, nb in 1..=[`Self::max_order`], nk in 1..=5 (0..=5 with
     /// [`Self::feedthrough`] `Some(true)`), by
     /// [`Self::order_criterion`]). Other methods: not used (an error when

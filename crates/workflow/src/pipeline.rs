@@ -8,10 +8,11 @@ use crate::cache::SubspaceCache;
 use crate::diagnostics::{add_phase, add_run_facts};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
-use crate::multirate_start;
+use crate::gain::{GainCheckWith, checked_gain};
 use crate::options::{Detrend, Method, Refine, WorkflowOptions};
 use crate::preprocess::{ChannelScales, detrended, deviations};
 use crate::refine::{HeldOutCheck, refine};
+use crate::routes::multirate_start;
 use crate::routes::{self, RouteDetails, RouteFit};
 use crate::validate::{finish_file, require_stable};
 
@@ -223,7 +224,7 @@ fn run(
         Method::Qmarkov => routes::qmarkov(opts, &sets)?,
         m if m.is_subspace() && multirate => {
             // A second start, the interpolated record's single-rate model
-            // (crate::multirate_start), when it applies; it identifies the
+            // (crate::routes::multirate_start), when it applies; it identifies the
             // record alone when the lifted route fails.
             let second = multirate_start::applies(opts, &sets);
             third_start = second;
@@ -319,24 +320,24 @@ fn run(
         }
         // Multirate records under feedback without an instrument: the
         // direct prediction-error method, refined within the route
-        // (crate::multirate_predictor).
+        // (crate::routes::multirate_predictor).
         Method::Pbsid | Method::Ssarx | Method::PbsidRowwise if multirate => {
             refined_by_route = true;
-            crate::multirate_predictor::identify(opts, &sets)?
+            crate::routes::multirate_predictor::identify(opts, &sets)?
         }
         Method::Pbsid | Method::Ssarx | Method::PbsidRowwise => {
             routes::pbsid(id, &sets, multirate)?
         }
-        // Process models (crate::process), final as estimated.
+        // Process models (crate::routes::process), final as estimated.
         Method::Process => {
             refined_by_route = true;
-            crate::process::identify(opts, &sets, scales.as_ref())?
+            crate::routes::process::identify(opts, &sets, scales.as_ref())?
         }
         // ARX, FIR: the least-squares polynomial model, final as estimated
-        // (crate::polynomial).
+        // (crate::routes::polynomial).
         m if m.is_polynomial() => {
             refined_by_route = true;
-            crate::polynomial::identify(opts, &sets, multirate)?
+            crate::routes::polynomial::identify(opts, &sets, multirate)?
         }
         _ => {
             let instruments: Vec<Option<&DMatrix<f64>>> =
@@ -475,7 +476,7 @@ fn run(
     let polynomial = match details.polynomial.take() {
         Some(p) => {
             let p = match &scales {
-                Some(sc) => crate::polynomial::in_units(sc, &p)?,
+                Some(sc) => crate::routes::polynomial::in_units(sc, &p)?,
                 None => p,
             };
             details.polynomial = Some(p.clone());
@@ -534,81 +535,4 @@ fn run(
         suggested_order,
         details,
     })
-}
-
-/// How [`checked_gain`] checks a gain.
-pub(crate) struct GainCheckWith<'a> {
-    /// The VARX order of the innovation estimate (the identification's
-    /// past horizon).
-    pub past: usize,
-    /// When the iterations over K stop.
-    pub options: &'a lifted_subspace::GainCheckOptions,
-    /// Records of more samples keep the subspace step's gain
-    /// ([`crate::Budgets::gain_check_samples`]).
-    pub most_samples: usize,
-    /// The innovations kept between calls (a front end's
-    /// [`SubspaceCache`]): the same gain bit for bit as without it.
-    pub memo: Option<&'a mut lifted_subspace::VarxMemo>,
-    /// The hash of the records before the identification removed its
-    /// operating point (`raw` of [`checked_gain`]), when the run computed
-    /// it ([`SubspaceCache::hash`]).
-    pub records_hash: Option<u64>,
-}
-
-/// The Kalman gain of a single-rate subspace model on `sets` (deviations
-/// from its operating point, as the identification took them): checked on
-/// the records (`lifted_subspace::check_kalman_gain`, the report in
-/// `diagnostics.kalman_gain_route`) when they hold at most
-/// [`crate::Budgets::gain_check_samples`] samples, else the subspace step's gain. The
-/// in-memory and the streamed route both call it. `raw`: the records
-/// before the identification removed its operating point, when it did:
-/// the VARX innovations are estimated from them, each centred by its own
-/// means (`lifted_subspace::VarxMemo::set_source`), the same for every
-/// order of a record; `check`: the VARX order, the options and the memo
-/// of the check ([`GainCheckWith`]).
-pub(crate) fn checked_gain(
-    model: &lifted_lti::StateSpace,
-    gain: Option<DMatrix<f64>>,
-    sets: &[Dataset],
-    raw: Option<&[Dataset]>,
-    diagnostics: &mut serde_json::Value,
-    check: GainCheckWith<'_>,
-) -> Option<DMatrix<f64>> {
-    let GainCheckWith {
-        past,
-        options,
-        most_samples,
-        memo,
-        records_hash,
-    } = check;
-    let samples: usize = sets.iter().map(Dataset::len).sum();
-    if samples > most_samples {
-        return gain;
-    }
-    let exps: Vec<lifted_subspace::Experiment<'_>> = sets
-        .iter()
-        .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
-        .collect();
-    let t = std::time::Instant::now();
-    let mut local = lifted_subspace::VarxMemo::default();
-    let memo = memo.unwrap_or(&mut local);
-    let raw_exps: Option<Vec<lifted_subspace::Experiment<'_>>> = raw.map(|r| {
-        r.iter()
-            .map(|d| lifted_subspace::Experiment { u: d.u(), y: d.y() })
-            .collect()
-    });
-    match (raw_exps.as_deref(), records_hash) {
-        (Some(r), Some(h)) => memo.set_source_hashed(Some((r, h))),
-        (r, _) => memo.set_source(r),
-    }
-    let (checked, report) =
-        lifted_subspace::check_kalman_gain_memo(model, gain.as_ref(), &exps, past, options, memo);
-    add_phase(diagnostics, "kalman_gain_s", t.elapsed().as_secs_f64());
-    if let Some(obj) = diagnostics.as_object_mut() {
-        obj.insert(
-            "kalman_gain_route".into(),
-            serde_json::to_value(&report).unwrap_or_default(),
-        );
-    }
-    checked
 }

@@ -19,16 +19,17 @@ use serde_json::json;
 use crate::diagnostics::{add_phase, add_run_facts, subspace_json};
 use crate::error::{Context, Error, Result};
 use crate::excitation::InputSpread;
+use crate::gain::checked_gain;
 use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
-use crate::pipeline::{Identified, checked_gain};
+use crate::pipeline::Identified;
 use crate::preprocess::{ChannelScales, SCALE_ROWS, deviations};
 use crate::refine::{
     HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
     work_of_size,
 };
-use crate::routes::{
-    bd_of, capped_to_supported, criterion_of, method_of, order_of, push_capped_search_warning,
-    subspace_options, system_of,
+use crate::selection::{capped_to_supported, push_capped_search_warning};
+use crate::subspace_options::{
+    bd_of, criterion_of, method_of, order_of, subspace_options, system_of,
 };
 use crate::validate::{finish_file, require_stable};
 
@@ -178,7 +179,7 @@ pub fn identify_streamed(
         remove_means: opts.data.detrend != Detrend::None,
         noise_model: id.noise_model,
         enforce_stability: stabilized_start(opts),
-        feedthrough: crate::routes::feedthrough_of(id, true),
+        feedthrough: crate::subspace_options::feedthrough_of(id, true),
         ts: 1.0,
         compression,
         // The machine's threads by default (results depend on the count
@@ -272,13 +273,13 @@ pub fn identify_streamed(
     };
     let second_pass_s = t_second.elapsed().as_secs_f64();
     let (ts, n_rows) = (pass.ts, pass.rows);
-    // The default feedthrough as in memory (crate::feedthrough): on a
+    // The default feedthrough as in memory (crate::routes::feedthrough): on a
     // record that is loaded anyway (the gain check's size), D free against
     // the D = 0 model identified on it at the same structure; longer
     // records keep D (the test would need more passes over the file).
     let mut early = None;
     let mut zero_chosen = false;
-    let (fit, feedthrough) = match crate::feedthrough::settled(id, &fit) {
+    let (fit, feedthrough) = match crate::routes::feedthrough::settled(id, &fit) {
         Some(said) => (fit, said),
         None if n_rows <= opts.budgets.gain_check_samples => {
             let record = source.load()?;
@@ -290,7 +291,7 @@ pub fn identify_streamed(
                 past: fit.diagnostics.horizons.0,
                 future: fit.diagnostics.horizons.1,
                 system: system_of(id.estimator),
-                ..crate::routes::subspace_options(
+                ..crate::subspace_options::subspace_options(
                     opts,
                     record.ts(),
                     opts.data.detrend != Detrend::None,
@@ -302,7 +303,7 @@ pub fn identify_streamed(
             }];
             let zero = lifted_subspace::identify(&exps, &zero_opts).ctx(&what);
             let (fit, zero_kept, said) =
-                crate::feedthrough::choose(fit, zero, std::slice::from_ref(&record));
+                crate::routes::feedthrough::choose(fit, zero, std::slice::from_ref(&record));
             zero_chosen = zero_kept;
             early = Some(record);
             (fit, said)
@@ -371,7 +372,7 @@ pub fn identify_streamed(
             std::slice::from_ref(set),
             raw.then_some(std::slice::from_ref(record)),
             &mut d,
-            crate::pipeline::GainCheckWith {
+            crate::gain::GainCheckWith {
                 past: fit.diagnostics.horizons.0,
                 options: &opts.identification.gain_check,
                 most_samples: opts.budgets.gain_check_samples,

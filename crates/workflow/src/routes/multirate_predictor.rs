@@ -50,7 +50,7 @@
 //! consistent one: the multirate subspace route (N4SID on the lifted
 //! record and the fast-model extraction, with its automatic order when
 //! none is given) and the single-rate model of the record with its slow
-//! outputs interpolated (`crate::multirate_start`), each with the Kalman
+//! outputs interpolated (`crate::routes::multirate_start`), each with the Kalman
 //! gain of the gain check on the measured samples. Both are refined; the
 //! one with the lower prediction cost V on the records is kept
 //! (`diagnostics.multirate_predictor.candidates`). Both models have the
@@ -78,8 +78,8 @@ use serde_json::json;
 
 use crate::diagnostics::{add_phase, push_warning};
 use crate::error::{Error, Result};
+use crate::gain::{GainCheckWith, checked_gain};
 use crate::options::{Method, Order, Refine, WorkflowOptions};
-use crate::pipeline::{GainCheckWith, checked_gain};
 use crate::refine::{pem_options, records_of};
 use crate::routes::RouteFit;
 
@@ -123,7 +123,7 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
     let order = route.model.order();
     let interpolated = match made {
         Some(m) => Ok(m),
-        None => crate::multirate_start::start(&subspace_opts, sets, Some(order))
+        None => crate::routes::multirate_start::start(&subspace_opts, sets, Some(order))
             .map(|(m, _)| m)
             .map_err(|e| e.to_string()),
     };
@@ -135,10 +135,13 @@ pub(crate) fn identify(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<Route
     );
     let starts: Vec<(&'static str, std::result::Result<StateSpace, String>)> = vec![
         (
-            crate::multirate_start::START_LIFTED,
+            crate::routes::multirate_start::START_LIFTED,
             Ok(route.model.clone()),
         ),
-        (crate::multirate_start::START_INTERPOLATED, interpolated),
+        (
+            crate::routes::multirate_start::START_INTERPOLATED,
+            interpolated,
+        ),
     ];
     if opts.refinement.refine == Refine::None {
         push_warning(

@@ -189,7 +189,7 @@ pub(crate) fn choose(
             if decision.keep {
                 (free, false, decision.json)
             } else {
-                let zero = crate::routes::with_report_of(zero, &free.diagnostics);
+                let zero = crate::selection::with_report_of(zero, &free.diagnostics);
                 (zero, true, decision.json)
             }
         }

@@ -290,7 +290,7 @@ fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> R
     };
     let (mut est, mut val) = (Vec::new(), Vec::new());
     for d in sets {
-        let Some((e, v, _)) = crate::routes::two_thirds(d) else {
+        let Some((e, v, _)) = crate::selection::held_out::two_thirds(d) else {
             return Err(Error::Data(format!(
                 "the {} order scan needs records it can cut into two thirds and a third; one has {} samples: give the orders or a fixed order",
                 id.method.name(),
@@ -316,7 +316,7 @@ fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> R
             }
             let fits: Vec<f64> = val
                 .iter()
-                .filter_map(|v| crate::routes::held_out_mean(&fit.model, v, &vopts))
+                .filter_map(|v| crate::selection::held_out::held_out_mean(&fit.model, v, &vopts))
                 .collect();
             if fits.len() == val.len() {
                 Ok(fits.iter().sum::<f64>() / fits.len() as f64)

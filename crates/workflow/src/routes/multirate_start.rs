@@ -48,7 +48,7 @@
 //! With the default feedthrough, models with D free compete too (the
 //! interpolated record's, and the kept model's (A, C) with (B, D) refitted
 //! on the measured samples), kept by the Bayesian information criterion
-//! on the measured samples as `crate::feedthrough` keeps D on single-rate
+//! on the measured samples as `crate::routes::feedthrough` keeps D on single-rate
 //! records (`benches/results/closed-loop.md`, "Multirate routes on real records
 //! thinned as an analyser delivers them"). Applied to N4SID / MOESP / CVA records of inputs
 //! held one sample, up to [`MULTIRATE_START_SAMPLES`] samples, without
@@ -319,7 +319,7 @@ pub(crate) fn quick_start(opts: &WorkflowOptions, d: &Dataset, n: usize) -> Resu
 /// outputs and V_j each output's mean squared simulation error,
 /// Δ = N/n_y Σ_j ln(V_b,j / V_a,j) must exceed k ln(N/n_y), k the entries
 /// of D that `a` has free beyond `b`'s (the Bayesian information
-/// criterion of `crate::feedthrough`; k = 0: the better fit). `false`
+/// criterion of `crate::routes::feedthrough`; k = 0: the better fit). `false`
 /// when `a` does not simulate; `true` when only `a` does.
 fn better_by_bic(a: &StateSpace, b: &StateSpace, sets: &[Dataset]) -> bool {
     let opts = ValidationOptions {
