@@ -1,6 +1,6 @@
 //! The error type of `lifted-closedloop`.
 
-use crate::recover::Setup;
+use crate::setup::Setup;
 
 /// Errors returned by `lifted-closedloop`.
 #[derive(Debug, thiserror::Error)]

@@ -74,6 +74,7 @@ mod experiment;
 pub mod feedback;
 pub mod metrics;
 pub mod recover;
+mod setup;
 
 pub use error::{Error, Result};
 pub use experiment::{

@@ -31,6 +31,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
+pub use crate::units::format_bytes;
 
 /// Environment variable that overrides the default memory budget (bytes,
 /// a plain decimal integer).
@@ -165,27 +166,6 @@ fn parse_mem_total(text: &str) -> Option<u64> {
         Some(_) => return None,
     };
     value.checked_mul(unit)
-}
-
-/// Bytes for people: "5.12 TB (5120000000000 bytes)"; decimal units.
-pub fn format_bytes(bytes: u64) -> String {
-    if bytes == u64::MAX {
-        return "more than 18 EB (the size overflows 64 bits)".into();
-    }
-    const UNITS: [&str; 6] = ["kB", "MB", "GB", "TB", "PB", "EB"];
-    if bytes < 1000 {
-        return format!("{bytes} bytes");
-    }
-    let mut v = bytes as f64;
-    let mut unit = "";
-    for u in UNITS {
-        if v < 1000.0 {
-            break;
-        }
-        v /= 1000.0;
-        unit = u;
-    }
-    format!("{v:.3} {unit} ({bytes} bytes)")
 }
 
 /// The machine's available parallelism ([`std::thread::available_parallelism`],

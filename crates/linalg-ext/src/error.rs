@@ -133,8 +133,8 @@ pub enum Error {
         "{what} needs {} of memory, more than the budget of {} (half the physical memory by default); \
          make it smaller (the horizons, order, periods or the number of steps or samples that size it), \
          or set LIFTED_MEMORY_LIMIT=<bytes> to raise the budget",
-        crate::budget::format_bytes(*needed_bytes),
-        crate::budget::format_bytes(*budget_bytes)
+        crate::units::format_bytes(*needed_bytes),
+        crate::units::format_bytes(*budget_bytes)
     )]
     TooLarge {
         /// What would have been allocated.

@@ -91,6 +91,7 @@ pub mod schur;
 pub mod simd;
 pub mod solve;
 pub mod svd;
+mod units;
 pub mod warm;
 
 pub use cca::{Cca, cca, center_rows};

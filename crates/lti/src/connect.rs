@@ -6,7 +6,97 @@ use nalgebra::DMatrix;
 use crate::error::{Error, Result, check_domain};
 use crate::la;
 use crate::ss::StateSpace;
-use crate::tf::FeedbackSign;
+
+/// Sign of the feedback path in [`crate::feedback`] and
+/// [`TransferFunction::feedback`]: `Negative` (the default) gives
+/// G(I + KG)⁻¹, `Positive` gives G(I − KG)⁻¹.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FeedbackSign {
+    /// u = r − K y.
+    #[default]
+    Negative,
+    /// u = r + K y.
+    Positive,
+}
+
+impl FeedbackSign {
+    /// −1 for negative feedback, +1 for positive.
+    pub fn value(self) -> f64 {
+        match self {
+            FeedbackSign::Negative => -1.0,
+            FeedbackSign::Positive => 1.0,
+        }
+    }
+}
+
+impl StateSpace {
+    /// Discrete models only: delays input j by `input_delays[j]` samples and
+    /// output i by `output_delays[i]` samples (pure z^-d). The delays are
+    /// absorbed immediately as extra states (a shift register per delayed
+    /// channel), so the result is an ordinary `StateSpace` of order
+    /// n + Σ dᵢ. Empty slices mean no delay.
+    ///
+    /// Errors: [`Error::NotDiscrete`], wrong slice lengths.
+    pub fn with_io_delays(&self, input_delays: &[usize], output_delays: &[usize]) -> Result<Self> {
+        if !self.is_discrete() {
+            return Err(Error::NotDiscrete {
+                what: "with_io_delays",
+            });
+        }
+        let m = self.n_inputs();
+        let p = self.n_outputs();
+        if !input_delays.is_empty() && input_delays.len() != m {
+            return Err(Error::DimensionMismatch {
+                what: "input_delays",
+                expected: format!("{m} entries"),
+                got: format!("{}", input_delays.len()),
+            });
+        }
+        if !output_delays.is_empty() && output_delays.len() != p {
+            return Err(Error::DimensionMismatch {
+                what: "output_delays",
+                expected: format!("{p} entries"),
+                got: format!("{}", output_delays.len()),
+            });
+        }
+        let mut sys = self.clone();
+        if input_delays.iter().any(|&d| d > 0) {
+            let pre = delay_bank(input_delays, self.ts);
+            sys = crate::connect::series(&pre, &sys)?;
+        }
+        if output_delays.iter().any(|&d| d > 0) {
+            let post = delay_bank(output_delays, self.ts);
+            sys = crate::connect::series(&sys, &post)?;
+        }
+        sys.input_names.clone_from(&self.input_names);
+        sys.output_names.clone_from(&self.output_names);
+        Ok(sys)
+    }
+}
+
+/// Diagonal bank of pure delays z^-dᵢ (one shift register per channel).
+pub(crate) fn delay_bank(delays: &[usize], ts: Option<f64>) -> StateSpace {
+    let k = delays.len();
+    let n: usize = delays.iter().sum();
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DMatrix::zeros(n, k);
+    let mut c = DMatrix::zeros(k, n);
+    let mut d = DMatrix::zeros(k, k);
+    let mut off = 0;
+    for (j, &dj) in delays.iter().enumerate() {
+        if dj == 0 {
+            d[(j, j)] = 1.0;
+            continue;
+        }
+        b[(off, j)] = 1.0;
+        for i in 1..dj {
+            a[(off + i, off + i - 1)] = 1.0;
+        }
+        c[(j, off + dj - 1)] = 1.0;
+        off += dj;
+    }
+    StateSpace::from_parts(a, b, c, d, ts)
+}
 
 pub(crate) fn blkdiag(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     let mut m = DMatrix::zeros(a.nrows() + b.nrows(), a.ncols() + b.ncols());
@@ -197,5 +287,26 @@ mod tests {
         assert!(series(&a, &g).is_err());
         let inv = g.inverse().unwrap();
         assert_eq!(inv.a()[(0, 0)], -2.0);
+    }
+
+    #[test]
+    fn delay_bank_is_a_shift_register() {
+        let d = delay_bank(&[0, 2], Some(1.0));
+        assert_eq!(d.order(), 2);
+        assert_eq!(d.d()[(0, 0)], 1.0);
+        let sys = StateSpace::new(
+            DMatrix::from_row_slice(2, 2, &[0.5, 1.0, 0.0, 0.25]),
+            DMatrix::from_row_slice(2, 1, &[0.0, 1.0]),
+            DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        assert!(sys.with_io_delays(&[1, 1], &[]).is_err());
+        let c = StateSpace::gain(DMatrix::identity(1, 1), None).unwrap();
+        assert!(matches!(
+            c.with_io_delays(&[1], &[]),
+            Err(Error::NotDiscrete { .. })
+        ));
     }
 }

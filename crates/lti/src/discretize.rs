@@ -2,10 +2,11 @@
 
 use nalgebra::DMatrix;
 
+use crate::connect::delay_bank;
 use crate::connect::{hcat, vcat};
 use crate::error::{Error, Result, check_scalar, check_ts};
 use crate::la;
-use crate::ss::{StateSpace, delay_bank};
+use crate::ss::StateSpace;
 
 /// Discretisation method.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

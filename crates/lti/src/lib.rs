@@ -94,6 +94,7 @@ mod ss;
 mod tf;
 pub mod validation;
 
+pub use connect::FeedbackSign;
 pub use connect::{append, feedback, parallel, series};
 pub use data::{
     DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, SamplingError,
@@ -113,7 +114,7 @@ pub use polymodel::{
 pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;
-pub use tf::{FeedbackSign, SisoTf, TransferFunction};
+pub use tf::{SisoTf, TransferFunction};
 pub use validation::{
     InitialCondition, OutputValidation, Residual, SimulationFit, Validation, ValidationOptions,
     simulation_fits, validate,

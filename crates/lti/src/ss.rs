@@ -23,9 +23,9 @@ pub struct StateSpace {
     b: DMatrix<f64>,
     c: DMatrix<f64>,
     d: DMatrix<f64>,
-    ts: Option<f64>,
-    input_names: Option<Vec<String>>,
-    output_names: Option<Vec<String>>,
+    pub(crate) ts: Option<f64>,
+    pub(crate) input_names: Option<Vec<String>>,
+    pub(crate) output_names: Option<Vec<String>>,
 }
 
 impl StateSpace {
@@ -202,73 +202,6 @@ impl StateSpace {
             reason: json_reason(&e),
         })
     }
-
-    /// Discrete models only: delays input j by `input_delays[j]` samples and
-    /// output i by `output_delays[i]` samples (pure z^-d). The delays are
-    /// absorbed immediately as extra states (a shift register per delayed
-    /// channel), so the result is an ordinary `StateSpace` of order
-    /// n + Σ dᵢ. Empty slices mean no delay.
-    ///
-    /// Errors: [`Error::NotDiscrete`], wrong slice lengths.
-    pub fn with_io_delays(&self, input_delays: &[usize], output_delays: &[usize]) -> Result<Self> {
-        if !self.is_discrete() {
-            return Err(Error::NotDiscrete {
-                what: "with_io_delays",
-            });
-        }
-        let m = self.n_inputs();
-        let p = self.n_outputs();
-        if !input_delays.is_empty() && input_delays.len() != m {
-            return Err(Error::DimensionMismatch {
-                what: "input_delays",
-                expected: format!("{m} entries"),
-                got: format!("{}", input_delays.len()),
-            });
-        }
-        if !output_delays.is_empty() && output_delays.len() != p {
-            return Err(Error::DimensionMismatch {
-                what: "output_delays",
-                expected: format!("{p} entries"),
-                got: format!("{}", output_delays.len()),
-            });
-        }
-        let mut sys = self.clone();
-        if input_delays.iter().any(|&d| d > 0) {
-            let pre = delay_bank(input_delays, self.ts);
-            sys = crate::connect::series(&pre, &sys)?;
-        }
-        if output_delays.iter().any(|&d| d > 0) {
-            let post = delay_bank(output_delays, self.ts);
-            sys = crate::connect::series(&sys, &post)?;
-        }
-        sys.input_names.clone_from(&self.input_names);
-        sys.output_names.clone_from(&self.output_names);
-        Ok(sys)
-    }
-}
-
-/// Diagonal bank of pure delays z^-dᵢ (one shift register per channel).
-pub(crate) fn delay_bank(delays: &[usize], ts: Option<f64>) -> StateSpace {
-    let k = delays.len();
-    let n: usize = delays.iter().sum();
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DMatrix::zeros(n, k);
-    let mut c = DMatrix::zeros(k, n);
-    let mut d = DMatrix::zeros(k, k);
-    let mut off = 0;
-    for (j, &dj) in delays.iter().enumerate() {
-        if dj == 0 {
-            d[(j, j)] = 1.0;
-            continue;
-        }
-        b[(off, j)] = 1.0;
-        for i in 1..dj {
-            a[(off + i, off + i - 1)] = 1.0;
-        }
-        c[(j, off + dj - 1)] = 1.0;
-        off += dj;
-    }
-    StateSpace::from_parts(a, b, c, d, ts)
 }
 
 /// JSON representation: matrices as arrays of rows.
@@ -429,18 +362,5 @@ mod tests {
         );
         let s = sys().with_output_names(vec!["y".into()]).unwrap();
         assert_eq!(s.output_names().unwrap()[0], "y");
-    }
-
-    #[test]
-    fn delay_bank_is_a_shift_register() {
-        let d = delay_bank(&[0, 2], Some(1.0));
-        assert_eq!(d.order(), 2);
-        assert_eq!(d.d()[(0, 0)], 1.0);
-        assert!(sys().with_io_delays(&[1, 1], &[]).is_err());
-        let c = StateSpace::gain(DMatrix::identity(1, 1), None).unwrap();
-        assert!(matches!(
-            c.with_io_delays(&[1], &[]),
-            Err(Error::NotDiscrete { .. })
-        ));
     }
 }

@@ -6,30 +6,9 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use crate::MinrealOptions;
+use crate::connect::FeedbackSign;
 use crate::error::{Error, Result, check_domain, check_ts};
 use crate::poly::{Poly, cancel_common_roots};
-
-/// Sign of the feedback path in [`crate::feedback`] and
-/// [`TransferFunction::feedback`]: `Negative` (the default) gives
-/// G(I + KG)⁻¹, `Positive` gives G(I − KG)⁻¹.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum FeedbackSign {
-    /// u = r − K y.
-    #[default]
-    Negative,
-    /// u = r + K y.
-    Positive,
-}
-
-impl FeedbackSign {
-    /// −1 for negative feedback, +1 for positive.
-    pub fn value(self) -> f64 {
-        match self {
-            FeedbackSign::Negative => -1.0,
-            FeedbackSign::Positive => 1.0,
-        }
-    }
-}
 
 /// A SISO rational function num/den (coefficients in descending powers).
 #[derive(Debug, Clone, PartialEq)]

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
+use crate::complex_svd::{real_embedding, sigma_max};
 use crate::error::{Error, Result};
 
 /// Tolerances of [`NormMinimax::solve`].
@@ -161,24 +162,6 @@ impl Cut {
 
 fn all_finite(m: &DMatrix<Complex64>) -> bool {
     m.iter().all(|z| z.re.is_finite() && z.im.is_finite())
-}
-
-/// Real embedding [Re −Im; Im Re] of a complex matrix: its singular values
-/// are those of M, each twice, and [a; b] ↦ a + jb maps its right singular
-/// vectors to those of M.
-pub(crate) fn real_embedding(m: &DMatrix<Complex64>) -> DMatrix<f64> {
-    let (r, c) = m.shape();
-    let mut e = DMatrix::zeros(2 * r, 2 * c);
-    for i in 0..r {
-        for j in 0..c {
-            let z = m[(i, j)];
-            e[(i, j)] = z.re;
-            e[(i + r, j + c)] = z.re;
-            e[(i, j + c)] = -z.im;
-            e[(i + r, j)] = z.im;
-        }
-    }
-    e
 }
 
 /// σ_max(M) and unit right singular vectors w (‖Mw‖₂ = σ_j) of every
@@ -384,7 +367,7 @@ impl NormMinimax {
         self.check_x(x)?;
         let mut best = (f64::NEG_INFINITY, 0);
         for k in 0..self.len() {
-            let s = crate::lifting::sigma_max(&self.matrix(k, x))?;
+            let s = sigma_max(&self.matrix(k, x))?;
             if s > best.0 {
                 best = (s, k);
             }
@@ -416,7 +399,7 @@ impl NormMinimax {
         // a well-scaled t whatever the units of the weights
         let mut scale = 0.0f64;
         for a in &self.constant {
-            scale = scale.max(crate::lifting::sigma_max(a)?);
+            scale = scale.max(sigma_max(a)?);
         }
         if !(scale > 0.0 && scale.is_finite()) {
             return self.solve_scaled(opts);

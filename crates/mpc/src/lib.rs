@@ -54,6 +54,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod complex_svd;
 mod conic;
 mod controller;
 mod dmc;

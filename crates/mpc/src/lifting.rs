@@ -7,8 +7,8 @@
 use lifted_lti::StateSpace;
 use lifted_multirate::{MultirateLifting, Ordering, lift_model};
 use nalgebra::DMatrix;
-use num_complex::Complex64;
 
+pub use crate::complex_svd::sigma_max;
 use crate::error::{Error, Result};
 
 /// One phase of an n-periodic system x(k+1) = A_k x + B_k w, z = C_k x + D_k w.
@@ -103,39 +103,10 @@ pub fn lift(sys: &StateSpace, n: usize) -> Result<StateSpace> {
     Ok(lift_model(sys, &l)?)
 }
 
-/// Largest singular value of a complex matrix, via the real embedding
-/// [Re −Im; Im Re] (whose singular values are those of M, each twice).
-///
-/// Errors: non-finite entries.
-pub fn sigma_max(m: &DMatrix<Complex64>) -> Result<f64> {
-    if m.nrows() == 0 || m.ncols() == 0 {
-        return Ok(0.0);
-    }
-    let e = crate::conic::real_embedding(m);
-    let s = lifted_linalg::singular_values(&e)?;
-    Ok(s.iter().copied().fold(0.0, f64::max))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::dmatrix;
-
-    #[test]
-    fn sigma_max_of_complex_matrix() {
-        // [[1, i], [0, 1]]: singular values (√5 ± 1)/2
-        let m = DMatrix::from_row_slice(
-            2,
-            2,
-            &[
-                Complex64::new(1.0, 0.0),
-                Complex64::new(0.0, 1.0),
-                Complex64::new(0.0, 0.0),
-                Complex64::new(1.0, 0.0),
-            ],
-        );
-        assert!((sigma_max(&m).unwrap() - (5f64.sqrt() + 1.0) / 2.0).abs() < 1e-12);
-    }
 
     #[test]
     fn lifted_markov_structure() {

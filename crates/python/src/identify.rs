@@ -20,7 +20,7 @@ use crate::choices::Choice;
 use crate::convert::{Int, count, counts, int, opt_count, opt_int, opt_ints};
 use crate::errors::{arg_error, err};
 use crate::statespace::PyStateSpace;
-use crate::{dataset, records, to_py};
+use crate::{dataset, finite, finite_records, records, to_py};
 
 /// Order selection: fixed `order`, else the singular-value gap up to `max_order`.
 pub(crate) fn order_of(order: Option<usize>, max_order: usize) -> OrderSelection {
@@ -310,35 +310,6 @@ fn inferred_periods(y: &DMatrix<f64>) -> Option<Vec<usize>> {
             }
         })
         .collect()
-}
-
-/// The records of `us`, `ys` with every value finite (the subspace layer's
-/// check and message: the sample and channel of the first NaN or
-/// infinity).
-#[allow(clippy::type_complexity)]
-pub(crate) fn finite_records(
-    us: &[Bound<'_, PyAny>],
-    ys: &[Bound<'_, PyAny>],
-) -> PyResult<(Vec<DMatrix<f64>>, Vec<DMatrix<f64>>)> {
-    let (u, y) = records(us, ys)?;
-    for (u, y) in u.iter().zip(&y) {
-        for (what, m) in [("u", u), ("y", y)] {
-            finite(what, m)?;
-        }
-    }
-    Ok((u, y))
-}
-
-/// Fails on the first NaN or infinity of `m` (`what`: "u" or "y").
-pub(crate) fn finite(what: &'static str, m: &DMatrix<f64>) -> PyResult<()> {
-    match lifted_linalg::first_non_finite(m.as_slice()) {
-        Some(i) => Err(err(lifted_subspace::Error::NonFinite {
-            what,
-            row: i % m.nrows().max(1),
-            col: i / m.nrows().max(1),
-        })),
-        None => Ok(()),
-    }
 }
 
 /// The workflow's offsets from `detrend` and the older `remove_means`

@@ -88,6 +88,35 @@ pub(crate) fn records(
     Ok((u, y))
 }
 
+/// The records of `us`, `ys` with every value finite (the subspace layer's
+/// check and message: the sample and channel of the first NaN or
+/// infinity).
+#[allow(clippy::type_complexity)]
+pub(crate) fn finite_records(
+    us: &[Bound<'_, PyAny>],
+    ys: &[Bound<'_, PyAny>],
+) -> PyResult<(Vec<DMatrix<f64>>, Vec<DMatrix<f64>>)> {
+    let (u, y) = records(us, ys)?;
+    for (u, y) in u.iter().zip(&y) {
+        for (what, m) in [("u", u), ("y", y)] {
+            finite(what, m)?;
+        }
+    }
+    Ok((u, y))
+}
+
+/// Fails on the first NaN or infinity of `m` (`what`: "u" or "y").
+pub(crate) fn finite(what: &'static str, m: &DMatrix<f64>) -> PyResult<()> {
+    match lifted_linalg::first_non_finite(m.as_slice()) {
+        Some(i) => Err(err(lifted_subspace::Error::NonFinite {
+            what,
+            row: i % m.nrows().max(1),
+            col: i / m.nrows().max(1),
+        })),
+        None => Ok(()),
+    }
+}
+
 /// A data set with channels u1…, y1… (input i held `holds[i]`, output i
 /// sampled every `periods[i]` from sample 0; None: every sample).
 pub(crate) fn dataset(

@@ -20,8 +20,8 @@ use pyo3::types::PyDict;
 
 use crate::convert::{Int, count, counts, int, ints};
 use crate::errors::{arg_error, err, lifted_error};
-use crate::identify::finite_records;
-use crate::to_py;
+
+use crate::{finite_records, to_py};
 
 /// The name of a polynomial family (`PolyModel.family`).
 fn family_name(f: PolyFamily) -> &'static str {

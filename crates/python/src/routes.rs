@@ -16,11 +16,9 @@ use crate::choices::Choice;
 use crate::convert::{
     Int, count, counts, int, ints, opt_count, opt_int, opt_ints, output_record, record, small,
 };
-use crate::dataset;
 use crate::errors::{arg_error, err, lifted_error};
-use crate::identify::{
-    detrend_of, finite, finite_records, identified_dict, order_choice, refinement, run, single_rate,
-};
+use crate::identify::{detrend_of, identified_dict, order_choice, refinement, run, single_rate};
+use crate::{dataset, finite, finite_records};
 
 /// Closed-loop instrumental-variable subspace identification (thesis ch. 7)
 /// of one record or several through the workflow (`lifted identify --method
