@@ -169,6 +169,14 @@ fn _choices() -> Vec<(&'static str, Vec<&'static str>)> {
     choices::all()
 }
 
+/// The typed fields of the workflow's diagnostics
+/// (`lifted_workflow::diagnostics::FIELDS`), which `lifted.Diagnostics`
+/// mirrors (checked by the test suite).
+#[pyfunction]
+fn _diagnostics_fields() -> Vec<&'static str> {
+    lifted_workflow::diagnostics::FIELDS.to_vec()
+}
+
 /// The thread count a `threads` option resolves to on this machine (0 =
 /// all available cores; larger counts are capped at the available
 /// parallelism), `lifted_linalg::budget::resolve_threads`.
@@ -186,6 +194,7 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add_class::<PyStateSpace>()?;
     m.add_class::<mpc::PyMpc>()?;
+    m.add_function(wrap_pyfunction!(_diagnostics_fields, m)?)?;
     m.add_function(wrap_pyfunction!(routes::iv, m)?)?;
     m.add_function(wrap_pyfunction!(routes::qmarkov, m)?)?;
     m.add_function(wrap_pyfunction!(routes::multirate, m)?)?;

@@ -100,7 +100,7 @@ pub(crate) fn iv<'py>(
         })
         .collect::<PyResult<Vec<_>>>()?;
     let fit = run(py, sets, opts)?;
-    let stabilized = fit.file.diagnostics.get("stabilized") == Some(&true.into());
+    let stabilized = lifted_workflow::Diagnostics::of(&fit.file).stabilized == Some(true);
     let d = identified_dict(py, &fit, 1)?;
     d.set_item("stabilized", stabilized)?;
     Ok(d)

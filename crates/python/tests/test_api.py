@@ -89,6 +89,33 @@ def test_literal_aliases_match_the_extension() -> None:
     }
 
 
+def test_the_diagnostics_dataclass_mirrors_the_rust_type(record: tuple[np.ndarray, np.ndarray]) -> None:
+    """lifted.Diagnostics has the typed fields of lifted_workflow::Diagnostics
+    (and `details`); a fit's diagnostics read as fields and as the model
+    file's mapping, and write back the file's object."""
+    import dataclasses
+    import json
+
+    names = [f.name for f in dataclasses.fields(lifted.Diagnostics)]
+    assert names == list(lifted._lifted._diagnostics_fields()) + ["details"]
+    u, y = record
+    fit = lifted.identify(u, y, dt=0.5)
+    d = fit.diagnostics
+    assert isinstance(d, lifted.Diagnostics)
+    file = json.loads(fit.model_json)["diagnostics"]
+    assert d == file and d.to_dict() == file
+    assert d.route is not None and d.route == d["route"]
+    assert d.samples == len(u) and d.plan is not None and d.plan["route"]
+    assert d.structure_selection is not None and d.structure_selection["order"] == fit.order
+    assert "horizons" in d and d.horizons == d["horizons"]
+    assert set(d.details) <= set(file) and not set(d.details) & set(names)
+    # Route entries no field names stay by name; unknown keys are details.
+    other = lifted.Diagnostics.from_json({"route": "r", "lifting_period": 3})
+    assert other.details == {"lifting_period": 3} and other["lifting_period"] == 3
+    assert "warnings" not in other and other.warnings == []
+    assert lifted.Diagnostics.from_json(None) == {}
+
+
 def _partial(v: str, u: np.ndarray, y: np.ndarray) -> object:
     """The streamed (lifted.dask) route's identification step, which takes a
     SubspaceMethod."""

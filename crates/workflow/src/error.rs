@@ -35,6 +35,10 @@ pub enum Error {
     /// it: a file, a line and a column, say).
     #[error("{0}")]
     Source(String),
+    /// A model file's diagnostics do not have the form of
+    /// [`crate::Diagnostics`] (the entry and serde's reason).
+    #[error("{0}")]
+    Diagnostics(String),
 }
 
 impl Error {

@@ -136,7 +136,7 @@
 //! ```
 
 mod cache;
-mod diagnostics;
+pub mod diagnostics;
 mod error;
 mod excitation;
 mod feedback;
@@ -154,6 +154,7 @@ mod subspace_options;
 mod validate;
 
 pub use cache::SubspaceCache;
+pub use diagnostics::Diagnostics;
 pub use error::{Error, Result};
 pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
 pub use options::{
@@ -163,7 +164,7 @@ pub use options::{
     RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
-pub use plan::{DataShape, options_from_plan, resolved_defaults};
+pub use plan::{DataShape, Plan, Resolved, options_from_plan, resolved_defaults};
 pub use preprocess::{ChannelScales, SCALE_ROWS, detrend_sets, deviations};
 pub use refine::{
     HeldOutCheck, JUDGE_HELD_OUT, JUDGE_NOT_TOLD_APART, JUDGE_RECORDS, JUDGE_WORSE_ON_RECORDS,

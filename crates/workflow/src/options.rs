@@ -75,7 +75,7 @@ impl Default for Budgets {
 impl Budgets {
     /// Checks the values: every work budget, the Kalman-gain check's two
     /// (`gain`) with them, finite and positive; named as in
-    /// [`Self::to_json`].
+    /// [`Self::used`].
     pub fn check(&self, gain: &lifted_subspace::GainCheckOptions) -> crate::Result<()> {
         for (name, v) in [
             ("auto_refine_work", self.auto_refine_work),
@@ -94,23 +94,26 @@ impl Budgets {
         Ok(())
     }
 
-    /// The budgets with the Kalman-gain check's two, as a diagnostics
-    /// object.
-    pub fn to_json(&self, gain: &lifted_subspace::GainCheckOptions) -> serde_json::Value {
-        serde_json::json!({
-            "auto_refine_work": self.auto_refine_work,
-            "auto_refine_work_joint": self.auto_refine_work_joint,
-            "auto_refine_samples": self.auto_refine_samples,
-            "refine_check_samples": self.refine_check_samples,
-            "refine_check_work": self.refine_check_work,
-            "gain_check_samples": self.gain_check_samples,
-            "gain_check_varx_work": gain.varx_work,
-            "gain_check_minimise_work": gain.minimise_work,
-        })
+    /// The budgets with the Kalman-gain check's two, as
+    /// `diagnostics.budgets` records them.
+    pub fn used(
+        &self,
+        gain: &lifted_subspace::GainCheckOptions,
+    ) -> crate::diagnostics::BudgetsUsed {
+        crate::diagnostics::BudgetsUsed {
+            auto_refine_work: self.auto_refine_work,
+            auto_refine_work_joint: self.auto_refine_work_joint,
+            auto_refine_samples: self.auto_refine_samples,
+            refine_check_samples: self.refine_check_samples,
+            refine_check_work: self.refine_check_work,
+            gain_check_samples: self.gain_check_samples,
+            gain_check_varx_work: gain.varx_work,
+            gain_check_minimise_work: gain.minimise_work,
+        }
     }
 
-    /// Sets one budget by its name in `diagnostics.budgets` (the keys of
-    /// [`Self::to_json`], the gain check's two into `gain`), as the
+    /// Sets one budget by its name in `diagnostics.budgets` (the fields of
+    /// [`crate::diagnostics::BudgetsUsed`], the gain check's two into `gain`), as the
     /// command line's `--budget name=value` and Python's `budgets={…}`
     /// give them; an unknown name or a value of the wrong kind is an
     /// error naming it.
@@ -618,17 +621,6 @@ impl SelectionOptions {
             ));
         }
         Ok(())
-    }
-
-    /// The policy as a diagnostics object.
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "stable_tries": self.stable_tries,
-            "shortlist": self.shortlist,
-            "shortlist_span": self.shortlist_span,
-            "tolerance": self.tolerance,
-            "failed_fold": self.failed_fold,
-        })
     }
 }
 

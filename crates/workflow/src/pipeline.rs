@@ -168,16 +168,13 @@ fn run(
     let multirate = records.iter().any(|r| !r.data.is_single_rate());
     // What the defaults left to the run will decide on these records, said
     // before the heavy work (diagnostics.plan).
-    let plan = crate::plan::resolved_defaults(
-        opts,
-        &crate::plan::DataShape {
-            records: records.len(),
-            samples: records.iter().map(|r| r.data.len()).sum(),
-            longest: records.iter().map(|r| r.data.len()).max().unwrap_or(0),
-            multirate,
-            streamed: false,
-        },
-    );
+    let plan = opts.plan(&crate::plan::DataShape {
+        records: records.len(),
+        samples: records.iter().map(|r| r.data.len()).sum(),
+        longest: records.iter().map(|r| r.data.len()).max().unwrap_or(0),
+        multirate,
+        streamed: false,
+    })?;
     let subspace_single_rate = !multirate && id.method.is_subspace();
     // Single-rate N4SID/MOESP/CVA remove the means inside the
     // identification (as the streamed route does: the output-error
@@ -504,7 +501,10 @@ fn run(
     add_run_facts(&mut diagnostics, samples, ts, &periods, None, identify_s);
     crate::diagnostics::add_selection_policy(&mut diagnostics, opts);
     if let Some(obj) = diagnostics.as_object_mut() {
-        obj.insert("plan".into(), plan);
+        obj.insert(
+            "plan".into(),
+            serde_json::to_value(&plan).unwrap_or_default(),
+        );
     }
     for (j, v) in constant_outputs(records) {
         crate::diagnostics::push_warning(

@@ -93,13 +93,11 @@ mod tests {
             multirate: false,
             streamed: false,
         };
-        let find = |p: &serde_json::Value, key: &str| -> serde_json::Value {
-            p["resolved"]
-                .as_array()
-                .unwrap()
+        let find = |p: &Plan, key: &str| -> serde_json::Value {
+            p.resolved
                 .iter()
-                .find(|e| e["option"] == key)
-                .map(|e| e["value"].clone())
+                .find(|e| e.option == key)
+                .map(|e| e.value.clone())
                 .unwrap_or(serde_json::Value::Null)
         };
         let short = resolved_defaults(&o, &shape(1000));
@@ -123,11 +121,9 @@ mod tests {
         given.identification.integrator_tolerance = Some(0.01);
         let p = resolved_defaults(&given, &shape(1000));
         assert!(
-            p["resolved"]
-                .as_array()
-                .unwrap()
+            p.resolved
                 .iter()
-                .all(|e| e["option"] != "horizon" && e["option"] != "integrator_tolerance")
+                .all(|e| e.option != "horizon" && e.option != "integrator_tolerance")
         );
         let mr = resolved_defaults(
             &o,
@@ -136,12 +132,7 @@ mod tests {
                 ..shape(1000)
             },
         );
-        assert!(
-            mr["route"]
-                .as_str()
-                .unwrap()
-                .starts_with("multirate subspace")
-        );
+        assert!(mr.route.starts_with("multirate subspace"));
     }
 
     /// Every way of giving a plan reads back the options; the ways of
@@ -196,6 +187,45 @@ pub struct DataShape {
     pub streamed: bool,
 }
 
+/// What a run decides with the defaults left to it on records of a given
+/// [`DataShape`] (`diagnostics.plan`): the route and, for every option
+/// given as "default", the value or rule that decides it and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Plan {
+    /// The route the options and the records call for, in words.
+    pub route: String,
+    /// Records.
+    pub records: usize,
+    /// Samples, all records together.
+    pub samples: usize,
+    /// Some output is not measured at every sample.
+    pub multirate: bool,
+    /// The defaults resolved, in the order the run meets them.
+    pub resolved: Vec<Resolved>,
+}
+
+/// One default resolved by a [`Plan`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Resolved {
+    /// The option, as [`WorkflowOptions`] names it.
+    pub option: String,
+    /// Its value on these records (`null` where a rule decides it later,
+    /// on the records themselves).
+    pub value: serde_json::Value,
+    /// The rule or reason.
+    pub why: String,
+}
+
+impl WorkflowOptions {
+    /// The options checked ([`WorkflowOptions::check`]) and resolved for
+    /// records of shape `shape`: the [`Plan`] the run follows, before any
+    /// heavy work. O(1).
+    pub fn plan(&self, shape: &DataShape) -> crate::Result<Plan> {
+        self.check()?;
+        Ok(resolved_defaults(self, shape))
+    }
+}
+
 /// What a run will do with the defaults left to it, said before the heavy
 /// work (`diagnostics.plan`): the route, and for every option given as
 /// "default" (`None` or automatic) the value or rule that decides it on
@@ -203,7 +233,7 @@ pub struct DataShape {
 /// [`DataShape`] only. The options themselves (`diagnostics.options`) stay
 /// as given, so a plan made from them decides the same way on other
 /// records.
-pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> serde_json::Value {
+pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
     use crate::{Method, Order, OrderCriterion, Refine};
     let id = &opts.identification;
     let b = &opts.budgets;
@@ -227,9 +257,13 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> serde_jso
     } else {
         "polynomial, process or impulse-response model"
     };
-    let mut out: Vec<serde_json::Value> = Vec::new();
+    let mut out: Vec<Resolved> = Vec::new();
     let mut say = |option: &str, value: serde_json::Value, why: String| {
-        out.push(serde_json::json!({ "option": option, "value": value, "why": why }));
+        out.push(Resolved {
+            option: option.to_string(),
+            value,
+            why,
+        });
     };
     if id.horizon.is_none() {
         let (value, why) = if shape.streamed {
@@ -341,11 +375,11 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> serde_jso
             ),
         );
     }
-    serde_json::json!({
-        "route": route,
-        "records": shape.records,
-        "samples": shape.samples,
-        "multirate": shape.multirate,
-        "resolved": out,
-    })
+    Plan {
+        route: route.to_string(),
+        records: shape.records,
+        samples: shape.samples,
+        multirate: shape.multirate,
+        resolved: out,
+    }
 }

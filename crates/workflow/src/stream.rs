@@ -450,7 +450,10 @@ pub fn identify_streamed(
             multirate: false,
             streamed: true,
         };
-        obj.insert("plan".into(), crate::plan::resolved_defaults(opts, &shape));
+        obj.insert(
+            "plan".into(),
+            serde_json::to_value(crate::plan::resolved_defaults(opts, &shape)).unwrap_or_default(),
+        );
     }
     let dg = &fit.diagnostics;
     let operating_point =

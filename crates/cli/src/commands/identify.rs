@@ -4,33 +4,32 @@
 use crate::args::IdentifyArgs;
 use crate::error::{CliResult, input};
 use lifted_cli::service::identify::{require_stable, run_identification};
+use lifted_workflow::Diagnostics;
+use lifted_workflow::diagnostics::Compression;
 
 /// `lifted identify`.
 pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     let file = run_identification(a)?;
+    let diagnostics = Diagnostics::of(&file);
     // `--stable`, or the plan's `validation.require_stable`.
-    let required = file
-        .diagnostics
-        .pointer("/options/validation/require_stable")
-        .and_then(|v| v.as_bool());
-    if a.stable || required == Some(true) {
+    let required = diagnostics
+        .options
+        .as_ref()
+        .is_some_and(|o| o.validation.require_stable);
+    if a.stable || required {
         require_stable(&file.model)?;
     }
     file.write(&a.out).map_err(|e| input(e.to_string()))?;
-    print_notes(&file.diagnostics);
+    print_notes(&diagnostics);
     if a.profile {
-        print_profile(&file.diagnostics);
+        print_profile(&diagnostics);
     }
     if let Some(p) = &file.polynomial {
         println!("{}", p.present());
     }
-    print_process(&file.diagnostics);
+    print_process(&diagnostics);
     let m = &file.model;
-    let method = file
-        .diagnostics
-        .pointer("/options/identification/method")
-        .and_then(|v| v.as_str())
-        .unwrap_or(a.method.name());
+    let method = diagnostics.method().map_or(a.method.name(), |m| m.name());
     println!(
         "{}: order {}, {} input(s), {} output(s), T = {} s; wrote {}",
         method,
@@ -45,21 +44,20 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
 
 /// Prints the diagnostics' warnings (an unstable model) and fallbacks (a
 /// route refused and the one used instead) to standard error.
-fn print_notes(diagnostics: &serde_json::Value) {
-    for (key, label) in [("warnings", "warning"), ("fallbacks", "note")] {
-        if let Some(list) = diagnostics.get(key).and_then(|v| v.as_array()) {
-            for w in list.iter().filter_map(|v| v.as_str()) {
-                eprintln!("{label}: {w}");
-            }
-        }
+fn print_notes(diagnostics: &Diagnostics) {
+    for w in &diagnostics.warnings {
+        eprintln!("warning: {w}");
+    }
+    for f in diagnostics.fallbacks.iter().flatten() {
+        eprintln!("note: {f}");
     }
 }
 
 /// Prints the per-phase wall times recorded in the diagnostics (`--profile`).
-fn print_profile(diagnostics: &serde_json::Value) {
-    let Some(p) = diagnostics.get("profile").and_then(|p| p.as_object()) else {
+fn print_profile(diagnostics: &Diagnostics) {
+    if diagnostics.profile.is_none() {
         return;
-    };
+    }
     // The compress/svd/estimate rows are the final fit's; the subspace row
     // also counts the structure selection's fits before it and the
     // feedthrough test (the D = 0 fit, unless it ran with the fit on a
@@ -85,15 +83,13 @@ fn print_profile(diagnostics: &serde_json::Value) {
     ];
     println!("phase              wall time");
     for (label, key) in phases {
-        if let Some(t) = p.get(key).and_then(|v| v.as_f64()) {
+        if let Some(t) = diagnostics.phase(key) {
             println!("{label:<18} {:>9.4} s", t);
         }
     }
-    if let Some(c) = diagnostics.get("compression")
-        && let Some(used) = c.get("used").and_then(|v| v.as_str())
-    {
+    if let Some(Compression::Used { used, fallback, .. }) = &diagnostics.compression {
         print!("compression: {used}");
-        if let Some(f) = c.get("fallback").and_then(|v| v.as_str()) {
+        if let Some(f) = fallback {
             print!(" (fallback: {f})");
         }
         println!();
@@ -102,30 +98,28 @@ fn print_profile(diagnostics: &serde_json::Value) {
 
 /// Prints a process model's parameters with their standard deviations
 /// (`diagnostics.process`), one output a line.
-fn print_process(diagnostics: &serde_json::Value) {
-    let Some(p) = diagnostics.get("process") else {
+fn print_process(diagnostics: &Diagnostics) {
+    let Some(p) = &diagnostics.process else {
         return;
     };
-    let kind = p["kind"].as_str().unwrap_or_default();
-    for (i, out) in p["outputs"].as_array().into_iter().flatten().enumerate() {
-        let names = out["names"].as_array().cloned().unwrap_or_default();
-        let values = out["parameters"].as_array().cloned().unwrap_or_default();
-        let std = out["std"].as_array().cloned().unwrap_or_default();
-        let terms: Vec<String> = names
+    for (i, out) in p.outputs.iter().enumerate() {
+        let terms: Vec<String> = out
+            .names
             .iter()
-            .zip(&values)
-            .zip(&std)
+            .zip(&out.parameters)
+            .zip(&out.std)
             .map(|((n, v), s)| {
                 format!(
                     "{} = {:.6} (±{:.2e})",
-                    n.as_str().unwrap_or_default(),
-                    v.as_f64().unwrap_or(f64::NAN),
-                    s.as_f64().unwrap_or(f64::NAN)
+                    n,
+                    v.unwrap_or(f64::NAN),
+                    s.unwrap_or(f64::NAN)
                 )
             })
             .collect();
         println!(
-            "process model {kind}, output {}: {}",
+            "process model {}, output {}: {}",
+            p.kind,
             i + 1,
             terms.join(", ")
         );

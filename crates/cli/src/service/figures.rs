@@ -7,6 +7,7 @@
 
 use lifted_lti::validation::OutputValidation;
 use lifted_lti::{Dataset, StateSpace};
+use lifted_workflow::Diagnostics;
 
 use crate::error::{CliResult, Context, input};
 use crate::plot::{Marker, Plot, Series, logspace};
@@ -331,22 +332,14 @@ pub fn decimate(t: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// The order-selection plot from the model file's diagnostics, if present.
-pub fn order_plot(diag: &serde_json::Value) -> Option<Plot> {
-    let os = diag.get("order_selection")?;
-    let values: Vec<f64> = os
-        .get("values")?
-        .as_array()?
-        .iter()
-        .filter_map(|v| v.as_f64())
-        .collect();
+pub fn order_plot(diag: &Diagnostics) -> Option<Plot> {
+    let os = diag.order_selection.as_ref()?;
+    let values = &os.values;
     if values.is_empty() {
         return None;
     }
-    let kind = os
-        .get("kind")
-        .and_then(|k| k.as_str())
-        .unwrap_or("singular values");
-    let order = os.get("order").and_then(serde_json::Value::as_u64);
+    let kind = os.kind.as_str();
+    let order = Some(os.order);
     let x: Vec<f64> = (1..=values.len()).map(|i| i as f64).collect();
     let y: Vec<f64> = values
         .iter()
@@ -507,22 +500,17 @@ pub fn response_error_plot_in(o: &OutputValidation, ts: f64, window: Window) -> 
 /// For AIC, AICc and BIC a value far above the others (an unstable
 /// candidate's simulation error) is left outside the frame and named in a
 /// note.
-pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
+pub fn criterion_plot(diag: &Diagnostics) -> Option<Plot> {
     if let Some(p) = held_out_plot(diag) {
         return Some(p);
     }
-    let oc = diag.get("order_criterion")?;
-    let name = oc.get("criterion")?.as_str()?.to_string();
+    let oc = diag.order_criterion.as_ref()?;
+    let name = oc.criterion.clone();
     // The gap is the order-selection plot's singular values already.
     if name == "Gap" {
         return None;
     }
-    let values: Vec<f64> = oc
-        .get("values")?
-        .as_array()?
-        .iter()
-        .map(|v| v.as_f64().unwrap_or(f64::NAN))
-        .collect();
+    let values: Vec<f64> = oc.values.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
     if values.iter().all(|v| !v.is_finite()) {
         return None;
     }
@@ -554,7 +542,8 @@ pub fn criterion_plot(diag: &serde_json::Value) -> Option<Plot> {
         series: vec![Series::points(name, x, values.clone(), Marker::Dot)],
         ..Default::default()
     };
-    if let Some(n) = oc.get("selected").and_then(serde_json::Value::as_u64) {
+    {
+        let n = oc.selected;
         plot.vlines
             .push((n as f64, format!("its choice: order {n}")));
     }
@@ -576,30 +565,23 @@ const HELD_OUT_SPAN: f64 = 100.0;
 /// refined shortlist (the held-out fit of the model each shortlisted order
 /// delivers) when there is one, and the order chosen; `None` without a
 /// structure selection.
-fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
-    let sel = diag.get("structure_selection")?;
+fn held_out_plot(diag: &Diagnostics) -> Option<Plot> {
+    let sel = diag.structure_selection.as_ref()?;
     let mut best: std::collections::BTreeMap<u64, f64> = Default::default();
     // The standard error over the held-out blocks of each order's best
     // structure (when its per-block fits are reported).
     let mut spread: std::collections::BTreeMap<u64, f64> = Default::default();
-    for c in sel.get("candidates")?.as_array()? {
-        let (Some(n), Some(f)) = (
-            c.get("order").and_then(serde_json::Value::as_u64),
-            c.get("fit").and_then(serde_json::Value::as_f64),
-        ) else {
+    for c in sel.candidates.as_ref()? {
+        let (n, Some(f)) = (c.order as u64, c.fit) else {
             continue;
         };
         let e = best.entry(n).or_insert(f64::NEG_INFINITY);
         if f > *e {
             *e = f;
             match c
-                .get("fold_fits")
-                .and_then(serde_json::Value::as_array)
-                .map(|v| {
-                    v.iter()
-                        .filter_map(serde_json::Value::as_f64)
-                        .collect::<Vec<f64>>()
-                })
+                .fold_fits
+                .as_ref()
+                .map(|v| v.iter().flatten().copied().collect::<Vec<f64>>())
                 .and_then(|v| standard_error(&v))
             {
                 Some(se) => spread.insert(n, se),
@@ -616,13 +598,12 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
         best.values().copied().collect(),
         Marker::Dot,
     )];
-    let shortlist: Vec<(f64, f64)> = sel
-        .get("refined_shortlist")
-        .and_then(|s| s.get("candidates"))
-        .and_then(|c| c.as_array())
-        .map(|rows| {
-            rows.iter()
-                .filter_map(|r| Some((r.get("order")?.as_f64()?, r.get("score")?.as_f64()?)))
+    let shortlist_rows = sel.refined_shortlist.as_ref().and_then(Option::as_ref);
+    let shortlist: Vec<(f64, f64)> = shortlist_rows
+        .map(|s| {
+            s.candidates
+                .iter()
+                .filter_map(|r| Some((r.order as f64, r.score?)))
                 .collect()
         })
         .unwrap_or_default();
@@ -631,11 +612,8 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
         // The single-rate shortlist scores each order on six blocks (the
         // subspace model or its refinement, `scored_by`); the multirate one
         // scores the refined model on the last third.
-        let blocks = sel
-            .get("refined_shortlist")
-            .and_then(|s| s.get("candidates"))
-            .and_then(|c| c.as_array())
-            .is_some_and(|rows| rows.iter().any(|r| r.get("scored_by").is_some()));
+        let blocks =
+            shortlist_rows.is_some_and(|s| s.candidates.iter().any(|r| r.scored_by.is_some()));
         let (note, name) = if blocks {
             (
                 "rings: refinement-check blocks (unidentifiable folds left out; dots count them as -100 %)",
@@ -694,7 +672,7 @@ fn held_out_plot(diag: &serde_json::Value) -> Option<Plot> {
         notes,
         ..Default::default()
     };
-    if let Some(n) = sel.get("order").and_then(serde_json::Value::as_u64) {
+    if let Some(n) = sel.order {
         plot.vlines.push((n as f64, format!("chosen: order {n}")));
     }
     if lo < hi - HELD_OUT_SPAN {
@@ -798,20 +776,22 @@ pub fn residual_plots(o: &OutputValidation, inputs: &[String]) -> (Plot, Plot) {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn the_criterion_curve_frames_the_reasonable_values() {
         // AIC per order with an unstable order 4 (1e6): framed without it,
         // named in a note; the gap gives no curve (the singular values do).
         let d = serde_json::json!({"order_criterion": {"criterion": "Aic",
             "values": [10.0, -50.0, -48.0, 1e6], "selected": 2}});
-        let p = super::criterion_plot(&d).unwrap();
+        let p = super::criterion_plot(&Diagnostics::strict(&d).unwrap()).unwrap();
         let [_, _, y0, y1] = p.frame.unwrap();
         assert!(y0 < -50.0 && y1 > 10.0 && y1 < 100.0, "{y0} … {y1}");
         assert!(p.notes[0].contains("order 4"), "{:?}", p.notes);
         assert_eq!(p.vlines[0].0, 2.0);
         let gap = serde_json::json!({"order_criterion": {"criterion": "Gap",
             "values": [1.0, 4.0], "selected": 2}});
-        assert!(super::criterion_plot(&gap).is_none());
+        assert!(super::criterion_plot(&Diagnostics::strict(&gap).unwrap()).is_none());
     }
 
     #[test]
@@ -828,8 +808,8 @@ mod tests {
                 {"order": 4, "horizon": 5, "fit": null}],
             "refined_shortlist": {"candidates": [
                 {"order": 2, "score": 85.0}, {"order": 1, "score": 70.0}]}},
-            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
-        let p = super::criterion_plot(&d).unwrap();
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0], "selected": 2}});
+        let p = super::criterion_plot(&Diagnostics::strict(&d).unwrap()).unwrap();
         assert_eq!(p.series[0].x, vec![1.0, 2.0, 3.0]);
         assert_eq!(p.series[0].y, vec![60.0, 80.0, -100.0]);
         assert_eq!(p.series[1].y, vec![85.0, 70.0]);
@@ -847,8 +827,8 @@ mod tests {
             "candidates": [{"order": 3, "fit": 85.0}, {"order": 4, "fit": 84.0}],
             "refined_shortlist": {"candidates": [
                 {"order": 3, "score": 88.0}, {"order": 4, "score": 90.0}]}},
-            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
-        let p = super::criterion_plot(&d).unwrap();
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0], "selected": 2}});
+        let p = super::criterion_plot(&Diagnostics::strict(&d).unwrap()).unwrap();
         assert_eq!(p.series[1].y, vec![88.0, 90.0]);
         assert!(
             p.series[1].name.contains("refined model"),
@@ -867,8 +847,8 @@ mod tests {
                 {"order": 1, "horizon": 5, "fit": 50.0, "fold_fits": [40.0, 60.0]},
                 {"order": 1, "horizon": 10, "fit": 60.0, "fold_fits": [58.0, 62.0]},
                 {"order": 2, "horizon": 5, "fit": 80.0, "fold_fits": [70.0, 90.0]}]},
-            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0]}});
-        let p = super::criterion_plot(&d).unwrap();
+            "order_criterion": {"criterion": "Gap", "values": [1.0, 2.0], "selected": 2}});
+        let p = super::criterion_plot(&Diagnostics::strict(&d).unwrap()).unwrap();
         let bars = p.series.last().unwrap();
         assert_eq!(bars.marker, Marker::Line);
         assert_eq!(bars.x[..2], [1.0, 1.0]);
@@ -905,8 +885,6 @@ mod tests {
         let (_, yg) = super::decimate(&t, &gap);
         assert!(yg[0].is_nan());
     }
-
-    use super::*;
 
     #[test]
     fn the_pole_zero_frame_keeps_the_unit_circle_in_view() {

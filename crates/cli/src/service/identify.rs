@@ -18,7 +18,6 @@ use lifted_workflow::{
     RecordSource, Refine, WorkflowOptions,
 };
 use nalgebra::DMatrix;
-use serde_json::json;
 
 use crate::args::{
     BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, KernelArg, MethodArg,
@@ -585,15 +584,12 @@ fn finish(
         .with_input_names(spec.inputs.clone())
         .and_then(|m| m.with_output_names(spec.outputs.clone()))
         .map_err(|e| input(format!("identify: {e}")))?;
-    if let Some(obj) = file.diagnostics.as_object_mut() {
-        obj.insert("data".into(), json!(paths));
-        if let (Some(r), Some(p)) = (
-            read_s,
-            obj.get_mut("profile").and_then(|p| p.as_object_mut()),
-        ) {
-            p.insert("read_s".into(), json!(r));
-        }
+    let mut diagnostics = lifted_workflow::Diagnostics::of(&file);
+    diagnostics.data = Some(paths.to_vec());
+    if let (Some(r), Some(p)) = (read_s, diagnostics.profile.as_mut()) {
+        p.insert("read_s".into(), r);
     }
+    file.diagnostics = diagnostics.to_value();
     Ok(file)
 }
 

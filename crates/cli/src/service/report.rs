@@ -51,6 +51,7 @@ pub fn render(
         ts
     );
 
+    let diagnostics = lifted_workflow::Diagnostics::of(file);
     body += &diagnostics_section(&file.diagnostics);
 
     body += "<h2>Excitation</h2>\n";
@@ -80,7 +81,7 @@ pub fn render(
     }
 
     body += "<h2>Order selection</h2>\n";
-    match order_plot(&file.diagnostics) {
+    match order_plot(&diagnostics) {
         Some(p) => {
             body += &figure(
                 "order-selection",
@@ -92,21 +93,18 @@ pub fn render(
         }
         None => body += "<p>The model file carries no order-selection data.</p>\n",
     }
-    if let Some(p) = criterion_plot(&file.diagnostics) {
-        let held_out = file
-            .diagnostics
-            .get("structure_selection")
-            .and_then(|s| s.get("candidates"))
-            .is_some();
+    if let Some(p) = criterion_plot(&diagnostics) {
+        let held_out = diagnostics
+            .structure_selection
+            .as_ref()
+            .is_some_and(|s| s.candidates.is_some());
         let caption = if held_out {
             "The order rule's values per order: the held-out simulation fit of the best structure of each order, with the held-out fit of the model each shortlisted order delivers (refined where the held-out blocks prefer it); the vertical line marks the order chosen.".to_string()
         } else {
-            let rule = file
-                .diagnostics
-                .get("order_criterion")
-                .and_then(|c| c.get("criterion"))
-                .and_then(|c| c.as_str())
-                .unwrap_or("the rule");
+            let rule = diagnostics
+                .order_criterion
+                .as_ref()
+                .map_or("the rule", |c| c.criterion.as_str());
             format!(
                 "The order rule's values per order ({}; the smallest is chosen); the vertical line marks the order chosen.",
                 match rule {

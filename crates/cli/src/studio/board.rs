@@ -84,12 +84,9 @@ fn label_of(id: u64, file: &ModelFile, r: &Request) -> String {
         file.method.clone().unwrap_or_default(),
         file.model.order()
     );
-    let horizon = file
-        .diagnostics
-        .get("horizons")
-        .and_then(|h| h.get(0))
-        .and_then(serde_json::Value::as_u64)
-        .map(|h| h as usize)
+    let horizon = lifted_workflow::Diagnostics::of(file)
+        .horizons
+        .and_then(|h| h.first().copied())
         .or(r.horizon);
     if let Some(h) = horizon {
         l += &format!(" h={h}");

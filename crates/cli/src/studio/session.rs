@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use lifted_lti::{Dataset, ModelFile};
+use lifted_workflow::Diagnostics;
 use serde::{Deserialize, Serialize};
 
 use crate::args::{DetrendArg, IdentifyArgs};
@@ -481,7 +482,7 @@ pub struct Identified {
     pub refinement: Option<serde_json::Value>,
     /// How the Kalman gain was made (`diagnostics.kalman_gain_route`), when
     /// it was checked on the records.
-    pub gain: Option<serde_json::Value>,
+    pub gain: Option<lifted_subspace::GainCheck>,
     /// The record the fits and residuals are computed on.
     pub validation_data: String,
     /// Wall time of identify + validate + figures, milliseconds.
@@ -1471,6 +1472,7 @@ impl Session {
             .join(" ");
         let file = self.model_file(r)?;
         let model = &file.model;
+        let diagnostics = Diagnostics::of(&file);
         // The model's own figures (step, pole-zero map, Bode curves,
         // transfer functions) on a second thread while the model is
         // validated on the record (simulation and residual tests).
@@ -1521,7 +1523,7 @@ impl Session {
             add_empirical_pairs(&mut bode, g);
         }
         let figures = Figures {
-            order: order_plot(&file.diagnostics)
+            order: order_plot(&diagnostics)
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
             response,
@@ -1530,31 +1532,20 @@ impl Session {
             step,
             bode: pairs_svg(&bode, 560, 200)?,
             pz,
-            criterion: criterion_plot(&file.diagnostics)
+            criterion: criterion_plot(&diagnostics)
                 .map(|p| svg(&p, 560, 280))
                 .transpose()?,
         };
         let (figures, figure_digests, unchanged) = figures.unsent(&r.have);
-        let order_selection = file.diagnostics.get("order_selection").map(|os| {
-            let values = os
-                .get("values")
-                .and_then(|v| v.as_array())
-                .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
-                .unwrap_or_default();
-            OrderSelection {
-                kind: os
-                    .get("kind")
-                    .and_then(|k| k.as_str())
-                    .unwrap_or("singular values")
-                    .to_string(),
-                values,
+        let order_selection = diagnostics
+            .order_selection
+            .as_ref()
+            .map(|os| OrderSelection {
+                kind: os.kind.clone(),
+                values: os.values.clone(),
                 order: model.order(),
-                suggested_order: os
-                    .get("suggested_order")
-                    .and_then(serde_json::Value::as_u64)
-                    .map(|x| x as usize),
-            }
-        });
+                suggested_order: Some(os.suggested_order),
+            });
         let poles = model
             .poles()
             .map(|p| p.iter().map(|z| (z.re, z.im)).collect())
@@ -1576,15 +1567,10 @@ impl Session {
                     .filter(|f| stable && o.residual_finite && f.is_finite()),
             })
             .collect();
-        let chosen = file.diagnostics.get("structure_selection");
-        let horizon = chosen
-            .and_then(|c| c.get("horizon"))
-            .and_then(serde_json::Value::as_u64)
-            .map(|h| h as usize)
-            .or(r.horizon);
+        let chosen = diagnostics.structure_selection.as_ref();
+        let horizon = chosen.and_then(|c| c.horizon).or(r.horizon);
         let estimator = chosen
-            .and_then(|c| c.get("system"))
-            .and_then(|s| s.as_str())
+            .and_then(|c| c.system.as_deref())
             .map(|s| {
                 if s.starts_with("shift") {
                     "shift".to_string()
@@ -1603,16 +1589,15 @@ impl Session {
             },
             transfer_functions,
             transfer_note,
-            refinement: file.diagnostics.get("refinement").cloned().map(|mut r| {
+            refinement: diagnostics.refinement.as_ref().map(|refinement| {
                 // How it was judged (held-out blocks or the record).
-                if let (Some(obj), Some(j)) =
-                    (r.as_object_mut(), file.diagnostics.get("refinement_judge"))
-                {
-                    obj.insert("judge".into(), j.clone());
+                let mut v = serde_json::to_value(refinement).unwrap_or_default();
+                if let (Some(obj), Some(j)) = (v.as_object_mut(), &diagnostics.refinement_judge) {
+                    obj.insert("judge".into(), serde_json::to_value(j).unwrap_or_default());
                 }
-                r
+                v
             }),
-            gain: file.diagnostics.get("kalman_gain_route").cloned(),
+            gain: diagnostics.kalman_gain_route.clone(),
             validation_data: self.validation_source(r)?.0,
             seq: r.seq,
             horizon,
@@ -1625,26 +1610,8 @@ impl Session {
             order_selection,
             fits,
             poles,
-            feedback: file.diagnostics.get("feedback").and_then(|f| {
-                let verdict = f.get("verdict").and_then(|v| v.as_str())?;
-                Some(
-                    if f.get("detected") == Some(&serde_json::Value::Bool(true)) {
-                        format!("closed loop detected: {verdict}")
-                    } else {
-                        verdict.to_string()
-                    },
-                )
-            }),
-            warnings: file
-                .diagnostics
-                .get("warnings")
-                .and_then(|w| w.as_array())
-                .map(|w| {
-                    w.iter()
-                        .filter_map(|s| s.as_str().map(String::from))
-                        .collect()
-                })
-                .unwrap_or_default(),
+            feedback: diagnostics.feedback.as_ref().and_then(|f| f.summary()),
+            warnings: diagnostics.warnings.clone(),
             figures,
             figure_digests,
             unchanged,
@@ -1972,104 +1939,4 @@ impl Drop for Session {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::args::{Cli, Command};
-    use clap::Parser;
-
-    #[test]
-    fn names_are_made_safe() {
-        assert_eq!(safe_name("../../etc/passwd"), "passwd");
-        assert_eq!(safe_name("my data (1).csv"), "my_data__1_.csv");
-        assert_eq!(safe_name(".."), "data.csv");
-        assert_eq!(safe_name("C:\\x\\rec.csv"), "rec.csv");
-    }
-
-    /// The arguments the studio builds from a request are those its shown
-    /// command line parses to, field by field, for requests that set every
-    /// option the page has (and none); a name the command does not take is
-    /// refused naming the field.
-    #[test]
-    fn the_request_builds_the_shown_command_s_arguments() {
-        let parsed = |r: &Request, data: &[String]| -> IdentifyArgs {
-            let words = Session::identify_words(r, data, "model.json");
-            match Cli::try_parse_from(std::iter::once("lifted".to_string()).chain(words)) {
-                Ok(Cli {
-                    command: Command::Identify(a),
-                }) => a,
-                other => panic!("{other:?}"),
-            }
-        };
-        let data = vec!["rec.csv".to_string(), "two.csv".to_string()];
-        let full = Request {
-            inputs: vec!["u1".into(), "u 2".into()],
-            outputs: vec!["y1".into()],
-            ts: Some(0.5),
-            hold: Some(3),
-            output_period: vec!["y1=3".into()],
-            method: Some("qmarkov".into()),
-            order: Some("4".into()),
-            max_order: Some(7),
-            horizon: Some(12),
-            q: Some(30),
-            prbs_order: Some(6),
-            amplitude: Some(-0.5),
-            output_weight: vec![1.0, 2.5],
-            instrument: vec!["r1".into(), "r2".into()],
-            detrend: Some("linear".into()),
-            estimator: Some("states".into()),
-            order_criterion: Some("gap".into()),
-            stable: true,
-            feedthrough: Some(false),
-            refine: Some("pem".into()),
-            ..Request::default()
-        };
-        let iv = Request {
-            method: Some("iv".into()),
-            feedthrough: Some(true),
-            order: Some("auto".into()),
-            ..Request::default()
-        };
-        for r in [Request::default(), full, iv] {
-            let direct = Session::identify_args(&r, &data).expect("direct");
-            assert_eq!(
-                format!("{direct:?}"),
-                format!("{:?}", parsed(&r, &data)),
-                "{r:?}"
-            );
-        }
-        for (field, bad) in [
-            (
-                "method",
-                Request {
-                    method: Some("magic".into()),
-                    ..Request::default()
-                },
-            ),
-            (
-                "detrend",
-                Request {
-                    detrend: Some("cubic".into()),
-                    ..Request::default()
-                },
-            ),
-            (
-                "refine",
-                Request {
-                    refine: Some("harder".into()),
-                    ..Request::default()
-                },
-            ),
-        ] {
-            let e = Session::identify_args(&bad, &data).unwrap_err().to_string();
-            assert!(e.contains(field) && e.contains("one of"), "{e}");
-        }
-    }
-
-    #[test]
-    fn words_are_quoted_for_the_shell() {
-        assert_eq!(shell_word("--order"), "--order");
-        assert_eq!(shell_word("a b"), "'a b'");
-        assert_eq!(shell_word("it's"), "'it'\\''s'");
-    }
-}
+mod tests;

@@ -58,6 +58,7 @@ from ._lifted import simulate_experiment as _simulate_experiment
 from ._lifted import validate as _validate
 from ._results import (
     ArxScan,
+    Diagnostics,
     Experiment,
     IvFit,
     MultirateFit,
@@ -98,6 +99,7 @@ __all__ = [
     "StateSpace",
     "Mpc",
     "SubspaceFit",
+    "Diagnostics",
     "IvFit",
     "QMarkovFit",
     "MultirateFit",
@@ -485,10 +487,12 @@ def _plan_json(plan: Any) -> str:
     """The JSON text of ``identify``'s ``plan``: a fit or its diagnostics,
     a path to a model or plan file, or a dict of the options."""
     if isinstance(plan, SubspaceFit):
-        return json.dumps({"diagnostics": plan.diagnostics})
+        return json.dumps({"diagnostics": plan.diagnostics.to_dict()})
     if isinstance(plan, (str, os.PathLike)):
         with open(plan, encoding="utf-8") as f:
             return f.read()
+    if isinstance(plan, Diagnostics):
+        return json.dumps({"diagnostics": plan.to_dict()})
     if isinstance(plan, dict):
         return json.dumps(plan)
     raise ArgumentError(
@@ -511,7 +515,9 @@ def _subspace_fit(d: dict[str, Any]) -> SubspaceFit:
         method=d["method"],
         threads=d["threads"],
         model_json=d["model_json"],
-        diagnostics=json.loads(d["diagnostics_json"]) if "diagnostics_json" in d else {},
+        diagnostics=Diagnostics.from_json(
+            json.loads(d["diagnostics_json"]) if "diagnostics_json" in d else None
+        ),
         polynomial=None if d.get("polynomial") is None else PolyModel._of(d["polynomial"]),
     )
 
@@ -1072,7 +1078,7 @@ def iv(
         stabilized=d["stabilized"],
         method=d["method"],
         model_json=d["model_json"],
-        diagnostics=json.loads(d["diagnostics_json"]),
+        diagnostics=Diagnostics.from_json(json.loads(d["diagnostics_json"])),
     )
 
 
@@ -1145,7 +1151,7 @@ def qmarkov(
         stabilized_from=diagnostics.get("stabilized_from"),
         method=d["method"],
         model_json=d["model_json"],
-        diagnostics=diagnostics,
+        diagnostics=Diagnostics.from_json(diagnostics),
     )
 
 
@@ -1231,7 +1237,7 @@ def multirate(
         order=d["order"],
         method=d["method"],
         model_json=d["model_json"],
-        diagnostics=json.loads(d["diagnostics_json"]),
+        diagnostics=Diagnostics.from_json(json.loads(d["diagnostics_json"])),
     )
 
 

@@ -9,7 +9,8 @@ mapping view of the dict results of earlier versions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,7 @@ import numpy.typing as npt
 from ._lifted import ArgumentError, StateSpace
 
 __all__ = [
+    "Diagnostics",
     "PolyModel",
     "ArxScan",
     "SubspaceFit",
@@ -54,6 +56,94 @@ class _Result:
     def __repr__(self) -> str:
         parts = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._shown)
         return f"{type(self).__name__}({parts})"
+
+
+@dataclass(eq=False)
+class Diagnostics(Mapping[str, Any]):
+    """The diagnostics of a model, mirroring ``lifted_workflow::Diagnostics``.
+
+    The entries every front end reads are fields (``route``, ``samples``,
+    ``order_selection``, ``structure_selection``, ``warnings``,
+    ``kalman_gain_route``, ``refinement``, ``plan``, …: the same names as
+    the model file's ``diagnostics`` object, their values as JSON gives
+    them); what only some routes write (a multirate extraction, a PBSID
+    past selection, …) is in :attr:`details` by name. The fields are checked
+    against the Rust type by the test suite
+    (``lifted._lifted._diagnostics_fields()``).
+
+    It is also the read-only mapping of the model file's ``diagnostics``
+    object, so ``fit.diagnostics["structure_selection"]``, ``"plan" in
+    fit.diagnostics`` and ``fit.diagnostics == file["diagnostics"]`` work
+    as with the dict of earlier versions; :meth:`to_dict` gives the plain
+    dict (for ``json.dumps``).
+    """
+
+    route: str | None = None
+    samples: int | None = None
+    base_period: float | None = None
+    output_periods: list[int] | None = None
+    data: list[str] | None = None
+    profile: dict[str, float] | None = None
+    warnings: list[str] = field(default_factory=list)
+    fallbacks: list[str] | None = None
+    notes: list[str] | None = None
+    horizons: list[int] | None = None
+    order_selection: dict[str, Any] | None = None
+    order_criterion: dict[str, Any] | None = None
+    structure_selection: dict[str, Any] | None = None
+    compression: dict[str, Any] | str | None = None
+    stabilized: bool | None = None
+    stability: dict[str, Any] | None = None
+    integrators: dict[str, Any] | None = None
+    feedback: dict[str, Any] | None = None
+    kalman_gain_route: dict[str, Any] | None = None
+    refinement: dict[str, Any] | None = None
+    refinement_judge: dict[str, Any] | None = None
+    refinement_decision: str | None = None
+    process: dict[str, Any] | None = None
+    options: dict[str, Any] | None = None
+    plan: dict[str, Any] | None = None
+    budgets: dict[str, Any] | None = None
+    selection_policy: dict[str, Any] | None = None
+    details: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_json(cls, obj: Mapping[str, Any] | None) -> Diagnostics:
+        """The diagnostics of a model file's ``diagnostics`` object (None:
+        none written)."""
+        if obj is None:
+            return cls()
+        typed = {f.name for f in fields(cls)} - {"details"}
+        known = {k: v for k, v in obj.items() if k in typed}
+        details = {k: v for k, v in obj.items() if k not in typed}
+        return cls(**known, details=details)
+
+    def _typed(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            if f.name == "details":
+                continue
+            v = getattr(self, f.name)
+            if v is None or (f.name == "warnings" and not v):
+                continue
+            out[f.name] = v
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The model file's ``diagnostics`` object."""
+        return {**self._typed(), **self.details}
+
+    def __getitem__(self, key: str) -> Any:
+        return self.to_dict()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.to_dict())
+
+    def __len__(self) -> int:
+        return len(self.to_dict())
+
+    def __repr__(self) -> str:
+        return f"Diagnostics(route={self.route!r}, entries={sorted(self.to_dict())})"
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -311,7 +401,7 @@ class SubspaceFit(_Result):
     method: str
     threads: int
     model_json: str
-    diagnostics: dict[str, Any]
+    diagnostics: Diagnostics
     polynomial: PolyModel | None = None
 
     _shown = ("method", "order", "suggested_order", "model")
@@ -352,7 +442,7 @@ class IvFit(_Result):
     stabilized: bool
     method: str
     model_json: str
-    diagnostics: dict[str, Any]
+    diagnostics: Diagnostics
 
     _shown = ("method", "order", "suggested_order", "stabilized", "model")
 
@@ -381,7 +471,7 @@ class QMarkovFit(_Result):
     stabilized_from: float | None
     method: str
     model_json: str
-    diagnostics: dict[str, Any]
+    diagnostics: Diagnostics
 
     _shown = ("method", "order", "cover", "stable", "model")
 
@@ -400,7 +490,7 @@ class MultirateFit(_Result):
     order: int
     method: str
     model_json: str
-    diagnostics: dict[str, Any]
+    diagnostics: Diagnostics
 
     _shown = ("method", "order", "lifting_period", "fast")
 

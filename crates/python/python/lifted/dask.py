@@ -428,7 +428,7 @@ def identify(
             yy = np.vstack([np.asarray(p[1], dtype=np.float64).reshape(len(p[1]), -1) for p in parts])
             fit = _identify_mem(uu, yy, **options)
             why = "asked" if engine == "memory" else f"at most {IN_MEMORY_BYTES} bytes"
-            fit.diagnostics["engine"] = (
+            fit.diagnostics.details["engine"] = (
                 f"in memory: the record ({n} samples, {nbytes} bytes; {why}) gathered to the "
                 "client and identified by lifted.identify with the options given"
             )
@@ -496,7 +496,7 @@ def _sharded(raw: list[Any], options: dict[str, Any], plan_rows: int, client: An
         final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
         (final,) = _compute(client, final)
         fit = _subspace_fit(first.finish(final, input_scales=su, output_scales=sy))
-    fit.diagnostics["engine"] = (
+    fit.diagnostics.details["engine"] = (
         f"sharded: merged partial compressions, horizon {past}/{future}, shift invariance, "
         "no Kalman-gain check and no refinement (they need the record in one process)"
     )

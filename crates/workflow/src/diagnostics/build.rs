@@ -1,6 +1,6 @@
-//! The diagnostics JSON of a run: the entries every route writes (order
-//! selection, subspace fit, run facts). Same keys as the `lifted identify`
-//! model file has always carried.
+//! Building the diagnostics of a run: the entries every route writes (order
+//! selection, subspace fit, run facts, warnings, phases), each of the form
+//! of its [`super::Diagnostics`] field.
 
 use lifted_subspace::{OrderReport, SubspaceModel, SystemEstimate};
 use nalgebra::DMatrix;
@@ -38,7 +38,14 @@ pub(crate) fn order_json(
     order: usize,
     suggested: usize,
 ) -> serde_json::Value {
-    json!({"kind": kind, "values": values, "order": order, "suggested_order": suggested})
+    serde_json::to_value(super::OrderSelection {
+        kind: kind.to_string(),
+        values: values.to_vec(),
+        order,
+        suggested_order: suggested,
+        rest: Default::default(),
+    })
+    .unwrap_or_default()
 }
 
 /// Name of an (A, C) route in the diagnostics.
@@ -56,7 +63,14 @@ pub(crate) fn criterion_json(r: &OrderReport) -> serde_json::Value {
         .iter()
         .map(|v| v.is_finite().then_some(*v))
         .collect();
-    json!({"criterion": format!("{:?}", r.criterion), "values": values, "selected": r.selected})
+    serde_json::to_value(super::OrderCriterion {
+        criterion: format!("{:?}", r.criterion),
+        values,
+        selected: r.selected,
+        rule: None,
+        rest: Default::default(),
+    })
+    .unwrap_or_default()
 }
 
 /// `order_criterion` of a model whose order the held-out selection chose
@@ -212,12 +226,13 @@ pub(crate) fn add_selection_policy(
     }
     obj.insert(
         "budgets".into(),
-        opts.budgets.to_json(&opts.identification.gain_check),
+        serde_json::to_value(opts.budgets.used(&opts.identification.gain_check))
+            .unwrap_or_default(),
     );
     if opts.identification.order == crate::Order::Auto {
         obj.insert(
             "selection_policy".into(),
-            opts.identification.selection.to_json(),
+            serde_json::to_value(opts.identification.selection).unwrap_or_default(),
         );
     }
 }
