@@ -8,7 +8,7 @@ use crate::la;
 use crate::ss::StateSpace;
 
 /// Sign of the feedback path in [`crate::feedback`] and
-/// [`TransferFunction::feedback`]: `Negative` (the default) gives
+/// [`crate::TransferFunction::feedback`]: `Negative` (the default) gives
 /// G(I + KG)⁻¹, `Positive` gives G(I − KG)⁻¹.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FeedbackSign {

@@ -75,7 +75,7 @@ impl Default for Budgets {
 impl Budgets {
     /// Checks the values: every work budget, the Kalman-gain check's two
     /// (`gain`) with them, finite and positive; named as in
-    /// [`Self::used`].
+    /// [`crate::diagnostics::BudgetsUsed`].
     pub fn check(&self, gain: &lifted_subspace::GainCheckOptions) -> crate::Result<()> {
         for (name, v) in [
             ("auto_refine_work", self.auto_refine_work),
@@ -92,24 +92,6 @@ impl Budgets {
             }
         }
         Ok(())
-    }
-
-    /// The budgets with the Kalman-gain check's two, as
-    /// `diagnostics.budgets` records them.
-    pub fn used(
-        &self,
-        gain: &lifted_subspace::GainCheckOptions,
-    ) -> crate::diagnostics::BudgetsUsed {
-        crate::diagnostics::BudgetsUsed {
-            auto_refine_work: self.auto_refine_work,
-            auto_refine_work_joint: self.auto_refine_work_joint,
-            auto_refine_samples: self.auto_refine_samples,
-            refine_check_samples: self.refine_check_samples,
-            refine_check_work: self.refine_check_work,
-            gain_check_samples: self.gain_check_samples,
-            gain_check_varx_work: gain.varx_work,
-            gain_check_minimise_work: gain.minimise_work,
-        }
     }
 
     /// Sets one budget by its name in `diagnostics.budgets` (the fields of

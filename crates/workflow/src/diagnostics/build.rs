@@ -226,8 +226,11 @@ pub(crate) fn add_selection_policy(
     }
     obj.insert(
         "budgets".into(),
-        serde_json::to_value(opts.budgets.used(&opts.identification.gain_check))
-            .unwrap_or_default(),
+        serde_json::to_value(super::BudgetsUsed::of(
+            &opts.budgets,
+            &opts.identification.gain_check,
+        ))
+        .unwrap_or_default(),
     );
     if opts.identification.order == crate::Order::Auto {
         obj.insert(

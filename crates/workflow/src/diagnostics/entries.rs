@@ -323,6 +323,22 @@ pub struct BudgetsUsed {
     pub gain_check_minimise_work: f64,
 }
 
+impl BudgetsUsed {
+    /// The budgets `b` with the Kalman-gain check's two (`gain`).
+    pub fn of(b: &crate::Budgets, gain: &lifted_subspace::GainCheckOptions) -> Self {
+        BudgetsUsed {
+            auto_refine_work: b.auto_refine_work,
+            auto_refine_work_joint: b.auto_refine_work_joint,
+            auto_refine_samples: b.auto_refine_samples,
+            refine_check_samples: b.refine_check_samples,
+            refine_check_work: b.refine_check_work,
+            gain_check_samples: b.gain_check_samples,
+            gain_check_varx_work: gain.varx_work,
+            gain_check_minimise_work: gain.minimise_work,
+        }
+    }
+}
+
 /// An entry that may be written as `null`: absent → `None` (by
 /// `default`), `null` → `Some(None)`.
 fn written<'de, D, T>(d: D) -> Result<Option<Option<T>>, D::Error>

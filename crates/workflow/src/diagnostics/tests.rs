@@ -111,7 +111,10 @@ fn the_fields_are_the_typed_keys_and_read_back() {
                 streamed: false,
             },
         )),
-        budgets: Some(opts.budgets.used(&opts.identification.gain_check)),
+        budgets: Some(BudgetsUsed::of(
+            &opts.budgets,
+            &opts.identification.gain_check,
+        )),
         selection_policy: Some(opts.identification.selection),
         details: Map::new(),
         unread: Vec::new(),

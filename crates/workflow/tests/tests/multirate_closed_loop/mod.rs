@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{fr_error, issue_plant, multirate_dataset, multirate_record};
+use crate::common::{fr_error, issue_plant, multirate_dataset, multirate_record};
 
 /// The issue's 2×2 plant: poles 0.92, 0.85 and 0.9 ± 0.1j, D = 0. B and C
 /// make each input drive one real mode and the complex pair, each output

@@ -1,0 +1,430 @@
+//! ARX and FIR from the command line (issue 49): the polynomials with
+//! their standard deviations, a polynomial model file the other
+//! commands take, refusals.
+use super::*;
+
+#[test]
+fn arx_prints_the_polynomials_and_its_model_file_feeds_validate_and_mpc() {
+    let d = tmp("arx_cli");
+    let (id, val) = single_rate_data(&d);
+    let out = p(&d, "arx.json");
+    let text = ok(&[
+        "identify",
+        "--method",
+        "arx",
+        "--orders",
+        "2, 2 1",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ]);
+    // The polynomials with a standard deviation after each free
+    // coefficient (4 of them).
+    assert!(text.contains("A(q) = 1 "), "{text}");
+    assert_eq!(text.matches("(±").count(), 4, "{text}");
+    let f = ModelFile::read(&out).unwrap();
+    assert_eq!(f.kind, "polynomial");
+    let poly = f.polynomial.as_ref().unwrap();
+    assert_eq!(poly.parameters().len(), 4);
+    assert!(poly.std().unwrap().iter().all(|s| *s > 0.0 && *s < 0.05));
+    // The plant's poles (SNR 1000: ARX is nearly unbiased).
+    let got = pole_modulus(&f.model);
+    let want = pole_modulus(&plant());
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 0.03, "{got:?} vs {want:?}");
+    }
+    ok(&["validate", "--model", &out, "--data", &val]);
+    let sim = p(&d, "mpc.csv");
+    ok(&[
+        "mpc",
+        "--model",
+        &out,
+        "--setpoint",
+        "y1=1",
+        "--steps",
+        "40",
+        "--out",
+        &sim,
+    ]);
+    // The scan without orders, and FIR.
+    let auto = p(&d, "auto.json");
+    ok(&[
+        "identify",
+        "--method",
+        "arx",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &auto,
+    ]);
+    let f = ModelFile::read(&auto).unwrap();
+    assert!(f.diagnostics["structure_scan"]["chosen"].is_object());
+    let fir = p(&d, "fir.json");
+    ok(&[
+        "identify",
+        "--method",
+        "fir",
+        "--orders",
+        "20 1",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &fir,
+    ]);
+}
+
+#[test]
+fn oe_identifies_from_a_slow_output() {
+    // The test plant's output kept every 4th sample (empty cells): OE
+    // [nb nf nk] = [2 2 1] gives the fast model with its deviations.
+    let d = tmp("oe_cli");
+    let data = p(&d, "slow.csv");
+    simulate(&data, rbs(4000, 3), 4, 1000.0, 5);
+    let out = p(&d, "oe.json");
+    let text = ok(&[
+        "identify",
+        "--method",
+        "oe",
+        "--orders",
+        "2 2 1",
+        "--data",
+        &data,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ]);
+    assert!(text.contains("F(q) = 1 "), "{text}");
+    let f = ModelFile::read(&out).unwrap();
+    assert_eq!(f.kind, "polynomial");
+    assert_eq!(f.diagnostics["measured"][0], 1000);
+    let got = pole_modulus(&f.model);
+    let want = pole_modulus(&plant());
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 0.03, "{got:?} vs {want:?}");
+    }
+}
+
+/// The ARX [2 2 1] model file of the record `id` (u1 → y1), written in
+/// `d`.
+fn arx_221(d: &Path, id: &str) -> String {
+    let out = p(d, "arx.json");
+    ok(&[
+        "identify",
+        "--method",
+        "arx",
+        "--orders",
+        "2 2 1",
+        "--data",
+        id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ]);
+    out
+}
+
+#[test]
+fn bode_draws_the_confidence_band_of_a_polynomial_model() {
+    let d = tmp("arx_bode");
+    let (id, _) = single_rate_data(&d);
+    let out = arx_221(&d, &id);
+    // analyze shows the polynomials with their deviations.
+    let text = ok(&["analyze", "--model", &out]);
+    assert!(text.contains("A(q) = 1 ") && text.contains("(±"), "{text}");
+    let text = ok(&["analyze", "--model", &out, "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["polynomial"]["std"].as_array().unwrap().len(), 4);
+    let text = ok(&["bode", "--model", &out, "--omega", "0.1,1,3", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["confidence"], 0.95);
+    let pair = &v["pairs"][0];
+    for k in 0..3 {
+        let mid = pair["magnitude_db"][k].as_f64().unwrap();
+        let lo = pair["magnitude_db_lower"][k].as_f64().unwrap();
+        let hi = pair["magnitude_db_upper"][k].as_f64().unwrap();
+        assert!(lo < mid && mid < hi, "{lo} {mid} {hi}");
+        // SNR 1000, 2000 samples: a narrow band (well under 1 dB).
+        assert!(hi - lo < 1.0, "{lo} {hi}");
+        let sd = pair["phase_std_deg"][k].as_f64().unwrap();
+        assert!(sd > 0.0 && sd < 2.0, "{sd}");
+    }
+    // The SVG carries the band's legend; --confidence 0 drops it.
+    let svg = p(&d, "bode.svg");
+    ok(&["bode", "--model", &out, "--out", &svg]);
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("±95 %"));
+    let text = ok(&[
+        "bode",
+        "--model",
+        &out,
+        "--omega",
+        "1",
+        "--json",
+        "--confidence",
+        "0",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(v["confidence"].is_null() && v["pairs"][0].get("magnitude_db_lower").is_none());
+    fails(
+        &[
+            "bode",
+            "--model",
+            &out,
+            "--omega",
+            "1",
+            "--confidence",
+            "1.5",
+        ],
+        2,
+    );
+}
+
+/// `lifted step` draws the band of a model with a parameter covariance
+/// (issue 49): `_lo`/`_hi` columns around every sample after the
+/// delay (zero width before it: the response is exactly 0 there),
+/// widening as the response builds up; `--confidence 0` drops them; a
+/// bad level is refused.
+#[test]
+fn step_draws_the_band_of_a_model_with_a_covariance() {
+    let d = tmp("step_band");
+    let (id, _) = single_rate_data(&d);
+    let out = arx_221(&d, &id);
+    let csv = p(&d, "step.csv");
+    ok(&["step", "--model", &out, "--out", &csv, "--samples", "40"]);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 4, "{header:?}");
+    assert!(
+        header[2].ends_with("_lo") && header[3].ends_with("_hi"),
+        "{header:?}"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 40);
+    assert_eq!(rows[0][2], rows[0][3]);
+    for r in &rows[1..] {
+        assert!(r[2] < r[1] && r[1] < r[3], "{r:?}");
+    }
+    assert!(rows[39][3] - rows[39][2] > rows[1][3] - rows[1][2]);
+    let svg = p(&d, "step.svg");
+    ok(&["step", "--model", &out, "--out", &svg]);
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("±95 %"));
+    ok(&["step", "--model", &out, "--out", &csv, "--confidence", "0"]);
+    let plain = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(plain.lines().next().unwrap().split(',').count(), 2);
+    fails(
+        &[
+            "step",
+            "--model",
+            &out,
+            "--out",
+            &csv,
+            "--confidence",
+            "1.5",
+        ],
+        2,
+    );
+    // The band's gradients (2p + 3 responses) are sized before they
+    // are allocated: over the memory budget, a clear refusal.
+    let msg = fails(
+        &[
+            "step",
+            "--model",
+            &out,
+            "--out",
+            &csv,
+            "--samples",
+            "2000000",
+            "--memory-limit",
+            "50M",
+        ],
+        2,
+    );
+    assert!(msg.contains("confidence band"), "{msg}");
+}
+
+/// The report draws the 95 % bands of a model with a parameter
+/// covariance on its step and Bode figures and says so in their
+/// captions (issue 49); a subspace model's report has none.
+#[test]
+fn the_report_draws_the_bands_of_a_model_with_a_covariance() {
+    let d = tmp("report_band");
+    let (id, val) = single_rate_data(&d);
+    let arx = arx_221(&d, &id);
+    let html = p(&d, "r.html");
+    ok(&["report", "--model", &arx, "--data", &val, "--out", &html]);
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert_eq!(
+        page.matches("95 % confidence band").count(),
+        2,
+        "step and Bode"
+    );
+    assert!(
+        page.matches("±95 %").count() >= 3,
+        "the bands' legend entries"
+    );
+    let ss = p(&d, "ss.json");
+    ok(&[
+        "identify",
+        "--method",
+        "n4sid",
+        "--order",
+        "2",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &ss,
+    ]);
+    ok(&["report", "--model", &ss, "--data", &val, "--out", &html]);
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert!(!page.contains("confidence band") && !page.contains("±95 %"));
+}
+
+#[test]
+fn a_step_test_gives_gain_time_constant_and_dead_time() {
+    // K = 2, τ = 20 s, θ = 7.3 s, T = 1 s: at rest for 20 s, then a unit
+    // step and back after 250 s; noise σ 0.02. The printed parameters
+    // within 2 % (SNR ≈ 2500 on a step of this size).
+    use lifted_pem::{ProcessKind, ProcessModel};
+    let d = tmp("process_cli");
+    let data = p(&d, "step.csv");
+    let g = ProcessModel::from_parameters(ProcessKind::P1D, &[2.0, 20.0, 7.3], 1.0).unwrap();
+    let n = 500;
+    let u: Vec<f64> = (0..n)
+        .map(|t| if (20..270).contains(&t) { 1.0 } else { 0.0 })
+        .collect();
+    let y = g.simulate(&u).unwrap();
+    let noise = rbs(n, 9);
+    let mut text = String::from("t,u1,y1\n");
+    for t in 0..n {
+        text.push_str(&format!(
+            "{t},{},{}\n",
+            u[t] + 5.0,
+            y[t] + 0.02 * noise[t] + 40.0
+        ));
+    }
+    std::fs::write(&data, text).unwrap();
+    let out = p(&d, "p1d.json");
+    let printed = ok(&[
+        "identify",
+        "--method",
+        "process",
+        "--process",
+        "p1d",
+        "--data",
+        &data,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ]);
+    assert!(
+        printed.contains("process model P1D, output 1: K(u1) = "),
+        "{printed}"
+    );
+    let f = ModelFile::read(&out).unwrap();
+    let values: Vec<f64> = f.diagnostics["process"]["outputs"][0]["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    for (got, want) in values.iter().zip([2.0, 20.0, 7.3]) {
+        assert!((got - want).abs() < 0.02 * want, "{values:?}");
+    }
+    fails(
+        &[
+            "identify",
+            "--method",
+            "arx",
+            "--process",
+            "p1d",
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ],
+        2,
+    );
+}
+
+#[test]
+fn bad_orders_are_named() {
+    let d = tmp("arx_cli_bad");
+    let (id, _) = single_rate_data(&d);
+    let out = p(&d, "m.json");
+    let run = |method: &str, orders: &str| {
+        fails(
+            &[
+                "identify",
+                "--method",
+                method,
+                "--orders",
+                orders,
+                "--data",
+                &id,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+                "--out",
+                &out,
+            ],
+            2,
+        )
+    };
+    assert!(run("arx", "2 x 1").contains("'x' is not a non-negative integer"));
+    assert!(run("arx", "2 2").contains("[na nb nk]"));
+    assert!(run("n4sid", "2 2 1").contains("only used with the arx and fir methods"));
+    assert!(run("fir", "0 1").contains("nb must be at least 1"));
+    assert!(run("armax", "2 2 1").contains("[na nb nc nk]"));
+    // ARMAX and BJ run from the command line.
+    for (method, orders) in [("armax", "2 2 1 1"), ("bj", "2 1 1 2 1")] {
+        let text = ok(&[
+            "identify",
+            "--method",
+            method,
+            "--orders",
+            orders,
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        assert!(text.contains("C(q) = 1 "), "{text}");
+    }
+}
