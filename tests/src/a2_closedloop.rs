@@ -18,6 +18,10 @@
 //! ([`printed`]); calculated plants (coefficients, DC gain, poles) vs the
 //! reference implementation (RI, `spec/verify/renzhu2.py`) within 1% relative
 //! with an absolute floor of 1e-6. Errata rows are compared with RI only.
+//!
+//! Long file: the reproduction of one paper's appendix (Ren & Zhu, A2):
+//! every table row's set-up, the reference values and their errata, checked
+//! row by row; one experiment, one file.
 
 use lifted_closedloop::recover::{
     self, RecoveryOptions, closed_loop_tf, compensator_tf, controller_tf, general_tf,

@@ -1,4 +1,8 @@
 //! Command-line arguments (clap derive).
+//!
+//! Long file: the command-line arguments of every command (clap derive),
+//! one struct per command with the help text of each flag; kept in one file
+//! so that the flags' names and defaults read as one reference.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 

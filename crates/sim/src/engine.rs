@@ -1,4 +1,10 @@
 //! The allocation-free inner loop: small dense blocks on slices.
+//!
+//! Long file: the loop structure compiled to blocks (plant, controller,
+//! inferential predictor; fast, hold-last and inferential feedback; a
+//! controller executed at its own period), its general and fused runs and
+//! the fixed-size step kernels all work on the one `Block` layout, and are
+//! kept together so that a change to the layout is made in one place.
 
 use lifted_linalg::dot;
 use lifted_lti::StateSpace;

@@ -28,6 +28,10 @@
 //! against two 19-wide rows). The route is taken only when V is well
 //! conditioned ([`MAX_MODAL_CONDITION`]); a defective or nearly defective
 //! A keeps the direct recursion.
+//!
+//! Long file: the modal form, its filters (time-major and per mode), the
+//! jumps of a filter state over a range and the scan share the mode layout
+//! and its SIMD dispatch; they are one kernel family.
 
 use lifted_linalg::RAccumulator;
 use nalgebra::DMatrix;

@@ -111,6 +111,11 @@
 //! * S. J. Qin, W. Lin, L. Ljung, "A novel subspace identification approach
 //!   with enforced causal models", Automatica 41 (2005) 2043–2053
 //!   (PARSIM-K).
+//!
+//! Long file: PBSID and its three variants (the predictor-based Γ_f K_p
+//! estimate, SSARX, the row-wise PARSIM-K), their shared VARX regression and the
+//! Akaike past selection are one algorithm whose steps share their data
+//! matrices; splitting them would pass those matrices across modules.
 
 use lifted_lti::{OperatingPoint, StateSpace};
 use nalgebra::{DMatrix, DVector};

@@ -3,6 +3,11 @@
 //! validation). Every front end (the `lifted` command, the studio, the
 //! Python package) builds this type and nothing else, so the same options
 //! give the same model everywhere. Defaults are those of `lifted identify`.
+//!
+//! Long file: every option of a run is one serde type (the plan a model
+//! file carries, `lifted identify --plan`), with each option's documented
+//! default and check beside it; splitting it would scatter the defaults a
+//! reader compares.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,5 +1,9 @@
 //! Unit tests of the readers: the fast path, `csv-core` and the parallel
 //! scan give the same rows, checks and messages.
+//!
+//! Long file: the readers' three paths (the fast path, `csv-core`, the
+//! parallel scan) are checked against each other on the same tables; the
+//! tables and their expected rows are shared by every test here.
 
 use super::*;
 

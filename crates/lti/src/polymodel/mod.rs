@@ -159,6 +159,11 @@
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! Long file: the polynomial model type is one serde type whose families
+//! (ARX, ARMAX, OE, BJ, FIR), orders, checks and presentation are one
+//! validation; conversion, prediction, simulation and uncertainty are in the
+//! child modules.
 
 mod convert;
 mod predict;

@@ -1,4 +1,5 @@
 use super::*;
+use crate::args::IdentifyArgs;
 use crate::args::{Cli, Command};
 use clap::Parser;
 
