@@ -387,6 +387,7 @@ pub fn router(sessions: Arc<Sessions>, access: Access) -> Router {
         .route("/api/experiments/clear", post(clear_experiments))
         .route("/api/model", get(model))
         .route("/api/report", get(report))
+        .route("/api/plan", get(plan))
         .route("/api/estimation-data", get(estimation_data))
         .fallback(|| async { error(StatusCode::NOT_FOUND, "no such page or call") })
         .layer(DefaultBodyLimit::max(MAX_JSON))
@@ -771,6 +772,20 @@ async fn model(State(app): State<App>, Query(q): Query<CallQuery>, headers: Head
     .await
     {
         Ok(j) => download(j, "application/json", "model.json"),
+        Err(e) => e,
+    }
+}
+
+/// `GET /api/plan[?seq=N]`: the plan of the model of request N (the last
+/// without): its workflow options, as `lifted identify --write-plan`
+/// writes them.
+async fn plan(State(app): State<App>, Query(q): Query<CallQuery>, headers: HeaderMap) -> Response {
+    let h = match session_of(&app, &headers, &q).await {
+        Ok(h) => h,
+        Err(e) => return e,
+    };
+    match with_session(h.session, move |s| s.plan_json(q.seq)).await {
+        Ok(j) => download(j, "application/json", "plan.json"),
         Err(e) => e,
     }
 }

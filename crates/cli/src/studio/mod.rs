@@ -101,6 +101,7 @@
 //! | `POST /api/identify` | `application/json` | [`Request`] (≤ 1 MiB, with the page's sequence number `seq`) | [`Identified`]: `seq` echoed, equivalent command line, order, stability (`stable`, `spectral_radius`), order-selection values, fit % per output (`null` with `stable: false` for an unstable model), poles, SVG figures |
 //! | `GET /api/model[?seq=N]` | – | – | the model of request N (the last model without `seq`) as the model-file JSON of `lifted identify` |
 //! | `GET /api/report[?seq=N]` | – | – | the HTML report of `lifted report` for that model |
+//! | `GET /api/plan[?seq=N]` | – | – | that model's workflow options (`lifted identify --write-plan`'s plan file) |
 //! | `POST /api/data?name=F&role=validation` | as above | the validation record's bytes | its [`DataInfo`]; the fits, residuals and the board are then computed on it |
 //! | `POST /api/data?name=F&role=experiment` | as above | a further estimation record (q-Markov: one file per input, in input order) | its [`DataInfo`]; each is a `--data` of the command after the record |
 //! | `POST /api/experiments/clear` | `application/json` | – | `null`; the record alone again |

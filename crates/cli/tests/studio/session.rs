@@ -566,3 +566,79 @@ fn session_reads_channels_from_plant_tags_and_says_when_it_guesses() {
     assert!(info.channels_guessed);
     s.close();
 }
+
+/// Issue 48: the studio's plan. A model's plan (its workflow options,
+/// `GET /api/plan`) given back as the request's `plan` makes the same
+/// model, bit for bit, with the option fields left out; the command line
+/// shown says `--plan plan.json`, and `lifted identify --plan` with the
+/// saved plan writes that model too. A plan with a field the options do
+/// not have is refused naming it.
+#[test]
+fn session_takes_a_plan_and_saves_one() {
+    let dir = tmp("plan");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(1500, 2);
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    let mut asked = request("2");
+    asked.method = Some("moesp".into());
+    asked.horizon = Some(8);
+    asked.refine = Some("pem".into());
+    let first = s.identify(&asked).unwrap();
+    let made: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+    let plan_text = s.plan_json(None).unwrap();
+    let plan: Value = serde_json::from_str(&plan_text).unwrap();
+    assert_eq!(plan["identification"]["method"], json!("moesp"));
+    assert_eq!(plan["identification"]["horizon"], json!(8));
+
+    let planned = Request {
+        inputs: vec!["u1".into()],
+        outputs: vec!["y1".into()],
+        plan: Some(plan.clone()),
+        ..Default::default()
+    };
+    let again = s.identify(&planned).unwrap();
+    assert_eq!(again.order, first.order);
+    assert!(
+        again.command.contains("--plan plan.json") && !again.command.contains("--method"),
+        "{}",
+        again.command
+    );
+    let remade: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+    assert_eq!(comparable(remade.clone()), comparable(made.clone()));
+
+    // The command line shown, with the saved plan, writes the same model.
+    let (data, plan_path, out) = (
+        dir.join("rec.csv"),
+        dir.join("plan.json"),
+        dir.join("cli.json"),
+    );
+    std::fs::write(&data, &csv).unwrap();
+    std::fs::write(&plan_path, &plan_text).unwrap();
+    let mut args: Vec<String> = Vec::new();
+    let words: Vec<&str> = again.command.split_whitespace().skip(1).collect();
+    let mut it = words.iter();
+    while let Some(w) = it.next() {
+        args.push(w.to_string());
+        let path = match *w {
+            "--data" => Some(&data),
+            "--plan" => Some(&plan_path),
+            "--out" => Some(&out),
+            _ => None,
+        };
+        if let Some(p) = path {
+            it.next();
+            args.push(p.display().to_string());
+        }
+    }
+    run_lifted(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(comparable(cli), comparable(made));
+
+    let typo = Request {
+        plan: Some(json!({"identification": {"max_ordr": 3}})),
+        ..planned
+    };
+    let e = s.identify(&typo).unwrap_err().to_string();
+    assert!(e.contains("max_ordr"), "{e}");
+    s.close();
+}

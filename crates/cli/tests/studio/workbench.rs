@@ -437,3 +437,77 @@ fn studio_takes_one_file_per_input_in_chromium() {
         c.close().await.unwrap();
     });
 }
+
+/// Issue 48: the page loads a plan (the options of `lifted identify
+/// --write-plan`), identifies with it (the command line shown says
+/// `--plan plan.json`, the option fields unused), offers the model's plan
+/// to save, and goes back to its own options when the plan is cleared.
+#[test]
+fn studio_loads_and_saves_a_plan_in_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("plan-browser");
+    let (rec, plan) = (dir.join("rec.csv"), dir.join("plan.json"));
+    std::fs::write(&rec, record(1500, 3)).unwrap();
+    run_lifted(&[
+        "identify",
+        "--data",
+        &rec.display().to_string(),
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--method",
+        "moesp",
+        "--order",
+        "2",
+        "--out",
+        &dir.join("cli.json").display().to_string(),
+        "--write-plan",
+        &plan.display().to_string(),
+    ]);
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_settled(&c).await;
+        assert!(!text(&c, "#command").await.contains("--plan"));
+        let input = c.find(Locator::Id("plan-file")).await.unwrap();
+        input.send_keys(&plan.display().to_string()).await.unwrap();
+        wait_identified(&c, g).await;
+        let g = wait_settled(&c).await;
+        let command = text(&c, "#command").await;
+        assert!(
+            command.contains("--plan plan.json") && !command.contains("--method"),
+            "{command}"
+        );
+        assert!(text(&c, "#plan-name").await.contains("plan.json"));
+        let save = js(
+            &c,
+            "const a = document.getElementById('save-plan'); \
+             return a.getAttribute('aria-disabled') + ' ' + a.getAttribute('href');",
+        )
+        .await;
+        let save = save.as_str().unwrap_or_default().to_string();
+        assert!(save.starts_with("false /api/plan?"), "{save}");
+        c.find(Locator::Id("plan-clear"))
+            .await
+            .unwrap()
+            .click()
+            .await
+            .unwrap();
+        wait_identified(&c, g).await;
+        wait_settled(&c).await;
+        assert!(!text(&c, "#command").await.contains("--plan"));
+        assert_eq!(status(&c, "jserrors").await, 0);
+        c.close().await.unwrap();
+    });
+}

@@ -46,6 +46,7 @@ const state = {
   experiments: [],   // names of the further experiments
   expired: false,    // the server dropped this tab's session (410)
   confirmed: true,   // the user confirmed guessed inputs and outputs
+  plan: null,        // { name, options }: the options come from a plan file
 };
 
 function showError(msg) {
@@ -170,6 +171,13 @@ function request(withOrder) {
   if (state.ranges.estimation) r.estimation_range = state.ranges.estimation;
   if (state.ranges.validation) r.validation_range = state.ranges.validation;
   if (!withOrder) return r;
+  if (state.plan) {
+    // The options are the plan's (`lifted identify --plan`); the option
+    // fields are not sent.
+    r.plan = state.plan.options;
+    r.have = state.digests;
+    return r;
+  }
   const method = $("method").value;
   r.method = method;
   r.order = String(state.order);
@@ -255,7 +263,7 @@ function fillTable(table, head, rows) {
 function setSaves(enabled, seq) {
   $("refine").disabled = !enabled;
   $("keep").disabled = !enabled;
-  for (const id of ["save-model", "save-report", "save-data"]) {
+  for (const id of ["save-model", "save-report", "save-data", "save-plan"]) {
     const a = $(id);
     if (enabled) {
       a.href = a.dataset.path + "?token=" + encodeURIComponent(TOKEN) + "&session=" + SESSION + "&seq=" + seq;
@@ -768,6 +776,29 @@ function wire() {
   $("exp-file").addEventListener("change", (e) => {
     if (e.target.files.length) addExperiments(Array.from(e.target.files));
   });
+  $("plan-file").addEventListener("change", async (e) => {
+    const f = e.target.files[0];
+    if (!f) return;
+    try {
+      const options = JSON.parse(await f.text());
+      if (options === null || typeof options !== "object" || Array.isArray(options)) {
+        throw new Error("not a JSON object");
+      }
+      state.plan = { name: f.name, options };
+      $("plan-name").textContent = "Options from the plan " + f.name + " (the option fields above are not used).";
+      $("plan-clear").disabled = false;
+      schedule({ identify: true });
+    } catch (err) {
+      showError("plan " + f.name + ": " + err.message);
+    }
+    e.target.value = "";
+  });
+  $("plan-clear").addEventListener("click", () => {
+    state.plan = null;
+    $("plan-name").textContent = "The options above.";
+    $("plan-clear").disabled = true;
+    schedule({ identify: true });
+  });
   $("exp-clear").addEventListener("click", async () => {
     try {
       await call("/api/experiments/clear", "{}");
@@ -838,7 +869,7 @@ function wire() {
   });
   $("ranges-clear").addEventListener("click", () => setRanges(null, null));
   // A Save link without a model does nothing, whatever the CSS.
-  for (const id of ["save-model", "save-report", "save-data"]) {
+  for (const id of ["save-model", "save-report", "save-data", "save-plan"]) {
     $(id).addEventListener("click", (e) => {
       if (e.currentTarget.getAttribute("aria-disabled") === "true") e.preventDefault();
     });

@@ -15,6 +15,8 @@ use crate::service::figures::{
     bode_grid, criterion_plot, order_plot, pz_plot, residual_plots, response_error_plot_in,
     response_plot_in, stack_svgs,
 };
+use lifted_workflow::WorkflowOptions;
+
 use crate::service::identify::{
     files_from_args, identify_files_with, options_from_args, require_stable,
 };
@@ -38,7 +40,9 @@ impl Session {
                 w.push(v);
             }
         };
-        opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
+        if r.plan.is_none() {
+            opt("method", r.method.clone().unwrap_or_else(|| "n4sid".into()));
+        }
         for d in data {
             opt("data", d.clone());
         }
@@ -47,11 +51,21 @@ impl Session {
         if let Some(ts) = r.ts {
             opt("ts", ts.to_string());
         }
-        if let Some(h) = r.hold {
+        if r.plan.is_none()
+            && let Some(h) = r.hold
+        {
             opt("hold", h.to_string());
         }
         for p in &r.output_period {
             opt("output-period", p.clone());
+        }
+        if r.plan.is_some() {
+            // The options are the plan's (`lifted identify --plan`): the
+            // option flags stay at their defaults.
+            opt("plan", "plan.json".into());
+            w.push("--out".into());
+            w.push(out.into());
+            return w;
         }
         if let Some(o) = &r.order {
             opt("order", o.clone());
@@ -118,11 +132,17 @@ impl Session {
         }
         let mut a = Self::default_identify_args()?;
         a.data = data.to_vec();
-        a.method = named("method", r.method.as_deref().unwrap_or("n4sid"))?;
         a.columns.inputs = Some(r.inputs.join(","));
         a.columns.outputs = Some(r.outputs.join(","));
         a.columns.ts = r.ts;
         a.columns.output_period = r.output_period.clone();
+        a.out = "model.json".into();
+        if r.plan.is_some() {
+            // The options come from the plan (`Session::options_of`).
+            a.plan = Some("plan.json".into());
+            return Ok(a);
+        }
+        a.method = named("method", r.method.as_deref().unwrap_or("n4sid"))?;
         if let Some(h) = r.hold {
             a.hold = h;
         }
@@ -158,8 +178,23 @@ impl Session {
         }
         a.feedthrough = r.feedthrough.or(a.feedthrough);
         a.stable = r.stable;
-        a.out = "model.json".into();
         Ok(a)
+    }
+
+    /// The workflow options of a request: its plan's
+    /// (`lifted_workflow::options_from_plan`, as `lifted identify --plan`
+    /// reads a plan file), else those of its arguments.
+    pub(super) fn options_of(r: &Request, a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
+        match &r.plan {
+            Some(plan) => lifted_workflow::options_from_plan(plan).map_err(|e| match e {
+                lifted_workflow::Error::InvalidOption {
+                    option: "plan",
+                    reason,
+                } => input(format!("plan: {reason}")),
+                other => input(format!("plan: {other}")),
+            }),
+            None => options_from_args(a),
+        }
     }
 
     /// `lifted identify`'s arguments at their defaults (the parser's
@@ -183,10 +218,10 @@ impl Session {
             return Ok(file);
         }
         let a = Self::identify_args(r, &paths)?;
-        let (files, opts) = (files_from_args(&a)?, options_from_args(&a)?);
+        let (files, opts) = (files_from_args(&a)?, Self::options_of(r, &a)?);
         let file =
             identify_files_with(&files, &opts, &mut self.cache).map_err(|e| self.plain(e))?;
-        if a.stable {
+        if a.stable || opts.validation.require_stable {
             require_stable(&file.model)?;
         }
         self.cache.keep_identification(key, file.clone());
@@ -199,10 +234,11 @@ impl Session {
     pub(super) fn identification_key(r: &Request, paths: &[String]) -> String {
         let words = Self::identify_words(r, paths, "model.json");
         format!(
-            "{}\u{1f}{:?}\u{1f}{:?}",
+            "{}\u{1f}{:?}\u{1f}{:?}\u{1f}{}",
             words.join("\u{1f}"),
             r.estimation_range,
-            r.validation_range
+            r.validation_range,
+            r.plan.as_ref().map(|p| p.to_string()).unwrap_or_default()
         )
     }
 
@@ -219,6 +255,10 @@ impl Session {
         let mut r = r.clone();
         if r.ts.is_none() && !rec.info.has_time {
             r.ts = Some(1.0);
+        }
+        if r.plan.is_some() {
+            // The plan's options are the model's: nothing to make explicit.
+            return Ok(r);
         }
         let subspace = matches!(
             r.method.as_deref().unwrap_or("n4sid"),
@@ -609,6 +649,18 @@ impl Session {
             .file
             .to_json()
             .map_err(|e| input(format!("model file: {e}")))
+    }
+
+    /// The plan of the model of request `seq` (the last model without
+    /// one): the workflow options it was made with, as `lifted identify
+    /// --write-plan` writes them, for `--plan` or the page's plan.
+    pub fn plan_json(&self, seq: Option<u64>) -> CliResult<String> {
+        let options = Diagnostics::of(&self.last(seq)?.file)
+            .options
+            .ok_or_else(|| input("the model file carries no options"))?;
+        serde_json::to_string_pretty(&options)
+            .map(|s| s + "\n")
+            .map_err(|e| input(format!("plan: {e}")))
     }
 
     /// The report page of the model of request `seq` (the last model

@@ -40,6 +40,12 @@ pub struct Request {
     pub output_weight: Vec<f64>,
     /// IV: instrument columns.
     pub instrument: Vec<String>,
+    /// A plan: the identification options of a model file, its
+    /// diagnostics or a `--write-plan` file, as `lifted identify --plan`
+    /// takes them. The options then come from the plan, every option field
+    /// above is left unused (the data fields are used), and the command
+    /// line shown says `--plan plan.json`.
+    pub plan: Option<serde_json::Value>,
     /// `auto`, `mean`, `linear` or `none`.
     pub detrend: Option<String>,
     /// `shift` or `states`.
