@@ -78,7 +78,7 @@ pub(crate) fn horizon_of(
     feedthrough=None, detrend="mean", remove_means=true, noise_model=true,
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
-    refine_check="margin:3", selection=None, gain_covariance_start=true, budgets=None,
+    refine_check="tests:0.95", selection=None, gain_covariance_start=true, budgets=None,
     plan=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(

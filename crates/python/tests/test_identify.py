@@ -376,7 +376,9 @@ def test_refine_check_reaches_the_held_out_judge() -> None:
     rule = fit.diagnostics["refinement_judge"]["rule"]
     assert "paired t-test" in rule, rule
     default = lifted.identify(u, y, order=2, refine="pem")
-    assert "3 points apart" in default.diagnostics["refinement_judge"]["rule"]
+    assert "sign test" in default.diagnostics["refinement_judge"]["rule"]
+    margin = lifted.identify(u, y, order=2, refine="pem", refine_check="margin:3")
+    assert "3 points apart" in margin.diagnostics["refinement_judge"]["rule"]
     for bad in ("t:1.5", "margin:-1", "median"):
         with pytest.raises(lifted.ArgumentError, match="refine_check"):
             lifted.identify(u, y, order=2, refine_check=bad)

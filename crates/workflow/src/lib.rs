@@ -76,9 +76,9 @@
 //!    model is kept only if its simulation fit is at least as good — on
 //!    six held-out blocks for single-rate N4SID/MOESP/CVA records of up to
 //!    [`REFINE_CHECK_SAMPLES`] samples when they tell the two apart
-//!    (`RefinementOptions::check`: by default mean fits more than
-//!    [`REFINE_CHECK_MARGIN`] points apart, or a paired t-test of the
-//!    per-block differences; each block's subspace model and its
+//!    (`RefinementOptions::check`: by default a paired t-test or a sign
+//!    test of the per-block differences at 95 %, or mean fits more than
+//!    [`REFINE_CHECK_MARGIN`] points apart; each block's subspace model and its
 //!    refinement fitted to the
 //!    other five; closer calls keep the subspace model), else (longer
 //!    records, costly checks) on the records. By

@@ -717,8 +717,9 @@ pub const GAIN_CHECK_SAMPLES: usize = 200_000;
 /// Points of mean held-out fit by which the refined model must beat the
 /// subspace model (or lose to it), with the median block agreeing, for the
 /// held-out check to decide under the margin rule
-/// (`lifted_pem::CheckRule::Margin`, `--refine-check margin:3`, the
-/// default; `t:0.95` tests the blocks' differences instead): 3. Closer calls keep the subspace model (they used to be left to the
+/// (`lifted_pem::CheckRule::Margin`, `--refine-check margin:3`; the
+/// default before `tests:0.95`, which tests the blocks' differences instead,
+/// replaced it as a rule from the estimation data alone): 3. Closer calls keep the subspace model (they used to be left to the
 /// simulation error on the records, which favours the refinement fitted to
 /// them: benches/results/real-records.md, "The refinement kept only on held-out
 /// evidence"). When the margin was chosen, on the
@@ -742,8 +743,8 @@ pub const REFINE_CHECK_WORK: f64 = 4e9;
 /// The refinement stage (Levenberg–Marquardt from the identified model,
 /// measured samples only; the refined model is kept only if its simulation
 /// fit is at least as good: on held-out blocks for short single-rate
-/// subspace records, the subspace model staying unless they decide by more
-/// than [`REFINE_CHECK_MARGIN`] points; else on the record).
+/// subspace records, the subspace model staying unless they tell the two
+/// apart (`RefinementOptions::check`); else on the record).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RefinementOptions {
@@ -755,10 +756,11 @@ pub struct RefinementOptions {
     /// Bound on the work in floating-point operations. Default 2e10.
     pub max_work: f64,
     /// How the held-out blocks tell the refinement and the subspace model
-    /// apart (`lifted_pem::CheckRule`): by default mean fits more than
-    /// [`REFINE_CHECK_MARGIN`] points apart; `CheckRule::PairedT`, a paired
-    /// t-test of the per-block differences, takes its threshold from the
-    /// blocks' own spread. Recorded in `diagnostics.refinement_judge.rule`
+    /// apart (`lifted_pem::CheckRule`): by default `CheckRule::Tests` at
+    /// 95 % (a paired t-test of the per-block differences, its threshold
+    /// the blocks' own spread, or a sign test of them, deciding blocks that
+    /// all agree); `CheckRule::Margin` ([`REFINE_CHECK_MARGIN`] points, the
+    /// default before, chosen on a benchmark's validation halves). Recorded in `diagnostics.refinement_judge.rule`
     /// and the shortlist's rule.
     pub check: lifted_pem::CheckRule,
 }

@@ -295,7 +295,7 @@ def identify(
     integrator_tolerance: float | None = None,
     process: ProcessStructure | None = None,
     kernel: Literal["tc", "dc"] | None = None,
-    refine_check: str = "margin:3",
+    refine_check: str = "tests:0.95",
     selection: dict[str, float] | None = None,
     gain_covariance_start: bool = True,
     budgets: dict[str, float] | None = None,
