@@ -24,9 +24,9 @@ pub mod html;
 pub mod plot;
 pub mod service;
 pub mod shards;
-pub mod shown;
+pub use lifted_data::shown;
 pub mod studio;
-pub mod table;
+pub use lifted_data::table;
 /// The `.npy` reader (a part of [`table`]: the reader its `.npy` files go to).
 pub use table::npy;
 pub mod terminal;

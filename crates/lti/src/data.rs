@@ -13,10 +13,12 @@
 //! consecutive fast samples of a signal into one sample of a slow (period nT)
 //! signal. [`lift_signal`] / [`unlift_signal`] are its signal-level form.
 //!
-//! CSV ([`Dataset::to_csv_writer`], [`Dataset::from_csv_reader`]): a header
-//! row `t,<inputs…>,<outputs…>` (each name optionally followed by
-//! ` [unit]`), then one row per fast sample; a slowly sampled output has
-//! **empty cells** between its samples.
+//! CSV ([`Dataset::to_csv_writer`]): a header row `t,<inputs…>,<outputs…>`
+//! (each name optionally followed by ` [unit]`), then one row per fast
+//! sample; a slowly sampled output has **empty cells** between its
+//! samples. Files are read by `lifted-data` (`lifted_data::table`), the
+//! one reader of every front end, with this module's sampling and time
+//! rules ([`output_sampling`], [`time_step_within`]).
 //!
 //! All checks are O(N·(n_u + n_y)); lifting is a copy, O(N·(n_u + n_y)).
 
@@ -30,8 +32,8 @@ mod csv_file;
 mod lift;
 
 pub use csv_file::{
-    CsvOptions, SamplingError, TIME_STEP_TOLERANCE, output_sampling, period_from_times,
-    snap_period, time_step_within,
+    SamplingError, TIME_STEP_TOLERANCE, output_sampling, period_from_times, snap_period,
+    time_step_within,
 };
 pub use lift::{LiftOrdering, Lifted, lift_signal, unlift_signal};
 
@@ -180,12 +182,6 @@ pub enum DataError {
     /// No experiment was given.
     #[error("no experiments given")]
     NoExperiments,
-    /// CSV: the input is empty or its first row is not a header.
-    #[error("CSV has no header row{reason}")]
-    CsvMissingHeader {
-        /// Detail (empty or ": first row is numeric").
-        reason: String,
-    },
     /// CSV: a row has a different number of cells than the header.
     #[error("CSV line {line}: {got} cells, header has {expected}")]
     CsvRaggedRow {
@@ -195,22 +191,6 @@ pub enum DataError {
         expected: usize,
         /// Cells in the row.
         got: usize,
-    },
-    /// CSV: a cell is neither a number nor empty (empty allowed in output columns only).
-    #[error("CSV line {line}, column '{column}': cannot parse '{cell}' as a number")]
-    CsvNonNumeric {
-        /// 1-based line number.
-        line: u64,
-        /// Column name.
-        column: String,
-        /// The cell text.
-        cell: String,
-    },
-    /// CSV: the layout does not match the options or cannot be inferred.
-    #[error("CSV layout: {reason}")]
-    CsvLayout {
-        /// What is wrong.
-        reason: String,
     },
     /// CSV: an I/O or encoding error.
     #[error("CSV I/O: {reason}")]
@@ -424,25 +404,6 @@ fn samples_where(
     let idx: Vec<usize> = (0..col.len()).filter(|&k| keep(k)).collect();
     let vals = idx.iter().map(|&k| col[k]).collect();
     (idx, vals)
-}
-
-/// A per-channel list from [`CsvOptions`]: `given` when it has `n` entries
-/// ([`DataError::DimensionMismatch`] otherwise), else `default()`.
-fn per_channel<T: Clone>(
-    what: &'static str,
-    given: &Option<Vec<T>>,
-    n: usize,
-    default: impl FnOnce() -> DataResult<Vec<T>>,
-) -> DataResult<Vec<T>> {
-    match given {
-        Some(v) if v.len() != n => Err(DataError::DimensionMismatch {
-            what,
-            expected: n,
-            got: v.len(),
-        }),
-        Some(v) => Ok(v.clone()),
-        None => default(),
-    }
 }
 
 impl Dataset {

@@ -1,12 +1,12 @@
-//! CSV records ([`Dataset::to_csv_writer`], [`Dataset::from_csv_reader`]):
-//! a header row `t,<inputs…>,<outputs…>`, one row per fast sample, empty
-//! cells between a slow output's samples; the time column's period and the
-//! outputs' sampling patterns inferred once here for every front end
-//! ([`infer_ts`], [`output_sampling`], [`TIME_STEP_TOLERANCE`]). O(N·(n_u + n_y)).
+//! CSV writing ([`Dataset::to_csv_writer`]: a header row
+//! `t,<inputs…>,<outputs…>`, one row per fast sample, empty cells between a
+//! slow output's samples) and the rules every reader of records follows,
+//! defined once here: the time column's period ([`period_from_times`],
+//! [`time_step_within`], [`TIME_STEP_TOLERANCE`]) and an output's sampling
+//! pattern from its empty cells ([`output_sampling`]). Reading is
+//! `lifted-data`'s. O(N·(n_u + n_y)).
 
 use std::io;
-
-use nalgebra::DMatrix;
 
 use super::*;
 
@@ -56,184 +56,6 @@ impl Dataset {
         })?;
         Ok(())
     }
-
-    /// Reads a data set written by [`Dataset::to_csv_writer`] or any CSV with
-    /// a header row (see [`CsvOptions`]). Output periods/offsets are inferred
-    /// from the empty-cell pattern unless given; holds default to 1 unless
-    /// given. Errors: [`DataError::CsvMissingHeader`], [`DataError::CsvRaggedRow`],
-    /// [`DataError::CsvNonNumeric`], [`DataError::CsvLayout`],
-    /// [`DataError::CsvIo`], and every [`Dataset::new`] error.
-    pub fn from_csv_reader<R: io::Read>(r: R, opts: &CsvOptions) -> DataResult<Self> {
-        let mut rd = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .trim(csv::Trim::All)
-            .from_reader(r);
-        let mut records = rd.records();
-        let header = match records.next() {
-            None => {
-                return Err(DataError::CsvMissingHeader {
-                    reason: String::new(),
-                });
-            }
-            Some(h) => h.map_err(csv_io)?,
-        };
-        let names: Vec<String> = header.iter().map(str::to_string).collect();
-        if names.iter().all(|c| c.is_empty()) {
-            return Err(DataError::CsvMissingHeader {
-                reason: ": the first row is empty".into(),
-            });
-        }
-        if names
-            .iter()
-            .any(|c| !c.is_empty() && c.parse::<f64>().is_ok())
-        {
-            return Err(DataError::CsvMissingHeader {
-                reason: ": the first row contains numbers".into(),
-            });
-        }
-        let has_time = match opts.time_column {
-            Some(b) => b,
-            None => matches!(names[0].to_ascii_lowercase().as_str(), "t" | "time"),
-        };
-        let first = usize::from(has_time);
-        let width = names.len();
-        if width < first + opts.n_inputs {
-            return Err(DataError::CsvLayout {
-                reason: format!(
-                    "{} columns, need {} input columns after {} time column(s)",
-                    width, opts.n_inputs, first
-                ),
-            });
-        }
-        let n_out = width - first - opts.n_inputs;
-        // Parse all rows: NaN marks an empty cell.
-        let mut cells: Vec<f64> = Vec::new();
-        let mut times: Vec<f64> = Vec::new();
-        let mut n_rows = 0usize;
-        for rec in records {
-            let rec = rec.map_err(csv_io)?;
-            let line = rec.position().map_or(n_rows as u64 + 2, |p| p.line());
-            if rec.len() != width {
-                return Err(DataError::CsvRaggedRow {
-                    line,
-                    expected: width,
-                    got: rec.len(),
-                });
-            }
-            for (c, cell) in rec.iter().enumerate() {
-                let v = if cell.is_empty() && c >= first + opts.n_inputs {
-                    f64::NAN
-                } else {
-                    match cell.parse::<f64>() {
-                        Ok(v) if v.is_finite() => v,
-                        _ => {
-                            return Err(DataError::CsvNonNumeric {
-                                line,
-                                column: names[c].clone(),
-                                cell: cell.to_string(),
-                            });
-                        }
-                    }
-                };
-                if c < first {
-                    times.push(v);
-                } else {
-                    cells.push(v);
-                }
-            }
-            n_rows += 1;
-        }
-        if n_rows == 0 {
-            return Err(DataError::Empty);
-        }
-        let ncols = width - first;
-        let all = DMatrix::from_row_slice(n_rows, ncols, &cells);
-        let u = all.columns(0, opts.n_inputs).into_owned();
-        let y = all.columns(opts.n_inputs, n_out).into_owned();
-        let ts = match (opts.ts, has_time) {
-            (Some(t), _) => t,
-            (None, true) => infer_ts(&times)?,
-            (None, false) => {
-                return Err(DataError::CsvLayout {
-                    reason: "no time column and no ts given".into(),
-                });
-            }
-        };
-        let split = |label: &str| -> (String, Option<String>) {
-            if let Some(stripped) = label.strip_suffix(']')
-                && let Some(pos) = stripped.rfind(" [")
-            {
-                return (
-                    stripped[..pos].to_string(),
-                    Some(stripped[pos + 2..].to_string()),
-                );
-            }
-            (label.to_string(), None)
-        };
-        let holds = per_channel("CsvOptions::holds", &opts.holds, opts.n_inputs, || {
-            Ok(vec![1; opts.n_inputs])
-        })?;
-        let inputs = (0..opts.n_inputs)
-            .map(|i| {
-                let (name, unit) = split(&names[first + i]);
-                InputChannel {
-                    name,
-                    unit,
-                    hold: holds[i],
-                    offset: 0,
-                }
-            })
-            .collect();
-        let sampling = per_channel("CsvOptions::sampling", &opts.sampling, n_out, || {
-            (0..n_out)
-                .map(|c| {
-                    infer_sampling(c, y.column(c).as_slice(), &names[first + opts.n_inputs + c])
-                })
-                .collect()
-        })?;
-        let outputs = (0..n_out)
-            .map(|c| {
-                let (name, unit) = split(&names[first + opts.n_inputs + c]);
-                OutputChannel {
-                    name,
-                    unit,
-                    period: sampling[c].0,
-                    offset: sampling[c].1,
-                }
-            })
-            .collect();
-        Self::new(ts, u, y, inputs, outputs)
-    }
-}
-
-/// Options of [`Dataset::from_csv_reader`].
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct CsvOptions {
-    /// Number of input columns (after the time column); the remaining columns
-    /// are outputs. Default 0.
-    pub n_inputs: usize,
-    /// Base period; default None: taken from the time column (uniform
-    /// spacing required, relative tolerance 1e-9).
-    pub ts: Option<f64>,
-    /// Whether the first column is time; default None: yes if its header is
-    /// `t` or `time` (case-insensitive).
-    pub time_column: Option<bool>,
-    /// Input holds; default None: all 1.
-    pub holds: Option<Vec<usize>>,
-    /// (period, offset) per output; default None: inferred from the empty
-    /// cells (equally spaced non-empty cells, no sample missing at either end).
-    pub sampling: Option<Vec<(usize, usize)>>,
-}
-
-impl CsvOptions {
-    /// Options for `n_inputs` input columns, everything else inferred.
-    pub fn with_inputs(n_inputs: usize) -> Self {
-        CsvOptions {
-            n_inputs,
-            ..Default::default()
-        }
-    }
 }
 
 fn csv_io(e: csv::Error) -> DataError {
@@ -274,35 +96,6 @@ pub fn snap_period(ts: f64) -> f64 {
     }
 }
 
-fn infer_ts(times: &[f64]) -> DataResult<f64> {
-    if times.len() < 2 {
-        return Err(DataError::CsvLayout {
-            reason:
-                "cannot infer ts from a time column with fewer than 2 rows (give CsvOptions::ts)"
-                    .into(),
-        });
-    }
-    let n = times.len();
-    let ts = period_from_times(times[0], times[n - 1], n);
-    if !(ts.is_finite() && ts > 0.0) {
-        return Err(DataError::InvalidSamplePeriod { ts });
-    }
-    for k in 2..n {
-        if !time_step_within(times[0], times[k - 1], k, times[k]) {
-            return Err(DataError::CsvLayout {
-                reason: format!(
-                    "time column is not uniformly spaced at row {k} (t = {}, {} after the row before, the spacing of the rows so far {}, within {} %)",
-                    times[k],
-                    times[k] - times[k - 1],
-                    (times[k - 1] - times[0]) / (k - 1) as f64,
-                    TIME_STEP_TOLERANCE * 100.0
-                ),
-            });
-        }
-    }
-    Ok(ts)
-}
-
 /// How far a row's time step may be from the mean spacing of the rows
 /// before it, relative to that spacing (every reader of a time column: the
 /// command line's CSV and `.npy` readers, this crate's CSV reader): times
@@ -317,12 +110,6 @@ pub const TIME_STEP_TOLERANCE: f64 = 0.1;
 pub fn time_step_within(t0: f64, t_last: f64, rows: usize, t: f64) -> bool {
     let mean = (t_last - t0) / (rows.max(2) - 1) as f64;
     ((t - t_last) - mean).abs() <= TIME_STEP_TOLERANCE * mean.abs()
-}
-
-fn infer_sampling(c: usize, col: &[f64], name: &str) -> DataResult<(usize, usize)> {
-    output_sampling(col, None).map_err(|e| DataError::CsvLayout {
-        reason: format!("output column {c} ('{name}'): {e} (give CsvOptions::sampling)"),
-    })
 }
 
 /// Why an output column's samples do not follow one period

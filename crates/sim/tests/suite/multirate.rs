@@ -80,12 +80,17 @@ fn dataset_round_trips_through_csv() -> TestResult {
     let fx = plants::stirred_tank_5_3_1()?;
     let sim = Simulator::open_loop(fx.discrete_plant()?).with_sampling(&[(5, 0), (1, 0)])?;
     let out = sim.simulate(&Excitation::input(random_input(100, 2, 1, 3)))?;
-    let mut buf = Vec::new();
-    out.data.to_csv_writer(&mut buf)?;
-    let back = lifted_lti::Dataset::from_csv_reader(
-        buf.as_slice(),
-        &lifted_lti::data::CsvOptions::with_inputs(2),
-    )?;
+    // Written by lifted-lti, read by lifted-data (the front ends' reader).
+    let path = std::env::temp_dir().join(format!("lifted-sim-csv-{}.csv", std::process::id()));
+    out.data.to_csv_writer(std::fs::File::create(&path)?)?;
+    let spec = lifted_data::table::DataSpec {
+        inputs: out.data.inputs().iter().map(|c| c.name.clone()).collect(),
+        outputs: out.data.outputs().iter().map(|c| c.name.clone()).collect(),
+        hold: 1,
+        ..Default::default()
+    };
+    let back = lifted_data::table::load(path.to_str().unwrap_or_default(), &spec)?.data;
+    let _ = std::fs::remove_file(&path);
     assert_eq!(back, out.data);
     Ok(())
 }

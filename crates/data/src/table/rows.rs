@@ -46,7 +46,7 @@ impl RowCheck {
         at: &dyn Display,
         column: &str,
         t: f64,
-    ) -> CliResult<()> {
+    ) -> crate::Result<()> {
         match self.rows {
             0 => self.t0 = t,
             1 => {}
@@ -67,7 +67,7 @@ impl RowCheck {
 
     /// The row count and the base period once every row is read:
     /// `ts`, or from the time column (`has_time`).
-    pub(crate) fn finish(&self, path: &str, has_time: bool) -> CliResult<(usize, f64)> {
+    pub(crate) fn finish(&self, path: &str, has_time: bool) -> crate::Result<(usize, f64)> {
         let rows = self.rows;
         if rows == 0 {
             return Err(input(format!("{path}: no data rows after the header")));

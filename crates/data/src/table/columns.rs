@@ -4,7 +4,7 @@
 use super::*;
 
 /// Parses `name=period` pairs of `--output-period`.
-pub fn parse_periods(specs: &[String]) -> CliResult<Vec<(String, usize)>> {
+pub fn parse_periods(specs: &[String]) -> crate::Result<Vec<(String, usize)>> {
     parse_name_counts(specs, "--output-period", "PERIOD", "y1=5")
 }
 
@@ -14,7 +14,7 @@ pub fn parse_name_counts(
     flag: &str,
     what: &str,
     example: &str,
-) -> CliResult<Vec<(String, usize)>> {
+) -> crate::Result<Vec<(String, usize)>> {
     specs
         .iter()
         .flat_map(|s| s.split(','))
@@ -40,7 +40,7 @@ pub fn parse_name_counts(
 /// An error naming the first name of `names` that occurs twice, with both
 /// 1-based positions: "`what`: column 'y1' appears twice (positions 2 and
 /// 3)". Empty names (a trailing comma in a header) are not compared.
-pub fn check_unique<S: AsRef<str>>(what: &str, names: &[S]) -> CliResult<()> {
+pub fn check_unique<S: AsRef<str>>(what: &str, names: &[S]) -> crate::Result<()> {
     let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
     for (i, n) in names.iter().enumerate() {
         let n = n.as_ref();
@@ -64,7 +64,7 @@ impl DataSpec {
     /// in both lists, or twice in one), naming it and both places, e.g.
     /// "column 'y1' is selected twice (--outputs position 1 and --outputs
     /// position 2)". Extra columns (instruments) may repeat an input.
-    pub fn check_selection(&self) -> CliResult<()> {
+    pub fn check_selection(&self) -> crate::Result<()> {
         let mut seen: std::collections::HashMap<&str, (&str, usize)> =
             std::collections::HashMap::new();
         for (flag, list) in [("--inputs", &self.inputs), ("--outputs", &self.outputs)] {
@@ -98,7 +98,7 @@ pub(super) fn column_indices(
     path: &str,
     header: &[String],
     wanted: &[&String],
-) -> CliResult<Vec<usize>> {
+) -> crate::Result<Vec<usize>> {
     wanted
         .iter()
         .map(|name| {
@@ -131,12 +131,12 @@ pub(super) fn column_indices(
 /// Refuses the time column among the inputs and outputs when the base
 /// period is read from it (`--inputs t` gave "u is not persistently
 /// exciting: numerical rank 1, 20 needed").
-pub(crate) fn not_the_time_column(
+pub fn not_the_time_column(
     path: &str,
     header: &[String],
     idx: &[usize],
     read_time: Option<usize>,
-) -> CliResult<()> {
+) -> crate::Result<()> {
     match read_time {
         Some(tc) if idx.contains(&tc) => Err(input(format!(
             "{}: '{}' is the time column (the base period is read from it), not an input or output; give --ts to read it as data",
@@ -149,7 +149,7 @@ pub(crate) fn not_the_time_column(
 
 /// The index of the time column `t`/`time` (any case, with or without a
 /// unit: `t [s]`) of a header.
-pub(crate) fn time_column(header: &[String]) -> Option<usize> {
+pub fn time_column(header: &[String]) -> Option<usize> {
     header.iter().position(|h| {
         let h = bare_name(h);
         h.eq_ignore_ascii_case("t") || h.eq_ignore_ascii_case("time")
@@ -158,7 +158,7 @@ pub(crate) fn time_column(header: &[String]) -> Option<usize> {
 
 /// A header cell without a trailing unit in brackets: `y1 [degC]` → `y1`
 /// (the cell itself when it has none).
-pub(crate) fn bare_name(h: &str) -> &str {
+pub fn bare_name(h: &str) -> &str {
     match h
         .trim_end()
         .strip_suffix(']')

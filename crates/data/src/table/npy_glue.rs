@@ -13,7 +13,7 @@ pub fn is_npy(path: &str) -> bool {
 /// The column names of a data file: a CSV file's header row, or a `.npy`
 /// file's `columns` (default `c0, c1, …`, checked against the array's
 /// width). Reads only the start of the file.
-pub fn header(path: &str, columns: &[String]) -> CliResult<Vec<String>> {
+pub fn header(path: &str, columns: &[String]) -> crate::Result<Vec<String>> {
     if is_npy(path) {
         return super::npy::header(path, columns);
     }

@@ -10,7 +10,7 @@ pub(super) fn cell_value(
     column: &str,
     cell: &[u8],
     allow_empty: bool,
-) -> CliResult<f64> {
+) -> crate::Result<f64> {
     let text = std::str::from_utf8(cell)
         .map_err(|_| {
             input(format!(
@@ -232,7 +232,7 @@ impl std::io::Read for FileAt<'_> {
 pub(super) fn open_csv(
     path: &str,
     block: usize,
-) -> CliResult<(CsvReader<Mapped<File>>, Vec<String>)> {
+) -> crate::Result<(CsvReader<Mapped<File>>, Vec<String>)> {
     let sep = separator(path)?;
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let mut rd = CsvReader::new(Mapped::new(file, sep), block);
@@ -248,7 +248,7 @@ pub(super) fn open_csv(
 /// `None`: commas (the default, and the fast path's), and any file that is
 /// not a regular file (a pipe is read once). Reads the first 64 KiB at
 /// most.
-pub(super) fn separator(path: &str) -> CliResult<Option<Separator>> {
+pub(super) fn separator(path: &str) -> crate::Result<Option<Separator>> {
     use std::io::Read;
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     // A pipe cannot be read twice: commas.
@@ -393,7 +393,7 @@ impl<R: std::io::Read> std::io::Read for Mapped<R> {
 pub(super) fn read_header<R: std::io::Read>(
     path: &str,
     rd: &mut CsvReader<R>,
-) -> CliResult<Vec<String>> {
+) -> crate::Result<Vec<String>> {
     // csv-core skips the blank lines before the header and a UTF-8 BOM.
     let got = rd.read_record().ctx(format!("{path}: line 1"))?;
     if !got || (0..rd.nfields).all(|i| rd.field(i).iter().all(u8::is_ascii_whitespace)) {

@@ -16,7 +16,7 @@
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 
-use crate::error::{CliResult, input};
+use crate::error::input;
 use crate::shown::{shown, shown_list};
 use crate::table::{RowCheck, check_unique, time_column};
 
@@ -99,7 +99,7 @@ impl NpyHeader {
 
 /// Reads and checks the header of the `.npy` stream `r` (positioned at the
 /// start of the file); `path` names it in messages. O(header length).
-pub fn read_header(r: &mut impl Read, path: &str) -> CliResult<NpyHeader> {
+pub fn read_header(r: &mut impl Read, path: &str) -> crate::Result<NpyHeader> {
     let truncated = |what: &str| input(format!("{path}: not a .npy file ({what})"));
     let mut pre = [0u8; 8];
     r.read_exact(&mut pre)
@@ -220,7 +220,7 @@ fn parse_shape(s: &str) -> Option<Vec<usize>> {
 
 /// Opens a `.npy` file, reads its header and checks that the data are all
 /// there. O(header length).
-fn open(path: &str) -> CliResult<(File, NpyHeader)> {
+fn open(path: &str) -> crate::Result<(File, NpyHeader)> {
     let mut file =
         File::open(path).map_err(|e| input(format!("cannot open data file {path}: {e}")))?;
     let h = read_header(&mut file, path)?;
@@ -254,7 +254,7 @@ fn open(path: &str) -> CliResult<(File, NpyHeader)> {
 
 /// The column names of an array of `cols` columns: `given` (one per
 /// column) or `c0, c1, …`.
-fn names(path: &str, given: &[String], cols: usize) -> CliResult<Vec<String>> {
+fn names(path: &str, given: &[String], cols: usize) -> crate::Result<Vec<String>> {
     if given.is_empty() {
         return Ok((0..cols).map(|c| format!("c{c}")).collect());
     }
@@ -269,7 +269,7 @@ fn names(path: &str, given: &[String], cols: usize) -> CliResult<Vec<String>> {
 }
 
 /// The column names of a `.npy` file (`given`, or `c0, c1, …`). O(header).
-pub fn header(path: &str, given: &[String]) -> CliResult<Vec<String>> {
+pub fn header(path: &str, given: &[String]) -> crate::Result<Vec<String>> {
     let (_, h) = open(path)?;
     names(path, given, h.cols)
 }
@@ -284,8 +284,8 @@ pub fn scan_rows(
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
-    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+    mut visit: impl FnMut(&[f64]) -> crate::Result<bool>,
+) -> crate::Result<(usize, f64)> {
     let mut row = vec![0.0; wanted.len()];
     let block_rows = (BLOCK / (8 * wanted.len().max(1))).max(1);
     scan_blocks(
@@ -330,8 +330,8 @@ pub fn scan_blocks(
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     block_rows: usize,
-    mut visit: impl FnMut(&[f64], usize) -> CliResult<usize>,
-) -> CliResult<(usize, f64)> {
+    mut visit: impl FnMut(&[f64], usize) -> crate::Result<usize>,
+) -> crate::Result<(usize, f64)> {
     let (mut file, h) = open(path)?;
     let header = names(path, given, h.cols)?;
     let idx: Vec<usize> = wanted
@@ -351,7 +351,7 @@ pub fn scan_blocks(
                 ))
             })
         })
-        .collect::<CliResult<_>>()?;
+        .collect::<crate::Result<_>>()?;
     let time_col = time_column(&header);
     let mut check = RowCheck::new(ts);
     let read_time = time_col.filter(|_| check.wants_time());
@@ -461,7 +461,7 @@ fn first_failing(col: &[f64], nan_ok: bool) -> Option<usize> {
 }
 
 /// The error of a non-finite value at row `r` of `column`.
-fn not_finite(path: &str, r: usize, column: &str, v: f64, output: bool) -> crate::error::CliError {
+fn not_finite(path: &str, r: usize, column: &str, v: f64, output: bool) -> crate::Error {
     let why = if output {
         "only NaN, marking an unsampled output, is allowed"
     } else {

@@ -66,8 +66,8 @@ fn legacy_scan(
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
-    mut visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+    mut visit: impl FnMut(&[f64]) -> crate::Result<bool>,
+) -> crate::Result<(usize, f64)> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let mut rd = csv::ReaderBuilder::new()
         .has_headers(false)

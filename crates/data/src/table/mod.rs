@@ -43,7 +43,7 @@ use std::fs::File;
 use lifted_lti::{Dataset, InputChannel, OutputChannel};
 use nalgebra::DMatrix;
 
-use crate::error::{CliResult, Context, input};
+use crate::error::{Context, input};
 use crate::shown::{shown, shown_list};
 
 use self::csv_records::*;
@@ -52,7 +52,7 @@ use self::parallel::*;
 use self::scan::*;
 
 use self::columns::column_indices;
-pub(crate) use self::columns::{bare_name, not_the_time_column, time_column};
+pub use self::columns::{bare_name, not_the_time_column, time_column};
 pub use self::columns::{check_unique, names, parse_name_counts, parse_periods};
 pub use self::npy_glue::{header, is_npy};
 pub(crate) use self::rows::RowCheck;
@@ -106,7 +106,7 @@ pub fn read_raw(
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
-) -> CliResult<Raw> {
+) -> crate::Result<Raw> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); wanted.len()];
     if is_npy(path) {
         // Whole blocks of columns (no per-row calls).
@@ -169,8 +169,8 @@ pub fn scan_rows(
     wanted: &[&String],
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
-    visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+    visit: impl FnMut(&[f64]) -> crate::Result<bool>,
+) -> crate::Result<(usize, f64)> {
     scan_rows_threads(path, columns, wanted, may_be_empty, ts, None, visit)
 }
 
@@ -187,8 +187,8 @@ pub fn scan_rows_threads(
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     threads: Option<usize>,
-    visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+    visit: impl FnMut(&[f64]) -> crate::Result<bool>,
+) -> crate::Result<(usize, f64)> {
     if is_npy(path) {
         return npy::scan_rows(path, columns, wanted, may_be_empty, ts, visit);
     }
@@ -200,7 +200,7 @@ pub fn scan_rows_threads(
 }
 
 /// Reads the file, streaming, and builds the data set.
-pub fn load(path: &str, spec: &DataSpec) -> CliResult<Loaded> {
+pub fn load(path: &str, spec: &DataSpec) -> crate::Result<Loaded> {
     let n_in = spec.inputs.len();
     let n_out = spec.outputs.len();
     let wanted: Vec<&String> = spec
@@ -264,7 +264,7 @@ fn sampling(
     col: &[f64],
     declared: Option<usize>,
     npy: bool,
-) -> CliResult<(usize, usize)> {
+) -> crate::Result<(usize, usize)> {
     let at = |k: usize| {
         if npy {
             format!("row {k}")
@@ -300,7 +300,7 @@ fn sampling(
 
 /// Writes columns as CSV: header then one row per sample; NaN is written
 /// as an empty cell.
-pub fn write_columns(path: &str, header: &[String], columns: &[Vec<f64>]) -> CliResult<()> {
+pub fn write_columns(path: &str, header: &[String], columns: &[Vec<f64>]) -> crate::Result<()> {
     let mut w = csv::Writer::from_path(path).ctx(format!("cannot write {path}"))?;
     w.write_record(header).ctx(format!("cannot write {path}"))?;
     let n = columns.first().map_or(0, Vec::len);

@@ -70,7 +70,7 @@ impl<'a> Layout<'a> {
         wanted: &'a [&'a String],
         may_be_empty: std::ops::Range<usize>,
         wants_time: bool,
-    ) -> CliResult<Self> {
+    ) -> crate::Result<Self> {
         let idx = column_indices(path, &header, wanted)?;
         let time_col = time_column(&header);
         let read_time = time_col.filter(|_| wants_time);
@@ -119,10 +119,16 @@ pub(super) struct Sink<V> {
     pub(super) visit: V,
 }
 
-impl<V: FnMut(&[f64]) -> CliResult<bool>> Sink<V> {
+impl<V: FnMut(&[f64]) -> crate::Result<bool>> Sink<V> {
     /// Checks and visits the row of line `line` with time `t`; false: stop.
     #[inline]
-    pub(super) fn row(&mut self, lay: &Layout, row: &[f64], line: u64, t: f64) -> CliResult<bool> {
+    pub(super) fn row(
+        &mut self,
+        lay: &Layout,
+        row: &[f64],
+        line: u64,
+        t: f64,
+    ) -> crate::Result<bool> {
         if let Some(tc) = lay.read_time {
             self.check
                 .time(lay.path, &format_args!("line {line}"), &lay.header[tc], t)?;
@@ -142,8 +148,8 @@ pub(super) fn scan_csv(
     may_be_empty: std::ops::Range<usize>,
     ts: Option<f64>,
     mode: Mode,
-    visit: impl FnMut(&[f64]) -> CliResult<bool>,
-) -> CliResult<(usize, f64)> {
+    visit: impl FnMut(&[f64]) -> crate::Result<bool>,
+) -> crate::Result<(usize, f64)> {
     let file = File::open(path).ctx(format!("cannot open data file {path}"))?;
     let meta = file.metadata().ok();
     let regular = meta.as_ref().is_some_and(std::fs::Metadata::is_file);
@@ -207,7 +213,7 @@ pub(super) fn read_one<R: std::io::Read>(
     fast: bool,
     vals: &mut [f64],
     row: &mut [f64],
-) -> CliResult<Step> {
+) -> crate::Result<Step> {
     let path = lay.path;
     let line = rd.line;
     if fast {
@@ -258,7 +264,7 @@ pub(super) fn read_one<R: std::io::Read>(
 /// time read as seconds after the file's first stamp
 /// ([`super::timestamps`]); the messages of [`cell_value`] otherwise, a
 /// cell that is neither saying which forms are read. O(cell).
-fn time_value(lay: &Layout, line: u64, column: &str, cell: &[u8]) -> CliResult<f64> {
+fn time_value(lay: &Layout, line: u64, column: &str, cell: &[u8]) -> crate::Result<f64> {
     let path = lay.path;
     cell_value(path, line, column, cell, false).or_else(|e| {
         let text = std::str::from_utf8(cell).unwrap_or("").trim();
@@ -276,12 +282,12 @@ fn time_value(lay: &Layout, line: u64, column: &str, cell: &[u8]) -> CliResult<f
 }
 
 /// Reads the rows after the header on the calling thread, line by line.
-pub(super) fn scan_sequential<R: std::io::Read, V: FnMut(&[f64]) -> CliResult<bool>>(
+pub(super) fn scan_sequential<R: std::io::Read, V: FnMut(&[f64]) -> crate::Result<bool>>(
     rd: &mut CsvReader<R>,
     lay: &Layout,
     fast: bool,
     sink: &mut Sink<V>,
-) -> CliResult<()> {
+) -> crate::Result<()> {
     let mut vals = vec![0.0; lay.needed];
     let mut row = vec![0.0; lay.wanted.len()];
     loop {

@@ -284,13 +284,13 @@ pub(super) enum After {
 }
 
 /// Visits the rows of a parsed block whose first line is `line`.
-pub(super) fn consume<V: FnMut(&[f64]) -> CliResult<bool>>(
+pub(super) fn consume<V: FnMut(&[f64]) -> crate::Result<bool>>(
     blk: &Block,
     line: u64,
     lay: &Layout,
     sink: &mut Sink<V>,
     row: &mut [f64],
-) -> CliResult<After> {
+) -> crate::Result<After> {
     let needed = lay.needed;
     let mut gaps = blk.gaps.iter().peekable();
     let mut newlines = 0;
@@ -331,13 +331,13 @@ pub(super) fn consume<V: FnMut(&[f64]) -> CliResult<bool>>(
 /// sequential reader's, and the blocks take over again (blocks passed over
 /// are dropped). So the rows, checks and messages are those of
 /// [`scan_sequential`]. Memory O(threads × block + longest line).
-pub(super) fn scan_parallel<V: FnMut(&[f64]) -> CliResult<bool>>(
+pub(super) fn scan_parallel<V: FnMut(&[f64]) -> crate::Result<bool>>(
     mut rd: CsvReader<FileAt<'_>>,
     lay: &Layout,
     threads: usize,
     block: usize,
     sink: &mut Sink<V>,
-) -> CliResult<()> {
+) -> crate::Result<()> {
     let block = block.max(1);
     let mut chunker = Chunker {
         src: FileAt {
