@@ -189,6 +189,24 @@ def test_default_options_give_lifted_identify_s_model(client, tmp_path: pathlib.
     fit = lifted_dask.identify(paths, **shards)
     same_model(fit, lifted.identify(u, y))
     assert fit.diagnostics["engine"].startswith("in memory")
+    # ... and the command line's on the concatenated shards (its default
+    # route on the same samples), to 1e-9.
+    from test_identify import cli
+
+    out = tmp_path / "cli.json"
+    args = [str(cli()), "identify", "--concat", "--columns", "u1,u2,y1,y2", "--inputs", "u1,u2",
+            "--outputs", "y1,y2", "--ts", "1", "--out", str(out)]
+    for p in paths:
+        args += ["--data", str(p)]
+    import json
+    import subprocess
+
+    subprocess.run(args, check=True, capture_output=True)
+    made = lifted.StateSpace.from_json(out.read_text())
+    for k in ("A", "B", "C", "D"):
+        np.testing.assert_allclose(np.asarray(getattr(made, k)), np.asarray(getattr(fit.model, k)),
+                                   rtol=0, atol=1e-9)
+    assert json.loads(out.read_text())["diagnostics"]["route"] == fit.diagnostics.route
     same_model(lifted_dask.identify(paths, method="pbsid", **shards),
                lifted.identify(u, y, method="pbsid"))
     # Multirate: y1 measured every 3 samples, y2 every 5.

@@ -47,6 +47,7 @@ __all__ = [
     "WorkBudgetError",
     "__version__",
     "_choices",
+    "_diagnostics_fields",
     "arxstruc",
     "channel_scales",
     "delayest",
