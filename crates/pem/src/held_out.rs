@@ -232,13 +232,7 @@ impl RefinementCheck {
         if !(by_t || by_sign) {
             return None;
         }
-        let mut sorted = per;
-        sorted.sort_by(f64::total_cmp);
-        let median = if k % 2 == 1 {
-            sorted[k / 2]
-        } else {
-            0.5 * (sorted[k / 2 - 1] + sorted[k / 2])
-        };
+        let median = median_of(per);
         (median != 0.0 && median.signum() == mean.signum()).then_some(mean > 0.0)
     }
 
@@ -256,22 +250,24 @@ impl RefinementCheck {
     /// blocks do not tell the two apart.
     pub fn verdict(&self, margin: f64) -> Option<bool> {
         let diff = self.refined_fit - self.initial_fit;
-        let mut per: Vec<f64> = self
-            .per_fold
-            .iter()
-            .map(|(i, r)| floored_at(*r, self.floor) - floored_at(*i, self.floor))
-            .collect();
-        per.sort_by(f64::total_cmp);
-        let k = per.len();
-        if k == 0 || diff.abs() <= margin {
+        let per = self.differences();
+        if per.is_empty() || diff.abs() <= margin {
             return None;
         }
-        let median = if k % 2 == 1 {
-            per[k / 2]
-        } else {
-            0.5 * (per[k / 2 - 1] + per[k / 2])
-        };
+        let median = median_of(per);
         (median != 0.0 && median.signum() == diff.signum()).then_some(diff > 0.0)
+    }
+}
+
+/// The median of `v` (not empty; the mean of the middle two for an even
+/// count). O(k log k).
+fn median_of(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let k = v.len();
+    if k % 2 == 1 {
+        v[k / 2]
+    } else {
+        0.5 * (v[k / 2 - 1] + v[k / 2])
     }
 }
 

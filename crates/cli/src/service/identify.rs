@@ -370,13 +370,7 @@ pub fn plan_options(a: &IdentifyArgs, path: &str) -> CliResult<WorkflowOptions> 
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
     let doc: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
-    let opts = lifted_workflow::options_from_plan(&doc).map_err(|e| match e {
-        lifted_workflow::Error::InvalidOption {
-            option: "plan",
-            reason,
-        } => bad(reason),
-        other => cli_error(other),
-    })?;
+    let opts = options_of_plan(&doc, &format!("--plan {path}"))?;
     // The option flags must be at their defaults: compare the options the
     // flags give with those of a command line with the data flags only.
     let plain = IdentifyArgs::defaults("-").map_err(|e| input(e.to_string()))?;
@@ -391,6 +385,21 @@ pub fn plan_options(a: &IdentifyArgs, path: &str) -> CliResult<WorkflowOptions> 
         )));
     }
     Ok(opts)
+}
+
+/// The workflow options of a plan document (a model file, its diagnostics,
+/// a `--write-plan` file: `lifted_workflow::options_from_plan`), errors
+/// named by `label` (`--plan FILE` for the command, `plan` for the studio's
+/// request): a field the options do not have, or options that fail their
+/// check (named by their flags).
+pub fn options_of_plan(doc: &serde_json::Value, label: &str) -> CliResult<WorkflowOptions> {
+    lifted_workflow::options_from_plan(doc).map_err(|e| match e {
+        lifted_workflow::Error::InvalidOption {
+            option: "plan",
+            reason,
+        } => input(format!("{label}: {reason}")),
+        other => input(format!("{label}: {}", cli_error(other))),
+    })
 }
 
 /// The first dotted path where two JSON trees differ.

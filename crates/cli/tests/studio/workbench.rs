@@ -490,6 +490,9 @@ fn studio_loads_and_saves_a_plan_in_chromium() {
             "{command}"
         );
         assert!(text(&c, "#plan-name").await.contains("plan.json"));
+        let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+        std::fs::create_dir_all(&shots).unwrap();
+        element_shot(&c, "#load-block", &shots, "e2-plan.png").await;
         let save = js(
             &c,
             "const a = document.getElementById('save-plan'); \

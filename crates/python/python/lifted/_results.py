@@ -113,9 +113,8 @@ class Diagnostics(Mapping[str, Any]):
         none written)."""
         if obj is None:
             return cls()
-        typed = {f.name for f in fields(cls)} - {"details"}
-        known = {k: v for k, v in obj.items() if k in typed}
-        details = {k: v for k, v in obj.items() if k not in typed}
+        known = {k: v for k, v in obj.items() if k in _DIAGNOSTICS_FIELDS}
+        details = {k: v for k, v in obj.items() if k not in _DIAGNOSTICS_FIELDS}
         return cls(**known, details=details)
 
     def _typed(self) -> dict[str, Any]:
@@ -134,7 +133,12 @@ class Diagnostics(Mapping[str, Any]):
         return {**self._typed(), **self.details}
 
     def __getitem__(self, key: str) -> Any:
-        return self.to_dict()[key]
+        if key in _DIAGNOSTICS_FIELDS:
+            value = getattr(self, key)
+            if value is None or (key == "warnings" and not value):
+                raise KeyError(key)
+            return value
+        return self.details[key]
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.to_dict())
@@ -144,6 +148,10 @@ class Diagnostics(Mapping[str, Any]):
 
     def __repr__(self) -> str:
         return f"Diagnostics(route={self.route!r}, entries={sorted(self.to_dict())})"
+
+
+#: The typed fields of :class:`Diagnostics` (``details`` aside).
+_DIAGNOSTICS_FIELDS = frozenset(f.name for f in fields(Diagnostics)) - {"details"}
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -785,7 +785,7 @@ function wire() {
         throw new Error("not a JSON object");
       }
       state.plan = { name: f.name, options };
-      $("plan-name").textContent = "Options from the plan " + f.name + " (the option fields above are not used).";
+      $("plan-name").textContent = "Options from the plan " + f.name + " (the Method and Order fields are not used).";
       $("plan-clear").disabled = false;
       schedule({ identify: true });
     } catch (err) {
@@ -795,7 +795,7 @@ function wire() {
   });
   $("plan-clear").addEventListener("click", () => {
     state.plan = null;
-    $("plan-name").textContent = "The options above.";
+    $("plan-name").textContent = "The options of the Method and Order blocks.";
     $("plan-clear").disabled = true;
     schedule({ identify: true });
   });

@@ -18,7 +18,7 @@ use crate::service::figures::{
 use lifted_workflow::WorkflowOptions;
 
 use crate::service::identify::{
-    files_from_args, identify_files_with, options_from_args, require_stable,
+    files_from_args, identify_files_with, options_from_args, options_of_plan, require_stable,
 };
 use crate::service::pairs::{PairFigure, add_empirical_pairs, bode_pairs, pairs_svg, step_pairs};
 use crate::service::report::render;
@@ -186,13 +186,7 @@ impl Session {
     /// reads a plan file), else those of its arguments.
     pub(super) fn options_of(r: &Request, a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         match &r.plan {
-            Some(plan) => lifted_workflow::options_from_plan(plan).map_err(|e| match e {
-                lifted_workflow::Error::InvalidOption {
-                    option: "plan",
-                    reason,
-                } => input(format!("plan: {reason}")),
-                other => input(format!("plan: {other}")),
-            }),
+            Some(plan) => options_of_plan(plan, "plan"),
             None => options_from_args(a),
         }
     }
