@@ -414,6 +414,12 @@ impl Classify for lifted_lti::model_file::ModelFileError {
     }
 }
 
+impl Classify for lifted_data::Error {
+    fn classify(&self, _: &mut Fields<'_>) -> Kind {
+        Kind::Base
+    }
+}
+
 impl Classify for lifted_subspace::Error {
     fn classify(&self, f: &mut Fields<'_>) -> Kind {
         use lifted_subspace::Error as E;

@@ -20,6 +20,7 @@ mod distributed;
 mod errors;
 mod identify;
 mod mpc;
+mod npy_shards;
 mod polynomial;
 mod routes;
 mod signals;
@@ -228,5 +229,8 @@ fn _lifted(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(distributed::regression_scan, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::regression_merge, m)?)?;
     m.add_function(wrap_pyfunction!(distributed::regression_absorb, m)?)?;
+    m.add_function(wrap_pyfunction!(npy_shards::partial_compress_npy, m)?)?;
+    m.add_function(wrap_pyfunction!(npy_shards::regression_npy, m)?)?;
+    m.add_function(wrap_pyfunction!(npy_shards::regression_memory, m)?)?;
     Ok(())
 }

@@ -90,6 +90,8 @@ def test_sharded_record_equals_one_process(client, tmp_path: pathlib.Path) -> No
     g1, g2 = freqresp(dist, w), freqresp(one, w)
     assert np.abs(g1 - g2).max() <= 1e-9 * np.abs(g2).max()
     np.testing.assert_allclose(dist["y0"], one["y0"], rtol=1e-9, atol=1e-9)
+    # Issue 50: the second pass read each shard once (no chain).
+    assert "each shard read once" in dist.diagnostics["engine"], dist.diagnostics["engine"]
     # And the model is the plant's.
     g0 = freqresp({"model": plant()}, w)
     assert np.abs(g1 - g0).max() < 0.01 * np.abs(g0).max()
@@ -107,6 +109,7 @@ def test_dask_array_input_agrees_with_files(client) -> None:
     one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
     assert fit.diagnostics["engine"].startswith("sharded")
+    assert "chained" in fit.diagnostics["engine"] and "not files" in fit.diagnostics["engine"]
     both = da.from_array(np.hstack([u, y]), chunks=(70_000, 4))
     fit2 = lifted_dask.identify(both, inputs=2, outputs=[2, 3], order=4, engine="sharded",
                                 client=client)
@@ -147,12 +150,14 @@ def test_parquet_shards_and_dataframe(client, tmp_path: pathlib.Path) -> None:
     paths = []
     for k, part in enumerate(np.array_split(np.arange(len(frame)), 3)):
         p = tmp_path / f"part-{k}.parquet"
-        frame.iloc[part].to_parquet(p)
+        # Row groups of 10k rows: a shard's tail is read from its last groups.
+        frame.iloc[part].to_parquet(p, row_group_size=10_000)
         paths.append(p)
     one = lifted.identify(u, y, order=4, horizon=10, system="shift", refine="none")
     fit = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4,
                                engine="sharded", client=client)
     np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
+    assert "each shard read once" in fit.diagnostics["engine"]
     ddf = dd.from_pandas(frame, npartitions=4)
     fit2 = lifted_dask.identify(ddf, inputs=["u1", "u2"], outputs=["y1", "y2"], order=4,
                                 engine="sharded", client=client)
@@ -163,6 +168,60 @@ def test_parquet_shards_and_dataframe(client, tmp_path: pathlib.Path) -> None:
     same = lifted_dask.identify(paths, inputs=["u1", "u2"], outputs=["y1", "y2"], client=client)
     default = lifted.identify(u, y)
     np.testing.assert_array_equal(np.asarray(same.model.A), np.asarray(default.model.A))
+
+
+def test_tails_of_the_shards_before() -> None:
+    # Shards of 5, 3 and 10 samples, memory 4: the second starts after the
+    # first's last 4, the third after 1 of the first and all of the second.
+    assert lifted_dask._tails([5, 3, 10], 4) == [[], [(0, 1, 5)], [(0, 4, 5), (1, 0, 3)]]
+    assert lifted_dask._tails([5, 3], 100) == [[], [(0, 0, 5)]]
+
+
+def test_slow_poles_scan_from_long_tails_or_chain(client, tmp_path: pathlib.Path, monkeypatch) -> None:
+    """A first-order plant with a slow pole: the filters' memory (the
+    identified pole's ceil(ln 1e-30 / ln rho) + 1 samples) spans more than
+    one shard; the tails reach back over several shards while they are
+    shorter than re-reading the record, else the state is chained. The
+    tails give the chained second pass's model (the state they start from
+    differs by 1e-30 of it), and the poles are the one-process model's."""
+    n = 200_000
+    rng = np.random.default_rng(11)
+    u = np.where(rng.random((n, 1)) < 0.5, -1.0, 1.0)
+    for pole, way in ((0.999, "each shard read once"), (0.9995, "chained")):
+        g = lifted.StateSpace(np.array([[pole]]), np.array([[0.05]]), np.array([[1.0]]),
+                              np.array([[0.0]]), 1.0)
+        y, _ = lifted.simulate(g, u)
+        y = y + 0.01 * rng.standard_normal(y.shape)
+        paths = []
+        for k, part in enumerate(np.array_split(np.arange(n), 4)):
+            p = tmp_path / f"slow-{pole}-{k}.npy"
+            np.save(p, np.hstack([u[part], y[part]]))
+            paths.append(p)
+        shards = dict(inputs=[0], outputs=[1], order=1, engine="sharded", client=client)
+        fit = lifted_dask.identify(paths, **shards)
+        assert way in fit.diagnostics["engine"], fit.diagnostics["engine"]
+        one = lifted.identify(u, y, order=1, horizon=10, system="shift", refine="none")
+        np.testing.assert_allclose(poles(fit), poles(one), rtol=0, atol=1e-9)
+        with monkeypatch.context() as m:
+            m.setattr(lifted_dask._lifted, "regression_memory", lambda state: None)
+            chained = lifted_dask.identify(paths, **shards)
+        assert "chained" in chained.diagnostics["engine"]
+        for k in ("A", "B", "D"):
+            a, b = np.asarray(getattr(fit.model, k)), np.asarray(getattr(chained.model, k))
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def test_a_bad_sample_in_a_shard_is_named(client, tmp_path: pathlib.Path) -> None:
+    u, y = record(80_000, 13)
+    y[51_234, 1] = np.inf
+    paths = []
+    for k, part in enumerate(np.array_split(np.arange(len(u)), 2)):
+        p = tmp_path / f"bad-{k}.npy"
+        np.save(p, np.hstack([u[part], y[part]]))
+        paths.append(p)
+    with pytest.raises(lifted.LiftedError, match=r"bad-1\.npy.*11234|11234.*bad-1\.npy"):
+        lifted_dask.identify(paths, inputs=[0, 1], outputs=[2, 3], order=4, engine="sharded",
+                             client=client)
 
 
 def same_model(a: lifted.SubspaceFit, b: lifted.SubspaceFit) -> None:

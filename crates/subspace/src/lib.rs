@@ -161,7 +161,7 @@ mod separable;
 mod streaming;
 mod wire;
 
-pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece};
+pub use bd_stream::{OutputErrorStream, OutputErrorStreamOptions, RegressionPiece, ShardScan};
 pub use engine::{SubspaceIdentifier, compress_hankel, identify};
 pub use error::{Error, Result};
 pub use estimated::{BdFit, Feedthrough, InitialState, Record};
@@ -181,7 +181,7 @@ pub use iv_order::select_iv_order;
 pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
 pub use options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 pub use order::{OrderCriterion, OrderReport, gap_order};
-pub use partial::{CompressedRecords, CompressionPlan, RecordPiece};
+pub use partial::{CompressedRecords, CompressionPlan, PieceStream, RecordPiece};
 pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify, pbsid_longest_future,

@@ -838,6 +838,28 @@ impl ModalStream {
         self.rows
     }
 
+    /// Samples after which the filters have forgotten their state to
+    /// below [`NEGLIGIBLE`] of it (and the free response is gone):
+    /// ⌈ln NEGLIGIBLE / ln ρ⌉ for the largest mode modulus ρ (each modal
+    /// block scales its state by exactly |λ| per sample). `None` when
+    /// ρ ≥ 1: the state is never forgotten.
+    pub(crate) fn memory(&self) -> Option<usize> {
+        let rho = self
+            .form
+            .modes
+            .iter()
+            .map(|m| match *m {
+                Mode::Real(l) => l.abs(),
+                Mode::Pair(a, b) => a.hypot(b),
+            })
+            .fold(0.0, f64::max);
+        if rho == 0.0 {
+            return Some(1);
+        }
+        let steps = (NEGLIGIBLE.ln() / rho.ln()).ceil();
+        (rho < 1.0 && steps.is_finite() && steps < 1e15).then_some(steps as usize + 1)
+    }
+
     /// Advances the filter states over the inputs of the next samples
     /// without making rows (2 n n_u flops per sample): the state at the
     /// start of a later shard.
@@ -857,20 +879,19 @@ impl ModalStream {
         }
     }
 
-    /// The pattern R factors of the next samples scanned from the current
-    /// state, leaving the stream as it is (a shard of a parallel second
-    /// pass); `None` beyond [`MAX_STREAM_PATTERNS`] patterns.
-    pub(crate) fn scan_apart(
-        &self,
-        u: &DMatrix<f64>,
-        y: &DMatrix<f64>,
-    ) -> Result<Option<(Patterns, usize)>> {
-        let mut s = ModalStream {
+    /// A copy of the stream at its state with no rows: push a shard's
+    /// blocks to it, then [`into_piece`](Self::into_piece).
+    pub(crate) fn scanner(&self) -> ModalStream {
+        ModalStream {
             pats: Vec::new(),
             rows: 0,
             ..self.clone()
-        };
-        Ok(s.push(u, y)?.then_some((s.pats, s.rows)))
+        }
+    }
+
+    /// The pattern R factors and rows pushed to a [`scanner`](Self::scanner).
+    pub(crate) fn into_piece(self) -> (Patterns, usize) {
+        (self.pats, self.rows)
     }
 
     /// Adds pattern R factors scanned apart to the current record's; false

@@ -71,6 +71,48 @@ pub struct CompressionPlan {
     reference: Vec<f64>,
 }
 
+/// A piece of a record compressed from blocks of consecutive samples
+/// ([`CompressionPlan::stream`]).
+pub struct PieceStream {
+    plan: CompressionPlan,
+    stream: HankelStream,
+    threads: usize,
+    /// Samples pushed so far (a bad sample's place in the piece).
+    pushed: usize,
+}
+
+impl PieceStream {
+    /// The next consecutive samples `u` (b×m), `y` (b×p).
+    ///
+    /// Errors: [`Error::DimensionMismatch`], [`Error::NonFinite`].
+    pub fn push(&mut self, u: &DMatrix<f64>, y: &DMatrix<f64>) -> Result<()> {
+        let (nu, ny) = (self.plan.n_inputs, self.plan.n_outputs);
+        check_record_shape("piece (u, y)", "N", u, y, nu, ny)?;
+        let result = crate::checks::check_data_on("u", u, self.threads)
+            .and_then(|()| crate::checks::check_data_on("y", y, self.threads))
+            .map_err(|e| e.after(self.pushed));
+        self.pushed += u.nrows();
+        result?;
+        self.stream.push(u.as_view(), y.as_view())
+    }
+
+    /// The piece of the samples pushed.
+    ///
+    /// Errors: [`Error::InvalidOption`] when the compression kept no lag
+    /// sums.
+    pub fn finish(mut self) -> Result<RecordPiece> {
+        // The correlation engine always keeps lag sums; the QR has none.
+        let piece = self.stream.take_piece().ok_or(Error::InvalidOption {
+            what: "compression",
+            reason: "partial compressions need the correlation route".into(),
+        })?;
+        Ok(RecordPiece {
+            plan: self.plan,
+            piece,
+        })
+    }
+}
+
 impl CompressionPlan {
     /// The plan for records whose first samples are `u` (b×n_u) and `y`
     /// (b×n_y): any leading block, e.g. the first shard or its first
@@ -204,11 +246,19 @@ impl CompressionPlan {
         y: &DMatrix<f64>,
         threads: usize,
     ) -> Result<RecordPiece> {
-        let (nu, ny) = (self.n_inputs, self.n_outputs);
-        check_record_shape("piece (u, y)", "N", u, y, nu, ny)?;
+        let mut stream = self.stream(threads);
+        for (k, len) in crate::records::chunks(u.nrows()) {
+            stream.push(&u.rows(k, len).into_owned(), &y.rows(k, len).into_owned())?;
+        }
+        stream.finish()
+    }
+
+    /// [`compress`](Self::compress) of samples fed in blocks: push them in
+    /// order to the [`PieceStream`], then [`finish`](PieceStream::finish)
+    /// it. Memory of one block whatever the piece's length (a shard read
+    /// from a file block by block).
+    pub fn stream(&self, threads: usize) -> PieceStream {
         let threads = thread_count(threads);
-        crate::checks::check_data_on("u", u, threads)?;
-        crate::checks::check_data_on("y", y, threads)?;
         let mut stream = HankelStream::new(self.layout(), Compression::Correlation, 1, threads);
         stream.set_scale(Scale {
             u: self.scale[0],
@@ -216,16 +266,12 @@ impl CompressionPlan {
         });
         stream.set_centering(self.remove_means);
         stream.set_reference(self.reference.clone());
-        stream.push(u.as_view(), y.as_view())?;
-        // The correlation engine always keeps lag sums; the QR has none.
-        let piece = stream.take_piece().ok_or(Error::InvalidOption {
-            what: "compression",
-            reason: "partial compressions need the correlation route".into(),
-        })?;
-        Ok(RecordPiece {
+        PieceStream {
             plan: self.clone(),
-            piece,
-        })
+            stream,
+            threads,
+            pushed: 0,
+        }
     }
 
     fn check_same(&self, other: &CompressionPlan, what: &'static str) -> Result<()> {

@@ -133,6 +133,23 @@ pub(crate) fn need_records<'r, 'a>(records: Option<&'r [Record<'a>]>) -> Result<
     })
 }
 
+/// Rows per block when a whole record in memory is fed to a block stream
+/// ([`crate::PieceStream`], [`crate::ShardScan`]): the streamed route's
+/// block, so the streams' working buffers stay in cache instead of
+/// growing to the record's size.
+pub(crate) const FEED_ROWS: usize = 1 << 16;
+
+/// The (first row, rows) of the blocks of [`FEED_ROWS`] a record of `n`
+/// rows is fed in; one empty block when `n` is 0 (so the stream still
+/// checks its shape).
+pub(crate) fn chunks(n: usize) -> impl Iterator<Item = (usize, usize)> {
+    let blocks = n.div_ceil(FEED_ROWS).max(1);
+    (0..blocks).map(move |b| {
+        let k = b * FEED_ROWS;
+        (k, FEED_ROWS.min(n - k))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

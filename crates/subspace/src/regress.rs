@@ -571,22 +571,22 @@ impl DirectStream {
         )
     }
 
-    /// The R factor (p + 1 columns) of the rows of the next samples from
-    /// the current state, leaving the stream as it is, and their count.
-    pub(crate) fn scan_apart(
-        &self,
-        u: &DMatrix<f64>,
-        y: &DMatrix<f64>,
-    ) -> Result<(RAccumulator, usize)> {
-        let mut s = DirectStream {
+    /// A copy of the stream at its state with no rows, and the accumulator
+    /// its rows go to: push a shard's blocks, then
+    /// [`into_piece`](Self::into_piece).
+    pub(crate) fn scanner(&self) -> (DirectStream, RAccumulator) {
+        let s = DirectStream {
             used: 0,
             rows: 0,
             ..self.clone()
         };
-        let mut acc = RAccumulator::new(self.p.total + 1);
-        s.push(u, y, &mut acc)?;
-        s.flush(&mut acc)?;
-        Ok((acc, s.rows))
+        (s, RAccumulator::new(self.p.total + 1))
+    }
+
+    /// The R factor and rows pushed to a [`scanner`](Self::scanner).
+    pub(crate) fn into_piece(mut self, mut acc: RAccumulator) -> Result<(RAccumulator, usize)> {
+        self.flush(&mut acc)?;
+        Ok((acc, self.rows))
     }
 
     /// Adds rows scanned apart (their R factor) to `acc`.

@@ -61,6 +61,7 @@ __all__ = [
     "partial_append",
     "partial_close",
     "partial_compress",
+    "partial_compress_npy",
     "partial_identify",
     "partial_merge",
     "partial_plan",
@@ -76,6 +77,8 @@ __all__ = [
     "regression_prime",
     "regression_push",
     "regression_scan",
+    "regression_npy",
+    "regression_memory",
     "resolve_threads",
     "simulate_experiment",
     "validate",
@@ -473,3 +476,22 @@ def regression_advance(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> byt
 def regression_scan(stream: bytes, u: npt.ArrayLike, y: npt.ArrayLike) -> bytes: ...
 def regression_merge(first: bytes, second: bytes) -> bytes: ...
 def regression_absorb(stream: bytes, piece: bytes) -> bytes: ...
+def partial_compress_npy(
+    plan: bytes,
+    path: str,
+    inputs: Sequence[int],
+    outputs: Sequence[int],
+    input_scales: Sequence[float],
+    output_scales: Sequence[float],
+    threads: int = 1,
+) -> bytes: ...
+def regression_npy(
+    stream: bytes,
+    path: str,
+    inputs: Sequence[int],
+    outputs: Sequence[int],
+    input_scales: Sequence[float],
+    output_scales: Sequence[float],
+    advance: bool = False,
+) -> bytes: ...
+def regression_memory(stream: bytes) -> int | None: ...

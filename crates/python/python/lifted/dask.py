@@ -13,13 +13,23 @@ shard is compressed on the worker that holds it into lagged correlation sums
 adjacent pairs (the merge is associative: each join adds the products that
 straddle the shard boundary), the subspace step runs on the client from the
 merged k x k matrix, and the output-error (B, D, x0) regression of the
-default route makes a second pass: the regressor filters' state (a few kB)
-goes from shard to shard in record order (filtering only, ~2 n m flops per
-sample), each shard's regression rows are reduced to R factors on its
-worker from the state at its start, and the R factors merge in a tree. The
+default route makes a second pass: each shard's regression rows are
+reduced to R factors on its worker from the regressor filters' state at
+the shard's start, and the R factors merge in a tree. For shard files that
+state is the one the filters reach over the last few hundred samples
+before the shard (they forget their start within
+``ceil(ln 1e-30 / ln rho(A)) + 1`` samples, 657 for rho = 0.9:
+``lifted_subspace::OutputErrorStream::memory``), so the shards are scanned
+independently and each is read once per pass; when the filters do not
+forget (a pole on or near the unit circle) or the shards are not files, the
+state goes from shard to shard in record order (filtering only, ~2 n m
+flops per sample) and each shard is read twice. ``.npy`` shards are read in
+Rust by the command's reader, block by block, straight into the
+compression and the regression (one block in memory, no numpy copy). The
 model is the one-process streaming identification of the whole record up
 to rounding (``lifted_subspace::CompressedRecords``,
-``lifted_subspace::RegressionPiece``).
+``lifted_subspace::RegressionPiece``); ``diagnostics["engine"]`` says how
+the second pass ran.
 
 :func:`identify_many` identifies many independent loops, one task each, and
 returns every model and every failure by name (a bad loop never loses the
@@ -109,9 +119,37 @@ class _FileShard:
     outputs: tuple[Any, ...]
 
     def load(self) -> tuple[Any, Any]:
-        if self.path.endswith(".npy"):
+        if self.npy:
             return _load_npy(self.path, self.inputs, self.outputs)
         return _load_parquet(self.path, self.inputs, self.outputs)
+
+    @property
+    def npy(self) -> bool:
+        return self.path.endswith(".npy")
+
+    def rows(self, start: int, stop: int | None) -> tuple[Any, Any]:
+        """Samples ``start:stop`` only: a ``.npy`` file reads just those rows
+        (memory-mapped), a Parquet file the row groups that hold them."""
+        if self.npy:
+            a = np.load(self.path, mmap_mode="r")[start:stop]
+            return _columns(a, self.inputs, "inputs"), _columns(a, self.outputs, "outputs")
+        pq = _module("pyarrow.parquet")
+        f = pq.ParquetFile(self.path)
+        meta = f.metadata
+        stop = meta.num_rows if stop is None else min(stop, meta.num_rows)
+        # The row groups that overlap start:stop, and where the first begins.
+        groups: list[int] = []
+        first = at = 0
+        for g in range(meta.num_row_groups):
+            n = meta.row_group(g).num_rows
+            if at + n > start and at < stop:
+                if not groups:
+                    first = at
+                groups.append(g)
+            at += n
+        names = list(self.inputs) + list(self.outputs)
+        df = f.read_row_groups(groups, columns=names).to_pandas()[start - first:stop - first]
+        return _frame(df, self.inputs, self.outputs)
 
 
 def _data(shard: Any) -> tuple[Any, Any]:
@@ -132,6 +170,28 @@ class _Scaled:
     def load(self) -> tuple[Any, Any]:
         return _scale_pair(_data(self.shard), self.su, self.sy)
 
+    def rows(self, start: int, stop: int | None) -> tuple[Any, Any]:
+        return _scale_pair(_rows_of(self.shard, start, stop), self.su, self.sy)
+
+
+def _rows_of(shard: Any, start: int, stop: int | None) -> tuple[Any, Any]:
+    """Samples ``start:stop`` of a shard, reading no more of a file than
+    that (a computed block is sliced)."""
+    if isinstance(shard, (_FileShard, _Scaled)):
+        return shard.rows(start, stop)
+    u, y = _data(shard)
+    return u[start:stop], y[start:stop]
+
+
+def _npy_file(shard: Any) -> tuple[_FileShard, tuple[float, ...], tuple[float, ...]] | None:
+    """A ``.npy`` file shard (scaled or not) with its channel scales: read
+    in Rust by the command's reader, no numpy copies."""
+    if isinstance(shard, _Scaled) and isinstance(shard.shard, _FileShard) and shard.shard.npy:
+        return shard.shard, shard.su, shard.sy
+    if isinstance(shard, _FileShard) and shard.npy:
+        return shard, (1.0,) * len(shard.inputs), (1.0,) * len(shard.outputs)
+    return None
+
 
 def _scale_pair(pair: tuple[Any, Any], su: tuple[float, ...], sy: tuple[float, ...]) -> tuple[Any, Any]:
     """A computed block (u, y) divided by the channel scales."""
@@ -141,8 +201,8 @@ def _scale_pair(pair: tuple[Any, Any], su: tuple[float, ...], sy: tuple[float, .
 
 def _head(shard: Any, rows: int) -> tuple[Any, Any]:
     """The first ``rows`` samples of a shard (u, y)."""
-    u, y = _data(shard)
-    return np.asarray(u[:rows], dtype=np.float64), np.asarray(y[:rows], dtype=np.float64)
+    u, y = _rows_of(shard, 0, rows)
+    return np.asarray(u, dtype=np.float64), np.asarray(y, dtype=np.float64)
 
 
 def _channel_scales(shards: list[Any], client: Any) -> tuple[list[float], list[float]]:
@@ -256,28 +316,72 @@ def _shards(data: Any, u: Any, y: Any, inputs: Any, outputs: Any) -> list[Any]:
 
 
 def _plan(shard: Any, past: int, future: int, remove_means: bool, rows: int) -> bytes:
-    u, y = _data(shard)
-    return _lifted.partial_plan(u[:rows], y[:rows], past=past, future=future, remove_means=remove_means)
+    u, y = _rows_of(shard, 0, rows)
+    return _lifted.partial_plan(u, y, past=past, future=future, remove_means=remove_means)
 
 
 def _compress(plan: bytes, shard: Any, threads: int) -> bytes:
+    npy = _npy_file(shard)
+    if npy is not None:
+        f, su, sy = npy
+        return _lifted.partial_compress_npy(plan, f.path, list(f.inputs), list(f.outputs), list(su), list(sy),
+                                            threads=threads)
     u, y = _data(shard)
     return _lifted.partial_compress(plan, u, y, threads=threads)
 
 
 def _prime(state: bytes, shard: Any, rows: int) -> bytes:
+    u, y = _rows_of(shard, 0, rows)
+    return _lifted.regression_prime(state, u, y)
+
+
+def _regression(state: bytes, shard: Any, advance: bool) -> bytes:
+    npy = _npy_file(shard)
+    if npy is not None:
+        f, su, sy = npy
+        return _lifted.regression_npy(state, f.path, list(f.inputs), list(f.outputs), list(su), list(sy),
+                                      advance=advance)
     u, y = _data(shard)
-    return _lifted.regression_prime(state, u[:rows], y[:rows])
+    if advance:
+        return _lifted.regression_advance(state, u, y)
+    return _lifted.regression_scan(state, u, y)
 
 
 def _advance(state: bytes, shard: Any) -> bytes:
-    u, y = _data(shard)
-    return _lifted.regression_advance(state, u, y)
+    return _regression(state, shard, True)
 
 
 def _scan(state: bytes, shard: Any) -> bytes:
-    u, y = _data(shard)
-    return _lifted.regression_scan(state, u, y)
+    return _regression(state, shard, False)
+
+
+def _scan_after_tail(primed: bytes, tail: list[tuple[Any, int, int]], shard: Any) -> bytes:
+    """A shard's regression rows scanned from the primed stream advanced
+    over only the samples ``tail`` before it (slices ``(shard, start,
+    stop)`` of the shards before, at most the stream's memory): the
+    recursions have forgotten anything earlier (``regression_memory``), so
+    no chain through the record and one read of the shard."""
+    state = primed
+    for s, a, b in tail:
+        u, y = _rows_of(s, a, b)
+        state = _lifted.regression_advance(state, u, y)
+    return _scan(state, shard)
+
+
+def _tails(rows: list[int], memory: int) -> list[list[tuple[int, int, int]]]:
+    """For each shard, the slices (shard index, start, stop) of the last
+    ``memory`` samples before it, in record order."""
+    out = []
+    for k in range(len(rows)):
+        need, tail = memory, []
+        j = k - 1
+        while need > 0 and j >= 0:
+            take = min(need, rows[j])
+            tail.append((j, rows[j] - take, rows[j]))
+            need -= take
+            j -= 1
+        out.append(tail[::-1])
+    return out
 
 
 def _tree(items: list[Any], join: Callable[..., Any]) -> Any:
@@ -479,6 +583,7 @@ def _sharded(raw: list[Any], options: dict[str, Any], plan_rows: int, client: An
         dt=dt,
         threads=threads,
     )
+    second = "none (B, D from the compressed data)"
     if not first.wants_second_pass():
         fit = _subspace_fit(first.finish(input_scales=su, output_scales=sy))
     else:
@@ -486,21 +591,58 @@ def _sharded(raw: list[Any], options: dict[str, Any], plan_rows: int, client: An
         # shard to shard (cheap: filtering only), each shard's rows are
         # scanned from its state on its worker, and the R factors merge in
         # a tree.
-        state: Any = delayed(_prime)(first.regression(), shards[0], plan_rows)
-        start = state
-        pieces = []
-        for s in shards:
-            pieces.append(delayed(_scan)(state, s))
-            state = delayed(_advance)(state, s)
+        (start,) = _compute(client, delayed(_prime)(first.regression(), shards[0], plan_rows))
+        pieces, second = _second_pass(start, shards, raw)
         merged = _tree(pieces, _lifted.regression_merge)
         final = delayed(_lifted.regression_end_record)(delayed(_lifted.regression_absorb)(start, merged))
         (final,) = _compute(client, final)
         fit = _subspace_fit(first.finish(final, input_scales=su, output_scales=sy))
     fit.diagnostics.details["engine"] = (
         f"sharded: merged partial compressions, horizon {past}/{future}, shift invariance, "
-        "no Kalman-gain check and no refinement (they need the record in one process)"
+        "no Kalman-gain check and no refinement (they need the record in one process); "
+        f"second pass: {second}"
     )
     return fit
+
+
+def _second_pass(primed: bytes, shards: list[Any], raw: list[Any]) -> tuple[list[Any], str]:
+    """The delayed regression pieces of every shard, and how they are
+    scanned. When the regressor recursions forget their state within
+    ``regression_memory`` samples and the shards are files (their lengths
+    known from the headers), each shard is scanned from the primed state
+    advanced over just the tail of samples before it: the tasks are
+    independent and each reads its shard once (and the tail), unless the
+    tails together are longer than the record (a pole near the unit
+    circle), when re-reading each shard is cheaper. Otherwise the state
+    goes from shard to shard (an advance task per shard, chained), each
+    shard then read twice."""
+    delayed = _dask()
+    memory = _lifted.regression_memory(primed)
+    files = all(isinstance(s, _FileShard) for s in raw)
+    rows = [_rows(s) for s in raw] if files else []
+    tails = _tails(rows, memory) if memory is not None else []
+    # The tails' extra reading against the chain's second read of every shard.
+    if files and memory is not None and sum(b - a for t in tails for _, a, b in t) <= sum(rows):
+        pieces = [
+            delayed(_scan_after_tail)(primed, [(shards[j], a, b) for j, a, b in tail], s)
+            for s, tail in zip(shards, tails)
+        ]
+        return pieces, (
+            f"each shard read once, scanned from the state after the {memory} samples before it "
+            "(the regressor filters forget their start within them)"
+        )
+    state: Any = primed
+    pieces = []
+    for s in shards:
+        pieces.append(delayed(_scan)(state, s))
+        state = delayed(_advance)(state, s)
+    if not files:
+        why = "the shards are not files"
+    elif memory is None:
+        why = "A has a mode on the unit circle or ill-conditioned eigenvectors"
+    else:
+        why = f"the filters' memory of {memory} samples is longer than re-reading the shards"
+    return pieces, f"the regressor state chained from shard to shard, each shard read twice ({why})"
 
 
 # ---------------------------------------------------------------- many loops
