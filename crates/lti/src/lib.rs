@@ -91,6 +91,7 @@ mod reduce;
 mod response;
 pub mod spectral;
 mod ss;
+pub mod ss_uncertainty;
 mod tf;
 pub mod validation;
 
@@ -114,6 +115,7 @@ pub use polymodel::{
 pub use reduce::{Balancing, MinrealOptions};
 pub use response::SimResult;
 pub use ss::StateSpace;
+pub use ss_uncertainty::SsCovariance;
 pub use tf::{SisoTf, TransferFunction};
 pub use validation::{
     InitialCondition, OutputValidation, Residual, SimulationFit, Validation, ValidationOptions,

@@ -93,8 +93,9 @@ pub use oe::{OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
 pub use process::{ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
 pub use state_space::{
-    Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate, Termination,
-    pem_work_estimate, pem_work_estimate_of_sizes, refine_pem,
+    CovarianceOptions, Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate,
+    StateSpaceUncertainty, Termination, covariance_work, pem_work_estimate,
+    pem_work_estimate_of_sizes, refine_pem, state_space_covariance,
 };
 
 /// The README example, compiled and run as a doc test.

@@ -1,6 +1,6 @@
 //! Integration tests of lifted-pem: the state-space prediction-error
 //! refinement (recovery, invariance, multirate records, keep-the-better
-//! rule, rejected inputs).
+//! rule, rejected inputs) and the state-space covariance (coverage).
 
 mod common {
     use lifted_lti::StateSpace;
@@ -78,5 +78,6 @@ mod common {
 }
 
 mod suite {
+    pub mod covariance;
     pub mod state_space;
 }

@@ -190,6 +190,7 @@ use crate::error::{Error, Result};
 use lifted_linalg::spectral_radius;
 use lifted_subspace::{Feedthrough, Record, estimate_x0};
 
+mod covariance;
 mod jacobian;
 mod joint;
 mod lm;
@@ -199,6 +200,9 @@ mod projection;
 mod warm;
 mod work;
 
+pub use covariance::{
+    CovarianceOptions, StateSpaceUncertainty, covariance_work, state_space_covariance,
+};
 use point::{
     Layout, Point, STABILIZED_START_RADIUS, admissible, mean_square, output_weights, residuals,
 };
