@@ -730,7 +730,8 @@ pub struct IdentifyArgs {
     /// A work or record-length budget of the default route, as NAME=VALUE (repeatable):
     /// auto_refine_work (default 4e9 operations), auto_refine_work_joint (8e9),
     /// auto_refine_samples (10000), refine_check_samples (20000), refine_check_work (4e9),
-    /// gain_check_samples (200000), gain_check_varx_work (4e9), gain_check_minimise_work (8e9).
+    /// gain_check_samples (200000), covariance_work (4e9), gain_check_varx_work (4e9),
+    /// gain_check_minimise_work (8e9).
     /// Above a budget the stage is skipped or judged more cheaply, and the diagnostics say so;
     /// the values used are recorded in `diagnostics.budgets`.
     #[arg(long, value_name = "NAME=VALUE")]
@@ -747,6 +748,13 @@ pub struct IdentifyArgs {
     /// polish follows. A model still unstable is an error naming its spectral radius.
     #[arg(long)]
     pub stable: bool,
+    /// Do not estimate the covariance of a state-space model's entries (by default the model
+    /// file carries it: one pass of the prediction-error Jacobian at the model, within
+    /// `--budget covariance_work`, 4e9 operations; `lifted bode`, `step` and `report` draw its
+    /// confidence bands; `diagnostics.covariance` says what it rests on). Polynomial and
+    /// process models carry their own covariance either way.
+    #[arg(long)]
+    pub no_covariance: bool,
     /// Integrator tolerance δ: poles with |λ| < 1 + δ are integrators (on the unit circle,
     /// estimated just outside it), not instability: `--refine pem` starts from them instead of
     /// the zero-padded shift and may keep them, `--stable` moves them just inside (radius

@@ -65,6 +65,7 @@ use serde::{Deserialize, Serialize};
 use crate::operating_point::OperatingPoint;
 use crate::polymodel::PolyModel;
 use crate::ss::StateSpace;
+use crate::ss_uncertainty::SsCovariance;
 use nalgebra::DMatrix;
 
 /// A gain K of shape order × n_y with finite entries.
@@ -150,6 +151,10 @@ pub struct ModelFile {
     /// `kalman_gain` are then its innovations realisation).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polynomial: Option<PolyModel>,
+    /// The covariance of a state-space model's entries (A, B, C, D), when
+    /// estimated ([`SsCovariance`]: bands on its responses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub covariance: Option<SsCovariance>,
 }
 
 impl ModelFile {
@@ -163,7 +168,18 @@ impl ModelFile {
             operating_point: None,
             kalman_gain: None,
             polynomial: None,
+            covariance: None,
         }
+    }
+
+    /// The file with the covariance of the model's entries.
+    ///
+    /// Errors: [`crate::Error::DimensionMismatch`] when the covariance is
+    /// not of the model's dimensions.
+    pub fn with_covariance(mut self, covariance: SsCovariance) -> crate::Result<Self> {
+        covariance.parameters(&self.model)?;
+        self.covariance = Some(covariance);
+        Ok(self)
     }
 
     /// A `"polynomial"` model file: the innovations realisation of `poly`

@@ -158,6 +158,34 @@ impl SsCovariance {
         [take(n, n), take(n, nu), take(ny, n), take(ny, nu)]
     }
 
+    /// The entries of (A, B, C, D) with their standard deviations, one
+    /// matrix per block of lines: "A =" then rows of "v (±σ)" (MATLAB's
+    /// `present` for an idss model). The deviations are those of this
+    /// realisation's entries (another basis has others; the responses'
+    /// deviations do not depend on it).
+    ///
+    /// Errors: [`Error::DimensionMismatch`] for a model of other
+    /// dimensions.
+    pub fn present(&self, model: &StateSpace) -> Result<String> {
+        self.check(model)?;
+        let sd = self.entry_std();
+        let mats = [model.a(), model.b(), model.c(), model.d()];
+        let mut out = String::new();
+        for ((name, m), s) in ["A", "B", "C", "D"].iter().zip(mats).zip(&sd) {
+            if m.is_empty() {
+                continue;
+            }
+            out += &format!("{name} =\n");
+            for i in 0..m.nrows() {
+                let cells: Vec<String> = (0..m.ncols())
+                    .map(|j| format!("{:>11.4e} (±{:.2e})", m[(i, j)], s[(i, j)]))
+                    .collect();
+                out += &format!("  {}\n", cells.join("  "));
+            }
+        }
+        Ok(out)
+    }
+
     fn check(&self, model: &StateSpace) -> Result<()> {
         let got = (model.order(), model.n_inputs(), model.n_outputs());
         if got != (self.order, self.inputs, self.outputs) {

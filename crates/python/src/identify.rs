@@ -79,7 +79,7 @@ pub(crate) fn horizon_of(
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
     refine_check="tests:0.95", selection=None, gain_covariance_start=true, budgets=None,
-    plan=None))]
+    plan=None, covariance=true))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -114,6 +114,7 @@ pub(crate) fn identify<'py>(
     gain_covariance_start: bool,
     budgets: Option<Bound<'py, PyDict>>,
     plan: Option<&str>,
+    covariance: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -162,6 +163,7 @@ pub(crate) fn identify<'py>(
     id.gain_check.stop_share = gain_stop_share;
     id.gain_check.covariance_start = gain_covariance_start;
     id.integrator_tolerance = integrator_tolerance;
+    opts.validation.covariance = covariance;
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     opts.refinement.check = refine_check.parse::<lifted_pem::CheckRule>().map_err(|e| {
         err(lifted_workflow::Error::InvalidOption {

@@ -103,11 +103,24 @@ def test_identify_method_arx_and_the_scan(arx_record) -> None:
 
 
 def test_state_space_fits_have_no_polynomial(record) -> None:
+    """A state-space fit has no polynomial model; its parameters are its
+    entries [vec A; vec B; vec C; vec D] with their covariance (issue 49),
+    unless ``covariance=False``."""
     u, y = record
     fit = lifted.n4sid(u, y, order=2, dt=0.5)
     assert fit.polynomial is None
-    assert fit.parameters is None and fit.covariance is None and fit.std is None
     assert json.loads(fit.model_json)["kind"] == "state_space"
+    m = fit.model
+    sizes = [np.asarray(x).size for x in (m.A, m.B, m.C, m.D)]
+    assert fit.parameters is not None and fit.covariance is not None and fit.std is not None
+    assert fit.parameters.shape == (sum(sizes),)
+    np.testing.assert_array_equal(fit.parameters[: sizes[0]], np.asarray(m.A).ravel(order="F"))
+    assert fit.covariance.shape == (sum(sizes), sum(sizes))
+    np.testing.assert_allclose(fit.std, np.sqrt(np.diag(fit.covariance)))
+    assert fit.diagnostics["covariance"]["computed"] is True
+    bare = lifted.identify(u, y, order=2, dt=0.5, covariance=False)
+    assert bare.parameters is None and bare.covariance is None and bare.std is None
+    assert bare.diagnostics["covariance"]["computed"] is False
 
 
 def test_fir() -> None:

@@ -136,6 +136,7 @@
 //! ```
 
 mod cache;
+mod covariance;
 pub mod diagnostics;
 mod error;
 mod excitation;
@@ -159,9 +160,9 @@ pub use error::{Error, Result};
 pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BUDGET_NAMES, BdRoute, Budgets,
-    DataOptions, Detrend, Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions, Method, Order,
-    OrderCriterion, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK, Refine,
-    RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
+    COVARIANCE_WORK, DataOptions, Detrend, Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions,
+    Method, Order, OrderCriterion, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK,
+    Refine, RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use plan::{DataShape, Plan, Resolved, options_from_plan, resolved_defaults};

@@ -62,6 +62,11 @@ pub struct Budgets {
     /// check and the feedthrough test (the streamed route loads them).
     /// Default [`GAIN_CHECK_SAMPLES`].
     pub gain_check_samples: usize,
+    /// Work up to which a state-space model gets the covariance of its
+    /// entries (`lifted_pem::state_space_covariance`: one Jacobian pass
+    /// of the prediction errors at the estimate). Default
+    /// [`COVARIANCE_WORK`], 4e9.
+    pub covariance_work: f64,
 }
 
 impl Default for Budgets {
@@ -73,6 +78,7 @@ impl Default for Budgets {
             refine_check_samples: REFINE_CHECK_SAMPLES,
             refine_check_work: REFINE_CHECK_WORK,
             gain_check_samples: GAIN_CHECK_SAMPLES,
+            covariance_work: COVARIANCE_WORK,
         }
     }
 }
@@ -86,6 +92,7 @@ impl Budgets {
             ("auto_refine_work", self.auto_refine_work),
             ("auto_refine_work_joint", self.auto_refine_work_joint),
             ("refine_check_work", self.refine_check_work),
+            ("covariance_work", self.covariance_work),
             ("gain_check_varx_work", gain.varx_work),
             ("gain_check_minimise_work", gain.minimise_work),
         ] {
@@ -127,6 +134,7 @@ impl Budgets {
             "refine_check_samples" => self.refine_check_samples = whole(value)?,
             "refine_check_work" => self.refine_check_work = value,
             "gain_check_samples" => self.gain_check_samples = whole(value)?,
+            "covariance_work" => self.covariance_work = value,
             "gain_check_varx_work" => gain.varx_work = value,
             "gain_check_minimise_work" => gain.minimise_work = value,
             other => {
@@ -144,13 +152,14 @@ impl Budgets {
 }
 
 /// The names [`Budgets::set`] takes.
-pub const BUDGET_NAMES: [&str; 8] = [
+pub const BUDGET_NAMES: [&str; 9] = [
     "auto_refine_work",
     "auto_refine_work_joint",
     "auto_refine_samples",
     "refine_check_samples",
     "refine_check_work",
     "gain_check_samples",
+    "covariance_work",
     "gain_check_varx_work",
     "gain_check_minimise_work",
 ];
@@ -740,6 +749,14 @@ pub const REFINE_CHECK_MARGIN: f64 = 3.0;
 /// judged on the records it was fitted to, and the diagnostics say so.
 pub const REFINE_CHECK_WORK: f64 = 4e9;
 
+/// Work (operations of `lifted_pem::covariance_work`'s count) up to which
+/// a state-space model's entries get their covariance: 4e9, about one
+/// second, as [`AUTO_REFINE_WORK`]: one Jacobian pass along p local
+/// coordinates costs ≈ 2 p N n (n + n_u + n_y), so a 2×2 model of order 4
+/// (p ≈ 40) gets it up to about 2e6 samples. Above, the model carries no
+/// covariance and the diagnostics say why.
+pub const COVARIANCE_WORK: f64 = 4e9;
+
 /// The refinement stage (Levenberg–Marquardt from the identified model,
 /// measured samples only; the refined model is kept only if its simulation
 /// fit is at least as good: on held-out blocks for short single-rate
@@ -778,14 +795,32 @@ impl Default for RefinementOptions {
 
 /// The validation stage: the model's stability is always measured and
 /// written to the diagnostics (an unstable model carries a warning naming
-/// ρ(A)); these options make the run fail instead.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+/// ρ(A)); `require_stable` makes the run fail instead. The model's
+/// uncertainty (`covariance`) is estimated here too.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ValidationOptions {
     /// Fail unless every pole is strictly inside the unit circle (the CLI's
     /// `--stable` sets it with [`IdentificationOptions::stable`]). Default
     /// false.
     pub require_stable: bool,
+    /// Estimate the covariance of a state-space model's entries (A, B, C,
+    /// D) from the prediction-error Jacobian at the model, within
+    /// [`Budgets::covariance_work`] (`crate::covariance`; the model file's
+    /// `covariance`, the bands of `lifted bode`/`step`/`report`). Default
+    /// true (MATLAB estimates every model's covariance); false skips the
+    /// pass (`--no-covariance`). Polynomial and process models carry their
+    /// own covariance either way.
+    pub covariance: bool,
+}
+
+impl Default for ValidationOptions {
+    fn default() -> Self {
+        ValidationOptions {
+            require_stable: false,
+            covariance: true,
+        }
+    }
 }
 
 impl WorkflowOptions {

@@ -453,6 +453,21 @@ fn run(
         cache.map(|c| &mut c.feedback),
         &mut diagnostics,
     );
+    // The covariance of a state-space model's entries (crate::covariance),
+    // on the records it was identified on; polynomial and process models
+    // carry their own.
+    let covariance = if details.polynomial.is_some() {
+        None
+    } else if opts.validation.covariance {
+        crate::covariance::of_model(opts, &model, kalman_gain.as_ref(), &sets, &mut diagnostics)
+    } else {
+        crate::covariance::not_asked(&mut diagnostics);
+        None
+    };
+    let covariance = match (&scales, covariance) {
+        (Some(sc), Some(c)) => Some(sc.ss_covariance(&c, &model)?),
+        (_, c) => c,
+    };
     // Back to the data's units (an operating point from the detrending is
     // in them already; one from inside the identification is not).
     let model = match &scales {
@@ -517,9 +532,12 @@ fn run(
     }
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
-    let file = match polynomial {
-        Some(p) => ModelFile::with_polynomial(p).ctx("the polynomial model file")?,
-        None => ModelFile::new(model),
+    let file = match (polynomial, covariance) {
+        (Some(p), _) => ModelFile::with_polynomial(p).ctx("the polynomial model file")?,
+        (None, Some(c)) => ModelFile::new(model)
+            .with_covariance(c)
+            .ctx("the model's covariance")?,
+        (None, None) => ModelFile::new(model),
     };
     let file = finish_file(
         file.with_method(id.method.name())

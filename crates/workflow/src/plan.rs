@@ -375,6 +375,17 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
             ),
         );
     }
+    if opts.validation.covariance && !m.is_polynomial() && m != Method::Process {
+        let why = if shape.streamed {
+            "not estimated on a streamed record (its records are not in memory)".to_string()
+        } else {
+            format!(
+                "the covariance of (A, B, C, D) from the prediction-error Jacobian at the model, when that pass's predicted work is at most budgets.covariance_work = {:.0e} operations",
+                b.covariance_work
+            )
+        };
+        say("covariance", serde_json::json!(!shape.streamed), why);
+    }
     Plan {
         route: route.to_string(),
         records: shape.records,

@@ -205,6 +205,41 @@ impl ChannelScales {
         StateSpace::new(m.a().clone(), b, c, d, m.ts()).ctx("channel scaling")
     }
 
+    /// The covariance of a state-space model's entries on the scaled
+    /// channels in the data's units: θ = [vec A; vec B; vec C; vec D]
+    /// moves as [`model`](Self::model) moves the model (B_rj ÷ s_uj,
+    /// C_or × s_yo, D_oj × s_yo / s_uj, A unchanged), so P ← S P S with
+    /// S the diagonal of those factors. O(L²).
+    pub fn ss_covariance(
+        &self,
+        cov: &lifted_lti::SsCovariance,
+        m: &StateSpace,
+    ) -> Result<lifted_lti::SsCovariance> {
+        let (n, nu, ny) = (m.order(), m.n_inputs(), m.n_outputs());
+        let mut f = Vec::with_capacity(cov.matrix().nrows());
+        f.extend(std::iter::repeat_n(1.0, n * n));
+        for j in 0..nu {
+            f.extend(std::iter::repeat_n(1.0 / self.u[j], n));
+        }
+        for _ in 0..n {
+            f.extend(self.y.iter().copied());
+        }
+        for j in 0..nu {
+            f.extend(self.y.iter().map(|s| s / self.u[j]));
+        }
+        let p = cov.matrix();
+        if f.len() != p.nrows() {
+            return Err(crate::Error::Data(format!(
+                "the covariance has {} entries, the model {}",
+                p.nrows(),
+                f.len()
+            )));
+        }
+        let scaled =
+            nalgebra::DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| f[i] * p[(i, j)] * f[j]);
+        lifted_lti::SsCovariance::new(n, nu, ny, scaled).ctx("the covariance in the data's units")
+    }
+
     /// A polynomial model of the scaled channels in the data's units: with
     /// y' = y/s_y and u' = u/s_u, A_ij ← A_ij s_yi/s_yj, B_ik ← B_ik
     /// s_yi/s_uk (C, D, F unchanged: A_ii stays monic), Λ_ij ← Λ_ij s_yi

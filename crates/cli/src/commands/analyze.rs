@@ -152,6 +152,17 @@ pub fn analyze_cmd(a: &AnalyzeArgs) -> CliResult<()> {
                 }),
             );
         }
+        // A state-space model's entries' standard deviations.
+        if let (Some(c), Some(obj)) = (&file.covariance, v.as_object_mut()) {
+            let [a, b, cc, d] = c.entry_std();
+            let rows = |m: &nalgebra::DMatrix<f64>| -> Vec<Vec<f64>> {
+                m.row_iter().map(|r| r.iter().copied().collect()).collect()
+            };
+            obj.insert(
+                "covariance".into(),
+                serde_json::json!({"std": {"a": rows(&a), "b": rows(&b), "c": rows(&cc), "d": rows(&d)}}),
+            );
+        }
         println!(
             "{}",
             serde_json::to_string_pretty(&v).ctx("JSON of the analysis")?
@@ -159,6 +170,9 @@ pub fn analyze_cmd(a: &AnalyzeArgs) -> CliResult<()> {
     } else {
         if let Some(p) = &file.polynomial {
             println!("{}", p.present());
+        } else if let Some(c) = &file.covariance {
+            println!("the model's entries with their standard deviations:");
+            print!("{}", c.present(&file.model).ctx("the model's covariance")?);
         }
         print_analysis(&a.model, &r);
     }

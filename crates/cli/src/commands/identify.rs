@@ -79,6 +79,7 @@ fn print_profile(diagnostics: &Diagnostics) {
         ("process model", "process_s"),
         ("regularised FIR", "impulse_s"),
         ("feedback test", "feedback_s"),
+        ("covariance", "covariance_s"),
         ("identify (total)", "identify_s"),
     ];
     println!("phase              wall time");

@@ -222,7 +222,7 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
     let kind = a.out.as_deref().map(out_kind).transpose()?;
     bands::check_level(a.confidence)?;
     let file = read_model(&a.model)?;
-    let m = file.model;
+    let m = &file.model;
     let given = given_omega(a)?;
     if given.is_none() && kind.is_none() {
         return Err(input(
@@ -231,7 +231,7 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
     }
     let omega = match given {
         Some(w) => {
-            check_omega(&m, &w)?;
+            check_omega(m, &w)?;
             lifted_linalg::budget::MemoryBudget::default()
                 .check(
                     "the frequency response (--omega)",
@@ -244,14 +244,14 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
                 .ctx("bode")?;
             w
         }
-        None => bode_grid(&m, a.wmin, a.wmax, a.points)?,
+        None => bode_grid(m, a.wmin, a.wmax, a.points)?,
     };
     let b = m.bode(&omega).ctx("bode")?;
-    let (un, yn) = channel_names(&m);
+    let (un, yn) = channel_names(m);
     let db = |g: f64| 20.0 * g.max(1e-300).log10();
     // The confidence band: z σ of |G| (in dB: the bounds |G| ± z σ) and of
     // the phase, for a model file with a parameter covariance.
-    let band = bands::bode_bounds(file.polynomial.as_ref(), &b, &omega, a.confidence)?;
+    let band = bands::bode_bounds(bands::Uncertain::of(&file), &b, &omega, a.confidence)?;
     let bounds = |k: usize, i: usize, j: usize| -> Option<[f64; 4]> {
         band.as_ref().map(|band| band.bounds[k][(i, j)])
     };
@@ -284,7 +284,7 @@ pub fn bode(a: &BodeArgs) -> CliResult<()> {
             println!("wrote {out}");
         }
         (Some(out), _) => {
-            let mut fig = bode_pairs(&[(String::new(), &m)], &omega)?;
+            let mut fig = bode_pairs(&[(String::new(), m)], &omega)?;
             if let Some(band) = &band {
                 bands::add_bode_band(&mut fig, &omega, band, a.confidence);
             }
@@ -372,11 +372,10 @@ pub fn step(a: &StepArgs) -> CliResult<()> {
     let kind = out_kind(&a.out)?;
     bands::check_level(a.confidence)?;
     let file = read_model(&a.model)?;
-    let m = file.model;
-    let (t, cols) = step_data(&m, a.samples, a.dt)?;
+    let (t, cols) = step_data(&file.model, a.samples, a.dt)?;
     // The band: ± z σ of each sample, for a model file with a parameter
     // covariance.
-    let band = bands::step_bounds(file.polynomial.as_ref(), &cols, a.confidence)?;
+    let band = bands::step_bounds(bands::Uncertain::of(&file), &cols, a.confidence)?;
     match kind {
         OutKind::Csv => {
             let mut header = vec!["t".to_string()];

@@ -1,18 +1,70 @@
 //! Confidence bands of a model file that carries a parameter covariance
-//! (polynomial and process models, issue 49): ± z σ around the step
+//! (polynomial and process models, and state-space models with the
+//! covariance of their entries; issue 49): ± z σ around the step
 //! responses and the Bode magnitude and phase, σ by first-order
 //! propagation of the covariance (`lifted_lti::PolyModel::step_std`,
-//! `freqresp_std`), z the two-sided normal quantile of the level (MATLAB's
-//! `showConfidence`). Used by `lifted step`, `lifted bode` and the report.
+//! `freqresp_std`; `lifted_lti::SsCovariance`'s), z the two-sided normal
+//! quantile of the level (MATLAB's `showConfidence`). Used by `lifted
+//! step`, `lifted bode` and the report.
 
 use lifted_linalg::budget::{MemoryBudget, Size};
-use lifted_lti::Bode;
-use lifted_lti::PolyModel;
+use lifted_lti::{Bode, FreqStd, ModelFile, PolyModel, SsCovariance, StateSpace};
+use nalgebra::DMatrix;
 
 use crate::error::{CliResult, Context, input};
 use crate::plot::Series;
 use crate::service::figures::NamedColumn;
 use crate::service::pairs::PairFigure;
+
+/// The parameter uncertainty of a model file, whichever model carries it.
+#[derive(Clone, Copy)]
+pub enum Uncertain<'a> {
+    /// A polynomial or process model with its parameter covariance.
+    Poly(&'a PolyModel),
+    /// A state-space model with the covariance of its entries.
+    StateSpace(&'a StateSpace, &'a SsCovariance),
+}
+
+impl<'a> Uncertain<'a> {
+    /// The file's uncertainty: its polynomial model's (when it carries a
+    /// covariance) or its state-space covariance; `None` without either.
+    pub fn of(file: &'a ModelFile) -> Option<Self> {
+        match (&file.polynomial, &file.covariance) {
+            (Some(p), _) if p.covariance().is_some() => Some(Uncertain::Poly(p)),
+            (None, Some(c)) => Some(Uncertain::StateSpace(&file.model, c)),
+            _ => None,
+        }
+    }
+
+    /// Parameters whose moves the propagation differentiates along.
+    fn parameters(&self) -> usize {
+        match self {
+            Uncertain::Poly(p) => p.parameters().len(),
+            Uncertain::StateSpace(_, c) => c.matrix().nrows(),
+        }
+    }
+
+    fn dims(&self) -> (usize, usize) {
+        match self {
+            Uncertain::Poly(p) => (p.n_outputs(), p.n_inputs()),
+            Uncertain::StateSpace(m, _) => (m.n_outputs(), m.n_inputs()),
+        }
+    }
+
+    fn freqresp_std(&self, omega: &[f64]) -> lifted_lti::Result<Option<FreqStd>> {
+        match self {
+            Uncertain::Poly(p) => p.freqresp_std(omega),
+            Uncertain::StateSpace(m, c) => c.freqresp_std(m, omega).map(Some),
+        }
+    }
+
+    fn step_std(&self, samples: usize) -> lifted_lti::Result<Option<Vec<DMatrix<f64>>>> {
+        match self {
+            Uncertain::Poly(p) => p.step_std(samples),
+            Uncertain::StateSpace(m, c) => c.step_std(m, samples).map(Some),
+        }
+    }
+}
 
 /// Lower and upper bounds of one response column, sample by sample.
 pub type Bounds = (Vec<f64>, Vec<f64>);
@@ -44,7 +96,7 @@ pub fn label(confidence: f64) -> String {
 /// band (no covariance, or `confidence` 0). O(p² · samples · n_u n_y) for
 /// p parameters, plus 2p step responses.
 pub fn step_bounds(
-    poly: Option<&PolyModel>,
+    poly: Option<Uncertain<'_>>,
     cols: &[NamedColumn],
     confidence: f64,
 ) -> CliResult<Option<Vec<Bounds>>> {
@@ -57,11 +109,7 @@ pub fn step_bounds(
     MemoryBudget::default()
         .check(
             "the step response's confidence band (--samples)",
-            Size::matrices(
-                (2 * p.parameters().len() + 3) * p.n_inputs(),
-                samples,
-                p.n_outputs(),
-            ),
+            Size::matrices((2 * p.parameters() + 3) * p.dims().1, samples, p.dims().0),
         )
         .ctx("step confidence band")?;
     let Some(sigma) = p.step_std(samples).ctx("step confidence band")? else {
@@ -118,7 +166,7 @@ pub fn add_step_band(fig: &mut PairFigure, t: &[f64], bounds: &[Bounds], confide
 /// the response `b` (a lower bound at or below zero magnitude is NaN: no
 /// dB value); `None` when there is no band.
 pub fn bode_bounds(
-    poly: Option<&PolyModel>,
+    poly: Option<Uncertain<'_>>,
     b: &Bode,
     omega: &[f64],
     confidence: f64,
@@ -132,9 +180,9 @@ pub fn bode_bounds(
         .check(
             "the frequency response's confidence band",
             Size::matrices(
-                2 * (p.parameters().len() + 3),
+                2 * (p.parameters() + 3),
                 omega.len(),
-                p.n_outputs() * p.n_inputs(),
+                p.dims().0 * p.dims().1,
             ),
         )
         .ctx("bode confidence band")?;
@@ -165,7 +213,7 @@ pub fn bode_bounds(
 /// each pair ([`bode_bounds`]).
 pub struct BodeBand {
     /// σ of |G| and of arg G.
-    pub std: lifted_lti::FreqStd,
+    pub std: FreqStd,
     /// Per frequency, per pair: [dB lower, dB upper, phase lower, phase
     /// upper].
     pub bounds: Vec<nalgebra::DMatrix<[f64; 4]>>,

@@ -221,6 +221,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
             .map_err(cli_error)?;
     }
     o.validation.require_stable = a.stable;
+    o.validation.covariance = !a.no_covariance;
     Ok(o)
 }
 

@@ -122,7 +122,7 @@ pub fn render(
     let one = [(String::new(), model)];
     // A model with a parameter covariance gets its confidence bands
     // (`service::bands`) on the step and Bode figures.
-    let poly = file.polynomial.as_ref();
+    let poly = bands::Uncertain::of(file);
     let band_note = format!(
         " Dashed: the {:.0} % confidence band (± z σ, first-order propagation of the parameter covariance).",
         100.0 * REPORT_CONFIDENCE

@@ -485,3 +485,4 @@ fn integrators_are_listed_and_their_tolerance_is_an_option() {
 }
 
 mod polynomial;
+mod uncertainty;

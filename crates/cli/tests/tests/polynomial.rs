@@ -265,7 +265,8 @@ fn step_draws_the_band_of_a_model_with_a_covariance() {
 
 /// The report draws the 95 % bands of a model with a parameter
 /// covariance on its step and Bode figures and says so in their
-/// captions (issue 49); a subspace model's report has none.
+/// captions (issue 49); a subspace model identified without its
+/// covariance (`--no-covariance`) has none.
 #[test]
 fn the_report_draws_the_bands_of_a_model_with_a_covariance() {
     let d = tmp("report_band");
@@ -298,6 +299,7 @@ fn the_report_draws_the_bands_of_a_model_with_a_covariance() {
         "y1",
         "--out",
         &ss,
+        "--no-covariance",
     ]);
     ok(&["report", "--model", &ss, "--data", &val, "--out", &html]);
     let page = std::fs::read_to_string(&html).unwrap();

@@ -277,6 +277,7 @@ def identify(
     gain_covariance_start: bool = True,
     budgets: dict[str, float] | None = None,
     plan: Any = None,
+    covariance: bool = True,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -392,9 +393,18 @@ def identify(
       ``auto_refine_samples`` (records always refined below, 10000),
       ``refine_check_samples`` (a refinement judged on held-out blocks up
       to, 20000), ``refine_check_work`` (4e9), ``gain_check_samples`` (the
-      Kalman-gain check up to, 200000), ``gain_check_varx_work`` (4e9) and
+      Kalman-gain check up to, 200000), ``covariance_work`` (the covariance
+      pass up to, 4e9), ``gain_check_varx_work`` (4e9) and
       ``gain_check_minimise_work`` (8e9); the command line's ``--budget
       NAME=VALUE``; ``diagnostics["budgets"]``.
+    * ``covariance``: estimate the covariance of a state-space model's
+      entries (A, B, C, D) from the prediction-error Jacobian at the model
+      (one pass within ``budgets["covariance_work"]``; MATLAB estimates
+      every model's): the fit's ``parameters`` (the entries, column by
+      column), ``covariance`` and ``std``, the model file's bands in
+      ``lifted bode``/``step``/``report``; ``diagnostics["covariance"]``
+      says what it rests on or why there is none. False skips the pass
+      (``--no-covariance``).
     * ``plan``: take every option from a plan instead of the keywords (the
       command line's ``--plan``): a :class:`SubspaceFit` or its
       ``diagnostics`` (the options that made it), the path of a model file
@@ -418,7 +428,8 @@ def identify(
       third of each record, the coefficients fitted on the rest), ``"aic"``,
       ``"aicc"`` or ``"bic"`` (MDL) (``diagnostics["structure_scan"]``).
       The fit's ``polynomial``, ``parameters``, ``covariance`` and ``std``
-      hold the model and its uncertainty (None for the other methods).
+      hold the model and its uncertainty (for the state-space methods,
+      those of the model's entries: ``covariance`` below).
 
     Returns a :class:`SubspaceFit`; its ``model`` carries the operating point
     (the means removed) and the Kalman gain, so ``validate(fit.model, u, y)``
@@ -456,6 +467,7 @@ def identify(
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
             gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
+            covariance=covariance,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":

@@ -304,6 +304,7 @@ def identify(
     gain_covariance_start: bool = True,
     budgets: dict[str, float] | None = None,
     plan: str | None = None,
+    covariance: bool = True,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

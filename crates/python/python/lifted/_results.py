@@ -9,6 +9,7 @@ mapping view of the dict results of earlier versions.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -391,11 +392,16 @@ class SubspaceFit(_Result):
     :class:`PolyModel` in the data's units; ``model`` and ``kalman_gain``
     are its innovations realisation) and its uncertainty: ``parameters``
     (MATLAB's ``getpvec`` order, see :class:`PolyModel`), ``covariance``
-    and ``std``. For the state-space methods these four are None (the
-    parameter covariance of state-space models is not estimated yet).
-    ``model_json`` of an ARX/FIR fit is a model file of kind
-    ``"polynomial"`` that keeps the polynomials: ``StateSpace.from_json``
-    reads its model, :meth:`PolyModel.from_json` its polynomial model.
+    and ``std``. For the state-space methods these are those of the
+    model's entries: ``parameters`` = [vec A; vec B; vec C; vec D] (each
+    matrix column by column), ``covariance`` their covariance from the
+    prediction-error Jacobian at the model (singular: the similarity
+    directions have none; None with ``covariance=False`` or beyond its
+    work budget, ``diagnostics["covariance"]`` says why) and ``std`` the
+    square roots of its diagonal. ``model_json`` of an ARX/FIR fit is a
+    model file of kind ``"polynomial"`` that keeps the polynomials:
+    ``StateSpace.from_json`` reads its model, :meth:`PolyModel.from_json`
+    its polynomial model.
     """
 
     model: StateSpace
@@ -417,20 +423,37 @@ class SubspaceFit(_Result):
     @property
     def parameters(self) -> FloatArray | None:
         """The polynomial model's parameters (ARX/FIR, MATLAB's ``getpvec``
-        order; None for state-space fits)."""
-        return None if self.polynomial is None else self.polynomial.parameters
+        order); for a state-space fit with a covariance, its entries
+        [vec A; vec B; vec C; vec D] (column by column)."""
+        if self.polynomial is not None:
+            return self.polynomial.parameters
+        if self._state_space_covariance() is None:
+            return None
+        m = self.model
+        return np.concatenate([np.asarray(x, dtype=np.float64).ravel(order="F") for x in (m.A, m.B, m.C, m.D)])
 
     @property
     def covariance(self) -> FloatArray | None:
-        """The covariance of :attr:`parameters` (ARX/FIR; None for
-        state-space fits, whose covariance is not estimated yet)."""
-        return None if self.polynomial is None else self.polynomial.covariance
+        """The covariance of :attr:`parameters` (None when not estimated)."""
+        if self.polynomial is not None:
+            return self.polynomial.covariance
+        return self._state_space_covariance()
 
     @property
     def std(self) -> FloatArray | None:
-        """The standard deviations of :attr:`parameters` (ARX/FIR; None for
-        state-space fits)."""
-        return None if self.polynomial is None else self.polynomial.std
+        """The standard deviations of :attr:`parameters` (None when not
+        estimated)."""
+        if self.polynomial is not None:
+            return self.polynomial.std
+        cov = self._state_space_covariance()
+        return None if cov is None else np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+    def _state_space_covariance(self) -> FloatArray | None:
+        """The model file's state-space covariance, when it has one."""
+        entry = json.loads(self.model_json).get("covariance")
+        if not isinstance(entry, dict):
+            return None
+        return np.asarray(entry["matrix"], dtype=np.float64)
 
 
 @dataclass(frozen=True, eq=False, repr=False)

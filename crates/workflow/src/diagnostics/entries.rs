@@ -317,10 +317,18 @@ pub struct BudgetsUsed {
     pub refine_check_work: f64,
     /// [`crate::Budgets::gain_check_samples`].
     pub gain_check_samples: usize,
+    /// [`crate::Budgets::covariance_work`] (absent in files written before
+    /// it: the default).
+    #[serde(default = "default_covariance_work")]
+    pub covariance_work: f64,
     /// `lifted_subspace::GainCheckOptions::varx_work`.
     pub gain_check_varx_work: f64,
     /// `lifted_subspace::GainCheckOptions::minimise_work`.
     pub gain_check_minimise_work: f64,
+}
+
+fn default_covariance_work() -> f64 {
+    crate::options::COVARIANCE_WORK
 }
 
 impl BudgetsUsed {
@@ -332,6 +340,7 @@ impl BudgetsUsed {
             auto_refine_samples: b.auto_refine_samples,
             refine_check_samples: b.refine_check_samples,
             refine_check_work: b.refine_check_work,
+            covariance_work: b.covariance_work,
             gain_check_samples: b.gain_check_samples,
             gain_check_varx_work: gain.varx_work,
             gain_check_minimise_work: gain.minimise_work,
