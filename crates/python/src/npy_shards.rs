@@ -11,7 +11,7 @@ use nalgebra::DMatrix;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-use crate::convert::{Int, count};
+use crate::convert::{Int, count, counts, ints};
 use crate::errors::{LiftedError, err};
 
 /// Rows per block of the reader (4 MiB of columns at 4 channels).
@@ -27,11 +27,12 @@ struct Columns {
 
 impl Columns {
     fn new(
-        inputs: Vec<usize>,
-        outputs: Vec<usize>,
+        inputs: Vec<Int>,
+        outputs: Vec<Int>,
         input_scales: Vec<f64>,
         output_scales: Vec<f64>,
     ) -> PyResult<Self> {
+        let (inputs, outputs) = (counts(&inputs, "inputs")?, counts(&outputs, "outputs")?);
         if inputs.is_empty() || outputs.is_empty() {
             return Err(LiftedError::new_err(
                 "a shard needs at least one input and one output column",
@@ -124,8 +125,8 @@ pub fn partial_compress_npy<'py>(
     py: Python<'py>,
     plan: &[u8],
     path: &str,
-    inputs: Vec<usize>,
-    outputs: Vec<usize>,
+    #[pyo3(from_py_with = ints)] inputs: Vec<Int>,
+    #[pyo3(from_py_with = ints)] outputs: Vec<Int>,
     input_scales: Vec<f64>,
     output_scales: Vec<f64>,
     #[pyo3(from_py_with = crate::convert::int)] threads: Int,
@@ -152,8 +153,8 @@ pub fn regression_npy<'py>(
     py: Python<'py>,
     stream: &[u8],
     path: &str,
-    inputs: Vec<usize>,
-    outputs: Vec<usize>,
+    #[pyo3(from_py_with = ints)] inputs: Vec<Int>,
+    #[pyo3(from_py_with = ints)] outputs: Vec<Int>,
     input_scales: Vec<f64>,
     output_scales: Vec<f64>,
     advance: bool,

@@ -253,6 +253,8 @@ def test_every_integer_argument_refuses_a_bool(plant) -> None:
             return [1]
         if annotation == "int":
             return 1
+        if annotation == "str":
+            return ""
         return [0.0]
 
     instances = {"StateSpace": plant, "Mpc": lifted.Mpc(plant)}

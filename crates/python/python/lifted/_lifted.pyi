@@ -480,19 +480,19 @@ def regression_absorb(stream: bytes, piece: bytes) -> bytes: ...
 def partial_compress_npy(
     plan: bytes,
     path: str,
-    inputs: Sequence[int],
-    outputs: Sequence[int],
-    input_scales: Sequence[float],
-    output_scales: Sequence[float],
+    inputs: list[int],
+    outputs: list[int],
+    input_scales: list[float],
+    output_scales: list[float],
     threads: int = 1,
 ) -> bytes: ...
 def regression_npy(
     stream: bytes,
     path: str,
-    inputs: Sequence[int],
-    outputs: Sequence[int],
-    input_scales: Sequence[float],
-    output_scales: Sequence[float],
+    inputs: list[int],
+    outputs: list[int],
+    input_scales: list[float],
+    output_scales: list[float],
     advance: bool = False,
 ) -> bytes: ...
 def regression_memory(stream: bytes) -> int | None: ...
