@@ -66,6 +66,10 @@ impl<'a> Uncertain<'a> {
     }
 }
 
+/// The level of the bands where none is given (`lifted bode`, `step`,
+/// the studio): 95 %.
+pub const DEFAULT_CONFIDENCE: f64 = 0.95;
+
 /// Lower and upper bounds of one response column, sample by sample.
 pub type Bounds = (Vec<f64>, Vec<f64>);
 

@@ -642,3 +642,40 @@ fn session_takes_a_plan_and_saves_one() {
     assert!(e.contains("max_ordr"), "{e}");
     s.close();
 }
+
+/// Issue 49: the studio's step and Bode figures carry the confidence band
+/// of the model's covariance at the page's level (95 % by default, the
+/// band's legend names it), none at level 0, and a level outside [0, 1)
+/// is refused naming the option.
+#[test]
+fn session_draws_the_models_confidence_bands_at_the_pages_level() {
+    let dir = tmp("bands");
+    let mut s = Session::new(&dir).unwrap();
+    s.upload("rec.csv", record(1500, 1).as_bytes()).unwrap();
+    let with = s.identify(&request("2")).unwrap();
+    assert!(with.figures.bode.contains("±95 %"), "Bode band legend");
+    assert!(with.figures.step.contains("±95 %"), "step band legend");
+    let at99 = s
+        .identify(&Request {
+            confidence: Some(0.99),
+            ..request("2")
+        })
+        .unwrap();
+    assert!(at99.figures.bode.contains("±99 %"));
+    let none = s
+        .identify(&Request {
+            confidence: Some(0.0),
+            ..request("2")
+        })
+        .unwrap();
+    assert!(!none.figures.bode.contains("±") && !none.figures.step.contains("±"));
+    let err = s
+        .identify(&Request {
+            confidence: Some(1.5),
+            ..request("2")
+        })
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("confidence"), "{err}");
+    s.close();
+}

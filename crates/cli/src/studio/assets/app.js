@@ -171,6 +171,8 @@ function request(withOrder) {
   if (state.ranges.estimation) r.estimation_range = state.ranges.estimation;
   if (state.ranges.validation) r.validation_range = state.ranges.validation;
   if (!withOrder) return r;
+  // The bands' level (a view option, not an identify option).
+  if ($("confidence").value !== "0.95") r.confidence = Number($("confidence").value);
   if (state.plan) {
     // The options are the plan's (`lifted identify --plan`); the option
     // fields are not sent.
@@ -920,7 +922,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });

@@ -9,11 +9,12 @@ use lifted_lti::{Dataset, ModelFile};
 use lifted_workflow::Diagnostics;
 
 use crate::args::{DetrendArg, IdentifyArgs};
-use crate::error::{CliResult, clap_one_line, input};
+use crate::error::{CliResult, Context, clap_one_line, input};
 use crate::plot::svg;
+use crate::service::bands;
 use crate::service::figures::{
     bode_grid, criterion_plot, order_plot, pz_plot, residual_plots, response_error_plot_in,
-    response_plot_in, stack_svgs,
+    response_plot_in, stack_svgs, step_data,
 };
 use lifted_workflow::WorkflowOptions;
 
@@ -458,6 +459,11 @@ impl Session {
         let file = self.model_file(r)?;
         let model = &file.model;
         let diagnostics = Diagnostics::of(&file);
+        // The bands of a model with a covariance (`service::bands`), at the
+        // page's level.
+        let confidence = r.confidence.unwrap_or(bands::DEFAULT_CONFIDENCE);
+        bands::check_level(confidence)?;
+        let uncertain = bands::Uncertain::of(&file);
         // The model's own figures (step, pole-zero map, Bode curves,
         // transfer functions) on a second thread while the model is
         // validated on the record (simulation and residual tests).
@@ -466,10 +472,22 @@ impl Session {
             let drawn = scope.spawn(|| -> CliResult<ModelFigures> {
                 let omega = bode_grid(model, None, None, 200)?;
                 let one = [(String::new(), model)];
+                let mut step = step_pairs(&one)?;
+                let mut bode = bode_pairs(&one, &omega)?;
+                if uncertain.is_some() && confidence > 0.0 {
+                    let (t, cols) = step_data(model, None, None)?;
+                    if let Some(b) = bands::step_bounds(uncertain, &cols, confidence)? {
+                        bands::add_step_band(&mut step, &t, &b, confidence);
+                    }
+                    let response = model.bode(&omega).ctx("bode")?;
+                    if let Some(b) = bands::bode_bounds(uncertain, &response, &omega, confidence)? {
+                        bands::add_bode_band(&mut bode, &omega, &b, confidence);
+                    }
+                }
                 Ok((
-                    pairs_svg(&step_pairs(&one)?, 560, 240)?,
+                    pairs_svg(&step, 560, 240)?,
                     svg(&pz_plot(model)?, 380, 440)?,
-                    bode_pairs(&one, &omega)?,
+                    bode,
                     channel_tfs(model),
                 ))
             });

@@ -73,6 +73,10 @@ pub struct Request {
     /// The time window `[t0, t1]` (seconds) of the time plots: the page's
     /// zoom (not an option of `lifted identify`; absent: the whole record).
     pub window: Option<[f64; 2]>,
+    /// The level of the confidence bands on the step and Bode figures of a
+    /// model with a covariance (not an option of `lifted identify`: the
+    /// plots' `--confidence`; absent: 0.95; 0: no band).
+    pub confidence: Option<f64>,
     /// The figures the page shows, by slot (`response`, `bode`, …) with
     /// the digest an earlier answer gave them (`Identified::figure_digests`;
     /// not an option of `lifted identify`): a figure whose digest is the
