@@ -186,6 +186,27 @@ impl StreamingIdentifier {
         self.record_open = false;
     }
 
+    /// Samples pushed so far (all records).
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// Sets [`SubspaceOptions::marginal_tolerance`] for the estimate made
+    /// by [`finish`](Self::finish): a tolerance that depends on the record's
+    /// length (an integrator's, 2/N), known only once it is pushed.
+    ///
+    /// Errors: [`Error::InvalidOption`] for a negative or non-finite value.
+    pub fn set_marginal_tolerance(&mut self, tolerance: f64) -> Result<()> {
+        if !(tolerance.is_finite() && tolerance >= 0.0) {
+            return Err(Error::InvalidOption {
+                what: "marginal_tolerance",
+                reason: format!("must be finite and non-negative, got {tolerance}"),
+            });
+        }
+        self.opts.marginal_tolerance = tolerance;
+        Ok(())
+    }
+
     /// Hankel columns collected so far.
     pub fn columns(&self) -> usize {
         self.stream.columns()

@@ -65,10 +65,14 @@ pub(crate) fn tolerance_for(opts: &WorkflowOptions, longest: usize) -> (f64, Str
 /// marginal model at the rule's order is kept as the refinement keeps it;
 /// 1 under `--stable`.
 pub(crate) fn stability_bound(id: &IdentificationOptions, sets: &[Dataset]) -> f64 {
+    stability_bound_for(id, sets.iter().map(Dataset::len).max().unwrap_or(0))
+}
+
+/// [`stability_bound`] for records whose longest has `longest` samples.
+pub(crate) fn stability_bound_for(id: &IdentificationOptions, longest: usize) -> f64 {
     if id.stable {
         return 1.0;
     }
-    let longest = sets.iter().map(Dataset::len).max().unwrap_or(0);
     1.0 + tolerance_of(id, longest).0
 }
 

@@ -583,6 +583,11 @@ pub fn refine(
     let Some(cost) = refinement_cost(opts, &diagnostics) else {
         return unrefined(opts, model, diagnostics);
     };
+    // No records to refine on (a streamed record too long to load): the
+    // model as it is (its marginal poles moved inside under --stable).
+    if sets.is_empty() {
+        return unrefined(opts, model, diagnostics);
+    }
     // A model at another period than the records (a multirate fast model
     // left at its input hold period) would be fitted to the wrong steps.
     if let (Some(t), Some(d)) = (model.ts(), sets.first())

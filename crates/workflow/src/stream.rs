@@ -206,6 +206,17 @@ pub fn identify_streamed(
             if pass.multirate {
                 return Ok(None);
             }
+            // The integrator tolerance of the record (2/N by default), as
+            // the in-memory route gives the identification: a marginal
+            // estimate under --stable is moved just inside, not re-estimated
+            // by the zero-padded shift.
+            let longest = if pass.rows > 0 {
+                pass.rows
+            } else {
+                sid.samples()
+            };
+            sid.set_marginal_tolerance(crate::integrators::tolerance_for(opts, longest).0)
+                .ctx(&what)?;
             match sid.finish_subspace() {
                 Ok(first) => Ok(Some((first, pass, kept))),
                 Err(lifted_subspace::Error::IllConditionedCorrelation { .. })
@@ -291,6 +302,8 @@ pub fn identify_streamed(
                 past: fit.diagnostics.horizons.0,
                 future: fit.diagnostics.horizons.1,
                 system: system_of(id.estimator),
+                // The record's integrator tolerance, as the first pass had.
+                marginal_tolerance: crate::integrators::tolerance_for(opts, record.len()).0,
                 ..crate::subspace_options::subspace_options(
                     opts,
                     record.ts(),
@@ -343,9 +356,8 @@ pub fn identify_streamed(
     // record is loaded for it (and the refinement below then runs as
     // decided, `Refine::Pem`).
     let decided = auto_decides(opts, &d);
-    // (The first pass above ran before the record's length was known: its
-    // stabilised start, when asked for, uses no integrator tolerance; the
-    // refinement below does.)
+    // (The first pass was given the record's integrator tolerance once it
+    // had read the record; the refinement below uses it too.)
     let marginal = crate::integrators::tolerance_for(opts, n_rows).0;
     let allowed = auto_allows(opts, &model, &mut d, n_rows, marginal, |p| {
         work_of_size(&model, n_rows, p)
@@ -414,12 +426,19 @@ pub fn identify_streamed(
             add_phase(&mut d, "refine_s", t_refine.elapsed().as_secs_f64());
             (model, d)
         }
-        _ => {
+        other => {
             // No refinement: `refine` only records a stable
-            // identification's route.
+            // identification's route, and under --stable moves a marginal
+            // model's poles just inside and polishes it on the record when
+            // it is loaded (as in memory).
             let mut none = opts.clone();
             none.refinement.refine = Refine::None;
-            refine(&none, model, d, &[], &mut kalman_gain, None)?
+            // The record's integrator tolerance (the record may not be
+            // passed): `--stable` moves marginal poles just inside by it.
+            none.identification.integrator_tolerance =
+                Some(crate::integrators::tolerance_for(opts, n_rows).0);
+            let sets: Vec<Dataset> = other.map(|(_, set)| vec![set]).unwrap_or_default();
+            refine(&none, model, d, &sets, &mut kalman_gain, None)?
         }
     };
     crate::integrators::report(opts, n_rows, &model, &mut d);

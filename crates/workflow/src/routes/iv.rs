@@ -289,7 +289,7 @@ pub(crate) fn iv(
             Ok(sel) => {
                 let (fit, d) = held_out_choice(
                     &sel,
-                    &id.selection,
+                    (&id.selection, bound),
                     &format!("alpha = {}", sel.horizon),
                     |n| at_order(n).map_err(|e| e.to_string()),
                     |fit| order_rho(fit).1,

@@ -185,7 +185,7 @@ pub(crate) fn pbsid_selected(
     };
     let (mut fit, d) = held_out_choice(
         &sel,
-        policy,
+        (policy, bound),
         &format!("the whole record's past horizon {}", sel.horizon),
         |n| {
             let o = lifted_subspace::PbsidOptions {

@@ -263,6 +263,12 @@ pub(crate) fn unselected(
         if let Some((_, Some(r))) = reports.iter().find(|(h, _)| *h == s) {
             fit.diagnostics.order_selection = r.clone();
         }
+        // Strictly stable here, unlike the held-out choices: only records
+        // too short for held-out blocks get this ranking, and their
+        // integrator tolerance 2/N is large (0.04 at N = 50), so a model
+        // that grows 2.7-fold over the record (ρ = 1.02) would pass for an
+        // integrator over the stable next order (test
+        // `an_unstable_aicc_choice_gives_way_to_the_next_stable_order`).
         let rho = fit.diagnostics.spectral_radius;
         if rho < 1.0 {
             first = Some((fit, s, used));
@@ -427,7 +433,7 @@ pub(crate) fn judged(
         // A structure unstable or stabilised on the whole records is not
         // one the selection would deliver: the next of the ranking.
         if let Ok(fit) = identify(exps, &o)
-            && fit.diagnostics.spectral_radius < 1.0
+            && fit.diagnostics.spectral_radius < 1.0 + o.marginal_tolerance
             && !fit.diagnostics.stabilized
         {
             entries.push(Entry {
@@ -499,7 +505,7 @@ pub(crate) fn held_out_mean(
 /// per-block fits, the orders passed over). `horizon`: how the folds' horizon was set.
 pub(crate) fn held_out_choice<M>(
     sel: &lifted_subspace::HeldOutOrder,
-    policy: &SelectionOptions,
+    (policy, bound): (&SelectionOptions, f64),
     horizon: &str,
     identify_at: impl Fn(usize) -> std::result::Result<M, String>,
     spectral_radius: impl Fn(&M) -> f64,
@@ -544,7 +550,9 @@ pub(crate) fn held_out_choice<M>(
             "unstable_on_whole_record": tried,
             "candidates": candidates,
         });
-        if rho < 1.0 {
+        // A marginal model (integrators within the tolerance) is taken as
+        // a stable one (`crate::integrators::stability_bound`).
+        if rho < bound {
             return Ok((fit, d));
         }
         tried.push(json!({"order": c.order, "spectral_radius": rho}));
@@ -618,4 +626,58 @@ pub(crate) fn gap_fallback<M>(
         "no order selected on held-out blocks ({why}); order {order} by the singular-value gap{passed}"
     )});
     (fit, note)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lifted_subspace::{HeldOutOrder, OrderCandidate};
+
+    /// Issue 46, "Integrators kept", the held-out order choice of the IV
+    /// and PBSID routes: a model whose spectral radius is within the
+    /// integrator tolerance of 1 (the bound 1 + δ) is taken as a stable
+    /// one; with the bound 1 (`--stable`) it is passed over for the next of
+    /// the ranking, and a model beyond the bound always is.
+    #[test]
+    fn a_marginal_choice_is_kept_within_the_integrator_bound() {
+        let candidate = |order, fit| OrderCandidate {
+            order,
+            fit: Some(fit),
+            fold_fits: vec![fit],
+        };
+        let sel = HeldOutOrder {
+            horizon: 10,
+            future: 10,
+            notes: Vec::new(),
+            order: 2,
+            fit: 90.0,
+            candidates: vec![candidate(2, 90.0), candidate(3, 80.0), candidate(4, 70.0)],
+            folds: 1,
+        };
+        // Order 2's model just outside the circle (ρ = 1 + 1e-4), order 3
+        // stable, order 4 unstable.
+        let rho = |n: &usize| match n {
+            2 => 1.0 + 1e-4,
+            3 => 0.9,
+            _ => 1.5,
+        };
+        let policy = SelectionOptions::default();
+        let choose = |bound: f64| {
+            held_out_choice(&sel, (&policy, bound), "h", Ok, rho, "test").expect("a choice")
+        };
+        let (kept, d) = choose(1.0 + 2e-4);
+        assert_eq!(kept, 2, "{d}");
+        assert_eq!(d["unstable_on_whole_record"], json!([]));
+        let (kept, d) = choose(1.0);
+        assert_eq!(kept, 3, "{d}");
+        assert_eq!(d["unstable_on_whole_record"][0]["order"], 2);
+        let sel4 = HeldOutOrder {
+            candidates: vec![candidate(4, 95.0), candidate(3, 80.0)],
+            order: 4,
+            ..sel.clone()
+        };
+        let (kept, _) =
+            held_out_choice(&sel4, (&policy, 1.0 + 2e-4), "h", Ok, rho, "test").expect("a choice");
+        assert_eq!(kept, 3);
+    }
 }

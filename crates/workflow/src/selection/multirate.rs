@@ -81,9 +81,12 @@ pub(crate) fn held_out_orders(
     // each order whose start is unstable (judged by its refinement only).
     let mut models: Vec<(usize, StateSpace)> = Vec::new();
     let mut unstable: Vec<(usize, StateSpace)> = Vec::new();
+    // A marginal model (integrators within the tolerance) is scored as a
+    // stable one.
+    let bound = crate::integrators::stability_bound_for(&wf.identification, n);
     for order in 1..=max.max(1) {
         let fit = fit_at(&est, order).and_then(|m| {
-            if crate::validate::spectral_radius(&m).is_ok_and(|r| r < 1.0) {
+            if crate::validate::spectral_radius(&m).is_ok_and(|r| r < bound) {
                 let fast = at_base_period(&m, val.ts()).ok()?;
                 let mean = held_out_mean(&fast, &val, &vopts)?;
                 Some((mean, fast))

@@ -159,9 +159,15 @@ pub(crate) fn judge(
     let mut total = 0.0;
     let mut count = 0;
     let mut cut = String::new();
+    // A marginal model (integrators within the tolerance) is checked as a
+    // stable one.
+    let bound = crate::integrators::stability_bound_for(
+        &opts.identification,
+        sizes.iter().copied().max().unwrap_or(0),
+    );
     for e in entries {
         let order = e.candidate.order;
-        if e.fit.diagnostics.stabilized || e.fit.diagnostics.spectral_radius >= 1.0 {
+        if e.fit.diagnostics.stabilized || e.fit.diagnostics.spectral_radius >= bound {
             cut = format!("order {order}: its model is unstable or stabilised");
             break;
         }

@@ -142,3 +142,58 @@ fn a_start_just_outside_the_circle_is_refined_as_an_integrator() {
         assert!(f > HELD_OUT_FIT, "stable {stable}: held-out fit {f}");
     }
 }
+
+/// An open-loop integrator y(t+1) = y(t) + 0.1 u(t) (random binary u,
+/// uniform measurement noise of ±0.025), `n` samples of seed `seed`.
+fn integrator_record(n: usize, seed: u64) -> Dataset {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let (mut u, mut y) = (
+        nalgebra::DMatrix::zeros(n, 1),
+        nalgebra::DMatrix::zeros(n, 1),
+    );
+    let mut x = 0.0;
+    for t in 0..n {
+        let ut = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        y[(t, 0)] = x + 0.05 * (rng.random::<f64>() - 0.5);
+        u[(t, 0)] = ut;
+        x += 0.1 * ut;
+    }
+    Dataset::single_rate(1.0, u, y).expect("dataset")
+}
+
+/// Issue 46, "Integrators kept", the streamed route under `--stable`: its
+/// first pass is told the record's integrator tolerance (2/N, known once
+/// the record is read), so a marginal estimate just outside the circle is
+/// not re-estimated by the zero-padded shift (before: a tolerance of 0 in
+/// the first pass, `stabilized` and a model far from the in-memory one);
+/// its poles are moved just inside and polished with every iterate stable,
+/// as in memory: the two routes give the same model.
+#[test]
+fn the_streamed_route_keeps_a_marginal_estimate_under_stable_as_in_memory() {
+    // Seed 42: the order-1 estimate is just outside, ρ = 1 + 2.3e-6,
+    // within the tolerance 2/4000 = 5e-4.
+    let data = integrator_record(4000, 42);
+    let mut opts = WorkflowOptions::default();
+    opts.identification.order = Order::Fixed(1);
+    opts.identification.horizon = Some(10);
+    opts.identification.estimator = lifted_workflow::Estimator::Shift;
+    opts.identification.stable = true;
+    opts.refinement.refine = Refine::None;
+    let mem = identify(&[Record::new(data.clone())], &opts).expect("in memory");
+    let mut src = crate::common::Blocks::of(data.u(), data.y());
+    let streamed = lifted_workflow::identify_streamed(&mut src, &opts)
+        .expect("streamed")
+        .expect("a single-rate record streams");
+    for (name, fit) in [("in memory", &mem), ("streamed", &streamed)] {
+        let d = &fit.file.diagnostics;
+        assert_eq!(
+            d["stabilized"], false,
+            "{name}: the zero-padded shift ran ({d})"
+        );
+        assert_eq!(d["integrators_moved_inside"], true, "{name}: {d}");
+        let rho = d["stability"]["spectral_radius"].as_f64().expect("rho");
+        assert!(rho < 1.0 && rho > 1.0 - 2.0 / 4000.0, "{name}: ρ = {rho}");
+    }
+    same_response(&mem.file.model, &streamed.file.model);
+}
