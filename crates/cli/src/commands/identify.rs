@@ -3,7 +3,7 @@
 
 use crate::args::IdentifyArgs;
 use crate::error::{CliResult, input};
-use lifted_cli::service::identify::{require_stable, run_identification};
+use lifted_cli::service::identify::{parameters_text, require_stable, run_identification};
 use lifted_workflow::Diagnostics;
 use lifted_workflow::diagnostics::Compression;
 
@@ -24,10 +24,11 @@ pub fn identify_cmd(a: &IdentifyArgs) -> CliResult<()> {
     if a.profile {
         print_profile(&diagnostics);
     }
-    if let Some(p) = &file.polynomial {
-        println!("{}", p.present());
+    // A polynomial or process model's parameters ± σ (a state-space
+    // model's are in the file: `lifted analyze` prints them).
+    if let Some(text) = parameters_text(&file, &diagnostics, false) {
+        println!("{text}");
     }
-    print_process(&diagnostics);
     let m = &file.model;
     let method = diagnostics.method().map_or(a.method.name(), |m| m.name());
     println!(
@@ -94,35 +95,5 @@ fn print_profile(diagnostics: &Diagnostics) {
             print!(" (fallback: {f})");
         }
         println!();
-    }
-}
-
-/// Prints a process model's parameters with their standard deviations
-/// (`diagnostics.process`), one output a line.
-fn print_process(diagnostics: &Diagnostics) {
-    let Some(p) = &diagnostics.process else {
-        return;
-    };
-    for (i, out) in p.outputs.iter().enumerate() {
-        let terms: Vec<String> = out
-            .names
-            .iter()
-            .zip(&out.parameters)
-            .zip(&out.std)
-            .map(|((n, v), s)| {
-                format!(
-                    "{} = {:.6} (±{:.2e})",
-                    n,
-                    v.unwrap_or(f64::NAN),
-                    s.unwrap_or(f64::NAN)
-                )
-            })
-            .collect();
-        println!(
-            "process model {}, output {}: {}",
-            p.kind,
-            i + 1,
-            terms.join(", ")
-        );
     }
 }

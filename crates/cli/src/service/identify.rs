@@ -603,6 +603,58 @@ fn finish(
     Ok(file)
 }
 
+/// The estimated parameters with their standard deviations, as text: a
+/// polynomial model's polynomials (`PolyModel::present`), then a process
+/// model's gains, time constants and dead times per output
+/// (`diagnostics.process`), and, with `state_space`, a state-space model's
+/// entries (`SsCovariance::present`); `None` when the file has none.
+pub fn parameters_text(
+    file: &ModelFile,
+    diagnostics: &lifted_workflow::Diagnostics,
+    state_space: bool,
+) -> Option<String> {
+    let mut parts = Vec::new();
+    if let Some(p) = &file.polynomial {
+        parts.push(p.present());
+    }
+    if let Some(p) = &diagnostics.process {
+        let lines: Vec<String> = p
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(i, out)| {
+                let terms: Vec<String> = out
+                    .names
+                    .iter()
+                    .zip(&out.parameters)
+                    .zip(&out.std)
+                    .map(|((n, v), s)| {
+                        format!(
+                            "{} = {:.6} (±{:.2e})",
+                            n,
+                            v.unwrap_or(f64::NAN),
+                            s.unwrap_or(f64::NAN)
+                        )
+                    })
+                    .collect();
+                format!(
+                    "process model {}, output {}: {}",
+                    p.kind,
+                    i + 1,
+                    terms.join(", ")
+                )
+            })
+            .collect();
+        parts.push(lines.join("\n"));
+    }
+    if let (true, None, Some(c)) = (state_space, &file.polynomial, &file.covariance)
+        && let Ok(text) = c.present(&file.model)
+    {
+        parts.push(text);
+    }
+    (!parts.is_empty()).then(|| parts.join("\n"))
+}
+
 /// `--stable`: the model written must have every pole strictly inside the
 /// unit circle (the stabilised estimates guarantee it up to rounding).
 pub fn require_stable(model: &StateSpace) -> CliResult<()> {

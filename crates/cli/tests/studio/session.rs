@@ -679,3 +679,74 @@ fn session_draws_the_models_confidence_bands_at_the_pages_level() {
     assert!(err.contains("confidence"), "{err}");
     s.close();
 }
+
+/// Issue 49: the studio offers the model families of `lifted identify`
+/// (ARX with MATLAB's order vector, OE at the slider's order, a process
+/// model) and shows their parameters ± σ; a state-space model's entries
+/// come with theirs; the command line shown makes the same model.
+#[test]
+fn session_identifies_the_model_families_with_their_deviations() {
+    let dir = tmp("families");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(1500, 1);
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    let arx = s
+        .identify(&Request {
+            method: Some("arx".into()),
+            order: None,
+            orders: Some("2,2,1".into()),
+            ..request("2")
+        })
+        .unwrap();
+    let arx_json = s.model_json(None).unwrap();
+    let text = arx.parameters.as_deref().unwrap_or("");
+    assert!(text.contains("A(q)") && text.contains("±"), "{text}");
+    assert!(arx.command.contains("--orders"), "{}", arx.command);
+    assert!(arx.figures.bode.contains("±95 %"));
+    let oe = s
+        .identify(&Request {
+            method: Some("oe".into()),
+            ..request("2")
+        })
+        .unwrap();
+    assert!(
+        oe.parameters.as_deref().unwrap_or("").contains("F(q)"),
+        "{:?}",
+        oe.parameters
+    );
+    let process = s
+        .identify(&Request {
+            method: Some("process".into()),
+            order: None,
+            process: Some("p1d".into()),
+            ..request("2")
+        })
+        .unwrap();
+    let text = process.parameters.as_deref().unwrap_or("");
+    assert!(
+        text.contains("process model P1D") || text.contains("process model p1d"),
+        "{text}"
+    );
+    let ss = s.identify(&request("2")).unwrap();
+    assert!(
+        ss.parameters.as_deref().unwrap_or("").contains("A ="),
+        "{:?}",
+        ss.parameters
+    );
+    // The ARX command line makes the studio's model.
+    let path = dir.join("rec.csv");
+    std::fs::write(&path, &csv).unwrap();
+    let out = dir.join("arx.json");
+    run_command_line(&arx.command, &path, &out);
+    let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let studio: Value = serde_json::from_str(&arx_json).unwrap();
+    assert_eq!(cli["polynomial"], studio["polynomial"]);
+    let bad = s.identify(&Request {
+        method: Some("process".into()),
+        order: None,
+        process: Some("p9x".into()),
+        ..request("2")
+    });
+    assert!(bad.unwrap_err().to_string().contains("process"));
+    s.close();
+}

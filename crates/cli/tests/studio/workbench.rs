@@ -514,3 +514,74 @@ fn studio_loads_and_saves_a_plan_in_chromium() {
         c.close().await.unwrap();
     });
 }
+
+/// Issue 49: the page offers the model families (ARX with its order
+/// vector, a process model) and shows their parameters ± σ, the step and
+/// Bode figures carry the confidence band, and its level select turns it
+/// off; no script error. Screenshot `f1-arx-parameters.png`.
+#[test]
+fn studio_identifies_the_model_families_in_chromium() {
+    let Some((chromium, driver)) = browser_or_skip() else {
+        return;
+    };
+    let dir = tmp("families-browser");
+    let rec = dir.join("rec.csv");
+    std::fs::write(&rec, record(1500, 1)).unwrap();
+    let (_studio, url) = start_studio(&dir);
+    let (_driver, port) = start_driver(&driver);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let c = connect(&chromium, port, &dir.join("profile")).await;
+        c.goto(&url).await.unwrap();
+        let file = c.find(Locator::Id("file")).await.unwrap();
+        file.send_keys(&rec.display().to_string()).await.unwrap();
+        let g = wait_settled(&c).await;
+        // The state-space model's entries ± σ and its bands.
+        assert!(text(&c, "#parameters").await.contains("A ="));
+        assert!(html(&c, "fig-bode").await.contains("±95 %"));
+        let choose = |id: &'static str, value: &'static str| {
+            let c = c.clone();
+            async move {
+                js(
+                    &c,
+                    &format!(
+                        "const e = document.getElementById('{id}'); e.value = '{value}'; \
+                         e.dispatchEvent(new Event('change')); return true;"
+                    ),
+                )
+                .await;
+            }
+        };
+        choose("method", "arx").await;
+        let g = wait_identified(&c, g).await;
+        set_field(&c, "orders", "2 2 1").await;
+        wait_identified(&c, g).await;
+        let g = wait_settled(&c).await;
+        let command = text(&c, "#command").await;
+        assert!(
+            command.contains("--method arx") && command.contains("--orders"),
+            "{command}"
+        );
+        let params = text(&c, "#parameters").await;
+        assert!(params.contains("A(q)") && params.contains("±"), "{params}");
+        assert!(html(&c, "fig-bode").await.contains("±95 %"));
+        let shots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/studio-screenshots");
+        std::fs::create_dir_all(&shots).unwrap();
+        element_shot(&c, "#parameters", &shots, "f1-arx-parameters.png").await;
+        choose("confidence", "0").await;
+        let g = wait_identified(&c, g).await;
+        assert!(!html(&c, "fig-bode").await.contains("±95 %"));
+        choose("method", "process").await;
+        wait_identified(&c, g).await;
+        wait_settled(&c).await;
+        let params = text(&c, "#parameters").await;
+        assert!(params.contains("process model"), "{params}");
+        assert!(text(&c, "#command").await.contains("--process p1d"));
+        assert_eq!(status(&c, "jserrors").await, 0);
+        assert_eq!(page_error(&c).await, "");
+        c.close().await.unwrap();
+    });
+}

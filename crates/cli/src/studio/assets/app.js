@@ -187,6 +187,20 @@ function request(withOrder) {
   if (state.refineOnce) r.refine = "pem";
   // The figures shown: the server leaves out those that did not change.
   r.have = state.digests;
+  if (POLYNOMIAL.includes(method) || method === "process") {
+    // The model families: MATLAB's order vector (else the slider's order
+    // n: na = nb = n for ARX), or the process structure.
+    const orders = $("orders").value.trim();
+    if (POLYNOMIAL.includes(method) && orders) {
+      r.orders = orders;
+      delete r.order;
+    }
+    if (method === "process") {
+      r.process = $("process").value;
+      delete r.order;
+    }
+    return r;
+  }
   if ($("stable").checked) r.stable = true;
   if ($("method").value !== "qmarkov" && $("feedthrough").value !== "") r.feedthrough = $("feedthrough").value === "true";
   if (method === "qmarkov") {
@@ -220,10 +234,16 @@ function request(withOrder) {
   return r;
 }
 
+// The polynomial model families (`lifted identify --method arx …`).
+const POLYNOMIAL = ["arx", "armax", "oe", "bj", "fir"];
+
 function methodFields() {
   const m = $("method").value;
+  const family = POLYNOMIAL.includes(m) || m === "process";
   document.querySelectorAll(".qm-only").forEach((e) => e.classList.toggle("hidden", m !== "qmarkov"));
-  document.querySelectorAll(".sub-only").forEach((e) => e.classList.toggle("hidden", m === "qmarkov"));
+  document.querySelectorAll(".sub-only").forEach((e) => e.classList.toggle("hidden", m === "qmarkov" || family));
+  document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
+  document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();
 }
@@ -288,9 +308,11 @@ function clearIdentified() {
   $("gain").textContent = "";
   $("feedback").textContent = "";
   $("warnings").replaceChildren();
-  for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs"]) {
+  for (const id of ["fig-criterion", "fig-order", "fits", "poles", "fig-response", "fig-error", "fig-residuals", "fig-step", "fig-bode", "fig-pz", "matrices", "tfs", "parameters"]) {
     $(id).replaceChildren();
   }
+  $("parameters").hidden = true;
+  $("parameters-note").hidden = true;
   $("stability").hidden = true;
   $("stability").textContent = "";
   $("command").textContent = "";
@@ -434,6 +456,10 @@ function renderModel(r) {
   const rows = r.transfer_functions.map((g) => [g.output + " ← " + g.input, g.num, g.den]);
   if (r.transfer_note) rows.push([r.transfer_note, "", ""]);
   fillTable($("tfs"), ["channel", "numerator", "denominator"], rows);
+  // The parameters ± σ (text, as `lifted analyze` prints them).
+  $("parameters").textContent = r.parameters || "";
+  $("parameters").hidden = !r.parameters;
+  $("parameters-note").hidden = !r.parameters;
 }
 
 // Puts an identification's answer on the page. The slider is never moved
@@ -922,7 +948,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });

@@ -71,6 +71,12 @@ impl Session {
         if let Some(o) = &r.order {
             opt("order", o.clone());
         }
+        if let Some(o) = &r.orders {
+            opt("orders", o.clone());
+        }
+        if let Some(p) = &r.process {
+            opt("process", p.clone());
+        }
         let num = |v: Option<usize>| v.map(|x| x.to_string());
         for (flag, v) in [
             ("max-order", num(r.max_order)),
@@ -149,6 +155,10 @@ impl Session {
         }
         if let Some(o) = &r.order {
             a.order = o.clone();
+        }
+        a.orders = r.orders.clone();
+        if let Some(p) = &r.process {
+            a.process = Some(named("process", p)?);
         }
         if let Some(m) = r.max_order {
             a.max_order = m;
@@ -583,6 +593,7 @@ impl Session {
             })
             .or_else(|| r.estimator.clone());
         let out = Identified {
+            parameters: crate::service::identify::parameters_text(&file, &diagnostics, true),
             matrices: Matrices {
                 a: rows_of(model.a()),
                 b: rows_of(model.b()),

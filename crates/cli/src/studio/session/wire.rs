@@ -26,6 +26,12 @@ pub struct Request {
     pub method: Option<String>,
     /// Model order, or `auto`.
     pub order: Option<String>,
+    /// Polynomial models (`arx`, `fir`, `oe`, `armax`, `bj`): MATLAB's
+    /// order vector, as `lifted identify --orders` takes it ("2 2 1").
+    pub orders: Option<String>,
+    /// Process models (`process`): the structure (`p1d`, `p2d`, `p1di`,
+    /// `p2dz`, `p2du`), as `--process`.
+    pub process: Option<String>,
     /// Largest order of `auto`.
     pub max_order: Option<usize>,
     /// Horizon (subspace i, IV α).
@@ -365,6 +371,12 @@ pub struct Identified {
     pub estimator: Option<String>,
     /// The model's matrices.
     pub matrices: Matrices,
+    /// The estimated parameters with their standard deviations (a
+    /// polynomial model's polynomials, a process model's gains, time
+    /// constants and dead times, a state-space model's entries), as
+    /// `lifted identify` and `lifted analyze` print them; `None` without a
+    /// covariance.
+    pub parameters: Option<String>,
     /// The transfer function of each channel (empty, with a note in
     /// `transfer_note`, when the conversion fails).
     pub transfer_functions: Vec<ChannelTf>,
