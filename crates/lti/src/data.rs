@@ -691,7 +691,21 @@ impl Dataset {
     /// fit has fewer than 2 points on some channel. O(N(n_u + n_y)).
     pub fn detrend(&self, kind: Detrend) -> DataResult<Self> {
         let mut out = self.clone();
+        let n = self.len();
+        // A channel sampled at every instant (hold 1, period 1) less its
+        // mean: the same sum and subtraction as below, on the column slice
+        // (no index and value copies; the loop vectorises).
+        let full_rate_mean = |col: &mut [f64]| {
+            let mean = col.iter().sum::<f64>() / col.len() as f64;
+            for v in col.iter_mut() {
+                *v -= mean;
+            }
+        };
         for i in 0..self.n_inputs() {
+            if kind == Detrend::Constant && self.inputs[i].hold == 1 && n > 0 {
+                full_rate_mean(&mut out.u.as_mut_slice()[i * n..(i + 1) * n]);
+                continue;
+            }
             let (idx, vals) = self.input_samples(i)?;
             let (a, b) = trend(kind, &idx, &vals)?;
             let mut cur = 0.0;
@@ -703,6 +717,10 @@ impl Dataset {
             }
         }
         for i in 0..self.n_outputs() {
+            if kind == Detrend::Constant && self.outputs[i].period == 1 && n > 0 {
+                full_rate_mean(&mut out.y.as_mut_slice()[i * n..(i + 1) * n]);
+                continue;
+            }
             let (idx, vals) = self.output_samples(i)?;
             let (a, b) = trend(kind, &idx, &vals)?;
             for &k in &idx {
