@@ -27,8 +27,9 @@
 //! (their regressors are past outputs at every sample); OE takes them: its
 //! predictor is the simulation, scored where the outputs were measured.
 //! OE's structure is `orders` = `[nb nf nk]` or a fixed order n (nb = nf =
-//! n, nk per pair from the ARX delay estimate on single-rate records, 1 on
-//! multirate ones).
+//! n, nk per pair from the ARX delay estimate on single-rate records, on
+//! multirate ones from the FIR regression of the measured samples,
+//! `lifted_pem::estimate_delays_measured`).
 //!
 //! **Order scan of OE, ARMAX and BJ.** Without `orders` and with the order
 //! automatic, every fixed order n = 1..=max_order (OE [n n nk], ARMAX
@@ -392,7 +393,16 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
             },
         )
         .ctx("OE delay estimate")?,
-        None => vec![vec![first_delay; nu]; ny],
+        // A multirate record: the delays from its measured samples (the
+        // ARX-based estimate needs every output sample).
+        None => lifted_pem::estimate_delays_measured(
+            &records,
+            &lifted_pem::MeasuredDelayOptions {
+                min_delay: first_delay,
+                ..Default::default()
+            },
+        )
+        .ctx("OE delay estimate from the measured samples")?,
     };
     let orders = PolyOrders {
         na: vec![vec![0; ny]; ny],

@@ -218,12 +218,19 @@ fn oe_identifies_a_fast_model_from_an_analyser_every_five_samples() {
     assert_eq!(id.file.diagnostics["measured"][0], 1200);
     assert_eq!(id.file.kind, "polynomial");
     // OE without orders or a fixed order scans the orders on the measured
-    // samples (issue 49): the delay is not estimated on a multirate record
-    // (nk = 1), so the plant's delay of 2 takes one more B coefficient,
-    // order 3; the held-out fit is the noise's limit.
+    // samples (issue 49), the delay estimated from them
+    // (`lifted_pem::estimate_delays_measured`): the plant's order 2 and
+    // delay 2 (with nk = 1, as before, the delay took one more B
+    // coefficient: order 3); the held-out fit is the noise's limit.
     let id = identify(&[Record::new(data)], &options(Method::Oe, &[])).unwrap();
     let scan = &id.file.diagnostics["structure_scan"];
-    assert_eq!(scan["order"], 3, "{scan}");
+    assert_eq!(scan["order"], 2, "{scan}");
+    assert_eq!(
+        id.file.diagnostics["orders"]["nk"],
+        serde_json::json!([[2]]),
+        "{}",
+        id.file.diagnostics
+    );
     assert!(scan["held_out_fit"].as_f64().unwrap() > 95.0, "{scan}");
 }
 
