@@ -14,7 +14,10 @@ as the median over the seeds. Tools:
   theta is nk - 1.
 
     python benches/peers/poly_peers.py [--sizes 500,2000,8000] [--seeds 10]
-        [--json out.json]
+        [--json out.json] [--no-sippy]
+
+`--no-sippy` runs lifted alone (the 1e4 -> 1e6 growth: SIPPY takes minutes
+per fit there).
 """
 
 import argparse
@@ -109,8 +112,11 @@ def main():
     ap.add_argument("--sizes", default="500,2000,8000")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--json")
+    ap.add_argument("--no-sippy", action="store_true")
     args = ap.parse_args()
     modes = {"armax": ["ILLS", "RLLS", "OPT"], "oe": ["OPT", "RLLS"], "bj": ["OPT"]}
+    if args.no_sippy:
+        modes = {k: [] for k in modes}
     rows = []
     for k in ("armax", "oe", "bj"):
         KIND = k
