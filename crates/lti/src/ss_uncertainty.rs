@@ -21,6 +21,9 @@ use crate::error::{Error, Result};
 use crate::polymodel::FreqStd;
 use crate::ss::StateSpace;
 
+/// One frequency response (an n_y × n_u matrix per frequency).
+type Responses = Vec<DMatrix<Complex64>>;
+
 /// The covariance of a state-space model's entries θ = [vec A; vec B;
 /// vec C; vec D] (module docs), for a model of `order` states, `inputs`
 /// inputs and `outputs` outputs. JSON (serde): `{"order", "inputs",
@@ -264,9 +267,25 @@ impl SsCovariance {
     /// dimensions; those of [`StateSpace::freqresp`].
     pub fn freqresp_std(&self, model: &StateSpace, w: &[f64]) -> Result<FreqStd> {
         let g0 = model.freqresp(w)?;
+        let (idx, grads) = self.freq_gradients(model, w)?;
+        Ok(crate::polymodel::uncertainty::freq_std_of(
+            &g0,
+            &grads,
+            (self.outputs, self.inputs),
+            |v| self.spread(&idx, v),
+        ))
+    }
+
+    /// The parameters with a variance and the frequency response's
+    /// gradient along each (central differences), per frequency of `w`.
+    fn freq_gradients(
+        &self,
+        model: &StateSpace,
+        w: &[f64],
+    ) -> Result<(Vec<usize>, Vec<Responses>)> {
         let pert = self.perturbations(model)?;
         let idx: Vec<usize> = pert.iter().map(|p| p.0).collect();
-        let grads: Vec<Vec<DMatrix<Complex64>>> = pert
+        let grads = pert
             .iter()
             .map(|(_, h, up, down)| {
                 let (gu, gd) = (up.freqresp(w)?, down.freqresp(w)?);
@@ -277,35 +296,7 @@ impl SsCovariance {
                     .collect())
             })
             .collect::<Result<_>>()?;
-        let (ny, nu) = (self.outputs, self.inputs);
-        let mut magnitude = Vec::with_capacity(w.len());
-        let mut phase = Vec::with_capacity(w.len());
-        for (f, g) in g0.iter().enumerate() {
-            let (mut sm, mut sp) = (DMatrix::zeros(ny, nu), DMatrix::zeros(ny, nu));
-            for i in 0..ny {
-                for j in 0..nu {
-                    let z = g[(i, j)];
-                    let a2 = z.norm_sqr();
-                    if a2 == 0.0 {
-                        continue;
-                    }
-                    let a = a2.sqrt();
-                    let dm: Vec<f64> = grads
-                        .iter()
-                        .map(|gk| (z.re * gk[f][(i, j)].re + z.im * gk[f][(i, j)].im) / a)
-                        .collect();
-                    let dp: Vec<f64> = grads
-                        .iter()
-                        .map(|gk| (z.re * gk[f][(i, j)].im - z.im * gk[f][(i, j)].re) / a2)
-                        .collect();
-                    sm[(i, j)] = self.spread(&idx, &dm);
-                    sp[(i, j)] = self.spread(&idx, &dp);
-                }
-            }
-            magnitude.push(sm);
-            phase.push(sp);
-        }
-        Ok(FreqStd { magnitude, phase })
+        Ok((idx, grads))
     }
 
     /// The 2 × 2 covariance of (Re G_ij, Im G_ij) at each frequency of
@@ -319,19 +310,7 @@ impl SsCovariance {
         model: &StateSpace,
         w: &[f64],
     ) -> Result<Vec<DMatrix<[[f64; 2]; 2]>>> {
-        let pert = self.perturbations(model)?;
-        let idx: Vec<usize> = pert.iter().map(|p| p.0).collect();
-        let grads: Vec<Vec<DMatrix<Complex64>>> = pert
-            .iter()
-            .map(|(_, h, up, down)| {
-                let (gu, gd) = (up.freqresp(w)?, down.freqresp(w)?);
-                Ok(gu
-                    .iter()
-                    .zip(&gd)
-                    .map(|(a, b)| (a - b) / Complex64::new(2.0 * h, 0.0))
-                    .collect())
-            })
-            .collect::<Result<_>>()?;
+        let (idx, grads) = self.freq_gradients(model, w)?;
         let (ny, nu) = (self.outputs, self.inputs);
         Ok((0..w.len())
             .map(|f| {

@@ -169,7 +169,7 @@ mod convert;
 mod predict;
 mod repr;
 mod simulate;
-mod uncertainty;
+pub(crate) mod uncertainty;
 
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};

@@ -26,6 +26,48 @@ pub struct FreqStd {
     pub phase: Vec<DMatrix<f64>>,
 }
 
+/// The standard deviations of |G| and arg G from the frequency response
+/// `g0` and its gradients `grads` (one set of responses per parameter),
+/// `spread(v)` = √(vᵀ P v) over the parameters: the gradients of |G| and
+/// arg G along θ are (R ∂R + I ∂I)/|G| and (R ∂I − I ∂R)/|G|². Shared by
+/// the polynomial and the state-space models' uncertainty.
+pub(crate) fn freq_std_of(
+    g0: &[DMatrix<num_complex::Complex64>],
+    grads: &[Vec<DMatrix<num_complex::Complex64>>],
+    (ny, nu): (usize, usize),
+    spread: impl Fn(&[f64]) -> f64,
+) -> FreqStd {
+    let mut magnitude = Vec::with_capacity(g0.len());
+    let mut phase = Vec::with_capacity(g0.len());
+    for (f, g) in g0.iter().enumerate() {
+        let mut sm = DMatrix::zeros(ny, nu);
+        let mut sp = DMatrix::zeros(ny, nu);
+        for i in 0..ny {
+            for j in 0..nu {
+                let z = g[(i, j)];
+                let a2 = z.norm_sqr();
+                if a2 == 0.0 {
+                    continue;
+                }
+                let a = a2.sqrt();
+                let dm: Vec<f64> = grads
+                    .iter()
+                    .map(|gk| (z.re * gk[f][(i, j)].re + z.im * gk[f][(i, j)].im) / a)
+                    .collect();
+                let dp: Vec<f64> = grads
+                    .iter()
+                    .map(|gk| (z.re * gk[f][(i, j)].im - z.im * gk[f][(i, j)].re) / a2)
+                    .collect();
+                sm[(i, j)] = spread(&dm);
+                sp[(i, j)] = spread(&dp);
+            }
+        }
+        magnitude.push(sm);
+        phase.push(sp);
+    }
+    FreqStd { magnitude, phase }
+}
+
 /// The quantile of Student's t distribution with `dof` degrees of
 /// freedom at p in (0, 1): exact for 1 and 2 degrees of freedom
 /// (tan(π(p − ½)) and (2p − 1)/√(2p(1 − p))), else the Cornish–Fisher
@@ -143,46 +185,16 @@ impl PolyModel {
                     .collect(),
             );
         }
-        let mut magnitude = Vec::with_capacity(w.len());
-        let mut phase = Vec::with_capacity(w.len());
-        for (f, g) in g0.iter().enumerate() {
-            let mut sm = DMatrix::zeros(ny, nu);
-            let mut sp = DMatrix::zeros(ny, nu);
-            for i in 0..ny {
-                for j in 0..nu {
-                    let z = g[(i, j)];
-                    let a2 = z.norm_sqr();
-                    if a2 == 0.0 {
-                        continue;
-                    }
-                    let a = a2.sqrt();
-                    // Gradients of |G| and arg G along θ: (R ∂R + I ∂I)/|G|,
-                    // (R ∂I − I ∂R)/|G|².
-                    let dm: Vec<f64> = grads
-                        .iter()
-                        .map(|gk| (z.re * gk[f][(i, j)].re + z.im * gk[f][(i, j)].im) / a)
-                        .collect();
-                    let dp: Vec<f64> = grads
-                        .iter()
-                        .map(|gk| (z.re * gk[f][(i, j)].im - z.im * gk[f][(i, j)].re) / a2)
-                        .collect();
-                    let quad = |v: &[f64]| {
-                        let mut s = 0.0;
-                        for r in 0..p {
-                            for c in 0..p {
-                                s += v[r] * cov[(r, c)] * v[c];
-                            }
-                        }
-                        s.max(0.0).sqrt()
-                    };
-                    sm[(i, j)] = quad(&dm);
-                    sp[(i, j)] = quad(&dp);
+        let quad = |v: &[f64]| {
+            let mut s = 0.0;
+            for r in 0..p {
+                for c in 0..p {
+                    s += v[r] * cov[(r, c)] * v[c];
                 }
             }
-            magnitude.push(sm);
-            phase.push(sp);
-        }
-        Ok(Some(FreqStd { magnitude, phase }))
+            s.max(0.0).sqrt()
+        };
+        Ok(Some(freq_std_of(&g0, &grads, (ny, nu), quad)))
     }
 
     /// The model with parameter `k` of `theta` moved up and down by the

@@ -26,8 +26,8 @@ use lifted_lti::{SsCovariance, StateSpace};
 use nalgebra::DMatrix;
 
 use super::jacobian::jacobian_r;
-use super::point::{Layout, Point, admissible, residuals};
-use super::{PemCost, check_records};
+use super::point::{Point, admissible, residuals};
+use super::{PemCost, check_records, masked_d, masked_layout, start_gain};
 use crate::error::{Error, Result};
 use lifted_subspace::{Feedthrough, Record, estimate_x0};
 
@@ -125,19 +125,7 @@ pub fn state_space_covariance(
     let measured = check_records(model, records)?;
     let (n, nu, ny) = (model.order(), model.n_inputs(), model.n_outputs());
     let gain = opts.cost == PemCost::Prediction;
-    let mask = opts.feedthrough.mask(ny, nu)?;
-    let d_free: Vec<(usize, usize)> = (0..ny)
-        .flat_map(|o| (0..nu).map(move |j| (o, j)))
-        .filter(|&(o, j)| mask[(o, j)])
-        .collect();
-    let lay = Layout {
-        n,
-        nu,
-        ny,
-        records: records.len(),
-        gain,
-        d_free,
-    };
+    let (mask, lay) = masked_layout(model, &opts.feedthrough, records.len(), gain)?;
     let p = lay.len() - n * n;
     if measured <= p {
         return Err(Error::TooFewSamples {
@@ -156,26 +144,8 @@ pub fn state_space_covariance(
             limit: opts.max_work,
         });
     }
-    let k = match (gain, kalman_gain) {
-        (true, Some(k)) => {
-            if k.shape() != (n, ny) {
-                return Err(Error::DimensionMismatch {
-                    what: "Kalman gain",
-                    expected: format!("{n}x{ny}"),
-                    got: format!("{}x{}", k.nrows(), k.ncols()),
-                });
-            }
-            crate::checks::check_finite("Kalman gain", k)?;
-            k.clone()
-        }
-        _ => DMatrix::zeros(n, ny),
-    };
-    let mut d = model.d().clone();
-    for (o, j) in (0..ny).flat_map(|o| (0..nu).map(move |j| (o, j))) {
-        if !mask[(o, j)] {
-            d[(o, j)] = 0.0;
-        }
-    }
+    let k = start_gain(kalman_gain, gain, n, ny)?;
+    let d = masked_d(model.d(), &mask);
     let mut point = Point {
         a: model.a().clone(),
         b: model.b().clone(),

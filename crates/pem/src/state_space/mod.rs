@@ -458,6 +458,60 @@ fn check_records(model: &StateSpace, records: &[Record<'_>]) -> Result<usize> {
     Ok(measured)
 }
 
+/// The free-D mask of `feedthrough` and the parameter layout of `model`
+/// with `records` initial states (K free with `gain`).
+fn masked_layout(
+    model: &StateSpace,
+    feedthrough: &Feedthrough,
+    records: usize,
+    gain: bool,
+) -> Result<(DMatrix<bool>, Layout)> {
+    let (n, nu, ny) = (model.order(), model.n_inputs(), model.n_outputs());
+    let mask = feedthrough.mask(ny, nu)?;
+    let d_free: Vec<(usize, usize)> = (0..ny)
+        .flat_map(|o| (0..nu).map(move |j| (o, j)))
+        .filter(|&(o, j)| mask[(o, j)])
+        .collect();
+    let lay = Layout {
+        n,
+        nu,
+        ny,
+        records,
+        gain,
+        d_free,
+    };
+    Ok((mask, lay))
+}
+
+/// The Kalman gain the prediction errors start from: the one given
+/// (checked: n × n_y, finite) with `gain`, else zero.
+fn start_gain(
+    kalman_gain: Option<&DMatrix<f64>>,
+    gain: bool,
+    n: usize,
+    ny: usize,
+) -> Result<DMatrix<f64>> {
+    match kalman_gain {
+        Some(k) if gain => {
+            if k.shape() != (n, ny) {
+                return Err(Error::DimensionMismatch {
+                    what: "Kalman gain",
+                    expected: format!("{n}x{ny}"),
+                    got: format!("{}x{}", k.nrows(), k.ncols()),
+                });
+            }
+            crate::checks::check_finite("Kalman gain", k)?;
+            Ok(k.clone())
+        }
+        _ => Ok(DMatrix::zeros(n, ny)),
+    }
+}
+
+/// `d` with the entries `mask` does not free set to zero.
+fn masked_d(d: &DMatrix<f64>, mask: &DMatrix<bool>) -> DMatrix<f64> {
+    d.zip_map(mask, |v, free| if free { v } else { 0.0 })
+}
+
 /// Refines `initial` (with `kalman_gain` as the start of K for the
 /// prediction cost; zero when `None`) on the estimation `records` by
 /// Levenberg–Marquardt in data-driven local coordinates (module docs).
@@ -543,19 +597,7 @@ pub fn refine_pem(
     let (records, validation) = (records.as_slice(), validation.as_slice());
     let gain = opts.cost == PemCost::Prediction;
     let method = effective_method(opts, records);
-    let mask = opts.feedthrough.mask(ny, nu)?;
-    let d_free: Vec<(usize, usize)> = (0..ny)
-        .flat_map(|o| (0..nu).map(move |j| (o, j)))
-        .filter(|&(o, j)| mask[(o, j)])
-        .collect();
-    let lay = Layout {
-        n,
-        nu,
-        ny,
-        records: records.len(),
-        gain,
-        d_free,
-    };
+    let (mask, lay) = masked_layout(initial, &opts.feedthrough, records.len(), gain)?;
     let free = lay.len() - n * n;
     if measured <= free {
         return Err(Error::TooFewSamples {
@@ -607,28 +649,8 @@ pub fn refine_pem(
             limit: opts.max_work,
         });
     }
-    let k0 = match kalman_gain {
-        Some(k) if gain => {
-            if k.shape() != (n, ny) {
-                return Err(Error::DimensionMismatch {
-                    what: "Kalman gain",
-                    expected: format!("{n}x{ny}"),
-                    got: format!("{}x{}", k.nrows(), k.ncols()),
-                });
-            }
-            crate::checks::check_finite("Kalman gain", k)?;
-            k.clone()
-        }
-        _ => DMatrix::zeros(n, ny),
-    };
-    let mut d0 = initial.d().clone();
-    for o in 0..ny {
-        for j in 0..nu {
-            if !mask[(o, j)] {
-                d0[(o, j)] = 0.0;
-            }
-        }
-    }
+    let k0 = start_gain(kalman_gain, gain, n, ny)?;
+    let mut d0 = masked_d(initial.d(), &mask);
     let (mut c0, mut k0) = (initial.c().clone(), k0);
     for (o, s) in out_scale.iter().enumerate() {
         c0.row_mut(o).iter_mut().for_each(|v| *v /= s);
