@@ -598,6 +598,12 @@ pub struct IdentifyArgs {
     /// Process models (--method process): the structure.
     #[arg(long, value_enum)]
     pub process: Option<ProcessArg>,
+    /// Process models: a parameter held at a value instead of estimated, as NAME=VALUE in the
+    /// data's units (repeatable): a parameter of the structure for every input (Td=7.3: a dead
+    /// time known from the plant; K, Tp1, Tp2, Tz, Tw, Zeta), one input's (Td(u1)=7.3), or
+    /// offset. A held parameter keeps its value and has no variance.
+    #[arg(long, value_name = "NAME=VALUE")]
+    pub process_fix: Vec<String>,
     /// Regularised FIR (--method impulse): the prior's kernel (default tc).
     #[arg(long, value_enum)]
     pub kernel: Option<KernelArg>,

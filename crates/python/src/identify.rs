@@ -79,7 +79,7 @@ pub(crate) fn horizon_of(
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
     refine_check="tests:0.95", selection=None, gain_covariance_start=true, budgets=None,
-    plan=None, covariance=true))]
+    plan=None, covariance=true, process_fixed=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -115,6 +115,7 @@ pub(crate) fn identify<'py>(
     budgets: Option<Bound<'py, PyDict>>,
     plan: Option<&str>,
     covariance: bool,
+    process_fixed: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -164,6 +165,26 @@ pub(crate) fn identify<'py>(
     id.gain_check.covariance_start = gain_covariance_start;
     id.integrator_tolerance = integrator_tolerance;
     opts.validation.covariance = covariance;
+    if let Some(d) = process_fixed {
+        for (k, v) in d.iter() {
+            let bad = |reason: String| {
+                err(lifted_workflow::Error::InvalidOption {
+                    option: "process_fixed",
+                    reason,
+                })
+            };
+            let name: String = k
+                .extract()
+                .map_err(|_| bad("the keys are parameter names ('Td', 'K(u1)')".into()))?;
+            if v.is_instance_of::<pyo3::types::PyBool>() {
+                return Err(bad(format!("{name}: a number, not a bool")));
+            }
+            let value: f64 = v
+                .extract()
+                .map_err(|_| bad(format!("{name}: a number, got {v}")))?;
+            opts.identification.process_fixed.push((name, value));
+        }
+    }
     refinement(&mut opts, refine, refine_iterations, refine_max_work)?;
     opts.refinement.check = refine_check.parse::<lifted_pem::CheckRule>().map_err(|e| {
         err(lifted_workflow::Error::InvalidOption {

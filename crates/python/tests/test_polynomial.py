@@ -376,6 +376,16 @@ def test_procest_first_order_plus_dead_time() -> None:
         assert abs(got - want) < 0.02 * want, out
     with pytest.raises(lifted.ArgumentError):
         lifted.identify(u, y, "arx", process="p1d")
+    # A dead time known from the plant, held: 7.3 exactly, no deviation.
+    held = lifted.procest(u + 5.0, y + 40.0 + 0.01 * rng.standard_normal(n), "p1d",
+                          fixed={"Td": 7.3})
+    out = held.diagnostics["process"]["outputs"][0]
+    assert out["parameters"][2] == pytest.approx(7.3, abs=1e-12) and out["std"][2] == 0.0
+    assert abs(out["parameters"][1] - 20.0) < 0.02 * 20.0, out
+    with pytest.raises(lifted.LiftedError, match="Tq"):
+        lifted.procest(u, y, "p1d", fixed={"Tq": 1.0})
+    with pytest.raises(lifted.LiftedError, match="process_fixed"):
+        lifted.identify(u, y, "n4sid", process_fixed={"Td": 1.0})
 
 
 def test_impulseest_regularised_fir() -> None:

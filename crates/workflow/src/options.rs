@@ -506,6 +506,13 @@ pub struct IdentificationOptions {
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
     /// `None`: P1D). Other methods: not used (an error when given).
     pub process: Option<lifted_pem::ProcessKind>,
+    /// Process models: parameters held at a value instead of estimated
+    /// (MATLAB's `Structure.Td.Free = false`), in the data's units: a
+    /// parameter name of the structure for every input ("Td", "K", "Tp1",
+    /// …), or one input's ("Td(u1)", the record's input name), or
+    /// "offset"; `--process-fix Td=7.3`. Default none. Other methods: not
+    /// used (an error when given).
+    pub process_fixed: Vec<(String, f64)>,
     /// q-Markov: number q of Markov/covariance parameters matched (default
     /// 60, capped below n_r m).
     pub q: Option<usize>,
@@ -641,6 +648,7 @@ impl Default for IdentificationOptions {
             threads: None,
             orders: Vec::new(),
             process: None,
+            process_fixed: Vec::new(),
             kernel: None,
             q: None,
             prbs_order: None,
@@ -883,6 +891,12 @@ impl WorkflowOptions {
         if id.process.is_some() && id.method != Method::Process {
             return Err(Error::option(
                 "process",
+                "only used with the process method",
+            ));
+        }
+        if !id.process_fixed.is_empty() && id.method != Method::Process {
+            return Err(Error::option(
+                "process_fixed",
                 "only used with the process method",
             ));
         }

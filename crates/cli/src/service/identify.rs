@@ -147,6 +147,16 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         ProcessArg::P2dz => lifted_pem::ProcessKind::P2DZ,
         ProcessArg::P2du => lifted_pem::ProcessKind::P2DU,
     });
+    for item in &a.process_fix {
+        let bad = || {
+            input(format!(
+                "--process-fix {item}: NAME=VALUE, a parameter of the structure and its value in the data's units (Td=7.3, K(u1)=2)"
+            ))
+        };
+        let (name, value) = item.split_once('=').ok_or_else(bad)?;
+        let value: f64 = value.trim().parse().map_err(|_| bad())?;
+        id.process_fixed.push((name.trim().to_string(), value));
+    }
     if let Some(text) = &a.orders {
         id.orders = parse_orders(text)?;
     }

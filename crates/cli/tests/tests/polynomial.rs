@@ -360,6 +360,50 @@ fn a_step_test_gives_gain_time_constant_and_dead_time() {
     for (got, want) in values.iter().zip([2.0, 20.0, 7.3]) {
         assert!((got - want).abs() < 0.02 * want, "{values:?}");
     }
+    // A dead time known from the plant, held (in seconds): it stays 7.3
+    // with no deviation; the gain is held in the data's units (the
+    // channels are scaled inside); an unknown parameter is named.
+    let held = p(&d, "held.json");
+    let base = [
+        "identify",
+        "--method",
+        "process",
+        "--process",
+        "p1d",
+        "--data",
+        &data,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &held,
+    ];
+    let mut with = base.to_vec();
+    with.extend(["--process-fix", "Td=7.3", "--process-fix", "K(u1)=2"]);
+    ok(&with);
+    let f = ModelFile::read(&held).unwrap();
+    let out0 = &f.diagnostics["process"]["outputs"][0];
+    let values: Vec<f64> = out0["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        (values[0] - 2.0).abs() < 1e-12 && (values[2] - 7.3).abs() < 1e-12,
+        "{values:?}"
+    );
+    assert_eq!(out0["std"][0], 0.0);
+    assert_eq!(out0["std"][2], 0.0);
+    assert!((values[1] - 20.0).abs() < 0.02 * 20.0, "{values:?}");
+    let mut bad = base.to_vec();
+    bad.extend(["--process-fix", "Tq=1"]);
+    let msg = fails(&bad, 2);
+    assert!(msg.contains("Tq") && msg.contains("Tp1"), "{msg}");
+    let mut bad = base.to_vec();
+    bad.extend(["--process-fix", "Td"]);
+    assert!(fails(&bad, 2).contains("--process-fix"));
     fails(
         &[
             "identify",

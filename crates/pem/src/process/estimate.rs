@@ -42,6 +42,14 @@ pub struct ProcessOptions {
     /// input only; default 3); the two-point start of a step test is run
     /// besides. The lowest cost is kept.
     pub starts: usize,
+    /// Parameters held at a value instead of estimated (MATLAB's
+    /// `Structure.Td.Free = false`): `(name, value)` with a name of
+    /// [`ProcessKind::parameter_names`] for every input ("Td": a dead time
+    /// known from the plant, "K"), or a name of [`ProcessFit::names`] for
+    /// one input ("Td(u0)"), or "offset". A held parameter keeps its
+    /// value through the starts and iterations and has no variance.
+    /// Default none.
+    pub fixed: Vec<(String, f64)>,
 }
 
 impl Default for ProcessOptions {
@@ -52,6 +60,7 @@ impl Default for ProcessOptions {
             offset: false,
             max_delay: None,
             starts: 3,
+            fixed: Vec::new(),
         }
     }
 }
@@ -164,6 +173,9 @@ struct Problem<'a> {
     gain_scale: f64,
     /// Longest record, seconds.
     duration: f64,
+    /// Per parameter, its held value in the internal coordinates φ
+    /// ([`ProcessOptions::fixed`]); `None`: estimated.
+    fixed: Vec<Option<f64>>,
 }
 
 /// Whether parameter `i` of a block of `kind` is carried as its logarithm.
@@ -216,6 +228,22 @@ impl Problem<'_> {
     /// Projects φ onto the box: θ ∈ [0, θ_max], time constants in
     /// [T/1000, 100 × record], ζ ∈ [0.01, 100].
     fn clamp(&self, phi: &mut [f64]) {
+        self.box_clamp(phi);
+        for (v, f) in phi.iter_mut().zip(&self.fixed) {
+            if let Some(f) = f {
+                *v = *f;
+            }
+        }
+    }
+
+    /// The estimated parameters' indices into φ.
+    fn free(&self) -> Vec<usize> {
+        (0..self.n_phi())
+            .filter(|&i| self.fixed.get(i).is_none_or(Option::is_none))
+            .collect()
+    }
+
+    fn box_clamp(&self, phi: &mut [f64]) {
         let b = self.block();
         for j in 0..self.nu {
             let blk = &mut phi[j * b..(j + 1) * b];
@@ -290,10 +318,11 @@ impl Problem<'_> {
     /// Cost and the R factor of [∂ŷ/∂φ | ε] (central differences, one-sided
     /// at a bound) over the measured samples.
     fn jacobian(&self, phi: &[f64]) -> Result<(f64, DMatrix<f64>)> {
-        let d = self.n_phi();
+        let free = self.free();
+        let d = free.len();
         let base = self.simulate(phi)?;
         let mut cols: Vec<Vec<Vec<f64>>> = Vec::with_capacity(d);
-        for i in 0..d {
+        for &i in &free {
             let h = self.step(phi, i);
             let (mut hi, mut lo) = (phi.to_vec(), phi.to_vec());
             hi[i] += h;
@@ -343,7 +372,8 @@ impl Problem<'_> {
 
     /// Levenberg–Marquardt from φ₀; returns (φ, cost, iterations).
     fn iterate(&self, mut phi: Vec<f64>, opts: &ProcessOptions) -> Result<(Vec<f64>, f64, usize)> {
-        let d = self.n_phi();
+        let free = self.free();
+        let d = free.len();
         self.clamp(&mut phi);
         let mut lambda: f64 = 1e-3;
         let (mut cost, mut r) = self.jacobian(&phi)?;
@@ -374,13 +404,17 @@ impl Problem<'_> {
                     lambda *= 4.0;
                     continue;
                 };
-                let mut trial: Vec<f64> =
-                    phi.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+                let mut trial = phi.clone();
+                for (&i, dv) in free.iter().zip(delta.iter()) {
+                    trial[i] += dv;
+                }
                 self.clamp(&mut trial);
                 let c = self.cost(&trial)?;
                 if c < cost {
-                    let moved =
-                        DVector::from_iterator(d, trial.iter().zip(&phi).map(|(a, b)| a - b));
+                    let moved = DVector::from_iterator(
+                        phi.len(),
+                        trial.iter().zip(&phi).map(|(a, b)| a - b),
+                    );
                     let small_step = moved.norm()
                         <= opts.tolerance.sqrt() * (1.0 + DVector::from_column_slice(&phi).norm());
                     let small_gain = cost - c <= opts.tolerance * cost;
@@ -407,7 +441,8 @@ impl Problem<'_> {
         if matches!(self.kind, ProcessKind::P2D | ProcessKind::P2DZ) {
             let b = self.block();
             for j in 0..self.nu {
-                if phi[j * b + 1] < phi[j * b + 2] {
+                let held = |i: usize| self.fixed.get(i).is_some_and(Option::is_some);
+                if phi[j * b + 1] < phi[j * b + 2] && !held(j * b + 1) && !held(j * b + 2) {
                     phi.swap(j * b + 1, j * b + 2);
                 }
             }
@@ -788,6 +823,15 @@ pub fn procest(
         .iter()
         .flat_map(|e| e.y.iter().copied().filter(|v| !v.is_nan())));
     let u_rms = rms(&mut experiments.iter().flat_map(|e| e.u.iter().copied()));
+    let held = held_parameters(kind, nu, opts)?;
+    let theta_max = held
+        .iter()
+        .enumerate()
+        .filter(|(i, v)| {
+            v.is_some() && *i < nu * kind.n_parameters() && (i + 1) % kind.n_parameters() == 0
+        })
+        .filter_map(|(_, v)| *v)
+        .fold(opts.max_delay.unwrap_or(duration / 3.0), f64::max);
     let p = Problem {
         kind,
         ts,
@@ -803,7 +847,7 @@ pub fn procest(
             .collect(),
         outputs: experiments.iter().map(|e| e.y.as_slice()).collect(),
         measured,
-        theta_max: opts.max_delay.unwrap_or(duration / 3.0),
+        theta_max,
         log_t: ((ts * 1e-3).ln(), (duration * 100.0).ln()),
         gain_scale: if u_rms > 0.0 && y_rms > 0.0 {
             y_rms / u_rms
@@ -811,6 +855,24 @@ pub fn procest(
             1.0
         },
         duration,
+        fixed: Vec::new(),
+    };
+    // The held values in the internal coordinates.
+    let p = Problem {
+        fixed: held
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                v.map(|v| {
+                    if i < nu * kind.n_parameters() && is_log(kind, i % kind.n_parameters()) {
+                        v.ln()
+                    } else {
+                        v
+                    }
+                })
+            })
+            .collect(),
+        ..p
     };
     let starts = starts(&p, opts)?;
     let mut best: Option<(Vec<f64>, f64, usize)> = None;
@@ -831,6 +893,62 @@ pub fn procest(
     };
     p.canonical(&mut phi);
     finish(&p, phi, iterations, n_starts)
+}
+
+/// The held parameters of [`ProcessOptions::fixed`] in physical units, one
+/// entry per parameter of the fit (inputs' blocks, then the offset).
+///
+/// Errors: [`Error::InvalidOption`] naming an unknown parameter (with the
+/// names there are) or a value out of its range (a time constant or ζ not
+/// positive, a dead time negative, not finite).
+fn held_parameters(
+    kind: ProcessKind,
+    nu: usize,
+    opts: &ProcessOptions,
+) -> Result<Vec<Option<f64>>> {
+    let names = kind.parameter_names();
+    let b = names.len();
+    let mut held = vec![None; nu * b + usize::from(opts.offset)];
+    for (name, value) in &opts.fixed {
+        let bad = |reason: String| Error::InvalidOption {
+            what: "fixed process parameter",
+            reason,
+        };
+        if !value.is_finite() {
+            return Err(bad(format!("{name} = {value}: not finite")));
+        }
+        let targets: Vec<usize> = if name == "offset" && opts.offset {
+            vec![nu * b]
+        } else if let Some(i) = names.iter().position(|n| n == name) {
+            (0..nu).map(|j| j * b + i).collect()
+        } else {
+            let one = (0..nu)
+                .flat_map(|j| (0..b).map(move |i| (j, i)))
+                .find(|&(j, i)| *name == format!("{}(u{j})", names[i]));
+            match one {
+                Some((j, i)) => vec![j * b + i],
+                None => {
+                    return Err(bad(format!(
+                        "no parameter '{name}' in a {kind:?} model; its parameters are {} (every input), {}(u0) … (one input){}",
+                        names.join(", "),
+                        names[0],
+                        if opts.offset { " and offset" } else { "" }
+                    )));
+                }
+            }
+        };
+        for t in targets {
+            let slot = if t < nu * b { t % b } else { usize::MAX };
+            if slot == b - 1 && *value < 0.0 {
+                return Err(bad(format!("{name} = {value}: a dead time is ≥ 0")));
+            }
+            if slot != usize::MAX && is_log(kind, slot) && *value <= 0.0 {
+                return Err(bad(format!("{name} = {value}: must be > 0")));
+            }
+            held[t] = Some(*value);
+        }
+    }
+    Ok(held)
 }
 
 /// The starts: the two-point method on a step test, then for one input the
@@ -912,10 +1030,12 @@ fn starts(p: &Problem<'_>, opts: &ProcessOptions) -> Result<Vec<Vec<f64>>> {
 /// The fit at φ: models, covariance in the physical parameters, loss, fit.
 fn finish(p: &Problem<'_>, phi: Vec<f64>, iterations: usize, starts: usize) -> Result<ProcessFit> {
     let d = p.n_phi();
+    let free = p.free();
+    let df = free.len();
     let (cost, r) = p.jacobian(&phi)?;
     let (models, offset) = p.models(&phi)?;
     let parameters = p.to_physical(&phi);
-    let lambda = cost / (p.measured - d) as f64;
+    let lambda = cost / (p.measured - df) as f64;
     // Cov p = D Cov φ D with D = diag(∂p/∂φ) (p for a logarithm, else 1):
     // the same as λ̂ (J_pᵀ J_p)⁻¹ since J_p = J_φ D⁻¹.
     let dvec: Vec<f64> = (0..d)
@@ -927,22 +1047,32 @@ fn finish(p: &Problem<'_>, phi: Vec<f64>, iterations: usize, starts: usize) -> R
             }
         })
         .collect();
-    let inv = (r.nrows() >= d)
+    let inv = (r.nrows() >= df)
         .then(|| {
-            r.view((0, 0), (d, d))
+            r.view((0, 0), (df, df))
                 .into_owned()
-                .solve_upper_triangular(&DMatrix::identity(d, d))
+                .solve_upper_triangular(&DMatrix::identity(df, df))
         })
         .flatten();
-    let covariance = match inv {
+    // The free parameters' covariance; a held one has none.
+    let mut covariance = DMatrix::zeros(d, d);
+    match inv {
         Some(inv) => {
             let c = &inv * inv.transpose() * lambda;
-            DMatrix::from_fn(d, d, |a, b| {
-                0.5 * (c[(a, b)] + c[(b, a)]) * dvec[a] * dvec[b]
-            })
+            for (x, &a) in free.iter().enumerate() {
+                for (y, &b) in free.iter().enumerate() {
+                    covariance[(a, b)] = 0.5 * (c[(x, y)] + c[(y, x)]) * dvec[a] * dvec[b];
+                }
+            }
         }
-        None => DMatrix::from_element(d, d, f64::NAN),
-    };
+        None => {
+            for &a in &free {
+                for &b in &free {
+                    covariance[(a, b)] = f64::NAN;
+                }
+            }
+        }
+    }
     let std = (0..d).map(|i| covariance[(i, i)].max(0.0).sqrt()).collect();
     let mut names = Vec::with_capacity(d);
     for j in 0..p.nu {

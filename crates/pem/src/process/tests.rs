@@ -456,3 +456,57 @@ fn several_records_are_fitted_together() {
         assert!((a - b).abs() < 1e-5 * b, "{:?}", f.parameters);
     }
 }
+
+/// Held parameters (MATLAB's `Structure.Td.Free = false`): the issue's
+/// FOPDT plant with its dead time known, 7.3 s, held; K and τ estimated,
+/// θ exactly 7.3 with no variance; the per-input name ("Td(u0)") does the
+/// same; unknown names and bad values are refused naming them. Over 20
+/// records the held dead time shrinks K's and τ's RMS errors (the dead
+/// time no longer trades against τ).
+#[test]
+fn a_held_dead_time_stays_and_has_no_variance() {
+    let held = |name: &str, v: f64| ProcessOptions {
+        fixed: vec![(name.to_string(), v)],
+        ..Default::default()
+    };
+    let (mut free_sq, mut held_sq) = ([0.0; 2], [0.0; 2]);
+    for seed in 0..20 {
+        let (u, y) = fopdt_record(7100 + seed);
+        let (u, y) = (col(&u), col(&every(&y, 5)));
+        let exps = [Experiment { u: &u, y: &y }];
+        let f = procest(&exps, ProcessKind::P1D, 1.0, &held("Td", 7.3)).unwrap();
+        assert_eq!(f.models[0].theta, 7.3);
+        assert_eq!(f.parameters[2], 7.3);
+        assert_eq!(f.std[2], 0.0);
+        assert!(f.std[0] > 0.0 && f.std[1] > 0.0);
+        let free = procest(&exps, ProcessKind::P1D, 1.0, &ProcessOptions::default()).unwrap();
+        for i in 0..2 {
+            held_sq[i] += relative_errors(&f)[i].powi(2) / 20.0;
+            free_sq[i] += relative_errors(&free)[i].powi(2) / 20.0;
+        }
+        if seed == 0 {
+            let one = procest(&exps, ProcessKind::P1D, 1.0, &held("Td(u0)", 7.3)).unwrap();
+            assert_eq!(one.parameters, f.parameters);
+        }
+    }
+    eprintln!(
+        "every 5th sample, RMS relative errors of K, τ: θ held {:?}, θ estimated {:?}",
+        held_sq.map(f64::sqrt),
+        free_sq.map(f64::sqrt)
+    );
+    for i in 0..2 {
+        assert!(held_sq[i] < free_sq[i], "{held_sq:?} vs {free_sq:?}");
+    }
+    let (u, y) = fopdt_record(1);
+    let (u, y) = (col(&u), col(&y));
+    let exps = [Experiment { u: &u, y: &y }];
+    for (name, v, says) in [
+        ("Tz", 1.0, "no parameter 'Tz'"),
+        ("Td", -1.0, "dead time"),
+        ("Tp1", 0.0, "> 0"),
+        ("K", f64::NAN, "not finite"),
+    ] {
+        let e = procest(&exps, ProcessKind::P1D, 1.0, &held(name, v)).unwrap_err();
+        assert!(e.to_string().contains(says), "{name}: {e}");
+    }
+}

@@ -278,6 +278,7 @@ def identify(
     budgets: dict[str, float] | None = None,
     plan: Any = None,
     covariance: bool = True,
+    process_fixed: dict[str, float] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -405,6 +406,10 @@ def identify(
       ``lifted bode``/``step``/``report``; ``diagnostics["covariance"]``
       says what it rests on or why there is none. False skips the pass
       (``--no-covariance``).
+    * ``process_fixed`` (``method="process"``): parameters held at a value
+      instead of estimated, in the data's units, e.g. ``{"Td": 7.3}`` (a
+      dead time known from the plant, every input) or ``{"K(u1)": 2.0}``
+      (one input); ``--process-fix``. A held parameter has no variance.
     * ``plan``: take every option from a plan instead of the keywords (the
       command line's ``--plan``): a :class:`SubspaceFit` or its
       ``diagnostics`` (the options that made it), the path of a model file
@@ -467,7 +472,7 @@ def identify(
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
             gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
-            covariance=covariance,
+            covariance=covariance, process_fixed=process_fixed,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -897,6 +902,7 @@ def procest(
     dt: float = 1.0,
     detrend: Detrend = "mean",
     threads: int = 1,
+    fixed: dict[str, float] | None = None,
 ) -> SubspaceFit:
     """Process model with dead time per input-output pair (MATLAB's
     ``procest``), through the identification workflow
@@ -912,9 +918,12 @@ def procest(
     parameter ``names`` (``K(u1)``, ``Tp1(u1)``, ``Td(u1)``, ...,
     ``offset``), their values (``parameters``) and standard deviations
     (``std``) in the data's units; ``fit.model`` is the exact discrete
-    equivalent.
+    equivalent. ``fixed`` holds parameters at a value instead of estimating
+    them (``{"Td": 7.3}``: a known dead time; ``identify``'s
+    ``process_fixed``).
     """
-    return identify(u, y, "process", process=process, dt=dt, detrend=detrend, threads=threads)
+    return identify(u, y, "process", process=process, dt=dt, detrend=detrend, threads=threads,
+                    process_fixed=fixed)
 
 
 def impulseest(

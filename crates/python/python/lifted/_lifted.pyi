@@ -305,6 +305,7 @@ def identify(
     budgets: dict[str, float] | None = None,
     plan: str | None = None,
     covariance: bool = True,
+    process_fixed: dict[str, float] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

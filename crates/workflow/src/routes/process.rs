@@ -50,14 +50,16 @@ pub(crate) fn identify(
             DMatrix::from_fn(u.nrows(), u.ncols(), |t, j| u[(t, j)] - u[(0, j)])
         })
         .collect();
-    let popts = ProcessOptions {
-        offset: true,
-        ..Default::default()
-    };
+    let names: Vec<String> = first.inputs().iter().map(|c| c.name.clone()).collect();
     let mut parts: Vec<StateSpace> = Vec::with_capacity(ny);
     let mut outputs = Vec::with_capacity(ny);
     let t_fit = std::time::Instant::now();
     for i in 0..ny {
+        let popts = ProcessOptions {
+            offset: true,
+            fixed: held(&id.process_fixed, kind, &names, i, scales)?,
+            ..Default::default()
+        };
         let ys: Vec<DMatrix<f64>> = sets
             .iter()
             .map(|d| d.y().columns(i, 1).into_owned())
@@ -135,6 +137,66 @@ pub(crate) fn identify(
     route.suggested_order = route.order;
     route.kalman_gain = Some(DMatrix::zeros(n, ny));
     Ok(route)
+}
+
+/// [`crate::IdentificationOptions::process_fixed`] for output `i` as
+/// `lifted_pem::ProcessOptions::fixed` takes them: per input ("K(u0)"), in
+/// the scaled channels' units (a gain K ÷ s_y/s_u, the offset ÷ s_y; time
+/// constants and dead times in seconds as given).
+///
+/// Errors: [`Error::InvalidOption`] (`process_fixed`) naming an unknown
+/// parameter with the names there are.
+fn held(
+    fixed: &[(String, f64)],
+    kind: ProcessKind,
+    inputs: &[String],
+    i: usize,
+    scales: Option<&ChannelScales>,
+) -> Result<Vec<(String, f64)>> {
+    let params = kind.parameter_names();
+    let (sy, su) = match scales {
+        Some(sc) => (sc.y[i], sc.u.clone()),
+        None => (1.0, vec![1.0; inputs.len()]),
+    };
+    let mut out = Vec::new();
+    for (name, value) in fixed {
+        if name == "offset" {
+            out.push(("offset".to_string(), value / sy));
+            continue;
+        }
+        // "Td" for every input, or "Td(<input name>)" for one.
+        let (param, which): (&str, Vec<usize>) = match name.split_once('(') {
+            Some((p, rest)) => {
+                let input = rest.strip_suffix(')').unwrap_or(rest);
+                match inputs.iter().position(|n| n == input) {
+                    Some(j) => (p, vec![j]),
+                    None => (p, Vec::new()),
+                }
+            }
+            None => (name.as_str(), (0..inputs.len()).collect()),
+        };
+        if !params.contains(&param) || which.is_empty() {
+            return Err(Error::option(
+                "process_fixed",
+                format!(
+                    "no parameter '{name}' in a {kind:?} model of inputs {}; its parameters are {} (every input), {}({}) … (one input) and offset",
+                    inputs.join(", "),
+                    params.join(", "),
+                    params[0],
+                    inputs.first().map_or("u1", String::as_str)
+                ),
+            ));
+        }
+        for j in which {
+            let v = if param == "K" {
+                value * su[j] / sy
+            } else {
+                *value
+            };
+            out.push((format!("{param}(u{j})"), v));
+        }
+    }
+    Ok(out)
 }
 
 /// The outputs' MISO models as one model: A block diagonal, B stacked, C

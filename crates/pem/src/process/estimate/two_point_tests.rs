@@ -24,6 +24,7 @@ fn smith_two_point_start_on_a_noise_free_step() {
         log_t: (1e-3f64.ln(), 6e4f64.ln()),
         gain_scale: 1.0,
         duration: 600.0,
+        fixed: Vec::new(),
     };
     let s = two_point_start(&p).unwrap();
     assert!((s[0] - 2.0).abs() < 1e-3, "{s:?}");
