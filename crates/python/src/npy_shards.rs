@@ -72,45 +72,31 @@ impl Columns {
             .map(|c| format!("c{c}"))
             .collect();
         let wanted: Vec<&String> = names.iter().collect();
-        let (nu, ny) = (self.inputs.len(), self.outputs.len());
-        let (mut u, mut y) = (DMatrix::zeros(0, nu), DMatrix::zeros(0, ny));
-        let mut pushed: Option<PyErr> = None;
+        let divide = |m: &mut DMatrix<f64>, scales: &[f64]| {
+            for (mut col, s) in m.column_iter_mut().zip(scales) {
+                let inv = 1.0 / s;
+                col.iter_mut().for_each(|v| *v *= inv);
+            }
+        };
         // The base period is the engine's (no time column in an array).
-        let read = lifted_data::npy::scan_blocks(
+        let read = lifted_data::npy::scan_record_blocks(
             path,
             &[],
             &wanted,
+            self.inputs.len(),
             0..0,
             Some(1.0),
             BLOCK_ROWS,
-            |cols, n| {
-                if u.nrows() != n {
-                    u = DMatrix::zeros(n, nu);
-                    y = DMatrix::zeros(n, ny);
-                }
-                for (j, col) in cols.chunks_exact(n).take(nu + ny).enumerate() {
-                    let (dst, inv) = if j < nu {
-                        (u.column_mut(j), 1.0 / self.input_scales[j])
-                    } else {
-                        (y.column_mut(j - nu), 1.0 / self.output_scales[j - nu])
-                    };
-                    for (d, v) in dst.into_iter().zip(col) {
-                        *d = v * inv;
-                    }
-                }
-                match push(&u, &y) {
-                    Ok(()) => Ok(n),
-                    Err(e) => {
-                        pushed = Some(e);
-                        Ok(0)
-                    }
-                }
+            |u, y| {
+                divide(u, &self.input_scales);
+                divide(y, &self.output_scales);
+                push(u, y).map(|()| true)
             },
         );
-        match (pushed, read) {
-            (Some(e), _) => Err(e),
-            (None, Err(e)) => Err(err(e)),
-            (None, Ok(_)) => Ok(()),
+        match read {
+            Ok(_) => Ok(()),
+            Err(lifted_data::npy::BlockStop::Visit(e)) => Err(e),
+            Err(lifted_data::npy::BlockStop::Read(e)) => Err(err(e)),
         }
     }
 }

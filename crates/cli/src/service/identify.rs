@@ -788,43 +788,29 @@ fn stream_npy(
     push: &mut BlockSink<'_>,
 ) -> lifted_workflow::Result<Pass> {
     let (n_u, n_y) = (spec.inputs.len(), spec.outputs.len());
-    let (mut ub, mut yb) = (
-        DMatrix::zeros(STREAM_BLOCK, n_u),
-        DMatrix::zeros(STREAM_BLOCK, n_y),
-    );
     let mut multirate = false;
-    let mut pushed: Option<lifted_workflow::Error> = None;
-    let scanned = crate::npy::scan_blocks(
+    let scanned = lifted_data::npy::scan_record_blocks(
         path,
         &spec.columns,
         wanted,
+        n_u,
         n_u..n_u + n_y,
         spec.ts,
         STREAM_BLOCK,
-        |cols, n| {
-            if cols[n_u * n..].iter().any(|v| v.is_nan()) {
+        |u, y| {
+            if y.iter().any(|v| v.is_nan()) {
                 // A multirate record: the pass stops, the caller loads it
                 // whole.
                 multirate = true;
-                return Ok(0);
+                return Ok(false);
             }
-            if n != ub.nrows() {
-                ub = DMatrix::zeros(n, n_u);
-                yb = DMatrix::zeros(n, n_y);
-            }
-            ub.as_mut_slice().copy_from_slice(&cols[..n_u * n]);
-            yb.as_mut_slice().copy_from_slice(&cols[n_u * n..]);
-            if let Err(e) = push(&ub, &yb) {
-                pushed = Some(e);
-                return Ok(0);
-            }
-            Ok(n)
+            push(u, y).map(|()| true)
         },
     );
-    let (rows, ts) = match (scanned, pushed) {
-        (_, Some(e)) => return Err(e),
-        (Err(e), None) => return Err(source_error(e)),
-        (Ok(r), None) => r,
+    let (rows, ts) = match scanned {
+        Ok(r) => r,
+        Err(lifted_data::npy::BlockStop::Visit(e)) => return Err(e),
+        Err(lifted_data::npy::BlockStop::Read(e)) => return Err(source_error(e)),
     };
     Ok(Pass {
         rows,

@@ -309,6 +309,75 @@ pub fn scan_rows(
     )
 }
 
+/// Why [`scan_record_blocks`] stopped early.
+#[derive(Debug)]
+pub enum BlockStop<E> {
+    /// The file could not be read or a value failed its check.
+    Read(crate::Error),
+    /// The visitor's error.
+    Visit(E),
+}
+
+/// [`scan_blocks`] as a record's blocks: `visit(u, y)` receives each block
+/// as an input matrix (the first `n_u` of `wanted`, one row per sample) and
+/// an output matrix (the rest), reused from block to block (the visitor may
+/// scale them in place), and returns whether to go on (`Ok(false)`: stop
+/// there, e.g. at an output not sampled) or its error, which stops the scan
+/// and is returned. Returns the rows taken and the base period. The front
+/// ends' one way from a `.npy` file to blocks of samples (the command's
+/// streamed route, `lifted.dask`'s shards). O(rows × wanted columns).
+#[allow(clippy::too_many_arguments)]
+pub fn scan_record_blocks<E>(
+    path: &str,
+    given: &[String],
+    wanted: &[&String],
+    n_u: usize,
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    block_rows: usize,
+    mut visit: impl FnMut(
+        &mut nalgebra::DMatrix<f64>,
+        &mut nalgebra::DMatrix<f64>,
+    ) -> std::result::Result<bool, E>,
+) -> std::result::Result<(usize, f64), BlockStop<E>> {
+    let n_y = wanted.len().saturating_sub(n_u);
+    let (mut ub, mut yb) = (
+        nalgebra::DMatrix::zeros(0, n_u),
+        nalgebra::DMatrix::zeros(0, n_y),
+    );
+    let mut stopped: Option<E> = None;
+    let scanned = scan_blocks(
+        path,
+        given,
+        wanted,
+        may_be_empty,
+        ts,
+        block_rows,
+        |cols, n| {
+            if n != ub.nrows() {
+                ub = nalgebra::DMatrix::zeros(n, n_u);
+                yb = nalgebra::DMatrix::zeros(n, n_y);
+            }
+            ub.as_mut_slice().copy_from_slice(&cols[..n_u * n]);
+            yb.as_mut_slice()
+                .copy_from_slice(&cols[n_u * n..(n_u + n_y) * n]);
+            match visit(&mut ub, &mut yb) {
+                Ok(true) => Ok(n),
+                Ok(false) => Ok(0),
+                Err(e) => {
+                    stopped = Some(e);
+                    Ok(0)
+                }
+            }
+        },
+    );
+    match (scanned, stopped) {
+        (_, Some(e)) => Err(BlockStop::Visit(e)),
+        (Err(e), None) => Err(BlockStop::Read(e)),
+        (Ok(r), None) => Ok(r),
+    }
+}
+
 /// Streams the `wanted` columns of a `.npy` file in blocks of up to
 /// `block_rows` rows: `visit(cols, n)` receives the block column-major
 /// (column j of `wanted` at `cols[j * n .. (j + 1) * n]`) and returns how
