@@ -499,7 +499,7 @@ pub enum MethodArg {
     Impulse,
 }
 
-/// Kernels of the regularised FIR (`--kernel`).
+/// Kernels of the regularised FIR and ARX (`--kernel`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum KernelArg {
     /// Tuned/correlated: c λ^max(i,j).
@@ -604,7 +604,9 @@ pub struct IdentifyArgs {
     /// offset. A held parameter keeps its value and has no variance.
     #[arg(long, value_name = "NAME=VALUE")]
     pub process_fix: Vec<String>,
-    /// Regularised FIR (--method impulse): the prior's kernel (default tc).
+    /// Regularised FIR (--method impulse): the prior's kernel (default tc). With --method arx
+    /// and --orders (or --order): the regularised ARX (MATLAB's arxRegul), one kernel for the past
+    /// outputs' and one for the inputs' coefficients, hyperparameters by the marginal likelihood.
     #[arg(long, value_enum)]
     pub kernel: Option<KernelArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,

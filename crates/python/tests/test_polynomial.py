@@ -448,3 +448,26 @@ def test_oe_without_orders_scans_the_order() -> None:
     scan = fit.diagnostics["structure_scan"]
     assert scan["order"] == 2, scan
     assert [c["order"] for c in scan["candidates"]] == list(range(1, 11))
+
+
+def test_arx_with_a_kernel_is_the_regularised_arx() -> None:
+    """lifted.arx(..., kernel="tc"): the regularised ARX of the given
+    structure, both kernels' hyperparameters in the diagnostics, the
+    posterior std; refused without a structure."""
+    rng = np.random.default_rng(7)
+    n = 300
+    u = rng.standard_normal(n)
+    x = np.zeros(n)
+    for t in range(n):
+        x[t] = (1.6 * x[t - 1] if t >= 1 else 0.0) - (0.7 * x[t - 2] if t >= 2 else 0.0)
+        x[t] += 0.3 * u[t - 1] if t >= 1 else 0.0
+    y = x + 0.3 * rng.standard_normal(n)
+    fit = lifted.arx(u, y, [20, 20, 1], kernel="tc")
+    assert fit.parameters is not None and fit.std is not None
+    assert len(fit.parameters) == 40 and np.all(fit.std > 0)
+    reg = fit.diagnostics["regularization"]
+    assert reg["kernel"] == "Tc"
+    assert 0.5 < reg["hyperparameters"][0]["a"]["lambda"] < 1.0
+    assert 0.5 < reg["hyperparameters"][0]["b"]["lambda"] < 1.0
+    with pytest.raises(lifted.LiftedError, match="kernel"):
+        lifted.arx(u, y, kernel="tc")

@@ -500,8 +500,11 @@ pub struct IdentificationOptions {
     /// [`Self::order_criterion`]). Other methods: not used (an error when
     /// given).
     pub orders: Vec<usize>,
-    /// Regularised FIR: the prior's kernel (default `None`: TC). Other
-    /// methods: not used (an error when given).
+    /// Regularised FIR: the prior's kernel (default `None`: TC). ARX: a
+    /// kernel makes the estimate the regularised ARX (`lifted_pem::
+    /// arx_regul`, MATLAB's `arxRegul`) of the structure `orders` or the
+    /// fixed order; `None`: least squares. Other methods: not used (an
+    /// error when given).
     pub kernel: Option<lifted_pem::Kernel>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
     /// `None`: P1D). Other methods: not used (an error when given).
@@ -885,8 +888,21 @@ impl WorkflowOptions {
             gap_only(id)?;
         }
         check_polynomial_options(id)?;
-        if id.kernel.is_some() && id.method != Method::Impulse {
-            return Err(Error::option("kernel", "only used with the impulse method"));
+        if id.kernel.is_some() && !matches!(id.method, Method::Impulse | Method::Arx) {
+            return Err(Error::option(
+                "kernel",
+                "only used with the impulse and arx methods",
+            ));
+        }
+        if id.kernel.is_some()
+            && id.method == Method::Arx
+            && id.orders.is_empty()
+            && id.order == Order::Auto
+        {
+            return Err(Error::option(
+                "kernel",
+                "a regularised ARX needs its structure (orders \"na nb nk\" or a fixed order): the kernel, not a structure scan, decides how many of a high order's coefficients matter (e.g. orders \"20 20 1\")",
+            ));
         }
         if id.process.is_some() && id.method != Method::Process {
             return Err(Error::option(

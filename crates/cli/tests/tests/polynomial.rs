@@ -474,3 +474,43 @@ fn bad_orders_are_named() {
         assert!(text.contains("C(q) = 1 "), "{text}");
     }
 }
+
+#[test]
+fn arx_with_a_kernel_is_the_regularised_arx() {
+    // `--kernel tc` on `--method arx --orders`: the regularised estimate
+    // (the polynomials with their posterior deviations, the kernels'
+    // hyperparameters in the model file); without a structure it is
+    // refused, naming the option.
+    let d = tmp("arx_regul_cli");
+    let (id, _) = single_rate_data(&d);
+    let out = p(&d, "regul.json");
+    let args = |orders: Option<&str>| {
+        let mut a = vec!["identify", "--method", "arx", "--kernel", "tc"];
+        if let Some(o) = orders {
+            a.extend(["--orders", o]);
+        }
+        a
+    };
+    let mut a = args(Some("6 6 1"));
+    a.extend([
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ]);
+    let text = ok(&a);
+    assert_eq!(text.matches("(±").count(), 12, "{text}");
+    let f = ModelFile::read(&out).unwrap();
+    let r = &f.diagnostics["regularization"];
+    assert_eq!(r["kernel"], "Tc", "{r}");
+    assert!(r["hyperparameters"][0]["a"]["lambda"].is_f64(), "{r}");
+    assert!(r["hyperparameters"][0]["b"]["lambda"].is_f64(), "{r}");
+    let mut a = args(None);
+    a.extend(["--data", &id, "--inputs", "u1", "--outputs", "y1"]);
+    let err = fails(&a, 2);
+    assert!(err.contains("kernel") && err.contains("structure"), "{err}");
+}

@@ -33,6 +33,7 @@
 //! the delay estimate ([`estimate_delays`]).
 
 pub(crate) mod lagged;
+mod regul;
 mod scan;
 
 use lifted_lti::{PolyModel, PolyOrders};
@@ -43,6 +44,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use lagged::{Column, Lagged, Solve};
 
+pub use regul::{ArxHyperparameters, ArxRegulFit, ArxRegulOptions, arx_regul};
 pub use scan::{
     ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx_scan,
     estimate_delays,

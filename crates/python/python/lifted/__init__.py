@@ -731,6 +731,7 @@ def arx(
     remove_means: bool = True,
     dt: float = 1.0,
     threads: int = 1,
+    kernel: Literal["tc", "dc"] | None = None,
 ) -> SubspaceFit:
     """Least-squares ARX model (MATLAB's ``arx(data, [na nb nk])``, SIPPY's
     ARX), through the identification workflow (``identify(u, y, "arx",
@@ -757,11 +758,19 @@ def arx(
     innovations realisation (A, B, C, D, K) that :func:`validate`,
     :func:`simulate` and :class:`Mpc` take. Coloured noise biases ARX and
     its bounds: the equation error must be white.
+
+    ``kernel`` ``"tc"`` or ``"dc"`` makes it the regularised ARX (MATLAB's
+    ``arx`` with ``arxRegul``'s regularisation) of the structure ``orders``
+    (or ``order``; a scan is refused): one kernel prior on the past outputs'
+    coefficients and one on the inputs', their hyperparameters by the
+    marginal likelihood (``fit.diagnostics["regularization"]``), the
+    ``covariance`` the posterior's. For high orders on short or noisy
+    records, where least squares over-fits.
     """
     return identify(
         u, y, "arx", order=order, orders=orders, max_order=max_order,
         order_criterion=order_criterion, feedthrough=feedthrough, detrend=detrend,
-        remove_means=remove_means, dt=dt, threads=threads,
+        remove_means=remove_means, dt=dt, threads=threads, kernel=kernel,
     )
 
 

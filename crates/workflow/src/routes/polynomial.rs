@@ -241,18 +241,37 @@ pub(crate) fn identify(
         Some(s) => (s, serde_json::Value::Null),
         None => scanned(id, sets, &mut warnings)?,
     };
-    let arx_opts = ArxOptions {
-        threads: id.threads.unwrap_or(1),
-        ..Default::default()
-    };
     let t_arx = std::time::Instant::now();
-    let fit = arx(
-        &borrowed(sets),
-        &orders_of(structure, nu, ny),
-        ts,
-        &arx_opts,
-    )
-    .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
+    let orders = orders_of(structure, nu, ny);
+    let what = format!("{} estimation", id.method.name().to_uppercase());
+    let threads = id.threads.unwrap_or(1);
+    let (fit, regularisation) = match id.kernel {
+        Some(kernel) if id.method == Method::Arx => {
+            let o = lifted_pem::ArxRegulOptions {
+                kernel,
+                threads,
+                ..Default::default()
+            };
+            let r = lifted_pem::arx_regul(&borrowed(sets), &orders, ts, &o)
+                .ctx(format!("regularised {what}"))?;
+            let hyper =
+                |h: Option<[f64; 3]>| h.map(|h| json!({"c": h[0], "lambda": h[1], "rho": h[2]}));
+            let d = json!({
+                "kernel": format!("{kernel:?}"),
+                "hyperparameters": r.hyperparameters.iter().map(|h| json!({"a": hyper(h.a), "b": hyper(h.b)})).collect::<Vec<_>>(),
+                "objective": r.objective,
+            });
+            (r.arx, d)
+        }
+        _ => {
+            let arx_opts = ArxOptions {
+                threads,
+                ..Default::default()
+            };
+            let fit = arx(&borrowed(sets), &orders, ts, &arx_opts).ctx(what)?;
+            (fit, serde_json::Value::Null)
+        }
+    };
     let mut diagnostics = json!({
         "route": id.method.name(),
         "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
@@ -262,6 +281,7 @@ pub(crate) fn identify(
         "rows": fit.rows,
         "compression": fit.compression.used,
         "structure_scan": scan,
+        "regularization": regularisation,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "arx_s", t_arx.elapsed().as_secs_f64());
     for w in warnings {
