@@ -484,14 +484,9 @@ fn arx_with_a_kernel_is_the_regularised_arx() {
     let d = tmp("arx_regul_cli");
     let (id, _) = single_rate_data(&d);
     let out = p(&d, "regul.json");
-    let args = |orders: Option<&str>| {
-        let mut a = vec!["identify", "--method", "arx", "--kernel", "tc"];
-        if let Some(o) = orders {
-            a.extend(["--orders", o]);
-        }
-        a
-    };
-    let mut a = args(Some("6 6 1"));
+    let base = ["identify", "--method", "arx", "--kernel", "tc"];
+    let mut a = base.to_vec();
+    a.extend(["--orders", "6 6 1"]);
     a.extend([
         "--data",
         &id,
@@ -509,8 +504,9 @@ fn arx_with_a_kernel_is_the_regularised_arx() {
     assert_eq!(r["kernel"], "Tc", "{r}");
     assert!(r["hyperparameters"][0]["a"]["lambda"].is_f64(), "{r}");
     assert!(r["hyperparameters"][0]["b"]["lambda"].is_f64(), "{r}");
-    let mut a = args(None);
-    a.extend(["--data", &id, "--inputs", "u1", "--outputs", "y1"]);
+    let scan = p(&d, "scan.json");
+    let mut a = base.to_vec();
+    a.extend(["--data", &id, "--inputs", "u1", "--outputs", "y1", "--out", &scan]);
     let err = fails(&a, 2);
     assert!(err.contains("kernel") && err.contains("structure"), "{err}");
 }
