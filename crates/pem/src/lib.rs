@@ -10,6 +10,7 @@
 //! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
 //! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`impulseest`] ([`ImpulseOptions`], [`Kernel`], [`ImpulseFit`]) | regularised FIR (impulse response) with a TC or DC kernel, hyperparameters by the marginal likelihood on the compressed lagged data (O(p³) per evaluation whatever N), posterior covariance |
+//! | [`arx_compressed`] ([`arx_horizons`], [`ArxCompressedFit`]) | the same ARX/FIR from records compressed in blocks (`lifted_subspace::CompressionPlan`, a file streamed or shards merged): memory O(k²) whatever N, means and scales mapped back |
 //! | [`arx_regul`] ([`ArxRegulOptions`], [`ArxRegulFit`], [`ArxHyperparameters`]) | regularised ARX (MATLAB's `arxRegul`): a TC or DC kernel for the past outputs' and another for the lagged inputs' coefficients, hyperparameters by the marginal likelihood (module `regularized`, shared with [`impulseest`]), posterior covariance |
 //! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
 //! | [`polyest`], [`armax`], [`bj`] ([`PolyestOptions`], [`PolyestFit`]) | ARMAX, Box–Jenkins and the general diagonal-A structure by Levenberg–Marquardt on the one-step prediction error (analytic gradient by filtering), Hannan–Rissanen / OE starts, consistent in closed loop (the direct method), with the parameter covariance |
@@ -85,9 +86,9 @@ mod regularized;
 mod state_space;
 
 pub use arx::{
-    ArxFit, ArxHyperparameters, ArxOptions, ArxRegulFit, ArxRegulOptions, ArxScan, ArxScanOptions,
-    ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx, arx_regul, arx_scan,
-    estimate_delays,
+    ArxCompressedFit, ArxFit, ArxHyperparameters, ArxOptions, ArxRegulFit, ArxRegulOptions,
+    ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx,
+    arx_compressed, arx_horizons, arx_regul, arx_scan, estimate_delays,
 };
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};

@@ -161,7 +161,7 @@ impl HankelLayout {
 
     /// (offset, channel) of every Hankel row: row r of the column of
     /// "present" time t holds z_channel(t − p + offset), channels u first.
-    fn sources(&self) -> Vec<(usize, usize)> {
+    pub(crate) fn sources(&self) -> Vec<(usize, usize)> {
         let (p, f, nu, ny) = (self.past, self.future, self.nu, self.ny);
         let mut out = Vec::with_capacity(self.nrows());
         for lag in 0..f {

@@ -181,7 +181,7 @@ pub use iv_order::select_iv_order;
 pub use model::{BdRoute, Diagnostics, Experiment, NoiseCovariances, Profile, SubspaceModel};
 pub use options::{BdEstimate, Method, OrderSelection, SubspaceOptions, SystemEstimate};
 pub use order::{OrderCriterion, OrderReport, gap_order};
-pub use partial::{CompressedRecords, CompressionPlan, PieceStream, RecordPiece};
+pub use partial::{CompressedRecords, CompressionPlan, LaggedFactor, PieceStream, RecordPiece};
 pub use pbsid::{
     PbsidDiagnostics, PbsidModel, PbsidOptions, PbsidVariant, SAMPLES_PER_VARX_PARAMETER,
     pbsid_identify, pbsid_longest_future,

@@ -185,6 +185,16 @@ impl CompressionPlan {
         })
     }
 
+    /// (past, future) horizons of the plan.
+    pub fn horizons(&self) -> (usize, usize) {
+        (self.past, self.future)
+    }
+
+    /// (inputs, outputs) of the records the plan is for.
+    pub fn channels(&self) -> (usize, usize) {
+        (self.n_inputs, self.n_outputs)
+    }
+
     /// Compact binary form (CBOR) for sending to the workers.
     ///
     /// Errors: [`Error::InvalidOption`] if encoding fails.
@@ -417,6 +427,23 @@ impl RecordPiece {
     }
 }
 
+/// The Hankel factor of compressed records and the units it is in
+/// ([`CompressedRecords::factor`]).
+#[derive(Debug, Clone)]
+pub struct LaggedFactor {
+    /// The factor, its Hankel columns and how it was obtained.
+    pub factor: crate::HankelFactor,
+    /// The input and output scales s_u, s_y the data were divided by
+    /// (powers of 4).
+    pub scale: [f64; 2],
+    /// The channel means [u; y] in the scaled units (removed from the
+    /// factor when the plan removes means; the centring reference
+    /// otherwise zero).
+    pub means: Vec<f64>,
+    /// Samples over the records.
+    pub samples: usize,
+}
+
 /// The compressed data of one or more whole records, ready to identify;
 /// merges with others made with the same plan ([`CompressedRecords::merge`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -473,6 +500,93 @@ impl CompressedRecords {
     /// The plan the records were compressed with.
     pub fn plan(&self) -> &CompressionPlan {
         &self.plan
+    }
+
+    /// The records' Hankel factor L (H Hᵀ/J = L Lᵀ, rows in the order of
+    /// [`crate::hankel_row_sources`] for the plan's horizons) for a
+    /// least-squares use of the lagged data other than the subspace step
+    /// (the ARX regression of `lifted-pem` from a streamed file), with the
+    /// units it is in: the data divided by the plan's scales (s_u, s_y),
+    /// less the channel means over all the samples when the plan removes
+    /// them (the samples centred, then compressed; the subspace step
+    /// centres each Hankel row by its own mean instead). `compression`
+    /// as [`crate::Compression::Auto`] or `Correlation` (the check of the
+    /// correlation's conditioning; the QR needs the record in one pass),
+    /// `threads` for the factorisation. O(k³).
+    ///
+    /// Errors: [`Error::HorizonTooLong`] (fewer Hankel columns than rows),
+    /// [`Error::IllConditionedCorrelation`] (identify the records in one
+    /// pass with the QR then), [`Error::InvalidOption`] for
+    /// `Compression::Qr`.
+    pub fn factor(self, compression: Compression, threads: usize) -> Result<LaggedFactor> {
+        if compression == Compression::Qr {
+            return Err(Error::InvalidOption {
+                what: "compression",
+                reason: "compressed records factor by their correlations; the QR needs the record in one pass".into(),
+            });
+        }
+        let plan = self.plan;
+        let layout = plan.layout();
+        let k = layout.nrows();
+        let samples: usize = self.records.iter().sum();
+        if self.columns < k {
+            return Err(Error::HorizonTooLong {
+                past: plan.past,
+                future: plan.future,
+                n_samples: samples,
+                min_samples: k + (plan.past + plan.future - 1) * self.records.len().max(1),
+            });
+        }
+        let n = samples.max(1) as f64;
+        let means: Vec<f64> = self
+            .sums
+            .iter()
+            .zip(&plan.reference)
+            .map(|(s, r)| s / n + r)
+            .collect();
+        let mut gram = if self.gram.is_empty() {
+            DMatrix::zeros(0, 0)
+        } else {
+            DMatrix::from_vec(k, k, self.gram)
+        };
+        // Centred by the channel means m of all the samples (the samples
+        // less their means, then the Gram matrix: least squares on the
+        // centred record), not by each Hankel row's own mean W/J (the
+        // subspace step's centring): Σ_j (h_j − m)(h_j − m)ᵀ = (HHᵀ −
+        // W Wᵀ/J) + d dᵀ/J with d = W − J m, small where the two means
+        // agree; `correlation_factor` subtracts W Wᵀ/J.
+        if plan.remove_means && gram.nrows() == k {
+            let jf = self.columns as f64;
+            let d: Vec<f64> = layout
+                .sources()
+                .iter()
+                .zip(&self.window)
+                .map(|(&(_, c), w)| w - jf * self.sums[c] / n)
+                .collect();
+            for (c, mut col) in gram.column_iter_mut().enumerate() {
+                for (r, v) in col.iter_mut().enumerate() {
+                    *v += d[r] * d[c] / jf;
+                }
+            }
+        }
+        let factor = correlation_factor(
+            gram,
+            &self.window,
+            self.columns,
+            CompressionWork {
+                requested: compression,
+                samples,
+                nz: layout.nu + layout.ny,
+                span: layout.span(),
+                threads: thread_count(threads),
+            },
+        )?;
+        Ok(LaggedFactor {
+            factor,
+            scale: plan.scale,
+            means,
+            samples,
+        })
     }
 
     /// The first pass of the identification with `opts` (their horizons

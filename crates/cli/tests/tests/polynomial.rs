@@ -506,7 +506,16 @@ fn arx_with_a_kernel_is_the_regularised_arx() {
     assert!(r["hyperparameters"][0]["b"]["lambda"].is_f64(), "{r}");
     let scan = p(&d, "scan.json");
     let mut a = base.to_vec();
-    a.extend(["--data", &id, "--inputs", "u1", "--outputs", "y1", "--out", &scan]);
+    a.extend([
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &scan,
+    ]);
     let err = fails(&a, 2);
     assert!(err.contains("kernel") && err.contains("structure"), "{err}");
 }

@@ -77,11 +77,7 @@ impl Lagged {
     ) -> Result<Self> {
         let first = experiments.first().ok_or(Error::NoData)?;
         let (nu, ny) = (first.u.ncols(), first.y.ncols());
-        // A Hankel column spans lags 0..=L: past L − 1 and future 2 block
-        // rows (the compression's smallest future horizon), the target
-        // time being the last; at least past 1 (span 3).
-        let span = (lags + 1).max(3);
-        let (past, future) = (span - 2, 2);
+        let (past, future) = Self::horizons(lags);
         let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
         let factor =
             match lifted_subspace::compress_hankel(experiments, past, future, compression, threads)
@@ -96,6 +92,20 @@ impl Lagged {
                 }
                 Err(e) => return Err(e.into()),
             };
+        Ok(Self::from_factor(factor, past, future, nu, ny))
+    }
+
+    /// The lagged data of a Hankel factor of horizons (`past`, `future`)
+    /// (rows as [`hankel_row_sources`] orders them), as [`Lagged::new`]
+    /// makes it; lags 0..=past + future − 1.
+    pub(crate) fn from_factor(
+        factor: lifted_subspace::HankelFactor,
+        past: usize,
+        future: usize,
+        nu: usize,
+        ny: usize,
+    ) -> Self {
+        let span = past + future;
         let nz = nu + ny;
         let sources = hankel_row_sources(past, future, nu, ny);
         let mut position = vec![0; span * nz];
@@ -104,7 +114,7 @@ impl Lagged {
             // time t: lag span − 1 − offset.
             position[(span - 1 - offset) * nz + channel] = row;
         }
-        Ok(Lagged {
+        Lagged {
             lt: factor.l.transpose(),
             position,
             lags: span - 1,
@@ -112,7 +122,15 @@ impl Lagged {
             ny,
             rows: factor.columns,
             report: factor.report,
-        })
+        }
+    }
+
+    /// The compression's horizons (past, future) for lags 0..=`lags`: a
+    /// Hankel column spans lags 0..=L, past L − 1 and future 2 block rows
+    /// (the compression's smallest future horizon), at least past 1.
+    pub(crate) fn horizons(lags: usize) -> (usize, usize) {
+        let span = (lags + 1).max(3);
+        (span - 2, 2)
     }
 
     /// Inputs n_u.

@@ -32,6 +32,7 @@
 //! reuses one compression for every candidate ([`arx_scan`]), and so does
 //! the delay estimate ([`estimate_delays`]).
 
+mod compressed;
 pub(crate) mod lagged;
 mod regul;
 mod scan;
@@ -44,6 +45,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use lagged::{Column, Lagged, Solve};
 
+pub use compressed::{ArxCompressedFit, arx_compressed, arx_horizons};
 pub use regul::{ArxHyperparameters, ArxRegulFit, ArxRegulOptions, arx_regul};
 pub use scan::{
     ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx_scan,
