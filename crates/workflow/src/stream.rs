@@ -69,9 +69,13 @@ pub trait RecordSource: Send {
 /// on the records (not AIC-type), no trend removal, no input hold. The
 /// caller adds what depends on its data (one record, no declared output
 /// periods, no instruments, and not small enough for the held-out
-/// selection when [`WorkflowOptions::wants_selection`]).
+/// selection when [`WorkflowOptions::wants_selection`]); or ARX / FIR of
+/// a given structure, least squares (`crate::stream_arx`).
 pub fn streamable(opts: &WorkflowOptions) -> bool {
     let id = &opts.identification;
+    if crate::stream_arx::applies(opts) {
+        return true;
+    }
     id.method.is_subspace()
         && !matches!(
             id.order_criterion,
@@ -139,6 +143,9 @@ pub fn identify_streamed(
     opts: &WorkflowOptions,
 ) -> Result<Option<Identified>> {
     opts.check()?;
+    if crate::stream_arx::applies(opts) {
+        return crate::stream_arx::identify(raw, opts);
+    }
     if !streamable(opts) {
         return Ok(None);
     }
@@ -505,10 +512,10 @@ pub fn identify_streamed(
 /// (the same blocks in the same order: the same model), so that reading
 /// overlaps the compression and the regression instead of leaving the
 /// other core idle.
-struct ScaledSource<'s> {
-    inner: &'s mut dyn RecordSource,
-    scales: Option<ChannelScales>,
-    ahead: bool,
+pub(crate) struct ScaledSource<'s> {
+    pub(crate) inner: &'s mut dyn RecordSource,
+    pub(crate) scales: Option<ChannelScales>,
+    pub(crate) ahead: bool,
 }
 
 /// What [`ScaledSource::scaled_pass`] delivers to: a raw block (u, y) and

@@ -75,7 +75,7 @@ fn orders_of(s: ArxStructure, nu: usize, ny: usize) -> PolyOrders {
 }
 
 /// The structure the options fix, if they do.
-fn fixed_structure(id: &IdentificationOptions) -> Option<ArxStructure> {
+pub(crate) fn fixed_structure(id: &IdentificationOptions) -> Option<ArxStructure> {
     match (id.method, id.orders.as_slice()) {
         (Method::Arx, &[na, nb, nk]) => Some(ArxStructure { na, nb, nk }),
         (Method::Fir, &[nb, nk]) => Some(ArxStructure { na: 0, nb, nk }),

@@ -150,3 +150,66 @@ fn a_streamed_single_output_record_caps_the_automatic_order_search() {
     assert_eq!(capped(&mem), warned);
     assert_eq!(mem.order, streamed.order);
 }
+
+/// ARX [2 3 1] and FIR [4 1] of a 2×2 record in odd units (12 000 rows in
+/// blocks of 700, two threads reading ahead): the streamed route reads
+/// the record once into the lagged correlations and gives the in-memory
+/// route's polynomials, covariance and operating point to rounding; the
+/// diagnostics say it was streamed. A NaN sample is refused (a file
+/// source stops at an output not sampled and reports the record
+/// multirate instead, which the caller then loads whole).
+#[test]
+fn arx_and_fir_stream_to_the_in_memory_model() {
+    let (u, mut y) = record(12_000, 0.05, 6);
+    for (j, s) in [1e-3, 40.0].iter().enumerate() {
+        y.column_mut(j).iter_mut().for_each(|v| *v = *v * s + 7.0);
+    }
+    for (method, orders) in [
+        (lifted_workflow::Method::Arx, vec![2, 3, 1]),
+        (lifted_workflow::Method::Fir, vec![4, 1]),
+    ] {
+        let mut opts = WorkflowOptions::default();
+        opts.identification.method = method;
+        opts.identification.orders = orders;
+        opts.identification.threads = Some(2);
+        assert!(lifted_workflow::streamable(&opts));
+        let mem = identify(&[Record::new(dataset(&u, &y))], &opts).expect("in memory");
+        let mut src = Blocks::of(&u, &y);
+        let streamed = identify_streamed(&mut src, &opts)
+            .expect("streamed")
+            .expect("a single-rate record streams");
+        assert_eq!(src.passes, 1, "{method:?}");
+        let (pm, ps) = (
+            mem.details.polynomial.as_ref().expect("polynomial"),
+            streamed.details.polynomial.as_ref().expect("polynomial"),
+        );
+        for (a, b) in pm.parameters().iter().zip(ps.parameters()) {
+            assert!(
+                (a - b).abs() < 1e-9 * a.abs().max(1e-3),
+                "{method:?}: {a} vs {b}"
+            );
+        }
+        let (cm, cs) = (pm.covariance().expect("cov"), ps.covariance().expect("cov"));
+        assert!((cm - cs).norm() < 1e-8 * cm.norm(), "{method:?}");
+        let (oa, ob) = (
+            mem.file.operating_point.as_ref().expect("op"),
+            streamed.file.operating_point.as_ref().expect("op"),
+        );
+        for (p, q) in oa.y0.iter().chain(&oa.u0).zip(ob.y0.iter().chain(&ob.u0)) {
+            assert!((p - q).abs() < 1e-9 * p.abs().max(1.0), "{p} vs {q}");
+        }
+        let d = &streamed.file.diagnostics;
+        assert!(d["streamed"].is_string(), "{d}");
+        assert_eq!(d["route"], method.name());
+        same_response(&mem.file.model, &streamed.file.model);
+    }
+    let mut opts = WorkflowOptions::default();
+    opts.identification.method = lifted_workflow::Method::Arx;
+    opts.identification.orders = vec![2, 2, 1];
+    let mut slow = y.clone();
+    for t in (0..slow.nrows()).filter(|t| t % 3 != 0) {
+        slow[(t, 1)] = f64::NAN;
+    }
+    let mut src = Blocks::of(&u, &slow);
+    assert!(identify_streamed(&mut src, &opts).is_err());
+}
