@@ -311,7 +311,11 @@ fn the_2x2_multirate_loop_without_its_setpoints_reaches_the_plant() {
 /// route's model class holds: one output period) the FR error's RMS over
 /// three seeds falls as 1/√N, 4× the samples halving it. Measured: 0.0099
 /// at 4e4 and 0.0039 at 1.6e5 (four seeds: ratio 2.5), 0.0044 at 1.6e5 on
-/// these three; at 1e4 one seed of four stops in a local minimum (0.14).
+/// these three; at 1e4 one seed of eight is at 0.14 (seed 3) — not a
+/// local minimum: the iterations started from the true plant end at the
+/// same prediction cost (to four digits) 0.079 from it, a flat direction
+/// of the cost at 2 500 measured samples (benches/results/closed-loop.md,
+/// "The predictor route's outliers are its spread, not local minima").
 /// A bias (an inconsistent estimator, as the open-loop routes are under
 /// feedback) would stall the ratio near 1; the bound 1.5 leaves room for
 /// the seeds' spread around the expected 2.
