@@ -508,6 +508,15 @@ pub enum KernelArg {
     Dc,
 }
 
+/// How the inputs move between samples (`--intersample`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InterSampleArg {
+    /// Zero-order hold: each sample held until the next.
+    Zoh,
+    /// First-order hold: linear from each sample to the next.
+    Foh,
+}
+
 /// Process-model structures (`--process`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ProcessArg {
@@ -604,6 +613,11 @@ pub struct IdentifyArgs {
     /// offset. A held parameter keeps its value and has no variance.
     #[arg(long, value_name = "NAME=VALUE")]
     pub process_fix: Vec<String>,
+    /// Process models: how the inputs move between their samples: zoh (held, the default: a
+    /// controller's output) or foh (linear from sample to sample: a sampled continuous signal;
+    /// MATLAB's InterSample).
+    #[arg(long, value_enum)]
+    pub intersample: Option<InterSampleArg>,
     /// Regularised FIR (--method impulse): the prior's kernel (default tc). With --method arx
     /// and --orders (or --order): the regularised ARX (MATLAB's arxRegul), one kernel for the past
     /// outputs' and one for the inputs' coefficients, hyperparameters by the marginal likelihood.

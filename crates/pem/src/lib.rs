@@ -97,7 +97,7 @@ pub use impulse::{ImpulseFit, ImpulseOptions, Kernel, impulseest};
 pub use measured_delays::{MeasuredDelayOptions, estimate_delays_measured};
 pub use oe::{OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
-pub use process::{ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
+pub use process::{InterSample, ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
 pub use state_space::{
     CovarianceOptions, Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate,
     StateSpaceUncertainty, Termination, covariance_work, pem_work_estimate,

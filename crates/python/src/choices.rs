@@ -218,3 +218,8 @@ impl Choice for lifted_pem::Kernel {
     const WHAT: &'static str = "kernel";
     const NAMES: &'static [(&'static str, Self)] = &[("tc", Self::Tc), ("dc", Self::Dc)];
 }
+
+impl Choice for lifted_pem::InterSample {
+    const WHAT: &'static str = "inter-sample behaviour";
+    const NAMES: &'static [(&'static str, Self)] = &[("zoh", Self::Zoh), ("foh", Self::Foh)];
+}

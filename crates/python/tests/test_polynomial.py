@@ -471,3 +471,34 @@ def test_arx_with_a_kernel_is_the_regularised_arx() -> None:
     assert 0.5 < reg["hyperparameters"][0]["b"]["lambda"] < 1.0
     with pytest.raises(lifted.LiftedError, match="kernel"):
         lifted.arx(u, y, kernel="tc")
+
+
+def test_procest_with_a_first_order_hold() -> None:
+    """lifted.procest(..., intersample="foh"): a FOPDT plant driven by a
+    smooth sampled input, the record from a fine simulation of the
+    continuous plant (the input linear between its samples, delayed):
+    K, Tp1, Td within a percent; the diagnostics name the hold; another
+    method refuses the option."""
+    rng = np.random.default_rng(11)
+    n, sub = 600, 200
+    raw = rng.standard_normal(n)
+    u = np.zeros(n)
+    for t in range(101, n):
+        u[t] = 0.9 * u[t - 1] + 0.3 * raw[t]
+    # K 2, T 20 s, Td 7.3 s; the input linear between samples, delayed.
+    k, tau, td, h = 2.0, 20.0, 7.3, 1.0 / sub
+    a = np.exp(-h / tau)
+    x, y = 0.0, np.zeros(n)
+    for t in range(n):
+        y[t] = x
+        times = t + (np.arange(sub) + 0.5) * h - td
+        v = np.interp(times, np.arange(n), u, left=0.0, right=0.0)
+        for vi in v:
+            x = a * x + k * (1 - a) * vi
+    fit = lifted.procest(u, y, "p1d", intersample="foh")
+    out = fit.diagnostics["process"]
+    assert out["intersample"] == "Foh"
+    p = out["outputs"][0]["parameters"]
+    assert abs(p[0] - 2.0) < 0.02 and abs(p[1] - 20.0) < 0.2 and abs(p[2] - 7.3) < 0.05, p
+    with pytest.raises(lifted.LiftedError, match="intersample"):
+        lifted.identify(u, y, "n4sid", intersample="foh")

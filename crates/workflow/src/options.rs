@@ -516,6 +516,11 @@ pub struct IdentificationOptions {
     /// "offset"; `--process-fix Td=7.3`. Default none. Other methods: not
     /// used (an error when given).
     pub process_fixed: Vec<(String, f64)>,
+    /// Process models: how the inputs move between samples (`None`: ZOH,
+    /// held; FOH: linear, a sampled continuous signal; MATLAB's
+    /// `InterSample`). Other methods: not used (an error when given).
+    #[serde(default)]
+    pub intersample: Option<lifted_pem::InterSample>,
     /// q-Markov: number q of Markov/covariance parameters matched (default
     /// 60, capped below n_r m).
     pub q: Option<usize>,
@@ -652,6 +657,7 @@ impl Default for IdentificationOptions {
             orders: Vec::new(),
             process: None,
             process_fixed: Vec::new(),
+            intersample: None,
             kernel: None,
             q: None,
             prbs_order: None,
@@ -907,6 +913,12 @@ impl WorkflowOptions {
         if id.process.is_some() && id.method != Method::Process {
             return Err(Error::option(
                 "process",
+                "only used with the process method",
+            ));
+        }
+        if id.intersample.is_some() && id.method != Method::Process {
+            return Err(Error::option(
+                "intersample",
                 "only used with the process method",
             ));
         }

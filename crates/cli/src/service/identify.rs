@@ -20,8 +20,8 @@ use lifted_workflow::{
 use nalgebra::DMatrix;
 
 use crate::args::{
-    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, KernelArg, MethodArg,
-    ProcessArg, RefineArg,
+    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, InterSampleArg,
+    KernelArg, MethodArg, ProcessArg, RefineArg,
 };
 use crate::error::{CliError, CliResult, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -146,6 +146,10 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         ProcessArg::P1di => lifted_pem::ProcessKind::P1DI,
         ProcessArg::P2dz => lifted_pem::ProcessKind::P2DZ,
         ProcessArg::P2du => lifted_pem::ProcessKind::P2DU,
+    });
+    id.intersample = a.intersample.map(|h| match h {
+        InterSampleArg::Zoh => lifted_pem::InterSample::Zoh,
+        InterSampleArg::Foh => lifted_pem::InterSample::Foh,
     });
     for item in &a.process_fix {
         let bad = || {

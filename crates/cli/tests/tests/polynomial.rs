@@ -519,3 +519,50 @@ fn arx_with_a_kernel_is_the_regularised_arx() {
     let err = fails(&a, 2);
     assert!(err.contains("kernel") && err.contains("structure"), "{err}");
 }
+
+#[test]
+fn process_models_take_a_first_order_hold() {
+    // `--intersample foh` reaches the process route (the model file's
+    // diagnostics say so); with another method it is refused by name.
+    let d = tmp("process_foh_cli");
+    let (id, _) = single_rate_data(&d);
+    let out = p(&d, "foh.json");
+    let args = [
+        "identify",
+        "--method",
+        "process",
+        "--intersample",
+        "foh",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+    ];
+    ok(&args);
+    let f = ModelFile::read(&out).unwrap();
+    assert_eq!(f.diagnostics["process"]["intersample"], "Foh");
+    let other = p(&d, "n4sid.json");
+    let err = fails(
+        &[
+            "identify",
+            "--method",
+            "n4sid",
+            "--intersample",
+            "foh",
+            "--data",
+            &id,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &other,
+        ],
+        2,
+    );
+    assert!(err.contains("intersample"), "{err}");
+}

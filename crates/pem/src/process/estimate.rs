@@ -7,7 +7,7 @@ use lifted_subspace::Experiment;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::model::{Discrete, ProcessKind, ProcessModel};
+use super::model::{Discrete, InterSample, ProcessKind, ProcessModel};
 use crate::error::{Error, Result};
 
 mod starts;
@@ -55,6 +55,11 @@ pub struct ProcessOptions {
     /// value through the starts and iterations and has no variance.
     /// Default none.
     pub fixed: Vec<(String, f64)>,
+    /// How the inputs move between their samples (default ZOH; FOH for
+    /// sampled continuous signals: MATLAB's `InterSample`). The models
+    /// carry it.
+    #[serde(default)]
+    pub intersample: InterSample,
 }
 
 impl Default for ProcessOptions {
@@ -66,6 +71,7 @@ impl Default for ProcessOptions {
             max_delay: None,
             starts: 3,
             fixed: Vec::new(),
+            intersample: InterSample::Zoh,
         }
     }
 }
@@ -126,9 +132,17 @@ impl ProcessFit {
         Ok(out)
     }
 
-    /// The exact ZOH equivalent of the whole (MISO) model, every dead time
-    /// included ([`ProcessModel::to_discrete_ss`]); the offset is not in it.
+    /// The exact discrete equivalent of the whole (MISO) model, every dead
+    /// time included ([`ProcessModel::to_discrete_ss`]; ZOH in one `c2d`,
+    /// FOH the inputs' models side by side); the offset is not in it.
     pub fn to_discrete_ss(&self) -> Result<lifted_lti::StateSpace> {
+        if self
+            .models
+            .iter()
+            .any(|m| m.intersample == InterSample::Foh)
+        {
+            return self.foh_discrete_ss();
+        }
         let parts = self
             .models
             .iter()
@@ -161,10 +175,42 @@ impl ProcessFit {
     }
 }
 
+impl ProcessFit {
+    /// The FOH models' discrete forms side by side (block-diagonal A, one
+    /// column of B and D per input, C their sum).
+    fn foh_discrete_ss(&self) -> Result<lifted_lti::StateSpace> {
+        let parts = self
+            .models
+            .iter()
+            .map(ProcessModel::to_discrete_ss)
+            .collect::<Result<Vec<_>>>()?;
+        let n: usize = parts.iter().map(|p| p.order()).sum();
+        let m = parts.len();
+        let (mut a, mut b, mut c, mut d) = (
+            DMatrix::zeros(n, n),
+            DMatrix::zeros(n, m),
+            DMatrix::zeros(1, n),
+            DMatrix::zeros(1, m),
+        );
+        let mut at = 0;
+        for (j, p) in parts.iter().enumerate() {
+            let k = p.order();
+            a.view_mut((at, at), (k, k)).copy_from(p.a());
+            b.view_mut((at, j), (k, 1)).copy_from(p.b());
+            c.view_mut((0, at), (1, k)).copy_from(p.c());
+            d[(0, j)] = p.d()[(0, 0)];
+            at += k;
+        }
+        let ts = self.models.first().map_or(1.0, |m| m.ts);
+        Ok(lifted_lti::StateSpace::new(a, b, c, d, Some(ts))?)
+    }
+}
+
 /// The estimation problem: the records, the structure, the bounds.
 struct Problem<'a> {
     kind: ProcessKind,
     ts: f64,
+    intersample: InterSample,
     nu: usize,
     offset: bool,
     /// Per record, per input, the input samples.
@@ -269,7 +315,10 @@ impl Problem<'_> {
         let p = self.to_physical(phi);
         let b = self.block();
         let models = (0..self.nu)
-            .map(|j| ProcessModel::from_parameters(self.kind, &p[j * b..(j + 1) * b], self.ts))
+            .map(|j| {
+                ProcessModel::from_parameters(self.kind, &p[j * b..(j + 1) * b], self.ts)
+                    .map(|m| m.with_intersample(self.intersample))
+            })
             .collect::<Result<Vec<_>>>()?;
         let offset = if self.offset { p[p.len() - 1] } else { 0.0 };
         Ok((models, offset))
@@ -576,6 +625,7 @@ pub fn procest(
     let p = Problem {
         kind,
         ts,
+        intersample: opts.intersample,
         nu,
         offset: opts.offset,
         inputs: experiments

@@ -14,8 +14,10 @@
 //! | P2DZ | K (1 + T_z s) e^{−θs} / ((1 + T₁s)(1 + T₂s)) |
 //! | P2DU | K e^{−θs} / (1 + 2ζT_w s + T_w² s²) |
 //!
-//! **Discretisation.** The input is held between samples (ZOH, MATLAB's
-//! `InterSample` 'zoh'). The dead time is any θ ≥ 0, not only a multiple of
+//! **Discretisation.** By default the input is held between samples (ZOH,
+//! MATLAB's `InterSample` 'zoh'); [`InterSample::Foh`] takes it linear
+//! between samples (a sampled continuous signal; the taps of the module
+//! `model`'s `foh_taps`, below). The dead time is any θ ≥ 0, not only a multiple of
 //! the sample period T: with θ = dT + δ, 0 ≤ δ < T, the held input reaches
 //! the plant δ late in each period, which the modified z-transform realises
 //! exactly with one extra state ([`lifted_lti::StateSpace::c2d`] with
@@ -23,8 +25,15 @@
 //! x(k+1) = Φx(k) + Γ₀u(k−d) + Γ₁u(k−d−1), Γ₀ = ∫₀^{T−δ} e^{As}ds B,
 //! Γ₁ = e^{A(T−δ)} ∫₀^δ e^{As}ds B. The integer part d is an index shift
 //! in the estimator's simulation and d shift-register states in
-//! [`ProcessModel::to_discrete_ss`]. First-order hold is not offered (its
-//! delayed form is not in `c2d`).
+//! [`ProcessModel::to_discrete_ss`]. First-order hold with θ = dT + δ:
+//! on [0, δ) of a period the delayed input runs from u(k−d−1) to u(k−d),
+//! on [δ, T) from u(k−d) to u(k−d+1), so
+//! x(k+1) = Φx(k) + G₋₁u(k−d−1) + G₀u(k−d) + G₁u(k−d+1) with the three
+//! taps from one augmented matrix exponential (Van Loan 1978; δ = 0 is the
+//! triangle hold of Franklin, Powell & Workman §6.3.2); with d = 0 the
+//! next sample enters, which the state z = x − G₁u(k) turns into the
+//! direct term C G₁. The record starts at rest: the input 0 before its
+//! first sample, ramping to u(0) over the period before it.
 //!
 //! **Estimator** ([`procest`]). The output-error cost
 //! V = Σ_t ε(t)², ε = y(t) − ŷ(t | p), over the M samples where y was
@@ -85,7 +94,7 @@ mod estimate;
 mod model;
 
 pub use estimate::{ProcessFit, ProcessOptions, procest};
-pub use model::{ProcessKind, ProcessModel};
+pub use model::{InterSample, ProcessKind, ProcessModel};
 
 #[cfg(test)]
 mod tests;

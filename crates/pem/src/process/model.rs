@@ -1,5 +1,6 @@
 //! The process-model structures, their continuous realisations, the exact
-//! ZOH discretisation with a fractional dead time and the fast simulation.
+//! ZOH and FOH discretisations with a fractional dead time and the fast
+//! simulation.
 
 use lifted_lti::{C2dOptions, StateSpace};
 use nalgebra::DMatrix;
@@ -55,6 +56,37 @@ impl ProcessKind {
     }
 }
 
+/// How the input behaves between its samples (MATLAB's `InterSample`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum InterSample {
+    /// Zero-order hold: each sample held until the next (default; a
+    /// controller's or a DAC's output).
+    #[default]
+    Zoh,
+    /// First-order hold: the input moves linearly from each sample to the
+    /// next (a sampled continuous signal, a ramped set-point; MATLAB's
+    /// triangle hold). The discrete model then needs the next sample, so a
+    /// dead time under one period gives it a direct term.
+    Foh,
+}
+
+impl InterSample {
+    /// Parses `zoh` or `foh` (any case); `what` names the option in the
+    /// error.
+    ///
+    /// Errors: [`Error::InvalidOption`] naming the values there are.
+    pub fn parse(s: &str, what: &'static str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "zoh" => Ok(InterSample::Zoh),
+            "foh" => Ok(InterSample::Foh),
+            other => Err(Error::InvalidOption {
+                what,
+                reason: format!("unknown inter-sample behaviour {other:?}: zoh or foh"),
+            }),
+        }
+    }
+}
+
 /// A continuous-time process model of one input–output pair with dead time,
 /// sampled at `ts` (MATLAB's `idproc`). Fields a structure does not use are
 /// 0 (see [`ProcessKind`]): `tp1` for every kind but P2DU, `tp2` for P2D and
@@ -80,6 +112,10 @@ pub struct ProcessModel {
     pub theta: f64,
     /// Sample period of the data the model describes (s), > 0.
     pub ts: f64,
+    /// How the input moves between samples (default ZOH; files written
+    /// before FOH existed read as ZOH).
+    #[serde(default)]
+    pub intersample: InterSample,
 }
 
 impl ProcessModel {
@@ -107,6 +143,7 @@ impl ProcessModel {
             tz: 0.0,
             theta: p[p.len() - 1],
             ts,
+            intersample: InterSample::Zoh,
         };
         match kind {
             ProcessKind::P1D | ProcessKind::P1DI => m.tp1 = p[1],
@@ -214,12 +251,23 @@ impl ProcessModel {
         }
     }
 
-    /// The exact zero-order-hold equivalent at `ts`, the whole dead time
-    /// included: θ = dT + δ (0 ≤ δ < T) by
-    /// [`lifted_lti::StateSpace::c2d`] with an input delay (the modified
-    /// z-transform, one extra state when δ > 0, and d shift-register
-    /// states). Order n + d + (δ > 0).
+    /// The same model with the input's behaviour between samples `h`.
+    pub fn with_intersample(mut self, h: InterSample) -> Self {
+        self.intersample = h;
+        self
+    }
+
+    /// The exact discrete equivalent at `ts`, the whole dead time included
+    /// (θ = dT + δ, 0 ≤ δ < T). ZOH: [`lifted_lti::StateSpace::c2d`] with
+    /// an input delay (the modified z-transform, one extra state when
+    /// δ > 0, and d shift-register states), order n + d + (δ > 0). FOH:
+    /// the taps of [`foh_taps`] on a register of the past inputs, order
+    /// n + d + 1 (n + 1 when d = 0, with the direct term C G₁).
     pub fn to_discrete_ss(&self) -> Result<StateSpace> {
+        if self.intersample == InterSample::Foh {
+            self.validate()?;
+            return Discrete::new(self)?.to_ss(self.ts);
+        }
         Ok(self.to_continuous_ss()?.c2d(
             self.ts,
             &C2dOptions {
@@ -240,15 +288,65 @@ impl ProcessModel {
     }
 }
 
-/// The ZOH equivalent without the integer part of the delay (the modified
-/// z-transform realisation of the fraction δ), and that integer part: what
-/// the estimator simulates, an index shift instead of d states.
+/// The first-order-hold taps of a fractional delay δ (0 ≤ δ < T) over one
+/// period T: with the input linear between its samples and reaching the
+/// plant δ late,
+///
+/// x(k+1) = Φ x(k) + G₋₁ u(k−1) + G₀ u(k) + G₁ u(k+1),
+///
+/// G₋₁ = (δ I₀(0,δ) − I₁(0,δ))/T, G₀ = ((T−δ) I₀(0,δ) + I₁(0,δ) + (T+δ) I₀(δ,T)
+/// − I₁(δ,T))/T, G₁ = (I₁(δ,T) − δ I₀(δ,T))/T, where I₀(a,b) = ∫ₐᵇ e^{A(T−s)} ds B
+/// and I₁(a,b) = ∫ₐᵇ e^{A(T−s)} s ds B (on [0, δ) the input runs from
+/// u(k−1) to u(k), on [δ, T) from u(k) to u(k+1)). Both integrals come
+/// from the exponential of [[A, B, 0], [0, 0, 1], [0, 0, 0]]·α (Van Loan
+/// 1978): its blocks (1,2) and (1,3) are J₀(α) = ∫₀^α e^{Ar} dr B and
+/// α J₀(α) − J₁(α), J₁(α) = ∫₀^α e^{Ar} r dr B. δ = 0 gives the triangle
+/// hold (Franklin, Powell & Workman, *Digital Control*, §6.3.2): G₋₁ = 0.
+/// Returns (Φ, [G₋₁, G₀, G₁]).
+fn foh_taps(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    ts: f64,
+    delta: f64,
+) -> Result<(DMatrix<f64>, [Vec<f64>; 3])> {
+    let n = a.nrows();
+    let j = |alpha: f64| -> Result<(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>)> {
+        let mut m = DMatrix::zeros(n + 2, n + 2);
+        m.view_mut((0, 0), (n, n)).copy_from(&(a * alpha));
+        m.view_mut((0, n), (n, 1)).copy_from(&(b * alpha));
+        m[(n, n + 1)] = alpha;
+        let e = lifted_linalg::expm(&m)?;
+        let j0 = e.view((0, n), (n, 1)).into_owned();
+        let j1 = &j0 * alpha - e.view((0, n + 1), (n, 1));
+        Ok((e.view((0, 0), (n, n)).into_owned(), j0, j1))
+    };
+    // I₀(a,b) = J₀(T−a) − J₀(T−b); I₁(a,b) = T I₀(a,b) − (J₁(T−a) − J₁(T−b)).
+    let (phi, j0_t, j1_t) = j(ts)?;
+    let (_, j0_d, j1_d) = j(ts - delta)?;
+    let i0_early = &j0_t - &j0_d;
+    let i1_early = &i0_early * ts - (&j1_t - &j1_d);
+    let i0_late = j0_d.clone();
+    let i1_late = &i0_late * ts - j1_d;
+    let g_prev = (&i0_early * delta - &i1_early) / ts;
+    let g_now = (&i0_early * (ts - delta) + &i1_early + &i0_late * (ts + delta) - &i1_late) / ts;
+    let g_next = (&i1_late - &i0_late * delta) / ts;
+    let col = |g: DMatrix<f64>| g.column(0).iter().copied().collect::<Vec<f64>>();
+    Ok((phi, [col(g_prev), col(g_now), col(g_next)]))
+}
+
+/// The discrete equivalent without the integer part of the delay (ZOH: the
+/// modified z-transform realisation of the fraction δ; FOH: the taps of
+/// [`foh_taps`]), and that integer part: what the estimator simulates, an
+/// index shift instead of d states.
 pub(crate) struct Discrete {
     a: DMatrix<f64>,
     b: Vec<f64>,
     c: Vec<f64>,
     d: f64,
     shift: usize,
+    /// FOH: the taps of u(t − shift − 1), u(t − shift), u(t − shift + 1)
+    /// (`b` and `d` unused).
+    foh: Option<[Vec<f64>; 3]>,
 }
 
 impl Discrete {
@@ -264,6 +362,17 @@ impl Discrete {
             frac = 0.0;
             shift += 1.0;
         }
+        if m.intersample == InterSample::Foh {
+            let (phi, taps) = foh_taps(&a, &b, ts, frac)?;
+            return Ok(Discrete {
+                a: phi,
+                b: Vec::new(),
+                c: c.row(0).iter().copied().collect(),
+                d: 0.0,
+                shift: shift as usize,
+                foh: Some(taps),
+            });
+        }
         let cont = StateSpace::new(a, b, c, DMatrix::zeros(1, 1), None)?;
         let dss = cont.c2d(
             ts,
@@ -278,11 +387,19 @@ impl Discrete {
             c: dss.c().row(0).iter().copied().collect(),
             d: dss.d()[(0, 0)],
             shift: shift as usize,
+            foh: None,
         })
     }
 
-    /// out(t) += scale · (response to u)(t), zero initial state.
+    /// out(t) += scale · (response to u)(t), at rest before the record
+    /// (the input zero before its first sample: under FOH it ramps from 0
+    /// at −T to u(0), and the sample after the last, which reaches no
+    /// output of the record, is taken as 0).
     pub(crate) fn add_response(&self, u: &[f64], scale: f64, out: &mut [f64]) {
+        if let Some(taps) = &self.foh {
+            self.add_foh_response(taps, u, scale, out);
+            return;
+        }
         let n = self.b.len();
         let mut x = [0.0f64; 4];
         let mut xn = [0.0f64; 4];
@@ -301,5 +418,98 @@ impl Discrete {
             }
             x[..n].copy_from_slice(&xn[..n]);
         }
+    }
+
+    fn add_foh_response(&self, taps: &[Vec<f64>; 3], u: &[f64], scale: f64, out: &mut [f64]) {
+        let n = self.c.len();
+        let mut x = [0.0f64; 4];
+        let mut xn = [0.0f64; 4];
+        debug_assert!(n <= 4);
+        let at = |i: isize| -> f64 {
+            usize::try_from(i)
+                .ok()
+                .and_then(|i| u.get(i))
+                .copied()
+                .unwrap_or(0.0)
+        };
+        let shift = self.shift as isize;
+        // x(0) from the step before the record (t = −1): the input ramps
+        // from u(−1) = 0 to u(0) over it, which reaches x(0) through G₁
+        // when the delay is under a period (d = 0); the state-space form
+        // starts there too (z(0) = x(0) − G₁u(0) = 0).
+        let v = [at(-2 - shift), at(-1 - shift), at(-shift)];
+        for (i, xi) in x[..n].iter_mut().enumerate() {
+            *xi = (0..3).map(|k| taps[k][i] * v[k]).sum::<f64>();
+        }
+        for t in 0..u.len().min(out.len()) {
+            out[t] += scale * self.c.iter().zip(&x[..n]).map(|(c, x)| c * x).sum::<f64>();
+            let base = t as isize - shift;
+            let v = [at(base - 1), at(base), at(base + 1)];
+            for (i, xi) in xn[..n].iter_mut().enumerate() {
+                *xi = (0..3).map(|k| taps[k][i] * v[k]).sum::<f64>()
+                    + x[..n]
+                        .iter()
+                        .enumerate()
+                        .map(|(j, xj)| self.a[(i, j)] * xj)
+                        .sum::<f64>();
+            }
+            x[..n].copy_from_slice(&xn[..n]);
+        }
+    }
+
+    /// The FOH model as a causal state space: with d = shift ≥ 1 the taps
+    /// read u(k−d+1), u(k−d), u(k−d−1) from a register of the last d + 1
+    /// inputs (u(k) itself when d = 1); with d = 0 the state
+    /// z = x − G₁ u(k) removes the next sample: z(k+1) = Φ z + (Φ G₁ + G₀)
+    /// u(k) + G₋₁ u(k−1), y = C z + C G₁ u(k). ZOH models go through
+    /// `c2d` instead ([`ProcessModel::to_discrete_ss`]).
+    fn to_ss(&self, ts: f64) -> Result<StateSpace> {
+        let Some(taps) = &self.foh else {
+            return Err(Error::InvalidOption {
+                what: "process model",
+                reason: "a ZOH model is discretised by c2d".into(),
+            });
+        };
+        let n = self.c.len();
+        let vec = |v: &Vec<f64>| DMatrix::from_column_slice(n, 1, v);
+        let (g_prev, g_now, g_next) = (vec(&taps[0]), vec(&taps[1]), vec(&taps[2]));
+        let c = DMatrix::from_row_slice(1, n, &self.c);
+        // Taps by input lag l (u(k − l)) and the direct term.
+        let (by_lag, direct): (Vec<DMatrix<f64>>, f64) = if self.shift == 0 {
+            let g0 = &self.a * &g_next + g_now;
+            ((vec![g0, g_prev]), (&c * &g_next)[(0, 0)])
+        } else {
+            let d = self.shift;
+            let mut lags = vec![DMatrix::zeros(n, 1); d + 2];
+            lags[d - 1] = g_next;
+            lags[d] = g_now;
+            lags[d + 1] = g_prev;
+            (lags, 0.0)
+        };
+        // State [x; u(k−1); …; u(k−L)], L the longest lag.
+        let l = by_lag.len() - 1;
+        let size = n + l;
+        let mut a = DMatrix::zeros(size, size);
+        let mut b = DMatrix::zeros(size, 1);
+        let mut cc = DMatrix::zeros(1, size);
+        a.view_mut((0, 0), (n, n)).copy_from(&self.a);
+        b.view_mut((0, 0), (n, 1)).copy_from(&by_lag[0]);
+        for (lag, g) in by_lag.iter().enumerate().skip(1) {
+            a.view_mut((0, n + lag - 1), (n, 1)).copy_from(g);
+        }
+        if l > 0 {
+            b[(n, 0)] = 1.0;
+            for i in 1..l {
+                a[(n + i, n + i - 1)] = 1.0;
+            }
+        }
+        cc.view_mut((0, 0), (1, n)).copy_from(&c);
+        Ok(StateSpace::new(
+            a,
+            b,
+            cc,
+            DMatrix::from_element(1, 1, direct),
+            Some(ts),
+        )?)
     }
 }

@@ -279,6 +279,7 @@ def identify(
     plan: Any = None,
     covariance: bool = True,
     process_fixed: dict[str, float] | None = None,
+    intersample: Literal["zoh", "foh"] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -410,6 +411,9 @@ def identify(
       instead of estimated, in the data's units, e.g. ``{"Td": 7.3}`` (a
       dead time known from the plant, every input) or ``{"K(u1)": 2.0}``
       (one input); ``--process-fix``. A held parameter has no variance.
+    * ``intersample`` (``method="process"``): ``"zoh"`` (default, the input
+      held between samples) or ``"foh"`` (linear between samples: a sampled
+      continuous signal); ``--intersample``.
     * ``plan``: take every option from a plan instead of the keywords (the
       command line's ``--plan``): a :class:`SubspaceFit` or its
       ``diagnostics`` (the options that made it), the path of a model file
@@ -472,7 +476,7 @@ def identify(
             integrator_tolerance=integrator_tolerance, process=process, kernel=kernel,
             refine_check=refine_check, selection=selection,
             gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
-            covariance=covariance, process_fixed=process_fixed,
+            covariance=covariance, process_fixed=process_fixed, intersample=intersample,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -912,6 +916,7 @@ def procest(
     detrend: Detrend = "mean",
     threads: int = 1,
     fixed: dict[str, float] | None = None,
+    intersample: Literal["zoh", "foh"] = "zoh",
 ) -> SubspaceFit:
     """Process model with dead time per input-output pair (MATLAB's
     ``procest``), through the identification workflow
@@ -929,10 +934,13 @@ def procest(
     (``std``) in the data's units; ``fit.model`` is the exact discrete
     equivalent. ``fixed`` holds parameters at a value instead of estimating
     them (``{"Td": 7.3}``: a known dead time; ``identify``'s
-    ``process_fixed``).
+    ``process_fixed``). ``intersample="foh"`` takes the inputs as linear
+    between their samples (a sampled continuous signal) instead of held
+    (MATLAB's ``InterSample``; exact first-order-hold discretisation with
+    the fractional delay).
     """
     return identify(u, y, "process", process=process, dt=dt, detrend=detrend, threads=threads,
-                    process_fixed=fixed)
+                    process_fixed=fixed, intersample=intersample)
 
 
 def impulseest(

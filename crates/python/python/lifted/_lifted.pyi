@@ -306,6 +306,7 @@ def identify(
     plan: str | None = None,
     covariance: bool = True,
     process_fixed: dict[str, float] | None = None,
+    intersample: Literal["zoh", "foh"] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

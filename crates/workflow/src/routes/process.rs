@@ -58,6 +58,7 @@ pub(crate) fn identify(
         let popts = ProcessOptions {
             offset: true,
             fixed: held(&id.process_fixed, kind, &names, i, scales)?,
+            intersample: id.intersample.unwrap_or_default(),
             ..Default::default()
         };
         let ys: Vec<DMatrix<f64>> = sets
@@ -129,7 +130,8 @@ pub(crate) fn identify(
     let mut diagnostics = json!({
         "route": "process",
         "process": {"kind": format!("{kind:?}"), "outputs": outputs,
-                    "inputs_relative_to": "their first sample"},
+                    "inputs_relative_to": "their first sample",
+                    "intersample": format!("{:?}", id.intersample.unwrap_or_default())},
     });
     crate::diagnostics::add_phase(&mut diagnostics, "process_s", t_fit.elapsed().as_secs_f64());
     let n = model.order();

@@ -19,10 +19,12 @@ struct Candidate {
 fn shape_bases(
     kind: ProcessKind,
     shape: &[f64],
-    ts: f64,
+    (ts, hold): (f64, InterSample),
     inputs: &[&[f64]],
 ) -> Result<Vec<Vec<Vec<f64>>>> {
-    let unit = |k: ProcessKind, p: &[f64]| ProcessModel::from_parameters(k, p, ts);
+    let unit = |k: ProcessKind, p: &[f64]| {
+        ProcessModel::from_parameters(k, p, ts).map(|m| m.with_intersample(hold))
+    };
     let models = match kind {
         ProcessKind::P1D => vec![unit(kind, &[1.0, shape[0], 0.0])?],
         ProcessKind::P1DI => vec![unit(kind, &[1.0, shape[0], 0.0])?],
@@ -87,7 +89,7 @@ fn grid(p: &Problem<'_>, j: usize, target: &[Vec<f64>]) -> Result<Vec<Candidate>
     let inputs: Vec<&[f64]> = p.inputs.iter().map(|us| us[j].as_slice()).collect();
     let mut out = Vec::new();
     for (shape, cell) in shapes {
-        let bases = shape_bases(p.kind, &shape, p.ts, &inputs)?;
+        let bases = shape_bases(p.kind, &shape, (p.ts, p.intersample), &inputs)?;
         let mut best: Option<(f64, usize, Vec<f64>)> = None;
         let consider = |d: usize, best: &mut Option<(f64, usize, Vec<f64>)>| {
             if let Some((c, coef)) = shifted_ls(&bases, target, d, p.offset)
@@ -317,7 +319,8 @@ pub(super) fn starts(p: &Problem<'_>, opts: &ProcessOptions) -> Result<Vec<Vec<f
                 if i == j {
                     continue;
                 }
-                let m = ProcessModel::from_parameters(p.kind, blk, p.ts)?;
+                let m = ProcessModel::from_parameters(p.kind, blk, p.ts)?
+                    .with_intersample(p.intersample);
                 let dm = Discrete::new(&m)?;
                 for (e, t) in target.iter_mut().enumerate() {
                     dm.add_response(&p.inputs[e][i], -1.0, t);

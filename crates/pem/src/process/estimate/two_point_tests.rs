@@ -15,6 +15,7 @@ fn smith_two_point_start_on_a_noise_free_step() {
     let p = Problem {
         kind: ProcessKind::P1D,
         ts: 1.0,
+        intersample: InterSample::Zoh,
         nu: 1,
         offset: false,
         inputs: vec![vec![u]],

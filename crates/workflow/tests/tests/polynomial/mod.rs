@@ -443,3 +443,47 @@ fn the_regularised_arx_through_the_workflow() {
         err(pl)
     );
 }
+
+#[test]
+fn the_process_route_takes_a_first_order_hold() {
+    // A FOPDT plant driven by a smooth input sampled every second (a
+    // sampled continuous signal), in data units (u × 10 + 50, y + 4),
+    // noise-free: with `intersample` FOH the route returns K (0.2 in the
+    // data's units), τ and θ; the diagnostics say which hold; another
+    // method refuses the option by name.
+    use lifted_pem::{InterSample, ProcessKind, ProcessModel};
+    let truth = ProcessModel::from_parameters(ProcessKind::P1D, &[2.0, 20.0, 7.3], 1.0)
+        .unwrap()
+        .with_intersample(InterSample::Foh);
+    let n = 800;
+    let raw = gauss(63, n, 1, 1.0);
+    let mut u = vec![0.0; n];
+    for t in 101..n {
+        u[t] = 0.9 * u[t - 1] + 0.3 * raw[(t, 0)];
+    }
+    let y = truth.simulate(&u).unwrap();
+    let um = DMatrix::from_fn(n, 1, |t, _| 10.0 * u[t] + 50.0);
+    let ym = DMatrix::from_fn(n, 1, |t, _| y[t] + 4.0);
+    let data = Dataset::single_rate(1.0, um, ym).unwrap();
+    let mut o = options(Method::Process, &[]);
+    o.identification.intersample = Some(InterSample::Foh);
+    let id = identify(&[Record::new(data.clone())], &o).unwrap();
+    let d = &id.file.diagnostics["process"];
+    assert_eq!(d["intersample"], "Foh", "{d}");
+    let p: Vec<f64> = d["outputs"][0]["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    for (got, want) in p.iter().zip([0.2, 20.0, 7.3]) {
+        assert!((got - want).abs() < 1e-3 * want, "{p:?}");
+    }
+    let mut bad = options(Method::N4sid, &[]);
+    bad.identification.intersample = Some(InterSample::Foh);
+    let e = identify(&[Record::new(data)], &bad).unwrap_err();
+    assert!(
+        matches!(&e, Error::InvalidOption { option, .. } if *option == "intersample"),
+        "{e}"
+    );
+}
