@@ -25,17 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::arx::lagged::Lagged;
 use crate::error::{Error, Result};
-use crate::regularized::{Block, Problem};
-
-/// The prior's kernel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub enum Kernel {
-    /// Tuned/correlated, P_ij = c λ^{max(i, j)} (default).
-    #[default]
-    Tc,
-    /// Diagonal/correlated, P_ij = c ρ^{|i−j|} λ^{(i+j)/2}.
-    Dc,
-}
+use crate::regularized::{Block, Kernel, Problem};
 
 /// Options of [`impulseest`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

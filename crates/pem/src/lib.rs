@@ -93,11 +93,12 @@ pub use arx::{
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};
 pub use held_out::{CheckRule, RefinementCheck, cross_validate_refinement};
-pub use impulse::{ImpulseFit, ImpulseOptions, Kernel, impulseest};
+pub use impulse::{ImpulseFit, ImpulseOptions, impulseest};
 pub use measured_delays::{MeasuredDelayOptions, estimate_delays_measured};
 pub use oe::{OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
 pub use process::{InterSample, ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
+pub use regularized::Kernel;
 pub use state_space::{
     CovarianceOptions, Kept, PemCost, PemFit, PemMethod, PemOptions, PemReport, PemWorkEstimate,
     StateSpaceUncertainty, Termination, covariance_work, pem_work_estimate,

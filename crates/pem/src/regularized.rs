@@ -42,9 +42,19 @@
 //! groups, 2 500 for one.
 
 use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::impulse::Kernel;
+
+/// The prior's kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Kernel {
+    /// Tuned/correlated, P_ij = c λ^{max(i, j)} (default).
+    #[default]
+    Tc,
+    /// Diagonal/correlated, P_ij = c ρ^{|i−j|} λ^{(i+j)/2}.
+    Dc,
+}
 
 /// A block of regressors sharing one kernel: its length and the group
 /// whose hyperparameters it takes.

@@ -502,6 +502,31 @@ impl CompressedRecords {
         &self.plan
     }
 
+    /// Samples over the records and the channel means [u; y] in the plan's
+    /// units, once there are at least `k` Hankel columns.
+    ///
+    /// Errors: [`Error::HorizonTooLong`] (fewer Hankel columns than rows).
+    fn samples_and_means(&self, k: usize) -> Result<(usize, Vec<f64>)> {
+        let plan = &self.plan;
+        let samples: usize = self.records.iter().sum();
+        if self.columns < k {
+            return Err(Error::HorizonTooLong {
+                past: plan.past,
+                future: plan.future,
+                n_samples: samples,
+                min_samples: k + (plan.past + plan.future - 1) * self.records.len().max(1),
+            });
+        }
+        let n = samples.max(1) as f64;
+        let means = self
+            .sums
+            .iter()
+            .zip(&plan.reference)
+            .map(|(s, r)| s / n + r)
+            .collect();
+        Ok((samples, means))
+    }
+
     /// The records' Hankel factor L (H Hᵀ/J = L Lᵀ, rows in the order of
     /// [`crate::hankel_row_sources`] for the plan's horizons) for a
     /// least-squares use of the lagged data other than the subspace step
@@ -525,25 +550,11 @@ impl CompressedRecords {
                 reason: "compressed records factor by their correlations; the QR needs the record in one pass".into(),
             });
         }
-        let plan = self.plan;
-        let layout = plan.layout();
+        let layout = self.plan.layout();
         let k = layout.nrows();
-        let samples: usize = self.records.iter().sum();
-        if self.columns < k {
-            return Err(Error::HorizonTooLong {
-                past: plan.past,
-                future: plan.future,
-                n_samples: samples,
-                min_samples: k + (plan.past + plan.future - 1) * self.records.len().max(1),
-            });
-        }
+        let (samples, means) = self.samples_and_means(k)?;
         let n = samples.max(1) as f64;
-        let means: Vec<f64> = self
-            .sums
-            .iter()
-            .zip(&plan.reference)
-            .map(|(s, r)| s / n + r)
-            .collect();
+        let plan = self.plan;
         let mut gram = if self.gram.is_empty() {
             DMatrix::zeros(0, 0)
         } else {
@@ -619,28 +630,13 @@ impl CompressedRecords {
         }
         let layout = check_options(plan.n_inputs, plan.n_outputs, opts)?;
         let k = layout.nrows();
-        let samples: usize = self.records.iter().sum();
-        if self.columns < k {
-            return Err(Error::HorizonTooLong {
-                past: plan.past,
-                future: plan.future,
-                n_samples: samples,
-                min_samples: k + (plan.past + plan.future - 1) * self.records.len().max(1),
-            });
-        }
+        let (samples, means) = self.samples_and_means(k)?;
         let t0 = std::time::Instant::now();
         let nz = layout.nu + layout.ny;
         let scale = Scale {
             u: plan.scale[0],
             y: plan.scale[1],
         };
-        let n = samples.max(1) as f64;
-        let means: Vec<f64> = self
-            .sums
-            .iter()
-            .zip(&plan.reference)
-            .map(|(s, r)| s / n + r)
-            .collect();
         let gram = if self.gram.is_empty() {
             DMatrix::zeros(0, 0)
         } else {

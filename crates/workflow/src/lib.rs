@@ -151,7 +151,6 @@ mod refine;
 mod routes;
 mod selection;
 pub mod stream;
-mod stream_arx;
 mod subspace_options;
 mod validate;
 

@@ -20,7 +20,7 @@ use lifted_lti::PolyOrders;
 use lifted_subspace::{CompressedRecords, Compression};
 use nalgebra::DMatrix;
 
-use super::lagged::Lagged;
+use super::lagged::{Lagged, too_short};
 use super::{ArxFit, ArxOptions, check_orders, fit_structure, longest_lag};
 use crate::error::{Error, Result};
 
@@ -80,17 +80,9 @@ pub fn arx_compressed(
         });
     }
     let samples: usize = records.records().iter().sum();
-    let lf = match records.factor(opts.compression, opts.threads) {
-        Ok(f) => f,
-        Err(lifted_subspace::Error::HorizonTooLong { min_samples, .. }) => {
-            return Err(Error::TooFewSamples {
-                what: "the ARX regression (every lag and channel)",
-                measured: samples,
-                needed: min_samples,
-            });
-        }
-        Err(e) => return Err(e.into()),
-    };
+    let lf = records
+        .factor(opts.compression, opts.threads)
+        .map_err(|e| too_short(e, samples))?;
     let data = Lagged::from_factor(lf.factor, past, future, nu, ny);
     let scaled = fit_structure(&data, orders, ts)?;
     let [su, sy] = lf.scale;

@@ -66,6 +66,20 @@ pub(crate) struct Column {
     pub channel: usize,
 }
 
+/// A compression's error for `samples` samples: a record too short for
+/// the lags as [`Error::TooFewSamples`] of the ARX regression, the rest as
+/// they are.
+pub(crate) fn too_short(e: lifted_subspace::Error, samples: usize) -> Error {
+    match e {
+        lifted_subspace::Error::HorizonTooLong { min_samples, .. } => Error::TooFewSamples {
+            what: "the ARX regression (every lag and channel)",
+            measured: samples,
+            needed: min_samples,
+        },
+        e => e.into(),
+    }
+}
+
 impl Lagged {
     /// Compresses `experiments` for lags 0..=`lags`. O(N n_z² L) flops (the
     /// correlations) or O(N k²) (the QR fallback); memory O(k²).
@@ -80,18 +94,8 @@ impl Lagged {
         let (past, future) = Self::horizons(lags);
         let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
         let factor =
-            match lifted_subspace::compress_hankel(experiments, past, future, compression, threads)
-            {
-                Ok(f) => f,
-                Err(lifted_subspace::Error::HorizonTooLong { min_samples, .. }) => {
-                    return Err(Error::TooFewSamples {
-                        what: "the ARX regression (every lag and channel)",
-                        measured: samples,
-                        needed: min_samples,
-                    });
-                }
-                Err(e) => return Err(e.into()),
-            };
+            lifted_subspace::compress_hankel(experiments, past, future, compression, threads)
+                .map_err(|e| too_short(e, samples))?;
         Ok(Self::from_factor(factor, past, future, nu, ny))
     }
 

@@ -174,6 +174,19 @@ fn check_orders(orders: &PolyOrders, nu: usize, ny: usize) -> Result<()> {
     Ok(())
 }
 
+/// The records' lagged data for the structure `orders` (checked against
+/// their channels): one compression for its longest lag.
+fn lagged_for(
+    experiments: &[Experiment<'_>],
+    orders: &PolyOrders,
+    compression: Compression,
+    threads: usize,
+) -> Result<Lagged> {
+    let (nu, ny) = channels(experiments)?;
+    check_orders(orders, nu, ny)?;
+    Lagged::new(experiments, longest_lag(orders), compression, threads)
+}
+
 /// (n_u, n_y) of the records, or [`Error::NoData`].
 fn channels(experiments: &[Experiment<'_>]) -> Result<(usize, usize)> {
     let e = experiments.first().ok_or(Error::NoData)?;
@@ -203,14 +216,7 @@ pub fn arx(
     ts: f64,
     opts: &ArxOptions,
 ) -> Result<ArxFit> {
-    let (nu, ny) = channels(experiments)?;
-    check_orders(orders, nu, ny)?;
-    let data = Lagged::new(
-        experiments,
-        longest_lag(orders),
-        opts.compression,
-        opts.threads,
-    )?;
+    let data = lagged_for(experiments, orders, opts.compression, opts.threads)?;
     fit_structure(&data, orders, ts)
 }
 

@@ -31,11 +31,9 @@ use lifted_subspace::{Compression, Experiment};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::lagged::Lagged;
-use super::{ArxFit, channels, check_orders, longest_lag, regressors};
+use super::{ArxFit, lagged_for, regressors};
 use crate::error::{Error, Result};
-use crate::impulse::Kernel;
-use crate::regularized::{Block, Problem};
+use crate::regularized::{Block, Kernel, Problem};
 
 /// Options of [`arx_regul`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -93,14 +91,8 @@ pub fn arx_regul(
     ts: f64,
     opts: &ArxRegulOptions,
 ) -> Result<ArxRegulFit> {
-    let (nu, ny) = channels(experiments)?;
-    check_orders(orders, nu, ny)?;
-    let data = Lagged::new(
-        experiments,
-        longest_lag(orders),
-        opts.compression,
-        opts.threads,
-    )?;
+    let data = lagged_for(experiments, orders, opts.compression, opts.threads)?;
+    let (nu, ny) = (data.nu(), data.ny());
     let rows = data.rows;
     let mut theta_all = Vec::new();
     let mut covs = Vec::new();

@@ -148,23 +148,8 @@ impl ProcessFit {
             .iter()
             .map(ProcessModel::to_continuous_ss)
             .collect::<Result<Vec<_>>>()?;
-        let n: usize = parts.iter().map(|p| p.order()).sum();
-        let m = parts.len();
-        let (mut a, mut b, mut c) = (
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, m),
-            DMatrix::zeros(1, n),
-        );
-        let mut at = 0;
-        for (j, p) in parts.iter().enumerate() {
-            let k = p.order();
-            a.view_mut((at, at), (k, k)).copy_from(p.a());
-            b.view_mut((at, j), (k, 1)).copy_from(p.b());
-            c.view_mut((0, at), (1, k)).copy_from(p.c());
-            at += k;
-        }
         let ts = self.models.first().map_or(1.0, |m| m.ts);
-        let cont = lifted_lti::StateSpace::new(a, b, c, DMatrix::zeros(1, m), None)?;
+        let cont = side_by_side(&parts, None)?;
         Ok(cont.c2d(
             ts,
             &lifted_lti::C2dOptions {
@@ -176,34 +161,43 @@ impl ProcessFit {
 }
 
 impl ProcessFit {
-    /// The FOH models' discrete forms side by side (block-diagonal A, one
-    /// column of B and D per input, C their sum).
+    /// The FOH models' discrete forms side by side ([`side_by_side`]).
     fn foh_discrete_ss(&self) -> Result<lifted_lti::StateSpace> {
         let parts = self
             .models
             .iter()
             .map(ProcessModel::to_discrete_ss)
             .collect::<Result<Vec<_>>>()?;
-        let n: usize = parts.iter().map(|p| p.order()).sum();
-        let m = parts.len();
-        let (mut a, mut b, mut c, mut d) = (
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, m),
-            DMatrix::zeros(1, n),
-            DMatrix::zeros(1, m),
-        );
-        let mut at = 0;
-        for (j, p) in parts.iter().enumerate() {
-            let k = p.order();
-            a.view_mut((at, at), (k, k)).copy_from(p.a());
-            b.view_mut((at, j), (k, 1)).copy_from(p.b());
-            c.view_mut((0, at), (1, k)).copy_from(p.c());
-            d[(0, j)] = p.d()[(0, 0)];
-            at += k;
-        }
         let ts = self.models.first().map_or(1.0, |m| m.ts);
-        Ok(lifted_lti::StateSpace::new(a, b, c, d, Some(ts))?)
+        side_by_side(&parts, Some(ts))
     }
+}
+
+/// Single-input, single-output models side by side, one input each, the
+/// output their sum: block-diagonal A, B and D one column per input, C
+/// the row of the C's.
+fn side_by_side(
+    parts: &[lifted_lti::StateSpace],
+    ts: Option<f64>,
+) -> Result<lifted_lti::StateSpace> {
+    let n: usize = parts.iter().map(|p| p.order()).sum();
+    let m = parts.len();
+    let (mut a, mut b, mut c, mut d) = (
+        DMatrix::zeros(n, n),
+        DMatrix::zeros(n, m),
+        DMatrix::zeros(1, n),
+        DMatrix::zeros(1, m),
+    );
+    let mut at = 0;
+    for (j, p) in parts.iter().enumerate() {
+        let k = p.order();
+        a.view_mut((at, at), (k, k)).copy_from(p.a());
+        b.view_mut((at, j), (k, 1)).copy_from(p.b());
+        c.view_mut((0, at), (1, k)).copy_from(p.c());
+        d[(0, j)] = p.d()[(0, 0)];
+        at += k;
+    }
+    Ok(lifted_lti::StateSpace::new(a, b, c, d, ts)?)
 }
 
 /// The estimation problem: the records, the structure, the bounds.

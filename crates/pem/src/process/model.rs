@@ -433,17 +433,15 @@ impl Discrete {
                 .unwrap_or(0.0)
         };
         let shift = self.shift as isize;
-        // x(0) from the step before the record (t = −1): the input ramps
-        // from u(−1) = 0 to u(0) over it, which reaches x(0) through G₁
-        // when the delay is under a period (d = 0); the state-space form
-        // starts there too (z(0) = x(0) − G₁u(0) = 0).
-        let v = [at(-2 - shift), at(-1 - shift), at(-shift)];
-        for (i, xi) in x[..n].iter_mut().enumerate() {
-            *xi = (0..3).map(|k| taps[k][i] * v[k]).sum::<f64>();
-        }
-        for t in 0..u.len().min(out.len()) {
-            out[t] += scale * self.c.iter().zip(&x[..n]).map(|(c, x)| c * x).sum::<f64>();
-            let base = t as isize - shift;
+        // From the step before the record (t = −1): the input ramps from
+        // u(−1) = 0 to u(0) over it, which reaches x(0) through G₁ when
+        // the delay is under a period (d = 0); the state-space form starts
+        // there too (z(0) = x(0) − G₁u(0) = 0).
+        for t in -1..u.len().min(out.len()) as isize {
+            if let Ok(k) = usize::try_from(t) {
+                out[k] += scale * self.c.iter().zip(&x[..n]).map(|(c, x)| c * x).sum::<f64>();
+            }
+            let base = t - shift;
             let v = [at(base - 1), at(base), at(base + 1)];
             for (i, xi) in xn[..n].iter_mut().enumerate() {
                 *xi = (0..3).map(|k| taps[k][i] * v[k]).sum::<f64>()

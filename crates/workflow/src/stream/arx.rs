@@ -25,12 +25,12 @@ use lifted_pem::{ArxOptions, arx_compressed, arx_horizons};
 use lifted_subspace::{CompressionPlan, PieceStream, SubspaceOptions};
 use serde_json::json;
 
+use super::{RecordSource, ScaledSource};
 use crate::diagnostics::{add_phase, add_run_facts};
 use crate::error::{Context, Error, Result};
 use crate::options::{Detrend, Method, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::ChannelScales;
-use crate::stream::{RecordSource, ScaledSource};
 use crate::validate::{finish_file, require_stable};
 
 /// Whether the options take this route (module docs).

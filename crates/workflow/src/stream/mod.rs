@@ -33,6 +33,8 @@ use crate::subspace_options::{
 };
 use crate::validate::{finish_file, require_stable};
 
+mod arx;
+
 /// What a pass over a record source saw.
 #[derive(Debug, Clone, Copy)]
 pub struct Pass {
@@ -73,7 +75,7 @@ pub trait RecordSource: Send {
 /// a given structure, least squares (`crate::stream_arx`).
 pub fn streamable(opts: &WorkflowOptions) -> bool {
     let id = &opts.identification;
-    if crate::stream_arx::applies(opts) {
+    if arx::applies(opts) {
         return true;
     }
     id.method.is_subspace()
@@ -143,8 +145,8 @@ pub fn identify_streamed(
     opts: &WorkflowOptions,
 ) -> Result<Option<Identified>> {
     opts.check()?;
-    if crate::stream_arx::applies(opts) {
-        return crate::stream_arx::identify(raw, opts);
+    if arx::applies(opts) {
+        return arx::identify(raw, opts);
     }
     if !streamable(opts) {
         return Ok(None);
