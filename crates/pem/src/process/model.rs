@@ -261,7 +261,7 @@ impl ProcessModel {
     /// (θ = dT + δ, 0 ≤ δ < T). ZOH: [`lifted_lti::StateSpace::c2d`] with
     /// an input delay (the modified z-transform, one extra state when
     /// δ > 0, and d shift-register states), order n + d + (δ > 0). FOH:
-    /// the taps of [`foh_taps`] on a register of the past inputs, order
+    /// the taps of `foh_taps` (module docs) on a register of the past inputs, order
     /// n + d + 1 (n + 1 when d = 0, with the direct term C G₁).
     pub fn to_discrete_ss(&self) -> Result<StateSpace> {
         if self.intersample == InterSample::Foh {
