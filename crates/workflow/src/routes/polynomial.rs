@@ -272,7 +272,26 @@ pub(crate) fn identify(
             (fit, serde_json::Value::Null)
         }
     };
-    let mut diagnostics = json!({
+    let mut diagnostics = arx_diagnostics(id, structure, &fit, scan, regularisation);
+    crate::diagnostics::add_phase(&mut diagnostics, "arx_s", t_arx.elapsed().as_secs_f64());
+    for w in warnings {
+        crate::diagnostics::push_warning(&mut diagnostics, w);
+    }
+    finish(fit.model, diagnostics)
+}
+
+/// The route's diagnostics of an ARX/FIR fit of `structure` (in memory or
+/// streamed, `crate::stream`): the structure, the loss and fit, the
+/// compression, the scan's and the regularisation's entries (null when
+/// neither ran).
+pub(crate) fn arx_diagnostics(
+    id: &IdentificationOptions,
+    structure: ArxStructure,
+    fit: &lifted_pem::ArxFit,
+    scan: serde_json::Value,
+    regularisation: serde_json::Value,
+) -> serde_json::Value {
+    json!({
         "route": id.method.name(),
         "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
         "parameters": fit.model.n_parameters(),
@@ -282,12 +301,7 @@ pub(crate) fn identify(
         "compression": fit.compression.used,
         "structure_scan": scan,
         "regularization": regularisation,
-    });
-    crate::diagnostics::add_phase(&mut diagnostics, "arx_s", t_arx.elapsed().as_secs_f64());
-    for w in warnings {
-        crate::diagnostics::push_warning(&mut diagnostics, w);
-    }
-    finish(fit.model, diagnostics)
+    })
 }
 
 /// The polynomial model `p` of the channels scaled by `sc` in the data's

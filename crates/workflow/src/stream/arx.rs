@@ -26,7 +26,7 @@ use lifted_subspace::{CompressionPlan, PieceStream, SubspaceOptions};
 use serde_json::json;
 
 use super::{RecordSource, ScaledSource};
-use crate::diagnostics::{add_phase, add_run_facts};
+use crate::diagnostics::add_phase;
 use crate::error::{Context, Error, Result};
 use crate::options::{Detrend, Method, WorkflowOptions};
 use crate::pipeline::Identified;
@@ -132,42 +132,27 @@ pub(crate) fn identify(
             y0: fit.means[n_u..].to_vec(),
         })
     });
-    let mut d = json!({
-        "route": id.method.name(),
-        "streamed": "one pass over the record in blocks into the lagged correlations (memory independent of its length)",
-        "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
-        "parameters": poly.n_parameters(),
-        "loss": fit.arx.loss,
-        "one_step_fit": fit.arx.fit,
-        "rows": fit.arx.rows,
-        "compression": fit.arx.compression.used,
-        "structure_scan": null,
-        "regularization": null,
-    });
-    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
-    add_phase(&mut d, "arx_s", identify_s);
-    add_run_facts(
-        &mut d,
-        pass.rows,
-        pass.ts,
-        &vec![1; n_y],
-        Some(read_s),
-        identify_s,
+    let mut d = crate::routes::polynomial::arx_diagnostics(
+        id,
+        structure,
+        &fit.arx,
+        serde_json::Value::Null,
+        serde_json::Value::Null,
     );
-    crate::diagnostics::add_selection_policy(&mut d, opts);
     if let Some(obj) = d.as_object_mut() {
-        let shape = crate::plan::DataShape {
-            records: 1,
-            samples: pass.rows,
-            longest: pass.rows,
-            multirate: false,
-            streamed: true,
-        };
         obj.insert(
-            "plan".into(),
-            serde_json::to_value(crate::plan::resolved_defaults(opts, &shape)).unwrap_or_default(),
+            "streamed".into(),
+            json!("one pass over the record in blocks into the lagged correlations (memory independent of its length)"),
         );
     }
+    let identify_s = t_total.elapsed().as_secs_f64() - read_s;
+    add_phase(&mut d, "arx_s", identify_s);
+    super::add_streamed_facts(
+        &mut d,
+        opts,
+        (pass.rows, pass.ts, n_y),
+        (read_s, identify_s),
+    );
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
     let file = ModelFile::with_polynomial(poly.clone())

@@ -468,21 +468,7 @@ pub fn identify_streamed(
     // Reading and compressing overlap: blocks are compressed as they are
     // read; the identification's time is everything after the first pass.
     let identify_s = t_total.elapsed().as_secs_f64() - read_s;
-    add_run_facts(&mut d, n_rows, ts, &vec![1; n_y], Some(read_s), identify_s);
-    crate::diagnostics::add_selection_policy(&mut d, opts);
-    if let Some(obj) = d.as_object_mut() {
-        let shape = crate::plan::DataShape {
-            records: 1,
-            samples: n_rows,
-            longest: n_rows,
-            multirate: false,
-            streamed: true,
-        };
-        obj.insert(
-            "plan".into(),
-            serde_json::to_value(crate::plan::resolved_defaults(opts, &shape)).unwrap_or_default(),
-        );
-    }
+    add_streamed_facts(&mut d, opts, (n_rows, ts, n_y), (read_s, identify_s));
     let dg = &fit.diagnostics;
     let operating_point =
         crate::preprocess::stated_operating_point(operating_point, opts.data.detrend, &model)?;
@@ -501,6 +487,32 @@ pub fn identify_streamed(
         suggested_order: dg.suggested_order,
         details: crate::RouteDetails::default(),
     }))
+}
+
+/// The run facts, selection policy and resolved plan of a streamed run of
+/// `rows` samples at period `ts` with `n_y` outputs (every output at the
+/// base rate), read in `read_s` and identified in `identify_s`.
+fn add_streamed_facts(
+    d: &mut serde_json::Value,
+    opts: &WorkflowOptions,
+    (rows, ts, n_y): (usize, f64, usize),
+    (read_s, identify_s): (f64, f64),
+) {
+    add_run_facts(d, rows, ts, &vec![1; n_y], Some(read_s), identify_s);
+    crate::diagnostics::add_selection_policy(d, opts);
+    if let Some(obj) = d.as_object_mut() {
+        let shape = crate::plan::DataShape {
+            records: 1,
+            samples: rows,
+            longest: rows,
+            multirate: false,
+            streamed: true,
+        };
+        obj.insert(
+            "plan".into(),
+            serde_json::to_value(crate::plan::resolved_defaults(opts, &shape)).unwrap_or_default(),
+        );
+    }
 }
 
 /// A record source whose channels are divided by the channel scales
