@@ -28,8 +28,11 @@ use lifted_subspace::{
 };
 use nalgebra::DMatrix;
 
+/// A target's body: the raw input bytes in, a panic on a failed check.
+pub type Body = fn(&[u8]);
+
 /// The targets by name, as `fuzz/corpus/<name>` holds their inputs.
-pub const TARGETS: [(&str, fn(&[u8])); 6] = [
+pub const TARGETS: [(&str, Body); 6] = [
     ("csv_table", csv_table),
     ("npy_table", npy_table),
     ("model_file", model_file),

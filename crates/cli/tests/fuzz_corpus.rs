@@ -42,7 +42,7 @@ fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
     files
 }
 
-fn body(target: &str) -> fn(&[u8]) {
+fn body(target: &str) -> fuzz_bodies::Body {
     fuzz_bodies::TARGETS
         .iter()
         .find(|(name, _)| *name == target)
@@ -51,7 +51,7 @@ fn body(target: &str) -> fn(&[u8]) {
 }
 
 /// Runs one input; a panic is reported with `what` names it.
-fn run(target: &str, f: fn(&[u8]), bytes: &[u8], what: &dyn Fn() -> String) {
+fn run(target: &str, f: fuzz_bodies::Body, bytes: &[u8], what: &dyn Fn() -> String) {
     if catch_unwind(AssertUnwindSafe(|| f(bytes))).is_err() {
         panic!(
             "fuzz target {target} panicked on {} ({} bytes: {:02x?})",

@@ -750,3 +750,69 @@ fn session_identifies_the_model_families_with_their_deviations() {
     assert!(bad.unwrap_err().to_string().contains("process"));
     s.close();
 }
+
+/// Issue 49: the studio offers the regularised models (the regularised
+/// FIR, the regularised ARX with its kernel) and the process models'
+/// intersample behaviour; the diagnostics record them and the command line
+/// shown makes the same model.
+#[test]
+fn session_offers_the_kernels_and_the_first_order_hold() {
+    let dir = tmp("kernels");
+    let mut s = Session::new(&dir).unwrap();
+    let csv = record(1500, 1);
+    s.upload("rec.csv", csv.as_bytes()).unwrap();
+    let path = dir.join("rec.csv");
+    std::fs::write(&path, &csv).unwrap();
+    let cases = [
+        (
+            "regularised ARX",
+            Request {
+                method: Some("arx".into()),
+                order: None,
+                orders: Some("8,8,1".into()),
+                kernel: Some("dc".into()),
+                ..request("2")
+            },
+            "--kernel dc",
+            "regularization",
+        ),
+        (
+            "regularised FIR",
+            Request {
+                method: Some("impulse".into()),
+                order: None,
+                orders: Some("30,1".into()),
+                ..request("2")
+            },
+            "--method impulse",
+            "hyperparameters",
+        ),
+        (
+            "process model, first-order hold",
+            Request {
+                method: Some("process".into()),
+                order: None,
+                process: Some("p1d".into()),
+                intersample: Some("foh".into()),
+                ..request("2")
+            },
+            "--intersample foh",
+            "Foh",
+        ),
+    ];
+    for (i, (what, r, flag, fact)) in cases.into_iter().enumerate() {
+        let answer = s.identify(&r).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert!(answer.command.contains(flag), "{what}: {}", answer.command);
+        let studio: Value = serde_json::from_str(&s.model_json(None).unwrap()).unwrap();
+        assert!(
+            studio.to_string().contains(fact),
+            "{what}: the diagnostics do not record {fact}"
+        );
+        let out = dir.join(format!("kernel-{i}.json"));
+        run_command_line(&answer.command, &path, &out);
+        let cli: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(cli["model"], studio["model"], "{what}");
+        assert_eq!(cli["polynomial"], studio["polynomial"], "{what}");
+    }
+    s.close();
+}

@@ -195,8 +195,13 @@ function request(withOrder) {
       r.orders = orders;
       delete r.order;
     }
+    // The regularised FIR takes its lags from the orders (default "70 1"),
+    // not from the slider.
+    if (method === "impulse") delete r.order;
+    if (KERNEL.includes(method) && $("kernel").value) r.kernel = $("kernel").value;
     if (method === "process") {
       r.process = $("process").value;
+      if ($("intersample").value !== "zoh") r.intersample = $("intersample").value;
       delete r.order;
     }
     return r;
@@ -235,7 +240,9 @@ function request(withOrder) {
 }
 
 // The polynomial model families (`lifted identify --method arx …`).
-const POLYNOMIAL = ["arx", "armax", "oe", "bj", "fir"];
+const POLYNOMIAL = ["arx", "armax", "oe", "bj", "fir", "impulse"];
+// The methods with a regularisation kernel (`--kernel`).
+const KERNEL = ["arx", "impulse"];
 
 function methodFields() {
   const m = $("method").value;
@@ -244,6 +251,7 @@ function methodFields() {
   document.querySelectorAll(".sub-only").forEach((e) => e.classList.toggle("hidden", m === "qmarkov" || family));
   document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
   document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
+  document.querySelectorAll(".kernel-only").forEach((e) => e.classList.toggle("hidden", !KERNEL.includes(m)));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();
 }
@@ -948,7 +956,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process", "kernel", "intersample"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });

@@ -77,6 +77,12 @@ impl Session {
         if let Some(p) = &r.process {
             opt("process", p.clone());
         }
+        if let Some(k) = &r.kernel {
+            opt("kernel", k.clone());
+        }
+        if let Some(i) = &r.intersample {
+            opt("intersample", i.clone());
+        }
         let num = |v: Option<usize>| v.map(|x| x.to_string());
         for (flag, v) in [
             ("max-order", num(r.max_order)),
@@ -159,6 +165,12 @@ impl Session {
         a.orders = r.orders.clone();
         if let Some(p) = &r.process {
             a.process = Some(named("process", p)?);
+        }
+        if let Some(k) = &r.kernel {
+            a.kernel = Some(named("kernel", k)?);
+        }
+        if let Some(i) = &r.intersample {
+            a.intersample = Some(named("intersample", i)?);
         }
         if let Some(m) = r.max_order {
             a.max_order = m;

@@ -56,7 +56,19 @@ fn the_request_builds_the_shown_command_s_arguments() {
         order: Some("auto".into()),
         ..Request::default()
     };
-    for r in [Request::default(), full, iv] {
+    let regularised = Request {
+        method: Some("arx".into()),
+        orders: Some("20 20 1".into()),
+        kernel: Some("dc".into()),
+        ..Request::default()
+    };
+    let process = Request {
+        method: Some("process".into()),
+        process: Some("p2d".into()),
+        intersample: Some("foh".into()),
+        ..Request::default()
+    };
+    for r in [Request::default(), full, iv, regularised, process] {
         let direct = Session::identify_args(&r, &data).expect("direct");
         assert_eq!(
             format!("{direct:?}"),
@@ -69,6 +81,20 @@ fn the_request_builds_the_shown_command_s_arguments() {
             "method",
             Request {
                 method: Some("magic".into()),
+                ..Request::default()
+            },
+        ),
+        (
+            "kernel",
+            Request {
+                kernel: Some("gaussian".into()),
+                ..Request::default()
+            },
+        ),
+        (
+            "intersample",
+            Request {
+                intersample: Some("spline".into()),
                 ..Request::default()
             },
         ),

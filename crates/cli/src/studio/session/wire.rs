@@ -32,6 +32,12 @@ pub struct Request {
     /// Process models (`process`): the structure (`p1d`, `p2d`, `p1di`,
     /// `p2dz`, `p2du`), as `--process`.
     pub process: Option<String>,
+    /// Regularised models (`impulse`, and `arx` for MATLAB's arxRegul):
+    /// the prior's kernel, `tc` or `dc`, as `--kernel`.
+    pub kernel: Option<String>,
+    /// Process models: how the inputs move between samples, `zoh` or
+    /// `foh`, as `--intersample`.
+    pub intersample: Option<String>,
     /// Largest order of `auto`.
     pub max_order: Option<usize>,
     /// Horizon (subspace i, IV α).
