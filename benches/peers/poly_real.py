@@ -15,7 +15,8 @@ Structures, the same for every input-output pair, nk = 1 (SIPPY's delay
 theta = 0): ARX [n n 1], ARMAX [n n n 1], OE [n n 1], BJ [n n n n 1], for
 n in --orders. lifted: `lifted.arx / armax / oe / bj` (the Python package of
 this tree: MIMO ARX, and per-output MISO ARMAX, OE and BJ with a common A or
-F per output as lifted estimates them); SIPPY: `system_identification` with
+F per output as lifted estimates them; ``--a-structure diagonal``: lifted's
+MIMO ARX with A diagonal, SIPPY's structure); SIPPY: `system_identification` with
 the same orders (ARMAX and OE in their OPT mode, SIPPY's prediction-error
 optimisation; ARX by least squares), each fit capped at --cap seconds.
 
@@ -53,10 +54,16 @@ def orders_of(family: str, n: int) -> list[int]:
     return {"arx": [n, n, 1], "armax": [n, n, n, 1], "oe": [n, n, 1], "bj": [n, n, n, n, 1]}[family]
 
 
+#: lifted's ARX A pattern for several outputs (--a-structure): "full" (its
+#: default, MATLAB's arx) or "diagonal" (one MISO model per output, SIPPY's).
+A_STRUCTURE = "full"
+
+
 def lifted_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
     import lifted
 
-    fit = getattr(lifted, family)(u, y, orders_of(family, n))
+    extra = {"a_structure": A_STRUCTURE} if family == "arx" and y.shape[1] > 1 else {}
+    fit = getattr(lifted, family)(u, y, orders_of(family, n), **extra)
     m = fit.model
     return tuple(np.atleast_2d(np.asarray(x, dtype=float)) for x in (m.A, m.B, m.C, m.D))
 
@@ -186,8 +193,12 @@ def main() -> None:
     ap.add_argument("--cap", type=int, default=60, help="seconds per fit")
     ap.add_argument("--sysidentpy", action="store_true",
                     help="also sysidentpy's linear ARX (FROLS, every term) in the ARX rows")
+    ap.add_argument("--a-structure", choices=["full", "diagonal"], default="full",
+                    help="lifted's MIMO ARX: full A (its default) or diagonal (SIPPY's structure)")
     ap.add_argument("--json")
     args = ap.parse_args()
+    global A_STRUCTURE
+    A_STRUCTURE = args.a_structure
     recs = json.load(open(args.manifest))["records"]
     if args.records:
         keep = set(args.records.split(","))

@@ -508,6 +508,15 @@ pub enum KernelArg {
     Dc,
 }
 
+/// The pattern of a MIMO ARX's A (`--a-structure`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AStructureArg {
+    /// Every output's past in every output's equation.
+    Full,
+    /// Each output's own past only (one MISO model per output).
+    Diagonal,
+}
+
 /// How the inputs move between samples (`--intersample`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum InterSampleArg {
@@ -623,6 +632,11 @@ pub struct IdentifyArgs {
     /// outputs' and one for the inputs' coefficients, hyperparameters by the marginal likelihood.
     #[arg(long, value_enum)]
     pub kernel: Option<KernelArg>,
+    /// ARX of several outputs: the pattern of A: full (every output's past in every output's
+    /// equation, the default: MATLAB's arx with a full na matrix) or diagonal (each output's own
+    /// past only: one MISO model per output, SIPPY's and sysidentpy's ARX; na = n·eye(ny)).
+    #[arg(long, value_enum)]
+    pub a_structure: Option<AStructureArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,
     /// to the largest order the records and horizon identify).
     #[arg(long, default_value_t = 10)]

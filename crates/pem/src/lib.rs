@@ -8,7 +8,7 @@
 //! | [`pem_work_estimate`], [`pem_work_estimate_of_sizes`] ([`PemWorkEstimate`]) | the refinement's predicted work, in the units of its work bound, before running it |
 //! | [`cross_validate_refinement`] ([`RefinementCheck`]) | whether a refinement helps on data it was not fitted to: each of K blocks held out once, the fold's subspace model and its refinement scored on it; a verdict only when the blocks tell the two apart |
 //! | [`arx`] ([`ArxOptions`], [`ArxFit`]) | multi-output ARX and FIR by least squares on the compressed lagged data (one pass, memory independent of N), with the noise covariance and the parameter covariance |
-//! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
+//! | [`arx_scan`] ([`ArxScanOptions`], [`ArxScan`], [`ArxStructure`], [`AStructure`], [`StructureCriterion`]), [`estimate_delays`] ([`DelayOptions`]) | the structure scan over a grid of (na, nb, nk) by AIC, MDL or held-out loss, and the input delays, on one compression |
 //! | [`impulseest`] ([`ImpulseOptions`], [`Kernel`], [`ImpulseFit`]) | regularised FIR (impulse response) with a TC or DC kernel, hyperparameters by the marginal likelihood on the compressed lagged data (O(p³) per evaluation whatever N), posterior covariance |
 //! | [`arx_compressed`] ([`arx_horizons`], [`ArxCompressedFit`]) | the same ARX/FIR from records compressed in blocks (`lifted_subspace::CompressionPlan`, a file streamed or shards merged): memory O(k²) whatever N, means and scales mapped back |
 //! | [`arx_regul`] ([`ArxRegulOptions`], [`ArxRegulFit`], [`ArxHyperparameters`]) | regularised ARX (MATLAB's `arxRegul`): a TC or DC kernel for the past outputs' and another for the lagged inputs' coefficients, hyperparameters by the marginal likelihood (module `regularized`, shared with [`impulseest`]), posterior covariance |
@@ -86,9 +86,9 @@ mod regularized;
 mod state_space;
 
 pub use arx::{
-    ArxCompressedFit, ArxFit, ArxHyperparameters, ArxOptions, ArxRegulFit, ArxRegulOptions,
-    ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx,
-    arx_compressed, arx_horizons, arx_regul, arx_scan, estimate_delays,
+    AStructure, ArxCompressedFit, ArxFit, ArxHyperparameters, ArxOptions, ArxRegulFit,
+    ArxRegulOptions, ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions,
+    StructureCriterion, arx, arx_compressed, arx_horizons, arx_regul, arx_scan, estimate_delays,
 };
 pub use budget::PEM_SAMPLES_PER_PARAMETER;
 pub use error::{Error, Result};

@@ -223,3 +223,9 @@ impl Choice for lifted_pem::InterSample {
     const WHAT: &'static str = "inter-sample behaviour";
     const NAMES: &'static [(&'static str, Self)] = &[("zoh", Self::Zoh), ("foh", Self::Foh)];
 }
+
+impl Choice for lifted_pem::AStructure {
+    const WHAT: &'static str = "pattern of A";
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("full", Self::Full), ("diagonal", Self::Diagonal)];
+}

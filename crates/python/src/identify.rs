@@ -79,7 +79,7 @@ pub(crate) fn horizon_of(
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
     refine_check="tests:0.95", selection=None, gain_covariance_start=true, budgets=None,
-    plan=None, covariance=true, process_fixed=None, intersample=None))]
+    plan=None, covariance=true, process_fixed=None, intersample=None, a_structure=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -117,6 +117,7 @@ pub(crate) fn identify<'py>(
     covariance: bool,
     process_fixed: Option<Bound<'py, PyDict>>,
     intersample: Option<&str>,
+    a_structure: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -165,6 +166,9 @@ pub(crate) fn identify<'py>(
     id.gain_check.stop_share = gain_stop_share;
     id.gain_check.covariance_start = gain_covariance_start;
     id.integrator_tolerance = integrator_tolerance;
+    id.a_structure = a_structure
+        .map(|a| <lifted_pem::AStructure as Choice>::parse(a, "a_structure"))
+        .transpose()?;
     id.intersample = intersample
         .map(|h| <lifted_pem::InterSample as Choice>::parse(h, "intersample"))
         .transpose()?;

@@ -502,3 +502,29 @@ def test_procest_with_a_first_order_hold() -> None:
     assert abs(p[0] - 2.0) < 0.02 and abs(p[1] - 20.0) < 0.2 and abs(p[2] - 7.3) < 0.05, p
     with pytest.raises(lifted.LiftedError, match="intersample"):
         lifted.identify(u, y, "n4sid", intersample="foh")
+
+
+def test_arx_with_a_diagonal_a_is_one_miso_fit_per_output() -> None:
+    """lifted.arx(..., a_structure="diagonal") on a 2x2 record: each
+    output's equation holds its own past only, the same coefficients as a
+    fit of that output alone (SIPPY's MIMO ARX), fewer parameters than the
+    full A; another method refuses the option by name."""
+    rng = np.random.default_rng(21)
+    n = 2000
+    u = rng.standard_normal((n, 2))
+    e = 0.1 * rng.standard_normal((n, 2))
+    y = np.zeros((n, 2))
+    for t in range(1, n):
+        y[t, 0] = 0.7 * y[t - 1, 0] + 0.2 * y[t - 1, 1] + u[t - 1, 0] + e[t, 0]
+        y[t, 1] = 0.5 * y[t - 1, 1] + 0.5 * u[t - 1, 1] + 0.3 * u[t - 1, 0] + e[t, 1]
+    diagonal = lifted.arx(u, y, [1, 1, 1], a_structure="diagonal")
+    full = lifted.arx(u, y, [1, 1, 1])
+    assert diagonal.parameters is not None and full.parameters is not None
+    assert len(diagonal.parameters) == 6 and len(full.parameters) == 8
+    assert diagonal.diagnostics["a_structure"] == "diagonal"
+    alone = np.concatenate(
+        [lifted.arx(u, y[:, i], [1, 1, 1]).parameters for i in range(2)]  # type: ignore[list-item]
+    )
+    np.testing.assert_allclose(diagonal.parameters, alone, rtol=1e-9, atol=1e-12)
+    with pytest.raises(lifted.LiftedError, match="a_structure"):
+        lifted.identify(u, y, "oe", orders=[1, 1, 1], a_structure="diagonal")

@@ -506,6 +506,13 @@ pub struct IdentificationOptions {
     /// fixed order; `None`: least squares. Other methods: not used (an
     /// error when given).
     pub kernel: Option<lifted_pem::Kernel>,
+    /// ARX of several outputs: the pattern of A (`None`: full, every
+    /// output's past in every output's equation, MATLAB's `arx` with a full
+    /// `na`; diagonal: each output's own past only, one MISO model per
+    /// output, the structure of SIPPY's and sysidentpy's ARX). Other
+    /// methods: not used (an error when given).
+    #[serde(default)]
+    pub a_structure: Option<lifted_pem::AStructure>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
     /// `None`: P1D). Other methods: not used (an error when given).
     pub process: Option<lifted_pem::ProcessKind>,
@@ -659,6 +666,7 @@ impl Default for IdentificationOptions {
             process_fixed: Vec::new(),
             intersample: None,
             kernel: None,
+            a_structure: None,
             q: None,
             prbs_order: None,
             amplitude: None,
@@ -914,6 +922,12 @@ impl WorkflowOptions {
             return Err(Error::option(
                 "process",
                 "only used with the process method",
+            ));
+        }
+        if id.a_structure.is_some() && id.method != Method::Arx {
+            return Err(Error::option(
+                "a_structure",
+                "only used with the arx method (the pattern of its A matrix)",
             ));
         }
         if id.intersample.is_some() && id.method != Method::Process {

@@ -20,8 +20,8 @@ use lifted_workflow::{
 use nalgebra::DMatrix;
 
 use crate::args::{
-    BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs, InterSampleArg,
-    KernelArg, MethodArg, ProcessArg, RefineArg,
+    AStructureArg, BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs,
+    InterSampleArg, KernelArg, MethodArg, ProcessArg, RefineArg,
 };
 use crate::error::{CliError, CliResult, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -136,6 +136,10 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
         MethodArg::Process => Method::Process,
         MethodArg::Impulse => Method::Impulse,
     };
+    id.a_structure = a.a_structure.map(|k| match k {
+        AStructureArg::Full => lifted_pem::AStructure::Full,
+        AStructureArg::Diagonal => lifted_pem::AStructure::Diagonal,
+    });
     id.kernel = a.kernel.map(|k| match k {
         KernelArg::Tc => lifted_pem::Kernel::Tc,
         KernelArg::Dc => lifted_pem::Kernel::Dc,

@@ -36,12 +36,38 @@ pub struct ArxStructure {
     pub nk: usize,
 }
 
+/// Which outputs' past enters each output's equation of a MIMO ARX: the
+/// pattern of MATLAB's n_y × n_y `na` matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum AStructure {
+    /// Every output's past in every output's equation (`na` full, MATLAB's
+    /// `arx` with `na = n·ones(ny)`): the default.
+    #[default]
+    Full,
+    /// Each output's own past only (`na = n·eye(ny)`): one MISO model per
+    /// output, the structure of SIPPY's and sysidentpy's ARX. A diagonal A
+    /// fits each output by least squares on its own regressors; it is the
+    /// same model as n_y single-output fits.
+    Diagonal,
+}
+
 impl ArxStructure {
     /// The [`PolyOrders`] of this structure for `nu` inputs and `ny`
     /// outputs (A full n_y × n_y).
     pub fn orders(&self, nu: usize, ny: usize) -> PolyOrders {
+        self.orders_with(nu, ny, AStructure::Full)
+    }
+
+    /// The [`PolyOrders`] of this structure with A of pattern `a`.
+    pub fn orders_with(&self, nu: usize, ny: usize, a: AStructure) -> PolyOrders {
+        let na = |i: usize, j: usize| match a {
+            AStructure::Diagonal if i != j => 0,
+            _ => self.na,
+        };
         PolyOrders {
-            na: vec![vec![self.na; ny]; ny],
+            na: (0..ny)
+                .map(|i| (0..ny).map(|j| na(i, j)).collect())
+                .collect(),
             nb: vec![vec![self.nb; nu]; ny],
             nc: vec![0; ny],
             nd: vec![0; ny],
@@ -77,6 +103,8 @@ pub struct ArxScanOptions {
     pub compression: Compression,
     /// Threads of the correlation kernel (0 = all cores).
     pub threads: usize,
+    /// The pattern of A of every candidate (default [`AStructure::Full`]).
+    pub a_structure: AStructure,
 }
 
 impl Default for ArxScanOptions {
@@ -87,6 +115,7 @@ impl Default for ArxScanOptions {
             nk: vec![1],
             compression: Compression::Auto,
             threads: 0,
+            a_structure: AStructure::Full,
         }
     }
 }
@@ -241,7 +270,7 @@ pub fn arx_scan(
                 if na == 0 && nb == 0 {
                     continue;
                 }
-                let orders = structure.orders(nu, ny);
+                let orders = structure.orders_with(nu, ny, opts.a_structure);
                 let mut loss = Vec::with_capacity(ny);
                 let mut vloss = Vec::with_capacity(ny);
                 let mut d = 0;

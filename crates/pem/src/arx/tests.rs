@@ -301,3 +301,57 @@ fn bad_input_is_refused_with_a_named_error() {
         Err(Error::InvalidOption { what: "na", .. })
     ));
 }
+
+#[test]
+fn a_diagonal_a_is_one_miso_fit_per_output() {
+    // AStructure::Diagonal (na = n·eye(ny)): each output's equation holds
+    // its own past and every input, the same least squares as a fit of
+    // that output alone (SIPPY's MIMO ARX); the full A of the same orders
+    // has more parameters and, on the coupled truth, the lower loss.
+    let g = mimo_truth();
+    let n = 3000;
+    let u = gauss(31, n, 2, 1.0);
+    let e = gauss(32, n, 2, 0.3);
+    let y = g.simulate(&u, Some(&e)).unwrap();
+    let structure = crate::ArxStructure {
+        na: 2,
+        nb: 2,
+        nk: 1,
+    };
+    let diagonal = structure.orders_with(2, 2, crate::AStructure::Diagonal);
+    assert_eq!(diagonal.na, vec![vec![2, 0], vec![0, 2]]);
+    let opts = ArxOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    let fit = arx(&[Experiment { u: &u, y: &y }], &diagonal, 1.0, &opts).unwrap();
+    let p = fit.model.parameters();
+    let mut offset = 0;
+    for i in 0..2 {
+        let yi = y.columns(i, 1).into_owned();
+        let miso = structure.orders(2, 1);
+        let alone = arx(&[Experiment { u: &u, y: &yi }], &miso, 1.0, &opts).unwrap();
+        let q = alone.model.parameters();
+        for (r, want) in q.iter().enumerate() {
+            assert!(
+                (p[offset + r] - want).abs() < 1e-10 * (1.0 + want.abs()),
+                "output {i}: {:?} against {q:?}",
+                &p[offset..offset + q.len()]
+            );
+        }
+        assert!((fit.loss[i] - alone.loss[0]).abs() < 1e-10 * alone.loss[0]);
+        offset += q.len();
+    }
+    assert_eq!(p.len(), offset);
+    let full = arx(
+        &[Experiment { u: &u, y: &y }],
+        &structure.orders(2, 2),
+        1.0,
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(full.model.parameters().len(), p.len() + 4);
+    for i in 0..2 {
+        assert!(full.loss[i] < fit.loss[i], "{:?} {:?}", full.loss, fit.loss);
+    }
+}

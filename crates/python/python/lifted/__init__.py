@@ -280,6 +280,7 @@ def identify(
     covariance: bool = True,
     process_fixed: dict[str, float] | None = None,
     intersample: Literal["zoh", "foh"] | None = None,
+    a_structure: Literal["full", "diagonal"] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -411,6 +412,10 @@ def identify(
       instead of estimated, in the data's units, e.g. ``{"Td": 7.3}`` (a
       dead time known from the plant, every input) or ``{"K(u1)": 2.0}``
       (one input); ``--process-fix``. A held parameter has no variance.
+    * ``a_structure`` (``method="arx"``, several outputs): ``"full"``
+      (default: every output's past in every output's equation) or
+      ``"diagonal"`` (each output's own past only: one MISO model per
+      output, SIPPY's ARX); ``--a-structure``.
     * ``intersample`` (``method="process"``): ``"zoh"`` (default, the input
       held between samples) or ``"foh"`` (linear between samples: a sampled
       continuous signal); ``--intersample``.
@@ -477,6 +482,7 @@ def identify(
             refine_check=refine_check, selection=selection,
             gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
             covariance=covariance, process_fixed=process_fixed, intersample=intersample,
+            a_structure=a_structure,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -736,6 +742,7 @@ def arx(
     dt: float = 1.0,
     threads: int = 1,
     kernel: Literal["tc", "dc"] | None = None,
+    a_structure: Literal["full", "diagonal"] | None = None,
 ) -> SubspaceFit:
     """Least-squares ARX model (MATLAB's ``arx(data, [na nb nk])``, SIPPY's
     ARX), through the identification workflow (``identify(u, y, "arx",
@@ -746,7 +753,9 @@ def arx(
         B(q) = B_0 + B_1 q^-1 + ... + B_{nb-1} q^-(nb-1)
 
     ``orders`` = ``[na, nb, nk]``, the same for every input-output pair
-    (multi-output: A is full, p x p polynomials of degree na); None chooses
+    (multi-output: A is full, p x p polynomials of degree na, or with
+    ``a_structure="diagonal"`` each output's own past only, one MISO model
+    per output as SIPPY's ARX); None chooses
     the structure by the workflow's scan (see :func:`identify`:
     ``order_criterion`` ``"validation"``, ``"aic"``, ``"aicc"`` or ``"bic"``,
     na and nb up to ``max_order``, nk 1..5; ``order`` n fixes na = nb = n).
@@ -775,6 +784,7 @@ def arx(
         u, y, "arx", order=order, orders=orders, max_order=max_order,
         order_criterion=order_criterion, feedthrough=feedthrough, detrend=detrend,
         remove_means=remove_means, dt=dt, threads=threads, kernel=kernel,
+        a_structure=a_structure,
     )
 
 

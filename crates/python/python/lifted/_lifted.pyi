@@ -307,6 +307,7 @@ def identify(
     covariance: bool = True,
     process_fixed: dict[str, float] | None = None,
     intersample: Literal["zoh", "foh"] | None = None,
+    a_structure: Literal["full", "diagonal"] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

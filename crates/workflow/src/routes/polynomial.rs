@@ -70,8 +70,13 @@ pub const SCAN_HOLDOUT_SHARE: f64 = 1.0 / 3.0;
 const MIN_HOLDOUT_SAMPLES: usize = 50;
 
 /// The uniform orders of `s` for `nu` inputs and `ny` outputs.
-fn orders_of(s: ArxStructure, nu: usize, ny: usize) -> PolyOrders {
-    s.orders(nu, ny)
+pub(crate) fn orders_of(
+    id: &IdentificationOptions,
+    s: ArxStructure,
+    nu: usize,
+    ny: usize,
+) -> PolyOrders {
+    s.orders_with(nu, ny, id.a_structure.unwrap_or_default())
 }
 
 /// The structure the options fix, if they do.
@@ -97,6 +102,7 @@ fn grid(id: &IdentificationOptions) -> ArxScanOptions {
         nb,
         nk: (first..=SCAN_MAX_DELAY).collect(),
         threads: id.threads.unwrap_or(1),
+        a_structure: id.a_structure.unwrap_or_default(),
         ..Default::default()
     }
 }
@@ -242,7 +248,7 @@ pub(crate) fn identify(
         None => scanned(id, sets, &mut warnings)?,
     };
     let t_arx = std::time::Instant::now();
-    let orders = orders_of(structure, nu, ny);
+    let orders = orders_of(id, structure, nu, ny);
     let what = format!("{} estimation", id.method.name().to_uppercase());
     let threads = id.threads.unwrap_or(1);
     let (fit, regularisation) = match id.kernel {
@@ -294,6 +300,7 @@ pub(crate) fn arx_diagnostics(
     json!({
         "route": id.method.name(),
         "orders": {"na": structure.na, "nb": structure.nb, "nk": structure.nk},
+        "a_structure": format!("{:?}", id.a_structure.unwrap_or_default()).to_lowercase(),
         "parameters": fit.model.n_parameters(),
         "loss": fit.loss,
         "one_step_fit": fit.fit,
@@ -542,6 +549,7 @@ fn regularised_fir(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit>
     let mut o = lifted_pem::ImpulseOptions {
         kernel: id.kernel.unwrap_or_default(),
         threads: id.threads.unwrap_or(1),
+        a_structure: id.a_structure.unwrap_or_default(),
         ..Default::default()
     };
     if let &[nb, nk] = id.orders.as_slice() {

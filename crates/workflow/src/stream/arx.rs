@@ -69,7 +69,7 @@ pub(crate) fn identify(
     if n_u == 0 || n_y == 0 {
         return Ok(None); // the in-memory route reports the missing columns
     }
-    let orders = structure.orders(n_u, n_y);
+    let orders = crate::routes::polynomial::orders_of(id, structure, n_u, n_y);
     let (past, future) = arx_horizons(&orders);
     let remove_means = opts.data.detrend != Detrend::None;
     let plan_options = SubspaceOptions {

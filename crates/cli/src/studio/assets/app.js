@@ -199,6 +199,7 @@ function request(withOrder) {
     // not from the slider.
     if (method === "impulse") delete r.order;
     if (KERNEL.includes(method) && $("kernel").value) r.kernel = $("kernel").value;
+    if (method === "arx" && $("a-structure").value !== "full") r.a_structure = $("a-structure").value;
     if (method === "process") {
       r.process = $("process").value;
       if ($("intersample").value !== "zoh") r.intersample = $("intersample").value;
@@ -251,6 +252,7 @@ function methodFields() {
   document.querySelectorAll(".sub-only").forEach((e) => e.classList.toggle("hidden", m === "qmarkov" || family));
   document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
   document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
+  document.querySelectorAll(".arx-only").forEach((e) => e.classList.toggle("hidden", m !== "arx"));
   document.querySelectorAll(".kernel-only").forEach((e) => e.classList.toggle("hidden", !KERNEL.includes(m)));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();
@@ -956,7 +958,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process", "kernel", "intersample"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process", "kernel", "intersample", "a-structure"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });

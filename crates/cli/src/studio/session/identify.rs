@@ -80,6 +80,9 @@ impl Session {
         if let Some(k) = &r.kernel {
             opt("kernel", k.clone());
         }
+        if let Some(k) = &r.a_structure {
+            opt("a-structure", k.clone());
+        }
         if let Some(i) = &r.intersample {
             opt("intersample", i.clone());
         }
@@ -168,6 +171,9 @@ impl Session {
         }
         if let Some(k) = &r.kernel {
             a.kernel = Some(named("kernel", k)?);
+        }
+        if let Some(k) = &r.a_structure {
+            a.a_structure = Some(named("a_structure", k)?);
         }
         if let Some(i) = &r.intersample {
             a.intersample = Some(named("intersample", i)?);

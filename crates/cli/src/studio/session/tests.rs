@@ -60,6 +60,7 @@ fn the_request_builds_the_shown_command_s_arguments() {
         method: Some("arx".into()),
         orders: Some("20 20 1".into()),
         kernel: Some("dc".into()),
+        a_structure: Some("diagonal".into()),
         ..Request::default()
     };
     let process = Request {
@@ -88,6 +89,13 @@ fn the_request_builds_the_shown_command_s_arguments() {
             "kernel",
             Request {
                 kernel: Some("gaussian".into()),
+                ..Request::default()
+            },
+        ),
+        (
+            "a_structure",
+            Request {
+                a_structure: Some("upper".into()),
                 ..Request::default()
             },
         ),

@@ -35,6 +35,9 @@ pub struct Request {
     /// Regularised models (`impulse`, and `arx` for MATLAB's arxRegul):
     /// the prior's kernel, `tc` or `dc`, as `--kernel`.
     pub kernel: Option<String>,
+    /// ARX of several outputs: the pattern of A, `full` or `diagonal`, as
+    /// `--a-structure`.
+    pub a_structure: Option<String>,
     /// Process models: how the inputs move between samples, `zoh` or
     /// `foh`, as `--intersample`.
     pub intersample: Option<String>,
