@@ -600,6 +600,8 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
             structure,
             "--data",
             &data,
+            "--ts",
+            "1",
             "--inputs",
             "u1,u2",
             "--outputs",
@@ -635,6 +637,8 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
             "diagonal",
             "--data",
             &data,
+            "--ts",
+            "1",
             "--inputs",
             "u1,u2",
             "--outputs",
@@ -644,5 +648,5 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
         ],
         2,
     );
-    assert!(err.contains("a_structure"), "{err}");
+    assert!(err.contains("--a-structure"), "{err}");
 }

@@ -48,8 +48,8 @@ use lagged::{Column, Lagged, Solve};
 pub use compressed::{ArxCompressedFit, arx_compressed, arx_horizons};
 pub use regul::{ArxHyperparameters, ArxRegulFit, ArxRegulOptions, arx_regul};
 pub use scan::{
-    ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions, StructureCriterion, arx_scan,
-    estimate_delays,
+    AStructure, ArxScan, ArxScanOptions, ArxScanRow, ArxStructure, DelayOptions,
+    StructureCriterion, arx_scan, estimate_delays,
 };
 
 /// Options of [`arx`].

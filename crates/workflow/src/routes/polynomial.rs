@@ -549,7 +549,6 @@ fn regularised_fir(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit>
     let mut o = lifted_pem::ImpulseOptions {
         kernel: id.kernel.unwrap_or_default(),
         threads: id.threads.unwrap_or(1),
-        a_structure: id.a_structure.unwrap_or_default(),
         ..Default::default()
     };
     if let &[nb, nk] = id.orders.as_slice() {
