@@ -588,12 +588,11 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
     }
     let data = p(&d, "mimo.csv");
     std::fs::write(&data, csv).unwrap();
-    let run = |structure: &str, name: &str| -> (String, ModelFile) {
-        let out = p(&d, name);
-        let text = ok(&[
+    let args = |method: &'static str, structure: &'static str, out: &str| -> Vec<String> {
+        [
             "identify",
             "--method",
-            "arx",
+            method,
             "--orders",
             "1 1 1",
             "--a-structure",
@@ -607,8 +606,16 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
             "--outputs",
             "y1,y2",
             "--out",
-            &out,
-        ]);
+            out,
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
+    };
+    let run = |structure: &'static str, name: &str| -> (String, ModelFile) {
+        let out = p(&d, name);
+        let a = args("arx", structure, &out);
+        let text = ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
         (text, ModelFile::read(&out).unwrap())
     };
     let (text, diagonal) = run("diagonal", "diagonal.json");
@@ -626,27 +633,7 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
         full.polynomial.as_ref().unwrap().orders().na,
         vec![vec![1, 1], vec![1, 1]]
     );
-    let err = fails(
-        &[
-            "identify",
-            "--method",
-            "oe",
-            "--orders",
-            "1 1 1",
-            "--a-structure",
-            "diagonal",
-            "--data",
-            &data,
-            "--ts",
-            "1",
-            "--inputs",
-            "u1,u2",
-            "--outputs",
-            "y1,y2",
-            "--out",
-            &p(&d, "oe.json"),
-        ],
-        2,
-    );
+    let a = args("oe", "diagonal", &p(&d, "oe.json"));
+    let err = fails(&a.iter().map(String::as_str).collect::<Vec<_>>(), 2);
     assert!(err.contains("--a-structure"), "{err}");
 }
