@@ -768,6 +768,9 @@ pub struct IdentifyArgs {
     /// auto_refine_samples (10000), refine_check_samples (20000), refine_check_work (4e9),
     /// gain_check_samples (200000), covariance_work (4e9), gain_check_varx_work (4e9),
     /// gain_check_minimise_work (8e9).
+    /// refine_check_samples also bounds the held-out check of a multirate route's model against
+    /// the single-rate model of the record with its slow outputs interpolated (the route's model
+    /// is kept only when six held-out blocks favour it; `diagnostics.multirate_check`).
     /// Above a budget the stage is skipped or judged more cheaply, and the diagnostics say so;
     /// the values used are recorded in `diagnostics.budgets`.
     #[arg(long, value_name = "NAME=VALUE")]

@@ -139,7 +139,7 @@ fn run_named(
     instrument_names: &[String],
     cache: Option<&mut SubspaceCache>,
 ) -> Result<Identified> {
-    run(records, opts, instrument_names, cache).map_err(|e| {
+    run(records, opts, instrument_names, cache, false).map_err(|e| {
         if !crate::excitation::refuses_inputs(&e) {
             return e;
         }
@@ -149,11 +149,22 @@ fn run_named(
     })
 }
 
+/// One run inside the multirate route's held-out check
+/// (`crate::routes::multirate_check`): the workflow on `sets` without that
+/// check (the route's own choices made as in any run).
+pub(crate) fn identify_fold(sets: &[Dataset], opts: &WorkflowOptions) -> Result<Identified> {
+    let records: Vec<Record> = sets.iter().cloned().map(Record::new).collect();
+    run(&records, opts, NO_NAMES, None, true)
+}
+
+/// The workflow; `fold`: a run inside the multirate held-out check, which
+/// does not check itself again.
 fn run(
     records: &[Record],
     opts: &WorkflowOptions,
     instrument_names: &[String],
     mut cache: Option<&mut SubspaceCache>,
+    fold: bool,
 ) -> Result<Identified> {
     opts.check()?;
     let id = &opts.identification;
@@ -405,7 +416,37 @@ fn run(
         None => refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?,
     };
     let (model, mut diagnostics) = if third_start {
-        multirate_start::or_as_identified(opts, (model, diagnostics), &sets, &mut kalman_gain)
+        let chosen =
+            multirate_start::or_as_identified(opts, (model, diagnostics), &sets, &mut kalman_gain);
+        if fold {
+            chosen
+        } else {
+            let t = std::time::Instant::now();
+            let (model, mut d, shift) = crate::routes::multirate_check::against_interpolation(
+                opts,
+                chosen,
+                &sets,
+                &mut kalman_gain,
+            );
+            // The interpolated record's model deviates from that record's
+            // means (in the units of `sets`): its operating point is the
+            // run's plus those.
+            if let Some(shift) = shift {
+                let shift = match &scales {
+                    Some(sc) => sc.operating_point(&shift),
+                    None => shift,
+                };
+                operating_point = Some(match operating_point.take() {
+                    Some(op) => OperatingPoint {
+                        u0: op.u0.iter().zip(&shift.u0).map(|(a, b)| a + b).collect(),
+                        y0: op.y0.iter().zip(&shift.y0).map(|(a, b)| a + b).collect(),
+                    },
+                    None => shift,
+                });
+            }
+            add_phase(&mut d, "multirate_check_s", t.elapsed().as_secs_f64());
+            (model, d)
+        }
     } else {
         (model, diagnostics)
     };

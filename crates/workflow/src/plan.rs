@@ -375,6 +375,24 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
             ),
         );
     }
+    if m.is_subspace() && shape.multirate && !id.stable {
+        let held_out = shape.samples <= b.refine_check_samples;
+        say(
+            "multirate_check",
+            serde_json::json!(held_out),
+            format!(
+                "{} samples {} budgets.refine_check_samples = {}: {}",
+                shape.samples,
+                if held_out { "≤" } else { ">" },
+                b.refine_check_samples,
+                if held_out {
+                    "the multirate route's model is kept only when six held-out blocks favour it over the single-rate model of the record with its slow outputs interpolated linearly (inputs held one sample)"
+                } else {
+                    "the multirate route's model is not checked against the interpolated record's"
+                }
+            ),
+        );
+    }
     if opts.validation.covariance && !m.is_polynomial() && m != Method::Process {
         let why = if shape.streamed {
             "not estimated on a streamed record (its records are not in memory)".to_string()

@@ -7,6 +7,7 @@
 pub(crate) mod feedthrough;
 pub(crate) mod iv;
 pub(crate) mod multirate;
+pub(crate) mod multirate_check;
 pub(crate) mod multirate_predictor;
 pub(crate) mod multirate_start;
 pub(crate) mod pbsid;

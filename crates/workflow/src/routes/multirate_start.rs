@@ -53,7 +53,10 @@
 //! thinned as an analyser delivers them"). Applied to N4SID / MOESP / CVA records of inputs
 //! held one sample, up to [`MULTIRATE_START_SAMPLES`] samples, without
 //! `--stable`. Cost: one single-rate identification and a second
-//! refinement.
+//! refinement. Every choice here is made on the measured samples the
+//! candidates were fitted to; the model chosen then meets the held-out
+//! check of `super::multirate_check` against the interpolated record's own
+//! single-rate model.
 
 use lifted_lti::{Dataset, OutputChannel, StateSpace, ValidationOptions, validate};
 use nalgebra::DMatrix;
@@ -436,7 +439,7 @@ pub(crate) fn interpolated_route(
 /// Mean over the records and outputs of the simulation fit on the measured
 /// samples (x₀ estimated); `None` when it is not finite (an unstable or
 /// failed model).
-fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
+pub(crate) fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
     // The simulation fit only: no k-step predictions, one residual lag.
     let opts = ValidationOptions {
         lags: 1,

@@ -11,6 +11,7 @@ mod closed_loop;
 mod common;
 mod integrators;
 mod multirate;
+mod multirate_check;
 mod multirate_closed_loop;
 mod options;
 mod order_selection;
