@@ -134,11 +134,23 @@ fn an_undecided_check_returns_the_interpolated_records_model() {
 }
 
 /// `budgets.refine_check_samples = 0` turns the check off: the route's
-/// model, and the diagnostics say why.
+/// model, and the diagnostics say why; so does an order whose parameters
+/// the fold parts cannot support (fewer than two measured values each).
 #[test]
 fn the_multirate_check_stays_within_its_budget() {
     let truth = flexible_plant();
     let data = multirate_record(&truth, 600, &[3], 1, 2);
+    // Order 16: 16 (1 + 2) + 16 = 64 parameters, the longest fold part
+    // beside the middle blocks holds half the record, 100 measured values.
+    let fit = identify(&[Record::new(data.clone())], &at_order(16)).expect("identify");
+    let check = check_of(&fit);
+    assert_eq!(check["applied"], false, "{check}");
+    assert!(
+        check["why"]
+            .as_str()
+            .is_some_and(|w| w.contains("per free parameter")),
+        "{check}"
+    );
     let mut o = at_order(4);
     o.budgets.refine_check_samples = 0;
     let fit = identify(&[Record::new(data)], &o).expect("identify");
