@@ -37,7 +37,8 @@
 //!
 //! Applies where the interpolated start applies (`multirate_start::
 //! applies`) to a stable model (within the integrator tolerance) whose
-//! free parameters k (n(n_u + 2n_y) + n, and n_u n_y with a feedthrough)
+//! free parameters k as a simulated model (n(n_u + n_y) for A and B in an
+//! observable canonical form, n for x₀, n_u n_y with a feedthrough)
 //! leave every fold's part at least [`MEASURED_PER_PARAMETER`] measured
 //! output values per parameter, on records of at most `budgets.refine_check_samples` samples
 //! (the budget of the single-rate held-out check, 2e4 by default; 0 turns
@@ -302,14 +303,16 @@ pub(crate) fn against_interpolation(
         return (model, diagnostics, None);
     }
     // Every fold part must carry at least MEASURED_PER_PARAMETER measured
-    // output values per free parameter of the route's model.
+    // output values per free parameter of the route's model as the blocks
+    // score it, a simulation: A and B in an observable canonical form,
+    // x₀, and D when it has one.
     let (n, n_u, n_y) = (model.order(), model.n_inputs(), model.n_outputs());
     let d_free = if model.d().iter().any(|v| *v != 0.0) {
         n_u * n_y
     } else {
         0
     };
-    let parameters = n * (n_u + 2 * n_y) + d_free + n;
+    let parameters = n * (n_u + n_y) + d_free + n;
     let fewest = fewest_measured(sets);
     if fewest < MEASURED_PER_PARAMETER * parameters {
         note(
