@@ -152,7 +152,7 @@ fn run_named(
 /// One run inside the multirate route's held-out check
 /// (`crate::routes::multirate_check`): the workflow on `sets` without that
 /// check (the route's own choices made as in any run).
-pub(crate) fn identify_fold(sets: &[Dataset], opts: &WorkflowOptions) -> Result<Identified> {
+fn identify_fold(sets: &[Dataset], opts: &WorkflowOptions) -> Result<Identified> {
     let records: Vec<Record> = sets.iter().cloned().map(Record::new).collect();
     run(&records, opts, NO_NAMES, None, true)
 }
@@ -422,11 +422,17 @@ fn run(
             chosen
         } else {
             let t = std::time::Instant::now();
+            let run = |sets: &[Dataset], o: &WorkflowOptions| {
+                identify_fold(sets, o)
+                    .ok()
+                    .map(|r| ((r.file.model, r.file.operating_point), r.file.diagnostics))
+            };
             let (model, mut d, shift) = crate::routes::multirate_check::against_interpolation(
                 opts,
                 chosen,
                 &sets,
                 &mut kalman_gain,
+                &run,
             );
             // The interpolated record's model deviates from that record's
             // means (in the units of `sets`): its operating point is the

@@ -138,6 +138,7 @@ type FoldFits = (Option<f64>, Option<f64>);
 /// held-out fits of the interpolated record's model and the route's, each
 /// fitted to the part beside the block; the folds on `workers` threads.
 fn held_out_fits(
+    run: FoldRun<'_>,
     sets: &[Dataset],
     o_route: &WorkflowOptions,
     o_interp: &WorkflowOptions,
@@ -146,13 +147,13 @@ fn held_out_fits(
     let one = |k: usize| {
         let (est, held) = fold(sets, k)?;
         let score = |m: Option<Fitted>| m.and_then(|m| held_out_fit(&m, &held));
-        let route = score(model_of(&est, o_route));
+        let route = score(model_of(run, &est, o_route));
         let interp = est
             .iter()
             .map(interpolated)
             .collect::<crate::Result<Vec<_>>>()
             .ok()
-            .and_then(|s| score(model_of(&s, o_interp)));
+            .and_then(|s| score(model_of(run, &s, o_interp)));
         Some((interp, route))
     };
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -180,16 +181,20 @@ fn held_out_fits(
     done.into_iter().filter_map(|(_, f)| f).collect()
 }
 
-/// The model of one run inside the check with its operating point (the
-/// means its run removed, in the units of `sets`); `None` when it fails.
-fn model_of(sets: &[Dataset], opts: &WorkflowOptions) -> Option<Fitted> {
-    crate::pipeline::identify_fold(sets, opts)
-        .ok()
-        .map(|r| (r.file.model, r.file.operating_point))
+/// One run of the workflow inside the check, without the check (the
+/// pipeline's, handed in by it): the model, its operating point (the
+/// means its run removed, in the units of the records given) and its
+/// diagnostics; `None` when it fails.
+pub(crate) type FoldRun<'a> =
+    &'a (dyn Fn(&[Dataset], &WorkflowOptions) -> Option<(Fitted, serde_json::Value)> + Sync);
+
+/// The model of one run inside the check with its operating point.
+fn model_of(run: FoldRun<'_>, sets: &[Dataset], opts: &WorkflowOptions) -> Option<Fitted> {
+    run(sets, opts).map(|(m, _)| m)
 }
 
 /// A model and its operating point.
-type Fitted = (StateSpace, Option<OperatingPoint>);
+pub(crate) type Fitted = (StateSpace, Option<OperatingPoint>);
 
 /// The mean simulation fit (percent) of `m` on the measured samples of
 /// `sets` from its operating point, x₀ estimated per record; `None` when
@@ -271,6 +276,7 @@ pub(crate) fn against_interpolation(
     chosen: (StateSpace, serde_json::Value),
     sets: &[Dataset],
     kalman_gain: &mut Option<DMatrix<f64>>,
+    run: FoldRun<'_>,
 ) -> Judged {
     let (model, mut diagnostics) = chosen;
     let samples: usize = sets.iter().map(Dataset::len).sum();
@@ -336,10 +342,7 @@ pub(crate) fn against_interpolation(
             return (model, diagnostics, None);
         }
     };
-    let Some((whole, whole_diagnostics)) = crate::pipeline::identify_fold(&smooth, &o)
-        .ok()
-        .map(|r| ((r.file.model, r.file.operating_point), r.file.diagnostics))
-    else {
+    let Some((whole, whole_diagnostics)) = run(&smooth, &o) else {
         note(
             &mut diagnostics,
             json!({"applied": false, "why": "the single-rate route failed on the interpolated record"}),
@@ -349,7 +352,7 @@ pub(crate) fn against_interpolation(
     let (o_route, o_interp) = fold_runs(&o, &whole_diagnostics);
     let floor = opts.identification.selection.failed_fold;
     let workers = fold_threads(opts);
-    let per_fold = held_out_fits(sets, &o_route, &o_interp, workers);
+    let per_fold = held_out_fits(run, sets, &o_route, &o_interp, workers);
     let check = RefinementCheck {
         initial_fit: 0.0,
         refined_fit: 0.0,
