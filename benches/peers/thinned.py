@@ -111,6 +111,8 @@ def run(cli, csv, m, p, order, out, extra, uv, yv, period=None):
     d = diag or {}
     res["route"] = d.get("route")
     res["kept_start"] = (d.get("multirate_start") or {}).get("kept")
+    res["check"] = (d.get("multirate_check") or {}).get("kept")
+    res["check_folds"] = (d.get("multirate_check") or {}).get("per_fold")
     res["d_max"] = float(np.max(np.abs(mats[3]))) if mats[3].size else 0.0
     return res
 
@@ -153,7 +155,7 @@ def main():
                     f"{r} {row[r]['fit']:.1f}" if row[r]["fit"] is not None else f"{r} {row[r]['status']}"
                     for r in routes)
                 extra = row.get("multirate", {})
-                print(f"{name:12s} n={order!s:4s} {cells}   (multirate: rho {extra.get('rho')}, start {extra.get('kept_start')}, max|D| {extra.get('d_max')})", flush=True)
+                print(f"{name:12s} n={order!s:4s} {cells}   (multirate: rho {extra.get('rho')}, start {extra.get('kept_start')}, check kept {extra.get('check')}, max|D| {extra.get('d_max')})", flush=True)
     if a.json:
         with open(a.json, "w") as f:
             json.dump({"period": a.period, "results": results}, f, indent=1, default=str)
