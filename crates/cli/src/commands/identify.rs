@@ -72,6 +72,7 @@ fn print_profile(diagnostics: &Diagnostics) {
         ("subspace (all)", "subspace_s"),
         ("second pass", "second_pass_s"),
         ("multirate start", "multirate_start_s"),
+        ("multirate check", "multirate_check_s"),
         ("Kalman gain", "kalman_gain_s"),
         ("refinement", "refine_s"),
         ("ARX / FIR", "arx_s"),
