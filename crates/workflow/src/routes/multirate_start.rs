@@ -439,7 +439,7 @@ pub(crate) fn interpolated_route(
 /// Mean over the records and outputs of the simulation fit on the measured
 /// samples (x₀ estimated); `None` when it is not finite (an unstable or
 /// failed model).
-pub(crate) fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
+fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
     // The simulation fit only: no k-step predictions, one residual lag.
     let opts = ValidationOptions {
         lags: 1,
