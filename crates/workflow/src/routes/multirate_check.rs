@@ -47,14 +47,14 @@
 //! five sixths of the record), each O(N) at the fixed order; `diagnostics.
 //! multirate_check` gives the per-block fits and the verdict.
 
-use lifted_lti::{Dataset, OperatingPoint, StateSpace, ValidationOptions, validate};
+use lifted_lti::{Dataset, OperatingPoint, StateSpace};
 use lifted_pem::RefinementCheck;
 use nalgebra::DMatrix;
 use serde_json::json;
 
 use crate::diagnostics::push_warning;
 use crate::options::{Estimator, Order, Refine, WorkflowOptions};
-use crate::routes::multirate_start::interpolated;
+use crate::routes::multirate_start::{interpolated, records_fit_from};
 
 /// Blocks of the held-out check (as the single-rate refinement check).
 pub const CHECK_BLOCKS: usize = 6;
@@ -196,25 +196,10 @@ fn model_of(run: FoldRun<'_>, sets: &[Dataset], opts: &WorkflowOptions) -> Optio
 /// A model and its operating point.
 pub(crate) type Fitted = (StateSpace, Option<OperatingPoint>);
 
-/// The mean simulation fit (percent) of `m` on the measured samples of
-/// `sets` from its operating point, x₀ estimated per record; `None` when
-/// it does not simulate.
+/// The held-out fit of a model from its operating point
+/// (`multirate_start::records_fit_from`).
 fn held_out_fit((model, op): &Fitted, sets: &[Dataset]) -> Option<f64> {
-    let opts = ValidationOptions {
-        lags: 1,
-        horizons: Vec::new(),
-        operating_point: op.clone(),
-        ..Default::default()
-    };
-    let (mut total, mut count) = (0.0, 0usize);
-    for d in sets {
-        for o in &validate(model, d, &opts).ok()?.outputs {
-            total += o.fit;
-            count += 1;
-        }
-    }
-    let fit = total / count.max(1) as f64;
-    fit.is_finite().then_some(fit)
+    records_fit_from(model, op.clone(), sets)
 }
 
 /// Each record's block `k` of [`CHECK_BLOCKS`] (bounds on its frame

@@ -440,10 +440,21 @@ pub(crate) fn interpolated_route(
 /// samples (x₀ estimated); `None` when it is not finite (an unstable or
 /// failed model).
 fn records_fit(model: &StateSpace, sets: &[Dataset]) -> Option<f64> {
+    records_fit_from(model, None, sets)
+}
+
+/// [`records_fit`] of a model deviating from `operating_point` (the
+/// records in absolute units).
+pub(crate) fn records_fit_from(
+    model: &StateSpace,
+    operating_point: Option<lifted_lti::OperatingPoint>,
+    sets: &[Dataset],
+) -> Option<f64> {
     // The simulation fit only: no k-step predictions, one residual lag.
     let opts = ValidationOptions {
         lags: 1,
         horizons: Vec::new(),
+        operating_point,
         ..Default::default()
     };
     let mut total = 0.0;
