@@ -75,6 +75,10 @@ fn a_multirate_route_better_on_every_block_is_kept() {
         let (i, r) = (f["interpolated"].as_f64(), f["route"].as_f64());
         assert!(r.zip(i).is_some_and(|(r, i)| r > i + 10.0), "{check}");
     }
+    // The folds refine the route as the whole record's run did: only
+    // when that run kept its refinement.
+    let kept = fit.file.diagnostics["refinement"]["kept"] == "Refined";
+    assert_eq!(check["refined_in_folds"]["route"], kept, "{check}");
     // 0.013 measured; a model of the interpolated record misses the fast
     // mode (its held-out fits are 20 points lower).
     let gap = response_gap(&fit.file.model, &truth);
@@ -117,6 +121,10 @@ fn an_undecided_check_returns_the_interpolated_records_model() {
     for (x, y) in a.u0.iter().zip(&b.u0).chain(a.y0.iter().zip(&b.y0)) {
         assert!((x - y).abs() < 1e-9, "{a:?} vs {b:?}");
     }
+    // The interpolated record's folds are refined only when its whole
+    // run (the direct one) kept its refinement.
+    let kept = direct.file.diagnostics["refinement"]["kept"] == "Refined";
+    assert_eq!(check["refined_in_folds"]["interpolated"], kept, "{check}");
     // The gain is checked on the measured samples, not the interpolated
     // record's.
     assert!(fit.file.diagnostics["kalman_gain_route"].is_object());
@@ -136,6 +144,7 @@ fn an_undecided_check_returns_the_interpolated_records_model() {
 /// `budgets.refine_check_samples = 0` turns the check off: the route's
 /// model, and the diagnostics say why; so does an order whose parameters
 /// the fold parts cannot support (fewer than two measured values each).
+/// Without a refinement the folds are not refined either.
 #[test]
 fn the_multirate_check_stays_within_its_budget() {
     let truth = flexible_plant();
@@ -151,6 +160,14 @@ fn the_multirate_check_stays_within_its_budget() {
             .is_some_and(|w| w.contains("per free parameter")),
         "{check}"
     );
+    // Without a refinement, none in the folds either.
+    let mut o = at_order(4);
+    o.refinement.refine = lifted_workflow::Refine::None;
+    let fit = identify(&[Record::new(data.clone())], &o).expect("identify");
+    let check = check_of(&fit);
+    assert_eq!(check["applied"], true, "{check}");
+    assert_eq!(check["refined_in_folds"]["route"], false, "{check}");
+    assert_eq!(check["refined_in_folds"]["interpolated"], false, "{check}");
     let mut o = at_order(4);
     o.budgets.refine_check_samples = 0;
     let fit = identify(&[Record::new(data)], &o).expect("identify");
