@@ -38,8 +38,18 @@
 //! two grid steps of its current value, its c by golden section at each)
 //! — the shared-λ optimum is a point of the search, so the groups' own
 //! hyperparameters never give a lower likelihood than one set for all;
-//! DC as for one group, group by group. About 6 000 evaluations for two
-//! groups, 2 500 for one.
+//! DC as for one group, group by group; each one-dimensional search of
+//! several groups by Brent's method (parabolic interpolation, golden
+//! steps where it is not trusted). About 2 500 evaluations for one group
+//! (golden sections) and 1 350–1 650 for two (7 000 with golden sections
+//! of the same width: the glass furnace record's ARX [20 20 1] with
+//! p = 180 per output took 169 s before, 38 s after, the hyperparameters
+//! the same to 1e-6 relative).
+//!
+//! **Cost.** One evaluation: the prior's blocks' Cholesky factors
+//! (Σ len³/3), Lᵀ R₁ᵀ block row by block row (2 Σ len² (at + len), R₁
+//! upper triangular) and the QR of the 2p × p stack (≈ 10p³/3): O(p³)
+//! per evaluation, independent of N.
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -123,6 +133,79 @@ fn golden(mut a: f64, mut b: f64, steps: usize, mut f: impl FnMut(f64) -> f64) -
     0.5 * (a + b)
 }
 
+/// Brent's minimum of `f` on [a, b] (Brent 1973, "Algorithms for
+/// minimization without derivatives", ch. 5: parabolic interpolation
+/// through the three best points, a golden-section step where the
+/// parabola is not trusted), to within `tol` in x: the point and its
+/// value. A smooth unimodal objective takes 10–15 evaluations where a
+/// golden section to the same width takes 30; a value of +∞ only ever
+/// makes a golden step.
+fn brent(mut a: f64, mut b: f64, tol: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    const GOLD: f64 = 0.381_966_011_250_105_1;
+    const MAX_EVALUATIONS: usize = 100;
+    let mut x = a + GOLD * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 0..MAX_EVALUATIONS {
+        let m = 0.5 * (a + b);
+        let tol1 = 1e-10 * x.abs() + tol;
+        let t2 = 2.0 * tol1;
+        if (x - m).abs() <= t2 - 0.5 * (b - a) {
+            break;
+        }
+        let mut parabolic = false;
+        if e.abs() > tol1 {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            } else {
+                q = -q;
+            }
+            let last = e;
+            e = d;
+            if p.abs() < (0.5 * q * last).abs() && p > q * (a - x) && p < q * (b - x) {
+                d = p / q;
+                let u = x + d;
+                if u - a < t2 || b - u < t2 {
+                    d = if x < m { tol1 } else { -tol1 };
+                }
+                parabolic = true;
+            }
+        }
+        if !parabolic {
+            e = if x < m { b - x } else { a - x };
+            d = GOLD * e;
+        }
+        let u = x + if d.abs() >= tol1 { d } else { tol1.copysign(d) };
+        let fu = f(u);
+        if fu <= fx {
+            if u < x {
+                b = x;
+            } else {
+                a = x;
+            }
+            (v, fv, w, fw, x, fx) = (w, fw, x, fx, u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv, w, fw) = (w, fw, u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
+        }
+    }
+    (x, fx)
+}
+
 fn logistic(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
 }
@@ -159,30 +242,52 @@ impl Problem {
         }
     }
 
-    /// The block-diagonal prior's Cholesky factor (a relative jitter of
-    /// 1e-10 per block keeps the fast-decaying tail positive).
+    /// The Cholesky factors of the block-diagonal prior's blocks, in block
+    /// order (a relative jitter of 1e-10 per block keeps the fast-decaying
+    /// tail positive): Σ_b len_b³/3 flops, not p³/3.
+    fn prior_blocks(&self, h: &[[f64; 3]]) -> Option<Vec<DMatrix<f64>>> {
+        self.blocks
+            .iter()
+            .map(|b| {
+                let mut k = kernel(b.len, h[b.group]);
+                let jitter = 1e-10 * k[(0, 0)].abs().max(f64::MIN_POSITIVE);
+                for i in 0..b.len {
+                    k[(i, i)] += jitter;
+                }
+                k.cholesky().map(|c| c.l())
+            })
+            .collect()
+    }
+
+    /// The prior's Cholesky factor L (block diagonal) as one p × p matrix.
     fn prior_factor(&self, h: &[[f64; 3]]) -> Option<DMatrix<f64>> {
         let p = self.r1.nrows();
         let mut full = DMatrix::zeros(p, p);
         let mut at = 0;
-        for b in &self.blocks {
-            let k = kernel(b.len, h[b.group]);
-            let jitter = 1e-10 * k[(0, 0)].abs().max(f64::MIN_POSITIVE);
-            full.view_mut((at, at), (b.len, b.len)).copy_from(&k);
-            for i in 0..b.len {
-                full[(at + i, at + i)] += jitter;
-            }
-            at += b.len;
+        for l in self.prior_blocks(h)? {
+            let len = l.nrows();
+            full.view_mut((at, at), (len, len)).copy_from(&l);
+            at += len;
         }
-        full.cholesky().map(|c| c.l())
+        Some(full)
     }
 
-    /// S of the QR of [Lᵀ R₁ᵀ; σ I].
-    fn s_factor(&self, l: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    /// S of the QR of [Lᵀ R₁ᵀ; σ I]. Lᵀ R₁ᵀ is formed block row by block
+    /// row: block b's rows are L_bᵀ (R₁'s columns of block b)ᵀ, and those
+    /// columns of the upper-triangular R₁ vanish below the block's last
+    /// row — 2 Σ_b len_b² (at_b + len_b) flops instead of 2p³ (the QR,
+    /// ≈ 10p³/3, is the rest of an evaluation).
+    fn s_factor(&self, l: &[DMatrix<f64>]) -> Result<DMatrix<f64>> {
         let p = self.r1.nrows();
         let mut m = DMatrix::zeros(2 * p, p);
-        m.view_mut((0, 0), (p, p))
-            .copy_from(&(l.transpose() * self.r1.transpose()));
+        let mut at = 0;
+        for lb in l {
+            let len = lb.nrows();
+            let cols = self.r1.view((0, at), (at + len, len));
+            m.view_mut((at, 0), (len, at + len))
+                .copy_from(&(lb.transpose() * cols.transpose()));
+            at += len;
+        }
         let s = self.sigma2.sqrt();
         for i in 0..p {
             m[(p + i, i)] = s;
@@ -192,7 +297,7 @@ impl Problem {
 
     /// −2 log p(Y | η) (module docs); +∞ where the prior is not positive.
     pub(crate) fn objective(&self, h: &[[f64; 3]]) -> f64 {
-        let Some(l) = self.prior_factor(h) else {
+        let Some(l) = self.prior_blocks(h) else {
             return f64::INFINITY;
         };
         let Ok(s) = self.s_factor(&l) else {
@@ -284,20 +389,27 @@ impl Problem {
         (vec![best.1], best.0)
     }
 
-    /// Several groups (module docs).
+    /// Several groups (module docs): each one-dimensional search by
+    /// Brent's method ([`brent`]).
     fn tune_groups(&self, kernel: Kernel) -> (Vec<[f64; 3]>, f64) {
-        const STEPS: usize = 30;
+        // Tolerances in the searched coordinates (ln c, logit λ, ρ): a
+        // golden section of 30 steps, the search's before, ended within
+        // 1e-5 of ln c's optimum and 4e-7 of logit λ's.
+        const C_TOL: f64 = 1e-5;
+        const LAMBDA_TOL: f64 = 1e-6;
+        const RHO_TOL: f64 = 1e-6;
         let scales = self.scales();
-        // Group g's c by golden section with the others held.
+        // Group g's c by Brent's method with the others held: the
+        // objective there.
         let best_c = |h: &mut Vec<[f64; 3]>, g: usize| -> f64 {
             let c0 = scales[g];
             let mut trial = h.clone();
-            let lc = golden((c0 * 1e-4).ln(), (c0 * 1e4).ln(), STEPS, |x| {
+            let (lc, v) = brent((c0 * 1e-4).ln(), (c0 * 1e4).ln(), C_TOL, |x| {
                 trial[g][0] = x.exp();
                 self.objective(&trial)
             });
             h[g][0] = lc.exp();
-            self.objective(h)
+            v
         };
         let (lo, hi) = (LAMBDA_LO, lambda_hi());
         let tc = |lambda: f64, c: f64| [c, lambda, lambda.sqrt()];
@@ -325,7 +437,7 @@ impl Problem {
                     let v = best_c(&mut h, g);
                     (v, h)
                 };
-                let x = golden(a, b, STEPS, |x| at(x).0);
+                let (x, _) = brent(a, b, LAMBDA_TOL, |x| at(x).0);
                 let (v, h) = at(x);
                 if v < best.0 {
                     best = (v, h);
@@ -336,13 +448,13 @@ impl Problem {
             for _ in 0..3 {
                 for g in 0..self.groups {
                     let mut h = best.1.clone();
-                    let rho = golden(-0.99, 0.99, STEPS, |r| {
+                    let (rho, _) = brent(-0.99, 0.99, RHO_TOL, |r| {
                         let mut t = h.clone();
                         t[g][2] = r;
                         self.objective(&t)
                     });
                     h[g][2] = rho;
-                    let xl = golden(lo, hi, STEPS, |x| {
+                    let (xl, _) = brent(lo, hi, LAMBDA_TOL, |x| {
                         let mut t = h.clone();
                         t[g][1] = logistic(x);
                         self.objective(&t)
@@ -423,6 +535,36 @@ mod tests {
             let v: f64 = StandardNormal.sample(&mut rng);
             sd * v
         })
+    }
+
+    #[test]
+    fn brents_method_finds_the_minimum_in_fewer_evaluations_than_a_golden_section() {
+        // A smooth, asymmetric objective with its minimum at x* = ln 3
+        // (f(x) = eˣ − 3x), a bracket of 8 decades.
+        let star = 3f64.ln();
+        let mut calls = 0;
+        let (x, fx) = brent(-9.0, 9.0, 1e-5, |x| {
+            calls += 1;
+            x.exp() - 3.0 * x
+        });
+        assert!((x - star).abs() < 2e-5, "{x} against {star}");
+        assert!((fx - (3.0 - 3.0 * star)).abs() < 1e-9, "{fx}");
+        // A golden section to the same width takes ⌈ln(18/1e-5)/ln(1/0.618)⌉
+        // = 30 steps.
+        assert!(calls < 20, "{calls} evaluations");
+        // +∞ on part of the bracket (a prior that is not positive there):
+        // only golden steps from such points, the finite minimum found.
+        let (x, _) = brent(-1.0, 4.0, 1e-6, |x| {
+            if x < 0.5 {
+                f64::INFINITY
+            } else {
+                (x - 2.0).powi(2)
+            }
+        });
+        assert!((x - 2.0).abs() < 1e-5, "{x}");
+        // A minimum at the bracket's end is approached to within tol.
+        let (x, _) = brent(0.0, 1.0, 1e-6, |x| x);
+        assert!(x < 1e-5, "{x}");
     }
 
     #[test]
