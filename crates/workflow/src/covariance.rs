@@ -67,7 +67,7 @@ pub(crate) fn of_model(
             .map(|u| (u, options.cost))
             .map_err(|e| match e {
                 lifted_pem::Error::TooMuchWork { flops, limit, .. } => format!(
-                    "its Jacobian pass needs about {flops:.2e} operations, more than the work budget budgets.covariance_work = {limit:.2e} (--budget covariance_work=…)"
+                    "its Jacobian pass and the null space of its similarity tangent need about {flops:.2e} operations, more than the work budget budgets.covariance_work = {limit:.2e} (--budget covariance_work=…)"
                 ),
                 e => e.to_string(),
             })

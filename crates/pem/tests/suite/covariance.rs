@@ -181,6 +181,14 @@ fn bad_calls_are_refused_by_name() {
     )
     .unwrap_err();
     assert!(matches!(e, Error::TooMuchWork { .. }), "{e}");
+    // The predicted work counts the similarity tangent's null space (an
+    // SVD of n² × (p + n²)), which dominates at high order: a 2 × 2 model
+    // of order 48 on 600 samples (p = 340 local coordinates) is predicted
+    // above the default 4e9 although its Jacobian pass is 1.3e9 (it took
+    // 13 s when only the pass was counted).
+    let pass = 2.0 * 340.0 * 600.0 * (48.0 * 52.0) + 2.0 * 341f64.powi(2) * 1200.0;
+    let work = covariance_work(48, 2, 2, 340, 600, 1200);
+    assert!(pass < 4e9 && work > 4e9, "{pass:e} {work:e}");
     // Too few samples for the coordinates.
     let short = [Record {
         u: &u.rows(0, 8).into_owned(),
