@@ -821,9 +821,10 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub out: String,
     /// Print the wall time of each phase (read, compress, SVD, estimate; the
-    /// whole subspace step with its structure selection, the streamed
-    /// route's second pass, the multirate second start, the Kalman-gain check
-    /// and the refinement when they ran).
+    /// structure selection and the whole subspace step with it, the streamed
+    /// route's second pass, the multirate route with its order selection,
+    /// its second start and its check against interpolation, the
+    /// Kalman-gain check and the refinement when they ran).
     #[arg(long)]
     pub profile: bool,
     /// Memory budget.

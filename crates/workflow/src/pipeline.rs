@@ -236,9 +236,18 @@ fn run(
             // record alone when the lifted route fails.
             let second = multirate_start::applies(opts, &sets);
             third_start = second;
+            let t_route = std::time::Instant::now();
             match routes::multirate(opts, &sets) {
                 Ok((fit, made)) => {
                     let mut fit = fit;
+                    // The lifted route's wall time: lifting, its order
+                    // selection (held-out fits, the refined shortlist)
+                    // and the fast model's extraction.
+                    add_phase(
+                        &mut fit.diagnostics,
+                        "multirate_s",
+                        t_route.elapsed().as_secs_f64(),
+                    );
                     // (A route that already took the interpolated start,
                     // its lifted identification having failed, has no
                     // second start to compare; one that made the start

@@ -60,17 +60,21 @@ fn print_profile(diagnostics: &Diagnostics) {
         return;
     }
     // The compress/svd/estimate rows are the final fit's; the subspace row
-    // also counts the structure selection's fits before it and the
-    // feedthrough test (the D = 0 fit, unless it ran with the fit on a
-    // second thread, and the two simulations).
+    // also counts the structure selection's fits before it (its own row:
+    // the held-out fits and the refined shortlist) and the feedthrough
+    // test (the D = 0 fit, unless it ran with the fit on a second thread,
+    // and the two simulations). The multirate route's row counts lifting,
+    // its order selection and the fast model's extraction.
     let phases = [
         ("read", "read_s"),
         ("compress", "compress_s"),
         ("svd", "svd_s"),
         ("estimate", "estimate_s"),
         ("feedthrough test", "feedthrough_s"),
+        ("structure selection", "selection_s"),
         ("subspace (all)", "subspace_s"),
         ("second pass", "second_pass_s"),
+        ("multirate route", "multirate_s"),
         ("multirate start", "multirate_start_s"),
         ("multirate check", "multirate_check_s"),
         ("Kalman gain", "kalman_gain_s"),
@@ -84,10 +88,10 @@ fn print_profile(diagnostics: &Diagnostics) {
         ("covariance", "covariance_s"),
         ("identify (total)", "identify_s"),
     ];
-    println!("phase              wall time");
+    println!("phase               wall time");
     for (label, key) in phases {
         if let Some(t) = diagnostics.phase(key) {
-            println!("{label:<18} {:>9.4} s", t);
+            println!("{label:<19} {:>9.4} s", t);
         }
     }
     if let Some(Compression::Used { used, fallback, .. }) = &diagnostics.compression {

@@ -64,6 +64,67 @@ fn profile_prints_the_phases() {
     assert!(stages <= total, "{prof}");
 }
 
+/// Where the default's time goes: an automatic order's structure
+/// selection has its own row (within the subspace row), and a multirate
+/// record's lifted route (lifting, its order selection, extraction) its
+/// own — with the multirate check's, the rows account for the run.
+#[test]
+fn profile_names_the_selection_and_the_multirate_route() {
+    let d = tmp("profile-selection");
+    let (id, _) = single_rate_data(&d);
+    let out = p(&d, "auto.json");
+    let s = ok(&[
+        "identify",
+        "--data",
+        &id,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+        "--profile",
+    ]);
+    assert!(s.contains("structure selection"), "{s}");
+    let prof = &ModelFile::read(&out).expect("model file").diagnostics["profile"];
+    let (sel, sub) = (prof["selection_s"].as_f64(), prof["subspace_s"].as_f64());
+    assert!(
+        sel.zip(sub).is_some_and(|(a, b)| 0.0 <= a && a <= b),
+        "{prof}"
+    );
+    let mr = p(&d, "mr.csv");
+    simulate(&mr, rbs(1500, 3), 3, 1000.0, 5);
+    let out = p(&d, "mr.json");
+    let s = ok(&[
+        "identify",
+        "--data",
+        &mr,
+        "--inputs",
+        "u1",
+        "--outputs",
+        "y1",
+        "--out",
+        &out,
+        "--profile",
+    ]);
+    assert!(s.contains("multirate route"), "{s}");
+    let prof = &ModelFile::read(&out).expect("model file").diagnostics["profile"];
+    let parts: f64 = [
+        "multirate_s",
+        "multirate_start_s",
+        "multirate_check_s",
+        "refine_s",
+    ]
+    .iter()
+    .filter_map(|k| prof[*k].as_f64())
+    .sum();
+    let total = prof["identify_s"].as_f64().unwrap_or(0.0);
+    assert!(
+        prof["multirate_s"].as_f64().is_some() && parts <= total && parts >= 0.5 * total,
+        "{prof}"
+    );
+}
+
 #[test]
 fn subspace_methods_and_iv_identify_the_plant() {
     let d = tmp("subspace");

@@ -69,6 +69,9 @@ pub(crate) fn subspace(
     // The feedthrough test's D = 0 fit when it was made with the fit
     // (its options and the fit).
     let mut zero_fit: Option<(SubspaceOptions, Result<lifted_subspace::SubspaceModel>)> = None;
+    // The structure selection's wall time (its held-out fits and the
+    // refined shortlist), a phase of `--profile` inside the subspace row.
+    let mut selection_s = None;
     let (fit, structure, used) = if opts.wants_selection() {
         let judge = shortlist::judge_of(opts, samples, id.selection.tolerance);
         // A refinement's stabilised start (`--refine pem|oe` without
@@ -81,8 +84,10 @@ pub(crate) fn subspace(
             enforce_stability: id.stable,
             ..sub.clone()
         };
+        let t_selection = std::time::Instant::now();
         let (fit, d, used, check) = select(id, &exps, plain, judge)
             .map_err(|e| order_beyond_the_records(e, id, &exps, &sub))?;
+        selection_s = Some(t_selection.elapsed().as_secs_f64());
         known = check;
         let (fit, used) =
             stabilized_if_unstable(&sub, fit, used, |o| identify(&exps, o).ctx(&what))?;
@@ -191,6 +196,9 @@ pub(crate) fn subspace(
         obj.insert("feedthrough".into(), feedthrough);
     }
     crate::diagnostics::add_phase(&mut d, "feedthrough_s", feedthrough_s);
+    if let Some(t) = selection_s {
+        crate::diagnostics::add_phase(&mut d, "selection_s", t);
+    }
     // The held-out search's own cap (the largest order its horizons
     // identify), said as the gap search's is (--max-order 100 searched
     // 1..=29 without a word).
