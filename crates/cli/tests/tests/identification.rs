@@ -71,22 +71,28 @@ fn profile_prints_the_phases() {
 #[test]
 fn profile_names_the_selection_and_the_multirate_route() {
     let d = tmp("profile-selection");
+    // The default run of a file with --profile: its printout and the
+    // model file's profile.
+    let profiled = |data: &str, name: &str| {
+        let out = p(&d, name);
+        let s = ok(&[
+            "identify",
+            "--data",
+            data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+            "--profile",
+        ]);
+        let f = ModelFile::read(&out).expect("model file");
+        (s, f.diagnostics["profile"].clone())
+    };
     let (id, _) = single_rate_data(&d);
-    let out = p(&d, "auto.json");
-    let s = ok(&[
-        "identify",
-        "--data",
-        &id,
-        "--inputs",
-        "u1",
-        "--outputs",
-        "y1",
-        "--out",
-        &out,
-        "--profile",
-    ]);
+    let (s, prof) = profiled(&id, "auto.json");
     assert!(s.contains("structure selection"), "{s}");
-    let prof = &ModelFile::read(&out).expect("model file").diagnostics["profile"];
     let (sel, sub) = (prof["selection_s"].as_f64(), prof["subspace_s"].as_f64());
     assert!(
         sel.zip(sub).is_some_and(|(a, b)| 0.0 <= a && a <= b),
@@ -94,21 +100,8 @@ fn profile_names_the_selection_and_the_multirate_route() {
     );
     let mr = p(&d, "mr.csv");
     simulate(&mr, rbs(1500, 3), 3, 1000.0, 5);
-    let out = p(&d, "mr.json");
-    let s = ok(&[
-        "identify",
-        "--data",
-        &mr,
-        "--inputs",
-        "u1",
-        "--outputs",
-        "y1",
-        "--out",
-        &out,
-        "--profile",
-    ]);
+    let (s, prof) = profiled(&mr, "mr.json");
     assert!(s.contains("multirate route"), "{s}");
-    let prof = &ModelFile::read(&out).expect("model file").diagnostics["profile"];
     let parts: f64 = [
         "multirate_s",
         "multirate_start_s",
