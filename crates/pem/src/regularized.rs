@@ -431,15 +431,23 @@ impl Problem {
             for g in 0..self.groups {
                 let x0 = logit(best.1[g][1]);
                 let (a, b) = ((x0 - 2.0 * step).max(lo), (x0 + 2.0 * step).min(hi));
-                let at = |x: f64| {
+                // The point Brent's method returns is the one of lowest
+                // value it evaluated (the later one on ties): kept as it
+                // is evaluated, by the same rule, rather than searched
+                // again.
+                let mut lowest: Option<(f64, Vec<[f64; 3]>)> = None;
+                brent(a, b, LAMBDA_TOL, |x| {
                     let mut h = best.1.clone();
                     h[g] = tc(logistic(x), h[g][0]);
                     let v = best_c(&mut h, g);
-                    (v, h)
-                };
-                let (x, _) = brent(a, b, LAMBDA_TOL, |x| at(x).0);
-                let (v, h) = at(x);
-                if v < best.0 {
+                    if lowest.as_ref().is_none_or(|(l, _)| v <= *l) {
+                        lowest = Some((v, h));
+                    }
+                    v
+                });
+                if let Some((v, h)) = lowest
+                    && v < best.0
+                {
                     best = (v, h);
                 }
             }

@@ -108,7 +108,7 @@ fn fold_options(opts: &WorkflowOptions, order: usize) -> WorkflowOptions {
 /// kind of model the whole record delivers — and the folds skip the
 /// iterations whose result the whole record set aside, most of the
 /// check's cost (a 15 000-sample 2 × 2 record: 23 s of checking before,
-/// 6 s after, the interpolated record's refinement not kept there).
+/// 7.7 s after, the interpolated record's refinement not kept there).
 fn fold_runs(
     o: &WorkflowOptions,
     route_whole: &serde_json::Value,
