@@ -191,6 +191,9 @@ pub use regress::{
     MAX_REGRESSOR_GROWTH, StateFit, estimate_bd, estimate_bd_iv, estimate_bd_with_offsets,
     estimate_x0, structured_state_lstsq,
 };
-pub use select::{Candidate, StructureOptions, StructureSelection, select_structure};
+pub use select::{
+    Candidate, DEFAULT_HORIZONS, StructureOptions, StructureSelection, default_horizons,
+    select_structure,
+};
 pub use separable::CompressedData;
 pub use streaming::{StreamedSubspace, StreamingIdentifier};

@@ -58,7 +58,8 @@ use crate::options::{OrderSelection, SubspaceOptions, SystemEstimate};
 pub struct StructureOptions {
     /// Candidate horizons s (p = f = s); an empty list means the default:
     /// 5, 10, 15, 20 and 30 for records of up to
-    /// [`StructureOptions::search_samples`] samples, 10 beyond; always
+    /// [`StructureOptions::search_samples`] samples, fewer beyond (down to
+    /// 10 alone from five times that, [`default_horizons`]); always
     /// limited to those the estimation part supports with at least
     /// 3 k Hankel columns (k = 2 s (n_u + n_y)). A horizon given by the
     /// caller is the only candidate.
@@ -87,7 +88,9 @@ pub struct StructureOptions {
     /// Default 0.5.
     pub tolerance: f64,
     /// Records of up to this many samples (all records) get the full
-    /// search of horizons and routes. Default 200 000.
+    /// search of horizons and routes; longer ones as many horizons as keep
+    /// the search's work within the full search's at this length
+    /// ([`default_horizons`]), shift invariance alone. Default 200 000.
     pub search_samples: usize,
     /// The score of a held-out fold whose model failed, and the floor of
     /// every fold's fit in the means (percent), so that one diverging fold
@@ -141,6 +144,29 @@ impl Default for StructureOptions {
             failed_fold: crate::crossval::FAILED_FOLD,
         }
     }
+}
+
+/// The default candidate horizons.
+pub const DEFAULT_HORIZONS: [usize; 5] = [5, 10, 15, 20, 30];
+
+/// The default candidate horizons for records of `total` samples: all of
+/// [`DEFAULT_HORIZONS`] up to `search_samples` samples; beyond, as many as
+/// keep the search's work within the full list's at `search_samples`
+/// (each horizon's folds cost about the same, O(N) in the samples: the
+/// count is ⌊5 · search_samples / total⌋, at least one), taken nearest
+/// the default 10 on a logarithmic scale (10, 15, 5, 20, 30; the shorter
+/// first on a tie). So the search's cost stays bounded past
+/// `search_samples` and falls to one horizon gradually (one from
+/// 5 · search_samples on) instead of at once (issue 50: the default's
+/// cost without cliffs). O(1).
+pub fn default_horizons(total: usize, search_samples: usize) -> Vec<usize> {
+    if total <= search_samples {
+        return DEFAULT_HORIZONS.to_vec();
+    }
+    let count = (DEFAULT_HORIZONS.len().saturating_mul(search_samples) / total.max(1)).max(1);
+    let mut chosen: Vec<usize> = [10, 15, 5, 20, 30].into_iter().take(count).collect();
+    chosen.sort_unstable();
+    chosen
 }
 
 /// One scored candidate.
@@ -215,10 +241,8 @@ pub fn select_structure(
     let search = total <= opts.search_samples;
     let horizons: Vec<usize> = if !opts.horizons.is_empty() {
         opts.horizons.clone()
-    } else if search {
-        vec![5, 10, 15, 20, 30]
     } else {
-        vec![10]
+        default_horizons(total, opts.search_samples)
     };
     // At least `column_factor` k Hankel columns in every fold's estimation
     // pieces (k = 2 s (n_u + n_y)): fewer make the compressed correlations
@@ -436,6 +460,24 @@ pub(crate) fn parsimonious<T: Clone, K: Ord>(
 mod tests {
     use super::*;
     use nalgebra::DVector;
+
+    /// Past the full search's bound the horizons thin out nearest 10 and
+    /// the search's work (horizons × samples) stays within the full
+    /// search's at the bound.
+    #[test]
+    fn the_default_horizons_thin_out_past_the_bound() {
+        let b = 200_000;
+        assert_eq!(default_horizons(1000, b), DEFAULT_HORIZONS.to_vec());
+        assert_eq!(default_horizons(b, b), DEFAULT_HORIZONS.to_vec());
+        assert_eq!(default_horizons(b + 1, b), vec![5, 10, 15, 20]);
+        assert_eq!(default_horizons(300_000, b), vec![5, 10, 15]);
+        assert_eq!(default_horizons(500_000, b), vec![10, 15]);
+        assert_eq!(default_horizons(1_000_000, b), vec![10]);
+        assert_eq!(default_horizons(usize::MAX, b), vec![10]);
+        for n in [b + 1, 250_000, 333_334, 499_999, 999_999] {
+            assert!(default_horizons(n, b).len() * n <= 5 * b, "{n}");
+        }
+    }
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 

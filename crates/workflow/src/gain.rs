@@ -15,8 +15,8 @@ pub(crate) struct GainCheckWith<'a> {
     pub past: usize,
     /// When the iterations over K stop.
     pub options: &'a lifted_subspace::GainCheckOptions,
-    /// Records of more samples keep the subspace step's gain
-    /// ([`crate::Budgets::gain_check_samples`]).
+    /// Records of more samples are checked on their last this many
+    /// ([`crate::Budgets::gain_check_samples`], [`crate::window`]).
     pub most_samples: usize,
     /// The innovations kept between calls (a front end's
     /// [`SubspaceCache`]): the same gain bit for bit as without it.
@@ -30,8 +30,10 @@ pub(crate) struct GainCheckWith<'a> {
 /// The Kalman gain of a single-rate subspace model on `sets` (deviations
 /// from its operating point, as the identification took them): checked on
 /// the records (`lifted_subspace::check_kalman_gain`, the report in
-/// `diagnostics.kalman_gain_route`) when they hold at most
-/// [`crate::Budgets::gain_check_samples`] samples, else the subspace step's gain. The
+/// `diagnostics.kalman_gain_route`), on their last
+/// [`crate::Budgets::gain_check_samples`] samples when they hold more
+/// ([`crate::window`]: the check's cost stays at that record length's;
+/// `diagnostics.kalman_gain_window` says so). The
 /// in-memory and the streamed route both call it. `raw`: the records
 /// before the identification removed its operating point, when it did:
 /// the VARX innovations are estimated from them, each centred by its own
@@ -54,9 +56,27 @@ pub(crate) fn checked_gain(
         records_hash,
     } = check;
     let samples: usize = sets.iter().map(Dataset::len).sum();
-    if samples > most_samples {
+    if sets.is_empty() || most_samples == 0 {
         return gain;
     }
+    // Longer records: the check on their last `most_samples` samples
+    // (crate::window), the innovations of the same window; not memoised
+    // (the memo is keyed by the whole records).
+    let windows = (samples > most_samples)
+        .then(|| {
+            let last = crate::window::last_samples(sets, most_samples).ok()?;
+            let raw_last = match raw {
+                Some(r) => Some(crate::window::last_samples(r, most_samples).ok()?),
+                None => None,
+            };
+            Some((last, raw_last))
+        })
+        .flatten();
+    let (sets, raw, memo, records_hash) = match &windows {
+        Some((last, raw_last)) => (last.as_slice(), raw_last.as_deref(), None, None),
+        None if samples > most_samples => return gain,
+        None => (sets, raw, memo, records_hash),
+    };
     let exps: Vec<lifted_subspace::Experiment<'_>> = sets
         .iter()
         .map(|r| lifted_subspace::Experiment { u: r.u(), y: r.y() })
@@ -81,6 +101,16 @@ pub(crate) fn checked_gain(
             "kalman_gain_route".into(),
             serde_json::to_value(&report).unwrap_or_default(),
         );
+        if windows.is_some() {
+            obj.insert(
+                "kalman_gain_window".into(),
+                serde_json::json!({
+                    "samples": most_samples,
+                    "of": samples,
+                    "rule": "the gain checked on the records' last budgets.gain_check_samples samples",
+                }),
+            );
+        }
     }
     checked
 }

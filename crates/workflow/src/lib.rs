@@ -63,7 +63,8 @@
 //!    (A, B, C, D fixed, A − K C stable), so that the one-step predictor
 //!    never predicts worse than the simulation on the records
 //!    (`kalman_gain_route`; records of up to [`GAIN_CHECK_SAMPLES`]
-//!    samples, in memory and streamed alike; the single-rate IV route,
+//!    samples, in memory and streamed alike, and the last that many samples
+//!    of longer records in memory, `kalman_gain_window`; the single-rate IV route,
 //!    which has no noise model of its own, gets its gain the same way from
 //!    the regression or K = 0, and so does a multirate model the
 //!    refinement gave no gain, from K = 0 on the measured samples; on the
@@ -85,7 +86,10 @@
 //!    default ([`Refine::Auto`]) the prediction-error refinement runs where
 //!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
 //!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than
-//!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate.
+//!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate; records in
+//!    memory over that work are refined with the iterations stopped at it
+//!    (`refinement_decision` says so), so that the default's cost does
+//!    not fall off a cliff at the bound.
 //! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
 //!    always written to the diagnostics (`stability`), an unstable model
 //!    carrying a warning that names it; optionally an error instead. The
@@ -153,6 +157,7 @@ mod selection;
 pub mod stream;
 mod subspace_options;
 mod validate;
+mod window;
 
 pub use cache::SubspaceCache;
 pub use diagnostics::Diagnostics;

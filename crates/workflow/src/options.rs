@@ -61,8 +61,9 @@ pub struct Budgets {
     /// [`REFINE_CHECK_WORK`], 4e9.
     pub refine_check_work: f64,
     /// Records up to this many samples get the single-rate Kalman-gain
-    /// check and the feedthrough test (the streamed route loads them).
-    /// Default [`GAIN_CHECK_SAMPLES`].
+    /// check and the feedthrough test (the streamed route loads them);
+    /// longer records in memory get the gain check on their last this many
+    /// samples; 0 turns the check off. Default [`GAIN_CHECK_SAMPLES`].
     pub gain_check_samples: usize,
     /// Work up to which a state-space model gets the covariance of its
     /// entries (`lifted_pem::state_space_covariance`: one Jacobian pass
@@ -710,9 +711,12 @@ pub enum Refine {
 /// the benchmark machine (≈ 4e9 such operations per second were measured).
 /// By `benches/examples/pem_cost.rs` (table in `benches/results/pem.md`, "PEM
 /// against the subspace step") this refines 2×2 models of order 4 up to
-/// N ≈ 1e5 and 3×2 models of order 6 up to a few 1e4 samples, and skips the
-/// long records, where the refinement costs seconds and the subspace
-/// estimate is already close to efficient.
+/// N ≈ 1e5 and 3×2 models of order 6 up to a few 1e4 samples to
+/// convergence. Longer records in memory are refined with the iterations
+/// stopped at this work (`refine::Refines::Capped`, as long as one
+/// iteration fits), so the default's cost stays at its level past the
+/// bound instead of falling by it (issue 50); a streamed record is not
+/// loaded for it. The refined model is judged as below the bound.
 pub const AUTO_REFINE_WORK: f64 = 4e9;
 
 /// [`AUTO_REFINE_WORK`] for the joint iterations on (A, B, C, D, K, x₀),
@@ -749,9 +753,11 @@ pub const REFINE_CHECK_SAMPLES: usize = 20_000;
 /// subspace model's Kalman gain checked on them
 /// (`lifted_subspace::check_kalman_gain`), in memory and streamed alike
 /// (the streamed route loads such a record for it), so both give the same
-/// model; longer records keep the subspace step's gain (a check would
+/// model; longer records in memory have it checked on their last this
+/// many samples (`crate::window`: the check's cost stays at this length's),
+/// longer streamed records keep the subspace step's gain (a check would
 /// need passes over the file that the streamed route's budget does not
-/// have). The bound of the held-out structure search.
+/// have). Also the streamed route's bound for the feedthrough test.
 pub const GAIN_CHECK_SAMPLES: usize = 200_000;
 
 /// Points of mean held-out fit by which the refined model must beat the

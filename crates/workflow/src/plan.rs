@@ -111,7 +111,39 @@ mod tests {
             serde_json::json!("held-out blocks")
         );
         let long = resolved_defaults(&o, &shape(300_000));
-        assert_eq!(find(&long, "kalman_gain_check"), serde_json::json!(false));
+        // In memory: checked on the last budgets.gain_check_samples samples;
+        // streamed: not checked.
+        assert_eq!(find(&long, "kalman_gain_check"), serde_json::json!(true));
+        assert!(
+            long.resolved
+                .iter()
+                .any(|e| e.option == "kalman_gain_check" && e.why.contains("last that many"))
+        );
+        let streamed = resolved_defaults(
+            &o,
+            &DataShape {
+                streamed: true,
+                ..shape(300_000)
+            },
+        );
+        assert_eq!(
+            find(&streamed, "kalman_gain_check"),
+            serde_json::json!(false)
+        );
+        // The horizons searched thin out past the full search's bound.
+        let horizons = |p: &Plan| {
+            p.resolved
+                .iter()
+                .find(|e| e.option == "horizon")
+                .map(|e| e.why.clone())
+                .unwrap_or_default()
+        };
+        assert!(horizons(&short).contains("among 5, 10, 15, 20, 30"));
+        assert!(
+            horizons(&long).contains("among 5, 10, 15 ("),
+            "{}",
+            horizons(&long)
+        );
         assert_eq!(
             find(&long, "refinement_judge"),
             serde_json::json!("the records")
@@ -275,9 +307,19 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
             && !shape.multirate
             && id.order_criterion == OrderCriterion::Validation
         {
+            let among: Vec<String> = lifted_subspace::default_horizons(
+                shape.samples,
+                lifted_subspace::StructureOptions::default().search_samples,
+            )
+            .iter()
+            .map(usize::to_string)
+            .collect();
             (
                 serde_json::Value::Null,
-                "chosen with the order by the held-out fit among 5, 10, 15, 20, 30 (records too short for held-out blocks: the smallest AICc)".to_string(),
+                format!(
+                    "chosen with the order by the held-out fit among {} (records too short for held-out blocks: the smallest AICc)",
+                    among.join(", ")
+                ),
             )
         } else if m.is_subspace() {
             (
@@ -335,15 +377,21 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
         say("feedthrough", serde_json::Value::Null, why);
     }
     if m.is_subspace() && !shape.multirate && id.noise_model {
-        let checked = shape.samples <= b.gain_check_samples;
+        let within = shape.samples <= b.gain_check_samples;
+        let checked = within || !shape.streamed;
         say(
             "kalman_gain_check",
             serde_json::json!(checked),
             format!(
-                "{} samples {} budgets.gain_check_samples = {}",
+                "{} samples {} budgets.gain_check_samples = {}{}",
                 shape.samples,
-                if checked { "≤" } else { ">" },
-                b.gain_check_samples
+                if within { "≤" } else { ">" },
+                b.gain_check_samples,
+                match (within, checked) {
+                    (true, _) => "",
+                    (false, true) => ": checked on the records' last that many samples",
+                    (false, false) => ": a streamed record keeps the subspace step's gain",
+                }
             ),
         );
     }
@@ -352,8 +400,15 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
             "refine",
             serde_json::Value::Null,
             format!(
-                "decided after the estimate: refined when stable and its predicted work is at most {:.0e} operations ({:.0e} for multirate joint iterations) or the records have fewer than {} samples",
-                b.auto_refine_work, b.auto_refine_work_joint, b.auto_refine_samples
+                "decided after the estimate: refined when stable and its predicted work is at most {:.0e} operations ({:.0e} for multirate joint iterations) or the records have fewer than {} samples{}",
+                b.auto_refine_work,
+                b.auto_refine_work_joint,
+                b.auto_refine_samples,
+                if shape.streamed {
+                    ""
+                } else {
+                    "; records in memory whose refinement would cost more are refined with the iterations stopped at that work"
+                }
             ),
         );
     }

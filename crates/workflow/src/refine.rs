@@ -136,6 +136,17 @@ pub(crate) fn refinement_cost(
 /// after the refinement (about 2 s).
 pub(crate) const START_NOT_EFFICIENT: &str = "start_not_efficient";
 
+/// What [`auto_decision`] decides on (its docs name each).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct AutoCase<'a> {
+    pub samples: usize,
+    pub work: Option<PemWorkEstimate>,
+    pub max_work: f64,
+    pub marginal: f64,
+    pub not_efficient: Option<&'a str>,
+    pub capped: bool,
+}
+
 /// Whether [`Refine::Auto`] refines `model` on records of `samples`
 /// samples whose predicted refinement work is `work` (`None`: not
 /// predicted) under the work bound `max_work` of the refinement options,
@@ -143,16 +154,28 @@ pub(crate) const START_NOT_EFFICIENT: &str = "start_not_efficient";
 /// the bound is never started (`refine_pem` would refuse it: the default
 /// must not turn a model it could give into an error). `not_efficient`:
 /// the route's [`START_NOT_EFFICIENT`] reason, when it gave one (refined up
-/// to `max_work`).
+/// to `max_work`). `capped`: the route can refine a record whose
+/// predicted work is over the default's budget with its iterations capped
+/// at that budget ([`Refines::Capped`]: one iteration at least within it;
+/// the records in memory) — so that the default's cost does not fall off
+/// a cliff where the budget is reached (issue 50): a Gauss–Newton step
+/// from a consistent start is already asymptotically efficient (Ljung,
+/// *System Identification*, 2nd ed., §9.4), and each further one moves
+/// the model less; the refined model is kept only when the judge prefers
+/// it, as below the budget.
 pub(crate) fn auto_decision(
     budgets: &crate::Budgets,
     model: &StateSpace,
-    samples: usize,
-    work: Option<PemWorkEstimate>,
-    max_work: f64,
-    marginal: f64,
-    not_efficient: Option<&str>,
-) -> (bool, String) {
+    case: AutoCase<'_>,
+) -> (bool, String, Option<f64>) {
+    let AutoCase {
+        samples,
+        work,
+        max_work,
+        marginal,
+        not_efficient,
+        capped,
+    } = case;
     let rho = spectral_radius(model).unwrap_or(f64::INFINITY);
     // A marginal estimate (integrators within the tolerance `marginal`)
     // is refined as a stable one: the iterations may keep it marginal.
@@ -162,6 +185,7 @@ pub(crate) fn auto_decision(
             format!(
                 "not refined: the estimate is unstable (rho(A) = {rho:.4}); --refine pem refines from its zero-padded-shift re-estimate, --stable too"
             ),
+            None,
         );
     }
     let Some(PemWorkEstimate {
@@ -171,7 +195,11 @@ pub(crate) fn auto_decision(
         ..
     }) = work
     else {
-        return (false, "not refined: its work could not be predicted".into());
+        return (
+            false,
+            "not refined: its work could not be predicted".into(),
+            None,
+        );
     };
     if per_iteration > max_work {
         return (
@@ -179,6 +207,7 @@ pub(crate) fn auto_decision(
             format!(
                 "not refined: one iteration would need about {per_iteration:.2e} operations, more than the refinement's work bound {max_work:.2e} (--refine-max-work); --refine pem with a larger bound refines anyway"
             ),
+            None,
         );
     }
     // About one second of either method (their operations run at
@@ -196,29 +225,43 @@ pub(crate) fn auto_decision(
             format!(
                 "refined by the prediction error: predicted work {work:.2e} operations{what}, refined by default up to the refinement's work bound {max_work:.0e} (--refine-max-work) because the start is far from the prediction-error optimum ({why})"
             ),
+            None,
         );
     }
     let few = budgets.auto_refine_samples;
     if work <= limit || samples < few {
-        (
+        return (
             true,
             format!(
                 "refined by the prediction error: predicted work {work:.2e} operations{what} (refined by default up to {limit:.0e}, or always below {few} samples)"
             ),
-        )
-    } else {
-        (
-            false,
-            format!(
-                "not refined: predicted work {work:.2e} operations{what} on {samples} samples is more than the default's {limit:.0e} (about 1 s); --refine pem refines anyway"
-            ),
-        )
+            None,
+        );
     }
+    if capped && per_iteration <= limit {
+        let iterations = (limit / per_iteration).floor();
+        return (
+            true,
+            format!(
+                "refined by the prediction error within the default's budget: predicted work {work:.2e} operations{what} on {samples} samples is more than {limit:.0e} (about 1 s), so the iterations stop at that work (about {iterations:.0} of {per_iteration:.2e} each); --refine pem refines to convergence"
+            ),
+            Some(limit),
+        );
+    }
+    (
+        false,
+        format!(
+            "not refined: predicted work {work:.2e} operations{what} on {samples} samples is more than the default's {limit:.0e} (about 1 s){}; --refine pem refines anyway",
+            if capped {
+                format!(", and one iteration ({per_iteration:.2e}) too")
+            } else {
+                String::new()
+            }
+        ),
+        None,
+    )
 }
 
-/// Whether [`Refine::Auto`] decides for `model` here: the default setting,
-/// unless a stable identification's stabilised estimate is to be polished
-/// (which always runs).
 /// Whether `e` is a refinement the records cannot support: too few
 /// measured samples for its parameters.
 fn unsupported_by_data(e: &crate::Error) -> bool {
@@ -230,16 +273,32 @@ fn unsupported_by_data(e: &crate::Error) -> bool {
         .is_some_and(lifted_pem::Error::unsupported_by_data)
 }
 
+/// Whether [`Refine::Auto`] decides for `model` here: the default setting,
+/// unless a stable identification's stabilised estimate is to be polished
+/// (which always runs).
 pub(crate) fn auto_decides(opts: &WorkflowOptions, diagnostics: &serde_json::Value) -> bool {
     opts.refinement.refine == Refine::Auto
         && !(opts.identification.stable && diagnostics.as_object().is_some_and(was_stabilized))
 }
 
+/// Whether and on what a refinement runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Refines {
+    /// Not at all.
+    No,
+    /// On all the records.
+    OnAll,
+    /// On all the records, the iterations stopped at this work (the
+    /// default's budget; [`auto_decision`]).
+    Capped(f64),
+}
+
 /// [`Refine::Auto`]'s decision for `model` on records of `samples` samples
 /// (`work`: the predicted work of the refinement with the given options,
-/// asked only when the decision is made), recorded in
-/// `diagnostics.refinement_decision`; true when the refinement runs (always
-/// for the other settings).
+/// asked only when the decision is made; `capped`: whether the route can
+/// run a [`Refines::Capped`] refinement), recorded in
+/// `diagnostics.refinement_decision`; always [`Refines::OnAll`] for the
+/// other settings.
 pub(crate) fn auto_allows(
     opts: &WorkflowOptions,
     model: &StateSpace,
@@ -247,28 +306,36 @@ pub(crate) fn auto_allows(
     samples: usize,
     marginal: f64,
     work: impl FnOnce(&PemOptions) -> Option<PemWorkEstimate>,
-) -> bool {
+    capped: bool,
+) -> Refines {
     if !auto_decides(opts, diagnostics) {
-        return true;
+        return Refines::OnAll;
     }
     let pem = pem_options(opts, model, PemCost::Prediction, false);
     let not_efficient = diagnostics
         .get(START_NOT_EFFICIENT)
         .and_then(|v| v.as_str())
         .map(str::to_owned);
-    let (go, why) = auto_decision(
+    let (go, why, cap) = auto_decision(
         &opts.budgets,
         model,
-        samples,
-        work(&pem),
-        pem.max_work,
-        marginal,
-        not_efficient.as_deref(),
+        AutoCase {
+            samples,
+            work: work(&pem),
+            max_work: pem.max_work,
+            marginal,
+            not_efficient: not_efficient.as_deref(),
+            capped,
+        },
     );
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("refinement_decision".into(), json!(why));
     }
-    go
+    match (go, cap) {
+        (false, _) => Refines::No,
+        (true, None) => Refines::OnAll,
+        (true, Some(w)) => Refines::Capped(w),
+    }
 }
 
 /// The predicted work of a refinement on one record of `samples` samples,
@@ -628,14 +695,27 @@ pub fn refine(
         ..pem_options(opts, &model, cost, stabilized)
     };
     let samples = sets.iter().map(Dataset::len).sum();
-    let allowed = auto_allows(opts, &model, &mut diagnostics, samples, marginal, |p| {
-        (!records.is_empty())
-            .then(|| pem_work_estimate(&model, &records, p).ok())
-            .flatten()
-    });
-    if !allowed {
-        return unrefined(opts, model, diagnostics);
-    }
+    let allowed = auto_allows(
+        opts,
+        &model,
+        &mut diagnostics,
+        samples,
+        marginal,
+        |p| {
+            (!records.is_empty())
+                .then(|| pem_work_estimate(&model, &records, p).ok())
+                .flatten()
+        },
+        true,
+    );
+    let pem = match allowed {
+        Refines::No => return unrefined(opts, model, diagnostics),
+        Refines::OnAll => pem,
+        Refines::Capped(work) => PemOptions {
+            max_work: work.min(pem.max_work),
+            ..pem
+        },
+    };
     let polish = matches!(opts.refinement.refine, Refine::None | Refine::Auto);
     let decided = auto_decides(opts, &diagnostics);
     let wf = opts;
@@ -747,10 +827,15 @@ pub fn refine(
     if let (Some(cap), lifted_pem::Termination::MaxIterations) =
         (fit.report.iteration_cap, fit.report.termination)
     {
-        let note = format!(
-            "the refinement stopped at its work bound after {cap} iterations (refine_max_work, --refine-max-work: {:.1e} operations), before convergence: raise it for this record",
-            opts.max_work
-        );
+        let note = match allowed {
+            Refines::Capped(work) => format!(
+                "the default refinement stopped at the default's work budget after {cap} iterations (budgets.auto_refine_work: {work:.1e} operations), before convergence: --refine pem refines to convergence"
+            ),
+            _ => format!(
+                "the refinement stopped at its work bound after {cap} iterations (refine_max_work, --refine-max-work: {:.1e} operations), before convergence: raise it for this record",
+                opts.max_work
+            ),
+        };
         // The default refinement is an improvement where it pays, bounded by
         // design: said in the diagnostics, not as a warning (a standard
         // 4800-sample record printed it on every run).
@@ -830,4 +915,57 @@ pub fn refine(
         *kalman_gain = fit.kalman_gain.clone();
     }
     Ok((fit.model, diagnostics))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Over the default's budget, a route that can cap the iterations
+    /// refines within it (one iteration at least fitting); one that
+    /// cannot, or a record whose single iteration is over it, is not
+    /// refined; under the budget nothing changes.
+    #[test]
+    fn over_the_budget_the_iterations_are_capped() {
+        let b = crate::Budgets::default();
+        let model = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        let work = |per_iteration: f64, typical: f64| {
+            Some(PemWorkEstimate {
+                per_iteration,
+                typical,
+                warm_stages: 0,
+                method: PemMethod::VariableProjection,
+            })
+        };
+        let decide = |work, capped| {
+            let case = AutoCase {
+                samples: 300_000,
+                work,
+                max_work: 1e12,
+                marginal: 0.0,
+                not_efficient: None,
+                capped,
+            };
+            auto_decision(&b, &model, case)
+        };
+        let (go, why, cap) = decide(work(1e9, 6e9), true);
+        assert!(go && why.contains("iterations stop"), "{why}");
+        assert_eq!(cap, Some(b.auto_refine_work));
+        let (go, why, cap) = decide(work(1e9, 6e9), false);
+        assert!(
+            !go && cap.is_none() && why.starts_with("not refined"),
+            "{why}"
+        );
+        let (go, why, _) = decide(work(5e9, 6e10), true);
+        assert!(!go && why.contains("one iteration"), "{why}");
+        let (go, _, cap) = decide(work(5e8, 3e9), true);
+        assert!(go && cap.is_none());
+    }
 }

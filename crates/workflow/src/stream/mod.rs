@@ -24,7 +24,7 @@ use crate::options::{Detrend, OrderCriterion, Refine, WorkflowOptions};
 use crate::pipeline::Identified;
 use crate::preprocess::{ChannelScales, SCALE_ROWS, deviations};
 use crate::refine::{
-    HeldOutCheck, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
+    HeldOutCheck, Refines, auto_allows, auto_decides, refine, refinement_cost, stabilized_start,
     work_of_size,
 };
 use crate::selection::{capped_to_supported, push_capped_search_warning};
@@ -368,10 +368,17 @@ pub fn identify_streamed(
     // (The first pass was given the record's integrator tolerance once it
     // had read the record; the refinement below uses it too.)
     let marginal = crate::integrators::tolerance_for(opts, n_rows).0;
-    let allowed = auto_allows(opts, &model, &mut d, n_rows, marginal, |p| {
-        work_of_size(&model, n_rows, p)
-    });
-    let refines = refinement_cost(opts, &d).is_some() && allowed;
+    // (Not capped: a record over the budget is not loaded for it.)
+    let allowed = auto_allows(
+        opts,
+        &model,
+        &mut d,
+        n_rows,
+        marginal,
+        |p| work_of_size(&model, n_rows, p),
+        false,
+    );
+    let refines = refinement_cost(opts, &d).is_some() && allowed != Refines::No;
     // The record in memory (and its deviations from the model's operating
     // point) when the gain is checked on it or the model refined on it.
     let loaded = if refines || n_rows <= opts.budgets.gain_check_samples {

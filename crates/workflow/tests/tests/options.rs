@@ -298,9 +298,10 @@ fn the_feedback_test_is_made_once_per_record() {
 /// Issue 48: the work budgets are parameters. Below the samples budget the
 /// default refines; with both refinement budgets lowered under the
 /// record's size and work it does not, and says which bound; with the gain
-/// check's samples budget under the record the subspace step's gain is
-/// kept. The values used are in `diagnostics.budgets`; bad ones are
-/// refused naming the budget.
+/// check's samples budget under the record the gain is checked on the
+/// record's last that many samples (issue 50), and with it 0 the subspace
+/// step's gain is kept. The values used are in `diagnostics.budgets`; bad
+/// ones are refused naming the budget.
 #[test]
 fn the_work_budgets_decide_and_are_recorded() {
     let (u, y) = record(3000, 0.1, 7);
@@ -325,13 +326,20 @@ fn the_work_budgets_decide_and_are_recorded() {
         "{why}"
     );
     assert!(d.get("refinement").is_none(), "{d}");
-    assert!(d.get("kalman_gain_route").is_none(), "{d}");
+    assert!(d["kalman_gain_route"].is_object(), "{d}");
+    assert_eq!(d["kalman_gain_window"]["samples"], 2999, "{d}");
+    assert_eq!(d["kalman_gain_window"]["of"], 3000, "{d}");
     assert_eq!(d["budgets"]["auto_refine_samples"], 1000);
     assert_eq!(d["budgets"]["gain_check_samples"], 2999);
-    // The subspace step's gain kept instead of the checked one.
+    // With the gain check's budget at 0 the subspace step's gain is kept.
+    let mut off = opts.clone();
+    off.budgets.gain_check_samples = 0;
+    let kept = identify(&records, &off).expect("no gain check");
+    let dk = &kept.file.diagnostics;
+    assert!(dk.get("kalman_gain_route").is_none(), "{dk}");
     assert_ne!(
-        auto.file.kalman_gain_matrix().expect("gain"),
-        tight.file.kalman_gain_matrix().expect("gain")
+        tight.file.kalman_gain_matrix().expect("gain"),
+        kept.file.kalman_gain_matrix().expect("gain")
     );
     // Read back from the model file's options as given.
     let back: WorkflowOptions = serde_json::from_value(d["options"].clone()).expect("options");
