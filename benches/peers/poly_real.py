@@ -57,12 +57,20 @@ def orders_of(family: str, n: int) -> list[int]:
 #: lifted's ARX A pattern for several outputs (--a-structure): "full" (its
 #: default, MATLAB's arx) or "diagonal" (one MISO model per output, SIPPY's).
 A_STRUCTURE = "full"
+#: lifted's ARMAX A pattern for several outputs: "diagonal" (its default,
+#: SIPPY's) or "full" (MATLAB's multi-output armax); --armax-full adds a
+#: "lifted, A full" column beside the default.
+ARMAX_A = "diagonal"
 
 
 def lifted_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
     import lifted
 
-    extra = {"a_structure": A_STRUCTURE} if family == "arx" and y.shape[1] > 1 else {}
+    extra = {}
+    if family == "arx" and y.shape[1] > 1:
+        extra = {"a_structure": A_STRUCTURE}
+    elif family == "armax-full":
+        family, extra = "armax", {"a_structure": "full"}
     fit = getattr(lifted, family)(u, y, orders_of(family, n), **extra)
     m = fit.model
     return tuple(np.atleast_2d(np.asarray(x, dtype=float)) for x in (m.A, m.B, m.C, m.D))
@@ -195,6 +203,8 @@ def main() -> None:
                     help="also sysidentpy's linear ARX (FROLS, every term) in the ARX rows")
     ap.add_argument("--a-structure", choices=["full", "diagonal"], default="full",
                     help="lifted's MIMO ARX: full A (its default) or diagonal (SIPPY's structure)")
+    ap.add_argument("--armax-full", action="store_true",
+                    help="also lifted's ARMAX with a coupled A (a_structure='full') on records of several outputs")
     ap.add_argument("--json")
     args = ap.parse_args()
     global A_STRUCTURE
@@ -215,9 +225,12 @@ def main() -> None:
                        "sippy": run("sippy", fam, n, ue, ye, uv, yv, args.cap)}
                 if fam == "arx" and args.sysidentpy:
                     row["sysidentpy"] = run("sysidentpy", fam, n, ue, ye, uv, yv, args.cap)
+                if fam == "armax" and args.armax_full and ye.shape[1] > 1:
+                    row["lifted_full"] = run("lifted", "armax-full", n, ue, ye, uv, yv, args.cap)
                 rows.append(row)
                 print(json.dumps({k: row[k] for k in ("record", "family", "n")}
-                                 | {t: cell(row[t]) for t in ("lifted", "sippy", "sysidentpy") if t in row}),
+                                 | {t: cell(row[t]) for t in ("lifted", "sippy", "sysidentpy", "lifted_full")
+                                    if t in row}),
                       flush=True)
     print("\n| record | structure | lifted | SIPPY | lifted − SIPPY |")
     print("|---|---|---|---|---|")
@@ -240,6 +253,8 @@ def main() -> None:
         fam = r["family"].upper()
         o = " ".join(str(v) for v in orders_of(r["family"], r["n"]))
         extra = f" (sysidentpy {cell(r['sysidentpy'])})" if "sysidentpy" in r else ""
+        if "lifted_full" in r:
+            extra += f" (lifted, A full: {cell(r['lifted_full'])})"
         print(f"| {r['record']} | {fam} [{o}] | {cell(r['lifted'])} | {cell(r['sippy'])}{extra} | {diff} |")
     print(f"\ncells: lifted better by > 1 point {better}, within a point {within}, worse by > 1 point {worse}")
     if args.json:

@@ -632,9 +632,10 @@ pub struct IdentifyArgs {
     /// outputs' and one for the inputs' coefficients, hyperparameters by the marginal likelihood.
     #[arg(long, value_enum)]
     pub kernel: Option<KernelArg>,
-    /// ARX of several outputs: the pattern of A: full (every output's past in every output's
-    /// equation, the default: MATLAB's arx with a full na matrix) or diagonal (each output's own
-    /// past only: one MISO model per output, SIPPY's and sysidentpy's ARX; na = n·eye(ny)).
+    /// ARX and ARMAX of several outputs: the pattern of A: full (every output's past in every
+    /// output's equation: MATLAB's arx/armax with a full na matrix; ARX's default) or diagonal
+    /// (each output's own past only: one MISO model per output, SIPPY's and sysidentpy's;
+    /// na = n·eye(ny); ARMAX's default).
     #[arg(long, value_enum)]
     pub a_structure: Option<AStructureArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,

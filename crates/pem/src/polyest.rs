@@ -1,28 +1,35 @@
-//! ARMAX and Box–Jenkins models (and the general structure with a diagonal
-//! A) by prediction-error minimisation, MATLAB's `armax`, `bj`, `polyest`.
+//! ARMAX and Box–Jenkins models (and the general structure) by
+//! prediction-error minimisation, MATLAB's `armax`, `bj`, `polyest`.
 //!
-//! Per output i (A diagonal: A_ii only),
+//! Per output i,
 //!
 //! ```text
-//!   A(q) y(t) = Σ_k B_k(q)/F_k(q) u_k(t − nk_k) + C(q)/D(q) e(t),
+//!   Σ_j A_ij(q) y_j(t) = Σ_k B_k(q)/F_k(q) u_k(t − nk_k) + C(q)/D(q) e(t),
 //! ```
 //!
-//! the one-step prediction error is ε = (D/C) [A y − Σ_k (B_k/F_k) u_k]
+//! with A_ii monic and A_ij (j ≠ i) starting at q⁻¹ — a diagonal A (each
+//! output's own past) or a coupled one (every output's past in every
+//! equation, MATLAB's multi-output `armax` with an n_y × n_y `na`) — the
+//! one-step prediction error is ε = (D/C) [Σ_j A_ij y_j − Σ_k (B_k/F_k) u_k]
 //! (Ljung 1999, eq. (4.35) with (4.33)) and V = Σ ε²/N is minimised by
 //! Levenberg–Marquardt with the analytic gradient (Ljung 1999, §10.3): with
-//! s = A y − Σ w_k, w_k = (B_k/F_k) u_k(t − nk), every partial derivative
-//! is a filtered signal —
-//! ∂ε/∂a_j = (D/C) y(t − j), ∂ε/∂b_kj = −(D/(C F_k)) u_k(t − nk − j),
+//! s = Σ_j A_ij y_j − Σ w_k, w_k = (B_k/F_k) u_k(t − nk), every partial
+//! derivative is a filtered signal —
+//! ∂ε/∂a_ij,l = (D/C) y_j(t − l), ∂ε/∂b_kj = −(D/(C F_k)) u_k(t − nk − j),
 //! ∂ε/∂f_kj = (D/(C F_k)) w_k(t − j), ∂ε/∂c_j = −(1/C) ε(t − j),
 //! ∂ε/∂d_j = (1/C) s(t − j) — O(N d) flops per Jacobian; its rows are
-//! folded into an R-only QR with ε (memory O(d²), JᵀJ never formed). A
+//! folded into an R-only QR with ε (memory O(d²), JᵀJ never formed). The
+//! outputs' equations share no parameter (C and D are per output), so each
+//! is minimised on its own, the other outputs entering a coupled A as
+//! known regressors. A
 //! step that leaves C, D or any F with a root on or outside the unit circle
 //! is rejected (the predictor and the noise model stay stable and
 //! invertible). Zero initial conditions.
 //!
 //! **Starts** (Hannan & Rissanen 1982's two stages): ARMAX from a long ARX
 //! model's residuals ê (a second least-squares fit of A, B and C with ê as
-//! a known input, [`crate::arx`]); Box–Jenkins from the output-error model
+//! a known input, [`crate::arx`]; with a coupled A the other outputs are
+//! inputs of both stages, delayed one sample); Box–Jenkins from the output-error model
 //! ([`crate::oe`]) and an ARMA (C, D) fitted the same way to its residuals.
 //!
 //! **Closed loop.** The prediction-error method is consistent in closed
@@ -82,10 +89,11 @@ pub struct PolyestFit {
     pub iterations: Vec<usize>,
 }
 
-/// One output's polynomials: a (free part), per input (b, f free, nk), c, d.
+/// One output's polynomials: per output j the free part of A_ij (A_ii's
+/// after its leading 1, A_ij's from q⁻¹), per input (b, f free, nk), c, d.
 #[derive(Debug, Clone, PartialEq)]
 struct Output {
-    a: Vec<f64>,
+    a: Vec<Vec<f64>>,
     b: Vec<Vec<f64>>,
     f: Vec<Vec<f64>>,
     nk: Vec<usize>,
@@ -96,7 +104,7 @@ struct Output {
 impl Output {
     /// θ in [`PolyModel::parameters`]' order: a, B's, c, d, F's.
     fn pack(&self) -> Vec<f64> {
-        let mut v = self.a.clone();
+        let mut v: Vec<f64> = self.a.concat();
         for b in &self.b {
             v.extend_from_slice(b);
         }
@@ -115,7 +123,7 @@ impl Output {
             at += n;
             v
         };
-        let a = take(self.a.len());
+        let a = self.a.iter().map(|a| take(a.len())).collect();
         let b = self.b.iter().map(|b| take(b.len())).collect();
         let c = take(self.c.len());
         let d = take(self.d.len());
@@ -152,11 +160,23 @@ fn residuals(
     jacobian: bool,
 ) -> (Vec<f64>, Vec<Vec<f64>>) {
     let n = e.u.nrows();
-    let y: Vec<f64> = e.y.column(i).iter().copied().collect();
+    let column = |j: usize| -> Vec<f64> { e.y.column(j).iter().copied().collect() };
+    let y = column(i);
+    // Every output a row of A reaches (its own always).
+    let ys: Vec<Option<Vec<f64>>> = (0..p.a.len())
+        .map(|j| match j {
+            _ if j == i => Some(y.clone()),
+            _ if p.a[j].is_empty() => None,
+            _ => Some(column(j)),
+        })
+        .collect();
     let mut s = y.clone();
-    for (j, aj) in p.a.iter().enumerate() {
-        for t in (j + 1)..n {
-            s[t] += aj * y[t - j - 1];
+    for (a, yj) in p.a.iter().zip(&ys) {
+        let Some(yj) = yj else { continue };
+        for (l, al) in a.iter().enumerate() {
+            for t in (l + 1)..n {
+                s[t] += al * yj[t - l - 1];
+            }
         }
     }
     let mut vs = Vec::with_capacity(p.b.len());
@@ -183,10 +203,16 @@ fn residuals(
             .collect()
     };
     let mut cols = Vec::new();
-    let mut h = Vec::new();
-    noise_whiten(&y, &p.c, &p.d, &mut h);
-    for j in 1..=p.a.len() {
-        cols.push(lagged(&h, j, 1.0));
+    for (a, yj) in p.a.iter().zip(&ys) {
+        let Some(yj) = yj else { continue };
+        if a.is_empty() {
+            continue;
+        }
+        let mut h = Vec::new();
+        noise_whiten(yj, &p.c, &p.d, &mut h);
+        for l in 1..=a.len() {
+            cols.push(lagged(&h, l, 1.0));
+        }
     }
     for (k, b) in p.b.iter().enumerate() {
         let mut pk = Vec::new();
@@ -304,17 +330,42 @@ fn hannan_rissanen(
     Ok((a, b, c))
 }
 
+/// Each record's inputs followed by its outputs `others` (the other
+/// outputs a coupled A row reaches), as the input columns of output `i`'s
+/// regressions.
+fn with_other_outputs(experiments: &[Experiment<'_>], others: &[usize]) -> Vec<DMatrix<f64>> {
+    experiments
+        .iter()
+        .map(|e| {
+            let (n, nu) = (e.u.nrows(), e.u.ncols());
+            let mut m = DMatrix::zeros(n, nu + others.len());
+            m.view_mut((0, 0), (n, nu)).copy_from(e.u);
+            for (c, &j) in others.iter().enumerate() {
+                m.column_mut(nu + c).copy_from(&e.y.column(j));
+            }
+            m
+        })
+        .collect()
+}
+
 /// One-step residuals of a long ARX model of output `i`
-/// (na = nb = `order` for every input, delay 1), concatenated over the
-/// records (used as ê; zero over the first `order` samples of a record).
+/// (na = nb = `order` for every input, delay 1; the outputs `others` as
+/// inputs delayed one sample), one vector per record (used as ê; zero over
+/// the first `order` samples of a record).
 fn long_arx_residuals(
     experiments: &[Experiment<'_>],
     i: usize,
     order: usize,
+    others: &[usize],
 ) -> Result<Vec<Vec<f64>>> {
-    let nu = experiments[0].u.ncols();
+    let nu = experiments[0].u.ncols() + others.len();
     let ys = output_columns(experiments, i);
-    let exps = with_outputs(experiments, &ys);
+    let inputs = with_other_outputs(experiments, others);
+    let exps: Vec<Experiment<'_>> = inputs
+        .iter()
+        .zip(&ys)
+        .map(|(u, y)| Experiment { u, y })
+        .collect();
     let orders = PolyOrders {
         na: vec![vec![order]],
         nb: vec![vec![order; nu]],
@@ -343,30 +394,47 @@ fn long_arx_residuals(
 
 /// The start of output `i` (module docs).
 fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> Result<Output> {
-    let (na, nc, nd) = (shape.a.len(), shape.c.len(), shape.d.len());
+    let (na, nc, nd) = (shape.a[i].len(), shape.c.len(), shape.d.len());
     let nb: Vec<usize> = shape.b.iter().map(Vec::len).collect();
     let nf: Vec<usize> = shape.f.iter().map(Vec::len).collect();
+    // The other outputs a coupled A reaches.
+    let others: Vec<usize> = (0..shape.a.len())
+        .filter(|&j| j != i && !shape.a[j].is_empty())
+        .collect();
+    let na_all: usize = shape.a.iter().map(Vec::len).sum();
     let total: usize = experiments.iter().map(|e| e.u.nrows()).sum();
-    let long = (4 * (na + nc + nd + nf.iter().sum::<usize>() + 1)).clamp(10, 40);
-    let long = long.min((total / (8 * (experiments[0].u.ncols() + 1))).max(1));
+    let long = (4 * (na_all + nc + nd + nf.iter().sum::<usize>() + 1)).clamp(10, 40);
+    let columns = experiments[0].u.ncols() + others.len();
+    let long = long.min((total / (8 * (columns + 1))).max(1));
     let mut p = shape.clone();
     if nf.iter().all(|&f| f == 0) && nd == 0 {
         // ARMAX (or ARX with C): Hannan–Rissanen on the records joined.
         // (A record too short for the long ARX: the zero start.)
-        let Ok(e_hat) = long_arx_residuals(experiments, i, long) else {
+        let Ok(e_hat) = long_arx_residuals(experiments, i, long, &others) else {
             return Ok(p);
         };
+        // The other outputs are inputs delayed one sample: their B is
+        // −A_ij (A_ij starts at q⁻¹).
+        let inputs = with_other_outputs(experiments, &others);
+        let mut nb_all = nb.clone();
+        nb_all.extend(others.iter().map(|&j| shape.a[j].len()));
+        let mut nk_all = shape.nk.clone();
+        nk_all.extend(others.iter().map(|_| 1));
         let mut found = None;
-        for (e, eh) in experiments.iter().zip(&e_hat) {
+        for ((e, u), eh) in experiments.iter().zip(&inputs).zip(&e_hat) {
             let y = e.y.column(i).into_owned();
-            if let Ok(fit) = hannan_rissanen(e.u, &y, eh, na, &nb, &shape.nk, nc) {
+            if let Ok(fit) = hannan_rissanen(u, &y, eh, na, &nb_all, &nk_all, nc) {
                 found = Some(fit);
                 break;
             }
         }
         if let Some((a, b, c)) = found {
-            p.a = a;
-            p.b = b;
+            let nu = nb.len();
+            p.a[i] = a;
+            for (idx, &j) in others.iter().enumerate() {
+                p.a[j] = b[nu + idx].iter().map(|v| -v).collect();
+            }
+            p.b = b[..nu].to_vec();
             p.c = if stable(&c) { c } else { vec![0.0; nc] };
         }
         return Ok(p);
@@ -431,18 +499,12 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
     Ok(p)
 }
 
-/// The structure's checks beside the shared ones: A diagonal, not A with
-/// both D and F; every output sample measured.
+/// The structure's checks beside the shared ones: not A with both D and
+/// F; every output sample measured.
 fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
     let dims = crate::checks::check_polynomial_records(experiments, orders, false)?;
     for (i, row) in orders.na.iter().enumerate() {
-        if row.iter().enumerate().any(|(j, &n)| j != i && n > 0) {
-            return Err(Error::InvalidOption {
-                what: "orders",
-                reason: "the prediction-error estimator takes a diagonal A (one output's own lags); a coupled A is an ARX structure (arx)".into(),
-            });
-        }
-        if orders.na[i][i] > 0 && orders.nf[i].iter().any(|&f| f > 0) && orders.nd[i] > 0 {
+        if row.iter().any(|&n| n > 0) && orders.nf[i].iter().any(|&f| f > 0) && orders.nd[i] > 0 {
             return Err(Error::InvalidOption {
                 what: "orders",
                 reason: "A together with D and F: use ARMAX (na nb nc nk) or BJ (nb nc nd nf nk)"
@@ -454,7 +516,7 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
 }
 
 /// The prediction-error estimate of the polynomial structure `orders`
-/// (A diagonal; any of B, C, D, F; MATLAB's `polyest`), sample period
+/// (A diagonal or coupled; any of B, C, D, F; MATLAB's `polyest`), sample period
 /// `ts`, with the parameter covariance (module docs).
 ///
 /// Cost per output: the start (one or two least-squares fits, an OE fit
@@ -462,8 +524,7 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
 /// O(N d²) and a few residual passes O(N d); memory O(N + d²) per record.
 ///
 /// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`];
-/// [`Error::InvalidOption`] for a coupled A, an F without B, A with both D
-/// and F; [`Error::NonFinite`] for NaN/inf (every output sample is needed:
+/// [`Error::InvalidOption`] for an F without B, A with both D and F; [`Error::NonFinite`] for NaN/inf (every output sample is needed:
 /// [`crate::oe`] takes multirate records); [`Error::TooFewSamples`];
 /// [`Error::RankDeficient`] for inputs that do not excite the start.
 pub fn polyest(
@@ -479,7 +540,9 @@ pub fn polyest(
     // when an output has no fewer parameters than samples (saturating sums).
     for i in 0..orders.nb.len() {
         let d = [
-            orders.na[i][i],
+            orders.na[i]
+                .iter()
+                .fold(0usize, |a, &b| a.saturating_add(b)),
             orders.nc[i],
             orders.nd[i],
             orders.nb[i]
@@ -506,7 +569,7 @@ pub fn polyest(
     let (mut loss, mut fit, mut iterations) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..ny {
         let shape = Output {
-            a: vec![0.0; orders.na[i][i]],
+            a: orders.na[i].iter().map(|&n| vec![0.0; n]).collect(),
             b: orders.nb[i].iter().map(|&n| vec![0.0; n]).collect(),
             f: orders.nf[i].iter().map(|&n| vec![0.0; n]).collect(),
             nk: orders.nk[i].clone(),
@@ -546,7 +609,13 @@ pub fn polyest(
             m
         };
         if let Some(a) = polys.a.as_mut() {
-            a[i][i] = monic(&p.a);
+            for (j, aj) in p.a.iter().enumerate() {
+                if j == i {
+                    a[i][i] = monic(aj);
+                } else if !aj.is_empty() {
+                    a[i][j] = std::iter::once(0.0).chain(aj.iter().copied()).collect();
+                }
+            }
         }
         for k in 0..nu {
             polys.b[i][k] = p.b[k].clone();

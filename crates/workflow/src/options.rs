@@ -509,11 +509,14 @@ pub struct IdentificationOptions {
     /// fixed order; `None`: least squares. Other methods: not used (an
     /// error when given).
     pub kernel: Option<lifted_pem::Kernel>,
-    /// ARX of several outputs: the pattern of A (`None`: full, every
-    /// output's past in every output's equation, MATLAB's `arx` with a full
-    /// `na`; diagonal: each output's own past only, one MISO model per
-    /// output, the structure of SIPPY's and sysidentpy's ARX). Other
-    /// methods: not used (an error when given).
+    /// ARX and ARMAX of several outputs: the pattern of A. ARX: `None` is
+    /// full (every output's past in every output's equation, MATLAB's
+    /// `arx` with a full `na`); diagonal: each output's own past only, one
+    /// MISO model per output, the structure of SIPPY's and sysidentpy's
+    /// ARX. ARMAX: `None` is diagonal (one MISO ARMAX per output, as
+    /// before and as SIPPY's); full couples the outputs (MATLAB's
+    /// multi-output `armax` with a full `na`; C stays one polynomial per
+    /// output). Other methods: not used (an error when given).
     #[serde(default)]
     pub a_structure: Option<lifted_pem::AStructure>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
@@ -936,10 +939,10 @@ impl WorkflowOptions {
                 "only used with the process method",
             ));
         }
-        if id.a_structure.is_some() && id.method != Method::Arx {
+        if id.a_structure.is_some() && !matches!(id.method, Method::Arx | Method::Armax) {
             return Err(Error::option(
                 "a_structure",
-                "only used with the arx method (the pattern of its A matrix)",
+                "only used with the arx and armax methods (the pattern of their A matrix)",
             ));
         }
         if id.intersample.is_some() && id.method != Method::Process {

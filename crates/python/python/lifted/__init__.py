@@ -412,10 +412,10 @@ def identify(
       instead of estimated, in the data's units, e.g. ``{"Td": 7.3}`` (a
       dead time known from the plant, every input) or ``{"K(u1)": 2.0}``
       (one input); ``--process-fix``. A held parameter has no variance.
-    * ``a_structure`` (``method="arx"``, several outputs): ``"full"``
-      (default: every output's past in every output's equation) or
-      ``"diagonal"`` (each output's own past only: one MISO model per
-      output, SIPPY's ARX); ``--a-structure``.
+    * ``a_structure`` (``method="arx"`` or ``"armax"``, several outputs):
+      ``"full"`` (every output's past in every output's equation; ARX's
+      default) or ``"diagonal"`` (each output's own past only: one MISO
+      model per output, SIPPY's; ARMAX's default); ``--a-structure``.
     * ``intersample`` (``method="process"``): ``"zoh"`` (default, the input
       held between samples) or ``"foh"`` (linear between samples: a sampled
       continuous signal); ``--intersample``.
@@ -868,6 +868,7 @@ def armax(
     remove_means: bool = True,
     dt: float = 1.0,
     threads: int = 1,
+    a_structure: Literal["full", "diagonal"] | None = None,
 ) -> SubspaceFit:
     """ARMAX model (MATLAB's ``armax(data, [na nb nc nk])``) by
     prediction-error minimisation, through the identification workflow
@@ -876,15 +877,18 @@ def armax(
         A(q) y(t) = sum_k B_k(q) u_k(t - nk) + C(q) e(t)
 
     ``orders`` = ``[na, nb, nc, nk]`` (the same for every input-output
-    pair; A diagonal), or ``order`` n (na = nb = nc = n, the delays
-    estimated), or neither: the order scan of :func:`oe`. Consistent on
-    closed-loop records (the direct method).
-    ``parameters`` per output: a, the B's input by input, c; with
-    ``covariance`` and ``std``. Every output sample is needed.
+    pair; A diagonal, or with ``a_structure="full"`` coupling the outputs:
+    every output's past in every output's equation, MATLAB's multi-output
+    ``armax`` with a full ``na``), or ``order`` n (na = nb = nc = n, the
+    delays estimated), or neither: the order scan of :func:`oe`.
+    Consistent on closed-loop records (the direct method).
+    ``parameters`` per output: the A row (a_i1 .. a_ip), the B's input by
+    input, c; with ``covariance`` and ``std``. Every output sample is needed.
     """
     return identify(
         u, y, "armax", order=order, orders=orders, feedthrough=feedthrough,
         detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
+        a_structure=a_structure,
     )
 
 

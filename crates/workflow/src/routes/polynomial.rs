@@ -509,9 +509,15 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
             id.method.name().to_uppercase()
         ))?,
     };
+    // A diagonal unless a coupled one is asked for (ARMAX; BJ has none).
+    let coupled = id.a_structure == Some(lifted_pem::AStructure::Full);
     let orders = PolyOrders {
         na: (0..ny)
-            .map(|i| (0..ny).map(|j| if i == j { na } else { 0 }).collect())
+            .map(|i| {
+                (0..ny)
+                    .map(|j| if i == j || coupled { na } else { 0 })
+                    .collect()
+            })
             .collect(),
         nb: vec![vec![nb; nu]; ny],
         nc: vec![nc; ny],
@@ -530,6 +536,7 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
     let mut diagnostics = json!({
         "route": id.method.name(),
         "orders": {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": delays},
+        "a_structure": if coupled { "full" } else { "diagonal" },
         "parameters": fit.model.n_parameters(),
         "loss": fit.loss,
         "one_step_fit": fit.fit,

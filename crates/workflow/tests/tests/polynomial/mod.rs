@@ -285,6 +285,42 @@ fn armax_and_bj_through_the_workflow() {
     assert!(e.to_string().contains("[nb nc nd nf nk]"), "{e}");
 }
 
+/// ARMAX of two outputs with a coupled A (`a_structure` full, MATLAB's
+/// multi-output `armax` with a full `na`): the coupled record of
+/// [`coupled_record`] (an ARX, C = 1, so ARMAX [2 2 1 ·] holds it) in the
+/// data's units; the default (diagonal A) cannot hold the coupling and
+/// predicts worse; OE refuses the option.
+#[test]
+fn a_coupled_armax_through_the_workflow() {
+    let (_, data) = coupled_record(6000, 61);
+    let mut o = options(Method::Armax, &[2, 2, 1, 1]);
+    let diagonal = identify(&[Record::new(data.clone())], &o).unwrap();
+    assert_eq!(diagonal.file.diagnostics["a_structure"], "diagonal");
+    o.identification.a_structure = Some(lifted_pem::AStructure::Full);
+    let full = identify(&[Record::new(data.clone())], &o).unwrap();
+    let d = &full.file.diagnostics;
+    assert_eq!(d["a_structure"], "full");
+    let p = full.details.polynomial.as_ref().unwrap();
+    // The cross terms are estimated: A_12's first coefficient (0.2 in
+    // the model's units, output 1 in y₂'s) within its bound, A_21's (−0.1).
+    let a12 = p.a(0, 1);
+    let a21 = p.a(1, 0);
+    assert!(a12.len() == 3 && a21.len() == 3, "{a12:?} {a21:?}");
+    let (s12, s21) = (p.std().unwrap()[2], p.std().unwrap()[9]);
+    assert!((a12[1] - 0.2).abs() < 4.5 * s12, "{a12:?} ± {s12}");
+    assert!((a21[1] + 0.1).abs() < 4.5 * s21, "{a21:?} ± {s21}");
+    let loss = |id: &lifted_workflow::Identified, i: usize| {
+        id.file.diagnostics["loss"][i].as_f64().unwrap()
+    };
+    for i in 0..2 {
+        assert!(loss(&diagonal, i) > 1.05 * loss(&full, i), "output {i}");
+    }
+    let mut oe = options(Method::Oe, &[2, 2, 1]);
+    oe.identification.a_structure = Some(lifted_pem::AStructure::Full);
+    let e = identify(&[Record::new(data)], &oe).unwrap_err();
+    assert!(e.to_string().contains("a_structure"), "{e}");
+}
+
 #[test]
 fn a_first_order_plus_dead_time_plant_through_the_process_route() {
     // K = 2 (data units: u × 10 → 0.2), τ = 20 s, θ = 7.3 s, T = 1 s,
