@@ -201,7 +201,10 @@ fn coupled_truth() -> PolyModel {
                 vec![vec![1.0, -1.2, 0.5], vec![0.0, 0.3, -0.1]],
                 vec![vec![0.0, -0.2, 0.1], vec![1.0, -0.6, 0.2]],
             ]),
-            b: vec![vec![vec![1.0, 0.4], vec![0.0, 0.0]], vec![vec![0.3, 0.0], vec![0.8, -0.3]]],
+            b: vec![
+                vec![vec![1.0, 0.4], vec![0.0, 0.0]],
+                vec![vec![0.3, 0.0], vec![0.8, -0.3]],
+            ],
             c: Some(vec![vec![1.0, 0.5, 0.0], vec![1.0, -0.3, 0.0]]),
             d: None,
             f: None,
@@ -247,7 +250,11 @@ fn a_coupled_multi_output_armax_is_recovered_within_its_intervals() {
     diagonal.na = vec![vec![2, 0], vec![0, 2]];
     let d = polyest(&exps, &diagonal, 1.0, &o).unwrap();
     for i in 0..2 {
-        assert!(d.loss[i] > 1.05 * f.loss[i], "output {i}: {} vs {}", d.loss[i], f.loss[i]);
+        assert!(
+            d.loss[i] > 1.05 * f.loss[i],
+            "output {i}: {} vs {}",
+            d.loss[i],
+            f.loss[i]
+        );
     }
 }
-
