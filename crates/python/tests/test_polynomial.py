@@ -9,6 +9,7 @@ import json
 import pathlib
 import pickle
 import re
+from typing import Any
 
 import numpy as np
 import pytest
@@ -138,16 +139,24 @@ def test_fir() -> None:
     np.testing.assert_allclose(same.parameters, fit.parameters)
 
 
-def test_mimo_arx_parameter_order() -> None:
-    """Per output: A_i1, A_i2 (the free coefficients), then B_i1, B_i2."""
-    rng = np.random.default_rng(8)
-    n = 3000
+def two_outputs(seed: int, n: int, step: Any) -> tuple[np.ndarray, np.ndarray]:
+    """A 2-input 2-output record: white inputs u, white noise e of standard
+    deviation 0.1, y[t] = step(t, y, u, e) from y[0] = 0."""
+    rng = np.random.default_rng(seed)
     u = rng.standard_normal((n, 2))
     e = 0.1 * rng.standard_normal((n, 2))
     y = np.zeros((n, 2))
     for t in range(1, n):
-        y[t, 0] = 0.5 * y[t - 1, 0] + 0.1 * y[t - 1, 1] + u[t - 1, 0] + 0.3 * u[t - 1, 1] + e[t, 0]
-        y[t, 1] = -0.2 * y[t - 1, 0] + 0.4 * y[t - 1, 1] + 0.5 * u[t - 1, 0] - u[t - 1, 1] + e[t, 1]
+        y[t] = step(t, y, u, e)
+    return u, y
+
+
+def test_mimo_arx_parameter_order() -> None:
+    """Per output: A_i1, A_i2 (the free coefficients), then B_i1, B_i2."""
+    u, y = two_outputs(8, 3000, lambda t, y, u, e: [
+        0.5 * y[t - 1, 0] + 0.1 * y[t - 1, 1] + u[t - 1, 0] + 0.3 * u[t - 1, 1] + e[t, 0],
+        -0.2 * y[t - 1, 0] + 0.4 * y[t - 1, 1] + 0.5 * u[t - 1, 0] - u[t - 1, 1] + e[t, 1],
+    ])
     fit = lifted.arx(u, y, [1, 1, 1])
     truth = np.array([-0.5, -0.1, 1.0, 0.3, 0.2, -0.4, 0.5, -1.0])
     assert fit.parameters is not None and fit.std is not None
@@ -509,14 +518,10 @@ def test_arx_with_a_diagonal_a_is_one_miso_fit_per_output() -> None:
     output's equation holds its own past only, the same coefficients as a
     fit of that output alone (SIPPY's MIMO ARX), fewer parameters than the
     full A; another method refuses the option by name."""
-    rng = np.random.default_rng(21)
-    n = 2000
-    u = rng.standard_normal((n, 2))
-    e = 0.1 * rng.standard_normal((n, 2))
-    y = np.zeros((n, 2))
-    for t in range(1, n):
-        y[t, 0] = 0.7 * y[t - 1, 0] + 0.2 * y[t - 1, 1] + u[t - 1, 0] + e[t, 0]
-        y[t, 1] = 0.5 * y[t - 1, 1] + 0.5 * u[t - 1, 1] + 0.3 * u[t - 1, 0] + e[t, 1]
+    u, y = two_outputs(21, 2000, lambda t, y, u, e: [
+        0.7 * y[t - 1, 0] + 0.2 * y[t - 1, 1] + u[t - 1, 0] + e[t, 0],
+        0.5 * y[t - 1, 1] + 0.5 * u[t - 1, 1] + 0.3 * u[t - 1, 0] + e[t, 1],
+    ])
     diagonal = lifted.arx(u, y, [1, 1, 1], a_structure="diagonal")
     full = lifted.arx(u, y, [1, 1, 1])
     assert diagonal.parameters is not None and full.parameters is not None
@@ -536,14 +541,10 @@ def test_armax_with_a_coupled_a() -> None:
     (y1 takes 0.2 y2(t-1): A_12 = -0.2 q^-1; y2 takes 0.3 y1(t-1)), more
     parameters than the default diagonal A, and a lower one-step loss on
     both outputs."""
-    rng = np.random.default_rng(23)
-    n = 4000
-    u = rng.standard_normal((n, 2))
-    e = 0.1 * rng.standard_normal((n, 2))
-    y = np.zeros((n, 2))
-    for t in range(1, n):
-        y[t, 0] = 0.7 * y[t - 1, 0] + 0.2 * y[t - 1, 1] + u[t - 1, 0] + e[t, 0] + 0.4 * e[t - 1, 0]
-        y[t, 1] = 0.5 * y[t - 1, 1] + 0.3 * y[t - 1, 0] + 0.5 * u[t - 1, 1] + e[t, 1]
+    u, y = two_outputs(23, 4000, lambda t, y, u, e: [
+        0.7 * y[t - 1, 0] + 0.2 * y[t - 1, 1] + u[t - 1, 0] + e[t, 0] + 0.4 * e[t - 1, 0],
+        0.5 * y[t - 1, 1] + 0.3 * y[t - 1, 0] + 0.5 * u[t - 1, 1] + e[t, 1],
+    ])
     diagonal = lifted.armax(u, y, [1, 1, 1, 1])
     full = lifted.armax(u, y, [1, 1, 1, 1], a_structure="full")
     assert diagonal.diagnostics["a_structure"] == "diagonal"
