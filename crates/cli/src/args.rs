@@ -650,8 +650,9 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum, default_value_t = CriterionArg::Validation)]
     pub order_criterion: CriterionArg,
     /// Horizon i: past = future block rows (subspace: by default chosen with the order by the
-    /// held-out simulation fit among 5, 10, 15, 20, 30 for records up to 2e5 samples and data
-    /// files up to 16 MiB, else 10; a record too short for held-out blocks and for horizon 10
+    /// held-out simulation fit among 5, 10, 15, 20, 30 for records up to 2e5 samples, fewer
+    /// beyond (10 alone from 1e6), data files up to 16 MiB; streamed files 10; a record too
+    /// short for held-out blocks and for horizon 10
     /// gets the horizon with the smallest AICc among those it supports), α (IV, default 8, or the longest a record too short for 8 supports, with a warning).
     #[arg(long)]
     pub horizon: Option<usize>,
