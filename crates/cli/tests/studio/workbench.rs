@@ -518,7 +518,8 @@ fn studio_loads_and_saves_a_plan_in_chromium() {
 /// Issue 49: the page offers the model families (ARX with its order
 /// vector, a process model) and shows their parameters ± σ, the step and
 /// Bode figures carry the confidence band, and its level select turns it
-/// off; no script error. Screenshot `f1-arx-parameters.png`.
+/// off; ARMAX shows the A matrix's pattern select and passes a choice on;
+/// no script error. Screenshots `f1-arx-parameters.png`, `f2-armax-a-structure.png`.
 #[test]
 fn studio_identifies_the_model_families_in_chromium() {
     let Some((chromium, driver)) = browser_or_skip() else {
@@ -576,10 +577,35 @@ fn studio_identifies_the_model_families_in_chromium() {
         assert!(!html(&c, "fig-bode").await.contains("±95 %"));
         choose("method", "process").await;
         wait_identified(&c, g).await;
-        wait_settled(&c).await;
+        let g = wait_settled(&c).await;
         let params = text(&c, "#parameters").await;
         assert!(params.contains("process model"), "{params}");
         assert!(text(&c, "#command").await.contains("--process p1d"));
+        // ARMAX offers the A matrix's pattern too (a coupled A, MATLAB's
+        // multi-output armax), left at its default unless chosen.
+        js(
+            &c,
+            "document.getElementById('orders').value = '2 2 1 1'; return true;",
+        )
+        .await;
+        choose("method", "armax").await;
+        let g = wait_identified(&c, g).await;
+        let shown = js(
+            &c,
+            "return !document.getElementById('a-structure').closest('label').classList.contains('hidden');",
+        )
+        .await;
+        assert_eq!(shown.as_bool(), Some(true));
+        assert!(!text(&c, "#command").await.contains("--a-structure"));
+        choose("a-structure", "full").await;
+        wait_identified(&c, g).await;
+        wait_settled(&c).await;
+        let command = text(&c, "#command").await;
+        assert!(
+            command.contains("--method armax") && command.contains("--a-structure full"),
+            "{command}"
+        );
+        element_shot(&c, "#command", &shots, "f2-armax-a-structure.png").await;
         assert_eq!(status(&c, "jserrors").await, 0);
         assert_eq!(page_error(&c).await, "");
         c.close().await.unwrap();

@@ -199,7 +199,7 @@ function request(withOrder) {
     // not from the slider.
     if (method === "impulse") delete r.order;
     if (KERNEL.includes(method) && $("kernel").value) r.kernel = $("kernel").value;
-    if (method === "arx" && $("a-structure").value !== "full") r.a_structure = $("a-structure").value;
+    if (A_STRUCTURE.includes(method) && $("a-structure").value) r.a_structure = $("a-structure").value;
     if (method === "process") {
       r.process = $("process").value;
       if ($("intersample").value !== "zoh") r.intersample = $("intersample").value;
@@ -244,6 +244,8 @@ function request(withOrder) {
 const POLYNOMIAL = ["arx", "armax", "oe", "bj", "fir", "impulse"];
 // The methods with a regularisation kernel (`--kernel`).
 const KERNEL = ["arx", "impulse"];
+// The methods whose A matrix has a pattern (`--a-structure`).
+const A_STRUCTURE = ["arx", "armax"];
 
 function methodFields() {
   const m = $("method").value;
@@ -252,7 +254,7 @@ function methodFields() {
   document.querySelectorAll(".sub-only").forEach((e) => e.classList.toggle("hidden", m === "qmarkov" || family));
   document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
   document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
-  document.querySelectorAll(".arx-only").forEach((e) => e.classList.toggle("hidden", m !== "arx"));
+  document.querySelectorAll(".arx-only").forEach((e) => e.classList.toggle("hidden", !A_STRUCTURE.includes(m)));
   document.querySelectorAll(".kernel-only").forEach((e) => e.classList.toggle("hidden", !KERNEL.includes(m)));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();

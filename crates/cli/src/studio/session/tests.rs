@@ -69,7 +69,13 @@ fn the_request_builds_the_shown_command_s_arguments() {
         intersample: Some("foh".into()),
         ..Request::default()
     };
-    for r in [Request::default(), full, iv, regularised, process] {
+    let coupled = Request {
+        method: Some("armax".into()),
+        orders: Some("2 2 1 1".into()),
+        a_structure: Some("full".into()),
+        ..Request::default()
+    };
+    for r in [Request::default(), full, iv, regularised, process, coupled] {
         let direct = Session::identify_args(&r, &data).expect("direct");
         assert_eq!(
             format!("{direct:?}"),
