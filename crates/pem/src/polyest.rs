@@ -161,16 +161,11 @@ fn residuals(
 ) -> (Vec<f64>, Vec<Vec<f64>>) {
     let n = e.u.nrows();
     let column = |j: usize| -> Vec<f64> { e.y.column(j).iter().copied().collect() };
-    let y = column(i);
     // Every output a row of A reaches (its own always).
     let ys: Vec<Option<Vec<f64>>> = (0..p.a.len())
-        .map(|j| match j {
-            _ if j == i => Some(y.clone()),
-            _ if p.a[j].is_empty() => None,
-            _ => Some(column(j)),
-        })
+        .map(|j| (j == i || !p.a[j].is_empty()).then(|| column(j)))
         .collect();
-    let mut s = y.clone();
+    let mut s = ys.get(i).cloned().flatten().unwrap_or_else(|| column(i));
     for (a, yj) in p.a.iter().zip(&ys) {
         let Some(yj) = yj else { continue };
         for (l, al) in a.iter().enumerate() {

@@ -62,19 +62,20 @@ pub(crate) fn checked_gain(
     // Longer records: the check on their last `most_samples` samples
     // (crate::window), the innovations of the same window; not memoised
     // (the memo is keyed by the whole records).
-    let windows = (samples > most_samples)
-        .then(|| {
-            let last = crate::window::last_samples(sets, most_samples).ok()?;
-            let raw_last = match raw {
-                Some(r) => Some(crate::window::last_samples(r, most_samples).ok()?),
-                None => None,
-            };
-            Some((last, raw_last))
-        })
-        .flatten();
+    let windows = if samples > most_samples {
+        let last = crate::window::last_samples(sets, most_samples);
+        let raw_last = raw
+            .map(|r| crate::window::last_samples(r, most_samples))
+            .transpose();
+        match (last, raw_last) {
+            (Ok(last), Ok(raw_last)) => Some((last, raw_last)),
+            _ => return gain,
+        }
+    } else {
+        None
+    };
     let (sets, raw, memo, records_hash) = match &windows {
         Some((last, raw_last)) => (last.as_slice(), raw_last.as_deref(), None, None),
-        None if samples > most_samples => return gain,
         None => (sets, raw, memo, records_hash),
     };
     let exps: Vec<lifted_subspace::Experiment<'_>> = sets
