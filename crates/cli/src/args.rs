@@ -484,10 +484,12 @@ pub enum MethodArg {
     /// deviations: --orders "nb nf nk", or --order n (nb = nf = n, the delay estimated).
     Oe,
     /// ARMAX, A(q) y = B(q) u + C(q) e, by prediction-error minimisation (consistent in closed
-    /// loop, the direct method): --orders "na nb nc nk", or --order n. Single-rate records.
+    /// loop, the direct method): --orders "na nb nc nk", or --order n. On multirate records
+    /// (A diagonal) the predictor skips the unmeasured samples.
     Armax,
     /// Box–Jenkins, y = B/F u + C/D e, by prediction-error minimisation (consistent in closed
-    /// loop): --orders "nb nc nd nf nk", or --order n. Single-rate records.
+    /// loop): --orders "nb nc nd nf nk", or --order n. Multirate records too (the predictor
+    /// skips the unmeasured samples).
     Bj,
     /// Process model per input–output pair (MATLAB's procest): gain, time constants and dead
     /// time of --process (default p1d, first order plus dead time), by output error on the

@@ -41,8 +41,19 @@
 //! **Uncertainty.** Cov θ = λ̂ (JᵀJ)⁻¹ = λ̂ R₁₁⁻¹R₁₁⁻ᵀ, λ̂ = N V/(N − d)
 //! (Ljung 1999, eq. (9.18)); outputs independent (block diagonal).
 //!
-//! Every output sample is needed (the predictor filters past outputs):
-//! for records with outputs measured at slower rates use [`crate::oe`].
+//! **Multirate records.** An output with unmeasured (NaN) samples — an
+//! analyser every P samples — is estimated on its measured samples: with
+//! A diagonal, y = (1/A) Σ (B/F) u + C/(A D) e, and the one-step predictor
+//! from the measured past is a Kalman filter on the noise model that skips
+//! the missing samples (Jones 1980), the cost its concentrated Gaussian
+//! likelihood; with every sample measured it is the predictor above
+//! exactly. Equations, Jacobian and start in `polyest/measured.rs`. The
+//! direct method's consistency in closed loop holds there too (the
+//! likelihood is exact). A coupled A is refused for such an output (it
+//! would need the other outputs at every sample). Not every noise
+//! parameter is well determined from every P-th sample: the aliased noise
+//! spectrum can be nearly flat in one of them (an MA coefficient of
+//! ARMAX at P = 4, polyest's tests), which its interval then shows.
 
 use lifted_lti::{PolyModel, PolyOrders, Polynomials};
 use lifted_subspace::Experiment;
@@ -81,10 +92,14 @@ impl Default for PolyestOptions {
 pub struct PolyestFit {
     /// The model, with the noise variances and the parameter covariance.
     pub model: PolyModel,
-    /// Mean squared one-step prediction error per output.
+    /// Mean squared one-step prediction error per output (on its measured
+    /// samples).
     pub loss: Vec<f64>,
-    /// One-step prediction fit per output, percent: 100 (1 − ‖ε‖/‖y − ȳ‖).
+    /// One-step prediction fit per output, percent: 100 (1 − ‖ε‖/‖y − ȳ‖)
+    /// on the measured samples.
     pub fit: Vec<f64>,
+    /// Samples per output the cost was taken on (its measured samples).
+    pub measured: Vec<usize>,
     /// Iterations run per output.
     pub iterations: Vec<usize>,
 }
@@ -494,16 +509,88 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
     Ok(p)
 }
 
+/// One output's estimate: the polynomials, R₁₁ of the (scaled) Jacobian at
+/// them, the factor of R₁₁⁻¹R₁₁⁻ᵀ in the covariance, the innovations
+/// variance, Σ ε², the samples the cost was taken on, the iterations.
+struct OutputEstimate {
+    p: Output,
+    r11: DMatrix<f64>,
+    scale: f64,
+    lambda: f64,
+    plain: f64,
+    measured: usize,
+    iterations: usize,
+}
+
+/// Output `i` on records where it has unmeasured samples: the Kalman
+/// predictor on the measured samples ([`measured`]), from its start.
+/// λ̂ = Σ (ε²/f)/(M − d); the covariance factor Σ r²/(M − d) (r the scaled
+/// residuals the Jacobian is of).
+fn estimate_measured(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    shape: &Output,
+    ts: f64,
+    opts: &PolyestOptions,
+) -> Result<OutputEstimate> {
+    let d = shape.pack().len();
+    let problem = measured::MeasuredPredictionError {
+        experiments,
+        i,
+        shape,
+    };
+    let (_, _, m) = problem.sums(&shape.pack());
+    if m <= d {
+        return Err(Error::TooFewSamples {
+            what: "the polynomial model (measured samples of the output)",
+            measured: m,
+            needed: d + 1,
+        });
+    }
+    let p0 = measured::start(experiments, i, shape, ts)?;
+    let (theta, cost, r11, iterations) =
+        minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+    let (weighted, plain, m) = problem.sums(&theta);
+    let dof = (m - d) as f64;
+    Ok(OutputEstimate {
+        p: shape.with(&theta),
+        r11,
+        scale: cost / dof,
+        lambda: weighted / dof,
+        plain,
+        measured: m,
+        iterations,
+    })
+}
+
 /// The structure's checks beside the shared ones: not A with both D and
-/// F; every output sample measured.
+/// F; an output with unmeasured (NaN) samples has a diagonal A and no
+/// other output's A reaches it, and outputs in a coupled A measured at
+/// every sample.
 fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
-    let dims = crate::checks::check_polynomial_records(experiments, orders, false)?;
+    let dims = crate::checks::check_polynomial_records(experiments, orders, true)?;
     for (i, row) in orders.na.iter().enumerate() {
         if row.iter().any(|&n| n > 0) && orders.nf[i].iter().any(|&f| f > 0) && orders.nd[i] > 0 {
             return Err(Error::InvalidOption {
                 what: "orders",
                 reason: "A together with D and F: use ARMAX (na nb nc nk) or BJ (nb nc nd nf nk)"
                     .into(),
+            });
+        }
+    }
+    for i in 0..dims.1 {
+        if !measured::has_missing(experiments, i) {
+            continue;
+        }
+        let coupled = (0..dims.1).any(|j| j != i && (orders.na[i][j] > 0 || orders.na[j][i] > 0));
+        if coupled {
+            return Err(Error::InvalidOption {
+                what: "orders",
+                reason: format!(
+                    "output {i} is measured at a slower rate (NaN samples) and a coupled A \
+                     filters it into another output's equation: use a diagonal A on \
+                     multirate records"
+                ),
             });
         }
     }
@@ -518,10 +605,16 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
 /// for BJ), then per iteration one Jacobian pass O(N d) with its QR
 /// O(N d²) and a few residual passes O(N d); memory O(N + d²) per record.
 ///
+/// On an output with unmeasured (NaN) samples the cost is its measured
+/// samples' (module docs): per pass O(N (n² + n d_G)), n = max(na + nd,
+/// nc), and a Jacobian costs 2 (na + nc + nd) passes more.
+///
 /// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`];
-/// [`Error::InvalidOption`] for an F without B, A with both D and F; [`Error::NonFinite`] for NaN/inf (every output sample is needed:
-/// [`crate::oe`] takes multirate records); [`Error::TooFewSamples`];
-/// [`Error::RankDeficient`] for inputs that do not excite the start.
+/// [`Error::InvalidOption`] for an F without B, A with both D and F, a
+/// coupled A on an output with unmeasured samples; [`Error::NonFinite`]
+/// for NaN/inf in u or an infinite y; [`Error::TooFewSamples`] (measured
+/// samples per output); [`Error::RankDeficient`] for inputs that do not
+/// excite the start.
 pub fn polyest(
     experiments: &[Experiment<'_>],
     orders: &PolyOrders,
@@ -562,6 +655,7 @@ pub fn polyest(
     let mut blocks = Vec::new();
     let mut lambdas = Vec::new();
     let (mut loss, mut fit, mut iterations) = (Vec::new(), Vec::new(), Vec::new());
+    let mut measured_counts = Vec::new();
     for i in 0..ny {
         let shape = Output {
             a: orders.na[i].iter().map(|&n| vec![0.0; n]).collect(),
@@ -579,25 +673,39 @@ pub fn polyest(
                 needed: d + 1,
             });
         }
-        let p0 = start(experiments, i, &shape, ts)?;
-        let problem = PredictionError {
-            experiments,
-            i,
-            shape: &p0,
+        let est = if measured::has_missing(experiments, i) {
+            estimate_measured(experiments, i, &shape, ts, opts)?
+        } else {
+            let p0 = start(experiments, i, &shape, ts)?;
+            let problem = PredictionError {
+                experiments,
+                i,
+                shape: &p0,
+            };
+            let (theta, cost, r11, its) =
+                minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+            let lambda = cost / (samples - d) as f64;
+            OutputEstimate {
+                p: p0.with(&theta),
+                r11,
+                scale: lambda,
+                lambda,
+                plain: cost,
+                measured: samples,
+                iterations: its,
+            }
         };
-        let (theta, cost, r11, its) =
-            minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
-        let p = p0.with(&theta);
-        let lambda = cost / (samples - d) as f64;
-        let inv =
-            r11.solve_upper_triangular(&DMatrix::identity(d, d))
-                .ok_or(Error::RankDeficient {
-                    what: "the prediction-error Jacobian at the estimate",
-                    rank: 0,
-                    needed: d,
-                })?;
-        blocks.push(&inv * inv.transpose() * lambda);
-        lambdas.push(lambda);
+        let p = est.p;
+        let inv = est
+            .r11
+            .solve_upper_triangular(&DMatrix::identity(d, d))
+            .ok_or(Error::RankDeficient {
+                what: "the prediction-error Jacobian at the estimate",
+                rank: 0,
+                needed: d,
+            })?;
+        blocks.push(&inv * inv.transpose() * est.scale);
+        lambdas.push(est.lambda);
         let monic = |v: &[f64]| {
             let mut m = vec![1.0];
             m.extend_from_slice(v);
@@ -627,6 +735,7 @@ pub fn polyest(
         let values: Vec<f64> = experiments
             .iter()
             .flat_map(|e| e.y.column(i).iter().copied().collect::<Vec<_>>())
+            .filter(|v| !v.is_nan())
             .collect();
         let mean = values.iter().sum::<f64>() / values.len() as f64;
         let spread = values
@@ -634,13 +743,14 @@ pub fn polyest(
             .map(|v| (v - mean).powi(2))
             .sum::<f64>()
             .sqrt();
-        loss.push(cost / samples as f64);
+        loss.push(est.plain / est.measured as f64);
         fit.push(if spread > 0.0 {
-            100.0 * (1.0 - cost.sqrt() / spread)
+            100.0 * (1.0 - est.plain.sqrt() / spread)
         } else {
             f64::NAN
         });
-        iterations.push(its);
+        iterations.push(est.iterations);
+        measured_counts.push(est.measured);
     }
     let total: usize = blocks.iter().map(DMatrix::nrows).sum();
     let mut cov = DMatrix::zeros(total, total);
@@ -664,6 +774,7 @@ pub fn polyest(
         model,
         loss,
         fit,
+        measured: measured_counts,
         iterations,
     })
 }
@@ -717,6 +828,8 @@ pub fn bj(
     };
     polyest(experiments, &o, ts, opts)
 }
+
+mod measured;
 
 #[cfg(test)]
 mod tests;

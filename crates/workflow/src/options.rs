@@ -242,13 +242,14 @@ pub enum Method {
     /// order scan by the held-out simulation fit (`crate::routes::polynomial`).
     Oe,
     /// ARMAX, A y = B u + C e, by prediction-error minimisation
-    /// (`lifted_pem::armax`; consistent in closed loop): orders
+    /// (`lifted_pem::armax`; consistent in closed loop; on multirate
+    /// records the predictor skips the missing samples): orders
     /// `[na nb nc nk]`, or a fixed order n (na = nb = nc = n), or neither:
     /// the order scan.
     Armax,
     /// Box–Jenkins, y = B/F u + C/D e (`lifted_pem::bj`; consistent in
-    /// closed loop): orders `[nb nc nd nf nk]`, or a fixed order n, or
-    /// neither: the order scan.
+    /// closed loop; multirate records as ARMAX): orders `[nb nc nd nf nk]`,
+    /// or a fixed order n, or neither: the order scan.
     Bj,
     /// Regularised FIR (impulse response; MATLAB's `impulseest`): orders
     /// `[nb nk]` (default 70 lags from delay 1), the kernel

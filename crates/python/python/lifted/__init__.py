@@ -883,7 +883,10 @@ def armax(
     delays estimated), or neither: the order scan of :func:`oe`.
     Consistent on closed-loop records (the direct method).
     ``parameters`` per output: the A row (a_i1 .. a_ip), the B's input by
-    input, c; with ``covariance`` and ``std``. Every output sample is needed.
+    input, c; with ``covariance`` and ``std``. ``y`` may hold NaN where an
+    output was not measured (a slow analyser) when A is diagonal: the
+    one-step predictor then skips the missing samples (a Kalman filter on
+    the noise model) and the cost uses the measured samples only.
     """
     return identify(
         u, y, "armax", order=order, orders=orders, feedthrough=feedthrough,
@@ -913,7 +916,8 @@ def bj(
     the delays estimated), or neither: the order scan of :func:`oe`.
     Consistent on closed-loop records.
     ``parameters`` per output: the B's, c, d, the F's; with ``covariance``
-    and ``std``. Every output sample is needed.
+    and ``std``. ``y`` may hold NaN where an output was not measured, as
+    in :func:`armax` (the predictor skips the missing samples).
     """
     return identify(
         u, y, "bj", order=order, orders=orders, feedthrough=feedthrough,

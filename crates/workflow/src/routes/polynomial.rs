@@ -25,7 +25,10 @@
 //!
 //! ARX and FIR refuse records whose outputs are measured at slower rates
 //! (their regressors are past outputs at every sample); OE takes them: its
-//! predictor is the simulation, scored where the outputs were measured.
+//! predictor is the simulation, scored where the outputs were measured;
+//! ARMAX and BJ take them with a diagonal A: their predictor is a Kalman
+//! filter on the noise model that skips the missing samples
+//! (`lifted_pem::polyest`), the delays estimated as OE's.
 //! OE's structure is `orders` = `[nb nf nk]` or a fixed order n (nb = nf =
 //! n, nk per pair from the ARX delay estimate on single-rate records, on
 //! multirate ones from the FIR regression of the measured samples,
@@ -213,18 +216,14 @@ pub(crate) fn identify(
     multirate: bool,
 ) -> Result<RouteFit> {
     let id = &opts.identification;
-    if id.method.is_iterative_polynomial()
-        && id.orders.is_empty()
-        && id.order == Order::Auto
-        && (id.method == Method::Oe || !multirate)
-    {
+    if id.method.is_iterative_polynomial() && id.orders.is_empty() && id.order == Order::Auto {
         return scanned_order(opts, sets, multirate);
     }
     if id.method == Method::Oe {
         return output_error(opts, sets, multirate);
     }
-    if matches!(id.method, Method::Armax | Method::Bj) && !multirate {
-        return prediction_error(opts, sets);
+    if matches!(id.method, Method::Armax | Method::Bj) {
+        return prediction_error(opts, sets, multirate);
     }
     if id.method == Method::Impulse && !multirate {
         return regularised_fir(opts, sets);
@@ -233,7 +232,7 @@ pub(crate) fn identify(
         return Err(Error::option(
             "method",
             format!(
-                "{} needs every output sample (its predictor filters past outputs); this record has outputs measured at slower rates: use oe, n4sid (the multirate routes) or pbsid",
+                "{} needs every output sample (its predictor filters past outputs); this record has outputs measured at slower rates: use oe, armax, bj (their predictors run on the measured samples), n4sid (the multirate routes) or pbsid",
                 id.method.name()
             ),
         ));
@@ -327,7 +326,7 @@ fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> R
         if id.method == Method::Oe {
             output_error(o, s, multirate)
         } else {
-            prediction_error(o, s)
+            prediction_error(o, s, multirate)
         }
     };
     let (mut est, mut val) = (Vec::new(), Vec::new());
@@ -404,6 +403,45 @@ fn scanned_order(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> R
     Ok(fit)
 }
 
+/// The input delays of every input–output pair: `nk` for all when given,
+/// else estimated — by the ARX-based estimate on single-rate records, from
+/// the FIR regression of the measured samples on multirate ones (the
+/// ARX-based estimate needs every output sample). From 0 when a
+/// feedthrough is asked for, else from 1.
+fn delays_of(
+    id: &IdentificationOptions,
+    records: &[Experiment<'_>],
+    nk: Option<usize>,
+    multirate: bool,
+) -> Result<Vec<Vec<usize>>> {
+    let first = records
+        .first()
+        .ok_or_else(|| Error::Data("no data record".into()))?;
+    let (nu, ny) = (first.u.ncols(), first.y.ncols());
+    let first_delay = if id.feedthrough == Some(true) { 0 } else { 1 };
+    let what = id.method.name().to_uppercase();
+    match nk {
+        Some(nk) => Ok(vec![vec![nk; nu]; ny]),
+        None if !multirate => lifted_pem::estimate_delays(
+            records,
+            &lifted_pem::DelayOptions {
+                min_delay: first_delay,
+                threads: id.threads.unwrap_or(1),
+                ..Default::default()
+            },
+        )
+        .ctx(format!("{what} delay estimate")),
+        None => lifted_pem::estimate_delays_measured(
+            records,
+            &lifted_pem::MeasuredDelayOptions {
+                min_delay: first_delay,
+                ..Default::default()
+            },
+        )
+        .ctx(format!("{what} delay estimate from the measured samples")),
+    }
+}
+
 /// The OE route (module docs).
 fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Result<RouteFit> {
     let id = &opts.identification;
@@ -422,29 +460,7 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
             ));
         }
     };
-    let first_delay = if id.feedthrough == Some(true) { 0 } else { 1 };
-    let delays: Vec<Vec<usize>> = match nk {
-        Some(nk) => vec![vec![nk; nu]; ny],
-        None if !multirate => lifted_pem::estimate_delays(
-            &records,
-            &lifted_pem::DelayOptions {
-                min_delay: first_delay,
-                threads: id.threads.unwrap_or(1),
-                ..Default::default()
-            },
-        )
-        .ctx("OE delay estimate")?,
-        // A multirate record: the delays from its measured samples (the
-        // ARX-based estimate needs every output sample).
-        None => lifted_pem::estimate_delays_measured(
-            &records,
-            &lifted_pem::MeasuredDelayOptions {
-                min_delay: first_delay,
-                ..Default::default()
-            },
-        )
-        .ctx("OE delay estimate from the measured samples")?,
-    };
+    let delays = delays_of(id, &records, nk, multirate)?;
     let orders = PolyOrders {
         na: vec![vec![0; ny]; ny],
         nb: vec![vec![nb; nu]; ny],
@@ -472,7 +488,7 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
 /// The ARMAX and BJ routes (`lifted_pem::polyest`): the structure from
 /// `orders`, or a fixed order n for every polynomial with the delays
 /// estimated.
-fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit> {
+fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Result<RouteFit> {
     let id = &opts.identification;
     let first = sets
         .first()
@@ -493,22 +509,7 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
             ));
         }
     };
-    let first_delay = if id.feedthrough == Some(true) { 0 } else { 1 };
-    let delays: Vec<Vec<usize>> = match nk {
-        Some(nk) => vec![vec![nk; nu]; ny],
-        None => lifted_pem::estimate_delays(
-            &records,
-            &lifted_pem::DelayOptions {
-                min_delay: first_delay,
-                threads: id.threads.unwrap_or(1),
-                ..Default::default()
-            },
-        )
-        .ctx(format!(
-            "{} delay estimate",
-            id.method.name().to_uppercase()
-        ))?,
-    };
+    let delays = delays_of(id, &records, nk, multirate)?;
     // A diagonal unless a coupled one is asked for (ARMAX; BJ has none).
     let coupled = id.a_structure == Some(lifted_pem::AStructure::Full);
     let orders = PolyOrders {
@@ -540,6 +541,7 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset]) -> Result<RouteFit
         "parameters": fit.model.n_parameters(),
         "loss": fit.loss,
         "one_step_fit": fit.fit,
+        "measured": fit.measured,
         "iterations": fit.iterations,
     });
     crate::diagnostics::add_phase(&mut diagnostics, "pem_s", t_pem.elapsed().as_secs_f64());

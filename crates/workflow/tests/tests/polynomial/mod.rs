@@ -285,6 +285,91 @@ fn armax_and_bj_through_the_workflow() {
     assert!(e.to_string().contains("[nb nc nd nf nk]"), "{e}");
 }
 
+#[test]
+fn bj_and_armax_from_an_analyser_every_four_samples() {
+    // y = q⁻²(0.5 + 0.3q⁻¹)/(1 − 1.2q⁻¹ + 0.5q⁻²) u + (1 + 0.4q⁻¹)/(1 − 0.8q⁻¹) e
+    // with the output kept every 4th sample around 10 (issue 49's
+    // multirate BJ; the predictor a Kalman filter skipping the missing
+    // samples, `lifted_pem::polyest`): the fast model within 4.5σ of its
+    // intervals, scored on the 2 000 measured samples.
+    let g = PolyModel::bj(
+        &[0.5, 0.3],
+        &[1.0, 0.4],
+        &[1.0, -0.8],
+        &[1.0, -1.2, 0.5],
+        2,
+        1.0,
+    )
+    .unwrap();
+    let n = 8000;
+    let u = gauss(71, n, 1, 1.0);
+    let mut y = g.simulate(&u, Some(&gauss(72, n, 1, 0.1))).unwrap();
+    for (t, v) in y.iter_mut().enumerate() {
+        if t % 4 != 0 {
+            *v = f64::NAN;
+        } else {
+            *v += 10.0;
+        }
+    }
+    let data = Dataset::new(
+        1.0,
+        u,
+        y,
+        vec![lifted_lti::InputChannel::new("u1", 1)],
+        vec![lifted_lti::OutputChannel::new("y1", 4, 0)],
+    )
+    .unwrap();
+    let id = identify(
+        &[Record::new(data.clone())],
+        &options(Method::Bj, &[2, 1, 1, 2, 2]),
+    )
+    .unwrap();
+    let p = id.details.polynomial.as_ref().unwrap();
+    let std = p.std().unwrap();
+    for ((a, b), s) in p.parameters().iter().zip(g.parameters()).zip(&std) {
+        assert!((a - b).abs() < 4.5 * s, "{a} {b} ± {s}");
+    }
+    assert_eq!(id.file.diagnostics["route"], "bj");
+    assert_eq!(id.file.diagnostics["measured"][0], 2000);
+    // ARMAX [2 2 2 2] with the delay estimated from the measured samples
+    // runs on the same record (its noise model 1/A-coloured: it cannot
+    // hold the BJ noise; what is tested is the route and a stable
+    // predictor), and a coupled A is refused naming the option.
+    let mut o = options(Method::Armax, &[]);
+    o.identification.order = lifted_workflow::Order::Fixed(2);
+    let id = identify(&[Record::new(data.clone())], &o).unwrap();
+    assert_eq!(
+        id.file.diagnostics["orders"]["nk"],
+        serde_json::json!([[2]])
+    );
+    let p = id.details.polynomial.as_ref().unwrap();
+    assert!(p.predictor_is_stable().unwrap());
+    let two = Dataset::new(
+        1.0,
+        data.u().clone(),
+        DMatrix::from_fn(n, 2, |t, j| {
+            let v = data.y()[(t - t % 4, 0)];
+            if j == 1 {
+                v + 1.0
+            } else if t % 4 == 0 {
+                v
+            } else {
+                f64::NAN
+            }
+        }),
+        vec![lifted_lti::InputChannel::new("u1", 1)],
+        vec![
+            lifted_lti::OutputChannel::new("y1", 4, 0),
+            lifted_lti::OutputChannel::new("y2", 1, 0),
+        ],
+    )
+    .unwrap();
+    let mut o = options(Method::Armax, &[1, 1, 1, 1]);
+    o.identification.a_structure = Some(lifted_pem::AStructure::Full);
+    let e = identify(&[Record::new(two)], &o).unwrap_err();
+    assert!(e.to_string().contains("diagonal A"), "{e}");
+}
+
 /// ARMAX of two outputs with a coupled A (`a_structure` full, MATLAB's
 /// multi-output `armax` with a full `na`): the coupled record of
 /// [`coupled_record`] (an ARX, C = 1, so ARMAX [2 2 1 ·] holds it) in the

@@ -1,0 +1,618 @@
+//! The prediction error of a polynomial model on the samples where its
+//! output was measured (NaN elsewhere): ARMAX, Box–Jenkins and the general
+//! structure with a diagonal A on multirate records.
+//!
+//! With A diagonal, output i is y = s + v with the simulated part
+//! s = (1/A) Σ_k (B_k/F_k) u_k(t − nk_k), known at every fast instant,
+//! and the noise v = C/(A D) e, an ARMA process observed only where y was.
+//! Its one-step predictor from the *measured* past is a Kalman filter on a
+//! state-space form of C/(A D) that skips the update where y is missing
+//! (Jones 1980, "Maximum likelihood fitting of ARMA models to time series
+//! with missing observations", Technometrics 22(3)): in the observer form
+//! x(t+1) = Φ x(t) + k e(t), v(t) = x₁(t) + e(t) (Φ's first column
+//! −(ā₁ … ā_n), ones above the diagonal; kⱼ = cⱼ − āⱼ; Ā = A D), with
+//! Var e = λ and P in units of λ,
+//!
+//! ```text
+//!   measured:  ε = v − x̂₁,  f = P₁₁ + 1,  κ = (Φ P e₁ + k)/f,
+//!              x̂ ← Φ x̂ + κ ε,  P ← Φ P Φᵀ + k kᵀ − f κ κᵀ;
+//!   missing:   x̂ ← Φ x̂,        P ← Φ P Φᵀ + k kᵀ,
+//! ```
+//!
+//! from x̂ = 0, P = 0 (zero initial conditions, as the full-rate predictor):
+//! with every sample measured P stays 0, f = 1 and ε is the full-rate
+//! ε = (D/C)(A y − Σ (B/F) u) exactly. The innovation ε at a measured
+//! sample has variance λ f, so the Gaussian likelihood concentrated in λ
+//! is minimised by the least-squares problem in the scaled residuals
+//! r = g ε/√f, g = (Π f)^{1/(2M)} over the M measured samples (Jones 1980,
+//! §3; Harvey 1989, §3.4's prediction-error decomposition).
+//!
+//! **Jacobian.** Given (A, C, D) the filter is linear in v, so for the B
+//! and F coefficients ∂ε/∂θ is the same filter run on −∂s/∂θ
+//! (∂s/∂b_kj = (1/A) u_k(t − nk − j)/F_k, ∂s/∂f_kj = −(1/(A F_k)) w_k(t − j)):
+//! analytic, in the same pass (x̂ carries one column per parameter). The
+//! A, C and D coefficients change the filter's gains through its Riccati
+//! recursion; their columns are central differences of r (step
+//! 1e-5 (1 + |θⱼ|), one-sided where a side leaves C or D unstable): two
+//! residual passes per coefficient.
+//!
+//! Cost: O(N (n² + n d_G)) per pass, n = max(na + nd, nc), d_G the B and F
+//! coefficients; a Jacobian is one pass plus 2 (na + nc + nd) residual
+//! passes. Memory O(M d) for the Jacobian's rows of one record.
+
+use lifted_subspace::Experiment;
+use nalgebra::DMatrix;
+
+use super::Output;
+use crate::error::Result;
+use crate::filters::{Residuals, RowFolder, filter, fir_apply};
+
+/// Whether output `i` of any record has an unmeasured (NaN) sample.
+pub(super) fn has_missing(experiments: &[Experiment<'_>], i: usize) -> bool {
+    experiments
+        .iter()
+        .any(|e| e.y.column(i).iter().any(|v| v.is_nan()))
+}
+
+/// The coefficients after the leading 1 of (1 + a₁q⁻¹ + …)(1 + d₁q⁻¹ + …).
+fn monic_product(a: &[f64], d: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + d.len()];
+    for (i, o) in out.iter_mut().enumerate() {
+        let j = i + 1;
+        // Coefficient of q^{-j}: a_j + d_j + Σ a_l d_{j−l}.
+        let mut v = a.get(i).copied().unwrap_or(0.0) + d.get(i).copied().unwrap_or(0.0);
+        for l in 1..j {
+            if let (Some(al), Some(dm)) = (a.get(l - 1), d.get(j - l - 1)) {
+                v += al * dm;
+            }
+        }
+        *o = v;
+    }
+    out
+}
+
+/// The noise model C/Ā in observer form (module docs).
+struct Observer {
+    /// ā₁ … ā_n (zero-padded).
+    abar: Vec<f64>,
+    /// kⱼ = cⱼ − āⱼ.
+    k: Vec<f64>,
+}
+
+impl Observer {
+    fn new(abar: &[f64], c: &[f64]) -> Self {
+        let n = abar.len().max(c.len());
+        let at = |v: &[f64], j: usize| v.get(j).copied().unwrap_or(0.0);
+        Observer {
+            abar: (0..n).map(|j| at(abar, j)).collect(),
+            k: (0..n).map(|j| at(c, j) - at(abar, j)).collect(),
+        }
+    }
+
+    fn n(&self) -> usize {
+        self.abar.len()
+    }
+
+    /// x ← Φ x for a state stored with stride 1 (x₁ first).
+    fn phi(&self, x: &mut [f64]) {
+        let n = self.n();
+        let x1 = x[0];
+        for j in 0..n {
+            let next = if j + 1 < n { x[j + 1] } else { 0.0 };
+            x[j] = next - self.abar[j] * x1;
+        }
+    }
+
+    /// P ← Φ P Φᵀ + k kᵀ (P n×n, column-major), minus f κ κᵀ when `update`
+    /// = Some((f, κ)).
+    fn riccati(&self, p: &mut [f64], update: Option<(f64, &[f64])>) {
+        let n = self.n();
+        // Φ on every column, then on every row (P symmetric).
+        for c in 0..n {
+            self.phi(&mut p[c * n..(c + 1) * n]);
+        }
+        let mut row = vec![0.0; n];
+        for r in 0..n {
+            for c in 0..n {
+                row[c] = p[c * n + r];
+            }
+            self.phi(&mut row);
+            for c in 0..n {
+                p[c * n + r] = row[c];
+            }
+        }
+        for c in 0..n {
+            for r in 0..n {
+                let mut v = p[c * n + r] + self.k[r] * self.k[c];
+                if let Some((f, kappa)) = update {
+                    v -= f * kappa[r] * kappa[c];
+                }
+                p[c * n + r] = v;
+            }
+        }
+        for c in 0..n {
+            for r in (c + 1)..n {
+                let m = 0.5 * (p[c * n + r] + p[r * n + c]);
+                p[c * n + r] = m;
+                p[r * n + c] = m;
+            }
+        }
+    }
+}
+
+/// A signal whose lag is a Jacobian input: ±`signal`(t − `lag`).
+struct LaggedColumn {
+    signal: usize,
+    lag: usize,
+    sign: f64,
+}
+
+/// One record's pass: at its measured samples the innovations ε, their
+/// variances f (units of λ) and, with the analytic columns, ∂ε/∂θ for the
+/// B and F coefficients (in θ's order: every B, then every F).
+struct Pass {
+    eps: Vec<f64>,
+    f: Vec<f64>,
+    /// Measured samples × analytic columns, row-major.
+    grad: Vec<f64>,
+}
+
+/// The pass of output `i` of record `e` for the polynomials `p`.
+fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
+    let n = e.u.nrows();
+    let a = &p.a[i];
+    let mut w_total = vec![0.0; n];
+    let mut signals: Vec<Vec<f64>> = Vec::new();
+    let mut columns: Vec<LaggedColumn> = Vec::new();
+    let mut f_columns: Vec<LaggedColumn> = Vec::new();
+    for (k, b) in p.b.iter().enumerate() {
+        let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+        let (mut v, mut w) = (Vec::new(), Vec::new());
+        filter(&uk, &p.f[k], p.nk[k], &mut v);
+        fir_apply(&v, b, &mut w);
+        for (t, wt) in w.iter().enumerate() {
+            w_total[t] += wt;
+        }
+        if jacobian {
+            // −∂s/∂b_kj = −(1/A) v_k(t − j).
+            let mut av = Vec::new();
+            filter(&v, a, 0, &mut av);
+            signals.push(av);
+            for j in 0..b.len() {
+                columns.push(LaggedColumn {
+                    signal: signals.len() - 1,
+                    lag: j,
+                    sign: -1.0,
+                });
+            }
+            // −∂s/∂f_kj = (1/(A F_k)) w_k(t − j).
+            if !p.f[k].is_empty() {
+                let (mut z, mut az) = (Vec::new(), Vec::new());
+                filter(&w, &p.f[k], 0, &mut z);
+                filter(&z, a, 0, &mut az);
+                signals.push(az);
+                for j in 1..=p.f[k].len() {
+                    f_columns.push(LaggedColumn {
+                        signal: signals.len() - 1,
+                        lag: j,
+                        sign: 1.0,
+                    });
+                }
+            }
+        }
+    }
+    columns.extend(f_columns);
+    let mut s = Vec::new();
+    filter(&w_total, a, 0, &mut s);
+    let obs = Observer::new(&monic_product(a, &p.d), &p.c);
+    let ns = obs.n();
+    let dg = columns.len();
+    // x̂: column 0 the state for v, column 1 + j for parameter j's input.
+    let mut x = vec![0.0; ns * (1 + dg)];
+    let mut pm = vec![0.0; ns * ns];
+    let mut kappa = vec![0.0; ns];
+    let y = e.y.column(i);
+    let mut out = Pass {
+        eps: Vec::new(),
+        f: Vec::new(),
+        grad: Vec::new(),
+    };
+    for t in 0..n {
+        let yt = y[t];
+        if yt.is_nan() {
+            if ns > 0 {
+                for c in 0..=dg {
+                    obs.phi(&mut x[c * ns..(c + 1) * ns]);
+                }
+                obs.riccati(&mut pm, None);
+            }
+            continue;
+        }
+        let z0 = yt - s[t];
+        if ns == 0 {
+            out.eps.push(z0);
+            out.f.push(1.0);
+            for col in &columns {
+                let sig = &signals[col.signal];
+                out.grad.push(if t >= col.lag {
+                    col.sign * sig[t - col.lag]
+                } else {
+                    0.0
+                });
+            }
+            continue;
+        }
+        let f = pm[0] + 1.0;
+        // κ = (Φ P e₁ + k)/f.
+        kappa.copy_from_slice(&pm[0..ns]);
+        obs.phi(&mut kappa);
+        for (kj, k) in kappa.iter_mut().zip(&obs.k) {
+            *kj = (*kj + k) / f;
+        }
+        for c in 0..=dg {
+            let zc = if c == 0 {
+                z0
+            } else {
+                let col = &columns[c - 1];
+                let sig = &signals[col.signal];
+                if t >= col.lag {
+                    col.sign * sig[t - col.lag]
+                } else {
+                    0.0
+                }
+            };
+            let xs = &mut x[c * ns..(c + 1) * ns];
+            let ec = zc - xs[0];
+            if c == 0 {
+                out.eps.push(ec);
+            } else {
+                out.grad.push(ec);
+            }
+            obs.phi(xs);
+            for (xj, kj) in xs.iter_mut().zip(&kappa) {
+                *xj += kj * ec;
+            }
+        }
+        out.f.push(f);
+        obs.riccati(&mut pm, Some((f, &kappa)));
+    }
+    out
+}
+
+/// Output `i`'s problem on the measured samples (module docs), θ in the
+/// layout of `shape`.
+pub(super) struct MeasuredPredictionError<'a, 'e> {
+    pub(super) experiments: &'a [Experiment<'e>],
+    pub(super) i: usize,
+    pub(super) shape: &'a Output,
+}
+
+/// What a problem's passes give at θ: the scaled residuals r of every
+/// record in turn, Σ ε²/f, M and the scale g.
+struct Scaled {
+    r: Vec<f64>,
+    /// Per record, its passes (kept for the analytic columns).
+    passes: Vec<Pass>,
+    g: f64,
+}
+
+impl MeasuredPredictionError<'_, '_> {
+    fn scaled(&self, p: &Output, jacobian: bool) -> Scaled {
+        let passes: Vec<Pass> = self
+            .experiments
+            .iter()
+            .map(|e| pass(e, self.i, p, jacobian))
+            .collect();
+        let m: usize = passes.iter().map(|q| q.eps.len()).sum();
+        let log_f: f64 = passes.iter().flat_map(|q| q.f.iter()).map(|f| f.ln()).sum();
+        let g = if m > 0 {
+            (log_f / (2.0 * m as f64)).exp()
+        } else {
+            1.0
+        };
+        let r = passes
+            .iter()
+            .flat_map(|q| q.eps.iter().zip(&q.f).map(move |(e, f)| g * e / f.sqrt()))
+            .collect();
+        Scaled { r, passes, g }
+    }
+
+    /// (Σ ε²/f, Σ ε², M) at θ: the innovations' weighted and plain sums
+    /// of squares over the measured samples.
+    pub(super) fn sums(&self, theta: &[f64]) -> (f64, f64, usize) {
+        let p = self.shape.with(theta);
+        let (mut weighted, mut plain, mut m) = (0.0, 0.0, 0);
+        for e in self.experiments {
+            let q = pass(e, self.i, &p, false);
+            for (ev, f) in q.eps.iter().zip(&q.f) {
+                weighted += ev * ev / f;
+                plain += ev * ev;
+            }
+            m += q.eps.len();
+        }
+        (weighted, plain, m)
+    }
+
+    /// The ranges of θ (layout of [`Output::pack`]) whose columns are
+    /// numerical: A, then C and D; the rest (B, then F) analytic.
+    fn numerical(&self) -> Vec<usize> {
+        let na: usize = self.shape.a.iter().map(Vec::len).sum();
+        let nb: usize = self.shape.b.iter().map(Vec::len).sum();
+        let ncd = self.shape.c.len() + self.shape.d.len();
+        (0..na).chain(na + nb..na + nb + ncd).collect()
+    }
+}
+
+impl Residuals for MeasuredPredictionError<'_, '_> {
+    fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)> {
+        let p = self.shape.with(theta);
+        let base = self.scaled(&p, jacobian);
+        let cost = base.r.iter().map(|v| v * v).sum();
+        if !jacobian {
+            return Ok((cost, None));
+        }
+        let d = theta.len();
+        let numerical = self.numerical();
+        let mut columns: Vec<Vec<f64>> = Vec::with_capacity(numerical.len());
+        for &j in &numerical {
+            let h = 1e-5 * (1.0 + theta[j].abs());
+            let at = |delta: f64| {
+                let mut th = theta.to_vec();
+                th[j] += delta;
+                self.admissible(&th)
+                    .then(|| self.scaled(&self.shape.with(&th), false).r)
+            };
+            let col = match (at(h), at(-h)) {
+                (Some(up), Some(down)) => up
+                    .iter()
+                    .zip(&down)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect(),
+                (Some(up), None) => up.iter().zip(&base.r).map(|(a, b)| (a - b) / h).collect(),
+                (None, Some(down)) => base.r.iter().zip(&down).map(|(a, b)| (a - b) / h).collect(),
+                (None, None) => vec![0.0; base.r.len()],
+            };
+            columns.push(col);
+        }
+        let mut rows = RowFolder::new(d + 1);
+        let mut row = 0;
+        let mut kinds = vec![None; d];
+        for (c, &j) in numerical.iter().enumerate() {
+            kinds[j] = Some(c);
+        }
+        for q in &base.passes {
+            let dg = d - numerical.len();
+            for (t, (ev, f)) in q.eps.iter().zip(&q.f).enumerate() {
+                let w = base.g / f.sqrt();
+                let mut analytic = q.grad[t * dg..(t + 1) * dg].iter();
+                let mut entries = Vec::with_capacity(d + 1);
+                for kind in &kinds {
+                    entries.push(match kind {
+                        Some(c) => columns[*c][row],
+                        None => w * analytic.next().copied().unwrap_or(0.0),
+                    });
+                }
+                entries.push(w * ev);
+                rows.push(entries)?;
+                row += 1;
+            }
+        }
+        Ok((cost, Some(rows.finish()?)))
+    }
+
+    fn admissible(&self, theta: &[f64]) -> bool {
+        self.shape.with(theta).admissible()
+    }
+}
+
+/// (1 − p q⁻¹)ⁿ's coefficients after the leading 1.
+fn repeated_root(p: f64, n: usize) -> Vec<f64> {
+    let mut v: Vec<f64> = Vec::new();
+    for _ in 0..n {
+        v = monic_product(&v, &[-p]);
+    }
+    v
+}
+
+/// The start of output `i` on records with unmeasured samples (the
+/// full-rate start's Hannan–Rissanen regressions need every sample):
+///
+/// - B and F from the output-error model ([`crate::oe`], multirate
+///   records included) of [nb nf nk] — for ARMAX [nb na nk], A then the F
+///   of the input whose simulated contribution is largest and the B's
+///   refitted to the measured samples by least squares with that A;
+/// - the noise polynomials the candidate of lowest cost among C ∈ {0, A}
+///   (C = A is the output-error model written as ARMAX) and, with nd > 0,
+///   D = (1 − ρ q⁻¹)^nd for ρ ∈ [`NOISE_POLES`] (C = D = 0 is a stationary
+///   point of the cost when the output is measured every P ≥ 2 samples:
+///   the noise's correlation at lag P is of order ρ^P).
+///
+/// On a record taken under feedback the output-error model is biased, and
+/// the iterations from it can end in a worse minimum than the true
+/// parameters' (seen on one of four seeds of a PI loop closed on every 4th
+/// sample: `benches/results/polynomial.md`); OE's FIR-then-ARX start alone
+/// gave the same start there to 1e-3.
+pub(super) fn start(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    shape: &Output,
+    ts: f64,
+) -> Result<Output> {
+    let na = shape.a[i].len();
+    let nb: Vec<usize> = shape.b.iter().map(Vec::len).collect();
+    let nf: Vec<usize> = shape.f.iter().map(Vec::len).collect();
+    let armax = na > 0 && nf.iter().all(|&f| f == 0);
+    let ys = crate::filters::output_columns(experiments, i);
+    let exps = crate::filters::with_outputs(experiments, &ys);
+    let nu = nb.len();
+    let oe_orders = lifted_lti::PolyOrders {
+        na: vec![vec![0]],
+        nb: vec![nb.clone()],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![if armax {
+            nb.iter().map(|&b| if b > 0 { na } else { 0 }).collect()
+        } else {
+            nf.clone()
+        }],
+        nk: vec![shape.nk.clone()],
+    };
+    let mut p = shape.clone();
+    if let Ok(g) = crate::oe(&exps, &oe_orders, ts, &crate::OeOptions::default()) {
+        for k in 0..nu {
+            p.b[k] = g.model.b(0, k).to_vec();
+            if !armax {
+                p.f[k] = g.model.f(0, k)[1..].to_vec();
+            }
+        }
+        if armax {
+            let largest = (0..nu)
+                .filter(|&k| nb[k] > 0)
+                .map(|k| (k, contribution(experiments, &g.model, k)))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((k, _)) = largest {
+                p.a[i] = g.model.f(0, k)[1..].to_vec();
+                if let Some(b) = refit_b(experiments, i, &p) {
+                    p.b = b;
+                }
+            }
+        }
+    }
+    Ok(with_noise_start(experiments, i, p))
+}
+
+/// `p` with the noise candidate of lowest cost ([`start`]).
+fn with_noise_start(experiments: &[Experiment<'_>], i: usize, p: Output) -> Output {
+    let problem = MeasuredPredictionError {
+        experiments,
+        i,
+        shape: &p,
+    };
+    let na = p.a[i].len();
+    let nc = p.c.len();
+    let mut c_options = vec![vec![0.0; nc]];
+    if na > 0 && nc > 0 {
+        let c: Vec<f64> = (0..nc)
+            .map(|j| p.a[i].get(j).copied().unwrap_or(0.0))
+            .collect();
+        if crate::filters::stable(&c) {
+            c_options.push(c);
+        }
+    }
+    let nd = p.d.len();
+    let d_options: Vec<Vec<f64>> = if nd == 0 {
+        vec![Vec::new()]
+    } else {
+        NOISE_POLES.iter().map(|&r| repeated_root(r, nd)).collect()
+    };
+    let mut best: Option<(f64, Output)> = None;
+    for c in &c_options {
+        for d in &d_options {
+            let mut q = p.clone();
+            q.c = c.clone();
+            q.d = d.clone();
+            if !q.admissible() {
+                continue;
+            }
+            let Ok((cost, _)) = problem.evaluate(&q.pack(), false) else {
+                continue;
+            };
+            if cost.is_finite() && best.as_ref().is_none_or(|(b, _)| cost < *b) {
+                best = Some((cost, q));
+            }
+        }
+    }
+    best.map_or(p, |(_, q)| q)
+}
+
+/// The noise poles of the start's D candidates (module docs of
+/// [`start`]): a grid from white to slow noise, the one of lowest cost
+/// kept; not a tuned number (every candidate is scored on the record).
+pub(super) const NOISE_POLES: [f64; 6] = [0.0, 0.5, 0.8, 0.9, 0.95, 0.98];
+
+/// Σ (B_k/F_k u_k)² of input `k` of output 0 of `model` over the records.
+fn contribution(experiments: &[Experiment<'_>], model: &lifted_lti::PolyModel, k: usize) -> f64 {
+    let b = model.b(0, k);
+    let f = &model.f(0, k)[1..];
+    let nk = model.nk(0, k);
+    experiments
+        .iter()
+        .map(|e| {
+            let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+            let (mut v, mut w) = (Vec::new(), Vec::new());
+            filter(&uk, f, nk, &mut v);
+            fir_apply(&v, b, &mut w);
+            w.iter().map(|x| x * x).sum::<f64>()
+        })
+        .sum()
+}
+
+/// B of output `i` by least squares on its measured samples with A, F and
+/// the delays of `p` fixed: y(t) = Σ_k Σ_j b_kj (1/(A F_k)) u_k(t − nk − j)
+/// (R-only QR of the rows); `None` when the regressors are rank deficient.
+fn refit_b(experiments: &[Experiment<'_>], i: usize, p: &Output) -> Option<Vec<Vec<f64>>> {
+    let d: usize = p.b.iter().map(Vec::len).sum();
+    if d == 0 {
+        return None;
+    }
+    let mut rows = RowFolder::new(d + 1);
+    for e in experiments {
+        let signals: Vec<Vec<f64>> =
+            p.b.iter()
+                .enumerate()
+                .map(|(k, _)| {
+                    let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+                    let (mut v, mut av) = (Vec::new(), Vec::new());
+                    filter(&uk, &p.f[k], p.nk[k], &mut v);
+                    filter(&v, &p.a[i], 0, &mut av);
+                    av
+                })
+                .collect();
+        for (t, yt) in e.y.column(i).iter().enumerate() {
+            if yt.is_nan() {
+                continue;
+            }
+            let row = p.b.iter().enumerate().flat_map(|(k, b)| {
+                let sig = &signals[k];
+                (0..b.len()).map(move |j| if t >= j { sig[t - j] } else { 0.0 })
+            });
+            rows.push(row.chain([*yt]).collect::<Vec<_>>()).ok()?;
+        }
+    }
+    let r = rows.finish().ok()?;
+    if r.nrows() < d {
+        return None;
+    }
+    let r11 = r.view((0, 0), (d, d)).into_owned();
+    let scale = (0..d).map(|j| r11[(j, j)].abs()).fold(0.0, f64::max);
+    if (0..d).any(|j| r11[(j, j)].abs() <= 1e-10 * scale) {
+        return None;
+    }
+    let x = r11.solve_upper_triangular(&r.view((0, d), (d, 1)).into_owned())?;
+    let mut at = 0;
+    Some(
+        p.b.iter()
+            .map(|b| {
+                let v = x.as_slice()[at..at + b.len()].to_vec();
+                at += b.len();
+                v
+            })
+            .collect(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn monic_product_multiplies() {
+        // (1 + 0.5q⁻¹)(1 − 0.2q⁻¹ + 0.1q⁻²) = 1 + 0.3q⁻¹ + 0q⁻² + 0.05q⁻³.
+        let v = monic_product(&[0.5], &[-0.2, 0.1]);
+        assert_eq!(v.len(), 3);
+        for (a, b) in v.iter().zip([0.3, 0.0, 0.05]) {
+            assert!((a - b).abs() < 1e-15, "{v:?}");
+        }
+        assert!(monic_product(&[], &[]).is_empty());
+    }
+}
