@@ -332,6 +332,33 @@ def test_oe_from_an_output_measured_every_five_samples() -> None:
     assert np.all(np.abs(fit.parameters - truth) < 4.5 * fit.std)
 
 
+def test_bj_from_an_output_measured_every_four_samples() -> None:
+    """BJ (``lifted.bj``) on a record whose output is measured every 4th
+    sample (NaN between): the predictor skips the missing samples and the
+    fast model's plant parameters lie within 4.5 std; the noise model's D
+    too (its C is weakly determined from every 4th sample)."""
+    rng = np.random.default_rng(9)
+    n = 8000
+    u = rng.standard_normal(n)
+    e = 0.1 * rng.standard_normal(n)
+    x = np.zeros(n)
+    v = np.zeros(n)
+    for t in range(n):
+        x[t] = (1.2 * x[t - 1] if t >= 1 else 0.0) - (0.5 * x[t - 2] if t >= 2 else 0.0)
+        x[t] += (0.5 * u[t - 2] if t >= 2 else 0.0) + (0.3 * u[t - 3] if t >= 3 else 0.0)
+        v[t] = (0.8 * v[t - 1] if t >= 1 else 0.0) + e[t] + (0.4 * e[t - 1] if t >= 1 else 0.0)
+    y = x + v + 10.0
+    y[np.arange(n) % 4 != 0] = np.nan
+    fit = lifted.bj(u, y, [2, 1, 1, 2, 2])
+    assert fit.polynomial is not None
+    assert fit.polynomial.family == "bj"
+    # Parameters: b1 b2, c1, d1, f1 f2.
+    truth = np.array([0.5, 0.3, 0.4, -0.8, -1.2, 0.5])
+    assert fit.parameters is not None and fit.std is not None
+    assert np.all(np.abs(fit.parameters - truth) < 4.5 * fit.std)
+    assert fit.diagnostics["measured"] == [2000]
+
+
 def test_armax_and_bj() -> None:
     """ARMAX (1 - 1.5q + 0.7q^2) y = q(1 + 0.5q) u + (1 + 0.5q) e and its
     parameters within 4.5 std; BJ of an OE plant with coloured noise."""
