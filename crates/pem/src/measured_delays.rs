@@ -12,12 +12,27 @@
 //! σ from the residual variance and R⁻¹ (Ljung 1999, §16.5: the delay as
 //! the first non-zero impulse-response coefficient). O(M (n_u L)²) for M
 //! measured samples.
+//!
+//! Where the measured samples cannot tell some lags apart — an input held
+//! over several samples and an output measured every P (a step test read
+//! by an analyser, set-points held for 10 samples read every 5th) make
+//! lagged columns identical at the measured rows — the regression is
+//! solved by the pseudo-inverse of R (the minimum-norm coefficients, which
+//! share a response equally among the lags it cannot separate; the
+//! standard deviations from R⁺ as from R⁻¹): the delay is then the first
+//! lag of the first group of lags the data resolve with a significant
+//! coefficient — the earliest delay the record is consistent with.
 
 use lifted_linalg::RAccumulator;
 use lifted_subspace::Experiment;
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
+
+/// Relative rank tolerance of the FIR regression's R (singular values
+/// below 1e-10 σ_max are lags the measured samples do not separate; the
+/// threshold of the output-error start's rank check).
+const RANK_TOLERANCE: lifted_linalg::RankTolerance = lifted_linalg::RankTolerance::Relative(1e-10);
 
 /// Options of [`estimate_delays_measured`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,19 +126,21 @@ pub fn estimate_delays_measured(
         }
         let r = acc.r();
         let r11 = r.view((0, 0), (p, p)).into_owned();
-        let Some(inv) = r11
-            .clone()
-            .try_inverse()
-            .filter(|m| m.iter().all(|v| v.is_finite()))
-        else {
-            return Err(Error::RankDeficient {
-                what: "the FIR regression of the delay estimate",
-                rank: (0..p).filter(|&i| r11[(i, i)].abs() > 0.0).count(),
-                needed: p,
-            });
+        // R₁₁⁻¹, or its pseudo-inverse where the measured samples cannot
+        // tell some lags apart (module docs); the residual's degrees of
+        // freedom are the rows less the rank.
+        let rank = lifted_linalg::rank(&r11, RANK_TOLERANCE)?;
+        let inv = if rank == p {
+            r11.clone().try_inverse()
+        } else {
+            None
+        };
+        let inv = match inv.filter(|m| m.iter().all(|v| v.is_finite())) {
+            Some(inv) => inv,
+            None => lifted_linalg::pinv(&r11, RANK_TOLERANCE)?,
         };
         let theta = &inv * r.view((0, p), (p, 1));
-        let s2 = r[(p, p)].powi(2) / (rows - p) as f64;
+        let s2 = r[(p, p)].powi(2) / (rows - rank.min(p)) as f64;
         for (j, d) in out.iter_mut().enumerate() {
             for k in 0..lags {
                 let c = j * lags + k;
@@ -178,7 +195,25 @@ mod tests {
             .unwrap();
             assert_eq!(d, vec![vec![delay]], "delay {delay}, period {period}");
         }
+        // The input held for 10 samples, the output read every 5th: lags
+        // 1–5 (and 6–10) of a hold are the same columns at the measured
+        // rows (once refused as rank deficient); the delay is the first lag
+        // of the first group the data resolve — 1 for a true delay of 2.
         let (u, y) = record(2, 5);
+        let held = DMatrix::from_fn(u.nrows(), 1, |t, _| u[(t - t % 10, 0)]);
+        let mut w = vec![0.0; held.nrows()];
+        for t in 0..w.len() {
+            let b = |k: usize| if t >= k { held[(t - k, 0)] } else { 0.0 };
+            let f = |k: usize| if t >= k { w[t - k] } else { 0.0 };
+            w[t] = 0.5 * b(2) + 0.3 * b(3) + 1.2 * f(1) - 0.5 * f(2);
+        }
+        let yh = DMatrix::from_fn(w.len(), 1, |t, _| if t % 5 == 0 { w[t] } else { f64::NAN });
+        let d = estimate_delays_measured(
+            &[Experiment { u: &held, y: &yh }],
+            &MeasuredDelayOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(d, vec![vec![1]]);
         let few = estimate_delays_measured(
             &[Experiment {
                 u: &u.rows(0, 60).into_owned(),

@@ -15,7 +15,12 @@
 //! [nf nb nk] fitted to the FIR model's noise-free simulation of that input's
 //! contribution ([`crate::arx`]): B/F ≈ the FIR response, exact when the FIR
 //! is. A start whose F is unstable is replaced by F = 1 and the leading FIR
-//! coefficients. By default the iterations also run from that plain start
+//! coefficients. Where the measured samples cannot tell some lags apart (an
+//! input held over several samples and read every P-th: a step test, a
+//! set-point held for 10 samples read every 5th) the FIR is the
+//! minimum-norm least-squares one (R's pseudo-inverse), which shares the
+//! response equally among the lags it cannot separate; an input that does
+//! not move at the measured samples is refused. By default the iterations also run from that plain start
 //! (F = 1, B the leading FIR coefficients) and the lower cost is kept
 //! ([`OeOptions::starts`]): the FIR-then-ARX start can lie in another
 //! minimum's basin.
@@ -287,20 +292,36 @@ fn start(
     let rank = (0..p)
         .filter(|&j| r11[(j, j)].abs() > 1e-10 * scale.max(f64::MIN_POSITIVE))
         .count();
-    if rank < p {
+    // Every input moves at the measured rows (‖column‖ of R₁₁ = ‖regressor‖).
+    let norms: Vec<f64> = (0..p).map(|j| r11.column(j).norm()).collect();
+    let top = norms.iter().copied().fold(0.0, f64::max);
+    let quiet = (0..active.len())
+        .filter(|&slot| {
+            norms[slot * lags..(slot + 1) * lags]
+                .iter()
+                .all(|&v| v <= 1e-10 * top.max(f64::MIN_POSITIVE))
+        })
+        .count();
+    if rank == 0 || quiet > 0 {
         return Err(Error::RankDeficient {
-            what: "the FIR regressors of the output-error start (lagged inputs)",
+            what: "the FIR regressors of the output-error start (an input that does not move at the measured samples)",
             rank,
             needed: p,
         });
     }
-    let g = r11
-        .solve_upper_triangular(&r.view((0, p), (p, 1)).into_owned())
-        .ok_or(Error::RankDeficient {
-            what: "the FIR regressors of the output-error start (lagged inputs)",
-            rank: 0,
-            needed: p,
-        })?;
+    let rhs = r.view((0, p), (p, 1)).into_owned();
+    let g = if rank == p {
+        r11.clone().solve_upper_triangular(&rhs)
+    } else {
+        None
+    };
+    // Lags the measured samples do not tell apart (an input held over
+    // several samples, read every P-th: identical columns at the measured
+    // rows): the minimum-norm FIR (module docs).
+    let g = match g {
+        Some(g) => g,
+        None => lifted_linalg::pinv(&r11, lifted_linalg::RankTolerance::Relative(1e-10))? * &rhs,
+    };
     let mut out: Rational = vec![(Vec::new(), Vec::new()); nu];
     let mut plains: Rational = vec![(Vec::new(), Vec::new()); nu];
     for (slot, &k) in active.iter().enumerate() {

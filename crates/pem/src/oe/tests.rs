@@ -215,3 +215,46 @@ fn the_second_start_keeps_the_lower_cost() {
         })
     ));
 }
+
+/// A ±1 input held for `hold` samples (seeded).
+fn held(seed: u64, n: usize, hold: usize) -> DMatrix<f64> {
+    let g = gauss(seed, n.div_ceil(hold), 1, 1.0);
+    DMatrix::from_fn(n, 1, |t, _| g[(t / hold, 0)].signum())
+}
+
+#[test]
+fn an_input_held_longer_than_the_output_period_still_gives_the_model() {
+    // Set-points held for 10 samples, the output read every 5th: at the
+    // measured rows the lagged inputs of the FIR start repeat in groups
+    // (lags 1–5 and 6–10 of a hold give the same columns), which was
+    // refused as rank deficient. The minimum-norm FIR start now leads the
+    // iterations to the plant: parameters within 4.5σ (their intervals
+    // from the Jacobian at the optimum, where B/F are determined).
+    let g = truth();
+    let u = held(61, 8000, 10);
+    let y = g.simulate(&u, Some(&gauss(62, 8000, 1, 0.05))).unwrap();
+    let slow = DMatrix::from_fn(
+        8000,
+        1,
+        |t, _| if t % 5 == 0 { y[(t, 0)] } else { f64::NAN },
+    );
+    let f = fit(&u, &slow, &g.orders());
+    let std = f.model.std().unwrap();
+    for ((a, b), s) in f.model.parameters().iter().zip(g.parameters()).zip(&std) {
+        assert!((a - b).abs() < 4.5 * s, "{a} {b} ± {s}");
+    }
+    // An input that does not move at all is still refused by name.
+    let still = DMatrix::zeros(8000, 1);
+    assert!(matches!(
+        oe(
+            &[Experiment {
+                u: &still,
+                y: &slow
+            }],
+            &g.orders(),
+            1.0,
+            &OeOptions::default()
+        ),
+        Err(Error::RankDeficient { .. })
+    ));
+}

@@ -423,9 +423,11 @@ fn repeated_root(p: f64, n: usize) -> Vec<f64> {
 ///   refitted to the measured samples by least squares with that A;
 /// - the noise polynomials the candidate of lowest cost among C ∈ {0, A}
 ///   (C = A is the output-error model written as ARMAX) and, with nd > 0,
-///   D = (1 − ρ q⁻¹)^nd for ρ ∈ [`NOISE_POLES`] (C = D = 0 is a stationary
-///   point of the cost when the output is measured every P ≥ 2 samples:
-///   the noise's correlation at lag P is of order ρ^P).
+///   D = (1 − ρ q⁻¹)^nd for ρ ∈ [`NOISE_POLES`] — ρ = 0 is not among
+///   them: D = 1 is a stationary point of the cost when the output is
+///   measured every P ≥ 2 samples (the noise's correlation at lag P is
+///   of order ρ^P, its derivative in ρ zero at 0), where the iterations
+///   would not move D and the Jacobian's D columns vanish.
 ///
 /// On a record taken under feedback the output-error model is biased, and
 /// the iterations from it can end in a worse minimum than the true
@@ -526,9 +528,10 @@ fn with_noise_start(experiments: &[Experiment<'_>], i: usize, p: Output) -> Outp
 }
 
 /// The noise poles of the start's D candidates (module docs of
-/// [`start`]): a grid from white to slow noise, the one of lowest cost
-/// kept; not a tuned number (every candidate is scored on the record).
-pub(super) const NOISE_POLES: [f64; 6] = [0.0, 0.5, 0.8, 0.9, 0.95, 0.98];
+/// [`start`]): a grid from fast to slow noise (±, an oscillating noise
+/// too), the one of lowest cost kept; not a tuned number (every candidate
+/// is scored on the record).
+pub(super) const NOISE_POLES: [f64; 6] = [-0.5, 0.2, 0.5, 0.8, 0.9, 0.98];
 
 /// Σ (B_k/F_k u_k)² of input `k` of output 0 of `model` over the records.
 fn contribution(experiments: &[Experiment<'_>], model: &lifted_lti::PolyModel, k: usize) -> f64 {
