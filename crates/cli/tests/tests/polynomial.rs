@@ -120,6 +120,59 @@ fn oe_identifies_from_a_slow_output() {
     }
 }
 
+#[test]
+fn armax_and_bj_identify_from_a_slow_output() {
+    // The same slow record (every 4th sample): ARMAX [2 2 1 1] and BJ
+    // [2 1 1 2 1] run on its measured samples (the predictor skips the
+    // empty cells) and give the plant's poles; the BJ file feeds validate.
+    let d = tmp("armax_bj_cli");
+    let data = p(&d, "slow.csv");
+    simulate(&data, rbs(4000, 3), 4, 1000.0, 5);
+    for (method, orders) in [("armax", "2 2 1 1"), ("bj", "2 1 1 2 1")] {
+        let out = p(&d, &format!("{method}.json"));
+        let text = ok(&[
+            "identify",
+            "--method",
+            method,
+            "--orders",
+            orders,
+            "--data",
+            &data,
+            "--inputs",
+            "u1",
+            "--outputs",
+            "y1",
+            "--out",
+            &out,
+        ]);
+        assert!(text.contains("C(q) = 1 "), "{text}");
+        let f = ModelFile::read(&out).unwrap();
+        assert_eq!(f.diagnostics["measured"][0], 1000);
+        let got = pole_modulus(&f.model);
+        let want = pole_modulus(&plant());
+        for w in &want {
+            assert!(
+                got.iter().any(|g| (g - w).abs() < 0.03),
+                "{method}: {got:?} vs {want:?}"
+            );
+        }
+        if method == "bj" {
+            let v = ok(&[
+                "validate",
+                "--model",
+                &out,
+                "--data",
+                &data,
+                "--inputs",
+                "u1",
+                "--outputs",
+                "y1",
+            ]);
+            assert!(v.contains("1000"), "{v}");
+        }
+    }
+}
+
 /// The ARX [2 2 1] model file of the record `id` (u1 → y1), written in
 /// `d`.
 fn arx_221(d: &Path, id: &str) -> String {
