@@ -36,9 +36,12 @@
 //! 1e-5 (1 + |θⱼ|), one-sided where a side leaves C or D unstable): two
 //! residual passes per coefficient.
 //!
-//! Cost: O(N (n² + n d_G)) per pass, n = max(na + nd, nc), d_G the B and F
-//! coefficients; a Jacobian is one pass plus 2 (na + nc + nd) residual
-//! passes. Memory O(M d) for the Jacobian's rows of one record.
+//! Cost: O(N n (1 + d_G)) per pass once the covariance recursion has
+//! converged (an output read every P samples: after a few periods; until
+//! then, and for irregular patterns, O(n²) more per sample), n = max(na +
+//! nd, nc), d_G the B and F coefficients; a Jacobian is one pass plus
+//! 2 (na + nc + nd) residual passes. Memory O(M d) for the Jacobian's rows
+//! of one record.
 
 use lifted_subspace::Experiment;
 use nalgebra::DMatrix;
@@ -159,6 +162,18 @@ struct Pass {
 
 /// The pass of output `i` of record `e` for the polynomials `p`.
 fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
+    filtered(e, i, p, &simulated(e, i, p, jacobian), jacobian)
+}
+
+/// The simulated part s = (1/A) Σ (B/F) u of output `i` of record `e` and,
+/// with `jacobian`, the signals whose lags are the B and F columns' inputs.
+struct Simulated {
+    s: Vec<f64>,
+    signals: Vec<Vec<f64>>,
+    columns: Vec<LaggedColumn>,
+}
+
+fn simulated(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Simulated {
     let n = e.u.nrows();
     let a = &p.a[i];
     let mut w_total = vec![0.0; n];
@@ -204,12 +219,27 @@ fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
     columns.extend(f_columns);
     let mut s = Vec::new();
     filter(&w_total, a, 0, &mut s);
-    let obs = Observer::new(&monic_product(a, &p.d), &p.c);
+    Simulated {
+        s,
+        signals,
+        columns,
+    }
+}
+
+/// The Kalman filter's pass over output `i` of record `e` given its
+/// simulated part `sim` (module docs), with the analytic columns when
+/// `jacobian`.
+fn filtered(e: &Experiment<'_>, i: usize, p: &Output, sim: &Simulated, jacobian: bool) -> Pass {
+    let n = e.u.nrows();
+    let none = Vec::new();
+    let (s, signals) = (&sim.s, &sim.signals);
+    let columns = if jacobian { &sim.columns } else { &none };
+    let obs = Observer::new(&monic_product(&p.a[i], &p.d), &p.c);
     let ns = obs.n();
     let dg = columns.len();
     // x̂: column 0 the state for v, column 1 + j for parameter j's input.
     let mut x = vec![0.0; ns * (1 + dg)];
-    let mut pm = vec![0.0; ns * ns];
+    let mut cov = Covariance::new(&obs);
     let mut kappa = vec![0.0; ns];
     let y = e.y.column(i);
     let mut out = Pass {
@@ -224,7 +254,7 @@ fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
                 for c in 0..=dg {
                     obs.phi(&mut x[c * ns..(c + 1) * ns]);
                 }
-                obs.riccati(&mut pm, None);
+                cov.missing();
             }
             continue;
         }
@@ -232,7 +262,7 @@ fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
         if ns == 0 {
             out.eps.push(z0);
             out.f.push(1.0);
-            for col in &columns {
+            for col in columns {
                 let sig = &signals[col.signal];
                 out.grad.push(if t >= col.lag {
                     col.sign * sig[t - col.lag]
@@ -242,13 +272,7 @@ fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
             }
             continue;
         }
-        let f = pm[0] + 1.0;
-        // κ = (Φ P e₁ + k)/f.
-        kappa.copy_from_slice(&pm[0..ns]);
-        obs.phi(&mut kappa);
-        for (kj, k) in kappa.iter_mut().zip(&obs.k) {
-            *kj = (*kj + k) / f;
-        }
+        let f = cov.measured(&mut kappa);
         for c in 0..=dg {
             let zc = if c == 0 {
                 z0
@@ -274,9 +298,112 @@ fn pass(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Pass {
             }
         }
         out.f.push(f);
-        obs.riccati(&mut pm, Some((f, &kappa)));
     }
     out
+}
+
+/// Relative change of the filter's covariance after a measured update,
+/// between two updates after the same gap, below which it is taken as
+/// converged ([`Covariance`]): 1e-14, a hundred times the rounding of
+/// the recursion, so the frozen gains differ from the exact ones by that
+/// much at most.
+const CONVERGED: f64 = 1e-14;
+
+/// The filter's covariance recursion (module docs), frozen once periodic:
+/// when the covariance after a measured update repeats (to
+/// [`CONVERGED`]) after two equal gaps between measured samples, the gain
+/// and variance of that gap are reused and the recursion is skipped until
+/// a gap of another length comes (the recursion then resumes from the
+/// frozen covariance). An output read every P samples pays the O(n²)
+/// recursion over its first few periods only; a pass then costs O(n) per
+/// sample and column.
+struct Covariance<'o> {
+    obs: &'o Observer,
+    /// P(t | t − 1), in units of λ (live recursion only).
+    p: Vec<f64>,
+    /// Unmeasured samples since the last measured one.
+    missing: usize,
+    /// The gap before the last measured update and P after it.
+    last_gap: Option<usize>,
+    last_p: Vec<f64>,
+    frozen: Option<Frozen>,
+}
+
+/// A converged gap's variance f, gain κ and covariance after its update.
+struct Frozen {
+    gap: usize,
+    f: f64,
+    kappa: Vec<f64>,
+    p_next: Vec<f64>,
+}
+
+impl<'o> Covariance<'o> {
+    fn new(obs: &'o Observer) -> Self {
+        let n = obs.n();
+        Covariance {
+            obs,
+            p: vec![0.0; n * n],
+            missing: 0,
+            last_gap: None,
+            last_p: vec![0.0; n * n],
+            frozen: None,
+        }
+    }
+
+    fn missing(&mut self) {
+        self.missing += 1;
+        if self.frozen.is_none() {
+            self.obs.riccati(&mut self.p, None);
+        }
+    }
+
+    /// The measured sample's f = P₁₁ + 1, with κ = (Φ P e₁ + k)/f written
+    /// to `kappa`, and the update of P.
+    fn measured(&mut self, kappa: &mut [f64]) -> f64 {
+        let gap = self.missing + 1;
+        self.missing = 0;
+        if let Some(fr) = self.frozen.take() {
+            if fr.gap == gap {
+                kappa.copy_from_slice(&fr.kappa);
+                let f = fr.f;
+                self.frozen = Some(fr);
+                return f;
+            }
+            // Another gap: the recursion from the frozen covariance.
+            self.p.copy_from_slice(&fr.p_next);
+            for _ in 1..gap {
+                self.obs.riccati(&mut self.p, None);
+            }
+            self.last_gap = None;
+        }
+        let ns = self.obs.n();
+        let f = self.p[0] + 1.0;
+        kappa.copy_from_slice(&self.p[0..ns]);
+        self.obs.phi(kappa);
+        for (kj, k) in kappa.iter_mut().zip(&self.obs.k) {
+            *kj = (*kj + k) / f;
+        }
+        self.obs.riccati(&mut self.p, Some((f, kappa)));
+        if self.last_gap == Some(gap) {
+            let scale = self.p.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let change = self
+                .p
+                .iter()
+                .zip(&self.last_p)
+                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+            if change <= CONVERGED * scale {
+                self.frozen = Some(Frozen {
+                    gap,
+                    f,
+                    kappa: kappa.to_vec(),
+                    p_next: self.p.clone(),
+                });
+            }
+        }
+        self.last_gap = Some(gap);
+        self.last_p.copy_from_slice(&self.p);
+        f
+    }
 }
 
 /// Output `i`'s problem on the measured samples (module docs), θ in the
@@ -303,6 +430,23 @@ impl MeasuredPredictionError<'_, '_> {
             .iter()
             .map(|e| pass(e, self.i, p, jacobian))
             .collect();
+        Self::scaled_from(passes)
+    }
+
+    /// [`Self::scaled`] of the polynomials `p` whose B, F and A are those
+    /// the records' simulated parts `sims` were computed with (only C or D
+    /// differ): the filter passes alone.
+    fn scaled_noise(&self, p: &Output, sims: &[Simulated]) -> Scaled {
+        let passes: Vec<Pass> = self
+            .experiments
+            .iter()
+            .zip(sims)
+            .map(|(e, sim)| filtered(e, self.i, p, sim, false))
+            .collect();
+        Self::scaled_from(passes)
+    }
+
+    fn scaled_from(passes: Vec<Pass>) -> Scaled {
         let m: usize = passes.iter().map(|q| q.eps.len()).sum();
         let log_f: f64 = passes.iter().flat_map(|q| q.f.iter()).map(|f| f.ln()).sum();
         let g = if m > 0 {
@@ -346,21 +490,42 @@ impl MeasuredPredictionError<'_, '_> {
 impl Residuals for MeasuredPredictionError<'_, '_> {
     fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)> {
         let p = self.shape.with(theta);
-        let base = self.scaled(&p, jacobian);
-        let cost = base.r.iter().map(|v| v * v).sum();
         if !jacobian {
-            return Ok((cost, None));
+            let base = self.scaled(&p, false);
+            return Ok((base.r.iter().map(|v| v * v).sum(), None));
         }
+        // The simulated parts once: the C and D columns' passes reuse them.
+        let sims: Vec<Simulated> = self
+            .experiments
+            .iter()
+            .map(|e| simulated(e, self.i, &p, true))
+            .collect();
+        let passes: Vec<Pass> = self
+            .experiments
+            .iter()
+            .zip(&sims)
+            .map(|(e, sim)| filtered(e, self.i, &p, sim, true))
+            .collect();
+        let base = Self::scaled_from(passes);
+        let cost = base.r.iter().map(|v| v * v).sum();
         let d = theta.len();
         let numerical = self.numerical();
+        let na = self.shape.a[self.i].len();
         let mut columns: Vec<Vec<f64>> = Vec::with_capacity(numerical.len());
         for &j in &numerical {
             let h = 1e-5 * (1.0 + theta[j].abs());
             let at = |delta: f64| {
                 let mut th = theta.to_vec();
                 th[j] += delta;
-                self.admissible(&th)
-                    .then(|| self.scaled(&self.shape.with(&th), false).r)
+                let q = self.shape.with(&th);
+                // A moves the simulated part; C and D only the filter.
+                self.admissible(&th).then(|| {
+                    if j < na {
+                        self.scaled(&q, false).r
+                    } else {
+                        self.scaled_noise(&q, &sims).r
+                    }
+                })
             };
             let col = match (at(h), at(-h)) {
                 (Some(up), Some(down)) => up
