@@ -774,6 +774,43 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_frozen_covariance_gives_the_recursion_s_gains() {
+        // C/Ā = (1 + 0.4q⁻¹)/(1 − 0.8q⁻¹)(1 − 0.5q⁻¹): the gains and variances of
+        // the frozen recursion against the plain recursion run at every
+        // sample, on gaps of 3 that switch to 5 and back (the frozen gap
+        // left and re-entered).
+        let obs = Observer::new(&monic_product(&[-0.8], &[-0.5]), &[0.4]);
+        let n = obs.n();
+        let mut frozen = Covariance::new(&obs);
+        let mut plain = vec![0.0; n * n];
+        let (mut k1, mut k2) = (vec![0.0; n], vec![0.0; n]);
+        let gaps: Vec<usize> = (0..60)
+            .map(|j| if (25..30).contains(&j) { 5 } else { 3 })
+            .collect();
+        let mut froze = false;
+        for &gap in &gaps {
+            for _ in 1..gap {
+                frozen.missing();
+                obs.riccati(&mut plain, None);
+            }
+            let f1 = frozen.measured(&mut k1);
+            froze |= frozen.frozen.is_some();
+            let f2 = plain[0] + 1.0;
+            k2.copy_from_slice(&plain[0..n]);
+            obs.phi(&mut k2);
+            for (kj, k) in k2.iter_mut().zip(&obs.k) {
+                *kj = (*kj + k) / f2;
+            }
+            obs.riccati(&mut plain, Some((f2, &k2)));
+            assert!((f1 - f2).abs() <= 1e-12 * f2, "{f1} vs {f2}");
+            for (a, b) in k1.iter().zip(&k2) {
+                assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{k1:?} vs {k2:?}");
+            }
+        }
+        assert!(froze, "the recursion never converged");
+    }
+
+    #[test]
     fn monic_product_multiplies() {
         // (1 + 0.5q⁻¹)(1 − 0.2q⁻¹ + 0.1q⁻²) = 1 + 0.3q⁻¹ + 0q⁻² + 0.05q⁻³.
         let v = monic_product(&[0.5], &[-0.2, 0.1]);
