@@ -547,9 +547,18 @@ fn estimate_measured(
             needed: d + 1,
         });
     }
-    let p0 = measured::start(experiments, i, shape, ts)?;
-    let (theta, cost, r11, iterations) =
-        minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+    // From every start, the lowest cost kept; iterations summed.
+    let mut best: Option<(Vec<f64>, f64, DMatrix<f64>)> = None;
+    let mut iterations = 0;
+    for p0 in measured::starts(experiments, i, shape, ts)? {
+        let (theta, cost, r11, its) =
+            minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+        iterations += its;
+        if best.as_ref().is_none_or(|b| cost < b.1) {
+            best = Some((theta, cost, r11));
+        }
+    }
+    let (theta, cost, r11) = best.ok_or(Error::NoData)?;
     let (weighted, plain, m) = problem.sums(&theta);
     let dof = (m - d) as f64;
     Ok(OutputEstimate {

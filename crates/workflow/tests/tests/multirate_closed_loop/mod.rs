@@ -388,3 +388,29 @@ fn the_predictor_route_refuses_the_output_error_and_warns_without_refinement() {
         "{d}"
     );
 }
+
+/// The SISO loop of issue 46 without its set-point, by Box–Jenkins on the
+/// measured samples (issue 49's multirate BJ, the direct method: the
+/// predictor a Kalman filter that skips the unmeasured samples). The
+/// plant is third order and the noise AR(1): BJ [3 0 1 3 1] holds both.
+/// FR errors on seeds 1–4: 0.110, 0.011, 0.016, 0.015. Seed 4 was 0.178
+/// from the output-error start alone (biased under feedback: a minimum
+/// 0.035 above the true parameters' cost); the second start, a long ARX
+/// model of the interpolated record, reaches the true basin. Seed 1's
+/// estimate has a *lower* cost than the true parameters (26.637 against
+/// 26.662): the data, not the optimiser, leave its fast dynamics loose;
+/// the state-space predictor route gets 0.021 there. Asserted: seed 4 at
+/// the issue's SISO bound 0.05 (three times its error).
+#[test]
+fn the_siso_multirate_loop_by_box_jenkins_on_the_measured_samples() {
+    let truth = plant_siso();
+    let (data, _) = loop_record(&truth, &[4], 40_000, 0.03, 4);
+    let mut o = WorkflowOptions::default();
+    o.identification.method = Method::Bj;
+    o.identification.orders = vec![3, 0, 1, 3, 1];
+    let fit = identify(&[Record::new(data)], &o).expect("identify");
+    let d = &fit.file.diagnostics;
+    assert_eq!(d["measured"][0], 10_000, "{d}");
+    let err = fr_error(&fit.file.model, &truth);
+    assert!(err <= 0.05, "FR error {err}: {d}");
+}
