@@ -746,14 +746,12 @@ fn interpolate(y: impl Iterator<Item = f64>) -> Option<DMatrix<f64>> {
         return None;
     }
     let mut out = y.clone();
-    for t in 0..first {
-        out[t] = y[first];
-    }
+    out[..first].fill(y[first]);
     for w in measured.windows(2) {
         let (a, b) = (w[0], w[1]);
-        for t in a + 1..b {
+        for (t, v) in out.iter_mut().enumerate().take(b).skip(a + 1) {
             let s = (t - a) as f64 / (b - a) as f64;
-            out[t] = y[a] * (1.0 - s) + y[b] * s;
+            *v = y[a] * (1.0 - s) + y[b] * s;
         }
     }
     for v in out.iter_mut().skip(last + 1) {
