@@ -169,6 +169,118 @@ fn observer_form(rows: &[RowForm], nu: usize) -> ObserverForm {
     ObserverForm { a, b, c, d, k }
 }
 
+/// One block of the parallel form ([conversions](super#conversions)):
+/// part of output `output` with the monic denominator `p`, the input
+/// numerators `n` (per input; empty: the input does not enter) and the
+/// noise numerator `ne` (empty: no noise; else C_i, monic).
+struct Block {
+    output: usize,
+    p: Vec<f64>,
+    n: Vec<Vec<f64>>,
+    ne: Vec<f64>,
+}
+
+impl PolyModel {
+    /// Whether A = I (OE, BJ, FIR and the like: no A polynomial).
+    fn identity_a(&self) -> bool {
+        (0..self.ny).all(|i| {
+            (0..self.ny).all(|j| {
+                let a = self.a(i, j);
+                let lead = if i == j { 1.0 } else { 0.0 };
+                a.first().is_none_or(|v| *v == lead) && a.iter().skip(1).all(|v| *v == 0.0)
+            })
+        })
+    }
+
+    /// The blocks of the parallel form of a model without A (A = I): per
+    /// output one block per distinct denominator F_ik (the inputs sharing
+    /// it summed) and, with `noise`, D_i carrying C_i (merged with an input
+    /// block of the same denominator).
+    fn blocks(&self, noise: bool) -> Vec<Block> {
+        let mut out: Vec<Block> = Vec::new();
+        for i in 0..self.ny {
+            let first = out.len();
+            let aii = self.a(i, i);
+            let find = |p: Vec<f64>, out: &mut Vec<Block>| -> usize {
+                match out[first..].iter().position(|b| b.p == p) {
+                    Some(at) => first + at,
+                    None => {
+                        out.push(Block {
+                            output: i,
+                            p,
+                            n: vec![Vec::new(); self.nu],
+                            ne: Vec::new(),
+                        });
+                        out.len() - 1
+                    }
+                }
+            };
+            for k in 0..self.nu {
+                let b = self.b(i, k);
+                if b.iter().all(|v| *v == 0.0) {
+                    continue;
+                }
+                let at = find(conv(aii, self.f(i, k)), &mut out);
+                out[at].n[k] = delayed(b, self.nk(i, k));
+            }
+            if noise {
+                let at = find(conv(aii, &self.d[i]), &mut out);
+                out[at].ne = self.c[i].clone();
+            }
+        }
+        out
+    }
+}
+
+/// (A, B, C, D, K) of the parallel form of `blocks` ([conversions](super#conversions)):
+/// block b's equation P_b y_b = Σ_k N_bk u_k + N_be e_i in observer form,
+/// y_i the sum of its blocks' y_b. O(n²) memory.
+fn block_form(blocks: &[Block], ny: usize, nu: usize) -> ObserverForm {
+    let deg = |v: &Vec<f64>| v.len().saturating_sub(1);
+    let sizes: Vec<usize> = blocks
+        .iter()
+        .map(|b| {
+            b.n.iter()
+                .map(deg)
+                .chain([deg(&b.p), deg(&b.ne)])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let n: usize = sizes.iter().sum();
+    let coef = |v: &[f64], l: usize| v.get(l).copied().unwrap_or(0.0);
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DMatrix::zeros(n, nu);
+    let mut c = DMatrix::zeros(ny, n);
+    let mut d = DMatrix::zeros(ny, nu);
+    let mut k = DMatrix::zeros(n, ny);
+    let mut off = 0;
+    for (blk, &s) in blocks.iter().zip(&sizes) {
+        let i = blk.output;
+        let e0 = coef(&blk.ne, 0);
+        for (kk, nk) in blk.n.iter().enumerate() {
+            d[(i, kk)] += coef(nk, 0);
+        }
+        if s > 0 {
+            c[(i, off)] = 1.0;
+        }
+        for l in 1..=s {
+            let row = off + l - 1;
+            if l < s {
+                a[(row, row + 1)] = 1.0;
+            }
+            let pl = coef(&blk.p, l);
+            a[(row, off)] -= pl;
+            for (kk, nk) in blk.n.iter().enumerate() {
+                b[(row, kk)] += coef(nk, l) - pl * coef(nk, 0);
+            }
+            k[(row, i)] += coef(&blk.ne, l) - pl * e0;
+        }
+        off += s;
+    }
+    ObserverForm { a, b, c, d, k }
+}
+
 /// num/den (ascending powers of q⁻¹, den monic) as a ratio in z.
 fn ratio_to_siso(num: &[f64], den: &[f64]) -> Result<SisoTf> {
     let ln = num.len().saturating_sub(1);
@@ -233,7 +345,7 @@ impl PolyModel {
     ///
     /// Errors: none for a valid model (the `Result` is for uniformity).
     pub fn to_ss(&self) -> Result<StateSpace> {
-        let f = observer_form(&self.row_forms(false), self.nu);
+        let f = self.form(false);
         self.named(StateSpace::from_parts(f.a, f.b, f.c, f.d, Some(self.ts)))
     }
 
@@ -244,9 +356,19 @@ impl PolyModel {
     ///
     /// Errors: none for a valid model.
     pub fn to_innovations_ss(&self) -> Result<(StateSpace, DMatrix<f64>)> {
-        let f = observer_form(&self.row_forms(true), self.nu);
+        let f = self.form(true);
         let ss = self.named(StateSpace::from_parts(f.a, f.b, f.c, f.d, Some(self.ts)))?;
         Ok((ss, f.k))
+    }
+
+    /// The parallel form without A, else the coupled observer form
+    /// ([conversions](super#conversions)).
+    fn form(&self, noise: bool) -> ObserverForm {
+        if self.identity_a() {
+            block_form(&self.blocks(noise), self.ny, self.nu)
+        } else {
+            observer_form(&self.row_forms(noise), self.nu)
+        }
     }
 
     fn named(&self, mut ss: StateSpace) -> Result<StateSpace> {

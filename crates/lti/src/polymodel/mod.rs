@@ -52,7 +52,21 @@
 //!
 //! # Conversions
 //!
-//! ## To state space: the coupled observer form
+//! ## To state space: the parallel form (no A)
+//!
+//! Without an A polynomial (OE, BJ, FIR; A = I) output i is the sum of one
+//! block per distinct F_ik — F y_b = Σ_{k: F_ik = F} q^{−nk} B_ik u_k —
+//! and, for the innovations form, the block D_i y_b = C_i e_i (merged
+//! with an input block whose F equals D_i), each in observer canonical
+//! form (below, with P = F or D) and the outputs summed. The state
+//! dimension is that of the coupled form's common denominator, but no
+//! product of the denominators is ever formed: the roots of a product of
+//! several polynomials with clustered roots are not determined by its
+//! rounded coefficients (a seven-input BJ model, each F with roots near
+//! 0.9–0.95 and D = (1 − 0.9q⁻¹)², had spectral radius 1.06 and a
+//! simulation off by 1e56 through the product, 0.95 and 6e-15 in parallel).
+//!
+//! ## To state space: the coupled observer form (with A)
 //!
 //! Output i's equation is multiplied by P̄_i = D_i · Π F_ik (the product
 //! over the *distinct* F_ik of the row, D_i only with the noise), giving
@@ -75,7 +89,8 @@
 //! exactly the innovations form x⁺ = A x + B u + K e, y = C x + D u + e.
 //! For one output it is minimal when the polynomials are coprime: order
 //! max(na, nb + nk − 1, nc) for ARMAX, max(nf, nb + nk − 1) for OE
-//! (K = 0), max(nf + nd, nb + nk − 1 + nd, nc + nf) for BJ. The
+//! (K = 0) and max(nf, nb + nk − 1) + max(nd, nc) for BJ (their
+//! parallel form above). The
 //! deterministic part [`PolyModel::to_ss`] leaves D and C out (order
 //! max(na, nb + nk − 1) for ARX, max(nf, nb + nk − 1) for OE and BJ).
 //!
