@@ -101,6 +101,24 @@ struct ObserverForm {
     k: DMatrix<f64>,
 }
 
+/// The coefficient of q⁻ˡ of `v` (0 beyond its end).
+fn coef(v: &[f64], l: usize) -> f64 {
+    v.get(l).copied().unwrap_or(0.0)
+}
+
+impl ObserverForm {
+    /// All matrices zero: n states, n_y outputs, n_u inputs.
+    fn zeros(n: usize, ny: usize, nu: usize) -> Self {
+        ObserverForm {
+            a: DMatrix::zeros(n, n),
+            b: DMatrix::zeros(n, nu),
+            c: DMatrix::zeros(ny, n),
+            d: DMatrix::zeros(ny, nu),
+            k: DMatrix::zeros(n, ny),
+        }
+    }
+}
+
 /// (A, B, C, D, K) of the coupled observer form of `rows` ([conversions](super#conversions)).
 /// O(n (n_y (n_y + n_u))) to fill, O(n²) memory.
 fn observer_form(rows: &[RowForm], nu: usize) -> ObserverForm {
@@ -123,12 +141,13 @@ fn observer_form(rows: &[RowForm], nu: usize) -> ObserverForm {
         off.push(n);
         n += ni;
     }
-    let coef = |v: &[f64], l: usize| v.get(l).copied().unwrap_or(0.0);
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DMatrix::zeros(n, nu);
-    let mut c = DMatrix::zeros(ny, n);
-    let mut d = DMatrix::zeros(ny, nu);
-    let mut k = DMatrix::zeros(n, ny);
+    let ObserverForm {
+        mut a,
+        mut b,
+        mut c,
+        mut d,
+        mut k,
+    } = ObserverForm::zeros(n, ny, nu);
     for (i, r) in rows.iter().enumerate() {
         for (kk, nik) in r.n.iter().enumerate() {
             d[(i, kk)] = coef(nik, 0);
@@ -248,12 +267,13 @@ fn block_form(blocks: &[Block], ny: usize, nu: usize) -> ObserverForm {
         })
         .collect();
     let n: usize = sizes.iter().sum();
-    let coef = |v: &[f64], l: usize| v.get(l).copied().unwrap_or(0.0);
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DMatrix::zeros(n, nu);
-    let mut c = DMatrix::zeros(ny, n);
-    let mut d = DMatrix::zeros(ny, nu);
-    let mut k = DMatrix::zeros(n, ny);
+    let ObserverForm {
+        mut a,
+        mut b,
+        mut c,
+        mut d,
+        mut k,
+    } = ObserverForm::zeros(n, ny, nu);
     let mut off = 0;
     for (blk, &s) in blocks.iter().zip(&sizes) {
         let i = blk.output;

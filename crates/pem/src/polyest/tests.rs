@@ -83,16 +83,7 @@ fn armax_intervals_hold_the_truth_in_95_percent_of_the_runs() {
 
 #[test]
 fn box_jenkins_is_recovered() {
-    // y = q⁻²(0.5 + 0.3q⁻¹)/(1 − 1.2q⁻¹ + 0.5q⁻²) u + (1 + 0.4q⁻¹)/(1 − 0.8q⁻¹) e.
-    let g = PolyModel::bj(
-        &[0.5, 0.3],
-        &[1.0, 0.4],
-        &[1.0, -0.8],
-        &[1.0, -1.2, 0.5],
-        2,
-        1.0,
-    )
-    .unwrap();
+    let g = bj_truth();
     let u = gauss(3, 5000, 1, 1.0);
     let y = g.simulate(&u, Some(&gauss(4, 5000, 1, 0.1))).unwrap();
     let f = bj(
@@ -289,7 +280,7 @@ fn thinned(y: &DMatrix<f64>, period: usize, phase: usize) -> DMatrix<f64> {
     })
 }
 
-/// The Box–Jenkins truth of [`box_jenkins_is_recovered`].
+/// y = q⁻²(0.5 + 0.3q⁻¹)/(1 − 1.2q⁻¹ + 0.5q⁻²) u + (1 + 0.4q⁻¹)/(1 − 0.8q⁻¹) e.
 fn bj_truth() -> PolyModel {
     PolyModel::bj(
         &[0.5, 0.3],
