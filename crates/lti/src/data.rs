@@ -829,5 +829,29 @@ fn lcm(a: usize, b: usize) -> usize {
     a / gcd(a, b) * b
 }
 
+/// A signal with unmeasured (non-finite) samples filled by linear
+/// interpolation between its measured neighbours and held before the
+/// first and after the last measured sample (what a user without a
+/// multirate tool does with an analyser's record). `None` with fewer than
+/// two measured samples. O(N).
+pub fn interpolate_unmeasured(y: &[f64]) -> Option<Vec<f64>> {
+    let at: Vec<usize> = (0..y.len()).filter(|&t| y[t].is_finite()).collect();
+    if at.len() < 2 {
+        return None;
+    }
+    let (first, last) = (at[0], at[at.len() - 1]);
+    let mut out = y.to_vec();
+    out[..first].fill(y[first]);
+    out[last..].fill(y[last]);
+    for w in at.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        for (t, v) in out.iter_mut().enumerate().take(b).skip(a) {
+            let s = (t - a) as f64 / (b - a) as f64;
+            *v = y[a] * (1.0 - s) + y[b] * s;
+        }
+    }
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests;

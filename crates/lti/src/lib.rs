@@ -99,7 +99,8 @@ pub use connect::FeedbackSign;
 pub use connect::{append, feedback, parallel, series};
 pub use data::{
     DataError, Dataset, InputChannel, LiftOrdering, Lifted, OutputChannel, SamplingError,
-    TIME_STEP_TOLERANCE, output_sampling, period_from_times, snap_period, time_step_within,
+    TIME_STEP_TOLERANCE, interpolate_unmeasured, output_sampling, period_from_times, snap_period,
+    time_step_within,
 };
 pub use discretize::{C2dMethod, C2dOptions};
 pub use error::{Error, Result};

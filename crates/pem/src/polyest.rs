@@ -539,7 +539,10 @@ fn estimate_measured(
         i,
         shape,
     };
-    let (_, _, m) = problem.sums(&shape.pack());
+    let m: usize = experiments
+        .iter()
+        .map(|e| e.y.column(i).iter().filter(|v| !v.is_nan()).count())
+        .sum();
     if m <= d {
         return Err(Error::TooFewSamples {
             what: "the polynomial model (measured samples of the output)",

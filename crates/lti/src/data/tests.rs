@@ -301,3 +301,11 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn unmeasured_samples_are_interpolated_between_and_held_outside() {
+    let nan = f64::NAN;
+    let y = interpolate_unmeasured(&[nan, 1.0, nan, nan, 4.0, nan]).unwrap();
+    assert_eq!(y, vec![1.0, 1.0, 2.0, 3.0, 4.0, 4.0]);
+    assert!(interpolate_unmeasured(&[nan, 2.0, nan]).is_none());
+}

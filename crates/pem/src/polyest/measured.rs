@@ -643,7 +643,10 @@ fn interpolated_start(experiments: &[Experiment<'_>], i: usize, shape: &Output) 
         .min((total / (8 * (nu + 1))).max(1));
     let ys: Vec<DMatrix<f64>> = experiments
         .iter()
-        .map(|e| interpolate(e.y.column(i).iter().copied()))
+        .map(|e| {
+            let col: Vec<f64> = e.y.column(i).iter().copied().collect();
+            lifted_lti::interpolate_unmeasured(&col).map(|v| DMatrix::from_vec(v.len(), 1, v))
+        })
         .collect::<Option<_>>()?;
     let exps: Vec<Experiment<'_>> = experiments
         .iter()
@@ -733,31 +736,6 @@ fn interpolated_start(experiments: &[Experiment<'_>], i: usize, shape: &Output) 
         }
     }
     Some(p)
-}
-
-/// The record `y` (NaN where not measured) interpolated linearly between
-/// its measured samples, held before the first and after the last; `None`
-/// with fewer than two measured samples.
-fn interpolate(y: impl Iterator<Item = f64>) -> Option<DMatrix<f64>> {
-    let y: Vec<f64> = y.collect();
-    let measured: Vec<usize> = (0..y.len()).filter(|&t| !y[t].is_nan()).collect();
-    let (&first, &last) = (measured.first()?, measured.last()?);
-    if first == last {
-        return None;
-    }
-    let mut out = y.clone();
-    out[..first].fill(y[first]);
-    for w in measured.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        for (t, v) in out.iter_mut().enumerate().take(b).skip(a + 1) {
-            let s = (t - a) as f64 / (b - a) as f64;
-            *v = y[a] * (1.0 - s) + y[b] * s;
-        }
-    }
-    for v in out.iter_mut().skip(last + 1) {
-        *v = y[last];
-    }
-    Some(DMatrix::from_vec(out.len(), 1, out))
 }
 
 /// The output-error start of [`starts`] (its item 1).
@@ -965,14 +943,6 @@ mod tests {
             }
         }
         assert!(froze, "the recursion never converged");
-    }
-
-    #[test]
-    fn interpolation_is_linear_between_measured_samples_and_held_outside() {
-        let nan = f64::NAN;
-        let y = interpolate([nan, 1.0, nan, nan, 4.0, nan].into_iter()).unwrap();
-        assert_eq!(y.as_slice(), &[1.0, 1.0, 2.0, 3.0, 4.0, 4.0]);
-        assert!(interpolate([nan, 2.0, nan].into_iter()).is_none());
     }
 
     #[test]

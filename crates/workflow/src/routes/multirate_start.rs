@@ -94,29 +94,15 @@ pub(crate) fn interpolated(d: &Dataset) -> Result<Dataset> {
     let (n, ny) = (d.len(), d.n_outputs());
     let mut y = DMatrix::zeros(n, ny);
     for j in 0..ny {
-        let col = d.y().column(j);
-        let at: Vec<usize> = (0..n).filter(|&t| col[t].is_finite()).collect();
-        if at.len() < 2 {
+        let col: Vec<f64> = d.y().column(j).iter().copied().collect();
+        let Some(filled) = lifted_lti::interpolate_unmeasured(&col) else {
             return Err(Error::Data(format!(
                 "output {} has {} sample(s): nothing to interpolate",
                 j + 1,
-                at.len()
+                col.iter().filter(|v| v.is_finite()).count()
             )));
-        }
-        let (first, last) = (at[0], at[at.len() - 1]);
-        for t in 0..=first {
-            y[(t, j)] = col[first];
-        }
-        for t in last..n {
-            y[(t, j)] = col[last];
-        }
-        for w in at.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            for t in a..b {
-                let s = (t - a) as f64 / (b - a) as f64;
-                y[(t, j)] = col[a] * (1.0 - s) + col[b] * s;
-            }
-        }
+        };
+        y.column_mut(j).copy_from_slice(&filled);
     }
     let outputs = d
         .outputs()
