@@ -12,7 +12,7 @@
 //! | [`impulseest`] ([`ImpulseOptions`], [`Kernel`], [`ImpulseFit`]) | regularised FIR (impulse response) with a TC or DC kernel, hyperparameters by the marginal likelihood on the compressed lagged data (O(p³) per evaluation whatever N), posterior covariance |
 //! | [`arx_compressed`] ([`arx_horizons`], [`ArxCompressedFit`]) | the same ARX/FIR from records compressed in blocks (`lifted_subspace::CompressionPlan`, a file streamed or shards merged): memory O(k²) whatever N, means and scales mapped back |
 //! | [`arx_regul`] ([`ArxRegulOptions`], [`ArxRegulFit`], [`ArxHyperparameters`]) | regularised ARX (MATLAB's `arxRegul`): a TC or DC kernel for the past outputs' and another for the lagged inputs' coefficients, hyperparameters by the marginal likelihood (module `regularized`, shared with [`impulseest`]), posterior covariance |
-//! | [`oe`] ([`OeOptions`], [`OeFit`]) | output-error models B/F per input–output pair by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
+//! | [`oe`] ([`OeOptions`], [`OeFit`], [`FStructure`]) | output-error models B/F per input–output pair (or one F per output) by Levenberg–Marquardt on the simulation error of the measured samples (multirate records included), started from a FIR regression and ARX fits to it, with the parameter covariance |
 //! | [`polyest`], [`armax`], [`bj`] ([`PolyestOptions`], [`PolyestFit`]) | ARMAX, Box–Jenkins and the general diagonal-A structure by Levenberg–Marquardt on the one-step prediction error (analytic gradient by filtering), Hannan–Rissanen / OE starts, consistent in closed loop (the direct method), with the parameter covariance |
 //! | [`procest`] ([`ProcessKind`], [`ProcessModel`], [`ProcessOptions`], [`ProcessFit`]) | process models with dead time (MATLAB's `idproc`: P1D, P2D, P1DI, P2DZ, P2DU) — gain, time constants, any dead time (exact ZOH with a fractional delay) — by output error on the measured samples (multirate records included), grid and two-point starts, Levenberg–Marquardt, covariance of K, T, θ; equations, discretisation, estimator and complexity in [`process`] |
 //! | [`PEM_SAMPLES_PER_PARAMETER`] | the bound on free parameters per measured output sample |
@@ -95,7 +95,7 @@ pub use error::{Error, Result};
 pub use held_out::{CheckRule, RefinementCheck, cross_validate_refinement};
 pub use impulse::{ImpulseFit, ImpulseOptions, impulseest};
 pub use measured_delays::{MeasuredDelayOptions, estimate_delays_measured};
-pub use oe::{OeFit, OeOptions, oe};
+pub use oe::{FStructure, OeFit, OeOptions, oe};
 pub use polyest::{PolyestFit, PolyestOptions, armax, bj, polyest};
 pub use process::{InterSample, ProcessFit, ProcessKind, ProcessModel, ProcessOptions, procest};
 pub use regularized::Kernel;

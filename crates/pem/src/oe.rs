@@ -25,6 +25,21 @@
 //! ([`OeOptions::starts`]): the FIR-then-ARX start can lie in another
 //! minimum's basin.
 //!
+//! **Denominators.** By default each input–output pair has its own F
+//! (MATLAB's `oe`, [`FStructure::PerInput`]). [`FStructure::Common`] shares
+//! one F between an output's input terms, y_i = (1/F_i) Σ_k B_ik u_k(t − nk)
+//! plus e_i: a MISO transfer function with a common denominator (SIPPY's
+//! OE structure; one set of modes seen from every input, as one vessel fed
+//! by several streams). With n_u inputs of order n it has (n_u − 1) n
+//! fewer parameters, so less variance where the modes are common, and a
+//! bias where they are not. The start's ARX fit is then one MISO ARX
+//! [nf nb… 0] to the FIR model's whole simulation, and a third start
+//! refines the ARX start by Steiglitz–McBride passes where every output
+//! sample is measured ([`OeOptions::starts`]); the Jacobian's F columns
+//! are ∂ŷ/∂f_j = −(ŷ/F)(t − j). The model keeps one F per pair (each a
+//! copy of the common one) and the covariance is mapped onto those copies
+//! (Cov = E Σ Eᵀ, E repeating the F rows: perfectly correlated copies).
+//!
 //! **Iterations.** Levenberg–Marquardt on θ = (B_i1 … B_inu, F_i1 … F_inu)
 //! (the parameter order of [`lifted_lti::PolyModel::parameters`]) with the
 //! analytic Jacobian: with v_k = u_k(t − nk)/F_k and z_k = ŷ_k/F_k,
@@ -62,12 +77,31 @@ pub struct OeOptions {
     /// 20 and at most 200, and at most one lag per 4 measured samples per
     /// input).
     pub fir_length: Option<usize>,
-    /// Starts of the iterations: 1, the FIR-then-ARX start only; 2 (the
-    /// default), also the FIR start with F = 1, the lower cost kept (the
+    /// Starts of the iterations: 1, the FIR-then-ARX start only; 2, also
+    /// the FIR start with F = 1, the lower cost kept; 3 (the default), with
+    /// a common F ([`FStructure::Common`]) on an output measured at every
+    /// sample also the Steiglitz–McBride start (its ARX fits need every
+    /// sample; per-input F: as 2). The FIR-then-ARX start alone loses (the
     /// iterations from the first end in a worse minimum on some records:
     /// benches/results/polynomial.md, "Polynomial methods on the real
     /// records beside SIPPY"). At least 1.
     pub starts: usize,
+    /// One F per input–output pair (the default) or one per output shared
+    /// by its input terms (module docs).
+    pub f_structure: FStructure,
+}
+
+/// The denominators of an output-error model (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum FStructure {
+    /// One F per input–output pair, y_i = Σ_k (B_ik/F_ik) u_k (MATLAB's
+    /// `oe`): the default.
+    #[default]
+    PerInput,
+    /// One F per output shared by its input terms, y_i = (1/F_i) Σ_k B_ik u_k
+    /// (SIPPY's OE): every input of an output with a B must have the same
+    /// nf, and inputs without a B nf = 0.
+    Common,
 }
 
 impl Default for OeOptions {
@@ -76,7 +110,8 @@ impl Default for OeOptions {
             max_iterations: 100,
             tolerance: 1e-10,
             fir_length: None,
-            starts: 2,
+            starts: 3,
+            f_structure: FStructure::PerInput,
         }
     }
 }
@@ -95,6 +130,9 @@ pub struct OeFit {
     pub measured: Vec<usize>,
     /// Iterations run per output.
     pub iterations: Vec<usize>,
+    /// Free parameters per output (a common F counted once; the model's
+    /// [`PolyModel::n_parameters`] counts its copies).
+    pub parameters: Vec<usize>,
 }
 
 /// One output's structure: per input (nb, nf, nk).
@@ -103,11 +141,30 @@ struct Pairs {
     nb: Vec<usize>,
     nf: Vec<usize>,
     nk: Vec<usize>,
+    /// One F shared by the input terms ([`FStructure::Common`]).
+    common: bool,
 }
 
 impl Pairs {
+    /// Free parameters: Σ nb plus Σ nf, or the common F's nf once.
     fn parameters(&self) -> usize {
-        self.nb.iter().sum::<usize>() + self.nf.iter().sum::<usize>()
+        self.nb.iter().sum::<usize>() + self.free_f()
+    }
+
+    /// Free F coefficients.
+    fn free_f(&self) -> usize {
+        if self.common {
+            self.common_nf()
+        } else {
+            self.nf.iter().sum()
+        }
+    }
+
+    /// The common F's degree (that of the first input with a B).
+    fn common_nf(&self) -> usize {
+        (0..self.nb.len())
+            .find(|&k| self.nb[k] > 0)
+            .map_or(0, |k| self.nf[k])
     }
 }
 
@@ -116,7 +173,11 @@ type Rational = Vec<(Vec<f64>, Vec<f64>)>;
 
 /// The OE structure's checks beside the shared ones: no A, C or D, an
 /// input term per output; y may hold NaN (not measured).
-fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
+fn check(
+    experiments: &[Experiment<'_>],
+    orders: &PolyOrders,
+    f_structure: FStructure,
+) -> Result<(usize, usize)> {
     let dims = crate::checks::check_polynomial_records(experiments, orders, true)?;
     if orders.na.iter().flatten().any(|&n| n > 0)
         || orders.nc.iter().chain(&orders.nd).any(|&n| n > 0)
@@ -133,6 +194,22 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
                 what: "orders",
                 reason: format!("output {i} has no input term (every nb = 0)"),
             });
+        }
+        if f_structure == FStructure::Common {
+            let with_b: Vec<usize> = (0..row.len())
+                .filter(|&k| row[k] > 0)
+                .map(|k| orders.nf[i][k])
+                .collect();
+            let without_b = (0..row.len()).any(|k| row[k] == 0 && orders.nf[i][k] > 0);
+            if with_b.windows(2).any(|w| w[0] != w[1]) || without_b {
+                return Err(Error::InvalidOption {
+                    what: "orders",
+                    reason: format!(
+                        "a common F needs the same nf for every input of output {i} with a B (and nf = 0 where nb = 0); got nf {:?}",
+                        orders.nf[i]
+                    ),
+                });
+            }
         }
     }
     Ok(dims)
@@ -170,15 +247,21 @@ fn simulate(
                         .collect(),
                 );
             }
-            filter(&yk, f, 0, &mut z);
-            for j in 1..=f.len() {
-                f_cols.push(
-                    (0..n)
-                        .map(|t| if t >= j { -z[t - j] } else { 0.0 })
-                        .collect(),
-                );
+            if !pairs.common {
+                filter(&yk, f, 0, &mut z);
+                f_cols.extend(delayed_negated(&z, f.len()));
             }
         }
+    }
+    // A common F: ∂ŷ/∂f_j = −(ŷ/F)(t − j), one filter of the sum.
+    if jacobian
+        && pairs.common
+        && let Some((_, f)) = (0..theta.len())
+            .find(|&k| pairs.nb[k] > 0)
+            .map(|k| &theta[k])
+    {
+        filter(&yhat, f, 0, &mut z);
+        f_cols.extend(delayed_negated(&z, f.len()));
     }
     if jacobian {
         // Parameter order: every B, then every F (PolyModel::parameters).
@@ -188,7 +271,17 @@ fn simulate(
     (yhat, cols)
 }
 
-/// Splits θ (B's then F's) into per-input (b, f).
+/// The columns −z(t − j), j = 1 … nf (zero before the record).
+fn delayed_negated(z: &[f64], nf: usize) -> impl Iterator<Item = Vec<f64>> + '_ {
+    (1..=nf).map(move |j| {
+        (0..z.len())
+            .map(|t| if t >= j { -z[t - j] } else { 0.0 })
+            .collect()
+    })
+}
+
+/// Splits θ (B's then F's; a common F once) into per-input (b, f), the
+/// common F copied to every input with a B.
 fn unpack(theta: &[f64], pairs: &Pairs) -> Rational {
     let mut at = 0;
     let mut bs = Vec::new();
@@ -197,6 +290,18 @@ fn unpack(theta: &[f64], pairs: &Pairs) -> Rational {
         at += nb;
     }
     let mut out = Vec::new();
+    if pairs.common {
+        let f = theta[at..at + pairs.common_nf()].to_vec();
+        for (k, b) in bs.into_iter().enumerate() {
+            let fk = if pairs.nb[k] > 0 {
+                f.clone()
+            } else {
+                Vec::new()
+            };
+            out.push((b, fk));
+        }
+        return out;
+    }
     for (k, &nf) in pairs.nf.iter().enumerate() {
         out.push((bs[k].clone(), theta[at..at + nf].to_vec()));
         at += nf;
@@ -204,10 +309,18 @@ fn unpack(theta: &[f64], pairs: &Pairs) -> Rational {
     out
 }
 
-fn pack(r: &Rational) -> Vec<f64> {
-    r.iter()
-        .flat_map(|(b, _)| b.iter().copied())
-        .chain(r.iter().flat_map(|(_, f)| f.iter().copied()))
+/// θ of per-input (b, f): B's then F's (a common F once, that of the first
+/// input with a B).
+fn pack(r: &Rational, pairs: &Pairs) -> Vec<f64> {
+    let bs = r.iter().flat_map(|(b, _)| b.iter().copied());
+    if pairs.common {
+        let f = (0..r.len())
+            .find(|&k| pairs.nb[k] > 0)
+            .map(|k| r[k].1.clone())
+            .unwrap_or_default();
+        return bs.chain(f).collect();
+    }
+    bs.chain(r.iter().flat_map(|(_, f)| f.iter().copied()))
         .collect()
 }
 
@@ -324,6 +437,20 @@ fn start(
     };
     let mut out: Rational = vec![(Vec::new(), Vec::new()); nu];
     let mut plains: Rational = vec![(Vec::new(), Vec::new()); nu];
+    if pairs.common {
+        let firs: Vec<Vec<f64>> = (0..active.len())
+            .map(|slot| (0..lags).map(|l| g[slot * lags + l]).collect())
+            .collect();
+        for (slot, &k) in active.iter().enumerate() {
+            plains[k] = (firs[slot][..pairs.nb[k]].to_vec(), vec![0.0; pairs.nf[k]]);
+        }
+        let fitted = if pairs.common_nf() > 0 {
+            common_start(experiments, pairs, &active, &firs)
+        } else {
+            None
+        };
+        return Ok((fitted.unwrap_or_else(|| plains.clone()), plains));
+    }
     for (slot, &k) in active.iter().enumerate() {
         let fir: Vec<f64> = (0..lags).map(|l| g[slot * lags + l]).collect();
         let (nb, nf) = (pairs.nb[k], pairs.nf[k]);
@@ -374,6 +501,160 @@ fn start(
     Ok((out, plains))
 }
 
+/// The common-F start: one MISO ARX [nf nb… 0] fitted to the FIR model's
+/// whole simulation Σ_k G_k u_k(t − nk_k) of the first record long enough
+/// (B/F ≈ the FIR responses with one F); `None` when it fails or its F is
+/// unstable. O(N (nf + Σ nb)²).
+fn common_start(
+    experiments: &[Experiment<'_>],
+    pairs: &Pairs,
+    active: &[usize],
+    firs: &[Vec<f64>],
+) -> Option<Rational> {
+    let nf = pairs.common_nf();
+    let lags = firs.first().map_or(0, Vec::len);
+    let widest: usize = active.iter().map(|&k| pairs.nb[k]).max().unwrap_or(0);
+    let e = experiments
+        .iter()
+        .find(|e| e.u.nrows() > lags + nf + widest + 1)?;
+    let n = e.u.nrows();
+    let delayed = DMatrix::from_fn(n, active.len(), |t, slot| {
+        let k = active[slot];
+        if t >= pairs.nk[k] {
+            e.u[(t - pairs.nk[k], k)]
+        } else {
+            0.0
+        }
+    });
+    let mut y = vec![0.0; n];
+    let mut yk = Vec::new();
+    for (slot, fir) in firs.iter().enumerate() {
+        fir_apply(delayed.column(slot).as_slice(), fir, &mut yk);
+        for (a, b) in y.iter_mut().zip(&yk) {
+            *a += b;
+        }
+    }
+    let ym = DMatrix::from_column_slice(n, 1, &y);
+    let width = active.len();
+    let orders = PolyOrders {
+        na: vec![vec![nf]],
+        nb: vec![active.iter().map(|&k| pairs.nb[k]).collect()],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![vec![0; width]],
+        nk: vec![vec![0; width]],
+    };
+    let fit = crate::arx(
+        &[Experiment {
+            u: &delayed,
+            y: &ym,
+        }],
+        &orders,
+        1.0,
+        &crate::ArxOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )
+    .ok()?;
+    let a = fit.model.a(0, 0)[1..].to_vec();
+    if !stable(&a) {
+        return None;
+    }
+    let mut out: Rational = vec![(Vec::new(), Vec::new()); pairs.nb.len()];
+    for (slot, &k) in active.iter().enumerate() {
+        out[k] = (fit.model.b(0, slot).to_vec(), a.clone());
+    }
+    Some(out)
+}
+
+/// Largest number of Steiglitz–McBride passes of the third start
+/// ([`steiglitz_mcbride`]); they stop earlier when F settles.
+const SM_PASSES: usize = 20;
+
+/// The Steiglitz–McBride start of a common-F output (Steiglitz & McBride
+/// 1965, IEEE Trans. Autom. Control 10(4); Ljung 1999 §10.4): from the
+/// common F of `from`, repeatedly filter y_i and each delayed input by
+/// 1/F and fit the ARX [nf nb… 0] F y_f = Σ B_k u_f,k + e by least squares
+/// (its F the next), until F moves by less than 1e-9 relative or
+/// [`SM_PASSES`] passes; the last stable estimate. Its fixed point is the
+/// output-error estimate when the noise is white, which the ARX start is
+/// not (its equation error weights the fit by F). Every output sample
+/// must be measured (the ARX regressors are past filtered outputs):
+/// `None` otherwise, or when the first pass fails. O(passes · N (n_u nf +
+/// d²)).
+fn steiglitz_mcbride(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    pairs: &Pairs,
+    from: &Rational,
+) -> Option<Rational> {
+    if experiments
+        .iter()
+        .any(|e| e.y.column(i).iter().any(|v| v.is_nan()))
+    {
+        return None;
+    }
+    let active: Vec<usize> = (0..pairs.nb.len()).filter(|&k| pairs.nb[k] > 0).collect();
+    let nf = pairs.common_nf();
+    let mut f = from.get(*active.first()?)?.1.clone();
+    let width = active.len();
+    let orders = PolyOrders {
+        na: vec![vec![nf]],
+        nb: vec![active.iter().map(|&k| pairs.nb[k]).collect()],
+        nc: vec![0],
+        nd: vec![0],
+        nf: vec![vec![0; width]],
+        nk: vec![vec![0; width]],
+    };
+    let opts = crate::ArxOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    let mut best: Option<Rational> = None;
+    let mut buf = Vec::new();
+    for _ in 0..SM_PASSES {
+        let mut filtered = Vec::with_capacity(experiments.len());
+        for e in experiments {
+            let n = e.u.nrows();
+            let mut uf = DMatrix::zeros(n, width);
+            for (slot, &k) in active.iter().enumerate() {
+                let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+                filter(&uk, &f, pairs.nk[k], &mut buf);
+                uf.column_mut(slot).copy_from_slice(&buf);
+            }
+            let yi: Vec<f64> = e.y.column(i).iter().copied().collect();
+            filter(&yi, &f, 0, &mut buf);
+            filtered.push((uf, DMatrix::from_column_slice(n, 1, &buf)));
+        }
+        let records: Vec<Experiment<'_>> =
+            filtered.iter().map(|(u, y)| Experiment { u, y }).collect();
+        let Ok(fit) = crate::arx(&records, &orders, 1.0, &opts) else {
+            break;
+        };
+        let next = fit.model.a(0, 0)[1..].to_vec();
+        if !stable(&next) {
+            break;
+        }
+        let moved = next
+            .iter()
+            .zip(&f)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let size = 1.0 + next.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let mut out: Rational = vec![(Vec::new(), Vec::new()); pairs.nb.len()];
+        for (slot, &k) in active.iter().enumerate() {
+            out[k] = (fit.model.b(0, slot).to_vec(), next.clone());
+        }
+        best = Some(out);
+        f = next;
+        if moved < 1e-9 * size {
+            break;
+        }
+    }
+    best
+}
+
 /// Output `i`'s output-error problem for [`minimise`].
 struct OutputError<'a, 'e> {
     experiments: &'a [Experiment<'e>],
@@ -397,6 +678,27 @@ impl Residuals for OutputError<'_, '_> {
     }
 }
 
+/// The covariance of θ (B's, then the F's or a common F once) on the
+/// model's parameters (B's, then one F per input): E Σ Eᵀ with E repeating
+/// a common F's rows for every input with a B (module docs). O(d²).
+fn on_pairs(cov: &DMatrix<f64>, pairs: &Pairs) -> DMatrix<f64> {
+    if !pairs.common {
+        return cov.clone();
+    }
+    let nb: usize = pairs.nb.iter().sum();
+    let nf = pairs.common_nf();
+    // Row of θ behind each model parameter.
+    let mut source: Vec<usize> = (0..nb).collect();
+    for k in 0..pairs.nb.len() {
+        if pairs.nb[k] > 0 {
+            source.extend(nb..nb + nf);
+        }
+    }
+    DMatrix::from_fn(source.len(), source.len(), |r, c| {
+        cov[(source[r], source[c])]
+    })
+}
+
 /// Output-error model of structure `orders` (n_y × n_u nb, nf, nk; every
 /// na, nc, nd 0) on the records, sample period `ts`, with the parameter
 /// covariance. y may hold NaN where an output was not measured (a
@@ -408,7 +710,8 @@ impl Residuals for OutputError<'_, '_> {
 ///
 /// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`] for orders or
 /// records that do not match; [`Error::InvalidOption`] for a structure
-/// with A, C or D or an output without input terms; [`Error::NonFinite`]
+/// with A, C or D, an output without input terms, or a common F
+/// ([`FStructure::Common`]) with unequal nf; [`Error::NonFinite`]
 /// for NaN/inf in u or an infinite y; [`Error::TooFewSamples`] when an
 /// output has no more measured samples than parameters (and the FIR
 /// start's lags); [`Error::RankDeficient`] for inputs that do not excite
@@ -419,7 +722,7 @@ pub fn oe(
     ts: f64,
     opts: &OeOptions,
 ) -> Result<OeFit> {
-    let (nu, ny) = check(experiments, orders)?;
+    let (nu, ny) = check(experiments, orders, opts.f_structure)?;
     check_iterations(opts.max_iterations, opts.tolerance, "OE iterations")?;
     if opts.starts == 0 {
         return Err(Error::InvalidOption {
@@ -433,11 +736,13 @@ pub fn oe(
     let mut lambdas = Vec::new();
     let (mut loss, mut fit, mut measured_all, mut iterations) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut free = Vec::new();
     for i in 0..ny {
         let pairs = Pairs {
             nb: orders.nb[i].clone(),
             nf: orders.nf[i].clone(),
             nk: orders.nk[i].clone(),
+            common: opts.f_structure == FStructure::Common,
         };
         let d = pairs.parameters();
         let values: Vec<f64> = experiments
@@ -464,18 +769,43 @@ pub fn oe(
             i,
             pairs: &pairs,
         };
-        let (mut theta, mut cost, mut r11, mut its) =
-            minimise(&problem, pack(&theta0), opts.max_iterations, opts.tolerance)?;
+        let (mut theta, mut cost, mut r11, mut its) = minimise(
+            &problem,
+            pack(&theta0, &pairs),
+            opts.max_iterations,
+            opts.tolerance,
+        )?;
         // The second start (module docs): the lower cost kept.
         if opts.starts >= 2
             && plain != theta0
-            && let Ok((t2, c2, r2, i2)) =
-                minimise(&problem, pack(&plain), opts.max_iterations, opts.tolerance)
+            && let Ok((t2, c2, r2, i2)) = minimise(
+                &problem,
+                pack(&plain, &pairs),
+                opts.max_iterations,
+                opts.tolerance,
+            )
         {
             if c2 < cost {
                 (theta, cost, r11) = (t2, c2, r2);
             }
             its += i2;
+        }
+        // The third (a common F, every sample measured): Steiglitz–McBride.
+        if opts.starts >= 3
+            && pairs.common
+            && pairs.common_nf() > 0
+            && let Some(sm) = steiglitz_mcbride(experiments, i, &pairs, &theta0)
+            && let Ok((t3, c3, r3, i3)) = minimise(
+                &problem,
+                pack(&sm, &pairs),
+                opts.max_iterations,
+                opts.tolerance,
+            )
+        {
+            if c3 < cost {
+                (theta, cost, r11) = (t3, c3, r3);
+            }
+            its += i3;
         }
         let theta = unpack(&theta, &pairs);
         let lambda = cost / (measured - d) as f64;
@@ -486,7 +816,7 @@ pub fn oe(
                     rank: 0,
                     needed: d,
                 })?;
-        blocks.push(&inv * inv.transpose() * lambda);
+        blocks.push(on_pairs(&(&inv * inv.transpose() * lambda), &pairs));
         lambdas.push(lambda);
         for (k, (b, f)) in theta.iter().enumerate() {
             b_all[i][k] = b.clone();
@@ -508,6 +838,7 @@ pub fn oe(
         });
         measured_all.push(measured);
         iterations.push(its);
+        free.push(d);
     }
     let total: usize = blocks.iter().map(|b| b.nrows()).sum();
     let mut cov = DMatrix::zeros(total, total);
@@ -535,6 +866,7 @@ pub fn oe(
         fit,
         measured: measured_all,
         iterations,
+        parameters: free,
     })
 }
 
