@@ -224,6 +224,12 @@ impl Choice for lifted_pem::InterSample {
     const NAMES: &'static [(&'static str, Self)] = &[("zoh", Self::Zoh), ("foh", Self::Foh)];
 }
 
+impl Choice for lifted_pem::FStructure {
+    const WHAT: &'static str = "denominators of OE";
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("per-input", Self::PerInput), ("common", Self::Common)];
+}
+
 impl Choice for lifted_pem::AStructure {
     const WHAT: &'static str = "pattern of A";
     const NAMES: &'static [(&'static str, Self)] =

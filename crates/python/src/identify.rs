@@ -79,7 +79,7 @@ pub(crate) fn horizon_of(
     enforce_stability=false, refine="auto", refine_iterations=100, refine_max_work=2e10, dt=1.0,
     threads=1, gain_stop_share=0.01, integrator_tolerance=None, process=None, kernel=None,
     refine_check="tests:0.95", selection=None, gain_covariance_start=true, budgets=None,
-    plan=None, covariance=true, process_fixed=None, intersample=None, a_structure=None))]
+    plan=None, covariance=true, process_fixed=None, intersample=None, a_structure=None, f_structure=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -118,6 +118,7 @@ pub(crate) fn identify<'py>(
     process_fixed: Option<Bound<'py, PyDict>>,
     intersample: Option<&str>,
     a_structure: Option<&str>,
+    f_structure: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = lifted_workflow::Method::parse(method, "method")?;
     let process = process
@@ -168,6 +169,9 @@ pub(crate) fn identify<'py>(
     id.integrator_tolerance = integrator_tolerance;
     id.a_structure = a_structure
         .map(|a| <lifted_pem::AStructure as Choice>::parse(a, "a_structure"))
+        .transpose()?;
+    id.f_structure = f_structure
+        .map(|f| <lifted_pem::FStructure as Choice>::parse(f, "f_structure"))
         .transpose()?;
     id.intersample = intersample
         .map(|h| <lifted_pem::InterSample as Choice>::parse(h, "intersample"))

@@ -520,6 +520,13 @@ pub struct IdentificationOptions {
     /// output). Other methods: not used (an error when given).
     #[serde(default)]
     pub a_structure: Option<lifted_pem::AStructure>,
+    /// OE: one F per input–output pair (`None`, MATLAB's `oe`) or one per
+    /// output shared by its input terms (`Common`: SIPPY's OE, a MISO
+    /// transfer function with a common denominator; fewer parameters where
+    /// the inputs see the same modes; `lifted_pem::FStructure`). Other
+    /// methods: not used (an error when given).
+    #[serde(default)]
+    pub f_structure: Option<lifted_pem::FStructure>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
     /// `None`: P1D). Other methods: not used (an error when given).
     pub process: Option<lifted_pem::ProcessKind>,
@@ -674,6 +681,7 @@ impl Default for IdentificationOptions {
             intersample: None,
             kernel: None,
             a_structure: None,
+            f_structure: None,
             q: None,
             prbs_order: None,
             amplitude: None,
@@ -944,6 +952,12 @@ impl WorkflowOptions {
             return Err(Error::option(
                 "a_structure",
                 "only used with the arx and armax methods (the pattern of their A matrix)",
+            ));
+        }
+        if id.f_structure.is_some() && id.method != Method::Oe {
+            return Err(Error::option(
+                "f_structure",
+                "only used with the oe method (one F per input or one per output)",
             ));
         }
         if id.intersample.is_some() && id.method != Method::Process {

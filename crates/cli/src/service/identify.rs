@@ -20,8 +20,8 @@ use lifted_workflow::{
 use nalgebra::DMatrix;
 
 use crate::args::{
-    AStructureArg, BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, IdentifyArgs,
-    InterSampleArg, KernelArg, MethodArg, ProcessArg, RefineArg,
+    AStructureArg, BdArg, CriterionArg, DataArgs, DetrendArg, EstimatorArg, FStructureArg,
+    IdentifyArgs, InterSampleArg, KernelArg, MethodArg, ProcessArg, RefineArg,
 };
 use crate::error::{CliError, CliResult, input};
 use crate::table::{DataSpec, Loaded, load, names, parse_periods, scan_rows};
@@ -139,6 +139,10 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     id.a_structure = a.a_structure.map(|k| match k {
         AStructureArg::Full => lifted_pem::AStructure::Full,
         AStructureArg::Diagonal => lifted_pem::AStructure::Diagonal,
+    });
+    id.f_structure = a.f_structure.map(|k| match k {
+        FStructureArg::PerInput => lifted_pem::FStructure::PerInput,
+        FStructureArg::Common => lifted_pem::FStructure::Common,
     });
     id.kernel = a.kernel.map(|k| match k {
         KernelArg::Tc => lifted_pem::Kernel::Tc,

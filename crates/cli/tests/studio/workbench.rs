@@ -519,7 +519,8 @@ fn studio_loads_and_saves_a_plan_in_chromium() {
 /// vector, a process model) and shows their parameters ± σ, the step and
 /// Bode figures carry the confidence band, and its level select turns it
 /// off; ARMAX shows the A matrix's pattern select and passes a choice on;
-/// no script error. Screenshots `f1-arx-parameters.png`, `f2-armax-a-structure.png`.
+/// OE shows its denominators' select; no script error. Screenshots
+/// `f1-arx-parameters.png`, `f2-armax-a-structure.png`, `f3-oe-f-structure.png`.
 #[test]
 fn studio_identifies_the_model_families_in_chromium() {
     let Some((chromium, driver)) = browser_or_skip() else {
@@ -606,6 +607,38 @@ fn studio_identifies_the_model_families_in_chromium() {
             "{command}"
         );
         element_shot(&c, "#command", &shots, "f2-armax-a-structure.png").await;
+        // OE offers its denominators (one F per output shared by the
+        // inputs, SIPPY's OE) and hides the A matrix's select.
+        let g = wait_settled(&c).await;
+        js(
+            &c,
+            "document.getElementById('orders').value = '2 2 1'; return true;",
+        )
+        .await;
+        choose("method", "oe").await;
+        let g = wait_identified(&c, g).await;
+        let shown = |id: &'static str| {
+            let c = c.clone();
+            async move {
+                js(
+                    &c,
+                    &format!("return !document.getElementById('{id}').closest('label').classList.contains('hidden');"),
+                )
+                .await
+                .as_bool()
+            }
+        };
+        assert_eq!(shown("f-structure").await, Some(true));
+        assert_eq!(shown("a-structure").await, Some(false));
+        choose("f-structure", "common").await;
+        wait_identified(&c, g).await;
+        wait_settled(&c).await;
+        let command = text(&c, "#command").await;
+        assert!(
+            command.contains("--method oe") && command.contains("--f-structure common"),
+            "{command}"
+        );
+        element_shot(&c, "#command", &shots, "f3-oe-f-structure.png").await;
         assert_eq!(status(&c, "jserrors").await, 0);
         assert_eq!(page_error(&c).await, "");
         c.close().await.unwrap();

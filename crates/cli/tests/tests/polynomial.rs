@@ -689,4 +689,25 @@ fn a_diagonal_a_is_one_miso_model_per_output() {
     let a = args("oe", "diagonal", &p(&d, "oe.json"));
     let err = fails(&a.iter().map(String::as_str).collect::<Vec<_>>(), 2);
     assert!(err.contains("--a-structure"), "{err}");
+    // OE with one F per output shared by both inputs (`--f-structure
+    // common`): the copies of F equal, 3 free parameters per output;
+    // ARX refuses the option.
+    let swap = |a: Vec<String>, structure: &str| -> Vec<String> {
+        let mut a = a;
+        let at = a.iter().position(|s| s == "--a-structure").unwrap();
+        a[at] = "--f-structure".into();
+        a[at + 1] = structure.into();
+        a
+    };
+    let out = p(&d, "oe_common.json");
+    let a = swap(args("oe", "diagonal", &out), "common");
+    ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let common = ModelFile::read(&out).unwrap();
+    assert_eq!(common.diagnostics["f_structure"], "common");
+    assert_eq!(common.diagnostics["parameters"], 6);
+    let m = common.polynomial.as_ref().unwrap();
+    assert_eq!(m.f(0, 0), m.f(0, 1));
+    let a = swap(args("arx", "diagonal", &p(&d, "arx.json")), "common");
+    let err = fails(&a.iter().map(String::as_str).collect::<Vec<_>>(), 2);
+    assert!(err.contains("--f-structure"), "{err}");
 }

@@ -281,6 +281,7 @@ def identify(
     process_fixed: dict[str, float] | None = None,
     intersample: Literal["zoh", "foh"] | None = None,
     a_structure: Literal["full", "diagonal"] | None = None,
+    f_structure: Literal["per-input", "common"] | None = None,
 ) -> SubspaceFit:
     """Subspace identification (N4SID, MOESP, CVA; also PBSID, SSARX and IV)
     of one record or several, or least-squares ARX and FIR polynomial models
@@ -416,6 +417,10 @@ def identify(
       ``"full"`` (every output's past in every output's equation; ARX's
       default) or ``"diagonal"`` (each output's own past only: one MISO
       model per output, SIPPY's; ARMAX's default); ``--a-structure``.
+    * ``f_structure`` (``method="oe"``): ``"per-input"`` (one F per
+      input-output pair, MATLAB's ``oe``; the default) or ``"common"`` (one
+      F per output shared by its input terms, SIPPY's OE: fewer parameters
+      where the inputs see the same modes); ``--f-structure``.
     * ``intersample`` (``method="process"``): ``"zoh"`` (default, the input
       held between samples) or ``"foh"`` (linear between samples: a sampled
       continuous signal); ``--intersample``.
@@ -482,7 +487,7 @@ def identify(
             refine_check=refine_check, selection=selection,
             gain_covariance_start=gain_covariance_start, budgets=budgets, plan=plan_text,
             covariance=covariance, process_fixed=process_fixed, intersample=intersample,
-            a_structure=a_structure,
+            a_structure=a_structure, f_structure=f_structure,
         )
     except NonFiniteError as e:
         if getattr(e, "what", None) == "y":
@@ -832,6 +837,7 @@ def oe(
     remove_means: bool = True,
     dt: float = 1.0,
     threads: int = 1,
+    f_structure: Literal["per-input", "common"] | None = None,
 ) -> SubspaceFit:
     """Output-error model (MATLAB's ``oe(data, [nb nf nk])``) by
     prediction-error minimisation of the simulation error, through the
@@ -849,11 +855,15 @@ def oe(
     fast model comes back. ``parameters`` are, per output, the B
     coefficients input by input, then the free F coefficients input by
     input, with ``covariance`` and ``std`` (from the Jacobian at the
-    optimum).
+    optimum). ``f_structure="common"`` shares one F between an output's
+    input terms, ``y = (B_1 u_1 + ... + B_m u_m)/F + e`` (SIPPY's OE
+    structure); the model keeps a copy of F per input (their covariance
+    entries equal) and ``diagnostics["parameters"]`` counts it once.
     """
     return identify(
         u, y, "oe", order=order, orders=orders, feedthrough=feedthrough,
         detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
+        f_structure=f_structure,
     )
 
 

@@ -308,6 +308,7 @@ def identify(
     process_fixed: dict[str, float] | None = None,
     intersample: Literal["zoh", "foh"] | None = None,
     a_structure: Literal["full", "diagonal"] | None = None,
+    f_structure: Literal["per-input", "common"] | None = None,
 ) -> dict[str, Any]: ...
 def pbsid(
     us: list[npt.ArrayLike],

@@ -23,6 +23,11 @@
 //! No refinement follows: the least-squares estimate is the
 //! prediction-error estimate of the ARX structure.
 //!
+//! OE fits one F per input–output pair (MATLAB's `oe`), or with
+//! `f_structure` common one F per output shared by its input terms
+//! (SIPPY's OE; `lifted_pem::FStructure`); `diagnostics.parameters`
+//! counts a common F once.
+//!
 //! ARX and FIR refuse records whose outputs are measured at slower rates
 //! (their regressors are past outputs at every sample); OE takes them: its
 //! predictor is the simulation, scored where the outputs were measured;
@@ -470,12 +475,20 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
         nk: delays.clone(),
     };
     let t_oe = std::time::Instant::now();
-    let fit = lifted_pem::oe(&records, &orders, ts, &lifted_pem::OeOptions::default())
-        .ctx("OE estimation")?;
+    let f_structure = id.f_structure.unwrap_or_default();
+    let oe_opts = lifted_pem::OeOptions {
+        f_structure,
+        ..Default::default()
+    };
+    let fit = lifted_pem::oe(&records, &orders, ts, &oe_opts).ctx("OE estimation")?;
     let mut diagnostics = json!({
         "route": "oe",
         "orders": {"nb": nb, "nf": nf, "nk": delays},
-        "parameters": fit.model.n_parameters(),
+        "f_structure": match f_structure {
+            lifted_pem::FStructure::PerInput => "per-input",
+            lifted_pem::FStructure::Common => "common",
+        },
+        "parameters": fit.parameters.iter().sum::<usize>(),
         "loss": fit.loss,
         "simulation_fit": fit.fit,
         "measured": fit.measured,

@@ -200,6 +200,7 @@ function request(withOrder) {
     if (method === "impulse") delete r.order;
     if (KERNEL.includes(method) && $("kernel").value) r.kernel = $("kernel").value;
     if (A_STRUCTURE.includes(method) && $("a-structure").value) r.a_structure = $("a-structure").value;
+    if (method === "oe" && $("f-structure").value) r.f_structure = $("f-structure").value;
     if (method === "process") {
       r.process = $("process").value;
       if ($("intersample").value !== "zoh") r.intersample = $("intersample").value;
@@ -255,6 +256,7 @@ function methodFields() {
   document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
   document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
   document.querySelectorAll(".arx-only").forEach((e) => e.classList.toggle("hidden", !A_STRUCTURE.includes(m)));
+  document.querySelectorAll(".oe-only").forEach((e) => e.classList.toggle("hidden", m !== "oe"));
   document.querySelectorAll(".kernel-only").forEach((e) => e.classList.toggle("hidden", !KERNEL.includes(m)));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();
@@ -960,7 +962,7 @@ function wire() {
       schedule({ view: true, identify: true });
     });
   }
-  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process", "kernel", "intersample", "a-structure"]) {
+  for (const id of ["horizon", "prbs-order", "amplitude", "output-weight", "instrument", "detrend", "stable", "feedthrough", "order-criterion", "confidence", "orders", "process", "kernel", "intersample", "a-structure", "f-structure"]) {
     $(id).addEventListener("change", () => {
       qRange();
       schedule({ identify: true });

@@ -83,6 +83,9 @@ impl Session {
         if let Some(k) = &r.a_structure {
             opt("a-structure", k.clone());
         }
+        if let Some(k) = &r.f_structure {
+            opt("f-structure", k.clone());
+        }
         if let Some(i) = &r.intersample {
             opt("intersample", i.clone());
         }
@@ -174,6 +177,9 @@ impl Session {
         }
         if let Some(k) = &r.a_structure {
             a.a_structure = Some(named("a_structure", k)?);
+        }
+        if let Some(k) = &r.f_structure {
+            a.f_structure = Some(named("f_structure", k)?);
         }
         if let Some(i) = &r.intersample {
             a.intersample = Some(named("intersample", i)?);

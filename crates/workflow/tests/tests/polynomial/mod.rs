@@ -407,6 +407,57 @@ fn a_coupled_armax_through_the_workflow() {
 }
 
 #[test]
+fn oe_with_a_common_denominator_through_the_workflow() {
+    // y = (1/F)[q⁻¹(1 + 0.5q⁻¹) u₁ + q⁻¹(0.4 − 0.2q⁻¹) u₂] + e, one F =
+    // 1 − 1.3q⁻¹ + 0.6q⁻² for both inputs, inputs in plant units (×100,
+    // ×0.01), output offset 5: `f_structure` common gives the model within
+    // 4.5σ in the data's units with 6 free parameters (per input: 8), the
+    // copies of F equal, and its state-space form of order 2 (one block per
+    // distinct F); other methods refuse the option.
+    let f = vec![1.0, -1.3, 0.6];
+    let p = Polynomials {
+        b: vec![vec![vec![1.0, 0.5], vec![0.4, -0.2]]],
+        f: Some(vec![vec![f.clone(), f]]),
+        nk: vec![vec![1, 1]],
+        ..Default::default()
+    };
+    let g = PolyModel::new(p, 1.0).unwrap();
+    let u = gauss(61, 3000, 2, 1.0);
+    let y = g.simulate(&u, Some(&gauss(62, 3000, 1, 0.2))).unwrap();
+    let mut u_plant = u.clone();
+    u_plant.column_mut(0).iter_mut().for_each(|v| *v *= 100.0);
+    u_plant.column_mut(1).iter_mut().for_each(|v| *v *= 0.01);
+    let y_plant = y.map(|v| v + 5.0);
+    let data = Dataset::single_rate(1.0, u_plant, y_plant).unwrap();
+    let mut o = options(Method::Oe, &[2, 2, 1]);
+    o.identification.f_structure = Some(lifted_pem::FStructure::Common);
+    let id = identify(&[Record::new(data.clone())], &o).unwrap();
+    let d = &id.file.diagnostics;
+    assert_eq!(d["f_structure"], "common", "{d}");
+    assert_eq!(d["parameters"], 6, "{d}");
+    let m = id.details.polynomial.as_ref().unwrap();
+    assert_eq!(m.f(0, 0), m.f(0, 1));
+    let (theta, std) = (m.parameters(), m.std().unwrap());
+    // Data units: b of u₁ scaled by 1/100, of u₂ by 100.
+    let scale = [0.01, 0.01, 100.0, 100.0, 1.0, 1.0, 1.0, 1.0];
+    for (((a, b), s), k) in theta.iter().zip(g.parameters()).zip(&std).zip(scale) {
+        assert!((a - b * k).abs() < 4.5 * s, "{a} {} ± {s}", b * k);
+    }
+    assert_eq!(id.file.model.order(), 2);
+    let per_input = identify(
+        &[Record::new(data.clone())],
+        &options(Method::Oe, &[2, 2, 1]),
+    )
+    .unwrap();
+    assert_eq!(per_input.file.diagnostics["f_structure"], "per-input");
+    assert_eq!(per_input.file.diagnostics["parameters"], 8);
+    let mut arx = options(Method::Arx, &[2, 2, 1]);
+    arx.identification.f_structure = Some(lifted_pem::FStructure::Common);
+    let e = identify(&[Record::new(data)], &arx).unwrap_err();
+    assert!(e.to_string().contains("f_structure"), "{e}");
+}
+
+#[test]
 fn a_first_order_plus_dead_time_plant_through_the_process_route() {
     // K = 2 (data units: u × 10 → 0.2), τ = 20 s, θ = 7.3 s, T = 1 s,
     // random binary input held 5 s, 3000 samples, output noise σ 0.05
