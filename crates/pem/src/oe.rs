@@ -35,7 +35,10 @@
 //! bias where they are not. The start's ARX fit is then one MISO ARX
 //! [nf nb… 0] to the FIR model's whole simulation, and a third start
 //! refines the ARX start by Steiglitz–McBride passes where every output
-//! sample is measured ([`OeOptions::starts`]); the Jacobian's F columns
+//! sample is measured ([`OeOptions::starts`]). The common-F estimate in
+//! turn starts the per-input structure (it is nested there: F_k = F), so
+//! a per-input model never has a higher cost than the common-F one; the
+//! Jacobian's F columns
 //! are ∂ŷ/∂f_j = −(ŷ/F)(t − j). The model keeps one F per pair (each a
 //! copy of the common one) and the covariance is mapped onto those copies
 //! (Cov = E Σ Eᵀ, E repeating the F rows: perfectly correlated copies).
@@ -81,7 +84,9 @@ pub struct OeOptions {
     /// the FIR start with F = 1, the lower cost kept; 3 (the default), with
     /// a common F ([`FStructure::Common`]) on an output measured at every
     /// sample also the Steiglitz–McBride start (its ARX fits need every
-    /// sample; per-input F: as 2). The FIR-then-ARX start alone loses (the
+    /// sample), and with one F per input (several inputs of one nf) also
+    /// the common-F estimate, the optimum of the nested structure. The
+    /// FIR-then-ARX start alone loses (the
     /// iterations from the first end in a worse minimum on some records:
     /// benches/results/polynomial.md, "Polynomial methods on the real
     /// records beside SIPPY"). At least 1.
@@ -699,6 +704,82 @@ fn on_pairs(cov: &DMatrix<f64>, pairs: &Pairs) -> DMatrix<f64> {
     })
 }
 
+/// One run of the iterations: θ, cost, R₁₁, iterations.
+type Run = (Vec<f64>, f64, DMatrix<f64>, usize);
+
+/// The iterations of output `i` from each start of [`OeOptions::starts`],
+/// the lowest cost kept (its θ, cost and R₁₁; the iterations of every
+/// start summed). The starts: the FIR-then-ARX start; the plain FIR start
+/// (F = 1); with a common F on an output measured at every sample, the
+/// Steiglitz–McBride start; with one F per input, n_u ≥ 2 inputs of one
+/// nf, the common-F estimate (the nested structure's optimum: the
+/// per-input cost from it is never above the common-F cost).
+fn fit_output(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    pairs: &Pairs,
+    measured: usize,
+    opts: &OeOptions,
+) -> Result<Run> {
+    let (theta0, plain) = start(experiments, i, pairs, measured, opts)?;
+    let problem = OutputError {
+        experiments,
+        i,
+        pairs,
+    };
+    let run = |r: &Rational| {
+        minimise(
+            &problem,
+            pack(r, pairs),
+            opts.max_iterations,
+            opts.tolerance,
+        )
+    };
+    let mut best = run(&theta0)?;
+    let mut its = best.3;
+    let mut others: Vec<Result<Run>> = Vec::new();
+    if opts.starts >= 2 && plain != theta0 {
+        others.push(run(&plain));
+    }
+    if opts.starts >= 3 {
+        if pairs.common {
+            if pairs.common_nf() > 0
+                && let Some(sm) = steiglitz_mcbride(experiments, i, pairs, &theta0)
+            {
+                others.push(run(&sm));
+            }
+        } else if let Some(nested) = nested_common(pairs)
+            && let Ok((t, _, _, nested_its)) = fit_output(experiments, i, &nested, measured, opts)
+        {
+            its += nested_its;
+            others.push(run(&unpack(&t, &nested)));
+        }
+    }
+    for r in others.into_iter().flatten() {
+        its += r.3;
+        if r.1 < best.1 {
+            best = r;
+        }
+    }
+    best.3 = its;
+    Ok(best)
+}
+
+/// The common-F structure nested in a per-input one: `Some` when at
+/// least two inputs have a B and they all have the same nf > 0.
+fn nested_common(pairs: &Pairs) -> Option<Pairs> {
+    let active: Vec<usize> = (0..pairs.nb.len()).filter(|&k| pairs.nb[k] > 0).collect();
+    let nf = pairs.nf[*active.first()?];
+    let nestable = active.len() >= 2
+        && nf > 0
+        && active.iter().all(|&k| pairs.nf[k] == nf)
+        && (0..pairs.nb.len()).all(|k| pairs.nb[k] > 0 || pairs.nf[k] == 0);
+    nestable.then(|| Pairs {
+        common: true,
+        ..pairs.clone()
+    })
+}
+
 /// Output-error model of structure `orders` (n_y × n_u nb, nf, nk; every
 /// na, nc, nd 0) on the records, sample period `ts`, with the parameter
 /// covariance. y may hold NaN where an output was not measured (a
@@ -763,50 +844,7 @@ pub fn oe(
                 needed: d + 1,
             });
         }
-        let (theta0, plain) = start(experiments, i, &pairs, measured, opts)?;
-        let problem = OutputError {
-            experiments,
-            i,
-            pairs: &pairs,
-        };
-        let (mut theta, mut cost, mut r11, mut its) = minimise(
-            &problem,
-            pack(&theta0, &pairs),
-            opts.max_iterations,
-            opts.tolerance,
-        )?;
-        // The second start (module docs): the lower cost kept.
-        if opts.starts >= 2
-            && plain != theta0
-            && let Ok((t2, c2, r2, i2)) = minimise(
-                &problem,
-                pack(&plain, &pairs),
-                opts.max_iterations,
-                opts.tolerance,
-            )
-        {
-            if c2 < cost {
-                (theta, cost, r11) = (t2, c2, r2);
-            }
-            its += i2;
-        }
-        // The third (a common F, every sample measured): Steiglitz–McBride.
-        if opts.starts >= 3
-            && pairs.common
-            && pairs.common_nf() > 0
-            && let Some(sm) = steiglitz_mcbride(experiments, i, &pairs, &theta0)
-            && let Ok((t3, c3, r3, i3)) = minimise(
-                &problem,
-                pack(&sm, &pairs),
-                opts.max_iterations,
-                opts.tolerance,
-            )
-        {
-            if c3 < cost {
-                (theta, cost, r11) = (t3, c3, r3);
-            }
-            its += i3;
-        }
+        let (theta, cost, r11, its) = fit_output(experiments, i, &pairs, measured, opts)?;
         let theta = unpack(&theta, &pairs);
         let lambda = cost / (measured - d) as f64;
         let inv =

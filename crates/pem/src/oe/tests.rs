@@ -405,3 +405,54 @@ fn the_steiglitz_mcbride_start_of_a_common_denominator() {
         "the third start never helped on {cases} records"
     );
 }
+
+#[test]
+fn the_per_input_fit_starts_from_the_common_one() {
+    // The common-F structure is nested in the per-input one (F₁ = F₂ = F),
+    // so from its optimum the per-input cost can only fall: on short
+    // records of the two-denominator plant, the per-input loss is never
+    // above the common-F loss nor above its own without that start
+    // (starts = 2), and lower than the latter on some records.
+    let p = Polynomials {
+        b: vec![vec![vec![1.0, 0.5], vec![0.4, 0.3]]],
+        f: Some(vec![vec![vec![1.0, -0.8, 0.1], vec![1.0, -1.1, 0.4]]]),
+        nk: vec![vec![1, 1]],
+        ..Default::default()
+    };
+    let g = PolyModel::new(p, 1.0).unwrap();
+    let orders = g.orders();
+    let (mut lower, mut cases) = (0, 0);
+    for seed in 0..40 {
+        let u = gauss(600 + seed, 80, 2, 1.0);
+        let y = g
+            .simulate(&u, Some(&gauss(700 + seed, 80, 1, 1.0)))
+            .unwrap();
+        let run = |starts: usize, f_structure: FStructure| {
+            let opts = OeOptions {
+                starts,
+                f_structure,
+                ..Default::default()
+            };
+            oe(&[Experiment { u: &u, y: &y }], &orders, 1.0, &opts).map(|f| f.loss[0])
+        };
+        let (Ok(two), Ok(three), Ok(common)) = (
+            run(2, FStructure::PerInput),
+            run(3, FStructure::PerInput),
+            run(3, FStructure::Common),
+        ) else {
+            continue;
+        };
+        cases += 1;
+        assert!(three <= two * (1.0 + 1e-12), "seed {seed}: {three} > {two}");
+        assert!(
+            three <= common * (1.0 + 1e-12),
+            "seed {seed}: {three} > {common}"
+        );
+        lower += usize::from(three < two * (1.0 - 1e-9));
+    }
+    assert!(cases >= 10, "{cases}");
+    assert!(
+        lower >= 1,
+        "the nested start never helped on {cases} records"
+    );
+}
