@@ -540,28 +540,35 @@ fn common_start(
         }
     }
     let ym = DMatrix::from_column_slice(n, 1, &y);
+    common_arx(
+        &[Experiment {
+            u: &delayed,
+            y: &ym,
+        }],
+        pairs,
+        active,
+    )
+}
+
+/// The MISO ARX [nf nb… 0] F y = Σ_k B_k u_k + e of a common F by least
+/// squares on `records` (their inputs the active inputs, already delayed),
+/// as per-input (b, f) with every f the ARX's F; `None` when the fit fails
+/// or its F is unstable. O(N d²).
+fn common_arx(records: &[Experiment<'_>], pairs: &Pairs, active: &[usize]) -> Option<Rational> {
     let width = active.len();
     let orders = PolyOrders {
-        na: vec![vec![nf]],
+        na: vec![vec![pairs.common_nf()]],
         nb: vec![active.iter().map(|&k| pairs.nb[k]).collect()],
         nc: vec![0],
         nd: vec![0],
         nf: vec![vec![0; width]],
         nk: vec![vec![0; width]],
     };
-    let fit = crate::arx(
-        &[Experiment {
-            u: &delayed,
-            y: &ym,
-        }],
-        &orders,
-        1.0,
-        &crate::ArxOptions {
-            threads: 1,
-            ..Default::default()
-        },
-    )
-    .ok()?;
+    let opts = crate::ArxOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    let fit = crate::arx(records, &orders, 1.0, &opts).ok()?;
     let a = fit.model.a(0, 0)[1..].to_vec();
     if !stable(&a) {
         return None;
@@ -601,21 +608,9 @@ fn steiglitz_mcbride(
         return None;
     }
     let active: Vec<usize> = (0..pairs.nb.len()).filter(|&k| pairs.nb[k] > 0).collect();
-    let nf = pairs.common_nf();
-    let mut f = from.get(*active.first()?)?.1.clone();
+    let first = *active.first()?;
+    let mut f = from.get(first)?.1.clone();
     let width = active.len();
-    let orders = PolyOrders {
-        na: vec![vec![nf]],
-        nb: vec![active.iter().map(|&k| pairs.nb[k]).collect()],
-        nc: vec![0],
-        nd: vec![0],
-        nf: vec![vec![0; width]],
-        nk: vec![vec![0; width]],
-    };
-    let opts = crate::ArxOptions {
-        threads: 1,
-        ..Default::default()
-    };
     let mut best: Option<Rational> = None;
     let mut buf = Vec::new();
     for _ in 0..SM_PASSES {
@@ -634,25 +629,18 @@ fn steiglitz_mcbride(
         }
         let records: Vec<Experiment<'_>> =
             filtered.iter().map(|(u, y)| Experiment { u, y }).collect();
-        let Ok(fit) = crate::arx(&records, &orders, 1.0, &opts) else {
+        let Some(next) = common_arx(&records, pairs, &active) else {
             break;
         };
-        let next = fit.model.a(0, 0)[1..].to_vec();
-        if !stable(&next) {
-            break;
-        }
-        let moved = next
+        let g = next[first].1.clone();
+        let moved = g
             .iter()
             .zip(&f)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        let size = 1.0 + next.iter().map(|v| v.abs()).fold(0.0, f64::max);
-        let mut out: Rational = vec![(Vec::new(), Vec::new()); pairs.nb.len()];
-        for (slot, &k) in active.iter().enumerate() {
-            out[k] = (fit.model.b(0, slot).to_vec(), next.clone());
-        }
-        best = Some(out);
-        f = next;
+        let size = 1.0 + g.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        best = Some(next);
+        f = g;
         if moved < 1e-9 * size {
             break;
         }
