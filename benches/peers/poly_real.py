@@ -16,8 +16,8 @@ theta = 0): ARX [n n 1], ARMAX [n n n 1], OE [n n 1], BJ [n n n n 1], for
 n in --orders. lifted: `lifted.arx / armax / oe / bj` (the Python package of
 this tree: MIMO ARX, and per-output MISO ARMAX (one A per output), OE and BJ
 (one F per input-output pair, MATLAB's structure; SIPPY's has one F per
-output); ``--oe-common`` adds lifted's OE with one F per output, SIPPY's OE
-structure; ``--a-structure diagonal``: lifted's
+output); ``--oe-common`` / ``--bj-common`` add lifted's OE / BJ with one F
+per output, SIPPY's structure; ``--a-structure diagonal``: lifted's
 MIMO ARX with A diagonal, SIPPY's structure); SIPPY: `system_identification` with
 the same orders (ARMAX and OE in their OPT mode, SIPPY's prediction-error
 optimisation; ARX by least squares), each fit capped at --cap seconds.
@@ -73,8 +73,8 @@ def lifted_model(family: str, n: int, u: np.ndarray, y: np.ndarray):
         extra = {"a_structure": A_STRUCTURE}
     elif family == "armax-full":
         family, extra = "armax", {"a_structure": "full"}
-    elif family == "oe-common":
-        family, extra = "oe", {"f_structure": "common"}
+    elif family in ("oe-common", "bj-common"):
+        family, extra = family[:2], {"f_structure": "common"}
     fit = getattr(lifted, family)(u, y, orders_of(family, n), **extra)
     m = fit.model
     return tuple(np.atleast_2d(np.asarray(x, dtype=float)) for x in (m.A, m.B, m.C, m.D))
@@ -211,6 +211,8 @@ def main() -> None:
                     help="also lifted's ARMAX with a coupled A (a_structure='full') on records of several outputs")
     ap.add_argument("--oe-common", action="store_true",
                     help="also lifted's OE with one F per output (f_structure='common', SIPPY's structure) on records of several inputs")
+    ap.add_argument("--bj-common", action="store_true",
+                    help="also lifted's BJ with one F per output (f_structure='common', SIPPY's structure) on records of several inputs")
     ap.add_argument("--json")
     args = ap.parse_args()
     global A_STRUCTURE
@@ -235,6 +237,8 @@ def main() -> None:
                     row["lifted_full"] = run("lifted", "armax-full", n, ue, ye, uv, yv, args.cap)
                 if fam == "oe" and args.oe_common and ue.shape[1] > 1:
                     row["lifted_common"] = run("lifted", "oe-common", n, ue, ye, uv, yv, args.cap)
+                if fam == "bj" and args.bj_common and ue.shape[1] > 1:
+                    row["lifted_common"] = run("lifted", "bj-common", n, ue, ye, uv, yv, args.cap)
                 rows.append(row)
                 print(json.dumps({k: row[k] for k in ("record", "family", "n")}
                                  | {t: cell(row[t]) for t in ("lifted", "sippy", "sysidentpy", "lifted_full", "lifted_common")

@@ -519,7 +519,7 @@ pub enum AStructureArg {
     Diagonal,
 }
 
-/// The denominators of an OE model (`--f-structure`).
+/// The denominators of an OE or BJ model (`--f-structure`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum FStructureArg {
     /// One F per input–output pair (MATLAB's oe).
@@ -649,9 +649,10 @@ pub struct IdentifyArgs {
     /// na = n·eye(ny); ARMAX's default).
     #[arg(long, value_enum)]
     pub a_structure: Option<AStructureArg>,
-    /// OE: the denominators: per-input (one F per input–output pair, MATLAB's oe; the default)
-    /// or common (one F per output shared by its inputs' terms, y = (B1 u1 + … + Bm um)/F:
-    /// SIPPY's OE, fewer parameters where the inputs see the same modes). Multirate records too.
+    /// OE and BJ: the denominators: per-input (one F per input–output pair, MATLAB's oe and bj;
+    /// the default) or common (one F per output shared by its inputs' terms, y = (B1 u1 + … +
+    /// Bm um)/F + noise: SIPPY's OE and BJ, fewer parameters where the inputs see the same
+    /// modes). Multirate records too.
     #[arg(long, value_enum)]
     pub f_structure: Option<FStructureArg>,
     /// Largest order considered by `auto` (single-rate N4SID/MOESP/CVA: lowered, with a warning,

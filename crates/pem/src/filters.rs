@@ -139,6 +139,70 @@ pub(crate) trait Residuals {
     fn admissible(&self, theta: &[f64]) -> bool;
 }
 
+/// A problem whose parameters are tied: the inner problem's θ is
+/// (θ_c[source[0]], θ_c[source[1]], …) — a common F copied to every input
+/// (`crate::FStructure::Common`). Its Jacobian is J E (E the 0/1 matrix
+/// of `source`), so the R factor of [J E | ε] is that of [R E | r], R the
+/// inner problem's factor of [J | ε]: its rows folded again, O(d² d_c).
+pub(crate) struct Tied<'a, P> {
+    /// The problem on the untied parameters.
+    pub inner: &'a P,
+    /// For each inner parameter, its tied parameter.
+    pub source: Vec<usize>,
+    /// Tied parameters.
+    pub free: usize,
+}
+
+impl<P> Tied<'_, P> {
+    /// The inner problem's θ of tied parameters `theta`.
+    pub(crate) fn expand(&self, theta: &[f64]) -> Vec<f64> {
+        self.source.iter().map(|&j| theta[j]).collect()
+    }
+
+    /// The tied parameters of an inner θ (each from the first inner
+    /// parameter tied to it).
+    pub(crate) fn tie(&self, full: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.free];
+        for (k, &j) in self.source.iter().enumerate().rev() {
+            out[j] = full[k];
+        }
+        out
+    }
+}
+
+impl<P: Residuals> Residuals for Tied<'_, P> {
+    fn evaluate(&self, theta: &[f64], jacobian: bool) -> Result<(f64, Option<DMatrix<f64>>)> {
+        let (cost, r) = self.inner.evaluate(&self.expand(theta), jacobian)?;
+        let Some(r) = r else {
+            return Ok((cost, None));
+        };
+        let d = self.source.len();
+        let mut fold = RowFolder::new(self.free + 1);
+        let mut row = vec![0.0; self.free + 1];
+        for i in 0..r.nrows() {
+            row.iter_mut().for_each(|v| *v = 0.0);
+            for (k, &j) in self.source.iter().enumerate() {
+                row[j] += r[(i, k)];
+            }
+            row[self.free] = r[(i, d)];
+            fold.push(row.iter().copied())?;
+        }
+        Ok((cost, Some(fold.finish()?)))
+    }
+
+    fn admissible(&self, theta: &[f64]) -> bool {
+        self.inner.admissible(&self.expand(theta))
+    }
+}
+
+/// The covariance of tied parameters on the untied ones: E Σ Eᵀ (entry
+/// (k, l) = Σ[source[k], source[l]]; the copies perfectly correlated).
+pub(crate) fn untied_covariance(cov: &DMatrix<f64>, source: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(source.len(), source.len(), |r, c| {
+        cov[(source[r], source[c])]
+    })
+}
+
 /// `Err` naming `what` unless [`minimise`]'s limits are usable: at least
 /// one iteration and a positive finite tolerance.
 pub(crate) fn check_iterations(

@@ -201,23 +201,31 @@ fn check(
             });
         }
         if f_structure == FStructure::Common {
-            let with_b: Vec<usize> = (0..row.len())
-                .filter(|&k| row[k] > 0)
-                .map(|k| orders.nf[i][k])
-                .collect();
-            let without_b = (0..row.len()).any(|k| row[k] == 0 && orders.nf[i][k] > 0);
-            if with_b.windows(2).any(|w| w[0] != w[1]) || without_b {
-                return Err(Error::InvalidOption {
-                    what: "orders",
-                    reason: format!(
-                        "a common F needs the same nf for every input of output {i} with a B (and nf = 0 where nb = 0); got nf {:?}",
-                        orders.nf[i]
-                    ),
-                });
-            }
+            check_common_f(orders, i)?;
         }
     }
     Ok(dims)
+}
+
+/// Output `i`'s orders admit one F shared by its input terms: the same nf
+/// for every input with a B, nf = 0 where nb = 0.
+pub(crate) fn check_common_f(orders: &PolyOrders, i: usize) -> Result<()> {
+    let row = &orders.nb[i];
+    let with_b: Vec<usize> = (0..row.len())
+        .filter(|&k| row[k] > 0)
+        .map(|k| orders.nf[i][k])
+        .collect();
+    let without_b = (0..row.len()).any(|k| row[k] == 0 && orders.nf[i][k] > 0);
+    if with_b.windows(2).any(|w| w[0] != w[1]) || without_b {
+        return Err(Error::InvalidOption {
+            what: "orders",
+            reason: format!(
+                "a common F needs the same nf for every input of output {i} with a B (and nf = 0 where nb = 0); got nf {:?}",
+                orders.nf[i]
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// The simulated output ŷ_i = Σ_k (B_k/F_k) u_k and, with `jacobian`, the
@@ -687,9 +695,7 @@ fn on_pairs(cov: &DMatrix<f64>, pairs: &Pairs) -> DMatrix<f64> {
             source.extend(nb..nb + nf);
         }
     }
-    DMatrix::from_fn(source.len(), source.len(), |r, c| {
-        cov[(source[r], source[c])]
-    })
+    crate::filters::untied_covariance(cov, &source)
 }
 
 /// One run of the iterations: θ, cost, R₁₁, iterations.

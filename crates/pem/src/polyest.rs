@@ -32,6 +32,15 @@
 //! inputs of both stages, delayed one sample); Box–Jenkins from the output-error model
 //! ([`crate::oe`]) and an ARMA (C, D) fitted the same way to its residuals.
 //!
+//! **A common F.** With [`PolyestOptions::f_structure`]
+//! [`crate::FStructure::Common`] an output's input terms share one F
+//! (SIPPY's BJ; y = (1/F) Σ B_k u_k + (C/D) e): the iterations run on the
+//! free parameters with the copies of F tied (`filters::Tied`: the
+//! Jacobian J E, E repeating F's columns, its R factor that of [R E | r]
+//! from the untied problem's R — no second Jacobian code), the start's
+//! B/F from the common-F OE model; the model keeps a copy of F per input
+//! and the covariance E Σ Eᵀ.
+//!
 //! **Closed loop.** The prediction-error method is consistent in closed
 //! loop when the model set holds the true plant and noise model (the
 //! direct method, Ljung 1999, §13.4): ARMAX and BJ are the structures for
@@ -68,6 +77,7 @@ use crate::filters::{
 
 /// Options of [`polyest`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct PolyestOptions {
     /// Largest number of Levenberg–Marquardt iterations per output
     /// (default 100).
@@ -76,6 +86,10 @@ pub struct PolyestOptions {
     /// fraction (default 1e-10), or the step is below its square root
     /// relative to θ.
     pub tolerance: f64,
+    /// The F polynomials: one per input–output pair (the default,
+    /// MATLAB's `bj`/`polyest`) or one per output shared by its input
+    /// terms (SIPPY's BJ; [`crate::FStructure`], module docs).
+    pub f_structure: crate::FStructure,
 }
 
 impl Default for PolyestOptions {
@@ -83,6 +97,7 @@ impl Default for PolyestOptions {
         PolyestOptions {
             max_iterations: 100,
             tolerance: 1e-10,
+            f_structure: crate::FStructure::PerInput,
         }
     }
 }
@@ -100,6 +115,9 @@ pub struct PolyestFit {
     pub fit: Vec<f64>,
     /// Samples per output the cost was taken on (its measured samples).
     pub measured: Vec<usize>,
+    /// Free parameters per output (a common F counted once; the model's
+    /// [`PolyModel::n_parameters`] counts its copies).
+    pub parameters: Vec<usize>,
     /// Iterations run per output.
     pub iterations: Vec<usize>,
 }
@@ -403,7 +421,13 @@ fn long_arx_residuals(
 }
 
 /// The start of output `i` (module docs).
-fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> Result<Output> {
+fn start(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    shape: &Output,
+    ts: f64,
+    oe: &crate::OeOptions,
+) -> Result<Output> {
     let (na, nc, nd) = (shape.a[i].len(), shape.c.len(), shape.d.len());
     let nb: Vec<usize> = shape.b.iter().map(Vec::len).collect();
     let nf: Vec<usize> = shape.f.iter().map(Vec::len).collect();
@@ -462,7 +486,7 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
         nf: vec![nf.clone()],
         nk: vec![shape.nk.clone()],
     };
-    let Ok(g) = crate::oe(&exps, &oe_orders, ts, &crate::OeOptions::default()) else {
+    let Ok(g) = crate::oe(&exps, &oe_orders, ts, oe) else {
         return Ok(p);
     };
     for k in 0..nu {
@@ -514,7 +538,10 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
 /// variance, Σ ε², the samples the cost was taken on, the iterations.
 struct OutputEstimate {
     p: Output,
+    /// Of the free parameters (a common F once).
     r11: DMatrix<f64>,
+    /// A common F: the free parameter of each of θ's entries.
+    source: Option<Vec<usize>>,
     scale: f64,
     lambda: f64,
     plain: f64,
@@ -533,7 +560,8 @@ fn estimate_measured(
     ts: f64,
     opts: &PolyestOptions,
 ) -> Result<OutputEstimate> {
-    let d = shape.pack().len();
+    let tied = tied_source(shape, opts.f_structure);
+    let d = tied.as_ref().map_or(shape.pack().len(), |t| t.1);
     let problem = measured::MeasuredPredictionError {
         experiments,
         i,
@@ -553,9 +581,8 @@ fn estimate_measured(
     // From every start, the lowest cost kept; iterations summed.
     let mut best: Option<(Vec<f64>, f64, DMatrix<f64>)> = None;
     let mut iterations = 0;
-    for p0 in measured::starts(experiments, i, shape, ts)? {
-        let (theta, cost, r11, its) =
-            minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
+    for p0 in measured::starts(experiments, i, shape, ts, &oe_options(opts))? {
+        let (theta, cost, r11, its) = minimise_tied(&problem, tied.as_ref(), p0.pack(), opts)?;
         iterations += its;
         if best.as_ref().is_none_or(|b| cost < b.1) {
             best = Some((theta, cost, r11));
@@ -567,6 +594,7 @@ fn estimate_measured(
     Ok(OutputEstimate {
         p: shape.with(&theta),
         r11,
+        source: tied.map(|t| t.0),
         scale: cost / dof,
         lambda: weighted / dof,
         plain,
@@ -623,7 +651,8 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
 ///
 /// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`];
 /// [`Error::InvalidOption`] for an F without B, A with both D and F, a
-/// coupled A on an output with unmeasured samples; [`Error::NonFinite`]
+/// coupled A on an output with unmeasured samples, a common F
+/// ([`PolyestOptions::f_structure`]) without F or with unequal nf; [`Error::NonFinite`]
 /// for NaN/inf in u or an infinite y; [`Error::TooFewSamples`] (measured
 /// samples per output); [`Error::RankDeficient`] for inputs that do not
 /// excite the start.
@@ -635,6 +664,19 @@ pub fn polyest(
 ) -> Result<PolyestFit> {
     let (nu, ny) = check(experiments, orders)?;
     check_iterations(opts.max_iterations, opts.tolerance, "iterations")?;
+    if opts.f_structure == crate::FStructure::Common {
+        for i in 0..ny {
+            if orders.nf[i].iter().all(|&f| f == 0) {
+                return Err(Error::InvalidOption {
+                    what: "f_structure",
+                    reason: format!(
+                        "a common F needs F polynomials (Box–Jenkins or OE orders); output {i} has none"
+                    ),
+                });
+            }
+            crate::oe::check_common_f(orders, i)?;
+        }
+    }
     let samples: usize = experiments.iter().map(|e| e.u.nrows()).sum();
     // The orders size every allocation below: refused before any is made
     // when an output has no fewer parameters than samples (saturating sums).
@@ -668,6 +710,7 @@ pub fn polyest(
     let mut lambdas = Vec::new();
     let (mut loss, mut fit, mut iterations) = (Vec::new(), Vec::new(), Vec::new());
     let mut measured_counts = Vec::new();
+    let mut free_parameters = Vec::new();
     for i in 0..ny {
         let shape = Output {
             a: orders.na[i].iter().map(|&n| vec![0.0; n]).collect(),
@@ -688,18 +731,20 @@ pub fn polyest(
         let est = if measured::has_missing(experiments, i) {
             estimate_measured(experiments, i, &shape, ts, opts)?
         } else {
-            let p0 = start(experiments, i, &shape, ts)?;
+            let p0 = start(experiments, i, &shape, ts, &oe_options(opts))?;
             let problem = PredictionError {
                 experiments,
                 i,
                 shape: &p0,
             };
-            let (theta, cost, r11, its) =
-                minimise(&problem, p0.pack(), opts.max_iterations, opts.tolerance)?;
-            let lambda = cost / (samples - d) as f64;
+            let tied = tied_source(&shape, opts.f_structure);
+            let (theta, cost, r11, its) = minimise_tied(&problem, tied.as_ref(), p0.pack(), opts)?;
+            let free = tied.as_ref().map_or(d, |t| t.1);
+            let lambda = cost / (samples - free) as f64;
             OutputEstimate {
                 p: p0.with(&theta),
                 r11,
+                source: tied.map(|t| t.0),
                 scale: lambda,
                 lambda,
                 plain: cost,
@@ -708,15 +753,21 @@ pub fn polyest(
             }
         };
         let p = est.p;
+        let free = est.r11.nrows();
         let inv = est
             .r11
-            .solve_upper_triangular(&DMatrix::identity(d, d))
+            .solve_upper_triangular(&DMatrix::identity(free, free))
             .ok_or(Error::RankDeficient {
                 what: "the prediction-error Jacobian at the estimate",
                 rank: 0,
-                needed: d,
+                needed: free,
             })?;
-        blocks.push(&inv * inv.transpose() * est.scale);
+        let block = &inv * inv.transpose() * est.scale;
+        blocks.push(match &est.source {
+            Some(source) => crate::filters::untied_covariance(&block, source),
+            None => block,
+        });
+        free_parameters.push(free);
         lambdas.push(est.lambda);
         let monic = |v: &[f64]| {
             let mut m = vec![1.0];
@@ -788,7 +839,58 @@ pub fn polyest(
         fit,
         measured: measured_counts,
         iterations,
+        parameters: free_parameters,
     })
+}
+
+/// The OE options of the B/F starts: the structure's F.
+fn oe_options(opts: &PolyestOptions) -> crate::OeOptions {
+    crate::OeOptions {
+        f_structure: opts.f_structure,
+        ..Default::default()
+    }
+}
+
+/// With a common F, the free parameter of each entry of the output's θ
+/// (a, B's, c, d, F's: the copies of F tied to one) and the free count.
+fn tied_source(shape: &Output, f_structure: crate::FStructure) -> Option<(Vec<usize>, usize)> {
+    if f_structure != crate::FStructure::Common {
+        return None;
+    }
+    let base = shape.a.iter().map(Vec::len).sum::<usize>()
+        + shape.b.iter().map(Vec::len).sum::<usize>()
+        + shape.c.len()
+        + shape.d.len();
+    let nf = shape.f.iter().map(Vec::len).max().unwrap_or(0);
+    let mut source: Vec<usize> = (0..base).collect();
+    for f in &shape.f {
+        if !f.is_empty() {
+            source.extend(base..base + nf);
+        }
+    }
+    Some((source, base + nf))
+}
+
+/// [`minimise`] from the untied `theta0`, with a common F's copies tied
+/// ([`crate::filters::Tied`]) when `tied` is given: the untied θ at the
+/// optimum, its cost, R₁₁ of the free parameters, the iterations.
+fn minimise_tied<P: Residuals>(
+    problem: &P,
+    tied: Option<&(Vec<usize>, usize)>,
+    theta0: Vec<f64>,
+    opts: &PolyestOptions,
+) -> Result<(Vec<f64>, f64, DMatrix<f64>, usize)> {
+    let Some((source, free)) = tied else {
+        return minimise(problem, theta0, opts.max_iterations, opts.tolerance);
+    };
+    let t = crate::filters::Tied {
+        inner: problem,
+        source: source.clone(),
+        free: *free,
+    };
+    let (theta, cost, r11, its) =
+        minimise(&t, t.tie(&theta0), opts.max_iterations, opts.tolerance)?;
+    Ok((t.expand(&theta), cost, r11, its))
 }
 
 /// ARMAX [na nb nc nk] (the same for every input–output pair, A diagonal):

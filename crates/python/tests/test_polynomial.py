@@ -590,8 +590,8 @@ def test_oe_with_a_common_denominator() -> None:
     """lifted.oe(..., f_structure="common"): one F shared by both inputs'
     terms, y = (B1 u1 + B2 u2)/F + e (SIPPY's OE structure) — the copies
     of F equal, 3 free parameters against 4, the truth within 4.5 sigma;
-    also from the output measured every 3rd sample (NaN between); ARX
-    refuses the option by name."""
+    also from the output measured every 3rd sample (NaN between); BJ takes
+    it too; ARX refuses the option by name."""
     rng = np.random.default_rng(33)
     n = 3000
     u = rng.standard_normal((n, 2))
@@ -610,5 +610,10 @@ def test_oe_with_a_common_denominator() -> None:
         assert np.all(np.abs(p - truth) < 4.5 * s), (p, s)
     per_input = lifted.oe(u, y, [1, 1, 1])
     assert per_input.diagnostics["parameters"] == 4
+    bj = lifted.bj(u, y, [1, 1, 1, 1, 1], f_structure="common")
+    assert bj.diagnostics["f_structure"] == "common"
+    assert bj.diagnostics["parameters"] == 5
+    assert bj.parameters is not None
+    assert bj.parameters[-1] == bj.parameters[-2]
     with pytest.raises(lifted.LiftedError, match="f_structure"):
         lifted.identify(u, y, "arx", orders=[1, 1, 1], f_structure="common")

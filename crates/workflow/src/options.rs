@@ -520,11 +520,12 @@ pub struct IdentificationOptions {
     /// output). Other methods: not used (an error when given).
     #[serde(default)]
     pub a_structure: Option<lifted_pem::AStructure>,
-    /// OE: one F per input–output pair (`None`, MATLAB's `oe`) or one per
-    /// output shared by its input terms (`Common`: SIPPY's OE, a MISO
-    /// transfer function with a common denominator; fewer parameters where
-    /// the inputs see the same modes; `lifted_pem::FStructure`). Other
-    /// methods: not used (an error when given).
+    /// OE and BJ: one F per input–output pair (`None`, MATLAB's `oe` and
+    /// `bj`) or one per output shared by its input terms (`Common`: SIPPY's
+    /// OE and BJ, a MISO transfer function with a common denominator;
+    /// fewer parameters where the inputs see the same modes;
+    /// `lifted_pem::FStructure`). Other methods: not used (an error when
+    /// given).
     #[serde(default)]
     pub f_structure: Option<lifted_pem::FStructure>,
     /// Process models: the structure (P1D, P2D, P1DI, P2DZ, P2DU; default
@@ -954,10 +955,10 @@ impl WorkflowOptions {
                 "only used with the arx and armax methods (the pattern of their A matrix)",
             ));
         }
-        if id.f_structure.is_some() && id.method != Method::Oe {
+        if id.f_structure.is_some() && !matches!(id.method, Method::Oe | Method::Bj) {
             return Err(Error::option(
                 "f_structure",
-                "only used with the oe method (one F per input or one per output)",
+                "only used with the oe and bj methods (one F per input or one per output)",
             ));
         }
         if id.intersample.is_some() && id.method != Method::Process {

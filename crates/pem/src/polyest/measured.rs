@@ -610,8 +610,9 @@ pub(super) fn starts(
     i: usize,
     shape: &Output,
     ts: f64,
+    oe: &crate::OeOptions,
 ) -> Result<Vec<Output>> {
-    let mut out = vec![start(experiments, i, shape, ts)?];
+    let mut out = vec![start(experiments, i, shape, ts, oe)?];
     if let Some(p) = interpolated_start(experiments, i, shape) {
         let p = with_noise_start(experiments, i, p);
         if p.admissible() && !out.contains(&p) {
@@ -739,7 +740,13 @@ fn interpolated_start(experiments: &[Experiment<'_>], i: usize, shape: &Output) 
 }
 
 /// The output-error start of [`starts`] (its item 1).
-fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> Result<Output> {
+fn start(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    shape: &Output,
+    ts: f64,
+    oe: &crate::OeOptions,
+) -> Result<Output> {
     let na = shape.a[i].len();
     let nb: Vec<usize> = shape.b.iter().map(Vec::len).collect();
     let nf: Vec<usize> = shape.f.iter().map(Vec::len).collect();
@@ -760,7 +767,7 @@ fn start(experiments: &[Experiment<'_>], i: usize, shape: &Output, ts: f64) -> R
         nk: vec![shape.nk.clone()],
     };
     let mut p = shape.clone();
-    if let Ok(g) = crate::oe(&exps, &oe_orders, ts, &crate::OeOptions::default()) {
+    if let Ok(g) = crate::oe(&exps, &oe_orders, ts, oe) {
         for k in 0..nu {
             p.b[k] = g.model.b(0, k).to_vec();
             if !armax {

@@ -543,3 +543,96 @@ fn multirate_bj_intervals_hold_the_plant_in_95_percent_of_the_runs() {
     );
     assert!(noise_share >= 0.85, "noise coverage {noise_share}");
 }
+
+/// y = (1/F)[q⁻¹(1 + 0.5q⁻¹) u₁ + q⁻¹(0.4 − 0.2q⁻¹) u₂] + (1 + 0.4q⁻¹)/(1 − 0.8q⁻¹) e,
+/// one F = 1 − 1.3q⁻¹ + 0.6q⁻² for both inputs (SIPPY's BJ structure).
+fn common_bj_truth() -> PolyModel {
+    let f = vec![1.0, -1.3, 0.6];
+    let p = lifted_lti::Polynomials {
+        b: vec![vec![vec![1.0, 0.5], vec![0.4, -0.2]]],
+        c: Some(vec![vec![1.0, 0.4]]),
+        d: Some(vec![vec![1.0, -0.8]]),
+        f: Some(vec![vec![f.clone(), f]]),
+        nk: vec![vec![1, 1]],
+        ..Default::default()
+    };
+    PolyModel::new(p, 1.0).unwrap()
+}
+
+fn common() -> PolyestOptions {
+    PolyestOptions {
+        f_structure: crate::FStructure::Common,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn box_jenkins_with_a_common_denominator() {
+    // Full rate and every 3rd output sample: the model within 4.5σ, the
+    // copies of F equal, 8 free parameters (per input: 10); an ARMAX
+    // (no F) and unequal nf refuse the option by name.
+    let g = common_bj_truth();
+    let u = gauss(71, 6000, 2, 1.0);
+    let y = g.simulate(&u, Some(&gauss(72, 6000, 1, 0.2))).unwrap();
+    for y in [y.clone(), thinned(&y, 3, 0)] {
+        let f = polyest(&[Experiment { u: &u, y: &y }], &g.orders(), 1.0, &common()).unwrap();
+        assert_eq!(f.parameters, vec![8]);
+        let m = &f.model;
+        assert_eq!(m.f(0, 0), m.f(0, 1));
+        within(&f, &g, 4.5);
+    }
+    let armax_orders = PolyOrders {
+        na: vec![vec![2]],
+        nb: vec![vec![2, 2]],
+        nc: vec![1],
+        nd: vec![0],
+        nf: vec![vec![0, 0]],
+        nk: vec![vec![1, 1]],
+    };
+    let e = polyest(
+        &[Experiment { u: &u, y: &y }],
+        &armax_orders,
+        1.0,
+        &common(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("common F"), "{e}");
+    let mut unequal = g.orders();
+    unequal.nf[0][1] = 1;
+    let e = polyest(&[Experiment { u: &u, y: &y }], &unequal, 1.0, &common()).unwrap_err();
+    assert!(e.to_string().contains("common F"), "{e}");
+}
+
+#[test]
+fn tied_parameters_give_the_output_error_estimate() {
+    // The general structure with C = D = 1 and a common F is the OE model
+    // with a common F; its prediction error is the simulation error. The
+    // tied prediction-error problem (`filters::Tied`: the inner R folded
+    // onto the free parameters) and `oe`'s own common-F Jacobian reach
+    // the same estimate and the same covariance.
+    let g = common_bj_truth();
+    let u = gauss(73, 3000, 2, 1.0);
+    let y = g.simulate(&u, Some(&gauss(74, 3000, 1, 0.2))).unwrap();
+    let mut orders = g.orders();
+    orders.nc = vec![0];
+    orders.nd = vec![0];
+    let ex = [Experiment { u: &u, y: &y }];
+    let general = polyest(&ex, &orders, 1.0, &common()).unwrap();
+    let oe = crate::oe(
+        &ex,
+        &orders,
+        1.0,
+        &crate::OeOptions {
+            f_structure: crate::FStructure::Common,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for (a, b) in general.model.parameters().iter().zip(oe.model.parameters()) {
+        assert!((a - b).abs() < 1e-6, "{a} {b}");
+    }
+    let (sg, so) = (general.model.std().unwrap(), oe.model.std().unwrap());
+    for (a, b) in sg.iter().zip(&so) {
+        assert!((a - b).abs() < 1e-3 * b, "{a} {b}");
+    }
+}

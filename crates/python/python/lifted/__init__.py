@@ -417,10 +417,11 @@ def identify(
       ``"full"`` (every output's past in every output's equation; ARX's
       default) or ``"diagonal"`` (each output's own past only: one MISO
       model per output, SIPPY's; ARMAX's default); ``--a-structure``.
-    * ``f_structure`` (``method="oe"``): ``"per-input"`` (one F per
-      input-output pair, MATLAB's ``oe``; the default) or ``"common"`` (one
-      F per output shared by its input terms, SIPPY's OE: fewer parameters
-      where the inputs see the same modes); ``--f-structure``.
+    * ``f_structure`` (``method="oe"`` or ``"bj"``): ``"per-input"`` (one
+      F per input-output pair, MATLAB's ``oe``/``bj``; the default) or
+      ``"common"`` (one F per output shared by its input terms, SIPPY's OE
+      and BJ: fewer parameters where the inputs see the same modes);
+      ``--f-structure``.
     * ``intersample`` (``method="process"``): ``"zoh"`` (default, the input
       held between samples) or ``"foh"`` (linear between samples: a sampled
       continuous signal); ``--intersample``.
@@ -916,6 +917,7 @@ def bj(
     remove_means: bool = True,
     dt: float = 1.0,
     threads: int = 1,
+    f_structure: Literal["per-input", "common"] | None = None,
 ) -> SubspaceFit:
     """Box-Jenkins model (MATLAB's ``bj(data, [nb nc nd nf nk])``) by
     prediction-error minimisation (``identify(u, y, "bj", orders=...)``)::
@@ -928,10 +930,13 @@ def bj(
     ``parameters`` per output: the B's, c, d, the F's; with ``covariance``
     and ``std``. ``y`` may hold NaN where an output was not measured, as
     in :func:`armax` (the predictor skips the missing samples).
+    ``f_structure="common"`` shares one F between an output's input terms
+    (SIPPY's BJ structure), as in :func:`oe`.
     """
     return identify(
         u, y, "bj", order=order, orders=orders, feedthrough=feedthrough,
         detrend=detrend, remove_means=remove_means, dt=dt, threads=threads,
+        f_structure=f_structure,
     )
 
 

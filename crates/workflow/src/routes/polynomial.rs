@@ -23,9 +23,9 @@
 //! No refinement follows: the least-squares estimate is the
 //! prediction-error estimate of the ARX structure.
 //!
-//! OE fits one F per input–output pair (MATLAB's `oe`), or with
-//! `f_structure` common one F per output shared by its input terms
-//! (SIPPY's OE; `lifted_pem::FStructure`); `diagnostics.parameters`
+//! OE and BJ fit one F per input–output pair (MATLAB's `oe`, `bj`), or
+//! with `f_structure` common one F per output shared by its input terms
+//! (SIPPY's OE and BJ; `lifted_pem::FStructure`); `diagnostics.parameters`
 //! counts a common F once.
 //!
 //! ARX and FIR refuse records whose outputs are measured at slower rates
@@ -447,6 +447,14 @@ fn delays_of(
     }
 }
 
+/// `diagnostics.f_structure`: the F polynomials of OE and BJ.
+fn f_structure_name(f: lifted_pem::FStructure) -> &'static str {
+    match f {
+        lifted_pem::FStructure::PerInput => "per-input",
+        lifted_pem::FStructure::Common => "common",
+    }
+}
+
 /// The OE route (module docs).
 fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Result<RouteFit> {
     let id = &opts.identification;
@@ -484,10 +492,7 @@ fn output_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -> Re
     let mut diagnostics = json!({
         "route": "oe",
         "orders": {"nb": nb, "nf": nf, "nk": delays},
-        "f_structure": match f_structure {
-            lifted_pem::FStructure::PerInput => "per-input",
-            lifted_pem::FStructure::Common => "common",
-        },
+        "f_structure": f_structure_name(f_structure),
         "parameters": fit.parameters.iter().sum::<usize>(),
         "loss": fit.loss,
         "simulation_fit": fit.fit,
@@ -544,14 +549,18 @@ fn prediction_error(opts: &WorkflowOptions, sets: &[Dataset], multirate: bool) -
         &records,
         &orders,
         ts,
-        &lifted_pem::PolyestOptions::default(),
+        &lifted_pem::PolyestOptions {
+            f_structure: id.f_structure.unwrap_or_default(),
+            ..Default::default()
+        },
     )
     .ctx(format!("{} estimation", id.method.name().to_uppercase()))?;
     let mut diagnostics = json!({
         "route": id.method.name(),
         "orders": {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": delays},
         "a_structure": if coupled { "full" } else { "diagonal" },
-        "parameters": fit.model.n_parameters(),
+        "f_structure": f_structure_name(id.f_structure.unwrap_or_default()),
+        "parameters": fit.parameters.iter().sum::<usize>(),
         "loss": fit.loss,
         "one_step_fit": fit.fit,
         "measured": fit.measured,

@@ -200,7 +200,7 @@ function request(withOrder) {
     if (method === "impulse") delete r.order;
     if (KERNEL.includes(method) && $("kernel").value) r.kernel = $("kernel").value;
     if (A_STRUCTURE.includes(method) && $("a-structure").value) r.a_structure = $("a-structure").value;
-    if (method === "oe" && $("f-structure").value) r.f_structure = $("f-structure").value;
+    if (F_STRUCTURE.includes(method) && $("f-structure").value) r.f_structure = $("f-structure").value;
     if (method === "process") {
       r.process = $("process").value;
       if ($("intersample").value !== "zoh") r.intersample = $("intersample").value;
@@ -247,6 +247,8 @@ const POLYNOMIAL = ["arx", "armax", "oe", "bj", "fir", "impulse"];
 const KERNEL = ["arx", "impulse"];
 // The methods whose A matrix has a pattern (`--a-structure`).
 const A_STRUCTURE = ["arx", "armax"];
+// The methods whose F polynomials may be shared by the inputs (`--f-structure`).
+const F_STRUCTURE = ["oe", "bj"];
 
 function methodFields() {
   const m = $("method").value;
@@ -256,7 +258,7 @@ function methodFields() {
   document.querySelectorAll(".poly-only").forEach((e) => e.classList.toggle("hidden", !POLYNOMIAL.includes(m)));
   document.querySelectorAll(".proc-only").forEach((e) => e.classList.toggle("hidden", m !== "process"));
   document.querySelectorAll(".arx-only").forEach((e) => e.classList.toggle("hidden", !A_STRUCTURE.includes(m)));
-  document.querySelectorAll(".oe-only").forEach((e) => e.classList.toggle("hidden", m !== "oe"));
+  document.querySelectorAll(".oe-only").forEach((e) => e.classList.toggle("hidden", !F_STRUCTURE.includes(m)));
   document.querySelectorAll(".kernel-only").forEach((e) => e.classList.toggle("hidden", !KERNEL.includes(m)));
   document.querySelectorAll(".iv-only").forEach((e) => e.classList.toggle("hidden", m !== "iv"));
   qRange();

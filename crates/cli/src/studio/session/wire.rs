@@ -38,7 +38,8 @@ pub struct Request {
     /// ARX of several outputs: the pattern of A, `full` or `diagonal`, as
     /// `--a-structure`.
     pub a_structure: Option<String>,
-    /// OE: the denominators, `per-input` or `common`, as `--f-structure`.
+    /// OE and BJ: the denominators, `per-input` or `common`, as
+    /// `--f-structure`.
     pub f_structure: Option<String>,
     /// Process models: how the inputs move between samples, `zoh` or
     /// `foh`, as `--intersample`.

@@ -413,7 +413,7 @@ fn oe_with_a_common_denominator_through_the_workflow() {
     // ×0.01), output offset 5: `f_structure` common gives the model within
     // 4.5σ in the data's units with 6 free parameters (per input: 8), the
     // copies of F equal, and its state-space form of order 2 (one block per
-    // distinct F); other methods refuse the option.
+    // distinct F); BJ takes the option too, ARMAX (no F) refuses it.
     let f = vec![1.0, -1.3, 0.6];
     let p = Polynomials {
         b: vec![vec![vec![1.0, 0.5], vec![0.4, -0.2]]],
@@ -451,9 +451,18 @@ fn oe_with_a_common_denominator_through_the_workflow() {
     .unwrap();
     assert_eq!(per_input.file.diagnostics["f_structure"], "per-input");
     assert_eq!(per_input.file.diagnostics["parameters"], 8);
-    let mut arx = options(Method::Arx, &[2, 2, 1]);
-    arx.identification.f_structure = Some(lifted_pem::FStructure::Common);
-    let e = identify(&[Record::new(data)], &arx).unwrap_err();
+    // Box–Jenkins with the same common F ([nb nc nd nf nk] = [2 1 1 2 1]):
+    // 2 + 2 + 1 + 1 + 2 = 8 free parameters, the copies equal.
+    let mut bj = options(Method::Bj, &[2, 1, 1, 2, 1]);
+    bj.identification.f_structure = Some(lifted_pem::FStructure::Common);
+    let id = identify(&[Record::new(data.clone())], &bj).unwrap();
+    assert_eq!(id.file.diagnostics["f_structure"], "common");
+    assert_eq!(id.file.diagnostics["parameters"], 8);
+    let m = id.details.polynomial.as_ref().unwrap();
+    assert_eq!(m.f(0, 0), m.f(0, 1));
+    let mut armax = options(Method::Armax, &[2, 2, 1, 1]);
+    armax.identification.f_structure = Some(lifted_pem::FStructure::Common);
+    let e = identify(&[Record::new(data)], &armax).unwrap_err();
     assert!(e.to_string().contains("f_structure"), "{e}");
 }
 
