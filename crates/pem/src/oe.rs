@@ -366,14 +366,17 @@ fn evaluate(
     Ok((cost, rows.map(RowFolder::finish).transpose()?))
 }
 
-/// The FIR-then-ARX start of output `i` (module docs).
-fn start(
+/// The FIR regression of the starts of output `i` (module docs): per
+/// input with a B its L coefficients. The same for the per-input and the
+/// nested common-F structure (the lags depend on nb and nf only), so
+/// computed once per output. O(M L² n_u²).
+fn fir(
     experiments: &[Experiment<'_>],
     i: usize,
     pairs: &Pairs,
     measured: usize,
     opts: &OeOptions,
-) -> Result<(Rational, Rational)> {
+) -> Result<Vec<Vec<f64>>> {
     let nu = pairs.nb.len();
     let active: Vec<usize> = (0..nu).filter(|&k| pairs.nb[k] > 0).collect();
     let longest = active
@@ -448,24 +451,32 @@ fn start(
         Some(g) => g,
         None => lifted_linalg::pinv(&r11, lifted_linalg::RankTolerance::Relative(1e-10))? * &rhs,
     };
+    Ok((0..active.len())
+        .map(|slot| (0..lags).map(|l| g[slot * lags + l]).collect())
+        .collect())
+}
+
+/// The FIR-then-ARX start of output `i` from its FIR regression ([`fir`]),
+/// and the plain FIR start (F = 1) (module docs).
+fn start(experiments: &[Experiment<'_>], pairs: &Pairs, firs: &[Vec<f64>]) -> (Rational, Rational) {
+    let nu = pairs.nb.len();
+    let active: Vec<usize> = (0..nu).filter(|&k| pairs.nb[k] > 0).collect();
+    let lags = firs.first().map_or(0, Vec::len);
     let mut out: Rational = vec![(Vec::new(), Vec::new()); nu];
     let mut plains: Rational = vec![(Vec::new(), Vec::new()); nu];
     if pairs.common {
-        let firs: Vec<Vec<f64>> = (0..active.len())
-            .map(|slot| (0..lags).map(|l| g[slot * lags + l]).collect())
-            .collect();
         for (slot, &k) in active.iter().enumerate() {
             plains[k] = (firs[slot][..pairs.nb[k]].to_vec(), vec![0.0; pairs.nf[k]]);
         }
         let fitted = if pairs.common_nf() > 0 {
-            common_start(experiments, pairs, &active, &firs)
+            common_start(experiments, pairs, &active, firs)
         } else {
             None
         };
-        return Ok((fitted.unwrap_or_else(|| plains.clone()), plains));
+        return (fitted.unwrap_or_else(|| plains.clone()), plains);
     }
     for (slot, &k) in active.iter().enumerate() {
-        let fir: Vec<f64> = (0..lags).map(|l| g[slot * lags + l]).collect();
+        let fir = &firs[slot];
         let (nb, nf) = (pairs.nb[k], pairs.nf[k]);
         let plain = (fir[..nb].to_vec(), vec![0.0; nf]);
         plains[k] = plain.clone();
@@ -489,7 +500,7 @@ fn start(
                 }
             });
             let mut yk = Vec::new();
-            fir_apply(uk.as_slice(), &fir, &mut yk);
+            fir_apply(uk.as_slice(), fir, &mut yk);
             let ykm = DMatrix::from_column_slice(n, 1, &yk);
             let fit = crate::arx(
                 &[Experiment { u: &uk, y: &ykm }],
@@ -511,7 +522,7 @@ fn start(
         }
         out[k] = fitted.unwrap_or(plain);
     }
-    Ok((out, plains))
+    (out, plains)
 }
 
 /// The common-F start: one MISO ARX [nf nb… 0] fitted to the FIR model's
@@ -621,18 +632,27 @@ fn steiglitz_mcbride(
     let width = active.len();
     let mut best: Option<Rational> = None;
     let mut buf = Vec::new();
+    // Each record's active input columns and output column, copied once.
+    let columns: Vec<(Vec<Vec<f64>>, Vec<f64>)> = experiments
+        .iter()
+        .map(|e| {
+            let us = active
+                .iter()
+                .map(|&k| e.u.column(k).iter().copied().collect())
+                .collect();
+            (us, e.y.column(i).iter().copied().collect())
+        })
+        .collect();
     for _ in 0..SM_PASSES {
         let mut filtered = Vec::with_capacity(experiments.len());
-        for e in experiments {
-            let n = e.u.nrows();
+        for (us, yi) in &columns {
+            let n = yi.len();
             let mut uf = DMatrix::zeros(n, width);
-            for (slot, &k) in active.iter().enumerate() {
-                let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
-                filter(&uk, &f, pairs.nk[k], &mut buf);
+            for ((slot, &k), uk) in active.iter().enumerate().zip(us) {
+                filter(uk, &f, pairs.nk[k], &mut buf);
                 uf.column_mut(slot).copy_from_slice(&buf);
             }
-            let yi: Vec<f64> = e.y.column(i).iter().copied().collect();
-            filter(&yi, &f, 0, &mut buf);
+            filter(yi, &f, 0, &mut buf);
             filtered.push((uf, DMatrix::from_column_slice(n, 1, &buf)));
         }
         let records: Vec<Experiment<'_>> =
@@ -712,10 +732,10 @@ fn fit_output(
     experiments: &[Experiment<'_>],
     i: usize,
     pairs: &Pairs,
-    measured: usize,
+    firs: &[Vec<f64>],
     opts: &OeOptions,
 ) -> Result<Run> {
-    let (theta0, plain) = start(experiments, i, pairs, measured, opts)?;
+    let (theta0, plain) = start(experiments, pairs, firs);
     let problem = OutputError {
         experiments,
         i,
@@ -743,7 +763,7 @@ fn fit_output(
                 others.push(run(&sm));
             }
         } else if let Some(nested) = nested_common(pairs)
-            && let Ok((t, _, _, nested_its)) = fit_output(experiments, i, &nested, measured, opts)
+            && let Ok((t, _, _, nested_its)) = fit_output(experiments, i, &nested, firs, opts)
         {
             its += nested_its;
             others.push(run(&unpack(&t, &nested)));
@@ -838,7 +858,8 @@ pub fn oe(
                 needed: d + 1,
             });
         }
-        let (theta, cost, r11, its) = fit_output(experiments, i, &pairs, measured, opts)?;
+        let firs = fir(experiments, i, &pairs, measured, opts)?;
+        let (theta, cost, r11, its) = fit_output(experiments, i, &pairs, &firs, opts)?;
         let theta = unpack(&theta, &pairs);
         let lambda = cost / (measured - d) as f64;
         let inv =

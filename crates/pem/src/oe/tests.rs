@@ -358,7 +358,8 @@ fn the_steiglitz_mcbride_start_of_a_common_denominator() {
         nk: vec![1, 2],
         common: true,
     };
-    let (start0, _) = start(&ex, 0, &pairs, 3000, &OeOptions::default()).unwrap();
+    let firs = fir(&ex, 0, &pairs, 3000, &OeOptions::default()).unwrap();
+    let (start0, _) = start(&ex, &pairs, &firs);
     let sm = steiglitz_mcbride(&ex, 0, &pairs, &start0).unwrap();
     let f = fit_common(&u, &y, &g.orders()).unwrap();
     let std = f.model.std().unwrap();
