@@ -148,6 +148,7 @@ mod feedback;
 mod gain;
 mod integrators;
 mod options;
+mod parallel;
 mod pipeline;
 mod plan;
 mod preprocess;

@@ -491,7 +491,10 @@ pub struct IdentificationOptions {
     /// Threads of the correlation kernel and the modal regression of the
     /// single-rate subspace methods (0: the machine's; results depend on
     /// the count through rounding only). Default `None`: 1 in memory, the
-    /// machine's on a streamed record.
+    /// machine's on a streamed record. Also the threads of a multirate
+    /// run's independent jobs — its order curve, refined shortlist, two
+    /// starts and held-out folds, one thread each, results independent of
+    /// the count — `None` there meaning the machine's.
     pub threads: Option<usize>,
     /// ARX, FIR, OE, ARMAX, BJ: MATLAB's order vector, the same for every
     /// input–output pair: `[na nb nk]` (ARX), `[nb nk]` (FIR),

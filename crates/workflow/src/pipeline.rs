@@ -139,7 +139,7 @@ fn run_named(
     instrument_names: &[String],
     cache: Option<&mut SubspaceCache>,
 ) -> Result<Identified> {
-    run(records, opts, instrument_names, cache, false).map_err(|e| {
+    run(records, opts, instrument_names, cache, None).map_err(|e| {
         if !crate::excitation::refuses_inputs(&e) {
             return e;
         }
@@ -151,20 +151,31 @@ fn run_named(
 
 /// One run inside the multirate route's held-out check
 /// (`crate::routes::multirate_check`): the workflow on `sets` without that
-/// check (the route's own choices made as in any run).
-fn identify_fold(sets: &[Dataset], opts: &WorkflowOptions) -> Result<Identified> {
+/// check (the route's own choices made as in any run, but the start the
+/// whole record's run kept, `held`, when given).
+fn identify_fold(
+    sets: &[Dataset],
+    opts: &WorkflowOptions,
+    held: Option<multirate_start::Start>,
+) -> Result<Identified> {
     let records: Vec<Record> = sets.iter().cloned().map(Record::new).collect();
-    run(&records, opts, NO_NAMES, None, true)
+    run(&records, opts, NO_NAMES, None, Some(Fold { held }))
 }
 
-/// The workflow; `fold`: a run inside the multirate held-out check, which
-/// does not check itself again.
+/// A run inside the multirate held-out check: it does not check itself
+/// again, and takes the multirate start `held` without comparing the two.
+#[derive(Debug, Clone, Copy)]
+struct Fold {
+    held: Option<multirate_start::Start>,
+}
+
+/// The workflow; `fold`: a run inside the multirate held-out check.
 fn run(
     records: &[Record],
     opts: &WorkflowOptions,
     instrument_names: &[String],
     mut cache: Option<&mut SubspaceCache>,
-    fold: bool,
+    fold: Option<Fold>,
 ) -> Result<Identified> {
     opts.check()?;
     let id = &opts.identification;
@@ -407,7 +418,8 @@ fn run(
     let (model, diagnostics) = match alternative {
         _ if refined_by_route => (model, diagnostics),
         Some(Ok(alt)) => {
-            multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt)?
+            let held = fold.and_then(|f| f.held);
+            multirate_start::choose(opts, model, diagnostics, &sets, &mut kalman_gain, alt, held)?
         }
         Some(Err(why)) => {
             let (model, mut d) = refine(opts, model, diagnostics, &sets, &mut kalman_gain, check)?;
@@ -429,12 +441,12 @@ fn run(
     let (model, mut diagnostics) = if third_start {
         let chosen =
             multirate_start::or_as_identified(opts, (model, diagnostics), &sets, &mut kalman_gain);
-        if fold {
+        if fold.is_some() {
             chosen
         } else {
             let t = std::time::Instant::now();
-            let run = |sets: &[Dataset], o: &WorkflowOptions| {
-                identify_fold(sets, o)
+            let run = |sets: &[Dataset], o: &WorkflowOptions, held| {
+                identify_fold(sets, o, held)
                     .ok()
                     .map(|r| ((r.file.model, r.file.operating_point), r.file.diagnostics))
             };

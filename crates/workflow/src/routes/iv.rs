@@ -81,7 +81,7 @@ pub(crate) fn iv(
             (OrderSelection::Gap { max }, OrderCriterion::Validation) => {
                 // The estimation part's instrument rows, copied once for
                 // every order (the part is the same for all).
-                let f_est = std::cell::OnceCell::new();
+                let f_est = std::sync::OnceLock::new();
                 let fit_at = |est: &Dataset, n: usize| {
                     let o = LiftedIvOptions {
                         order: OrderSelection::Fixed(n),

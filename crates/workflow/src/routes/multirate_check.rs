@@ -43,9 +43,11 @@
 //! output values per parameter, on records of at most `budgets.refine_check_samples` samples
 //! (the budget of the single-rate held-out check, 2e4 by default; 0 turns
 //! it off). The fold runs hold the whole record's choices of horizon,
-//! (A, C) estimator and refinement (a route whose whole-record refinement
-//! was not kept is not refined in its folds): a cross-validation of the
-//! procedure with its hyperparameters fixed. Cost: thirteen runs of the
+//! (A, C) estimator, refinement (a route whose whole-record refinement
+//! was not kept is not refined in its folds) and multirate start (the
+//! route's folds refine only the start the whole record's run kept,
+//! `multirate_start::choose`): a cross-validation of the procedure with
+//! its hyperparameters fixed. Cost: thirteen runs of the
 //! two routes (the whole record's interpolated model, and both routes on
 //! each of six folds of a half to five sixths of the record), each O(N) at
 //! the fixed order, the folds on the machine's threads; `diagnostics.
@@ -58,7 +60,7 @@ use serde_json::json;
 
 use crate::diagnostics::push_warning;
 use crate::options::{Estimator, Order, Refine, WorkflowOptions};
-use crate::routes::multirate_start::{interpolated, records_fit_from};
+use crate::routes::multirate_start::{Start, interpolated, records_fit_from};
 
 /// Blocks of the held-out check (as the single-rate refinement check).
 pub const CHECK_BLOCKS: usize = 6;
@@ -144,18 +146,6 @@ fn refinement_kept(diagnostics: &serde_json::Value) -> bool {
     diagnostics["refinement"]["kept"].as_str() == Some("Refined")
 }
 
-/// Threads of the fold runs: `identification.threads` when given (0: the
-/// machine's), else the machine's — the folds are independent runs whose
-/// models do not depend on the count (each fold run on one thread).
-fn fold_threads(opts: &WorkflowOptions) -> usize {
-    let machine = || std::thread::available_parallelism().map_or(1, |n| n.get());
-    match opts.identification.threads {
-        Some(0) | None => machine(),
-        Some(k) => k,
-    }
-    .clamp(1, CHECK_BLOCKS)
-}
-
 /// One fold's held-out fits: (interpolated record's model, route's model).
 type FoldFits = (Option<f64>, Option<f64>);
 
@@ -165,57 +155,46 @@ type FoldFits = (Option<f64>, Option<f64>);
 fn held_out_fits(
     run: FoldRun<'_>,
     sets: &[Dataset],
-    o_route: &WorkflowOptions,
+    (o_route, start): (&WorkflowOptions, Option<Start>),
     o_interp: &WorkflowOptions,
     workers: usize,
 ) -> Vec<FoldFits> {
     let one = |k: usize| {
         let (est, held) = fold(sets, k)?;
         let score = |m: Option<Fitted>| m.and_then(|m| held_out_fit(&m, &held));
-        let route = score(model_of(run, &est, o_route));
+        let route = score(model_of(run, &est, o_route, start));
         let interp = est
             .iter()
             .map(interpolated)
             .collect::<crate::Result<Vec<_>>>()
             .ok()
-            .and_then(|s| score(model_of(run, &s, o_interp)));
+            .and_then(|s| score(model_of(run, &s, o_interp, None)));
         Some((interp, route))
     };
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut done: Vec<(usize, Option<FoldFits>)> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        if k >= CHECK_BLOCKS {
-                            return mine;
-                        }
-                        mine.push((k, one(k)));
-                    }
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_default())
-            .collect()
-    });
-    done.sort_by_key(|(k, _)| *k);
-    done.into_iter().filter_map(|(_, f)| f).collect()
+    crate::parallel::map_in_order(CHECK_BLOCKS, workers, one)
+        .into_iter()
+        .filter_map(|f| f.flatten())
+        .collect()
 }
 
 /// One run of the workflow inside the check, without the check (the
 /// pipeline's, handed in by it): the model, its operating point (the
 /// means its run removed, in the units of the records given) and its
 /// diagnostics; `None` when it fails.
-pub(crate) type FoldRun<'a> =
-    &'a (dyn Fn(&[Dataset], &WorkflowOptions) -> Option<(Fitted, serde_json::Value)> + Sync);
+pub(crate) type FoldRun<'a> = &'a (
+        dyn Fn(&[Dataset], &WorkflowOptions, Option<Start>) -> Option<(Fitted, serde_json::Value)>
+            + Sync
+    );
 
-/// The model of one run inside the check with its operating point.
-fn model_of(run: FoldRun<'_>, sets: &[Dataset], opts: &WorkflowOptions) -> Option<Fitted> {
-    run(sets, opts).map(|(m, _)| m)
+/// The model of one run inside the check with its operating point; `held`:
+/// the multirate start it takes without comparing the two.
+fn model_of(
+    run: FoldRun<'_>,
+    sets: &[Dataset],
+    opts: &WorkflowOptions,
+    held: Option<Start>,
+) -> Option<Fitted> {
+    run(sets, opts, held).map(|(m, _)| m)
 }
 
 /// A model and its operating point.
@@ -352,7 +331,7 @@ pub(crate) fn against_interpolation(
             return (model, diagnostics, None);
         }
     };
-    let Some((whole, whole_diagnostics)) = run(&smooth, &o) else {
+    let Some((whole, whole_diagnostics)) = run(&smooth, &o, None) else {
         note(
             &mut diagnostics,
             json!({"applied": false, "why": "the single-rate route failed on the interpolated record"}),
@@ -361,8 +340,10 @@ pub(crate) fn against_interpolation(
     };
     let (o_route, o_interp) = fold_runs(&o, &diagnostics, &whole_diagnostics);
     let floor = opts.identification.selection.failed_fold;
-    let workers = fold_threads(opts);
-    let per_fold = held_out_fits(run, sets, &o_route, &o_interp, workers);
+    let workers = crate::parallel::threads(opts).min(CHECK_BLOCKS);
+    // The start the whole record's run kept, held in the folds.
+    let start = Start::kept_in(&diagnostics);
+    let per_fold = held_out_fits(run, sets, (&o_route, start), &o_interp, workers);
     let check = RefinementCheck {
         initial_fit: 0.0,
         refined_fit: 0.0,
@@ -388,6 +369,10 @@ pub(crate) fn against_interpolation(
                 "interpolated": o_interp.refinement.refine != Refine::None,
                 "why": "each route refined in its folds only when the whole record's run kept its refinement",
             },
+            "start_in_folds": start.map(|s| match s {
+                Start::Lifted => crate::routes::multirate_start::START_LIFTED,
+                Start::Interpolated => crate::routes::multirate_start::START_INTERPOLATED,
+            }),
             "interpolated_fit": check.initial_fit,
             "route_fit": check.refined_fit,
             "per_fold": check.per_fold.iter().map(|(i, r)| json!({"interpolated": i, "route": r})).collect::<Vec<_>>(),

@@ -456,10 +456,36 @@ pub(crate) fn records_fit_from(
     fit.is_finite().then_some(fit)
 }
 
+/// The start a run of the route takes (`diagnostics.multirate_start.kept`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Start {
+    /// The lifted route's model ([`START_LIFTED`]).
+    Lifted,
+    /// The interpolated record's model ([`START_INTERPOLATED`]).
+    Interpolated,
+}
+
+impl Start {
+    /// The start a run kept, from its diagnostics; `None` when it compared
+    /// none (no second start, or the lifted route failed).
+    pub(crate) fn kept_in(diagnostics: &serde_json::Value) -> Option<Start> {
+        match diagnostics["multirate_start"]["kept"].as_str() {
+            Some(START_LIFTED) => Some(Start::Lifted),
+            Some(START_INTERPOLATED) => Some(Start::Interpolated),
+            _ => None,
+        }
+    }
+}
+
 /// Refines the lifted route's `model` and the interpolated start `alt`
 /// alike ([`refine`]) and keeps the one whose model fits the measured
 /// samples of `sets` best (module docs); `diagnostics.multirate_start`
 /// says which, with both fits. The Kalman gain is the kept run's.
+///
+/// `held`: the start to take without the comparison — a fold of the
+/// held-out check (`super::multirate_check`) holds the whole record's
+/// choice, as it holds its horizon, (A, C) estimator and refinement
+/// decision; only that start is refined (half the fold's iterations).
 pub(crate) fn choose(
     opts: &WorkflowOptions,
     model: StateSpace,
@@ -467,20 +493,65 @@ pub(crate) fn choose(
     sets: &[Dataset],
     kalman_gain: &mut Option<DMatrix<f64>>,
     alt: StateSpace,
+    held: Option<Start>,
 ) -> Result<(StateSpace, serde_json::Value)> {
-    let mut gain_lifted = kalman_gain.clone();
-    let lifted = refine(
-        opts,
-        model,
-        diagnostics.clone(),
-        sets,
-        &mut gain_lifted,
-        None,
-    );
-    let mut gain_alt = None;
-    let interp = refine(opts, alt, diagnostics, sets, &mut gain_alt, None);
     let fit_of = |r: &Result<(StateSpace, serde_json::Value)>| {
         r.as_ref().ok().and_then(|(m, _)| records_fit(m, sets))
+    };
+    if let Some(start) = held {
+        let mut gain = if start == Start::Lifted {
+            kalman_gain.clone()
+        } else {
+            None
+        };
+        let (start_model, kept) = match start {
+            Start::Lifted => (model.clone(), START_LIFTED),
+            Start::Interpolated => (alt.clone(), START_INTERPOLATED),
+        };
+        // A held start whose refinement fails: the comparison below, as
+        // in any run.
+        if let Ok((model, mut diagnostics)) = refine(
+            opts,
+            start_model,
+            diagnostics.clone(),
+            sets,
+            &mut gain,
+            None,
+        ) {
+            *kalman_gain = gain;
+            if let Some(obj) = diagnostics.as_object_mut() {
+                obj.insert(
+                    "multirate_start".into(),
+                    json!({
+                        "rule": "held: the start the whole record's run kept (a fold of the held-out check)",
+                        "kept": kept,
+                    }),
+                );
+            }
+            return Ok((model, diagnostics));
+        }
+    }
+    let mut gain_lifted = kalman_gain.clone();
+    let mut gain_alt = None;
+    // The two refinements are independent: on two threads when the run
+    // may use them (the same models either way).
+    let d_lifted = diagnostics.clone();
+    let (lifted, interp) = if crate::parallel::threads(opts) >= 2 {
+        std::thread::scope(|s| {
+            let other = s.spawn(|| refine(opts, alt, diagnostics, sets, &mut gain_alt, None));
+            let lifted = refine(opts, model, d_lifted, sets, &mut gain_lifted, None);
+            let interp = other.join().unwrap_or_else(|_| {
+                Err(Error::Data(
+                    "the interpolated start's refinement panicked".into(),
+                ))
+            });
+            (lifted, interp)
+        })
+    } else {
+        (
+            refine(opts, model, d_lifted, sets, &mut gain_lifted, None),
+            refine(opts, alt, diagnostics, sets, &mut gain_alt, None),
+        )
     };
     let (f_lifted, f_interp) = (fit_of(&lifted), fit_of(&interp));
     let take_interp = match (f_lifted, f_interp) {
@@ -513,6 +584,18 @@ pub(crate) fn choose(
 mod tests {
     use super::*;
     use lifted_lti::InputChannel;
+
+    #[test]
+    fn the_kept_start_is_read_from_the_diagnostics() {
+        let of = |kept: &str| json!({"multirate_start": {"kept": kept}});
+        assert_eq!(Start::kept_in(&of(START_LIFTED)), Some(Start::Lifted));
+        assert_eq!(
+            Start::kept_in(&of(START_INTERPOLATED)),
+            Some(Start::Interpolated)
+        );
+        assert_eq!(Start::kept_in(&of("something else")), None);
+        assert_eq!(Start::kept_in(&json!({})), None);
+    }
 
     #[test]
     fn slow_outputs_are_interpolated_between_their_samples() {

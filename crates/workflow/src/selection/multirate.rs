@@ -57,11 +57,12 @@ pub(crate) const MULTIRATE_SELECTION_SAMPLES: usize = 200_000;
 /// simulated on the rest from its least-squares x₀. `None`
 /// when the record is longer than [`MULTIRATE_SELECTION_SAMPLES`], too
 /// short for the cut, or no order could be scored. O(max) multirate
-/// identifications of 2N/3 samples.
+/// identifications of 2N/3 samples, on the run's threads (the orders are
+/// independent; the same curve whatever the count).
 pub(crate) fn held_out_orders(
     data: &Dataset,
     max: usize,
-    fit_at: impl Fn(&Dataset, usize) -> Option<StateSpace>,
+    fit_at: impl Fn(&Dataset, usize) -> Option<StateSpace> + Sync,
     wf: &WorkflowOptions,
     judge_unstable: bool,
 ) -> Option<HeldOutOrders> {
@@ -84,19 +85,33 @@ pub(crate) fn held_out_orders(
     // A marginal model (integrators within the tolerance) is scored as a
     // stable one.
     let bound = crate::integrators::stability_bound_for(&wf.identification, n);
-    for order in 1..=max.max(1) {
-        let fit = fit_at(&est, order).and_then(|m| {
-            if crate::validate::spectral_radius(&m).is_ok_and(|r| r < bound) {
-                let fast = at_base_period(&m, val.ts()).ok()?;
-                let mean = held_out_mean(&fast, &val, &vopts)?;
-                Some((mean, fast))
-            } else {
-                if judge_unstable && let Ok(fast) = at_base_period(&m, val.ts()) {
+    // Each order's fit: Ok((held-out mean, fast model)) when stable,
+    // Err(fast model) when unstable (None when it fails). The orders are
+    // independent: on the run's threads (`parallel::map_in_order`, the
+    // results in order whatever the count).
+    let one = |k: usize| -> Option<std::result::Result<(f64, StateSpace), StateSpace>> {
+        let m = fit_at(&est, k + 1)?;
+        let fast = at_base_period(&m, val.ts()).ok()?;
+        if crate::validate::spectral_radius(&m).is_ok_and(|r| r < bound) {
+            Some(Ok((held_out_mean(&fast, &val, &vopts)?, fast)))
+        } else {
+            Some(Err(fast))
+        }
+    };
+    let workers = crate::parallel::threads(wf);
+    let fits = crate::parallel::map_in_order(max.max(1), workers, one);
+    for (k, fit) in fits.into_iter().enumerate() {
+        let order = k + 1;
+        let fit = match fit.flatten() {
+            Some(Ok(f)) => Some(f),
+            Some(Err(fast)) => {
+                if judge_unstable {
                     unstable.push((order, fast));
                 }
                 None
             }
-        });
+            None => None,
+        };
         curve.push(json!({"order": order, "fit": fit.as_ref().map(|f| f.0)}));
         if let Some((f, fast)) = fit {
             scored.push((order, f));
@@ -203,7 +218,9 @@ pub(crate) fn held_out_orders(
 /// none`), fewer than two orders were refined, or the refinements
 /// together are predicted to cost more than two default refinements
 /// ([`crate::Budgets::auto_refine_work_joint`] each, about 2 s). O(shortlist + unstable)
-/// refinements of 2N/3 samples.
+/// refinements of 2N/3 samples, on the run's threads (the candidates
+/// within the work bound are fixed first; the same scores whatever the
+/// count).
 pub(crate) fn refined_shortlist(
     ranking: &[(usize, f64)],
     models: &[(usize, StateSpace)],
@@ -247,19 +264,27 @@ pub(crate) fn refined_shortlist(
         .filter_map(|n| models.iter().find(|m| m.0 == *n))
         .chain(unstable.iter())
         .collect();
+    // The candidates within the work bound, then their refinements (each
+    // independent: on the run's threads, the results in order).
+    let mut within = Vec::new();
     for (order, fast) in candidates {
-        let order = *order;
         let pem = crate::refine::pem_options(wf, fast, cost, false);
         let w = lifted_pem::pem_work_estimate(fast, &records, &pem).ok()?;
         work += w.typical;
         if work > 2.0 * wf.budgets.auto_refine_work_joint || w.per_iteration > pem.max_work {
             break;
         }
-        let Ok(r) = lifted_pem::refine_pem(fast, None, &records, &[], &pem) else {
-            continue;
-        };
-        if let Some(f) = held_out_mean(&r.model, val, vopts) {
-            out.push((order, f));
+        within.push((*order, fast, pem));
+    }
+    let workers = crate::parallel::threads(wf);
+    let scores = crate::parallel::map_in_order(within.len(), workers, |k| {
+        let (_, fast, pem) = &within[k];
+        let r = lifted_pem::refine_pem(fast, None, &records, &[], pem).ok()?;
+        held_out_mean(&r.model, val, vopts)
+    });
+    for ((order, _, _), f) in within.iter().zip(scores) {
+        if let Some(f) = f.flatten() {
+            out.push((*order, f));
         }
     }
     (out.len() >= 2).then_some(out)

@@ -79,6 +79,11 @@ fn a_multirate_route_better_on_every_block_is_kept() {
     // when that run kept its refinement.
     let kept = fit.file.diagnostics["refinement"]["kept"] == "Refined";
     assert_eq!(check["refined_in_folds"]["route"], kept, "{check}");
+    // And from the start the whole record's run kept (only that one is
+    // refined in each fold).
+    let start = &fit.file.diagnostics["multirate_start"]["kept"];
+    assert!(start.is_string(), "{}", fit.file.diagnostics);
+    assert_eq!(&check["start_in_folds"], start, "{check}");
     // 0.013 measured; a model of the interpolated record misses the fast
     // mode (its held-out fits are 20 points lower).
     let gap = response_gap(&fit.file.model, &truth);
