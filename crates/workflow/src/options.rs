@@ -49,7 +49,10 @@ pub struct Budgets {
     /// [`AUTO_REFINE_WORK_JOINT`], 8e9.
     pub auto_refine_work_joint: f64,
     /// [`Refine::Auto`] always refines (a stable estimate) records shorter
-    /// than this (samples, all records). Default [`AUTO_REFINE_SAMPLES`].
+    /// than this (samples, all records) — in memory with its iterations
+    /// stopped at `auto_refine_work` (one iteration at least) when the
+    /// refinement is predicted to cost more, as a longer record's.
+    /// Default [`AUTO_REFINE_SAMPLES`].
     pub auto_refine_samples: usize,
     /// Records up to this many samples have a refinement judged on
     /// held-out blocks, and a multirate route's model judged against the

@@ -407,7 +407,7 @@ pub fn resolved_defaults(opts: &WorkflowOptions, shape: &DataShape) -> Plan {
                 if shape.streamed {
                     ""
                 } else {
-                    "; records in memory whose refinement would cost more are refined with the iterations stopped at that work"
+                    "; records in memory whose refinement would cost more are refined with the iterations stopped at that work (one iteration at least when they are that short)"
                 }
             ),
         );

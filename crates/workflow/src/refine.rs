@@ -229,13 +229,30 @@ pub(crate) fn auto_decision(
         );
     }
     let few = budgets.auto_refine_samples;
-    if work <= limit || samples < few {
+    if work <= limit || (samples < few && !capped) {
         return (
             true,
             format!(
                 "refined by the prediction error: predicted work {work:.2e} operations{what} (refined by default up to {limit:.0e}, or always below {few} samples)"
             ),
             None,
+        );
+    }
+    // A short record is always refined, but — where the route can cap
+    // the iterations — no longer than a long one: its iterations stop at
+    // the same budget (at least one iteration), so that the default's
+    // cost does not fall where the records reach `few` samples (a 2 × 2
+    // record at order 12: 6.3 s at 9 000 samples, 1.9 s at 11 000, issue
+    // 50).
+    if capped && samples < few {
+        let cap = limit.max(per_iteration);
+        let iterations = (cap / per_iteration).floor();
+        return (
+            true,
+            format!(
+                "refined by the prediction error within the default's budget: predicted work {work:.2e} operations{what} is more than {limit:.0e} (about 1 s), so the iterations stop at {cap:.2e} (about {iterations:.0} of {per_iteration:.2e} each; records under {few} samples are always refined, one iteration at least); --refine pem refines to convergence"
+            ),
+            Some(cap),
         );
     }
     if capped && per_iteration <= limit {
@@ -967,5 +984,53 @@ mod tests {
         assert!(!go && why.contains("one iteration"), "{why}");
         let (go, _, cap) = decide(work(5e8, 3e9), true);
         assert!(go && cap.is_none());
+    }
+
+    /// A record under `auto_refine_samples` is always refined: in full
+    /// within the budget or where the route cannot cap; else with its
+    /// iterations stopped at the budget, one iteration at least — never
+    /// more work than a longer record's refinement (issue 50).
+    #[test]
+    fn a_short_record_is_refined_within_the_budget() {
+        let b = crate::Budgets::default();
+        let model = StateSpace::new(
+            DMatrix::from_element(1, 1, 0.5),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+            Some(1.0),
+        )
+        .unwrap();
+        let decide = |per_iteration: f64, typical: f64, capped| {
+            let work = Some(PemWorkEstimate {
+                per_iteration,
+                typical,
+                warm_stages: 0,
+                method: PemMethod::VariableProjection,
+            });
+            let case = AutoCase {
+                samples: 9_000,
+                work,
+                max_work: 1e12,
+                marginal: 0.0,
+                not_efficient: None,
+                capped,
+            };
+            auto_decision(&b, &model, case)
+        };
+        // Within the budget: in full.
+        let (go, _, cap) = decide(5e8, 3e9, true);
+        assert!(go && cap.is_none());
+        // Over it: capped at the budget ...
+        let (go, why, cap) = decide(2e9, 1.6e10, true);
+        assert!(go && why.contains("iterations stop"), "{why}");
+        assert_eq!(cap, Some(b.auto_refine_work));
+        // ... or at one iteration when that is more ...
+        let (go, _, cap) = decide(6e9, 6e10, true);
+        assert!(go);
+        assert_eq!(cap, Some(6e9));
+        // ... and in full where the route cannot cap.
+        let (go, why, cap) = decide(2e9, 1.6e10, false);
+        assert!(go && cap.is_none() && why.contains("always below"), "{why}");
     }
 }

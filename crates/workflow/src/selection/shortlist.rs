@@ -110,8 +110,10 @@ fn check_work(
     let work = pem_work_estimate_of_sizes(model, sizes, &pem)
         .map_err(|e| format!("its refinement work could not be predicted ({e})"))?;
     if opts.refinement.refine == Refine::Auto {
-        // The default refines below the budget's auto_refine_samples or
-        // within its auto_refine_work (crate::refine::auto_decision).
+        // The default refines below the budget's auto_refine_samples (its
+        // iterations stopped at auto_refine_work when over it) or within
+        // its auto_refine_work (crate::refine::auto_decision); the work
+        // counted here is the uncapped prediction, an upper bound.
         let samples: usize = sizes.iter().sum();
         let limit = match pem.method {
             PemMethod::VariableProjection => opts.budgets.auto_refine_work,
