@@ -87,9 +87,10 @@
 //!    it pays: predicted work at most [`AUTO_REFINE_WORK`]
 //!    ([`AUTO_REFINE_WORK_JOINT`] on multirate records) or fewer than
 //!    [`AUTO_REFINE_SAMPLES`] samples, and a stable estimate; records in
-//!    memory over that work are refined with the iterations stopped at it
+//!    memory over that work — short ones too — are refined with the
+//!    iterations stopped at it, one iteration at least
 //!    (`refinement_decision` says so), so that the default's cost does
-//!    not fall off a cliff at the bound.
+//!    not fall off a cliff at either bound.
 //! 4. **Validation** ([`ValidationOptions`]): the spectral radius ρ(A)
 //!    always written to the diagnostics (`stability`), an unstable model
 //!    carrying a warning that names it; optionally an error instead. The

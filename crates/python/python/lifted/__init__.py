@@ -326,7 +326,8 @@ def identify(
       is ``detrend="none"``.
     * ``refine``: ``"auto"`` (default) refines by the prediction error where
       it pays (predicted work at most 4e9 operations, about 1 s, or fewer than
-      10 000 samples, and a stable estimate; ``diagnostics["refinement_decision"]``
+      10 000 samples, and a stable estimate; in memory over that work its
+      iterations stop at it, one at least; ``diagnostics["refinement_decision"]``
       says why), ``"none"`` never, ``"pem"`` or ``"oe"`` always, from exactly
       the identified model (``refine_iterations``, ``refine_max_work``). The
       refined model is kept when it simulates at least as well: on six
