@@ -238,31 +238,35 @@ pub(crate) fn auto_decision(
             None,
         );
     }
-    // A short record is always refined, but — where the route can cap
-    // the iterations — no longer than a long one: its iterations stop at
-    // the same budget (at least one iteration), so that the default's
-    // cost does not fall where the records reach `few` samples (a 2 × 2
-    // record at order 12: 6.3 s at 9 000 samples, 1.9 s at 11 000, issue
-    // 50).
-    if capped && samples < few {
+    // Over the budget, a route that can cap the iterations stops them at
+    // it (one iteration fitting). A short record is always refined, but
+    // no longer than a long one: at the same budget, one iteration at
+    // least, so that the default's cost does not fall where the records
+    // reach `few` samples (a 2 × 2 record at order 12: 6.3 s at 9 000
+    // samples, 1.9 s at 11 000, issue 50).
+    let short = samples < few;
+    if capped && (short || per_iteration <= limit) {
         let cap = limit.max(per_iteration);
         let iterations = (cap / per_iteration).floor();
+        let (size, stop) = if short {
+            (
+                String::new(),
+                format!(
+                    "{cap:.2e} (about {iterations:.0} of {per_iteration:.2e} each; records under {few} samples are always refined, one iteration at least)"
+                ),
+            )
+        } else {
+            (
+                format!(" on {samples} samples"),
+                format!("that work (about {iterations:.0} of {per_iteration:.2e} each)"),
+            )
+        };
         return (
             true,
             format!(
-                "refined by the prediction error within the default's budget: predicted work {work:.2e} operations{what} is more than {limit:.0e} (about 1 s), so the iterations stop at {cap:.2e} (about {iterations:.0} of {per_iteration:.2e} each; records under {few} samples are always refined, one iteration at least); --refine pem refines to convergence"
+                "refined by the prediction error within the default's budget: predicted work {work:.2e} operations{what}{size} is more than {limit:.0e} (about 1 s), so the iterations stop at {stop}; --refine pem refines to convergence"
             ),
             Some(cap),
-        );
-    }
-    if capped && per_iteration <= limit {
-        let iterations = (limit / per_iteration).floor();
-        return (
-            true,
-            format!(
-                "refined by the prediction error within the default's budget: predicted work {work:.2e} operations{what} on {samples} samples is more than {limit:.0e} (about 1 s), so the iterations stop at that work (about {iterations:.0} of {per_iteration:.2e} each); --refine pem refines to convergence"
-            ),
-            Some(limit),
         );
     }
     (
