@@ -3,8 +3,8 @@
 //! (eqs. II-5, II-9, III-22 with the normalisation chosen by [`Normalization`]).
 
 use lifted_linalg::dot;
+use lifted_linalg::fft::Transforms;
 use num_complex::Complex;
-use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, check_finite, check_positive};
@@ -32,7 +32,7 @@ pub enum CorrelationMethod {
     Auto,
     /// Direct double sum, O(N²), exact for integer-valued data.
     Direct,
-    /// `R = IFFT(X · conj(Y)) / N` with rustfft, O(N log N), error ~ `ε ‖x‖ ‖y‖ log N`.
+    /// `R = IFFT(X · conj(Y)) / N` by FFT ([`lifted_linalg::fft`]), O(N log N), error ~ `ε ‖x‖ ‖y‖ log N`.
     Fft,
 }
 
@@ -93,7 +93,7 @@ pub fn periodic_cross_correlation_with(
         CorrelationMethod::Fft => true,
     };
     let mut r = if use_fft {
-        fft_sums(x, y)
+        fft_sums(x, y)?
     } else {
         direct_sums(x, y)
     };
@@ -113,30 +113,14 @@ fn direct_sums(x: &[f64], y: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-thread_local! {
-    /// One planner per thread: rustfft caches the plans (twiddle tables) it
-    /// has built, so repeated correlations of the same length skip planning,
-    /// which otherwise costs as much as the transforms.
-    static PLANNER: std::cell::RefCell<FftPlanner<f64>> =
-        std::cell::RefCell::new(FftPlanner::new());
-}
-
 /// Circular sums by one complex FFT of z = x + i·y (both records are real):
 /// X_k = (Z_k + conj Z_{N−k})/2, Y_k = (Z_k − conj Z_{N−k})/(2i), then
 /// R = IFFT(X · conj Y)/N. Two transforms of length N instead of three.
-fn fft_sums(x: &[f64], y: &[f64]) -> Vec<f64> {
+fn fft_sums(x: &[f64], y: &[f64]) -> Result<Vec<f64>> {
     let n = x.len();
-    let (fwd, inv) = PLANNER.with(|p| {
-        let mut p = p.borrow_mut();
-        (p.plan_fft_forward(n), p.plan_fft_inverse(n))
-    });
+    let mut fft = Transforms::new(n);
     let mut z: Vec<Complex<f64>> = x.iter().zip(y).map(|(&a, &b)| Complex::new(a, b)).collect();
-    let mut scratch = vec![
-        Complex::new(0.0, 0.0);
-        fwd.get_inplace_scratch_len()
-            .max(inv.get_inplace_scratch_len())
-    ];
-    fwd.process_with_scratch(&mut z, &mut scratch);
+    fft.forward(&mut z)?;
     let mut prod = vec![Complex::new(0.0, 0.0); n];
     for k in 0..n {
         let zk = z[k];
@@ -146,10 +130,10 @@ fn fft_sums(x: &[f64], y: &[f64]) -> Vec<f64> {
         let yk = (zk - zc) * Complex::new(0.0, -0.5);
         prod[k] = xk * yk.conj();
     }
-    inv.process_with_scratch(&mut prod, &mut scratch);
-    // rustfft does not normalise: divide by N.
+    fft.inverse(&mut prod)?;
+    // The transforms do not normalise: divide by N.
     let inv_n = 1.0 / n as f64;
-    prod.iter().map(|c| c.re * inv_n).collect()
+    Ok(prod.iter().map(|c| c.re * inv_n).collect())
 }
 
 #[cfg(test)]

@@ -4,6 +4,9 @@
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// A linear-algebra kernel (the FFT of the correlations) failed.
+    #[error(transparent)]
+    Linalg(#[from] lifted_linalg::Error),
     /// The m-sequence order `n` is outside the supported range.
     #[error("PRBS order {order} is outside the supported range {min}..={max}")]
     OrderOutOfRange {

@@ -43,10 +43,10 @@
 //! quadratic model mispredicts large-residual problems such as an
 //! under-modelled order.
 
+use lifted_linalg::fft::{Transforms, fast_length};
 use lifted_linalg::spectral_radius;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
-use rustfft::FftPlanner;
 
 /// Most lags of R(τ) kept: M's memory beyond it is cut (the cost then
 /// approximates more coarsely; the exact phase corrects it). 4096 lags
@@ -110,7 +110,7 @@ impl Covariances {
                     if e.iter().any(|v| !v.is_finite()) {
                         return None;
                     }
-                    add_covariances(e, ny, &mut r);
+                    add_covariances(e, ny, &mut r).ok()?;
                 }
                 // R(0) is symmetric in exact arithmetic.
                 let r0 = (&r[0] + r[0].transpose()) * 0.5;
@@ -391,54 +391,20 @@ impl Covariances {
     }
 }
 
-/// One planner for the process: rustfft keeps the plans (twiddle tables)
-/// it has built, so the records of one length are planned once (planning
-/// a transform of 1e5 points costs about three of its runs), whichever
-/// thread checks the gain.
-static PLANNER: std::sync::LazyLock<std::sync::Mutex<FftPlanner<f64>>> =
-    std::sync::LazyLock::new(|| std::sync::Mutex::new(FftPlanner::new()));
-
-/// The transform length for `min` points: the least 2^a 3^b ≥ `min`
-/// (rustfft's fastest radices; 104 976 for 1e5 + 4096 instead of 131 072).
-fn fft_length(min: usize) -> usize {
-    let mut best = min.next_power_of_two();
-    let mut three = 1usize;
-    while three < best {
-        let mut len = three;
-        while len < min {
-            len *= 2;
-        }
-        best = best.min(len);
-        three *= 3;
-    }
-    best
-}
-
 /// Adds to `r` (R(τ), τ = 0 … r.len() − 1) the lagged products of one
 /// record's errors `e` (row-major, n_y a sample): R_ab(τ) += Σ_t e_a(t)
 /// e_b(t − τ). By FFT of the record zero-padded to m ≥ N + L points
-/// ([`fft_length`]; the circular sums are then the linear ones): two real channels a
+/// ([`fast_length`]; the circular sums are then the linear ones): two real channels a
 /// transform (z = x + i y, X_k = (Z_k + conj Z_{m−k})/2, Y_k = (Z_k −
 /// conj Z_{m−k})/(2i)), and two real correlations an inverse transform
 /// (their spectra are Hermitian: IFFT(P + i Q) = p + i q). ⌈n_y/2⌉ +
 /// ⌈n_y(n_y+1)/4⌉ transforms, O(n_y² m log m).
-fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
+fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) -> lifted_linalg::Result<()> {
     let n = e.len() / ny;
     let lags = r.len() - 1;
-    let m = fft_length(n + lags);
-    let (forward, inverse) = {
-        let mut p = PLANNER
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        (p.plan_fft_forward(m), p.plan_fft_inverse(m))
-    };
+    let m = fast_length(n + lags);
+    let mut fft = Transforms::new(m);
     let zero = Complex::new(0.0, 0.0);
-    let mut scratch = vec![
-        zero;
-        forward
-            .get_inplace_scratch_len()
-            .max(inverse.get_inplace_scratch_len())
-    ];
     // The transforms of the channel pairs (x + i y).
     let mut packed: Vec<Vec<Complex<f64>>> = Vec::with_capacity(ny.div_ceil(2));
     for first in (0..ny).step_by(2) {
@@ -448,7 +414,7 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
             let im = second.map_or(0.0, |b| e[t * ny + b]);
             *zt = Complex::new(e[t * ny + first], im);
         }
-        forward.process_with_scratch(&mut z, &mut scratch);
+        fft.forward(&mut z)?;
         packed.push(z);
     }
     // Channel c's spectrum at k: X_k = (Z_k + conj Z_{m−k})/2 for the
@@ -476,7 +442,7 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
             let q = other.map_or(zero, |(c, d)| at[c] * at[d].conj());
             *zk = p + Complex::new(-q.im, q.re);
         }
-        inverse.process_with_scratch(&mut z, &mut scratch);
+        fft.inverse(&mut z)?;
         let mut put = |(a, b): (usize, usize), part: fn(&Complex<f64>) -> f64| {
             for (tau, rt) in r.iter_mut().enumerate() {
                 rt[(a, b)] += part(&z[tau]) * scale;
@@ -490,6 +456,7 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) {
             put(pair, |c| c.im);
         }
     }
+    Ok(())
 }
 
 /// A record's end states D_j = M D_{j+1} + K e(N−1−j), j = J … 0
@@ -768,30 +735,6 @@ mod tests {
             whole,
             max_relative = 1e-11
         );
-    }
-
-    #[test]
-    fn transform_lengths_are_the_least_smooth_ones() {
-        assert_eq!(fft_length(1), 1);
-        assert_eq!(fft_length(5), 6);
-        assert_eq!(fft_length(100), 108);
-        assert_eq!(fft_length(104_096), 104_976);
-        assert_eq!(fft_length(131_072), 131_072);
-        // 2^a 3^b, and no such number between `min` and it.
-        let smooth = |mut k: usize| {
-            while k.is_multiple_of(2) {
-                k /= 2;
-            }
-            while k.is_multiple_of(3) {
-                k /= 3;
-            }
-            k == 1
-        };
-        for min in 1..2000 {
-            let m = fft_length(min);
-            assert!(m >= min && smooth(m), "{min}: {m}");
-            assert!(!(min..m).any(smooth), "{min}: {m}");
-        }
     }
 
     #[test]
