@@ -370,24 +370,26 @@ fn a_multirate_automatic_order_is_chosen_on_held_out_data_and_stable() {
 /// 8, 6, 9, errors 0.053, 0.087, 0.076); judged by the refined models of
 /// the shortlist, orders 4–5 with errors 0.003–0.007 on all 14. 0.02 is
 /// three times the worst of those and a quarter of the over-fitted picks'.
+/// One seed, 6 (the curve's worst pick): seeds 1 and 7 (the same
+/// over-fitting, 0.053 and 0.076) ran here too until session 42 and were
+/// dropped for CI time (13 s each).
 #[test]
 fn a_multirate_order_is_judged_by_its_refined_models() {
     let truth = issue_plant();
-    for seed in [1, 6, 7] {
-        let data = multirate_record(&truth, 15_000, &[3, 5], 1, seed);
-        let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
-        let d = &fit.file.diagnostics;
-        let err = fr_error(&fit.file.model, &truth);
-        assert!(
-            err < 0.02,
-            "seed {seed}: order {}, FR error {err}: {d}",
-            fit.order
-        );
-        assert!(
-            d["structure_selection"]["refined_shortlist"]["candidates"].is_array(),
-            "{d}"
-        );
-    }
+    let seed = 6;
+    let data = multirate_record(&truth, 15_000, &[3, 5], 1, seed);
+    let fit = identify(&[Record::new(data)], &WorkflowOptions::default()).expect("identify");
+    let d = &fit.file.diagnostics;
+    let err = fr_error(&fit.file.model, &truth);
+    assert!(
+        err < 0.02,
+        "seed {seed}: order {}, FR error {err}: {d}",
+        fit.order
+    );
+    assert!(
+        d["structure_selection"]["refined_shortlist"]["candidates"].is_array(),
+        "{d}"
+    );
 }
 
 /// The issue's multirate plant with its slow output y₂ logged in units 1e6
