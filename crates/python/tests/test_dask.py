@@ -148,7 +148,7 @@ def test_parquet_shards_and_dataframe(client, tmp_path: pathlib.Path) -> None:
     pytest.importorskip("pyarrow")
     import dask.dataframe as dd
 
-    u, y = record(120_000, 9)
+    u, y = record(60_000, 9)
     frame = pd.DataFrame({"u1": u[:, 0], "u2": u[:, 1], "y1": y[:, 0], "y2": y[:, 1]})
     paths = []
     for k, part in enumerate(np.array_split(np.arange(len(frame)), 3)):
