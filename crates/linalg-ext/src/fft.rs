@@ -3,9 +3,10 @@
 //!
 //! rustfft's planner is generic over the float type, so every crate that
 //! names `FftPlanner<f64>` compiles its whole family of algorithms again
-//! (about 1 250 functions: two thirds of `lifted-prbs`'s machine code and a
-//! third of `lifted-subspace`'s, each twice with the unit tests). Here they
-//! are compiled once, and the crates above call [`Transforms`].
+//! (about 1 250 functions, twice with the crate's unit tests: when
+//! `lifted-prbs` and `lifted-subspace` each held a planner, two thirds of
+//! the first's machine code and a third of the second's). Here they are
+//! compiled once; crates above call [`Transforms`] and never name rustfft.
 //!
 //! Plans (twiddle tables) are cached by the planner, so transforms of a
 //! length already seen skip planning, which costs about as much as a few
