@@ -365,10 +365,15 @@ impl HankelStream {
         if self.center && self.samples == 0 && !self.fixed_reference {
             let bf = b as f64;
             for c in 0..nz {
+                // Column slices: the vectorised sum (nalgebra's is one
+                // dependent chain through an iterator).
                 self.reference[c] = if c < self.layout.nu {
-                    u.column(c).sum() * self.inv_scale[0] / bf
+                    lifted_linalg::kernels::sum(u.column(c).data.into_slice()) * self.inv_scale[0]
+                        / bf
                 } else {
-                    y.column(c - self.layout.nu).sum() * self.inv_scale[1] / bf
+                    lifted_linalg::kernels::sum(y.column(c - self.layout.nu).data.into_slice())
+                        * self.inv_scale[1]
+                        / bf
                 };
             }
         }

@@ -128,38 +128,72 @@ pub(crate) fn pow4_scale(mats: &[&DMatrix<f64>]) -> f64 {
 
 /// [`pow4_scale`] and the number of finite entries it saw.
 pub(crate) fn pow4_scale_counted(mats: &[&DMatrix<f64>]) -> (f64, usize) {
+    let parts: Vec<(&[f64], f64)> = mats.iter().map(|m| (m.as_slice(), 0.0)).collect();
+    pow4_of_parts(&parts)
+}
+
+/// The scale a stream's first block fixes ([`pow4_scale`] of the block's
+/// columns less their means when `centre`, as the whole-record route
+/// scales the centred records), and the column means (zeros without
+/// centring). No copy of the block: one vectorised sum per column, then
+/// the centred squares in the same pass as [`pow4_scale`]'s. O(entries).
+pub(crate) fn first_block_scale(m: &DMatrix<f64>, centre: bool) -> (f64, Vec<f64>) {
+    let rows = m.nrows();
+    let columns: Vec<&[f64]> = if rows == 0 {
+        Vec::new()
+    } else {
+        m.as_slice().chunks_exact(rows).collect()
+    };
+    let means: Vec<f64> = columns
+        .iter()
+        .map(|c| {
+            if centre {
+                lifted_linalg::kernels::sum(c) / rows as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let parts: Vec<(&[f64], f64)> = columns.into_iter().zip(means.iter().copied()).collect();
+    (pow4_of_parts(&parts).0, means)
+}
+
+/// [`pow4_scale_counted`] of the entries `x − offset` of each part.
+fn pow4_of_parts(parts: &[(&[f64], f64)]) -> (f64, usize) {
     lifted_linalg::simd::dispatch(
         #[inline(always)]
         || {
             // Eight independent lanes (sum, largest magnitude, count): no chain of
-            // dependent max/add across elements, so the loop vectorises.
+            // dependent max/add across elements, and comparisons and selects
+            // (not `f64::max`, whose NaN rule costs a blend) so the loop
+            // vectorises. Non-finite entries count as zero and are not counted.
             const LANES: usize = 8;
             let mut sums = [0.0f64; LANES];
             let mut bigs = [0.0f64; LANES];
-            let mut counts = [0usize; LANES];
-            for m in mats {
-                let v = m.as_slice();
+            let mut counts = [0u64; LANES];
+            for &(v, off) in parts {
                 let mut chunks = v.chunks_exact(LANES);
                 for c in &mut chunks {
                     for l in 0..LANES {
-                        let x = c[l];
-                        let ok = x.is_finite();
-                        let x = if ok { x } else { 0.0 };
-                        bigs[l] = bigs[l].max(x.abs());
-                        sums[l] += x * x;
-                        counts[l] += usize::from(ok);
+                        let a = (c[l] - off).abs();
+                        let ok = a < f64::INFINITY;
+                        let a = if ok { a } else { 0.0 };
+                        bigs[l] = if a > bigs[l] { a } else { bigs[l] };
+                        sums[l] += a * a;
+                        counts[l] += u64::from(ok);
                     }
                 }
                 for &x in chunks.remainder() {
-                    if x.is_finite() {
-                        bigs[0] = bigs[0].max(x.abs());
-                        sums[0] += x * x;
+                    let a = (x - off).abs();
+                    if a < f64::INFINITY {
+                        bigs[0] = bigs[0].max(a);
+                        sums[0] += a * a;
                         counts[0] += 1;
                     }
                 }
             }
             let big = bigs.iter().cloned().fold(0.0f64, f64::max);
-            let count: usize = counts.iter().sum();
+            let count = counts.iter().sum::<u64>() as usize;
             if big <= 0.0 {
                 return (1.0, count);
             }
@@ -167,9 +201,9 @@ pub(crate) fn pow4_scale_counted(mats: &[&DMatrix<f64>]) -> (f64, usize) {
             let mut unit = 1.0;
             if !(1e-150..=1e150).contains(&big) || !sum.is_finite() {
                 // Squares out of range: the same sums of (v / big)².
-                sum = mats
+                sum = parts
                     .iter()
-                    .flat_map(|m| m.iter())
+                    .flat_map(|&(v, off)| v.iter().map(move |x| x - off))
                     .filter(|v| v.is_finite())
                     .map(|v| (v / big) * (v / big))
                     .sum();
@@ -180,4 +214,39 @@ pub(crate) fn pow4_scale_counted(mats: &[&DMatrix<f64>]) -> (f64, usize) {
             (2f64.powi(2 * k), count)
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{first_block_scale, pow4_scale};
+    use nalgebra::DMatrix;
+
+    /// The first block's scale and means without a copy agree with the
+    /// centred copy's [`pow4_scale`] and nalgebra's column means (to
+    /// rounding: the sums run in another order), and without centring
+    /// with [`pow4_scale`] of the block itself, for block lengths that
+    /// leave remainders of the eight lanes.
+    #[test]
+    fn the_first_block_scale_is_that_of_the_centred_block() {
+        for rows in [1usize, 7, 8, 13, 1000] {
+            let m = DMatrix::from_fn(rows, 3, |i, j| {
+                let x = ((i * 7919 + j * 104_729) % 1013) as f64 / 1013.0;
+                [5.0e3, -2.0, 1.0e-6][j] + [3.0e2, 0.7, 2.0e-7][j] * x
+            });
+            let (scale, means) = first_block_scale(&m, true);
+            let mut centred = m.clone();
+            for (j, mut col) in centred.column_iter_mut().enumerate() {
+                let mean = col.mean();
+                assert!((means[j] - mean).abs() <= 1e-14 * mean.abs(), "rows {rows}");
+                col.add_scalar_mut(-mean);
+            }
+            assert_eq!(scale, pow4_scale(&[&centred]), "rows {rows}");
+            let (raw, zeros) = first_block_scale(&m, false);
+            assert_eq!(raw, pow4_scale(&[&m]), "rows {rows}");
+            assert!(zeros.iter().all(|&z| z == 0.0));
+        }
+        // Non-finite entries are left out of the scale, as pow4_scale does.
+        let m = DMatrix::from_column_slice(4, 1, &[1.0, f64::NAN, 4.0, 16.0]);
+        assert_eq!(first_block_scale(&m, false).0, pow4_scale(&[&m]));
+    }
 }

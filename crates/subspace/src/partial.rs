@@ -49,7 +49,7 @@ use crate::hankel::{
     Compression, CompressionWork, HankelLayout, HankelStream, Piece, RecordSums,
     correlation_factor, fold_record,
 };
-use crate::numerics::{Scale, pow4_scale};
+use crate::numerics::{Scale, first_block_scale};
 use crate::options::SubspaceOptions;
 use crate::streaming::{StreamedParts, StreamedSubspace, streamed_subspace};
 use crate::wire::{from_cbor, to_cbor};
@@ -154,26 +154,16 @@ impl CompressionPlan {
             });
         }
         check_options(nu, ny, opts)?;
-        let centred = |m: &DMatrix<f64>| {
-            let mut c = m.clone();
-            if opts.remove_means {
-                for mut col in c.column_iter_mut() {
-                    let mean = col.mean();
-                    col.add_scalar_mut(-mean);
-                }
-            }
-            c
-        };
-        let scale = [pow4_scale(&[&centred(u)]), pow4_scale(&[&centred(y)])];
-        let b = u.nrows() as f64;
-        let reference = if opts.remove_means {
-            u.column_iter()
-                .map(|c| c.sum() * (1.0 / scale[0]) / b)
-                .chain(y.column_iter().map(|c| c.sum() * (1.0 / scale[1]) / b))
-                .collect()
-        } else {
-            vec![0.0; nu + ny]
-        };
+        let (su, mu) = first_block_scale(u, opts.remove_means);
+        let (sy, my) = first_block_scale(y, opts.remove_means);
+        let scale = [su, sy];
+        // The centring reference: the block's means, scaled (exactly: the
+        // scales are powers of 4); zeros without centring.
+        let reference = mu
+            .iter()
+            .map(|m| m / su)
+            .chain(my.iter().map(|m| m / sy))
+            .collect();
         Ok(CompressionPlan {
             n_inputs: nu,
             n_outputs: ny,
