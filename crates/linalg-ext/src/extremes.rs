@@ -69,14 +69,15 @@ pub fn lower_triangular_extremes_within(
     if k == 0 {
         return Ok((0.0, 0.0));
     }
-    let low = l.lower_triangle();
-    // σ_max: v ← Lᵀ L v / ‖·‖, estimate ‖L v‖ (‖v‖ = 1) ≤ σ_max.
+    // σ_max: v ← Lᵀ L v / ‖·‖, estimate ‖L v‖ (‖v‖ = 1) ≤ σ_max. The
+    // products read the lower triangle in place (no k×k copy with the
+    // upper part zeroed: half the work, and no fresh pages).
     let mut v = start(k);
     let mut smax = 0.0f64;
     for _ in 0..max_iterations.max(1) {
-        let lv = &low * &v;
+        let lv = lower_mul(l, &v);
         let est = lv.norm();
-        let w = low.tr_mul(&lv);
+        let w = lower_tr_mul(l, &lv);
         let n = w.norm();
         if n == 0.0 {
             break;
@@ -88,18 +89,19 @@ pub fn lower_triangular_extremes_within(
             break;
         }
     }
-    if (0..k).any(|i| low[(i, i)] == 0.0) {
+    if (0..k).any(|i| l[(i, i)] == 0.0) {
         return Ok((smax, 0.0));
     }
-    // σ_min: x ← L⁻ᵀ L⁻¹ x / ‖·‖, estimate 1/‖L⁻¹ x‖ ≥ σ_min.
+    // σ_min: x ← L⁻ᵀ L⁻¹ x / ‖·‖, estimate 1/‖L⁻¹ x‖ ≥ σ_min (the solves
+    // read only the lower triangle).
     let mut x = start(k);
     let mut inv_max = 0.0f64;
     for _ in 0..max_iterations.max(1) {
-        let Some(a) = low.solve_lower_triangular(&x) else {
+        let Some(a) = l.solve_lower_triangular(&x) else {
             return Ok((smax, 0.0));
         };
         let est = a.norm();
-        let Some(b) = low.tr_solve_lower_triangular(&a) else {
+        let Some(b) = l.tr_solve_lower_triangular(&a) else {
             return Ok((smax, 0.0));
         };
         let n = b.norm();
@@ -114,6 +116,51 @@ pub fn lower_triangular_extremes_within(
         }
     }
     Ok((smax, if inv_max > 0.0 { 1.0 / inv_max } else { 0.0 }))
+}
+
+/// L v for the lower triangle of the square `l` (column axpys, O(k²/2)).
+fn lower_mul(l: &DMatrix<f64>, v: &DVector<f64>) -> DVector<f64> {
+    let k = l.nrows();
+    let mut y = DVector::zeros(k);
+    let ys = y.as_mut_slice();
+    for (j, col) in l.as_slice().chunks_exact(k.max(1)).enumerate() {
+        let vj = v[j];
+        for (yi, lij) in ys[j..].iter_mut().zip(&col[j..]) {
+            *yi += lij * vj;
+        }
+    }
+    y
+}
+
+/// Lᵀ y for the lower triangle of the square `l` (column dots with four
+/// independent sums, O(k²/2); no fused multiply-add, which outside
+/// `simd::dispatch` would be a library call per product).
+fn lower_tr_mul(l: &DMatrix<f64>, y: &DVector<f64>) -> DVector<f64> {
+    let k = l.nrows();
+    let ys = y.as_slice();
+    let dot = |a: &[f64], b: &[f64]| {
+        let mut acc = [0.0f64; 4];
+        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        let tail: f64 = ca
+            .remainder()
+            .iter()
+            .zip(cb.remainder())
+            .map(|(x, y)| x * y)
+            .sum();
+        for (xa, xb) in ca.zip(cb) {
+            for i in 0..4 {
+                acc[i] += xa[i] * xb[i];
+            }
+        }
+        (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+    };
+    DVector::from_iterator(
+        k,
+        l.as_slice()
+            .chunks_exact(k.max(1))
+            .enumerate()
+            .map(|(j, col)| dot(&col[j..], &ys[j..])),
+    )
 }
 
 /// Checks finiteness and squareness; returns k.
