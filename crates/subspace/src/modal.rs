@@ -192,7 +192,10 @@ impl ModalForm {
     /// Advances n modal filters `w` by one sample with input `u`
     /// (w ← Λ w + u for real modes; the pair form p' = ap − bq + u,
     /// q' = aq + bp, the real and imaginary parts of the complex filter).
-    #[inline]
+    /// Always inlined, so that inside `simd::dispatch` the fused
+    /// multiply-adds are instructions (a call of its own, compiled for the
+    /// baseline x86-64, makes each `mul_add` a library call).
+    #[inline(always)]
     fn step(&self, w: &mut [f64], u: f64) {
         let mut i = 0;
         for m in &self.modes {
@@ -969,7 +972,9 @@ impl FilterState {
 
     /// Advances by the input row `t` of `rec` (inputs times `iu`): the
     /// same operations as the scan, so the states are bit for bit those
-    /// the scan holds at the next instant.
+    /// the scan holds at the next instant. Inlined into its callers (see
+    /// [`ModalForm::step`]).
+    #[inline(always)]
     fn step(&mut self, form: &ModalForm, rec: &Record<'_>, iu: f64, t: usize) {
         let n = self.fr.len();
         for (j, wj) in self.w.chunks_exact_mut(n).enumerate() {
