@@ -219,7 +219,8 @@ impl RAccumulator {
     /// have `ncols` columns, [`crate::Error::NonFinite`].
     pub fn push_rows(&mut self, block: &DMatrix<f64>) -> Result<()> {
         if let Some(simd) = self.folds(block)? {
-            // A full triangle and a narrow block: the structured fold.
+            // A full (or empty) triangle and a narrow block: the
+            // structured fold.
             let mut b = block.clone();
             crate::fold::fold_into_triangle(simd, &mut self.r, &mut b);
         } else if block.nrows() > 0 {
@@ -245,15 +246,26 @@ impl RAccumulator {
     }
 
     /// Checks a block (width, finiteness) and says whether it is folded by
-    /// the structured reflections (R full, the block non-empty and narrow,
-    /// the vector kernels available: their token) rather than by the
-    /// stacked QR.
-    fn folds(&self, block: &DMatrix<f64>) -> Result<Option<crate::simd::Avx2Fma>> {
+    /// the structured reflections (the block non-empty and narrow, the
+    /// vector kernels available: their token) rather than by the stacked
+    /// QR: onto a full R, or onto an empty one when the block has at least
+    /// as many rows as columns — R then starts as the n×n zero triangle,
+    /// and the fold of [0; B] is the Householder QR of B (the reflections
+    /// of a column with a zero head; R's rows up to sign), without the
+    /// general blocked QR's set-up for every fresh accumulator (the modal
+    /// scan's parts start one per pattern for each block of a stream).
+    fn folds(&mut self, block: &DMatrix<f64>) -> Result<Option<crate::simd::Avx2Fma>> {
         check_cols("block", block, self.ncols)?;
         check_finite("block", block)?;
         let n = self.ncols;
-        let structured = block.nrows() > 0 && self.r.nrows() == n && n <= NARROW_COLUMNS;
-        Ok(crate::simd::Avx2Fma::detect().filter(|_| structured))
+        let (m, k) = (block.nrows(), self.r.nrows());
+        let fresh = k == 0 && self.rows_seen == 0 && m >= n;
+        let structured = m > 0 && n > 0 && n <= NARROW_COLUMNS && (k == n || fresh);
+        let simd = crate::simd::Avx2Fma::detect().filter(|_| structured);
+        if simd.is_some() && fresh {
+            self.r = DMatrix::zeros(n, n);
+        }
+        Ok(simd)
     }
 
     /// R of [R; block] by the Householder QR of the stacked copy.
@@ -316,5 +328,49 @@ mod tests {
         acc.push_rows(&DMatrix::zeros(0, 3)).unwrap();
         acc.push_rows(&DMatrix::from_element(2, 3, 1.0)).unwrap();
         assert_eq!((acc.rows_seen(), acc.r().shape()), (2, (2, 3)));
+    }
+
+    /// A fresh accumulator's first block of at least n rows is folded onto
+    /// the zero triangle (the structured fold, where AVX2/FMA run): R is
+    /// that of the stacked QR up to row signs, by either entry point and
+    /// for later blocks too; a first block of fewer rows keeps its m rows.
+    #[test]
+    fn a_fresh_accumulator_folds_its_first_block() {
+        let n = 17;
+        let rows = |m: usize, seed: usize| {
+            DMatrix::from_fn(m, n, |i, j| {
+                (((i + seed) * 7919 + j * 104_729) % 1009) as f64 / 1009.0 - 0.5
+                    + f64::from(u8::from(i == j))
+            })
+        };
+        let (b1, b2) = (rows(1000, 0), rows(300, 5));
+        let mut stacked = DMatrix::zeros(1300, n);
+        stacked.rows_mut(0, 1000).copy_from(&b1);
+        stacked.rows_mut(1000, 300).copy_from(&b2);
+        let want = qr_r(&stacked).unwrap();
+        let mut folded = RAccumulator::new(n);
+        folded.fold_rows(&mut b1.clone()).unwrap();
+        folded.push_rows(&b2).unwrap();
+        let mut pushed = RAccumulator::new(n);
+        pushed.push_rows(&b1).unwrap();
+        pushed.push_rows(&b2).unwrap();
+        for acc in [&folded, &pushed] {
+            let r = acc.r();
+            assert_eq!((r.shape(), acc.rows_seen()), ((n, n), 1300));
+            for i in 0..n {
+                let sign = if (r[(i, i)] > 0.0) == (want[(i, i)] > 0.0) {
+                    1.0
+                } else {
+                    -1.0
+                };
+                for j in 0..n {
+                    let d = (sign * r[(i, j)] - want[(i, j)]).abs();
+                    assert!(d <= 1e-12 * want[(i, i)].abs(), "R[{i},{j}] off by {d:e}");
+                }
+            }
+        }
+        let mut short = RAccumulator::new(n);
+        short.push_rows(&rows(5, 1)).unwrap();
+        assert_eq!(short.r().shape(), (5, n));
     }
 }
