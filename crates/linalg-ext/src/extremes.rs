@@ -132,16 +132,35 @@ fn lower_mul(l: &DMatrix<f64>, v: &DVector<f64>) -> DVector<f64> {
     y
 }
 
-/// Lᵀ y for the lower triangle of the square `l` (column dots, O(k²/2)).
+/// Lᵀ y for the lower triangle of the square `l` (column dots with four
+/// independent sums, O(k²/2); plain products: `kernels::dot`'s fused
+/// multiply-adds are library calls outside `simd::dispatch` in the
+/// baseline x86-64 build).
 fn lower_tr_mul(l: &DMatrix<f64>, y: &DVector<f64>) -> DVector<f64> {
     let k = l.nrows();
     let ys = y.as_slice();
+    let dot = |a: &[f64], b: &[f64]| {
+        let mut acc = [0.0f64; 4];
+        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        let tail: f64 = ca
+            .remainder()
+            .iter()
+            .zip(cb.remainder())
+            .map(|(x, y)| x * y)
+            .sum();
+        for (xa, xb) in ca.zip(cb) {
+            for i in 0..4 {
+                acc[i] += xa[i] * xb[i];
+            }
+        }
+        (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+    };
     DVector::from_iterator(
         k,
         l.as_slice()
             .chunks_exact(k.max(1))
             .enumerate()
-            .map(|(j, col)| crate::kernels::dot(&col[j..], &ys[j..])),
+            .map(|(j, col)| dot(&col[j..], &ys[j..])),
     )
 }
 
