@@ -158,6 +158,25 @@ pub(crate) fn first_block_scale(m: &DMatrix<f64>, centre: bool) -> (f64, Vec<f64
     (pow4_of_parts(&parts).0, means)
 }
 
+/// What a stream's first block (u, y) fixes: the [`Scale`] of its inputs and
+/// outputs ([`first_block_scale`]) and the centring reference, the
+/// channels' means in the scaled units (inputs then outputs; exact: the
+/// scales are powers of 4; zeros without centring). O(entries).
+pub(crate) fn first_block_centring(
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    centre: bool,
+) -> (Scale, Vec<f64>) {
+    let (su, mu) = first_block_scale(u, centre);
+    let (sy, my) = first_block_scale(y, centre);
+    let reference = mu
+        .iter()
+        .map(|m| m / su)
+        .chain(my.iter().map(|m| m / sy))
+        .collect();
+    (Scale { u: su, y: sy }, reference)
+}
+
 /// [`pow4_scale_counted`] of the entries `x − offset` of each part.
 fn pow4_of_parts(parts: &[(&[f64], f64)]) -> (f64, usize) {
     lifted_linalg::simd::dispatch(

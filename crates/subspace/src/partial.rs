@@ -49,7 +49,7 @@ use crate::hankel::{
     Compression, CompressionWork, HankelLayout, HankelStream, Piece, RecordSums,
     correlation_factor, fold_record,
 };
-use crate::numerics::{Scale, first_block_scale};
+use crate::numerics::{Scale, first_block_centring};
 use crate::options::SubspaceOptions;
 use crate::streaming::{StreamedParts, StreamedSubspace, streamed_subspace};
 use crate::wire::{from_cbor, to_cbor};
@@ -154,16 +154,8 @@ impl CompressionPlan {
             });
         }
         check_options(nu, ny, opts)?;
-        let (su, mu) = first_block_scale(u, opts.remove_means);
-        let (sy, my) = first_block_scale(y, opts.remove_means);
-        let scale = [su, sy];
-        // The centring reference: the block's means, scaled (exactly: the
-        // scales are powers of 4); zeros without centring.
-        let reference = mu
-            .iter()
-            .map(|m| m / su)
-            .chain(my.iter().map(|m| m / sy))
-            .collect();
+        let (scale, reference) = first_block_centring(u, y, opts.remove_means);
+        let scale = [scale.u, scale.y];
         Ok(CompressionPlan {
             n_inputs: nu,
             n_outputs: ny,

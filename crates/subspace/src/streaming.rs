@@ -13,7 +13,7 @@ use crate::estimated::InitialState;
 use crate::fit::{Factored, Fit, NoisePart, from_factor_parts, noise_part};
 use crate::hankel::{HankelFactor, HankelLayout, HankelStream};
 use crate::model::{BdRoute, SubspaceModel, fold_output_offsets};
-use crate::numerics::{Scale, first_block_scale};
+use crate::numerics::{Scale, first_block_centring};
 use crate::options::{BdEstimate, SubspaceOptions, SystemEstimate};
 use crate::records::need_records;
 
@@ -146,18 +146,9 @@ impl StreamingIdentifier {
             // means, as `identify` scales the centred records (the same
             // power of 4 unless the RMS sits near a boundary; the model is
             // then the same up to a diagonal change of state basis).
-            let (su, mu) = first_block_scale(u, self.opts.remove_means);
-            let (sy, my) = first_block_scale(y, self.opts.remove_means);
-            let scale = Scale { u: su, y: sy };
+            let (scale, reference) = first_block_centring(u, y, self.opts.remove_means);
             if self.opts.remove_means {
-                // The centring reference: the first block's means, scaled
-                // (exactly: the scales are powers of 4).
-                self.stream.set_reference(
-                    mu.iter()
-                        .map(|m| m / su)
-                        .chain(my.iter().map(|m| m / sy))
-                        .collect(),
-                );
+                self.stream.set_reference(reference);
             }
             self.stream.set_scale(scale);
             self.scale = Some(scale);
