@@ -70,25 +70,70 @@ pub fn sum(x: &[f64]) -> f64 {
 /// ```
 #[inline]
 pub fn first_non_finite(x: &[f64]) -> Option<usize> {
+    // |v| < ∞ is false for NaN and ±∞.
+    first_failing(
+        x,
+        #[inline(always)]
+        |v| v.abs() < f64::INFINITY,
+    )
+}
+
+/// Index of the first entry of `x` that is +∞ or −∞ (NaN passes: a
+/// record's unsampled outputs), `None` when there is none. Blocks of 64
+/// scanned without branches, as [`first_non_finite`]. O(n).
+///
+/// ```
+/// use lifted_linalg::kernels::first_infinite;
+/// assert_eq!(first_infinite(&[1.0, f64::NAN, f64::NEG_INFINITY]), Some(2));
+/// assert_eq!(first_infinite(&[f64::NAN, 2.0]), None);
+/// ```
+#[inline]
+pub fn first_infinite(x: &[f64]) -> Option<usize> {
+    first_failing(
+        x,
+        #[inline(always)]
+        |v| v.abs() != f64::INFINITY,
+    )
+}
+
+/// Whether an entry of `x` is NaN. Blocks of 64 scanned without
+/// branches, as [`first_non_finite`]. O(n).
+///
+/// ```
+/// assert!(lifted_linalg::kernels::has_nan(&[1.0, f64::NAN]));
+/// assert!(!lifted_linalg::kernels::has_nan(&[1.0, f64::INFINITY]));
+/// ```
+#[inline]
+pub fn has_nan(x: &[f64]) -> bool {
+    first_failing(
+        x,
+        #[inline(always)]
+        |v: f64| !v.is_nan(),
+    )
+    .is_some()
+}
+
+/// Index of the first entry of `x` for which `ok` is false: each block of
+/// 64 tested by an and-reduction of `ok` without branches (vectorised),
+/// the entry located inside the first failing block.
+#[inline(always)]
+fn first_failing(x: &[f64], ok: impl Fn(f64) -> bool + Copy) -> Option<usize> {
     crate::simd::dispatch(
         #[inline(always)]
         || {
             const B: usize = 64;
             let mut blocks = x.chunks_exact(B);
             for (b, blk) in blocks.by_ref().enumerate() {
-                // |v| < ∞ is false for NaN and ±∞; `&` (not `&&`) keeps it branch-free
-                if !blk
-                    .iter()
-                    .fold(true, |ok, v| ok & (v.abs() < f64::INFINITY))
-                {
-                    return blk.iter().position(|v| !v.is_finite()).map(|i| b * B + i);
+                // `&` (not `&&`) keeps it branch-free.
+                if !blk.iter().fold(true, |all, &v| all & ok(v)) {
+                    return blk.iter().position(|&v| !ok(v)).map(|i| b * B + i);
                 }
             }
             let base = x.len() - blocks.remainder().len();
             blocks
                 .remainder()
                 .iter()
-                .position(|v| !v.is_finite())
+                .position(|&v| !ok(v))
                 .map(|i| base + i)
         },
     )
@@ -96,7 +141,7 @@ pub fn first_non_finite(x: &[f64]) -> Option<usize> {
 
 #[cfg(test)]
 mod tests {
-    use super::{dot, first_non_finite};
+    use super::{dot, first_infinite, first_non_finite, has_nan};
 
     #[test]
     fn matches_the_sequential_sum() {
@@ -121,6 +166,37 @@ mod tests {
                         y[k + 3] = f64::NAN;
                     }
                     assert_eq!(first_non_finite(&y), Some(k), "n = {n}, k = {k}");
+                }
+            }
+        }
+    }
+
+    /// The infinity and NaN scans against their plain loops, the entry in
+    /// any block and in the remainder, NaN and infinities mixed.
+    #[test]
+    fn the_infinity_and_nan_scans_find_what_the_plain_loops_find() {
+        for n in [0usize, 1, 63, 64, 65, 200] {
+            let x: Vec<f64> = (0..n).map(|i| i as f64 - 7.0).collect();
+            assert_eq!(first_infinite(&x), None, "n = {n}");
+            assert!(!has_nan(&x), "n = {n}");
+            for k in (0..n).step_by(13).chain(n.checked_sub(1)) {
+                for (bad, other) in [
+                    (f64::INFINITY, f64::NAN),
+                    (f64::NEG_INFINITY, f64::NAN),
+                    (f64::NAN, f64::INFINITY),
+                ] {
+                    let mut y = x.clone();
+                    y[k] = bad;
+                    if k + 3 < n {
+                        y[k + 3] = other;
+                    }
+                    let inf = y.iter().position(|v| v.is_infinite());
+                    assert_eq!(first_infinite(&y), inf, "n = {n}, k = {k}");
+                    assert_eq!(
+                        has_nan(&y),
+                        y.iter().any(|v| v.is_nan()),
+                        "n = {n}, k = {k}"
+                    );
                 }
             }
         }

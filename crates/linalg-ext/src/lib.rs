@@ -22,7 +22,7 @@
 //! | [`extremes`] | [`gram_condition_exceeds`], [`triangular_condition`], [`triangular_ratio_bound`], [`lower_inverse_frobenius`], [`lower_triangular_extremes`] | shifted-Cholesky certificates, explicit triangular inverse bounds, power iteration | O(k²) per step, O(k³/3) |
 //! | [`mod@rank`] | [`rank()`], [`pinv`], [`null_space`], [`range_basis`] with [`RankTolerance`] | SVD thresholding, default tol = max(m,n)·ε·σ_max | O(mn·min(m,n)) |
 //! | [`product`] | [`mul_blocks`] | faer matmul on column/row blocks of `DMatrix` operands (no copies) | O(mkn) |
-//! | [`kernels`] | [`dot`], [`first_non_finite`] | eight FMA partial sums (SIMD); branch-free block scan | O(n) |
+//! | [`kernels`] | [`dot`], [`first_non_finite`], `first_infinite`, `has_nan` | eight FMA partial sums (SIMD); branch-free block scans | O(n) |
 //! | [`mod@lstsq`] | [`lstsq()`] | Householder QR in place, reflectors applied to B, if full column rank; else minimum-norm SVD solution | O(mn²) |
 //! | [`lyapunov`] | [`lyap`], [`dlyap`], [`sylvester`] | Bartels–Stewart on the Schur form | O(n³) |
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |

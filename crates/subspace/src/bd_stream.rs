@@ -287,7 +287,8 @@ impl OutputErrorStream {
     ) -> Result<bool> {
         crate::checks::check_record_shape("block (u, y)", "b", u, y, self.nu, self.c.nrows())?;
         crate::error::check_data("u", u)?;
-        if let Some(i) = y.as_slice().iter().position(|v| v.is_infinite()) {
+        // NaN marks an unsampled output; ±∞ is an error (branch-free scan).
+        if let Some(i) = lifted_linalg::kernels::first_infinite(y.as_slice()) {
             return Err(crate::error::non_finite_at("y", y, i));
         }
         if u.nrows() == 0 {

@@ -219,12 +219,9 @@ fn validate(
     for r in records {
         check_record_shape("record (u, y)", "N", r.u, r.y, nu, ny)?;
         check_data("u", r.u)?;
-        // NaN marks an unsampled output; ±∞ is an error. One branch-free
-        // (vectorised) pass, then the first infinite entry in column order.
-        let ys = r.y.as_slice();
-        if ys.iter().fold(false, |any, v| any | v.is_infinite())
-            && let Some(i) = ys.iter().position(|v| v.is_infinite())
-        {
+        // NaN marks an unsampled output; ±∞ is an error (branch-free scan,
+        // the first infinite entry in column order).
+        if let Some(i) = lifted_linalg::kernels::first_infinite(r.y.as_slice()) {
             return Err(non_finite_at("y", r.y, i));
         }
         if iv && let Some(f) = r.instrument {

@@ -810,7 +810,7 @@ fn stream_npy(
         spec.ts,
         STREAM_BLOCK,
         |u, y| {
-            if y.iter().any(|v| v.is_nan()) {
+            if lifted_linalg::kernels::has_nan(y.as_slice()) {
                 // A multirate record: the pass stops, the caller loads it
                 // whole.
                 multirate = true;
