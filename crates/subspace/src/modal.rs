@@ -217,13 +217,36 @@ impl ModalForm {
     /// Runs the modal filters of every input (`w`: n per input, as
     /// [`FilterState::w`]) over the instants `ts` of `u` (each sample times
     /// `iu`): at each instant the operations of [`step`](Self::step), so
-    /// the numbers are those of the sample-by-sample run, bit for bit; the
+    /// the numbers are those of the sample-by-sample run (bit for bit but
+    /// for the sign of a zero on the vector path, module `lanes`); the
     /// filters of an instant are independent, so their chains overlap in
     /// the pipeline. With `out = (block, stride, row)`, the value of filter
     /// c (c = j·n + i) *before* instant k of the stretch is written to
     /// `block[c * stride + row + k]` (the base rows' column-major block).
     /// O(n · n_u · ts.len()).
     fn run(
+        &self,
+        w: &mut [f64],
+        u: &DMatrix<f64>,
+        iu: f64,
+        ts: std::ops::Range<usize>,
+        out: Option<(&mut [f64], usize, usize)>,
+    ) {
+        // The filters of all inputs in vector lanes where they fit (the
+        // same values: module `lanes`).
+        if let (Some(simd), Some(lanes)) = (
+            lifted_linalg::simd::Avx2Fma::detect(),
+            lanes::Lanes::of(&self.modes, u.ncols()),
+        ) {
+            lanes.run(simd, w, u, iu, ts, out);
+            return;
+        }
+        self.run_scalar(w, u, iu, ts, out);
+    }
+
+    /// [`run`](Self::run) one input and mode at a time (more filters than
+    /// the vector lanes hold, or no AVX2).
+    fn run_scalar(
         &self,
         w: &mut [f64],
         u: &DMatrix<f64>,
@@ -1228,6 +1251,8 @@ fn fill_rows(
         }
     }
 }
+
+mod lanes;
 
 #[cfg(test)]
 mod tests;

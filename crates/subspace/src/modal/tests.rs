@@ -367,3 +367,80 @@ fn threads_split_long_records_with_the_same_result() {
         assert_eq!(run(2).b, run(2).b);
     }
 }
+
+/// The filters in vector lanes give the scalar loop's values (equal as
+/// numbers: only a zero's sign may differ), written values and end states,
+/// for real modes, pairs, mixed and odd orders, one to three inputs, up to
+/// the lanes' largest layout, and stretches that are no multiple of the
+/// lanes' chunk.
+#[test]
+fn the_lanes_run_the_scalar_filters() {
+    let Some(simd) = lifted_linalg::simd::Avx2Fma::detect() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(44);
+    let cases: Vec<(Vec<Mode>, usize)> = vec![
+        (vec![Mode::Real(0.9)], 1),
+        (vec![Mode::Pair(0.7, 0.5)], 2),
+        (
+            vec![Mode::Real(0.9), Mode::Real(0.5), Mode::Pair(0.64, 0.48)],
+            2,
+        ),
+        (vec![Mode::Pair(0.3, -0.2), Mode::Real(-0.6)], 3),
+        (
+            vec![
+                Mode::Real(0.1),
+                Mode::Pair(0.5, 0.4),
+                Mode::Real(0.95),
+                Mode::Pair(-0.2, 0.7),
+                Mode::Real(0.0),
+            ],
+            2,
+        ),
+        (
+            vec![
+                Mode::Pair(0.9, 0.1),
+                Mode::Pair(0.8, 0.2),
+                Mode::Pair(0.7, 0.3),
+                Mode::Pair(0.6, 0.4),
+            ],
+            4,
+        ),
+    ];
+    for (modes, nu) in cases {
+        let n: usize = modes
+            .iter()
+            .map(|m| if matches!(m, Mode::Real(_)) { 1 } else { 2 })
+            .sum();
+        let form = ModalForm {
+            modes: modes.clone(),
+            v: DMatrix::identity(n, n),
+            v_inv: DMatrix::identity(n, n),
+        };
+        let lanes = lanes::Lanes::of(&modes, nu).expect("within the lanes");
+        let len = 300;
+        let u = DMatrix::from_fn(len + 7, nu, |_, _| rng.random::<f64>() - 0.5);
+        let w0: Vec<f64> = (0..n * nu).map(|_| rng.random::<f64>()).collect();
+        let ts = 3..3 + len;
+        let stride = len + 5;
+        let (mut wa, mut wb) = (w0.clone(), w0.clone());
+        let (mut ba, mut bb) = (vec![0.0; n * nu * stride], vec![0.0; n * nu * stride]);
+        lanes.run(
+            simd,
+            &mut wa,
+            &u,
+            1.5,
+            ts.clone(),
+            Some((&mut ba, stride, 2)),
+        );
+        form.run_scalar(&mut wb, &u, 1.5, ts.clone(), Some((&mut bb, stride, 2)));
+        assert_eq!(wa, wb, "{modes:?} × {nu}: end states");
+        assert_eq!(ba, bb, "{modes:?} × {nu}: written values");
+        // Without writing: the same end states.
+        let mut wc = w0.clone();
+        lanes.run(simd, &mut wc, &u, 1.5, ts, None);
+        assert_eq!(wc, wb, "{modes:?} × {nu}: end states without writing");
+    }
+    // Beyond the lanes' layout: none (the scalar loop runs).
+    assert!(lanes::Lanes::of(&[Mode::Real(0.5); 5], 8).is_none());
+}
