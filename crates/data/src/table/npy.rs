@@ -26,6 +26,12 @@ const MAGIC: &[u8; 6] = b"\x93NUMPY";
 /// Bytes of data read at a time (C order: whole rows; Fortran order: per column).
 const BLOCK: usize = 1 << 20;
 
+/// Bytes of whole rows [`scan_blocks`] reads at a time from a C-order file:
+/// small enough that the read's copy and the decoding of it stay in the
+/// core's L2 cache (a 2 MiB read of a 65 536-row block went to memory and
+/// back), large enough that the calls cost nothing (a few per MiB).
+const READ_BYTES: usize = 1 << 17;
+
 /// The element type of an array (the `descr` of the header).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dtype {
@@ -54,12 +60,15 @@ impl Dtype {
     /// `b[k * stride..]`: one loop per element type, no per-element
     /// dispatch. O(out.len()).
     fn decode_strided(self, b: &[u8], stride: usize, out: &mut [f64]) {
+        // Rows of `stride` bytes (the last may be only the element long):
+        // one slice per element without a bounds check per byte.
         macro_rules! each {
             ($n:literal, $from:expr) => {
-                for (k, v) in out.iter_mut().enumerate() {
-                    let mut a = [0u8; $n];
-                    a.copy_from_slice(&b[k * stride..k * stride + $n]);
-                    *v = $from(a);
+                for (v, row) in out.iter_mut().zip(b.chunks(stride)) {
+                    let Some(a) = row.first_chunk::<$n>() else {
+                        break;
+                    };
+                    *v = $from(*a);
                 }
             };
         }
@@ -341,28 +350,34 @@ pub fn scan_record_blocks<E>(
     ) -> std::result::Result<bool, E>,
 ) -> std::result::Result<(usize, f64), BlockStop<E>> {
     let n_y = wanted.len().saturating_sub(n_u);
-    let (mut ub, mut yb) = (
-        nalgebra::DMatrix::zeros(0, n_u),
-        nalgebra::DMatrix::zeros(0, n_y),
-    );
+    // The blocks are decoded straight into the matrices the visitor gets.
+    let mut buf = RecordColumns {
+        u: nalgebra::DMatrix::zeros(0, n_u),
+        y: nalgebra::DMatrix::zeros(0, n_y),
+        time: Vec::new(),
+    };
     let mut stopped: Option<E> = None;
-    let scanned = scan_blocks(
+    let scanned = scan_core(
         path,
         given,
         wanted,
         may_be_empty,
         ts,
         block_rows,
-        |cols, n| {
-            if n != ub.nrows() {
-                ub = nalgebra::DMatrix::zeros(n, n_u);
-                yb = nalgebra::DMatrix::zeros(n, n_y);
-            }
-            ub.as_mut_slice().copy_from_slice(&cols[..n_u * n]);
-            yb.as_mut_slice()
-                .copy_from_slice(&cols[n_u * n..(n_u + n_y) * n]);
-            match visit(&mut ub, &mut yb) {
-                Ok(true) => Ok(n),
+        &mut buf,
+        |b, n, good| {
+            let went = if good == n {
+                visit(&mut b.u, &mut b.y)
+            } else {
+                // The rows before the failing one, as a block of their own.
+                let (mut u, mut y) = (
+                    b.u.rows(0, good).into_owned(),
+                    b.y.rows(0, good).into_owned(),
+                );
+                visit(&mut u, &mut y)
+            };
+            match went {
+                Ok(true) => Ok(good),
                 Ok(false) => Ok(0),
                 Err(e) => {
                     stopped = Some(e);
@@ -378,6 +393,77 @@ pub fn scan_record_blocks<E>(
     }
 }
 
+/// Where [`scan_core`] decodes a block: column k of the wanted columns
+/// (then the time column, when read) over the block's n rows.
+trait BlockColumns {
+    /// Makes room for a block of `n` rows (`k` columns).
+    fn reshape(&mut self, n: usize, k: usize);
+    /// Column `k` of the current block.
+    fn column(&mut self, k: usize) -> &mut [f64];
+    /// Column `k` of the current block, to read.
+    fn column_ref(&self, k: usize) -> &[f64];
+}
+
+/// One flat column-major buffer (column k at `k·n ..`), reused.
+struct FlatColumns {
+    data: Vec<f64>,
+    n: usize,
+}
+
+impl BlockColumns for FlatColumns {
+    fn reshape(&mut self, n: usize, k: usize) {
+        if self.data.len() < n * k {
+            self.data.resize(n * k, 0.0);
+        }
+        self.n = n;
+    }
+    fn column(&mut self, k: usize) -> &mut [f64] {
+        &mut self.data[k * self.n..(k + 1) * self.n]
+    }
+    fn column_ref(&self, k: usize) -> &[f64] {
+        &self.data[k * self.n..(k + 1) * self.n]
+    }
+}
+
+/// A record's input and output matrices (and the time column), reused
+/// while the blocks keep their length.
+struct RecordColumns {
+    u: nalgebra::DMatrix<f64>,
+    y: nalgebra::DMatrix<f64>,
+    time: Vec<f64>,
+}
+
+impl BlockColumns for RecordColumns {
+    fn reshape(&mut self, n: usize, k: usize) {
+        let (nu, ny) = (self.u.ncols(), self.y.ncols());
+        if self.u.nrows() != n {
+            self.u = nalgebra::DMatrix::zeros(n, nu);
+            self.y = nalgebra::DMatrix::zeros(n, ny);
+        }
+        self.time.resize(if k > nu + ny { n } else { 0 }, 0.0);
+    }
+    fn column(&mut self, k: usize) -> &mut [f64] {
+        let (n, nu, ny) = (self.u.nrows(), self.u.ncols(), self.y.ncols());
+        if k < nu {
+            &mut self.u.as_mut_slice()[k * n..(k + 1) * n]
+        } else if k < nu + ny {
+            &mut self.y.as_mut_slice()[(k - nu) * n..(k - nu + 1) * n]
+        } else {
+            &mut self.time
+        }
+    }
+    fn column_ref(&self, k: usize) -> &[f64] {
+        let (n, nu, ny) = (self.u.nrows(), self.u.ncols(), self.y.ncols());
+        if k < nu {
+            &self.u.as_slice()[k * n..(k + 1) * n]
+        } else if k < nu + ny {
+            &self.y.as_slice()[(k - nu) * n..(k - nu + 1) * n]
+        } else {
+            &self.time
+        }
+    }
+}
+
 /// Streams the `wanted` columns of a `.npy` file in blocks of up to
 /// `block_rows` rows: `visit(cols, n)` receives the block column-major
 /// (column j of `wanted` at `cols[j * n .. (j + 1) * n]`) and returns how
@@ -388,10 +474,11 @@ pub fn scan_record_blocks<E>(
 /// returned, as a row-by-row reading would. Returns the rows taken and the
 /// base period.
 ///
-/// Each column of a block is decoded in one strided loop (C order: from
-/// one contiguous read of whole rows; Fortran order: one read per wanted
-/// column) and checked for finiteness in chunks of 8: O(rows × wanted
-/// columns) with no per-row calls, memory O(block_rows × columns).
+/// Each column of a block is decoded by strided loops (C order: from reads
+/// of whole rows 128 KiB at a time; Fortran order: one read per
+/// wanted column) and checked for finiteness by branch-free block scans:
+/// O(rows × wanted columns) with no per-row calls, memory O(block_rows ×
+/// columns).
 pub fn scan_blocks(
     path: &str,
     given: &[String],
@@ -400,6 +487,48 @@ pub fn scan_blocks(
     ts: Option<f64>,
     block_rows: usize,
     mut visit: impl FnMut(&[f64], usize) -> crate::Result<usize>,
+) -> crate::Result<(usize, f64)> {
+    let k = wanted.len();
+    let mut buf = FlatColumns {
+        data: Vec::new(),
+        n: 0,
+    };
+    scan_core(
+        path,
+        given,
+        wanted,
+        may_be_empty,
+        ts,
+        block_rows,
+        &mut buf,
+        |b, n, good| {
+            if good == n {
+                visit(&b.data[..k * n], n)
+            } else {
+                // The rows before the failing one, as a block of their own.
+                let mut part = vec![0.0; k * good];
+                for (j, dst) in part.chunks_exact_mut(good).enumerate() {
+                    dst.copy_from_slice(&b.column_ref(j)[..good]);
+                }
+                visit(&part, good)
+            }
+        },
+    )
+}
+
+/// [`scan_blocks`] decoding into `buf`; `visit(buf, n, good)` takes the
+/// first `good` rows of the block of `n` (fewer than `n` where a value
+/// failed its check) and returns how many it took.
+#[allow(clippy::too_many_arguments)]
+fn scan_core<B: BlockColumns>(
+    path: &str,
+    given: &[String],
+    wanted: &[&String],
+    may_be_empty: std::ops::Range<usize>,
+    ts: Option<f64>,
+    block_rows: usize,
+    buf: &mut B,
+    mut visit: impl FnMut(&mut B, usize, usize) -> crate::Result<usize>,
 ) -> crate::Result<(usize, f64)> {
     let (mut file, h) = open(path)?;
     let header = names(path, given, h.cols)?;
@@ -431,31 +560,48 @@ pub fn scan_blocks(
     let row_bytes = h.cols * size;
     let block_rows = block_rows.max(1);
     let read_err = |e: std::io::Error| input(format!("{path}: truncated data ({e})"));
-    let mut bytes = vec![0u8; block_rows * if h.fortran_order { size } else { row_bytes }];
-    let mut cols = vec![0.0; sources.len() * block_rows];
+    // C order: whole rows read [`READ_BYTES`] at a time (the buffer stays
+    // in the core's cache between the read's copy and the decoding).
+    let read_rows = (READ_BYTES / row_bytes.max(1)).clamp(1, block_rows);
+    let mut bytes = vec![
+        0u8;
+        if h.fortran_order {
+            block_rows * size
+        } else {
+            read_rows * row_bytes
+        }
+    ];
     let mut r0 = 0;
     while r0 < h.rows {
         let n = block_rows.min(h.rows - r0);
-        for (k, &c) in sources.iter().enumerate() {
-            let out = &mut cols[k * n..(k + 1) * n];
-            if h.fortran_order {
+        buf.reshape(n, sources.len());
+        if h.fortran_order {
+            for (k, &c) in sources.iter().enumerate() {
+                let out = buf.column(k);
                 let at = h.data_offset + (c as u64 * h.rows as u64 + r0 as u64) * size as u64;
                 file.seek(SeekFrom::Start(at)).map_err(read_err)?;
                 let b = &mut bytes[..n * size];
                 file.read_exact(b).map_err(read_err)?;
                 h.dtype.decode_strided(b, size, out);
-            } else {
-                if k == 0 {
-                    file.read_exact(&mut bytes[..n * row_bytes])
-                        .map_err(read_err)?;
+            }
+        } else {
+            let mut i = 0;
+            while i < n {
+                let m = read_rows.min(n - i);
+                let b = &mut bytes[..m * row_bytes];
+                file.read_exact(b).map_err(read_err)?;
+                for (k, &c) in sources.iter().enumerate() {
+                    let out = &mut buf.column(k)[i..i + m];
+                    h.dtype.decode_strided(&b[c * size..], row_bytes, out);
                 }
-                h.dtype.decode_strided(&bytes[c * size..], row_bytes, out);
+                i += m;
             }
         }
         // The first row that fails a value check (and the column, in
         // wanted order, where a row-by-row reading fails it).
         let mut first_bad: Option<(usize, usize)> = None;
-        for (j, col) in cols[..wanted.len() * n].chunks_exact(n).enumerate() {
+        for j in 0..wanted.len() {
+            let col = buf.column_ref(j);
             let nan_ok = may_be_empty.contains(&j);
             let limit = first_bad.map_or(n, |(r, _)| r + 1);
             if let Some(r) = first_failing(&col[..limit], nan_ok)
@@ -469,7 +615,7 @@ pub fn scan_blocks(
         let checked = first_bad.map_or(n, |(r, _)| r);
         let mut time_error = None;
         if let Some(tc) = read_time {
-            let times = &cols[wanted.len() * n..(wanted.len() + 1) * n];
+            let times = buf.column_ref(wanted.len());
             let start = check.rows;
             for (i, &t) in times[..checked].iter().enumerate() {
                 let step = if t.is_finite() {
@@ -488,24 +634,13 @@ pub fn scan_blocks(
         let (good, error) = match (time_error, first_bad) {
             (Some((i, e)), _) => (i, Some(e)),
             (None, Some((r, j))) => {
-                let v = cols[j * n + r];
+                let v = buf.column_ref(j)[r];
                 let e = not_finite(path, r0 + r, wanted[j], v, may_be_empty.contains(&j));
                 (r, Some(e))
             }
             (None, None) => (n, None),
         };
-        let taken = if good == 0 {
-            0
-        } else if good == n {
-            visit(&cols[..wanted.len() * n], n)?
-        } else {
-            // The rows before the failing one, as a block of their own.
-            let mut part = vec![0.0; wanted.len() * good];
-            for (j, dst) in part.chunks_exact_mut(good).enumerate() {
-                dst.copy_from_slice(&cols[j * n..j * n + good]);
-            }
-            visit(&part, good)?
-        };
+        let taken = if good == 0 { 0 } else { visit(buf, n, good)? };
         check.rows += taken;
         if taken < good {
             break;
@@ -523,7 +658,7 @@ pub fn scan_blocks(
 /// output whose NaN marks an unsampled instant) the first infinity.
 fn first_failing(col: &[f64], nan_ok: bool) -> Option<usize> {
     if nan_ok {
-        col.iter().position(|v| v.is_infinite())
+        lifted_linalg::kernels::first_infinite(col)
     } else {
         lifted_linalg::kernels::first_non_finite(col)
     }
@@ -542,376 +677,4 @@ fn not_finite(path: &str, r: usize, column: &str, v: f64, output: bool) -> crate
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::table::{DataSpec, load, read_raw};
-
-    /// A `.npy` file by hand: magic, version, header dict padded to 64
-    /// bytes, then `data` (row-major values, written in `fortran` order if
-    /// asked) as `descr`.
-    fn npy(
-        version: u8,
-        descr: &str,
-        fortran: bool,
-        shape: &str,
-        rows: usize,
-        data: &[f64],
-    ) -> Vec<u8> {
-        let dict = format!(
-            "{{'descr': '{descr}', 'fortran_order': {}, 'shape': {shape}, }}",
-            if fortran { "True" } else { "False" }
-        );
-        let prefix = if version == 1 { 10 } else { 12 };
-        let pad = (64 - (prefix + dict.len() + 1) % 64) % 64;
-        let header = format!("{dict}{}\n", " ".repeat(pad));
-        let mut out = b"\x93NUMPY".to_vec();
-        out.extend([version, 0]);
-        if version == 1 {
-            out.extend((header.len() as u16).to_le_bytes());
-        } else {
-            out.extend((header.len() as u32).to_le_bytes());
-        }
-        out.extend(header.as_bytes());
-        let cols = data.len().checked_div(rows).unwrap_or(0);
-        let order: Vec<f64> = if fortran {
-            (0..cols)
-                .flat_map(|c| (0..rows).map(move |r| data[r * cols + c]))
-                .collect()
-        } else {
-            data.to_vec()
-        };
-        for v in order {
-            match descr {
-                "<f4" => out.extend((v as f32).to_le_bytes()),
-                ">f4" => out.extend((v as f32).to_be_bytes()),
-                ">f8" => out.extend(v.to_be_bytes()),
-                _ => out.extend(v.to_le_bytes()),
-            }
-        }
-        out
-    }
-
-    fn file(name: &str, bytes: &[u8]) -> String {
-        let dir = std::env::temp_dir().join(format!("lifted-npy-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).unwrap();
-        p.display().to_string()
-    }
-
-    fn s(v: &[&str]) -> Vec<String> {
-        v.iter().map(|x| x.to_string()).collect()
-    }
-
-    /// rows × 3: t = 0.5 k, u = k mod 7 − 3, y = sin k.
-    fn table(rows: usize) -> Vec<f64> {
-        (0..rows)
-            .flat_map(|k| [0.5 * k as f64, (k % 7) as f64 - 3.0, (k as f64).sin()])
-            .collect()
-    }
-
-    /// Every layout and element type, across block boundaries (the
-    /// 70 000-row files are larger than a block).
-    #[test]
-    fn reads_every_layout_and_type() {
-        for rows in [1usize, 5, 70_000] {
-            let data = table(rows);
-            for (version, descr, fortran) in [
-                (1, "<f8", false),
-                (2, "<f8", true),
-                (3, "<f4", false),
-                (1, "<f4", true),
-                (1, ">f8", false),
-                (2, ">f4", true),
-            ] {
-                let shape = format!("({rows}, 3)");
-                let path = file(
-                    &format!("l{rows}{version}{}{fortran}.npy", &descr[..1] == "<"),
-                    &npy(version, descr, fortran, &shape, rows, &data),
-                );
-                let names = s(&["t", "u", "y"]);
-                let wanted: Vec<&String> = vec![&names[2], &names[1]];
-                let ts = if rows == 1 { Some(0.5) } else { None };
-                let raw = read_raw(&path, &names, &wanted, 0..1, ts).unwrap();
-                assert_eq!((raw.rows, raw.ts), (rows, 0.5), "{path}");
-                let widen = |v: f64| {
-                    if descr.ends_with('4') {
-                        f64::from(v as f32)
-                    } else {
-                        v
-                    }
-                };
-                for k in [0, rows / 2, rows - 1] {
-                    assert_eq!(raw.cols[0][k], widen(data[3 * k + 2]), "{path} {k}");
-                    assert_eq!(raw.cols[1][k], widen(data[3 * k + 1]), "{path} {k}");
-                }
-                assert!(
-                    raw.cols[0]
-                        .iter()
-                        .enumerate()
-                        .all(|(k, &v)| v == widen(data[3 * k + 2]))
-                );
-            }
-        }
-    }
-
-    /// The default names, `--columns`, and the header.
-    #[test]
-    fn column_names() {
-        let path = file("names.npy", &npy(1, "<f8", false, "(4, 3)", 4, &table(4)));
-        assert_eq!(header(&path, &[]).unwrap(), s(&["c0", "c1", "c2"]));
-        assert_eq!(
-            crate::table::header(&path, &s(&["t", "u", "y"])).unwrap(),
-            s(&["t", "u", "y"])
-        );
-        let c2 = "c2".to_string();
-        let raw = read_raw(&path, &[], &[&c2], 0..0, Some(2.0)).unwrap();
-        assert_eq!((raw.rows, raw.ts), (4, 2.0));
-        let e = read_raw(&path, &[], &[&c2], 0..0, None)
-            .err()
-            .unwrap()
-            .to_string();
-        assert!(
-            e.ends_with("no time column ('t' or 'time'): give the base period with --ts"),
-            "{e}"
-        );
-        let e = header(&path, &s(&["t", "u"])).unwrap_err().to_string();
-        assert_eq!(
-            e,
-            format!("{path}: --columns gives 2 names, the array has 3 columns")
-        );
-        let y = "y".to_string();
-        let e = read_raw(&path, &[], &[&y], 0..0, Some(1.0))
-            .err()
-            .unwrap()
-            .to_string();
-        assert_eq!(
-            e,
-            format!("{path}: no column 'y' (columns: c0, c1, c2; name them with --columns)")
-        );
-    }
-
-    /// NaN marks an unsampled output; `load` infers the period from it.
-    #[test]
-    fn nan_in_outputs_is_unsampled() {
-        let mut data = table(12);
-        for k in 0..12 {
-            if k % 3 != 0 {
-                data[3 * k + 2] = f64::NAN;
-            }
-        }
-        let path = file("slow.npy", &npy(1, "<f8", false, "(12, 3)", 12, &data));
-        let spec = DataSpec {
-            inputs: s(&["u"]),
-            outputs: s(&["y"]),
-            columns: s(&["time", "u", "y"]),
-            ..Default::default()
-        };
-        let l = load(&path, &spec).unwrap();
-        assert_eq!(l.data.outputs()[0].period, 3);
-        assert_eq!(l.data.ts(), 0.5);
-        // a value between samples is named by its row
-        data[3 * 4 + 2] = 1.0;
-        let path = file("slow2.npy", &npy(1, "<f8", false, "(12, 3)", 12, &data));
-        let e = load(&path, &spec).err().unwrap().to_string();
-        assert_eq!(
-            e,
-            format!(
-                "{path}: row 4, column 'y': value between samples of period 3 (the cell must be empty)"
-            )
-        );
-    }
-
-    /// Blocks of any size give the rows of the row-by-row reading, in
-    /// both layouts; a bad value mid-block delivers the rows before it,
-    /// then the row reading's error; a visitor that takes fewer rows ends
-    /// the scan there.
-    #[test]
-    fn blocks_are_the_rows_and_stop_where_rows_stop() {
-        let names = s(&["time", "u", "y"]);
-        let (u, y) = (s(&["u"])[0].clone(), s(&["y"])[0].clone());
-        let wanted = [&y, &u];
-        for fortran in [false, true] {
-            let mut data = table(50);
-            let path = file(
-                &format!("blk-{fortran}.npy"),
-                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
-            );
-            let mut rows = Vec::new();
-            scan_rows(&path, &names, &wanted, 0..1, None, |r| {
-                rows.push(r.to_vec());
-                Ok(true)
-            })
-            .unwrap();
-            for block in [1, 7, 50, 64] {
-                let mut got = Vec::new();
-                let (n, ts) = scan_blocks(&path, &names, &wanted, 0..1, None, block, |c, n| {
-                    assert!(n <= block);
-                    got.extend((0..n).map(|i| vec![c[i], c[n + i]]));
-                    Ok(n)
-                })
-                .unwrap();
-                assert_eq!((n, ts, &got), (50, 0.5, &rows));
-            }
-            // An infinite input at row 23: rows 0..23 delivered, then the error.
-            data[3 * 23 + 1] = f64::INFINITY;
-            let path = file(
-                &format!("blk-inf-{fortran}.npy"),
-                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
-            );
-            let mut seen = 0;
-            let e = scan_blocks(&path, &names, &wanted, 0..1, None, 10, |_, n| {
-                seen += n;
-                Ok(n)
-            })
-            .unwrap_err()
-            .to_string();
-            assert_eq!(seen, 23);
-            assert!(
-                e.contains("row 23, column 'u': value inf is not finite"),
-                "{e}"
-            );
-            // A visitor that stops at row 15 of 50: no error from row 23.
-            let mut blocks = 0;
-            let (n, _) = scan_blocks(&path, &names, &wanted, 0..1, None, 10, |_, n| {
-                blocks += 1;
-                Ok(if blocks == 2 { 5 } else { n })
-            })
-            .unwrap();
-            assert_eq!((n, blocks), (15, 2));
-            seen = 0;
-            // A time step out of order at row 31 is found as row by row.
-            data[3 * 23 + 1] = 0.0;
-            data[3 * 31] = 100.0;
-            let path = file(
-                &format!("blk-t-{fortran}.npy"),
-                &npy(1, "<f8", fortran, "(50, 3)", 50, &data),
-            );
-            let e = scan_blocks(&path, &names, &wanted, 0..1, None, 8, |_, n| {
-                seen += n;
-                Ok(n)
-            })
-            .unwrap_err()
-            .to_string();
-            assert_eq!(seen, 31);
-            assert!(e.contains("row 31, column 'time'"), "{e}");
-        }
-    }
-
-    /// Every error message of the reader.
-    #[test]
-    fn each_error_message() {
-        let names = s(&["t", "u", "y"]);
-        let (u, y) = (&names[1], &names[2]);
-        let run = |bytes: &[u8], name: &str| -> String {
-            let path = file(name, bytes);
-            read_raw(&path, &names, &[u, y], 1..2, None)
-                .err()
-                .unwrap()
-                .to_string()
-                .replace(&path, "F")
-        };
-        let good = npy(1, "<f8", false, "(4, 3)", 4, &table(4));
-        let mut bad = good.clone();
-        bad[1] = b'X';
-        assert_eq!(
-            run(&bad, "magic.npy"),
-            "F: not a .npy file (bad magic: the file must start with \\x93NUMPY)"
-        );
-        assert_eq!(
-            run(b"\x93NU", "short.npy"),
-            "F: not a .npy file (shorter than the magic string)"
-        );
-        let mut v4 = good.clone();
-        v4[6] = 4;
-        assert_eq!(
-            run(&v4, "v4.npy"),
-            "F: unsupported .npy format version 4.0 (1.0, 2.0 and 3.0 are read)"
-        );
-        assert_eq!(
-            run(&good[..40], "cut.npy"),
-            "F: not a .npy file (truncated header)"
-        );
-        let i8 = npy(1, "<i8", false, "(4, 3)", 4, &table(4));
-        assert_eq!(
-            run(&i8, "i8.npy"),
-            "F: unsupported dtype '<i8' (float64 '<f8' or float32 '<f4' are read; convert with a.astype('<f8'))"
-        );
-        let one = npy(1, "<f8", false, "(12,)", 12, &table(4));
-        assert_eq!(
-            run(&one, "1d.npy"),
-            "F: the array has shape (12,): a 2-D array (rows × columns) is needed"
-        );
-        let three = npy(1, "<f8", false, "(2, 2, 3)", 4, &table(4));
-        assert_eq!(
-            run(&three, "3d.npy"),
-            "F: the array has shape (2, 2, 3): a 2-D array (rows × columns) is needed"
-        );
-        let empty = npy(1, "<f8", false, "(0, 3)", 0, &[]);
-        assert_eq!(
-            run(&empty, "empty.npy"),
-            "F: the array has shape (0, 3): no data"
-        );
-        assert_eq!(
-            run(&good[..good.len() - 5], "trunc.npy"),
-            "F: truncated data: the header declares 4 × 3 values of 8 bytes (96 bytes), the file holds 91 bytes after the header"
-        );
-        let mut weird = good.clone();
-        let at = weird.windows(7).position(|w| w == b"'shape'").unwrap();
-        weird[at + 5] = b'X';
-        let e = run(&weird, "noshape.npy");
-        assert!(
-            e.starts_with("F: bad .npy header (no 'shape'): {'descr'"),
-            "{e}"
-        );
-        let mut data = table(4);
-        data[3 + 1] = f64::NAN;
-        assert_eq!(
-            run(&npy(1, "<f8", false, "(4, 3)", 4, &data), "nan_u.npy"),
-            "F: row 1, column 'u': value NaN is not finite (NaN/inf are not allowed here; NaN marks an unsampled output and is allowed in output columns only)"
-        );
-        let mut data = table(4);
-        data[3 * 2 + 2] = f64::INFINITY;
-        assert_eq!(
-            run(&npy(1, "<f8", false, "(4, 3)", 4, &data), "inf_y.npy"),
-            "F: row 2, column 'y': value inf is not finite (only NaN, marking an unsampled output, is allowed)"
-        );
-        let mut data = table(4);
-        data[3 * 3] = 1.7;
-        assert_eq!(
-            run(&npy(1, "<f8", true, "(4, 3)", 4, &data), "time.npy"),
-            "F: row 3, column 't': time 1.7 is 0.7 after the row before, not the spacing 0.5 of the rows so far (within 10 %): a missing, repeated or out-of-order row? give --ts to ignore the time column"
-        );
-        let mut data = table(4);
-        data[0] = f64::NAN;
-        assert_eq!(
-            run(&npy(1, "<f8", false, "(4, 3)", 4, &data), "nan_t.npy"),
-            "F: row 0, column 't': value NaN is not finite (NaN/inf are not allowed here; NaN marks an unsampled output and is allowed in output columns only)"
-        );
-        let missing = file("missing.npy", b"");
-        std::fs::remove_file(&missing).unwrap();
-        let e = header(&missing, &[]).unwrap_err().to_string();
-        assert!(
-            e.starts_with(&format!("cannot open data file {missing}: ")),
-            "{e}"
-        );
-    }
-
-    /// The header parser on the dicts numpy writes (and a few it might).
-    #[test]
-    fn header_dicts() {
-        let t = "{'descr': '<f8', 'fortran_order': False, 'shape': (3, 2), }";
-        assert_eq!(dict_value(t, "descr"), Some("'<f8'"));
-        assert_eq!(dict_value(t, "fortran_order"), Some("False"));
-        assert_eq!(dict_value(t, "shape"), Some("(3, 2)"));
-        assert_eq!(parse_shape("(3, 2)"), Some(vec![3, 2]));
-        assert_eq!(parse_shape("(7,)"), Some(vec![7]));
-        assert_eq!(parse_shape("()"), Some(vec![]));
-        assert_eq!(parse_shape("(3L, 2L)"), Some(vec![3, 2]));
-        assert_eq!(parse_shape("(a, 2)"), None);
-        let t =
-            "{\"descr\": [('a', '<f8'), ('b', '<f8')], \"fortran_order\": False, \"shape\": (3,)}";
-        assert_eq!(dict_value(t, "descr"), Some("[('a', '<f8'), ('b', '<f8')]"));
-        assert_eq!(dict_value(t, "shape"), Some("(3,)"));
-    }
-}
+mod tests;
