@@ -149,10 +149,17 @@ impl MemoryBudget {
     }
 }
 
-/// `MemTotal` of `/proc/meminfo` in bytes (`None` elsewhere or unreadable).
+/// `MemTotal` of `/proc/meminfo` in bytes (`None` elsewhere or unreadable),
+/// read once per process (the machine's memory does not change under it;
+/// reading the file took ≈ 25 µs, 1.5 % of a fresh N = 1e4 streamed
+/// identification, which asks for it through every default
+/// [`MemoryBudget`]).
 pub fn physical_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    parse_mem_total(&text)
+    static TOTAL: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+    *TOTAL.get_or_init(|| {
+        let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+        parse_mem_total(&text)
+    })
 }
 
 /// The `MemTotal:  N kB` line of a `/proc/meminfo` text, in bytes.

@@ -30,7 +30,7 @@
 //! (n + n_y + n_u)²) for the regression; independent of N.
 
 use lifted_linalg::{
-    RankTolerance, lstsq, null_space, qr_r_owned, singular_values, triangular_condition,
+    RAccumulator, RankTolerance, lstsq, null_space, singular_values, triangular_condition,
 };
 use nalgebra::DMatrix;
 
@@ -116,8 +116,10 @@ pub(crate) fn bd_from_projection(
 }
 
 /// The least-squares solution of K θ = M for W = [K | M] (K the first
-/// `unknowns` columns): one Householder QR of W (R-only; Qᵀ M comes out as
-/// the last columns of R), the rank of K from R₁₁ (the default rule of
+/// `unknowns` columns): one Householder QR of W (R-only, by
+/// [`RAccumulator`]: the structured fold for a narrow W, faer's QR
+/// otherwise; Qᵀ M comes out as the last columns of R, and θ does not
+/// depend on the signs of R's rows), the rank of K from R₁₁ (the default rule of
 /// [`RankTolerance`], O(n²) estimates when clearly full rank) and
 /// θ = R₁₁⁻¹ R₁₂. O(rows · cols²).
 ///
@@ -132,7 +134,10 @@ fn solve_full_rank(w: DMatrix<f64>, unknowns: usize) -> Result<DMatrix<f64>> {
     if rows < unknowns {
         return Err(rank_error(rows));
     }
-    let r = qr_r_owned(w)?;
+    let mut acc = RAccumulator::new(w.ncols());
+    let mut w = w;
+    acc.fold_rows(&mut w)?;
+    let r = acc.r();
     let r11t = r.view((0, 0), (unknowns, unknowns)).transpose();
     let smax = r11t.norm();
     let thr = RankTolerance::Default.threshold(rows, unknowns, 1.0)?;
