@@ -16,7 +16,7 @@
 //! | [`matfun`] | [`expm`], [`logm`], [`rootm`], [`rootm_primary`], [`sqrtm`] | Padé-13 scaling and squaring (Higham 2005); complex Schur + inverse scaling and squaring; Smith's Schur p-th root recurrence | O(n³), O(p·n³) |
 //! | [`schur`] | [`real_schur`], [`RealSchur::eigenvalues`], [`RealSchur::reorder`] | nalgebra Francis QR (faer's is private), standardised 2×2 blocks; Bai–Demmel block swaps | O(10n³) |
 //! | [`mod@eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
-//! | [`mod@svd`] | [`svd()`], [`svd_left`], [`singular_values`] | faer thin SVD (U only for `svd_left`), s descending | O(mn·min(m,n)) |
+//! | [`mod@svd`] | [`svd()`], [`svd_left`], [`singular_values`] | faer thin SVD (U only for `svd_left`; a wide matrix's R of the transpose by unblocked reflections of faer's signs), s descending | O(mn·min(m,n)) |
 //! | [`qr`] | [`qr_r`], [`qr_r_owned`], [`qr_thin`], [`qr_full`], [`RAccumulator`] | faer Householder QR (unblocked up to 24 columns); R only in place with a `MemBuffer`; streaming R of row blocks | 2mn² |
 //! | [`cholesky`] | [`cholesky_lower`], [`cholesky_condition`] | faer blocked Cholesky; the latter also proves λ_min/λ_max above a threshold by factoring the shifted matrix in place (packed half-size copy) | k³/3, 2k³/3 |
 //! | [`extremes`] | [`gram_condition_exceeds`], [`triangular_condition`], [`triangular_ratio_bound`], [`lower_inverse_frobenius`], [`lower_triangular_extremes`] | shifted-Cholesky certificates, explicit triangular inverse bounds, power iteration | O(k²) per step, O(k³/3) |

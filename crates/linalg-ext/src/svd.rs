@@ -3,7 +3,10 @@
 //! A = U diag(s) Vᵀ with U (m×k), V (n×k), k = min(m, n), s descending.
 //! faer's bidiagonalisation + divide and conquer costs O(mn·min(m,n))
 //! (≈ 4mn² + 8n³ for m ≥ n with vectors); [`singular_values`] skips the
-//! vectors. The signs of paired singular vectors are arbitrary and vectors
+//! vectors. [`svd_left`] of a wide matrix takes faer's own route (R of the
+//! transpose, then the SVD of R) with the R of its own unblocked
+//! reflections (faer's signs; 2nm² flops over contiguous columns).
+//! The signs of paired singular vectors are arbitrary and vectors
 //! of repeated singular values are determined only up to rotation
 //! (Pitfall 1): compare subspaces or products, not raw columns.
 
