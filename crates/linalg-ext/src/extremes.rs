@@ -97,11 +97,11 @@ pub fn lower_triangular_extremes_within(
     let mut x = start(k);
     let mut inv_max = 0.0f64;
     for _ in 0..max_iterations.max(1) {
-        let Some(a) = l.solve_lower_triangular(&x) else {
+        let Some(a) = lower_solve(l, &x) else {
             return Ok((smax, 0.0));
         };
         let est = a.norm();
-        let Some(b) = l.tr_solve_lower_triangular(&a) else {
+        let Some(b) = lower_tr_solve(l, &a) else {
             return Ok((smax, 0.0));
         };
         let n = b.norm();
@@ -132,36 +132,77 @@ fn lower_mul(l: &DMatrix<f64>, v: &DVector<f64>) -> DVector<f64> {
     y
 }
 
-/// Lᵀ y for the lower triangle of the square `l` (column dots with four
-/// independent sums, O(k²/2); plain products: `kernels::dot`'s fused
-/// multiply-adds are library calls outside `simd::dispatch` in the
-/// baseline x86-64 build).
+/// Four independent sums of products (vectorised), plain products:
+/// `kernels::dot`'s fused multiply-adds are library calls outside
+/// `simd::dispatch` in the baseline x86-64 build.
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (xa, xb) in ca.zip(cb) {
+        for i in 0..4 {
+            acc[i] += xa[i] * xb[i];
+        }
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+}
+
+/// Lᵀ y for the lower triangle of the square `l` (column dots, O(k²/2)).
 fn lower_tr_mul(l: &DMatrix<f64>, y: &DVector<f64>) -> DVector<f64> {
     let k = l.nrows();
     let ys = y.as_slice();
-    let dot = |a: &[f64], b: &[f64]| {
-        let mut acc = [0.0f64; 4];
-        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-        let tail: f64 = ca
-            .remainder()
-            .iter()
-            .zip(cb.remainder())
-            .map(|(x, y)| x * y)
-            .sum();
-        for (xa, xb) in ca.zip(cb) {
-            for i in 0..4 {
-                acc[i] += xa[i] * xb[i];
-            }
-        }
-        (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
-    };
     DVector::from_iterator(
         k,
         l.as_slice()
             .chunks_exact(k.max(1))
             .enumerate()
-            .map(|(j, col)| dot(&col[j..], &ys[j..])),
+            .map(|(j, col)| dot4(&col[j..], &ys[j..])),
     )
+}
+
+/// L⁻¹ b for the lower triangle of the square `l` by forward substitution
+/// over contiguous columns (an axpy per column, O(k²/2)); `None` when a
+/// diagonal entry is 0.
+fn lower_solve(l: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    let k = l.nrows();
+    let mut x = b.clone();
+    let xs = x.as_mut_slice();
+    for (j, col) in l.as_slice().chunks_exact(k.max(1)).enumerate() {
+        let d = col[j];
+        if d == 0.0 {
+            return None;
+        }
+        xs[j] /= d;
+        let (head, rest) = xs.split_at_mut(j + 1);
+        let xj = head[j];
+        for (xi, lij) in rest.iter_mut().zip(&col[j + 1..]) {
+            *xi -= lij * xj;
+        }
+    }
+    Some(x)
+}
+
+/// L⁻ᵀ b for the lower triangle of the square `l` by back substitution
+/// (a column dot per row of Lᵀ, O(k²/2)); `None` when a diagonal entry is
+/// 0.
+fn lower_tr_solve(l: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    let k = l.nrows();
+    let mut x = b.clone();
+    let xs = x.as_mut_slice();
+    for j in (0..k).rev() {
+        let col = &l.as_slice()[j * k..(j + 1) * k];
+        let d = col[j];
+        if d == 0.0 {
+            return None;
+        }
+        xs[j] = (xs[j] - dot4(&col[j + 1..], &xs[j + 1..])) / d;
+    }
+    Some(x)
 }
 
 /// Checks finiteness and squareness; returns k.
@@ -577,5 +618,30 @@ mod tests {
         l[(1, 0)] = f64::NAN;
         assert!(lower_triangular_extremes(&l).is_err());
         assert!(lower_triangular_extremes(&DMatrix::zeros(2, 3)).is_err());
+    }
+
+    #[test]
+    fn the_triangular_solves_invert_the_products() {
+        // Entries above the diagonal are ignored; a zero pivot is refused.
+        for k in [1, 3, 4, 9, 40] {
+            let l = DMatrix::from_fn(k, k, |i, j| {
+                if i == j {
+                    2.0 + (i as f64).sin()
+                } else {
+                    (0.3 * (i * k + j) as f64).cos()
+                }
+            });
+            let lower = l.lower_triangle();
+            let b = DVector::from_fn(k, |i, _| 1.0 - 0.1 * i as f64);
+            let x = super::lower_solve(&l, &b).unwrap();
+            assert!((&lower * &x - &b).amax() < 1e-12, "k = {k}");
+            let y = super::lower_tr_solve(&l, &b).unwrap();
+            assert!((lower.transpose() * &y - &b).amax() < 1e-12, "k = {k}");
+            assert!((super::lower_tr_mul(&l, &b) - lower.transpose() * &b).amax() < 1e-12);
+            let mut singular = l.clone();
+            singular[(k - 1, k - 1)] = 0.0;
+            assert!(super::lower_solve(&singular, &b).is_none());
+            assert!(super::lower_tr_solve(&singular, &b).is_none());
+        }
     }
 }

@@ -316,12 +316,13 @@ pub(crate) fn from_factor_parts(
         l,
         columns,
         report: compression,
+        certified_rcond,
     } = factor;
     let compression_flops = compression.flops;
     let (p, f) = (layout.past, layout.future);
     let layout = *layout;
     let max_order = (f - 1) * layout.ny;
-    let sub = subspace_of(&l, layout, opts)?;
+    let sub = subspace_of(&l, certified_rcond, layout, opts)?;
     let svd_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let singular_values = singular_values_in_units(&sub.s, opts.method, scale);
@@ -389,18 +390,15 @@ pub(crate) fn from_factor_parts(
     })
 }
 
-/// Steps 2–3 of [`crate::identify`] on the factor `l` (scaled data): the
-/// excitation test, the oblique projection, the weights of `opts.method`
-/// and the SVD. O(k³).
 /// Step 2 alone: the singular values of the weighted projection in the
 /// units of the original data (the factor's data were divided by `scale`).
 pub(crate) fn weighted_singular_values(
-    l: &DMatrix<f64>,
+    factor: &HankelFactor,
     layout: HankelLayout,
     opts: &SubspaceOptions,
     scale: Scale,
 ) -> Result<Vec<f64>> {
-    let sub = subspace_of(l, layout, opts)?;
+    let sub = subspace_of(&factor.l, factor.certified_rcond, layout, opts)?;
     Ok(singular_values_in_units(&sub.s, opts.method, scale))
 }
 
@@ -411,14 +409,20 @@ fn singular_values_in_units(s: &[f64], method: Method, scale: Scale) -> Vec<f64>
     s.iter().map(|v| v * unit).collect()
 }
 
+/// Steps 2–3 of [`crate::identify`] on the factor `l` (scaled data): the
+/// excitation test, the oblique projection, the weights of `opts.method`
+/// and the SVD. O(k³); the projections' block tests cost nothing when
+/// `certified_rcond` ([`HankelFactor::certified_rcond`]) bounds L's
+/// conditioning.
 fn subspace_of<'l>(
     l: &'l DMatrix<f64>,
+    certified_rcond: f64,
     layout: HankelLayout,
     opts: &SubspaceOptions,
 ) -> Result<Subspace<'l>> {
     // Persistent excitation: the input rows [U_f; U_p] must have full rank.
     let nu_rows = (layout.past + layout.future) * layout.nu;
-    let projector = Projector::new(l, layout)?;
+    let projector = Projector::new(l, layout, certified_rcond)?;
     check_exciting(
         crate::error::INPUT_ROWS,
         projector.input_rank(1e-10)?,
@@ -488,7 +492,7 @@ pub(crate) fn models_of_orders(
     let (layout, factor, scale) = compressed(&exps, opts)?;
     let ny = layout.ny;
     let records = records_of(&exps);
-    let sub = subspace_of(&factor.l, layout, opts)?;
+    let sub = subspace_of(&factor.l, factor.certified_rcond, layout, opts)?;
     let cap = cap.min(sub.s.len()).min((layout.future - 1) * ny);
     let models = systems
         .iter()

@@ -107,6 +107,14 @@ pub struct HankelFactor {
     pub columns: usize,
     /// How it was obtained.
     pub report: CompressionReport,
+    /// A proven lower bound of λ_min/λ_max of L Lᵀ: [`CORRELATION_RCOND_MIN`]
+    /// when the correlation route's factorisation of the shifted Gram
+    /// matrix certified it (`lifted_linalg::cholesky_condition`), 0
+    /// otherwise (the QR route, or a condition only estimated). Every
+    /// diagonal block of L then has σ_min/σ_max above about its square
+    /// root, which the projections' block tests use instead of inverting
+    /// the blocks (`crate::oblique::Projector`).
+    pub certified_rcond: f64,
 }
 
 /// Layout of the block-Hankel rows [U_f; U_p; Y_p; Y_f] (thesis §2.4 ordering,
@@ -608,6 +616,7 @@ impl HankelStream {
                         flops: 2.0 * j as f64 * kf * kf * (1.0 + kf / b),
                         threads: 1,
                     },
+                    certified_rcond: 0.0,
                 })
             }
             Engine::Correlation { gram, threads, .. } => correlation_factor(
@@ -656,19 +665,21 @@ pub(crate) fn correlation_factor(
         0.0
     };
     // Σ(h − h̄)(h − h̄)ᵀ/J = (HHᵀ − W Wᵀ/J)/J (W = 0 without centring), in
-    // place.
-    for (c, mut col) in g.column_iter_mut().enumerate() {
-        for (r, v) in col.iter_mut().enumerate() {
-            *v = (*v - w[r] * w[c] * scale) * scale;
+    // place, column by contiguous column (vectorised).
+    let kk = g.nrows();
+    for (col, &wc) in g.as_mut_slice().chunks_exact_mut(kk.max(1)).zip(w) {
+        for (v, &wr) in col.iter_mut().zip(w) {
+            *v = (*v - wr * wc * scale) * scale;
         }
     }
     let kf = k as f64;
     let flops =
         2.0 * work.samples as f64 * (work.nz * work.nz * work.span) as f64 + kf * kf * kf / 3.0;
-    let (l, rcond) = cholesky_checked(g)?;
+    let (l, rcond, certified_rcond) = cholesky_checked(g)?;
     Ok(HankelFactor {
         l,
         columns,
+        certified_rcond,
         report: CompressionReport {
             requested: work.requested,
             used: Compression::Correlation,
@@ -864,8 +875,9 @@ pub(crate) fn fold_record(
 }
 
 /// Cholesky factor of the Gram matrix with the definiteness and condition
-/// checks of [`Compression::Auto`].
-fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
+/// checks of [`Compression::Auto`], the reported rcond and the proven
+/// lower bound of [`HankelFactor::certified_rcond`].
+fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64, f64)> {
     // rcond above the threshold proven by the Cholesky factorisation of a
     // shifted G (O(k³/3); no SVD), the common case, then G's own factor.
     let Some((l, proven)) = lifted_linalg::cholesky_condition(g, CORRELATION_RCOND_MIN)? else {
@@ -886,7 +898,7 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
         } else {
             0.0
         };
-        return Ok((l, rcond.max(CORRELATION_RCOND_MIN)));
+        return Ok((l, rcond.max(CORRELATION_RCOND_MIN), CORRELATION_RCOND_MIN));
     }
     // Otherwise σ_min/σ_max of L by O(k²) estimates when clearly above the
     // threshold (10× on the ratio), by the singular values near it.
@@ -901,7 +913,7 @@ fn cholesky_checked(g: DMatrix<f64>) -> Result<(DMatrix<f64>, f64)> {
             ),
         });
     }
-    Ok((l, rcond))
+    Ok((l, rcond, 0.0))
 }
 
 /// Compresses the block-Hankel data of all records (already validated),

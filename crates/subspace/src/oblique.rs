@@ -63,30 +63,55 @@ pub(crate) struct Projector<'a> {
     /// The U_f rows of L vanish beyond column r_u and [U_f; W_p] beyond
     /// column r_w (lower-triangular factor).
     structured: bool,
-    /// Norms of the structured factor's diagonal blocks and their inverses.
-    blocks: Option<BlockNorms>,
+    /// Certified lower bounds of σ_min/σ_max of two diagonal blocks of a
+    /// lower-triangular L.
+    blocks: Option<BlockRatios>,
 }
 
-/// ‖·‖_F and ‖·⁻¹‖_F of two diagonal blocks of a lower-triangular L: the
-/// input rows L_uu ([U_f; U_p], the persistent-excitation test) and L₂₂
-/// (W_p, the oblique projection): two explicit triangular inverses
-/// (O(r³/3) each) that certify those two condition tests.
+/// Lower bounds of σ_min/σ_max of two diagonal blocks of a lower-triangular
+/// L: the input rows L_uu ([U_f; U_p], the persistent-excitation test) and
+/// L₂₂ (W_p, the oblique projection). Either from the factor's certificate
+/// ([`block_ratio_floor`], no work) or from two explicit triangular
+/// inverses (O(r³/3) each, [`ratio_bound`]).
 #[derive(Debug, Clone, Copy)]
-struct BlockNorms {
+struct BlockRatios {
     uu: f64,
-    inv_uu: f64,
-    l22: f64,
-    inv_22: f64,
+    r22: f64,
+}
+
+/// A lower bound of σ_min/σ_max of every diagonal block of a k×k
+/// lower-triangular L from a proven λ_min/λ_max ≥ `certified` of the
+/// matrix G it factors (G ≈ L Lᵀ; [`crate::HankelFactor::certified_rcond`]);
+/// 0 when nothing is certified. A diagonal block L_bb has L_bb L_bbᵀ = S,
+/// the Schur complement of the leading block in the leading principal
+/// submatrix M of G that ends with the block: λ_min(S) ≥ λ_min(M) ≥
+/// λ_min(G) (S⁻¹ is a principal submatrix of M⁻¹; Cauchy interlacing) and
+/// λ_max(S) ≤ λ_max(M_bb) ≤ λ_max(G) (S = M_bb less a positive
+/// semi-definite term), so σ_min(L_bb)²/σ_max(L_bb)² ≥ λ_min(G)/λ_max(G).
+/// The certificate holds for the stored G and L Lᵀ = G + E with ‖E‖₂ of
+/// order k² u ‖G‖₂ (Higham 2002, Theorem 10.3), the shifted factorisation's
+/// own backward error as large: 4k²u is given away (2·10⁻¹¹ at k = 160,
+/// against the correlation route's 10⁻⁸).
+pub(crate) fn block_ratio_floor(certified: f64, k: usize) -> f64 {
+    let slack = 4.0 * (k * k) as f64 * f64::EPSILON;
+    if certified.is_finite() && certified > slack {
+        (certified - slack).sqrt()
+    } else {
+        0.0
+    }
 }
 
 impl<'a> Projector<'a> {
-    /// Inspects L (O(k²)) and, when it is lower triangular, inverts its
-    /// diagonal blocks L_uu and L₂₂ (O(k³/3)). The U_f rows must be
-    /// persistently exciting (the caller's test, [`Projector::input_rank`])
-    /// for the structured projection to be exact.
+    /// Inspects L (O(k²)) and, when it is lower triangular, bounds the
+    /// conditioning of its diagonal blocks L_uu and L₂₂: from `certified`
+    /// (a proven lower bound of λ_min/λ_max of L Lᵀ,
+    /// [`crate::HankelFactor::certified_rcond`]; 0 when there is none) by
+    /// [`block_ratio_floor`], else by inverting the blocks (O(k³/3)). The
+    /// U_f rows must be persistently exciting (the caller's test,
+    /// [`Projector::input_rank`]) for the structured projection to be exact.
     ///
     /// Errors: [`crate::Error::Linalg`] for a non-finite factor.
-    pub(crate) fn new(l: &'a DMatrix<f64>, lay: HankelLayout) -> Result<Self> {
+    pub(crate) fn new(l: &'a DMatrix<f64>, lay: HankelLayout, certified: f64) -> Result<Self> {
         let k = l.nrows();
         let (ru, rw) = (lay.uf().end, lay.yf().start);
         let zero = |r: usize, c: usize, nr: usize, nc: usize| {
@@ -101,17 +126,21 @@ impl<'a> Projector<'a> {
         let uu_rows = lay.up().end;
         let lower =
             structured && uu_rows <= k && (ru..uu_rows).all(|i| zero(i, i + 1, 1, uu_rows - i - 1));
-        let blocks = if lower {
-            let uu = l.view((0, 0), (uu_rows, uu_rows)).into_owned();
-            let l22 = l.view((ru, ru), (rw - ru, rw - ru)).into_owned();
-            Some(BlockNorms {
-                uu: uu.norm(),
-                inv_uu: lower_inverse_frobenius(&uu)?,
-                l22: l22.norm(),
-                inv_22: lower_inverse_frobenius(&l22)?,
+        let floor = block_ratio_floor(certified, k);
+        let blocks = if !lower {
+            None
+        } else if floor > 0.0 {
+            Some(BlockRatios {
+                uu: floor,
+                r22: floor,
             })
         } else {
-            None
+            let uu = l.view((0, 0), (uu_rows, uu_rows)).into_owned();
+            let l22 = l.view((ru, ru), (rw - ru, rw - ru)).into_owned();
+            Some(BlockRatios {
+                uu: ratio_bound(lower_inverse_frobenius(&uu)?, uu.norm()),
+                r22: ratio_bound(lower_inverse_frobenius(&l22)?, l22.norm()),
+            })
         };
         Ok(Projector {
             l,
@@ -131,7 +160,7 @@ impl<'a> Projector<'a> {
     pub(crate) fn input_rank(&self, rel: f64) -> Result<usize> {
         let r = self.lay.up().end.min(self.l.nrows());
         if let Some(b) = self.blocks
-            && ratio_bound(b.inv_uu, b.uu) > rel
+            && b.uu > rel
         {
             return Ok(r);
         }
@@ -167,9 +196,7 @@ impl<'a> Projector<'a> {
         let l32 = self.l.view((rw, ru), (k - rw, rw - ru)).into_owned();
         // Same rank decision as the Gram's pseudo-inverse: σ(L₂₂)² above
         // 10⁻¹² σ_max² (certified by the block inverse when it can be).
-        let certified = self
-            .blocks
-            .is_some_and(|b| ratio_bound(b.inv_22, b.l22) > 1e-6);
+        let certified = self.blocks.is_some_and(|b| b.r22 > 1e-6);
         let well_conditioned = certified || triangular_condition(&l22, 1e-6, 10.0)?.ratio > 1e-6;
         // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
         if well_conditioned
@@ -225,7 +252,7 @@ mod tests {
         let lay = layout();
         for weak in [false, true] {
             let l = factor(lay.yf().end, 7, weak);
-            let pr = Projector::new(&l, lay).unwrap();
+            let pr = Projector::new(&l, lay, 0.0).unwrap();
             assert!(pr.structured);
             let rows = |r: std::ops::Range<usize>| l.rows(r.start, r.len()).into_owned();
             let uf = rows(lay.uf());
@@ -248,7 +275,7 @@ mod tests {
         let lay = layout();
         for seed in [3, 7, 11] {
             let l = factor(lay.yf().end, seed, false);
-            let pr = Projector::new(&l, lay).unwrap();
+            let pr = Projector::new(&l, lay, 0.0).unwrap();
             let r = lay.up().end;
             let luu = l.view((0, 0), (r, r)).into_owned();
             assert_eq!(
@@ -259,7 +286,7 @@ mod tests {
         // A singular input block: the certificate does not claim full rank.
         let mut l = factor(lay.yf().end, 5, false);
         l[(1, 1)] = 0.0;
-        let pr = Projector::new(&l, lay).unwrap();
+        let pr = Projector::new(&l, lay, 0.0).unwrap();
         assert!(pr.input_rank(1e-10).unwrap() < lay.up().end);
     }
 
@@ -268,7 +295,7 @@ mod tests {
         let lay = layout();
         let mut l = factor(lay.yf().end, 3, false);
         l[(0, 5)] = 0.25;
-        let pr = Projector::new(&l, lay).unwrap();
+        let pr = Projector::new(&l, lay, 0.0).unwrap();
         assert!(!pr.structured);
         let uf = l.rows(0, lay.uf().end).into_owned();
         let m = DMatrix::from_fn(2, l.ncols(), |i, j| (i + 2 * j) as f64);
@@ -277,5 +304,77 @@ mod tests {
             perp(&m, &uf).unwrap(),
             epsilon = 1e-12
         );
+    }
+
+    /// σ_min/σ_max of a matrix by its singular values.
+    fn sigma_ratio(m: &DMatrix<f64>) -> f64 {
+        let s = m.singular_values();
+        s.min() / s.max()
+    }
+
+    #[test]
+    fn the_factors_certificate_bounds_every_diagonal_block() {
+        // G = L Lᵀ with λ_min/λ_max certified by the correlation route's
+        // test (the shifted factorisation), on factors from well to poorly
+        // conditioned: every diagonal block's σ ratio is at least the
+        // floor, and the floor is 0 where nothing is certified.
+        let lay = layout();
+        let k = lay.yf().end;
+        let mut outcomes = Vec::new();
+        for (seed, weak_diagonal) in [(3, 1.0), (7, 0.05), (11, 1e-5)] {
+            // Small off-diagonal entries and one weak pivot in the W_p
+            // block: the pivot sets the conditioning (a random triangular
+            // factor's σ_min is exponentially small in k).
+            let mut l = factor(k, seed, false).map(|v| if v.abs() < 0.5 { 0.05 * v } else { v });
+            let weak = lay.yp().start;
+            l[(weak, weak)] *= weak_diagonal;
+            let g = &l * l.transpose();
+            let (_, proven) =
+                lifted_linalg::cholesky_condition(g.clone(), crate::CORRELATION_RCOND_MIN)
+                    .unwrap()
+                    .unwrap();
+            let certified = if proven {
+                crate::CORRELATION_RCOND_MIN
+            } else {
+                0.0
+            };
+            let floor = block_ratio_floor(certified, k);
+            assert_eq!(floor > 0.0, proven);
+            outcomes.push(proven);
+            let e = g.symmetric_eigenvalues();
+            assert!(!proven || e.min() / e.max() > crate::CORRELATION_RCOND_MIN);
+            for (a, b) in [
+                (0, lay.up().end),
+                (lay.uf().end, lay.yf().start),
+                (0, k),
+                (4, 9),
+            ] {
+                let block = l.view((a, a), (b - a, b - a)).into_owned();
+                assert!(sigma_ratio(&block) >= floor, "block {a}..{b}, seed {seed}");
+            }
+        }
+        assert_eq!(outcomes, [true, true, false]);
+        assert_eq!(block_ratio_floor(0.0, 160), 0.0);
+        assert_eq!(block_ratio_floor(f64::NAN, 160), 0.0);
+        // √(10⁻⁸ − 4·160²u) = 10⁻⁴ (1 − 0.12 %).
+        assert!((block_ratio_floor(1e-8, 160) - 1e-4).abs() < 2e-7);
+    }
+
+    #[test]
+    fn a_certified_factor_projects_as_the_inverted_blocks_decide() {
+        // The same decisions and the same map with the certificate as with
+        // the two block inverses.
+        let lay = layout();
+        for seed in [3, 7, 11] {
+            let l = factor(lay.yf().end, seed, false);
+            let plain = Projector::new(&l, lay, 0.0).unwrap();
+            let cert = Projector::new(&l, lay, crate::CORRELATION_RCOND_MIN).unwrap();
+            assert!(cert.blocks.is_some_and(|b| b.uu > 1e-5 && b.r22 > 1e-5));
+            assert_eq!(
+                cert.input_rank(1e-10).unwrap(),
+                plain.input_rank(1e-10).unwrap()
+            );
+            assert_eq!(cert.oblique_map().unwrap(), plain.oblique_map().unwrap());
+        }
     }
 }

@@ -228,7 +228,7 @@ mod tests {
                 std::cmp::Ordering::Less => 0.0,
             }
         });
-        let pr = Projector::new(&l, lay).unwrap();
+        let pr = Projector::new(&l, lay, 0.0).unwrap();
         let (map, triangular) = pr.oblique_map().unwrap();
         assert!(triangular);
         let via_map = future_input_coefficients(&l, &lay, Some(&map)).unwrap();

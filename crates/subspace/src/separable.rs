@@ -121,7 +121,7 @@ impl<'a> CompressedData<'a> {
             method,
             ..self.opts.clone()
         };
-        crate::fit::weighted_singular_values(&self.factor.l, self.layout, &opts, self.scale)
+        crate::fit::weighted_singular_values(&self.factor, self.layout, &opts, self.scale)
     }
 
     /// Steps 2–5 with `opts`: the model [`crate::identify`] returns for the
