@@ -431,7 +431,21 @@ fn subspace_of<'l>(
     // Φ = 𝓜 W_p with W_p = [U_p; Y_p], consecutive rows of L (a view).
     let (map, map_triangular) = projector.oblique_map()?;
     let wp_rows = layout.up().start..layout.yp().end;
-    let phi = &map * l.rows(wp_rows.start, wp_rows.len());
+    let phi = if map_triangular {
+        // W_p's rows of the structured L are [L₂₁ L₂₂ 0] and 𝓜 = L₃₂ L₂₂⁻¹,
+        // so Φ = [𝓜 L₂₁  L₃₂  0]: one product of 𝓜 with the r_u columns
+        // of L₂₁ (a quarter of the whole product at equal horizons), and
+        // L₃₂ itself rather than 𝓜 L₂₂ (its rounding).
+        let (ru, rw, k) = (layout.uf().end, wp_rows.end, l.nrows());
+        let mut phi = DMatrix::zeros(k - rw, l.ncols());
+        phi.columns_mut(0, ru)
+            .copy_from(&(&map * l.view((ru, 0), (rw - ru, ru))));
+        phi.columns_mut(ru, rw - ru)
+            .copy_from(&l.view((rw, ru), (k - rw, rw - ru)));
+        phi
+    } else {
+        &map * l.rows(wp_rows.start, wp_rows.len())
+    };
     let (w1_inv, weighted) = match opts.method {
         Method::N4sid => (None, None),
         Method::Moesp => (None, Some(projector.perp_future_inputs(&phi)?)),
@@ -442,7 +456,7 @@ fn subspace_of<'l>(
     };
     // U and the singular values only (V is never used); N4SID's weights
     // are identities.
-    let (u, s) = svd_left(weighted.as_ref().unwrap_or(&phi))?;
+    let (u, s) = svd_left_trimmed(weighted.as_ref().unwrap_or(&phi))?;
     Ok(Subspace {
         l,
         layout,
@@ -454,6 +468,25 @@ fn subspace_of<'l>(
         s: s.iter().cloned().collect(),
         w1_inv,
     })
+}
+
+/// [`svd_left`] of `m` without its trailing zero columns (those of a
+/// structured factor beyond W_p: a quarter of Φ's at equal horizons), as
+/// many kept as `m` has rows at least: the left singular vectors and
+/// singular values of [X 0] are those of X.
+fn svd_left_trimmed(m: &DMatrix<f64>) -> Result<(DMatrix<f64>, nalgebra::DVector<f64>)> {
+    let rows = m.nrows();
+    let used = m
+        .as_slice()
+        .chunks_exact(rows.max(1))
+        .rposition(|c| c.iter().any(|&v| v != 0.0))
+        .map_or(0, |j| j + 1)
+        // At least as many columns as rows: the thin U keeps its shape.
+        .max(rows);
+    if used >= m.ncols() {
+        return Ok(svd_left(m)?);
+    }
+    Ok(svd_left(&m.columns(0, used).into_owned())?)
 }
 
 /// The models of orders 1..=`cap` of one (A, C) route (`None` where the
@@ -707,4 +740,82 @@ fn noise_model(
         .map(|sol| sol.k.transpose())
         .map_err(|e| e.to_string());
     Ok((cov, kg))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A random lower-triangular factor with a positive diagonal (the
+    /// structured case of [`crate::oblique::Projector`]).
+    fn lower(k: usize, seed: u64) -> DMatrix<f64> {
+        let mut s = seed | 1;
+        DMatrix::from_fn(k, k, |i, j| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let r = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            match i.cmp(&j) {
+                std::cmp::Ordering::Greater => r,
+                std::cmp::Ordering::Equal => 1.0 + r.abs(),
+                std::cmp::Ordering::Less => 0.0,
+            }
+        })
+    }
+
+    #[test]
+    fn the_structured_projection_is_the_maps_product_and_its_svd_the_full_ones() {
+        for (past, future, nu, ny, seed) in [(3, 3, 1, 2, 3), (4, 2, 2, 1, 7), (2, 5, 2, 2, 11)] {
+            let layout = HankelLayout {
+                past,
+                future,
+                nu,
+                ny,
+            };
+            let l = lower(layout.nrows(), seed);
+            for method in [Method::N4sid, Method::Moesp] {
+                let opts = SubspaceOptions {
+                    method,
+                    ..Default::default()
+                };
+                let sub = subspace_of(&l, 0.0, layout, &opts).unwrap();
+                assert!(sub.map_triangular);
+                let wp = layout.up().start..layout.yp().end;
+                let product = &sub.map * l.rows(wp.start, wp.len());
+                assert!((&sub.phi - &product).amax() < 1e-12 * product.amax());
+                // The SVD of Φ with its zero columns, sign for sign.
+                let weighted = match method {
+                    Method::N4sid => sub.phi.clone(),
+                    _ => sub.projector.perp_future_inputs(&sub.phi).unwrap(),
+                };
+                assert!(
+                    weighted
+                        .columns(wp.end, l.ncols() - wp.end)
+                        .iter()
+                        .all(|&v| v == 0.0)
+                );
+                let (u, s) = svd_left(&weighted).unwrap();
+                assert_eq!(sub.u.shape(), u.shape());
+                for (a, b) in sub.s.iter().zip(s.iter()) {
+                    assert!((a - b).abs() < 1e-12 * s[0]);
+                }
+                let n = s.iter().filter(|&&v| v > 1e-8 * s[0]).count();
+                assert!((sub.u.columns(0, n) - u.columns(0, n)).amax() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn trimming_keeps_the_thin_shape() {
+        // All-zero and short matrices keep as many columns as rows.
+        let zero = DMatrix::<f64>::zeros(3, 7);
+        let (u, s) = svd_left_trimmed(&zero).unwrap();
+        assert_eq!((u.shape(), s.len()), ((3, 3), 3));
+        let mut m = DMatrix::<f64>::zeros(2, 6);
+        m[(0, 0)] = 1.0;
+        m[(1, 3)] = 2.0;
+        let (u, s) = svd_left_trimmed(&m).unwrap();
+        assert_eq!(u.shape(), (2, 2));
+        assert!((s[0] - 2.0).abs() < 1e-15 && (s[1] - 1.0).abs() < 1e-15);
+    }
 }
