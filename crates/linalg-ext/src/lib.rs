@@ -12,7 +12,7 @@
 //! | module | kernels | algorithm | cost |
 //! |---|---|---|---|
 //! | [`convert`], [`check`] | [`as_faer`], [`as_faer_mut`], [`to_dmatrix`]; [`check_finite`], [`check_square`], [`check_rows`], [`check_cols`] | zero-copy column-major views; input validation | O(1) / O(mn) |
-//! | [`mod@solve`] | [`solve()`], [`inv`], [`det`], [`rcond`] | faer partial-pivot LU; Hager–Higham 1-norm rcond estimate, [`Error::Singular`] below ε | ⅔n³ |
+//! | [`mod@solve`] | [`solve()`], [`inv`], [`det`], [`rcond`], [`solve_right_lower`] | faer partial-pivot LU; Hager–Higham 1-norm rcond estimate, [`Error::Singular`] below ε; X L = B by column updates | ⅔n³; r w²/2 |
 //! | [`matfun`] | [`expm`], [`logm`], [`rootm`], [`rootm_primary`], [`sqrtm`] | Padé-13 scaling and squaring (Higham 2005); complex Schur + inverse scaling and squaring; Smith's Schur p-th root recurrence | O(n³), O(p·n³) |
 //! | [`schur`] | [`real_schur`], [`RealSchur::eigenvalues`], [`RealSchur::reorder`] | nalgebra Francis QR (faer's is private), standardised 2×2 blocks; Bai–Demmel block swaps | O(10n³) |
 //! | [`mod@eig`] | [`eig()`], [`eigenvalues`], [`sym_eig`] | faer `eigen`, `self_adjoint_eigen` on (A+Aᵀ)/2 | O(10n³) |
@@ -119,7 +119,7 @@ pub use qr::{Qr, RAccumulator, qr_full, qr_r, qr_r_owned, qr_thin};
 pub use rank::{RankTolerance, null_space, pinv, range_basis, rank};
 pub use riccati::{DareSolution, dare};
 pub use schur::{RealSchur, real_schur};
-pub use solve::{det, inv, rcond, solve};
+pub use solve::{det, inv, rcond, solve, solve_right_lower};
 pub use svd::{Svd, singular_values, svd, svd_left};
 pub use warm::{pin_parallelism, warm_up};
 

@@ -25,7 +25,8 @@
 //! basis, O(k r_u²) per projection.
 
 use lifted_linalg::{
-    RankTolerance, lower_inverse_frobenius, pinv, range_basis, ratio_bound, triangular_condition,
+    RankTolerance, lower_inverse_frobenius, pinv, range_basis, ratio_bound, solve_right_lower,
+    triangular_condition,
 };
 use nalgebra::DMatrix;
 
@@ -198,11 +199,9 @@ impl<'a> Projector<'a> {
         // 10⁻¹² σ_max² (certified by the block inverse when it can be).
         let certified = self.blocks.is_some_and(|b| b.r22 > 1e-6);
         let well_conditioned = certified || triangular_condition(&l22, 1e-6, 10.0)?.ratio > 1e-6;
-        // 𝓜 L₂₂ = L₃₂ ⇔ L₂₂ᵀ 𝓜ᵀ = L₃₂ᵀ.
-        if well_conditioned
-            && let Some(mt) = l22.transpose().solve_upper_triangular(&l32.transpose())
-        {
-            return Ok((mt.transpose(), true));
+        // 𝓜 L₂₂ = L₃₂, a right-hand triangular solve.
+        if well_conditioned && let Some(m) = solve_right_lower(&l22, l32.clone()) {
+            return Ok((m, true));
         }
         let g = &l22 * l22.transpose();
         let m = l32 * l22.transpose() * pinv(&g, RankTolerance::Relative(1e-12))?;

@@ -179,8 +179,8 @@ fn future_input_coefficients(
         let a = l.view((0, 0), (ru, ru));
         let mut rhs = l.view((yf.start, 0), (yf.len(), ru)).into_owned();
         rhs.gemm(-1.0, map, &l.view((ru, 0), (r - ru, ru)), 1.0);
-        if let Some(tt) = a.transpose().solve_upper_triangular(&rhs.transpose()) {
-            return Ok(tt.transpose());
+        if let Some(theta) = lifted_linalg::solve_right_lower(&a.into_owned(), rhs) {
+            return Ok(theta);
         }
     }
     let l11 = l.view((0, 0), (r, r)).into_owned();
@@ -192,9 +192,9 @@ fn future_input_coefficients(
     if triangular {
         let thr = RankTolerance::Default.threshold(r, r, 1.0)?;
         if triangular_condition(&l11, thr, 10.0)?.ratio > thr
-            && let Some(tt) = l11.transpose().solve_upper_triangular(&l21.transpose())
+            && let Some(theta) = lifted_linalg::solve_right_lower(&l11, l21.clone())
         {
-            return Ok(tt.transpose().columns(0, lay.uf().len()).into_owned());
+            return Ok(theta.columns(0, lay.uf().len()).into_owned());
         }
     }
     let theta = lstsq(&l11.transpose(), &l21.transpose())?.transpose();
