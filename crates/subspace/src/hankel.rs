@@ -22,7 +22,9 @@
 //!   boundary products. One pass over the data accumulates the s matrices
 //!   S(δ) (≈ 2 N n_z² s flops: a register-tiled AVX2/FMA kernel over
 //!   interleaved cache-sized blocks, [`crate::lagged`], optionally split over
-//!   threads), the boundary corrections cost
+//!   threads; for s ≥ 24 by FFT over blocks of ≥ 32 s samples,
+//!   O(N (n_z log s + n_z² + n_z² s/64)), [`crate::lagged_fft`]: 1.6× faster
+//!   at s = 40), the boundary corrections cost
 //!   O(k² s) per record, and L is the Cholesky factor of H Hᵀ/J. As
 //!   SLICOT's IB01AD with ALG = 'C', squaring the data costs accuracy when H
 //!   is ill conditioned, so [`Compression::Auto`] checks the factor
@@ -56,7 +58,8 @@ const PUSH_BLOCK: usize = 1 << 16;
 /// Which compression of the block-Hankel data [`crate::identify`] uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Compression {
-    /// Correlations and Cholesky (structure-exploiting, ≈ 2 N n_z² s flops);
+    /// Correlations and Cholesky (structure-exploiting, ≈ 2 N n_z² s flops,
+    /// fewer by FFT for s ≥ 24);
     /// falls back to the R-only QR when the correlation matrix is not
     /// numerically positive definite or its reciprocal condition is below
     /// [`CORRELATION_RCOND_MIN`] (reported in

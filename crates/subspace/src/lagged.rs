@@ -20,6 +20,10 @@
 //! are scaled and centred while they are interleaved, so a streamed block
 //! is read once from the caller's matrices (no working copy).
 //!
+//! Spans of at least [`crate::lagged_fft::FFT_MIN_SPAN`] over at least four
+//! FFT blocks go to [`crate::lagged_fft`] instead (the same sums to rounding,
+//! O(n_z log span + n_z² + n_z² span/64) operations per instant).
+//!
 //! Cost: 2 len n_z² span flops; memory: one interleaved block of
 //! (KERNEL_BLOCK + span − 1) n_z values and the n_z × span n_z tile sums,
 //! kept in the caller's [`Scratch`].
@@ -44,6 +48,8 @@ pub(crate) struct Scratch {
     tile: Vec<f64>,
     /// One block per channel (portable kernel).
     flat: Vec<Vec<f64>>,
+    /// The FFT path's work space (long spans).
+    fft: crate::lagged_fft::FftScratch,
 }
 
 /// One channel of the data: z(t) = `carry[t]` for t < carry.len(), then
@@ -99,7 +105,7 @@ impl<'a> Channel<'a> {
 
     /// out[i stride + e] = z(t0 + i) for i < rows.
     #[inline]
-    fn write(&self, t0: usize, rows: usize, out: &mut [f64], stride: usize, e: usize) {
+    pub(crate) fn write(&self, t0: usize, rows: usize, out: &mut [f64], stride: usize, e: usize) {
         let h = self.carry.len();
         let mut i = 0;
         if t0 < h {
@@ -113,8 +119,17 @@ impl<'a> Channel<'a> {
             let from = t0 + i - h;
             let (sc, off) = (self.scale, self.offset);
             let dst = &mut out[i * stride..];
-            for (k, x) in self.new[from..from + rows - i].iter().enumerate() {
-                dst[k * stride + e] = x * sc - off;
+            let src = &self.new[from..from + rows - i];
+            if stride == 1 {
+                // Contiguous (the FFT path's and the portable kernel's
+                // blocks): the loop vectorises.
+                for (d, x) in dst[e..].iter_mut().zip(src) {
+                    *d = x * sc - off;
+                }
+            } else {
+                for (k, x) in src.iter().enumerate() {
+                    dst[k * stride + e] = x * sc - off;
+                }
             }
         }
     }
@@ -143,6 +158,10 @@ pub(crate) fn channel_sums(
     s: &mut [f64],
     scratch: &mut Scratch,
 ) {
+    if crate::lagged_fft::worth_it(span, len) {
+        crate::lagged_fft::fft_sums(z, span, len, s, &mut scratch.fft);
+        return;
+    }
     #[cfg(target_arch = "x86_64")]
     {
         if let Some(tiles) = tiles::Tiles::detect() {

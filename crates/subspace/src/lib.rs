@@ -141,6 +141,7 @@ mod held_out_order;
 mod iv;
 mod iv_order;
 mod lagged;
+mod lagged_fft;
 mod modal;
 mod model;
 mod numerics;
