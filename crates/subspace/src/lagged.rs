@@ -598,10 +598,11 @@ pub(crate) fn portable_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64]
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn naive(z: &[Vec<f64>], span: usize, len: usize) -> Vec<f64> {
+    /// The lagged sums by their definition (shared with `lagged_fft`'s tests).
+    pub(crate) fn naive(z: &[Vec<f64>], span: usize, len: usize) -> Vec<f64> {
         let nz = z.len();
         let mut s = vec![0.0; span * nz * nz];
         for d in 0..span {
@@ -614,7 +615,8 @@ mod tests {
         s
     }
 
-    fn signals(nz: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    /// Seeded uniform signals in [−0.5, 0.5) (xorshift).
+    pub(crate) fn signals(nz: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
         let mut st = seed | 1;
         (0..nz)
             .map(|_| {

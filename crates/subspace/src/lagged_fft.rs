@@ -302,34 +302,16 @@ fn straddling(
 mod tests {
     use super::*;
 
-    fn naive(z: &[Vec<f64>], span: usize, len: usize) -> Vec<f64> {
-        let nz = z.len();
-        let mut s = vec![0.0; span * nz * nz];
-        for d in 0..span {
-            for c in 0..nz {
-                for e in 0..nz {
-                    s[(d * nz + c) * nz + e] = (0..len).map(|t| z[c][t] * z[e][t + d]).sum();
-                }
-            }
-        }
-        s
-    }
+    use crate::lagged::tests::naive;
 
+    /// Seeded signals with channels of different scales and means.
     fn signals(nz: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
-        let mut st = seed | 1;
-        (0..nz)
-            .map(|c| {
-                (0..n)
-                    .map(|_| {
-                        st ^= st << 13;
-                        st ^= st >> 7;
-                        st ^= st << 17;
-                        // Channels of different scales and means.
-                        ((st >> 11) as f64 / (1u64 << 53) as f64 - 0.3) * (1.0 + c as f64)
-                    })
-                    .collect()
-            })
-            .collect()
+        let mut z = crate::lagged::tests::signals(nz, n, seed);
+        for (c, ch) in z.iter_mut().enumerate() {
+            ch.iter_mut()
+                .for_each(|v| *v = (*v + 0.2) * (1.0 + c as f64));
+        }
+        z
     }
 
     /// Odd and even channel counts, spans at and above the threshold,
@@ -378,15 +360,7 @@ mod tests {
         let (nz, span, len) = (2, 40, FFT_MIN_LEN + 5);
         assert!(worth_it(span, len));
         let z = signals(nz, len + span, 5);
-        let ch: Vec<Channel<'_>> = z
-            .iter()
-            .map(|c| Channel {
-                carry: c,
-                new: &[],
-                scale: 1.0,
-                offset: 0.0,
-            })
-            .collect();
+        let ch: Vec<Channel<'_>> = z.iter().map(|c| Channel::plain(c)).collect();
         let want = naive(&z, span, len);
         let mut got = vec![0.0; want.len()];
         crate::lagged::channel_sums(&ch, span, len, &mut got, &mut Default::default());
@@ -408,15 +382,7 @@ mod tests {
     #[test]
     fn the_work_space_is_reused_across_calls_and_spans() {
         let z = signals(3, 3000, 7);
-        let refs: Vec<Channel<'_>> = z
-            .iter()
-            .map(|c| Channel {
-                carry: c,
-                new: &[],
-                scale: 1.0,
-                offset: 0.0,
-            })
-            .collect();
+        let refs: Vec<Channel<'_>> = z.iter().map(|c| Channel::plain(c)).collect();
         let mut w = FftScratch::default();
         for span in [40, 33, 40] {
             let len = 3000 - span;
