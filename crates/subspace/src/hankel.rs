@@ -23,7 +23,7 @@
 //!   S(δ) (≈ 2 N n_z² s flops: a register-tiled AVX2/FMA kernel over
 //!   interleaved cache-sized blocks, [`crate::lagged`], optionally split over
 //!   threads; for s ≥ 24 by FFT over blocks of ≥ 32 s samples,
-//!   O(N (n_z log s + n_z² + n_z² s/64)), [`crate::lagged_fft`]: 1.6× faster
+//!   O(N (n_z log s + n_z² + n_z² s/64)), in the same module: 1.6× faster
 //!   at s = 40), the boundary corrections cost
 //!   O(k² s) per record, and L is the Cholesky factor of H Hᵀ/J. As
 //!   SLICOT's IB01AD with ALG = 'C', squaring the data costs accuracy when H

@@ -20,13 +20,15 @@
 //! are scaled and centred while they are interleaved, so a streamed block
 //! is read once from the caller's matrices (no working copy).
 //!
-//! Spans of at least [`crate::lagged_fft::FFT_MIN_SPAN`] over at least four
-//! FFT blocks go to [`crate::lagged_fft`] instead (the same sums to rounding,
+//! Spans of at least [`fft::FFT_MIN_SPAN`] over at least four
+//! FFT blocks go to the [`fft`] module instead (the same sums to rounding,
 //! O(n_z log span + n_z² + n_z² span/64) operations per instant).
 //!
 //! Cost: 2 len n_z² span flops; memory: one interleaved block of
 //! (KERNEL_BLOCK + span − 1) n_z values and the n_z × span n_z tile sums,
 //! kept in the caller's [`Scratch`].
+
+mod fft;
 
 /// Time instants processed per cache block (the interleaved block is
 /// (4000 + span − 1) × n_z × 8 bytes: 126 KiB for n_z = 4 and span 40,
@@ -49,7 +51,7 @@ pub(crate) struct Scratch {
     /// One block per channel (portable kernel).
     flat: Vec<Vec<f64>>,
     /// The FFT path's work space (long spans).
-    fft: crate::lagged_fft::FftScratch,
+    fft: fft::FftScratch,
 }
 
 /// One channel of the data: z(t) = `carry[t]` for t < carry.len(), then
@@ -158,8 +160,8 @@ pub(crate) fn channel_sums(
     s: &mut [f64],
     scratch: &mut Scratch,
 ) {
-    if crate::lagged_fft::worth_it(span, len) {
-        crate::lagged_fft::fft_sums(z, span, len, s, &mut scratch.fft);
+    if fft::worth_it(span, len) {
+        fft::fft_sums(z, span, len, s, &mut scratch.fft);
         return;
     }
     #[cfg(target_arch = "x86_64")]
@@ -601,7 +603,7 @@ pub(crate) fn portable_sums(z: &[&[f64]], span: usize, len: usize, s: &mut [f64]
 pub(crate) mod tests {
     use super::*;
 
-    /// The lagged sums by their definition (shared with `lagged_fft`'s tests).
+    /// The lagged sums by their definition (shared with the `fft` module's tests).
     pub(crate) fn naive(z: &[Vec<f64>], span: usize, len: usize) -> Vec<f64> {
         let nz = z.len();
         let mut s = vec![0.0; span * nz * nz];

@@ -141,7 +141,6 @@ mod held_out_order;
 mod iv;
 mod iv_order;
 mod lagged;
-mod lagged_fft;
 mod modal;
 mod model;
 mod numerics;

@@ -1,4 +1,4 @@
-//! The lagged sums of [`crate::lagged`] by FFT for long spans:
+//! The lagged sums of [`super`] by FFT for long spans:
 //! S_ce(δ) += Σ_{t<len} z_c(t) z_e(t + δ), δ < span, in
 //! O(n_z log m + n_z² + n_z² span²/l) operations per instant instead of the
 //! direct kernel's n_z² span.
@@ -28,7 +28,7 @@
 use lifted_linalg::fft::Transforms;
 use num_complex::Complex;
 
-use crate::lagged::Channel;
+use super::Channel;
 
 /// Blocks of at least this many spans (m ≥ 32 span): the straddling pairs'
 /// direct products, n_z² span²/(2l) per instant, stay below a fiftieth of
