@@ -20,9 +20,10 @@
 //! are scaled and centred while they are interleaved, so a streamed block
 //! is read once from the caller's matrices (no working copy).
 //!
-//! Spans of at least [`fft::FFT_MIN_SPAN`] over at least four
-//! FFT blocks go to the [`fft`] module instead (the same sums to rounding,
-//! O(n_z log span + n_z² + n_z² span/64) operations per instant).
+//! Calls with a span of at least [`fft::FFT_MIN_SPAN`] and at least
+//! [`fft::FFT_MIN_LEN`] instants (and four FFT blocks) go to the [`fft`]
+//! module instead (the same sums to rounding, O(n_z log span + n_z² +
+//! n_z² span/64) operations per instant).
 //!
 //! Cost: 2 len n_z² span flops; memory: one interleaved block of
 //! (KERNEL_BLOCK + span − 1) n_z values and the n_z × span n_z tile sums,
