@@ -109,9 +109,50 @@ pub fn fast_length(min: usize) -> usize {
     best
 }
 
+/// The spectra at bin `k` of two real records x and y transformed together
+/// as z = x + i y (one complex transform for two real ones):
+/// X_k = (Z_k + conj Z_{N−k})/2, Y_k = (Z_k − conj Z_{N−k})/(2i), N =
+/// `z.len()`. O(1); `k` < N (indexing past `z` panics, as a slice's).
+#[inline]
+pub fn split_packed(z: &[Complex<f64>], k: usize) -> (Complex<f64>, Complex<f64>) {
+    let n = z.len();
+    let (p, q) = (z[k], z[(n - k) % n]);
+    (
+        Complex::new(0.5 * (p.re + q.re), 0.5 * (p.im - q.im)),
+        Complex::new(0.5 * (p.im + q.im), 0.5 * (q.re - p.re)),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_packed_transform_splits_into_the_two_real_ones() {
+        let n = 12;
+        let x: Vec<f64> = (0..n).map(|t| (t as f64 * 0.7).sin()).collect();
+        let y: Vec<f64> = (0..n).map(|t| (t as f64 * 1.3).cos() - 0.2).collect();
+        let mut t = Transforms::new(n);
+        let spectrum = |t: &mut Transforms, v: &[f64]| {
+            let mut c: Vec<Complex<f64>> = v.iter().map(|&a| Complex::new(a, 0.0)).collect();
+            t.forward(&mut c).unwrap();
+            c
+        };
+        let (fx, fy) = (spectrum(&mut t, &x), spectrum(&mut t, &y));
+        let mut z: Vec<Complex<f64>> = x
+            .iter()
+            .zip(&y)
+            .map(|(&a, &b)| Complex::new(a, b))
+            .collect();
+        t.forward(&mut z).unwrap();
+        for k in 0..n {
+            let (a, b) = split_packed(&z, k);
+            assert!(
+                (a - fx[k]).norm() < 1e-12 && (b - fy[k]).norm() < 1e-12,
+                "bin {k}"
+            );
+        }
+    }
 
     #[test]
     fn forward_then_inverse_is_n_times_the_input() {

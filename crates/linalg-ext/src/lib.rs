@@ -28,7 +28,7 @@
 //! | [`riccati`] | [`dare`] | structure-preserving doubling (no A⁻¹), Newton polish, verified residual and stability | O(n³) per step |
 //! | [`mod@cca`] | [`cca()`], [`center_rows`] | thin QR of xᵀ, yᵀ, SVD of Q_xᵀQ_y (never x xᵀ) | O(N(p²+q²)) |
 //! | [`budget`] | [`budget::MemoryBudget`], [`budget::Size`], [`budget::resolve_threads`], [`budget::available_cores`] | memory budget (half the physical memory, `LIFTED_MEMORY_LIMIT`), checked byte arithmetic, thread-count cap | O(1) |
-//! | [`fft`] | [`fft::Transforms`], [`fft::fast_length`] | rustfft through one process-wide planner (compiled once for the workspace), unnormalised | O(N log N) |
+//! | [`fft`] | [`fft::Transforms`], [`fft::fast_length`], [`fft::split_packed`] | rustfft through one process-wide planner (compiled once for the workspace), unnormalised; two real spectra from one packed transform | O(N log N) |
 //! | [`malloc`] | [`malloc::tune_malloc`] | glibc's mmap/trim thresholds raised for executables, so k×k working matrices reuse heap pages | O(1) |
 //! | [`warm`] | [`warm_up`], [`pin_parallelism`] | faer's one-time set-up on a background thread; faer's global parallelism pinned so its solvers start no idle thread pool | O(1) |
 //!

@@ -122,13 +122,9 @@ fn fft_sums(x: &[f64], y: &[f64]) -> Result<Vec<f64>> {
     let mut z: Vec<Complex<f64>> = x.iter().zip(y).map(|(&a, &b)| Complex::new(a, b)).collect();
     fft.forward(&mut z)?;
     let mut prod = vec![Complex::new(0.0, 0.0); n];
-    for k in 0..n {
-        let zk = z[k];
-        let zc = z[(n - k) % n].conj();
-        let xk = (zk + zc) * 0.5;
-        // Y_k = (Z_k − conj Z_{N−k}) / (2i); conj(Y_k) = conj(Z_k − conj Z_{N−k}) / (−2i).
-        let yk = (zk - zc) * Complex::new(0.0, -0.5);
-        prod[k] = xk * yk.conj();
+    for (k, pk) in prod.iter_mut().enumerate() {
+        let (xk, yk) = lifted_linalg::fft::split_packed(&z, k);
+        *pk = xk * yk.conj();
     }
     fft.inverse(&mut prod)?;
     // The transforms do not normalise: divide by N.

@@ -420,12 +420,11 @@ fn add_covariances(e: &[f64], ny: usize, r: &mut [DMatrix<f64>]) -> lifted_linal
     // Channel c's spectrum at k: X_k = (Z_k + conj Z_{m−k})/2 for the
     // first of its pair, Y_k = (Z_k − conj Z_{m−k})/(2i) for the second.
     let spectrum_at = |k: usize, out: &mut [Complex<f64>]| {
-        let mk = if k == 0 { 0 } else { m - k };
         for (p, z) in packed.iter().enumerate() {
-            let (zk, zc) = (z[k], z[mk].conj());
-            out[2 * p] = (zk + zc) * 0.5;
+            let (x, y) = lifted_linalg::fft::split_packed(z, k);
+            out[2 * p] = x;
             if 2 * p + 1 < ny {
-                out[2 * p + 1] = (zk - zc) * Complex::new(0.0, -0.5);
+                out[2 * p + 1] = y;
             }
         }
     };

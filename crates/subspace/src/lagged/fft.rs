@@ -25,7 +25,7 @@
 //! to the bit. Memory: n_z blocks of l + span − 1 values, the spectra of
 //! n_z channels and of n_z(n_z + 1)/2 pairs (m/2 + 1 complex values each).
 
-use lifted_linalg::fft::Transforms;
+use lifted_linalg::fft::{Transforms, split_packed};
 use num_complex::Complex;
 
 use super::Channel;
@@ -197,10 +197,10 @@ pub(crate) fn fft_sums(
 }
 
 /// The spectra of channels c (real part of the packed block) and c + 1
-/// (imaginary part) from the transform of the packed block:
-/// X_c(k) = (Z(k) + conj Z(m − k))/2, X_{c+1}(k) = (Z(k) − conj Z(m − k))/(2i).
+/// (imaginary part) from the transform of the packed block
+/// ([`lifted_linalg::fft::split_packed`]), split into real and imaginary
+/// parts for the accumulation.
 fn unpack(buf: &[Complex<f64>], two: bool, c: usize, h: usize, xr: &mut [f64], xi: &mut [f64]) {
-    let m = buf.len();
     let (ar, br) = xr[c * h..].split_at_mut(h);
     let (ai, bi) = xi[c * h..].split_at_mut(h);
     if !two {
@@ -211,19 +211,12 @@ fn unpack(buf: &[Complex<f64>], two: bool, c: usize, h: usize, xr: &mut [f64], x
         return;
     }
     let (br, bi) = (&mut br[..h], &mut bi[..h]);
-    ar[0] = buf[0].re;
-    ai[0] = 0.0;
-    br[0] = buf[0].im;
-    bi[0] = 0.0;
     lifted_linalg::simd::dispatch(
         #[inline(always)]
         || {
-            for k in 1..h {
-                let (p, q) = (buf[k], buf[m - k]);
-                ar[k] = 0.5 * (p.re + q.re);
-                ai[k] = 0.5 * (p.im - q.im);
-                br[k] = 0.5 * (p.im + q.im);
-                bi[k] = 0.5 * (q.re - p.re);
+            for k in 0..h {
+                let (a, b) = split_packed(buf, k);
+                (ar[k], ai[k], br[k], bi[k]) = (a.re, a.im, b.re, b.im);
             }
         },
     );
