@@ -485,7 +485,8 @@ pub enum MethodArg {
     Oe,
     /// ARMAX, A(q) y = B(q) u + C(q) e, by prediction-error minimisation (consistent in closed
     /// loop, the direct method): --orders "na nb nc nk", or --order n. On multirate records
-    /// (A diagonal) the predictor skips the unmeasured samples.
+    /// the predictor skips the unmeasured samples (with --a-structure full, one Kalman
+    /// predictor for all outputs).
     Armax,
     /// Box–Jenkins, y = B/F u + C/D e, by prediction-error minimisation (consistent in closed
     /// loop): --orders "nb nc nd nf nk", or --order n. Multirate records too (the predictor

@@ -105,6 +105,15 @@ pub enum Error {
         /// Rank needed (the number of regressors).
         needed: usize,
     },
+    /// The prediction errors are not finite at every start (the model's
+    /// simulation or its predictor diverges on the records).
+    #[error(
+        "{what}: the prediction errors are not finite (the simulation or the predictor diverges on these records)"
+    )]
+    Diverged {
+        /// Which problem.
+        what: &'static str,
+    },
     /// An option has an invalid value.
     #[error("invalid option {what}: {reason}")]
     InvalidOption {

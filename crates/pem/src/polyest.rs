@@ -58,8 +58,12 @@
 //! likelihood; with every sample measured it is the predictor above
 //! exactly. Equations, Jacobian and start in `polyest/measured.rs`. The
 //! direct method's consistency in closed loop holds there too (the
-//! likelihood is exact). A coupled A is refused for such an output (it
-//! would need the other outputs at every sample). Not every noise
+//! likelihood is exact). With a coupled A the outputs' problems no longer
+//! separate (an output's equation needs the others' unmeasured past):
+//! all outputs are then estimated at once, by one Kalman filter on the
+//! joint model and the likelihood of all measured values
+//! (`polyest/coupled.rs`; A, B, C and per-input F; a D beside it is
+//! refused). Not every noise
 //! parameter is well determined from every P-th sample: the aliased noise
 //! spectrum can be nearly flat in one of them (an MA coefficient of
 //! ARMAX at P = 4, polyest's tests), which its interval then shows.
@@ -604,9 +608,7 @@ fn estimate_measured(
 }
 
 /// The structure's checks beside the shared ones: not A with both D and
-/// F; an output with unmeasured (NaN) samples has a diagonal A and no
-/// other output's A reaches it, and outputs in a coupled A measured at
-/// every sample.
+/// F.
 fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, usize)> {
     let dims = crate::checks::check_polynomial_records(experiments, orders, true)?;
     for (i, row) in orders.na.iter().enumerate() {
@@ -618,23 +620,40 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
             });
         }
     }
-    for i in 0..dims.1 {
-        if !measured::has_missing(experiments, i) {
-            continue;
-        }
-        let coupled = (0..dims.1).any(|j| j != i && (orders.na[i][j] > 0 || orders.na[j][i] > 0));
-        if coupled {
-            return Err(Error::InvalidOption {
-                what: "orders",
-                reason: format!(
-                    "output {i} is measured at a slower rate (NaN samples) and a coupled A \
-                     filters it into another output's equation: use a diagonal A on \
-                     multirate records"
-                ),
-            });
-        }
-    }
     Ok(dims)
+}
+
+/// Whether output `i` is in a coupled A (another output's past in its
+/// equation, or its past in another's).
+fn coupled_at(orders: &PolyOrders, i: usize) -> bool {
+    (0..orders.na.len()).any(|j| j != i && (orders.na[i][j] > 0 || orders.na[j][i] > 0))
+}
+
+/// Whether the outputs are estimated jointly ([`coupled`]): an output
+/// with unmeasured samples in a coupled A. Refused there: a D polynomial
+/// (the joint noise model is A⁻¹C) and a common F.
+fn joint(
+    experiments: &[Experiment<'_>],
+    orders: &PolyOrders,
+    opts: &PolyestOptions,
+) -> Result<bool> {
+    let ny = orders.na.len();
+    let Some(i) = (0..ny).find(|&i| measured::has_missing(experiments, i) && coupled_at(orders, i))
+    else {
+        return Ok(false);
+    };
+    if orders.nd.iter().any(|&n| n > 0) || opts.f_structure == crate::FStructure::Common {
+        return Err(Error::InvalidOption {
+            what: "orders",
+            reason: format!(
+                "output {i} is measured at a slower rate (NaN samples) and a coupled A \
+                 filters it into another output's equation: the joint predictor holds \
+                 A, B, C and per-input F (no D, no common F); use a diagonal A for \
+                 Box–Jenkins noise models"
+            ),
+        });
+    }
+    Ok(true)
 }
 
 /// The prediction-error estimate of the polynomial structure `orders`
@@ -647,11 +666,15 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
 ///
 /// On an output with unmeasured (NaN) samples the cost is its measured
 /// samples' (module docs): per pass O(N (n² + n d_G)), n = max(na + nd,
-/// nc), and a Jacobian costs 2 (na + nc + nd) passes more.
+/// nc), and a Jacobian costs 2 (na + nc + nd) passes more; with a coupled
+/// A, 2 d joint passes per Jacobian (`coupled`'s docs) after two starts.
+/// [`Error::Diverged`] when no start of the joint problem gives finite
+/// prediction errors.
 ///
 /// Errors: [`Error::NoData`]; [`Error::DimensionMismatch`];
 /// [`Error::InvalidOption`] for an F without B, A with both D and F, a
-/// coupled A on an output with unmeasured samples, a common F
+/// coupled A on an output with unmeasured samples beside a D or a common
+/// F, a common F
 /// ([`PolyestOptions::f_structure`]) without F or with unequal nf; [`Error::NonFinite`]
 /// for NaN/inf in u or an infinite y; [`Error::TooFewSamples`] (measured
 /// samples per output); [`Error::RankDeficient`] for inputs that do not
@@ -711,6 +734,7 @@ pub fn polyest(
     let (mut loss, mut fit, mut iterations) = (Vec::new(), Vec::new(), Vec::new());
     let mut measured_counts = Vec::new();
     let mut free_parameters = Vec::new();
+    let mut shapes = Vec::with_capacity(ny);
     for i in 0..ny {
         let shape = Output {
             a: orders.na[i].iter().map(|&n| vec![0.0; n]).collect(),
@@ -728,47 +752,47 @@ pub fn polyest(
                 needed: d + 1,
             });
         }
-        let est = if measured::has_missing(experiments, i) {
-            estimate_measured(experiments, i, &shape, ts, opts)?
-        } else {
-            let p0 = start(experiments, i, &shape, ts, &oe_options(opts))?;
-            let problem = PredictionError {
-                experiments,
-                i,
-                shape: &p0,
-            };
-            let tied = tied_source(&shape, opts.f_structure);
-            let (theta, cost, r11, its) = minimise_tied(&problem, tied.as_ref(), p0.pack(), opts)?;
-            let free = tied.as_ref().map_or(d, |t| t.1);
-            let lambda = cost / (samples - free) as f64;
-            OutputEstimate {
-                p: p0.with(&theta),
-                r11,
-                source: tied.map(|t| t.0),
-                scale: lambda,
-                lambda,
-                plain: cost,
-                measured: samples,
-                iterations: its,
+        shapes.push(shape);
+    }
+    // A coupled A on multirate records: all outputs at once.
+    let joint_fit = if joint(experiments, orders, opts)? {
+        Some(coupled::estimate(experiments, orders, &shapes, ts, opts)?)
+    } else {
+        None
+    };
+    for (i, shape) in shapes.iter().enumerate() {
+        let (p, plain, measured_count, its) = match &joint_fit {
+            Some(j) => {
+                free_parameters.push(shape.pack().len());
+                lambdas.push(j.lambdas[i]);
+                (
+                    j.outputs[i].clone(),
+                    j.plain[i].0,
+                    j.plain[i].1,
+                    j.iterations,
+                )
+            }
+            None => {
+                let est = single_output(experiments, i, shape, samples, ts, opts)?;
+                let free = est.r11.nrows();
+                let inv = est
+                    .r11
+                    .solve_upper_triangular(&DMatrix::identity(free, free))
+                    .ok_or(Error::RankDeficient {
+                        what: "the prediction-error Jacobian at the estimate",
+                        rank: 0,
+                        needed: free,
+                    })?;
+                let block = &inv * inv.transpose() * est.scale;
+                blocks.push(match &est.source {
+                    Some(source) => crate::filters::untied_covariance(&block, source),
+                    None => block,
+                });
+                free_parameters.push(free);
+                lambdas.push(est.lambda);
+                (est.p, est.plain, est.measured, est.iterations)
             }
         };
-        let p = est.p;
-        let free = est.r11.nrows();
-        let inv = est
-            .r11
-            .solve_upper_triangular(&DMatrix::identity(free, free))
-            .ok_or(Error::RankDeficient {
-                what: "the prediction-error Jacobian at the estimate",
-                rank: 0,
-                needed: free,
-            })?;
-        let block = &inv * inv.transpose() * est.scale;
-        blocks.push(match &est.source {
-            Some(source) => crate::filters::untied_covariance(&block, source),
-            None => block,
-        });
-        free_parameters.push(free);
-        lambdas.push(est.lambda);
         let monic = |v: &[f64]| {
             let mut m = vec![1.0];
             m.extend_from_slice(v);
@@ -806,24 +830,30 @@ pub fn polyest(
             .map(|v| (v - mean).powi(2))
             .sum::<f64>()
             .sqrt();
-        loss.push(est.plain / est.measured as f64);
+        loss.push(plain / measured_count as f64);
         fit.push(if spread > 0.0 {
-            100.0 * (1.0 - est.plain.sqrt() / spread)
+            100.0 * (1.0 - plain.sqrt() / spread)
         } else {
             f64::NAN
         });
-        iterations.push(est.iterations);
-        measured_counts.push(est.measured);
+        iterations.push(its);
+        measured_counts.push(measured_count);
     }
-    let total: usize = blocks.iter().map(DMatrix::nrows).sum();
-    let mut cov = DMatrix::zeros(total, total);
-    let mut at = 0;
-    for b in &blocks {
-        let n = b.nrows();
-        cov.view_mut((at, at), (n, n))
-            .copy_from(&((b + b.transpose()) * 0.5));
-        at += n;
-    }
+    let cov = match &joint_fit {
+        Some(j) => (&j.cov + j.cov.transpose()) * 0.5,
+        None => {
+            let total: usize = blocks.iter().map(DMatrix::nrows).sum();
+            let mut cov = DMatrix::zeros(total, total);
+            let mut at = 0;
+            for b in &blocks {
+                let n = b.nrows();
+                cov.view_mut((at, at), (n, n))
+                    .copy_from(&((b + b.transpose()) * 0.5));
+                at += n;
+            }
+            cov
+        }
+    };
     let model = PolyModel::new(
         Polynomials {
             nk: orders.nk.clone(),
@@ -840,6 +870,42 @@ pub fn polyest(
         measured: measured_counts,
         iterations,
         parameters: free_parameters,
+    })
+}
+
+/// Output `i`'s own estimate (A diagonal, or coupled at full rate with
+/// the other outputs as known regressors).
+fn single_output(
+    experiments: &[Experiment<'_>],
+    i: usize,
+    shape: &Output,
+    samples: usize,
+    ts: f64,
+    opts: &PolyestOptions,
+) -> Result<OutputEstimate> {
+    let d = shape.pack().len();
+    if measured::has_missing(experiments, i) {
+        return estimate_measured(experiments, i, shape, ts, opts);
+    }
+    let p0 = start(experiments, i, shape, ts, &oe_options(opts))?;
+    let problem = PredictionError {
+        experiments,
+        i,
+        shape: &p0,
+    };
+    let tied = tied_source(shape, opts.f_structure);
+    let (theta, cost, r11, its) = minimise_tied(&problem, tied.as_ref(), p0.pack(), opts)?;
+    let free = tied.as_ref().map_or(d, |t| t.1);
+    let lambda = cost / (samples - free) as f64;
+    Ok(OutputEstimate {
+        p: p0.with(&theta),
+        r11,
+        source: tied.map(|t| t.0),
+        scale: lambda,
+        lambda,
+        plain: cost,
+        measured: samples,
+        iterations: its,
     })
 }
 
@@ -943,6 +1009,7 @@ pub fn bj(
     polyest(experiments, &o, ts, opts)
 }
 
+mod coupled;
 mod measured;
 
 #[cfg(test)]
