@@ -308,3 +308,39 @@ pub(crate) fn minimise(
     }
     Ok((theta, cost, r11_of(&r), iterations))
 }
+
+/// The block-diagonal matrix of `blocks`, each symmetrised ((B + Bᵀ)/2):
+/// the parameter covariance of outputs estimated apart.
+pub(crate) fn block_diagonal(blocks: &[DMatrix<f64>]) -> DMatrix<f64> {
+    let total: usize = blocks.iter().map(DMatrix::nrows).sum();
+    let mut cov = DMatrix::zeros(total, total);
+    let mut at = 0;
+    for b in blocks {
+        let n = b.nrows();
+        cov.view_mut((at, at), (n, n))
+            .copy_from(&((b + b.transpose()) * 0.5));
+        at += n;
+    }
+    cov
+}
+
+/// A Jacobian column by differences of the residuals `base` at θ: central
+/// from the two sides `up` (θ + h) and `down` (θ − h), one-sided where a
+/// side is inadmissible (`None`), zero where both are.
+pub(crate) fn difference_column(
+    up: Option<Vec<f64>>,
+    down: Option<Vec<f64>>,
+    base: &[f64],
+    h: f64,
+) -> Vec<f64> {
+    match (up, down) {
+        (Some(up), Some(down)) => up
+            .iter()
+            .zip(&down)
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect(),
+        (Some(up), None) => up.iter().zip(base).map(|(a, b)| (a - b) / h).collect(),
+        (None, Some(down)) => base.iter().zip(&down).map(|(a, b)| (a - b) / h).collect(),
+        (None, None) => vec![0.0; base.len()],
+    }
+}

@@ -893,15 +893,7 @@ pub fn oe(
         iterations.push(its);
         free.push(d);
     }
-    let total: usize = blocks.iter().map(|b| b.nrows()).sum();
-    let mut cov = DMatrix::zeros(total, total);
-    let mut at = 0;
-    for b in &blocks {
-        let n = b.nrows();
-        cov.view_mut((at, at), (n, n))
-            .copy_from(&((b + b.transpose()) * 0.5));
-        at += n;
-    }
+    let cov = crate::filters::block_diagonal(&blocks);
     let model = PolyModel::new(
         Polynomials {
             b: b_all,

@@ -623,39 +623,6 @@ fn check(experiments: &[Experiment<'_>], orders: &PolyOrders) -> Result<(usize, 
     Ok(dims)
 }
 
-/// Whether output `i` is in a coupled A (another output's past in its
-/// equation, or its past in another's).
-fn coupled_at(orders: &PolyOrders, i: usize) -> bool {
-    (0..orders.na.len()).any(|j| j != i && (orders.na[i][j] > 0 || orders.na[j][i] > 0))
-}
-
-/// Whether the outputs are estimated jointly ([`coupled`]): an output
-/// with unmeasured samples in a coupled A. Refused there: a D polynomial
-/// (the joint noise model is A⁻¹C) and a common F.
-fn joint(
-    experiments: &[Experiment<'_>],
-    orders: &PolyOrders,
-    opts: &PolyestOptions,
-) -> Result<bool> {
-    let ny = orders.na.len();
-    let Some(i) = (0..ny).find(|&i| measured::has_missing(experiments, i) && coupled_at(orders, i))
-    else {
-        return Ok(false);
-    };
-    if orders.nd.iter().any(|&n| n > 0) || opts.f_structure == crate::FStructure::Common {
-        return Err(Error::InvalidOption {
-            what: "orders",
-            reason: format!(
-                "output {i} is measured at a slower rate (NaN samples) and a coupled A \
-                 filters it into another output's equation: the joint predictor holds \
-                 A, B, C and per-input F (no D, no common F); use a diagonal A for \
-                 Box–Jenkins noise models"
-            ),
-        });
-    }
-    Ok(true)
-}
-
 /// The prediction-error estimate of the polynomial structure `orders`
 /// (A diagonal or coupled; any of B, C, D, F; MATLAB's `polyest`), sample period
 /// `ts`, with the parameter covariance (module docs).
@@ -755,7 +722,7 @@ pub fn polyest(
         shapes.push(shape);
     }
     // A coupled A on multirate records: all outputs at once.
-    let joint_fit = if joint(experiments, orders, opts)? {
+    let joint_fit = if coupled::joint(experiments, orders, opts)? {
         Some(coupled::estimate(experiments, orders, &shapes, ts, opts)?)
     } else {
         None
@@ -841,18 +808,7 @@ pub fn polyest(
     }
     let cov = match &joint_fit {
         Some(j) => (&j.cov + j.cov.transpose()) * 0.5,
-        None => {
-            let total: usize = blocks.iter().map(DMatrix::nrows).sum();
-            let mut cov = DMatrix::zeros(total, total);
-            let mut at = 0;
-            for b in &blocks {
-                let n = b.nrows();
-                cov.view_mut((at, at), (n, n))
-                    .copy_from(&((b + b.transpose()) * 0.5));
-                at += n;
-            }
-            cov
-        }
+        None => crate::filters::block_diagonal(&blocks),
     };
     let model = PolyModel::new(
         Polynomials {

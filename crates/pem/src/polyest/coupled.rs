@@ -67,7 +67,7 @@ use nalgebra::DMatrix;
 
 use super::Output;
 use crate::error::{Error, Result};
-use crate::filters::{Residuals, RowFolder, filter, fir_apply, stable};
+use crate::filters::{Residuals, RowFolder, difference_column, filter, fir_apply, stable};
 
 /// Longest period of the measured-output pattern whose gains are replayed
 /// (an analyser every 16 samples beside one every 15: 240).
@@ -479,16 +479,7 @@ impl Residuals for CoupledPredictionError<'_, '_> {
                 }
                 self.innovations(&th).map(|i| i.scaled())
             };
-            let col = match (at(h), at(-h)) {
-                (Some(up), Some(down)) => up
-                    .iter()
-                    .zip(&down)
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect(),
-                (Some(up), None) => up.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect(),
-                (None, Some(down)) => r0.iter().zip(&down).map(|(a, b)| (a - b) / h).collect(),
-                (None, None) => vec![0.0; r0.len()],
-            };
+            let col = difference_column(at(h), at(-h), &r0, h);
             columns.push(col);
         }
         let mut rows = RowFolder::new(d + 1);
@@ -598,6 +589,40 @@ pub(super) fn unscaled_innovations(
     theta: &[f64],
 ) -> Option<Vec<f64>> {
     problem.innovations(theta).map(|i| i.r)
+}
+
+/// Whether output `i` is in a coupled A (another output's past in its
+/// equation, or its past in another's).
+fn coupled_at(orders: &lifted_lti::PolyOrders, i: usize) -> bool {
+    (0..orders.na.len()).any(|j| j != i && (orders.na[i][j] > 0 || orders.na[j][i] > 0))
+}
+
+/// Whether the outputs are estimated jointly (module docs): an output
+/// with unmeasured samples in a coupled A. Refused there: a D polynomial
+/// (the joint noise model is A⁻¹C) and a common F.
+pub(super) fn joint(
+    experiments: &[Experiment<'_>],
+    orders: &lifted_lti::PolyOrders,
+    opts: &super::PolyestOptions,
+) -> Result<bool> {
+    let ny = orders.na.len();
+    let Some(i) =
+        (0..ny).find(|&i| super::measured::has_missing(experiments, i) && coupled_at(orders, i))
+    else {
+        return Ok(false);
+    };
+    if orders.nd.iter().any(|&n| n > 0) || opts.f_structure == crate::FStructure::Common {
+        return Err(Error::InvalidOption {
+            what: "orders",
+            reason: format!(
+                "output {i} is measured at a slower rate (NaN samples) and a coupled A \
+                 filters it into another output's equation: the joint predictor holds \
+                 A, B, C and per-input F (no D, no common F); use a diagonal A for \
+                 Box–Jenkins noise models"
+            ),
+        });
+    }
+    Ok(true)
 }
 
 /// The joint estimate of every output (module docs).

@@ -527,16 +527,7 @@ impl Residuals for MeasuredPredictionError<'_, '_> {
                     }
                 })
             };
-            let col = match (at(h), at(-h)) {
-                (Some(up), Some(down)) => up
-                    .iter()
-                    .zip(&down)
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect(),
-                (Some(up), None) => up.iter().zip(&base.r).map(|(a, b)| (a - b) / h).collect(),
-                (None, Some(down)) => base.r.iter().zip(&down).map(|(a, b)| (a - b) / h).collect(),
-                (None, None) => vec![0.0; base.r.len()],
-            };
+            let col = crate::filters::difference_column(at(h), at(-h), &base.r, h);
             columns.push(col);
         }
         let mut rows = RowFolder::new(d + 1);
