@@ -584,6 +584,17 @@ def test_armax_with_a_coupled_a() -> None:
     assert abs(p[1] + 0.2) < 0.02 and abs(p[5] + 0.3) < 0.02, p
     for i in range(2):
         assert diagonal.diagnostics["loss"][i] > 1.05 * full.diagnostics["loss"][i]
+    # y2 from an analyser every 3rd sample (NaN between): one Kalman
+    # predictor for both outputs on their measured samples; the cross
+    # coefficients again within 4.5 sigma of the truth.
+    slow = y.copy()
+    slow[np.arange(len(slow)) % 3 != 0, 1] = np.nan
+    multirate = lifted.armax(u, slow, [1, 1, 1, 1], a_structure="full")
+    assert multirate.diagnostics["a_structure"] == "full"
+    assert multirate.diagnostics["measured"] == [4000, 1334]
+    assert multirate.parameters is not None and multirate.std is not None
+    p, s = np.asarray(multirate.parameters), np.asarray(multirate.std)
+    assert abs(p[1] + 0.2) < 4.5 * s[1] and abs(p[5] + 0.3) < 4.5 * s[5], (p, s)
 
 
 def test_oe_with_a_common_denominator() -> None:
