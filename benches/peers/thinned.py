@@ -15,6 +15,8 @@ realdata.py). Three runs of `lifted identify` per (record, order):
 Usage:
   thinned.py --cli target/release/lifted --period 5 --orders 2,3,4,5,6 \
       --records debutanizer,sru [--daisy robot_arm,...] --json out.json
+  (--extra "--method armax --a-structure full" --extra-on multirate,interpolated
+  gives every route the same model structure)
 
 Industrial records (files in $REALDATA_DIR/industrial or --industrial-dir):
   debutanizer  debutanizer column (Fortuna et al. 2007, "Soft sensors for
@@ -126,6 +128,8 @@ def main():
     ap.add_argument("--industrial-dir", default=os.path.join(os.environ.get("REALDATA_DIR", "/work/realdata"), "industrial"))
     ap.add_argument("--data-dir", default=os.environ.get("REALDATA_DIR", "/work/realdata"))
     ap.add_argument("--extra", default="", help="extra lifted flags for the multirate runs (space-separated)")
+    ap.add_argument("--extra-on", default="multirate",
+                    help="routes the --extra flags go to (comma-separated; default multirate)")
     ap.add_argument("--routes", default="multirate,interpolated,full")
     ap.add_argument("--json")
     a = ap.parse_args()
@@ -146,7 +150,7 @@ def main():
             for order in orders:
                 row = {"record": name, "order": order}
                 for route in routes:
-                    extra = a.extra.split() if (route == "multirate" and a.extra) else []
+                    extra = a.extra.split() if (route in a.extra_on.split(",") and a.extra) else []
                     out = os.path.join(tmp, f"{name}_{route}_{order}.json")
                     row[route] = run(a.cli, csvs[route], m, p, order, out, extra, uv, yv,
                                      a.period if route == "multirate" else None)

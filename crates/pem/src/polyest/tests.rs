@@ -757,7 +757,13 @@ fn a_coupled_armax_under_feedback_on_slow_measurements_is_consistent() {
     let e = gauss(82, n, 2, sd);
     let mut y = DMatrix::<f64>::zeros(n, 2);
     let mut u = DMatrix::<f64>::zeros(n, 2);
-    let measured = |t: usize, j: usize| if j == 0 { t.is_multiple_of(2) } else { t % 3 == 1 };
+    let measured = |t: usize, j: usize| {
+        if j == 0 {
+            t.is_multiple_of(2)
+        } else {
+            t % 3 == 1
+        }
+    };
     let mut held = [0.0; 2];
     for t in 0..n {
         for i in 0..2 {
