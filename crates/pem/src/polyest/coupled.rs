@@ -765,10 +765,18 @@ pub(super) fn estimate(
         if !problem.admissible(&theta0) || problem.innovations(&theta0).is_none() {
             continue;
         }
-        let (theta, _, _, its) =
-            crate::filters::minimise(&problem, theta0, opts.max_iterations, LM_TOLERANCE)?;
-        let (theta, cost, r11, polish) =
-            crate::filters::quasi_newton(&problem, theta, opts.max_iterations, opts.tolerance)?;
+        // A start whose iterations meet a diverging Jacobian is dropped;
+        // the others stand.
+        let Ok((theta, _, _, its)) =
+            crate::filters::minimise(&problem, theta0, opts.max_iterations, LM_TOLERANCE)
+        else {
+            continue;
+        };
+        let Ok((theta, cost, r11, polish)) =
+            crate::filters::quasi_newton(&problem, theta, opts.max_iterations, opts.tolerance)
+        else {
+            continue;
+        };
         iterations += its + polish;
         if best.as_ref().is_none_or(|b| cost < b.1) {
             best = Some((theta, cost, r11));
