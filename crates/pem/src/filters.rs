@@ -24,6 +24,22 @@ pub(crate) fn filter(s: &[f64], f: &[f64], delay: usize, out: &mut Vec<f64>) {
     }
 }
 
+/// Input `k`'s term of a polynomial model's output: v = q^{−nk} u_k / F
+/// and w = B v (the simulated contribution (B/F) u_k(t − nk)). O(N (nb + nf)).
+pub(crate) fn input_response(
+    e: &Experiment<'_>,
+    k: usize,
+    b: &[f64],
+    f: &[f64],
+    nk: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
+    let (mut v, mut w) = (Vec::new(), Vec::new());
+    filter(&uk, f, nk, &mut v);
+    fir_apply(&v, b, &mut w);
+    (v, w)
+}
+
 /// Σ_m b_m v(t − m).
 pub(crate) fn fir_apply(v: &[f64], b: &[f64], out: &mut Vec<f64>) {
     out.clear();

@@ -214,10 +214,7 @@ fn residuals(
     let mut vs = Vec::with_capacity(p.b.len());
     let mut ws = Vec::with_capacity(p.b.len());
     for (k, b) in p.b.iter().enumerate() {
-        let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
-        let (mut v, mut w) = (Vec::new(), Vec::new());
-        filter(&uk, &p.f[k], p.nk[k], &mut v);
-        fir_apply(&v, b, &mut w);
+        let (v, w) = crate::filters::input_response(e, k, b, &p.f[k], p.nk[k]);
         for (st, wt) in s.iter_mut().zip(&w) {
             *st -= wt;
         }

@@ -71,7 +71,7 @@ use nalgebra::DMatrix;
 
 use super::Output;
 use crate::error::{Error, Result};
-use crate::filters::{Residuals, RowFolder, difference_column, filter, fir_apply, stable};
+use crate::filters::{Residuals, RowFolder, difference_column, input_response, stable};
 
 /// Longest period of the measured-output pattern whose gains are replayed
 /// (an analyser every 16 samples beside one every 15: 240).
@@ -521,10 +521,7 @@ fn simulate(e: &Experiment<'_>, outs: &[Output]) -> Vec<Vec<f64>> {
                 if b.is_empty() {
                     continue;
                 }
-                let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
-                let (mut v, mut wk) = (Vec::new(), Vec::new());
-                filter(&uk, &o.f[k], o.nk[k], &mut v);
-                fir_apply(&v, b, &mut wk);
+                let (_, wk) = input_response(e, k, b, &o.f[k], o.nk[k]);
                 for (a, b) in w.iter_mut().zip(&wk) {
                     *a += b;
                 }

@@ -181,10 +181,7 @@ fn simulated(e: &Experiment<'_>, i: usize, p: &Output, jacobian: bool) -> Simula
     let mut columns: Vec<LaggedColumn> = Vec::new();
     let mut f_columns: Vec<LaggedColumn> = Vec::new();
     for (k, b) in p.b.iter().enumerate() {
-        let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
-        let (mut v, mut w) = (Vec::new(), Vec::new());
-        filter(&uk, &p.f[k], p.nk[k], &mut v);
-        fir_apply(&v, b, &mut w);
+        let (v, w) = crate::filters::input_response(e, k, b, &p.f[k], p.nk[k]);
         for (t, wt) in w.iter().enumerate() {
             w_total[t] += wt;
         }
@@ -839,10 +836,7 @@ fn contribution(experiments: &[Experiment<'_>], model: &lifted_lti::PolyModel, k
     experiments
         .iter()
         .map(|e| {
-            let uk: Vec<f64> = e.u.column(k).iter().copied().collect();
-            let (mut v, mut w) = (Vec::new(), Vec::new());
-            filter(&uk, f, nk, &mut v);
-            fir_apply(&v, b, &mut w);
+            let (_, w) = crate::filters::input_response(e, k, b, f, nk);
             w.iter().map(|x| x * x).sum::<f64>()
         })
         .sum()
