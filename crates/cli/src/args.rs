@@ -750,6 +750,12 @@ pub struct IdentifyArgs {
     /// must agree. Recorded in `diagnostics.refinement_judge.rule`.
     #[arg(long, value_parser = parse_refine_check, default_value = "tests:0.95")]
     pub refine_check: lifted_pem::CheckRule,
+    /// Largest number of iterations of each held-out block's refinement in that judgement and
+    /// in the refined shortlist of an automatic order (default 20, the iteration limit of
+    /// MATLAB's `ssest`; the delivered model's refinement keeps --refine-iterations). Recorded
+    /// in `diagnostics.refinement_judge.fold_iterations`.
+    #[arg(long, default_value_t = lifted_workflow::JUDGE_ITERATIONS)]
+    pub judge_iterations: usize,
     /// The Kalman-gain check (single-rate subspace and IV models) stops its iterations over K
     /// when one lowers the one-step cost by less than this share of the cost's sampling spread
     /// √(2/N) (default 0.01; 0: run to 30 iterations or a decrease below 1e-9; recorded in

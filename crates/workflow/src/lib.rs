@@ -168,8 +168,9 @@ pub use integrators::INTEGRATOR_TOLERANCE_SCALE;
 pub use options::{
     AUTO_REFINE_SAMPLES, AUTO_REFINE_WORK, AUTO_REFINE_WORK_JOINT, BUDGET_NAMES, BdRoute, Budgets,
     COVARIANCE_WORK, DataOptions, Detrend, Estimator, GAIN_CHECK_SAMPLES, IdentificationOptions,
-    Method, Order, OrderCriterion, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES, REFINE_CHECK_WORK,
-    Refine, RefinementOptions, SelectionOptions, ValidationOptions, WorkflowOptions,
+    JUDGE_ITERATIONS, Method, Order, OrderCriterion, REFINE_CHECK_MARGIN, REFINE_CHECK_SAMPLES,
+    REFINE_CHECK_WORK, Refine, RefinementOptions, SelectionOptions, ValidationOptions,
+    WorkflowOptions,
 };
 pub use pipeline::{Identified, Record, identify, identify_cached, identify_named};
 pub use plan::{DataShape, Plan, Resolved, options_from_plan, resolved_defaults};

@@ -383,6 +383,16 @@ pub(crate) fn work_of_size(
 /// 3000, order 6) both ran their 100 iterations, the joint ones to a lower
 /// cost (2.33e-3 against 2.45e-3) and an FR error against the truth of
 /// 0.036 against 0.146 (the unconstrained estimate's: 0.095).
+/// The options of each held-out fold's refinement in the judgement of
+/// `lifted_pem::cross_validate_refinement`: `pem` with its iterations
+/// capped at [`crate::RefinementOptions::judge_iterations`].
+pub(crate) fn judge_options(pem: &PemOptions, judge_iterations: usize) -> PemOptions {
+    PemOptions {
+        max_iterations: pem.max_iterations.min(judge_iterations),
+        ..pem.clone()
+    }
+}
+
 pub(crate) fn pem_options(
     opts: &WorkflowOptions,
     model: &StateSpace,
@@ -526,7 +536,7 @@ fn refine_judged_on_blocks(
     records: &[Record<'_>],
     pem: &PemOptions,
     check: HeldOutCheck<'_>,
-    (rule, failed_fold): (&lifted_pem::CheckRule, f64),
+    (rule, failed_fold, judge_iterations): (&lifted_pem::CheckRule, f64, usize),
     diagnostics: &mut serde_json::Value,
 ) -> Result<lifted_pem::PemFit> {
     let exps: Vec<Experiment<'_>> = check
@@ -541,8 +551,13 @@ fn refine_judged_on_blocks(
     let mut fit = refine_pem(model, kalman_gain.as_ref(), records, &[], &whole).ctx("refine")?;
     let judged = match check.known {
         Some(c) => Ok(c.clone()),
-        None => cross_validate_refinement(&exps, check.options, pem, CHECK_BLOCKS)
-            .map(|c| c.with_floor(failed_fold)),
+        None => cross_validate_refinement(
+            &exps,
+            check.options,
+            &judge_options(pem, judge_iterations),
+            CHECK_BLOCKS,
+        )
+        .map(|c| c.with_floor(failed_fold)),
     };
     let in_sample = fit.report.judged.1 <= fit.report.judged.0;
     let (keep, judge) = match &judged {
@@ -613,6 +628,10 @@ fn refine_judged_on_blocks(
     } else {
         (keep, judge)
     };
+    let mut judge = judge;
+    if let Some(obj) = judge.as_object_mut() {
+        obj.insert("fold_iterations".into(), json!(judge_iterations));
+    }
     if let Some(obj) = diagnostics.as_object_mut() {
         obj.insert("refinement_judge".into(), judge);
     }
@@ -761,7 +780,7 @@ pub fn refine(
             &records,
             &pem,
             check,
-            (&opts.check, failed_fold),
+            (&opts.check, failed_fold, opts.judge_iterations),
             &mut diagnostics,
         ),
         other => {

@@ -215,6 +215,7 @@ pub fn options_from_args(a: &IdentifyArgs) -> CliResult<WorkflowOptions> {
     o.refinement.iterations = a.refine_iterations;
     o.refinement.max_work = a.refine_max_work;
     o.refinement.check = a.refine_check;
+    o.refinement.judge_iterations = a.judge_iterations;
     o.identification.gain_check.stop_share = a.gain_stop_share;
     o.identification.gain_check.covariance_start = a.gain_covariance_start;
     o.identification.selection = lifted_workflow::SelectionOptions {

@@ -39,7 +39,7 @@ use serde_json::json;
 
 use crate::diagnostics::system_name;
 use crate::options::{Order, Refine, WorkflowOptions};
-use crate::refine::{CHECK_BLOCKS, pem_options};
+use crate::refine::{CHECK_BLOCKS, judge_options, pem_options};
 
 /// Most predicted work of the shortlist's refinement checks together
 /// (operations; about 2 s here): twice the budget of one check
@@ -206,7 +206,10 @@ pub(crate) fn judge(
     }
     let mut scored = Vec::with_capacity(count);
     for e in &entries[..count] {
-        let pem = pem_options(opts, &e.fit.model, cost, false);
+        let pem = judge_options(
+            &pem_options(opts, &e.fit.model, cost, false),
+            opts.refinement.judge_iterations,
+        );
         let check = cross_validate_refinement(exps, &e.options, &pem, CHECK_BLOCKS)
             .map_err(|err| format!("order {}: no held-out check ({err})", e.candidate.order))?
             .with_floor(opts.identification.selection.failed_fold);
@@ -237,10 +240,12 @@ pub(crate) fn judge(
         .collect();
     let diagnostics = json!({
         "rule": format!(
-            "the first structure of each of the best {} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement fitted to the others; the one the blocks prefer ({}), else the mean of the two); the smallest order within {tolerance} points of the best",
+            "the first structure of each of the best {} orders of the ranking, scored by the held-out fit of the model it delivers ({CHECK_BLOCKS} blocks each held out once, the subspace model and its refinement (at most {} iterations) fitted to the others; the one the blocks prefer ({}), else the mean of the two); the smallest order within {tolerance} points of the best",
             judge.options.identification.selection.shortlist,
+            judge.options.refinement.judge_iterations,
             rule.describe()
         ),
+        "fold_iterations": judge.options.refinement.judge_iterations,
         "candidates": rows,
         "order": entries[index].candidate.order,
     });

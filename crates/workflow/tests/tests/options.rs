@@ -104,6 +104,9 @@ fn bad_options_are_named() {
     o.refinement.iterations = 0;
     assert_eq!(named(&o), "refine_iterations");
     let mut o = WorkflowOptions::default();
+    o.refinement.judge_iterations = 0;
+    assert_eq!(named(&o), "judge_iterations");
+    let mut o = WorkflowOptions::default();
     o.refinement.refine = Refine::Oe;
     o.refinement.max_work = f64::NAN;
     assert_eq!(named(&o), "refine_max_work");

@@ -130,6 +130,52 @@ fn an_automatic_order_is_judged_by_its_refined_models() {
     assert_eq!(sel["order"].as_u64(), Some(plain.order as u64));
 }
 
+/// The held-out folds' refinements of the judge stop at
+/// `RefinementOptions::judge_iterations` (default 20, MATLAB's `ssest`
+/// limit), recorded in the shortlist and the judge; the delivered model's
+/// refinement keeps its own limit. A second-order plant fitted at orders
+/// up to 4: the folds of the orders above the plant's walk along the
+/// stability boundary (the cap of 100 reached in most of them, the
+/// shortlist's scores moving by tenths of a point), and the order and the
+/// model are the same with the judge at 20 and at 100 iterations. One
+/// iteration scores the candidates differently: the cap is applied.
+#[test]
+fn the_judges_fold_refinements_stop_at_their_iteration_limit() {
+    let (u, y) = record(1500, 0.3, 11);
+    let records = [Record::new(dataset(&u, &y))];
+    let run = |judge: usize| {
+        let mut o = WorkflowOptions::default();
+        o.refinement.judge_iterations = judge;
+        identify(&records, &o).expect("identify")
+    };
+    let (default, long, one) = (
+        identify(&records, &WorkflowOptions::default()).expect("identify"),
+        run(100),
+        run(1),
+    );
+    let short = |f: &lifted_workflow::Identified| {
+        f.file.diagnostics["structure_selection"]["refined_shortlist"].clone()
+    };
+    assert_eq!(short(&default)["fold_iterations"], 20);
+    assert_eq!(short(&long)["fold_iterations"], 100);
+    assert_eq!(
+        default.file.diagnostics["refinement_judge"]["fold_iterations"],
+        20
+    );
+    assert_eq!(default.order, long.order);
+    assert_eq!(default.file.model.a(), long.file.model.a());
+    assert_eq!(default.file.model.c(), long.file.model.c());
+    let scores = |f: &lifted_workflow::Identified| -> Vec<f64> {
+        short(f)["candidates"]
+            .as_array()
+            .expect("shortlist")
+            .iter()
+            .map(|r| r["held_out_refined"].as_f64().unwrap())
+            .collect()
+    };
+    assert_ne!(scores(&one), scores(&long), "{}", short(&one));
+}
+
 #[test]
 fn a_record_too_short_for_held_out_blocks_gets_its_order_by_aicc() {
     // 60 samples at horizon 5: no fold of six blocks has the Hankel
