@@ -6,6 +6,7 @@ frequency-response error against the true plant.
 
     python3 benches/peers/default_cost.py --cli target/release/lifted \
         [--dir /tmp/default-cost] [--sizes 1e4,2e4,...] [--repeat 1] [--json out.json]
+        [--extra "--judge-iterations 100"]
 
 The record is the peer system of ``csv_data.py`` (2 inputs, 2 outputs, order 4,
 random binary inputs, output noise of standard deviation 0.1; columns
@@ -117,6 +118,7 @@ def main() -> None:
     ap.add_argument("--sizes", default=SIZES)
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--extra", default="", help="more `lifted identify` arguments, e.g. \"--judge-iterations 100\"")
     args = ap.parse_args()
     sizes = [int(float(s)) for s in args.sizes.split(",")]
     folder = pathlib.Path(args.dir or tempfile.mkdtemp(prefix="default-cost-"))
@@ -136,7 +138,8 @@ def main() -> None:
             t = time.perf_counter()
             subprocess.run(
                 [args.cli, "identify", "--data", str(path), "--columns", "t,u1,u2,y1,y2",
-                 "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--out", str(out)],
+                 "--inputs", "u1,u2", "--outputs", "y1,y2", "--ts", "1", "--out", str(out)]
+                + args.extra.split(),
                 check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
             )
             best = min(best, time.perf_counter() - t)

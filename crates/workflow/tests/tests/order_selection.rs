@@ -133,12 +133,11 @@ fn an_automatic_order_is_judged_by_its_refined_models() {
 /// The held-out folds' refinements of the judge stop at
 /// `RefinementOptions::judge_iterations` (default 20, MATLAB's `ssest`
 /// limit), recorded in the shortlist and the judge; the delivered model's
-/// refinement keeps its own limit. A second-order plant fitted at orders
-/// up to 4: the folds of the orders above the plant's walk along the
-/// stability boundary (the cap of 100 reached in most of them, the
-/// shortlist's scores moving by tenths of a point), and the order and the
-/// model are the same with the judge at 20 and at 100 iterations. One
-/// iteration scores the candidates differently: the cap is applied.
+/// refinement keeps its own limit. On the noisy 2×2 record of the test
+/// above the order and the model are the same with the judge at 20 and at
+/// 100 iterations (as on the 17 real records of `benches/peers/
+/// judge_iterations.py`); one iteration scores the candidates
+/// differently: the cap is applied.
 #[test]
 fn the_judges_fold_refinements_stop_at_their_iteration_limit() {
     let (u, y) = record(1500, 0.3, 11);
