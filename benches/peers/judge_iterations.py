@@ -10,18 +10,15 @@ Usage (from the repository root; numpy is all it needs):
 Prints one line per record: samples, then (order, validation fit, seconds) for
 the default and for 100 iterations, and the totals.
 """
-import json
 import os
 import subprocess
 import sys
 import tempfile
 import time
 
-import numpy as np
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from realdata import load_record, read_model, score, write_csv  # noqa: E402
+from realdata import manifest_records, validation_fit, write_csv  # noqa: E402
 
 
 def run(cli, csv, m, p, out, extra):
@@ -40,30 +37,22 @@ def main():
     data_dir = os.environ.get("REALDATA_DIR", "/work/realdata")
     totals = [0.0, 0.0]
     with tempfile.TemporaryDirectory(prefix="judge_iterations_") as wd:
-        for manifest in ("realdata_records.json", "holdout_records.json"):
-            with open(os.path.join(HERE, manifest)) as f:
-                records = json.load(f)["records"]
-            for rec in records:
-                (ue, ye, uv, yv), _ = load_record(rec, data_dir)
-                m, p = ue.shape[1], ye.shape[1]
-                csv = os.path.join(wd, "est.csv")
-                write_csv(csv, ue, ye, rec["ts"])
-                row = []
-                for k, extra in enumerate([[], ["--judge-iterations", "100"]]):
-                    out = os.path.join(wd, f"m{k}.json")
-                    rc, dt = run(cli, csv, m, p, out, extra)
-                    totals[k] += dt
-                    if rc:
-                        row.append(("refused", round(dt, 2)))
-                        continue
-                    mats, _, op = read_model(out)
-                    if op:
-                        fit = score(mats, uv - np.asarray(op["u0"]), yv - np.asarray(op["y0"]))[0]
-                    else:
-                        fit = score(mats, uv, yv)[0]
-                    row.append((len(mats[0]), None if fit is None else round(fit, 2), round(dt, 2)))
-                print(manifest.split("_")[0], rec["name"], len(ue), "default", row[0],
-                      "100", row[1], flush=True)
+        for manifest, rec, (ue, ye, uv, yv) in manifest_records(data_dir):
+            m, p = ue.shape[1], ye.shape[1]
+            csv = os.path.join(wd, "est.csv")
+            write_csv(csv, ue, ye, rec["ts"])
+            row = []
+            for k, extra in enumerate([[], ["--judge-iterations", "100"]]):
+                out = os.path.join(wd, f"m{k}.json")
+                rc, dt = run(cli, csv, m, p, out, extra)
+                totals[k] += dt
+                if rc:
+                    row.append(("refused", round(dt, 2)))
+                    continue
+                order, fit = validation_fit(out, uv, yv)
+                row.append((order, None if fit is None else round(fit, 2), round(dt, 2)))
+            print(manifest.split("_")[0], rec["name"], len(ue), "default", row[0],
+                  "100", row[1], flush=True)
     print(f"total: default {totals[0]:.1f} s, 100 iterations {totals[1]:.1f} s")
 
 

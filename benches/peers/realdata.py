@@ -160,6 +160,25 @@ def read_model(path):
     return mats, m.get("diagnostics"), op
 
 
+def validation_fit(path, u, y):
+    """(order, fit) of the model file at `path` on the half (u, y), its
+    operating point applied (fit None: not scored)."""
+    mats, _, op = read_model(path)
+    if op:
+        u, y = u - np.asarray(op["u0"]), y - np.asarray(op["y0"])
+    return len(mats[0]), score(mats, u, y)[0]
+
+
+def manifest_records(data_dir, manifests=("realdata_records.json", "holdout_records.json")):
+    """(manifest, record, (ue, ye, uv, yv)) for every record of the manifests."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    for manifest in manifests:
+        with open(os.path.join(here, manifest)) as f:
+            records = json.load(f)["records"]
+        for rec in records:
+            yield manifest, rec, load_record(rec, data_dir)[0]
+
+
 def run_lifted(cli, workdir, csv, m, p, method, order, extra_args, timeout, u, y, base_args=(),
                in_memory=False):
     tag = "_".join(extra_args) or "plain"
