@@ -383,16 +383,6 @@ pub(crate) fn work_of_size(
 /// 3000, order 6) both ran their 100 iterations, the joint ones to a lower
 /// cost (2.33e-3 against 2.45e-3) and an FR error against the truth of
 /// 0.036 against 0.146 (the unconstrained estimate's: 0.095).
-/// The options of each held-out fold's refinement in the judgement of
-/// `lifted_pem::cross_validate_refinement`: `pem` with its iterations
-/// capped at [`crate::RefinementOptions::judge_iterations`].
-pub(crate) fn judge_options(pem: &PemOptions, judge_iterations: usize) -> PemOptions {
-    PemOptions {
-        max_iterations: pem.max_iterations.min(judge_iterations),
-        ..pem.clone()
-    }
-}
-
 pub(crate) fn pem_options(
     opts: &WorkflowOptions,
     model: &StateSpace,
@@ -416,6 +406,16 @@ pub(crate) fn pem_options(
         cost,
         method,
         ..Default::default()
+    }
+}
+
+/// The options of each held-out fold's refinement in the judgement of
+/// `lifted_pem::cross_validate_refinement`: `pem` with its iterations
+/// capped at [`crate::RefinementOptions::judge_iterations`].
+pub(crate) fn judge_options(pem: &PemOptions, judge_iterations: usize) -> PemOptions {
+    PemOptions {
+        max_iterations: pem.max_iterations.min(judge_iterations),
+        ..pem.clone()
     }
 }
 
@@ -613,7 +613,7 @@ fn refine_judged_on_blocks(
     // the start's simulation error on the records, fitted the validation
     // half at -403 % against 52 %).
     let (j0, j1) = fit.report.judged;
-    let (keep, judge) = if keep && !in_sample {
+    let (keep, mut judge) = if keep && !in_sample {
         let mut judge = judge;
         if let Some(obj) = judge.as_object_mut() {
             obj.insert("decided_by".into(), json!(JUDGE_WORSE_ON_RECORDS));
@@ -628,7 +628,8 @@ fn refine_judged_on_blocks(
     } else {
         (keep, judge)
     };
-    let mut judge = judge;
+    // The iterations of the folds' refinements, whether this check or the
+    // shortlist's (`check.known`) computed them: the same option.
     if let Some(obj) = judge.as_object_mut() {
         obj.insert("fold_iterations".into(), json!(judge_iterations));
     }
